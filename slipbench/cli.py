@@ -1,0 +1,144 @@
+"""The `slipbench` command: thin click commands, no logic beyond parsing and calling."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from . import registry
+from .errors import SlipbenchError, UsageError
+
+EXIT_CODES = """Exit codes: 0 success; 1 compare found a regression; 2 bad usage or bad data;
+3 a plugin failed to load; 130 interrupted."""
+
+
+def _param(values: tuple[str, ...]) -> dict:
+    params = {}
+    for item in values:
+        if "=" not in item:
+            raise UsageError(f"--param {item!r}: expected NAME=VALUE, e.g. --param band=[0,100]")
+        name, text = item.split("=", 1)
+        try:
+            params[name] = json.loads(text)
+        except json.JSONDecodeError:
+            params[name] = text
+    return params
+
+
+def _plugins(folders: tuple[str, ...]) -> None:
+    for folder in folders:
+        registry.add_plugin_folder(folder)
+
+
+@click.group(epilog=EXIT_CODES)
+@click.version_option(package_name="slipbench")
+def cli() -> None:
+    """Benchmark slip detectors on univariate tactile signals."""
+
+
+@cli.group()
+def dataset() -> None:
+    """Create, check and describe Parquet datasets."""
+
+
+@dataset.command("synth")
+@click.argument("out", type=click.Path(path_type=Path))
+@click.option("--scale", default=0.05, show_default=True, help="1.0 gives ~8 million samples per sensor instance.")
+@click.option("--seed", default=0, show_default=True)
+def dataset_synth(out: Path, scale: float, seed: int) -> None:
+    """Write the simulated design of experiments to folder OUT."""
+    from .synth import synthesize
+
+    if scale <= 0:
+        raise UsageError(f"--scale must be > 0, got {scale}")
+    synthesize(out, scale, seed)
+    click.echo(f"wrote {out}")
+
+
+@dataset.command("validate")
+@click.argument("path", type=click.Path(path_type=Path))
+def dataset_validate(path: Path) -> None:
+    """Check that PATH follows the dataset format; name the first problem found."""
+    from .data import read_dataset
+
+    ds = read_dataset(path)
+    n = sum(len(s) for s in ds.samples.values())
+    click.echo(f"{path}: valid slipbench dataset v1, {len(ds.recordings)} recordings, {n} samples, fingerprint {ds.fingerprint}")
+
+
+@dataset.command("info")
+@click.argument("path", type=click.Path(path_type=Path))
+def dataset_info(path: Path) -> None:
+    """Recordings, samples and duration per sensor, instance, scenario, material and speed."""
+    from .data import info, read_dataset
+
+    table = info(read_dataset(path))
+    click.echo(table.to_markdown(index=False, floatfmt=".1f"))
+    click.echo(f"\ntotal: {int(table['recordings'].sum())} recordings, {int(table['samples'].sum())} samples, "
+               f"{table['seconds'].sum():.1f} s")
+
+
+@cli.command("list")
+@click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
+def list_plugins(plugins: tuple[str, ...]) -> None:
+    """The detectors and protocols that can be selected."""
+    _plugins(plugins)
+    click.echo("detectors: " + ", ".join(registry.detectors.names()))
+    click.echo("protocols: " + ", ".join(registry.protocols.names()))
+
+
+@cli.command()
+@click.option("--detector", "detector_name", required=True, help="A detector id (see `slipbench list`).")
+@click.option("--protocol", "protocol_name", required=True, help="A protocol id (see `slipbench list`).")
+@click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one].")
+@click.option("--scale", default=0.05, show_default=True, help="Scale of the simulated dataset when --dataset is not given.")
+@click.option("--out", default="results", show_default=True, type=click.Path(path_type=Path), help="Results folder.")
+@click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True)
+@click.option("--seed", default=0, show_default=True)
+@click.option("--param", "params", multiple=True, help="Detector hyperparameter NAME=VALUE (JSON value); repeatable.")
+@click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
+@click.option("--force", is_flag=True, help="Recompute cells already in the results folder.")
+@click.option("--intervals", is_flag=True, help="Show 95 % intervals in the table.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed, params, plugins, force, intervals, quiet) -> None:
+    """Run a protocol with a detector; write results to --out and print the table."""
+    from .data import read_dataset
+    from .defaults import default_dataset
+    from .report import protocol_table
+    from .results import ResultsStore
+    from .runner import Run, evaluate as run_protocol
+
+    _plugins(plugins)
+    detector = registry.detectors.get(detector_name)().set_params(**_param(params))
+    protocol_cls = registry.protocols.get(protocol_name)
+    ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)
+    run = Run(detector, detector_name, protocol_cls(), protocol_name, split, seed)
+    rows = run_protocol(ds, run, ResultsStore(out), force=force, progress=not quiet)
+    click.echo(protocol_table(rows, protocol_cls.table, intervals=intervals))
+    failed = rows[rows["status"] == "failed"]
+    for reason in failed["reason"].unique():
+        click.echo(f"warning: {reason}", err=True)
+    click.echo(f"\n{len(rows)} cells ({(rows['status'] == 'ok').sum()} ok); results in {out / 'results.parquet'}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    try:
+        cli.main(args=argv, prog_name="slipbench", standalone_mode=False)
+    except click.exceptions.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except click.exceptions.Abort:
+        sys.exit(130)
+    except SlipbenchError as exc:
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        click.echo("interrupted; finished cells are kept, rerun the same command to resume", err=True)
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

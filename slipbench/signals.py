@@ -1,0 +1,162 @@
+"""From recordings to labelled windows: univariate reduction, windowing, downsampling,
+balancing and splitting. Pure numpy (plus scikit-learn's splitters)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from sklearn.model_selection import StratifiedGroupKFold, train_test_split
+
+from .data import Dataset
+from .errors import UsageError
+
+SPLITS = ("paper", "grouped")
+
+
+def univariate(a: np.ndarray) -> np.ndarray:
+    """The paper's eq. (1): s_t = ||a_t|| - ||a_{t-1}||.
+
+    Parameters
+    ----------
+    a : (n_samples, n_channels) samples of one recording.
+
+    Returns
+    -------
+    (n_samples - 1,) float32. Norms are taken in float64 so that a large static load does not
+    swallow the small changes that carry the slip signal.
+    """
+    norm = np.linalg.norm(np.asarray(a, dtype=np.float64), axis=1)
+    return np.diff(norm).astype(np.float32)
+
+
+@dataclass
+class Signals:
+    """The univariate signal of every recording, concatenated.
+
+    Attributes
+    ----------
+    buffer : (total,) float32, the recordings' signals one after another.
+    offsets : (n_recordings + 1,) int64, recording r occupies buffer[offsets[r]:offsets[r + 1]].
+    recordings : the dataset's metadata, row r describing recording r.
+    """
+
+    buffer: np.ndarray
+    offsets: np.ndarray
+    recordings: pd.DataFrame
+
+    @classmethod
+    def from_dataset(cls, dataset: Dataset) -> "Signals":
+        parts = [univariate(dataset.samples[r]) for r in dataset.recordings["recording_id"]]
+        offsets = np.r_[0, np.cumsum([len(p) for p in parts])].astype(np.int64)
+        return cls(np.concatenate(parts), offsets, dataset.recordings.reset_index(drop=True))
+
+    def windows(self, window: int, rows: np.ndarray | None = None) -> "Windows":
+        """Cut non-overlapping windows of ``window`` samples from each recording in ``rows``.
+
+        The tail of a recording shorter than a window is dropped; windows never span two recordings.
+        """
+        rows = np.arange(len(self.recordings)) if rows is None else np.asarray(rows)
+        lengths = (self.offsets[rows + 1] - self.offsets[rows]) // window
+        n = int(lengths.sum())
+        rec = np.repeat(rows, lengths).astype(np.int32)
+        # index of each window inside its recording: 0, 1, ..., lengths[r] - 1
+        local = np.arange(n) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+        starts = self.offsets[rec] + local * window
+        x = np.lib.stride_tricks.sliding_window_view(self.buffer, window)[starts]
+        return Windows(x, rec, local.astype(np.int32), self.recordings)
+
+
+@dataclass
+class Windows:
+    """Labelled windows.
+
+    Attributes
+    ----------
+    x : (n_windows, window_length) float32.
+    recording : (n_windows,) row of each window's recording in ``recordings``.
+    index : (n_windows,) position of the window inside its recording.
+    recordings : the dataset's metadata.
+    """
+
+    x: np.ndarray
+    recording: np.ndarray
+    index: np.ndarray
+    recordings: pd.DataFrame
+
+    def __len__(self) -> int:
+        return len(self.x)
+
+    def take(self, rows: np.ndarray) -> "Windows":
+        return Windows(self.x[rows], self.recording[rows], self.index[rows], self.recordings)
+
+    def column(self, name: str) -> np.ndarray:
+        """A recordings column (scenario, material, speed_mm_s, ...) per window."""
+        return self.recordings[name].to_numpy()[self.recording]
+
+    @property
+    def y(self) -> np.ndarray:
+        """1 for windows of slip recordings, 0 otherwise (the paper labels by scenario)."""
+        return (self.column("scenario") == "slip").astype(np.int8)
+
+    def strata(self) -> np.ndarray:
+        """The balancing stratum of each window: slip per material and speed, pressing per
+        material, free-space per speed (section II.D of the paper)."""
+        scenario = self.column("scenario").astype(str)
+        material = self.column("material").astype(object)
+        speed = self.column("speed_mm_s").astype(float)
+        mat = np.where(scenario == "free-space", "", pd.Series(material).fillna("").to_numpy(dtype=str))
+        spd = np.where(scenario == "press", "", np.char.mod("%g", np.nan_to_num(speed, nan=-1)))
+        return np.char.add(np.char.add(np.char.add(scenario, "|"), mat), np.char.add("|", spd))
+
+    def downsample(self, factor: int) -> "Windows":
+        """Keep every ``factor``-th sample of each window, as the paper does (no anti-aliasing)."""
+        return Windows(np.ascontiguousarray(self.x[:, ::factor]), self.recording, self.index, self.recordings)
+
+
+def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
+    """Rows that give the paper's mix: half slip, half non-slip; slip equal per stratum;
+    non-slip half pressing, half free-space, equal per stratum inside each.
+
+    Scenarios a dataset lacks drop out of the proportions (a dataset without free-space data
+    balances slip against pressing alone). Inside a stratum, windows are drawn at random.
+    """
+    strata = windows.strata()
+    names, codes, counts = np.unique(strata, return_inverse=True, return_counts=True)
+    category = np.array([n.split("|", 1)[0] for n in names])
+    # the largest equal share each scenario can give to every one of its strata
+    capacity = {c: counts[category == c].min() * (category == c).sum() for c in np.unique(category)}
+    nonslip = [c for c in ("press", "free-space") if c in capacity]
+    if "slip" not in capacity or not nonslip:
+        present = ", ".join(sorted(capacity)) or "none"
+        raise UsageError(f"balancing needs slip and non-slip windows; scenarios present: {present}")
+    per_nonslip = min(capacity[c] for c in nonslip)
+    per_class = min(capacity["slip"], per_nonslip * len(nonslip))
+    target = {"slip": per_class, **{c: per_class // len(nonslip) for c in nonslip}}
+    keep = []
+    for code, name in enumerate(names):
+        cat = category[code]
+        share = target[cat] // (category == cat).sum()
+        rows = np.flatnonzero(codes == code)
+        keep.append(rng.choice(rows, size=share, replace=False))
+    return np.sort(np.concatenate(keep))
+
+
+def split(windows: Windows, how: str, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Train and test rows, half each.
+
+    ``paper``: shuffle windows and halve them (stratified by balancing stratum, so both halves
+    keep the paper's mix). ``grouped``: the same, but every recording's windows stay on one side
+    (scikit-learn's StratifiedGroupKFold with two folds).
+    """
+    rows = np.arange(len(windows))
+    strata = windows.strata()
+    if how == "paper":
+        train, test = train_test_split(rows, test_size=0.5, stratify=strata, random_state=seed)
+    elif how == "grouped":
+        folds = StratifiedGroupKFold(n_splits=2, shuffle=True, random_state=seed)
+        train, test = next(folds.split(rows, strata, groups=windows.recording))
+    else:
+        raise UsageError(f"unknown split {how!r}; choose one of: {', '.join(SPLITS)}")
+    return np.sort(train), np.sort(test)
