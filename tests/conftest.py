@@ -1,0 +1,28 @@
+"""Shared fixtures: small simulated datasets, generated once per test session."""
+
+from __future__ import annotations
+
+import pytest
+
+from slipbench.data import read_dataset
+from slipbench.synth import synthesize
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _isolated_cache(tmp_path_factory):
+    """Keep the default-dataset cache of the tests away from the user's."""
+    mp = pytest.MonkeyPatch()
+    mp.setenv("SLIPBENCH_CACHE", str(tmp_path_factory.mktemp("cache")))
+    yield
+    mp.undo()
+
+
+@pytest.fixture(scope="session")
+def small_path(tmp_path_factory):
+    """The simulated design at scale 0.02: every sensor, material and speed; ~1.2 M samples."""
+    return synthesize(tmp_path_factory.mktemp("data") / "small", scale=0.02, seed=1)
+
+
+@pytest.fixture(scope="session")
+def small(small_path):
+    return read_dataset(small_path)

@@ -1,0 +1,86 @@
+"""The command line, end to end: datasets, evaluation, and clear errors with exit code 2."""
+
+from __future__ import annotations
+
+import shutil
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+
+from slipbench.cli import main
+from slipbench.data import SAMPLES_FILE
+
+
+def run(argv, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+        raise SystemExit(0)
+    out = capsys.readouterr()
+    return exit_.value.code or 0, out.out, out.err
+
+
+def test_dataset_commands(tmp_path, capsys):
+    path = tmp_path / "ds"
+    code, out, _ = run(["dataset", "synth", str(path), "--scale", "0.01", "--seed", "3"], capsys)
+    assert code == 0 and path.is_dir()
+    code, out, _ = run(["dataset", "validate", str(path)], capsys)
+    assert code == 0 and "valid slipbench dataset v1" in out
+    code, out, _ = run(["dataset", "info", str(path)], capsys)
+    assert code == 0 and "free-space" in out and "neoprene" in out and "total:" in out
+
+
+def test_corrupted_copy_is_refused(small_path, tmp_path, capsys):
+    broken = tmp_path / "broken"
+    shutil.copytree(small_path, broken)
+    table = pq.read_table(broken / SAMPLES_FILE)
+    pq.write_table(table.drop_columns(["values"]).replace_schema_metadata(table.schema.metadata), broken / SAMPLES_FILE)
+    code, _, err = run(["dataset", "validate", str(broken)], capsys)
+    assert code == 2
+    assert "samples.parquet: column 'values': required column missing" in err
+    assert "Traceback" not in err
+
+
+def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, capsys):
+    out = tmp_path / "res"
+    argv = ["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(small_path), "--out", str(out), "--quiet"]
+    code, text, _ = run(argv, capsys)
+    assert code == 0
+    assert "Sensor |" in text and "Finger |" in text and "Biotac SP" in text and "Little" in text
+    rows = pq.read_table(out / "results.parquet").to_pandas()
+    assert len(rows) == 48 and (rows["status"] == "ok").all()
+    assert set(rows["window"]) == {5, 10, 25, 50, 100, 200}
+    for column in ("accuracy_lo", "tp_rate_hi", "train_us_per_sample", "infer_us_per_window", "dataset_fingerprint",
+                   "slipbench_version", "detector_params", "seed"):
+        assert rows[column].notna().all(), column
+    assert (rows["accuracy_lo"] <= rows["accuracy"]).all() and (rows["accuracy"] <= rows["accuracy_hi"]).all()
+    # a second run reuses every cell
+    before = {p.name: p.stat().st_mtime_ns for p in (out / "cells").iterdir()}
+    code, _, _ = run(argv, capsys)
+    assert code == 0 and before == {p.name: p.stat().st_mtime_ns for p in (out / "cells").iterdir()}
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["evaluate", "--detector", "nope", "--protocol", "window-size"], "unknown detector 'nope'; available: holweg"),
+        (["evaluate", "--detector", "holweg", "--protocol", "nope"], "unknown protocol 'nope'; available:"),
+        (["evaluate", "--detector", "holweg", "--protocol", "window-size", "--param", "band=[9,1]"], "The 'band' parameter of Holweg"),
+        (["dataset", "validate", "/nonexistent/folder"], "not a dataset folder"),
+    ],
+)
+def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_path, capsys):
+    argv = argv + (["--dataset", str(small_path), "--out", str(tmp_path / "res"), "--quiet"] if argv[0] == "evaluate" else [])
+    code, _, err = run(argv, capsys)
+    assert code == 2 and message in err and "Traceback" not in err
+    assert not (tmp_path / "res" / "results.parquet").exists()
+
+
+def test_window_longer_than_every_recording(tmp_path, capsys):
+    from slipbench.synth import Design, synthesize
+
+    path = synthesize(tmp_path / "short", scale=0.0005, seed=0, design=Design(sensors=("BioTacSP",)))
+    code, _, err = run(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(path),
+                        "--out", str(tmp_path / "res"), "--quiet"], capsys)
+    assert code == 2 and "window 100 is longer than every recording of BioTacSP index" in err
+    assert not (tmp_path / "res").exists()

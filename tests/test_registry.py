@@ -1,0 +1,90 @@
+"""Plugins from a folder and from an installed distribution's entry point."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from slipbench.errors import PluginError, UsageError
+from slipbench.registry import Registry, add_plugin_folder, detectors
+from slipbench.base import BaseDetector
+
+PLUGIN = '''
+import numpy as np
+from slipbench.base import BaseDetector
+
+class Energy(BaseDetector):
+    """Mean absolute signal, thresholded at the median of the training windows."""
+    name = "{name}"
+
+    def __init__(self, factor=1.0):
+        self.factor = factor
+
+    def _fit(self, x, y, seed):
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) * self.factor > self.cut_).astype(float)
+'''
+
+
+def test_builtins_are_listed_without_importing_them():
+    assert "holweg" in detectors.names()
+
+
+def test_plugin_folder_and_broken_plugin(tmp_path):
+    (tmp_path / "my_energy.py").write_text(PLUGIN.format(name="my-energy"))
+    (tmp_path / "broken.py").write_text("raise RuntimeError('boom')\n")
+    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg.add_folder(tmp_path)
+    assert {"my-energy", "broken", "holweg"} <= set(reg.names())
+    assert reg.get("my-energy").__name__ == "Energy"
+    with pytest.raises(PluginError, match=r"detector 'broken' \(plugin file .*broken.py\) failed to import: RuntimeError: boom"):
+        reg.get("broken")
+    with pytest.raises(UsageError, match="unknown detector 'x'; available: broken, holweg, my-energy"):
+        reg.get("x")
+
+
+def test_duplicate_names_name_both_origins(tmp_path):
+    (tmp_path / "holweg.py").write_text(PLUGIN.format(name="holweg"))
+    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    with pytest.raises(UsageError, match=r"two detectors are named 'holweg': one from built-in .* one from plugin file"):
+        reg.add_folder(tmp_path)
+
+
+def test_missing_plugin_folder():
+    with pytest.raises(UsageError, match="does not exist"):
+        add_plugin_folder("/nonexistent/plugins")
+
+
+def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
+    """Build and install a real distribution exposing `slipbench.detectors` into a target folder."""
+    src = tmp_path / "src"
+    (src / "thirdparty_slip").mkdir(parents=True)
+    (src / "thirdparty_slip" / "__init__.py").write_text(PLUGIN.format(name="third-energy"))
+    (src / "pyproject.toml").write_text(textwrap.dedent('''
+        [build-system]
+        requires = ["setuptools>=68"]
+        build-backend = "setuptools.build_meta"
+        [project]
+        name = "thirdparty-slip"
+        version = "0.1"
+        [project.entry-points."slipbench.detectors"]
+        third-energy = "thirdparty_slip:Energy"
+    '''))
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "-q",
+                    "--target", str(target), str(src)], check=True)
+    code = textwrap.dedent('''
+        import numpy as np
+        from slipbench.registry import detectors
+        cls = detectors.get("third-energy")
+        x = np.r_[np.zeros((4, 8)), np.ones((4, 8))]
+        print(cls.__name__, cls().fit(x, [0]*4 + [1]*4).predict(x).tolist())
+    ''')
+    env = {"PYTHONPATH": str(target), "PATH": ""}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    assert out.strip() == "Energy [0, 0, 0, 0, 1, 1, 1, 1]"
