@@ -124,6 +124,15 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
     click.echo(f"\n{len(rows)} cells ({(rows['status'] == 'ok').sum()} ok); results in {out / 'results.parquet'}")
 
 
+# -- bench (detector costs)
+
+
+# -- spectral analysis
+
+
+# -- report and compare
+
+
 def main(argv: list[str] | None = None) -> None:
     try:
         cli.main(args=argv, prog_name="slipbench", standalone_mode=False)
