@@ -170,7 +170,7 @@ def run_cell(run: Run, cell: Cell, data: CellData) -> tuple[dict[str, Any], pd.D
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return {"status": "failed", "reason": f"detector {run.detector_name!r} raised: {detail}"}, None
     y_pred = (scores >= 0.5).astype(np.int8)
-    figures = classification_figures(test.y, y_pred, test.recording, run.seed)
+    figures = classification_figures(test.y, y_pred, test.recording, run.seed, scores=scores)
     fields = {
         "status": "ok", "reason": "",
         "n_train": len(train), "n_test": len(test), "n_test_recordings": int(len(np.unique(test.recording))),
