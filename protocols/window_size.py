@@ -4,14 +4,9 @@ sensor's full rate, trained and tested per sensor instance."""
 from __future__ import annotations
 
 from slipbench.base import BaseProtocol, Cell, Part
+from slipbench.data import sensor_pairs
 
 WINDOWS = (5, 10, 25, 50, 100, 200)
-
-
-def sensor_pairs(recordings) -> list[tuple[str, str]]:
-    """(sensor_type, instance) pairs of a dataset, in order of first appearance."""
-    pairs = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
-    return list(pairs.itertuples(index=False, name=None))
 
 
 class WindowSize(BaseProtocol):
@@ -23,9 +18,8 @@ class WindowSize(BaseProtocol):
 
     def cells(self, recordings):
         for sensor in sensor_pairs(recordings):
-            part = (sensor,)
             for window in WINDOWS:
                 yield Cell(
                     key={"sensor_type": sensor[0], "sensor_instance": sensor[1], "window": window},
-                    train=Part(part, "train"), test=Part(part, "test"), window=window,
+                    train=Part((sensor,), "train"), test=Part((sensor,), "test"), window=window,
                 )

@@ -12,7 +12,7 @@ from __future__ import annotations
 import copy
 import inspect
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -111,7 +111,8 @@ class BaseDetector:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
 
-    def _validate_params(self) -> None:
+    def validate_params(self) -> None:
+        """Raise UsageError naming the first hyperparameter outside its constraint."""
         for key, constraint in self._parameter_constraints.items():
             value = getattr(self, key)
             if not constraint.check(value):
@@ -146,7 +147,7 @@ class BaseDetector:
         ``sampling_rate`` (Hz) lets spectral detectors speak in hertz; ``seed`` drives every
         random choice the detector makes.
         """
-        self._validate_params()
+        self.validate_params()
         x = self._check_x(x)
         y = np.asarray(y)
         if y.shape != (x.shape[0],):
@@ -214,14 +215,16 @@ class Cell:
     test: Part
     window: int
     downsample: int = 1
-    extra: dict[str, Any] = field(default_factory=dict)
+    decimation: str = "plain"  # "plain": every k-th sample (the paper); "antialias": low-pass first
+    skip: str = ""  # a reason the cell cannot run on this dataset, reported instead of results
 
 
 class BaseProtocol:
     """A standardized experiment: a list of cells built from the dataset's metadata alone.
 
     Protocols never train anything; the runner does. ``table`` names the result columns that
-    make the rows and columns of the protocol's table.
+    make the rows and columns of the protocol's table. Options are keyword arguments of
+    ``__init__``, like detector hyperparameters.
     """
 
     name: ClassVar[str] = ""
@@ -229,3 +232,11 @@ class BaseProtocol:
 
     def cells(self, recordings) -> Iterable[Cell]:
         raise NotImplementedError
+
+    def columns(self, recordings) -> dict[str, Any]:
+        """Extra per-recording columns that this protocol's ``where`` filters refer to."""
+        return {}
+
+    def get_params(self) -> dict[str, Any]:
+        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
+        return {k: getattr(self, k) for k in names if hasattr(self, k)}

@@ -91,35 +91,52 @@ def list_plugins(plugins: tuple[str, ...]) -> None:
 
 
 @cli.command()
-@click.option("--detector", "detector_name", required=True, help="A detector id (see `slipbench list`).")
-@click.option("--protocol", "protocol_name", required=True, help="A protocol id (see `slipbench list`).")
+@click.option("--detector", "detector_name", required=True, help="A detector id, or 'all' (see `slipbench list`).")
+@click.option("--protocol", "protocol_name", required=True, help="A protocol id, or 'all' (see `slipbench list`).")
 @click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one].")
 @click.option("--scale", default=0.05, show_default=True, help="Scale of the simulated dataset when --dataset is not given.")
 @click.option("--out", default="results", show_default=True, type=click.Path(path_type=Path), help="Results folder.")
 @click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True)
-@click.option("--seed", default=0, show_default=True)
+@click.option("--seed", default=0, show_default=True, help="Seed of balancing, splitting and training (and of the simulated data).")
+@click.option("--repeats", default=1, show_default=True, type=click.IntRange(1), help="Rerun with seeds seed, seed+1, ...")
 @click.option("--param", "params", multiple=True, help="Detector hyperparameter NAME=VALUE (JSON value); repeatable.")
+@click.option("--protocol-param", "protocol_params", multiple=True, help="Protocol option NAME=VALUE, e.g. decimation=both.")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
+@click.option("--jobs", default=1, show_default=True, type=click.IntRange(1), help="Local worker processes.")
+@click.option("--scheduler", default=None, help="Address of a dask.distributed scheduler to run on.")
+@click.option("--cell-timeout", default=None, type=click.FloatRange(min=0, min_open=True), help="Seconds one model may take; its cells are then reported as timeout.")
 @click.option("--force", is_flag=True, help="Recompute cells already in the results folder.")
 @click.option("--intervals", is_flag=True, help="Show 95 % intervals in the table.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed, params, plugins, force, intervals, quiet) -> None:
-    """Run a protocol with a detector; write results to --out and print the table."""
+def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed, repeats, params, protocol_params,
+             plugins, jobs, scheduler, cell_timeout, force, intervals, quiet) -> None:
+    """Run protocols with detectors; write results to --out and print the tables."""
     from .data import read_dataset
     from .defaults import default_dataset
     from .report import protocol_table
     from .results import ResultsStore
-    from .runner import Run, evaluate as run_protocol
+    from .runner import Run, evaluate as run_protocols
 
     _plugins(plugins)
-    detector = registry.detectors.get(detector_name)().set_params(**_param(params))
-    protocol_cls = registry.protocols.get(protocol_name)
+    detector_names = registry.detectors.names() if detector_name == "all" else [detector_name]
+    protocol_names = registry.protocols.names() if protocol_name == "all" else [protocol_name]
+    detectors = {n: registry.detectors.get(n)().set_params(**_param(params)) for n in detector_names}
+    options = _param(protocol_params)
+    protocols = {}
+    for name in protocol_names:
+        cls = registry.protocols.get(name)
+        try:
+            protocols[name] = cls(**options) if options else cls()
+        except TypeError as exc:
+            raise UsageError(f"protocol {name!r} does not take options {sorted(options)}: {exc}") from None
     ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)
-    run = Run(detector, detector_name, protocol_cls(), protocol_name, split, seed)
-    rows = run_protocol(ds, run, ResultsStore(out), force=force, progress=not quiet)
-    click.echo(protocol_table(rows, protocol_cls.table, intervals=intervals))
-    failed = rows[rows["status"] == "failed"]
-    for reason in failed["reason"].unique():
+    runs = [Run(d, dn, p, pn, split, seed + r) for dn, d in detectors.items() for pn, p in protocols.items() for r in range(repeats)]
+    rows = run_protocols(ds, runs, ResultsStore(out), force=force, jobs=jobs, scheduler=scheduler,
+                         cell_timeout=cell_timeout, progress=not quiet)
+    for (dn, pn), group in rows.groupby(["detector", "protocol"], sort=False):
+        click.echo(f"\n## {dn} x {pn}\n")
+        click.echo(protocol_table(group, protocols[pn].table, intervals=intervals))
+    for reason in rows.loc[rows["status"].isin(["failed", "timeout"]), "reason"].unique():
         click.echo(f"warning: {reason}", err=True)
     click.echo(f"\n{len(rows)} cells ({(rows['status'] == 'ok').sum()} ok); results in {out / 'results.parquet'}")
 
@@ -140,7 +157,8 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
 @click.option("--segment", type=int, default=None, help="Samples per balanced window joined into a sequence [default: one second, contiguous].")
 @click.option("--alpha", default=0.05, show_default=True, help="Level of each KS test.")
 @click.option("--level", default=0.95, show_default=True, help="Significance a bin needs to be in a significant band.")
-def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeats, segment, alpha, level) -> None:
+@click.option("--keep", default=0.8, show_default=True, help="Most significant band: bins whose mean KS statistic is >= keep x the peak's.")
+def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeats, segment, alpha, level, keep) -> None:
     """Which frequencies separate slip from non-slip (the paper's section IV): figure, table, bands."""
     import time
 
@@ -153,7 +171,7 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeat
     for sensor in sensors:  # every analysis before any file, so a bad name leaves no partial output
         start = time.perf_counter()
         results.append(spectral.analyze(ds, sensor, instance, segment=segment, n_boot=boot, repeats=repeats,
-                                        alpha=alpha, level=level, seed=seed))
+                                        alpha=alpha, level=level, keep=keep, seed=seed))
         seconds.append(time.perf_counter() - start)
     for sensor, result, took in zip(sensors, results, seconds):
         name = spectral.stem(sensor, instance)

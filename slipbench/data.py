@@ -75,8 +75,13 @@ class Dataset:
 
     def sensors(self) -> list[tuple[str, str]]:
         """(sensor_type, sensor_instance) pairs in order of first appearance."""
-        pairs = self.recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
-        return [tuple(p) for p in pairs.itertuples(index=False)]
+        return sensor_pairs(self.recordings)
+
+
+def sensor_pairs(recordings: pd.DataFrame) -> list[tuple[str, str]]:
+    """(sensor_type, sensor_instance) pairs of a recordings table, in order of first appearance."""
+    pairs = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
+    return list(pairs.itertuples(index=False, name=None))
 
 
 def _fail(file: Path, what: str, recording: str | None = None, column: str | None = None) -> DataError:

@@ -69,8 +69,10 @@ class ResultsStore:
     def consolidate(self) -> Path:
         """Rebuild results.parquet from every finished cell of the folder."""
         files = sorted((self.folder / "cells").glob("*.parquet"))
-        rows = pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True) if files else pd.DataFrame()
         path = self.folder / RESULTS_FILE
+        if not files and not path.exists():
+            return path  # nothing finished yet: write no empty results file
+        rows = pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True) if files else pd.DataFrame()
         write_atomic(pa.Table.from_pandas(rows, preserve_index=False), path)
         return path
 

@@ -1,16 +1,23 @@
-"""The one loop: protocol cells -> windows -> fit/predict -> metrics -> result rows."""
+"""The one loop: protocol cells -> windows -> fit/predict -> metrics -> result rows.
+
+Cells that train on exactly the same windows share one model: they are grouped into a task
+that fits once and tests every cell of the group. Tasks run in this process, in a local process
+pool (``jobs``) or on a dask.distributed cluster (``scheduler``); the parent alone writes the
+results store, one cell at a time, atomically.
+"""
 
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 import threading
 import time
 import traceback
 import zlib
-from collections.abc import Iterable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from typing import Any
 
@@ -27,6 +34,7 @@ from .results import ResultsStore, cell_key
 from .signals import Signals, Windows, balance, split
 
 
+# ----------------------------------------------------------------------------- data per cell
 def _concat(parts: list[Windows]) -> Windows:
     return Windows(
         np.concatenate([p.x for p in parts]), np.concatenate([p.recording for p in parts]),
@@ -37,30 +45,33 @@ def _concat(parts: list[Windows]) -> Windows:
 def _where(windows: Windows, conditions) -> Windows:
     mask = np.ones(len(windows), bool)
     for column, op, value in conditions:
-        values = windows.column(column)
-        equal = pd.Series(values).eq(value).to_numpy()
+        equal = pd.Series(windows.column(column)).eq(value).to_numpy()
         mask &= equal if op == "==" else ~equal
     return windows.take(np.flatnonzero(mask))
 
 
 class CellData:
-    """Balanced, split windows per (sensor, window, downsampling), computed once and shared by
-    every cell that needs them. Balancing and splitting draw from the run's seed."""
+    """Balanced, split windows per (sensor, window, downsampling, decimation), computed once and
+    shared by every cell that needs them. Balancing and splitting draw from the run's seed; the
+    same windows are drawn whatever the downsampling, as the paper downsamples its 200-sample set."""
 
     def __init__(self, signals: Signals, how: str, seed: int):
         self.signals, self.how, self.seed = signals, how, seed
         self._cache: dict[tuple, tuple[Windows, Windows]] = {}
+        self._antialiased: dict[int, Signals] = {}
         rec = signals.recordings
-        self._rows = {k: np.flatnonzero((rec["sensor_type"] == k[0]) & (rec["sensor_instance"] == k[1])) for k in
-                      rec[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None)}
+        self._rows = {
+            k: np.flatnonzero((rec["sensor_type"] == k[0]) & (rec["sensor_instance"] == k[1]))
+            for k in rec[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None)
+        }
 
-    def sides(self, sensor: tuple[str, str], window: int, downsample: int) -> tuple[Windows, Windows]:
-        key = (sensor, window, downsample)
+    def sides(self, sensor: tuple[str, str], window: int, downsample: int = 1, decimation: str = "plain") -> tuple[Windows, Windows]:
+        key = (sensor, window, downsample, decimation)
         if key not in self._cache:
-            self._cache[key] = self._prepare(sensor, window, downsample)
+            self._cache[key] = self._prepare(*key)
         return self._cache[key]
 
-    def _prepare(self, sensor, window, downsample):
+    def _prepare(self, sensor, window, downsample, decimation):
         name = f"{sensor[0]} {sensor[1]}"
         if sensor not in self._rows:
             raise UsageError(f"the dataset has no recordings of sensor {name}")
@@ -70,31 +81,37 @@ class CellData:
             longest = int(np.max(np.diff(self.signals.offsets)[rows]))
             raise UsageError(f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)")
         words = [zlib.crc32(f"{sensor}|{window}".encode())]
-        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))
-        windows = windows.take(balance(windows, rng))
-        if downsample > 1:
-            windows = windows.downsample(downsample)
+        windows = windows.take(balance(windows, np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))))
         train, test = split(windows, self.how, self.seed)
-        for side, rows_ in (("train", train), ("test", test)):
-            classes = set(np.unique(windows.y[rows_]))
+        for side, idx in (("train", train), ("test", test)):
+            classes = set(np.unique(windows.y[idx]))
             if classes != {0, 1}:
                 missing = "slip" if 1 not in classes else "non-slip"
                 raise UsageError(f"the {self.how} split of {name} at window {window} leaves no {missing} windows on the {side} side")
+        if downsample > 1:
+            if decimation == "antialias":
+                if downsample not in self._antialiased:
+                    self._antialiased[downsample] = self.signals.antialiased(downsample)
+                aa = self._antialiased[downsample]
+                starts = aa.offsets[windows.recording] + windows.index.astype(np.int64) * window
+                windows = Windows(aa.buffer[starts[:, None] + np.arange(window)], windows.recording, windows.index, windows.recordings)
+            windows = windows.downsample(downsample)
         return windows.take(train), windows.take(test)
 
-    def part(self, part: Part, window: int, downsample: int) -> Windows:
+    def part(self, part: Part, window: int, downsample: int = 1, decimation: str = "plain") -> Windows:
         side = 0 if part.side == "train" else 1
-        pooled = _concat([self.sides(s, window, downsample)[side] for s in part.sensors])
+        pooled = _concat([self.sides(s, window, downsample, decimation)[side] for s in part.sensors])
         return _where(pooled, part.where)
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
         rec = self.signals.recordings
         rates = rec.loc[np.concatenate([self._rows[s] for s in part.sensors]), "sampling_rate_hz"].unique()
         if len(rates) > 1:
-            raise UsageError(f"cell pools sensors with different sampling rates: {sorted(rates)}")
+            raise UsageError(f"a cell pools sensors with different sampling rates: {sorted(rates)}")
         return float(rates[0]) / downsample
 
 
+# ----------------------------------------------------------------------------- fitting
 class PeakMemory:
     """Peak resident memory above the starting level while a block runs (sampled every 5 ms;
     catches torch and numpy allocations alike, unlike tracemalloc)."""
@@ -118,17 +135,63 @@ class PeakMemory:
         self.mb = (self._peak - self._base) / 2**20
 
 
+@dataclass
+class TestSet:
+    """What one cell is tested on: windows, labels and the recording of each window."""
+
+    x: np.ndarray
+    y: np.ndarray
+    groups: np.ndarray
+
+
+def fit_and_test(
+    detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray, tests: list[TestSet]
+) -> list[tuple[dict[str, Any], np.ndarray | None]]:
+    """Fit one model, test it on each test set. Runs in a worker: takes and returns plain data.
+
+    Returns, per test set, its result fields and its scores. A detector that raises yields
+    status "failed" with the error for every test set, so the rest of a run goes on.
+    """
+    detector = clone(detector)
+    try:
+        with PeakMemory() as mem:
+            t0 = time.perf_counter()
+            detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed)
+            train_s = time.perf_counter() - t0
+        out = []
+        for test in tests:
+            t0 = time.perf_counter()
+            scores = detector.predict_proba(test.x)
+            infer_s = time.perf_counter() - t0
+            y_pred = (scores >= 0.5).astype(np.int8)
+            out.append(({
+                "status": "ok", "reason": "", "n_train": len(train_x), "n_test": len(test.x),
+                "n_test_recordings": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
+                **classification_figures(test.y, y_pred, test.groups, seed),
+                "train_s": train_s, "train_us_per_sample": train_s / train_x.size * 1e6,
+                "infer_us_per_window": infer_s / len(test.x) * 1e6, "peak_mem_mb": mem.mb,
+            }, scores))
+        return out
+    except UsageError:
+        raise
+    except Exception as exc:
+        detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+        return [({"status": "failed", "reason": f"detector {detector.name or type(detector).__name__!r} raised: {detail}"}, None)] * len(tests)
+
+
+# ----------------------------------------------------------------------------- planning
 def environment() -> dict[str, str]:
-    versions = {"slipbench_version": __version__, "python_version": platform.python_version(), "numpy_version": np.__version__}
     torch = sys.modules.get("torch")
-    versions["torch_version"] = getattr(torch, "__version__", "")
-    versions["platform"] = platform.platform()
-    return versions
+    return {
+        "slipbench_version": __version__, "python_version": platform.python_version(),
+        "numpy_version": np.__version__, "torch_version": getattr(torch, "__version__", ""),
+        "platform": platform.platform(),
+    }
 
 
 @dataclass
 class Run:
-    """Everything that determines a run's outcome, besides the dataset's content."""
+    """One detector on one protocol, with a split and a seed."""
 
     detector: BaseDetector
     detector_name: str
@@ -137,101 +200,225 @@ class Run:
     split: str = "paper"
     seed: int = 0
 
+    def _common(self, fingerprint: str) -> dict[str, Any]:
+        return {"dataset": fingerprint, "detector": self.detector_name, "params": self.detector.get_params(),
+                "split": self.split, "seed": self.seed, "version": __version__}
+
     def key(self, cell: Cell, fingerprint: str) -> str:
-        return cell_key({
-            "dataset": fingerprint, "detector": self.detector_name, "params": self.detector.get_params(),
-            "protocol": self.protocol_name, "cell": cell.key, "train": cell.train, "test": cell.test,
-            "window": cell.window, "downsample": cell.downsample, "split": self.split, "seed": self.seed,
-            "version": __version__,
-        })
+        """Content address of a cell's result."""
+        return cell_key({**self._common(fingerprint), "protocol": self.protocol_name,
+                         "protocol_params": self.protocol.get_params(), "cell": cell.key, "test": cell.test,
+                         "model": self.model_key(cell, fingerprint)})
+
+    def model_key(self, cell: Cell, fingerprint: str) -> str:
+        """Content address of the model a cell tests: equal keys train on the same windows."""
+        return cell_key({**self._common(fingerprint), "train": cell.train, "window": cell.window,
+                         "downsample": cell.downsample, "decimation": cell.decimation})
 
 
-def run_cell(run: Run, cell: Cell, data: CellData) -> tuple[dict[str, Any], pd.DataFrame | None]:
-    """Fit and test one cell. Returns its result fields and its test predictions."""
-    train = data.part(cell.train, cell.window, cell.downsample)
-    test = data.part(cell.test, cell.window, cell.downsample)
-    for side, windows in (("train", train), ("test", test)):
-        classes = set(np.unique(windows.y))
-        if classes != {0, 1}:
-            missing = " and ".join(n for c, n in ((1, "slip"), (0, "non-slip")) if c not in classes)
-            return {"status": "skipped", "reason": f"no {missing} windows to {side} on"}, None
-    detector = clone(run.detector)
-    rate = data.sampling_rate(cell.train, cell.downsample)
-    try:
-        with PeakMemory() as mem:
-            t0 = time.perf_counter()
-            detector.fit(train.x, train.y, sampling_rate=rate, seed=run.seed)
-            t1 = time.perf_counter()
-            scores = detector.predict_proba(test.x)
-            t2 = time.perf_counter()
-    except UsageError:
-        raise
-    except Exception as exc:  # a failing plugin is reported; the rest of the run goes on
-        detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-        return {"status": "failed", "reason": f"detector {run.detector_name!r} raised: {detail}"}, None
-    y_pred = (scores >= 0.5).astype(np.int8)
-    figures = classification_figures(test.y, y_pred, test.recording, run.seed, scores=scores)
-    fields = {
-        "status": "ok", "reason": "",
-        "n_train": len(train), "n_test": len(test), "n_test_recordings": int(len(np.unique(test.recording))),
-        "sampling_rate_hz": rate, **figures,
-        "train_s": t1 - t0, "train_us_per_sample": (t1 - t0) / train.x.size * 1e6,
-        "infer_us_per_window": (t2 - t1) / len(test) * 1e6, "peak_mem_mb": mem.mb,
+@dataclass
+class Task:
+    """One model to fit and the cells it is tested on."""
+
+    run: Run  # the first run: its detector, split and seed are every cell's (they share the model key)
+    cell: Cell  # the first cell: its train part, window and rate define the model
+    model_key: str
+    cells: list[tuple[Run, str, Cell]] = field(default_factory=list)  # cells of any protocol
+
+
+def _row(run: Run, key: str, model: str, cell: Cell, fields: dict, fingerprint: str, path: str, env: dict, run_id: str) -> dict:
+    return {
+        "key": key, "model_key": model, "run_id": run_id, "protocol": run.protocol_name,
+        "protocol_params": json.dumps(run.protocol.get_params(), sort_keys=True, default=str),
+        "detector": run.detector_name,
+        "detector_params": json.dumps(run.detector.get_params(), sort_keys=True, default=str),
+        "split": run.split, "seed": run.seed, **cell.key, "window": cell.window, "downsample": cell.downsample,
+        "decimation": cell.decimation, "cell": json.dumps(cell.key, sort_keys=True, default=str),
+        "train_sensors": json.dumps(cell.train.sensors), "train_where": json.dumps(cell.train.where, default=str),
+        "test_sensors": json.dumps(cell.test.sensors), "test_where": json.dumps(cell.test.where, default=str),
+        **fields, "dataset_fingerprint": fingerprint, "dataset_path": path, **env,
+        "finished_at": datetime.now(timezone.utc).isoformat(),
     }
-    predictions = pd.DataFrame({
-        "recording_id": test.recordings["recording_id"].to_numpy()[test.recording],
-        "window_index": test.index, "y_true": test.y, "score": scores,
-    })
-    return fields, predictions
 
 
+def _annotated(dataset: Dataset, protocols: list[BaseProtocol]) -> Signals:
+    signals = Signals.from_dataset(dataset)
+    for protocol in protocols:
+        for name, values in protocol.columns(dataset.recordings).items():
+            signals.recordings[name] = values
+    return signals
+
+
+# ----------------------------------------------------------------------------- executors
+def _worker_init(jobs: int) -> None:
+    # share the machine's cores between the workers instead of oversubscribing them
+    threads = max(1, (os.cpu_count() or 1) // jobs)
+    os.environ["OMP_NUM_THREADS"] = str(threads)
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(threads)
+
+
+def _dask_client(address: str):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError("--scheduler needs dask.distributed: pip install 'slipbench[dask]'") from None
+    try:
+        return Client(address, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
+
+
+def _execute(tasks: list[Task], payload: Callable[[Task], tuple], jobs: int, scheduler: str | None,
+             timeout: float | None) -> Iterator[tuple[Task, list | None]]:
+    """Run tasks; yield each with its results (None when it hit the time limit).
+
+    At most two tasks per worker are in flight, so their windows are not all in memory at once.
+    """
+    if scheduler:
+        from distributed import as_completed
+
+        client = _dask_client(scheduler)
+        try:
+            futures = {client.submit(fit_and_test, *payload(t), pure=False): t for t in tasks}
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+        finally:
+            client.close()
+        return
+    if jobs <= 1 and not timeout:
+        for task in tasks:
+            yield task, fit_and_test(*payload(task))
+        return
+    from concurrent.futures import TimeoutError as FutureTimeout
+
+    # pebble, unlike concurrent.futures, kills a worker that overruns its time limit
+    from pebble import ProcessPool
+
+    with ProcessPool(max_workers=jobs, initializer=_worker_init, initargs=(jobs,)) as pool:
+        pending: list = []
+        queue = iter(tasks)
+        while True:
+            for task in queue:
+                pending.append((pool.schedule(fit_and_test, args=payload(task), timeout=timeout), task))
+                if len(pending) >= 2 * jobs:
+                    break
+            if not pending:
+                return
+            future, task = pending.pop(0)
+            try:
+                yield task, future.result()
+            except FutureTimeout:
+                yield task, None
+
+
+# ----------------------------------------------------------------------------- the run
 def evaluate(
-    dataset: Dataset, run: Run, store: ResultsStore, *, force: bool = False, progress: bool = True,
+    dataset: Dataset,
+    runs: Run | list[Run],
+    store: ResultsStore,
+    *,
+    force: bool = False,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    cell_timeout: float | None = None,
+    progress: bool = True,
 ) -> pd.DataFrame:
-    """Run every cell of ``run.protocol`` with ``run.detector``; finished cells already in
-    ``store`` are reused unless ``force``. Returns this run's rows."""
-    cells: list[Cell] = list(run.protocol.cells(dataset.recordings))
-    if not cells:
-        raise UsageError(f"protocol {run.protocol_name!r} has no cells on this dataset")
-    data = CellData(Signals.from_dataset(dataset), run.split, run.seed)
-    # Prepare every cell's windows before training anything: a data problem stops the run
-    # before it writes a single result.
-    for cell in cells:
-        for part in (cell.train, cell.test):
-            for sensor in part.sensors:
-                data.sides(sensor, cell.window, cell.downsample)
-    env = environment()
-    run_id = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
-    rows = []
-    for cell in _progress(cells, progress, f"{run.detector_name} x {run.protocol_name}"):
-        key = run.key(cell, dataset.fingerprint)
-        if not force and store.has(key):
-            cached = store.get(key)
-            if cached["status"] in ("ok", "skipped"):
-                rows.append(cached)
-                continue
-        started = datetime.now(timezone.utc).isoformat()
-        fields, predictions = run_cell(run, cell, data)
-        row = {
-            "key": key, "run_id": run_id, "protocol": run.protocol_name, "detector": run.detector_name,
-            "detector_params": json.dumps(run.detector.get_params(), sort_keys=True, default=str),
-            "split": run.split, "seed": run.seed, **cell.key, "window": cell.window, "downsample": cell.downsample,
-            "cell": json.dumps(cell.key, sort_keys=True, default=str),
-            "train_sensors": json.dumps(cell.train.sensors), "train_where": json.dumps(cell.train.where),
-            "test_sensors": json.dumps(cell.test.sensors), "test_where": json.dumps(cell.test.where),
-            **fields, "dataset_fingerprint": dataset.fingerprint,
-            "dataset_path": str(dataset.path or ""), **env, "started_at": started,
-            "finished_at": datetime.now(timezone.utc).isoformat(),
-        }
+    """Run every cell of every run; finished cells already in ``store`` are reused unless
+    ``force``. Returns the rows of these runs, in protocol order.
+
+    Parameters
+    ----------
+    jobs : local worker processes (1: run in this process).
+    scheduler : address of a dask.distributed scheduler; tasks run on its workers.
+    cell_timeout : seconds one model may take to fit and test its cells in a local worker
+        before they are reported with status "timeout" (runs a process pool even for 1 job).
+    """
+    runs = [runs] if isinstance(runs, Run) else runs
+    signals = _annotated(dataset, [r.protocol for r in runs])
+    datas: dict[tuple[str, int], CellData] = {}
+    fingerprint, path = dataset.fingerprint, str(dataset.path or "")
+    env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
+
+    def data_of(run: Run) -> CellData:
+        return datas.setdefault((run.split, run.seed), CellData(signals, run.split, run.seed))
+
+    def windows(run: Run, cell: Cell, part: Part) -> Windows:
+        return data_of(run).part(part, cell.window, cell.downsample, cell.decimation)
+
+    def record(run: Run, key: str, cell: Cell, fields: dict, scores: np.ndarray | None = None) -> None:
+        row = _row(run, key, run.model_key(cell, fingerprint), cell, fields, fingerprint, path, env, run_id)
+        predictions = None
+        if scores is not None:
+            test = windows(run, cell, cell.test)
+            predictions = pd.DataFrame({
+                "recording_id": signals.recordings["recording_id"].to_numpy()[test.recording],
+                "window_index": test.index, "y_true": test.y, "score": scores,
+            })
         store.put(row, predictions)
-        rows.append(row)
-    store.consolidate()
-    return pd.DataFrame(rows)
+        rows[key] = row
+
+    # plan: every cell's windows are prepared before anything trains, so a data problem stops
+    # the run before it writes a single result
+    rows: dict[str, dict] = {}
+    order: list[str] = []
+    tasks: dict[str, Task] = {}
+    for run in runs:
+        run.detector.validate_params()
+        cells = list(run.protocol.cells(dataset.recordings))
+        if not cells:
+            raise UsageError(f"protocol {run.protocol_name!r} has no cells on this dataset")
+        for cell in cells:
+            key = run.key(cell, fingerprint)
+            order.append(key)
+            if not force and store.has(key) and store.get(key)["status"] in ("ok", "skipped"):
+                rows[key] = store.get(key)
+                continue
+            reason = cell.skip
+            if not reason:
+                for part, role in ((cell.train, "train"), (cell.test, "test")):
+                    missing = _missing_classes(windows(run, cell, part).y)
+                    if missing:
+                        reason = f"no {missing} windows to {role} on"
+                        break
+            if reason:
+                record(run, key, cell, {"status": "skipped", "reason": reason})
+                continue
+            model = run.model_key(cell, fingerprint)
+            tasks.setdefault(model, Task(run, cell, model)).cells.append((run, key, cell))
+
+    def payload(task: Task) -> tuple:
+        run, c = task.run, task.cell
+        train = windows(run, c, c.train)
+        tests = [windows(run, cell, cell.test) for _, _, cell in task.cells]
+        return (run.detector, run.seed, data_of(run).sampling_rate(c.train, c.downsample), train.x, train.y,
+                [TestSet(t.x, t.y, t.recording) for t in tests])
+
+    desc = " + ".join(dict.fromkeys(f"{r.detector_name} x {r.protocol_name}" for r in runs))
+    bar = _progress(len(order), len(rows), progress, desc)
+    try:
+        for task, results in _execute(list(tasks.values()), payload, jobs, scheduler, cell_timeout):
+            if results is None:
+                results = [({"status": "timeout", "reason": f"the model did not fit and test within {cell_timeout:g} s"}, None)] * len(task.cells)
+            for (run, key, cell), (fields, scores) in zip(task.cells, results):
+                record(run, key, cell, fields, scores)
+            bar.update(len(task.cells))
+    finally:
+        bar.close()
+        store.consolidate()
+    return pd.DataFrame([rows[k] for k in order])
 
 
-def _progress(items: list, enabled: bool, desc: str) -> Iterable:
-    if not enabled:
-        return items
+def _missing_classes(y: np.ndarray) -> str:
+    classes = set(np.unique(y))
+    return " and ".join(n for c, n in ((1, "slip"), (0, "non-slip")) if c not in classes)
+
+
+def _progress(total: int, done: int, enabled: bool, desc: str):
+    """A progress bar: cells done (cached and skipped ones count at once) and the time left."""
     from tqdm import tqdm
 
-    return tqdm(items, desc=desc, unit="cell", file=sys.stderr)
+    bar = tqdm(total=total, initial=done, desc=desc, unit="cell", file=sys.stderr, disable=not enabled)
+    bar.set_postfix_str(f"{done} cached or skipped", refresh=False)
+    return bar

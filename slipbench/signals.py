@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy import signal
 from sklearn.model_selection import StratifiedGroupKFold, train_test_split
 
 from .data import Dataset
@@ -51,6 +52,25 @@ class Signals:
         parts = [univariate(dataset.samples[r]) for r in dataset.recordings["recording_id"]]
         offsets = np.r_[0, np.cumsum([len(p) for p in parts])].astype(np.int64)
         return cls(np.concatenate(parts), offsets, dataset.recordings.reset_index(drop=True))
+
+    def antialiased(self, factor: int, order: int = 4) -> "Signals":
+        """The signal a sensor with an anti-aliasing filter would give at 1/``factor`` the rate,
+        laid out at full rate so that ``Windows.downsample(factor)`` picks it.
+
+        Each recording's norm ||a_t|| (the running sum of s) is low-passed by a causal
+        Butterworth filter at 0.8 x the new Nyquist frequency, as a sensor's analogue filter
+        would, and differenced over ``factor`` samples: keeping every ``factor``-th value of the
+        result gives exactly the lag-one difference at the low rate.
+        """
+        out = np.empty_like(self.buffer)
+        rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
+        for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
+            sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
+            norm = signal.sosfilt(sos, np.cumsum(self.buffer[lo:hi], dtype=np.float64))
+            lagged = np.zeros_like(norm)
+            lagged[factor:] = norm[:-factor]
+            out[lo:hi] = norm - lagged
+        return Signals(out, self.offsets, self.recordings)
 
     def windows(self, window: int, rows: np.ndarray | None = None) -> "Windows":
         """Cut non-overlapping windows of ``window`` samples from each recording in ``rows``.

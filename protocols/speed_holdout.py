@@ -1,0 +1,42 @@
+"""Slip speed (Van Wyk & Falco, section VII.B, Table IV): window 50 at full rate. Per slip
+speed, the model trained on all speeds and a model trained without that speed are tested on
+that speed's test windows.
+
+The paper pools non-slip data per arm speed, but pressing has no speed. Here each pressing
+recording is assigned to one slip speed (column ``speed_group``), round robin within its sensor
+and material, so every speed's test set holds slip at that speed, free-space motion at that
+speed (there is none at 5 mm/s) and an equal share of pressing on every material. Training
+"without" a speed drops the slip and free-space windows at that speed; pressing, having no
+speed, stays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slipbench.base import BaseProtocol
+from slipbench.protocols.material_holdout import holdout_cells
+
+
+def _speeds(recordings) -> list[float]:
+    return sorted(recordings.loc[recordings["scenario"] == "slip", "speed_mm_s"].dropna().unique())
+
+
+class SpeedHoldout(BaseProtocol):
+    name = "speed-holdout"
+    table = {
+        "title": "Slip state classification accuracy (%) with and without (*) explicit training of each slip speed (mm/s)",
+        "rows": ["sensor_type", "sensor_instance"], "columns": "speed_mm_s", "pair": "training",
+    }
+
+    def columns(self, recordings):
+        speeds = _speeds(recordings)
+        group = recordings["speed_mm_s"].to_numpy(dtype=float).copy()
+        press = recordings[recordings["scenario"] == "press"].sort_values("recording_id")
+        if speeds:
+            turn = press.groupby(["sensor_type", "sensor_instance", "material"]).cumcount().to_numpy()
+            group[recordings.index.get_indexer(press.index)] = np.asarray(speeds)[turn % len(speeds)]
+        return {"speed_group": group}
+
+    def cells(self, recordings):
+        return holdout_cells(recordings, "speed_mm_s", _speeds(recordings), test_column="speed_group")
