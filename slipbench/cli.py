@@ -185,6 +185,58 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeat
 
 
 # -- report and compare
+@cli.command()
+@click.argument("results", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--format", "fmt", type=click.Choice(["md", "latex"]), default="md", show_default=True)
+@click.option("--metric", type=click.Choice(["accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc"]),
+              default="accuracy", show_default=True, help="The figure the protocol tables show.")
+@click.option("--intervals", is_flag=True, help="Show 95 % intervals: 88.0 [86.9, 89.1].")
+@click.option("--paper", is_flag=True, help="Show the paper's published tables and the differences beside ours.")
+@click.option("--standalone", is_flag=True, help="LaTeX: a whole document that compiles, not only the tables.")
+@click.option("--plots", "plots_dir", type=click.Path(path_type=Path), help="Also write figures (PNG and PDF) here.")
+@click.option("--out", type=click.Path(path_type=Path), help="Write the report to this file instead of printing it.")
+def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out) -> None:
+    """Render RESULTS (results files or --out folders) as the paper's tables."""
+    from .report import render_report
+    from .results import read_results
+
+    import pandas as pd
+
+    rows = pd.concat([read_results(p) for p in results], ignore_index=True)
+    text = render_report(rows, fmt, metric, intervals, paper, standalone)
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text)
+        click.echo(f"wrote {out}")
+    else:
+        click.echo(text, nl=False)
+    if plots_dir:
+        from .plots import write_plots
+
+        for path in write_plots(rows, plots_dir):
+            click.echo(f"wrote {path}")
+
+
+@cli.command("compare")
+@click.argument("base", type=click.Path(path_type=Path))
+@click.argument("candidate", type=click.Path(path_type=Path))
+@click.option("--margin", default=0.0, show_default=True,
+              help="Accuracy points a cell may lose (significantly) before it counts as a regression.")
+@click.option("--out", type=click.Path(path_type=Path), help="Also write the Markdown to this file (a PR comment).")
+def compare_command(base, candidate, margin, out) -> None:
+    """Compare CANDIDATE results with BASE cell by cell; exit 1 if a cell regressed.
+
+    Exit codes: 0 nothing regressed beyond --margin; 1 a cell regressed; 2 bad usage or data.
+    """
+    from .compare import compare, to_markdown
+
+    result = compare(base, candidate, margin)
+    text = to_markdown(result)
+    click.echo(text, nl=False)
+    if out:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text)
+    sys.exit(result.exit_code)
 
 
 def main(argv: list[str] | None = None) -> None:
