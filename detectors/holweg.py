@@ -53,7 +53,10 @@ class Holweg(BaseDetector):
             self.bins_ = significant_band(freqs, amp, y, self.keep)
         else:
             lo, hi = (float(v) for v in self.band)
-            self.bins_ = np.flatnonzero((freqs >= lo) & (freqs <= hi))
+            # a bin counts when its frequency cell (centre +- half the resolution) meets the
+            # band, so a band chosen at 1 Hz resolution still works for 5-sample windows
+            half = freqs[1] / 2
+            self.bins_ = np.flatnonzero((freqs + half > lo) & (freqs - half <= hi))
             if len(self.bins_) == 0:
                 raise UsageError(
                     f"band {lo:g}-{hi:g} Hz holds no FFT bin of a {x.shape[1]}-sample window at "

@@ -54,8 +54,11 @@ def test_holweg_fixed_band_must_hold_a_bin():
     rng = np.random.default_rng(0)
     x, y = _tones(200, rng)
     with pytest.raises(UsageError, match="holds no FFT bin"):
-        Holweg(band=(1, 5)).fit(x, y, sampling_rate=1000.0)
+        Holweg(band=(600, 900)).fit(x, y, sampling_rate=1000.0)
     assert Holweg(band=(40, 80)).fit(x, y, sampling_rate=1000.0).band_hz_ == (40.0, 80.0)
+    # 5-sample windows have bins every 200 Hz: the 0-100 Hz band keeps the bins whose cells meet it
+    assert Holweg(band=(38, 79)).fit(x[:, :5], y, sampling_rate=1000.0).band_hz_ == (0.0, 0.0)
+    assert Holweg(band=(38, 120)).fit(x[:, :5], y, sampling_rate=1000.0).band_hz_ == (0.0, 200.0)
 
 
 def test_holweg_parameter_validation_message():

@@ -1,0 +1,132 @@
+"""What each protocol trains and tests on, pinned on the simulated data."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from slipbench.data import Dataset
+from slipbench.protocols.cross_instance import CrossInstance
+from slipbench.protocols.material_holdout import MaterialHoldout
+from slipbench.protocols.sampling_rate import SamplingRate
+from slipbench.protocols.speed_holdout import SpeedHoldout
+from slipbench.protocols.window_size import WindowSize
+from slipbench.runner import CellData
+from slipbench.signals import Signals
+
+
+def subset(ds: Dataset, mask) -> Dataset:
+    rec = ds.recordings[np.asarray(mask)].reset_index(drop=True)
+    ids = set(rec["recording_id"])
+    return Dataset(rec, {k: v for k, v in ds.samples.items() if k in ids}, {}, ds.path, ds.fingerprint + "-subset")
+
+
+@pytest.fixture(scope="module")
+def nano(small):
+    return subset(small, small.recordings["sensor_type"].eq("Nano17"))
+
+
+def _data(ds, protocol, how="paper"):
+    signals = Signals.from_dataset(ds)
+    for name, values in protocol.columns(ds.recordings).items():
+        signals.recordings[name] = values
+    return CellData(signals, how, seed=0)
+
+
+def _windows(data, cell, part):
+    return data.part(part, cell.window, cell.downsample, cell.decimation)
+
+
+def test_window_size_cells(small):
+    cells = list(WindowSize().cells(small.recordings))
+    assert len(cells) == 8 * 6
+    assert {c.window for c in cells} == {5, 10, 25, 50, 100, 200}
+    assert all(c.train.sensors == c.test.sensors and len(c.train.sensors) == 1 for c in cells)
+
+
+def test_material_holdout_never_trains_on_the_held_out_material(nano):
+    protocol = MaterialHoldout()
+    data = _data(nano, protocol)
+    cells = list(protocol.cells(nano.recordings))
+    assert len(cells) == 3 * 5 * 2
+    for cell in cells:
+        material = cell.key["material"]
+        train, test = _windows(data, cell, cell.train), _windows(data, cell, cell.test)
+        assert set(test.column("material")) == {material}
+        assert set(test.column("scenario")) == {"slip", "press"}
+        trained_on = set(pd.Series(train.column("material")).dropna())
+        if cell.key["training"] == "without":
+            assert material not in trained_on and "free-space" in set(train.column("scenario"))
+        else:
+            assert material in trained_on
+    # the "with" model is the window-size model at window 50: same train part
+    with_cell = next(c for c in cells if c.key["training"] == "with")
+    ws = next(c for c in WindowSize().cells(nano.recordings) if c.window == 50 and c.train == with_cell.train)
+    assert ws.train == with_cell.train and ws.window == with_cell.window
+
+
+def test_speed_holdout_assigns_pressing_and_holds_out_speeds(nano):
+    protocol = SpeedHoldout()
+    group = protocol.columns(nano.recordings)["speed_group"]
+    rec = nano.recordings.assign(group=group)
+    press = rec[rec["scenario"] == "press"]
+    assert set(press["group"]) == {5.0, 25.0, 50.0, 75.0}
+    assert press.groupby(["sensor_instance", "material", "group"]).size().nunique() == 1  # equal shares
+    data = _data(nano, protocol)
+    for cell in protocol.cells(nano.recordings):
+        speed = cell.key["speed_mm_s"]
+        train, test = _windows(data, cell, cell.train), _windows(data, cell, cell.test)
+        scenario = test.column("scenario")
+        assert set(test.column("speed_group")) == {speed}
+        assert set(scenario) == ({"slip", "press"} if speed == 5 else {"slip", "press", "free-space"})
+        train_speeds = set(pd.Series(train.column("speed_mm_s")).dropna())
+        if cell.key["training"] == "without":
+            assert speed not in train_speeds and "press" in set(train.column("scenario"))
+        else:
+            assert speed in train_speeds
+
+
+def test_cross_instance_cells(small):
+    cells = list(CrossInstance().cells(small.recordings))
+    assert len(cells) == 4 * 4 + 4 * 4 + 3 * 3
+    combined = next(c for c in cells if c.key == {"sensor_type": "Nano17", "train_instance": "combined", "test_instance": "index"})
+    assert len(combined.train.sensors) == 3 and combined.test.sensors == (("Nano17", "index"),)
+    assert not any(c.skip for c in cells)
+
+
+def test_cross_instance_skips_a_type_with_one_instance(small):
+    one = subset(small, small.recordings["sensor_instance"].eq("index"))
+    cells = list(CrossInstance().cells(one.recordings))
+    skipped = [c for c in cells if c.skip]
+    assert skipped and all("has one instance" in c.skip for c in skipped)
+    assert all(c.key["train_instance"] == c.key["test_instance"] != "combined" for c in cells if not c.skip)
+
+
+def test_sampling_rate_cells_and_decimation(nano):
+    cells = [c for c in SamplingRate(decimation="both").cells(nano.recordings) if c.key["sensor_instance"] == "index"]
+    assert [c.key["rate_hz"] for c in cells if c.key["decimation"] == "plain"] == [1000, 500, 250, 125, 62.5, 31.25]
+    data = _data(nano, SamplingRate())
+    by = {(c.key["decimation"], c.downsample): c for c in cells}
+    plain, aa = by[("plain", 8)], by[("antialias", 8)]
+    x_plain, x_aa = _windows(data, plain, plain.train), _windows(data, aa, aa.train)
+    full = _windows(data, by[("plain", 1)], by[("plain", 1)].train)
+    assert x_plain.x.shape[1] == 25 and x_aa.x.shape == x_plain.x.shape
+    np.testing.assert_array_equal(x_plain.x, full.x[:, ::8])  # the paper's decimation
+    np.testing.assert_array_equal(x_plain.recording, x_aa.recording)  # the same windows...
+    assert not np.allclose(x_plain.x, x_aa.x)  # ...low-passed
+
+
+def test_antialiased_signal_is_the_low_rate_difference():
+    """Without a filter at work (a constant-slope norm), the k-step difference picks k x s."""
+    rec = pd.DataFrame({"recording_id": ["r"], "sampling_rate_hz": [1000.0]})
+    sig = Signals(np.ones(400, np.float32), np.array([0, 400]), rec)
+    aa = sig.antialiased(4)
+    assert aa.buffer[200] == pytest.approx(4.0, rel=1e-3)
+
+
+def test_sampling_rate_rejects_unknown_decimation():
+    from slipbench.errors import UsageError
+
+    with pytest.raises(UsageError, match="'decimation' option of sampling-rate must be one of"):
+        SamplingRate(decimation="cubic")
