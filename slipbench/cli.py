@@ -213,7 +213,7 @@ def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out) -
     if plots_dir:
         from .plots import write_plots
 
-        for path in write_plots(rows, plots_dir):
+        for path in write_plots(rows, plots_dir, paper=paper):
             click.echo(f"wrote {path}")
 
 

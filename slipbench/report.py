@@ -464,11 +464,15 @@ def protocol_tables(rows: pd.DataFrame, protocol: str, detector: str, metric: st
         tag = f"{protocol}-{detector}" + (f"-{value}" if value is not None else "")
         suffix = f" ({layout.split}: {value})" if value is not None else ""
         table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}")
+        if value is not None:
+            table.caption += f" {layout.split.capitalize()}: {value}."
         out.append((f"{detector}{suffix}", table))
         if ref is not None and len(ref) and metric == "accuracy":
             cap = "Published (Van Wyk & Falco, LSTM): " + layout.caption[0].lower() + layout.caption[1:]
             pt = build_table(part, layout, metric, values="paper", paper=ref, label_=f"tab:{tag}-paper")
             pt.caption = cap
+            if protocol == "sampling-rate":
+                pt.notes.append("The full-rate column is Table I at window 200, the same setting.")
             dt = build_table(part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference")
             dt.caption = f"Ours ({detector}) minus published (LSTM)."
             out += [(f"paper{suffix}", pt), (f"{detector} - paper{suffix}", dt)]
