@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import copy
 import inspect
+import json
+import os
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -175,12 +177,72 @@ class BaseDetector:
         """1 where the detector calls slip, shape (n_windows,)."""
         return (self.predict_proba(x) >= 0.5).astype(np.int8)
 
+    # -- persistence without pickle: parameters as JSON, fitted attributes as plain arrays
+    def save(self, path: str | os.PathLike) -> None:
+        """Write the fitted detector to ``path`` (an .npz that ``np.load(allow_pickle=False)``
+        reads). Fitted attributes must be arrays, numbers, strings or tuples/lists of them."""
+        self._check_fitted()
+        arrays, kinds = {}, {}
+        for key, value in vars(self).items():
+            if key.endswith("_") and not key.startswith("_"):
+                arrays[key] = np.asarray(value)
+                if arrays[key].dtype == object:
+                    raise UsageError(f"cannot save {type(self).__name__}: fitted attribute {key!r} holds a "
+                                     f"{type(value).__name__}, not an array, number or string")
+                kinds[key] = type(value).__name__ if isinstance(value, (tuple, list, np.ndarray)) else "scalar"
+        meta = {"format": "slipbench-detector-1", "class": type(self).__name__, "name": self.name,
+                "params": _encode(self.get_params()), "kinds": kinds}
+        tmp = f"{os.fspath(path)}.tmp"
+        with open(tmp, "wb") as f:
+            np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
+        os.replace(tmp, path)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "BaseDetector":
+        """Read a detector written by :meth:`save`. ``BaseDetector.load`` finds its class in the
+        registry by name; ``SomeDetector.load`` insists on that class."""
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                meta = json.loads(str(f["__meta__"]))
+                arrays = {k: f[k] for k in f.files if k != "__meta__"}
+        except (OSError, ValueError, KeyError) as exc:
+            raise UsageError(f"{path} is not a saved slipbench detector: {exc}") from exc
+        if cls is BaseDetector:
+            from .registry import detectors
+
+            cls = detectors.get(meta["name"])
+        elif meta["class"] != cls.__name__:
+            raise UsageError(f"{path} holds a {meta['class']} ({meta['name']!r}), not a {cls.__name__}")
+        detector = cls(**_decode(meta["params"]))
+        for key, value in arrays.items():
+            kind = meta["kinds"][key]
+            detector.__dict__[key] = value.item() if kind == "scalar" else value if kind == "ndarray" else \
+                (tuple if kind == "tuple" else list)(value.tolist())
+        return detector
+
     # -- what plugins implement
     def _fit(self, x: np.ndarray, y: np.ndarray, seed: int) -> None:
         raise NotImplementedError
 
     def _predict_proba(self, x: np.ndarray) -> np.ndarray:
         raise NotImplementedError
+
+
+def _encode(value: Any) -> Any:
+    """Parameters -> JSON, keeping tuples apart from lists (``clone`` of a loaded detector must
+    equal the original's)."""
+    if isinstance(value, dict):
+        return {k: _encode(v) for k, v in value.items()}
+    if isinstance(value, (tuple, list)):
+        items = [_encode(v) for v in value]
+        return {"__tuple__": items} if isinstance(value, tuple) else items
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _decode(value: Any) -> Any:
+    if isinstance(value, dict):
+        return tuple(_decode(v) for v in value["__tuple__"]) if "__tuple__" in value else {k: _decode(v) for k, v in value.items()}
+    return [_decode(v) for v in value] if isinstance(value, list) else value
 
 
 def clone(detector: BaseDetector) -> BaseDetector:

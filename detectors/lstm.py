@@ -1,0 +1,153 @@
+"""The paper's LSTM slip classifier (Van Wyk & Falco, section V; LSTM cell after Greff et al.,
+"LSTM: A Search Space Odyssey", 2017): one layer of 20 units on the univariate signal, two
+outputs from the last step, cross-entropy, SGD with momentum 0.125 through the learning rates
+0.01, 1e-3, 1e-4, 1e-5 with early stopping on a validation part, full BPTT, inputs normalized by
+the 2.5th/97.5th percentiles, state reset for every window.
+
+Choices the paper leaves open (see the README): batch size 1 (an update per window, as in
+PyBrain's BackpropTrainer, whose "10 epochs without progress" rule the paper quotes); 10 % of
+the training windows
+(stratified, drawn from the seed) validate; the weights with the lowest validation loss are kept
+and each learning-rate stage starts from them with zero velocity; MATLAB's initialization
+(Glorot input and output weights, orthogonal recurrent weights, forget-gate bias 1); epochs per
+stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
+(``max_epochs=100`` is the paper's).
+CPU: numba kernels (slipbench.fastlstm); GPU: torch's cuDNN LSTM with the same model and loop.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slipbench import fastlstm
+from slipbench.base import BaseDetector, Interval, Options
+from slipbench.errors import UsageError
+
+PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
+
+
+def _init(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
+    g = 4 * hidden
+    w = rng.uniform(-1, 1, g) * np.sqrt(6 / (1 + g))
+    q, r = np.linalg.qr(rng.normal(size=(g, hidden)))
+    rt = (q * np.sign(np.diag(r))).T  # orthogonal (4H, H), stored transposed
+    b = np.zeros(g)
+    b[hidden : 2 * hidden] = 1.0  # forget gate
+    wy = rng.uniform(-1, 1, (2, hidden)) * np.sqrt(6 / (hidden + 2))
+    return [np.ascontiguousarray(a, dtype=np.float32) for a in (w, rt, b, wy, np.zeros(2))]
+
+
+class LSTM(BaseDetector):
+    """The paper's LSTM; ``device`` "auto" uses a CUDA GPU when torch sees one."""
+
+    name = "lstm"
+    check_params = {"max_epochs": 2, "validation_fraction": 0.2}  # fast settings for check_detector
+    _parameter_constraints = {
+        "hidden_size": Interval(int, 1, 512), "batch_size": Interval(int, 1, None),
+        "momentum": Interval(float, 0.0, 0.999), "patience": Interval(int, 1, None),
+        "validation_fraction": Interval(float, 0.01, 0.5), "device": Options(("auto", "cpu", "cuda")),
+    }
+
+    def __init__(self, hidden_size=20, batch_size=1, momentum=0.125, learning_rates=(0.01, 1e-3, 1e-4, 1e-5),
+                 max_epochs=(20, 5, 3, 2), patience=10, validation_fraction=0.1, device="auto"):
+        self.hidden_size = hidden_size
+        self.batch_size = batch_size
+        self.momentum = momentum
+        self.learning_rates = learning_rates
+        self.max_epochs = max_epochs
+        self.patience = patience
+        self.validation_fraction = validation_fraction
+        self.device = device
+
+    def _stages(self) -> list[tuple[float, int]]:
+        rates = [float(r) for r in np.atleast_1d(self.learning_rates)]
+        epochs = np.broadcast_to(np.atleast_1d(self.max_epochs), (len(rates),)) if np.ndim(self.max_epochs) == 0 or \
+            len(self.max_epochs) == len(rates) else None
+        if not rates or min(rates) <= 0 or epochs is None or min(epochs) < 1:
+            raise UsageError(f"LSTM needs positive learning_rates and max_epochs >= 1, one per rate or one for all; "
+                             f"got learning_rates={self.learning_rates!r}, max_epochs={self.max_epochs!r}")
+        return list(zip(rates, (int(e) for e in epochs)))
+
+    def _fit(self, x, y, seed):
+        stages = self._stages()
+        rng = np.random.default_rng(seed)
+        lo, hi = np.percentile(x, [2.5, 97.5])
+        self.lo_, self.scale_ = float(lo), float(2.0 / max(hi - lo, 1e-12))  # [p2.5, p97.5] -> [-1, 1]
+        xn = ((x - self.lo_) * self.scale_ - 1.0).astype(np.float32)
+        val = np.concatenate([rng.choice(np.flatnonzero(y == c), max(1, int(round(self.validation_fraction * (y == c).sum()))),
+                                         replace=False) for c in (0, 1)])
+        train = np.setdiff1d(np.arange(len(y)), val)
+        if len(train) == 0:
+            raise UsageError("LSTM: too few windows to keep a validation part; lower validation_fraction")
+        cuda = self.device == "cuda" or (self.device == "auto" and _cuda_available())
+        params = _init(self.hidden_size, rng)
+        epoch = _torch_epoch if cuda else _numba_epoch
+        best, best_loss, self.history_ = [p.copy() for p in params], np.inf, []
+        for lr, max_epochs in stages:
+            params = [p.copy() for p in best]
+            velocity = [np.zeros_like(p) for p in params]
+            stale = 0
+            for _ in range(max_epochs):
+                order = train[rng.permutation(len(train))]
+                epoch(xn, y, order, self.batch_size, lr, self.momentum, params, velocity)
+                p = np.clip(fastlstm.predict_proba(xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
+                loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
+                self.history_.append((lr, loss))
+                if loss < best_loss - 1e-6:
+                    best, best_loss, stale = [q.copy() for q in params], loss, 0
+                else:
+                    stale += 1
+                    if stale >= self.patience:
+                        break
+        self.w_, self.rt_, self.b_, self.wy_, self.by_ = best
+        self.validation_loss_ = best_loss
+        self.history_ = np.array(self.history_)
+
+    def _predict_proba(self, x):
+        return fastlstm.predict_proba(x, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+
+    def predict_window(self, window: np.ndarray) -> float:
+        """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
+        return fastlstm.predict_window(window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+
+
+def _cuda_available() -> bool:
+    import torch
+
+    return torch.cuda.is_available()
+
+
+def _numba_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
+    fastlstm.train_epoch(x, y, order, batch_size, lr, momentum, *params, *velocity)
+
+
+def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
+    """The same epoch on a GPU: torch's LSTM with its second bias fixed at 0 (one bias per gate,
+    as in the paper) and the same momentum update; arrays go back to numpy after the epoch."""
+    import torch
+
+    dev = torch.device("cuda")
+    to_torch = [lambda a: a[:, None], lambda a: a.T, lambda a: a, lambda a: a, lambda a: a]  # numpy -> torch layout
+    to_numpy = [lambda t: t[:, 0], lambda t: t.T, lambda t: t, lambda t: t, lambda t: t]
+    lstm = torch.nn.LSTM(1, params[1].shape[0], batch_first=True).to(dev)
+    lstm.bias_hh_l0.requires_grad_(False).zero_()
+    wy, by = (torch.tensor(p, device=dev, requires_grad=True) for p in params[3:])
+    tensors = [lstm.weight_ih_l0, lstm.weight_hh_l0, lstm.bias_ih_l0, wy, by]
+    with torch.no_grad():
+        for t, p, f in zip(tensors[:3], params, to_torch):
+            t.copy_(torch.tensor(np.ascontiguousarray(f(p)), device=dev))
+    vel = [torch.tensor(np.ascontiguousarray(f(v)), device=dev) for v, f in zip(velocity, to_torch)]
+    xs, ys = torch.tensor(x, device=dev)[:, :, None], torch.tensor(y, device=dev).long()
+    for start in range(0, len(order), batch_size):
+        idx = torch.as_tensor(order[start : start + batch_size], device=dev)
+        out, _ = lstm(xs[idx])
+        loss = torch.nn.functional.cross_entropy(out[:, -1] @ wy.T + by, ys[idx])
+        grads = torch.autograd.grad(loss, tensors)
+        with torch.no_grad():
+            for t, v, g in zip(tensors, vel, grads):
+                v.mul_(momentum).sub_(lr * g)
+                t.add_(v)
+    with torch.no_grad():
+        for p, v, t, tv, f in zip(params, velocity, tensors, vel, to_numpy):
+            p[:] = f(t).cpu().numpy()
+            v[:] = f(tv).cpu().numpy()
