@@ -121,12 +121,12 @@ def _numba_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> Non
     fastlstm.train_epoch(x, y, order, batch_size, lr, momentum, *params, *velocity)
 
 
-def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
+def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device="cuda") -> None:
     """The same epoch on a GPU: torch's LSTM with its second bias fixed at 0 (one bias per gate,
     as in the paper) and the same momentum update; arrays go back to numpy after the epoch."""
     import torch
 
-    dev = torch.device("cuda")
+    dev = torch.device(device)
     to_torch = [lambda a: a[:, None], lambda a: a.T, lambda a: a, lambda a: a, lambda a: a]  # numpy -> torch layout
     to_numpy = [lambda t: t[:, 0], lambda t: t.T, lambda t: t, lambda t: t, lambda t: t]
     lstm = torch.nn.LSTM(1, params[1].shape[0], batch_first=True).to(dev)

@@ -1,0 +1,116 @@
+"""The LSTM detector and its numba kernels: gradients, schedule, early stopping, normalization."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from slipbench import fastlstm
+from slipbench.errors import UsageError
+from slipbench.registry import detectors
+from slipbench.testing import toy_windows
+
+LSTM = detectors.get("lstm")
+H = 20
+
+
+def _params(seed=0):
+    rng = np.random.default_rng(seed)
+    return [rng.normal(0, 0.3, s).astype(np.float32) for s in ((4 * H,), (H, 4 * H), (4 * H,), (2, H), (2,))]
+
+
+def _torch_model(params):
+    w, rt, b, wy, by = params
+    lstm, lin = torch.nn.LSTM(1, H, batch_first=True), torch.nn.Linear(H, 2)
+    with torch.no_grad():
+        lstm.weight_ih_l0.copy_(torch.tensor(w[:, None])), lstm.weight_hh_l0.copy_(torch.tensor(rt.T))
+        lstm.bias_ih_l0.copy_(torch.tensor(b)), lstm.bias_hh_l0.zero_()
+        lin.weight.copy_(torch.tensor(wy)), lin.bias.copy_(torch.tensor(by))
+    return lstm, lin
+
+
+def test_tanh_approximation_is_float32_accurate():
+    x = np.linspace(-12, 12, 200_001).astype(np.float32)
+    assert np.abs(fastlstm.tanh(x) - np.tanh(x.astype(np.float64))).max() < 1e-6
+
+
+def test_gradients_and_scores_match_torch_autograd():
+    rng = np.random.default_rng(1)
+    x, y = rng.normal(size=(48, 30)).astype(np.float32), (np.arange(48) % 2).astype(np.int8)
+    params = _params()
+    lstm, lin = _torch_model(params)
+    logits = lin(lstm(torch.tensor(x)[:, :, None])[0][:, -1])
+    loss = torch.nn.functional.cross_entropy(logits, torch.tensor(y).long())
+    loss.backward()
+    expected = [lstm.weight_ih_l0.grad[:, 0], lstm.weight_hh_l0.grad.T, lstm.bias_ih_l0.grad, lin.weight.grad, lin.bias.grad]
+    new = [p.copy() for p in params]
+    # one full batch, lr 1, no momentum: the update is minus the gradient
+    mean_loss = fastlstm.train_epoch(x, y, np.arange(48), 48, 1.0, 0.0, *new, *[np.zeros_like(p) for p in new])
+    assert mean_loss == pytest.approx(loss.item(), rel=1e-5)
+    for before, after, grad in zip(params, new, expected):
+        np.testing.assert_allclose(before - after, grad.numpy(), atol=1e-5 * np.abs(grad.numpy()).max())
+    p_torch = torch.softmax(logits, 1)[:, 1].detach().numpy()
+    np.testing.assert_allclose(fastlstm.predict_proba(x, -1.0, 1.0, *params), p_torch, atol=1e-6)
+    assert fastlstm.predict_window(x[5], -1.0, 1.0, *params) == pytest.approx(p_torch[5], abs=1e-6)
+
+
+def test_parallel_and_serial_epochs_are_bitwise_equal():
+    rng = np.random.default_rng(2)
+    x, y = rng.normal(size=(600, 20)).astype(np.float32), (np.arange(600) % 2).astype(np.int8)
+    order = rng.permutation(600)
+    runs = []
+    for kernel in (fastlstm.train_epoch_parallel, fastlstm.train_epoch_serial):
+        p = _params()
+        kernel(x, y, order, 300, 0.01, 0.125, *p, *[np.zeros_like(a) for a in p])
+        runs.append(p)
+    for a, b in zip(*runs):
+        assert np.array_equal(a, b)
+
+
+def test_gpu_epoch_matches_cpu_epoch():
+    """The torch path (used on GPUs) runs here on the CPU: same model, same updates."""
+    from slipbench.detectors.lstm import _numba_epoch, _torch_epoch
+
+    x, y = toy_windows(64, 25)
+    x = x / 4
+    order = np.random.default_rng(0).permutation(64)
+    out = []
+    for epoch, kw in ((_numba_epoch, {}), (_torch_epoch, {"device": "cpu"})):
+        p = _params(3)
+        v = [np.zeros_like(a) for a in p]
+        epoch(x, y.astype(np.int8), order, 8, 0.05, 0.125, p, v, **kw)
+        epoch(x, y.astype(np.int8), order, 8, 0.05, 0.125, p, v, **kw)  # velocity carried over
+        out.append(p)
+    for a, b in zip(*out):
+        np.testing.assert_allclose(a, b, atol=1e-5)
+
+
+def test_normalization_by_training_percentiles():
+    x, y = toy_windows(200, 20)
+    d = LSTM(max_epochs=1).fit(x, y, seed=0)
+    lo, hi = np.percentile(x, [2.5, 97.5])
+    assert d.lo_ == pytest.approx(lo) and (hi - d.lo_) * d.scale_ - 1 == pytest.approx(1.0)
+    assert d.predict_window(x[0]) == pytest.approx(d.predict_proba(x[:1])[0], abs=1e-9)
+
+
+def test_schedule_early_stopping_and_best_weights():
+    x, y = toy_windows(200, 20)
+    # learning rates too small to move the loss: every stage stops after 1 + patience epochs
+    d = LSTM(learning_rates=(1e-9, 1e-10), max_epochs=50, patience=3).fit(x, y, seed=0)
+    # (the second stage starts from the best loss so far, so it has no first improvement)
+    assert d.history_[:, 0].tolist() == [1e-9] * 4 + [1e-10] * 3
+    # a real schedule: rates in order, no stage past its cap, the kept weights are the best seen
+    d = LSTM(batch_size=1, max_epochs=(6, 2), learning_rates=(0.05, 0.005), patience=10).fit(x, y, seed=0)
+    rates = d.history_[:, 0]
+    assert (np.diff(rates) <= 0).all() and (rates == 0.05).sum() == 6 and (rates == 0.005).sum() == 2
+    assert d.validation_loss_ == pytest.approx(d.history_[:, 1].min())
+    assert d.validation_loss_ < 0.4  # it learned this easy problem (chance: log 2 = 0.69)
+
+
+def test_bad_schedules_are_refused():
+    x, y = toy_windows(40, 10)
+    with pytest.raises(UsageError, match="one per rate"):
+        LSTM(learning_rates=(0.1, 0.01), max_epochs=(3, 3, 3)).fit(x, y)
+    with pytest.raises(UsageError, match="'batch_size' parameter of LSTM must be an int in \\[1, inf\\]"):
+        LSTM(batch_size=0).fit(x, y)
