@@ -88,3 +88,12 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
     env = {"PYTHONPATH": str(target), "PATH": ""}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
     assert out.strip() == "Energy [0, 0, 0, 0, 1, 1, 1, 1]"
+
+
+def test_a_folder_plugin_runs_the_public_conformance_suite(tmp_path):
+    from slipbench.testing import check_detector
+
+    (tmp_path / "my_energy.py").write_text(PLUGIN.format(name="my-energy"))
+    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg.add_folder(tmp_path)
+    check_detector(reg.get("my-energy")())

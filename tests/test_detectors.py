@@ -1,0 +1,83 @@
+"""Detector-specific behaviour (bandpass, wavelet-svm, minirocket), and a detector that raises
+during a run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from slipbench.registry import Registry, detectors, protocols
+from slipbench.base import BaseDetector
+from slipbench.results import ResultsStore
+from slipbench.runner import Run, evaluate
+from slipbench.testing import check_detector, toy_windows
+from slipbench.detectors.bandpass import effective_band
+from slipbench.detectors.wavelet_svm import wavelet_and_level
+
+
+@pytest.mark.parametrize("rate, band, fallback", [
+    (1000.0, (50.0, 400.0), False),  # as asked
+    (500.0, (50.0, 225.0), False),  # top clipped to 0.9 Nyquist
+    (62.5, (62.5 / 8, 0.9 * 31.25), True),  # the whole band above Nyquist: the fallback
+])
+def test_bandpass_clips_the_band_and_falls_back(rate, band, fallback):
+    assert effective_band((50, 400), rate) == (pytest.approx(band), fallback)
+    x, y = toy_windows(100, 30)
+    d = detectors.get("bandpass")().fit(x, y, sampling_rate=rate)
+    assert d.band_hz_ == pytest.approx(band) and d.band_fallback_ is fallback
+
+
+def test_bandpass_separates_a_burst_in_its_band():
+    x, y = toy_windows(400, 50)  # slip adds a 60 Hz burst
+    d = detectors.get("bandpass")(band=(40, 80)).fit(x[:200], y[:200])
+    assert (d.predict(x[200:]) == y[200:]).mean() > 0.9
+
+
+@pytest.mark.parametrize("length, wavelet, level", [(5, "haar", 2), (50, "db4", 2), (200, "db4", 4)])
+def test_wavelet_and_level_adapt_to_short_windows(length, wavelet, level):
+    assert wavelet_and_level(length, "db4", 4) == (wavelet, level)
+
+
+def test_minirocket_pads_short_windows():
+    from slipbench.detectors.minirocket import _pad
+
+    x = np.ones((3, 5), np.float32)
+    padded = _pad(x)
+    assert padded.shape == (3, 9) and (padded[:, :4] == 0).all() and (padded[:, 4:] == 1).all()
+    assert _pad(np.ones((2, 12))).shape == (2, 12)
+
+
+RAISES = '''
+import numpy as np
+from slipbench.base import BaseDetector
+
+class Flaky(BaseDetector):
+    """Raises on 5-sample windows, thresholds the mean absolute value otherwise."""
+    name = "flaky"
+
+    def __init__(self, cut=1.0):
+        self.cut = cut
+
+    def _fit(self, x, y, seed):
+        if x.shape[1] == 5:
+            raise RuntimeError("diverged on short windows")
+        self.level_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.level_ * self.cut).astype(float)
+'''
+
+
+def test_a_folder_plugin_that_raises_in_fit_is_reported_and_the_run_goes_on(tmp_path, small):
+    (tmp_path / "flaky.py").write_text(RAISES)
+    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg.add_folder(tmp_path)
+    cls = reg.get("flaky")
+    with pytest.raises(RuntimeError, match="diverged"):
+        check_detector(cls())  # the suite tries 5-sample windows too
+    run = Run(cls(), "flaky", protocols.get("window-size")(), "window-size")
+    rows = evaluate(small, run, ResultsStore(tmp_path / "out"), progress=False)
+    failed, ok = rows[rows["status"] == "failed"], rows[rows["status"] == "ok"]
+    assert len(failed) == len(rows[rows["window"] == 5]) > 0 and (failed["window"] == 5).all()
+    assert failed["reason"].str.contains("detector 'flaky' raised: RuntimeError: diverged on short windows").all()
+    assert len(ok) == len(rows) - len(failed) and (ok["window"] > 5).all()  # the run went on
