@@ -93,28 +93,44 @@ def _fail(file: Path, what: str, recording: str | None = None, column: str | Non
     return DataError(f"{': '.join(where)}: {what}")
 
 
-def _read_parquet(file: Path) -> pa.Table:
+def _open_parquet(file: Path) -> pq.ParquetFile:
+    """Open a Parquet file of the format, checking its version; columns are read one by one
+    later so that reading a large dataset never holds every column at once."""
     if not file.is_file():
         raise DataError(f"{file}: missing (a slipbench dataset folder holds {RECORDINGS_FILE} and {SAMPLES_FILE})")
     try:
-        table = pq.read_table(file)
+        pf = pq.ParquetFile(file)
+        schema = pf.schema_arrow
     except (pa.ArrowException, OSError) as exc:
         raise DataError(f"{file}: not a readable Parquet file ({exc})") from None
-    version = (table.schema.metadata or {}).get(VERSION_KEY)
+    version = (schema.metadata or {}).get(VERSION_KEY)
     if version is None:
         raise _fail(file, f"no {VERSION_KEY.decode()} in the schema metadata; is this a slipbench dataset?")
     if version.decode() != FORMAT_VERSION:
         raise _fail(file, f"format version {version.decode()!r} is not supported (this slipbench reads {FORMAT_VERSION!r})")
-    return table
+    return pf
 
 
-def _require(table: pa.Table, file: Path, name: str, type_check, type_name: str) -> pa.ChunkedArray:
-    if name not in table.column_names:
-        raise _fail(file, f"required column missing (columns present: {', '.join(table.column_names)})", column=name)
-    col = table.column(name)
-    if not type_check(col.type):
-        raise _fail(file, f"must be {type_name}, found {col.type}", column=name)
-    return col
+def _check_type(pf: pq.ParquetFile, file: Path, name: str, type_check, type_name: str) -> None:
+    names = pf.schema_arrow.names
+    if name not in names:
+        raise _fail(file, f"required column missing (columns present: {', '.join(names)})", column=name)
+    if not type_check(pf.schema_arrow.field(name).type):
+        raise _fail(file, f"must be {type_name}, found {pf.schema_arrow.field(name).type}", column=name)
+
+
+def _column(pf: pq.ParquetFile, file: Path, name: str, type_check, type_name: str) -> pa.Array:
+    _check_type(pf, file, name, type_check, type_name)
+    return pf.read(columns=[name]).column(name).combine_chunks()
+
+
+def _chunks(pf: pq.ParquetFile, name: str):
+    """(first row, array) for each chunk of a column, one row group at a time."""
+    row0 = 0
+    for group in range(pf.num_row_groups):
+        for chunk in pf.read_row_group(group, columns=[name]).column(name).chunks:
+            yield row0, chunk
+            row0 += len(chunk)
 
 
 def _first_bad(ids: np.ndarray, mask: np.ndarray) -> str:
@@ -122,7 +138,7 @@ def _first_bad(ids: np.ndarray, mask: np.ndarray) -> str:
 
 
 def _read_recordings(file: Path) -> pd.DataFrame:
-    table = _read_parquet(file)
+    table = _open_parquet(file).read()
     checks = {
         "recording_id": (pa.types.is_string, "string"),
         "sensor_type": (pa.types.is_string, "string"),
@@ -136,7 +152,10 @@ def _read_recordings(file: Path) -> pd.DataFrame:
         "source": (lambda t: pa.types.is_string(t) or pa.types.is_null(t), "string"),
     }
     for name, (check, type_name) in checks.items():
-        _require(table, file, name, check, type_name)
+        if name not in table.column_names:
+            raise _fail(file, f"required column missing (columns present: {', '.join(table.column_names)})", column=name)
+        if not check(table.column(name).type):
+            raise _fail(file, f"must be {type_name}, found {table.column(name).type}", column=name)
     df = table.select(list(checks)).to_pandas()
     ids = df["recording_id"].to_numpy(dtype=object)
     for name in checks:
@@ -174,90 +193,107 @@ def _read_recordings(file: Path) -> pd.DataFrame:
 
 
 def _read_samples(file: Path, recordings: pd.DataFrame) -> tuple[dict, dict]:
-    table = _read_parquet(file)
-    rid_col = _require(table, file, "recording_id", lambda t: pa.types.is_string(t) or (pa.types.is_dictionary(t) and pa.types.is_string(t.value_type)), "string")
-    idx_col = _require(table, file, "sample_index", pa.types.is_integer, "an integer")
-    val_col = _require(
-        table, file, "values",
-        lambda t: (pa.types.is_list(t) or pa.types.is_large_list(t) or pa.types.is_fixed_size_list(t)) and pa.types.is_floating(t.value_type),
-        "a list of floats",
-    )
+    pf = _open_parquet(file)
     ids = recordings["recording_id"].to_numpy(dtype=object)
-    n_rows = table.num_rows
+    n_rows = pf.metadata.num_rows
     if n_rows == 0:
         raise _fail(file, "no samples")
-    # Map each row's recording id to its row in recordings.parquet, via a dictionary encoding.
-    encoded = pc.dictionary_encode(rid_col.combine_chunks() if isinstance(rid_col, pa.ChunkedArray) else rid_col)
-    if encoded.null_count:
+
+    # 1. recording ids -> contiguous runs, one per recording
+    rid = _column(pf, file, "recording_id", lambda t: pa.types.is_string(t) or (pa.types.is_dictionary(t) and pa.types.is_string(t.value_type)), "string")
+    if rid.null_count:
         raise _fail(file, "null value", column="recording_id")
+    encoded = rid if pa.types.is_dictionary(rid.type) else pc.dictionary_encode(rid)
+    del rid
     dict_ids = encoded.dictionary.to_numpy(zero_copy_only=False)
-    lookup = pd.Index(ids).get_indexer(dict_ids)
+    lookup = pd.Index(ids).get_indexer(dict_ids).astype(np.int32)
     if (lookup < 0).any():
         raise _fail(file, "recording not listed in recordings.parquet", str(dict_ids[lookup < 0][0]), "recording_id")
     codes = lookup[encoded.indices.to_numpy()]
+    del encoded
     starts = np.flatnonzero(np.r_[True, codes[1:] != codes[:-1]])
     run_codes = codes[starts]
+    del codes
     if len(np.unique(run_codes)) != len(run_codes):
         dup = run_codes[pd.Series(run_codes).duplicated().to_numpy()][0]
         raise _fail(file, "samples of this recording are not in one contiguous block", ids[dup], "recording_id")
     missing = np.setdiff1d(np.arange(len(ids)), run_codes)
     if len(missing):
         raise _fail(file, "recording has no samples", ids[missing[0]], "recording_id")
-    ends = np.r_[starts[1:], n_rows]
-    lengths = ends - starts
+    lengths = np.diff(np.r_[starts, n_rows])
     if (lengths < 2).any():
         raise _fail(file, "a recording needs at least 2 samples", ids[run_codes[lengths < 2][0]], "sample_index")
 
-    if idx_col.null_count:
-        raise _fail(file, "null value", column="sample_index")
-    sample_index = idx_col.to_numpy()
-    expected = np.arange(n_rows) - np.repeat(starts, lengths)
-    bad = sample_index != expected
-    if bad.any():
-        row = np.flatnonzero(bad)[0]
-        raise _fail(
-            file, f"sample_index must run 0, 1, 2, ... in order; row {row} has {sample_index[row]}, expected {expected[row]}",
-            ids[codes[row]], "sample_index",
-        )
+    def where(row: int) -> str:
+        return ids[run_codes[np.searchsorted(starts, row, side="right") - 1]]
 
-    values = val_col.combine_chunks()
-    if values.null_count:
-        raise _fail(file, "null list of values", ids[codes[np.flatnonzero(values.is_null().to_numpy(zero_copy_only=False))[0]]], "values")
-    if pa.types.is_fixed_size_list(values.type):
-        widths = np.full(n_rows, values.type.list_size)
-    else:
-        widths = np.diff(values.offsets.to_numpy())
-    n_ch = recordings["n_channels"].to_numpy()[codes]
-    bad = widths != n_ch
-    if bad.any():
-        row = np.flatnonzero(bad)[0]
-        raise _fail(file, f"row {row} has {widths[row]} values but the recording has {n_ch[row]} channels", ids[codes[row]], "values")
-    flat = values.flatten()
-    if flat.null_count:
-        raise _fail(file, "null channel value", column="values")
-    flat = flat.to_numpy().astype(np.float32, copy=False)
-    finite = np.isfinite(flat)
-    if not finite.all():
-        row = np.searchsorted(np.cumsum(widths), np.flatnonzero(~finite)[0], side="right")
-        raise _fail(file, f"non-finite value (NaN or infinity) at sample_index {sample_index[row]}", ids[codes[row]], "values")
+    # 2. sample indices: each row's index is its distance from its run's start. Read one row
+    # group at a time, so that a large dataset never holds a whole column of int64 at once.
+    _check_type(pf, file, "sample_index", pa.types.is_integer, "an integer")
+    def run_of(rows: np.ndarray) -> np.ndarray:
+        return np.searchsorted(starts, rows, side="right") - 1
 
-    labels_col = table.column("slip") if "slip" in table.column_names else None
-    if labels_col is not None:
-        if not pa.types.is_boolean(labels_col.type):
-            raise _fail(file, f"must be bool, found {labels_col.type}", column="slip")
-        if labels_col.null_count:
+    for row0, chunk in _chunks(pf, "sample_index"):
+        if chunk.null_count:
+            raise _fail(file, "null value", column="sample_index")
+        got = chunk.to_numpy()
+        rows = np.arange(row0, row0 + len(got))
+        expected = rows - starts[run_of(rows)]
+        bad = got != expected
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise _fail(file, f"sample_index must run 0, 1, 2, ... in order; row {rows[i]} has {got[i]}, expected {expected[i]}",
+                        where(int(rows[i])), "sample_index")
+
+    # 3. values: one per channel, finite; copied row group by row group into one float32 array
+    _check_type(
+        pf, file, "values",
+        lambda t: (pa.types.is_list(t) or pa.types.is_large_list(t) or pa.types.is_fixed_size_list(t)) and pa.types.is_floating(t.value_type),
+        "a list of floats",
+    )
+    n_ch = recordings["n_channels"].to_numpy()[run_codes]
+    flat = np.empty(int((n_ch * lengths).sum()), np.float32)
+    pos = 0
+    for row0, chunk in _chunks(pf, "values"):
+        if chunk.null_count:
+            raise _fail(file, "null list of values", where(row0 + int(np.argmax(chunk.is_null().to_numpy(zero_copy_only=False)))), "values")
+        if pa.types.is_fixed_size_list(chunk.type):
+            widths = np.full(len(chunk), chunk.type.list_size)
+        else:
+            widths = np.diff(chunk.offsets.to_numpy())
+        channels = n_ch[run_of(np.arange(row0, row0 + len(chunk)))]
+        bad = widths != channels
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise _fail(file, f"row {row0 + i} has {widths[i]} values but the recording has {channels[i]} channels",
+                        where(row0 + i), "values")
+        part = chunk.flatten()
+        if part.null_count:
+            raise _fail(file, "null channel value", column="values")
+        part = part.to_numpy().astype(np.float32, copy=False)
+        finite = np.isfinite(part)
+        if not finite.all():
+            row = row0 + int(np.searchsorted(np.cumsum(widths), int(np.argmin(finite)), side="right"))
+            raise _fail(file, f"non-finite value (NaN or infinity) at sample_index {row - starts[run_of(row)]}", where(row), "values")
+        flat[pos : pos + len(part)] = part
+        pos += len(part)
+    offsets = np.r_[0, np.cumsum(n_ch * lengths)]
+
+    labels_all = None
+    if "slip" in pf.schema_arrow.names:
+        labels_all = _column(pf, file, "slip", pa.types.is_boolean, "bool")
+        if labels_all.null_count:
             raise _fail(file, "null value", column="slip")
-        labels_all = labels_col.to_numpy()
+        labels_all = labels_all.to_numpy(zero_copy_only=False)
 
     samples: dict[str, np.ndarray] = {}
     labels: dict[str, np.ndarray] = {}
-    value_starts = np.r_[0, np.cumsum(widths)]
-    for code, start, length in zip(run_codes, starts, lengths):
-        rid = ids[code]
-        lo, hi = value_starts[start], value_starts[start + length]
-        samples[rid] = flat[lo:hi].reshape(length, n_ch[start])
-        if labels_col is not None:
-            labels[rid] = labels_all[start : start + length]
+    for run, (code, start, length, channels) in enumerate(zip(run_codes, starts, lengths, n_ch)):
+        rid_ = ids[code]
+        lo = offsets[run]
+        samples[rid_] = flat[lo : lo + length * channels].reshape(length, channels)
+        if labels_all is not None:
+            labels[rid_] = labels_all[start : start + length]
     return samples, labels
 
 

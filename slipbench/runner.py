@@ -36,10 +36,7 @@ from .signals import Signals, Windows, balance, split
 
 # ----------------------------------------------------------------------------- data per cell
 def _concat(parts: list[Windows]) -> Windows:
-    return Windows(
-        np.concatenate([p.x for p in parts]), np.concatenate([p.recording for p in parts]),
-        np.concatenate([p.index for p in parts]), parts[0].recordings,
-    )
+    return Windows(None, np.concatenate([p.recording for p in parts]), np.concatenate([p.index for p in parts]), parts[0].recordings)
 
 
 def _where(windows: Windows, conditions) -> Windows:
@@ -51,9 +48,10 @@ def _where(windows: Windows, conditions) -> Windows:
 
 
 class CellData:
-    """Balanced, split windows per (sensor, window, downsampling, decimation), computed once and
-    shared by every cell that needs them. Balancing and splitting draw from the run's seed; the
-    same windows are drawn whatever the downsampling, as the paper downsamples its 200-sample set."""
+    """Balanced, split windows per (sensor, window), computed once and shared by every cell that
+    needs them. Balancing and splitting draw from the run's seed. Only positions are kept; a
+    part's samples are cut when a model needs them, so memory holds one task's windows at a
+    time. The same windows serve every downsampling, as the paper downsamples its 200-sample set."""
 
     def __init__(self, signals: Signals, how: str, seed: int):
         self.signals, self.how, self.seed = signals, how, seed
@@ -65,18 +63,19 @@ class CellData:
             for k in rec[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None)
         }
 
-    def sides(self, sensor: tuple[str, str], window: int, downsample: int = 1, decimation: str = "plain") -> tuple[Windows, Windows]:
-        key = (sensor, window, downsample, decimation)
+    def sides(self, sensor: tuple[str, str], window: int) -> tuple[Windows, Windows]:
+        """Train and test windows (positions only) of one sensor."""
+        key = (sensor, window)
         if key not in self._cache:
             self._cache[key] = self._prepare(*key)
         return self._cache[key]
 
-    def _prepare(self, sensor, window, downsample, decimation):
+    def _prepare(self, sensor, window):
         name = f"{sensor[0]} {sensor[1]}"
         if sensor not in self._rows:
             raise UsageError(f"the dataset has no recordings of sensor {name}")
         rows = self._rows[sensor]
-        windows = self.signals.windows(window, rows)
+        windows = self.signals.windows(window, rows, values=False)
         if len(windows) == 0:
             longest = int(np.max(np.diff(self.signals.offsets)[rows]))
             raise UsageError(f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)")
@@ -88,20 +87,21 @@ class CellData:
             if classes != {0, 1}:
                 missing = "slip" if 1 not in classes else "non-slip"
                 raise UsageError(f"the {self.how} split of {name} at window {window} leaves no {missing} windows on the {side} side")
-        if downsample > 1:
-            if decimation == "antialias":
-                if downsample not in self._antialiased:
-                    self._antialiased[downsample] = self.signals.antialiased(downsample)
-                aa = self._antialiased[downsample]
-                starts = aa.offsets[windows.recording] + windows.index.astype(np.int64) * window
-                windows = Windows(aa.buffer[starts[:, None] + np.arange(window)], windows.recording, windows.index, windows.recordings)
-            windows = windows.downsample(downsample)
         return windows.take(train), windows.take(test)
 
-    def part(self, part: Part, window: int, downsample: int = 1, decimation: str = "plain") -> Windows:
+    def part(self, part: Part, window: int, downsample: int = 1, decimation: str = "plain", values: bool = True) -> Windows:
+        """The windows of a part; with ``values`` their samples, downsampled as asked."""
         side = 0 if part.side == "train" else 1
-        pooled = _concat([self.sides(s, window, downsample, decimation)[side] for s in part.sensors])
-        return _where(pooled, part.where)
+        chosen = _where(_concat([self.sides(s, window)[side] for s in part.sensors]), part.where)
+        if not values:
+            return chosen
+        signals = self.signals
+        if downsample > 1 and decimation == "antialias":
+            if downsample not in self._antialiased:
+                self._antialiased[downsample] = self.signals.antialiased(downsample)
+            signals = self._antialiased[downsample]
+        chosen = Windows(signals.values(chosen, window), chosen.recording, chosen.index, chosen.recordings)
+        return chosen.downsample(downsample) if downsample > 1 else chosen
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
         rec = self.signals.recordings
@@ -342,16 +342,18 @@ def evaluate(
     env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
 
     def data_of(run: Run) -> CellData:
-        return datas.setdefault((run.split, run.seed), CellData(signals, run.split, run.seed))
+        if (run.split, run.seed) not in datas:
+            datas[run.split, run.seed] = CellData(signals, run.split, run.seed)
+        return datas[run.split, run.seed]
 
-    def windows(run: Run, cell: Cell, part: Part) -> Windows:
-        return data_of(run).part(part, cell.window, cell.downsample, cell.decimation)
+    def windows(run: Run, cell: Cell, part: Part, values: bool = True) -> Windows:
+        return data_of(run).part(part, cell.window, cell.downsample, cell.decimation, values)
 
     def record(run: Run, key: str, cell: Cell, fields: dict, scores: np.ndarray | None = None) -> None:
         row = _row(run, key, run.model_key(cell, fingerprint), cell, fields, fingerprint, path, env, run_id)
         predictions = None
         if scores is not None:
-            test = windows(run, cell, cell.test)
+            test = windows(run, cell, cell.test, values=False)
             predictions = pd.DataFrame({
                 "recording_id": signals.recordings["recording_id"].to_numpy()[test.recording],
                 "window_index": test.index, "y_true": test.y, "score": scores,
@@ -378,7 +380,7 @@ def evaluate(
             reason = cell.skip
             if not reason:
                 for part, role in ((cell.train, "train"), (cell.test, "test")):
-                    missing = _missing_classes(windows(run, cell, part).y)
+                    missing = _missing_classes(windows(run, cell, part, values=False).y)
                     if missing:
                         reason = f"no {missing} windows to {role} on"
                         break

@@ -72,10 +72,12 @@ class Signals:
             out[lo:hi] = norm - lagged
         return Signals(out, self.offsets, self.recordings)
 
-    def windows(self, window: int, rows: np.ndarray | None = None) -> "Windows":
+    def windows(self, window: int, rows: np.ndarray | None = None, values: bool = True) -> "Windows":
         """Cut non-overlapping windows of ``window`` samples from each recording in ``rows``.
 
-        The tail of a recording shorter than a window is dropped; windows never span two recordings.
+        The tail of a recording shorter than a window is dropped; windows never span two
+        recordings. With ``values=False`` only the windows' positions are computed (``x`` is
+        None): enough to balance and split, and cut later by :meth:`values`.
         """
         rows = np.arange(len(self.recordings)) if rows is None else np.asarray(rows)
         lengths = (self.offsets[rows + 1] - self.offsets[rows]) // window
@@ -83,9 +85,13 @@ class Signals:
         rec = np.repeat(rows, lengths).astype(np.int32)
         # index of each window inside its recording: 0, 1, ..., lengths[r] - 1
         local = np.arange(n) - np.repeat(np.cumsum(lengths) - lengths, lengths)
-        starts = self.offsets[rec] + local * window
-        x = np.lib.stride_tricks.sliding_window_view(self.buffer, window)[starts]
-        return Windows(x, rec, local.astype(np.int32), self.recordings)
+        w = Windows(None, rec, local.astype(np.int32), self.recordings)
+        return Windows(self.values(w, window), w.recording, w.index, w.recordings) if values else w
+
+    def values(self, windows: "Windows", window: int) -> np.ndarray:
+        """The samples of windows given by position: (n_windows, window) float32."""
+        starts = self.offsets[windows.recording] + windows.index.astype(np.int64) * window
+        return np.lib.stride_tricks.sliding_window_view(self.buffer, window)[starts]
 
 
 @dataclass
@@ -94,22 +100,23 @@ class Windows:
 
     Attributes
     ----------
-    x : (n_windows, window_length) float32.
+    x : (n_windows, window_length) float32, or None for windows known by position only.
     recording : (n_windows,) row of each window's recording in ``recordings``.
     index : (n_windows,) position of the window inside its recording.
     recordings : the dataset's metadata.
     """
 
-    x: np.ndarray
+    x: np.ndarray | None
     recording: np.ndarray
     index: np.ndarray
     recordings: pd.DataFrame
 
     def __len__(self) -> int:
-        return len(self.x)
+        return len(self.recording)
 
     def take(self, rows: np.ndarray) -> "Windows":
-        return Windows(self.x[rows], self.recording[rows], self.index[rows], self.recordings)
+        x = None if self.x is None else self.x[rows]
+        return Windows(x, self.recording[rows], self.index[rows], self.recordings)
 
     def column(self, name: str) -> np.ndarray:
         """A recordings column (scenario, material, speed_mm_s, ...) per window."""
@@ -123,12 +130,14 @@ class Windows:
     def strata(self) -> np.ndarray:
         """The balancing stratum of each window: slip per material and speed, pressing per
         material, free-space per speed (section II.D of the paper)."""
-        scenario = self.column("scenario").astype(str)
-        material = self.column("material").astype(object)
-        speed = self.column("speed_mm_s").astype(float)
-        mat = np.where(scenario == "free-space", "", pd.Series(material).fillna("").to_numpy(dtype=str))
-        spd = np.where(scenario == "press", "", np.char.mod("%g", np.nan_to_num(speed, nan=-1)))
-        return np.char.add(np.char.add(np.char.add(scenario, "|"), mat), np.char.add("|", spd))
+        rec = self.recordings
+        scenario = rec["scenario"].to_numpy(dtype=str)
+        material = rec["material"].fillna("").to_numpy(dtype=str)
+        speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))
+        material = np.where(scenario == "free-space", "", material)
+        speed = np.where(scenario == "press", "", speed)
+        per_recording = np.char.add(np.char.add(np.char.add(scenario, "|"), material), np.char.add("|", speed))
+        return per_recording[self.recording]
 
     def downsample(self, factor: int) -> "Windows":
         """Keep every ``factor``-th sample of each window, as the paper does (no anti-aliasing)."""
