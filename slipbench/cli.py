@@ -81,6 +81,18 @@ def dataset_info(path: Path) -> None:
                f"{table['seconds'].sum():.1f} s")
 
 
+@dataset.command("import")
+@click.argument("kind", type=click.Choice(["biotacsp-dos"]))
+@click.argument("src", type=click.Path(path_type=Path))
+@click.argument("out", type=click.Path(path_type=Path))
+def dataset_import(kind: str, src: Path, out: Path) -> None:
+    """Convert a published dataset at SRC into a slipbench dataset folder OUT."""
+    from .importers import IMPORTERS
+
+    IMPORTERS[kind](src, out)
+    click.echo(f"wrote {out}")
+
+
 @cli.command("list")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
 def list_plugins(plugins: tuple[str, ...]) -> None:
@@ -142,6 +154,27 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
 
 
 # -- bench (detector costs)
+@cli.command()
+@click.option("--detector", "names", multiple=True, help="A detector id (repeatable) [default: all].")
+@click.option("--windows", default=3840, show_default=True, help="Training windows (3840 x 50 is a default-dataset cell).")
+@click.option("--length", default=50, show_default=True, help="Window length in samples.")
+@click.option("--seconds", default=2.0, show_default=True, help="Time spent on each LSTM figure.")
+@click.option("--no-lstm-targets", is_flag=True, help="Skip the LSTM-versus-stock-torch figures.")
+@click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
+def bench(names, windows, length, seconds, no_lstm_targets, plugins) -> None:
+    """Train µs/sample, inference µs/window and peak memory per detector; the LSTM's speed
+    targets as ratios against stock torch.nn.LSTM timed in the same run."""
+    from .bench import detector_costs, lstm_targets
+
+    _plugins(plugins)
+    if windows < 2 or length < 5:
+        raise UsageError(f"--windows must be >= 2 and --length >= 5, got {windows} and {length}")
+    costs = detector_costs(list(names) or registry.detectors.names(), windows, length)
+    click.echo(costs.to_markdown(index=False, floatfmt=".3g"))
+    if not no_lstm_targets:
+        click.echo("\nLSTM (hidden 20) against stock torch.nn.LSTM, same run:\n")
+        click.echo(lstm_targets(length, seconds).to_markdown(index=False, floatfmt=".3g"))
+
 
 
 # -- spectral analysis

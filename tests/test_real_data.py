@@ -1,0 +1,43 @@
+"""Real third-party recordings (BioTacSP-DoS), read from the shared folder beside the project,
+never copied into it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from slipbench.data import info, read_dataset
+from slipbench.detectors.holweg import Holweg
+from slipbench.importers import biotacsp_dos
+from slipbench.protocols.window_size import WindowSize
+from slipbench.results import ResultsStore
+from slipbench.runner import Run, evaluate
+
+SOURCE = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
+pytestmark = pytest.mark.skipif(not SOURCE.is_dir(), reason=f"BioTacSP-DoS not found at {SOURCE}")
+
+
+@pytest.fixture(scope="module")
+def dos(tmp_path_factory):
+    return read_dataset(biotacsp_dos(SOURCE, tmp_path_factory.mktemp("dos") / "dos"))
+
+
+def test_import_keeps_every_recording(dos):
+    rec = dos.recordings
+    assert len(rec) == 306
+    assert (rec["scenario"] == "press").sum() == len(list((SOURCE / "t").glob("*.csv")))
+    assert set(rec["material"]) == {"bottle", "brush", "bubbles", "cardboard", "case", "hd", "pen", "plate", "screw", "sponge", "striped"}
+    first = sorted((SOURCE / "w").glob("*.csv"))[0]
+    raw = np.loadtxt(first, delimiter=",", skiprows=1, dtype=np.float32)
+    np.testing.assert_array_equal(dos.samples[f"w/{first.stem}"], raw)
+    assert info(dos)["samples"].sum() == sum(len(s) for s in dos.samples.values())
+
+
+def test_holweg_on_real_slip_data_beats_chance(dos, tmp_path):
+    """Balanced slip against touch on a real BioTac SP, grouped split: every recording on one side."""
+    rows = evaluate(dos, Run(Holweg(), "holweg", WindowSize(), "window-size", split="grouped"), ResultsStore(tmp_path), progress=False)
+    assert (rows["status"] == "ok").all()
+    at50 = rows[rows["window"] == 50].iloc[0]
+    assert at50["accuracy_lo"] > 0.5, at50[["accuracy", "accuracy_lo", "accuracy_hi"]].to_dict()
