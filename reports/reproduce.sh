@@ -46,5 +46,8 @@ TEXT
   echo "Dataset fingerprint(s): $(python -c "import pandas as pd, sys; print(', '.join(sorted(pd.read_parquet(sys.argv[1])['dataset_fingerprint'].unique())))" "$RESULTS/results.parquet"); slipbench $(python -c 'import slipbench; print(slipbench.__version__)')."
   echo
   cat "$RESULTS/tables.md"
+  echo
+  echo "## Figures"
+  for png in reports/figures/*.png; do echo; echo "![$(basename "$png" .png)](figures/$(basename "$png"))"; done
 } > reports/README.md
 echo "wrote reports/README.md, reports/tables.tex and reports/figures/" >&2
