@@ -232,8 +232,7 @@ def _run(x, lo, scale, w, rt, b, wy, by, h, c, a):
     return 1.0 / (1.0 + np.exp(-_logit_diff(h, wy, by)))
 
 
-@nb.njit(parallel=True, **_jit)
-def predict_proba(x, lo, scale, w, rt, b, wy, by):
+def _predict_proba(x, lo, scale, w, rt, b, wy, by):
     """Probability of slip per raw window of x (n, T), float64; chunks run in parallel."""
     n = x.shape[0]
     H = rt.shape[0]
@@ -244,6 +243,16 @@ def predict_proba(x, lo, scale, w, rt, b, wy, by):
         for s in range(c * n // nc, (c + 1) * n // nc):
             out[s] = _run(x[s], lo, scale, w, rt, b, wy, by, h, cell, a)
     return out
+
+
+predict_proba_parallel = nb.njit(parallel=True, **_jit)(_predict_proba)
+predict_proba_serial = nb.njit(**_jit)(_predict_proba)
+
+
+def predict_proba(x, lo, scale, w, rt, b, wy, by) -> np.ndarray:
+    """See :func:`_predict_proba`; under 256 windows a parallel launch costs more than it saves."""
+    kernel = predict_proba_parallel if x.shape[0] >= 256 else predict_proba_serial
+    return kernel(x, lo, scale, w, rt, b, wy, by)
 
 
 @nb.njit(**_jit)
