@@ -13,6 +13,7 @@ import numpy as np
 from sklearn.linear_model import RidgeClassifierCV
 
 from slipbench.base import BaseDetector, Interval
+from slipbench.errors import UsageError
 
 MIN_LENGTH = 9
 
@@ -43,7 +44,10 @@ class MiniRocketDetector(BaseDetector):
         return (features - self.mean_) / self.std_
 
     def _fit(self, x, y, seed):
-        from aeon.transformations.collection.convolution_based import MiniRocket
+        try:
+            from aeon.transformations.collection.convolution_based import MiniRocket
+        except ImportError as exc:
+            raise UsageError("the minirocket detector needs aeon: pip install 'slipbench[minirocket]'") from exc
 
         transform = MiniRocket(self.n_kernels, self.max_dilations_per_kernel, n_jobs=1, random_state=seed)
         transform.fit(_pad(x)[:, None, :])
