@@ -4,6 +4,8 @@ Layout of a results folder::
 
     cells/<key>.parquet        one finished cell (its row), written atomically
     predictions/<key>.parquet  that cell's test windows: recording, window index, label, score
+    models/<model key>.npz     a fitted model (and .json: its training cost), reused by any
+                               later cell that trains on the same windows
     results.parquet            every cell row of the folder, rebuilt atomically after each run
 
 A cell's key is a content hash of everything that determines its outcome, so rerunning a
@@ -47,12 +49,25 @@ def write_atomic(table: pa.Table, path: Path) -> None:
         raise
 
 
+def write_text_atomic(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
 class ResultsStore:
     def __init__(self, folder: str | os.PathLike):
         self.folder = Path(folder)
 
     def _cell_path(self, key: str) -> Path:
         return self.folder / "cells" / f"{key}.parquet"
+
+    def model_path(self, model_key: str) -> Path:
+        """Where the fitted model of a model key is kept, so that later runs reuse it."""
+        path = self.folder / "models" / f"{model_key}.npz"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return path
 
     def has(self, key: str) -> bool:
         return self._cell_path(key).is_file()

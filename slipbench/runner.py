@@ -16,6 +16,7 @@ import threading
 import time
 import traceback
 import zlib
+from pathlib import Path
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -30,7 +31,7 @@ from .base import BaseDetector, BaseProtocol, Cell, Part, clone
 from .data import Dataset
 from .errors import UsageError
 from .metrics import classification_figures
-from .results import ResultsStore, cell_key
+from .results import ResultsStore, cell_key, write_text_atomic
 from .signals import Signals, Windows, balance, split
 
 
@@ -145,19 +146,19 @@ class TestSet:
 
 
 def fit_and_test(
-    detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray, tests: list[TestSet]
+    detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
+    tests: list[TestSet], model_path: str | None = None,
 ) -> list[tuple[dict[str, Any], np.ndarray | None]]:
     """Fit one model, test it on each test set. Runs in a worker: takes and returns plain data.
 
-    Returns, per test set, its result fields and its scores. A detector that raises yields
-    status "failed" with the error for every test set, so the rest of a run goes on.
+    With ``model_path``, a model an earlier run saved there for the same training windows is
+    loaded instead of refitted (its training cost is reported as measured then), and a newly
+    fitted one is saved there. Returns, per test set, its result fields and its scores. A
+    detector that raises yields status "failed" with the error for every test set, so the rest
+    of a run goes on.
     """
-    detector = clone(detector)
     try:
-        with PeakMemory() as mem:
-            t0 = time.perf_counter()
-            detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed)
-            train_s = time.perf_counter() - t0
+        detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
         out = []
         for test in tests:
             t0 = time.perf_counter()
@@ -167,9 +168,8 @@ def fit_and_test(
             out.append(({
                 "status": "ok", "reason": "", "n_train": len(train_x), "n_test": len(test.x),
                 "n_test_recordings": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
-                **classification_figures(test.y, y_pred, test.groups, seed),
-                "train_s": train_s, "train_us_per_sample": train_s / train_x.size * 1e6,
-                "infer_us_per_window": infer_s / len(test.x) * 1e6, "peak_mem_mb": mem.mb,
+                **classification_figures(test.y, y_pred, test.groups, seed, scores=scores),
+                **cost, "infer_us_per_window": infer_s / len(test.x) * 1e6,
             }, scores))
         return out
     except UsageError:
@@ -177,6 +177,27 @@ def fit_and_test(
     except Exception as exc:
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return [({"status": "failed", "reason": f"detector {detector.name or type(detector).__name__!r} raised: {detail}"}, None)] * len(tests)
+
+
+def _trained(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
+             model_path: str | None) -> tuple[BaseDetector, dict[str, Any]]:
+    """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
+    cost_path = None if model_path is None else Path(f"{model_path}.json")
+    if cost_path is not None and cost_path.is_file():
+        return type(detector).load(model_path), json.loads(cost_path.read_text())
+    detector = clone(detector)
+    with PeakMemory() as mem:
+        t0 = time.perf_counter()
+        detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed)
+        train_s = time.perf_counter() - t0
+    cost = {"train_s": train_s, "train_us_per_sample": train_s / train_x.size * 1e6, "peak_mem_mb": mem.mb}
+    if model_path is not None:
+        try:
+            detector.save(model_path)
+        except UsageError:
+            return detector, cost  # state that cannot be saved safely: reuse it in this run only
+        write_text_atomic(cost_path, json.dumps(cost))  # written last: it marks the model complete
+    return detector, cost
 
 
 # ----------------------------------------------------------------------------- planning
@@ -265,7 +286,7 @@ def _dask_client(address: str):
     except ImportError:
         raise UsageError("--scheduler needs dask.distributed: pip install 'slipbench[dask]'") from None
     try:
-        return Client(address, timeout="10s")
+        return Client(address, timeout="3s")
     except (OSError, TimeoutError) as exc:
         raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
 
@@ -395,7 +416,16 @@ def evaluate(
         train = windows(run, c, c.train)
         tests = [windows(run, cell, cell.test) for _, _, cell in task.cells]
         return (run.detector, run.seed, data_of(run).sampling_rate(c.train, c.downsample), train.x, train.y,
-                [TestSet(t.x, t.y, t.recording) for t in tests])
+                [TestSet(t.x, t.y, t.recording) for t in tests],
+                model_path(task))
+
+    def model_path(task: Task) -> str | None:
+        if scheduler:
+            return None  # dask workers may not see this disk
+        path = store.model_path(task.model_key)
+        if force:
+            Path(f"{path}.json").unlink(missing_ok=True)
+        return str(path)
 
     desc = " + ".join(dict.fromkeys(f"{r.detector_name} x {r.protocol_name}" for r in runs))
     bar = _progress(len(order), len(rows), progress, desc)

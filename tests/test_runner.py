@@ -64,6 +64,21 @@ def test_models_are_shared_between_protocols(index, tmp_path):
     assert rows[rows["training"].eq("without")]["model_key"].nunique() == 5
 
 
+def test_models_are_reused_by_a_later_command(index, tmp_path):
+    store = ResultsStore(tmp_path)
+    ws = evaluate(index, Run(Holweg(), "holweg", WindowSize(), "window-size"), store, progress=False)
+    assert len(list((tmp_path / "models").glob("*.npz"))) == 6
+    mh = evaluate(index, Run(Holweg(), "holweg", MaterialHoldout(), "material-holdout"), store, progress=False)
+    ws50 = ws[ws["window"] == 50].iloc[0]
+    with_rows = mh[mh["training"] == "with"]
+    assert (with_rows["model_key"] == ws50["model_key"]).all()
+    assert (with_rows["train_s"] == ws50["train_s"]).all()  # loaded, not refitted
+    assert len(list((tmp_path / "models").glob("*.npz"))) == 6 + 5
+    forced = evaluate(index, Run(Holweg(), "holweg", MaterialHoldout(), "material-holdout"), store, force=True, progress=False)
+    assert (forced.loc[forced["training"] == "with", "train_s"] != ws50["train_s"]).all()  # --force refits
+    pd.testing.assert_frame_equal(_figures(forced), _figures(mh))
+
+
 def test_process_pool_gives_the_same_results(index, tmp_path):
     run = Run(Holweg(), "holweg", WindowSize(), "window-size", seed=3)
     local = evaluate(index, run, ResultsStore(tmp_path / "a"), progress=False)
