@@ -17,6 +17,21 @@ def _isolated_cache(tmp_path_factory):
     mp.undo()
 
 
+@pytest.fixture
+def cli(capsys):
+    """Run ``slipbench`` in-process: ``cli(argv) -> (exit code, stdout, stderr)``."""
+    from slipbench.cli import main
+
+    def run(argv: list[str]) -> tuple[int, str, str]:
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)
+            raise SystemExit(0)
+        out = capsys.readouterr()
+        return exit_.value.code or 0, out.out, out.err
+
+    return run
+
+
 @pytest.fixture(scope="session")
 def small_path(tmp_path_factory):
     """The simulated design at scale 0.02: every sensor, material and speed; ~1.2 M samples."""

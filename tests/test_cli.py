@@ -8,43 +8,34 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.cli import main
 from slipbench.data import SAMPLES_FILE
 
 
-def run(argv, capsys):
-    with pytest.raises(SystemExit) as exit_:
-        main(argv)
-        raise SystemExit(0)
-    out = capsys.readouterr()
-    return exit_.value.code or 0, out.out, out.err
-
-
-def test_dataset_commands(tmp_path, capsys):
+def test_dataset_commands(tmp_path, cli):
     path = tmp_path / "ds"
-    code, out, _ = run(["dataset", "synth", str(path), "--scale", "0.01", "--seed", "3"], capsys)
+    code, out, _ = cli(["dataset", "synth", str(path), "--scale", "0.01", "--seed", "3"])
     assert code == 0 and path.is_dir()
-    code, out, _ = run(["dataset", "validate", str(path)], capsys)
+    code, out, _ = cli(["dataset", "validate", str(path)])
     assert code == 0 and "valid slipbench dataset v1" in out
-    code, out, _ = run(["dataset", "info", str(path)], capsys)
+    code, out, _ = cli(["dataset", "info", str(path)])
     assert code == 0 and "free-space" in out and "neoprene" in out and "total:" in out
 
 
-def test_corrupted_copy_is_refused(small_path, tmp_path, capsys):
+def test_corrupted_copy_is_refused(small_path, tmp_path, cli):
     broken = tmp_path / "broken"
     shutil.copytree(small_path, broken)
     table = pq.read_table(broken / SAMPLES_FILE)
     pq.write_table(table.drop_columns(["values"]).replace_schema_metadata(table.schema.metadata), broken / SAMPLES_FILE)
-    code, _, err = run(["dataset", "validate", str(broken)], capsys)
+    code, _, err = cli(["dataset", "validate", str(broken)])
     assert code == 2
     assert "samples.parquet: column 'values': required column missing" in err
     assert "Traceback" not in err
 
 
-def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, capsys):
+def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, cli):
     out = tmp_path / "res"
     argv = ["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(small_path), "--out", str(out), "--quiet"]
-    code, text, _ = run(argv, capsys)
+    code, text, _ = cli(argv)
     assert code == 0
     assert "Sensor |" in text and "Finger |" in text and "Biotac SP" in text and "Little" in text
     rows = pq.read_table(out / "results.parquet").to_pandas()
@@ -56,7 +47,7 @@ def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, caps
     assert (rows["accuracy_lo"] <= rows["accuracy"]).all() and (rows["accuracy"] <= rows["accuracy_hi"]).all()
     # a second run reuses every cell
     before = {p.name: p.stat().st_mtime_ns for p in (out / "cells").iterdir()}
-    code, _, _ = run(argv, capsys)
+    code, _, _ = cli(argv)
     assert code == 0 and before == {p.name: p.stat().st_mtime_ns for p in (out / "cells").iterdir()}
 
 
@@ -69,18 +60,18 @@ def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, caps
         (["dataset", "validate", "/nonexistent/folder"], "not a dataset folder"),
     ],
 )
-def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_path, capsys):
+def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_path, cli):
     argv = argv + (["--dataset", str(small_path), "--out", str(tmp_path / "res"), "--quiet"] if argv[0] == "evaluate" else [])
-    code, _, err = run(argv, capsys)
+    code, _, err = cli(argv)
     assert code == 2 and message in err and "Traceback" not in err
     assert not (tmp_path / "res" / "results.parquet").exists()
 
 
-def test_window_longer_than_every_recording(tmp_path, capsys):
+def test_window_longer_than_every_recording(tmp_path, cli):
     from slipbench.synth import Design, synthesize
 
     path = synthesize(tmp_path / "short", scale=0.0005, seed=0, design=Design(sensors=("BioTacSP",)))
-    code, _, err = run(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(path),
-                        "--out", str(tmp_path / "res"), "--quiet"], capsys)
+    code, _, err = cli(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(path),
+                        "--out", str(tmp_path / "res"), "--quiet"])
     assert code == 2 and "window 100 is longer than every recording of BioTacSP index" in err
     assert not (tmp_path / "res").exists()

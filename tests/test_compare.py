@@ -31,14 +31,6 @@ class TwoCells(BaseProtocol):
 '''
 
 
-def run(argv, capsys):
-    with pytest.raises(SystemExit) as exit_:
-        main(argv)
-        raise SystemExit(0)
-    out = capsys.readouterr()
-    return exit_.value.code or 0, out.out, out.err
-
-
 @pytest.fixture(scope="module")
 def runs(small_path, tmp_path_factory):
     """Holweg as shipped (BASE) and Holweg on a useless band (a degraded CANDIDATE)."""
@@ -55,16 +47,16 @@ def runs(small_path, tmp_path_factory):
     return root
 
 
-def test_self_compare_reports_no_change(runs, capsys):
-    code, out, _ = run(["compare", str(runs / "base"), str(runs / "base" / "results.parquet")], capsys)
+def test_self_compare_reports_no_change(runs, cli):
+    code, out, _ = cli(["compare", str(runs / "base"), str(runs / "base" / "results.parquet")])
     assert code == 0
     assert "**No regression**" in out and "▼ regressed: 0" in out and "= no significant change: 2" in out
     assert out.count("+0.0 [+0.0, +0.0]") == 6  # accuracy, TP and TN rate of both cells: exactly zero
 
 
-def test_degraded_detector_exits_1_and_names_the_cells(runs, capsys, tmp_path):
+def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
     comment = tmp_path / "comment.md"
-    code, out, _ = run(["compare", str(runs / "base"), str(runs / "degraded"), "--out", str(comment)], capsys)
+    code, out, _ = cli(["compare", str(runs / "base"), str(runs / "degraded"), "--out", str(comment)])
     assert code == 1
     assert "**2 cells regressed**" in out
     for finger in ("index", "middle"):
@@ -75,14 +67,14 @@ def test_degraded_detector_exits_1_and_names_the_cells(runs, capsys, tmp_path):
     assert result.exit_code == 0 and set(result.cells["verdict"]) == {"within margin"}
 
 
-def test_cells_on_one_side_are_listed(tmp_path, capsys):
+def test_cells_on_one_side_are_listed(tmp_path, cli):
     base = fake_rows("window-size", "holweg")
     cand = base[base["window"] != 5].copy()
     extra = base[base["window"] == 200].assign(cell=lambda f: f["cell"].str.replace("200", "400"), window=400)
     for name, rows in (("base", base), ("cand", pd.concat([cand, extra]))):
         (tmp_path / name).mkdir()
         rows.to_parquet(tmp_path / name / "results.parquet")
-    code, out, _ = run(["compare", str(tmp_path / "base"), str(tmp_path / "cand")], capsys)
+    code, out, _ = cli(["compare", str(tmp_path / "base"), str(tmp_path / "cand")])
     assert code == 0  # no predictions: unpaired, and nothing changed
     assert "**Cells only in BASE** (8)" in out and "**Cells only in CANDIDATE** (8)" in out
     assert "sensor_type=Nano17, sensor_instance=index, window=5, split paper" in out
@@ -109,24 +101,24 @@ def test_a_failed_cell_is_a_regression(tmp_path):
     assert list(result.regressions["cell"]) == [base.loc[3, "cell"]]
 
 
-def test_bad_input_exits_2(runs, tmp_path, capsys):
-    code, _, err = run(["compare", str(runs / "base"), str(tmp_path / "missing")], capsys)
+def test_bad_input_exits_2(runs, tmp_path, cli):
+    code, _, err = cli(["compare", str(runs / "base"), str(tmp_path / "missing")])
     assert code == 2 and "no results file here" in err
     (tmp_path / "junk.parquet").write_text("not parquet")
-    code, _, err = run(["compare", str(runs / "base"), str(tmp_path / "junk.parquet")], capsys)
+    code, _, err = cli(["compare", str(runs / "base"), str(tmp_path / "junk.parquet")])
     assert code == 2 and "not a readable results file" in err
-    code, _, err = run(["compare", str(runs / "base"), str(runs / "base"), "--margin", "-1"], capsys)
+    code, _, err = cli(["compare", str(runs / "base"), str(runs / "base"), "--margin", "-1"])
     assert code == 2 and "--margin" in err
-    code, _, _ = run(["compare", str(runs / "base")], capsys)
+    code, _, _ = cli(["compare", str(runs / "base")])
     assert code == 2  # a usage error from click
     other = tmp_path / "other"
     other.mkdir()
     fake_rows("cross-instance").to_parquet(other / "results.parquet")
-    code, _, err = run(["compare", str(runs / "base"), str(other)], capsys)
+    code, _, err = cli(["compare", str(runs / "base"), str(other)])
     assert code == 2 and "share no cell" in err
     two = tmp_path / "two"
     shutil.copytree(runs / "base", two)
     rows = pd.read_parquet(two / "results.parquet")
     pd.concat([rows, rows.assign(detector="other")]).to_parquet(two / "results.parquet")
-    code, _, err = run(["compare", str(other), str(two)], capsys)
+    code, _, err = cli(["compare", str(other), str(two)])
     assert code == 2 and "cannot pair detectors" in err

@@ -19,14 +19,6 @@ FS = 500
 BAND = (50.0, 80.0)
 
 
-def run(argv, capsys):
-    with pytest.raises(SystemExit) as exit_:
-        main(argv)
-        raise SystemExit(0)
-    out = capsys.readouterr()
-    return exit_.value.code or 0, out.out, out.err
-
-
 def two_pools(k: int, gain: float, seed: int = 0) -> np.ndarray:
     """(2, k, FS) one-second windows of white noise; the slip pool (index 1) gets extra noise
     inside BAND only, so the classes differ there and nowhere else."""
@@ -118,11 +110,11 @@ def test_bad_parameters_are_named(small):
         analyze(small, "Nano17", segment=5000)
 
 
-def test_command_writes_figure_table_and_band(small_path, tmp_path, capsys):
+def test_command_writes_figure_table_and_band(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
     argv = ["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--sensor", "BioTacSP", "--instance", "index",
             "--segment", "100", "--boot", "30", "--repeats", "10", "--out", str(out)]
-    code, text, err = run(argv, capsys)
+    code, text, err = cli(argv)
     assert code == 0, err
     for stem in ("Nano17-index", "BioTacSP-index"):
         for suffix in (".png", ".pdf", ".csv", ".json"):
@@ -139,18 +131,18 @@ def test_command_writes_figure_table_and_band(small_path, tmp_path, capsys):
     detectors.get("holweg")().set_params(band=band)
 
 
-def test_unknown_sensor_or_instance_exits_2_and_writes_nothing(small_path, tmp_path, capsys):
+def test_unknown_sensor_or_instance_exits_2_and_writes_nothing(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
-    code, _, err = run(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--sensor", "GelSight",
-                        "--segment", "100", "--repeats", "2", "--out", str(out)], capsys)
+    code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--sensor", "GelSight",
+                        "--segment", "100", "--repeats", "2", "--out", str(out)])
     assert code == 2 and "unknown sensor 'GelSight'" in err
     assert "Nano17, OptoForce20, BioTacSP" in err and "Traceback" not in err
     assert not out.exists()
-    code, _, err = run(["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "little"], capsys)
+    code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "little"])
     assert code == 2 and "BioTacSP has no instance 'little'; its instances: index, middle" in err
 
 
-def test_recordings_shorter_than_a_segment_are_refused(small_path, capsys):
+def test_recordings_shorter_than_a_segment_are_refused(small_path, cli):
     # at scale 0.02 a slip recording holds half a second: one contiguous second does not fit
-    code, _, err = run(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--instance", "index"], capsys)
+    code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--instance", "index"])
     assert code == 2 and "holds a 1000-sample segment" in err and "--segment" in err
