@@ -427,7 +427,9 @@ def evaluate(
             Path(f"{path}.json").unlink(missing_ok=True)
         return str(path)
 
-    desc = " + ".join(dict.fromkeys(f"{r.detector_name} x {r.protocol_name}" for r in runs))
+    detectors, protocols = dict.fromkeys(r.detector_name for r in runs), dict.fromkeys(r.protocol_name for r in runs)
+    desc = " x ".join(next(iter(names)) if len(names) == 1 else f"{len(names)} {kind}"
+                      for names, kind in ((detectors, "detectors"), (protocols, "protocols")))
     bar = _progress(len(order), len(rows), progress, desc)
     try:
         for task, results in _execute(list(tasks.values()), payload, jobs, scheduler, cell_timeout):
