@@ -69,11 +69,19 @@ class ResultsStore:
         path.parent.mkdir(parents=True, exist_ok=True)
         return path
 
-    def has(self, key: str) -> bool:
-        return self._cell_path(key).is_file()
-
-    def get(self, key: str) -> dict[str, Any]:
-        return pq.read_table(self._cell_path(key)).to_pylist()[0]
+    def finished(self) -> dict[str, dict[str, Any]]:
+        """Every stored cell row by key: results.parquet, plus cells stored since it was written
+        (a run that was killed before rebuilding it). One file read for a consolidated folder."""
+        rows: dict[str, dict[str, Any]] = {}
+        path = self.folder / RESULTS_FILE
+        if path.is_file():
+            rows = {r["key"]: r for r in pq.read_table(path).to_pylist()}
+        written = {p.stem: p.stat().st_mtime_ns for p in (self.folder / "cells").glob("*.parquet")}
+        consolidated = path.stat().st_mtime_ns if path.is_file() else -1
+        for key, mtime in written.items():
+            if key not in rows or mtime > consolidated:
+                rows[key] = pq.read_table(self._cell_path(key)).to_pylist()[0]
+        return rows
 
     def put(self, row: dict[str, Any], predictions: pd.DataFrame | None = None) -> None:
         """Store one finished cell; its predictions first, so a row never lacks them."""
@@ -83,12 +91,12 @@ class ResultsStore:
 
     def consolidate(self) -> Path:
         """Rebuild results.parquet from every finished cell of the folder."""
-        files = sorted((self.folder / "cells").glob("*.parquet"))
+        rows = self.finished()
         path = self.folder / RESULTS_FILE
-        if not files and not path.exists():
+        if not rows:
             return path  # nothing finished yet: write no empty results file
-        rows = pd.concat([pq.read_table(f).to_pandas() for f in files], ignore_index=True) if files else pd.DataFrame()
-        write_atomic(pa.Table.from_pandas(rows, preserve_index=False), path)
+        # via pandas: rows of different protocols have different cell columns
+        write_atomic(pa.Table.from_pandas(pd.DataFrame(list(rows.values())), preserve_index=False), path)
         return path
 
 

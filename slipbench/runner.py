@@ -387,6 +387,7 @@ def evaluate(
     rows: dict[str, dict] = {}
     order: list[str] = []
     tasks: dict[str, Task] = {}
+    stored = {} if force else store.finished()
     for run in runs:
         run.detector.validate_params()
         cells = list(run.protocol.cells(dataset.recordings))
@@ -395,8 +396,8 @@ def evaluate(
         for cell in cells:
             key = run.key(cell, fingerprint)
             order.append(key)
-            if not force and store.has(key) and store.get(key)["status"] in ("ok", "skipped"):
-                rows[key] = store.get(key)
+            if stored.get(key, {}).get("status") in ("ok", "skipped"):
+                rows[key] = stored[key]
                 continue
             reason = cell.skip
             if not reason:
