@@ -85,11 +85,10 @@ class BaseDetector:
 
     Subclasses set ``name`` and ``_parameter_constraints`` (parameter -> Interval/Options/...),
     define ``__init__`` with keyword hyperparameters only, and implement ``_fit`` and
-    ``_predict_proba``. ``tags`` declares capabilities.
+    ``_predict_proba``.
     """
 
     name: ClassVar[str] = ""
-    tags: ClassVar[dict[str, Any]] = {"scores": True}
     _parameter_constraints: ClassVar[dict[str, Any]] = {}
 
     # -- scikit-learn parameter protocol

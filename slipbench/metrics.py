@@ -20,7 +20,6 @@ from statsmodels.stats.proportion import proportion_confint
 
 LEVEL = 0.95
 N_RESAMPLES = 999
-RATES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy")
 
 
 def _clusters(groups: np.ndarray) -> tuple[np.ndarray, int]:
