@@ -21,7 +21,8 @@ import psutil
 def measure(argv: list[str]) -> tuple[float, float]:
     """Wall seconds and peak resident memory (GiB, the process tree summed) of a command."""
     t0 = time.perf_counter()
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # outside the source tree, so that `slipbench` is the installed package
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tempfile.gettempdir())
     root, peak = psutil.Process(proc.pid), 0
     while proc.poll() is None:
         try:
@@ -56,8 +57,9 @@ def main() -> None:
             cached, _ = measure(run)
             peaks.append(peak)
             print(f"| {scale:g} | {8e6 * scale / 1e6:.1f} M | {synth_s:.1f} | {wall:.1f} | {cached:.1f} | {peak:.2f} |")
-    slope, intercept = np.polyfit(args.scales, peaks, 1)
-    print(f"\npeak memory ~ {intercept:.2f} + {slope:.2f} x scale GiB: {intercept + slope:.2f} GiB extrapolated to scale 1.0")
+    if len(peaks) > 1:
+        slope, intercept = np.polyfit(args.scales, peaks, 1)
+        print(f"\npeak memory ~ {intercept:.2f} + {slope:.2f} x scale GiB: {intercept + slope:.2f} GiB extrapolated to scale 1.0")
 
 
 if __name__ == "__main__":

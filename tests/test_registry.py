@@ -86,7 +86,10 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
         print(cls.__name__, cls().fit(x, [0]*4 + [1]*4).predict(x).tolist())
     ''')
     env = {"PYTHONPATH": str(target), "PATH": ""}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    # run outside the source tree, so that `slipbench` is the installed package
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    out = done.stdout
     assert out.strip() == "Energy [0, 0, 0, 0, 1, 1, 1, 1]"
 
 

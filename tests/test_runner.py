@@ -146,17 +146,18 @@ def test_kill_and_resume(small_path, tmp_path):
     out = tmp_path / "res"
     argv = [sys.executable, "-m", "slipbench.cli", "evaluate", "--detector", "slow", "--protocol", "window-size",
             "--dataset", str(small_path), "--out", str(out), "--plugins", str(plugins), "--quiet"]
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    # from outside the source tree, so that `slipbench` is the installed package
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and len(list((out / "cells").glob("*.parquet"))) < 5:
         time.sleep(0.05)
     os.kill(proc.pid, signal.SIGKILL)
-    proc.wait()
+    _, err = proc.communicate()
     done = {p.name: p.stat().st_mtime_ns for p in (out / "cells").glob("*.parquet")}
-    assert 5 <= len(done) < 48, "the run should have been killed mid-way"
+    assert 5 <= len(done) < 48, f"the run should have been killed mid-way: {err}"
     for path in (out / "cells").glob("*.parquet"):
         pq.read_table(path)  # every stored cell is whole
-    finished = subprocess.run(argv, capture_output=True, text=True)
+    finished = subprocess.run(argv, capture_output=True, text=True, cwd=tmp_path)
     assert finished.returncode == 0, finished.stderr
     rows = pq.read_table(out / "results.parquet").to_pandas()
     assert len(rows) == 48 and (rows["status"] == "ok").all()
