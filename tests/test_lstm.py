@@ -55,17 +55,61 @@ def test_gradients_and_scores_match_torch_autograd():
     assert fastlstm.predict_window(x[5], -1.0, 1.0, *params) == pytest.approx(p_torch[5], abs=1e-6)
 
 
-def test_parallel_and_serial_epochs_are_bitwise_equal():
+def test_epochs_do_not_depend_on_the_thread_count():
+    import numba
+
     rng = np.random.default_rng(2)
     x, y = rng.normal(size=(600, 20)).astype(np.float32), (np.arange(600) % 2).astype(np.int8)
     order = rng.permutation(600)
     runs = []
-    for kernel in (fastlstm.train_epoch_parallel, fastlstm.train_epoch_serial):
-        p = _params()
-        kernel(x, y, order, 300, 0.01, 0.125, *p, *[np.zeros_like(a) for a in p])
-        runs.append(p)
-    for a, b in zip(*runs):
-        assert np.array_equal(a, b)
+    threads = numba.get_num_threads()
+    try:
+        for kernel, n_threads in ((fastlstm.train_epoch_parallel, threads), (fastlstm.train_epoch_parallel, 1),
+                                  (fastlstm.train_epoch_serial, 1)):
+            numba.set_num_threads(n_threads)
+            p = _params()
+            kernel(x, y, order, 300, 0.01, 0.125, *p, *[np.zeros_like(a) for a in p])
+            runs.append(p)
+    finally:
+        numba.set_num_threads(threads)
+    for a, b, c in zip(*runs):
+        assert np.array_equal(a, b)  # bitwise, whatever the number of threads
+        np.testing.assert_allclose(a, c, atol=1e-6)  # serial kernel: float32 rounding apart
+
+
+def test_parallel_and_serial_kernels_are_cached_apart():
+    """numba's cache keys entries by function name and signature, not by the parallel flag."""
+    for pair in ((fastlstm.train_epoch_parallel, fastlstm.train_epoch_serial),
+                 (fastlstm.predict_proba_blocks_parallel, fastlstm.predict_proba_blocks_serial),
+                 (fastlstm.predict_proba_each_parallel, fastlstm.predict_proba_each_serial)):
+        assert pair[0].py_func.__qualname__ != pair[1].py_func.__qualname__
+        assert pair[0].targetoptions.get("parallel") and not pair[1].targetoptions.get("parallel")
+
+
+@pytest.mark.parametrize("hidden", [20, 7])
+def test_batched_inference_matches_window_by_window_and_torch(hidden):
+    """Blocks of LANES windows (with a padded last block) against the single-window path and torch."""
+    rng = np.random.default_rng(4)
+    n = 3 * fastlstm.LANES + 5
+    x = rng.normal(size=(n, 30)).astype(np.float32)
+    params = [rng.normal(0, 0.3, s).astype(np.float32)
+              for s in ((4 * hidden,), (hidden, 4 * hidden), (4 * hidden,), (2, hidden), (2,))]
+    each = fastlstm.predict_proba_each_serial(x, 0.5, 1.5, *params)
+    for kernel in (fastlstm.predict_proba_blocks_serial, fastlstm.predict_proba_blocks_parallel):
+        blocks = kernel(x, 0.5, 1.5, *params)
+        np.testing.assert_allclose(blocks, each, atol=1e-6)
+        assert np.array_equal(blocks, kernel(x, 0.5, 1.5, *params))
+        # a window's score does not depend on its block or its neighbours
+        np.testing.assert_allclose(kernel(x[7:40], 0.5, 1.5, *params), blocks[7:40], atol=1e-6)
+    lstm = torch.nn.LSTM(1, hidden, batch_first=True)
+    w, rt, b, wy, by = params
+    with torch.no_grad():
+        lstm.weight_ih_l0.copy_(torch.tensor(w[:, None])), lstm.weight_hh_l0.copy_(torch.tensor(rt.T))
+        lstm.bias_ih_l0.copy_(torch.tensor(b)), lstm.bias_hh_l0.zero_()
+        h = lstm(torch.tensor((x - 0.5) * 1.5 - 1.0)[:, :, None])[0][:, -1]
+        p_torch = torch.softmax(h @ torch.tensor(wy).T + torch.tensor(by), 1)[:, 1].numpy()
+    np.testing.assert_allclose(fastlstm.predict_proba(x, 0.5, 1.5, *params), p_torch, atol=1e-6)
+    assert fastlstm.predict_proba(x[:3], 0.5, 1.5, *params) == pytest.approx(each[:3], abs=0)  # few: one by one
 
 
 def test_gpu_epoch_matches_cpu_epoch():
