@@ -13,8 +13,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import butter, sosfilt
 
-from slipbench.base import Band, BaseDetector, Interval
-from slipbench.spectra import best_threshold
+from slipbench.base import BaseDetector
+from slipbench.params import Band, Interval
+from slipbench.spectra import best_threshold, logistic
 
 
 def effective_band(band: tuple[float, float], sampling_rate: float) -> tuple[tuple[float, float], bool]:
@@ -30,7 +31,6 @@ class BandPass(BaseDetector):
     """Log band-pass energy, thresholded. ``band``: (low_hz, high_hz); ``order``: Butterworth order
     (a band-pass of order n has 2n poles); a low edge of 0 gives a low-pass."""
 
-    name = "bandpass"
     _parameter_constraints = {"band": Band(), "order": Interval(int, 1, 10)}
 
     def __init__(self, band=(50.0, 400.0), order=4):
@@ -55,4 +55,4 @@ class BandPass(BaseDetector):
 
     def _predict_proba(self, x):
         z = self.direction_ * (self._energy(x) - self.threshold_) / self.scale_
-        return 1 / (1 + np.exp(-np.clip(z, -50, 50)))
+        return logistic(z)

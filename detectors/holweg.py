@@ -7,9 +7,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import ks_2samp
 
-from slipbench.base import Band, BaseDetector, Interval
+from slipbench.base import BaseDetector
+from slipbench.params import Band, Interval
 from slipbench.errors import UsageError
-from slipbench.spectra import amplitude_spectrum, best_threshold
+from slipbench.spectra import amplitude_spectrum, best_threshold, grow_band, logistic
 
 
 def significant_band(freqs: np.ndarray, amp: np.ndarray, y: np.ndarray, keep: float) -> np.ndarray:
@@ -18,13 +19,7 @@ def significant_band(freqs: np.ndarray, amp: np.ndarray, y: np.ndarray, keep: fl
     statistic stays at least ``keep`` times that maximum."""
     stat = ks_2samp(amp[y == 1], amp[y == 0], axis=0, method="asymp").statistic  # no exact p-values needed
     peak = int(np.argmax(stat))
-    inside = stat >= keep * stat[peak]
-    lo = peak
-    while lo > 0 and inside[lo - 1]:
-        lo -= 1
-    hi = peak
-    while hi < len(stat) - 1 and inside[hi + 1]:
-        hi += 1
+    lo, hi = grow_band(stat >= keep * stat[peak], peak)
     return np.arange(lo, hi + 1)
 
 
@@ -36,7 +31,6 @@ class Holweg(BaseDetector):
     spectral analysis. ``keep``: how close to the peak separation a bin must be to join it.
     """
 
-    name = "holweg"
     _parameter_constraints = {"band": Band(), "keep": Interval(float, 0.0, 1.0)}
 
     def __init__(self, band=None, keep=0.8):
@@ -70,4 +64,4 @@ class Holweg(BaseDetector):
 
     def _predict_proba(self, x):
         z = self.direction_ * (np.log(self._sums(x) + 1e-12) - np.log(self.threshold_ + 1e-12)) / self.scale_
-        return 1 / (1 + np.exp(-np.clip(z, -50, 50)))
+        return logistic(z)

@@ -12,35 +12,24 @@ and each learning-rate stage starts from them with zero velocity; MATLAB's initi
 (Glorot input and output weights, orthogonal recurrent weights, forget-gate bias 1); epochs per
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
 (``max_epochs=100`` is the paper's).
-CPU: numba kernels (slipbench.fastlstm); GPU: torch's cuDNN LSTM with the same model and loop.
+CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from slipbench import fastlstm
-from slipbench.base import BaseDetector, Interval, Options
+from slipbench.detectors import lstm_kernels as kernels
+from slipbench.base import BaseDetector
+from slipbench.params import Interval, Options
 from slipbench.errors import UsageError
 
 PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
 
-def _init(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
-    g = 4 * hidden
-    w = rng.uniform(-1, 1, g) * np.sqrt(6 / (1 + g))
-    q, r = np.linalg.qr(rng.normal(size=(g, hidden)))
-    rt = (q * np.sign(np.diag(r))).T  # orthogonal (4H, H), stored transposed
-    b = np.zeros(g)
-    b[hidden : 2 * hidden] = 1.0  # forget gate
-    wy = rng.uniform(-1, 1, (2, hidden)) * np.sqrt(6 / (hidden + 2))
-    return [np.ascontiguousarray(a, dtype=np.float32) for a in (w, rt, b, wy, np.zeros(2))]
-
-
 class LSTM(BaseDetector):
     """The paper's LSTM; ``device`` "auto" uses a CUDA GPU when torch sees one."""
 
-    name = "lstm"
     check_params = {"max_epochs": 2, "validation_fraction": 0.2}  # fast settings for check_detector
     _parameter_constraints = {
         "hidden_size": Interval(int, 1, 512), "batch_size": Interval(int, 1, None),
@@ -80,7 +69,7 @@ class LSTM(BaseDetector):
         if len(train) == 0:
             raise UsageError("LSTM: too few windows to keep a validation part; lower validation_fraction")
         cuda = self.device == "cuda" or (self.device == "auto" and _cuda_available())
-        params = _init(self.hidden_size, rng)
+        params = kernels.init_params(self.hidden_size, rng)
         epoch = _torch_epoch if cuda else _numba_epoch
         best, best_loss, self.history_ = [p.copy() for p in params], np.inf, []
         for lr, max_epochs in stages:
@@ -90,7 +79,7 @@ class LSTM(BaseDetector):
             for _ in range(max_epochs):
                 order = train[rng.permutation(len(train))]
                 epoch(xn, y, order, self.batch_size, lr, self.momentum, params, velocity)
-                p = np.clip(fastlstm.predict_proba(xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
+                p = np.clip(kernels.predict_proba(xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
                 loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
                 self.history_.append((lr, loss))
                 if loss < best_loss - 1e-6:
@@ -104,11 +93,18 @@ class LSTM(BaseDetector):
         self.history_ = np.array(self.history_)
 
     def _predict_proba(self, x):
-        return fastlstm.predict_proba(x, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+        return kernels.predict_proba(x, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+
+    @classmethod
+    def benchmark(cls, length: int, seconds: float, seed: int = 0):
+        """Training, batched inference and one-window latency against stock torch.nn.LSTM."""
+        from slipbench.detectors.lstm_bench import lstm_targets
+
+        return lstm_targets(cls, length, seconds, seed)
 
     def predict_window(self, window: np.ndarray) -> float:
         """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
-        return fastlstm.predict_window(window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+        return kernels.predict_window(window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
 
 
 def _cuda_available() -> bool:
@@ -118,7 +114,7 @@ def _cuda_available() -> bool:
 
 
 def _numba_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
-    fastlstm.train_epoch(x, y, order, batch_size, lr, momentum, *params, *velocity)
+    kernels.train_epoch(x, y, order, batch_size, lr, momentum, *params, *velocity)
 
 
 def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device="cuda") -> None:

@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 from sklearn.linear_model import RidgeClassifierCV
 
-from slipbench.base import BaseDetector, Interval
+from slipbench.base import BaseDetector
+from slipbench.spectra import logistic
+from slipbench.params import Interval
 from slipbench.errors import UsageError
 
 MIN_LENGTH = 9
@@ -34,8 +36,9 @@ def _pad(x: np.ndarray) -> np.ndarray:
 class MiniRocketDetector(BaseDetector):
     """MiniRocket features and a ridge classifier; ``n_kernels`` features (rounded by MiniRocket)."""
 
-    name = "minirocket"
     check_params = {"n_kernels": 168}
+    requires = ("aeon",)
+    install_hint = "pip install 'slipbench[minirocket]'"
     _parameter_constraints = {"n_kernels": Interval(int, 84, 100_000), "max_dilations_per_kernel": Interval(int, 1, 128),
                               "max_windows": Interval(int, 10, None)}
 
@@ -74,4 +77,4 @@ class MiniRocketDetector(BaseDetector):
 
     def _predict_proba(self, x):
         z = self._features(x) @ self.coef_ + self.intercept_
-        return 1 / (1 + np.exp(-np.clip(z, -50, 50)))
+        return logistic(z)

@@ -18,7 +18,9 @@ import pywt
 from sklearn.kernel_approximation import Nystroem
 from sklearn.svm import LinearSVC
 
-from slipbench.base import BaseDetector, Interval, Options
+from slipbench.base import BaseDetector
+from slipbench.spectra import logistic
+from slipbench.params import Interval, Options
 
 
 def wavelet_and_level(length: int, wavelet: str, level: int) -> tuple[str, int]:
@@ -31,7 +33,6 @@ def wavelet_and_level(length: int, wavelet: str, level: int) -> tuple[str, int]:
 class WaveletSVM(BaseDetector):
     """DWT statistics into an RBF SVM (Nystroem approximation)."""
 
-    name = "wavelet-svm"
     _parameter_constraints = {
         "wavelet": Options(tuple(pywt.wavelist(kind="discrete"))), "level": Interval(int, 1, 12),
         "C": Interval(float, 1e-6, None), "n_components": Interval(int, 10, 20_000),
@@ -70,4 +71,4 @@ class WaveletSVM(BaseDetector):
         d2 = (f**2).sum(1)[:, None] - 2 * f @ self.landmarks_.T + (self.landmarks_**2).sum(1)[None, :]
         mapped = np.exp(-self.gamma_ * np.maximum(d2, 0)) @ self.normalization_.T
         z = mapped @ self.coef_ + self.intercept_
-        return 1 / (1 + np.exp(-np.clip(z, -50, 50)))
+        return logistic(z)

@@ -6,38 +6,28 @@ starred numbers."""
 
 from __future__ import annotations
 
-from slipbench.base import BaseProtocol, Cell, Part
-from slipbench.data import sensor_pairs
+from slipbench.params import WindowLength
+from slipbench.protocol import BaseProtocol, Layout, holdout_cells
 
-WINDOW = 50
-
-
-def holdout_cells(recordings, name: str, levels, test_column: str | None = None, window: int = WINDOW):
-    """Cells "with" and "without" explicit training on each level of column ``name``, per sensor.
-
-    Test windows are those whose ``test_column`` (default: ``name``) equals the level; the
-    "without" model trains on windows whose ``name`` differs from it.
-    """
-    for sensor in sensor_pairs(recordings):
-        for level in levels:
-            test = Part((sensor,), "test", ((test_column or name, "==", level),))
-            key = {"sensor_type": sensor[0], "sensor_instance": sensor[1], name: level}
-            yield Cell({**key, "training": "with"}, Part((sensor,), "train"), test, window)
-            yield Cell({**key, "training": "without"}, Part((sensor,), "train", ((name, "!=", level),)), test, window)
+MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
 
 
 class MaterialHoldout(BaseProtocol):
-    name = "material-holdout"
-    table = {
-        "title": "Slip state classification accuracy (%) with and without (*) explicit training of each material",
-        "rows": ["sensor_type", "sensor_instance"], "columns": "material", "pair": "training",
-    }
+    """Each material with and without explicit training (the paper's Table III)."""
+
+    layout = Layout(
+        "Slip state classification with and without (*) explicit training of indicated materials across sensors.",
+        ("sensor_type", "sensor_instance"), "material", title="Material", group="with Material", pair="training",
+        figure="with-without", paper_table="material-holdout")
+    _parameter_constraints = {"window": WindowLength()}
+
+    def __init__(self, window=50):
+        self.window = window
 
     def cells(self, recordings):
         materials = sorted(recordings["material"].dropna().unique(), key=_paper_order)
-        return holdout_cells(recordings, "material", materials)
+        return holdout_cells(recordings, "material", materials, self.window)
 
 
 def _paper_order(material: str):
-    order = ["aluminum", "PVC", "neoprene", "cardboard", "plywood"]
-    return (order.index(material), "") if material in order else (len(order), material)
+    return (MATERIALS.index(material), "") if material in MATERIALS else (len(MATERIALS), material)

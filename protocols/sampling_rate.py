@@ -9,36 +9,42 @@ as the reference column.
 
 from __future__ import annotations
 
-from slipbench.base import BaseProtocol, Cell, Options, Part
-from slipbench.data import sensor_pairs
-from slipbench.errors import UsageError
+from slipbench.params import Interval, Options, Sequence, WindowLength
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, unit_rate, window_cells
 
 FACTORS = (1, 2, 4, 8, 16, 32)
-WINDOW = 200
-DECIMATION = Options(("plain", "antialias", "both"))
 
 
 class SamplingRate(BaseProtocol):
-    name = "sampling-rate"
-    table = {
-        "title": "Slip state classification accuracy (%) at various sampling rates (Hz)",
-        "rows": ["sensor_type", "sensor_instance"], "columns": "downsample",
-    }
+    """Accuracy against sampling rate, windows of 200 full-rate samples downsampled (Table II)."""
 
-    def __init__(self, decimation="plain"):
-        if not DECIMATION.check(decimation):
-            raise UsageError(f"The 'decimation' option of sampling-rate must be {DECIMATION}. Got {decimation!r} instead.")
+    layout = Layout(
+        "Slip state classification at various sampling rates (Hz) across sensors and fingers, window 200 "
+        "downsampled. Superscripts indicate the sensor type for the selected sampling rate.",
+        ("sensor_type", "sensor_instance"), "downsample", title="Sampling rate", group="at Sampling Rate",
+        split="decimation", column_label="rate_hz", figure="curve", x="rate_hz", x_label="sampling rate (Hz)",
+        log_base=2, paper_table="sampling-rate")
+    _parameter_constraints = {"decimation": Options(("plain", "antialias", "both")), "window": WindowLength(),
+                              "factors": Sequence(Interval(int, 1, 1024))}
+
+    def __init__(self, decimation="plain", window=200, factors=FACTORS):
         self.decimation = decimation
+        self.window = window
+        self.factors = factors
 
     def cells(self, recordings):
-        rates = recordings.groupby(["sensor_type", "sensor_instance"])["sampling_rate_hz"].first()
         variants = ("plain", "antialias") if self.decimation == "both" else (self.decimation,)
+        factors = [self.factors] if isinstance(self.factors, int) else self.factors
         for sensor in sensor_pairs(recordings):
+            rate = unit_rate(recordings, sensor)
+            (n, key, short), = window_cells(recordings, sensor, self.window)
             for variant in variants:
-                for factor in FACTORS:
+                for factor in factors:
+                    too_few = "" if n // factor >= 5 else f"window {n} downsampled by {factor} leaves {n // factor} samples"
                     yield Cell(
-                        key={"sensor_type": sensor[0], "sensor_instance": sensor[1], "window": WINDOW,
-                             "downsample": factor, "rate_hz": rates[sensor] / factor, "decimation": variant},
+                        key={"sensor_type": sensor[0], "sensor_instance": sensor[1], "window": n,
+                             "downsample": factor, "rate_hz": rate / factor, "decimation": variant},
                         train=Part((sensor,), "train"), test=Part((sensor,), "test"),
-                        window=WINDOW, downsample=factor, decimation=variant if factor > 1 else "plain",
+                        window=n, downsample=factor, decimation=variant if factor > 1 else "plain",
+                        skip=short or too_few,
                     )

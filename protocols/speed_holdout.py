@@ -14,20 +14,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from slipbench.base import BaseProtocol
-from slipbench.protocols.material_holdout import holdout_cells
+from slipbench.params import WindowLength
+from slipbench.protocol import BaseProtocol, Layout, holdout_cells
 
 
 def _speeds(recordings) -> list[float]:
-    return sorted(recordings.loc[recordings["scenario"] == "slip", "speed_mm_s"].dropna().unique())
+    return sorted(float(s) for s in recordings.loc[recordings["scenario"] == "slip", "speed_mm_s"].dropna().unique())
 
 
 class SpeedHoldout(BaseProtocol):
-    name = "speed-holdout"
-    table = {
-        "title": "Slip state classification accuracy (%) with and without (*) explicit training of each slip speed (mm/s)",
-        "rows": ["sensor_type", "sensor_instance"], "columns": "speed_mm_s", "pair": "training",
-    }
+    """Each slip speed with and without explicit training (the paper's Table IV)."""
+
+    layout = Layout(
+        "Slip state classification with and without (*) explicit training of indicated speeds across sensors.",
+        ("sensor_type", "sensor_instance"), "speed_mm_s", title="Slip speed", group="at Speed", pair="training",
+        figure="with-without", paper_table="speed-holdout")
+    _parameter_constraints = {"window": WindowLength()}
+
+    def __init__(self, window=50):
+        self.window = window
 
     def columns(self, recordings):
         speeds = _speeds(recordings)
@@ -39,4 +44,4 @@ class SpeedHoldout(BaseProtocol):
         return {"speed_group": group}
 
     def cells(self, recordings):
-        return holdout_cells(recordings, "speed_mm_s", _speeds(recordings), test_column="speed_group")
+        return holdout_cells(recordings, "speed_mm_s", _speeds(recordings), self.window, test_column="speed_group")

@@ -1,4 +1,4 @@
-"""The contracts plugins implement: BaseDetector and BaseProtocol.
+"""The detector contract: BaseDetector (protocols: ``slipbench.protocol``).
 
 Detectors follow scikit-learn's estimator conventions: ``__init__`` stores keyword
 hyperparameters under their own names and nothing else; fitted state ends in ``_``;
@@ -10,16 +10,21 @@ plugin's ``_fit`` and ``_predict_proba``, which never re-check.
 from __future__ import annotations
 
 import copy
-import inspect
+import importlib
 import json
 import os
-from collections.abc import Iterable
-from dataclasses import dataclass
+import re
+import sys
+import tempfile
+from importlib.metadata import entry_points
 from typing import Any, ClassVar
 
 import numpy as np
 
-from .errors import UsageError
+from .errors import PluginError, UsageError
+from .params import Parameterized
+
+DETECTOR_GROUP = "slipbench.detectors"  # the entry-point group of detector plugins
 
 MIN_WINDOW = 5
 
@@ -28,98 +33,25 @@ class NotFittedError(UsageError):
     """predict was called before fit."""
 
 
-# ----------------------------------------------------------------------------- parameters
-@dataclass(frozen=True)
-class Interval:
-    """A number of ``kind`` in [low, high] (either bound may be None)."""
-
-    kind: type
-    low: float | None
-    high: float | None
-
-    def check(self, value: Any) -> bool:
-        if isinstance(value, bool) or not isinstance(value, self.kind if self.kind is not float else (int, float)):
-            return False
-        return (self.low is None or value >= self.low) and (self.high is None or value <= self.high)
-
-    def __str__(self) -> str:
-        name = "an int" if self.kind is int else "a float"
-        lo = "-inf" if self.low is None else self.low
-        hi = "inf" if self.high is None else self.high
-        return f"{name} in [{lo}, {hi}]"
-
-
-@dataclass(frozen=True)
-class Options:
-    """One of the listed values."""
-
-    values: tuple
-
-    def check(self, value: Any) -> bool:
-        return value in self.values
-
-    def __str__(self) -> str:
-        return "one of " + ", ".join(repr(v) for v in self.values)
-
-
-@dataclass(frozen=True)
-class Band:
-    """A (low_hz, high_hz) pair with 0 <= low < high, or None for a band chosen from data."""
-
-    def check(self, value: Any) -> bool:
-        if value is None:
-            return True
-        try:
-            lo, hi = (float(v) for v in value)
-        except (TypeError, ValueError):
-            return False
-        return 0 <= lo < hi
-
-    def __str__(self) -> str:
-        return "None or a (low_hz, high_hz) pair with 0 <= low < high"
-
-
 # ----------------------------------------------------------------------------- detectors
-class BaseDetector:
+def plugin_id(cls: type) -> str:
+    """A plugin class's id: the name the registry gave it, else its class name in kebab case
+    (``WaveletSVM`` -> ``wavelet-svm``) for a class used without the registry."""
+    stamped = cls.__dict__.get("name")
+    if stamped:
+        return stamped
+    return re.sub(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", "-", cls.__name__).lower()
+
+
+class BaseDetector(Parameterized):
     """A binary slip detector on windows of a univariate signal.
 
-    Subclasses set ``name`` and ``_parameter_constraints`` (parameter -> Interval/Options/...),
-    define ``__init__`` with keyword hyperparameters only, and implement ``_fit`` and
-    ``_predict_proba``.
+    Subclasses define ``__init__`` with keyword hyperparameters only, declare their
+    constraints in ``_parameter_constraints`` (parameter -> Interval/Options/...), and implement
+    ``_fit`` and ``_predict_proba``. Their id is the name they are registered under.
     """
 
-    name: ClassVar[str] = ""
-    _parameter_constraints: ClassVar[dict[str, Any]] = {}
-
-    # -- scikit-learn parameter protocol
-    @classmethod
-    def _param_names(cls) -> list[str]:
-        sig = inspect.signature(cls.__init__)
-        return sorted(p.name for p in sig.parameters.values() if p.name != "self" and p.kind != p.VAR_KEYWORD)
-
-    def get_params(self, deep: bool = True) -> dict[str, Any]:
-        return {k: getattr(self, k) for k in self._param_names()}
-
-    def set_params(self, **params: Any) -> "BaseDetector":
-        valid = self._param_names()
-        for k, v in params.items():
-            if k not in valid:
-                raise UsageError(f"{type(self).__name__} has no parameter {k!r}; its parameters: {', '.join(valid) or 'none'}")
-            setattr(self, k, v)
-        return self
-
-    def __repr__(self) -> str:
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({args})"
-
-    def validate_params(self) -> None:
-        """Raise UsageError naming the first hyperparameter outside its constraint."""
-        for key, constraint in self._parameter_constraints.items():
-            value = getattr(self, key)
-            if not constraint.check(value):
-                raise UsageError(
-                    f"The {key!r} parameter of {type(self).__name__} must be {constraint}. Got {value!r} instead."
-                )
+    name: ClassVar[str] = ""  # set by the registry on each class it loads: the plugin's id
 
     # -- input checks
     @staticmethod
@@ -170,7 +102,27 @@ class BaseDetector:
         x = self._check_x(x)
         if x.shape[1] != self.window_length_:
             raise UsageError(f"fitted on windows of {self.window_length_} samples, got {x.shape[1]}")
-        return np.asarray(self._predict_proba(x), dtype=np.float64)
+        return self._checked_output(self._predict_proba(x), len(x))
+
+    def _checked_output(self, scores: Any, n: int) -> np.ndarray:
+        """The plugin's scores as (n,) float64, or DetectorOutputError saying what is wrong:
+        a wrong number would otherwise pass as a result (NaN scores read as 50 % accuracy)."""
+        who = f"detector {plugin_id(type(self))!r}"
+        try:
+            scores = np.asarray(scores, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise DetectorOutputError(f"{who} returned scores that are not numbers: {exc}") from None
+        if scores.shape != (n,):
+            raise DetectorOutputError(f"{who} returned scores of shape {scores.shape} for {n} windows; expected ({n},)")
+        bad = ~np.isfinite(scores)
+        if bad.any():
+            raise DetectorOutputError(f"{who} returned {int(bad.sum())} non-finite scores (NaN or infinity) of {n}, "
+                                      f"first at window {int(np.argmax(bad))}")
+        outside = (scores < 0) | (scores > 1)
+        if outside.any():
+            raise DetectorOutputError(f"{who} returned {int(outside.sum())} scores outside [0, 1] of {n} "
+                                      f"(from {scores.min():g} to {scores.max():g}); predict_proba gives probabilities")
+        return scores
 
     def predict(self, x: Any) -> np.ndarray:
         """1 where the detector calls slip, shape (n_windows,)."""
@@ -189,17 +141,25 @@ class BaseDetector:
                     raise UsageError(f"cannot save {type(self).__name__}: fitted attribute {key!r} holds a "
                                      f"{type(value).__name__}, not an array, number or string")
                 kinds[key] = type(value).__name__ if isinstance(value, (tuple, list, np.ndarray)) else "scalar"
-        meta = {"format": "slipbench-detector-1", "class": type(self).__name__, "name": self.name,
-                "params": _encode(self.get_params()), "kinds": kinds}
-        tmp = f"{os.fspath(path)}.tmp"
-        with open(tmp, "wb") as f:
-            np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
-        os.replace(tmp, path)
+        cls = type(self)
+        meta = {"format": "slipbench-detector-1", "class": f"{cls.__module__}:{cls.__qualname__}",
+                "name": plugin_id(cls), "params": _encode(self.get_params()), "kinds": kinds}
+        folder = os.path.dirname(os.fspath(path)) or "."
+        fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(path)}.", suffix=".tmp", dir=folder)
+        try:
+            with os.fdopen(fd, "wb") as f:
+                np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "BaseDetector":
-        """Read a detector written by :meth:`save`. ``BaseDetector.load`` finds its class in the
-        registry by name; ``SomeDetector.load`` insists on that class."""
+        """Read a detector written by :meth:`save`. ``SomeDetector.load`` insists on that class;
+        ``BaseDetector.load`` finds the saved class among modules already imported and the
+        modules of installed detector plugins (entry points), never importing anything else."""
         try:
             with np.load(path, allow_pickle=False) as f:
                 meta = json.loads(str(f["__meta__"]))
@@ -207,10 +167,8 @@ class BaseDetector:
         except (OSError, ValueError, KeyError) as exc:
             raise UsageError(f"{path} is not a saved slipbench detector: {exc}") from exc
         if cls is BaseDetector:
-            from .registry import detectors
-
-            cls = detectors.get(meta["name"])
-        elif meta["class"] != cls.__name__:
+            cls = _saved_class(meta["class"], path)
+        elif meta["class"].rsplit(":", 1)[-1] != cls.__qualname__:
             raise UsageError(f"{path} holds a {meta['class']} ({meta['name']!r}), not a {cls.__name__}")
         detector = cls(**_decode(meta["params"]))
         for key, value in arrays.items():
@@ -219,12 +177,39 @@ class BaseDetector:
                 (tuple if kind == "tuple" else list)(value.tolist())
         return detector
 
+    @classmethod
+    def benchmark(cls, length: int, seconds: float, seed: int = 0) -> Any:
+        """Optional: the detector's own speed figures (a DataFrame) against a reference timed in
+        the same run, shown by ``slipbench bench``; None when it has none."""
+        return None
+
     # -- what plugins implement
     def _fit(self, x: np.ndarray, y: np.ndarray, seed: int) -> None:
         raise NotImplementedError
 
     def _predict_proba(self, x: np.ndarray) -> np.ndarray:
         raise NotImplementedError
+
+
+class DetectorOutputError(PluginError):
+    """A detector returned scores that are not one probability per window."""
+
+
+def _saved_class(target: str, path: Any) -> type:
+    """The class ``module:qualname`` of a saved detector, from an imported module or an
+    installed plugin's module."""
+    module_name, _, qualname = target.partition(":")
+    module = sys.modules.get(module_name)
+    if module is None and (module_name.startswith("slipbench.") or any(
+            ep.value.partition(":")[0] == module_name for ep in entry_points(group=DETECTOR_GROUP))):
+        module = importlib.import_module(module_name)
+    obj = module
+    for part in qualname.split(".") if module is not None else ():
+        obj = getattr(obj, part, None)
+    if not (isinstance(obj, type) and issubclass(obj, BaseDetector)):
+        raise UsageError(f"{path} holds a {target}, which is not an installed detector; load its plugin first "
+                         "(a plugin folder: slipbench.registry.add_plugin_folder) or call TheClass.load")
+    return obj
 
 
 def _encode(value: Any) -> Any:
@@ -247,57 +232,3 @@ def _decode(value: Any) -> Any:
 def clone(detector: BaseDetector) -> BaseDetector:
     """A new, unfitted detector with the same hyperparameters."""
     return type(detector)(**copy.deepcopy(detector.get_params()))
-
-
-# ----------------------------------------------------------------------------- protocols
-@dataclass(frozen=True)
-class Part:
-    """Windows that train or test a cell.
-
-    ``sensors``: the (sensor_type, instance) pairs whose windows are pooled; ``side``: which half
-    of each sensor's balanced split ("train" or "test"); ``where``: filters on recording columns,
-    as (column, "==" or "!=", value) triples, applied to the windows of that half.
-    """
-
-    sensors: tuple[tuple[str, str], ...]
-    side: str
-    where: tuple[tuple[str, str, Any], ...] = ()
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One entry of a protocol's table: what trains, what tests, at which window and rate.
-
-    ``key`` names the cell in results and tables (e.g. sensor, instance, window).
-    """
-
-    key: dict[str, Any]
-    train: Part
-    test: Part
-    window: int
-    downsample: int = 1
-    decimation: str = "plain"  # "plain": every k-th sample (the paper); "antialias": low-pass first
-    skip: str = ""  # a reason the cell cannot run on this dataset, reported instead of results
-
-
-class BaseProtocol:
-    """A standardized experiment: a list of cells built from the dataset's metadata alone.
-
-    Protocols never train anything; the runner does. ``table`` names the result columns that
-    make the rows and columns of the protocol's table. Options are keyword arguments of
-    ``__init__``, like detector hyperparameters.
-    """
-
-    name: ClassVar[str] = ""
-    table: ClassVar[dict[str, Any]] = {}
-
-    def cells(self, recordings) -> Iterable[Cell]:
-        raise NotImplementedError
-
-    def columns(self, recordings) -> dict[str, Any]:
-        """Extra per-recording columns that this protocol's ``where`` filters refer to."""
-        return {}
-
-    def get_params(self) -> dict[str, Any]:
-        names = [p for p in inspect.signature(type(self).__init__).parameters if p != "self"]
-        return {k: getattr(self, k) for k in names if hasattr(self, k)}

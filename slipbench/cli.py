@@ -95,11 +95,22 @@ def dataset_import(kind: str, src: Path, out: Path) -> None:
 
 @cli.command("list")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
-def list_plugins(plugins: tuple[str, ...]) -> None:
-    """The detectors and protocols that can be selected."""
+@click.option("--json", "as_json", is_flag=True, help="Machine-readable: one object per plugin.")
+def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
+    """The detectors and protocols that can be selected: status, description, parameters."""
     _plugins(plugins)
-    click.echo("detectors: " + ", ".join(registry.detectors.names()))
-    click.echo("protocols: " + ", ".join(registry.protocols.names()))
+    found = {kind: [reg.describe(n) for n in reg.names()]
+             for kind, reg in (("detectors", registry.detectors), ("protocols", registry.protocols))}
+    if as_json:
+        click.echo(json.dumps(found, indent=2, default=repr))
+        return
+    for kind, entries in found.items():
+        click.echo(f"{kind}:")
+        for e in entries:
+            state = e["status"] + (f" ({e['detail']})" if e["detail"] else "")
+            click.echo(f"  {e['name']:<18} {state if e['status'] != 'ok' else e['description']}")
+            for name, p in e["parameters"].items():
+                click.echo(f"      {name}={p['default']!r}" + (f"  ({p['constraint']})" if p["constraint"] else ""))
 
 
 @cli.command()
@@ -134,20 +145,16 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
     protocol_names = registry.protocols.names() if protocol_name == "all" else [protocol_name]
     detectors = {n: registry.detectors.get(n)().set_params(**_param(params)) for n in detector_names}
     options = _param(protocol_params)
-    protocols = {}
-    for name in protocol_names:
-        cls = registry.protocols.get(name)
-        try:
-            protocols[name] = cls(**options) if options else cls()
-        except TypeError as exc:
-            raise UsageError(f"protocol {name!r} does not take options {sorted(options)}: {exc}") from None
+    protocols = {n: registry.protocols.get(n)().set_params(**options) for n in protocol_names}
+    runs = [Run(d, p, split, seed + r) for d in detectors.values() for p in protocols.values() for r in range(repeats)]
+    for run in runs:
+        run.validate()  # every option before the dataset is read or simulated
     ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)
-    runs = [Run(d, dn, p, pn, split, seed + r) for dn, d in detectors.items() for pn, p in protocols.items() for r in range(repeats)]
     rows = run_protocols(ds, runs, ResultsStore(out), force=force, jobs=jobs, scheduler=scheduler,
                          cell_timeout=cell_timeout, progress=not quiet)
     for (dn, pn), group in rows.groupby(["detector", "protocol"], sort=False):
         click.echo(f"\n## {dn} x {pn}\n")
-        click.echo(protocol_table(group, protocols[pn].table, intervals=intervals))
+        click.echo(protocol_table(group, protocols[pn].layout, intervals=intervals))
     for reason in rows.loc[rows["status"].isin(["failed", "timeout"]), "reason"].unique():
         click.echo(f"warning: {reason}", err=True)
     click.echo(f"\n{len(rows)} cells ({(rows['status'] == 'ok').sum()} ok); results in {out / 'results.parquet'}")
@@ -159,21 +166,23 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
 @click.option("--windows", default=3840, show_default=True, help="Training windows (3840 x 50 is a default-dataset cell).")
 @click.option("--length", default=50, show_default=True, help="Window length in samples.")
 @click.option("--seconds", default=2.0, show_default=True, help="Time spent on each LSTM figure.")
-@click.option("--no-lstm-targets", is_flag=True, help="Skip the LSTM-versus-stock-torch figures.")
+@click.option("--no-own-figures", is_flag=True, help="Skip the figures detectors declare themselves (the LSTM against stock torch).")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
-def bench(names, windows, length, seconds, no_lstm_targets, plugins) -> None:
-    """Train µs/sample, inference µs/window and peak memory per detector; the LSTM's speed
-    targets as ratios against stock torch.nn.LSTM timed in the same run."""
-    from .bench import detector_costs, lstm_targets
+def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
+    """Train µs/sample, inference µs/window and peak memory per detector; each detector's own
+    figures (the LSTM's against stock torch.nn.LSTM) as ratios timed in the same run."""
+    from .bench import detector_benchmarks, detector_costs
 
     _plugins(plugins)
     if windows < 2 or length < 5:
         raise UsageError(f"--windows must be >= 2 and --length >= 5, got {windows} and {length}")
-    costs = detector_costs(list(names) or registry.detectors.names(), windows, length)
+    names = list(names) or registry.detectors.names()
+    costs = detector_costs(names, windows, length)
     click.echo(costs.to_markdown(index=False, floatfmt=".3g"))
-    if not no_lstm_targets:
-        click.echo("\nLSTM (hidden 20) against stock torch.nn.LSTM, same run:\n")
-        click.echo(lstm_targets(length, seconds).to_markdown(index=False, floatfmt=".3g"))
+    if not no_own_figures:
+        for name, table in detector_benchmarks(names, length, seconds).items():
+            click.echo(f"\n{name}: its own figures against a reference timed in the same run\n")
+            click.echo(table.to_markdown(index=False, floatfmt=".3g"))
 
 
 
@@ -228,13 +237,15 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeat
 @click.option("--standalone", is_flag=True, help="LaTeX: a whole document that compiles, not only the tables.")
 @click.option("--plots", "plots_dir", type=click.Path(path_type=Path), help="Also write figures (PNG and PDF) here.")
 @click.option("--out", type=click.Path(path_type=Path), help="Write the report to this file instead of printing it.")
-def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out) -> None:
-    """Render RESULTS (results files or --out folders) as the paper's tables."""
+@click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder whose protocols' layouts to use (repeatable).")
+def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out, plugins) -> None:
+    """Render RESULTS (results files or --out folders) in each protocol's layout (the paper's tables)."""
     from .report import render_report
     from .results import read_results
 
     import pandas as pd
 
+    _plugins(plugins)
     rows = pd.concat([read_results(p) for p in results], ignore_index=True)
     text = render_report(rows, fmt, metric, intervals, paper, standalone)
     if out:
@@ -256,13 +267,15 @@ def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out) -
 @click.option("--margin", default=0.0, show_default=True,
               help="Accuracy points a cell may lose (significantly) before it counts as a regression.")
 @click.option("--out", type=click.Path(path_type=Path), help="Also write the Markdown to this file (a PR comment).")
-def compare_command(base, candidate, margin, out) -> None:
+@click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder whose protocols' layouts to use (repeatable).")
+def compare_command(base, candidate, margin, out, plugins) -> None:
     """Compare CANDIDATE results with BASE cell by cell; exit 1 if a cell regressed.
 
     Exit codes: 0 nothing regressed beyond --margin; 1 a cell regressed; 2 bad usage or data.
     """
     from .compare import compare, to_markdown
 
+    _plugins(plugins)
     result = compare(base, candidate, margin)
     text = to_markdown(result)
     click.echo(text, nl=False)

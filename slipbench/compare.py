@@ -26,7 +26,8 @@ from scipy.stats import norm
 
 from .errors import DataError, UsageError
 from .metrics import LEVEL, holm, paired_comparison
-from .report import ORDERS, PROTOCOL_ORDER
+from .report import layouts, protocol_order
+from .tables import ORDERS
 from .results import read_results
 
 ALPHA = 1 - LEVEL
@@ -202,7 +203,8 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
             entry["method"] = f"status {entry['base_status']} → {entry['candidate_status']}"
         out.append(entry)
     cells = pd.DataFrame(out)
-    rank = [(PROTOCOL_ORDER.index(p) if p in PROTOCOL_ORDER else len(PROTOCOL_ORDER), p, d, sp, _cell_rank(c), s)
+    order = protocol_order(layouts(pd.concat([base, cand], ignore_index=True)))
+    rank = [(order.index(p), p, d, sp, _cell_rank(c), s)
             for p, d, sp, c, s in cells[["protocol", "detector", "split", "cell", "seed"]].itertuples(index=False)]
     cells = cells.iloc[sorted(range(len(cells)), key=rank.__getitem__)].reset_index(drop=True)
     for col in ("p", *(f"d_{n}{s}" for n in FIGURES for s in ("", "_lo", "_hi"))):

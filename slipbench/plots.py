@@ -1,9 +1,10 @@
-"""Figures from result rows (matplotlib, Agg backend): PNG and PDF per protocol and detector.
+"""Figures from result rows (matplotlib, Agg backend): PNG and PDF per protocol and detector,
+of the kind each protocol's layout declares (``Layout.figure``):
 
-- window size and sampling rate: accuracy per sensor type, one line per finger with its 95 %
+- "curve": accuracy against ``Layout.x`` per sensor type, one line per finger with its 95 %
   interval as a band (optionally the paper's LSTM values as hollow markers);
-- material and speed: heatmaps with and without explicit training;
-- cross-instance: the transfer matrix, training instance by test instance.
+- "with-without": heatmaps with and without explicit training (``Layout.pair``);
+- "matrix": the last row key by the column key, one panel per sensor type (the transfer matrix).
 """
 
 from __future__ import annotations
@@ -18,7 +19,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from .report import _ordered, _sections, label, paper_frame, summarize  # noqa: E402
+from .paper import paper_frame  # noqa: E402
+from .protocol import Layout  # noqa: E402
+from .report import _sections, layouts  # noqa: E402
+from .tables import label, ordered, summarize  # noqa: E402
 
 FORMATS = ("png", "pdf")
 
@@ -34,27 +38,29 @@ def _save(fig, folder: Path, stem: str) -> list[Path]:
     return paths
 
 
-def _curves(rows: pd.DataFrame, x: str, title: str, xlabel: str, paper: pd.DataFrame | None, log2: bool):
+def _curves(rows: pd.DataFrame, x: str, title: str, xlabel: str, paper: pd.DataFrame | None, log_base: int,
+            line: str = "sensor_instance", split: str | None = None):
     """One panel per sensor type; one line per finger (and decimation) with its interval band."""
-    sensors = _ordered(rows["sensor_type"].unique(), "sensor_type")
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     fig, axes = plt.subplots(1, len(sensors), figsize=(4.2 * len(sensors), 3.4), sharey=True, squeeze=False)
     styles = {"plain": "-", "antialias": "--"}
-    extra = ["decimation"] if "decimation" in rows and rows["decimation"].nunique() > 1 else []
+    extra = [split] if split and split in rows and rows[split].nunique() > 1 else []
     for ax, sensor in zip(axes[0], sensors):
         part = rows[rows["sensor_type"] == sensor]
-        s = summarize(part, ["sensor_instance", *extra, x])
-        for i, inst in enumerate(_ordered(s["sensor_instance"].unique(), "sensor_instance")):
+        s = summarize(part, [line, *extra, x])
+        for i, inst in enumerate(ordered(s[line].unique(), line)):
             color = f"C{i}"
-            for dec, line in s[s["sensor_instance"] == inst].groupby(extra) if extra else [((None,), s[s["sensor_instance"] == inst])]:
-                line = line.sort_values(x)
-                name = label("sensor_instance", inst) + (f" ({dec[0]})" if extra else "")
-                ax.plot(line[x], 100 * line["mean"], styles.get(dec[0], "-"), marker="o", ms=3, color=color, label=name)
-                ax.fill_between(line[x], 100 * line["lo"], 100 * line["hi"], color=color, alpha=0.15, lw=0)
-            if paper is not None and len(paper):
-                ref = paper[(paper["sensor_type"] == sensor) & (paper["sensor_instance"] == inst)].sort_values(x)
+            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((None,), s[s[line] == inst])]:
+                points = points.sort_values(x)
+                name = label(line, inst) + (f" ({dec[0]})" if extra else "")
+                ax.plot(points[x], 100 * points["mean"], styles.get(dec[0], "-"), marker="o", ms=3, color=color, label=name)
+                ax.fill_between(points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0)
+            if paper is not None and len(paper) and line in paper and x in paper:
+                ref = paper[(paper["sensor_type"] == sensor) & (paper[line] == inst)].sort_values(x)
                 ax.plot(ref[x], 100 * ref["accuracy"], "o", mfc="none", color=color, ms=6,
-                        label=f"{label('sensor_instance', inst)}, paper (LSTM)")
-        ax.set_xscale("log", base=2 if log2 else 10)
+                        label=f"{label(line, inst)}, paper (LSTM)")
+        if log_base:
+            ax.set_xscale("log", base=log_base)
         ax.set_title(label("sensor_type", sensor))
         ax.set_xlabel(xlabel)
         ax.grid(alpha=0.3)
@@ -64,18 +70,18 @@ def _curves(rows: pd.DataFrame, x: str, title: str, xlabel: str, paper: pd.DataF
     return fig
 
 
-def _heatmaps(rows: pd.DataFrame, column: str, title: str):
-    """With and without explicit training side by side; rows sensor/finger, columns ``column``."""
-    s = summarize(rows, ["sensor_type", "sensor_instance", column, "training"])
+def _heatmaps(rows: pd.DataFrame, column: str, pair: str, title: str):
+    """With and without explicit training (``pair``) side by side; rows sensor/finger, columns ``column``."""
+    s = summarize(rows, ["sensor_type", "sensor_instance", column, pair])
     index = s[["sensor_type", "sensor_instance"]].drop_duplicates()
     index = sorted(index.itertuples(index=False, name=None), key=lambda t: (
-        _ordered(s["sensor_type"].unique(), "sensor_type").index(t[0]),
-        _ordered(s["sensor_instance"].unique(), "sensor_instance").index(t[1])))
-    cols = _ordered(s[column].unique(), column)
+        ordered(s["sensor_type"].unique(), "sensor_type").index(t[0]),
+        ordered(s["sensor_instance"].unique(), "sensor_instance").index(t[1])))
+    cols = ordered(s[column].unique(), column)
     fig, axes = plt.subplots(1, 2, figsize=(2 + 1.6 * len(cols) * 2, 0.45 * len(index) + 1.8), squeeze=False)
     for ax, training in zip(axes[0], ("with", "without")):
         grid = np.full((len(index), len(cols)), np.nan)
-        for r in s[(s["training"] == training) & (s["status"] == "ok")].to_dict("records"):
+        for r in s[(s[pair] == training) & (s["status"] == "ok")].to_dict("records"):
             grid[index.index((r["sensor_type"], r["sensor_instance"])), cols.index(r[column])] = 100 * r["mean"]
         names = [f"{label('sensor_type', a)} {label('sensor_instance', b)}" for a, b in index]
         _matrix(ax, grid, names if training == "with" else None, [label(column, c) for c in cols],
@@ -97,17 +103,18 @@ def _matrix(ax, grid: np.ndarray, ylabels: list[str] | None, xlabels: list[str],
         ax.figure.colorbar(im, ax=ax, fraction=0.046, label="accuracy (%)")
 
 
-def _transfer(rows: pd.DataFrame, title: str):
-    sensors = _ordered(rows["sensor_type"].unique(), "sensor_type")
+def _transfer(rows: pd.DataFrame, row: str, column: str, title: str):
+    """``row`` by ``column`` (training by test instance), one panel per sensor type."""
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     fig, axes = plt.subplots(1, len(sensors), figsize=(4.4 * len(sensors), 3.8), squeeze=False, layout="constrained")
     for n, (ax, sensor) in enumerate(zip(axes[0], sensors)):
-        s = summarize(rows[rows["sensor_type"] == sensor], ["train_instance", "test_instance"])
-        tr = _ordered(s["train_instance"].unique(), "train_instance")
-        te = _ordered(s["test_instance"].unique(), "test_instance")
+        s = summarize(rows[rows["sensor_type"] == sensor], [row, column])
+        tr = ordered(s[row].unique(), row)
+        te = ordered(s[column].unique(), column)
         grid = np.full((len(tr), len(te)), np.nan)
         for r in s[s["status"] == "ok"].to_dict("records"):
-            grid[tr.index(r["train_instance"]), te.index(r["test_instance"])] = 100 * r["mean"]
-        _matrix(ax, grid, [label("train_instance", t) for t in tr], [label("test_instance", t) for t in te],
+            grid[tr.index(r[row]), te.index(r[column])] = 100 * r["mean"]
+        _matrix(ax, grid, [label(row, t) for t in tr], [label(column, t) for t in te],
                 colorbar=n == len(sensors) - 1)
         if n == 0:
             ax.set_ylabel("trained on")
@@ -117,30 +124,31 @@ def _transfer(rows: pd.DataFrame, title: str):
     return fig
 
 
+def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool):
+    """The figure ``layout.figure`` asks for, or None (no figure kind, or rows it cannot draw)."""
+    if layout.figure is None or "sensor_type" not in part:
+        return None
+    if layout.figure == "curve":
+        x = layout.x or layout.column
+        ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
+        return _curves(part, x, f"Accuracy against {layout.title.lower() or x}: {title}", layout.x_label or x, ref,
+                       log_base=layout.log_base, line=layout.rows[-1], split=layout.split)
+    if layout.figure == "with-without":
+        return _heatmaps(part, layout.column, layout.pair, f"Accuracy per {layout.title.lower() or layout.column}: {title}")
+    return _transfer(part, layout.rows[-1], layout.column, f"{layout.title or 'Accuracy'}: {title}")
+
+
 def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = True) -> list[Path]:
     """Every figure the rows allow, as ``<protocol>-<detector>[-<split>].png/.pdf`` in ``folder``.
 
-    ``paper`` overlays the published LSTM accuracies on the window-size and sampling-rate curves.
+    ``paper`` overlays the published LSTM accuracies on curves whose layout names a paper table.
     """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    found = layouts(rows)
     paths: list[Path] = []
-    for protocol, detector, split, part in _sections(rows):
-        stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
-        title = f"{detector} ({split} split)"
-        if protocol == "window-size":
-            fig = _curves(part, "window", f"Accuracy against window size: {title}", "window (samples)",
-                          paper_frame(protocol) if paper else None, log2=False)
-        elif protocol == "sampling-rate":
-            fig = _curves(part, "rate_hz", f"Accuracy against sampling rate (window 200): {title}", "sampling rate (Hz)",
-                          paper_frame(protocol) if paper else None, log2=True)
-        elif protocol == "material-holdout":
-            fig = _heatmaps(part, "material", f"Accuracy per material: {title}")
-        elif protocol == "speed-holdout":
-            fig = _heatmaps(part, "speed_mm_s", f"Accuracy per slip speed: {title}")
-        elif protocol == "cross-instance":
-            fig = _transfer(part, f"Cross-instance transfer: {title}")
-        else:
-            continue  # plugin protocols have tables, not figures
-        paths += _save(fig, folder, stem)
+    for protocol, detector, split, part in _sections(rows, found):
+        fig = figure(part, found[protocol][0], f"{detector} ({split} split)", paper)
+        if fig is not None:
+            paths += _save(fig, folder, f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}"))
     return paths

@@ -1,9 +1,28 @@
-"""Amplitude spectra and the separation of two empirical distributions (shared by the
-spectral detectors and the spectral analysis)."""
+"""What detectors share: amplitude spectra, the separation of two empirical distributions, band
+growing around a peak, and the logistic that turns a decision value into a probability. Public
+engine API for plugins (the built-ins use it as any plugin would)."""
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.special import expit
+
+
+def logistic(z: np.ndarray) -> np.ndarray:
+    """1 / (1 + exp(-z)), without overflow warnings (``scipy.special.expit``): a decision value
+    of 0 maps to 0.5."""
+    return expit(np.asarray(z, dtype=np.float64))
+
+
+def grow_band(inside: np.ndarray, peak: int) -> tuple[int, int]:
+    """The first and last index of the run of True in ``inside`` (bool, (n_bins,)) that holds
+    ``peak``: a band grown from its peak bin while its neighbours qualify."""
+    lo = hi = peak
+    while lo > 0 and inside[lo - 1]:
+        lo -= 1
+    while hi < len(inside) - 1 and inside[hi + 1]:
+        hi += 1
+    return lo, hi
 
 
 def amplitude_spectrum(x: np.ndarray, sampling_rate: float) -> tuple[np.ndarray, np.ndarray]:

@@ -47,7 +47,7 @@ from scipy.stats import ks_2samp
 from .data import Dataset
 from .errors import UsageError
 from .signals import Signals, Windows, balance
-from .spectra import amplitude_spectrum
+from .spectra import amplitude_spectrum, grow_band
 
 # Bytes of sequences (float32) gathered and transformed at once: bounds peak memory.
 CHUNK_BYTES = 64 * 2**20
@@ -148,12 +148,7 @@ def most_significant_band(freqs: np.ndarray, significance: np.ndarray, statistic
     if not inside.any():
         return None
     peak = int(np.argmax(np.where(inside, statistic, -np.inf)))
-    inside &= statistic >= keep * statistic[peak]
-    lo = hi = peak
-    while lo > 0 and inside[lo - 1]:
-        lo -= 1
-    while hi < len(inside) - 1 and inside[hi + 1]:
-        hi += 1
+    lo, hi = grow_band(inside & (statistic >= keep * statistic[peak]), peak)
     return float(freqs[lo]), float(freqs[hi])
 
 

@@ -14,14 +14,13 @@ from slipbench.cli import main
 from slipbench.compare import compare
 
 PROTOCOL = '''
-from slipbench.base import BaseProtocol, Cell, Part
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part
 
 
 class TwoCells(BaseProtocol):
     """Window 50 of two Nano17 fingers: the window-size protocol, cut down for speed."""
 
-    name = "two-cells"
-    table = {"title": "two cells", "rows": ["sensor_type", "sensor_instance"], "columns": "window"}
+    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
 
     def cells(self, recordings):
         for finger in ("index", "middle"):

@@ -70,12 +70,12 @@ class Flaky(BaseDetector):
 
 def test_a_folder_plugin_that_raises_in_fit_is_reported_and_the_run_goes_on(tmp_path, small):
     (tmp_path / "flaky.py").write_text(RAISES)
-    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
     reg.add_folder(tmp_path)
     cls = reg.get("flaky")
     with pytest.raises(RuntimeError, match="diverged"):
         check_detector(cls())  # the suite tries 5-sample windows too
-    run = Run(cls(), "flaky", protocols.get("window-size")(), "window-size")
+    run = Run(cls(), protocols.get("window-size")())
     rows = evaluate(small, run, ResultsStore(tmp_path / "out"), progress=False)
     failed, ok = rows[rows["status"] == "failed"], rows[rows["status"] == "ok"]
     assert len(failed) == len(rows[rows["window"] == 5]) > 0 and (failed["window"] == 5).all()

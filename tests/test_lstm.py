@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from slipbench import fastlstm
+from slipbench.detectors import lstm_kernels as fastlstm
 from slipbench.errors import UsageError
 from slipbench.registry import detectors
 from slipbench.testing import toy_windows

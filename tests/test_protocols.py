@@ -12,7 +12,7 @@ from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.protocols.speed_holdout import SpeedHoldout
 from slipbench.protocols.window_size import WindowSize
-from slipbench.runner import CellData
+from slipbench.plan import CellData
 from slipbench.signals import Signals
 
 
@@ -35,7 +35,7 @@ def _data(ds, protocol, how="paper"):
 
 
 def _windows(data, cell, part):
-    return data.part(part, cell.window, cell.downsample, cell.decimation)
+    return data.values(data.part(part, cell.window), cell)
 
 
 def test_window_size_cells(small):
@@ -125,8 +125,24 @@ def test_antialiased_signal_is_the_low_rate_difference():
     assert aa.buffer[200] == pytest.approx(4.0, rel=1e-3)
 
 
-def test_sampling_rate_rejects_unknown_decimation():
+@pytest.mark.parametrize("protocol, message", [
+    (SamplingRate(decimation="cubic"), "The 'decimation' parameter of SamplingRate must be one of 'plain'"),
+    (WindowSize(windows="abc"), "The 'windows' parameter of WindowSize must be an int number of samples >= 5, or milliseconds"),
+    (WindowSize(windows=[50, "20ms"]), "takes samples or milliseconds, not both"),
+    (MaterialHoldout(window=2), "The 'window' parameter of MaterialHoldout must be"),
+    (CrossInstance(window=50.5), "The 'window' parameter of CrossInstance must be"),
+])
+def test_protocol_options_are_validated(protocol, message):
     from slipbench.errors import UsageError
 
-    with pytest.raises(UsageError, match="'decimation' option of sampling-rate must be one of"):
-        SamplingRate(decimation="cubic")
+    with pytest.raises(UsageError, match=message):
+        protocol.validate_params()
+
+
+def test_windows_in_milliseconds_convert_per_sensor(small):
+    cells = [c for c in WindowSize(windows=["50ms", "5ms"]).cells(small.recordings)]
+    by = {(c.key["sensor_type"], c.key["window_ms"]): c for c in cells if c.key["sensor_instance"] == "index"}
+    assert by["Nano17", 50.0].window == 50 and by["BioTacSP", 50.0].window == 42  # 850 Hz
+    assert by["BioTacSP", 5.0].skip == "5ms is 4 samples at 850 Hz; a window needs at least 5 samples"
+    assert not by["Nano17", 5.0].skip
+    assert WindowSize(windows=["50ms"]).layout.column == "window_ms" and WindowSize().layout.column == "window"

@@ -37,7 +37,7 @@ def test_import_keeps_every_recording(dos):
 
 def test_holweg_on_real_slip_data_beats_chance(dos, tmp_path):
     """Balanced slip against touch on a real BioTac SP, grouped split: every recording on one side."""
-    rows = evaluate(dos, Run(Holweg(), "holweg", WindowSize(), "window-size", split="grouped"), ResultsStore(tmp_path), progress=False)
+    rows = evaluate(dos, Run(Holweg(), WindowSize(), split="grouped"), ResultsStore(tmp_path), progress=False)
     assert (rows["status"] == "ok").all()
     at50 = rows[rows["window"] == 50].iloc[0]
     assert at50["accuracy_lo"] > 0.5, at50[["accuracy", "accuracy_lo", "accuracy_hi"]].to_dict()

@@ -38,7 +38,7 @@ def test_builtins_are_listed_without_importing_them():
 def test_plugin_folder_and_broken_plugin(tmp_path):
     (tmp_path / "my_energy.py").write_text(PLUGIN.format(name="my-energy"))
     (tmp_path / "broken.py").write_text("raise RuntimeError('boom')\n")
-    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
     reg.add_folder(tmp_path)
     assert {"my-energy", "broken", "holweg"} <= set(reg.names())
     assert reg.get("my-energy").__name__ == "Energy"
@@ -50,8 +50,8 @@ def test_plugin_folder_and_broken_plugin(tmp_path):
 
 def test_duplicate_names_name_both_origins(tmp_path):
     (tmp_path / "holweg.py").write_text(PLUGIN.format(name="holweg"))
-    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
-    with pytest.raises(UsageError, match=r"two detectors are named 'holweg': one from built-in .* one from plugin file"):
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    with pytest.raises(UsageError, match=r"two detectors are named 'holweg': one from entry point slipbench.detectors.holweg:Holweg \(slipbench\), one from plugin file"):
         reg.add_folder(tmp_path)
 
 
@@ -97,6 +97,6 @@ def test_a_folder_plugin_runs_the_public_conformance_suite(tmp_path):
     from slipbench.testing import check_detector
 
     (tmp_path / "my_energy.py").write_text(PLUGIN.format(name="my-energy"))
-    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
     reg.add_folder(tmp_path)
     check_detector(reg.get("my-energy")())

@@ -17,7 +17,9 @@ import pytest
 from resultgen import all_rows, fake_rows
 
 from slipbench.cli import main
-from slipbench.report import paper_frame, protocol_table, render_report
+from slipbench.paper import paper_frame
+from slipbench.registry import protocols
+from slipbench.report import protocol_table, render_report
 
 GOLDEN = Path(__file__).parent / "golden"
 
@@ -62,7 +64,7 @@ def test_latex_compiles(tmp_path):
 
 def test_repeats_show_mean_and_spread():
     rows = fake_rows("sampling-rate", seeds=(0, 1, 2))
-    text = protocol_table(rows)
+    text = protocol_table(rows, protocols.get("sampling-rate")().layout)
     one = rows[(rows["sensor_type"] == "Nano17") & (rows["sensor_instance"] == "index") & (rows["downsample"] == 32)]
     assert f"{100 * one['accuracy'].mean():.1f} ± {100 * one['accuracy'].std():.1f}" in text
     assert "Mean ± standard deviation across seeds" in text

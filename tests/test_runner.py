@@ -54,7 +54,7 @@ def _figures(rows: pd.DataFrame) -> pd.DataFrame:
 
 
 def test_models_are_shared_between_protocols(index, tmp_path):
-    runs = [Run(Holweg(), "holweg", WindowSize(), "window-size"), Run(Holweg(), "holweg", MaterialHoldout(), "material-holdout")]
+    runs = [Run(Holweg(), WindowSize()), Run(Holweg(), MaterialHoldout())]
     rows = evaluate(index, runs, ResultsStore(tmp_path), progress=False)
     assert len(rows) == 6 + 10 and (rows["status"] == "ok").all()
     ws50 = rows[(rows["protocol"] == "window-size") & (rows["window"] == 50)].iloc[0]
@@ -66,21 +66,21 @@ def test_models_are_shared_between_protocols(index, tmp_path):
 
 def test_models_are_reused_by_a_later_command(index, tmp_path):
     store = ResultsStore(tmp_path)
-    ws = evaluate(index, Run(Holweg(), "holweg", WindowSize(), "window-size"), store, progress=False)
+    ws = evaluate(index, Run(Holweg(), WindowSize()), store, progress=False)
     assert len(list((tmp_path / "models").glob("*.npz"))) == 6
-    mh = evaluate(index, Run(Holweg(), "holweg", MaterialHoldout(), "material-holdout"), store, progress=False)
+    mh = evaluate(index, Run(Holweg(), MaterialHoldout()), store, progress=False)
     ws50 = ws[ws["window"] == 50].iloc[0]
     with_rows = mh[mh["training"] == "with"]
     assert (with_rows["model_key"] == ws50["model_key"]).all()
     assert (with_rows["train_s"] == ws50["train_s"]).all()  # loaded, not refitted
     assert len(list((tmp_path / "models").glob("*.npz"))) == 6 + 5
-    forced = evaluate(index, Run(Holweg(), "holweg", MaterialHoldout(), "material-holdout"), store, force=True, progress=False)
+    forced = evaluate(index, Run(Holweg(), MaterialHoldout()), store, force=True, progress=False)
     assert (forced.loc[forced["training"] == "with", "train_s"] != ws50["train_s"]).all()  # --force refits
     pd.testing.assert_frame_equal(_figures(forced), _figures(mh))
 
 
 def test_process_pool_gives_the_same_results(index, tmp_path):
-    run = Run(Holweg(), "holweg", WindowSize(), "window-size", seed=3)
+    run = Run(Holweg(), WindowSize(), seed=3)
     local = evaluate(index, run, ResultsStore(tmp_path / "a"), progress=False)
     pooled = evaluate(index, run, ResultsStore(tmp_path / "b"), jobs=2, progress=False)
     pd.testing.assert_frame_equal(_figures(local), _figures(pooled))
@@ -88,7 +88,7 @@ def test_process_pool_gives_the_same_results(index, tmp_path):
 
 def test_dask_local_cluster_gives_the_same_results(index, tmp_path):
     distributed = pytest.importorskip("distributed")
-    run = Run(Holweg(), "holweg", WindowSize(), "window-size", seed=3)
+    run = Run(Holweg(), WindowSize(), seed=3)
     local = evaluate(index, run, ResultsStore(tmp_path / "a"), progress=False)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         remote = evaluate(index, run, ResultsStore(tmp_path / "b"), scheduler=cluster.scheduler_address, progress=False)
@@ -97,15 +97,15 @@ def test_dask_local_cluster_gives_the_same_results(index, tmp_path):
 
 def test_unreachable_scheduler_is_named(index, tmp_path):
     pytest.importorskip("distributed")
-    run = Run(Holweg(), "holweg", WindowSize(), "window-size")
+    run = Run(Holweg(), WindowSize())
     with pytest.raises(UsageError, match="cannot reach the dask scheduler at tcp://127.0.0.1:9"):
         evaluate(index, run, ResultsStore(tmp_path), scheduler="tcp://127.0.0.1:9", progress=False)
 
 
 def test_seeds_change_the_draw_and_repeat_exactly(index, tmp_path):
-    a = evaluate(index, Run(Holweg(), "holweg", WindowSize(), "window-size", seed=1), ResultsStore(tmp_path / "a"), progress=False)
-    b = evaluate(index, Run(Holweg(), "holweg", WindowSize(), "window-size", seed=1), ResultsStore(tmp_path / "b"), progress=False)
-    c = evaluate(index, Run(Holweg(), "holweg", WindowSize(), "window-size", seed=2), ResultsStore(tmp_path / "c"), progress=False)
+    a = evaluate(index, Run(Holweg(), WindowSize(), seed=1), ResultsStore(tmp_path / "a"), progress=False)
+    b = evaluate(index, Run(Holweg(), WindowSize(), seed=1), ResultsStore(tmp_path / "b"), progress=False)
+    c = evaluate(index, Run(Holweg(), WindowSize(), seed=2), ResultsStore(tmp_path / "c"), progress=False)
     pd.testing.assert_frame_equal(_figures(a), _figures(b))
     assert not np.allclose(a["accuracy"], c["accuracy"])
 
@@ -116,10 +116,10 @@ def test_time_limit_reports_timeout(index, tmp_path, monkeypatch):
     from slipbench.registry import Registry
     from slipbench.base import BaseDetector
 
-    reg = Registry("detector", BaseDetector, "slipbench.detectors", "slipbench.detectors")
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
     reg.add_folder(tmp_path / "plugins")
     slow = reg.get("slow")
-    rows = evaluate(index, Run(slow(seconds=5.0), "slow", WindowSize(), "window-size"), ResultsStore(tmp_path / "r"),
+    rows = evaluate(index, Run(slow(seconds=5.0), WindowSize()), ResultsStore(tmp_path / "r"),
                     cell_timeout=0.5, progress=False)
     assert (rows["status"] == "timeout").all()
     assert rows["reason"].str.contains("within 0.5 s").all()
@@ -129,7 +129,7 @@ def test_missing_class_is_skipped_with_its_reason(small, tmp_path):
     rec = small.recordings
     no_neoprene_press = subset(small, rec["sensor_type"].eq("Nano17") & rec["sensor_instance"].eq("index")
                                & ~(rec["scenario"].eq("press") & rec["material"].eq("neoprene")))
-    rows = evaluate(no_neoprene_press, Run(Holweg(), "holweg", MaterialHoldout(), "material-holdout"), ResultsStore(tmp_path), progress=False)
+    rows = evaluate(no_neoprene_press, Run(Holweg(), MaterialHoldout()), ResultsStore(tmp_path), progress=False)
     skipped = rows[rows["status"] == "skipped"]
     assert set(skipped["material"]) == {"neoprene"} and len(skipped) == 2
     assert (skipped["reason"] == "no non-slip windows to test on").all()

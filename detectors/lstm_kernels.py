@@ -365,3 +365,15 @@ def predict_window(window, lo, scale, w, rt, b, wy, by):
     Measured 12 µs for 50 samples (H = 20) on the development machine."""
     H = rt.shape[0]
     return _run(window, lo, scale, w, rt, b, wy, by, np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32))
+
+
+def init_params(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
+    """MATLAB's LSTM initialization: (w, rt, b, wy, by) as float32 arrays."""
+    g = 4 * hidden
+    w = rng.uniform(-1, 1, g) * np.sqrt(6 / (1 + g))
+    q, r = np.linalg.qr(rng.normal(size=(g, hidden)))
+    rt = (q * np.sign(np.diag(r))).T  # orthogonal (4H, H), stored transposed
+    b = np.zeros(g)
+    b[hidden : 2 * hidden] = 1.0  # forget gate
+    wy = rng.uniform(-1, 1, (2, hidden)) * np.sqrt(6 / (hidden + 2))
+    return [np.ascontiguousarray(a, dtype=np.float32) for a in (w, rt, b, wy, np.zeros(2))]

@@ -1,0 +1,76 @@
+"""The LSTM's speed targets against a stock ``torch.nn.LSTM`` of the same size, timed in the same
+run (``slipbench bench`` calls it through ``LSTM.benchmark``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pandas as pd
+
+from slipbench.bench import rate
+from slipbench.detectors import lstm_kernels as kernels
+
+
+def lstm_targets(detector_class: type, length: int = 50, seconds: float = 2.0, seed: int = 0) -> pd.DataFrame:
+    """The issue's three LSTM targets, ours against stock torch.nn.LSTM (same size, same data).
+
+    Training is an epoch of SGD with momentum at the detector's default batch size (ours
+    serial) and, for reference, at batch 128 (ours parallel over chunks, torch at its best)."""
+    import torch
+
+    rng = np.random.default_rng(seed)
+    hidden, batch = 20, detector_class().batch_size
+    n_train, n_infer = 2000, 20_000
+    x = rng.normal(size=(n_infer, length)).astype(np.float32)
+    y = (np.arange(n_infer) % 2).astype(np.int8)
+    params = kernels.init_params(hidden, rng)
+    velocity = [np.zeros_like(p) for p in params]
+
+    torch.manual_seed(seed)
+    lstm, head = torch.nn.LSTM(1, hidden, batch_first=True), torch.nn.Linear(hidden, 2)
+    opt = torch.optim.SGD([*lstm.parameters(), *head.parameters()], lr=0.01, momentum=0.125)
+    xt, yt = torch.tensor(x)[:, :, None], torch.tensor(y).long()
+
+    def ours_epoch(bs: int) -> Callable[[], object]:
+        return lambda: kernels.train_epoch(x[:n_train], y, np.arange(n_train), bs, 1e-4, 0.125, *params, *velocity)
+
+    def torch_epoch(bs: int, n: int) -> Callable[[], object]:
+        def run():
+            for s in range(0, n, bs):
+                out, _ = lstm(xt[s : s + bs])
+                loss = torch.nn.functional.cross_entropy(head(out[:, -1]), yt[s : s + bs])
+                opt.zero_grad()
+                loss.backward()
+                opt.step()
+        return run
+
+    def torch_infer(xs):
+        with torch.inference_mode():
+            return head(lstm(xs)[0][:, -1])
+
+    # stock torch at batch 1 is slow: time it on fewer windows
+    n_torch1 = 200 if batch == 1 else n_train
+    single = x[0].copy()
+    single_t = xt[:1]
+    detector = detector_class()
+    detector.w_, detector.rt_, detector.b_, detector.wy_, detector.by_ = params
+    detector.lo_, detector.scale_, detector.window_length_ = -1.0, 1.0, length
+    figures = [
+        ("train samples/s, batch %d (default)" % batch, rate(ours_epoch(batch), n_train * length, seconds),
+         rate(torch_epoch(batch, n_torch1), n_torch1 * length, seconds), 2e6),
+        ("train samples/s, batch 128", rate(ours_epoch(128), n_train * length, seconds),
+         rate(torch_epoch(128, n_train), n_train * length, seconds), 2e6),
+        ("batched inference samples/s", rate(lambda: kernels.predict_proba(x, -1.0, 1.0, *params), x.size, seconds),
+         rate(lambda: torch_infer(xt), x.size, seconds), 20e6),
+        ("one window, µs (predict_window)", 1e6 / rate(lambda: detector.predict_window(single), 1, seconds),
+         1e6 / rate(lambda: torch_infer(single_t), 1, seconds), 20.0),
+        ("one window, µs (predict_proba, checked)", 1e6 / rate(lambda: detector.predict_proba(single[None]), 1, seconds),
+         1e6 / rate(lambda: torch_infer(single_t), 1, seconds), 20.0),
+    ]
+    table = pd.DataFrame(figures, columns=["figure", "slipbench", "stock torch", "target"])
+    lower_is_better = table["figure"].str.contains("µs")
+    table["speed-up vs torch"] = np.where(lower_is_better, table["stock torch"] / table["slipbench"],
+                                          table["slipbench"] / table["stock torch"])
+    table["meets target"] = np.where(lower_is_better, table["slipbench"] <= table["target"], table["slipbench"] >= table["target"])
+    return table

@@ -1,0 +1,91 @@
+"""Where models are fitted: in this process, in a local process pool, or on a dask cluster.
+
+Each executor takes tasks and a function that turns a task into the arguments of
+:func:`slipbench.fitting.fit_and_test`, and yields every task with its results as they finish
+(None for a task that hit the time limit).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Iterator
+from typing import Any, TypeVar
+
+from .errors import UsageError
+from .fitting import Result, fit_and_test
+
+T = TypeVar("T")
+Payload = Callable[[T], tuple]
+
+
+def serial(tasks: list[T], payload: Payload) -> Iterator[tuple[T, list[Result] | None]]:
+    for task in tasks:
+        yield task, fit_and_test(*payload(task))
+
+
+def _worker_init(jobs: int) -> None:
+    # share the machine's cores between the workers instead of oversubscribing them
+    threads = max(1, (os.cpu_count() or 1) // jobs)
+    os.environ["OMP_NUM_THREADS"] = str(threads)
+    torch = sys.modules.get("torch")
+    if torch is not None:
+        torch.set_num_threads(threads)
+
+
+def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | None) -> Iterator[tuple[T, list[Result] | None]]:
+    """Local worker processes; at most two tasks per worker in flight, so their windows are not
+    all in memory at once. pebble, unlike concurrent.futures, kills a worker past its time limit."""
+    from concurrent.futures import TimeoutError as FutureTimeout
+
+    from pebble import ProcessPool
+
+    with ProcessPool(max_workers=jobs, initializer=_worker_init, initargs=(jobs,)) as pool:
+        pending: list[Any] = []
+        queue = iter(tasks)
+        while True:
+            for task in queue:
+                pending.append((pool.schedule(fit_and_test, args=payload(task), timeout=timeout), task))
+                if len(pending) >= 2 * jobs:
+                    break
+            if not pending:
+                return
+            future, task = pending.pop(0)
+            try:
+                yield task, future.result()
+            except FutureTimeout:
+                yield task, None
+
+
+def dask_client(address: str):
+    try:
+        from distributed import Client
+    except ImportError:
+        raise UsageError("--scheduler needs dask.distributed: pip install 'slipbench[dask]'") from None
+    try:
+        return Client(address, timeout="3s")
+    except (OSError, TimeoutError) as exc:
+        raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
+
+
+def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, list[Result] | None]]:
+    """A dask.distributed cluster; results arrive as they complete."""
+    from distributed import as_completed
+
+    client = dask_client(address)
+    try:
+        futures = {client.submit(fit_and_test, *payload(t), pure=False): t for t in tasks}
+        for future in as_completed(futures):
+            yield futures[future], future.result()
+    finally:
+        client.close()
+
+
+def execute(tasks: list[T], payload: Payload, jobs: int = 1, scheduler: str | None = None,
+            timeout: float | None = None) -> Iterator[tuple[T, list[Result] | None]]:
+    """Run tasks on the executor the options ask for (a time limit needs a process pool)."""
+    if scheduler:
+        return dask(tasks, payload, scheduler)
+    if jobs <= 1 and not timeout:
+        return serial(tasks, payload)
+    return process_pool(tasks, payload, jobs, timeout)

@@ -1,0 +1,231 @@
+"""Planning a run: every cell of every protocol, its windows, its keys and whether it can run,
+computed once before anything trains.
+
+Cells that train on exactly the same windows share one model: they are grouped into a
+:class:`Task` that fits once and tests every cell of the group. A cell that cannot run on this
+dataset (a window longer than every recording, a split side without one class) is planned as
+skipped with its reason; it never stops the others.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass, field
+import numpy as np
+import pandas as pd
+
+from .base import BaseDetector
+from .errors import PluginError, UsageError
+from .protocol import BaseProtocol, Cell, Part
+from .registry import detectors, protocols
+from .results import cell_key
+from .signals import SPLITS, Signals, Windows, balance, split
+
+
+@dataclass
+class Run:
+    """One detector on one protocol, with a split and a seed.
+
+    ``detector`` and ``protocol`` are objects or ids (``"holweg"``, ``"window-size"``); an id
+    is looked up in the registry, an object's id is the name its class is registered under.
+    """
+
+    detector: BaseDetector | str
+    protocol: BaseProtocol | str
+    split: str = "paper"
+    seed: int = 0
+    detector_name: str = field(init=False)
+    protocol_name: str = field(init=False)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.detector, str):
+            self.detector_name, self.detector = self.detector, detectors.get(self.detector)()
+        else:
+            self.detector_name = detectors.id_of(type(self.detector))
+        if isinstance(self.protocol, str):
+            self.protocol_name, self.protocol = self.protocol, protocols.get(self.protocol)()
+        else:
+            self.protocol_name = protocols.id_of(type(self.protocol))
+        if self.split not in SPLITS:
+            raise UsageError(f"unknown split {self.split!r}; choose one of: {', '.join(SPLITS)}")
+
+    def validate(self) -> None:
+        """Every detector parameter and protocol option, before any work starts."""
+        self.detector.validate_params()
+        self.protocol.validate_params()
+
+    def cells(self, recordings: pd.DataFrame) -> list[Cell]:
+        """The protocol's cells; a protocol that raises is a plugin fault naming it."""
+        try:
+            return list(self.protocol.cells(recordings))
+        except Exception as exc:  # noqa: BLE001 - a plugin's bug, reported as such
+            raise PluginError(f"protocol {self.protocol_name!r} failed to make its cells: {type(exc).__name__}: {exc}") from exc
+
+
+def _concat(parts: list[Windows]) -> Windows:
+    return Windows(None, np.concatenate([p.recording for p in parts]), np.concatenate([p.index for p in parts]), parts[0].recordings)
+
+
+class CellData:
+    """Balanced, split windows per (sensor, window), computed once and shared by every cell that
+    needs them. Balancing and splitting draw from the run's seed. Only positions are kept; a
+    part's samples are cut when a model needs them, so memory holds one task's windows at a
+    time. The same windows serve every downsampling, as the paper downsamples its 200-sample set."""
+
+    def __init__(self, signals: Signals, how: str, seed: int):
+        self.signals, self.how, self.seed = signals, how, seed
+        self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
+        self._antialiased: dict[int, Signals] = {}
+        rec = signals.recordings
+        self._rows = {
+            k: np.flatnonzero((rec["sensor_type"] == k[0]) & (rec["sensor_instance"] == k[1]))
+            for k in rec[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None)
+        }
+
+    def sides(self, sensor: tuple[str, str], window: int) -> tuple[Windows, Windows]:
+        """Train and test windows (positions only) of one sensor; UsageError saying why there
+        are none (the cell that needs them is skipped with that reason)."""
+        key = (sensor, window)
+        if key not in self._cache:
+            try:
+                self._cache[key] = self._prepare(*key)
+            except UsageError as exc:
+                self._cache[key] = str(exc)
+        if isinstance(self._cache[key], str):
+            raise UsageError(self._cache[key])
+        return self._cache[key]
+
+    def _prepare(self, sensor, window):
+        name = f"{sensor[0]} {sensor[1]}"
+        if sensor not in self._rows:
+            raise UsageError(f"the dataset has no recordings of sensor {name}")
+        rows = self._rows[sensor]
+        windows = self.signals.windows(window, rows, values=False)
+        if len(windows) == 0:
+            longest = int(np.max(np.diff(self.signals.offsets)[rows]))
+            raise UsageError(f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)")
+        words = [zlib.crc32(f"{sensor}|{window}".encode())]
+        windows = windows.take(balance(windows, np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))))
+        train, test = split(windows, self.how, self.seed)
+        for side, idx in (("train", train), ("test", test)):
+            classes = set(np.unique(windows.y[idx]))
+            if classes != {0, 1}:
+                missing = "slip" if 1 not in classes else "non-slip"
+                raise UsageError(f"the {self.how} split of {name} at window {window} leaves no {missing} windows on the {side} side")
+        return windows.take(train), windows.take(test)
+
+    def part(self, part: Part, window: int) -> Windows:
+        """The windows (positions) of a part."""
+        side = 0 if part.side == "train" else 1
+        chosen = _concat([self.sides(s, window)[side] for s in part.sensors])
+        return chosen.take(np.flatnonzero(part.mask(self.signals.recordings)[chosen.recording]))
+
+    def values(self, windows: Windows, cell: Cell) -> Windows:
+        """``windows`` with their samples, downsampled as ``cell`` asks."""
+        signals = self.signals
+        if cell.downsample > 1 and cell.decimation == "antialias":
+            if cell.downsample not in self._antialiased:
+                self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
+            signals = self._antialiased[cell.downsample]
+        out = Windows(signals.values(windows, cell.window), windows.recording, windows.index, windows.recordings)
+        return out.downsample(cell.downsample) if cell.downsample > 1 else out
+
+    def sampling_rate(self, part: Part, downsample: int) -> float:
+        """The rate (Hz) of a part's windows; UsageError naming recordings when it pools rates."""
+        rec = self.signals.recordings
+        rows = rec.loc[np.concatenate([self._rows[s] for s in part.sensors])]
+        column = "unit_rate_hz" if "unit_rate_hz" in rows else "sampling_rate_hz"
+        rates = rows[column].unique()
+        if len(rates) > 1:
+            lo, hi = rows.loc[rows[column].idxmin()], rows.loc[rows[column].idxmax()]
+            raise UsageError(f"a cell pools sensors with different sampling rates: {float(lo[column]):g} Hz (recording "
+                             f"{lo['recording_id']}) to {float(hi[column]):g} Hz (recording {hi['recording_id']})")
+        return float(rates[0]) / downsample
+
+
+@dataclass
+class PlannedCell:
+    """One cell of one run, with its keys and windows (positions), or the reason it is skipped."""
+
+    run: Run
+    cell: Cell
+    key: str
+    model_key: str
+    train: Windows | None = None
+    test: Windows | None = None
+    sampling_rate: float = 0.0
+    skip: str = ""
+
+
+@dataclass
+class Task:
+    """One model to fit and the cells (of any protocol) it is tested on."""
+
+    model_key: str
+    cells: list[PlannedCell] = field(default_factory=list)
+
+    @property
+    def first(self) -> PlannedCell:
+        """The cell that defines the model: every cell of a task shares its training windows,
+        detector, split and seed (they share the model key)."""
+        return self.cells[0]
+
+
+@dataclass
+class Plan:
+    """Cells in the order of their runs and protocols; tasks for those still to compute."""
+
+    cells: list[PlannedCell]
+    tasks: list[Task]
+    data: dict[tuple[str, int], CellData]
+
+    def data_of(self, run: Run) -> CellData:
+        return self.data[run.split, run.seed]
+
+
+def keys(run: Run, cell: Cell, fingerprint: str, version: str) -> tuple[str, str]:
+    """Content addresses of a cell's result and of the model it tests (equal model keys train
+    on the same windows)."""
+    common = {"dataset": fingerprint, "detector": run.detector_name, "params": run.detector.get_params(),
+              "split": run.split, "seed": run.seed, "version": version}
+    model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample,
+                      "decimation": cell.decimation})
+    key = cell_key({**common, "protocol": run.protocol_name, "protocol_params": run.protocol.get_params(),
+                    "cell": cell.key, "test": cell.test, "model": model})
+    return key, model
+
+
+def _missing_classes(y: np.ndarray) -> str:
+    classes = set(np.unique(y))
+    return " and ".join(n for c, n in ((1, "slip"), (0, "non-slip")) if c not in classes)
+
+
+def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint: str, version: str,
+              done: set[str]) -> Plan:
+    """Plan every cell of every run (a run with its protocol's cells); cells whose key is in
+    ``done`` are listed but not computed."""
+    data: dict[tuple[str, int], CellData] = {}
+    planned: list[PlannedCell] = []
+    tasks: dict[str, Task] = {}
+    for run, cells in runs:
+        cells_data = data.setdefault((run.split, run.seed), CellData(signals, run.split, run.seed))
+        for cell in cells:
+            key, model = keys(run, cell, fingerprint, version)
+            pc = PlannedCell(run, cell, key, model, skip=cell.skip)
+            planned.append(pc)
+            if key in done or pc.skip:
+                continue
+            try:
+                pc.train, pc.test = cells_data.part(cell.train, cell.window), cells_data.part(cell.test, cell.window)
+                pc.sampling_rate = cells_data.sampling_rate(cell.train, cell.downsample)
+            except UsageError as exc:
+                pc.skip = str(exc)
+                continue
+            for windows, role in ((pc.train, "train"), (pc.test, "test")):
+                missing = _missing_classes(windows.y)
+                if missing:
+                    pc.skip = f"no {missing} windows to {role} on"
+                    break
+            if not pc.skip:
+                tasks.setdefault(model, Task(model)).cells.append(pc)
+    return Plan(planned, list(tasks.values()), data)

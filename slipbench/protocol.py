@@ -1,0 +1,243 @@
+"""The protocol contract: BaseProtocol, the cells it yields, and the layout it is shown in.
+
+A protocol is a standardized experiment built from the dataset's metadata alone: a list of
+:class:`Cell` objects, each naming the windows that train a model and the windows that test it.
+Protocols never train anything (the runner does) and never see samples. Each declares a
+:class:`Layout`: how its cells make a table and a figure, read by ``report``, ``plots`` and
+``compare`` for built-in and plugin protocols alike.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import pandas as pd
+
+from .data import sensor_pairs
+from .params import Parameterized, window_samples
+
+__all__ = ["BaseProtocol", "Cell", "Layout", "Part", "holdout_cells", "sensor_pairs", "unit_rate", "window_cells"]
+MIN_WINDOW = 5  # samples: the shortest window a detector is given
+
+SIDES = ("train", "test")
+OPERATORS = ("==", "!=")
+DECIMATIONS = ("plain", "antialias")
+FIGURES = ("curve", "with-without", "matrix")
+
+
+@dataclass(frozen=True)
+class Part:
+    """Windows that train or test a cell.
+
+    Attributes
+    ----------
+    sensors : the (sensor_type, sensor_instance) pairs whose windows are pooled.
+    side : "train" or "test": which half of each sensor's balanced split.
+    where : filters on recording columns, ``(column, "==" or "!=", value)`` triples, all of
+        which a window's recording must meet.
+    """
+
+    sensors: tuple[tuple[str, str], ...]
+    side: str
+    where: tuple[tuple[str, str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.side not in SIDES:
+            raise ValueError(f"Part.side must be one of {SIDES}, got {self.side!r}")
+        if not self.sensors or not all(isinstance(s, tuple) and len(s) == 2 for s in self.sensors):
+            raise ValueError(f"Part.sensors must be a non-empty tuple of (sensor_type, instance) pairs, got {self.sensors!r}")
+        for condition in self.where:
+            if len(condition) != 3 or condition[1] not in OPERATORS:
+                raise ValueError(f"Part.where holds (column, operator, value) triples with operator one of "
+                                 f"{OPERATORS}; got {condition!r}")
+
+    def mask(self, recordings: pd.DataFrame) -> np.ndarray:
+        """(n_recordings,) bool: recordings of these sensors that meet every condition."""
+        pairs = pd.MultiIndex.from_frame(recordings[["sensor_type", "sensor_instance"]])
+        keep = pairs.isin(list(self.sensors))
+        for column, op, value in self.where:
+            equal = recordings[column].eq(value).to_numpy()
+            keep &= equal if op == "==" else ~equal
+        return np.asarray(keep, bool)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One entry of a protocol's table: what trains, what tests, at which window and rate.
+
+    Attributes
+    ----------
+    key : names the cell in results and tables (e.g. sensor, instance, window); plain JSON
+        values (str, int, float, bool).
+    train, test : the windows that fit the model and the windows it is scored on.
+    window : window length in samples at the full rate.
+    downsample : keep every ``downsample``-th sample of each window (1: full rate).
+    decimation : "plain" (every k-th sample, the paper) or "antialias" (low-passed first).
+    skip : a reason the cell cannot run on this dataset, reported instead of results.
+    """
+
+    key: dict[str, Any]
+    train: Part
+    test: Part
+    window: int
+    downsample: int = 1
+    decimation: str = "plain"
+    skip: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.key, dict) or not self.key:
+            raise ValueError(f"Cell.key must be a non-empty dict, got {self.key!r}")
+        for k, v in self.key.items():
+            if not isinstance(k, str) or not isinstance(v, (str, int, float, bool)):
+                raise ValueError(f"Cell.key maps names to plain str/int/float/bool values; {k!r}: {v!r} is not")
+        if not (isinstance(self.train, Part) and isinstance(self.test, Part)):
+            raise ValueError("Cell.train and Cell.test must be Part objects")
+        if self.train.side != "train" or self.test.side != "test":
+            raise ValueError(f"a cell trains on the train side and tests on the test side; got train={self.train.side!r}, "
+                             f"test={self.test.side!r}")
+        for name in ("window", "downsample"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"Cell.{name} must be a positive int, got {value!r}")
+        if self.decimation not in DECIMATIONS:
+            raise ValueError(f"Cell.decimation must be one of {DECIMATIONS}, got {self.decimation!r}")
+
+    @property
+    def name(self) -> str:
+        """The key as canonical JSON: how results name the cell."""
+        return json.dumps(self.key, sort_keys=True)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How a protocol's cells make its table and its figure.
+
+    Attributes
+    ----------
+    caption : the table's caption.
+    rows : cell-key columns that label the table's rows, outermost first.
+    column : the cell-key column whose values make the value columns.
+    title : a short name for headings and figure titles (default: the protocol's id).
+    group : text after the metric's name over the value columns ("at Window Size").
+    pair : a cell-key column with values "with" and "without": each table cell shows both
+        results, the second starred (the paper's "without explicit training").
+    split : a cell-key column: one table per value.
+    merge_rows : one row-label column ("Nano17, Index") instead of one per row key.
+    column_label : a result column whose values, per sensor type, label the value columns
+        (the paper's per-sensor sampling rates over Table II).
+    note_column : a result column whose values, per sensor type and value column, a note
+        under the table lists (a window's length in the other unit).
+    figure : "curve" (the figure against ``x``), "with-without" (heatmaps with and without
+        the ``pair``), "matrix" (rows by columns heatmap per sensor type), or None.
+    x, x_label, log_base : a curve's x column (default ``column``), its axis label with the
+        unit, and its log scale base (0: linear).
+    paper_table : the name of the published table with the same cells (``--paper``).
+    """
+
+    caption: str
+    rows: tuple[str, ...]
+    column: str
+    title: str = ""
+    group: str = ""
+    pair: str | None = None
+    split: str | None = None
+    merge_rows: bool = False
+    column_label: str | None = None
+    note_column: str | None = None
+    figure: str | None = None
+    x: str | None = None
+    x_label: str = ""
+    log_base: int = 0
+    paper_table: str | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.rows, tuple) or not self.rows or not all(isinstance(r, str) for r in self.rows):
+            raise ValueError(f"Layout.rows must be a non-empty tuple of column names, got {self.rows!r}")
+        for name in ("caption", "column", "title", "group", "x_label"):
+            if not isinstance(getattr(self, name), str):
+                raise ValueError(f"Layout.{name} must be a str, got {getattr(self, name)!r}")
+        if self.figure is not None and self.figure not in FIGURES:
+            raise ValueError(f"Layout.figure must be one of {FIGURES} or None, got {self.figure!r}")
+        if self.figure == "with-without" and not self.pair:
+            raise ValueError("a 'with-without' figure needs Layout.pair")
+        if self.log_base not in (0, 2, 10):
+            raise ValueError(f"Layout.log_base must be 0 (linear), 2 or 10, got {self.log_base!r}")
+
+    @property
+    def keys(self) -> list[str]:
+        """Every cell-key column the layout reads."""
+        return [*self.rows, self.column, *(k for k in (self.pair, self.split) if k)]
+
+
+class BaseProtocol(Parameterized):
+    """A standardized experiment: cells from the dataset's metadata alone.
+
+    Subclasses declare ``layout`` (a :class:`Layout`), options as keyword arguments of
+    ``__init__`` with ``_parameter_constraints`` (as detectors do), and implement
+    :meth:`cells`. The registry gives each protocol class its id (``name``).
+    """
+
+    name: ClassVar[str] = ""
+    layout: ClassVar[Layout | None] = None
+    _parameter_constraints: ClassVar[dict[str, Any]] = {}
+
+    def cells(self, recordings: pd.DataFrame) -> Iterable[Cell]:
+        """The protocol's cells.
+
+        Parameters
+        ----------
+        recordings : the dataset's metadata, one row per recording (columns as in
+            ``datasets.md``: recording_id, sensor_type, sensor_instance, scenario, material,
+            speed_mm_s, sampling_rate_hz, ..., plus the columns :meth:`columns` adds).
+        """
+        raise NotImplementedError
+
+    def columns(self, recordings: pd.DataFrame) -> dict[str, np.ndarray]:
+        """Extra per-recording columns (name -> (n_recordings,) array) that this protocol's
+        ``where`` filters refer to."""
+        return {}
+
+
+def holdout_cells(recordings: pd.DataFrame, name: str, levels: Iterable[Any], window: int | str,
+                  test_column: str | None = None) -> Iterator[Cell]:
+    """Cells "with" and "without" explicit training on each level of column ``name``, per sensor.
+
+    Test windows are those whose ``test_column`` (default: ``name``) equals the level; the
+    "with" model trains on every training window, the "without" model on those whose ``name``
+    differs from the level. The cell key holds sensor_type, sensor_instance, ``name`` and
+    ``training`` ("with" or "without"); ``window`` is in samples or milliseconds ("50ms").
+    """
+    for sensor in sensor_pairs(recordings):
+        (n, _, skip), = window_cells(recordings, sensor, window)
+        for level in levels:
+            level = level.item() if isinstance(level, np.generic) else level
+            test = Part((sensor,), "test", ((test_column or name, "==", level),))
+            key = {"sensor_type": sensor[0], "sensor_instance": sensor[1], name: level}
+            yield Cell({**key, "training": "with"}, Part((sensor,), "train"), test, n, skip=skip)
+            yield Cell({**key, "training": "without"}, Part((sensor,), "train", ((name, "!=", level),)), test, n, skip=skip)
+
+
+def unit_rate(recordings: pd.DataFrame, sensor: tuple[str, str]) -> float:
+    """The sampling rate (Hz) of one unit: its recordings' pooled rate (``unit_rate_hz``, the
+    median of rates within tolerance) where the dataset gives it, else their median."""
+    rows = recordings[(recordings["sensor_type"] == sensor[0]) & (recordings["sensor_instance"] == sensor[1])]
+    column = "unit_rate_hz" if "unit_rate_hz" in rows else "sampling_rate_hz"
+    return float(np.median(rows[column].to_numpy(dtype=float)))
+
+
+def window_cells(recordings: pd.DataFrame, sensor: tuple[str, str],
+                 windows: int | str | Iterable[int | str]) -> Iterator[tuple[int, dict[str, Any], str]]:
+    """Each window of ``windows`` (samples, or milliseconds as "50ms") for one unit: its length in
+    samples at the unit's rate, the cell-key items ``window`` (samples) and ``window_ms``, and a
+    skip reason when it is shorter than MIN_WINDOW samples."""
+    rate = unit_rate(recordings, sensor)
+    for window in [windows] if isinstance(windows, (int, str)) else windows:
+        n = window_samples(window, rate)
+        ms = float(window[:-2]) if isinstance(window, str) else round(1000.0 * n / rate, 1)
+        skip = "" if n >= MIN_WINDOW else (f"{window} is {n} samples at {rate:g} Hz; a window needs at least "
+                                          f"{MIN_WINDOW} samples")
+        yield max(n, 1), {"window": n, "window_ms": ms}, skip

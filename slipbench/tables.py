@@ -1,0 +1,337 @@
+"""Result rows -> tables in a protocol's layout: labels, ordering, figures per cell, and the
+paper's extra tables at window 50. Format-independent: :mod:`slipbench.render` writes them out.
+
+Layouts follow Van Wyk & Falco where the protocol declares the paper's: window size (Table I),
+sampling rate with its per-sensor rate header (Table II), material and speed with two numbers
+per cell, the second starred for "without explicit training" (Tables III and IV), training
+instance by test instance (Table V); the Holweg baseline beside other detectors at window 50,
+and TP/TN rates per sensor type.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from .paper import paper_frame
+from .protocol import Layout
+
+SENSOR_NAMES = {"Nano17": "Nano17", "OptoForce20": "OptoForce20", "BioTacSP": "Biotac SP"}
+SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")
+INSTANCE_ORDER = ("index", "middle", "little", "combined")
+MATERIAL_ORDER = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
+METRIC_NAMES = {
+    "accuracy": "Classification Accuracy", "tp_rate": "TP Rate", "tn_rate": "TN Rate",
+    "balanced_accuracy": "Balanced Accuracy", "auroc": "AUROC",
+}
+BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
+
+
+ROW_HEADERS = {"sensor_type": "Sensor", "sensor_instance": "Finger", "train_instance": "Training Data"}
+COLUMN_UNITS = {"rate_hz": "Rates in Hz", "window_ms": "Window in ms", "window": "Window in samples"}
+
+
+@dataclass
+class Table:
+    """A rendered-format-independent table: labels and cell texts."""
+
+    caption: str
+    row_headers: list[str]
+    group: str  # header spanning the value columns
+    columns: list[str]  # plain-text column labels (Markdown)
+    rows: list[tuple[str, ...]]
+    cells: list[list[str]]
+    label: str
+    latex_columns: list[str] | None = None  # LaTeX column labels where they differ from ``columns``
+    notes: list[str] = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------- ordering and labels
+def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
+    """Known values in ``order`` first, then numbers ascending, then the rest alphabetically."""
+    def key(v):
+        if v in order:
+            return (0, order.index(v), "")
+        try:
+            return (1, float(v), "")
+        except (TypeError, ValueError):
+            return (2, 0.0, str(v))
+    return sorted(set(values), key=key)
+
+
+ORDERS: dict[str, Sequence[Any]] = {
+    "sensor_type": SENSOR_ORDER, "sensor_instance": INSTANCE_ORDER, "train_instance": INSTANCE_ORDER,
+    "test_instance": INSTANCE_ORDER, "material": MATERIAL_ORDER,
+}
+
+
+def ordered(values: Iterable[Any], column: str) -> list[Any]:
+    out = rank(values, ORDERS.get(column, ()))
+    return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
+
+
+def label(column: str, value: Any) -> str:
+    """How a key value reads in a table."""
+    if column == "sensor_type":
+        return SENSOR_NAMES.get(value, str(value))
+    if column in ("sensor_instance", "train_instance", "test_instance", "material"):
+        text = str(value)
+        return text if text.isupper() else text.capitalize()
+    if column == "speed_mm_s":
+        return f"{float(value):g} mm/s"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def escape(text: str) -> str:
+    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"), ("#", r"\#"),
+                 ("±", r"$\pm$"), ("—", "--")):
+        text = text.replace(a, b)
+    return text
+
+
+def _as_printed(percent: float) -> str:
+    """One decimal, or two where the paper printed two (its TN rate 89.79)."""
+    return f"{percent:.1f}" if abs(percent - round(percent, 1)) < 1e-9 else f"{percent:.2f}"
+
+
+def _rate(value: float) -> str:
+    return f"{value:.2f}".rstrip("0").rstrip(".")
+
+
+# ----------------------------------------------------------------------------- figures per cell
+def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
+    """One line per combination of ``keys``: the mean of ``metric`` over seeds (``--repeats``),
+    its standard deviation across seeds, the number of seeds, the mean interval bounds, and a
+    status ("ok", or the status of the cell when no seed finished)."""
+    if metric not in rows.columns:
+        rows = rows.assign(**{metric: np.nan})
+    lo_col, hi_col = f"{metric}_lo", f"{metric}_hi"
+    out = []
+    for values, group in rows.groupby(keys, sort=False, dropna=False):
+        ok = group[group["status"] == "ok"] if "status" in group else group
+        vals = ok[metric].astype(float)
+        out.append({
+            **dict(zip(keys, values if isinstance(values, tuple) else (values,))),
+            "mean": vals.mean() if len(vals) else np.nan,
+            "sd": vals.std(ddof=1) if len(vals) > 1 else np.nan,
+            "n": len(vals),
+            "lo": ok[lo_col].astype(float).mean() if lo_col in ok and len(ok) else np.nan,
+            "hi": ok[hi_col].astype(float).mean() if hi_col in ok and len(ok) else np.nan,
+            "status": "ok" if len(ok) else str(group["status"].iloc[0]),
+        })
+    return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status"])
+
+
+def figure_text(mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
+                status: str = "ok", intervals: bool = False) -> str:
+    """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals; 'NA' if absent."""
+    if status != "ok":
+        return status
+    if pd.isna(mean):
+        return "NA"
+    text = f"{100 * mean:.1f}"
+    if n > 1 and not pd.isna(sd):
+        text += f" ± {100 * sd:.1f}"
+    if intervals and not (pd.isna(lo) or pd.isna(hi)):
+        text += f" [{100 * lo:.1f}, {100 * hi:.1f}]"
+    return text
+
+
+def _key_columns(rows: pd.DataFrame) -> list[str]:
+    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
+    keys: list[str] = []
+    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
+        for k in json.loads(text):
+            if k not in keys:
+                keys.append(k)
+    return keys
+
+
+def generic_layout(rows: pd.DataFrame, protocol: str) -> Layout:
+    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
+    its rows): all keys but the last as rows, the last as columns."""
+    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
+    if len(keys) == 1:
+        return Layout(f"Protocol {protocol}.", tuple(keys), "detector", title=protocol)
+    return Layout(f"Protocol {protocol}.", tuple(keys[:-1]), keys[-1], title=protocol)
+
+
+def fits(layout: Layout, rows: pd.DataFrame) -> str:
+    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
+    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
+    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
+
+
+def _column_labels(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> tuple[list[str], list[str], list[str]]:
+    """Plain and LaTeX column labels, and notes. With ``layout.column_label``, the label's value
+    per sensor type, numbered by superscripts as the rates of the paper's Table II; with
+    ``layout.note_column``, a note listing that column's values per sensor type."""
+    notes = _note_column(layout, rows, columns)
+    if not layout.column_label or layout.column_label not in rows or "sensor_type" not in rows:
+        plain = [label(layout.column, c) for c in columns]
+        return plain, [escape(p) for p in plain], notes
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    number = {s: i + 1 for i, s in enumerate(sensors)}
+    plain, latex = [], []
+    for c in columns:
+        rates = rows[rows[layout.column] == c].groupby(layout.column_label, sort=True)["sensor_type"].unique()
+        parts = sorted(((sorted(number[s] for s in types), _rate(r)) for r, types in rates.items()), key=lambda p: p[0])
+        plain.append(" / ".join(f"{r} ({','.join(map(str, ns))})" for ns, r in parts) if len(parts) > 1
+                     else _rate(rates.index[0]) if len(parts) else label(layout.column, c))
+        latex.append(r"\begin{tabular}{@{}c@{}}" + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
+                     + r"\end{tabular}" if len(parts) > 1 else plain[-1])
+    notes.insert(0, f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
+                 + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items()) + ".")
+    return plain, latex, notes
+
+
+def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
+    """"Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
+    col = layout.note_column
+    if not col or col not in rows or "sensor_type" not in rows:
+        return []
+    per_sensor: dict[tuple, list[str]] = {}
+    for sensor in ordered(rows["sensor_type"].unique(), "sensor_type"):
+        part = rows[rows["sensor_type"] == sensor]
+        values = tuple(_rate(float(part.loc[part[layout.column] == c, col].iloc[0])) if (part[layout.column] == c).any()
+                       else "—" for c in columns)
+        per_sensor.setdefault(values, []).append(SENSOR_NAMES.get(sensor, sensor))
+    text = "; ".join(f"{', '.join(names)}: {', '.join(values)}" for values, names in per_sensor.items())
+    return [f"{COLUMN_UNITS.get(col, col)} per column: {text}."]
+
+
+def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", intervals: bool = False,
+                values: str = "ours", paper: pd.DataFrame | None = None, label_: str = "") -> Table:
+    """One table of one detector's rows in ``layout``.
+
+    ``values``: "ours" (the results), "paper" (the published numbers from ``paper``), or
+    "difference" (ours minus paper, in percentage points).
+    """
+    keys = [*layout.rows, layout.column] + ([layout.pair] if layout.pair else [])
+    keys = [k for k in keys if k in rows]
+    summary = summarize(rows, keys, metric)
+    row_values = summary[list(layout.rows)].drop_duplicates()
+    for col in reversed(layout.rows):  # stable sorts, last key first: lexicographic order
+        order = ordered(row_values[col], col)
+        row_values = row_values.iloc[np.argsort([order.index(v) for v in row_values[col]], kind="stable")]
+    row_keys = list(row_values.itertuples(index=False, name=None))
+    columns = ordered(summary[layout.column].unique(), layout.column)
+    by_key = {tuple(r[k] for k in keys): r for r in summary.to_dict("records")}
+    ref = {}
+    if paper is not None and len(paper) and metric in paper and set(keys) <= set(paper.columns):
+        ref = {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
+
+    def one(key: tuple) -> str:
+        r = by_key.get(key)
+        if values == "paper":
+            return f"{100 * ref[key]:.1f}" if key in ref else "—"
+        if r is None:
+            return "NA"
+        if values == "difference":
+            if key not in ref or r["status"] != "ok" or pd.isna(r["mean"]):
+                return "—"
+            return f"{100 * (r['mean'] - ref[key]):+.1f}"
+        return figure_text(r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], intervals)
+
+    cells = []
+    for rk in row_keys:
+        line = []
+        for c in columns:
+            if layout.pair:
+                with_, without = one((*rk, c, "with")), one((*rk, c, "without"))
+                line.append(f"{with_} {without}*")
+            else:
+                line.append(one((*rk, c)))
+        cells.append(line)
+    plain, latex, notes = _column_labels(layout, rows, columns)
+    if layout.merge_rows:
+        row_labels = [(", ".join(label(k, v) for k, v in zip(layout.rows, rk)),) for rk in row_keys]
+        headers = [ROW_HEADERS.get(layout.rows[-1], layout.rows[-1])]
+    else:
+        row_labels = [tuple(label(k, v) for k, v in zip(layout.rows, rk)) for rk in row_keys]
+        headers = [ROW_HEADERS.get(k, k) for k in layout.rows]
+    unit = " (%)" if metric != "auroc" else " (%, 50 = chance)"
+    group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
+    if values == "difference":
+        group = f"Difference, ours - paper (points), {METRIC_NAMES.get(metric, metric)} {layout.group}".strip()
+    if (summary["n"] > 1).any() and values == "ours":
+        notes.append("Mean ± standard deviation across seeds.")
+    if intervals and values == "ours":
+        notes.append("[95 % interval: bootstrap over recordings; mean of the seeds' bounds with repeats].")
+    return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+
+
+def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], intervals: bool) -> dict[tuple, list[str]]:
+    """Figures averaged over fingers (mean of the per-finger figures, each averaged over seeds).
+
+    The interval of an average combines the fingers' interval half-widths as independent
+    errors (root of the summed squares, over the number of fingers): fingers are different
+    recordings, so their bootstrap errors are independent.
+    """
+    out: dict[tuple, list[str]] = {}
+    for metric in metrics:
+        per = summarize(rows, [*by, "sensor_instance"], metric)
+        per = per[per["status"] == "ok"]
+        for key, g in per.groupby(list(by), sort=False):
+            key = key if isinstance(key, tuple) else (key,)
+            half = np.sqrt((((g["hi"] - g["lo"]) / 2) ** 2).sum()) / len(g)
+            mean = g["mean"].mean()
+            out.setdefault(key, []).append(figure_text(mean, lo=mean - half, hi=mean + half, intervals=intervals))
+    return out
+
+
+def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = False) -> Table | None:
+    """Accuracy at window 50 per sensor type (mean over fingers), one column per detector, from
+    the rows of the protocol laid out as the paper's Table I; with ``paper``, the published
+    Holweg accuracies and the LSTM's Table I means beside them."""
+    rows = rows[rows["window"] == BASELINE_WINDOW]
+    if rows.empty:
+        return None
+    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    columns, cells = list(detectors), [[] for _ in sensors]
+    for det in detectors:
+        avg = _averaged(rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals)
+        for i, s in enumerate(sensors):
+            cells[i].append(avg.get((s,), ["NA"])[0])
+    if paper:
+        holweg = paper_frame("holweg").set_index("sensor_type")["accuracy"]
+        lstm = paper_frame("window-size").query(f"window == {BASELINE_WINDOW}").groupby("sensor_type")["accuracy"].mean()
+        columns += ["holweg (paper)", "lstm (paper)"]
+        for i, s in enumerate(sensors):
+            cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
+    notes = ["Mean over fingers of each finger's accuracy at window 50, full sampling rate."]
+    if paper:
+        notes.append("Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
+                     "LSTM: mean of Table I at window 50.")
+    return Table("The Holweg baseline beside the other detectors at window 50.", ["Sensor"],
+                 "Classification Accuracy (%) by Detector", columns, [(label("sensor_type", s),) for s in sensors],
+                 cells, "tab:baseline", notes=notes)
+
+
+def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, paper: bool = False) -> Table | None:
+    """TP and TN rates at window 50 per sensor type, averaged over fingers (paper, section VI.A),
+    from the rows of the protocol laid out as the paper's Table I."""
+    rows = rows[(rows["window"] == BASELINE_WINDOW) & (rows["detector"] == detector)]
+    if rows.empty:
+        return None
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    avg = _averaged(rows, ["tp_rate", "tn_rate"], ["sensor_type"], intervals)
+    cells = [avg.get((s,), ["NA", "NA"]) for s in sensors]
+    columns = ["TP rate", "TN rate"]
+    if paper:
+        ref = paper_frame("rates_window_50").set_index("sensor_type")
+        columns += ["TP rate (paper, LSTM)", "TN rate (paper, LSTM)"]
+        for i, s in enumerate(sensors):
+            cells[i] = cells[i] + ([_as_printed(100 * ref.loc[s, c]) for c in ("tp_rate", "tn_rate")]
+                                   if s in ref.index else ["—", "—"])
+    return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
+                 columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
+                 notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping."])
