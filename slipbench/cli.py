@@ -28,6 +28,18 @@ def _param(values: tuple[str, ...]) -> dict:
     return params
 
 
+def _with_options(protocols: dict, options: dict) -> dict:
+    """Each option set on the protocols that take it; one that none takes is a usage error."""
+    for name, value in options.items():
+        takers = [p for p in protocols.values() if name in p.get_params()]
+        if not takers:
+            raise UsageError(f"no selected protocol takes the option {name!r}; options: " + "; ".join(
+                f"{n}: {', '.join(p.get_params()) or 'none'}" for n, p in protocols.items()))
+        for protocol in takers:
+            protocol.set_params(**{name: value})
+    return protocols
+
+
 def _plugins(folders: tuple[str, ...]) -> None:
     for folder in folders:
         registry.add_plugin_folder(folder)
@@ -144,8 +156,7 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
     detector_names = registry.detectors.names() if detector_name == "all" else [detector_name]
     protocol_names = registry.protocols.names() if protocol_name == "all" else [protocol_name]
     detectors = {n: registry.detectors.get(n)().set_params(**_param(params)) for n in detector_names}
-    options = _param(protocol_params)
-    protocols = {n: registry.protocols.get(n)().set_params(**options) for n in protocol_names}
+    protocols = _with_options({n: registry.protocols.get(n)() for n in protocol_names}, _param(protocol_params))
     runs = [Run(d, p, split, seed + r) for d in detectors.values() for p in protocols.values() for r in range(repeats)]
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated

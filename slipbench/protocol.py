@@ -91,8 +91,10 @@ class Cell:
     def __post_init__(self) -> None:
         if not isinstance(self.key, dict) or not self.key:
             raise ValueError(f"Cell.key must be a non-empty dict, got {self.key!r}")
+        # NumPy scalars become Python values, so keys and messages never hold reprs like np.float64(25.0)
+        object.__setattr__(self, "key", {k: v.item() if isinstance(v, np.generic) else v for k, v in self.key.items()})
         for k, v in self.key.items():
-            if not isinstance(k, str) or not isinstance(v, (str, int, float, bool)):
+            if not isinstance(k, str) or type(v) not in (str, int, float, bool):
                 raise ValueError(f"Cell.key maps names to plain str/int/float/bool values; {k!r}: {v!r} is not")
         if not (isinstance(self.train, Part) and isinstance(self.test, Part)):
             raise ValueError("Cell.train and Cell.test must be Part objects")

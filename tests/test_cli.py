@@ -78,4 +78,3 @@ def test_window_longer_than_every_recording(tmp_path, cli):
     long = rows[rows["window"] >= 100]
     assert (long["status"] == "skipped").all() and (rows.loc[rows["window"] < 100, "status"] == "ok").all()
     assert long["reason"].str.contains("is longer than every recording of BioTacSP").all()
-    assert not (tmp_path / "res").exists()

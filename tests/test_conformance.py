@@ -1,4 +1,5 @@
-"""The conformance suite over every registered detector, and the suite catching broken ones."""
+"""The conformance suite over every registered plugin, one test item per check, and the suite
+catching broken detectors and protocols."""
 
 from __future__ import annotations
 
@@ -6,13 +7,14 @@ import numpy as np
 import pytest
 
 from slipbench.base import BaseDetector
-from slipbench.registry import detectors
-from slipbench.testing import check_detector
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs
+from slipbench.registry import detectors, protocols
+from slipbench.testing import check_detector, check_protocol, parametrize_with_checks
 
 
-@pytest.mark.parametrize("name", detectors.names())
-def test_registered_detector_conforms(name):
-    check_detector(detectors.get(name)())
+@parametrize_with_checks([detectors.get(n)() for n in detectors.names()] + [protocols.get(n)() for n in protocols.names()])
+def test_registered_plugin_conforms(plugin, check):
+    check(plugin)
 
 
 class _Nondeterministic(BaseDetector):
@@ -49,3 +51,80 @@ class _Unsaveable(_Renamer):
 def test_suite_catches_broken_detectors(cls, words):
     with pytest.raises((AssertionError, Exception), match=words):
         check_detector(cls())
+
+
+class _Constant(BaseDetector):
+    def _fit(self, x, y, seed):
+        self.level_ = 0.5
+
+    def _predict_proba(self, x):
+        return np.full(len(x), self.level_)
+
+
+class _NoInit(BaseDetector):
+    """A detector without __init__: no parameters, and get_params, clone and repr still work."""
+
+    def _fit(self, x, y, seed):
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+def test_suite_catches_a_detector_that_ignores_its_input():
+    with pytest.raises(AssertionError, match="ignores its input"):
+        check_detector(_Constant())
+
+
+def test_a_detector_without_init_conforms():
+    assert _NoInit().get_params() == {} and repr(_NoInit()) == "_NoInit()"
+    check_detector(_NoInit())
+
+
+class _Leaky(BaseProtocol):
+    """Claims to hold out each material but trains on it."""
+
+    layout = Layout("leaky", ("sensor_type", "sensor_instance"), "material", pair="training")
+
+    def cells(self, recordings):
+        for sensor in sensor_pairs(recordings):
+            for material in ("aluminum", "PVC"):
+                test = Part((sensor,), "test", (("material", "==", material),))
+                yield Cell({"sensor_type": sensor[0], "sensor_instance": sensor[1], "material": material, "training": "without"},
+                           Part((sensor,), "train", (("material", "==", material),)), test, 50)
+
+
+class _Unlaid(_Leaky):
+    """Its layout reads a column its cells lack."""
+
+    layout = Layout("unlaid", ("sensor_type", "sensor_instance"), "window")
+
+    def cells(self, recordings):
+        for sensor in sensor_pairs(recordings):
+            yield Cell({"sensor_type": sensor[0], "sensor_instance": sensor[1]}, Part((sensor,), "train"),
+                       Part((sensor,), "test"), 50)
+
+
+@pytest.mark.parametrize("protocol, words", [(_Leaky(), "trains on .* recordings with that value"),
+                                             (_Unlaid(), "lacks the layout's columns \\['window'\\]")])
+def test_suite_catches_broken_protocols(protocol, words):
+    with pytest.raises(AssertionError, match=words):
+        check_protocol(protocol)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: Part((("Nano17", "index"),), "validation"), "Part.side must be one of"),
+    (lambda: Part((("Nano17", "index"),), "train", (("material", "<", "PVC"),)), "operator one of"),
+    (lambda: Cell({"w": 1}, Part((("a", "b"),), "test"), Part((("a", "b"),), "test"), 50), "trains on the train side"),
+    (lambda: Cell({"w": np.ones(2)}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 50), "plain"),
+    (lambda: Layout("x", ("a",), "b", figure="pie"), "Layout.figure must be one of"),
+])
+def test_malformed_parts_cells_and_layouts_are_refused(make, words):
+    with pytest.raises(ValueError, match=words):
+        make()
+
+
+def test_cell_keys_hold_plain_values():
+    cell = Cell({"speed_mm_s": np.float64(25.0), "n": np.int64(3)}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 50)
+    assert type(cell.key["speed_mm_s"]) is float and type(cell.key["n"]) is int
+    assert cell.name == '{"n": 3, "speed_mm_s": 25.0}'

@@ -1,0 +1,176 @@
+"""Third-party plugins through the public contract alone: an installed package holding a detector
+and a protocol with its own layout runs `evaluate`, `report` and `compare`; folder plugins reach
+`report` with --plugins; `list` shows parameters and status; the contract's holes are closed."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import textwrap
+
+import pandas as pd
+import pytest
+
+from slipbench.base import BaseDetector
+from slipbench.errors import PluginError
+from slipbench.registry import Registry, detectors
+
+DETECTOR = '''
+import numpy as np
+from slipbench.base import BaseDetector
+from slipbench.params import Interval
+
+
+class Energy(BaseDetector):
+    """Mean absolute signal above a training quantile."""
+
+    _parameter_constraints = {"quantile": Interval(float, 0.0, 1.0)}
+
+    def __init__(self, quantile=0.5):
+        self.quantile = quantile
+
+    def _fit(self, x, y, seed):
+        self.cut_ = float(np.quantile(np.abs(x).mean(axis=1), self.quantile))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+'''
+
+PROTOCOL = '''
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part
+
+
+class TwoWindows(BaseProtocol):
+    """Windows of 25 and 50 samples on two Nano17 fingers."""
+
+    layout = Layout("Energy at two window lengths.", ("sensor_type", "sensor_instance"), "window",
+                    title="Two windows", group="at Window", figure="curve", x_label="window (samples)")
+
+    def cells(self, recordings):
+        for finger in ("index", "middle"):
+            part = (("Nano17", finger),)
+            for window in (25, 50):
+                yield Cell({"sensor_type": "Nano17", "sensor_instance": finger, "window": window},
+                           Part(part, "train"), Part(part, "test"), window)
+'''
+
+
+def _slipbench(args: list[str], env: dict, cwd) -> subprocess.CompletedProcess:
+    code = "import sys; from slipbench.cli import main; main(sys.argv[1:])"
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, cwd=cwd)
+
+
+def test_an_installed_plugin_package_runs_evaluate_report_and_compare(tmp_path, small_path):
+    src = tmp_path / "src"
+    (src / "labslip").mkdir(parents=True)
+    (src / "labslip" / "__init__.py").write_text("")
+    (src / "labslip" / "energy.py").write_text(DETECTOR)
+    (src / "labslip" / "two_windows.py").write_text(PROTOCOL)
+    (src / "pyproject.toml").write_text(textwrap.dedent('''
+        [build-system]
+        requires = ["setuptools>=68"]
+        build-backend = "setuptools.build_meta"
+        [project]
+        name = "labslip"
+        version = "0.1"
+        dependencies = ["slipbench"]
+        [project.entry-points."slipbench.detectors"]
+        energy = "labslip.energy:Energy"
+        [project.entry-points."slipbench.protocols"]
+        two-windows = "labslip.two_windows:TwoWindows"
+    '''))
+    site = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "-q",
+                    "--target", str(site), str(src)], check=True)
+    env = {"PYTHONPATH": str(site), "PATH": "", "SLIPBENCH_CACHE": str(tmp_path / "cache")}
+    common = ["evaluate", "--detector", "energy", "--protocol", "two-windows", "--dataset", str(small_path), "--quiet"]
+    for out, quantile in (("base", "0.5"), ("candidate", "0.9")):
+        done = _slipbench([*common, "--out", str(tmp_path / out), "--param", f"quantile={quantile}"], env, tmp_path)
+        assert done.returncode == 0, done.stderr
+        assert "Energy at two window lengths." in done.stdout  # evaluate prints the protocol's own table
+    done = _slipbench(["report", str(tmp_path / "base"), "--plots", str(tmp_path / "fig")], env, tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "**Energy at two window lengths.** Classification Accuracy (%) at Window." in done.stdout
+    assert "| Sensor | Finger |" in done.stdout.replace("  ", " ").replace("  ", " ")
+    assert (tmp_path / "fig" / "two-windows-energy.png").stat().st_size > 1000
+    done = _slipbench(["compare", str(tmp_path / "base"), str(tmp_path / "candidate")], env, tmp_path)
+    assert done.returncode in (0, 1), done.stderr
+    assert "two-windows" in done.stdout and "energy" in done.stdout
+    done = _slipbench(["list", "--json"], env, tmp_path)
+    listed = {e["name"]: e for e in json.loads(done.stdout)["detectors"]}
+    assert listed["energy"]["parameters"] == {"quantile": {"default": 0.5, "constraint": "a float in [0.0, 1.0]"}}
+    assert listed["energy"]["status"] == "ok" and listed["energy"]["description"].startswith("Mean absolute signal")
+
+
+def test_report_reads_a_folder_protocols_layout_with_plugins(tmp_path, small_path, cli):
+    plugins = tmp_path / "plugins"
+    (plugins / "protocols").mkdir(parents=True)
+    (plugins / "detectors").mkdir()
+    (plugins / "protocols" / "two_windows.py").write_text(PROTOCOL)
+    (plugins / "detectors" / "energy.py").write_text(DETECTOR)
+    out = tmp_path / "out"
+    code, _, err = cli(["evaluate", "--detector", "energy", "--protocol", "two-windows", "--dataset", str(small_path),
+                        "--plugins", str(plugins), "--out", str(out), "--quiet"])
+    assert code == 0, err
+    done = _slipbench(["report", str(out)], {"PATH": ""}, tmp_path)  # a new process: no plugin folder known
+    assert done.returncode == 0 and "Laid out from its cell keys" in done.stdout and "--plugins" in done.stdout
+    code, text, _ = cli(["report", str(out), "--plugins", str(plugins)])
+    assert code == 0 and "**Energy at two window lengths.**" in text and "Laid out from its cell keys" not in text
+
+
+def test_list_shows_parameters_and_status(tmp_path, cli):
+    (tmp_path / "broken.py").write_text("raise RuntimeError('boom')\n")
+    (tmp_path / "needs_dep.py").write_text(DETECTOR.replace('class Energy(BaseDetector):', 'class NeedsDep(BaseDetector):\n    requires = ("no_such_module_slipbench",)'))
+    (tmp_path / "missing_import.py").write_text("import no_such_module_slipbench\n")
+    code, text, _ = cli(["list", "--plugins", str(tmp_path)])
+    assert code == 0
+    assert "holweg" in text and "band=None" in text and "keep=0.8  (a float in [0.0, 1.0])" in text
+    code, text, _ = cli(["list", "--plugins", str(tmp_path), "--json"])
+    found = {e["name"]: e for e in json.loads(text)["detectors"]}
+    assert found["broken"]["status"] == "import error" and "boom" in found["broken"]["detail"]
+    assert found["needs-dep"]["status"] == "missing dependency" and "no_such_module_slipbench" in found["needs-dep"]["detail"]
+    assert found["missing-import"]["status"] == "missing dependency"
+    assert found["lstm"]["status"] == "ok" and found["lstm"]["parameters"]["max_epochs"]["default"] == [20, 5, 3, 2] or \
+        found["lstm"]["parameters"]["max_epochs"]["default"] == (20, 5, 3, 2)
+
+
+def test_plugin_files_with_one_stem_in_two_folders_stay_apart(tmp_path):
+    for folder, quantile in (("a", "0.25"), ("b", "0.75")):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "energy.py").write_text(DETECTOR.replace("quantile=0.5", f"quantile={quantile}"))
+    one, two = (Registry("detector", BaseDetector, "slipbench.detectors") for _ in range(2))
+    one.add_folder(tmp_path / "a")
+    two.add_folder(tmp_path / "b")
+    a, b = one.get("energy"), two.get("energy")
+    assert a is not b and a.__module__ != b.__module__
+    assert a().quantile == 0.25 and b().quantile == 0.75
+
+
+def test_the_registered_name_is_the_one_id(tmp_path):
+    (tmp_path / "energy.py").write_text(DETECTOR.replace('    _parameter_constraints', '    name = "other"\n    _parameter_constraints'))
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    reg.add_folder(tmp_path)
+    with pytest.raises(PluginError, match="declares name = 'other'; its id is the name it is registered under"):
+        reg.get("energy")
+
+
+def test_ids_of_builtins_subclasses_and_saved_models(tmp_path):
+    from slipbench.detectors.holweg import Holweg
+
+    assert detectors.id_of(Holweg) == "holweg"
+
+    class MyHolweg(Holweg):
+        pass
+
+    assert detectors.id_of(MyHolweg) == "my-holweg"  # a subclass has its own id, not its parent's
+    (tmp_path / "energy.py").write_text(DETECTOR)
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    reg.add_folder(tmp_path)
+    cls = reg.get("energy")
+    x = pd.DataFrame({"a": [0.0] * 8}).to_numpy().repeat(8, axis=1)
+    x[4:] = 1.0
+    fitted = cls().fit(x, [0] * 4 + [1] * 4)
+    fitted.save(tmp_path / "model.npz")
+    loaded = BaseDetector.load(tmp_path / "model.npz")  # the class is found by module, not by a name attribute
+    assert type(loaded) is cls and loaded.predict(x).tolist() == [0] * 4 + [1] * 4
