@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from .registry import detectors
-from .runner import PeakMemory
+from .fitting import PeakMemory
 from .testing import toy_windows
 
 

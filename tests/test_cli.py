@@ -78,3 +78,9 @@ def test_window_longer_than_every_recording(tmp_path, cli):
     long = rows[rows["window"] >= 100]
     assert (long["status"] == "skipped").all() and (rows.loc[rows["window"] < 100, "status"] == "ok").all()
     assert long["reason"].str.contains("is longer than every recording of BioTacSP").all()
+
+
+def test_bench_prints_costs(cli):
+    code, out, err = cli(["bench", "--detector", "holweg", "--windows", "40", "--length", "20", "--seconds", "0.05"])
+    assert code == 0, err
+    assert "| holweg" in out and "train_us_per_sample" in out
