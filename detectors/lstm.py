@@ -21,7 +21,7 @@ import numpy as np
 
 from slipbench.detectors import lstm_kernels as kernels
 from slipbench.base import BaseDetector
-from slipbench.params import Interval, Options
+from slipbench.params import Interval, Options, Sequence
 from slipbench.errors import UsageError
 
 PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
@@ -35,6 +35,7 @@ class LSTM(BaseDetector):
         "hidden_size": Interval(int, 1, 512), "batch_size": Interval(int, 1, None),
         "momentum": Interval(float, 0.0, 0.999), "patience": Interval(int, 1, None),
         "validation_fraction": Interval(float, 0.01, 0.5), "device": Options(("auto", "cpu", "cuda")),
+        "learning_rates": Sequence(Interval(float, 1e-12, 10.0)), "max_epochs": Sequence(Interval(int, 1, 100_000)),
     }
 
     def __init__(self, hidden_size=20, batch_size=1, momentum=0.125, learning_rates=(0.01, 1e-3, 1e-4, 1e-5),
@@ -48,13 +49,19 @@ class LSTM(BaseDetector):
         self.validation_fraction = validation_fraction
         self.device = device
 
+    def validate_params(self) -> None:
+        super().validate_params()
+        rates, epochs = np.atleast_1d(self.learning_rates), np.atleast_1d(self.max_epochs)
+        if len(epochs) not in (1, len(rates)):
+            raise UsageError(f"The 'max_epochs' parameter of LSTM needs one cap for all learning rates or one per rate "
+                             f"({len(rates)}); got {self.max_epochs!r}")
+        if self.device == "cuda" and not _cuda_available():
+            raise UsageError("The 'device' parameter of LSTM is 'cuda' but torch sees no CUDA device here; "
+                             "use 'cpu' or 'auto'")
+
     def _stages(self) -> list[tuple[float, int]]:
         rates = [float(r) for r in np.atleast_1d(self.learning_rates)]
-        epochs = np.broadcast_to(np.atleast_1d(self.max_epochs), (len(rates),)) if np.ndim(self.max_epochs) == 0 or \
-            len(self.max_epochs) == len(rates) else None
-        if not rates or min(rates) <= 0 or epochs is None or min(epochs) < 1:
-            raise UsageError(f"LSTM needs positive learning_rates and max_epochs >= 1, one per rate or one for all; "
-                             f"got learning_rates={self.learning_rates!r}, max_epochs={self.max_epochs!r}")
+        epochs = np.broadcast_to(np.atleast_1d(self.max_epochs), (len(rates),))
         return list(zip(rates, (int(e) for e in epochs)))
 
     def _fit(self, x, y, seed):

@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
 import click
 
 from . import registry
-from .errors import SlipbenchError, UsageError
+from .errors import PluginError, SlipbenchError, UsageError
 
-EXIT_CODES = """Exit codes: 0 success; 1 compare found a regression; 2 bad usage or bad data;
-3 a plugin failed to load; 130 interrupted."""
+EXIT_CELLS_FAILED = 4
+EXIT_CODES = """Exit codes: 0 every cell ok or skipped; 1 compare found a regression; 2 bad usage or
+bad data; 3 a plugin failed to load; 4 the run finished but cells failed or timed out; 130
+interrupted."""
 
 
 def _param(values: tuple[str, ...]) -> dict:
@@ -28,16 +31,54 @@ def _param(values: tuple[str, ...]) -> dict:
     return params
 
 
-def _with_options(protocols: dict, options: dict) -> dict:
-    """Each option set on the protocols that take it; one that none takes is a usage error."""
+MAX_SCALE = 10.0  # 80 M samples per unit: beyond this machine's memory for any protocol
+
+
+class Scale(click.ParamType):
+    """A finite scale of the simulated dataset in (0, MAX_SCALE]."""
+
+    name = "scale"
+
+    def convert(self, value, param, ctx):
+        try:
+            scale = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not (math.isfinite(scale) and 0 < scale <= MAX_SCALE):
+            self.fail(f"{value!r} is not in (0, {MAX_SCALE:g}] (1.0 is the paper's size, about 8 M samples per unit)",
+                      param, ctx)
+        return scale
+
+
+SEED = click.IntRange(0, 2**32 - 1)  # what numpy's SeedSequence and every seeded library accept
+
+
+def _loaded(reg: registry.Registry, name: str, broken: list[str]) -> dict:
+    """The plugin called ``name`` (or every plugin, for 'all'), made with its defaults. With 'all',
+    a plugin that fails to load is noted in ``broken`` and the others run."""
+    if name != "all":
+        return {name: reg.get(name)()}
+    out = {}
+    for n in reg.names():
+        try:
+            out[n] = reg.get(n)()
+        except PluginError as exc:
+            broken.append(str(exc))
+    if not out:
+        raise PluginError("; ".join(broken))
+    return out
+
+
+def _with_options(plugins: dict, options: dict, kind: str) -> dict:
+    """Each option set on the plugins that take it; one that none takes is a usage error."""
     for name, value in options.items():
-        takers = [p for p in protocols.values() if name in p.get_params()]
+        takers = [p for p in plugins.values() if name in p.get_params()]
         if not takers:
-            raise UsageError(f"no selected protocol takes the option {name!r}; options: " + "; ".join(
-                f"{n}: {', '.join(p.get_params()) or 'none'}" for n, p in protocols.items()))
-        for protocol in takers:
-            protocol.set_params(**{name: value})
-    return protocols
+            raise UsageError(f"no selected {kind} takes the parameter {name!r}; parameters: " + "; ".join(
+                f"{n}: {', '.join(p.get_params()) or 'none'}" for n, p in plugins.items()))
+        for plugin in takers:
+            plugin.set_params(**{name: value})
+    return plugins
 
 
 def _plugins(folders: tuple[str, ...]) -> None:
@@ -58,14 +99,12 @@ def dataset() -> None:
 
 @dataset.command("synth")
 @click.argument("out", type=click.Path(path_type=Path))
-@click.option("--scale", default=0.05, show_default=True, help="1.0 gives ~8 million samples per sensor instance.")
-@click.option("--seed", default=0, show_default=True)
+@click.option("--scale", default=0.05, show_default=True, type=Scale(), help="1.0 gives ~8 million samples per sensor instance.")
+@click.option("--seed", default=0, show_default=True, type=SEED)
 def dataset_synth(out: Path, scale: float, seed: int) -> None:
     """Write the simulated design of experiments to folder OUT."""
     from .synth import synthesize
 
-    if scale <= 0:
-        raise UsageError(f"--scale must be > 0, got {scale}")
     synthesize(out, scale, seed)
     click.echo(f"wrote {out}")
 
@@ -129,10 +168,10 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
 @click.option("--detector", "detector_name", required=True, help="A detector id, or 'all' (see `slipbench list`).")
 @click.option("--protocol", "protocol_name", required=True, help="A protocol id, or 'all' (see `slipbench list`).")
 @click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one].")
-@click.option("--scale", default=0.05, show_default=True, help="Scale of the simulated dataset when --dataset is not given.")
+@click.option("--scale", default=0.05, show_default=True, type=Scale(), help="Scale of the simulated dataset when --dataset is not given.")
 @click.option("--out", default="results", show_default=True, type=click.Path(path_type=Path), help="Results folder.")
 @click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True)
-@click.option("--seed", default=0, show_default=True, help="Seed of balancing, splitting and training (and of the simulated data).")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of balancing, splitting and training (and of the simulated data).")
 @click.option("--repeats", default=1, show_default=True, type=click.IntRange(1), help="Rerun with seeds seed, seed+1, ...")
 @click.option("--param", "params", multiple=True, help="Detector hyperparameter NAME=VALUE (JSON value); repeatable.")
 @click.option("--protocol-param", "protocol_params", multiple=True, help="Protocol option NAME=VALUE, e.g. decimation=both.")
@@ -153,10 +192,9 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
     from .runner import Run, evaluate as run_protocols
 
     _plugins(plugins)
-    detector_names = registry.detectors.names() if detector_name == "all" else [detector_name]
-    protocol_names = registry.protocols.names() if protocol_name == "all" else [protocol_name]
-    detectors = {n: registry.detectors.get(n)().set_params(**_param(params)) for n in detector_names}
-    protocols = _with_options({n: registry.protocols.get(n)() for n in protocol_names}, _param(protocol_params))
+    broken: list[str] = []
+    detectors = _with_options(_loaded(registry.detectors, detector_name, broken), _param(params), "detector")
+    protocols = _with_options(_loaded(registry.protocols, protocol_name, broken), _param(protocol_params), "protocol")
     runs = [Run(d, p, split, seed + r) for d in detectors.values() for p in protocols.values() for r in range(repeats)]
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
@@ -166,9 +204,18 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
     for (dn, pn), group in rows.groupby(["detector", "protocol"], sort=False):
         click.echo(f"\n## {dn} x {pn}\n")
         click.echo(protocol_table(group, protocols[pn].layout, intervals=intervals))
-    for reason in rows.loc[rows["status"].isin(["failed", "timeout"]), "reason"].unique():
-        click.echo(f"warning: {reason}", err=True)
-    click.echo(f"\n{len(rows)} cells ({(rows['status'] == 'ok').sum()} ok); results in {out / 'results.parquet'}")
+    counts = rows["status"].value_counts()
+    click.echo(f"\n{len(rows)} cells: " + ", ".join(f"{int(counts.get(s, 0))} {s}" for s in ("ok", "skipped", "failed", "timeout"))
+               + f"; results in {out / 'results.parquet'}")
+    for reason in rows.loc[rows["status"] == "skipped", "reason"].unique():
+        click.echo(f"skipped: {reason}", err=True)
+    bad = rows[rows["status"].isin(["failed", "timeout"])]
+    for row in bad.to_dict("records"):
+        click.echo(f"{row['status']}: {row['detector']} x {row['protocol']} {row['cell']}: {row['reason']}", err=True)
+    if broken:
+        raise PluginError("; ".join(broken) + " (the other plugins ran)")
+    if len(bad):
+        sys.exit(EXIT_CELLS_FAILED)
 
 
 # -- bench (detector costs)
@@ -202,9 +249,9 @@ def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
 @click.option("--sensor", "sensors", required=True, multiple=True, help="Sensor type, e.g. Nano17 (repeatable).")
 @click.option("--instance", default=None, help="One instance, e.g. index [default: all, each balanced on its own].")
 @click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one, seed 0].")
-@click.option("--scale", default=0.05, show_default=True, help="Scale of the simulated dataset when --dataset is not given.")
+@click.option("--scale", default=0.05, show_default=True, type=Scale(), help="Scale of the simulated dataset when --dataset is not given.")
 @click.option("--out", default="spectral", show_default=True, type=click.Path(path_type=Path), help="Folder for figures and tables.")
-@click.option("--seed", default=0, show_default=True, help="Seeds balancing and bootstrap draws.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Seeds balancing and bootstrap draws.")
 @click.option("--boot", default=100, show_default=True, help="Bootstrap sequences per class and round.")
 @click.option("--repeats", default=200, show_default=True, help="Rounds, i.e. KS tests per frequency.")
 @click.option("--segment", type=int, default=None, help="Samples per balanced window joined into a sequence [default: one second, contiguous].")

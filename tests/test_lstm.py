@@ -158,3 +158,10 @@ def test_bad_schedules_are_refused():
         LSTM(learning_rates=(0.1, 0.01), max_epochs=(3, 3, 3)).fit(x, y)
     with pytest.raises(UsageError, match="'batch_size' parameter of LSTM must be an int in \\[1, inf\\]"):
         LSTM(batch_size=0).fit(x, y)
+    with pytest.raises(UsageError, match="'max_epochs' parameter of LSTM must be an int in \\[1, 100000\\], or a non-empty list"):
+        LSTM(max_epochs="abc").validate_params()
+    with pytest.raises(UsageError, match="'learning_rates' parameter of LSTM must be a float"):
+        LSTM(learning_rates=(0.1, -1.0)).validate_params()
+    if not torch.cuda.is_available():
+        with pytest.raises(UsageError, match="torch sees no CUDA device"):
+            LSTM(device="cuda").validate_params()
