@@ -138,8 +138,7 @@ def _fail(where: str | Path, what: str, recording: str | None = None, column: st
 
 def _num(x: float) -> str:
     """A plain number for messages: 60, 59.738499926 (never ``np.float64(...)``)."""
-    x = float(x)
-    return str(int(x)) if x.is_integer() else repr(x)
+    return f"{float(x):.12g}"
 
 
 def _names(ids, limit: int = 3) -> str:

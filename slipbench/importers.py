@@ -313,8 +313,8 @@ def _rate(m: CsvMapping, fields: dict, frame: pd.DataFrame, path: Path) -> tuple
         return fields["sampling_rate_hz"], times
     if "hz" in m.rate:
         return float(m.rate["hz"]), times
-    if times is not None:
-        return float(1.0 / np.median(np.diff(times))), times
+    if times is not None:  # 12 significant digits: no floating-point noise of the differences
+        return float(f"{1.0 / np.median(np.diff(times)):.12g}"), times
     raise UsageError(f"{m.where}: no sampling rate for {path}: give [rate] hz = ... or time_column = ..., or a sampling_rate_hz field")
 
 
@@ -326,7 +326,7 @@ def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
     codes.update({str(v): 0 for v in m.labels.get("no_slip", [])})
     codes.update({str(v): -1 for v in m.labels.get("unlabelled", [])})
     text = frame[column]
-    labels = text.map(codes).to_numpy(np.float64, na_value=np.nan)
+    labels = text.map(codes).to_numpy(np.float64, na_value=np.nan, copy=True)
     labels[text.isna().to_numpy()] = -1  # an empty cell is unlabelled
     bad = np.isnan(labels)
     if bad.any():
