@@ -66,13 +66,15 @@ RECORDINGS_SCHEMA = pa.schema(
     ]
 )
 FORMAT_COLUMNS = tuple(RECORDINGS_SCHEMA.names)
-# Columns that may be absent from the file (a recording is then its own trial).
-OPTIONAL = {"trial"}
+# Columns that may be absent from the file: a recording is then its own trial; its length is
+# then not checked (written by write_dataset, it catches rows lost at a recording's end).
+OPTIONAL = {"trial", "n_samples"}
+N_SAMPLES = pa.field("n_samples", pa.int64())
 # Columns that may hold nulls: free-space has no material, pressing has no speed.
 NULLABLE = {"material", "speed_mm_s", "source", "trial"}
 STRING_COLUMNS = ("recording_id", "sensor_type", "sensor_instance", "scenario", "material", "source", "trial")
 # Derived by the reader: channels per recording, and the rate every recording of a unit pools at.
-DERIVED_COLUMNS = ("n_channels", "unit_rate_hz")
+DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples")
 IN_MEMORY = "in-memory dataset"
 
 
@@ -87,8 +89,8 @@ class Dataset:
     ----------
     recordings : DataFrame, one row per recording, sorted by ``recording_id``: the columns of
         :data:`RECORDINGS_SCHEMA` (``trial`` always present: a recording without one is its own
-        trial), ``channels``/``units`` as tuples, ``n_channels`` and ``unit_rate_hz`` (the median
-        rate of the recording's unit, see :data:`RATE_TOLERANCE`).
+        trial), ``channels``/``units`` as tuples, ``n_channels``, ``n_samples`` and
+        ``unit_rate_hz`` (the median rate of the recording's unit, see :data:`RATE_TOLERANCE`).
     samples : dict recording_id -> array of shape (n_samples, n_channels); float32 where the
         file holds float32 (or float16), float64 where it holds float64 or integers.
     slip_labels : dict recording_id -> int8 array of shape (n_samples,): -1 unlabelled, 0 no
@@ -177,6 +179,7 @@ RECORDING_TYPES = {
     "units": (lambda t: _is_list(t) and _is_string(t.value_type), "a list of strings"),
     "source": (_nullable(_is_string), "a string"),
     "trial": (_nullable(_is_string), "a string"),
+    "n_samples": (_nullable(pa.types.is_integer), "an integer"),
 }
 
 
@@ -232,7 +235,9 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
     cols: dict[str, list] = {}
     for name in FORMAT_COLUMNS:
         values = list(frame[name]) if name in frame.columns else [None] * n
-        cols[name] = [None if _is_null(v) else v for v in values]
+        # a NaN rate is a bad number, not a missing one; elsewhere NaN is how pandas says null
+        missing = (lambda v: v is None or v is pd.NA) if name == "sampling_rate_hz" else _is_null
+        cols[name] = [None if missing(v) else v for v in values]
     ids = cols["recording_id"]
     for name in FORMAT_COLUMNS:
         for i, v in enumerate(cols[name]):
@@ -274,6 +279,8 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
     cols["speed_mm_s"], cols["sampling_rate_hz"] = speed, rate
     out = pd.DataFrame(cols)
     out["n_channels"] = n_ch
+    if "n_samples" in frame.columns:  # checked against the samples by _canonical
+        out["n_samples"] = [None if _is_null(v) else int(v) for v in frame["n_samples"]]
     for name in frame.columns:  # a caller's own columns ride along (the format ignores them)
         if name not in out.columns and name not in DERIVED_COLUMNS:
             out[name] = frame[name].to_numpy()
@@ -406,6 +413,13 @@ def _read_samples(file: Path, rec: pd.DataFrame) -> tuple[dict, dict]:
             row0 += len(chunk)
     if (counts == 0).any():
         raise _fail(file, "recording has no samples", ids[np.argmax(counts == 0)], "recording_id")
+    if "n_samples" in rec.columns:  # the writer's record of each length: rows lost at an end show
+        declared = rec["n_samples"].to_numpy(dtype=float, na_value=np.nan)
+        bad = ~np.isnan(declared) & (declared != counts)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise _fail(file, f"{int(counts[k])} rows, but {RECORDINGS_FILE} gives n_samples {int(declared[k])}: rows are missing "
+                        "or left over", ids[k], "sample_index")
     if (counts < 2).any():
         raise _fail(file, "a recording needs at least 2 samples", ids[np.argmax(counts < 2)], "sample_index")
     row_start = np.r_[0, np.cumsum(counts)]
@@ -535,6 +549,7 @@ def _canonical(
     for rid, scenario in zip(ids, rec["scenario"]):
         if scenario == "hold-slip":
             _check_onset(labels.get(rid), rid, samples_where)
+    rec["n_samples"] = np.array([len(out_samples[rid]) for rid in ids], np.int64)
     return rec, out_samples, labels
 
 
@@ -658,6 +673,7 @@ def write_dataset(
 
     meta = {VERSION_KEY: FORMAT_VERSION.encode()}
     schema = RECORDINGS_SCHEMA if "trial" in recordings.columns else RECORDINGS_SCHEMA.remove(RECORDINGS_SCHEMA.get_field_index("trial"))
+    schema = schema.append(N_SAMPLES)
     table = {f.name: pa.array([_plain(v) for v in rec[f.name]], f.type) for f in schema}
     rec_table = pa.table(table, schema=schema).replace_schema_metadata(meta)
 

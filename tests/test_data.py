@@ -69,6 +69,8 @@ def test_round_trip(tmp_path):
     assert ds.recordings["channels"][0] == ("x", "y")
     assert list(ds.recordings["trial"]) == ["a", "b"]  # no trial column: each recording is its own trial
     assert list(ds.recordings["unit_rate_hz"]) == [1000.0, 1000.0]
+    assert list(ds.recordings["n_samples"]) == [10, 6]
+    assert pq.read_table(tmp_path / "ds" / RECORDINGS_FILE).column("n_samples").to_pylist() == [10, 6]
     assert len(ds.fingerprint) == 16
     assert pq.read_schema(tmp_path / "ds" / SAMPLES_FILE).metadata[VERSION_KEY] == b"1"
     assert "trial" not in pq.read_schema(tmp_path / "ds" / RECORDINGS_FILE).names  # the frame had none
