@@ -104,6 +104,7 @@ class Dataset:
     path: Path | None = None
 
     def __post_init__(self) -> None:
+        self.path = None if self.path is None else Path(self.path)
         where = (self.path / RECORDINGS_FILE, self.path / SAMPLES_FILE) if self.path else (IN_MEMORY, IN_MEMORY)
         self.recordings, self.samples, self.slip_labels = _canonical(self.recordings, self.samples, self.slip_labels, *where)
 

@@ -361,7 +361,7 @@ def _segment_labels(m: CsvMapping, segments: list[tuple[float, float | None, str
         labels[lo:hi] = 1
         last = hi
     if m.labels.get("after_offset", "no-slip") == "unlabelled":
-        labels[last:] = np.where(labels[last:] == 1, 1, -1)
+        labels[last:] = -1
     return labels
 
 

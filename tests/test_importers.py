@@ -167,6 +167,42 @@ unit = "s"
     assert (ds.slip_labels["press/pvc_10mms/index"] == -1).all()  # not in the table: unlabelled
 
 
+def test_onsets_from_file_names_and_drops_unlabelled(tmp_path):
+    """Segments from the mapping: the onset (in samples) is part of each file's name; what follows
+    the offset is a drop, unlabelled; a file without an onset is labelled no-slip throughout."""
+    src = tmp_path / "src"
+    for name in ("grip_onset40_end70.csv", "grip_onset10_end.csv", "still.csv"):
+        _write(src / name, pd.DataFrame({"p": np.arange(100) % 7}))
+    mapping = {
+        "recording": {"sensor_type": "P", "sensor_instance": "thumb", "scenario": "press"},
+        "rules": [{"regex": r"grip_onset(?P<slip_onset>\d+)_end(?P<slip_offset>\d*)\.csv", "scenario": "hold-slip"}],
+        "channels": {"names": ["p"]}, "rate": {"hz": 500},
+        "labels": {"unit": "sample", "after_offset": "unlabelled", "unlisted": "no-slip"},
+    }
+    ds = read_dataset(import_csv(src, tmp_path / "out", mapping))
+    assert ds.slip_labels["grip_onset40_end70"].tolist() == [0] * 40 + [1] * 30 + [-1] * 30
+    assert ds.slip_labels["grip_onset10_end"].tolist() == [0] * 10 + [1] * 90  # no offset: slips to the end
+    assert ds.slip_labels["still"].tolist() == [0] * 100
+    assert list(ds.recordings["scenario"]) == ["hold-slip", "hold-slip", "press"]
+    np.testing.assert_array_equal(ds.samples["still"][:, 0], np.arange(100) % 7)
+
+
+def test_bad_segments_are_named(tmp_path):
+    src = tmp_path / "src"
+    _write(src / "a.csv", pd.DataFrame({"p": np.arange(50)}))
+    pd.DataFrame({"file": ["a.csv", "b.csv"], "onset": [10, 20], "offset": [20, 30]}).to_csv(tmp_path / "seg.csv", index=False)
+    mapping = {"recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "slip"}, "channels": {"names": ["p"]},
+               "rate": {"hz": 100}, "labels": {"segments": "seg.csv"}}
+    with pytest.raises(DataError, match=r"seg.csv: line 3: file 'b.csv' is not among the imported files"):
+        import_csv(src, tmp_path / "out", mapping, base=tmp_path)
+    pd.DataFrame({"file": ["a.csv"], "onset": [40], "offset": [60]}).to_csv(tmp_path / "seg.csv", index=False)
+    with pytest.raises(DataError, match=r"seg.csv: line 2: slip segment \[40, 60\) does not fit .*a.csv \(50 samples\)"):
+        import_csv(src, tmp_path / "out", mapping, base=tmp_path)
+    pd.DataFrame({"file": ["a.csv"], "onset": ["soon"]}).to_csv(tmp_path / "seg.csv", index=False)
+    with pytest.raises(DataError, match=r"seg.csv: line 2: column 'onset': non-numeric value 'soon'"):
+        import_csv(src, tmp_path / "out", mapping, base=tmp_path)
+
+
 # ----------------------------------------------------------------------------- bad files: file, line, column
 def _one_file(tmp_path, text: str, **mapping) -> tuple[Path, dict]:
     src = tmp_path / "src"
