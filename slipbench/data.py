@@ -214,7 +214,8 @@ def _check_type(schema: pa.Schema, file: Path, name: str, check, type_name: str)
 
 
 # ----------------------------------------------------------------------------- recordings
-def _read_recordings(file: Path) -> pd.DataFrame:
+def _read_recordings(file: Path) -> tuple[pd.DataFrame, dict[str, int]]:
+    """The canonical recordings, and the lengths the file declares (its ``n_samples``)."""
     table = _open_parquet(file).read()
     columns = {}
     for name, (check, type_name) in RECORDING_TYPES.items():
@@ -222,7 +223,9 @@ def _read_recordings(file: Path) -> pd.DataFrame:
             continue
         _check_type(table.schema, file, name, check, type_name)
         columns[name] = table.column(name).to_pylist()  # plain Python values: every flavour alike
-    return _canonical_recordings(pd.DataFrame(columns), file)
+    declared = columns.pop("n_samples", [])
+    rec = _canonical_recordings(pd.DataFrame(columns), file)
+    return rec, {rid: n for rid, n in zip(columns["recording_id"], declared) if n is not None}
 
 
 def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame:
@@ -280,8 +283,6 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
     cols["speed_mm_s"], cols["sampling_rate_hz"] = speed, rate
     out = pd.DataFrame(cols)
     out["n_channels"] = n_ch
-    if "n_samples" in frame.columns:  # checked against the samples by _canonical
-        out["n_samples"] = [None if _is_null(v) else int(v) for v in frame["n_samples"]]
     for name in frame.columns:  # a caller's own columns ride along (the format ignores them)
         if name not in out.columns and name not in DERIVED_COLUMNS:
             out[name] = frame[name].to_numpy()
@@ -384,8 +385,9 @@ def _labels_of(chunk: pa.Array, file: Path, ids: np.ndarray, codes: np.ndarray, 
     return pc.fill_null(ints, -1).to_numpy().astype(np.int8)
 
 
-def _read_samples(file: Path, rec: pd.DataFrame) -> tuple[dict, dict]:
-    """Every recording's samples and labels, placed by ``sample_index`` whatever the row order."""
+def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) -> tuple[dict, dict]:
+    """Every recording's samples and labels, placed by ``sample_index`` whatever the row order;
+    ``declared``: recording_id -> the n_samples that recordings.parquet gives."""
     pf = _open_parquet(file)
     schema = pf.schema_arrow
     _check_type(schema, file, "recording_id", _is_string, "a string")
@@ -414,13 +416,10 @@ def _read_samples(file: Path, rec: pd.DataFrame) -> tuple[dict, dict]:
             row0 += len(chunk)
     if (counts == 0).any():
         raise _fail(file, "recording has no samples", ids[np.argmax(counts == 0)], "recording_id")
-    if "n_samples" in rec.columns:  # the writer's record of each length: rows lost at an end show
-        declared = rec["n_samples"].to_numpy(dtype=float, na_value=np.nan)
-        bad = ~np.isnan(declared) & (declared != counts)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise _fail(file, f"{int(counts[k])} rows, but {RECORDINGS_FILE} gives n_samples {int(declared[k])}: rows are missing "
-                        "or left over", ids[k], "sample_index")
+    for k, rid in enumerate(ids):  # the writer's record of each length: rows lost at an end show
+        if rid in declared and declared[rid] != counts[k]:
+            raise _fail(file, f"{int(counts[k])} rows, but {RECORDINGS_FILE} gives n_samples {declared[rid]}: rows are missing "
+                        "or left over", rid, "sample_index")
     if (counts < 2).any():
         raise _fail(file, "a recording needs at least 2 samples", ids[np.argmax(counts < 2)], "sample_index")
     row_start = np.r_[0, np.cumsum(counts)]
@@ -627,9 +626,9 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
         raise DataError(f"{path}: not a dataset folder (expected a folder with {RECORDINGS_FILE} and {SAMPLES_FILE})")
     file = path / RECORDINGS_FILE
     try:
-        recordings = _read_recordings(file)
+        recordings, declared = _read_recordings(file)
         file = path / SAMPLES_FILE
-        samples, labels = _read_samples(file, recordings)
+        samples, labels = _read_samples(file, recordings, declared)
     except (pa.ArrowException, OSError) as exc:  # a damaged page, found while reading
         raise DataError(f"{file}: unreadable ({_one_line(exc)})") from None
     return Dataset(recordings, samples, labels, path)
@@ -698,6 +697,7 @@ def write_dataset(
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
+        tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it 0700: a shared lab folder must stay readable
         pq.write_table(rec_table, tmp / RECORDINGS_FILE)
         pq.write_table(samples_table, tmp / SAMPLES_FILE, row_group_size=1 << 20)
         if path.exists():
@@ -707,6 +707,12 @@ def write_dataset(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return path
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def info(dataset: Dataset) -> pd.DataFrame:

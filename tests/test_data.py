@@ -77,6 +77,18 @@ def test_round_trip(tmp_path):
     assert SCENARIOS == ("slip", "press", "free-space", "hold-slip")
 
 
+def test_written_folder_follows_the_umask(tmp_path):
+    import os
+
+    old = os.umask(0o002)
+    try:
+        path = _tiny(tmp_path)
+    finally:
+        os.umask(old)
+    assert path.stat().st_mode & 0o777 == 0o775
+    assert (path / SAMPLES_FILE).stat().st_mode & 0o777 == 0o664
+
+
 def test_writer_refuses_to_overwrite(tmp_path):
     path = _tiny(tmp_path)
     with pytest.raises(DataError, match="already exists"):
