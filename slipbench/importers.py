@@ -394,6 +394,58 @@ def _segments_table(m: CsvMapping) -> dict[str, list[tuple[float, float | None, 
 
 
 # ----------------------------------------------------------------------------- the importer
+def _glob(src: Path, pattern: str, m: CsvMapping) -> set[str]:
+    """Paths (relative to ``src``, with /) of the files a glob selects."""
+    try:
+        return {p.relative_to(src).as_posix() for p in src.glob(pattern) if p.is_file()}
+    except (ValueError, NotImplementedError) as exc:
+        raise UsageError(f"{m.where}: glob {pattern!r}: {exc} (globs are relative to SRC)") from None
+
+
+def _file_labels(m: CsvMapping, fields: dict, segments: list, frame: pd.DataFrame, rate: float,
+                 times: np.ndarray | None, path: Path) -> np.ndarray | None:
+    """One file's per-sample labels (int8, -1 unlabelled), or None where it has none."""
+    if "column" in m.labels:
+        return _label_column(m, frame, path)
+    segments = list(segments)
+    if fields.get("slip_onset") is not None:
+        segments.append((fields["slip_onset"], fields.get("slip_offset"), f"{m.where}: slip_onset of {path}"))
+    return _segment_labels(m, segments, len(frame), rate, times, path)
+
+
+def _recordings_of(m: CsvMapping, rel: str, path: Path, fields: dict, frame: pd.DataFrame, rate: float,
+                   labels: np.ndarray | None) -> list[tuple[dict, np.ndarray]]:
+    """(metadata row, samples) of each recording in one file: one per channel group."""
+    file_id = str(fields.get("recording_id", _default_id(rel)))
+    out = []
+    for group in m.channels:
+        meta = {**fields, **{k: group[k] for k in ("sensor_instance", "sensor_type") if k in group}}
+        for key in ("sensor_type", "sensor_instance", "scenario"):
+            if meta.get(key) in (None, ""):
+                raise UsageError(f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file")
+        if meta["scenario"] == "hold-slip" and (labels is None or not (labels == 1).any()):
+            raise DataError(f"{path}: scenario hold-slip needs per-sample labels with a slip onset: "
+                            "give [labels] a column, or segments (a table or slip_onset)")
+        names = _channel_names(frame, group, path)
+        values = [_numbers(frame, c, path, m.csv) for c in names]
+        units = group.get("units", "raw")
+        units = [units] * len(names) if isinstance(units, str) else list(units)
+        if len(units) != len(names):
+            raise UsageError(f"{m.where}: [channels].units lists {len(units)} units for {len(names)} channels of {path}")
+        several = len(m.channels) > 1
+        row = dict(
+            recording_id=f"{file_id}/{meta['sensor_instance']}" if several else file_id,
+            sensor_type=str(meta["sensor_type"]), sensor_instance=str(meta["sensor_instance"]), scenario=str(meta["scenario"]),
+            material=_text(meta.get("material")), speed_mm_s=meta.get("speed_mm_s"), sampling_rate_hz=rate,
+            channels=tuple(names), units=tuple(str(u) for u in units), source=_text(meta.get("source")),
+            # the units of one file were recorded together: one trial unless the mapping says
+            trial=_text(meta.get("trial")) or (file_id if several else None),
+        )
+        integers = all(v.dtype.kind == "i" for v in values)  # raw counts stay integers, written exactly
+        out.append((row, np.column_stack(values if integers else [v.astype(np.float64) for v in values])))
+    return out
+
+
 def import_csv(src: str | Path, out: str | Path, config: str | Path | Mapping, base: Path | None = None) -> Path:
     """Convert the CSV files under ``src`` into a dataset folder ``out`` as the mapping says.
 
@@ -413,61 +465,32 @@ def import_csv(src: str | Path, out: str | Path, config: str | Path | Mapping, b
     m = load_mapping(config, base)
     if not src.is_dir():
         raise DataError(f"{src}: not a folder")
-    files = sorted({p for g in m.files for p in src.glob(g) if p.is_file()})
+    files = sorted(set().union(*(_glob(src, g, m) for g in m.files)))
     if not files:
         raise DataError(f"{src}: no file matches files = {list(m.files)}")
-    selected = [{p.relative_to(src).as_posix() for p in src.glob(r.glob) if p.is_file()} if r.glob else None for r in m.rules]
-    selected = [s if s is not None else {p.relative_to(src).as_posix() for p in files} for s in selected]
+    selected = [_glob(src, r.glob, m) if r.glob else set(files) for r in m.rules]
     segments = _segments_table(m)
-    known = {p.relative_to(src).as_posix() for p in files}
     for name, parts in segments.items():
-        if name not in known:
+        if name not in files:
             raise DataError(f"{parts[0][2]}: file {name!r} is not among the imported files (paths relative to SRC, with /)")
     text_columns = [m.labels["column"]] if "column" in m.labels else []
 
     rows, samples, labels, origin = [], {}, {}, {}
-    for path in files:
-        rel = path.relative_to(src).as_posix()
+    for rel in files:
+        path = src / rel
         fields = _fields(m, rel, selected)
         frame = _read_csv(path, m.csv, text_columns)
         rate, times = _rate(m, fields, frame, path)
-        if "column" in m.labels:
-            file_labels = _label_column(m, frame, path)
-        else:
-            parts = list(segments.get(rel, []))
-            if fields.get("slip_onset") is not None:
-                parts.append((fields["slip_onset"], fields.get("slip_offset"), f"{m.where}: slip_onset of {rel}"))
-            file_labels = _segment_labels(m, parts, len(frame), rate, times, path)
-        file_id = str(fields.get("recording_id", _default_id(rel)))
-        for group in m.channels:
-            meta = {**fields, **{k: group[k] for k in ("sensor_instance", "sensor_type") if k in group}}
-            rid = file_id if len(m.channels) == 1 else f"{file_id}/{meta['sensor_instance']}"
-            for key in ("sensor_type", "sensor_instance", "scenario"):
-                if meta.get(key) in (None, ""):
-                    raise UsageError(f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file")
-            if meta["scenario"] == "hold-slip" and (file_labels is None or not (file_labels == 1).any()):
-                raise DataError(f"{path}: scenario hold-slip needs per-sample labels with a slip onset: "
-                                "give [labels] a column, or segments (a table or slip_onset)")
-            names = _channel_names(frame, group, path)
-            values = [_numbers(frame, c, path, m.csv) for c in names]
-            units = group.get("units", "raw")
-            units = [units] * len(names) if isinstance(units, str) else list(units)
-            if len(units) != len(names):
-                raise UsageError(f"{m.where}: [channels].units lists {len(units)} units for {len(names)} channels of {path}")
+        file_labels = _file_labels(m, fields, segments.get(rel, []), frame, rate, times, path)
+        for row, values in _recordings_of(m, rel, path, fields, frame, rate, file_labels):
+            rid = row["recording_id"]
             if rid in origin:
                 raise UsageError(f"{m.where}: {origin[rid]} and {rel} both give recording_id {rid!r}; set recording_id to tell them apart")
             origin[rid] = rel
-            samples[rid] = np.column_stack(values) if all(v.dtype.kind == "i" for v in values) else \
-                np.column_stack([v.astype(np.float64) for v in values])
+            rows.append(row)
+            samples[rid] = values
             if file_labels is not None:
                 labels[rid] = file_labels
-            rows.append(dict(
-                recording_id=rid, sensor_type=str(meta["sensor_type"]), sensor_instance=str(meta["sensor_instance"]),
-                scenario=str(meta["scenario"]), material=_text(meta.get("material")), speed_mm_s=meta.get("speed_mm_s"),
-                sampling_rate_hz=rate, channels=tuple(names), units=tuple(str(u) for u in units),
-                source=_text(meta.get("source")),
-                trial=_text(meta.get("trial")) or (file_id if len(m.channels) > 1 else None),
-            ))
     return write_dataset(out, pd.DataFrame(rows), samples, labels or None)
 
 

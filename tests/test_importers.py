@@ -286,6 +286,8 @@ def test_mapping_problems_found_while_importing(tmp_path):
         import_csv(src, tmp_path / "out", {**mapping, "recording": {"sensor_type": "S", "sensor_instance": "u"}})
     with pytest.raises(DataError, match=r"a/x.csv: the path does not match \[recording\].regex"):
         import_csv(src, tmp_path / "out", {**mapping, "recording": {**mapping["recording"], "recording_id": "{path}", "regex": "b/.*"}})
+    with pytest.raises(UsageError, match=r"glob '/etc/\*': .*relative to SRC"):
+        import_csv(src, tmp_path / "out", {**mapping, "files": "/etc/*"})
     with pytest.raises(DataError, match=r"no file matches files = \['\*\.txt'\]"):
         import_csv(src, tmp_path / "out", {**mapping, "files": "*.txt"})
     assert not (tmp_path / "out").exists()
