@@ -114,7 +114,8 @@ class Dataset:
         stored (row order, Arrow flavours, pyarrow version) or built in memory.
 
         Computed on first use and cached: change no array of a Dataset after reading it. Costs
-        about 0.7 s per 46 million values (the simulated design at scale 0.2, 12 M samples).
+        about 1 s for the simulated design at scale 0.2 (12 M samples, 46 M values): 2 x
+        BLAKE2b over the bytes of its files (``benchmarks/bench_data.py``).
         """
         return content_fingerprint(self.recordings, self.samples, self.slip_labels)
 
@@ -611,11 +612,6 @@ def content_fingerprint(recordings: pd.DataFrame, samples: Mapping[str, np.ndarr
         labels = slip_labels.get(rid)
         h.update((np.full(len(a), -1, np.int8) if labels is None else np.ascontiguousarray(labels, np.int8)).tobytes())
     return h.hexdigest()
-
-
-def fingerprint(path: str | os.PathLike) -> str:
-    """The content fingerprint of a dataset folder (reads and validates it)."""
-    return read_dataset(path).fingerprint
 
 
 # ----------------------------------------------------------------------------- read and write
