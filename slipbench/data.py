@@ -563,7 +563,7 @@ def _canonical_labels(labels, n: int, rid: str, where) -> np.ndarray:
     a = np.asarray(labels)
     if a.dtype == bool:
         a = a.astype(np.int8)
-    elif a.dtype.kind not in "iu" or a.ndim != 1 or not np.isin(a, (-1, 0, 1)).all():
+    elif a.dtype.kind not in "iu" or a.ndim != 1 or (len(a) and (a.min() < -1 or a.max() > 1)):
         raise _fail(where, f"labels must be bool, or int with -1 unlabelled, 0 no slip, 1 slip; found dtype {a.dtype}", rid, "slip")
     if a.shape != (n,):
         raise _fail(where, f"{a.shape[0] if a.ndim else 0} labels for {n} samples", rid, "slip")

@@ -103,6 +103,12 @@ def test_writer_checks_before_writing(tmp_path):
         write_dataset(tmp_path / "x", _frame(), bad)
     with pytest.raises(DataError, match=r"recording 'a': column 'slip': a hold-slip recording needs per-sample labels"):
         write_dataset(tmp_path / "x", _frame(scenario=["hold-slip", "press"]), SAMPLES)
+    with pytest.raises(DataError, match=r"recording 'a': column 'slip': labels must be bool, or int with -1 unlabelled"):
+        write_dataset(tmp_path / "x", _frame(), SAMPLES, {"a": np.full(10, 2)})
+    with pytest.raises(DataError, match=r"recording 'b': column 'slip': 5 labels for 6 samples"):
+        write_dataset(tmp_path / "x", _frame(), SAMPLES, {"b": np.zeros(5, bool)})
+    with pytest.raises(DataError, match=r"recording 'b': column 'values': samples must have shape \(n >= 2, 2 channels\)"):
+        write_dataset(tmp_path / "x", _frame(), {"a": SAMPLES["a"], "b": np.ones((6, 3))})
     assert list(tmp_path.iterdir()) == []  # nothing half-written, no temporary folder left
 
 
