@@ -117,7 +117,9 @@ def dataset_validate(path: Path) -> None:
 
     ds = read_dataset(path)
     n = sum(len(s) for s in ds.samples.values())
-    click.echo(f"{path}: valid slipbench dataset v1, {len(ds.recordings)} recordings, {n} samples, fingerprint {ds.fingerprint}")
+    labelled = sum(int((labels >= 0).sum()) for labels in ds.slip_labels.values())
+    click.echo(f"{path}: valid slipbench dataset v1, {len(ds.recordings)} recordings in {ds.recordings['trial'].nunique()} trials, "
+               f"{n} samples ({labelled} labelled per sample), fingerprint {ds.fingerprint}")
 
 
 @dataset.command("info")
@@ -133,14 +135,23 @@ def dataset_info(path: Path) -> None:
 
 
 @dataset.command("import")
-@click.argument("kind", type=click.Choice(["biotacsp-dos"]))
+@click.argument("kind", type=click.Choice(["csv", "biotacsp-dos"]))
 @click.argument("src", type=click.Path(path_type=Path))
 @click.argument("out", type=click.Path(path_type=Path))
-def dataset_import(kind: str, src: Path, out: Path) -> None:
-    """Convert a published dataset at SRC into a slipbench dataset folder OUT."""
-    from .importers import IMPORTERS
+@click.option("--config", type=click.Path(path_type=Path), help="csv: the mapping file (TOML; see datasets.md).")
+def dataset_import(kind: str, src: Path, out: Path, config: Path | None) -> None:
+    """Convert CSV files (KIND csv, with --config) or a published dataset at SRC into a
+    slipbench dataset folder OUT."""
+    from .importers import IMPORTERS, import_csv
 
-    IMPORTERS[kind](src, out)
+    if kind == "csv":
+        if config is None:
+            raise UsageError("dataset import csv needs --config MAPPING.toml (see datasets.md, 'Bring your own recordings')")
+        import_csv(src, out, config)
+    elif config is not None:
+        raise UsageError(f"dataset import {kind} takes no --config; its mapping is built in")
+    else:
+        IMPORTERS[kind](src, out)
     click.echo(f"wrote {out}")
 
 

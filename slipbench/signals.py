@@ -16,20 +16,30 @@ from .errors import UsageError
 SPLITS = ("paper", "grouped")
 
 
-def univariate(a: np.ndarray) -> np.ndarray:
+def univariate(a: np.ndarray, baseline: int = 0) -> np.ndarray:
     """The paper's eq. (1): s_t = ||a_t|| - ||a_{t-1}||.
+
+    ||a_t|| depends on each channel's offset: a channel resting at 3000 counts weighs its
+    changes by its share of the norm, so two units with different offsets give different s for
+    the same contact. ``baseline`` removes that dependence.
 
     Parameters
     ----------
     a : (n_samples, n_channels) samples of one recording.
+    baseline : 0 (the paper: raw values), or N > 0: subtract each channel's mean over the
+        recording's first N samples (all of them if it is shorter) before the norm.
 
     Returns
     -------
     (n_samples - 1,) float32. Norms are taken in float64 so that a large static load does not
     swallow the small changes that carry the slip signal.
     """
-    norm = np.linalg.norm(np.asarray(a, dtype=np.float64), axis=1)
-    return np.diff(norm).astype(np.float32)
+    if isinstance(baseline, (bool, np.bool_)) or not isinstance(baseline, (int, np.integer)) or baseline < 0:
+        raise UsageError(f"baseline must be an int >= 0 (samples averaged at the start; 0: none), got {baseline!r}")
+    a = np.asarray(a, dtype=np.float64)
+    if baseline:
+        a = a - a[:baseline].mean(axis=0)
+    return np.diff(np.linalg.norm(a, axis=1)).astype(np.float32)
 
 
 @dataclass

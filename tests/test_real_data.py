@@ -35,6 +35,20 @@ def test_import_keeps_every_recording(dos):
     assert info(dos)["samples"].sum() == sum(len(s) for s in dos.samples.values())
 
 
+def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
+    """datasets.md's biotacsp-dos.toml through `dataset import csv` is `dataset import biotacsp-dos`."""
+    import re
+
+    docs = (Path(__file__).resolve().parents[1] / "datasets.md").read_text()
+    (block,) = [b for b in re.findall(r"```toml\n(.*?)```", docs, flags=re.S) if "BioTacSP" in b]
+    (tmp_path / "biotacsp-dos.toml").write_text(block)
+    code, out, err = cli(["dataset", "import", "csv", str(SOURCE), str(tmp_path / "csv"), "--config", str(tmp_path / "biotacsp-dos.toml")])
+    assert code == 0, err
+    code, out, err = cli(["dataset", "validate", str(tmp_path / "csv")])
+    assert code == 0 and f"fingerprint {dos.fingerprint}" in out, out + err
+    assert "306 recordings in 306 trials" in out
+
+
 def test_holweg_on_real_slip_data_beats_chance(dos, tmp_path):
     """Balanced slip against touch on a real BioTac SP, grouped split: every recording on one side."""
     rows = evaluate(dos, Run(Holweg(), WindowSize(), split="grouped"), ResultsStore(tmp_path), progress=False)

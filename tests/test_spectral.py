@@ -136,7 +136,7 @@ def test_unknown_sensor_or_instance_exits_2_and_writes_nothing(small_path, tmp_p
     code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--sensor", "GelSight",
                         "--segment", "100", "--repeats", "2", "--out", str(out)])
     assert code == 2 and "unknown sensor 'GelSight'" in err
-    assert "Nano17, OptoForce20, BioTacSP" in err and "Traceback" not in err
+    assert "BioTacSP, Nano17, OptoForce20" in err and "Traceback" not in err  # recordings in canonical (id) order
     assert not out.exists()
     code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "little"])
     assert code == 2 and "BioTacSP has no instance 'little'; its instances: index, middle" in err
