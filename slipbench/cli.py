@@ -181,7 +181,10 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
 @click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one].")
 @click.option("--scale", default=0.05, show_default=True, type=Scale(), help="Scale of the simulated dataset when --dataset is not given.")
 @click.option("--out", default="results", show_default=True, type=click.Path(path_type=Path), help="Results folder.")
-@click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True)
+@click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True,
+              help="paper: windows shuffled and halved; grouped: whole trials on one side, the same for every unit.")
+@click.option("--labels", type=click.Choice(["scenario", "majority", "any", "last"]), default="scenario", show_default=True,
+              help="A window's class: its recording's scenario (the paper), or its samples' slip labels.")
 @click.option("--seed", default=0, show_default=True, type=SEED, help="Seed of balancing, splitting and training (and of the simulated data).")
 @click.option("--repeats", default=1, show_default=True, type=click.IntRange(1), help="Rerun with seeds seed, seed+1, ...")
 @click.option("--param", "params", multiple=True, help="Detector hyperparameter NAME=VALUE (JSON value); repeatable.")
@@ -193,7 +196,7 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
 @click.option("--force", is_flag=True, help="Recompute cells already in the results folder.")
 @click.option("--intervals", is_flag=True, help="Show 95 % intervals in the table.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed, repeats, params, protocol_params,
+def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, labels, seed, repeats, params, protocol_params,
              plugins, jobs, scheduler, cell_timeout, force, intervals, quiet) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
     from .data import read_dataset
@@ -206,7 +209,7 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, seed
     broken: list[str] = []
     detectors = _with_options(_loaded(registry.detectors, detector_name, broken), _param(params), "detector")
     protocols = _with_options(_loaded(registry.protocols, protocol_name, broken), _param(protocol_params), "protocol")
-    runs = [Run(d, p, split, seed + r) for d in detectors.values() for p in protocols.values() for r in range(repeats)]
+    runs = [Run(d, p, split, seed + r, labels) for d in detectors.values() for p in protocols.values() for r in range(repeats)]
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
     ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)

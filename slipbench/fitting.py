@@ -78,7 +78,7 @@ def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_
             y_pred = (scores >= 0.5).astype(np.int8)
             out.append(({
                 "status": "ok", "reason": "", "n_train": len(train_x), "n_test": len(test.x),
-                "n_test_recordings": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
+                "n_test_trials": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
                 **classification_figures(test.y, y_pred, test.groups, seed, scores=scores),
                 **cost, "infer_us_per_window": infer_s / len(test.x) * 1e6,
             }, scores))

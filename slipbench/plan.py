@@ -19,21 +19,23 @@ from .errors import PluginError, UsageError
 from .protocol import BaseProtocol, Cell, Part
 from .registry import detectors, protocols
 from .results import cell_key
-from .signals import SPLITS, Signals, Windows, balance, split
+from .signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
 
 
 @dataclass
 class Run:
-    """One detector on one protocol, with a split and a seed.
+    """One detector on one protocol, with a split, a seed and a way to label windows.
 
     ``detector`` and ``protocol`` are objects or ids (``"holweg"``, ``"window-size"``); an id
     is looked up in the registry, an object's id is the name its class is registered under.
+    ``labels``: one of :data:`slipbench.signals.LABELLINGS`.
     """
 
     detector: BaseDetector | str
     protocol: BaseProtocol | str
     split: str = "paper"
     seed: int = 0
+    labels: str = "scenario"
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
 
@@ -48,6 +50,10 @@ class Run:
             self.protocol_name = protocols.id_of(type(self.protocol))
         if self.split not in SPLITS:
             raise UsageError(f"unknown split {self.split!r}; choose one of: {', '.join(SPLITS)}")
+        if self.labels not in LABELLINGS:
+            raise UsageError(f"unknown labelling {self.labels!r}; choose one of: {', '.join(LABELLINGS)}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
+            raise UsageError(f"seed must be an int in [0, 2**32 - 1], got {self.seed!r}")
 
     def validate(self) -> None:
         """Every detector parameter and protocol option, before any work starts."""
@@ -63,7 +69,8 @@ class Run:
 
 
 def _concat(parts: list[Windows]) -> Windows:
-    return Windows(None, np.concatenate([p.recording for p in parts]), np.concatenate([p.index for p in parts]), parts[0].recordings)
+    return Windows(None, np.concatenate([p.recording for p in parts]), np.concatenate([p.index for p in parts]),
+                   parts[0].recordings, np.concatenate([p.labels for p in parts]))
 
 
 class CellData:
@@ -72,8 +79,9 @@ class CellData:
     part's samples are cut when a model needs them, so memory holds one task's windows at a
     time. The same windows serve every downsampling, as the paper downsamples its 200-sample set."""
 
-    def __init__(self, signals: Signals, how: str, seed: int):
-        self.signals, self.how, self.seed = signals, how, seed
+    def __init__(self, signals: Signals, how: str, seed: int, labelling: str = "scenario"):
+        self.signals, self.how, self.seed, self.labelling = signals, how, seed, labelling
+        self._sides = trial_sides(signals.recordings, seed) if how == "grouped" else None
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
         rec = signals.recordings
@@ -100,13 +108,17 @@ class CellData:
         if sensor not in self._rows:
             raise UsageError(f"the dataset has no recordings of sensor {name}")
         rows = self._rows[sensor]
-        windows = self.signals.windows(window, rows, values=False)
+        windows = self.signals.windows(window, rows, values=False, labelling=self.labelling)
         if len(windows) == 0:
             longest = int(np.max(np.diff(self.signals.offsets)[rows]))
-            raise UsageError(f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)")
+            if longest < window:
+                raise UsageError(f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)")
+            raise UsageError(f"no window of {window} samples of {name} can be labelled by {self.labelling}"
+                             + (" (hold-slip recordings hold two states: label by samples, e.g. --labels majority)"
+                                if self.labelling == "scenario" else " (each touches an unlabelled sample)"))
         words = [zlib.crc32(f"{sensor}|{window}".encode())]
         windows = windows.take(balance(windows, np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))))
-        train, test = split(windows, self.how, self.seed)
+        train, test = split(windows, self.how, self.seed, self._sides)
         for side, idx in (("train", train), ("test", test)):
             classes = set(np.unique(windows.y[idx]))
             if classes != {0, 1}:
@@ -127,7 +139,8 @@ class CellData:
             if cell.downsample not in self._antialiased:
                 self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
             signals = self._antialiased[cell.downsample]
-        out = Windows(signals.values(windows, cell.window), windows.recording, windows.index, windows.recordings)
+        out = Windows(signals.values(windows, cell.window), windows.recording, windows.index, windows.recordings,
+                      windows.labels)
         return out.downsample(cell.downsample) if cell.downsample > 1 else out
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
@@ -177,17 +190,17 @@ class Plan:
 
     cells: list[PlannedCell]
     tasks: list[Task]
-    data: dict[tuple[str, int], CellData]
+    data: dict[tuple[str, int, str], CellData]
 
     def data_of(self, run: Run) -> CellData:
-        return self.data[run.split, run.seed]
+        return self.data[run.split, run.seed, run.labels]
 
 
 def keys(run: Run, cell: Cell, fingerprint: str, version: str) -> tuple[str, str]:
     """Content addresses of a cell's result and of the model it tests (equal model keys train
     on the same windows)."""
     common = {"dataset": fingerprint, "detector": run.detector_name, "params": run.detector.get_params(),
-              "split": run.split, "seed": run.seed, "version": version}
+              "split": run.split, "seed": run.seed, "labels": run.labels, "version": version}
     model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample,
                       "decimation": cell.decimation})
     key = cell_key({**common, "protocol": run.protocol_name, "protocol_params": run.protocol.get_params(),
@@ -204,11 +217,13 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
               done: set[str]) -> Plan:
     """Plan every cell of every run (a run with its protocol's cells); cells whose key is in
     ``done`` are listed but not computed."""
-    data: dict[tuple[str, int], CellData] = {}
+    data: dict[tuple[str, int, str], CellData] = {}
     planned: list[PlannedCell] = []
     tasks: dict[str, Task] = {}
     for run, cells in runs:
-        cells_data = data.setdefault((run.split, run.seed), CellData(signals, run.split, run.seed))
+        if (run.split, run.seed, run.labels) not in data:
+            data[run.split, run.seed, run.labels] = CellData(signals, run.split, run.seed, run.labels)
+        cells_data = data[run.split, run.seed, run.labels]
         for cell in cells:
             key, model = keys(run, cell, fingerprint, version)
             pc = PlannedCell(run, cell, key, model, skip=cell.skip)

@@ -44,7 +44,7 @@ def _row(pc: PlannedCell, fields: dict, fingerprint: str, path: str, env: dict, 
         "protocol_params": json.dumps(run.protocol.get_params(), sort_keys=True, default=str),
         "detector": run.detector_name,
         "detector_params": json.dumps(run.detector.get_params(), sort_keys=True, default=str),
-        "split": run.split, "seed": run.seed, **cell.key, "window": cell.window, "downsample": cell.downsample,
+        "split": run.split, "seed": run.seed, "labels": run.labels, **cell.key, "window": cell.window, "downsample": cell.downsample,
         "decimation": cell.decimation, "cell": cell.name,
         "train_sensors": json.dumps(cell.train.sensors), "train_where": json.dumps(cell.train.where, default=str),
         "test_sensors": json.dumps(cell.test.sensors), "test_where": json.dumps(cell.test.where, default=str),
@@ -101,8 +101,10 @@ def evaluate(
         row = _row(pc, fields, fingerprint, path, env, run_id)
         predictions = None
         if scores is not None:
+            rec = signals.recordings
             predictions = pd.DataFrame({
-                "recording_id": signals.recordings["recording_id"].to_numpy()[pc.test.recording],
+                "recording_id": rec["recording_id"].to_numpy()[pc.test.recording],
+                "trial": rec["trial"].to_numpy()[pc.test.recording],
                 "window_index": pc.test.index, "y_true": pc.test.y, "score": scores,
             })
         store.put(row, predictions)
@@ -138,8 +140,9 @@ def _payload(plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler
         model_path = store.model_path(task.model_key)
         if force:
             Path(f"{model_path}.json").unlink(missing_ok=True)
+    trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
     return (first.run.detector, first.run.seed, first.sampling_rate, train.x, train.y,
-            [TestSet(t.x, t.y, t.recording) for t in tests], None if model_path is None else str(model_path))
+            [TestSet(t.x, t.y, trials[t.recording]) for t in tests], None if model_path is None else str(model_path))
 
 
 def _describe(runs: list[Run]) -> str:

@@ -269,7 +269,9 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
 def _check_strata(sig: Signals, rows: np.ndarray, windows: Windows, segment: int, what: str) -> None:
     """Refuse a stratum whose every recording is shorter than a segment: balancing would drop it
     silently and change the mix."""
-    per_recording = Windows(np.empty((len(rows), 0)), rows, np.zeros(len(rows), np.int32), sig.recordings).strata()
+    scenario_labels = (sig.recordings["scenario"].to_numpy()[rows] == "slip").astype(np.int8)
+    per_recording = Windows(np.empty((len(rows), 0)), rows, np.zeros(len(rows), np.int32), sig.recordings,
+                            scenario_labels).strata()
     missing = sorted(set(per_recording) - set(windows.strata()))
     if missing:
         lengths = sig.offsets[rows + 1] - sig.offsets[rows]

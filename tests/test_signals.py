@@ -20,10 +20,11 @@ def test_univariate_keeps_small_changes_on_a_large_load():
     assert univariate(a)[0] == pytest.approx(float(a[1, 0]) - float(a[0, 0]), rel=1e-6)
 
 
-def _signals(lengths):
-    rec = pd.DataFrame({"recording_id": [f"r{i}" for i in range(len(lengths))]})
+def _signals(lengths, labels=None, scenario="slip"):
+    rec = pd.DataFrame({"recording_id": [f"r{i}" for i in range(len(lengths))], "scenario": scenario})
     parts = [np.arange(n, dtype=np.float32) + 1000 * i for i, n in enumerate(lengths)]
-    return Signals(np.concatenate(parts), np.r_[0, np.cumsum(lengths)], rec)
+    labels = np.ones(sum(lengths), np.int8) if labels is None else np.asarray(labels, np.int8)
+    return Signals(np.concatenate(parts), np.r_[0, np.cumsum(lengths)], rec, labels)
 
 
 def test_windows_never_cross_recordings_and_drop_tails():
@@ -92,3 +93,53 @@ def test_windowing_is_vectorized_enough():
     w = sig.windows(50)
     assert w.x.shape == (2000 * 80, 50)
     np.testing.assert_array_equal(w.x[80], np.arange(1000, 1050, dtype=np.float32))
+
+
+def test_windows_take_their_class_from_the_samples_as_asked():
+    # one hold-slip recording: held for 6 samples, slipping for 5, then dropped (unlabelled)
+    labels = [0] * 6 + [1] * 5 + [-1] * 4
+    sig = _signals([15], labels, scenario="hold-slip")
+    assert len(sig.windows(4, labelling="scenario")) == 0  # two states: no scenario label
+    by = {how: sig.windows(4, labelling=how) for how in ("majority", "any", "last")}
+    # windows [0:4] all held, [4:8] 2 held + 2 slip, [8:12] 3 slip + 1 unlabelled (left out)
+    for how, expected in (("majority", [0, 1]), ("any", [0, 1]), ("last", [0, 1])):
+        np.testing.assert_array_equal(by[how].y, expected, err_msg=how)
+        np.testing.assert_array_equal(by[how].index, [0, 1])
+    sig = _signals([9], [0, 0, 0, 1, 0, 0, 0, 0, 0], scenario="hold-slip")
+    assert sig.windows(3, labelling="majority").y.tolist() == [0, 0, 0]
+    assert sig.windows(3, labelling="any").y.tolist() == [0, 1, 0]
+    assert sig.windows(3, labelling="last").y.tolist() == [0, 0, 0]  # the slip sample is not the last
+
+
+def test_grouped_split_keeps_each_trial_on_one_side_for_every_unit(small):
+    from slipbench.signals import trial_sides
+
+    rec = small.recordings
+    sides = trial_sides(rec, seed=5)
+    per_trial = pd.Series(sides).groupby(rec["trial"].to_numpy()).nunique()
+    assert (per_trial == 1).all()  # every recording of a trial, whatever its unit, on one side
+    assert 0.4 < sides.mean() < 0.6
+    sig = Signals.from_dataset(small)
+    test_trials = {}
+    for unit in (("Nano17", "index"), ("Nano17", "middle")):
+        rows = np.flatnonzero(rec["sensor_type"].eq(unit[0]) & rec["sensor_instance"].eq(unit[1]))
+        w = sig.windows(50, rows)
+        w = w.take(balance(w, np.random.default_rng(0)))
+        train, test = split(w, "grouped", seed=5)
+        trials = rec["trial"].to_numpy()
+        test_trials[unit] = set(trials[w.recording[test]])
+        assert not set(trials[w.recording[train]]) & test_trials[unit]
+    train_index = set(rec["trial"].to_numpy()[np.flatnonzero(rec["sensor_instance"].eq("index").to_numpy() & (sides == 0))])
+    assert not test_trials[("Nano17", "middle")] & train_index  # no middle test trial trained the index model
+
+
+def test_the_paper_split_survives_single_window_strata():
+    sig = _signals([8] * 6)
+    sig.recordings["scenario"] = ["slip", "slip", "slip", "press", "press", "free-space"]
+    sig.recordings["material"] = ["PVC", "PVC", "PVC", "PVC", "PVC", None]
+    sig.recordings["speed_mm_s"] = [25.0, 25.0, 25.0, np.nan, np.nan, 50.0]
+    sig.labels = np.repeat(np.array([1, 1, 1, 0, 0, 0], np.int8), 8)
+    w = sig.windows(4)
+    w = w.take(np.r_[0:6, 6:10, 10])  # free-space keeps one window: a stratum of one
+    train, test = split(w, "paper", seed=0)
+    assert set(w.y[train]) == set(w.y[test]) == {0, 1}
