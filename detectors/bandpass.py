@@ -53,6 +53,10 @@ class BandPass(BaseDetector):
         self.threshold_, self.direction_, self.separation_ = best_threshold(energy, y)
         self.scale_ = float(np.std(energy)) or 1.0  # scores: logistic of the distance, 0.5 on the threshold
 
+    def fitted_choices(self):
+        return {"band_hz": list(self.band_hz_), "band_fallback": bool(self.band_fallback_),
+                "threshold": self.threshold_, "separation": self.separation_}
+
     def _predict_proba(self, x):
         z = self.direction_ * (self._energy(x) - self.threshold_) / self.scale_
         return logistic(z)

@@ -62,6 +62,9 @@ class Holweg(BaseDetector):
         # scores: a logistic of the log distance to the threshold, so 0.5 sits on it
         self.scale_ = float(np.std(np.log(sums + 1e-12))) or 1.0
 
+    def fitted_choices(self):
+        return {"band_hz": list(self.band_hz_), "threshold": self.threshold_, "separation": self.separation_}
+
     def _predict_proba(self, x):
         z = self.direction_ * (np.log(self._sums(x) + 1e-12) - np.log(self.threshold_ + 1e-12)) / self.scale_
         return logistic(z)

@@ -19,7 +19,8 @@ from slipbench.protocol import BaseProtocol, Layout, holdout_cells
 
 
 def _speeds(recordings) -> list[float]:
-    return sorted(float(s) for s in recordings.loc[recordings["scenario"] == "slip", "speed_mm_s"].dropna().unique())
+    slipping = recordings["scenario"].isin(["slip", "hold-slip"])
+    return sorted(float(s) for s in recordings.loc[slipping, "speed_mm_s"].dropna().unique())
 
 
 class SpeedHoldout(BaseProtocol):

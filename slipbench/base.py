@@ -177,6 +177,12 @@ class BaseDetector(Parameterized):
                 (tuple if kind == "tuple" else list)(value.tolist())
         return detector
 
+    def fitted_choices(self) -> dict[str, Any]:
+        """What fitting chose that a reader of the results should see (plain JSON values): a
+        band in Hz as ``band_hz`` [low, high], a ``threshold``, .... Stored in each result row
+        and shown by the report; a band at 0 Hz or reaching Nyquist is flagged there."""
+        return {}
+
     @classmethod
     def benchmark(cls, length: int, seconds: float, seed: int = 0) -> Any:
         """Optional: the detector's own speed figures (a DataFrame) against a reference timed in

@@ -134,6 +134,48 @@ def dataset_info(path: Path) -> None:
                f"{table['seconds'].sum():.1f} s")
 
 
+@dataset.command("check")
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option("--protocol", "protocol_names", multiple=True, default=("all",), show_default=True,
+              help="A protocol id (repeatable), or 'all'.")
+@click.option("--protocol-param", "protocol_params", multiple=True, help="Protocol option NAME=VALUE, e.g. windows='[\"50ms\"]'.")
+@click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True)
+@click.option("--labels", type=click.Choice(["scenario", "majority", "any", "last"]), default="scenario", show_default=True)
+@click.option("--seed", default=0, show_default=True, type=SEED)
+@click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
+def dataset_check(path, protocol_names, protocol_params, split, labels, seed, plugins) -> None:
+    """What PATH can support: classes, recordings and trials per unit, windows per size, and
+    which protocol cells would run, be skipped, or rest on too few test trials."""
+    from .check import LOW_N, check_dataset
+    from .data import read_dataset
+    from .runner import Run
+
+    _plugins(plugins)
+    broken: list[str] = []
+    protocols = {}
+    for name in protocol_names:
+        protocols |= _loaded(registry.protocols, name, broken)
+    protocols = _with_options(protocols, _param(protocol_params), "protocol")
+    runs = [Run("holweg", p, split, seed, labels) for p in protocols.values()]
+    for run in runs:
+        run.validate()
+    result = check_dataset(read_dataset(path), runs)
+    click.echo(f"## {path}: classes per unit (labels: {labels}; windows of 50 samples)\n")
+    click.echo(result.units.to_markdown(index=False))
+    click.echo("\n## Windows per size: slip / non-slip, before balancing\n")
+    click.echo(result.windows.to_markdown(index=False, floatfmt="g"))
+    for name, cells in result.cells.groupby("protocol", sort=False):
+        counts = cells["verdict"].value_counts()
+        click.echo(f"\n## {name} ({split} split, seed {seed}): " + ", ".join(
+            f"{int(counts.get(v, 0))} {v}" for v in ("runs", "low n", "skipped")) + f" of {len(cells)} cells\n")
+        flagged = cells[cells["verdict"] != "runs"]
+        if len(flagged):
+            click.echo(flagged.drop(columns="protocol").to_markdown(index=False))
+    click.echo(f"\nlow n: fewer than {LOW_N} test trials of a class; such cells are flagged in results and tables.")
+    if broken:
+        raise PluginError("; ".join(broken))
+
+
 @dataset.command("import")
 @click.argument("kind", type=click.Choice(["csv", "biotacsp-dos"]))
 @click.argument("src", type=click.Path(path_type=Path))
@@ -179,6 +221,9 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
 @click.option("--detector", "detector_name", required=True, help="A detector id, or 'all' (see `slipbench list`).")
 @click.option("--protocol", "protocol_name", required=True, help="A protocol id, or 'all' (see `slipbench list`).")
 @click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one].")
+@click.option("--train-dataset", "train_path", type=click.Path(path_type=Path),
+              help="Train on this dataset and test on --dataset (all of its windows): the 'datasets' split.")
+@click.option("--sensor-map", multiple=True, help="With --train-dataset: TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE] (repeatable).")
 @click.option("--scale", default=0.05, show_default=True, type=Scale(), help="Scale of the simulated dataset when --dataset is not given.")
 @click.option("--out", default="results", show_default=True, type=click.Path(path_type=Path), help="Results folder.")
 @click.option("--split", type=click.Choice(["paper", "grouped"]), default="paper", show_default=True,
@@ -196,7 +241,7 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
 @click.option("--force", is_flag=True, help="Recompute cells already in the results folder.")
 @click.option("--intervals", is_flag=True, help="Show 95 % intervals in the table.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, labels, seed, repeats, params, protocol_params,
+def evaluate(detector_name, protocol_name, dataset_path, train_path, sensor_map, scale, out, split, labels, seed, repeats, params, protocol_params,
              plugins, jobs, scheduler, cell_timeout, force, intervals, quiet) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
     from .data import read_dataset
@@ -206,13 +251,23 @@ def evaluate(detector_name, protocol_name, dataset_path, scale, out, split, labe
     from .runner import Run, evaluate as run_protocols
 
     _plugins(plugins)
+    if train_path and not dataset_path:
+        raise UsageError("--train-dataset needs --dataset: the dataset to test on")
+    if sensor_map and not train_path:
+        raise UsageError("--sensor-map matches a test dataset's sensors to a training dataset's: it needs --train-dataset")
+    split = "datasets" if train_path else split
     broken: list[str] = []
     detectors = _with_options(_loaded(registry.detectors, detector_name, broken), _param(params), "detector")
     protocols = _with_options(_loaded(registry.protocols, protocol_name, broken), _param(protocol_params), "protocol")
     runs = [Run(d, p, split, seed + r, labels) for d in detectors.values() for p in protocols.values() for r in range(repeats)]
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
-    ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)
+    if train_path:
+        from .transfer import combine, parse_sensor_map
+
+        ds = combine(read_dataset(train_path), read_dataset(dataset_path), parse_sensor_map(sensor_map))
+    else:
+        ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)
     rows = run_protocols(ds, runs, ResultsStore(out), force=force, jobs=jobs, scheduler=scheduler,
                          cell_timeout=cell_timeout, progress=not quiet)
     for (dn, pn), group in rows.groupby(["detector", "protocol"], sort=False):

@@ -77,15 +77,38 @@ def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_
             infer_s = time.perf_counter() - t0
             y_pred = (scores >= 0.5).astype(np.int8)
             out.append(({
-                "status": "ok", "reason": "", "n_train": len(train_x), "n_test": len(test.x),
+                "status": "ok", "reason": _one_class(test.y), "n_train": len(train_x), "n_test": len(test.x),
                 "n_test_trials": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
                 **classification_figures(test.y, y_pred, test.groups, seed, scores=scores),
                 **cost, "infer_us_per_window": infer_s / len(test.x) * 1e6,
+                **_choices(detector, sampling_rate),
             }, scores))
         return out
     except Exception as exc:  # noqa: BLE001 - whatever a plugin raises stays in its cells
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return [({"status": "failed", "reason": f"detector {plugin_id(type(detector))!r} raised: {detail}"}, None)] * len(tests)
+
+
+def _one_class(y: np.ndarray) -> str:
+    """A note for a test set of one class: the rates of the other class do not exist."""
+    if len(np.unique(y)) == 2:
+        return ""
+    there, absent = ("slip", "TN rate") if y[0] == 1 else ("non-slip", "TP rate")
+    return f"the test set holds {there} windows only: accuracy is the {'TP' if y[0] == 1 else 'TN'} rate; the {absent} does not exist"
+
+
+def _choices(detector: BaseDetector, sampling_rate: float) -> dict[str, str]:
+    """The detector's fitted choices as JSON, and warnings about a band that thresholds drift
+    (from 0 Hz) or reaches the Nyquist frequency."""
+    choices = detector.fitted_choices()
+    warnings = []
+    band = choices.get("band_hz")
+    if band is not None:
+        if band[0] <= 0:
+            warnings.append(f"the fitted band {band[0]:g}-{band[1]:g} Hz starts at 0 Hz: it thresholds drift, not vibration")
+        if band[1] >= sampling_rate / 2:
+            warnings.append(f"the fitted band {band[0]:g}-{band[1]:g} Hz reaches the Nyquist frequency ({sampling_rate / 2:g} Hz)")
+    return {"fitted": json.dumps(choices, sort_keys=True), "warnings": "; ".join(warnings)}
 
 
 def _trained(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,

@@ -19,6 +19,7 @@ from .errors import PluginError, UsageError
 from .protocol import BaseProtocol, Cell, Part
 from .registry import detectors, protocols
 from .results import cell_key
+from .transfer import SIDE_COLUMN
 from .signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
 
 
@@ -82,6 +83,9 @@ class CellData:
     def __init__(self, signals: Signals, how: str, seed: int, labelling: str = "scenario"):
         self.signals, self.how, self.seed, self.labelling = signals, how, seed, labelling
         self._sides = trial_sides(signals.recordings, seed) if how == "grouped" else None
+        if how == "datasets" and SIDE_COLUMN not in signals.recordings:
+            raise UsageError("the datasets split needs a dataset combined by slipbench.transfer.combine "
+                             "(evaluate --train-dataset A --dataset B)")
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
         rec = signals.recordings
@@ -117,7 +121,10 @@ class CellData:
                              + (" (hold-slip recordings hold two states: label by samples, e.g. --labels majority)"
                                 if self.labelling == "scenario" else " (each touches an unlabelled sample)"))
         words = [zlib.crc32(f"{sensor}|{window}".encode())]
-        windows = windows.take(balance(windows, np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))))
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))
+        if self.how == "datasets":
+            return self._across_datasets(windows, rng, name)
+        windows = windows.take(balance(windows, rng))
         train, test = split(windows, self.how, self.seed, self._sides)
         for side, idx in (("train", train), ("test", test)):
             classes = set(np.unique(windows.y[idx]))
@@ -125,6 +132,18 @@ class CellData:
                 missing = "slip" if 1 not in classes else "non-slip"
                 raise UsageError(f"the {self.how} split of {name} at window {window} leaves no {missing} windows on the {side} side")
         return windows.take(train), windows.take(test)
+
+    def _across_datasets(self, windows: Windows, rng: np.random.Generator, name: str) -> tuple[Windows, Windows]:
+        """Balanced windows of the training dataset; every window of the test dataset, balanced
+        when it holds both classes (a one-class test set reports the rate that exists)."""
+        on_test = windows.column(SIDE_COLUMN) == "test"
+        train, test = windows.take(np.flatnonzero(~on_test)), windows.take(np.flatnonzero(on_test))
+        if len(test) == 0:
+            raise UsageError(f"the test dataset has no windows of {name}")
+        train = train.take(balance(train, rng))
+        if len(np.unique(test.y)) == 2:
+            test = test.take(balance(test, rng))
+        return train, test
 
     def part(self, part: Part, window: int) -> Windows:
         """The windows (positions) of a part."""
@@ -238,7 +257,7 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
                 continue
             for windows, role in ((pc.train, "train"), (pc.test, "test")):
                 missing = _missing_classes(windows.y)
-                if missing:
+                if missing and not (role == "test" and run.split == "datasets" and len(windows)):
                     pc.skip = f"no {missing} windows to {role} on"
                     break
             if not pc.skip:

@@ -23,6 +23,7 @@ from .data import Dataset
 from .errors import UsageError
 from .executors import execute
 from .plan import Plan, PlannedCell, Run, Task, make_plan
+from .protocol import Cell, Part
 from .fitting import TestSet
 from .results import ResultsStore
 from .signals import Signals
@@ -51,6 +52,15 @@ def _row(pc: PlannedCell, fields: dict, fingerprint: str, path: str, env: dict, 
         **fields, "dataset_fingerprint": fingerprint, "dataset_path": path, **env,
         "finished_at": datetime.now(timezone.utc).isoformat(),
     }
+
+
+def _no_cells(run: Run, dataset: Dataset) -> Cell:
+    """A skipped stand-in for a protocol that makes no cell on this dataset, so the run says so
+    in its results instead of stopping."""
+    unit = tuple(dataset.recordings[["sensor_type", "sensor_instance"]].iloc[0])
+    return Cell({"cells": "none"}, Part((unit,), "train"), Part((unit,), "test"), 1,
+                skip=f"protocol {run.protocol_name!r} makes no cell on this dataset (scenarios: "
+                     f"{', '.join(sorted(set(dataset.recordings['scenario'])))})")
 
 
 def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
@@ -85,10 +95,7 @@ def evaluate(
     runs = [runs] if isinstance(runs, Run) else runs
     for run in runs:
         run.validate()
-    with_cells = [(run, run.cells(dataset.recordings)) for run in runs]
-    for run, cells in with_cells:
-        if not cells:
-            raise UsageError(f"protocol {run.protocol_name!r} has no cells on this dataset")
+    with_cells = [(run, run.cells(dataset.recordings) or [_no_cells(run, dataset)]) for run in runs]
     stored = {} if force else store.finished()
     done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}
     fingerprint, path = dataset.fingerprint, str(dataset.path or "")

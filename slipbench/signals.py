@@ -13,7 +13,7 @@ from sklearn.model_selection import train_test_split
 from .data import Dataset
 from .errors import UsageError
 
-SPLITS = ("paper", "grouped")
+SPLITS = ("paper", "grouped", "datasets")  # datasets: train on one dataset, test on another (slipbench.transfer)
 # How a window gets its class: from its recording's scenario (the paper), or from the per-sample
 # ``slip`` labels: the majority of its samples, any slip sample, or its last sample.
 LABELLINGS = ("scenario", "majority", "any", "last")
