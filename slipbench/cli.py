@@ -235,7 +235,8 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
 @click.option("--param", "params", multiple=True, help="Detector hyperparameter NAME=VALUE (JSON value); repeatable.")
 @click.option("--protocol-param", "protocol_params", multiple=True, help="Protocol option NAME=VALUE, e.g. decimation=both.")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder (repeatable).")
-@click.option("--jobs", default=1, show_default=True, type=click.IntRange(1), help="Local worker processes.")
+@click.option("--jobs", default=1, show_default=True, type=click.IntRange(0),
+              help="Local worker processes (0: in this process, for debugging).")
 @click.option("--scheduler", default=None, help="Address of a dask.distributed scheduler to run on.")
 @click.option("--cell-timeout", default=None, type=click.FloatRange(min=0, min_open=True), help="Seconds one model may take; its cells are then reported as timeout.")
 @click.option("--force", is_flag=True, help="Recompute cells already in the results folder.")

@@ -1,8 +1,10 @@
-"""Where models are fitted: in this process, in a local process pool, or on a dask cluster.
+"""Where models are fitted: in local worker processes, on a dask cluster, or (``jobs=0``, for
+debugging) in this process.
 
 Each executor takes tasks and a function that turns a task into the arguments of
-:func:`slipbench.fitting.fit_and_test`, and yields every task with its results as they finish
-(None for a task that hit the time limit).
+:func:`slipbench.fitting.fit_and_test`, and yields every task with its results as they finish.
+A worker that overruns the time limit, or dies (the out-of-memory killer, a crash in native
+code), fails its task's cells with the reason; the run goes on in a fresh worker.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ T = TypeVar("T")
 Payload = Callable[[T], tuple]
 
 
-def serial(tasks: list[T], payload: Payload) -> Iterator[tuple[T, list[Result] | None]]:
+def serial(tasks: list[T], payload: Payload) -> Iterator[tuple[T, list[Result]]]:
     for task in tasks:
         yield task, fit_and_test(*payload(task))
 
@@ -33,12 +35,17 @@ def _worker_init(jobs: int) -> None:
         torch.set_num_threads(threads)
 
 
-def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | None) -> Iterator[tuple[T, list[Result] | None]]:
+def _failed(n: int, status: str, reason: str) -> list[Result]:
+    return [({"status": status, "reason": reason}, None)] * n
+
+
+def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | None) -> Iterator[tuple[T, list[Result]]]:
     """Local worker processes; at most two tasks per worker in flight, so their windows are not
-    all in memory at once. pebble, unlike concurrent.futures, kills a worker past its time limit."""
+    all in memory at once. pebble, unlike concurrent.futures, kills a worker past its time limit
+    and replaces a worker that died."""
     from concurrent.futures import TimeoutError as FutureTimeout
 
-    from pebble import ProcessPool
+    from pebble import ProcessExpired, ProcessPool
 
     with ProcessPool(max_workers=jobs, initializer=_worker_init, initargs=(jobs,)) as pool:
         pending: list[Any] = []
@@ -51,10 +58,16 @@ def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | N
             if not pending:
                 return
             future, task = pending.pop(0)
+            n = len(task.cells)
             try:
                 yield task, future.result()
             except FutureTimeout:
-                yield task, None
+                yield task, _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s")
+            except ProcessExpired as exc:
+                killed = exc.exitcode is not None and exc.exitcode < 0
+                yield task, _failed(n, "failed", f"the worker process died (exit code {exc.exitcode}"
+                                    + (": killed by a signal, e.g. the out-of-memory killer" if killed else "")
+                                    + ") while fitting or testing this model")
 
 
 def dask_client(address: str):
@@ -68,7 +81,7 @@ def dask_client(address: str):
         raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
 
 
-def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, list[Result] | None]]:
+def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, list[Result]]]:
     """A dask.distributed cluster; results arrive as they complete."""
     from distributed import as_completed
 
@@ -82,10 +95,13 @@ def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, li
 
 
 def execute(tasks: list[T], payload: Payload, jobs: int = 1, scheduler: str | None = None,
-            timeout: float | None = None) -> Iterator[tuple[T, list[Result] | None]]:
-    """Run tasks on the executor the options ask for (a time limit needs a process pool)."""
+            timeout: float | None = None) -> Iterator[tuple[T, list[Result]]]:
+    """Run tasks on the executor the options ask for: ``jobs`` worker processes, or in this
+    process for ``jobs=0`` (no protection against a crash, no time limit)."""
     if scheduler:
         return dask(tasks, payload, scheduler)
-    if jobs <= 1 and not timeout:
+    if jobs == 0:
+        if timeout:
+            raise UsageError("a time limit needs worker processes: use --jobs 1 or more")
         return serial(tasks, payload)
     return process_pool(tasks, payload, jobs, timeout)

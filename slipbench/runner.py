@@ -87,10 +87,10 @@ def evaluate(
 
     Parameters
     ----------
-    jobs : local worker processes (1: run in this process).
+    jobs : local worker processes (0: in this process, for debugging: a crash there ends the run).
     scheduler : address of a dask.distributed scheduler; tasks run on its workers.
     cell_timeout : seconds one model may take to fit and test its cells in a local worker
-        before they are reported with status "timeout" (runs a process pool even for 1 job).
+        before they are reported with status "timeout".
     """
     runs = [runs] if isinstance(runs, Run) else runs
     for run in runs:
@@ -125,8 +125,6 @@ def evaluate(
     try:
         payload = lambda task: _payload(plan, task, store, force, scheduler)  # noqa: E731
         for task, results in execute(plan.tasks, payload, jobs, scheduler, cell_timeout):
-            if results is None:
-                results = [({"status": "timeout", "reason": f"the model did not fit and test within {cell_timeout:g} s"}, None)] * len(task.cells)
             for pc, (fields, scores) in zip(task.cells, results):
                 record(pc, fields, scores)
             bar.update(len(task.cells))

@@ -163,3 +163,38 @@ def test_kill_and_resume(small_path, tmp_path):
     assert len(rows) == 48 and (rows["status"] == "ok").all()
     for name, mtime in done.items():
         assert (out / "cells" / name).stat().st_mtime_ns == mtime  # not recomputed
+
+
+KILLED = '''
+import os
+import signal
+import numpy as np
+from slipbench.base import BaseDetector
+
+
+class Doomed(BaseDetector):
+    """Killed by the system (as the out-of-memory killer does) on 5-sample windows."""
+
+    def _fit(self, x, y, seed):
+        if x.shape[1] == 5:
+            os.kill(os.getpid(), signal.SIGKILL)
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+'''
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_a_worker_killed_by_the_system_fails_its_cells_and_the_run_goes_on(index, tmp_path, jobs):
+    from slipbench.base import BaseDetector
+    from slipbench.registry import Registry
+
+    (tmp_path / "plugins").mkdir()
+    (tmp_path / "plugins" / "doomed.py").write_text(KILLED)
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    reg.add_folder(tmp_path / "plugins")
+    rows = evaluate(index, Run(reg.get("doomed")(), WindowSize()), ResultsStore(tmp_path / "r"), jobs=jobs, progress=False)
+    dead = rows[rows["window"] == 5]
+    assert (dead["status"] == "failed").all() and dead["reason"].str.contains("worker process died .*-9").all()
+    assert (rows.loc[rows["window"] > 5, "status"] == "ok").all()
