@@ -19,6 +19,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from .atomic import atomic_file
 from .errors import UsageError
 
 MIN_WINDOW = 5
@@ -191,10 +192,9 @@ class BaseDetector:
                 kinds[key] = type(value).__name__ if isinstance(value, (tuple, list, np.ndarray)) else "scalar"
         meta = {"format": "slipbench-detector-1", "class": type(self).__name__, "name": self.name,
                 "params": _encode(self.get_params()), "kinds": kinds}
-        tmp = f"{os.fspath(path)}.tmp"
-        with open(tmp, "wb") as f:
+        # a unique temporary name: two processes may save the same model key at once
+        with atomic_file(path) as f:
             np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
-        os.replace(tmp, path)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "BaseDetector":
