@@ -46,7 +46,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from .atomic import folder_lock, make_folder, write_atomic, write_text_atomic
-from .errors import CellsFailed, DataError, environment_fault
+from .errors import ENVIRONMENT_ERRNOS, CellsFailed, DataError, environment_fault
 from .keys import cell_key
 
 __all__ = ["RESULTS_FILE", "REQUIRED_COLUMNS", "ResultsStore", "read_results", "cells_failed",
@@ -162,6 +162,10 @@ class ResultsStore:
             if "key" not in table.column_names:
                 raise DataError(f"{path}: not a slipbench results file (no key column)")
             index = {k: i for i, k in enumerate(table["key"].to_pylist())}
+            if len(index) < table.num_rows:
+                twice = pd.Series(table["key"].to_pylist()).value_counts()
+                raise DataError(f"{path}: {int((twice > 1).sum())} key(s) appear more than once (e.g. {twice.index[0]}): "
+                                "slipbench never writes that; delete the file and it is rebuilt from cells/")
             try:
                 held = json.loads((table.schema.metadata or {}).get(_MANIFEST, b"{}"))
             except ValueError:
@@ -201,13 +205,15 @@ class ResultsStore:
 def _read_table(path: Path) -> pa.Table:
     try:
         return pq.read_table(path)
-    except OSError as exc:
-        if exc.errno is not None:
-            raise environment_fault(exc, path, "read") from None  # permission: not the file's fault
-        raise DataError(f"{path}: not a readable results file ({exc}); delete it and slipbench "
-                        "rebuilds it from the cells/ folder beside it") from None
-    except pa.ArrowException as exc:
-        raise DataError(f"{path}: not a readable results file ({exc})") from None
+    except (OSError, pa.ArrowException) as exc:
+        raise _read_error(exc, path, "not a readable results file") from None
+
+
+def _read_error(exc: Exception, path: Path, what: str) -> Exception:
+    """A permission or disk problem is the machine's (exit 5); anything else is the file's (exit 2)."""
+    if isinstance(exc, OSError) and exc.errno in ENVIRONMENT_ERRNOS:
+        return environment_fault(exc, path, "read")
+    return DataError(f"{path}: {what} ({exc})")
 
 
 def _read_cell(path: Path, key: str) -> tuple[dict[str, Any], list[int]]:
@@ -216,12 +222,8 @@ def _read_cell(path: Path, key: str) -> tuple[dict[str, Any], list[int]]:
         with open(path, "rb") as fh:
             version = _version(os.fstat(fh.fileno()))
             rows = pq.read_table(fh).to_pylist()
-    except OSError as exc:
-        if exc.errno is not None:
-            raise environment_fault(exc, path, "read") from None
-        raise DataError(f"{path}: {exc}") from None
-    except pa.ArrowException as exc:
-        raise DataError(f"{path}: {exc}") from None
+    except (OSError, pa.ArrowException) as exc:
+        raise _read_error(exc, path, "not a readable cell file") from None
     if len(rows) != 1 or rows[0].get("key") != key:
         raise DataError(f"{path}: a cell file holds one row whose key is its name, found "
                         f"{len(rows)} row(s){'' if not rows else ' with key ' + repr(rows[0].get('key'))}")
