@@ -79,8 +79,12 @@ def atomic_file(path: str | os.PathLike) -> Iterator[BinaryIO]:
 
 def write_atomic(table: pa.Table, path: str | os.PathLike) -> None:
     """Write a Parquet file so that readers see the old file or the new one, never a torn one."""
+    # serialized in memory first: pyarrow writing through a Python file object calls back into
+    # Python from its own threads, which has aborted interpreters at exit (apache/arrow#34314)
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
     with atomic_file(path) as fh:
-        pq.write_table(table, fh)
+        fh.write(sink.getvalue())
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:

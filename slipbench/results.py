@@ -204,9 +204,22 @@ class ResultsStore:
 
 def _read_table(path: Path) -> pa.Table:
     try:
-        return pq.read_table(path)
+        return pq.read_table(_whole(path)[0])
     except (OSError, pa.ArrowException) as exc:
         raise _read_error(exc, path, "not a readable results file") from None
+
+
+def _whole(path: Path) -> tuple[pa.BufferReader, list[int]]:
+    """A file's bytes and its version, from one open file.
+
+    pyarrow given a path may open the file again for the data pages, and a concurrent
+    consolidate may replace it in between (the footer of one file, the pages of another).
+    Given a Python file object, it leaves work behind that can abort the interpreter at exit
+    (apache/arrow#34314, #50482). In-memory bytes avoid both; results files are small.
+    """
+    with open(path, "rb") as fh:
+        version = _version(os.fstat(fh.fileno()))
+        return pa.BufferReader(fh.read()), version
 
 
 def _read_error(exc: Exception, path: Path, what: str) -> Exception:
@@ -219,9 +232,8 @@ def _read_error(exc: Exception, path: Path, what: str) -> Exception:
 def _read_cell(path: Path, key: str) -> tuple[dict[str, Any], list[int]]:
     """One cell's row and the version of the file it came from (both of one open file)."""
     try:
-        with open(path, "rb") as fh:
-            version = _version(os.fstat(fh.fileno()))
-            rows = pq.read_table(fh).to_pylist()
+        data, version = _whole(path)
+        rows = pq.read_table(data).to_pylist()
     except (OSError, pa.ArrowException) as exc:
         raise _read_error(exc, path, "not a readable cell file") from None
     if len(rows) != 1 or rows[0].get("key") != key:
