@@ -158,31 +158,32 @@ class ResultsStore:
         an unreadable cell file is a DataError (a report must not silently miss a cell). Rows
         of ``known``, an earlier scan, are not read again where their file is unchanged."""
         path = self.folder / RESULTS_FILE
+        cells = self.folder / "cells"
+        try:
+            entries = sorted((e for e in os.scandir(cells) if e.name.endswith(".parquet") and not e.name.startswith(".")),
+                             key=lambda e: e.name)  # a hidden .*.tmp file is a write that never finished
+        except FileNotFoundError:
+            entries = []
+        except OSError as exc:
+            raise environment_fault(exc, cells, "read") from None
         table, held, index = None, {}, {}
         if path.is_file():
             table = _read_table(path)
             if "key" not in table.column_names:
                 raise DataError(f"{path}: not a slipbench results file (no key column)")
-            index = {k: i for i, k in enumerate(table["key"].to_pylist())}
-            if len(index) < table.num_rows:
-                twice = pd.Series(table["key"].to_pylist()).value_counts()
-                raise DataError(f"{path}: {int((twice > 1).sum())} key(s) appear more than once (e.g. {twice.index[0]}): "
-                                "slipbench never writes that; delete the file and it is rebuilt from cells/")
+            if entries:  # rows are matched with cell files by key
+                index = {k: i for i, k in enumerate(table["key"].to_pylist())}
+                if len(index) < table.num_rows:
+                    twice = pd.Series(table["key"].to_pylist()).value_counts()
+                    raise DataError(f"{path}: {int((twice > 1).sum())} key(s) appear more than once (e.g. {twice.index[0]}) "
+                                    "beside the cells/ folder; slipbench never writes that: delete the file and it is "
+                                    "rebuilt from cells/")
             try:
                 held = json.loads((table.schema.metadata or {}).get(_MANIFEST, b"{}"))
             except ValueError:
                 pass  # a results file from elsewhere: its rows are compared with the cells instead
         scan = _Scan(table, {}, {}, [])
-        cells = self.folder / "cells"
-        try:
-            entries = sorted(os.scandir(cells), key=lambda e: e.name)
-        except FileNotFoundError:
-            entries = []
-        except OSError as exc:
-            raise environment_fault(exc, cells, "read") from None
         for entry in entries:
-            if not entry.name.endswith(".parquet") or entry.name.startswith("."):
-                continue  # a hidden .*.tmp file is a write that never finished
             key = entry.name[: -len(".parquet")]
             try:
                 version = _version(entry.stat())

@@ -158,7 +158,8 @@ CORRUPTIONS = {
     "JSON instead of Parquet": lambda f: corrupt_results(f, json.dumps([row(0)]).encode()),
     "results file without a key column": lambda f: corrupt_results(f, parquet_bytes([{"protocol": "p", "detector": "d"}])),
     "results file without a status column": lambda f: corrupt_results(f, parquet_bytes([{"key": "a", "protocol": "p", "detector": "d"}])),
-    "a key twice in the results file": lambda f: corrupt_results(f, parquet_bytes([row(0), row(0, accuracy=1.0)])),
+    "a key twice in the results file beside cells/": lambda f: (
+        write_cell(f, "k0001", [row(1)]), corrupt_results(f, parquet_bytes([row(0), row(0, accuracy=1.0)]))),
     "empty cell file": lambda f: write_cell(f, "k0000", []),
     "cell file of two rows": lambda f: write_cell(f, "k0000", [row(0), row(1)]),
     "cell file whose key is not its name": lambda f: write_cell(f, "k0000", [row(5)]),
