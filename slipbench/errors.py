@@ -81,6 +81,9 @@ class CellsFailed(SlipbenchError):
             lines.append(f"  {len(labels)} {status}: {reason or 'no reason given'} [{shown}{more}]")
         super().__init__("\n".join(lines))
 
+    def __reduce__(self):  # rebuilt from its fields, not its message, when it crosses processes
+        return type(self), (self.cells, self.total, self.where)
+
 
 # Errors that say the machine, not slipbench or its input, is at fault: more disk, another
 # folder or other permissions fix them, and rerunning the same command then resumes.
@@ -107,6 +110,9 @@ class EnvironmentFault(SlipbenchError):
     def __init__(self, path: str | os.PathLike, cause: str, action: str = "write"):
         self.path, self.cause, self.action = os.fspath(path), cause, action
         super().__init__(f"cannot {action} {self.path}: {cause}")
+
+    def __reduce__(self):  # a worker's fault reaches the parent whole (pebble, dask pickle it)
+        return type(self), (self.path, self.cause, self.action)
 
 
 def environment_fault(exc: OSError, path: str | os.PathLike, action: str = "write") -> EnvironmentFault:

@@ -224,6 +224,16 @@ def test_environment_oserrors_become_one_line_faults(code, cause):
     assert str(fault) == f"cannot write /x/cell.parquet: {cause}" and "\n" not in str(fault)
 
 
+def test_errors_cross_process_boundaries_whole():
+    import pickle
+
+    fault = EnvironmentFault("/x/cell.parquet", "no space left on device (ENOSPC)")
+    failed = CellsFailed([("p/d {}", "failed", "boom")], total=3, where="out")
+    for err in (fault, failed):
+        back = pickle.loads(pickle.dumps(err))
+        assert type(back) is type(err) and str(back) == str(err) and back.exit_code == err.exit_code
+
+
 def test_other_oserrors_pass_through_unchanged():
     original = OSError(errno.EBADF, "bad file descriptor")
     with pytest.raises(OSError) as err:
