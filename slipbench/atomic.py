@@ -16,7 +16,6 @@ is ignored by every reader).
 from __future__ import annotations
 
 import errno
-import fcntl
 import os
 import secrets
 import time
@@ -116,6 +115,8 @@ def folder_lock(folder: str | os.PathLike, timeout: float = 300.0) -> Iterator[N
     leaves a stale lock. Waiting more than ``timeout`` seconds is an EnvironmentFault: only a
     hung process holds the lock that long (consolidating takes well under a second).
     """
+    import fcntl  # POSIX (Linux, macOS); imported here so that the rest of slipbench imports anywhere
+
     path = Path(folder) / ".lock"
     with writing(path, "lock"):
         # O_RDWR: NFS emulates flock with byte-range locks, whose exclusive kind needs write access
