@@ -270,7 +270,7 @@ class TwoCells(BaseProtocol):
 '''
 
 
-def test_a_cached_rerun_works_on_a_read_only_folder(small_path, tmp_path):
+def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_path, tmp_path):
     (tmp_path / "plugins" / "protocols").mkdir(parents=True)
     (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
 
@@ -282,10 +282,16 @@ def test_a_cached_rerun_works_on_a_read_only_folder(small_path, tmp_path):
 
     first = evaluate(tmp_path / "out")
     assert first.returncode == 0, first.stderr
-    with read_only(tmp_path / "out") as out:
+    (tmp_path / "empty").mkdir()
+    with read_only(tmp_path / "out") as out, read_only(tmp_path / "empty") as empty:
         again = evaluate(out)
         assert again.returncode == 0, again.stderr
         assert len(read_results(out)) == 2 and (read_results(out)["status"] == "ok").all()
+        new = evaluate(empty)  # cells to compute, nowhere to put them: exit 5, one line
+        cause = "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
+        assert new.returncode == 5, new.stderr
+        assert re.fullmatch(rf"error: cannot (write|create the folder) {re.escape(str(empty))}/\S+: {re.escape(cause)}\n",
+                            new.stderr), new.stderr
 
 
 # ----------------------------------------------------------------------------- two writers, the lock
