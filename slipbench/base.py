@@ -15,12 +15,12 @@ import json
 import os
 import re
 import sys
-import tempfile
 from importlib.metadata import entry_points
 from typing import Any, ClassVar
 
 import numpy as np
 
+from .atomic import atomic_file
 from .errors import PluginError, UsageError
 from .params import Parameterized
 
@@ -144,16 +144,9 @@ class BaseDetector(Parameterized):
         cls = type(self)
         meta = {"format": "slipbench-detector-1", "class": f"{cls.__module__}:{cls.__qualname__}",
                 "name": plugin_id(cls), "params": _encode(self.get_params()), "kinds": kinds}
-        folder = os.path.dirname(os.fspath(path)) or "."
-        fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(path)}.", suffix=".tmp", dir=folder)
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
+        # a unique temporary name: two processes may save the same model key at once
+        with atomic_file(path) as f:
+            np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> "BaseDetector":

@@ -1,0 +1,136 @@
+"""Files that readers see whole or not at all, made with the user's umask, and a folder lock.
+
+Every file is first written under a unique hidden temporary name in its own folder (created
+with ``O_EXCL``, so two processes never share one), flushed to disk, then renamed over the
+target: a reader, or a run killed at any moment, sees the old file or the new one, never a torn
+one. Unlike ``tempfile.mkstemp`` (mode 0600) and ``mkdtemp`` (0700), files are created with
+mode 0666 and folders 0777 *through the umask* (and any default ACL), exactly as ``open(2)`` and
+``mkdir(2)`` would make them, so shared lab and CI folders stay readable to the group.
+
+An OSError that is the machine's fault (disk full, read-only, permission) becomes an
+:class:`~slipbench.errors.EnvironmentFault` naming the target path; a failed write leaves no
+temporary file behind (a process killed by SIGKILL cannot clean up: its hidden ``.*.tmp`` file
+is ignored by every reader).
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import secrets
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager, suppress
+from pathlib import Path
+from typing import BinaryIO
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from .errors import EnvironmentFault, writing
+
+_CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+
+
+def _unique_file(folder: Path, name: str) -> tuple[int, Path]:
+    """Create and open a new file ``.{name}.<random>.tmp`` in ``folder`` (mode 0666 & ~umask)."""
+    for _ in range(100):
+        tmp = folder / f".{name}.{secrets.token_hex(6)}.tmp"
+        try:
+            return os.open(tmp, _CREATE, 0o666), tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no unused temporary file name", os.fspath(folder))
+
+
+def make_folder(path: str | os.PathLike) -> Path:
+    """``mkdir -p`` through the umask; environment faults become EnvironmentFault."""
+    path = Path(path)
+    with writing(path, "create the folder"):
+        path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+@contextmanager
+def atomic_file(path: str | os.PathLike) -> Iterator[BinaryIO]:
+    """A binary file object whose content replaces ``path`` when the block ends without error.
+
+    The data are fsynced before the rename, so even a power loss cannot leave the new name on
+    an empty file. On any error (and on KeyboardInterrupt) the temporary file is removed and
+    ``path`` is left as it was.
+    """
+    path = Path(path)
+    make_folder(path.parent)
+    with writing(path):
+        fd, tmp = _unique_file(path.parent, path.name)
+    try:
+        with writing(path):
+            with os.fdopen(fd, "wb") as fh:
+                yield fh
+                fh.flush()
+                os.fsync(fh.fileno())
+            os.replace(tmp, path)
+    except BaseException:
+        with suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def write_atomic(table: pa.Table, path: str | os.PathLike) -> None:
+    """Write a Parquet file so that readers see the old file or the new one, never a torn one."""
+    # serialized in memory first: pyarrow writing through a Python file object calls back into
+    # Python from its own threads, which has aborted interpreters at exit (apache/arrow#34314)
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    with atomic_file(path) as fh:
+        fh.write(sink.getvalue())
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> None:
+    """Write a UTF-8 text file atomically (see :func:`atomic_file`)."""
+    with atomic_file(path) as fh:
+        fh.write(text.encode())
+
+
+def unique_folder(parent: str | os.PathLike, prefix: str) -> Path:
+    """Create a new hidden folder ``{prefix}<random>`` in ``parent``, through the umask (unlike
+    ``tempfile.mkdtemp``'s 0700): build a folder there, then rename it into place."""
+    parent = make_folder(parent)
+    for _ in range(100):
+        path = parent / f"{prefix}{secrets.token_hex(6)}"
+        try:
+            with writing(path, "create the folder"):
+                path.mkdir()
+            return path
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no unused temporary folder name", os.fspath(parent))
+
+
+@contextmanager
+def folder_lock(folder: str | os.PathLike, timeout: float = 300.0) -> Iterator[None]:
+    """Hold an exclusive lock on ``folder`` (``flock`` on its ``.lock`` file) while the block runs.
+
+    The kernel releases the lock when its holder exits, even by SIGKILL, so a killed run never
+    leaves a stale lock. Waiting more than ``timeout`` seconds is an EnvironmentFault: only a
+    hung process holds the lock that long (consolidating takes well under a second).
+    """
+    import fcntl  # POSIX (Linux, macOS); imported here so that the rest of slipbench imports anywhere
+
+    path = Path(folder) / ".lock"
+    with writing(path, "lock"):
+        # O_RDWR: NFS emulates flock with byte-range locks, whose exclusive kind needs write access
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_CLOEXEC", 0), 0o666)
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    raise EnvironmentFault(path, f"another process has held this lock for over {timeout:g} s", "lock") from None
+                time.sleep(0.02)
+        yield
+    finally:
+        os.close(fd)  # closing the descriptor releases the lock

@@ -1,0 +1,204 @@
+"""Cache keys that cannot go stale: canonical JSON of plain values, and the identity of code.
+
+A cell's key is the hash of everything that determines its result. Two things make such keys
+go stale silently, and this module closes both:
+
+- *Representations that drift.* A key built from ``repr`` or ``json.dumps(default=str)`` holds
+  ``np.float64(25.0)``, which another NumPy prints differently, while ``25`` and ``25.0`` (the
+  same speed) give two keys. :func:`canonical` accepts plain JSON values only, turns NumPy
+  scalars and arrays, tuples and dataclasses into them, writes every number one way, and
+  refuses anything else with a TypeError naming the value.
+- *Code that changes under a fixed version string.* :func:`code_identity` hashes the source
+  files that run, so editing slipbench or a plugin changes the keys of what they compute.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib.machinery
+import importlib.util
+import json
+import math
+import sys
+import types
+import uuid
+from functools import cache
+from importlib.metadata import packages_distributions, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Version of the key layout; bumping it changes every key (do so when the meaning of a field
+#: changes without its value changing).
+KEY_SCHEMA = 1
+
+
+def canonical(value: Any, where: str = "key") -> Any:
+    """``value`` as plain JSON data with one spelling per meaning.
+
+    - ``bool``, ``str`` (and ``np.str_``), ``None`` stay as they are; ``np.bool_`` becomes bool;
+    - integers (Python or NumPy) become ``int``; a finite float that is a whole number becomes
+      that ``int`` (``25.0`` and ``25`` mean the same speed), any other finite float stays a
+      ``float`` and is written by JSON as the shortest repr that round-trips; NaN and
+      infinities become ``{"__float__": "nan" | "inf" | "-inf"}``;
+    - tuples, lists and NumPy arrays become lists; dataclass instances become dicts of their
+      fields; dicts must have string keys.
+
+    Anything else (a set, a path, a pandas object, an arbitrary object) raises TypeError naming
+    the value and where it sits, rather than entering a key as a representation that can drift.
+    """
+    if value is None or isinstance(value, (bool, str)):
+        return str(value) if isinstance(value, str) else value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        if not math.isfinite(x):
+            return {"__float__": "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")}
+        return int(x) if x.is_integer() else x
+    if isinstance(value, (list, tuple)):
+        return [canonical(v, f"{where}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind not in "biuf":
+            raise TypeError(f"{where}: a NumPy array of dtype {value.dtype} cannot be part of a cache key")
+        return canonical(value.tolist(), where)
+    if isinstance(value, dict):
+        out = {}
+        for k, v in value.items():
+            if not isinstance(k, str):
+                raise TypeError(f"{where}: dict key {k!r} is a {type(k).__name__}, not a str; cache keys take string keys only")
+            out[str(k)] = canonical(v, f"{where}.{k}")
+        return out
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: canonical(getattr(value, f.name), f"{where}.{f.name}") for f in dataclasses.fields(value)}
+    raise TypeError(f"{where}: {value!r} (a {type(value).__module__}.{type(value).__qualname__}) cannot be part of a "
+                    "cache key; pass plain numbers, strings, booleans, None, lists, tuples, dicts or dataclasses")
+
+
+def canonical_json(fields: dict[str, Any]) -> str:
+    """The exact text that :func:`cell_key` hashes: ``{"fields": ..., "schema": KEY_SCHEMA}``,
+    sorted keys, no spaces, UTF-8 kept as is."""
+    return json.dumps({"schema": KEY_SCHEMA, "fields": canonical(fields)}, sort_keys=True,
+                      separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+
+
+def cell_key(fields: dict[str, Any]) -> str:
+    """A 20-hex-digit (80-bit) SHA-256 content address of a cell's description.
+
+    ``fields`` must hold plain values (see :func:`canonical`); equal meanings give equal keys
+    whatever the NumPy version or the int/float spelling of a number.
+    """
+    return hashlib.sha256(canonical_json(fields).encode()).hexdigest()[:20]
+
+
+# ----------------------------------------------------------------------------- code identity
+# A module whose source cannot be read (a REPL, a notebook) gets an identity that is new in every
+# process: its cells are never taken from another process's cache, which is slower but never wrong.
+_PROCESS_NONCE = f"process:{uuid.uuid4().hex}"
+_CODE_SUFFIXES = (".py", *importlib.machinery.EXTENSION_SUFFIXES)
+
+
+def code_identity(obj: type | types.ModuleType) -> str:
+    """An identity of the code that runs ``obj`` (a class or a module), for cache keys.
+
+    The unit hashed is the top-level regular package that holds ``obj`` (or its module, when
+    that module is not in a package): every ``.py`` file and compiled extension under it,
+    with their paths relative to it, so the same code installed elsewhere has the same
+    identity. For slipbench itself the unit is the whole engine, including the packages of its
+    built-in detectors and protocols. Returns
+
+    - ``"src:<32 hex>"``: a SHA-256 of those files;
+    - ``"dist:<name>==<version>"``: where no source file is readable (a zip or frozen import),
+      the version of the distribution that installed it;
+    - ``"process:<32 hex>"``: where neither exists (a class typed into a REPL or notebook),
+      an identity unique to this process.
+
+    Library versions (NumPy, torch) are deliberately not part of it: rows record them, and an
+    upgrade does not silently throw away every cached cell. The result is cached per process
+    (the first call for slipbench reads its ~30 source files once).
+    """
+    name = obj.__name__ if isinstance(obj, types.ModuleType) else getattr(obj, "__module__", None)
+    if not isinstance(name, str) or not (isinstance(obj, (type, types.ModuleType))):
+        raise TypeError(f"code_identity takes a class or a module, got {obj!r}")
+    return _unit_identity(_unit(name))
+
+
+def _unit(module: str) -> str:
+    """The outermost regular (non-namespace) package or module that holds ``module``."""
+    parts = module.split(".")
+    for i in range(1, len(parts) + 1):
+        prefix = ".".join(parts[:i])
+        found = sys.modules.get(prefix)
+        if found is not None and getattr(found, "__file__", None):
+            return prefix
+        if found is None and i < len(parts):
+            spec = importlib.util.find_spec(prefix)
+            if spec is not None and spec.origin not in (None, "namespace"):
+                return prefix
+    return module
+
+
+@cache
+def _unit_identity(unit: str) -> str:
+    files = _source_files(unit)
+    if files:
+        digest = hashlib.sha256()
+        for label, path in sorted(files):
+            try:
+                data = path.read_bytes()
+            except OSError:
+                continue  # vanished or unreadable: the files that remain still identify the code
+            digest.update(f"{label}\0{len(data)}\0".encode())
+            digest.update(data)
+        return f"src:{digest.hexdigest()[:32]}"
+    dists = packages_distributions().get(unit.split(".")[0], [])
+    if dists:
+        return "dist:" + ",".join(f"{d}=={version(d)}" for d in sorted(set(dists)))
+    return _PROCESS_NONCE
+
+
+def _source_files(unit: str) -> list[tuple[str, Path]]:
+    """(label, path) of every code file of ``unit``. A label is the file's package, dotted, and
+    its name (``slipbench.detectors/holweg.py``), the same wherever and however (wheel or
+    editable) the package is installed."""
+    files: dict[str, Path] = {}
+    for package in _engine_packages() if unit == "slipbench" else [unit]:
+        folders, single = _locations(package)
+        if single is not None:
+            return [(f"{package}/{single.name}", single)]
+        for root in folders:
+            for path in sorted(root.rglob("*")):
+                relative = path.relative_to(root)
+                if (path.name.endswith(_CODE_SUFFIXES) and path.is_file()
+                        and not any(p.startswith(".") or p == "__pycache__" for p in relative.parts[:-1])):
+                    files.setdefault(".".join([package, *relative.parts[:-1]]) + f"/{path.name}", path)
+    return list(files.items())
+
+
+def _locations(package: str) -> tuple[list[Path], Path | None]:
+    """The folders of a package, or the file of a plain module (a script run as ``__main__``
+    has a file but no spec)."""
+    module = sys.modules.get(package)
+    if module is not None and getattr(module, "__path__", None) is not None:
+        return [Path(p) for p in module.__path__], None
+    if module is not None:
+        file = getattr(module, "__file__", None)
+        return [], Path(file) if file and Path(file).is_file() else None
+    spec = importlib.util.find_spec(package)
+    if spec is None:
+        return [], None
+    if spec.submodule_search_locations is not None:
+        return [Path(p) for p in spec.submodule_search_locations], None
+    return [], Path(spec.origin) if spec.origin and Path(spec.origin).is_file() else None
+
+
+def _engine_packages() -> list[str]:
+    """slipbench and the packages of its built-in plugins, which an editable install keeps in
+    folders outside ``slipbench/`` (the registries name them)."""
+    from .registry import detectors, protocols
+
+    return ["slipbench", detectors.package, protocols.package]
