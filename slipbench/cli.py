@@ -5,17 +5,19 @@ from __future__ import annotations
 import json
 import math
 import sys
+import traceback
 from pathlib import Path
 
 import click
 
 from . import registry
-from .errors import PluginError, SlipbenchError, UsageError
+from .errors import ENVIRONMENT_ERRNOS, PluginError, SlipbenchError, UsageError, environment_fault
 
-EXIT_CELLS_FAILED = 4
+EXIT_BUG = 70  # sysexits' EX_SOFTWARE: an internal error, reported with its traceback
 EXIT_CODES = """Exit codes: 0 every cell ok or skipped; 1 compare found a regression; 2 bad usage or
-bad data; 3 a plugin failed to load; 4 the run finished but cells failed or timed out; 130
-interrupted."""
+bad data; 3 a plugin failed to load; 4 the run finished but cells failed or timed out (listed);
+5 an environment fault (disk full, read-only folder, permission); 70 a bug in slipbench (with
+its traceback); 130 interrupted."""
 
 
 def _param(values: tuple[str, ...]) -> dict:
@@ -248,7 +250,7 @@ def evaluate(detector_name, protocol_name, dataset_path, train_path, sensor_map,
     from .data import read_dataset
     from .defaults import default_dataset
     from .report import protocol_table
-    from .results import ResultsStore
+    from .results import ResultsStore, cells_failed
     from .runner import Run, evaluate as run_protocols
 
     _plugins(plugins)
@@ -279,13 +281,11 @@ def evaluate(detector_name, protocol_name, dataset_path, train_path, sensor_map,
                + f"; results in {out / 'results.parquet'}")
     for reason in rows.loc[rows["status"] == "skipped", "reason"].unique():
         click.echo(f"skipped: {reason}", err=True)
-    bad = rows[rows["status"].isin(["failed", "timeout"])]
-    for row in bad.to_dict("records"):
-        click.echo(f"{row['status']}: {row['detector']} x {row['protocol']} {row['cell']}: {row['reason']}", err=True)
     if broken:
         raise PluginError("; ".join(broken) + " (the other plugins ran)")
-    if len(bad):
-        sys.exit(EXIT_CELLS_FAILED)
+    failed = cells_failed(rows, str(out))
+    if failed:
+        raise failed
 
 
 # -- bench (detector costs)
@@ -427,6 +427,21 @@ def main(argv: list[str] | None = None) -> None:
     except KeyboardInterrupt:
         click.echo("interrupted; finished cells are kept, rerun the same command to resume", err=True)
         sys.exit(130)
+    except OSError as exc:
+        if exc.errno not in ENVIRONMENT_ERRNOS:
+            _bug()
+        fault = environment_fault(exc, exc.filename or "?")
+        click.echo(f"error: {fault}", err=True)
+        sys.exit(fault.exit_code)
+    except Exception:  # noqa: BLE001 - anything else is a bug, and said to be one
+        _bug()
+
+
+def _bug() -> None:
+    traceback.print_exc()
+    click.echo("error: this is a bug in slipbench or in a plugin, not a problem with your data or options; "
+               "please report it with the traceback above", err=True)
+    sys.exit(EXIT_BUG)
 
 
 if __name__ == "__main__":

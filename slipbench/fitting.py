@@ -19,7 +19,7 @@ import numpy as np
 import psutil
 
 from .base import BaseDetector, clone, plugin_id
-from .errors import UsageError
+from .errors import EnvironmentFault, UsageError
 from .metrics import classification_figures
 from .results import write_text_atomic
 
@@ -84,6 +84,8 @@ def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_
                 **_choices(detector, sampling_rate),
             }, scores))
         return out
+    except EnvironmentFault:
+        raise  # a full disk is the machine's fault, not the detector's: the run stops, exit 5
     except Exception as exc:  # noqa: BLE001 - whatever a plugin raises stays in its cells
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return [({"status": "failed", "reason": f"detector {plugin_id(type(detector))!r} raised: {detail}"}, None)] * len(tests)

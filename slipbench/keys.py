@@ -199,6 +199,4 @@ def _locations(package: str) -> tuple[list[Path], Path | None]:
 def _engine_packages() -> list[str]:
     """slipbench and the packages of its built-in plugins, which an editable install keeps in
     folders outside ``slipbench/`` (the registries name them)."""
-    from .registry import detectors, protocols
-
-    return ["slipbench", detectors.package, protocols.package]
+    return ["slipbench", "slipbench.detectors", "slipbench.protocols"]

@@ -9,18 +9,20 @@ skipped with its reason; it never stops the others.
 
 from __future__ import annotations
 
+import sys
 import zlib
 from dataclasses import dataclass, field
+
 import numpy as np
 import pandas as pd
 
 from .base import BaseDetector
 from .errors import PluginError, UsageError
+from .keys import canonical, cell_key, code_identity
 from .protocol import BaseProtocol, Cell, Part
 from .registry import detectors, protocols
-from .results import cell_key
-from .transfer import SIDE_COLUMN
 from .signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
+from .transfer import SIDE_COLUMN
 
 
 @dataclass
@@ -215,15 +217,22 @@ class Plan:
         return self.data[run.split, run.seed, run.labels]
 
 
-def keys(run: Run, cell: Cell, fingerprint: str, version: str) -> tuple[str, str]:
+def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
     """Content addresses of a cell's result and of the model it tests (equal model keys train
-    on the same windows)."""
-    common = {"dataset": fingerprint, "detector": run.detector_name, "params": run.detector.get_params(),
-              "split": run.split, "seed": run.seed, "labels": run.labels, "version": version}
+    on the same windows). Both hold the identity of the code that runs: slipbench's and the
+    detector's (and the cell key the protocol's), so a changed plugin or engine never returns
+    results cached by the old code."""
+    code = {"slipbench": code_identity(sys.modules["slipbench"]), "detector": code_identity(type(run.detector))}
+    try:
+        params = canonical(run.detector.get_params())
+    except TypeError as exc:
+        raise UsageError(f"detector {run.detector_name!r}: a parameter is not a plain value: {exc}") from None
+    common = {"dataset": fingerprint, "detector": run.detector_name, "params": params,
+              "split": run.split, "seed": run.seed, "labels": run.labels, "code": code}
     model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample,
                       "decimation": cell.decimation})
     key = cell_key({**common, "protocol": run.protocol_name, "protocol_params": run.protocol.get_params(),
-                    "cell": cell.key, "test": cell.test, "model": model})
+                    "protocol_code": code_identity(type(run.protocol)), "cell": cell.key, "test": cell.test, "model": model})
     return key, model
 
 
@@ -232,8 +241,7 @@ def _missing_classes(y: np.ndarray) -> str:
     return " and ".join(n for c, n in ((1, "slip"), (0, "non-slip")) if c not in classes)
 
 
-def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint: str, version: str,
-              done: set[str]) -> Plan:
+def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint: str, done: set[str]) -> Plan:
     """Plan every cell of every run (a run with its protocol's cells); cells whose key is in
     ``done`` are listed but not computed."""
     data: dict[tuple[str, int, str], CellData] = {}
@@ -244,7 +252,7 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
             data[run.split, run.seed, run.labels] = CellData(signals, run.split, run.seed, run.labels)
         cells_data = data[run.split, run.seed, run.labels]
         for cell in cells:
-            key, model = keys(run, cell, fingerprint, version)
+            key, model = keys(run, cell, fingerprint)
             pc = PlannedCell(run, cell, key, model, skip=cell.skip)
             planned.append(pc)
             if key in done or pc.skip:

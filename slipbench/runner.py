@@ -8,6 +8,7 @@ results store, atomically, in the parent process alone.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import platform
 import sys
@@ -20,11 +21,12 @@ import pandas as pd
 
 from . import __version__
 from .data import Dataset
-from .errors import UsageError
+from .errors import EnvironmentFault
 from .executors import execute
 from .plan import Plan, PlannedCell, Run, Task, make_plan
 from .protocol import Cell, Part
 from .fitting import TestSet
+from .keys import canonical
 from .results import ResultsStore
 from .signals import Signals
 
@@ -42,16 +44,21 @@ def _row(pc: PlannedCell, fields: dict, fingerprint: str, path: str, env: dict, 
     run, cell = pc.run, pc.cell
     return {
         "key": pc.key, "model_key": pc.model_key, "run_id": run_id, "protocol": run.protocol_name,
-        "protocol_params": json.dumps(run.protocol.get_params(), sort_keys=True, default=str),
+        "protocol_params": _json(run.protocol.get_params()),
         "detector": run.detector_name,
-        "detector_params": json.dumps(run.detector.get_params(), sort_keys=True, default=str),
+        "detector_params": _json(run.detector.get_params()),
         "split": run.split, "seed": run.seed, "labels": run.labels, **cell.key, "window": cell.window, "downsample": cell.downsample,
         "decimation": cell.decimation, "cell": cell.name,
-        "train_sensors": json.dumps(cell.train.sensors), "train_where": json.dumps(cell.train.where, default=str),
-        "test_sensors": json.dumps(cell.test.sensors), "test_where": json.dumps(cell.test.where, default=str),
+        "train_sensors": _json(cell.train.sensors), "train_where": _json(cell.train.where),
+        "test_sensors": _json(cell.test.sensors), "test_where": _json(cell.test.where),
         **fields, "dataset_fingerprint": fingerprint, "dataset_path": path, **env,
         "finished_at": datetime.now(timezone.utc).isoformat(),
     }
+
+
+def _json(value) -> str:
+    """Plain JSON of a parameter dict, key or filter, as stored in result rows."""
+    return json.dumps(canonical(value), sort_keys=True)
 
 
 def _no_cells(run: Run, dataset: Dataset) -> Cell:
@@ -100,7 +107,7 @@ def evaluate(
     done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}
     fingerprint, path = dataset.fingerprint, str(dataset.path or "")
     signals = _signals(dataset, runs)
-    plan = make_plan(signals, with_cells, fingerprint, __version__, done)
+    plan = make_plan(signals, with_cells, fingerprint, done)
     env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
 
@@ -128,9 +135,13 @@ def evaluate(
             for pc, (fields, scores) in zip(task.cells, results):
                 record(pc, fields, scores)
             bar.update(len(task.cells))
-    finally:
+    except BaseException:
         bar.close()
-        store.consolidate()
+        with contextlib.suppress(EnvironmentFault):  # the first fault is the one to report
+            store.consolidate()
+        raise
+    bar.close()
+    store.consolidate()
     return pd.DataFrame([rows[pc.key] for pc in plan.cells])
 
 

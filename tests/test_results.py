@@ -22,7 +22,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from slipbench import errors, keys
-from slipbench.base import BaseDetector, Part
+from slipbench.base import BaseDetector
+from slipbench.protocol import Part
 from slipbench.errors import CellsFailed, DataError, EnvironmentFault, environment_fault, writing
 from slipbench.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
 from slipbench.results import RESULTS_FILE, ResultsStore, cells_failed, read_results

@@ -253,14 +253,13 @@ def test_a_read_only_folder_reads_and_refuses_writes_with_exit_5(tmp_path):
 
 
 TWO_CELLS = '''
-from slipbench.base import BaseProtocol, Cell, Part
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part
 
 
 class TwoCells(BaseProtocol):
     """Window 50 of two Nano17 fingers."""
 
-    name = "two-cells"
-    table = {"title": "two cells", "rows": ["sensor_type", "sensor_instance"], "columns": "window"}
+    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
 
     def cells(self, recordings):
         for finger in ("index", "middle"):
