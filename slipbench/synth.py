@@ -386,9 +386,9 @@ def _hold_slip_forces(n, fs, speed_target, material, trial_rng, rng, sig, unit, 
         width = rng.uniform(0.2, 0.6)
         inside = (t >= start) & (t < start + width)
         grip[inside] += p.grip_adjust_depth * rng.uniform(0.3, 1.0) * np.sin(np.pi * (t[inside] - start) / width) ** 2
-    ramp = np.clip((t - hold) / p.ramp_s, 0, 1)
-    speed = speed_target * (1 - np.cos(np.pi * ramp)) / 2
-    moving = ramp > 0
+    # the arm's speed rises smoothly to the target; its oscillation grows with it
+    moving = (1 - np.cos(np.pi * np.clip((t - hold) / p.ramp_s, 0, 1))) / 2
+    speed = speed_target * moving
     normal = normal0 * grip * (1 + p.arm_oscillation_depth * moving * np.sin(2 * np.pi * osc * t))
 
     # stick: the finger bends with the arm until the shear reaches static friction
@@ -509,7 +509,7 @@ def _plan(design: Design, scale: float) -> list[tuple[str, str | None, float | N
     plan = []
 
     def add(scenario, material, speed, tokens, seconds):
-        if tokens:
+        if tokens and seconds > 0:
             plan.append((scenario, material, speed, tokens, seconds / len(tokens)))
 
     def regular(n):
