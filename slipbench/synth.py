@@ -63,7 +63,7 @@ SENSORS: dict[str, Sensor] = {
     "OptoForce20": Sensor(1000.0, ("index", "middle", "little"), ("fx", "fy", "fz"),
                           "count", 400.0, 0.0025, 250.0, 0.0, 10.0, 1.33, 0.10, 10.0, 0.25),
     "BioTacSP": Sensor(850.0, ("index", "middle"), ("pac",), "count", 100.0, 0.010, 250.0, 0.8,
-                       7.5, 0.40, 0.30, 30.0, 0.30, 10.0),
+                       7.5, 0.40, 0.30, 30.0, 0.25, 10.0),
 }
 
 
