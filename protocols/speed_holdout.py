@@ -3,9 +3,10 @@ speed, the model trained on all speeds and a model trained without that speed ar
 that speed's test windows.
 
 The paper pools non-slip data per arm speed, but pressing has no speed. Here each pressing
-recording is assigned to one slip speed (column ``speed_group``), round robin within its sensor
-and material, so every speed's test set holds slip at that speed, free-space motion at that
-speed (there is none at 5 mm/s) and an equal share of pressing on every material. Training
+recording is assigned to one slip speed (column ``speed_group``): within its unit and material,
+longest first, to the speed with the least pressing time so far, so every speed's test set holds
+slip at that speed, free-space motion at that speed (there is none at 5 mm/s) and an equal share
+of pressing time on every material (equal to within one recording). Training
 "without" a speed drops the slip and free-space windows at that speed; pressing, having no
 speed, stays.
 """
@@ -13,6 +14,7 @@ speed, stays.
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
 from slipbench.params import WindowLength
 from slipbench.protocol import BaseProtocol, Layout, holdout_cells
@@ -38,10 +40,17 @@ class SpeedHoldout(BaseProtocol):
     def columns(self, recordings):
         speeds = _speeds(recordings)
         group = recordings["speed_mm_s"].to_numpy(dtype=float).copy()
-        press = recordings[recordings["scenario"] == "press"].sort_values("recording_id")
-        if speeds:
-            turn = press.groupby(["sensor_type", "sensor_instance", "material"]).cumcount().to_numpy()
-            group[recordings.index.get_indexer(press.index)] = np.asarray(speeds)[turn % len(speeds)]
+        if not speeds:
+            return {"speed_group": group}
+        press = recordings[recordings["scenario"] == "press"]
+        length = press["n_samples"] if "n_samples" in press else pd.Series(1, index=press.index)
+        press = press.assign(_length=length).sort_values(["_length", "recording_id"], ascending=[False, True])
+        for _, part in press.groupby(["sensor_type", "sensor_instance", "material"], sort=False, dropna=False):
+            held = np.zeros(len(speeds))
+            for index, n in zip(part.index, part["_length"]):
+                turn = int(np.argmin(held))  # ties go to the slower speed
+                held[turn] += n
+                group[recordings.index.get_loc(index)] = speeds[turn]
         return {"speed_group": group}
 
     def cells(self, recordings):

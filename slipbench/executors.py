@@ -26,13 +26,20 @@ def serial(tasks: list[T], payload: Payload) -> Iterator[tuple[T, list[Result]]]
         yield task, fit_and_test(*payload(task))
 
 
-def _worker_init(jobs: int) -> None:
+def _worker_init(jobs: int, plugin_files: dict[str, str]) -> None:
     # share the machine's cores between the workers instead of oversubscribing them
     threads = max(1, (os.cpu_count() or 1) // jobs)
     os.environ["OMP_NUM_THREADS"] = str(threads)
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(threads)
+    from .registry import import_plugin_file
+
+    for path in plugin_files.values():  # the folder plugins the parent loaded, under the same names
+        try:
+            import_plugin_file(path)
+        except Exception:  # noqa: BLE001 - its cells fail with the error when it is used
+            pass
 
 
 def _failed(n: int, status: str, reason: str) -> list[Result]:
@@ -42,12 +49,20 @@ def _failed(n: int, status: str, reason: str) -> list[Result]:
 def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | None) -> Iterator[tuple[T, list[Result]]]:
     """Local worker processes; at most two tasks per worker in flight, so their windows are not
     all in memory at once. pebble, unlike concurrent.futures, kills a worker past its time limit
-    and replaces a worker that died."""
+    and replaces a worker that died.
+
+    Workers start from a fresh server process ("forkserver"), not a fork of this one: a process
+    that already ran OpenMP threads (numba's parallel kernels) cannot fork safely."""
+    import multiprocessing
     from concurrent.futures import TimeoutError as FutureTimeout
 
     from pebble import ProcessExpired, ProcessPool
 
-    with ProcessPool(max_workers=jobs, initializer=_worker_init, initargs=(jobs,)) as pool:
+    from .registry import PLUGIN_FILES
+
+    context = multiprocessing.get_context("forkserver")
+    with ProcessPool(max_workers=jobs, initializer=_worker_init, initargs=(jobs, dict(PLUGIN_FILES)),
+                     context=context) as pool:
         pending: list[Any] = []
         queue = iter(tasks)
         while True:

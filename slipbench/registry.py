@@ -32,20 +32,28 @@ class Source:
     load: Callable[[], Any]  # () -> module or class
 
 
-def _file_module(path: Path) -> object:
-    # the path's hash keeps two plugin files with one stem apart in sys.modules
+#: module name -> file of every plugin file imported in this process; worker processes import
+#: them again under the same names, so the classes they define unpickle there
+PLUGIN_FILES: dict[str, str] = {}
+
+
+def import_plugin_file(path: str | Path) -> object:
+    """The module of a plugin file, imported once per process under a name made from its path
+    (two plugin files with one stem stay apart in ``sys.modules``)."""
+    path = Path(path)
     digest = hashlib.sha1(str(path.resolve()).encode()).hexdigest()[:10]
     module_name = f"slipbench_plugin_{path.stem}_{digest}"
     if module_name in sys.modules:
         return sys.modules[module_name]
     spec = importlib.util.spec_from_file_location(module_name, path)
     module = importlib.util.module_from_spec(spec)
-    sys.modules[module_name] = module  # so process pools can pickle its classes
+    sys.modules[module_name] = module
     try:
         spec.loader.exec_module(module)
     except BaseException:
         del sys.modules[module_name]
         raise
+    PLUGIN_FILES[module_name] = str(path)
     return module
 
 
@@ -90,7 +98,7 @@ class Registry:
         for path in sorted(folder.glob("*.py")):
             if not path.name.startswith("_"):
                 self._add(path.stem.replace("_", "-"),
-                          Source(f"plugin file {path}", f"file:{path.resolve()}", lambda p=path: _file_module(p)))
+                          Source(f"plugin file {path}", f"file:{path.resolve()}", lambda p=path: import_plugin_file(p)))
 
     def names(self) -> list[str]:
         self._discover()

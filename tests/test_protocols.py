@@ -72,7 +72,8 @@ def test_speed_holdout_assigns_pressing_and_holds_out_speeds(nano):
     rec = nano.recordings.assign(group=group)
     press = rec[rec["scenario"] == "press"]
     assert set(press["group"]) == {5.0, 25.0, 50.0, 75.0}
-    assert press.groupby(["sensor_instance", "material", "group"]).size().nunique() == 1  # equal shares
+    time = press.groupby(["sensor_instance", "material", "group"])["n_samples"].sum().groupby(["sensor_instance", "material"])
+    assert ((time.max() - time.min()) <= press["n_samples"].max()).all()  # equal time, to within one recording
     data = _data(nano, protocol)
     for cell in protocol.cells(nano.recordings):
         speed = cell.key["speed_mm_s"]
