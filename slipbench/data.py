@@ -571,13 +571,13 @@ def _canonical_labels(labels, n: int, rid: str, where) -> np.ndarray:
 
 
 def _check_onset(labels: np.ndarray | None, rid: str, where) -> None:
-    """A hold-slip recording holds (labelled 0) and then slips (labelled 1) at a known sample."""
+    """A hold-slip recording holds (labelled 0) and then may slip (labelled 1) from a known
+    sample; a trial that held throughout (no onset) is kept: it is non-slip time."""
     if labels is None:
         raise _fail(where, "a hold-slip recording needs per-sample labels (a slip column) to give its onset", rid, "slip")
     slipping = np.flatnonzero(labels == 1)
-    if not len(slipping):
-        raise _fail(where, "a hold-slip recording has no sample labelled slip: no onset", rid, "slip")
-    if not (labels[: slipping[0]] == 0).any():
+    before = labels[: slipping[0]] if len(slipping) else labels
+    if not (before == 0).any():
         raise _fail(where, "a hold-slip recording has no sample labelled no-slip before its onset: no hold", rid, "slip")
 
 

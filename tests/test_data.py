@@ -114,7 +114,7 @@ def test_writer_checks_before_writing(tmp_path):
 
 def test_synthetic_dataset_validates(small):
     table = info(small)
-    assert set(table["scenario"]) == {"slip", "press", "free-space"}
+    assert set(table["scenario"]) == {"slip", "press", "free-space", "hold-slip"}
     assert set(small.recordings["sensor_type"]) == {"Nano17", "OptoForce20", "BioTacSP"}
     assert len(small.sensors()) == 8
     assert small.recordings["recording_id"].is_monotonic_increasing
@@ -212,8 +212,10 @@ def test_hold_slip_recordings(tmp_path):
     hold_slip = np.array([0, 0, 0, 0, 1, 1, 1, -1, -1, -1], np.int8)  # holds, slips at 4, then drops
     path = write_dataset(tmp_path / "ok", _frame(scenario=["hold-slip", "press"]), SAMPLES, {"a": hold_slip})
     assert read_dataset(path).slip_labels["a"].tolist() == hold_slip.tolist()
+    held = write_dataset(tmp_path / "held", _frame(scenario=["hold-slip", "press"]), SAMPLES, {"a": np.zeros(10, np.int8)})
+    assert read_dataset(held).slip_labels["a"].tolist() == [0] * 10  # a trial that held throughout: no onset
     for name, labels, message in [
-        ("none", {"a": np.full(10, -1, np.int8)}, "has no sample labelled slip"),
+        ("none", {"a": np.full(10, -1, np.int8)}, "no sample labelled no-slip before its onset"),
         ("nohold", {"a": np.array([-1, -1] + [1] * 8, np.int8)}, "no sample labelled no-slip before its onset"),
     ]:
         with pytest.raises(DataError, match=message):

@@ -24,7 +24,7 @@ the file (and the recording and column where there is one), never a traceback:
 13. a negative speed                            33. a slip column of strings
 14. an empty channel list                       34. a slip value of 2
 15. fewer units than channels                   35. hold-slip without a slip column
-16. a null channel name                         36. hold-slip with no sample labelled slip
+16. a null channel name                         36. hold-slip with no sample held (no-slip)
 17. a trial column of integers                  37. a samples file with no rows
 18. a unit whose rates differ beyond 1 %        38. a recordings file with no rows
 19. samples of an unlisted recording            39. a null recording_id in samples.parquet
@@ -264,7 +264,8 @@ CORRUPTIONS = {
     "string slip": (lambda p: _table(p, S, _col("slip", ["yes"] * 16)), S, None, "slip"),
     "slip of 2": (lambda p: _table(p, S, _col("slip", [1] * 9 + [2] + [0] * 6, pa.int8())), S, "a", "slip"),
     "hold-slip without labels": (lambda p: (_table(p, R, _col("scenario", ["hold-slip", "press"])), _table(p, S, lambda t: t.drop_columns(["slip"]))), S, "a", "slip"),
-    "hold-slip without onset": (lambda p: _table(p, R, _col("scenario", ["press", "hold-slip"])), S, "b", "slip"),
+    "hold-slip without a hold": (lambda p: (_table(p, R, _col("scenario", ["press", "hold-slip"])),
+                                            _table(p, S, _col("slip", [0] * 10 + [1] * 6, pa.int8()))), S, "b", "slip"),
     "no rows": (lambda p: _table(p, S, lambda t: t.slice(0, 0)), S, None, None),
     "no recordings": (lambda p: _table(p, R, lambda t: t.slice(0, 0)), R, None, None),
     "null recording_id": (lambda p: _table(p, S, _col("recording_id", ["a"] * 10 + [None] + ["b"] * 5)), S, None, "recording_id"),
