@@ -39,21 +39,23 @@ def _save(fig, folder: Path, stem: str) -> list[Path]:
 
 
 def _curves(rows: pd.DataFrame, x: str, title: str, xlabel: str, paper: pd.DataFrame | None, log_base: int,
-            line: str = "sensor_instance", split: str | None = None):
-    """One panel per sensor type; one line per finger (and decimation) with its interval band."""
+            line: str = "sensor_instance", splits: list[str] = ()):
+    """One panel per sensor type; one line per finger (and each combination of the ``splits``
+    columns that vary, e.g. decimation) with its interval band."""
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     fig, axes = plt.subplots(1, len(sensors), figsize=(4.2 * len(sensors), 3.4), sharey=True, squeeze=False)
-    styles = {"plain": "-", "antialias": "--"}
-    extra = [split] if split and split in rows and rows[split].nunique() > 1 else []
+    extra = [c for c in splits if c in rows and rows[c].nunique(dropna=False) > 1]
+    variants = list(rows[extra].drop_duplicates().itertuples(index=False, name=None)) if extra else [()]
+    styles = dict(zip(variants, ("-", "--", ":", "-.") * len(variants)))
     for ax, sensor in zip(axes[0], sensors):
         part = rows[rows["sensor_type"] == sensor]
         s = summarize(part, [line, *extra, x])
         for i, inst in enumerate(ordered(s[line].unique(), line)):
             color = f"C{i}"
-            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((None,), s[s[line] == inst])]:
+            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((), s[s[line] == inst])]:
                 points = points.sort_values(x)
-                name = label(line, inst) + (f" ({dec[0]})" if extra else "")
-                ax.plot(points[x], 100 * points["mean"], styles.get(dec[0], "-"), marker="o", ms=3, color=color, label=name)
+                name = label(line, inst) + (f" ({', '.join(str(v) for v in dec)})" if extra else "")
+                ax.plot(points[x], 100 * points["mean"], styles.get(tuple(dec), "-"), marker="o", ms=3, color=color, label=name)
                 ax.fill_between(points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0)
             if paper is not None and len(paper) and line in paper and x in paper:
                 ref = paper[(paper["sensor_type"] == sensor) & (paper[line] == inst)].sort_values(x)
@@ -132,7 +134,7 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool):
         x = layout.x or layout.column
         ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
         return _curves(part, x, f"Accuracy against {layout.title.lower() or x}: {title}", layout.x_label or x, ref,
-                       log_base=layout.log_base, line=layout.rows[-1], split=layout.split)
+                       log_base=layout.log_base, line=layout.rows[-1], splits=layout.splits)
     if layout.figure == "with-without":
         return _heatmaps(part, layout.column, layout.pair, f"Accuracy per {layout.title.lower() or layout.column}: {title}")
     return _transfer(part, layout.rows[-1], layout.column, f"{layout.title or 'Accuracy'}: {title}")
