@@ -21,8 +21,8 @@ import pandas as pd  # noqa: E402
 
 from .paper import paper_frame  # noqa: E402
 from .protocol import Layout  # noqa: E402
-from .report import _sections, layouts  # noqa: E402
-from .tables import label, ordered, summarize  # noqa: E402
+from .report import SPLIT_ORDER, _sections, layouts, split_parts  # noqa: E402
+from .tables import label, ordered, rank, summarize  # noqa: E402
 
 FORMATS = ("png", "pdf")
 
@@ -45,8 +45,9 @@ def _curves(rows: pd.DataFrame, x: str, title: str, xlabel: str, paper: pd.DataF
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     fig, axes = plt.subplots(1, len(sensors), figsize=(4.2 * len(sensors), 3.4), sharey=True, squeeze=False)
     extra = [c for c in splits if c in rows and rows[c].nunique(dropna=False) > 1]
-    variants = list(rows[extra].drop_duplicates().itertuples(index=False, name=None)) if extra else [()]
-    styles = dict(zip(variants, ("-", "--", ":", "-.") * len(variants)))
+    variants = sorted(rows[extra].drop_duplicates().itertuples(index=False, name=None),
+                      key=lambda v: [rank(rows[c].unique(), SPLIT_ORDER).index(x) for c, x in zip(extra, v)]) if extra else [()]
+    styles = dict(zip(variants, ("-", "--", ":", "-.") * len(variants)))  # the first (the paper's) solid
     for ax, sensor in zip(axes[0], sensors):
         part = rows[rows["sensor_type"] == sensor]
         s = summarize(part, [line, *extra, x])
@@ -150,7 +151,11 @@ def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = Tru
     found = layouts(rows)
     paths: list[Path] = []
     for protocol, detector, split, part in _sections(rows, found):
-        fig = figure(part, found[protocol][0], f"{detector} ({split} split)", paper)
-        if fig is not None:
-            paths += _save(fig, folder, f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}"))
+        variants = split_parts(part, found[protocol][0])  # one figure per table
+        for which, rows_ in variants:
+            named = "".join(f", {c} {v}" for c, v in which.items()) if len(variants) > 1 else ""
+            fig = figure(rows_, found[protocol][0], f"{detector} ({split} split{named})", paper)
+            if fig is not None:
+                stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
+                paths += _save(fig, folder, stem + ("".join(f"-{v}" for v in which.values()) if named else ""))
     return paths

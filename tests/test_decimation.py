@@ -157,7 +157,7 @@ def test_cell_data_cuts_the_same_windows_for_every_variant(nano):
     np.testing.assert_array_equal(data.values(positions, cells[("lag", True, 1)]).x, x)
 
 
-def test_report_gives_one_table_per_variant():
+def test_report_gives_one_table_per_variant(tmp_path):
     rows = fake_rows("sampling-rate")
     variants = [("plain", False), ("lag", False), ("plain", True), ("lag", True)]
     frames = []
@@ -176,3 +176,12 @@ def test_report_gives_one_table_per_variant():
         nano_index_32 = rows[(rows["sensor_type"] == "Nano17") & (rows["sensor_instance"] == "index")
                              & (rows["downsample"] == 32)]["accuracy"].iloc[0] + i / 100
         assert table.cells[0][0] == f"{100 * nano_index_32:.1f}"
+    # and one figure per table; a run of one variant keeps its plain name
+    from slipbench.plots import write_plots
+
+    both = pd.concat(frames, ignore_index=True).assign(protocol_params="{}")
+    names = sorted(p.name for p in write_plots(both, tmp_path / "all", paper=False))
+    assert names == sorted(f"sampling-rate-lstm-{d}-{a}.{ext}" for d, a in variants for ext in ("png", "pdf"))
+    single = frames[0].assign(protocol_params="{}")
+    assert sorted(p.name for p in write_plots(single, tmp_path / "one", paper=False)) == [
+        "sampling-rate-lstm.pdf", "sampling-rate-lstm.png"]
