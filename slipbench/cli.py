@@ -318,17 +318,20 @@ def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
 @cli.command("spectral")
 @click.option("--sensor", "sensors", required=True, multiple=True, help="Sensor type, e.g. Nano17 (repeatable).")
 @click.option("--instance", default=None, help="One instance, e.g. index [default: all, each balanced on its own].")
-@click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one, seed 0].")
+@click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help="Dataset folder [default: the simulated one at --seed, as evaluate].")
 @click.option("--scale", default=0.05, show_default=True, type=Scale(), help="Scale of the simulated dataset when --dataset is not given.")
 @click.option("--out", default="spectral", show_default=True, type=click.Path(path_type=Path), help="Folder for figures and tables.")
-@click.option("--seed", default=0, show_default=True, type=SEED, help="Seeds balancing and bootstrap draws.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Seeds balancing, splitting and bootstrap draws (and the simulated data).")
+@click.option("--train-only", is_flag=True, help="Analyse only the training side of a run with --split and --seed, at --segment samples (default 50): a band chosen there never saw test data.")
+@click.option("--split", type=click.Choice(["paper", "grouped"]), default=None, help="With --train-only: the run's split [default: paper].")
 @click.option("--boot", default=100, show_default=True, help="Bootstrap sequences per class and round.")
 @click.option("--repeats", default=200, show_default=True, help="Rounds, i.e. KS tests per frequency.")
-@click.option("--segment", type=int, default=None, help="Samples per balanced window joined into a sequence [default: one second, contiguous].")
+@click.option("--segment", type=int, default=None, help="Samples per balanced window joined into a sequence [default: one second, contiguous; with --train-only: 50, the run's window].")
 @click.option("--alpha", default=0.05, show_default=True, help="Level of each KS test.")
 @click.option("--level", default=0.95, show_default=True, help="Significance a bin needs to be in a significant band.")
 @click.option("--keep", default=0.8, show_default=True, help="Most significant band: bins whose mean KS statistic is >= keep x the peak's.")
-def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeats, segment, alpha, level, keep) -> None:
+def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, train_only, split, boot, repeats, segment, alpha,
+                 level, keep) -> None:
     """Which frequencies separate slip from non-slip (the paper's section IV): figure, table, bands."""
     import time
 
@@ -336,12 +339,15 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeat
     from .data import read_dataset
     from .defaults import default_dataset
 
-    ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, 0, echo=click.echo)
+    if split is not None and not train_only:
+        raise UsageError("--split names the run whose training side --train-only analyses; add --train-only")
+    split = (split or "paper") if train_only else None
+    ds = read_dataset(dataset_path) if dataset_path else default_dataset(scale, seed, echo=click.echo)
     results, seconds = [], []
     for sensor in sensors:  # every analysis before any file, so a bad name leaves no partial output
         start = time.perf_counter()
         results.append(spectral.analyze(ds, sensor, instance, segment=segment, n_boot=boot, repeats=repeats,
-                                        alpha=alpha, level=level, keep=keep, seed=seed))
+                                        alpha=alpha, level=level, keep=keep, seed=seed, split=split))
         seconds.append(time.perf_counter() - start)
     for sensor, result, took in zip(sensors, results, seconds):
         name = spectral.stem(sensor, instance)
@@ -351,6 +357,7 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, boot, repeat
         if result.best_band:
             click.echo(f"{name}: most significant band {result.best_band[0]:g}-{result.best_band[1]:g} Hz; "
                        f"use it with --param {spectral.band_param(result.best_band)}")
+        click.echo(f"{name}: {spectral.provenance(result)}")
         click.echo(f"{name}: analysed in {took:.1f} s; wrote {out / name}.png, .pdf, .csv, .json")
 
 

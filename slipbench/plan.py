@@ -154,15 +154,20 @@ class CellData:
         return chosen.take(np.flatnonzero(part.mask(self.signals.recordings)[chosen.recording]))
 
     def values(self, windows: Windows, cell: Cell) -> Windows:
-        """``windows`` with their samples, downsampled as ``cell`` asks."""
+        """``windows`` with their samples, as a sensor ``cell.downsample`` times slower gives
+        them: low-passed first if ``cell.antialias``, then decimated as ``cell.decimation`` says.
+        At the full rate there is nothing to filter or decimate."""
+        if cell.downsample == 1:
+            return Windows(self.signals.values(windows, cell.window), windows.recording, windows.index,
+                           windows.recordings, windows.labels)
         signals = self.signals
-        if cell.downsample > 1 and cell.decimation == "antialias":
+        if cell.antialias:
             if cell.downsample not in self._antialiased:
                 self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
             signals = self._antialiased[cell.downsample]
         out = Windows(signals.values(windows, cell.window), windows.recording, windows.index, windows.recordings,
                       windows.labels)
-        return out.downsample(cell.downsample) if cell.downsample > 1 else out
+        return out.downsample(cell.downsample, cell.decimation)
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
         """The rate (Hz) of a part's windows; UsageError naming recordings when it pools rates."""
@@ -229,8 +234,10 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
         raise UsageError(f"detector {run.detector_name!r}: a parameter is not a plain value: {exc}") from None
     common = {"dataset": fingerprint, "detector": run.detector_name, "params": params,
               "split": run.split, "seed": run.seed, "labels": run.labels, "code": code}
-    model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample,
-                      "decimation": cell.decimation})
+    # at the full rate every decimation gives the same windows: one model serves them all
+    sampling = ({"decimation": "plain"} if cell.downsample == 1 else
+                {"decimation": cell.decimation, "antialias": bool(cell.antialias)})
+    model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample, **sampling})
     key = cell_key({**common, "protocol": run.protocol_name, "protocol_params": run.protocol.get_params(),
                     "protocol_code": code_identity(type(run.protocol)), "cell": cell.key, "test": cell.test, "model": model})
     return key, model

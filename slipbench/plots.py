@@ -21,8 +21,8 @@ import pandas as pd  # noqa: E402
 
 from .paper import paper_frame  # noqa: E402
 from .protocol import Layout  # noqa: E402
-from .report import _sections, layouts  # noqa: E402
-from .tables import label, ordered, summarize  # noqa: E402
+from .report import SPLIT_ORDER, _sections, layouts, split_parts  # noqa: E402
+from .tables import label, ordered, rank, summarize  # noqa: E402
 
 FORMATS = ("png", "pdf")
 
@@ -39,21 +39,24 @@ def _save(fig, folder: Path, stem: str) -> list[Path]:
 
 
 def _curves(rows: pd.DataFrame, x: str, title: str, xlabel: str, paper: pd.DataFrame | None, log_base: int,
-            line: str = "sensor_instance", split: str | None = None):
-    """One panel per sensor type; one line per finger (and decimation) with its interval band."""
+            line: str = "sensor_instance", splits: list[str] = ()):
+    """One panel per sensor type; one line per finger (and each combination of the ``splits``
+    columns that vary, e.g. decimation) with its interval band."""
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     fig, axes = plt.subplots(1, len(sensors), figsize=(4.2 * len(sensors), 3.4), sharey=True, squeeze=False)
-    styles = {"plain": "-", "antialias": "--"}
-    extra = [split] if split and split in rows and rows[split].nunique() > 1 else []
+    extra = [c for c in splits if c in rows and rows[c].nunique(dropna=False) > 1]
+    variants = sorted(rows[extra].drop_duplicates().itertuples(index=False, name=None),
+                      key=lambda v: [rank(rows[c].unique(), SPLIT_ORDER).index(x) for c, x in zip(extra, v)]) if extra else [()]
+    styles = dict(zip(variants, ("-", "--", ":", "-.") * len(variants)))  # the first (the paper's) solid
     for ax, sensor in zip(axes[0], sensors):
         part = rows[rows["sensor_type"] == sensor]
         s = summarize(part, [line, *extra, x])
         for i, inst in enumerate(ordered(s[line].unique(), line)):
             color = f"C{i}"
-            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((None,), s[s[line] == inst])]:
+            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((), s[s[line] == inst])]:
                 points = points.sort_values(x)
-                name = label(line, inst) + (f" ({dec[0]})" if extra else "")
-                ax.plot(points[x], 100 * points["mean"], styles.get(dec[0], "-"), marker="o", ms=3, color=color, label=name)
+                name = label(line, inst) + (f" ({', '.join(str(v) for v in dec)})" if extra else "")
+                ax.plot(points[x], 100 * points["mean"], styles.get(tuple(dec), "-"), marker="o", ms=3, color=color, label=name)
                 ax.fill_between(points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0)
             if paper is not None and len(paper) and line in paper and x in paper:
                 ref = paper[(paper["sensor_type"] == sensor) & (paper[line] == inst)].sort_values(x)
@@ -132,7 +135,7 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool):
         x = layout.x or layout.column
         ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
         return _curves(part, x, f"Accuracy against {layout.title.lower() or x}: {title}", layout.x_label or x, ref,
-                       log_base=layout.log_base, line=layout.rows[-1], split=layout.split)
+                       log_base=layout.log_base, line=layout.rows[-1], splits=layout.splits)
     if layout.figure == "with-without":
         return _heatmaps(part, layout.column, layout.pair, f"Accuracy per {layout.title.lower() or layout.column}: {title}")
     return _transfer(part, layout.rows[-1], layout.column, f"{layout.title or 'Accuracy'}: {title}")
@@ -148,7 +151,11 @@ def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = Tru
     found = layouts(rows)
     paths: list[Path] = []
     for protocol, detector, split, part in _sections(rows, found):
-        fig = figure(part, found[protocol][0], f"{detector} ({split} split)", paper)
-        if fig is not None:
-            paths += _save(fig, folder, f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}"))
+        variants = split_parts(part, found[protocol][0])  # one figure per table
+        for which, rows_ in variants:
+            named = "".join(f", {c} {v}" for c, v in which.items()) if len(variants) > 1 else ""
+            fig = figure(rows_, found[protocol][0], f"{detector} ({split} split{named})", paper)
+            if fig is not None:
+                stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
+                paths += _save(fig, folder, stem + ("".join(f"-{v}" for v in which.values()) if named else ""))
     return paths

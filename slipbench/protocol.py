@@ -25,7 +25,7 @@ MIN_WINDOW = 5  # samples: the shortest window a detector is given
 
 SIDES = ("train", "test")
 OPERATORS = ("==", "!=")
-DECIMATIONS = ("plain", "antialias")
+DECIMATIONS = ("plain", "lag")
 FIGURES = ("curve", "with-without", "matrix")
 
 
@@ -75,8 +75,11 @@ class Cell:
         values (str, int, float, bool).
     train, test : the windows that fit the model and the windows it is scored on.
     window : window length in samples at the full rate.
-    downsample : keep every ``downsample``-th sample of each window (1: full rate).
-    decimation : "plain" (every k-th sample, the paper) or "antialias" (low-passed first).
+    downsample : the window as a sensor ``downsample`` times slower sees it (1: full rate).
+    decimation : how the slower sensor's samples are made (see ``Windows.downsample``):
+        "plain" (every k-th sample of the full-rate difference) or "lag" (the difference
+        ||a_t|| - ||a_{t-k}|| on every k-th sample).
+    antialias : low-pass the norm before decimating (see ``Signals.antialiased``).
     skip : a reason the cell cannot run on this dataset, reported instead of results.
     """
 
@@ -86,6 +89,7 @@ class Cell:
     window: int
     downsample: int = 1
     decimation: str = "plain"
+    antialias: bool = False
     skip: str = ""
 
     def __post_init__(self) -> None:
@@ -107,6 +111,8 @@ class Cell:
                 raise ValueError(f"Cell.{name} must be a positive int, got {value!r}")
         if self.decimation not in DECIMATIONS:
             raise ValueError(f"Cell.decimation must be one of {DECIMATIONS}, got {self.decimation!r}")
+        if not isinstance(self.antialias, (bool, np.bool_)):
+            raise ValueError(f"Cell.antialias must be a bool, got {self.antialias!r}")
 
     @property
     def name(self) -> str:
@@ -127,7 +133,7 @@ class Layout:
     group : text after the metric's name over the value columns ("at Window Size").
     pair : a cell-key column with values "with" and "without": each table cell shows both
         results, the second starred (the paper's "without explicit training").
-    split : a cell-key column: one table per value.
+    split : a cell-key column, or a tuple of them: one table per value (combination).
     merge_rows : one row-label column ("Nano17, Index") instead of one per row key.
     column_label : a result column whose values, per sensor type, label the value columns
         (the paper's per-sensor sampling rates over Table II).
@@ -146,7 +152,7 @@ class Layout:
     title: str = ""
     group: str = ""
     pair: str | None = None
-    split: str | None = None
+    split: str | tuple[str, ...] | None = None
     merge_rows: bool = False
     column_label: str | None = None
     note_column: str | None = None
@@ -166,13 +172,21 @@ class Layout:
             raise ValueError(f"Layout.figure must be one of {FIGURES} or None, got {self.figure!r}")
         if self.figure == "with-without" and not self.pair:
             raise ValueError("a 'with-without' figure needs Layout.pair")
+        split = (self.split,) if isinstance(self.split, str) else self.split
+        if split is not None and not (isinstance(split, tuple) and split and all(isinstance(c, str) for c in split)):
+            raise ValueError(f"Layout.split must be None, a column name or a non-empty tuple of them, got {self.split!r}")
         if self.log_base not in (0, 2, 10):
             raise ValueError(f"Layout.log_base must be 0 (linear), 2 or 10, got {self.log_base!r}")
 
     @property
     def keys(self) -> list[str]:
         """Every cell-key column the layout reads."""
-        return [*self.rows, self.column, *(k for k in (self.pair, self.split) if k)]
+        return [*self.rows, self.column, *([self.pair] if self.pair else []), *self.splits]
+
+    @property
+    def splits(self) -> list[str]:
+        """The ``split`` columns as a list (none, one or several)."""
+        return [] if not self.split else [self.split] if isinstance(self.split, str) else list(self.split)
 
 
 class BaseProtocol(Parameterized):

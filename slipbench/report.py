@@ -15,6 +15,7 @@ from .render import standalone_latex, to_latex, to_markdown
 from .tables import Table, baseline_table, build_table, fits, generic_layout, rank, rates_table
 
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
+SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
 
 
 def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
@@ -59,21 +60,31 @@ def _sections(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> list[
     return out
 
 
+def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataFrame]]:
+    """The rows of each table: one part per combination of the layout's ``split`` columns
+    (those the rows hold), named by its values; the rows whole when there are none."""
+    splits = [c for c in layout.splits if c in rows]
+    if not splits:
+        return [({}, rows)]
+    parts = [(dict(zip(splits, k if isinstance(k, tuple) else (k,))), part)
+             for k, part in rows.groupby(splits if len(splits) > 1 else splits[0], sort=False, dropna=False)]
+    for c in reversed(splits):  # stable sorts, last column first: lexicographic order
+        order = rank([w[c] for w, _ in parts], SPLIT_ORDER)
+        parts.sort(key=lambda p: order.index(p[0][c]))
+    return parts
+
+
 def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, metric: str = "accuracy",
                     intervals: bool = False, paper: bool = False) -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
     decimation), each followed, with ``paper``, by the published table and the difference."""
     ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
-    parts = [(None, rows)]
-    if layout.split and layout.split in rows:
-        parts = [(v, rows[rows[layout.split] == v]) for v in rank(rows[layout.split].unique(), ("plain", "antialias"))]
     out = []
-    for value, part in parts:
-        tag = f"{protocol}-{detector}" + (f"-{value}" if value is not None else "")
-        suffix = f" ({layout.split}: {value})" if value is not None else ""
+    for which, part in split_parts(rows, layout):
+        tag = "-".join([f"{protocol}-{detector}", *(str(v) for v in which.values())])
+        suffix = f" ({', '.join(f'{c}: {v}' for c, v in which.items())})" if which else ""
         table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}")
-        if value is not None:
-            table.caption += f" {layout.split.capitalize()}: {value}."
+        table.caption += "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
         out.append((f"{detector}{suffix}", table))
         if ref is not None and len(ref) and metric == "accuracy":
             cap = "Published (Van Wyk & Falco, LSTM): " + layout.caption[0].lower() + layout.caption[1:]

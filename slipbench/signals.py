@@ -78,22 +78,28 @@ class Signals:
                    np.concatenate(labels).astype(np.int8))
 
     def antialiased(self, factor: int, order: int = 4) -> "Signals":
-        """The signal a sensor with an anti-aliasing filter would give at 1/``factor`` the rate,
-        laid out at full rate so that ``Windows.downsample(factor)`` picks it.
+        """The signal of a sensor whose norm passes an anti-aliasing filter before it is sampled
+        ``factor`` times slower, still at the full rate: :meth:`Windows.downsample` then
+        decimates it (``plain`` or ``lag``) as it would the raw signal.
 
-        Each recording's norm ||a_t|| (the running sum of s) is low-passed by a causal
-        Butterworth filter at 0.8 x the new Nyquist frequency, as a sensor's analogue filter
-        would, and differenced over ``factor`` samples: keeping every ``factor``-th value of the
-        result gives exactly the lag-one difference at the low rate.
+        Each recording's norm ||a_t|| goes through a causal Butterworth low-pass of ``order`` at
+        0.8 x the new Nyquist frequency (rate / (2 ``factor``)), as a sensor's analogue filter
+        would, at rest on the recording's first reading. The filter is linear and
+        time-invariant, so differencing its output equals filtering the difference: the
+        result is ``sosfilt`` of each recording's s, computed on s (float64) because the
+        norm's running sum would carry a large offset through the filter for nothing.
+
+        Returns
+        -------
+        Signals with the same offsets and recordings; buffer (total,) float32.
         """
+        if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 2:
+            raise UsageError(f"an anti-aliasing filter needs a downsampling factor >= 2, got {factor!r}")
         out = np.empty_like(self.buffer)
         rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
         for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
             sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
-            norm = signal.sosfilt(sos, np.cumsum(self.buffer[lo:hi], dtype=np.float64))
-            lagged = np.zeros_like(norm)
-            lagged[factor:] = norm[:-factor]
-            out[lo:hi] = norm - lagged
+            out[lo:hi] = signal.sosfilt(sos, self.buffer[lo:hi].astype(np.float64))
         return Signals(out, self.offsets, self.recordings, self.labels)
 
     def windows(self, window: int, rows: np.ndarray | None = None, values: bool = True,
@@ -194,9 +200,35 @@ class Windows:
         speed = np.where(np.isin(category, ("press", "hold")), "", speed)
         return np.char.add(np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed))
 
-    def downsample(self, factor: int) -> "Windows":
-        """Keep every ``factor``-th sample of each window, as the paper does (no anti-aliasing)."""
-        return Windows(np.ascontiguousarray(self.x[:, ::factor]), self.recording, self.index, self.recordings, self.labels)
+    def downsample(self, factor: int, decimation: str = "plain") -> "Windows":
+        """The windows as a sensor sampled ``factor`` times slower would see them.
+
+        A window of n samples of s_t = ||a_t|| - ||a_{t-1}|| spans the readings a_p ... a_{p+n};
+        a sensor ``factor`` = k times slower reads a_p, a_{p+k}, ..., a_{p+mk} of them, m = n // k
+        (the samples after the last whole block are dropped, so every decimation keeps m).
+        Sample j of the result is taken from block j, s[p+jk] ... s[p+jk+k-1]:
+
+        - ``"plain"``: its first sample, ||a_{p+jk+1}|| - ||a_{p+jk}||: every k-th sample of the
+          full-rate difference (the paper's "omitting every other sensor reading" read as
+          omitting samples of s);
+        - ``"lag"``: the block's sum, ||a_{p+(j+1)k}|| - ||a_{p+jk}||: the lag-one difference of
+          the slower sensor, which never reaches outside the window.
+
+        Returns
+        -------
+        Windows with x of shape (n_windows, n // factor) float32.
+        """
+        m = self.x.shape[1] // factor
+        if m < 1:
+            raise UsageError(f"windows of {self.x.shape[1]} samples downsampled by {factor} leave no sample")
+        if decimation == "plain":
+            x = self.x[:, : m * factor : factor]
+        elif decimation == "lag":
+            # float64 accumulation: the sum adds no rounding to that of the float32 samples
+            x = self.x[:, : m * factor].reshape(len(self.x), m, factor).sum(axis=2, dtype=np.float64)
+        else:
+            raise UsageError(f"unknown decimation {decimation!r}; choose plain or lag")
+        return Windows(np.ascontiguousarray(x, dtype=np.float32), self.recording, self.index, self.recordings, self.labels)
 
 
 def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:

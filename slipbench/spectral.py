@@ -20,6 +20,16 @@ than a second; its seams cost some broadband content in both classes.
 Balancing follows :func:`slipbench.signals.balance` (the paper's mix), once per instance, so
 every instance of a pooled sensor type contributes equally.
 
+Without peeking
+---------------
+By default every recording is analysed, test data included: a band chosen there and handed to
+a detector has seen what the detector is tested on. With ``split`` the analysis reads only the
+training side of a run with that split and seed, the very windows the runner trains on at
+window ``segment`` (50 by default): a band chosen there is free of test data for every cell at
+that window of runs with the same dataset, split and seed. Cells at another window are balanced
+and split on their own, so their test side may hold samples the analysis read: analyse at their
+window. Windows then join into one-second sequences as the paper pools them (seams included).
+
 Bands
 -----
 - a bin is *significant* when its significance is at least ``level`` (default 0.95: the test
@@ -46,11 +56,14 @@ from scipy.stats import ks_2samp
 
 from .data import Dataset
 from .errors import UsageError
-from .signals import Signals, Windows, balance
+from .signals import SPLITS, Signals, Windows, balance
 from .spectra import amplitude_spectrum, grow_band
 
 # Bytes of sequences (float32) gathered and transformed at once: bounds peak memory.
 CHUNK_BYTES = 64 * 2**20
+# The window of a run's training side analysed by default: the paper's Holweg baseline, and
+# the window of the material, speed and cross-instance protocols.
+TRAIN_WINDOW = 50
 
 
 # ----------------------------------------------------------------------------- KS test
@@ -226,9 +239,14 @@ def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *
 
 
 def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | None,
-          seed: int) -> tuple[np.ndarray, np.ndarray, float]:
+          seed: int, split: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
     """Balanced non-slip and slip windows of one sensor type (all its instances, each balanced
     on its own) or of one instance.
+
+    With ``split`` ("paper" or "grouped"), only the training side of a run with that split and
+    ``seed``: the balanced, split windows of ``segment`` samples that
+    :class:`slipbench.plan.CellData` gives the runner for a cell at window ``segment`` (default
+    :data:`TRAIN_WINDOW`), so that no window a cell at that window tests on is read.
 
     Returns
     -------
@@ -250,13 +268,17 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
                          "the analysis needs one")
     rate = float(rates[0])
     length = int(round(rate))
-    segment = length if segment is None else int(segment)
-    _check(1 <= segment <= length, f"segment must be an int in [1, {length}] (one second of {sensor}), got {segment}")
+    segment = (length if split is None else TRAIN_WINDOW) if segment is None else segment
+    _check(not isinstance(segment, bool) and isinstance(segment, (int, np.integer)) and 1 <= segment <= length,
+           f"segment must be an int in [1, {length}] (one second of {sensor}), got {segment}")
+    chosen = instances if instance is None else [instance]
+    if split is not None:
+        return (*_training_side(dataset, sensor, chosen, int(segment), split, seed), rate)
 
     sig = Signals.from_dataset(Dataset(recs.reset_index(drop=True), dataset.samples))
     rng = np.random.default_rng(seed)
     parts = []
-    for inst in instances if instance is None else [instance]:
+    for inst in chosen:
         rows = np.flatnonzero(sig.recordings["sensor_instance"].to_numpy() == inst)
         windows = sig.windows(segment, rows)
         _check_strata(sig, rows, windows, segment, f"{sensor} {inst}")
@@ -264,6 +286,27 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
     x = np.concatenate([p.x for p in parts])
     y = np.concatenate([p.y for p in parts])
     return x[y == 0], x[y == 1], rate
+
+
+def _training_side(dataset: Dataset, sensor: str, instances: list[str], window: int, split: str,
+                   seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Non-slip and slip windows, (n, window) float32, of the training side of each instance:
+    the runner's own CellData, on the whole dataset as the runner builds it, so that the
+    balancing and the split are the runner's whatever they depend on."""
+    from .plan import CellData  # the planner pulls in the registry; only this path needs it
+
+    if split not in SPLITS:
+        raise UsageError(f"unknown split {split!r}; choose one of: {', '.join(SPLITS)}")
+    data = CellData(Signals.from_dataset(dataset), split, seed)
+    train = []
+    for inst in instances:
+        try:
+            train.append(data.sides((sensor, inst), window)[0])
+        except UsageError as exc:  # the runner's reason, said of the windows analysed
+            raise UsageError(f"{sensor} {inst}, {split} split at window {window}: {exc}") from exc
+    x = np.concatenate([data.signals.values(t, window) for t in train])
+    y = np.concatenate([t.y for t in train])
+    return x[y == 0], x[y == 1]
 
 
 def _check_strata(sig: Signals, rows: np.ndarray, windows: Windows, segment: int, what: str) -> None:
@@ -282,17 +325,21 @@ def _check_strata(sig: Signals, rows: np.ndarray, windows: Windows, segment: int
 
 def analyze(dataset: Dataset, sensor: str, instance: str | None = None, *, segment: int | None = None,
             n_boot: int = 100, repeats: int = 200, alpha: float = 0.05, level: float = 0.95,
-            keep: float = 0.8, merge_hz: float = 5.0, seed: int = 0) -> SpectralResult:
+            keep: float = 0.8, merge_hz: float = 5.0, seed: int = 0, split: str | None = None) -> SpectralResult:
     """The spectral analysis of one sensor type, or one of its instances, in ``dataset``.
 
     ``segment``: samples per balanced window (None: one second, i.e. each sequence one
-    contiguous stretch of one recording). Other parameters as :func:`analyze_pools`.
+    contiguous stretch of one recording; :data:`TRAIN_WINDOW` with ``split``). ``split``:
+    None (every recording) or "paper"/"grouped": only the training side of a run with that
+    split and ``seed``, at window ``segment`` (see :func:`pools`). Other parameters as
+    :func:`analyze_pools`.
     """
-    nonslip, slip, rate = pools(dataset, sensor, instance, segment, seed)
+    nonslip, slip, rate = pools(dataset, sensor, instance, segment, seed, split)
     result = analyze_pools(nonslip, slip, rate, n_boot=n_boot, repeats=repeats, alpha=alpha, level=level,
                            keep=keep, merge_hz=merge_hz, seed=seed)
     result.params = dict(sensor_type=sensor, sensor_instance=instance or "all",
-                         dataset_fingerprint=dataset.fingerprint, **result.params)
+                         dataset_fingerprint=dataset.fingerprint, train_split=split,
+                         **result.params)
     return result
 
 
@@ -373,6 +420,18 @@ def write(result: SpectralResult, out: Path, name: str) -> list[Path]:
     atomic(".csv", lambda f: result.table.to_csv(f, index=False, float_format="%.6g"))
     atomic(".json", lambda f: Path(f).write_text(json.dumps(result.summary(), indent=2) + "\n"))
     return paths
+
+
+def provenance(result: SpectralResult) -> str:
+    """Which windows the bands were chosen on, and so which runs may use them without having
+    chosen on their own test data."""
+    p = result.params
+    if p.get("train_split") is None:
+        return ("bands chosen on every recording, test windows included; for a detector's band, "
+                "analyse a run's training side (--train-only)")
+    return (f"bands chosen on the training side only ({p['train_split']} split, seed {p['seed']}, window "
+            f"{p['segment_samples']}): free of test data for cells at window {p['segment_samples']} of runs "
+            f"with this dataset, split and seed")
 
 
 def band_param(band: tuple[float, float]) -> str:

@@ -104,26 +104,10 @@ def test_cross_instance_skips_a_type_with_one_instance(small):
     assert all(c.key["train_instance"] == c.key["test_instance"] != "combined" for c in cells if not c.skip)
 
 
-def test_sampling_rate_cells_and_decimation(nano):
-    cells = [c for c in SamplingRate(decimation="both").cells(nano.recordings) if c.key["sensor_instance"] == "index"]
-    assert [c.key["rate_hz"] for c in cells if c.key["decimation"] == "plain"] == [1000, 500, 250, 125, 62.5, 31.25]
-    data = _data(nano, SamplingRate())
-    by = {(c.key["decimation"], c.downsample): c for c in cells}
-    plain, aa = by[("plain", 8)], by[("antialias", 8)]
-    x_plain, x_aa = _windows(data, plain, plain.train), _windows(data, aa, aa.train)
-    full = _windows(data, by[("plain", 1)], by[("plain", 1)].train)
-    assert x_plain.x.shape[1] == 25 and x_aa.x.shape == x_plain.x.shape
-    np.testing.assert_array_equal(x_plain.x, full.x[:, ::8])  # the paper's decimation
-    np.testing.assert_array_equal(x_plain.recording, x_aa.recording)  # the same windows...
-    assert not np.allclose(x_plain.x, x_aa.x)  # ...low-passed
-
-
-def test_antialiased_signal_is_the_low_rate_difference():
-    """Without a filter at work (a constant-slope norm), the k-step difference picks k x s."""
-    rec = pd.DataFrame({"recording_id": ["r"], "sampling_rate_hz": [1000.0]})
-    sig = Signals(np.ones(400, np.float32), np.array([0, 400]), rec)
-    aa = sig.antialiased(4)
-    assert aa.buffer[200] == pytest.approx(4.0, rel=1e-3)
+def test_sampling_rate_cells(nano):
+    cells = [c for c in SamplingRate().cells(nano.recordings) if c.key["sensor_instance"] == "index"]
+    assert [c.key["rate_hz"] for c in cells] == [1000, 500, 250, 125, 62.5, 31.25]
+    assert {(c.decimation, c.antialias) for c in cells} == {("plain", False)}  # the default; tests/test_decimation.py has the rest
 
 
 @pytest.mark.parametrize("protocol, message", [

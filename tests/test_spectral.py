@@ -146,3 +146,79 @@ def test_recordings_shorter_than_a_segment_are_refused(small_path, cli):
     # at scale 0.02 a slip recording holds half a second: one contiguous second does not fit
     code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--instance", "index"])
     assert code == 2 and "holds a 1000-sample segment" in err and "--segment" in err
+
+
+# ----------------------------------------------------------------------------- without peeking
+def _runner_sides(ds, sensor: str, split: str, seed: int, window: int):
+    """The train and test windows (positions) the runner plans for a cell at ``window`` of each
+    instance of ``sensor``."""
+    from slipbench.plan import Run, make_plan
+    from slipbench.protocols.window_size import WindowSize
+    from slipbench.signals import Signals
+
+    run = Run("holweg", WindowSize(windows=[window]), split, seed)
+    cells = [c for c in run.cells(ds.recordings) if c.key["sensor_type"] == sensor]
+    plan = make_plan(Signals.from_dataset(ds), [(run, cells)], "f", "v", set())
+    return [(pc.train, pc.test) for pc in plan.cells]
+
+
+def _keep_only(ds, windows: list, window: int, seed: int):
+    """``ds`` with every reading outside ``windows`` replaced by large noise. A window of s at
+    position i holds readings i * window ... (i + 1) * window of its recording."""
+    from slipbench.data import Dataset
+
+    ids = ds.recordings["recording_id"].to_numpy()
+    keep = {rid: np.zeros(len(x), bool) for rid, x in ds.samples.items()}
+    for w in windows:
+        for r, i in zip(w.recording, w.index):
+            keep[ids[r]][i * window : (i + 1) * window + 1] = True
+    rng = np.random.default_rng(seed)
+    samples = {rid: np.where(keep[rid][:, None], x, 1e6 * rng.standard_normal(x.shape)) for rid, x in ds.samples.items()}
+    return Dataset(ds.recordings, samples, ds.slip_labels)
+
+
+@pytest.mark.parametrize("split", ["paper", "grouped"])
+def test_train_only_never_reads_a_test_window(small, split):
+    """Poison every reading outside the runner's training windows (its test windows among them):
+    the training-side analysis is unchanged; poisoning one training window changes it, and the
+    analysis of every recording reads the poison."""
+    kwargs = dict(segment=50, n_boot=30, repeats=10, seed=3)
+    sides = _runner_sides(small, "OptoForce20", split, 3, 50)
+    train = [t for t, _ in sides]
+    poisoned = _keep_only(small, train, 50, seed=0)
+    # the poison covers every test window (the split keeps the sides apart)
+    for _, test in sides:
+        ids = small.recordings["recording_id"].to_numpy()
+        for r, i in zip(test.recording, test.index):
+            assert (poisoned.samples[ids[r]][i * 50 + 1 : (i + 1) * 50] != small.samples[ids[r]][i * 50 + 1 : (i + 1) * 50]).all()
+
+    clean = analyze(small, "OptoForce20", split=split, **kwargs)
+    again = analyze(poisoned, "OptoForce20", split=split, **kwargs)
+    pd.testing.assert_frame_equal(clean.table, again.table)
+    assert clean.bands == again.bands and clean.best_band == again.best_band
+    assert clean.params["train_split"] == split and clean.params["segment_samples"] == 50
+    assert clean.params["windows_slip"] + clean.params["windows_nonslip"] == sum(len(t) for t in train)
+
+    one_less = [train[0].take(np.arange(1, len(train[0]))), *train[1:]]  # poison one training window too
+    touched = analyze(_keep_only(small, one_less, 50, seed=0), "OptoForce20", split=split, **kwargs)
+    assert not touched.table.equals(clean.table)
+    everything = dict(kwargs, segment=100)
+    assert not analyze(poisoned, "OptoForce20", **everything).table.equals(analyze(small, "OptoForce20", **everything).table)
+
+
+def test_train_only_from_the_command_line(small_path, tmp_path, cli):
+    out = tmp_path / "spectral"
+    base = ["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "index", "--boot", "30",
+            "--repeats", "10", "--out", str(out), "--seed", "2"]
+    code, text, err = cli([*base, "--train-only", "--split", "grouped"])
+    assert code == 0, err
+    summary = json.loads((out / "BioTacSP-index.json").read_text())
+    assert summary["train_split"] == "grouped" and summary["segment_samples"] == 50 and summary["seed"] == 2
+    assert "training side only (grouped split, seed 2, window 50)" in text
+    # a split without --train-only would be silently ignored: refused instead
+    code, _, err = cli([*base, "--split", "grouped"])
+    assert code == 2 and "add --train-only" in err
+    # a window that only free-space recordings hold: the runner's reason, for these windows, exit 2
+    code, _, err = cli([*base, "--train-only", "--segment", "850"])
+    assert code == 2 and "Traceback" not in err
+    assert "BioTacSP index, paper split at window 850: balancing needs slip and non-slip windows" in err
