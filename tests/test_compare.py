@@ -119,5 +119,5 @@ def test_bad_input_exits_2(runs, tmp_path, cli):
     shutil.copytree(runs / "base", two)
     rows = pd.read_parquet(two / "results.parquet")
     pd.concat([rows, rows.assign(detector="other")]).to_parquet(two / "results.parquet")
-    code, _, err = cli(["compare", str(other), str(two)])
+    code, _, err = cli(["compare", str(other), str(two / "results.parquet")])
     assert code == 2 and "cannot pair detectors" in err
