@@ -84,3 +84,14 @@ def test_bench_prints_costs(cli):
     code, out, err = cli(["bench", "--detector", "holweg", "--windows", "40", "--length", "20", "--seconds", "0.05"])
     assert code == 0, err
     assert "| holweg" in out and "train_us_per_sample" in out
+
+
+def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
+    import slipbench.data
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("a slip of the pen")
+
+    monkeypatch.setattr(slipbench.data, "read_dataset", broken)
+    code, _, err = cli(["dataset", "validate", "anything"])
+    assert code == 70 and "ZeroDivisionError: a slip of the pen" in err and "this is a bug in slipbench" in err
