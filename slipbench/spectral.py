@@ -275,7 +275,9 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
     if split is not None:
         return (*_training_side(dataset, sensor, chosen, int(segment), split, seed), rate)
 
-    sig = Signals.from_dataset(Dataset(recs.reset_index(drop=True), dataset.samples))
+    ids = set(recs["recording_id"])
+    sig = Signals.from_dataset(Dataset(recs.reset_index(drop=True), dataset.samples,
+                                       {k: v for k, v in dataset.slip_labels.items() if k in ids}))
     rng = np.random.default_rng(seed)
     parts = []
     for inst in chosen:
@@ -312,6 +314,8 @@ def _training_side(dataset: Dataset, sensor: str, instances: list[str], window: 
 def _check_strata(sig: Signals, rows: np.ndarray, windows: Windows, segment: int, what: str) -> None:
     """Refuse a stratum whose every recording is shorter than a segment: balancing would drop it
     silently and change the mix."""
+    scenario = sig.recordings["scenario"].to_numpy()[rows]
+    rows = rows[scenario != "hold-slip"]  # two states: the scenario labels none of its windows
     scenario_labels = (sig.recordings["scenario"].to_numpy()[rows] == "slip").astype(np.int8)
     per_recording = Windows(np.empty((len(rows), 0)), rows, np.zeros(len(rows), np.int32), sig.recordings,
                             scenario_labels).strata()
@@ -319,7 +323,7 @@ def _check_strata(sig: Signals, rows: np.ndarray, windows: Windows, segment: int
     if missing:
         lengths = sig.offsets[rows + 1] - sig.offsets[rows]
         longest = int(lengths[per_recording == missing[0]].max())
-        raise UsageError(f"{what}: no recording of {missing[0]!r} holds a {segment}-sample segment (longest "
+        raise UsageError(f"{what}: no recording of {str(missing[0])!r} holds a {segment}-sample segment (longest "
                          f"signal: {longest} samples); pass a shorter segment (e.g. --segment {max(1, longest // 2)})")
 
 

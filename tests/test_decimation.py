@@ -17,7 +17,6 @@ from slipbench.plan import CellData, Run, keys
 from slipbench.protocol import Cell, Part
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.report import protocol_tables
-from slipbench.results import cell_key
 from slipbench.signals import Signals, Windows, univariate
 
 from resultgen import fake_rows
@@ -25,8 +24,8 @@ from resultgen import fake_rows
 
 def one_recording(a: np.ndarray, rate: float = 1000.0) -> Signals:
     s = univariate(a)
-    rec = pd.DataFrame({"recording_id": ["r"], "sampling_rate_hz": [rate]})
-    return Signals(s, np.array([0, len(s)]), rec)
+    rec = pd.DataFrame({"recording_id": ["r"], "sampling_rate_hz": [rate], "scenario": ["slip"]})
+    return Signals(s, np.array([0, len(s)]), rec, np.ones(len(s), np.int8))
 
 
 @settings(max_examples=60, deadline=None)
@@ -52,7 +51,7 @@ def test_lag_is_the_difference_a_slower_sensor_measures(window, factor, n_window
 
 def test_plain_is_the_papers_every_kth_sample_where_the_factor_divides_the_window():
     x = np.arange(2 * 200, dtype=np.float32).reshape(2, 200)
-    w = Windows(x, np.zeros(2, np.int32), np.arange(2, dtype=np.int32), pd.DataFrame())
+    w = Windows(x, np.zeros(2, np.int32), np.arange(2, dtype=np.int32), pd.DataFrame(), np.ones(2, np.int8))
     for k in (2, 4, 8):
         np.testing.assert_array_equal(w.downsample(k).x, x[:, ::k])
     # 200 is not a multiple of 16 or 32: the samples after the last whole block are dropped
@@ -61,7 +60,7 @@ def test_plain_is_the_papers_every_kth_sample_where_the_factor_divides_the_windo
 
 
 def test_unknown_decimation_and_too_large_factor_are_refused():
-    w = Windows(np.zeros((1, 10), np.float32), np.zeros(1, np.int32), np.zeros(1, np.int32), pd.DataFrame())
+    w = Windows(np.zeros((1, 10), np.float32), np.zeros(1, np.int32), np.zeros(1, np.int32), pd.DataFrame(), np.ones(1, np.int8))
     with pytest.raises(UsageError, match="unknown decimation 'cubic'; choose plain or lag"):
         w.downsample(2, "cubic")
     with pytest.raises(UsageError, match="windows of 10 samples downsampled by 11 leave no sample"):
@@ -99,7 +98,8 @@ def test_antialias_filters_the_norm_before_differencing():
 @pytest.fixture(scope="module")
 def nano(small):
     rec = small.recordings[small.recordings["sensor_type"].eq("Nano17")].reset_index(drop=True)
-    return Dataset(rec, {k: small.samples[k] for k in rec["recording_id"]})
+    return Dataset(rec, {k: small.samples[k] for k in rec["recording_id"]},
+                   {k: small.slip_labels[k] for k in rec["recording_id"] if k in small.slip_labels})
 
 
 def test_cells_are_decimation_by_antialias_and_say_which(nano):
@@ -114,16 +114,13 @@ def test_cells_are_decimation_by_antialias_and_say_which(nano):
     models = {}
     for c in cells:
         if c.key["sensor_instance"] == "index":
-            models.setdefault(c.downsample, set()).add(keys(run, c, "f", "v")[1])
+            models.setdefault(c.downsample, set()).add(keys(run, c, "f")[1])
     # the full rate is one model for every variant; each downsampled variant is its own
     assert len(models[1]) == 1 and all(len(models[k]) == 4 for k in (2, 4, 8, 16, 32))
-    # a full-rate plain cell of another protocol keeps its model key (cached models stay valid)
+    # a full-rate cell of another protocol shares the model (the window-size model serves them all)
     plain = next(c for c in cells if c.downsample == 1)
     other = Cell({"x": 1}, plain.train, plain.test, plain.window)
-    before = cell_key({"dataset": "f", "detector": "holweg", "params": run.detector.get_params(), "split": "paper",
-                       "seed": 0, "version": "v", "train": plain.train, "window": plain.window, "downsample": 1,
-                       "decimation": "plain"})
-    assert keys(run, other, "f", "v")[1] == keys(run, plain, "f", "v")[1] == before
+    assert keys(run, other, "f")[1] == keys(run, plain, "f")[1]
 
 
 @pytest.mark.parametrize("options, message", [

@@ -19,7 +19,8 @@ from slipbench.signals import Signals
 def subset(ds: Dataset, mask) -> Dataset:
     rec = ds.recordings[np.asarray(mask)].reset_index(drop=True)
     ids = set(rec["recording_id"])
-    return Dataset(rec, {k: v for k, v in ds.samples.items() if k in ids}, {}, ds.path)  # its fingerprint: from its content
+    labels = {k: v for k, v in ds.slip_labels.items() if k in ids}
+    return Dataset(rec, {k: v for k, v in ds.samples.items() if k in ids}, labels, ds.path)  # its fingerprint: from its content
 
 
 @pytest.fixture(scope="module")

@@ -158,7 +158,7 @@ def _runner_sides(ds, sensor: str, split: str, seed: int, window: int):
 
     run = Run("holweg", WindowSize(windows=[window]), split, seed)
     cells = [c for c in run.cells(ds.recordings) if c.key["sensor_type"] == sensor]
-    plan = make_plan(Signals.from_dataset(ds), [(run, cells)], "f", "v", set())
+    plan = make_plan(Signals.from_dataset(ds), [(run, cells)], "f", set())
     return [(pc.train, pc.test) for pc in plan.cells]
 
 
