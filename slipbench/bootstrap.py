@@ -203,16 +203,22 @@ def satterthwaite_df(design: Design, influence: np.ndarray, sizes: np.ndarray, u
     -------
     float
         Welch-Satterthwaite over strata, ``(sum V_h)^2 / sum V_h^2 / df_h``, with ``V_h`` the
-        stratum's linearized variance and ``df_h = (n_h - 1) / n_h (sum s^2)^2 / sum s^4``.
+        stratum's linearized variance and ``df_h`` the smaller of
+        ``(n_h - 1) / n_h (sum s^2)^2 / sum s^4`` (the design: unequal cluster sizes) and
+        ``3 (n_h - 1) / n_h (sum r^2)^2 / sum r^4`` (the data: ``r`` the clusters' centred
+        influences, a plug-in Satterthwaite with normal kurtosis per cluster; it falls when a
+        few clusters carry the variance).
     """
     num = den = 0.0
     for h, n_h in enumerate(design.size):
         m = (design.stratum == h) & used
         if n_h < 2 or not m.any():
             continue
-        u, s = influence[m], sizes[m]
-        v = n_h / (n_h - 1) * ((u - u.mean()) ** 2).sum()
+        r, s = influence[m] - influence[m].mean(), sizes[m]
+        v = n_h / (n_h - 1) * (r**2).sum()
         df_h = (n_h - 1) / n_h * (s**2).sum() ** 2 / (s**4).sum()
+        if (r**4).sum() > 0:  # a few clusters carrying the variance: fewer still
+            df_h = min(df_h, 3 * (n_h - 1) / n_h * (r**2).sum() ** 2 / (r**4).sum())
         num, den = num + v, den + v**2 / df_h
     return float(max(1.0, num**2 / den)) if den > 0 else float(design.df(used))
 

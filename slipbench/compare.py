@@ -265,12 +265,14 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
         raise DataError(f"BASE {base_path} and CANDIDATE {candidate_path} share no cell "
                         f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))})")
     folders = (_folder(base_path), _folder(candidate_path))
-    status = [(r.get("status_b", "ok"), r.get("status_c", "ok")) for r in both.to_dict("records")]
-    level = family_level(sum(s == ("ok", "ok") for s in status))
+    rows = both.to_dict("records")
+    pairs = [tuple({k[:-2]: v for k, v in row.items() if k.endswith(sfx)} | {k: row[k] for k in on} for sfx in ("_b", "_c"))
+             for row in rows]
+    # every cell both sides finished is one member of the family the error rate is held over
+    level = family_level(sum(b.get("status", "ok") == c.get("status", "ok") == "ok" for b, c in pairs))
     out = []
-    for row, (sb, sc) in zip(both.to_dict("records"), status):
-        b = {k[:-2]: v for k, v in row.items() if k.endswith("_b")} | {k: row[k] for k in on}
-        c = {k[:-2]: v for k, v in row.items() if k.endswith("_c")} | {k: row[k] for k in on}
+    for row, (b, c) in zip(rows, pairs):
+        sb, sc = b.get("status", "ok"), c.get("status", "ok")
         entry = {k: row[k] for k in on}
         entry["detector"] = row["detector"] if "detector" in on else f"{row['detector_b']} → {row['detector_c']}"
         entry["base_accuracy"], entry["candidate_accuracy"] = b["accuracy"], c["accuracy"]
@@ -365,7 +367,7 @@ def to_markdown(cmp: Comparison) -> str:
             parts.append(f"**{title}** ({len(rows)}), not compared:\n\n" + "\n".join(_side_list(rows)))
     n = len(cells[(cells["base_status"] == "ok") & (cells["candidate_status"] == "ok")])
     parts.append(
-        f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.3g} % interval: a paired cluster bootstrap "
+        f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval: a paired cluster bootstrap "
         f"over the shared test windows (unpaired where predictions are missing), at a level that holds for all {n} "
         f"cells compared at once (Bonferroni), so the chance that any cell is wrongly called regressed is at most "
         f"{100 * ALPHA:g} %. A cell regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, "
