@@ -106,8 +106,7 @@ def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
         if t.pairs is None:
             return np.full(len(w), np.nan)
         wp, wn = w[:, t.pos], w[:, t.neg]
-        return np.einsum("bi,ij,bj->b", wp, t.pairs, wn) / (
-            (wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg]))
+        return ((wp @ t.pairs) * wn).sum(axis=1) / ((wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg]))
     return (w @ t.hits[name]) / (w @ t.size[name])
 
 
@@ -121,7 +120,7 @@ def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
             return out * np.nan
         wp, wn = w[:, t.pos], w[:, t.neg]
         n_pos, n_neg = wp @ t.size["tp_rate"][t.pos], wn @ t.size["tn_rate"][t.neg]
-        a = np.einsum("bi,ij,bj->b", wp, t.pairs, wn) / (n_pos * n_neg)
+        a = ((wp @ t.pairs) * wn).sum(axis=1) / (n_pos * n_neg)
         out[:, t.pos] += (wn @ t.pairs.T - a[:, None] * t.size["tp_rate"][t.pos] * n_neg[:, None]) / (n_pos * n_neg)[:, None]
         out[:, t.neg] += (wp @ t.pairs - a[:, None] * t.size["tn_rate"][t.neg] * n_pos[:, None]) / (n_pos * n_neg)[:, None]
         return out
