@@ -1,73 +1,241 @@
 """Pure functions from (y_true, y_pred or scores, groups) to figures with confidence intervals.
 
-Windows cut from one recording are correlated, so every default interval here is a *cluster*
-bootstrap: whole recordings (``groups``) are resampled, never single windows. Window-level
-Wilson intervals are offered beside them for the view that treats windows as independent;
-``tests/test_metrics.py`` shows by simulation that the first covers at its nominal rate and
-the second does not when windows are correlated.
+Windows cut from one recording are correlated, so every interval here comes from the
+stratified cluster bootstrap of :mod:`slipbench.bootstrap`: whole clusters (``groups``: a
+recording, or a trial shared by several units) are resampled within their class, never single
+windows. Its coverage is measured, not assumed: see that module's docstring and
+``tests/test_coverage.py``. Window-level Wilson intervals are offered beside them for the view
+that treats windows as independent; ``tests/test_metrics.py`` shows they undercover.
+
+Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn_rate``
+(non-slip windows passed), ``balanced_accuracy`` (their mean) and ``auroc``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
-from scipy.stats import bootstrap
-from statsmodels.stats.contingency_tables import mcnemar
-from statsmodels.stats.multitest import multipletests
 from statsmodels.stats.proportion import proportion_confint
 
-LEVEL = 0.95
-N_RESAMPLES = 999
+from .bootstrap import LEVEL, N_RESAMPLES, interval, make_design
+
+FIGURES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
+RATES = ("accuracy", "tp_rate", "tn_rate")
+LOW_N = 10  # clusters per class below which a cell's intervals rest on too few recordings to trust
 
 
-def _clusters(groups: np.ndarray) -> tuple[np.ndarray, int]:
-    _, codes = np.unique(groups, return_inverse=True)
-    return codes, int(codes.max()) + 1 if len(codes) else 0
-
-
-def _bootstrap(
-    data: tuple[np.ndarray, ...], statistic: Callable[..., np.ndarray], seed: int, level: float, n_resamples: int,
-) -> tuple[float, float]:
-    """Percentile interval of ``statistic`` over paired per-cluster arrays (scipy.stats.bootstrap)."""
-    res = bootstrap(
-        data, statistic, paired=True, vectorized=True, n_resamples=n_resamples, confidence_level=level,
-        method="percentile", rng=np.random.default_rng(seed),
-    )
-    lo, hi = res.confidence_interval
-    return float(lo), float(hi)
-
-
-def cluster_bootstrap_ci(
-    hits: np.ndarray, groups: np.ndarray, seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES
-) -> tuple[float, float]:
-    """Percentile bootstrap interval of a proportion whose observations come in clusters.
+# ----------------------------------------------------------------------------- low n
+def cluster_counts(y_true: np.ndarray, groups: np.ndarray) -> tuple[int, int]:
+    """Clusters holding slip windows and clusters holding non-slip windows.
 
     Parameters
     ----------
-    hits : ndarray of shape (n_windows,)
-        1 where the window was classified correctly.
-    groups : ndarray of shape (n_windows,)
-        The recording each window was cut from.
+    y_true, groups : ndarray of shape (n_windows,)
 
     Returns
     -------
-    (low, high), or (nan, nan) with fewer than two clusters. Whole recordings are resampled,
-    each keeping its hit count and window count together.
+    (n_slip, n_nonslip); a cluster holding both classes counts in both.
     """
-    hits = np.asarray(hits, dtype=float)
-    if len(hits) == 0:
-        return float("nan"), float("nan")
-    codes, n_clusters = _clusters(np.asarray(groups))
-    k = np.bincount(codes, weights=hits, minlength=n_clusters)
-    n = np.bincount(codes, minlength=n_clusters).astype(float)
-    if n_clusters < 2:
-        return float("nan"), float("nan")
-    if np.ptp(k / n) == 0:  # every cluster scores the same: no spread to resample
-        p = float(k.sum() / n.sum())
-        return p, p
-    return _bootstrap((k, n), lambda k, n, axis=-1: k.sum(axis=axis) / n.sum(axis=axis), seed, level, n_resamples)
+    y_true = np.asarray(y_true, bool)
+    groups = np.asarray(groups)
+    return len(np.unique(groups[y_true])), len(np.unique(groups[~y_true]))
+
+
+def is_low_n(y_true: np.ndarray, groups: np.ndarray) -> bool:
+    """True when the test set holds fewer than ``LOW_N`` clusters of either class.
+
+    Below 10 clusters per class the measured coverage of the intervals falls short of the
+    nominal 95 % (see :mod:`slipbench.bootstrap`), and a figure rests on a handful of recordings:
+    tables flag such cells.
+    """
+    return min(cluster_counts(y_true, groups)) < LOW_N
+
+
+# ----------------------------------------------------------------------------- per-cluster totals
+@dataclass(frozen=True)
+class _Totals:
+    """One test set's sufficient statistics per design cluster, each of shape (n_clusters,);
+    ``pairs`` (slip clusters x non-slip clusters) holds correctly ranked window pairs."""
+
+    hits: dict[str, np.ndarray]
+    size: dict[str, np.ndarray]
+    pos: np.ndarray | None = None  # clusters holding slip windows (indices), for the AUROC
+    neg: np.ndarray | None = None
+    pairs: np.ndarray | None = None
+
+
+def _totals(y_true: np.ndarray, correct: np.ndarray, codes: np.ndarray, n_clusters: int,
+            scores: np.ndarray | None) -> _Totals:
+    y = np.asarray(y_true, bool)
+    hits, size = {}, {}
+    for name, mask in (("accuracy", np.ones(len(y), bool)), ("tp_rate", y), ("tn_rate", ~y)):
+        hits[name] = np.bincount(codes[mask], weights=correct[mask], minlength=n_clusters)
+        size[name] = np.bincount(codes[mask], minlength=n_clusters).astype(float)
+    if scores is None or y.all() or not y.any():
+        return _Totals(hits, size)
+    pos, neg = np.flatnonzero(size["tp_rate"]), np.flatnonzero(size["tn_rate"])
+    return _Totals(hits, size, pos, neg, _pair_counts(y, np.asarray(scores, float), codes, pos, neg))
+
+
+def _pair_counts(y: np.ndarray, scores: np.ndarray, codes: np.ndarray, pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
+    """``A[i, j]``: pairs (slip window of cluster pos[i], non-slip window of cluster neg[j])
+    ranked correctly, ties counting one half. Shape (len(pos), len(neg))."""
+    s_pos, c_pos = scores[y], np.searchsorted(pos, codes[y])
+    out = np.zeros((len(pos), len(neg)))
+    for j, d in enumerate(neg):
+        ns = np.sort(scores[~y & (codes == d)])
+        below = np.searchsorted(ns, s_pos, "left")
+        ties = np.searchsorted(ns, s_pos, "right") - below
+        out[:, j] = np.bincount(c_pos, weights=below + 0.5 * ties, minlength=len(pos))
+    return out
+
+
+def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
+    """A figure of one test set under cluster weights ``w`` (n, n_clusters): shape (n,).
+
+    The AUROC of a cluster resample is a bilinear form in the weights of slip and non-slip
+    clusters over the pair counts, ``w_pos @ A @ w_neg / ((w_pos @ n_pos) (w_neg @ n_neg))``:
+    milliseconds per cell, where 999 calls of ``sklearn.metrics.roc_auc_score`` take about a
+    second on 8 000 windows. The estimate equals ``roc_auc_score`` (tested).
+    """
+    if name == "balanced_accuracy":
+        return 0.5 * (_figure(t, "tp_rate", w) + _figure(t, "tn_rate", w))
+    if name == "auroc":
+        if t.pairs is None:
+            return np.full(len(w), np.nan)
+        wp, wn = w[:, t.pos], w[:, t.neg]
+        return ((wp @ t.pairs) * wn).sum(axis=1) / ((wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg]))
+    return (w @ t.hits[name]) / (w @ t.size[name])
+
+
+def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
+    """Derivative of a figure by each cluster's weight at weights ``w`` (n, n_clusters)."""
+    if name == "balanced_accuracy":
+        return 0.5 * (_influence(t, "tp_rate", w) + _influence(t, "tn_rate", w))
+    if name == "auroc":
+        out = np.zeros_like(w)
+        if t.pairs is None:
+            return out * np.nan
+        wp, wn = w[:, t.pos], w[:, t.neg]
+        n_pos, n_neg = wp @ t.size["tp_rate"][t.pos], wn @ t.size["tn_rate"][t.neg]
+        a = ((wp @ t.pairs) * wn).sum(axis=1) / (n_pos * n_neg)
+        out[:, t.pos] += (wn @ t.pairs.T - a[:, None] * t.size["tp_rate"][t.pos] * n_neg[:, None]) / (n_pos * n_neg)[:, None]
+        out[:, t.neg] += (wp @ t.pairs - a[:, None] * t.size["tn_rate"][t.neg] * n_pos[:, None]) / (n_pos * n_neg)[:, None]
+        return out
+    denom = w @ t.size[name]
+    r = (w @ t.hits[name]) / denom
+    return (t.hits[name] - r[:, None] * t.size[name]) / denom[:, None]
+
+
+def _sizes(t: _Totals, name: str) -> np.ndarray:
+    """Windows per cluster that a figure draws on, shape (n_clusters,)."""
+    return t.size[name] if name in RATES else t.size["accuracy"]
+
+
+def _used(t: _Totals, name: str) -> np.ndarray:
+    """The clusters a figure draws on."""
+    if name in RATES:
+        return t.size[name] > 0
+    return (t.size["tp_rate"] > 0) | (t.size["tn_rate"] > 0)
+
+
+@dataclass(frozen=True)
+class Predictions:
+    """One test set's windows: labels, hard predictions, clusters, and optionally scores and
+    balancing strata, each of shape (n_windows,)."""
+
+    y_true: np.ndarray
+    y_pred: np.ndarray
+    groups: np.ndarray
+    scores: np.ndarray | None = None
+    strata: np.ndarray | None = None
+
+
+def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
+    y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
+    n_slip, n_nonslip = cluster_counts(y, np.concatenate([np.asarray(p.groups) for p in parts]))
+    return {"n_test_clusters_slip": n_slip, "n_test_clusters_nonslip": n_nonslip,
+            "low_n": bool(min(n_slip, n_nonslip) < LOW_N)}
+
+
+def _joint_figures(parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str) -> dict:
+    """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
+    has_strata = [p.strata is not None for p in parts]
+    if any(has_strata) and not all(has_strata):
+        raise ValueError("give balancing strata for every test set or for none")
+    design, codes = make_design([p.y_true for p in parts], [p.groups for p in parts],
+                                [p.strata for p in parts] if all(has_strata) else None)
+    totals = []
+    for p, c in zip(parts, codes):
+        y = np.asarray(p.y_true, bool)
+        totals.append(_totals(y, (y == np.asarray(p.y_pred, bool)).astype(float), c, design.n_clusters, p.scores))
+    out: dict = {}
+    unestimable = []
+    for name in FIGURES:
+        iv = interval(lambda w, name=name: np.mean([_figure(t, name, w) for t in totals], axis=0),
+                      lambda w, name=name: np.mean([_influence(t, name, w) for t in totals], axis=0),
+                      design, np.logical_or.reduce([_used(t, name) for t in totals]),
+                      np.sum([_sizes(t, name) for t in totals], axis=0), seed, level, n_resamples, method)
+        out[name], out[f"{name}_lo"], out[f"{name}_hi"], out[f"{name}_se"] = iv.estimate, iv.lo, iv.hi, iv.se
+        if name == "accuracy":
+            out["df"] = iv.df
+        if np.isfinite(iv.estimate) and not iv.estimable:
+            unestimable.append(name)
+    out["ci_note"] = "" if not unestimable else (
+        f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures how its clusters vary; "
+        "the interval given is the figure's whole range")
+    return out | _class_counts(parts)
+
+
+# ----------------------------------------------------------------------------- one cell
+def classification_figures(
+    y_true: np.ndarray, y_pred: np.ndarray, groups: np.ndarray, seed: int, scores: np.ndarray | None = None,
+    strata: np.ndarray | None = None, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+) -> dict[str, float | int | bool | str]:
+    """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
+
+    Parameters
+    ----------
+    y_true, y_pred : ndarray of shape (n_windows,)
+        Labels (1 slip) and hard predictions.
+    groups : ndarray of shape (n_windows,)
+        The cluster of each window: its recording, or its trial where units share trials.
+    seed : int
+        Seeds every bootstrap, so figures are reproducible.
+    scores : ndarray of shape (n_windows,), optional
+        Slip probabilities; gives the AUROC.
+    strata : ndarray of shape (n_windows,), optional
+        Balancing stratum of each window (``Windows.strata()``): clusters are resampled within
+        class and stratum.
+    level, n_resamples, method
+        Interval level, bootstrap resamples, interval method (:func:`slipbench.bootstrap.interval`).
+
+    Returns
+    -------
+    dict
+        Counts ``tp, tn, fp, fn``; each figure of ``FIGURES`` with ``_lo``/``_hi`` (interval) and
+        ``_se`` (bootstrap standard error); ``df``: the accuracy interval's degrees of freedom;
+        window-level Wilson bounds ``<rate>_wilson_lo``/``_hi`` for accuracy, TP and TN rate;
+        ``n_test_clusters_slip``, ``n_test_clusters_nonslip`` (clusters holding windows of each
+        class) and ``low_n`` (fewer than ``LOW_N`` of either); ``ci_note``: empty, or which
+        intervals are the figure's whole range because a class holds one cluster. A figure
+        without an estimate (no slip window for a TP rate; no scores for the AUROC) is NaN with
+        NaN bounds.
+    """
+    y_true = np.asarray(y_true).astype(bool)
+    y_pred = np.asarray(y_pred).astype(bool)
+    out: dict = {
+        "tp": int((y_true & y_pred).sum()), "tn": int((~y_true & ~y_pred).sum()),
+        "fp": int((~y_true & y_pred).sum()), "fn": int((y_true & ~y_pred).sum()),
+    }
+    out |= _joint_figures([Predictions(y_true, y_pred, np.asarray(groups), scores, strata)], seed, level, n_resamples, method)
+    correct = y_true == y_pred
+    for name, mask in (("accuracy", np.ones(len(y_true), bool)), ("tp_rate", y_true), ("tn_rate", ~y_true)):
+        out[f"{name}_wilson_lo"], out[f"{name}_wilson_hi"] = wilson_ci(int(correct[mask].sum()), int(mask.sum()))
+    return out
 
 
 def wilson_ci(hits: int, n: int, level: float = LEVEL) -> tuple[float, float]:
@@ -78,174 +246,98 @@ def wilson_ci(hits: int, n: int, level: float = LEVEL) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def balanced_accuracy_ci(
-    correct: np.ndarray, y_true: np.ndarray, groups: np.ndarray, seed: int,
-    level: float = LEVEL, n_resamples: int = N_RESAMPLES,
-) -> tuple[float, float]:
-    """Cluster bootstrap interval of (TP rate + TN rate) / 2."""
-    codes, n_clusters = _clusters(np.asarray(groups))
-    if n_clusters < 2:
-        return float("nan"), float("nan")
-    pos = np.asarray(y_true, bool)
-    correct = np.asarray(correct, float)
-    counts = [np.bincount(codes, weights=w, minlength=n_clusters) for w in (correct * pos, pos, correct * ~pos, ~pos)]
+# ----------------------------------------------------------------------------- several test sets
+def mean_over_test_sets(
+    parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+) -> dict[str, float | int | bool | str]:
+    """The mean of each figure over several test sets, with ONE joint bootstrap.
 
-    def statistic(kp, np_, kn, nn, axis=-1):
-        with np.errstate(invalid="ignore", divide="ignore"):  # a resample may lack one class
-            return 0.5 * (kp.sum(axis=axis) / np_.sum(axis=axis) + kn.sum(axis=axis) / nn.sum(axis=axis))
-
-    return _bootstrap(tuple(counts), statistic, seed, level, n_resamples)
-
-
-def pair_counts(y_true: np.ndarray, scores: np.ndarray, codes: np.ndarray, n_clusters: int) -> np.ndarray:
-    """``A[c, d]``: pairs (slip window of recording c, non-slip window of recording d) that the
-    scores rank correctly, ties counting one half. Shape (n_clusters, n_clusters)."""
-    pos = np.asarray(y_true, bool)
-    s_pos, c_pos = scores[pos], codes[pos]
-    out = np.zeros((n_clusters, n_clusters))
-    for d in np.unique(codes[~pos]):
-        neg = np.sort(scores[~pos & (codes == d)])
-        below = np.searchsorted(neg, s_pos, "left")
-        ties = np.searchsorted(neg, s_pos, "right") - below
-        out[:, d] = np.bincount(c_pos, weights=below + 0.5 * ties, minlength=n_clusters)
-    return out
-
-
-def auroc_ci(
-    y_true: np.ndarray, scores: np.ndarray, groups: np.ndarray, seed: int,
-    level: float = LEVEL, n_resamples: int = N_RESAMPLES,
-) -> tuple[float, float, float]:
-    """AUROC of ``scores`` with a cluster bootstrap percentile interval.
-
-    Written by hand rather than calling ``sklearn.metrics.roc_auc_score`` per resample: that
-    costs about 1 s per cell of 8 000 windows (999 sorts), while the AUROC of a cluster resample
-    is a quadratic form in the resampling counts ``w`` over the per-cluster pair counts ``A``,
-    ``w @ A @ w / ((w @ n_pos) (w @ n_neg))``, which costs milliseconds. The point estimate
-    equals ``roc_auc_score`` (tested).
-    """
-    y_true = np.asarray(y_true, bool)
-    scores = np.asarray(scores, float)
-    if y_true.all() or not y_true.any():
-        return float("nan"), float("nan"), float("nan")
-    codes, n_clusters = _clusters(np.asarray(groups))
-    a = pair_counts(y_true, scores, codes, n_clusters)
-    n_pos = np.bincount(codes, weights=y_true, minlength=n_clusters)
-    n_neg = np.bincount(codes, weights=~y_true, minlength=n_clusters)
-    auc = float(a.sum() / (n_pos.sum() * n_neg.sum()))
-    if n_clusters < 2:
-        return auc, float("nan"), float("nan")
-    rng = np.random.default_rng(seed)
-    w = rng.multinomial(n_clusters, np.full(n_clusters, 1 / n_clusters), size=n_resamples).astype(float)
-    with np.errstate(invalid="ignore", divide="ignore"):  # a resample may lack one class
-        stats = np.einsum("bc,cd,bd->b", w, a, w) / ((w @ n_pos) * (w @ n_neg))
-    stats = stats[np.isfinite(stats)]
-    alpha = (1 - level) / 2
-    lo, hi = np.quantile(stats, [alpha, 1 - alpha])
-    return auc, float(lo), float(hi)
-
-
-def classification_figures(
-    y_true: np.ndarray, y_pred: np.ndarray, groups: np.ndarray, seed: int, scores: np.ndarray | None = None,
-) -> dict[str, float]:
-    """Every figure of one cell, each with a 95 % interval.
+    The fingers of one sensor are recorded in the same trials, so their test sets share
+    clusters: pass the trial as ``groups`` and every resample draws a trial for all fingers at
+    once. Combining the fingers' half-widths as if they were independent understates the
+    interval when their errors move together (same trials, same contact).
 
     Parameters
     ----------
-    y_true, y_pred : ndarray of shape (n_windows,)
-        Labels (1 slip) and hard predictions.
-    groups : ndarray of shape (n_windows,)
-        The recording of each window: the cluster of the bootstrap.
-    seed : int
-        Seeds every bootstrap, so figures are reproducible.
-    scores : ndarray of shape (n_windows,), optional
-        Slip probabilities; gives the AUROC.
+    parts : sequence of Predictions
+        The test sets; a group value shared by two sets is one cluster.
 
     Returns
     -------
     dict
-        Counts ``tp, tn, fp, fn``; ``accuracy``, ``tp_rate`` (slip caught), ``tn_rate``
-        (non-slip passed), ``balanced_accuracy`` and ``auroc``, each with ``_lo``/``_hi``
-        (cluster bootstrap over recordings); and window-level Wilson bounds
-        ``<rate>_wilson_lo``/``_hi`` for accuracy, TP and TN rate.
+        Each figure of ``FIGURES`` (the mean over test sets of the per-set figure) with
+        ``_lo``/``_hi``/``_se``; ``n_test_sets``; ``n_test_clusters_slip``/``_nonslip`` (over
+        the union of the sets), ``low_n`` and ``ci_note`` as in :func:`classification_figures`.
+        A figure that one set lacks (no slip window there) is NaN.
     """
-    y_true = np.asarray(y_true).astype(bool)
-    y_pred = np.asarray(y_pred).astype(bool)
-    groups = np.asarray(groups)
-    correct = y_true == y_pred
-    out: dict[str, float] = {
-        "tp": int((y_true & y_pred).sum()), "tn": int((~y_true & ~y_pred).sum()),
-        "fp": int((~y_true & y_pred).sum()), "fn": int((y_true & ~y_pred).sum()),
-    }
-    for name, mask in (("accuracy", np.ones(len(y_true), bool)), ("tp_rate", y_true), ("tn_rate", ~y_true)):
-        hits = correct[mask]
-        out[name] = float(hits.mean()) if len(hits) else float("nan")
-        out[f"{name}_lo"], out[f"{name}_hi"] = cluster_bootstrap_ci(hits, groups[mask], seed)
-        out[f"{name}_wilson_lo"], out[f"{name}_wilson_hi"] = wilson_ci(int(hits.sum()), len(hits))
-    out["balanced_accuracy"] = 0.5 * (out["tp_rate"] + out["tn_rate"])
-    out["balanced_accuracy_lo"], out["balanced_accuracy_hi"] = balanced_accuracy_ci(correct, y_true, groups, seed)
-    if scores is None:
-        out["auroc"] = out["auroc_lo"] = out["auroc_hi"] = float("nan")
-    else:
-        out["auroc"], out["auroc_lo"], out["auroc_hi"] = auroc_ci(y_true, scores, groups, seed)
-    return out
+    if not parts:
+        raise ValueError("mean_over_test_sets needs at least one test set")
+    return {"n_test_sets": len(parts)} | _joint_figures(parts, seed, level, n_resamples, method)
+
+
+def pool_seeds(parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+               method: str = "satterthwaite") -> dict[str, float | int | bool | str]:
+    """One cell run under several seeds (``--repeats``): one figure and one interval.
+
+    The seeds' test sets differ (each seed balances and splits anew) but draw on the same
+    recordings, so they are bootstrapped jointly: each resample draws recordings once and
+    averages the seeds' figures on it. The result is an interval for the seed-averaged figure;
+    the mean of the seeds' bounds is not one (it ignores that the seeds share recordings and
+    that averaging narrows the seed-to-seed part). ``parts`` holds one Predictions per seed, with
+    recording ids as ``groups``; returns what :func:`mean_over_test_sets` returns.
+    """
+    return mean_over_test_sets(parts, seed, level, n_resamples, method)
 
 
 # ----------------------------------------------------------------------------- paired comparison
 def paired_comparison(
     y_true: np.ndarray, base_pred: np.ndarray, cand_pred: np.ndarray, groups: np.ndarray, seed: int,
-    level: float = LEVEL, n_resamples: int = N_RESAMPLES,
-) -> dict[str, float]:
-    """Two detectors' predictions on the same test windows: McNemar's test and paired cluster
-    bootstrap intervals of the change (candidate - base) in accuracy, TP and TN rate.
+    level: float = LEVEL, n_resamples: int = N_RESAMPLES, base_scores: np.ndarray | None = None,
+    cand_scores: np.ndarray | None = None, strata: np.ndarray | None = None, method: str = "satterthwaite",
+    figures: Sequence[str] = FIGURES,
+) -> dict[str, float | int | bool]:
+    """Two detectors' predictions on the same test windows: the change (candidate - base) of
+    every figure with a paired interval from the stratified cluster bootstrap.
+
+    Each resample draws clusters once and evaluates both detectors on them, so what the two
+    share (hard recordings) cancels. McNemar's test is not offered: it treats windows as
+    independent and, under an exact null, rejected in 17-23 % of cells (issue 11).
 
     Parameters
     ----------
     y_true, base_pred, cand_pred, groups : ndarray of shape (n_windows,)
-        Labels, the two hard predictions, and each window's recording (the cluster).
+        Labels, the two hard predictions, and each window's cluster.
+    level : float
+        Interval level; :func:`slipbench.compare.compare` passes a Bonferroni-adjusted one.
+    base_scores, cand_scores : ndarray of shape (n_windows,), optional
+        Slip probabilities: give the change in AUROC.
+    figures : sequence of str
+        The figures to compare (``accuracy`` always comes first: it gives ``df``).
 
     Returns
     -------
     dict
-        ``d_<rate>`` with ``_lo``/``_hi`` for accuracy, tp_rate and tn_rate; ``mcnemar_p``
-        (exact binomial test when fewer than 25 windows are discordant, else chi-square with
-        continuity correction); ``n_discordant``.
+        ``d_<figure>`` with ``_lo``/``_hi``/``_se`` for each of ``figures`` (NaN where a side
+        lacks the figure); ``df`` and ``estimable`` of the accuracy's change (not estimable when
+        a class holds one cluster: the interval is then [-1, 1]); ``n_test_clusters_slip``/``_nonslip``.
     """
     y_true = np.asarray(y_true, bool)
-    hit_b = np.asarray(base_pred, bool) == y_true
-    hit_c = np.asarray(cand_pred, bool) == y_true
-    b, c = int((hit_b & ~hit_c).sum()), int((~hit_b & hit_c).sum())
-    table = [[int((hit_b & hit_c).sum()), b], [c, int((~hit_b & ~hit_c).sum())]]
-    out: dict[str, float] = {
-        "mcnemar_p": 1.0 if b + c == 0 else float(mcnemar(table, exact=b + c < 25, correction=True).pvalue),
-        "n_discordant": b + c,
-    }
-    codes, n_clusters = _clusters(np.asarray(groups))
-    for name, mask in (("accuracy", np.ones(len(y_true), bool)), ("tp_rate", y_true), ("tn_rate", ~y_true)):
-        n = mask.sum()
-        out[f"d_{name}"] = float((hit_c[mask].sum() - hit_b[mask].sum()) / n) if n else float("nan")
-        kb = np.bincount(codes[mask], weights=hit_b[mask], minlength=n_clusters)
-        kc = np.bincount(codes[mask], weights=hit_c[mask], minlength=n_clusters)
-        nn = np.bincount(codes[mask], minlength=n_clusters).astype(float)
-        keep = nn > 0
-        kb, kc, nn = kb[keep], kc[keep], nn[keep]
-        if len(nn) < 2:
-            lo = hi = float("nan")
-        elif np.all(kc == kb):  # identical hits in every recording: the change is exactly zero
-            lo = hi = 0.0
-        else:
-            lo, hi = _bootstrap(
-                (kb, kc, nn), lambda kb, kc, nn, axis=-1: (kc.sum(axis=axis) - kb.sum(axis=axis)) / nn.sum(axis=axis),
-                seed, level, n_resamples,
-            )
-        out[f"d_{name}_lo"], out[f"d_{name}_hi"] = lo, hi
-    return out
-
-
-def holm(pvalues: pd.Series | np.ndarray) -> np.ndarray:
-    """Holm-adjusted p-values (statsmodels ``multipletests``); NaN stays NaN."""
-    p = np.asarray(pvalues, float)
-    out = np.full(len(p), np.nan)
-    ok = np.isfinite(p)
-    if ok.any():
-        out[ok] = multipletests(p[ok], method="holm")[1]
+    groups = np.asarray(groups)
+    design, (codes,) = make_design([y_true], [groups], None if strata is None else [strata])
+    sides = [_totals(y_true, (np.asarray(p, bool) == y_true).astype(float), codes, design.n_clusters, s)
+             for p, s in ((base_pred, base_scores), (cand_pred, cand_scores))]
+    out: dict = {}
+    unknown = set(figures) - set(FIGURES)
+    if unknown:
+        raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
+    for name in ("accuracy", *(f for f in figures if f != "accuracy")):
+        iv = interval(lambda w, name=name: _figure(sides[1], name, w) - _figure(sides[0], name, w),
+                      lambda w, name=name: _influence(sides[1], name, w) - _influence(sides[0], name, w),
+                      design, _used(sides[0], name), _sizes(sides[0], name), seed, level, n_resamples, method,
+                      bounds=(-1.0, 1.0))
+        out[f"d_{name}"], out[f"d_{name}_lo"], out[f"d_{name}_hi"], out[f"d_{name}_se"] = iv.estimate, iv.lo, iv.hi, iv.se
+        if name == "accuracy":
+            out["df"], out["estimable"] = iv.df, iv.estimable
+    out["n_test_clusters_slip"], out["n_test_clusters_nonslip"] = cluster_counts(y_true, groups)
     return out

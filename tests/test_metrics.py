@@ -1,4 +1,6 @@
-"""Statistics: interval coverage by simulation, AUROC against scikit-learn, paired comparison."""
+"""Statistics: the stratified design, Rao-Wu variance, AUROC against scikit-learn, flags for
+designs too small to estimate, joint intervals over test sets and seeds, paired comparison.
+Coverage itself is measured in tests/test_coverage.py."""
 
 from __future__ import annotations
 
@@ -6,106 +8,204 @@ import numpy as np
 import pytest
 from sklearn.metrics import balanced_accuracy_score, roc_auc_score
 
+from slipbench.bootstrap import make_design, resample_weights
 from slipbench.metrics import (
-    auroc_ci, classification_figures, cluster_bootstrap_ci, holm, paired_comparison, wilson_ci,
+    FIGURES, LOW_N, Predictions, classification_figures, cluster_counts, is_low_n, mean_over_test_sets,
+    paired_comparison, pool_seeds, wilson_ci,
 )
 
-TRUE_ACCURACY = 0.8
+
+def correlated_test_set(rng, n_recordings: int, trial_sd: float = 1.0, windows=(10, 60)):
+    """Slip and non-slip recordings whose windows share a recording effect on their score."""
+    sizes = rng.integers(*windows, size=2 * n_recordings)
+    groups = np.repeat(np.arange(2 * n_recordings), sizes)
+    y = groups < n_recordings
+    score = np.where(y, 0.8, -0.8) + rng.normal(0, trial_sd, 2 * n_recordings)[groups] + rng.normal(0, 1, len(y))
+    return y, score > 0, groups, score
 
 
-def simulated_datasets(n_datasets: int, n_recordings: int, seed: int):
-    """Hit counts of datasets whose windows are correlated within a recording.
-
-    Each recording has its own accuracy p_c ~ Beta(8, 2) (mean 0.8, intra-recording
-    correlation 1 / 11) and 10-30 windows; a window is correct with probability p_c. The
-    accuracy the intervals must cover is the mean, 0.8.
-    """
-    rng = np.random.default_rng(seed)
-    sizes = rng.integers(10, 31, size=(n_datasets, n_recordings))
-    hits = rng.binomial(sizes, rng.beta(8, 2, size=(n_datasets, n_recordings)))
-    return sizes, hits
-
-
-def windows_of(sizes: np.ndarray, hits: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Expand per-recording counts into per-window (hit, recording) arrays."""
-    groups = np.repeat(np.arange(len(sizes)), sizes)
-    first = np.repeat(np.cumsum(sizes) - sizes, sizes)
-    # the first hits[c] windows of recording c are correct, the rest not
-    correct = (np.arange(sizes.sum()) - first) < np.repeat(hits, sizes)
-    return correct.astype(float), groups
+def test_wilson_undercovers_correlated_windows_where_the_cluster_interval_does_not():
+    """Windows of a recording share its accuracy: the window-level Wilson interval, which treats
+    them as independent, is far too narrow (it is right for independent windows)."""
+    rng = np.random.default_rng(5)
+    cover_cluster = cover_wilson = 0
+    for d in range(150):
+        p = rng.beta(8, 2, size=40)  # each recording's own accuracy; the mean, 0.8, is the truth
+        sizes = rng.integers(10, 31, size=40)
+        groups = np.repeat(np.arange(40), sizes)
+        correct = rng.random(len(groups)) < p[groups]
+        y = groups % 2 == 0  # both classes, same accuracy distribution
+        f = classification_figures(y, np.where(correct, y, ~y), groups, seed=d)
+        cover_cluster += f["accuracy_lo"] <= 0.8 <= f["accuracy_hi"]
+        cover_wilson += f["accuracy_wilson_lo"] <= 0.8 <= f["accuracy_wilson_hi"]
+    assert cover_cluster >= 0.90 * 150, cover_cluster
+    assert cover_wilson < 0.80 * 150, cover_wilson
+    independent = sum(lo <= 0.8 <= hi for lo, hi in (wilson_ci(int(rng.binomial(500, 0.8)), 500) for _ in range(400)))
+    assert 0.92 * 400 <= independent <= 0.98 * 400
 
 
-def test_cluster_bootstrap_covers_at_nominal_rate_and_wilson_undercovers():
-    sizes, hits = simulated_datasets(400, 40, seed=5)
-    cover_bootstrap = cover_wilson = 0
-    for d in range(len(sizes)):
-        correct, groups = windows_of(sizes[d], hits[d])
-        lo, hi = cluster_bootstrap_ci(correct, groups, seed=d)
-        cover_bootstrap += lo <= TRUE_ACCURACY <= hi
-        lo, hi = wilson_ci(int(correct.sum()), len(correct))
-        cover_wilson += lo <= TRUE_ACCURACY <= hi
-    # 95 % intervals: the cluster bootstrap covers at close to 95 % (measured: 378/400)...
-    assert 0.92 * 400 <= cover_bootstrap <= 0.98 * 400, cover_bootstrap
-    # ...while the window-level Wilson interval, which treats correlated windows as
-    # independent, is far too narrow (measured: 290/400).
-    assert cover_wilson < 0.85 * 400, cover_wilson
+def test_design_stratifies_by_class_and_collapses_lone_strata():
+    y = np.array([1, 1, 1, 1, 0, 0, 0, 0, 0, 1, 0])
+    g = np.array(["a", "a", "b", "c", "d", "e", "f", "g", "h", "m", "m"])
+    strata = np.array(["s1", "s1", "s1", "s2", "p1", "p1", "p2", "p2", "p3", "s1", "s1"])
+    design, (codes,) = make_design([y], [g], [strata])
+    stratum = dict(zip(design.labels, design.stratum))
+    # the lone mixed cluster m joins the class holding most of its windows (a tie: slip), and
+    # slip's lone stratum s2 (cluster c) joins slip's largest stratum
+    assert stratum["a"] == stratum["b"] == stratum["c"] == stratum["m"]
+    # non-slip: p3 (cluster h) is its class's only lone stratum, so it joins a largest one
+    assert stratum["h"] in (stratum["d"], stratum["f"])
+    assert stratum["d"] == stratum["e"] != stratum["a"] and stratum["f"] == stratum["g"]
+    assert design.size.sum() == 9 and not design.lone().any()
+    np.testing.assert_array_equal(design.labels[codes], g)
 
 
-def test_wilson_matches_independent_windows():
-    """With independent windows the Wilson interval is right too: it is not wrong, only misapplied."""
-    rng = np.random.default_rng(1)
-    cover = sum(lo <= 0.8 <= hi for lo, hi in (wilson_ci(int(rng.binomial(500, 0.8)), 500) for _ in range(400)))
-    assert 0.92 * 400 <= cover <= 0.98 * 400
-
-
-def test_auroc_equals_scikit_learn_with_ties():
+def test_rao_wu_weights_keep_stratum_totals_and_give_unbiased_variance():
     rng = np.random.default_rng(0)
-    y = rng.random(3000) < 0.5
-    scores = np.round(rng.random(3000) + 0.4 * y, 1)  # coarse: many ties
-    groups = rng.integers(0, 50, 3000)
-    auc, lo, hi = auroc_ci(y, scores, groups, seed=0)
-    assert auc == pytest.approx(roc_auc_score(y, scores), abs=1e-12)
-    assert lo < auc < hi
+    y = np.repeat([1, 0], [4, 6])
+    design, _ = make_design([y], [np.arange(10)])
+    w = resample_weights(design, seed=1, n_resamples=40000)
+    slip = design.stratum == design.stratum[0]
+    np.testing.assert_allclose(w[:, slip].sum(1), 4)  # every resample keeps 4 slip clusters
+    np.testing.assert_allclose(w[:, ~slip].sum(1), 6)
+    # the resampled mean of 4 values varies as s^2 / 4 (unbiased); the plain bootstrap gives 3/4 of it
+    x = rng.normal(size=4)
+    boot = (w[:, slip] @ x) / 4
+    assert boot.var() == pytest.approx(x.var(ddof=1) / 4, rel=0.03)
 
 
-def test_classification_figures():
+def test_classification_figures_match_scikit_learn_and_are_deterministic():
     rng = np.random.default_rng(2)
-    y = rng.random(2000) < 0.5
-    scores = np.clip(0.5 + 0.3 * (y - 0.5) + rng.normal(0, 0.3, 2000), 0, 1)
-    pred = scores >= 0.5
-    groups = rng.integers(0, 40, 2000)
-    f = classification_figures(y, pred, groups, seed=0, scores=scores)
-    assert f["tp"] + f["tn"] + f["fp"] + f["fn"] == 2000
+    y, pred, groups, score = correlated_test_set(rng, 20)
+    score = np.round(score, 1)  # coarse: many ties
+    f = classification_figures(y, pred, groups, seed=0, scores=score)
+    assert f["tp"] + f["tn"] + f["fp"] + f["fn"] == len(y)
     assert f["accuracy"] == pytest.approx((pred == y).mean())
     assert f["balanced_accuracy"] == pytest.approx(balanced_accuracy_score(y, pred))
-    assert f["auroc"] == pytest.approx(roc_auc_score(y, scores))
-    for name in ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc"):
-        assert f[f"{name}_lo"] <= f[name] <= f[f"{name}_hi"], name
-    assert f == classification_figures(y, pred, groups, seed=0, scores=scores)  # deterministic
+    assert f["auroc"] == pytest.approx(roc_auc_score(y, score), abs=1e-12)
+    for name in FIGURES:
+        assert f[f"{name}_lo"] < f[name] < f[f"{name}_hi"], name
+        assert f[f"{name}_se"] > 0, name
+    assert f["n_test_clusters_slip"] == f["n_test_clusters_nonslip"] == 20 and not f["low_n"] and f["ci_note"] == ""
+    assert f == classification_figures(y, pred, groups, seed=0, scores=score)
     assert np.isnan(classification_figures(y, pred, groups, seed=0)["auroc"])
 
 
-def test_paired_comparison_of_identical_predictions_is_no_change():
+def test_intervals_lean_away_from_the_bound():
+    """Near 100 % the interval reaches further down than up, as a rate's sampling distribution does."""
+    rng = np.random.default_rng(4)
+    y, _, groups, score = correlated_test_set(rng, 15)
+    f = classification_figures(y, score > -1.5, groups, seed=0)  # a lenient threshold: TP rate near 1
+    assert f["tp_rate"] > 0.9
+    assert f["tp_rate"] - f["tp_rate_lo"] > f["tp_rate_hi"] - f["tp_rate"] > 0
+
+
+def test_no_nan_interval_where_the_figure_exists():
+    """Three recordings per class (the old bootstrap drew resamples without one class and gave
+    NaN balanced accuracy); every recording perfect (no spread to resample)."""
     rng = np.random.default_rng(3)
-    y = rng.random(1000) < 0.5
-    pred = rng.random(1000) < 0.5
-    out = paired_comparison(y, pred, pred, rng.integers(0, 30, 1000), seed=0)
-    assert out["mcnemar_p"] == 1.0 and out["n_discordant"] == 0
-    assert out["d_accuracy"] == out["d_accuracy_lo"] == out["d_accuracy_hi"] == 0.0
+    y, pred, groups, score = correlated_test_set(rng, 3)
+    f = classification_figures(y, pred, groups, seed=0, scores=score)
+    for name in FIGURES:
+        assert np.isfinite([f[name], f[f"{name}_lo"], f[f"{name}_hi"]]).all(), name
+    assert f["low_n"]
+    perfect = classification_figures(y, y, groups, seed=0, scores=y.astype(float))
+    for name in FIGURES:
+        assert perfect[name] == perfect[f"{name}_hi"] == 1.0
+        # every recording perfect: Clopper-Pearson with the recordings as the sample (3 per
+        # class, 6 in all), not [1, 1]
+        n = 3 if name in ("tp_rate", "tn_rate") else 6
+        assert perfect[f"{name}_lo"] == pytest.approx(0.025 ** (1 / n)), name
+
+
+def test_a_class_of_one_recording_is_flagged_not_faked():
+    rng = np.random.default_rng(6)
+    y, pred, groups, score = correlated_test_set(rng, 8)
+    keep = (groups < 8) | (groups == 8)  # every slip recording, one non-slip recording
+    f = classification_figures(y[keep], pred[keep], groups[keep], seed=0, scores=score[keep])
+    assert f["n_test_clusters_nonslip"] == 1 and f["low_n"]
+    assert 0 < f["tp_rate_lo"] < f["tp_rate_hi"] < 1  # the slip side is estimable
+    for name in ("accuracy", "tn_rate", "balanced_accuracy", "auroc"):
+        assert (f[f"{name}_lo"], f[f"{name}_hi"]) == (0.0, 1.0) and np.isnan(f[f"{name}_se"]), name
+        assert name in f["ci_note"]
+    assert "tp_rate" not in f["ci_note"]
+    assert np.isnan(classification_figures(y[groups < 8], pred[groups < 8], groups[groups < 8], seed=0)["tn_rate"])
+
+
+def test_low_n():
+    y = np.repeat([1, 0], 50)
+    groups = np.concatenate([np.arange(50) % 12, 100 + np.arange(50) % 9])
+    assert cluster_counts(y, groups) == (12, 9)
+    assert is_low_n(y, groups) and LOW_N == 10
+    assert not is_low_n(y, np.concatenate([np.arange(50) % 12, 100 + np.arange(50) % 10]))
+    f = classification_figures(y, y, groups, seed=0)
+    assert (f["n_test_clusters_slip"], f["n_test_clusters_nonslip"], f["low_n"]) == (12, 9, True)
+
+
+def _fingers(rng, n_trials: int, n_fingers: int = 3):
+    """Fingers recorded in the same trials: a trial effect shared by every finger's windows."""
+    trial = rng.normal(0, 1.2, 2 * n_trials)
+    parts = []
+    for _ in range(n_fingers):
+        sizes = rng.integers(10, 40, 2 * n_trials)
+        groups = np.repeat(np.arange(2 * n_trials), sizes)
+        y = groups < n_trials
+        score = np.where(y, 0.8, -0.8) + trial[groups] + rng.normal(0, 0.3, 2 * n_trials)[groups] + rng.normal(0, 1, len(y))
+        parts.append(Predictions(y, score > 0, groups, score))
+    return parts
+
+
+def test_mean_over_fingers_bootstraps_shared_trials_jointly():
+    parts = _fingers(np.random.default_rng(7), 30)
+    joint = mean_over_test_sets(parts, seed=0)
+    single = [classification_figures(p.y_true, p.y_pred, p.groups, seed=0, scores=p.scores) for p in parts]
+    for name in FIGURES:
+        assert joint[name] == pytest.approx(np.mean([s[name] for s in single]))
+        # fingers err together on a shared trial: the joint interval is wider than the fingers'
+        # half-widths combined as independent (the old report's rule)
+        independent = np.sqrt(sum(((s[f"{name}_hi"] - s[f"{name}_lo"]) / 2) ** 2 for s in single)) / len(single)
+        assert (joint[f"{name}_hi"] - joint[f"{name}_lo"]) / 2 > 1.3 * independent, name
+    assert joint["n_test_sets"] == 3 and joint["n_test_clusters_slip"] == 30
+    one = mean_over_test_sets(parts[:1], seed=0)
+    ref = single[0]
+    assert all(one[k] == pytest.approx(ref[k]) for k in ("accuracy", "accuracy_lo", "auroc_hi"))
+
+
+def test_pooled_seeds_of_the_same_windows_give_the_single_interval():
+    """Seeds that drew the very same test set add no information: pooling them must not shrink
+    the interval (averaging bounds as independent seeds would claim sqrt(k) more precision)."""
+    rng = np.random.default_rng(8)
+    y, pred, groups, score = correlated_test_set(rng, 12)
+    one = classification_figures(y, pred, groups, seed=0, scores=score)
+    pooled = pool_seeds([Predictions(y, pred, groups, score)] * 4, seed=0)
+    for name in FIGURES:
+        assert (pooled[name], pooled[f"{name}_lo"], pooled[f"{name}_hi"]) == pytest.approx(
+            (one[name], one[f"{name}_lo"], one[f"{name}_hi"])), name
+
+
+def test_mixed_strata_inputs_are_refused():
+    rng = np.random.default_rng(9)
+    y, pred, groups, _ = correlated_test_set(rng, 5)
+    with pytest.raises(ValueError, match="strata"):
+        mean_over_test_sets([Predictions(y, pred, groups, strata=y.astype(str)), Predictions(y, pred, groups)], seed=0)
+
+
+def test_paired_comparison_of_identical_predictions_is_exactly_no_change():
+    rng = np.random.default_rng(3)
+    y, pred, groups, score = correlated_test_set(rng, 15)
+    out = paired_comparison(y, pred, pred, groups, seed=0, base_scores=score, cand_scores=score)
+    for name in FIGURES:
+        assert out[f"d_{name}"] == out[f"d_{name}_lo"] == out[f"d_{name}_hi"] == 0.0, name
 
 
 def test_paired_comparison_finds_a_degraded_detector():
     rng = np.random.default_rng(4)
-    y = rng.random(4000) < 0.5
-    base = np.where(rng.random(4000) < 0.9, y, ~y)
-    cand = np.where(rng.random(4000) < 0.3, ~base, base)  # flips 30 % of the base's answers
-    out = paired_comparison(y, base, cand, rng.integers(0, 80, 4000), seed=0)
-    assert out["mcnemar_p"] < 1e-6
-    assert out["d_accuracy_hi"] < 0 and out["d_accuracy_lo"] < out["d_accuracy"] < out["d_accuracy_hi"]
+    y, base, groups, _ = correlated_test_set(rng, 40)
+    cand = np.where(rng.random(len(y)) < 0.3, ~base, base)  # flips 30 % of the base's answers
+    out = paired_comparison(y, base, cand, groups, seed=0)
     assert out["d_accuracy"] == pytest.approx((cand == y).mean() - (base == y).mean())
-
-
-def test_holm():
-    adjusted = holm([0.01, 0.04, np.nan, 0.03])
-    np.testing.assert_allclose(adjusted[[0, 1, 3]], [0.03, 0.06, 0.06])
-    assert np.isnan(adjusted[2])
+    assert out["d_accuracy_lo"] < out["d_accuracy"] < out["d_accuracy_hi"] < 0
+    assert np.isnan(out["d_auroc"])  # no scores
+    assert set(paired_comparison(y, base, cand, groups, seed=0, figures=("tp_rate",))) >= {"d_accuracy", "d_tp_rate"}
+    with pytest.raises(ValueError, match="unknown figures"):
+        paired_comparison(y, base, cand, groups, seed=0, figures=("f1",))
