@@ -1,0 +1,167 @@
+"""Causal scoring of a live signal: :class:`Streamer` and its batch twin :func:`stream_scores`.
+
+A robot's control loop feeds a fitted detector the univariate signal s_t as it arrives and gets
+one score and one 0/1 decision per hop, each from the last ``window`` samples only. Scores fall on
+the samples ``window - 1, window - 1 + hop, window - 1 + 2 hop, ...`` (indices counted from the
+first sample pushed): the score at sample e is the detector's probability for the window
+``s[e - window + 1 : e + 1]``, exactly what ``predict_proba`` gives that window.
+
+``detector.streamer(hop)`` (``BaseDetector``) makes one; a detector may return a subclass of
+:class:`Streamer` that overrides :meth:`Streamer._push` for speed (the LSTM does), and it must
+give the same scores as ``predict_proba`` on the same windows.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .errors import UsageError
+
+if TYPE_CHECKING:
+    from .base import BaseDetector
+
+# windows scored by one predict_proba call at most: bounds memory when a whole recording is
+# pushed at once (at window 200 a batch is 6.5 MB of float32), and costs nothing measurable
+# against batching every window of the push (each call then holds thousands of windows)
+MAX_BATCH = 8192
+
+
+def check_hop(hop: Any, window: int) -> int:
+    """``hop`` as an int in [1, window], or a UsageError naming both values."""
+    if isinstance(hop, (bool, np.bool_)) or not isinstance(hop, (int, np.integer)):
+        raise UsageError(f"hop must be a whole number of samples, got {hop!r}")
+    if not 1 <= hop <= window:
+        raise UsageError(f"hop must be between 1 and the window ({window} samples), got {hop}")
+    return int(hop)
+
+
+def check_threshold(threshold: Any) -> float:
+    """``threshold`` as a float in [0, 1], or a UsageError."""
+    try:
+        value = float(threshold)
+    except (TypeError, ValueError):
+        raise UsageError(f"threshold must be a number in [0, 1], got {threshold!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise UsageError(f"threshold must be a number in [0, 1], got {threshold!r}")
+    return value
+
+
+def completed(start: int, n: int, window: int, hop: int) -> int:
+    """How many scores the samples ``start .. start + n - 1`` complete: score ends are
+    ``window - 1 + k hop``, k = 0, 1, ..."""
+
+    def upto(t: int) -> int:  # scores ending at or before sample t
+        return 0 if t < window - 1 else (t - window + 1) // hop + 1
+
+    return upto(start + n - 1) - upto(start - 1)
+
+
+class Streamer:
+    """One causal stream through a fitted detector; see the module docstring.
+
+    Attributes
+    ----------
+    window : int, samples per window (the detector's ``window_length_``).
+    hop : int, samples between two scores, 1 <= hop <= window.
+    threshold : float in [0, 1]; a decision is 1 where score >= threshold (``predict`` uses 0.5).
+        May be set at any time.
+    n_samples : int, samples pushed since the start (or the last :meth:`reset`).
+    n_scores : int, scores given since then.
+    """
+
+    def __init__(self, detector: "BaseDetector", hop: int, threshold: float = 0.5):
+        self.detector = detector
+        self.window = int(detector.window_length_)
+        self.hop = check_hop(hop, self.window)
+        self.threshold = threshold
+        self.reset()
+
+    @property
+    def threshold(self) -> float:
+        return self._threshold
+
+    @threshold.setter
+    def threshold(self, value: float) -> None:
+        self._threshold = check_threshold(value)
+
+    def reset(self) -> None:
+        """Forget every sample: the next one pushed is sample 0 of a new stream."""
+        self.n_samples = 0
+        self.n_scores = 0
+        self._tail = np.empty(0, np.float32)  # the samples later windows still need
+
+    def next_end(self) -> int:
+        """The index of the sample that completes the next score."""
+        return self.window - 1 + self.n_scores * self.hop
+
+    def push(self, samples: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Feed new samples of the signal (a number or a 1-D array, any length, even 0).
+
+        Returns
+        -------
+        scores : (n,) float64, one per window completed by these samples, in order.
+        decisions : (n,) int8, 1 where score >= threshold.
+
+        Raises UsageError for samples that are not finite numbers, naming the first bad one by
+        its index in the stream; the stream is then left as it was.
+        """
+        x = np.asarray(samples, dtype=np.float32)
+        if x.ndim > 1:
+            raise UsageError(f"samples must be a number or a 1-D array of the univariate signal, got shape {x.shape}")
+        x = np.ascontiguousarray(x.reshape(-1))
+        if not np.isfinite(x).all():
+            i = int(np.argmin(np.isfinite(x)))
+            raise UsageError(f"sample {self.n_samples + i} of the stream is {x[i]} (NaN or infinity)")
+        n = completed(self.n_samples, len(x), self.window, self.hop)
+        scores = self.detector._checked_output(self._push(x, n), n)
+        self.n_samples += len(x)
+        self.n_scores += n
+        return scores, (scores >= self._threshold).astype(np.int8)
+
+    def _push(self, x: np.ndarray, n: int) -> np.ndarray:
+        """Scores of the ``n`` (maybe 0) windows that the checked float32 samples ``x`` complete.
+
+        The default: the windows cut from the kept tail and ``x``, scored by the detector's
+        ``_predict_proba`` (input already checked), up to MAX_BATCH windows per call. An override
+        keeps its own state; ``self.n_samples`` and ``self.n_scores`` are updated after it returns.
+        """
+        data = np.concatenate([self._tail, x]) if len(self._tail) else x
+        first = self.n_samples - len(self._tail)  # stream index of data[0]
+        scores = np.empty(0)
+        if n:
+            start = self.n_scores * self.hop - first  # where the next window starts in data
+            views = np.lib.stride_tricks.sliding_window_view(data, self.window)[start :: self.hop][:n]
+            scores = np.concatenate([self.detector._predict_proba(np.ascontiguousarray(views[i : i + MAX_BATCH]))
+                                     for i in range(0, n, MAX_BATCH)])
+        keep = (self.n_scores + n) * self.hop - first  # the first sample a later window needs
+        self._tail = data[keep:].copy()
+        return scores
+
+
+def stream_scores(detector: "BaseDetector", signal: Any, hop: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every score a fresh stream gives over ``signal``: what pushing the whole signal into
+    ``detector.streamer(hop)`` returns, with where each score falls.
+
+    Parameters
+    ----------
+    detector : a fitted detector.
+    signal : (n_samples,) the univariate signal of one recording.
+    hop : samples between scores, 1 <= hop <= window.
+
+    Returns
+    -------
+    ends : (n_scores,) int64, the index in ``signal`` of each window's last sample:
+        ``window - 1 + k * hop``.
+    scores : (n_scores,) float64.
+
+    A signal shorter than the window gives no score; it is a UsageError naming both lengths, as
+    a window longer than the recording is.
+    """
+    stream = detector.streamer(hop)
+    signal = np.asarray(signal)
+    if signal.ndim == 1 and len(signal) < stream.window:
+        raise UsageError(f"the signal has {len(signal)} samples, fewer than the window ({stream.window} samples)")
+    scores, _ = stream.push(signal)
+    return stream.window - 1 + stream.hop * np.arange(len(scores), dtype=np.int64), scores
