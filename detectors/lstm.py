@@ -23,6 +23,7 @@ from slipbench.detectors import lstm_kernels as kernels
 from slipbench.base import BaseDetector
 from slipbench.params import Interval, Options, Sequence
 from slipbench.errors import UsageError
+from slipbench.streamer import Streamer
 
 PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
@@ -109,9 +110,31 @@ class LSTM(BaseDetector):
 
         return lstm_targets(cls, length, seconds, seed)
 
+    def _streamer(self, hop, threshold):
+        return LSTMStreamer(self, hop, threshold)
+
     def predict_window(self, window: np.ndarray) -> float:
         """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
         return kernels.predict_window(window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+
+
+class LSTMStreamer(Streamer):
+    """Streams carrying the state of every open window from sample to sample
+    (:func:`lstm_kernels.stream_push`): about ceil(window / hop) LSTM steps per incoming sample,
+    the same windows' arithmetic as ``predict_proba``."""
+
+    def reset(self):
+        super().reset()
+        det = self.detector
+        self._params = kernels.pack_stream_params(*(getattr(det, k) for k in PARAMS))
+        self._norm = (float(det.lo_), float(det.scale_))
+        hidden = det.rt_.shape[0]
+        self._state = np.zeros((-(-self.window // self.hop), 2, hidden), np.float32)
+
+    def _push(self, x, n):
+        out = np.empty(n)
+        kernels.stream_push(x, self.n_samples, self.window, self.hop, *self._norm, self._params, self._state, out)
+        return out
 
 
 def _cuda_available() -> bool:

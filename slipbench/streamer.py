@@ -13,11 +13,12 @@ give the same scores as ``predict_proba`` on the same windows.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .errors import UsageError
+from .errors import PluginError, UsageError
 
 if TYPE_CHECKING:
     from .base import BaseDetector
@@ -46,16 +47,6 @@ def check_threshold(threshold: Any) -> float:
     if not 0.0 <= value <= 1.0:
         raise UsageError(f"threshold must be a number in [0, 1], got {threshold!r}")
     return value
-
-
-def completed(start: int, n: int, window: int, hop: int) -> int:
-    """How many scores the samples ``start .. start + n - 1`` complete: score ends are
-    ``window - 1 + k hop``, k = 0, 1, ..."""
-
-    def upto(t: int) -> int:  # scores ending at or before sample t
-        return 0 if t < window - 1 else (t - window + 1) // hop + 1
-
-    return upto(start + n - 1) - upto(start - 1)
 
 
 class Streamer:
@@ -92,10 +83,6 @@ class Streamer:
         self.n_scores = 0
         self._tail = np.empty(0, np.float32)  # the samples later windows still need
 
-    def next_end(self) -> int:
-        """The index of the sample that completes the next score."""
-        return self.window - 1 + self.n_scores * self.hop
-
     def push(self, samples: Any) -> tuple[np.ndarray, np.ndarray]:
         """Feed new samples of the signal (a number or a 1-D array, any length, even 0).
 
@@ -105,20 +92,38 @@ class Streamer:
         decisions : (n,) int8, 1 where score >= threshold.
 
         Raises UsageError for samples that are not finite numbers, naming the first bad one by
-        its index in the stream; the stream is then left as it was.
+        its index in the stream; the stream is then left as it was. A detector that returns
+        scores that are not probabilities raises DetectorOutputError, and the stream starts anew.
         """
-        x = np.asarray(samples, dtype=np.float32)
-        if x.ndim > 1:
-            raise UsageError(f"samples must be a number or a 1-D array of the univariate signal, got shape {x.shape}")
-        x = np.ascontiguousarray(x.reshape(-1))
-        if not np.isfinite(x).all():
+        try:
+            x = np.asarray(samples, dtype=np.float32)
+        except (TypeError, ValueError) as exc:
+            raise UsageError(f"samples must be numbers: {exc}") from None
+        if x.ndim != 1:
+            if x.ndim > 1:
+                raise UsageError(f"samples must be a number or a 1-D array of the univariate signal, got shape {x.shape}")
+            x = x.reshape(1)
+        x = np.ascontiguousarray(x)
+        if not _all_finite(x):
             i = int(np.argmin(np.isfinite(x)))
             raise UsageError(f"sample {self.n_samples + i} of the stream is {x[i]} (NaN or infinity)")
-        n = completed(self.n_samples, len(x), self.window, self.hop)
-        scores = self.detector._checked_output(self._push(x, n), n)
+        last = self.n_samples + len(x) - 1  # the stream index of the last new sample
+        end = self.window - 1 + self.n_scores * self.hop  # where the next score falls
+        n = (last - end) // self.hop + 1 if last >= end else 0
+        scores = self._push(x, n)
+        if not n:
+            scores, decisions = _NO_SCORES, _NO_DECISIONS
+        else:
+            if not _all_probabilities(scores, n):
+                try:
+                    scores = self.detector._checked_output(scores, n)  # converts, or raises saying what is wrong
+                except PluginError:  # DetectorOutputError
+                    self.reset()  # the state has moved past samples that n_samples does not count
+                    raise
+            decisions = (scores >= self._threshold).view(np.int8)
         self.n_samples += len(x)
         self.n_scores += n
-        return scores, (scores >= self._threshold).astype(np.int8)
+        return scores, decisions
 
     def _push(self, x: np.ndarray, n: int) -> np.ndarray:
         """Scores of the ``n`` (maybe 0) windows that the checked float32 samples ``x`` complete.
@@ -138,6 +143,26 @@ class Streamer:
         keep = (self.n_scores + n) * self.hop - first  # the first sample a later window needs
         self._tail = data[keep:].copy()
         return scores
+
+
+# A control loop pushes a few samples at a time, where each numpy call costs a microsecond or
+# more (the 2 µs a sample budget of the LSTM); plain Python is faster on a few numbers.
+SMALL = 32
+_NO_SCORES, _NO_DECISIONS = np.empty(0), np.empty(0, np.int8)
+_NO_SCORES.flags.writeable = _NO_DECISIONS.flags.writeable = False  # shared by every push that completes no window
+
+
+def _all_finite(x: np.ndarray) -> bool:
+    return all(map(math.isfinite, x.tolist())) if len(x) <= SMALL else bool(np.isfinite(x).all())
+
+
+def _all_probabilities(scores: Any, n: int) -> bool:
+    """Whether ``scores`` is an (n,) float64 array of numbers in [0, 1] (NaN is not)."""
+    if not (isinstance(scores, np.ndarray) and scores.dtype == np.float64 and scores.shape == (n,)):
+        return False
+    if n <= SMALL:
+        return all(0.0 <= v <= 1.0 for v in scores.tolist())
+    return bool(((scores >= 0.0) & (scores <= 1.0)).all())
 
 
 def stream_scores(detector: "BaseDetector", signal: Any, hop: int) -> tuple[np.ndarray, np.ndarray]:
