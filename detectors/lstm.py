@@ -119,21 +119,19 @@ class LSTM(BaseDetector):
 
 
 class LSTMStreamer(Streamer):
-    """Streams carrying the state of every open window from sample to sample
-    (:func:`lstm_kernels.stream_push`): about ceil(window / hop) LSTM steps per incoming sample,
-    the same windows' arithmetic as ``predict_proba``."""
+    """Streams carrying the state of every open window from push to push
+    (:func:`lstm_kernels.stream_push`): window / hop LSTM steps per incoming sample, each
+    window's steps those of ``predict_window``."""
 
     def reset(self):
         super().reset()
         det = self.detector
-        self._params = kernels.pack_stream_params(*(getattr(det, k) for k in PARAMS))
-        self._norm = (float(det.lo_), float(det.scale_))
-        hidden = det.rt_.shape[0]
-        self._state = np.zeros((-(-self.window // self.hop), 2, hidden), np.float32)
+        self._args = (float(det.lo_), float(det.scale_), *(getattr(det, k) for k in PARAMS))
+        self._state = np.zeros((-(-self.window // self.hop), 2, det.rt_.shape[0]), np.float32)
 
     def _push(self, x, n):
         out = np.empty(n)
-        kernels.stream_push(x, self.n_samples, self.window, self.hop, *self._norm, self._params, self._state, out)
+        kernels.stream_push(x, self.n_samples, self.window, self.hop, *self._args, self._state, out)
         return out
 
 
