@@ -13,6 +13,8 @@ and each learning-rate stage starts from them with zero velocity; MATLAB's initi
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
 (``max_epochs=100`` is the paper's).
 CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
+Streaming (``streamer``): every window still open keeps its state from push to push, so a
+score is ready one step after its last sample (:class:`LSTMStreamer`).
 """
 
 from __future__ import annotations
