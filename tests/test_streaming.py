@@ -359,3 +359,16 @@ def test_collect_refuses_inconsistent_input():
     with pytest.raises(UsageError, match="recording r1: score samples must rise within the 20"):
         S.collect([np.arange(4, 21)], [np.zeros(17)], [lab], window=5, sampling_rate=RATE, trials=["a"], scenarios=["x"],
                   recording_ids=["r1"])
+
+
+def test_push_costs_and_hop_latency():
+    from slipbench.streamer import hop_latency, push_costs
+
+    x, y = toy_windows(100, 20)
+    detector = Energy().fit(x, y)
+    signal = _signal(400)
+    per_sample_us, scored_ms = push_costs(detector.streamer(5), [signal[i : i + 5] for i in range(0, 400, 5)])
+    assert per_sample_us > 0 and scored_ms > 0
+    assert hop_latency(detector, signal, 5) > 0
+    with pytest.raises(UsageError, match="at least two scores"):
+        hop_latency(detector, signal[:22], 5)
