@@ -4,7 +4,8 @@ A robot's control loop feeds a fitted detector the univariate signal s_t as it a
 one score and one 0/1 decision per hop, each from the last ``window`` samples only. Scores fall on
 the samples ``window - 1, window - 1 + hop, window - 1 + 2 hop, ...`` (indices counted from the
 first sample pushed): the score at sample e is the detector's probability for the window
-``s[e - window + 1 : e + 1]``, exactly what ``predict_proba`` gives that window.
+``s[e - window + 1 : e + 1]``, what ``predict_proba`` gives that window (to float32 rounding
+where a detector's arithmetic depends on the batch: wavelet-svm's, by up to 3e-6).
 
 ``detector.streamer(hop)`` (``BaseDetector``) makes one; a detector may return a subclass of
 :class:`Streamer` that overrides :meth:`Streamer._push` for speed (the LSTM does), and it must
@@ -30,8 +31,8 @@ if TYPE_CHECKING:
 DEFAULT_HOP = 10
 
 # windows scored by one predict_proba call at most: bounds memory when a whole recording is
-# pushed at once (at window 200 a batch is 6.5 MB of float32), and costs nothing measurable
-# against batching every window of the push (each call then holds thousands of windows)
+# pushed at once (at window 200 a batch is 6.5 MB of float32). It costs no speed: holweg scored
+# 192,000 windows of 50 in 0.055 s of CPU in batches of 8192, 0.081 s in one call.
 MAX_BATCH = 8192
 
 
