@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
 from slipbench import streaming as S
-from slipbench.base import BaseDetector, DetectorOutputError, NotFittedError, clone
+from slipbench.base import BaseDetector, DetectorOutputError, NotFittedError
 from slipbench.errors import UsageError
 from slipbench.registry import detectors
 from slipbench.streamer import Streamer, stream_scores
