@@ -13,6 +13,8 @@ and each learning-rate stage starts from them with zero velocity; MATLAB's initi
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
 (``max_epochs=100`` is the paper's).
 CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
+Streaming (``streamer``): every window still open keeps its state from push to push, so a
+score is ready one step after its last sample (:class:`LSTMStreamer`).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from slipbench.detectors import lstm_kernels as kernels
 from slipbench.base import BaseDetector
 from slipbench.params import Interval, Options, Sequence
 from slipbench.errors import UsageError
+from slipbench.streamer import Streamer
 
 PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
@@ -109,9 +112,29 @@ class LSTM(BaseDetector):
 
         return lstm_targets(cls, length, seconds, seed)
 
+    def _streamer(self, hop, threshold):
+        return LSTMStreamer(self, hop, threshold)
+
     def predict_window(self, window: np.ndarray) -> float:
         """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
         return kernels.predict_window(window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+
+
+class LSTMStreamer(Streamer):
+    """Streams carrying the state of every open window from push to push
+    (:func:`lstm_kernels.stream_push`): window / hop LSTM steps per incoming sample, each
+    window's steps those of ``predict_window``."""
+
+    def reset(self):
+        super().reset()
+        det = self.detector
+        self._args = (float(det.lo_), float(det.scale_), *(getattr(det, k) for k in PARAMS))
+        self._state = np.zeros((-(-self.window // self.hop), 2, det.rt_.shape[0]), np.float32)
+
+    def _push(self, x, n):
+        out = np.empty(n)
+        kernels.stream_push(x, self.n_samples, self.window, self.hop, *self._args, self._state, out)
+        return out
 
 
 def _cuda_available() -> bool:

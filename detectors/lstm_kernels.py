@@ -238,26 +238,32 @@ def train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt
 
 
 @nb.njit(inline="always", **_jit)
-def _run(x, lo, scale, w, rt, b, wy, by, h, c, a):
+def _step(xt, w, rt, b, h, c, a, H):
+    """One step on the normalized input ``xt``: the state h, c (H,) advanced in place; ``a``
+    (4H,) scratch. The recurrent product keeps one accumulator per gate row (row outer, k
+    inner): with H a literal, LLVM unrolls k and vectorizes across rows, and a window of 50
+    samples took 5.3 µs against 8.1 µs with k outer (CPU time, development machine)."""
+    for j in range(4 * H):
+        acc = b[j] + w[j] * xt
+        for k in range(H):
+            acc += h[k] * rt[k, j]
+        a[j] = acc
+    _activate(a, H)
+    for j in range(H):
+        cj = a[H + j] * c[j] + a[j] * a[2 * H + j]
+        c[j] = cj
+        h[j] = a[3 * H + j] * _tanh(cj)
+
+
+@nb.njit(inline="always", **_jit)
+def _run(x, lo, scale, w, rt, b, wy, by, h, c, a, H):
     """Forward through one window, keeping only the state (no storage for backward); inputs
-    are normalized on the fly as (x - lo) * scale - 1. Returns the slip probability."""
-    H = rt.shape[0]
-    G = 4 * H
+    are normalized on the fly as (x - lo) * scale - 1. Returns the slip probability. Callers
+    pass H as the literal 20 for the paper's size (see :func:`_step`)."""
     h[:] = 0
     c[:] = 0
     for t in range(x.shape[0]):
-        xt = F32((x[t] - lo) * scale - 1.0)
-        for j in range(G):
-            a[j] = b[j] + w[j] * xt
-        for k in range(H):
-            hk = h[k]
-            for j in range(G):
-                a[j] += hk * rt[k, j]
-        _activate(a, H)
-        for j in range(H):
-            cj = a[H + j] * c[j] + a[j] * a[2 * H + j]
-            c[j] = cj
-            h[j] = a[3 * H + j] * _tanh(cj)
+        _step(F32((x[t] - lo) * scale - 1.0), w, rt, b, h, c, a, H)
     return 1.0 / (1.0 + np.exp(-_logit_diff(h, wy, by)))
 
 
@@ -271,7 +277,10 @@ def _predict_proba_each(x, lo, scale, w, rt, b, wy, by):
     for c in nb.prange(nc):
         h, cell, a = np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32)
         for s in range(c * n // nc, (c + 1) * n // nc):
-            out[s] = _run(x[s], lo, scale, w, rt, b, wy, by, h, cell, a)
+            if H == 20:  # the paper's size, as a literal (see _step)
+                out[s] = _run(x[s], lo, scale, w, rt, b, wy, by, h, cell, a, 20)
+            else:
+                out[s] = _run(x[s], lo, scale, w, rt, b, wy, by, h, cell, a, H)
     return out
 
 
@@ -361,10 +370,13 @@ def predict_proba(x, lo, scale, w, rt, b, wy, by) -> np.ndarray:
 
 @nb.njit(**_jit)
 def predict_window(window, lo, scale, w, rt, b, wy, by):
-    """Probability of slip for one raw window, single-threaded: the path a control loop calls.
-    Measured 12 µs for 50 samples (H = 20) on the development machine."""
+    """Probability of slip for one raw window, single-threaded. Measured 5.3 µs of CPU time for
+    50 samples (H = 20) on the development machine."""
     H = rt.shape[0]
-    return _run(window, lo, scale, w, rt, b, wy, by, np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32))
+    h, c, a = np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32)
+    if H == 20:  # the paper's size, as a literal (see _step)
+        return _run(window, lo, scale, w, rt, b, wy, by, h, c, a, 20)
+    return _run(window, lo, scale, w, rt, b, wy, by, h, c, a, H)
 
 
 def init_params(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
@@ -377,3 +389,60 @@ def init_params(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
     b[hidden : 2 * hidden] = 1.0  # forget gate
     wy = rng.uniform(-1, 1, (2, hidden)) * np.sqrt(6 / (hidden + 2))
     return [np.ascontiguousarray(a, dtype=np.float32) for a in (w, rt, b, wy, np.zeros(2))]
+
+
+# ----------------------------------------------------------------------------- streaming
+# The paper's LSTM resets its state for every window, so no state carries from one window to the
+# next, and a stream cannot do less than window / hop steps per incoming sample. A stream keeps
+# the state (h, c) of every window still open, ceil(window / hop) of them, and advances each
+# through the samples of a push, one window after the other (the state stays in a few registers'
+# worth of memory through a run of steps); a window's score is ready as soon as its last sample
+# arrives, so a push of one sample costs one step per open window, not a whole window.
+# Measured on the development machine (CPU time, window 50, hop 10): 0.52 µs per sample for a
+# whole signal, 0.61 µs fed a hop per call; advancing every open window by one sample before
+# the next (sample-major) cost 0.75 and 0.83 µs; computing b + w x_t once per sample and sharing
+# it among the open windows saved nothing measurable (it is 5 % of a step's multiply-adds).
+
+
+@nb.njit(inline="always", **_jit)
+def _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, H):
+    slots = state.shape[0]
+    h, c, a = np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32)
+    last = t0 + x.shape[0] - 1
+    n = 0
+    # the windows open during this push: those starting at m * hop, t0 - window < m * hop <= last
+    for m in range(max(0, (t0 - window + hop) // hop), last // hop + 1):
+        start, end = m * hop, m * hop + window - 1
+        saved = state[m % slots]
+        if start >= t0:
+            h[:] = 0
+            c[:] = 0
+        else:
+            h[:] = saved[0]
+            c[:] = saved[1]
+        for t in range(max(start, t0), min(end, last) + 1):
+            _step(F32((x[t - t0] - lo) * scale - 1.0), w, rt, b, h, c, a, H)
+        if end <= last:
+            out[n] = 1.0 / (1.0 + np.exp(-_logit_diff(h, wy, by)))
+            n += 1
+        else:
+            saved[0] = h
+            saved[1] = c
+    return n
+
+
+@nb.njit(**_jit)
+def stream_push(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out):
+    """Advance a stream by the raw samples ``x`` (float32), the first being sample ``t0`` of the
+    stream; writes the slip probability of every window completed (those ending at
+    ``window - 1 + k hop``) to ``out`` in order and returns how many. Each window takes the
+    steps of :func:`predict_window` (equal to float32 rounding) in the same order whatever the
+    pushes, so how the samples are cut into pushes does not change a bit of any score.
+
+    ``state`` (ceil(window / hop), 2, H) float32: h and c of the open windows (window m in row
+    m mod its length); zeros, or anything, for a new stream. Single-threaded: this is the
+    control loop's path."""
+    H = rt.shape[0]
+    if H == 20:  # the paper's size, as a literal (see _step)
+        return _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, 20)
+    return _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, H)

@@ -23,6 +23,7 @@ import numpy as np
 from .atomic import atomic_file
 from .errors import PluginError, UsageError
 from .params import Parameterized
+from .streamer import Streamer, check_hop, check_threshold
 
 DETECTOR_GROUP = "slipbench.detectors"  # the entry-point group of detector plugins
 
@@ -127,6 +128,24 @@ class BaseDetector(Parameterized):
     def predict(self, x: Any) -> np.ndarray:
         """1 where the detector calls slip, shape (n_windows,)."""
         return (self.predict_proba(x) >= 0.5).astype(np.int8)
+
+    # -- streaming: a robot's control loop
+    def streamer(self, hop: int, threshold: float = 0.5) -> Streamer:
+        """A causal stream through this fitted detector (see :mod:`slipbench.streamer`).
+
+        ``stream = detector.streamer(hop)``; ``scores, decisions = stream.push(samples)`` takes any
+        number of new samples of the univariate signal and gives one score and one 0/1 decision
+        (score >= ``threshold``) per completed hop: scores at samples ``window - 1``,
+        ``window - 1 + hop``, ..., each seeing only the last ``window_length_`` samples. ``hop``
+        is in samples, 1 <= hop <= ``window_length_``.
+        """
+        self._check_fitted()
+        return self._streamer(check_hop(hop, self.window_length_), check_threshold(threshold))
+
+    def _streamer(self, hop: int, threshold: float) -> Streamer:
+        """What :meth:`streamer` returns once it has checked its arguments: by default
+        ``predict_proba`` over the sliding window; override with a faster :class:`Streamer`."""
+        return Streamer(self, hop, threshold)
 
     # -- persistence without pickle: parameters as JSON, fitted attributes as plain arrays
     def save(self, path: str | os.PathLike) -> None:
