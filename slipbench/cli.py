@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 from . import registry
-from .errors import ENVIRONMENT_ERRNOS, DataError, PluginError, SlipbenchError, UsageError, environment_fault
+from .errors import ENVIRONMENT_ERRNOS, PluginError, SlipbenchError, UsageError, environment_fault
 
 EXIT_BUG = 70  # sysexits' EX_SOFTWARE: an internal error, reported with its traceback
 EXIT_CODES = """Exit codes: 0 every cell ok or skipped; 1 compare found a regression; 2 bad usage or
@@ -376,20 +376,13 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, train_only, 
 def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out, plugins) -> None:
     """Render RESULTS (results files or --out folders) in each protocol's layout (the paper's tables)."""
     from .report import render_report
-    from .results import read_results
+    from .results import check_unique_keys, read_results
 
     import pandas as pd
 
     _plugins(plugins)
-    rows = pd.concat([read_results(p).assign(_source=str(p)) for p in results], ignore_index=True)
-    repeated = rows[rows.duplicated("key", keep=False)]
-    if len(repeated):
-        first = repeated.iloc[0]
-        raise DataError(f"{repeated['key'].nunique()} cells appear more than once across {', '.join(map(str, results))} "
-                        f"(e.g. {first['protocol']}/{first['detector']} {first.get('cell', '')} in "
-                        f"{' and '.join(sorted(set(repeated.loc[repeated['key'] == first['key'], '_source'])))}): "
-                        "pooling them would count one result as two seeds")
-    rows = rows.drop(columns="_source")
+    rows = check_unique_keys(pd.concat([read_results(p) for p in results], ignore_index=True),
+                             " + ".join(map(str, results)))
     text = render_report(rows, fmt, metric, intervals, paper, standalone)
     if out:
         out.parent.mkdir(parents=True, exist_ok=True)

@@ -49,7 +49,7 @@ from .errors import DataError, UsageError
 from .metrics import FIGURES, LEVEL, paired_comparison
 from .report import layouts, protocol_order
 from .tables import ORDERS
-from .results import read_results
+from .results import check_unique_keys, read_results
 
 ALPHA = 1 - LEVEL
 KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")
@@ -84,25 +84,6 @@ def family_level(n_cells: int, alpha: float = ALPHA) -> float:
     """The level of each of ``n_cells`` intervals that holds them all at once with probability
     at least ``1 - alpha`` (Bonferroni): ``1 - alpha / n_cells``."""
     return 1 - alpha / max(1, n_cells)
-
-
-def check_unique_keys(rows: pd.DataFrame, source: str) -> pd.DataFrame:
-    """Refuse rows whose ``key`` repeats: the same results given twice (``report A A``) would
-    count as two seeds, or pair a cell with itself.
-
-    Raises
-    ------
-    DataError
-        Naming how many keys repeat, in how many rows, and the first of them.
-    """
-    counts = rows["key"].value_counts()
-    dup = counts[counts > 1]
-    if len(dup):
-        raise DataError(
-            f"{source}: {len(dup)} key{'s' * (len(dup) > 1)} appear more than once ({int(dup.sum())} rows; "
-            f"key {dup.index[0]} {int(dup.iloc[0])} times): the same results were given twice; give each "
-            "results file or folder once")
-    return rows
 
 
 def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:

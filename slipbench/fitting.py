@@ -49,12 +49,13 @@ class PeakMemory:
 
 @dataclass
 class TestSet:
-    """What one cell is tested on: windows (n, length), labels (n,) and the cluster of each
-    window (n,): the unit its bootstrap resamples."""
+    """What one cell is tested on: windows (n, length), labels (n,), the cluster of each window
+    (n,): the unit its bootstrap resamples (a trial), and its balancing stratum (n,)."""
 
     x: np.ndarray
     y: np.ndarray
     groups: np.ndarray
+    strata: np.ndarray | None = None
 
 
 Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields and its test scores
@@ -79,7 +80,7 @@ def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_
             out.append(({
                 "status": "ok", "reason": _one_class(test.y), "n_train": len(train_x), "n_test": len(test.x),
                 "n_test_trials": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
-                **classification_figures(test.y, y_pred, test.groups, seed, scores=scores),
+                **classification_figures(test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata),
                 **cost, "infer_us_per_window": infer_s / len(test.x) * 1e6,
                 **_choices(detector, sampling_rate),
             }, scores))

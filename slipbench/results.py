@@ -302,6 +302,25 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
     return rows
 
 
+def check_unique_keys(rows: pd.DataFrame, source: str) -> pd.DataFrame:
+    """Refuse rows whose ``key`` repeats: the same results given twice (``report A A``) would
+    count as two seeds, or pair a cell with itself.
+
+    Raises
+    ------
+    DataError
+        Naming how many keys repeat, in how many rows, and the first of them.
+    """
+    counts = rows["key"].value_counts()
+    dup = counts[counts > 1]
+    if len(dup):
+        raise DataError(
+            f"{source}: {len(dup)} key{'s' * (len(dup) > 1)} appear more than once ({int(dup.sum())} rows; "
+            f"key {dup.index[0]} {int(dup.iloc[0])} times): the same results were given twice; give each "
+            "results file or folder once")
+    return rows
+
+
 def cells_failed(rows: pd.DataFrame, where: str = "") -> CellsFailed | None:
     """The CellsFailed error (exit 4) for rows whose status is neither ok nor skipped, or None.
 

@@ -158,7 +158,7 @@ def _payload(plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler
             Path(f"{model_path}.json").unlink(missing_ok=True)
     trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
     return (first.run.detector, first.run.seed, first.sampling_rate, train.x, train.y,
-            [TestSet(t.x, t.y, trials[t.recording]) for t in tests], None if model_path is None else str(model_path))
+            [TestSet(t.x, t.y, trials[t.recording], t.strata()) for t in tests], None if model_path is None else str(model_path))
 
 
 def _describe(runs: list[Run]) -> str:

@@ -18,7 +18,8 @@ from scipy.stats import t as student_t
 from test_coverage import TAUS, dataset
 
 from slipbench.cli import main
-from slipbench.compare import check_unique_keys, compare, family_level, verdict
+from slipbench.compare import compare, family_level, verdict
+from slipbench.results import check_unique_keys
 from slipbench.errors import DataError
 from slipbench.metrics import classification_figures, paired_comparison
 

@@ -128,7 +128,7 @@ def test_report_refuses_the_same_results_twice(tmp_path, one_unit, cli):
     assert cli(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(one_unit),
                 "--out", str(out), "--quiet", "--protocol-param", "windows=[50]"])[0] == 0
     code, _, err = cli(["report", str(out), str(out)])
-    assert code == 2 and "appear more than once" in err and "two seeds" in err
+    assert code == 2 and "appear more than once" in err and "the same results were given twice" in err
 
 
 def test_messages_never_show_numpy_reprs(tmp_path):
