@@ -127,11 +127,12 @@ def dataset_validate(path: Path) -> None:
 @dataset.command("info")
 @click.argument("path", type=click.Path(path_type=Path))
 def dataset_info(path: Path) -> None:
-    """Recordings, samples and duration per sensor, instance, scenario, material and speed."""
+    """Recordings, trials, samples and duration per sensor, instance, scenario, material and
+    speed; with per-sample labels, the slip fraction and how far they disagree with the scenario."""
     from .data import info, read_dataset
 
     table = info(read_dataset(path))
-    click.echo(table.to_markdown(index=False, floatfmt=".1f"))
+    click.echo(table.to_markdown(index=False, floatfmt=".3g"))
     click.echo(f"\ntotal: {int(table['recordings'].sum())} recordings, {int(table['samples'].sum())} samples, "
                f"{table['seconds'].sum():.1f} s")
 
@@ -401,7 +402,7 @@ def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out, p
 @click.argument("base", type=click.Path(path_type=Path))
 @click.argument("candidate", type=click.Path(path_type=Path))
 @click.option("--margin", default=0.0, show_default=True,
-              help="Accuracy points a cell may lose (significantly) before it counts as a regression.")
+              help="Accuracy points a cell may lose: it regressed when its simultaneous interval lies entirely below -margin.")
 @click.option("--out", type=click.Path(path_type=Path), help="Also write the Markdown to this file (a PR comment).")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder whose protocols' layouts to use (repeatable).")
 def compare_command(base, candidate, margin, out, plugins) -> None:

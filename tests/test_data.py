@@ -354,3 +354,14 @@ def test_missing_version_and_missing_file(tmp_path):
         read_dataset(path)
     with pytest.raises(DataError, match="not a dataset folder"):
         read_dataset(tmp_path / "nowhere")
+
+
+def test_info_reports_slip_fraction_and_disagreement_with_the_scenario(tmp_path):
+    from slipbench.data import info
+
+    labels = {"a": np.array([1] * 6 + [0] * 4, np.int8), "b": np.array([0, 0, 0, 0, 0, 1], np.int8)}
+    table = info(read_dataset(write_dataset(tmp_path / "d", _frame(), SAMPLES, labels))).set_index("scenario")
+    assert table.loc["slip", "slip_fraction"] == pytest.approx(0.6)
+    assert table.loc["slip", "scenario_disagreement"] == pytest.approx(0.4)  # stick phases of a slip recording
+    assert table.loc["press", "scenario_disagreement"] == pytest.approx(1 / 6)
+    assert "slip_fraction" not in info(read_dataset(write_dataset(tmp_path / "n", _frame(), SAMPLES)))
