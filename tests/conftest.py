@@ -17,6 +17,20 @@ def _isolated_cache(tmp_path_factory):
     mp.undo()
 
 
+@pytest.fixture(autouse=True)
+def _fresh_registries():
+    """Plugin folders a test registers (``--plugins`` runs in-process here) are forgotten after
+    it, as they are when a user's command ends: no test sees another's plugins."""
+    from slipbench import registry
+
+    for r in (registry.detectors, registry.protocols):
+        r.names()  # discover the entry points first: they stay
+    saved = [(r, dict(r._sources), dict(r._loaded)) for r in (registry.detectors, registry.protocols)]
+    yield
+    for r, sources, loaded in saved:
+        r._sources, r._loaded = sources, loaded
+
+
 @pytest.fixture
 def cli(capsys):
     """Run ``slipbench`` in-process: ``cli(argv) -> (exit code, stdout, stderr)``."""
