@@ -403,9 +403,13 @@ def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out, p
 @click.argument("candidate", type=click.Path(path_type=Path))
 @click.option("--margin", default=0.0, show_default=True,
               help="Accuracy points a cell may lose: it regressed when its simultaneous interval lies entirely below -margin.")
+@click.option("--delay-margin", default=0.0, show_default=True,
+              help="Streaming cells: ms of median delay a cell may add before it counts as a regression.")
+@click.option("--alarm-margin", default=0.0, show_default=True,
+              help="Streaming cells: false alarms per minute a cell may add before it counts as a regression.")
 @click.option("--out", type=click.Path(path_type=Path), help="Also write the Markdown to this file (a PR comment).")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder whose protocols' layouts to use (repeatable).")
-def compare_command(base, candidate, margin, out, plugins) -> None:
+def compare_command(base, candidate, margin, delay_margin, alarm_margin, out, plugins) -> None:
     """Compare CANDIDATE results with BASE cell by cell; exit 1 if a cell regressed.
 
     Exit codes: 0 nothing regressed beyond --margin; 1 a cell regressed; 2 bad usage or data.
@@ -413,7 +417,7 @@ def compare_command(base, candidate, margin, out, plugins) -> None:
     from .compare import compare, to_markdown
 
     _plugins(plugins)
-    result = compare(base, candidate, margin)
+    result = compare(base, candidate, margin, delay_margin_ms=delay_margin, alarm_margin=alarm_margin)
     text = to_markdown(result)
     click.echo(text, nl=False)
     if out:

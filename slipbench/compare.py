@@ -30,6 +30,19 @@ the candidate failed, timed out or skipped a cell the base finished; *improved* 
 entirely above ``+margin``; *within margin* when it lies inside ``[-margin, +margin]``
 (margin > 0); otherwise *no significant change*. McNemar's test over windows is gone: it
 treats correlated windows as independent (issue 11 measured 17-23 % false rejections per cell).
+
+Streaming cells (rows without ``accuracy``, with the streaming figures of
+:mod:`slipbench.streamcell`) are judged on their median delay, false alarms per minute and
+detection rate at the detector's own threshold. No per-onset predictions are stored, so the
+change is unpaired: each row's 95 % bootstrap interval over trials gives its standard error
+(half-width / 1.96; for delays at least hop / sqrt(12), the resolution of a score once a hop),
+the two combined as independent, at the same simultaneous level as every
+other cell. Both sides stream the same test trials, so their errors are positively correlated and
+the independent combination overstates the spread of the change: the test is conservative (it
+misses small regressions; it does not invent them). A cell *regressed* when the median delay
+rises beyond ``delay_margin_ms`` (interval lower bound > margin), false alarms per minute beyond
+``alarm_margin``, or the detection rate falls beyond ``margin`` points; *improved* when one of
+them improves beyond its margin and none regresses.
 """
 
 from __future__ import annotations
@@ -69,6 +82,8 @@ class Comparison:
     margin: float  # percentage points
     notes: list[str] = field(default_factory=list)
     level: float = LEVEL  # the simultaneous level of every interval: 1 - 0.05 / cells compared
+    delay_margin_ms: float = 0.0  # streaming cells: ms of median delay a cell may add
+    alarm_margin: float = 0.0  # streaming cells: false alarms per minute a cell may add
 
     @property
     def regressions(self) -> pd.DataFrame:
@@ -215,8 +230,67 @@ def _unpaired(base_row: dict, cand_row: dict, level: float) -> dict:
     return out
 
 
+# streaming figures compared: name -> the sign of a worse change (+1: larger is worse)
+STREAM_FIGURES = {"median_delay_ms": 1, "false_alarms_per_min": 1, "detection_rate": -1}
+
+
+def _is_stream(row: dict) -> bool:
+    """A streaming cell's row (its figures are delays and alarms, not accuracy)."""
+    return pd.notna(row.get("stream_s", np.nan))
+
+
+def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
+    """Unpaired changes of the streaming figures (candidate - base) with intervals at
+    ``level``: standard errors from each row's 95 % bootstrap bounds, combined as independent."""
+    out: dict = {"method": "unpaired streams (standard errors from 95 % bounds over trials)"}
+    z = norm.ppf(1 - (1 - level) / 2)
+    for name in STREAM_FIGURES:
+        d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
+        ses = [max((float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan))) / (2 * norm.ppf(1 - ALPHA / 2)),
+                   _resolution(r) if name.endswith("_ms") else 0.0) for r in (base_row, cand_row)]
+        se = float(np.hypot(*ses))
+        ok = np.isfinite(d) and np.isfinite(se)
+        out[f"d_{name}"], out[f"d_{name}_se"] = d, se
+        out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (d - z * se, d + z * se) if ok else (np.nan, np.nan)
+    return out
+
+
+def _resolution(row: dict) -> float:
+    """The standard error a delay has at least: a score comes once a hop, so a delay is known
+    to one hop (uniform rounding, hop / sqrt(12)). Without this floor, cells whose onsets all
+    fall at the same phase of the hop give zero-width bootstrap intervals, and the jitter of the
+    measured compute time per hop (hundredths of a ms) would read as a significant change."""
+    hop, rate = float(row.get("hop", np.nan)), float(row.get("sampling_rate_hz", np.nan))
+    return hop / rate * 1000.0 / np.sqrt(12.0) if np.isfinite(hop) and rate > 0 else 0.0
+
+
+def stream_verdict(r: dict, margin: float, delay_margin_ms: float, alarm_margin: float) -> str:
+    """The verdict of a streaming cell that both sides finished, from its simultaneous
+    intervals: ``margin`` in points of detection rate, ``delay_margin_ms`` in ms of median
+    delay, ``alarm_margin`` in false alarms per minute. A figure without an interval (no
+    detected onset, no non-slip time) decides nothing."""
+    margins = {"median_delay_ms": delay_margin_ms, "false_alarms_per_min": alarm_margin, "detection_rate": margin / 100}
+    worse = better = False
+    inside = True
+    for name, sign in STREAM_FIGURES.items():
+        lo, hi = r.get(f"d_{name}_lo", np.nan), r.get(f"d_{name}_hi", np.nan)
+        if pd.isna(lo) or pd.isna(hi):
+            inside = False
+            continue
+        lo, hi = (lo, hi) if sign > 0 else (-hi, -lo)  # now larger is worse for every figure
+        m = margins[name]
+        worse |= lo > m
+        better |= hi < -m
+        inside &= -m <= lo and hi <= m
+    if worse:
+        return "regressed"
+    if better:
+        return "improved"
+    return "within margin" if inside and max(margins.values()) > 0 else "no significant change"
+
+
 def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, margin: float = 0.0,
-            seed: int = 0) -> Comparison:
+            seed: int = 0, delay_margin_ms: float = 0.0, alarm_margin: float = 0.0) -> Comparison:
     """Compare CANDIDATE against BASE cell by cell.
 
     Parameters
@@ -224,7 +298,10 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
     base_path, candidate_path
         Results files or folders (as ``evaluate --out`` writes them).
     margin : float
-        Percentage points of accuracy a cell may lose without counting as a regression.
+        Percentage points of accuracy (streaming cells: of detection rate) a cell may lose
+        without counting as a regression.
+    delay_margin_ms, alarm_margin : float
+        Streaming cells: ms of median delay and false alarms per minute a cell may add.
     seed : int
         Seeds the paired bootstraps.
 
@@ -236,6 +313,8 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
     """
     if not margin >= 0:
         raise UsageError(f"--margin must be >= 0 percentage points, got {margin}")
+    if not (delay_margin_ms >= 0 and alarm_margin >= 0):
+        raise UsageError(f"--delay-margin and --alarm-margin must be >= 0, got {delay_margin_ms} and {alarm_margin}")
     base, cand = read_results(base_path), read_results(candidate_path)
     notes = check_same_dataset(base, cand)
     base, cand = check_unique_keys(base, f"BASE {base_path}"), check_unique_keys(cand, f"CANDIDATE {candidate_path}")
@@ -263,9 +342,14 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
         sb, sc = b.get("status", "ok"), c.get("status", "ok")
         entry = {k: row[k] for k in on}
         entry["detector"] = row["detector"] if "detector" in on else f"{row['detector_b']} → {row['detector_c']}"
-        entry["base_accuracy"], entry["candidate_accuracy"] = b["accuracy"], c["accuracy"]
+        entry["base_accuracy"], entry["candidate_accuracy"] = b.get("accuracy", np.nan), c.get("accuracy", np.nan)
         entry["base_status"], entry["candidate_status"] = sb, sc
-        if sb == sc == "ok":
+        entry["stream"] = _is_stream(b) and _is_stream(c)
+        for name in STREAM_FIGURES:
+            entry[f"base_{name}"], entry[f"candidate_{name}"] = b.get(name, np.nan), c.get(name, np.nan)
+        if sb == sc == "ok" and entry["stream"]:
+            entry |= _streamed(b, c, level)
+        elif sb == sc == "ok":
             entry |= _paired(b, c, folders, seed, level) or _unpaired(b, c, level)
         else:
             entry["method"] = f"status {sb} → {sc}"
@@ -275,11 +359,14 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
     rank = [(order.index(p), p, d, sp, _cell_rank(c), s)
             for p, d, sp, c, s in cells[["protocol", "detector", "split", "cell", "seed"]].itertuples(index=False)]
     cells = cells.iloc[sorted(range(len(cells)), key=rank.__getitem__)].reset_index(drop=True)
-    for col in (f"d_{n}{s}" for n in FIGURES for s in ("", "_lo", "_hi", "_se")):
+    for col in (f"d_{n}{s}" for n in (*FIGURES, *STREAM_FIGURES) for s in ("", "_lo", "_hi", "_se")):
         if col not in cells:
             cells[col] = np.nan
-    cells["verdict"] = [verdict(r, margin) for r in cells.to_dict("records")]
-    return Comparison(cells, only_base, only_cand, str(base_path), str(candidate_path), margin, notes, level)
+    cells["verdict"] = [stream_verdict(r, margin, delay_margin_ms, alarm_margin)
+                        if r["stream"] and r["base_status"] == r["candidate_status"] == "ok" else verdict(r, margin)
+                        for r in cells.to_dict("records")]
+    return Comparison(cells, only_base, only_cand, str(base_path), str(candidate_path), margin, notes, level,
+                      delay_margin_ms, alarm_margin)
 
 
 def verdict(r: dict, margin: float) -> str:
@@ -313,7 +400,38 @@ def _delta(r: dict, name: str) -> str:
     return text + (f" [{100 * lo:+.1f}, {100 * hi:+.1f}]" if not (pd.isna(lo) or pd.isna(hi)) else "")
 
 
+def _stream_delta(r: dict, name: str, scale: float, digits: int) -> str:
+    d, lo, hi = r.get(f"d_{name}"), r.get(f"d_{name}_lo"), r.get(f"d_{name}_hi")
+    if d is None or pd.isna(d):
+        return "—"
+    text = f"{scale * d:+.{digits}f}"
+    return text + (f" [{scale * lo:+.{digits}f}, {scale * hi:+.{digits}f}]" if not (pd.isna(lo) or pd.isna(hi)) else "")
+
+
+def _streams_table(cells: pd.DataFrame) -> str:
+    """Streaming cells: median delay, false alarms per minute and detection rate, base → candidate."""
+    lines = []
+    for r in cells.to_dict("records"):
+        both = r["base_status"] == r["candidate_status"] == "ok"
+        lines.append({
+            "protocol": r["protocol"], "detector": r["detector"], "cell": cell_name(r["cell"]), "seed": r["seed"],
+            "median delay (ms)": f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f}"
+            if both else f"{r['base_status']} → {r['candidate_status']}",
+            "Δ median delay (ms)": _stream_delta(r, "median_delay_ms", 1.0, 1),
+            "false alarms / min": f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f}"
+            if both else "",
+            "Δ false alarms / min": _stream_delta(r, "false_alarms_per_min", 1.0, 2),
+            "Δ detection rate": _stream_delta(r, "detection_rate", 100.0, 1), "method": r["method"], "": MARKS[r["verdict"]],
+        })
+    return pd.DataFrame(lines).to_markdown(index=False, disable_numparse=True)
+
+
 def _cells_table(cells: pd.DataFrame) -> str:
+    if "stream" in cells and cells["stream"].any():
+        parts = [_streams_table(cells[cells["stream"]])]
+        if not cells["stream"].all():
+            parts.insert(0, _cells_table(cells[~cells["stream"]]))
+        return "\n\n".join(parts)
     lines = []
     for r in cells.to_dict("records"):
         lines.append({
@@ -362,5 +480,11 @@ def to_markdown(cmp: Comparison) -> str:
         f"{100 * ALPHA:g} %. A cell regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, "
         "or when the candidate did not finish a cell the base finished; it improves when the interval lies entirely "
         f"above +{cmp.margin:g}._")
+    if cells["stream"].any():
+        parts.append(
+            f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
+            "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
+            f"A streaming cell regresses when its median delay rises beyond {cmp.delay_margin_ms:g} ms, its false "
+            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points._")
     parts += [f"_{n}_" for n in cmp.notes]
     return "\n\n".join(parts) + "\n"

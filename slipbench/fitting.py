@@ -22,6 +22,7 @@ from .base import BaseDetector, clone, plugin_id
 from .errors import EnvironmentFault, UsageError
 from .metrics import classification_figures
 from .results import write_text_atomic
+from .streamcell import StreamTest, streamed_figures
 
 
 class PeakMemory:
@@ -62,8 +63,9 @@ Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields an
 
 
 def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
-                 tests: list[TestSet], model_path: str | None = None) -> list[Result]:
-    """Fit one model, test it on each test set.
+                 tests: list[TestSet | StreamTest], model_path: str | None = None) -> list[Result]:
+    """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
+    stream its recordings (:class:`~slipbench.streamcell.StreamTest`, no scores returned).
 
     With ``model_path``, a model an earlier run saved there for the same training windows is
     loaded instead of refitted (its training cost is reported as measured then), and a newly
@@ -73,6 +75,11 @@ def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_
         detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
         out = []
         for test in tests:
+            if isinstance(test, StreamTest):
+                out.append(({"status": "ok", "reason": "", "n_train": len(train_x), "sampling_rate_hz": sampling_rate,
+                             "n_test_trials": len(set(test.test.trials)),
+                             **streamed_figures(detector, seed, test), **cost, **_choices(detector, sampling_rate)}, None))
+                continue
             t0 = time.perf_counter()
             scores = detector.predict_proba(test.x)
             infer_s = time.perf_counter() - t0

@@ -22,7 +22,19 @@ from .keys import canonical, cell_key, code_identity
 from .protocol import BaseProtocol, Cell, Part
 from .registry import detectors, protocols
 from .signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
+from .streaming import onsets
 from .transfer import SIDE_COLUMN
+
+# a recordings column the runner adds: True where the dataset gives the recording per-sample
+# slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
+LABELLED = "has_slip_labels"
+
+
+def stream_split(how: str) -> str:
+    """The split a streaming cell trains and tests by: whole trials ("grouped"), whatever the
+    run's split, since a stream is a whole recording and its trial twins must not train the
+    model; across datasets, the datasets themselves."""
+    return "datasets" if how == "datasets" else "grouped"
 
 
 @dataclass
@@ -147,6 +159,15 @@ class CellData:
             test = test.take(balance(test, rng))
         return train, test
 
+    def streamed(self, part: Part) -> np.ndarray:
+        """Rows of the recordings a streaming cell's part streams: those of its units that meet
+        its conditions, carry per-sample labels and lie on its side of the split by whole trials
+        (this CellData's split must be :func:`stream_split`'s). Sorted; may be empty."""
+        rec = self.signals.recordings
+        on_test = (rec[SIDE_COLUMN] == "test").to_numpy() if self.how == "datasets" else self._sides == 1
+        labelled = rec[LABELLED].to_numpy(bool) if LABELLED in rec else np.zeros(len(rec), bool)
+        return np.flatnonzero(part.mask(rec) & labelled & (on_test == (part.side == "test")))
+
     def part(self, part: Part, window: int) -> Windows:
         """The windows (positions) of a part."""
         side = 0 if part.side == "train" else 1
@@ -194,6 +215,7 @@ class PlannedCell:
     test: Windows | None = None
     sampling_rate: float = 0.0
     skip: str = ""
+    streams: dict[str, np.ndarray] | None = None  # streaming cells: "train"/"test" -> recording rows
 
 
 @dataclass
@@ -233,13 +255,14 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
     except TypeError as exc:
         raise UsageError(f"detector {run.detector_name!r}: a parameter is not a plain value: {exc}") from None
     common = {"dataset": fingerprint, "detector": run.detector_name, "params": params,
-              "split": run.split, "seed": run.seed, "labels": run.labels, "code": code}
+              "split": stream_split(run.split) if cell.stream else run.split, "seed": run.seed, "labels": run.labels, "code": code}
     # at the full rate every decimation gives the same windows: one model serves them all
     sampling = ({"decimation": "plain"} if cell.downsample == 1 else
                 {"decimation": cell.decimation, "antialias": bool(cell.antialias)})
     model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample, **sampling})
     key = cell_key({**common, "protocol": run.protocol_name, "protocol_params": run.protocol.get_params(),
-                    "protocol_code": code_identity(type(run.protocol)), "cell": cell.key, "test": cell.test, "model": model})
+                    "protocol_code": code_identity(type(run.protocol)), "cell": cell.key, "test": cell.test, "model": model,
+                    **({"stream": cell.stream, "run_split": run.split} if cell.stream else {})})
     return key, model
 
 
@@ -264,6 +287,11 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
             planned.append(pc)
             if key in done or pc.skip:
                 continue
+            if cell.stream:
+                _plan_stream(pc, data, signals)
+                if not pc.skip:
+                    tasks.setdefault(model, Task(model)).cells.append(pc)
+                continue
             try:
                 pc.train, pc.test = cells_data.part(cell.train, cell.window), cells_data.part(cell.test, cell.window)
                 pc.sampling_rate = cells_data.sampling_rate(cell.train, cell.downsample)
@@ -278,3 +306,35 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
             if not pc.skip:
                 tasks.setdefault(model, Task(model)).cells.append(pc)
     return Plan(planned, list(tasks.values()), data)
+
+
+def _plan_stream(pc: PlannedCell, data: dict[tuple[str, int, str], CellData], signals: Signals) -> None:
+    """A streaming cell's training windows (from the training trials) and the recordings it
+    streams, or the reason it is skipped."""
+    run, cell = pc.run, pc.cell
+    how = stream_split(run.split)
+    if (how, run.seed, run.labels) not in data:
+        data[how, run.seed, run.labels] = CellData(signals, how, run.seed, run.labels)
+    cells_data = data[how, run.seed, run.labels]
+    units = ", ".join(f"{t} {i}" for t, i in cell.test.sensors)
+    try:
+        pc.train = cells_data.part(cell.train, cell.window)
+        pc.sampling_rate = cells_data.sampling_rate(cell.train, 1)
+    except UsageError as exc:
+        pc.skip = str(exc)
+        return
+    missing = _missing_classes(pc.train.y)
+    if missing:
+        pc.skip = f"no {missing} windows to train on"
+        return
+    pc.streams = {side.side: cells_data.streamed(side) for side in (cell.train, cell.test)}
+    test = pc.streams["test"]
+    if not len(test):
+        labelled = LABELLED in signals.recordings and signals.recordings[LABELLED].to_numpy(bool)[cell.test.mask(signals.recordings)].any()
+        pc.skip = (f"no recording of {units} on the test side of the trial split carries per-sample slip labels" if labelled else
+                   f"the dataset gives no per-sample slip labels for {units}: streaming needs them to time slip onsets")
+        return
+    o = signals.offsets
+    # a recording that starts in slip shows no onset (slipbench.streamcell.unknown_start)
+    if not any((onsets(signals.labels[o[r]:o[r + 1]]) > 0).any() for r in test):
+        pc.skip = f"no slip onset in the {len(test)} test recordings of {units} (labels 0 followed by 1)"

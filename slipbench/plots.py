@@ -4,11 +4,15 @@ of the kind each protocol's layout declares (``Layout.figure``):
 - "curve": accuracy against ``Layout.x`` per sensor type, one line per finger with its 95 %
   interval as a band (optionally the paper's LSTM values as hollow markers);
 - "with-without": heatmaps with and without explicit training (``Layout.pair``);
-- "matrix": the last row key by the column key, one panel per sensor type (the transfer matrix).
+- "matrix": the last row key by the column key, one panel per sensor type (the transfer matrix);
+- "tradeoff": median delay against false alarms per minute over a threshold sweep (a streaming
+  cell's ``tradeoff`` column), one curve per detector and unit, one panel per sensor type, the
+  detector's own threshold as a dot and the operating point as a cross.
 """
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -127,6 +131,40 @@ def _transfer(rows: pd.DataFrame, row: str, column: str, title: str):
     return fig
 
 
+def tradeoff(rows: pd.DataFrame, title: str):
+    """Median delay (ms) against false alarms per minute, from the streaming rows' sweeps: one
+    panel per sensor type, a colour per detector, a line style per unit; each row's own
+    threshold a dot, its operating point a cross. None when no row holds a sweep."""
+    rows = rows[rows["status"] == "ok"] if "status" in rows else rows
+    if "tradeoff" not in rows or rows["tradeoff"].dropna().empty:
+        return None
+    rows = rows[rows["tradeoff"].notna()]
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    fig, axes = plt.subplots(1, len(sensors), figsize=(4.2 * len(sensors), 3.6), sharey=True, squeeze=False)
+    for ax, sensor in zip(axes[0], sensors):
+        part = rows[rows["sensor_type"] == sensor]
+        units = ordered(part["sensor_instance"].unique(), "sensor_instance")
+        for d, detector in enumerate(detectors):
+            for u, unit in enumerate(units):
+                for _, row in part[(part["detector"] == detector) & (part["sensor_instance"] == unit)].iterrows():
+                    curve = pd.DataFrame(json.loads(row["tradeoff"])).dropna(subset=["median_delay_ms", "false_alarms_per_min"])
+                    curve = curve.sort_values(["false_alarms_per_min", "median_delay_ms"])
+                    ax.plot(curve["false_alarms_per_min"], curve["median_delay_ms"], ("-", "--", ":", "-.")[u % 4], color=f"C{d}",
+                            lw=1, label=f"{detector}, {label('sensor_instance', unit)}")
+                    ax.plot(row["false_alarms_per_min"], row["median_delay_ms"], "o", color=f"C{d}", ms=4)
+                    if pd.notna(row.get("op_median_delay_ms", np.nan)):
+                        ax.plot(row["op_false_alarms_per_min"], row["op_median_delay_ms"], "x", color=f"C{d}", ms=5)
+        ax.set_xscale("symlog", linthresh=1.0)  # 0 false alarms is a result worth seeing
+        ax.set_xlabel("false alarms per minute")
+        ax.set_title(label("sensor_type", sensor))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6)
+    axes[0][0].set_ylabel("median delay (ms)")
+    fig.suptitle(title)
+    return fig
+
+
 def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool):
     """The figure ``layout.figure`` asks for, or None (no figure kind, or rows it cannot draw)."""
     if layout.figure is None or "sensor_type" not in part:
@@ -136,6 +174,8 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool):
         ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
         return _curves(part, x, f"Accuracy against {layout.title.lower() or x}: {title}", layout.x_label or x, ref,
                        log_base=layout.log_base, line=layout.rows[-1], splits=layout.splits)
+    if layout.figure == "tradeoff":
+        return tradeoff(part, f"Delay against false alarms: {title}")
     if layout.figure == "with-without":
         return _heatmaps(part, layout.column, layout.pair, f"Accuracy per {layout.title.lower() or layout.column}: {title}")
     return _transfer(part, layout.rows[-1], layout.column, f"{layout.title or 'Accuracy'}: {title}")
@@ -158,4 +198,10 @@ def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = Tru
             if fig is not None:
                 stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
                 paths += _save(fig, folder, stem + ("".join(f"-{v}" for v in which.values()) if named else ""))
+    for protocol, (layout, _) in found.items():  # trade-offs: every detector on one figure
+        prows = rows[rows["protocol"] == protocol]
+        if layout.figure == "tradeoff" and prows["detector"].nunique() > 1:
+            fig = tradeoff(prows, f"Delay against false alarms: {protocol}, every detector")
+            if fig is not None:
+                paths += _save(fig, folder, f"{protocol}-detectors")
     return paths

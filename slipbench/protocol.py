@@ -26,7 +26,8 @@ MIN_WINDOW = 5  # samples: the shortest window a detector is given
 SIDES = ("train", "test")
 OPERATORS = ("==", "!=")
 DECIMATIONS = ("plain", "lag")
-FIGURES = ("curve", "with-without", "matrix")
+FIGURES = ("curve", "with-without", "matrix", "tradeoff")
+STREAM_KEYS = ("hop", "max_delay_ms")
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,13 @@ class Cell:
         "plain" (every k-th sample of the full-rate difference) or "lag" (the difference
         ||a_t|| - ||a_{t-k}|| on every k-th sample).
     antialias : low-pass the norm before decimating (see ``Signals.antialiased``).
+    stream : None (test on the ``test`` windows), or ``{"hop": samples, "max_delay_ms": ms}``:
+        test by streaming whole recordings through the model, a score every ``hop`` samples
+        (1 <= hop <= window), an onset missed when no alarm comes within ``max_delay_ms``. The
+        ``test`` part then names the recordings streamed (those of its units that meet its
+        conditions, carry per-sample labels and lie on the test side of a split by whole
+        trials); training windows come from the training side of that split, whatever the run's.
+        Only at the full rate (``downsample`` 1).
     skip : a reason the cell cannot run on this dataset, reported instead of results.
     """
 
@@ -90,6 +98,7 @@ class Cell:
     downsample: int = 1
     decimation: str = "plain"
     antialias: bool = False
+    stream: dict[str, Any] | None = None
     skip: str = ""
 
     def __post_init__(self) -> None:
@@ -113,6 +122,20 @@ class Cell:
             raise ValueError(f"Cell.decimation must be one of {DECIMATIONS}, got {self.decimation!r}")
         if not isinstance(self.antialias, (bool, np.bool_)):
             raise ValueError(f"Cell.antialias must be a bool, got {self.antialias!r}")
+        if self.stream is not None:
+            self._check_stream()
+
+    def _check_stream(self) -> None:
+        if not isinstance(self.stream, dict) or set(self.stream) != set(STREAM_KEYS):
+            raise ValueError(f"Cell.stream must be None or a dict with keys {STREAM_KEYS}, got {self.stream!r}")
+        hop, max_delay = self.stream["hop"], self.stream["max_delay_ms"]
+        if isinstance(hop, bool) or not isinstance(hop, (int, np.integer)) or not 1 <= hop <= self.window:
+            raise ValueError(f"Cell.stream['hop'] must be an int in [1, window = {self.window}], got {hop!r}")
+        if isinstance(max_delay, bool) or not isinstance(max_delay, (int, float)) or not 0 < max_delay < float("inf"):
+            raise ValueError(f"Cell.stream['max_delay_ms'] must be a positive number, got {max_delay!r}")
+        if self.downsample != 1:
+            raise ValueError(f"a streaming cell runs at the full rate (downsample 1), got downsample {self.downsample}")
+        object.__setattr__(self, "stream", {"hop": int(hop), "max_delay_ms": float(max_delay)})
 
     @property
     def name(self) -> str:
@@ -144,6 +167,9 @@ class Layout:
     x, x_label, log_base : a curve's x column (default ``column``), its axis label with the
         unit, and its log scale base (0: linear).
     paper_table : the name of the published table with the same cells (``--paper``).
+    metrics : result columns shown as the value columns, one each, instead of one column per
+        value of ``column`` (which then has one value per row; the streaming protocol's detection
+        rate, delays and false alarms). Empty: the usual table of one metric.
     """
 
     caption: str
@@ -161,6 +187,7 @@ class Layout:
     x_label: str = ""
     log_base: int = 0
     paper_table: str | None = None
+    metrics: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.rows, tuple) or not self.rows or not all(isinstance(r, str) for r in self.rows):
@@ -175,6 +202,8 @@ class Layout:
         split = (self.split,) if isinstance(self.split, str) else self.split
         if split is not None and not (isinstance(split, tuple) and split and all(isinstance(c, str) for c in split)):
             raise ValueError(f"Layout.split must be None, a column name or a non-empty tuple of them, got {self.split!r}")
+        if not isinstance(self.metrics, tuple) or not all(isinstance(m, str) for m in self.metrics):
+            raise ValueError(f"Layout.metrics must be a tuple of result column names, got {self.metrics!r}")
         if self.log_base not in (0, 2, 10):
             raise ValueError(f"Layout.log_base must be 0 (linear), 2 or 10, got {self.log_base!r}")
 

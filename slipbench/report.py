@@ -12,7 +12,7 @@ from .errors import SlipbenchError
 from .paper import paper_frame, table_order
 from .protocol import Layout
 from .render import standalone_latex, to_latex, to_markdown
-from .tables import Table, baseline_table, build_table, fits, generic_layout, rank, rates_table
+from .tables import Table, baseline_table, build_table, fits, generic_layout, metrics_table, rank, rates_table
 
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
 SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
@@ -86,6 +86,10 @@ def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector:
         table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}")
         table.caption += "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
         out.append((f"{detector}{suffix}", table))
+        if layout.metrics and "stream_s" in part:
+            table.notes.append(_stream_note(part))
+        if layout.metrics and any(f"op_{m}" in part for m in layout.metrics):
+            out.append((f"{detector}{suffix}, operating point", _operating_point(part, layout, intervals, f"tab:{tag}-op")))
         if ref is not None and len(ref) and metric == "accuracy":
             cap = "Published (Van Wyk & Falco, LSTM): " + layout.caption[0].lower() + layout.caption[1:]
             pt = build_table(part, layout, metric, values="paper", paper=ref, label_=f"tab:{tag}-paper")
@@ -96,6 +100,28 @@ def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector:
             dt.caption = f"Ours ({detector}) minus published (LSTM)."
             out += [(f"paper{suffix}", pt), (f"{detector} - paper{suffix}", dt)]
     return out
+
+
+def _stream_note(rows: pd.DataFrame) -> str:
+    """How the recordings were streamed, from the rows."""
+    def values(column: str) -> str:
+        return ", ".join(str(v) for v in rank(rows[column].dropna().unique())) if column in rows else "?"
+    return (f"Streamed: window {values('window')} samples, a score every {values('hop')} samples; whole test trials, "
+            f"held out from training by trial (seed {values('seed')}) whatever the run's split. Delays include the "
+            f"compute time per hop measured on this machine ({rows['compute_ms'].median():.3f} ms median).")
+
+
+def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_: str) -> Table:
+    """A streaming table at the operating point (``op_`` columns): the threshold that keeps 1
+    false alarm per minute on the training trials' streams, evaluated on the test trials."""
+    budget = rows["op_budget_per_min"].dropna() if "op_budget_per_min" in rows else pd.Series(dtype=float)
+    per_min = f"{budget.iloc[0]:g}" if len(budget) else "1"
+    table = metrics_table(rows, layout, layout.metrics, intervals, label_, prefix="op_",
+                          group=f"At {per_min} false alarm per minute (threshold chosen on the training trials' streams)")
+    notes = rows["op_note"].dropna() if "op_note" in rows else pd.Series(dtype=str)
+    for note in sorted(set(notes) - {""}):
+        table.notes.append(f"NA: {note}.")
+    return table
 
 
 def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy", intervals: bool = False,

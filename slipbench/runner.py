@@ -23,9 +23,10 @@ from . import __version__
 from .data import Dataset
 from .errors import EnvironmentFault
 from .executors import execute
-from .plan import Plan, PlannedCell, Run, Task, make_plan
+from .plan import LABELLED, Plan, PlannedCell, Run, Task, make_plan
 from .protocol import Cell, Part
 from .fitting import TestSet
+from .streamcell import Recordings, StreamTest
 from .keys import canonical
 from .results import ResultsStore
 from .signals import Signals
@@ -72,6 +73,7 @@ def _no_cells(run: Run, dataset: Dataset) -> Cell:
 
 def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
     signals = Signals.from_dataset(dataset)
+    signals.recordings[LABELLED] = signals.recordings["recording_id"].isin(list(dataset.slip_labels)).to_numpy()
     for run in runs:
         for name, values in run.protocol.columns(dataset.recordings).items():
             signals.recordings[name] = values
@@ -150,15 +152,34 @@ def _payload(plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler
     first = task.first
     data = plan.data_of(first.run)
     train = data.values(first.train, first.cell)
-    tests = [data.values(pc.test, pc.cell) for pc in task.cells]
+    trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
+    tests = [_stream_test(data.signals, pc) if pc.streams is not None else _window_test(data.values(pc.test, pc.cell), trials)
+             for pc in task.cells]
     model_path = None
     if not scheduler:  # dask workers may not see this disk
         model_path = store.model_path(task.model_key)
         if force:
             Path(f"{model_path}.json").unlink(missing_ok=True)
-    trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
-    return (first.run.detector, first.run.seed, first.sampling_rate, train.x, train.y,
-            [TestSet(t.x, t.y, trials[t.recording], t.strata()) for t in tests], None if model_path is None else str(model_path))
+    return (first.run.detector, first.run.seed, first.sampling_rate, train.x, train.y, tests,
+            None if model_path is None else str(model_path))
+
+
+def _window_test(windows, trials: np.ndarray) -> TestSet:
+    return TestSet(windows.x, windows.y, trials[windows.recording], windows.strata())
+
+
+def _stream_test(signals: Signals, pc: PlannedCell) -> StreamTest:
+    """A streaming cell's recordings, whole, as plain data."""
+    rec, o = signals.recordings, signals.offsets
+    rates = rec["sampling_rate_hz"].to_numpy(dtype=float)
+
+    def recordings(rows: np.ndarray) -> Recordings:
+        return Recordings([signals.buffer[o[r]:o[r + 1]] for r in rows], [signals.labels[o[r]:o[r + 1]] for r in rows],
+                          [str(t) for t in rec["trial"].to_numpy()[rows]], [str(s) for s in rec["scenario"].to_numpy()[rows]],
+                          [str(i) for i in rec["recording_id"].to_numpy()[rows]], [float(rates[r]) for r in rows])
+
+    return StreamTest(recordings(pc.streams["test"]), recordings(pc.streams["train"]), pc.cell.stream["hop"],
+                      pc.cell.stream["max_delay_ms"])
 
 
 def _describe(runs: list[Run]) -> str:

@@ -212,8 +212,11 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     """One table of one detector's rows in ``layout``.
 
     ``values``: "ours" (the results), "paper" (the published numbers from ``paper``), or
-    "difference" (ours minus paper, in percentage points).
+    "difference" (ours minus paper, in percentage points). A layout with ``metrics`` gives
+    :func:`metrics_table` (``metric`` and ``values`` do not apply).
     """
+    if layout.metrics:
+        return metrics_table(rows, layout, layout.metrics, intervals, label_)
     keys = [*layout.rows, layout.column] + ([layout.pair] if layout.pair else [])
     keys = [k for k in keys if k in rows]
     summary = summarize(rows, keys, metric)
@@ -335,3 +338,57 @@ def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, pape
     return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
                  columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
                  notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping."])
+
+
+# ----------------------------------------------------------------------------- one column per metric
+# How each streaming figure reads: its column label, and the factor and decimals it is shown with.
+METRIC_COLUMNS: dict[str, tuple[str, float, int]] = {
+    "detection_rate": ("Detection rate (%)", 100.0, 1), "median_delay_ms": ("Median delay (ms)", 1.0, 1),
+    "p95_delay_ms": ("95th pct. delay (ms)", 1.0, 1), "false_alarms_per_min": ("False alarms / min", 1.0, 2),
+}
+
+
+def metric_text(metric: str, mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
+                status: str = "ok", intervals: bool = False) -> str:
+    """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
+    ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals; 'NA' if absent."""
+    if status != "ok":
+        return status
+    if pd.isna(mean):
+        return "NA"
+    _, scale, digits = METRIC_COLUMNS.get(metric, (metric, 100.0, 1))
+    text = f"{scale * mean:.{digits}f}"
+    if n > 1 and not pd.isna(sd):
+        text += f" ± {scale * sd:.{digits}f}"
+    if intervals and not (pd.isna(lo) or pd.isna(hi)):
+        text += f" [{scale * lo:.{digits}f}, {scale * hi:.{digits}f}]"
+    return text
+
+
+def metrics_table(rows: pd.DataFrame, layout: Layout, metrics: Sequence[str], intervals: bool = False,
+                  label_: str = "", group: str = "", prefix: str = "") -> Table:
+    """One detector's rows in ``layout``, one value column per metric of ``metrics`` (result
+    columns ``prefix + metric``, e.g. "op_" for the streaming operating point), each averaged
+    over seeds as :func:`summarize` does."""
+    keys = [k for k in layout.rows if k in rows]
+    per = {m: {tuple(r[k] for k in keys): r for r in summarize(rows, keys, prefix + m).to_dict("records")} for m in metrics}
+    row_values = rows[keys].drop_duplicates()
+    for col in reversed(keys):  # stable sorts, last key first: lexicographic order
+        order = ordered(row_values[col], col)
+        row_values = row_values.iloc[np.argsort([order.index(v) for v in row_values[col]], kind="stable")]
+    row_keys = list(row_values.itertuples(index=False, name=None))
+    cells = [[metric_text(m, **{k: per[m][rk][k] for k in ("mean", "sd", "n", "lo", "hi", "status")}, intervals=intervals)
+              for m in metrics] for rk in row_keys]
+    if layout.merge_rows:
+        row_labels = [(", ".join(label(k, v) for k, v in zip(keys, rk)),) for rk in row_keys]
+        headers = [ROW_HEADERS.get(keys[-1], keys[-1])]
+    else:
+        row_labels = [tuple(label(k, v) for k, v in zip(keys, rk)) for rk in row_keys]
+        headers = [ROW_HEADERS.get(k, k) for k in keys]
+    notes = []
+    if any((pd.DataFrame(per[m].values())["n"] > 1).any() for m in metrics if per[m]):
+        notes.append("Mean ± standard deviation across seeds.")
+    if intervals:
+        notes.append("[95 % interval: bootstrap over test trials; mean of the seeds' bounds with repeats].")
+    columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
+    return Table(layout.caption, headers, group or layout.group, columns, row_labels, cells, label_, notes=notes)

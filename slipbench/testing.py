@@ -15,6 +15,8 @@ epochs, few kernels); they are applied to a clone, never to the detector passed 
 
 from __future__ import annotations
 
+import json
+
 import functools
 import io
 import tempfile
@@ -225,6 +227,12 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     rows = pd.DataFrame([{**c.key, "cell": c.name, "protocol": "checked", "detector": "d", "split": "paper", "seed": 0,
                           "status": "ok", "accuracy": a, "accuracy_lo": a - 0.05, "accuracy_hi": a + 0.05}
                          for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))])
+    for metric in protocol.layout.metrics:  # a layout of several metrics shows each
+        rows[metric] = rng.uniform(0.55, 0.95, len(rows))
+        rows[f"{metric}_lo"], rows[f"{metric}_hi"] = rows[metric] - 0.05, rows[metric] + 0.05
+    if protocol.layout.figure == "tradeoff":  # a streaming cell's threshold sweep
+        rows["tradeoff"] = json.dumps([{"threshold": t, "detection_rate": 1 - t, "median_delay_ms": 20 + 100 * t,
+                                        "false_alarms_per_min": 10 * (1 - t)} for t in (0.1, 0.5, 0.9)])
     tables = protocol_tables(rows, protocol.layout, "checked", "d", intervals=True)
     assert tables, "the layout made no table"
     for _, table in tables:
