@@ -98,9 +98,11 @@ def _smallest(rows: pd.DataFrame) -> str:
     return "; ".join(f"{', '.join(what)} ({_where(ok.loc[at])})" for at, what in found.items()) or "unknown (the rows do not say)"
 
 
-def header_tables(rows: pd.DataFrame, metric: str = "accuracy") -> list[Table]:
+def header_tables(rows: pd.DataFrame, metric: str = "accuracy", protocols: list[str] | None = None,
+                  benchmark: str = "") -> list[Table]:
     """The report's opening tables: the run (data, split, labels, seeds, cells, smallest test
-    set), the detectors with their parameters, and the protocols with their options."""
+    set), the detectors with their parameters, and the protocols (in the order ``protocols``,
+    default as the rows first name them) with their options."""
     low = low_n(rows) & rows["status"].eq("ok")
     run = [
         ("Data", "; ".join(dataset_source(p) for p in _values(rows, "dataset_path")) or "unknown (the rows do not say)"),
@@ -114,10 +116,12 @@ def header_tables(rows: pd.DataFrame, metric: str = "accuracy") -> list[Table]:
         ("Metric", metric),
         ("slipbench", ", ".join(map(str, _values(rows, "slipbench_version"))) or "unknown"),
     ]
+    if benchmark:
+        run.insert(0, ("Benchmark file", benchmark))
     if "finished_at" in rows and rows["finished_at"].notna().any():
         times = rows["finished_at"].dropna().astype(str)
         run.append(("Cells finished", f"{times.min()[:19]} to {times.max()[:19]} (UTC)"))
-    tables = [Table("What this report stands on.", ["What"], "", ["Value"], [(a,) for a, _ in run],
+    tables = [Table("The run: data, split, seeds, cells.", ["What"], "", ["Value"], [(a,) for a, _ in run],
                     [[b] for _, b in run], "tab:provenance", wrap={1: 0.7})]
     det_rows, det_cells = [], []
     for (det, params), part in rows.groupby(["detector", rows.get("detector_params", pd.Series("", index=rows.index))],
@@ -127,7 +131,8 @@ def header_tables(rows: pd.DataFrame, metric: str = "accuracy") -> list[Table]:
     tables.append(Table("Detectors and their parameters.", ["Detector"], "", ["Parameters", "Cells"], det_rows,
                         det_cells, "tab:detectors", wrap={1: 0.5, 2: 0.25}))
     pro_rows, pro_cells = [], []
-    for protocol, part in rows.groupby("protocol", sort=False):
+    for protocol in protocols or list(dict.fromkeys(rows["protocol"])):
+        part = rows[rows["protocol"] == protocol]
         params = _values(part, "protocol_params")
         pro_rows.append((str(protocol),))
         pro_cells.append(["; ".join(_params(p) for p in params) or "(not recorded)", _counts(part), _smallest(part)])
@@ -179,10 +184,10 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
         units = sorted(per_unit, key=lambda u: (ordered([x[0] for x in per_unit], "sensor_type").index(u[0]),
                                                 ordered([x[1] for x in per_unit], "sensor_instance").index(u[1])))
         cells = [[_summary([c[k] for c in per_unit[u] if k in c]) for k in keys] + [str(len(per_unit[u]))] for u in units]
-        columns = [f"{k} (Hz)" if k.endswith("_hz") else k for k in keys] + ["cells"]
+        columns = [f"{k[:-3]} (Hz)" if k.endswith("_hz") else k for k in keys] + ["cells"]
         tables.append(Table(f"What fitting chose: {det}.", ["Sensor", "Finger"], "", columns,
                             [(label("sensor_type", u[0]), label("sensor_instance", u[1])) for u in units], cells,
-                            f"tab:fitted-{det}", notes=[
+                            f"tab:fitted-{det}", wrap={2 + i: 0.55 / len(keys) for i in range(len(keys))}, notes=[
                                 "Over each unit's finished cells of every protocol (a cross-instance cell counts for the "
                                 "unit it trained on): numbers as median (range); bands as the most frequent [low, high] "
                                 "with their number of cells."]))

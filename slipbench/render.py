@@ -46,11 +46,13 @@ def latex_cell(text: str) -> str:
 
 
 def _latex_header(text: str) -> str:
-    """A column label on two lines where it holds a parenthesis ("holweg (paper)")."""
-    if text.startswith(r"\begin") or " (" not in text:
+    """A column label on several lines: a parenthesis on its own ("holweg (paper)"), a long
+    hyphenated name broken after its hyphens ("material-" over "holdout")."""
+    if text.startswith(r"\begin"):
         return text
-    head, tail = text.split(" (", 1)
-    return _stacked([head, "(" + tail])
+    head, _, tail = text.partition(" (")
+    lines = re.sub(r"(?<=-)(?=[a-z])", "\n", head).split("\n") if len(head) > 10 else [head]
+    return _stacked(lines + (["(" + tail] if tail else []))
 
 
 def to_latex(table: Table) -> str:
@@ -65,8 +67,12 @@ def to_latex(table: Table) -> str:
     """
     n_rows, n_cols = len(table.row_headers), len(table.columns)
     first = n_rows + 1
-    specs = [f"p{{{table.wrap[i]:.2f}\\linewidth}}" if i in table.wrap else "c" for i in range(n_rows + n_cols)]
-    spec = "|" + "|".join(specs) + "|"
+    spec = "|" + "|".join("l" if i in table.wrap else "c" for i in range(n_rows + n_cols)) + "|"
+
+    def wrapped(i: int, text: str) -> str:
+        # a ragged-right paragraph: a justified p{} column stretches spaces across narrow lines
+        return rf"\parbox[t]{{{table.wrap[i]:.2f}\linewidth}}{{\raggedright {text}\strut}}" if i in table.wrap else text
+
     lines = [r"\begin{table}[!htbp]", rf"\caption{{{escape(table.caption)}}}", r"\centering", LATEX_TABLE_SIZE,
              rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}", rf"\begin{{tabular}}{{{spec}}}", r"\hline"]
     heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
@@ -77,14 +83,16 @@ def to_latex(table: Table) -> str:
     else:
         heads += " & "
     latex_cols = table.latex_columns or [escape(c) for c in table.columns]
-    lines.append(heads + " & ".join(_latex_header(c) for c in latex_cols) + r"\\")
+    lines.append(heads + " & ".join(wrapped(n_rows + j, c) if n_rows + j in table.wrap else _latex_header(c)
+                                    for j, c in enumerate(latex_cols)) + r"\\")
     lines.append(r"\hline")
     previous: tuple[str, ...] | None = None
     for i, (labels, cells) in enumerate(zip(table.rows, table.cells)):
         shown = list(labels)
         if n_rows > 1 and previous is not None and labels[0] == previous[0]:
             shown[0] = ""  # the sensor name once per group, as the paper's multirow
-        lines.append(" & ".join([*(escape(x) for x in shown), *(latex_cell(c) for c in cells)]) + r"\\")
+        texts = [*(escape(x) for x in shown), *(latex_cell(c) for c in cells)]
+        lines.append(" & ".join(wrapped(j, t) for j, t in enumerate(texts)) + r"\\")
         nxt = table.rows[i + 1] if i + 1 < len(table.rows) else None
         lines.append(rf"\cline{{2-{n_rows + n_cols}}}" if n_rows > 1 and nxt is not None and nxt[0] == labels[0] else r"\hline")
         previous = labels
@@ -97,10 +105,11 @@ def to_latex(table: Table) -> str:
     return "\n".join(lines)
 
 
-def standalone_latex(body: str) -> str:
-    """Wrap table floats in a minimal document that compiles with the LaTeX kernel alone."""
-    return "\n".join([r"\documentclass{article}", r"\usepackage[utf8]{inputenc}", r"\begin{document}", body,
-                      r"\end{document}", ""])
+def standalone_latex(body: str, graphics: bool = False) -> str:
+    """Wrap table floats in a minimal document that compiles with the LaTeX kernel alone (and
+    ``graphicx``, part of every LaTeX installation, where ``graphics`` includes figures)."""
+    return "\n".join([r"\documentclass{article}", r"\usepackage[utf8]{inputenc}",
+                      *([r"\usepackage{graphicx}"] if graphics else []), r"\begin{document}", body, r"\end{document}", ""])
 
 
 def to_html(table: Table) -> str:

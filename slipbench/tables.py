@@ -106,7 +106,8 @@ LATEX_CHARS = {
     "\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "_": r"\_", "#": r"\#", "{": r"\{", "}": r"\}",
     "$": r"\$", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "±": r"$\pm$", "—": "--", "–": "--",
     "−": "-", LOW_MARK: r"\dag{}", "χ": r"$\chi$", "²": r"$^2$", "α": r"$\alpha$", "≥": r"$\geq$",
-    "≤": r"$\leq$", "×": r"$\times$", "µ": r"$\mu$", "≈": r"$\approx$",
+    "≤": r"$\leq$", "×": r"$\times$", "µ": r"$\mu$", "≈": r"$\approx$", "→": r"$\rightarrow$", "<": r"$<$",
+    ">": r"$>$",
 }
 
 
@@ -186,7 +187,7 @@ SHORT = {  # how a cell-key value reads in a one-line cell label, in this order 
 
 def cell_label(cell: str | dict) -> str:
     """A cell key as a short label: "Nano17 Index window 50 (50 ms)" (sensor and unit first,
-    then the other keys); a transfer reads "Index -> Middle"."""
+    then the other keys); a transfer reads "Index → Middle"."""
     key = json.loads(cell) if isinstance(cell, str) else dict(cell)
     order = [*KEY_ORDER, *SHORT]
     names = sorted(key, key=lambda k: order.index(k) if k in order else len(order))
@@ -194,7 +195,7 @@ def cell_label(cell: str | dict) -> str:
     for k in names:
         v = key[k]
         if k == "test_instance" and "train_instance" in key:
-            parts[-1] += f" -> {label(k, v)}"
+            parts[-1] += f" → {label(k, v)}"
         elif (k == "downsample" and "rate_hz" in key) or (k == "antialias" and not v):
             continue  # the rate says it; no filter is the default
         elif k in SHORT:
@@ -396,3 +397,34 @@ def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, pape
     return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
                  columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
                  notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping."])
+
+
+def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], metric: str = "accuracy",
+                 label_: str = "") -> Table | None:
+    """Every detector of one protocol's table in one table: a row per detector, the layout's
+    value columns (and pair), each figure the mean over the layout's row keys (sensor units)
+    of each unit's figure (mean over seeds). None with fewer than two detectors."""
+    if len(detectors) < 2:
+        return None
+    keys = [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
+    per = summarize(rows, ["detector", *keys], metric)
+    per = per[per["status"] == "ok"]
+    by = ["detector", layout.column] + ([layout.pair] if layout.pair else [])
+    avg = per.groupby(by, dropna=False).agg(mean=("mean", "mean"), units=("mean", "size"), low=("low_n", "any"))
+    found = {k if isinstance(k, tuple) else (k,): r for k, r in avg.iterrows()}
+    columns = ordered(rows[layout.column].dropna().unique(), layout.column)
+
+    def one(key: tuple) -> str:
+        r = found.get(key)
+        return "NA" if r is None else figure_text(r["mean"], low=bool(r["low"]))
+
+    cells = [[f"{one((d, c, 'with'))} {one((d, c, 'without'))}*" if layout.pair else one((d, c)) for c in columns]
+             for d in detectors]
+    plain, latex, notes = _column_labels(layout, rows, columns)
+    units = avg["units"]
+    notes.append(f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
+                 f"unit's figure; {int(units.min())} units per figure" + (f" or up to {int(units.max())}" if units.max() != units.min() else "")
+                 + " (units a detector did not finish are left out).")
+    group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
+    caption = f"{layout.title or 'Protocol'}: every detector side by side."
+    return Table(caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes)
