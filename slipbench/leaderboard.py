@@ -259,11 +259,12 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         notes.append("One detector: nothing to rank it against.")
     tables = [Table(f"Leaderboard: detectors ranked by {name.lower()}.", ["Place", "Detector"], "Mean rank (cells)",
                     columns, [(str(i + 1), e) for i, e in enumerate(order)], cells, "tab:leaderboard", notes=notes)]
-    mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in MEAN_METRICS] + ["Cells won"]
-    mean_cells = [[_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in MEAN_METRICS]
+    shown = [m for m in MEAN_METRICS if board.means[f"{m}_cells"].max() > 0]  # figures the rows hold
+    mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in shown] + ["Cells won"]
+    mean_cells = [[_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in shown]
                   + [str(int(overall.wins[e]))] for e in order]
     fewer = [f"{METRIC_NAMES.get(m, m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
-             "test set)" for m in MEAN_METRICS if m != board.metric and board.means[f"{m}_cells"].min() < overall.n_cells]
+             "test set)" for m in shown if board.means[f"{m}_cells"].min() < overall.n_cells]
     tables.append(Table(f"Mean figures over the {overall.n_cells} ranked cells.", ["Detector"], "", mean_cols,
                         [(e,) for e in order], mean_cells, "tab:leaderboard-means", notes=[
                             "[95 % interval: percentile bootstrap over the ranked cells, each cell's figure fixed: how "
@@ -276,12 +277,16 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
             chi = "—" if s.friedman is None else f"{s.friedman[0]:.1f}"
             p = "—" if s.friedman is None else _p(s.friedman[1])
             groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups) or "none: every pair differs"
+            if len(order) == 2:  # no Friedman test: the one pair's own p-value
+                p2 = float(s.pairs["p"].iloc[0])
+                groups += f" (Wilcoxon p {'< 0.001' if p2 < 0.001 else f'= {p2:.3f}'})"
             test_cells.append([str(s.n_cells), chi, p, groups])
         tables.append(Table("Do the detectors differ? Friedman test per scope, then pairwise Wilcoxon signed-rank tests.",
                             ["Scope"], "", ["Cells", "Friedman χ²", "p", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
                             [("all" if s.name == ALL else s.name,) for s in scopes], test_cells, "tab:leaderboard-tests",
                             wrap={4: 0.4}, notes=[
-                                f"Friedman's χ² has {len(order) - 1} degrees of freedom (needs three detectors or more). "
+                                (f"Friedman's χ² has {len(order) - 1} degrees of freedom. " if len(order) >= 3 else
+                                 "Friedman's test needs three detectors or more. ") +
                                 "A group lists detectors, in rank order, no pair of which differs after Holm's correction "
                                 "across the scope's pairs; a detector in no group differs from every other. Cells share "
                                 "recordings (window 50 of a unit appears in several protocols), so they are not "

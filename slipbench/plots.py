@@ -42,6 +42,10 @@ STYLE = {"font.size": 7, "axes.titlesize": 7, "axes.labelsize": 7, "xtick.labels
          "legend.fontsize": 6.5, "figure.titlesize": 7.5, "lines.linewidth": 1.1, "lines.markersize": 3}
 SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
 CHANCE = 50.0
+AXIS_LABELS = {  # a key column's axis label with its unit, where the layout gives none
+    "window": "window (samples)", "window_ms": "window (ms)", "rate_hz": "sampling rate (Hz)",
+    "speed_mm_s": "slip speed (mm/s)", "downsample": "downsampling factor",
+}
 
 
 @dataclass
@@ -133,7 +137,7 @@ def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame 
         _x_axis(ax, rows.loc[rows["sensor_type"] == sensor, x], layout)
         ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
         ax.set_ylabel("accuracy (%)")
-    axes[-1].set_xlabel(layout.x_label or x)
+    axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
     fig.suptitle(title)
     return fig
@@ -165,7 +169,7 @@ def _compare_curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.Da
         _x_axis(ax, part[x], layout)
         ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
         ax.set_ylabel("accuracy (%)")
-    axes[-1].set_xlabel(layout.x_label or x)
+    axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
     fig.suptitle(title)
     return fig
@@ -229,7 +233,7 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     im = _matrix(axes[2], grids["with"] - grids["without"], names, xlabels, diff=True, fmt="{:+.1f}")
     axes[2].set_title("with minus without", loc="left", pad=2)
     fig.colorbar(im, ax=axes[2], label="difference (points)", fraction=0.05, pad=0.02)
-    axes[2].set_xlabel(layout.x_label or (layout.title or column).lower())
+    axes[2].set_xlabel(layout.x_label or AXIS_LABELS.get(column, (layout.title or column).lower()))
     fig.suptitle(title)
     return fig
 

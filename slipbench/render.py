@@ -32,14 +32,17 @@ def _stacked(lines: list[str]) -> str:
 
 
 def latex_cell(text: str) -> str:
-    """A cell for LaTeX: figures with intervals stacked, the interval on its own line in a
-    smaller size (``88.0`` over ``86.9--89.1``), so that wide tables fit the text width."""
+    """A cell for LaTeX, stacked so that wide tables fit the text width: the interval (and the
+    spread over seeds) on its own line in a smaller size (``88.0`` over ``86.9--89.1``), the
+    two figures of a paired cell (with, without*) one above the other."""
     figures = list(FIGURE.finditer(text))
-    if not any(m["lo"] for m in figures) or " ".join(m[0] for m in figures) != text:
+    if " ".join(m[0] for m in figures) != text or not (len(figures) > 1 or any(m["lo"] or m["sd"] for m in figures)):
         return escape(text)
     lines = []
     for m in figures:
-        lines.append(escape(m["value"] + (m["sd"] or "") + m["mark"]))
+        lines.append(escape(m["value"] + m["mark"]))
+        if m["sd"]:  # the spread over seeds on a line of its own, as the interval
+            lines.append(rf"{{\scriptsize {escape(m['sd'].strip())}}}")
         if m["lo"]:
             lines.append(rf"{{\scriptsize {m['lo']}--{m['hi']}}}")
     return _stacked(lines)
@@ -53,6 +56,14 @@ def _latex_header(text: str) -> str:
     head, _, tail = text.partition(" (")
     lines = re.sub(r"(?<=-)(?=[a-z])", "\n", head).split("\n") if len(head) > 10 else [head]
     return _stacked(lines + (["(" + tail] if tail else []))
+
+
+def _two_lines(text: str, limit: int = 44) -> str:
+    """Escaped text, on two lines (at the space nearest its middle) when longer than ``limit``."""
+    if len(text) <= limit or " " not in text:
+        return escape(text)
+    middle = min((i for i, c in enumerate(text) if c == " "), key=lambda i: abs(i - len(text) / 2))
+    return _stacked([escape(text[:middle]), escape(text[middle + 1:])])
 
 
 def to_latex(table: Table) -> str:
@@ -77,7 +88,7 @@ def to_latex(table: Table) -> str:
              rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}", rf"\begin{{tabular}}{{{spec}}}", r"\hline"]
     heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
     if table.group:
-        lines.append(rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\textbf{{{escape(table.group)}}}}}\\")
+        lines.append(rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_two_lines(table.group)}}}\\")
         lines.append(rf"\cline{{{first}-{n_rows + n_cols}}}")
         heads = " & " * n_rows
     else:

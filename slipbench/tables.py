@@ -321,7 +321,7 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     unit = " (%)" if metric != "auroc" else " (%, 50 = chance)"
     group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
     if values == "difference":
-        group = f"Difference, ours - paper (points), {METRIC_NAMES.get(metric, metric)} {layout.group}".strip()
+        group = f"Ours - paper (points) {layout.group}".strip()
     if (summary["n"] > 1).any() and values == "ours":
         notes.append("Mean ± standard deviation across seeds.")
     if intervals and values == "ours":
