@@ -253,8 +253,8 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     notes = [f"Mean rank of {name.lower()} over cells, in parentheses the cells ranked (1 = best): per cell the "
              "detectors are ranked by their figure (mean over seeds), ties sharing the mean rank. Only cells every "
              "detector finished are ranked"
-             + (f"; {overall.n_excluded} cells were not (failed, skipped or absent for some detector)." if overall.n_excluded
-                else "; every cell was.")]
+             + (f"; {overall.n_excluded} {'cell was' if overall.n_excluded == 1 else 'cells were'} not (failed, skipped "
+                "or absent for some detector)." if overall.n_excluded else "; every cell was.")]
     if len(order) == 1:
         notes.append("One detector: nothing to rank it against.")
     tables = [Table(f"Leaderboard: detectors ranked by {name.lower()}.", ["Place", "Detector"], "Mean rank (cells)",
