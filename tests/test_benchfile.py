@@ -60,7 +60,7 @@ def test_run_declares_everything_and_records_the_file(tmp_path, small_path, cli)
     report = (res / "report.md").read_text()
     assert f"| Benchmark file | bench.toml (sha256 {record['sha256'][:16]})" in re.sub(" +", " ", report)
     assert "## Leaderboard" in report and "![" in report and (res / "report.html").stat().st_size > 10_000
-    assert (res / "figures" / "window-size-detectors.png").exists()
+    assert (res / "figures" / "window-size-detectors-grouped.png").exists()
     code, out, _ = cli(["run", bench, "--quiet", "--out", str(tmp_path / "other")])  # CI: one file, two folders
     assert code == 0 and (tmp_path / "other" / "results.parquet").exists()
 
