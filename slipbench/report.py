@@ -6,6 +6,7 @@ Every report has the same outline:
 1. what it stands on (:mod:`slipbench.provenance`): data source, fingerprint, split, labels,
    seeds, detectors with parameters, cells, the smallest test set;
 2. the leaderboard (:mod:`slipbench.leaderboard`) and its critical-difference diagram;
+   with ``paper``, how the paper's findings fare (:mod:`slipbench.findings`);
 3. what fitting chose, and its warnings;
 4. per protocol, in the paper's order: every detector side by side (with the figure that
    overlays them), then each detector's tables in the protocol's own layout and its figure;
@@ -203,6 +204,12 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
                     Heading("Leaderboard", 2), *leaderboard_tables(board), *figures.get(None, [])]
     if leaderboard_only:
         return blocks
+    if paper:
+        from .findings import findings_table
+
+        findings = findings_table(rows, found, order)
+        if findings is not None:
+            blocks += [Heading("The paper's findings, ours beside them", 2), findings]
     fitted = fitted_tables(rows)
     if fitted:
         blocks += [Heading("What fitting chose", 2), *fitted]

@@ -7,6 +7,7 @@ Regenerate the golden files after an intended layout change with
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
@@ -209,3 +210,25 @@ def test_fitted_choices_and_warnings_are_shown():
     text = render_report(rows, "md")
     assert "**What fitting chose: holweg.**" in text and "40–100 (2)" in text
     assert "**Warnings about fitted choices (4 of 48 finished cells).**" in text and "starts at 0 Hz" in text
+
+
+def test_findings_of_the_paper_reproduce_on_its_own_numbers():
+    """Rows that hold the published numbers give, for each finding, the paper's own value."""
+    from slipbench.findings import findings_table
+    from slipbench.report import layouts, protocol_order
+
+    parts = []
+    for protocol in ("window-size", "sampling-rate", "material-holdout", "speed-holdout", "cross-instance"):
+        ref = paper_frame(protocol)
+        keys = [c for c in ref.columns if c not in ("accuracy", "tp_rate", "tn_rate")]
+        rows = ref.assign(protocol=protocol, detector="lstm", split="paper", seed=0, status="ok", decimation="plain",
+                          antialias=False, protocol_params="{}",
+                          cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")])
+        parts.append(rows)
+    rows = pd.concat(parts, ignore_index=True)
+    found = layouts(rows)
+    table = findings_table(rows, found, protocol_order(found))
+    assert len(table.rows) == 3 + 3 + 2 + 2 + 1
+    for (protocol, finding), (paper, ours) in zip(table.rows, table.cells):
+        assert paper == ours, (protocol, finding)
+    assert table.cells[7][0] == "Neoprene (-9.1)"  # the paper's material finding: neoprene needs its own data
