@@ -78,7 +78,8 @@ def _matrix(rows: pd.DataFrame, layout: Layout, values: str) -> float:
 def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
     from .report import split_parts
 
-    return split_parts(rows, layout)[0][1]
+    parts = split_parts(rows, layout)
+    return parts[0][1] if parts else rows  # no rows (a detector that did not run the protocol): none
 
 
 def findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> Table | None:
@@ -118,7 +119,7 @@ def findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], ord
         return None
     return Table("The paper's findings and ours: each contrast on the published table (the paper's LSTM) and on each "
                  "detector's results.", ["Protocol", "Finding"], "", ["paper (LSTM)", *detectors],
-                 [(p, f) for p, f, _ in lines], [c for _, _, c in lines], "tab:findings", wrap={1: 0.3}, notes=[
+                 [(p, f) for p, f, _ in lines], [c for _, _, c in lines], "tab:findings", wrap={0: 0.12, 1: 0.24}, notes=[
                      "Means over units (sensor and finger) of each unit's figure; a curve from the paper's smallest "
                      "to its largest x (windows of 5 and 200 samples; the lowest and the full sampling rate), — where "
                      "the results lack either; a layout split into several tables is read at its first (plain "

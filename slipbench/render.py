@@ -37,7 +37,8 @@ def latex_cell(text: str) -> str:
     two figures of a paired cell (with, without*) one above the other."""
     figures = list(FIGURE.finditer(text))
     if " ".join(m[0] for m in figures) != text or not (len(figures) > 1 or any(m["lo"] or m["sd"] for m in figures)):
-        return escape(text)
+        named = re.fullmatch(r"(\S+) \((.+)\)", text)  # "Neoprene (-9.1)": the name over its figure
+        return _stacked([escape(named[1]), escape(f"({named[2]})")]) if named else escape(text)
     lines = []
     for m in figures:
         lines.append(escape(m["value"] + m["mark"]))
@@ -102,7 +103,8 @@ def to_latex(table: Table) -> str:
         shown = list(labels)
         if n_rows > 1 and previous is not None and labels[0] == previous[0]:
             shown[0] = ""  # the sensor name once per group, as the paper's multirow
-        texts = [*(escape(x) for x in shown), *(latex_cell(c) for c in cells)]
+        texts = [*(escape(x) for x in shown),
+                 *(escape(c) if n_rows + j in table.wrap else latex_cell(c) for j, c in enumerate(cells))]
         lines.append(" & ".join(wrapped(j, t) for j, t in enumerate(texts)) + r"\\")
         nxt = table.rows[i + 1] if i + 1 < len(table.rows) else None
         lines.append(rf"\cline{{2-{n_rows + n_cols}}}" if n_rows > 1 and nxt is not None and nxt[0] == labels[0] else r"\hline")
