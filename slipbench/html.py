@@ -19,6 +19,7 @@ nav ol { columns: 2; font-size: .95rem; }
 .table-wrap { overflow-x: auto; margin: 1rem 0 1.4rem; }
 table { border-collapse: collapse; font-size: .85rem; font-variant-numeric: tabular-nums; }
 caption { caption-side: top; text-align: left; font-weight: 600; padding-bottom: .35rem; max-width: 60rem; }
+caption .subject { font-weight: 400; color: #444; }
 th, td { border: 1px solid #bbb; padding: .2rem .45rem; }
 table.numbers td { text-align: right; white-space: nowrap; }
 table.text td { text-align: left; vertical-align: top; }

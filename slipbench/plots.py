@@ -62,8 +62,7 @@ class FigureSpec:
 
 
 def _figure(height: float) -> Figure:
-    with matplotlib.rc_context(STYLE):
-        return Figure(figsize=(WIDTH, height), layout="constrained")
+    return Figure(figsize=(WIDTH, height), layout="constrained")
 
 
 def _styled(draw: Callable[..., Figure]) -> Callable[..., Figure]:

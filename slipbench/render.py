@@ -22,7 +22,8 @@ def to_markdown(table: Table) -> str:
     header = [*table.row_headers, *table.columns]
     frame = pd.DataFrame([[*r, *c] for r, c in zip(table.rows, table.cells)], columns=header)
     body = frame.to_markdown(index=False, stralign="left" if table.wrap else "right", disable_numparse=True)
-    parts = [f"**{table.caption}**" + (f" {table.group}." if table.group else ""), "", body]
+    parts = [f"**{table.caption}**" + (f" {table.group}." if table.group else "") + (f" {table.subject}" if table.subject else ""),
+             "", body]
     parts += [""] + [f"_{n}_" for n in table.notes] if table.notes else []
     return "\n".join(parts)
 
@@ -85,7 +86,8 @@ def to_latex(table: Table) -> str:
         # a ragged-right paragraph: a justified p{} column stretches spaces across narrow lines
         return rf"\parbox[t]{{{table.wrap[i]:.2f}\linewidth}}{{\raggedright {text}\strut}}" if i in table.wrap else text
 
-    lines = [r"\begin{table}[!htbp]", rf"\caption{{{escape(table.caption)}}}", r"\centering", LATEX_TABLE_SIZE,
+    caption = f"{table.caption} {table.subject}".strip()
+    lines = [r"\begin{table}[!htbp]", rf"\caption{{{escape(caption)}}}", r"\centering", LATEX_TABLE_SIZE,
              rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}", rf"\begin{{tabular}}{{{spec}}}", r"\hline"]
     heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
     if table.group:
@@ -145,5 +147,6 @@ def to_html(table: Table) -> str:
     notes = "".join(f'<p class="note">{esc(n)}</p>' for n in table.notes)
     classes = "text" if table.wrap else "numbers"
     return (f'<div class="table-wrap"><table class="{classes}"{ident} data-row-headers="{n_rows}">'
-            f"<caption>{esc(table.caption)}</caption><thead>{thead}</thead><tbody>{''.join(body)}</tbody></table>"
+            f"<caption>{esc(table.caption)}{f' <span class=subject>{esc(table.subject)}</span>' if table.subject else ''}"
+            f"</caption><thead>{thead}</thead><tbody>{''.join(body)}</tbody></table>"
             f"{notes}</div>")

@@ -27,12 +27,12 @@ from pathlib import Path
 import pandas as pd
 
 from .errors import SlipbenchError
-from .leaderboard import Leaderboard, leaderboard, leaderboard_tables
+from .leaderboard import leaderboard, leaderboard_tables
 from .paper import paper_frame, table_order
 from .protocol import Layout
 from .provenance import fitted_tables, header_tables
 from .render import standalone_latex, to_html, to_latex, to_markdown
-from .tables import Table, baseline_table, build_table, fits, generic_layout, rank, rates_table, side_by_side
+from .tables import Table, baseline_table, build_table, escape, fits, generic_layout, rank, rates_table, side_by_side
 
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
 SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
@@ -129,11 +129,13 @@ def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector:
         tag = "-".join([f"{protocol}-{detector}", *([split] if split and split != "paper" else []), *(str(v) for v in which.values())])
         suffix = f" ({', '.join(f'{c}: {v}' for c, v in which.items())})" if which else ""
         table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}")
-        table.caption = f"{table.caption} {named}{_which(which)}"
+        table.caption += _which(which)
+        table.subject = named
         out.append((f"{detector}{suffix}", table))
         if ref is not None and len(ref) and metric == "accuracy":
             dt = build_table(part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference")
-            dt.caption = f"Ours minus published, {detector} against the paper's LSTM: {protocol}.{_which(which)}"
+            dt.caption = f"Ours minus published, {detector} against the paper's LSTM.{_which(which)}"
+            dt.subject = named
             out.append((f"{detector} - paper{suffix}", dt))
     return out
 
@@ -167,7 +169,8 @@ def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: st
                 table = side_by_side(part, layout, [d for d in detectors if d in set(part["detector"])], metric,
                                      label_=f"tab:{tag}")
                 if table is not None:
-                    table.caption = f"{table.caption} Protocol {protocol}, {split} split.{_which(which)}"
+                    table.caption += _which(which)
+                    table.subject = f"Protocol {protocol}, {split} split."
                     blocks.append(table)
         blocks += [f for f in figures.get(protocol, []) if f.detector is None]
     if paper:
@@ -293,14 +296,14 @@ def render(blocks: list, fmt: str = "md", standalone: bool = False, files: dict[
             elif not standalone:
                 out.append(f"% {block.text}")
             elif block.level == 1:
-                out.append(rf"{{\LARGE\bfseries {_tex(block.text)}\par}}")
+                out.append(rf"{{\LARGE\bfseries {escape(block.text)}\par}}")
             elif block.level == 2:  # a section per page: its floats stay near its heading
-                out.append((r"\clearpage" "\n" if sections else "") + rf"\section*{{{_tex(block.text)}}}")
+                out.append((r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}")
                 sections += 1
             else:
-                out.append(rf"\subsection*{{{_tex(block.text)}}}")
+                out.append(rf"\subsection*{{{escape(block.text)}}}")
         elif isinstance(block, Text):
-            out.append(block.text if fmt == "md" else _tex(block.text) if standalone else f"% {block.text}")
+            out.append(block.text if fmt == "md" else escape(block.text) if standalone else f"% {block.text}")
         elif isinstance(block, Table):
             out.append(to_markdown(block) if fmt == "md" else to_latex(block))
         elif isinstance(block, FigureSpec) and block.stem in files:
@@ -310,17 +313,11 @@ def render(blocks: list, fmt: str = "md", standalone: bool = False, files: dict[
             elif fmt == "latex" and ".pdf" in paths:
                 out.append("\n".join([r"\begin{figure}[!htbp]", r"\centering",
                                       rf"\includegraphics[width=\linewidth]{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
-                                      rf"\caption{{{_tex(block.caption)}}}", r"\end{figure}"]))
+                                      rf"\caption{{{escape(block.caption)}}}", r"\end{figure}"]))
     text = "\n\n".join(out) + "\n"
     if fmt == "latex" and standalone:
         return standalone_latex(text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks))
     return text
-
-
-def _tex(text: str) -> str:
-    from .tables import escape
-
-    return escape(text)
 
 
 def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy", intervals: bool = False,
@@ -357,5 +354,5 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     return "\n\n".join(to_markdown(t) for _, t in tables)
 
 
-__all__ = ["Heading", "Leaderboard", "Text", "build_report", "layouts", "protocol_order", "protocol_table",
+__all__ = ["Heading", "Text", "build_report", "layouts", "protocol_order", "protocol_table",
            "protocol_tables", "published_table", "render", "render_report", "split_parts", "write_figures"]

@@ -57,6 +57,7 @@ class Table:
     # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
     # each this fraction of the line width; text columns need it, numbers do not
     wrap: dict[int, float] = field(default_factory=dict)
+    subject: str = ""  # what the table is of ("Detector holweg, protocol window-size, paper split."): after the caption
 
     def __post_init__(self) -> None:
         # every table that marks a cell says what the mark means, whoever built it

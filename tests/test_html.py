@@ -100,7 +100,7 @@ def test_page_has_every_table_and_figure_and_nothing_external(tmp_path):
     shown = [i for i in outline.items if i.startswith("table ")]
     assert len(shown) == len(tables) > 20
     for table, item in zip(tables, shown):
-        assert item.endswith(table.caption) and f"#{table.label} " in item
+        assert item.endswith(f"{table.caption} {table.subject}".strip()) and f"#{table.label} " in item
         assert f"{len(table.rows)} rows" in item
     assert len(outline.images) == len(figures) >= 7
     assert all(w > 300 and h > 200 for _, w, h in outline.images), outline.images
