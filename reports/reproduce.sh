@@ -14,35 +14,29 @@ for detector in $DETECTORS; do
   slipbench evaluate --detector "$detector" --protocol all --jobs 2 --out "$RESULTS" --quiet > /dev/null
 done
 rm -rf reports/figures
-slipbench report "$RESULTS" --paper --intervals --plots reports/figures --out "$RESULTS/tables.md" > /dev/null
-slipbench report "$RESULTS" --format latex --standalone --out reports/tables.tex > /dev/null
+# written inside reports/ so that its figure links are relative to reports/README.md
+slipbench report "$RESULTS" --paper --intervals --plots reports/figures --out reports/.body.md > /dev/null
+slipbench report "$RESULTS" --format latex --standalone --paper --intervals --out reports/tables.tex > /dev/null
+slipbench report "$RESULTS" --format html --paper --intervals --out "$RESULTS/report.html" > /dev/null
 {
   cat <<'TEXT'
 # The paper reproduced, on simulated data
 
-**The data behind every number here is simulated.** The recordings of Van Wyk & Falco are not
-public; slipbench's default dataset is a physical simulation of their design of experiments
-(three sensor types, eight units, five materials, four slip speeds, pressing and free-space
-motion; see `datasets.md`). The simulation is not tuned to the paper's numbers, so agreement
-or disagreement with the published tables says how the *method* behaves on such data, not how
-these sensors behave.
+**The data behind every number here is simulated** (the first table says at what scale and
+seed): the recordings of Van Wyk & Falco are not public, and slipbench's default dataset is a
+physical simulation of their design of experiments (see `datasets.md`), not tuned to the
+paper's numbers. Agreement or disagreement with the published tables says how the *method*
+behaves on such data, not how these sensors behave. The LSTM runs with the epoch caps its
+parameters show below, not the paper's 100 epochs per stage.
 
-Each table shows our result with its 95 % interval (bootstrap over recordings), then the
-published table (the paper's LSTM) and the difference in accuracy points. Figures are in
-`figures/` (PNG and PDF); the same tables in LaTeX are in `tables.tex`.
-
-Regenerate everything with one command from the repository root:
-
-```bash
-reports/reproduce.sh
-```
+What follows: what the numbers stand on, the leaderboard of every built-in detector, how the
+paper's findings fare, then every table (with 95 % intervals, the published table and, for the
+LSTM, ours minus published) and figure. The same tables in LaTeX are in `tables.tex`; a
+self-contained HTML page of this report is written to the results folder (`report.html`).
+Regenerate everything with `reports/reproduce.sh` from the repository root.
 
 TEXT
-  echo "Dataset fingerprint(s): $(python -c "import pandas as pd, sys; print(', '.join(sorted(pd.read_parquet(sys.argv[1])['dataset_fingerprint'].unique())))" "$RESULTS/results.parquet"); slipbench $(python -c 'import slipbench; print(slipbench.__version__)')."
-  echo
-  cat "$RESULTS/tables.md"
-  echo
-  echo "## Figures"
-  for png in reports/figures/*.png; do echo; echo "![$(basename "$png" .png)](figures/$(basename "$png"))"; done
+  tail -n +2 reports/.body.md  # the report's own title gives way to the one above
 } > reports/README.md
-echo "wrote reports/README.md, reports/tables.tex and reports/figures/" >&2
+rm reports/.body.md
+echo "wrote reports/README.md, reports/tables.tex, reports/figures/ and $RESULTS/report.html" >&2

@@ -362,21 +362,25 @@ def spectral_cmd(sensors, instance, dataset_path, scale, out, seed, train_only, 
         click.echo(f"{name}: analysed in {took:.1f} s; wrote {out / name}.png, .pdf, .csv, .json")
 
 
-# -- report and compare
+# -- report, run and compare
 @cli.command()
 @click.argument("results", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--format", "fmt", type=click.Choice(["md", "latex"]), default="md", show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["md", "latex", "html"]), default="md", show_default=True,
+              help="html: one self-contained page, figures embedded.")
 @click.option("--metric", type=click.Choice(["accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc"]),
-              default="accuracy", show_default=True, help="The figure the protocol tables show.")
+              default="accuracy", show_default=True, help="The figure the protocol tables show and the leaderboard ranks.")
+@click.option("--leaderboard", "leaderboard_only", is_flag=True,
+              help="Only the header and the leaderboard: ranks, tests, mean figures.")
 @click.option("--intervals", is_flag=True, help="Show 95 % intervals: 88.0 [86.9, 89.1].")
 @click.option("--paper", is_flag=True, help="Show the paper's published tables and the differences beside ours.")
 @click.option("--standalone", is_flag=True, help="LaTeX: a whole document that compiles, not only the tables.")
-@click.option("--plots", "plots_dir", type=click.Path(path_type=Path), help="Also write figures (PNG and PDF) here.")
+@click.option("--plots", "plots_dir", type=click.Path(path_type=Path), help="Also write figures (PNG and PDF) here, linked from the report.")
 @click.option("--out", type=click.Path(path_type=Path), help="Write the report to this file instead of printing it.")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder whose protocols' layouts to use (repeatable).")
-def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out, plugins) -> None:
-    """Render RESULTS (results files or --out folders) in each protocol's layout (the paper's tables)."""
-    from .report import render_report
+def report(results, fmt, metric, leaderboard_only, intervals, paper, standalone, plots_dir, out, plugins) -> None:
+    """Render RESULTS (results files or --out folders): what they stand on, the leaderboard,
+    then each protocol in its own layout (the paper's tables)."""
+    from .report import build_report, render, write_figures
     from .results import check_unique_keys, read_results
 
     import pandas as pd
@@ -384,18 +388,42 @@ def report(results, fmt, metric, intervals, paper, standalone, plots_dir, out, p
     _plugins(plugins)
     rows = check_unique_keys(pd.concat([read_results(p) for p in results], ignore_index=True),
                              " + ".join(map(str, results)))
-    text = render_report(rows, fmt, metric, intervals, paper, standalone)
+    blocks = build_report(rows, metric, intervals, paper, leaderboard_only, with_figures=fmt == "html" or plots_dir is not None)
+    files = write_figures(blocks, plots_dir) if plots_dir else {}
+    text = render(blocks, fmt, standalone, files, link_from=out.parent if out else None)
     if out:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text)
         click.echo(f"wrote {out}")
     else:
         click.echo(text, nl=False)
-    if plots_dir:
-        from .plots import write_plots
+    for path in (p for paths in files.values() for p in paths):
+        click.echo(f"wrote {path}", err=not out)
 
-        for path in write_plots(rows, plots_dir, paper=paper):
-            click.echo(f"wrote {path}")
+
+@cli.command("run")
+@click.argument("bench_file", type=click.Path(path_type=Path))
+@click.option("--out", type=click.Path(path_type=Path), help="Results folder [default: the file's benchmark.out].")
+@click.option("--jobs", type=click.IntRange(0), default=None, help="Local worker processes [default: the file's run.jobs].")
+@click.option("--force", is_flag=True, help="Recompute cells already in the results folder.")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def run_command(bench_file, out, jobs, force, quiet) -> None:
+    """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
+    options, split, seeds; write its results, its reports and a copy of the file."""
+    from .benchfile import load_benchmark, run_benchmark
+    from .results import cells_failed
+
+    bench = load_benchmark(bench_file)
+    rows, paths = run_benchmark(bench, out, jobs, force, progress=not quiet, echo=click.echo)
+    folder = out or bench.out
+    counts = rows["status"].value_counts()
+    click.echo(f"{len(rows)} cells: " + ", ".join(f"{int(counts.get(s, 0))} {s}" for s in ("ok", "skipped", "failed", "timeout"))
+               + f"; results in {folder / 'results.parquet'}")
+    for path in paths:
+        click.echo(f"wrote {path}")
+    failed = cells_failed(rows, str(folder))
+    if failed:
+        raise failed
 
 
 @cli.command("compare")

@@ -1,21 +1,55 @@
-"""Result rows -> whole reports: every table the rows allow, each protocol's in its own layout,
-optionally beside the paper's numbers. Reads only result rows and the protocols' layouts.
+"""Result rows -> whole reports (Markdown, LaTeX, HTML). Reads only result rows and the
+protocols' layouts.
+
+Every report has the same outline:
+
+1. what it stands on (:mod:`slipbench.provenance`): data source, fingerprint, split, labels,
+   seeds, detectors with parameters, cells, the smallest test set;
+2. the leaderboard (:mod:`slipbench.leaderboard`) and its critical-difference diagram;
+   with ``paper``, how the paper's findings fare (:mod:`slipbench.findings`);
+3. what fitting chose, and its warnings;
+4. per protocol, in the paper's order: every detector side by side (with the figure that
+   overlays them), then each detector's tables in the protocol's own layout and its figure;
+   with ``paper``, the published table once and, for the paper's model, ours minus published;
+5. the paper's extra tables at window 50 (baseline, TP/TN rates).
+
+``leaderboard_only`` stops after 2.
 """
 
 from __future__ import annotations
 
+import base64
 import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
 
 import pandas as pd
 
 from .errors import SlipbenchError
+from .leaderboard import leaderboard, leaderboard_tables
 from .paper import paper_frame, table_order
 from .protocol import Layout
-from .render import standalone_latex, to_latex, to_markdown
-from .tables import Table, baseline_table, build_table, fits, generic_layout, metrics_table, rank, rates_table
+from .provenance import fitted_tables, header_tables
+from .render import standalone_latex, to_html, to_latex, to_markdown
+from .tables import (Table, baseline_table, build_table, escape, fits, generic_layout, metrics_table, rank, rates_table,
+                     side_by_side)
 
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
 SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
+PAPER_DETECTOR = "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
+FORMATS = ("md", "latex", "html")
+
+
+@dataclass
+class Heading:
+    text: str
+    level: int = 2
+
+
+@dataclass
+class Text:
+    text: str
 
 
 def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
@@ -48,15 +82,20 @@ def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
         paper_order.index(found[p][0].paper_table) if found[p][0].paper_table in paper_order else len(paper_order), p))
 
 
+def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """(split, rows) per split of the rows (paper, grouped, ...), the paper's first."""
+    if "split" not in rows:
+        return [("paper", rows)]
+    return [(s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("paper", "grouped"))]
+
+
 def _sections(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> list[tuple[str, str, str, pd.DataFrame]]:
     """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
     out = []
     for protocol in protocol_order(found):
         prows = rows[rows["protocol"] == protocol]
         for detector in rank(prows["detector"].unique(), DETECTOR_ORDER):
-            drows = prows[prows["detector"] == detector]
-            for split in rank(drows["split"].unique() if "split" in drows else ["paper"], ("paper", "grouped")):
-                out.append((protocol, detector, split, drows[drows["split"] == split] if "split" in drows else drows))
+            out += [(protocol, detector, split, part) for split, part in _splits(prows[prows["detector"] == detector])]
     return out
 
 
@@ -74,31 +113,35 @@ def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataF
     return parts
 
 
+def _which(which: dict) -> str:
+    return "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
+
+
 def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, metric: str = "accuracy",
-                    intervals: bool = False, paper: bool = False) -> list[tuple[str, Table]]:
+                    intervals: bool = False, paper: bool = False, split: str = "") -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
-    decimation), each followed, with ``paper``, by the published table and the difference."""
-    ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
+    decimation), captions naming the detector and protocol. With ``paper``, the paper's model
+    (PAPER_DETECTOR) gets ours minus published after each; the published table itself is
+    :func:`published_table`, shown once per protocol."""
+    ref = paper_frame(layout.paper_table) if paper and layout.paper_table and detector == PAPER_DETECTOR else None
+    named = f"Detector {detector}, protocol {protocol}" + (f", {split} split" if split else "") + "."
     out = []
     for which, part in split_parts(rows, layout):
-        tag = "-".join([f"{protocol}-{detector}", *(str(v) for v in which.values())])
+        tag = "-".join([f"{protocol}-{detector}", *([split] if split and split != "paper" else []), *(str(v) for v in which.values())])
         suffix = f" ({', '.join(f'{c}: {v}' for c, v in which.items())})" if which else ""
         table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}")
-        table.caption += "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
+        table.caption += _which(which)
+        table.subject = named
         out.append((f"{detector}{suffix}", table))
         if layout.metrics and "stream_s" in part:
             table.notes.append(_stream_note(part))
         if layout.metrics and any(f"op_{m}" in part for m in layout.metrics):
             out.append((f"{detector}{suffix}, operating point", _operating_point(part, layout, intervals, f"tab:{tag}-op")))
         if ref is not None and len(ref) and metric == "accuracy":
-            cap = "Published (Van Wyk & Falco, LSTM): " + layout.caption[0].lower() + layout.caption[1:]
-            pt = build_table(part, layout, metric, values="paper", paper=ref, label_=f"tab:{tag}-paper")
-            pt.caption = cap
-            if layout.paper_table == "sampling-rate":
-                pt.notes.append("The full-rate column is Table I at window 200, the same setting.")
             dt = build_table(part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference")
-            dt.caption = f"Ours ({detector}) minus published (LSTM)."
-            out += [(f"paper{suffix}", pt), (f"{detector} - paper{suffix}", dt)]
+            dt.caption = f"Ours minus published, {detector} against the paper's LSTM.{_which(which)}"
+            dt.subject = named
+            out.append((f"{detector} - paper{suffix}", dt))
     return out
 
 
@@ -124,22 +167,85 @@ def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_
     return table
 
 
-def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy", intervals: bool = False,
-                  paper: bool = False, standalone: bool = False,
-                  found: dict[str, tuple[Layout, str]] | None = None) -> str:
-    """Every table the rows allow, in the paper's order, as one Markdown or LaTeX text.
+def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table | None:
+    """The published table (the paper's LSTM) laid out on the cells of ``rows``, or None where
+    the layout names no paper table."""
+    ref = paper_frame(layout.paper_table) if layout.paper_table else None
+    if ref is None or not len(ref):
+        return None
+    part = split_parts(rows, layout)[0][1]
+    table = build_table(part, layout, values="paper", paper=ref, label_=f"tab:{protocol}-paper")
+    table.caption = f"Published (Van Wyk & Falco, their LSTM): {layout.caption[0].lower()}{layout.caption[1:]}"
+    if layout.column_label:
+        table.notes.append("The full-rate column is Table I at window 200, the same setting.")
+    return table
 
-    ``found``: each protocol's layout and fallback note (default: :func:`layouts`)."""
+
+def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: str, metric: str, intervals: bool,
+                     paper: bool, figures: dict[str, list]) -> list:
+    prows = rows[rows["protocol"] == protocol]
+    blocks: list = [Heading(protocol, 2)]
+    if note:
+        blocks.append(Text(note))
+    detectors = rank(prows["detector"].unique(), DETECTOR_ORDER)
+    if len(detectors) > 1:
+        blocks.append(Heading(f"{protocol}: every detector", 3))
+        for split, srows in _splits(prows):
+            for which, part in split_parts(srows, layout):
+                tag = "-".join([protocol, "detectors", *([split] if split != "paper" else []), *(str(v) for v in which.values())])
+                table = side_by_side(part, layout, [d for d in detectors if d in set(part["detector"])], metric,
+                                     label_=f"tab:{tag}")
+                if table is not None:
+                    table.caption += _which(which)
+                    table.subject = f"Protocol {protocol}, {split} split."
+                    blocks.append(table)
+        blocks += [f for f in figures.get(protocol, []) if f.detector is None]
+    if paper:
+        published = published_table(prows, layout, protocol)
+        if published is not None:
+            blocks += [Heading(f"{protocol}: published", 3), published]
+    for split, srows in _splits(prows):
+        for detector in detectors:
+            drows = srows[srows["detector"] == detector]
+            if drows.empty:
+                continue
+            blocks.append(Heading(f"{protocol}: {detector} ({split} split)", 3))
+            blocks += [t for _, t in protocol_tables(drows, layout, protocol, detector, metric, intervals, paper, split)]
+            blocks += [f for f in figures.get(protocol, []) if f.detector == detector and f.split == split]
+    return blocks
+
+
+def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool = False, paper: bool = False,
+                 leaderboard_only: bool = False, found: dict[str, tuple[Layout, str]] | None = None,
+                 with_figures: bool = False, benchmark: str = "") -> list:
+    """The report as blocks (:class:`Heading`, :class:`Text`, tables, and, with
+    ``with_figures``, :class:`~slipbench.plots.FigureSpec`), in the module's outline.
+    ``benchmark``: the benchmark file the rows come from, named in the header."""
     found = layouts(rows) if found is None else found
-    render = to_markdown if fmt == "md" else to_latex
-    blocks: list[str] = []
-    for protocol, detector, split, part in _sections(rows, found):
+    order = protocol_order(found)
+    board = leaderboard(rows, metric, protocols=order)
+    figures: dict[str | None, list] = {}
+    if with_figures:
+        from .plots import figure_specs
+
+        for spec in figure_specs(rows, paper, board, found):
+            figures.setdefault(spec.section, []).append(spec)
+    blocks: list = [Heading("slipbench report", 1), Heading("What this report stands on", 2), *header_tables(rows, metric, order, benchmark),
+                    Heading("Leaderboard", 2), *leaderboard_tables(board), *figures.get(None, [])]
+    if leaderboard_only:
+        return blocks
+    if paper:
+        from .findings import findings_table
+
+        findings = findings_table(rows, found, order)
+        if findings is not None:
+            blocks += [Heading("The paper's findings, ours beside them", 2), findings]
+    fitted = fitted_tables(rows)
+    if fitted:
+        blocks += [Heading("What fitting chose", 2), *fitted]
+    for protocol in order:
         layout, note = found[protocol]
-        tables = protocol_tables(part, layout, protocol, detector, metric, intervals, paper)
-        if note:
-            tables[0][1].notes.append(note)
-        blocks.append(f"## {protocol}: {detector} (split {split})" if fmt == "md" else f"% {protocol}: {detector} (split {split})")
-        blocks += [render(t) for _, t in tables]
+        blocks += _protocol_blocks(rows, protocol, layout, note, metric, intervals, paper, figures)
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in rows:
         one = rows[rows["protocol"].isin(table_one)]
@@ -147,10 +253,121 @@ def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy",
         extra += [rates_table(one, d, intervals, paper) for d in rank(one["detector"].unique(), DETECTOR_ORDER)]
         extra = [t for t in extra if t is not None]
         if extra:
-            blocks.append("## At window 50: baseline and TP/TN rates" if fmt == "md" else "% at window 50")
-            blocks += [render(t) for t in extra]
-    text = "\n\n".join(blocks) + "\n"
-    return standalone_latex(text) if fmt == "latex" and standalone else text
+            blocks += [Heading("At window 50: baseline and TP/TN rates", 2), *extra]
+    return blocks
+
+
+# ----------------------------------------------------------------------------- rendering
+def write_figures(blocks: list, folder: str | os.PathLike) -> dict[str, list[Path]]:
+    """Draw every figure of ``blocks`` into ``folder`` (PNG and PDF); stem -> paths."""
+    from .plots import FigureSpec, save
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for block in blocks:
+        if isinstance(block, FigureSpec):
+            fig = block.draw()
+            if fig is not None:
+                out[block.stem] = save(fig, folder, block.stem)
+    return out
+
+
+def _png(block, files: dict[str, list[Path]]) -> bytes | None:
+    """The figure as PNG bytes: from its file where drawn already, else drawn now."""
+    from io import BytesIO
+
+    from .plots import DPI
+
+    for path in files.get(block.stem, []):
+        if path.suffix == ".png":
+            return path.read_bytes()
+    fig = block.draw()
+    if fig is None:
+        return None
+    buffer = BytesIO()
+    fig.savefig(buffer, format="png", dpi=DPI)
+    return buffer.getvalue()
+
+
+def render(blocks: list, fmt: str = "md", standalone: bool = False, files: dict[str, list[Path]] | None = None,
+           link_from: str | os.PathLike | None = None) -> str:
+    """Blocks as one Markdown, LaTeX or HTML text.
+
+    ``files``: figures drawn already (stem -> paths, from :func:`write_figures`): Markdown links
+    them (relative to ``link_from``, the report's folder), LaTeX includes their PDF. HTML embeds
+    every figure as a base64 PNG, drawing those not drawn yet: one self-contained page.
+    """
+    from .plots import FigureSpec
+
+    files = files or {}
+    base = Path(link_from) if link_from is not None else Path.cwd()
+    if fmt == "html":
+        from .html import page
+
+        parts = []
+        for block in blocks:
+            if isinstance(block, FigureSpec):
+                png = _png(block, files)
+                if png is not None:
+                    parts.append(("figure", (block.stem, block.caption, base64.b64encode(png).decode("ascii"))))
+            else:
+                parts.append((type(block).__name__.lower(), block))
+        return page(parts)
+    out: list[str] = []
+    sections = 0
+    for block in blocks:
+        if isinstance(block, Heading):
+            if fmt == "md":
+                out.append("#" * block.level + " " + block.text)
+            elif not standalone:
+                out.append(f"% {block.text}")
+            elif block.level == 1:
+                out.append(rf"{{\LARGE\bfseries {escape(block.text)}\par}}")
+            elif block.level == 2:  # a section per page: its floats stay near its heading
+                out.append((r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}")
+                sections += 1
+            else:
+                out.append(rf"\subsection*{{{escape(block.text)}}}")
+        elif isinstance(block, Text):
+            out.append(block.text if fmt == "md" else escape(block.text) if standalone else f"% {block.text}")
+        elif isinstance(block, Table):
+            out.append(to_markdown(block) if fmt == "md" else to_latex(block))
+        elif isinstance(block, FigureSpec) and block.stem in files:
+            paths = {p.suffix: p for p in files[block.stem]}
+            if fmt == "md" and ".png" in paths:
+                out.append(f"![{block.caption}]({Path(os.path.relpath(paths['.png'], base)).as_posix()})\n\n_{block.caption}_")
+            elif fmt == "latex" and ".pdf" in paths:
+                out.append("\n".join([r"\begin{figure}[!htbp]", r"\centering",
+                                      rf"\includegraphics[width=\linewidth]{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
+                                      rf"\caption{{{escape(block.caption)}}}", r"\end{figure}"]))
+    text = "\n\n".join(out) + "\n"
+    if fmt == "latex" and standalone:
+        return standalone_latex(text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks))
+    return text
+
+
+def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy", intervals: bool = False,
+                  paper: bool = False, standalone: bool = False,
+                  found: dict[str, tuple[Layout, str]] | None = None, *, leaderboard_only: bool = False,
+                  plots_dir: str | os.PathLike | None = None, link_from: str | os.PathLike | None = None) -> str:
+    """Every table the rows allow, in the paper's order, after the report's header and the
+    leaderboard, as one Markdown, LaTeX or HTML text.
+
+    Parameters
+    ----------
+    found : each protocol's layout and fallback note (default: :func:`layouts`).
+    leaderboard_only : the header and the leaderboard only.
+    plots_dir : draw the figures here (PNG and PDF) and link them from Markdown and LaTeX.
+        HTML embeds its figures whether or not they are written.
+    link_from : the folder figure links are relative to (the report's own; default: cwd).
+    """
+    if fmt not in FORMATS:
+        raise SlipbenchError(f"unknown report format {fmt!r}; one of {', '.join(FORMATS)}")
+    blocks = build_report(rows, metric, intervals, paper, leaderboard_only, found,
+                          with_figures=fmt == "html" or plots_dir is not None)
+    files = write_figures(blocks, plots_dir) if plots_dir is not None else {}
+    return render(blocks, fmt, standalone, files, link_from)
 
 
 def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
@@ -162,3 +379,7 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     why = fits(layout, rows)
     tables = protocol_tables(rows, generic_layout(rows, protocol) if why else layout, protocol, detector, intervals=intervals)
     return "\n\n".join(to_markdown(t) for _, t in tables)
+
+
+__all__ = ["Heading", "Text", "build_report", "layouts", "protocol_order", "protocol_table",
+           "protocol_tables", "published_table", "render", "render_report", "split_parts", "write_figures"]

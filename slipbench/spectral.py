@@ -373,7 +373,7 @@ def plot(result: SpectralResult, title: str):
         ax.plot(t["freq_hz"], t[f"{cls}_mean"], color=color, linewidth=1, label=label)
     ax.set_yscale("log")  # amplitudes span decades between 0 Hz and Nyquist
     ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("amplitude")
+    ax.set_ylabel("amplitude of s_t (the channels' unit, e.g. N)")
     ax.set_xlim(0, t["freq_hz"].iloc[-1])
     if result.best_band:
         ax.axvspan(*result.best_band, color="0.85", zorder=0, label="most significant band")

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from .check import LOW_N
 from .paper import paper_frame
 from .protocol import Layout
 
@@ -30,6 +31,10 @@ METRIC_NAMES = {
     "balanced_accuracy": "Balanced Accuracy", "auroc": "AUROC",
 }
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
+LOW_MARK = "†"  # a cell resting on few test trials
+LOW_NOTE = (f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
+            f"else fewer than {LOW_N} in all): its interval is not to be trusted.")
+KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")  # how a cell's key reads
 
 
 ROW_HEADERS = {"sensor_type": "Sensor", "sensor_instance": "Finger", "train_instance": "Training Data"}
@@ -49,6 +54,15 @@ class Table:
     label: str
     latex_columns: list[str] | None = None  # LaTeX column labels where they differ from ``columns``
     notes: list[str] = field(default_factory=list)
+    # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
+    # each this fraction of the line width; text columns need it, numbers do not
+    wrap: dict[int, float] = field(default_factory=dict)
+    subject: str = ""  # what the table is of ("Detector holweg, protocol window-size, paper split."): after the caption
+
+    def __post_init__(self) -> None:
+        # every table that marks a cell says what the mark means, whoever built it
+        if any(LOW_MARK in c for line in self.cells for c in line) and LOW_NOTE not in self.notes:
+            self.notes.append(LOW_NOTE)
 
 
 # ----------------------------------------------------------------------------- ordering and labels
@@ -89,11 +103,19 @@ def label(column: str, value: Any) -> str:
     return str(value)
 
 
+LATEX_CHARS = {
+    "\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "_": r"\_", "#": r"\#", "{": r"\{", "}": r"\}",
+    "$": r"\$", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "±": r"$\pm$", "—": "--", "–": "--",
+    "−": "-", LOW_MARK: r"\dag{}", "χ": r"$\chi$", "²": r"$^2$", "α": r"$\alpha$", "≥": r"$\geq$",
+    "≤": r"$\leq$", "×": r"$\times$", "µ": r"$\mu$", "≈": r"$\approx$", "→": r"$\rightarrow$", "<": r"$<$",
+    ">": r"$>$",
+}
+
+
 def escape(text: str) -> str:
-    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"), ("#", r"\#"),
-                 ("±", r"$\pm$"), ("—", "--")):
-        text = text.replace(a, b)
-    return text
+    """Plain text as LaTeX (kernel commands only), one character at a time so that no
+    replacement is escaped again."""
+    return "".join(LATEX_CHARS.get(c, c) for c in text)
 
 
 def _as_printed(percent: float) -> str:
@@ -106,12 +128,24 @@ def _rate(value: float) -> str:
 
 
 # ----------------------------------------------------------------------------- figures per cell
+def low_n(rows: pd.DataFrame) -> pd.Series:
+    """(n_rows,) bool: rows whose cell rests on few test trials: the rows' own ``low_n`` where
+    they carry it, else ``n_test_trials < LOW_N`` (False where neither is known)."""
+    if "low_n" in rows:
+        return rows["low_n"].fillna(False).astype(bool)
+    if "n_test_trials" in rows:
+        return pd.to_numeric(rows["n_test_trials"], errors="coerce").lt(LOW_N)
+    return pd.Series(False, index=rows.index)
+
+
 def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
     """One line per combination of ``keys``: the mean of ``metric`` over seeds (``--repeats``),
-    its standard deviation across seeds, the number of seeds, the mean interval bounds, and a
-    status ("ok", or the status of the cell when no seed finished)."""
+    its standard deviation across seeds, the number of seeds, the mean interval bounds, a
+    status ("ok", or the status of the cell when no seed finished) and ``low_n`` (a finished
+    seed rests on few test trials)."""
     if metric not in rows.columns:
         rows = rows.assign(**{metric: np.nan})
+    rows = rows.assign(_low=low_n(rows))
     lo_col, hi_col = f"{metric}_lo", f"{metric}_hi"
     out = []
     for values, group in rows.groupby(keys, sort=False, dropna=False):
@@ -125,13 +159,15 @@ def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> 
             "lo": ok[lo_col].astype(float).mean() if lo_col in ok and len(ok) else np.nan,
             "hi": ok[hi_col].astype(float).mean() if hi_col in ok and len(ok) else np.nan,
             "status": "ok" if len(ok) else str(group["status"].iloc[0]),
+            "low_n": bool(ok["_low"].any()),
         })
-    return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status"])
+    return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status", "low_n"])
 
 
 def figure_text(mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
-                status: str = "ok", intervals: bool = False) -> str:
-    """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals; 'NA' if absent."""
+                status: str = "ok", intervals: bool = False, low: bool = False) -> str:
+    """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals; 'NA' if absent;
+    ``LOW_MARK`` appended where the cell rests on few test trials (``low``)."""
     if status != "ok":
         return status
     if pd.isna(mean):
@@ -141,7 +177,33 @@ def figure_text(mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan,
         text += f" ± {100 * sd:.1f}"
     if intervals and not (pd.isna(lo) or pd.isna(hi)):
         text += f" [{100 * lo:.1f}, {100 * hi:.1f}]"
-    return text
+    return text + (LOW_MARK if low else "")
+
+
+SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
+    "window": "window {}", "window_ms": "({} ms)", "rate_hz": "{} Hz", "downsample": "1/{}", "decimation": "{}",
+    "antialias": "antialiased", "speed_mm_s": "{} mm/s",
+}
+
+
+def cell_label(cell: str | dict) -> str:
+    """A cell key as a short label: "Nano17 Index window 50 (50 ms)" (sensor and unit first,
+    then the other keys); a transfer reads "Index → Middle"."""
+    key = json.loads(cell) if isinstance(cell, str) else dict(cell)
+    order = [*KEY_ORDER, *SHORT]
+    names = sorted(key, key=lambda k: order.index(k) if k in order else len(order))
+    parts = []
+    for k in names:
+        v = key[k]
+        if k == "test_instance" and "train_instance" in key:
+            parts[-1] += f" → {label(k, v)}"
+        elif (k == "downsample" and "rate_hz" in key) or (k == "antialias" and not v):
+            continue  # the rate says it; no filter is the default
+        elif k in SHORT:
+            parts.append(SHORT[k].format(f"{v:g}" if isinstance(v, float) else v))
+        else:
+            parts.append(label(k, v))
+    return " ".join(parts)
 
 
 def _key_columns(rows: pd.DataFrame) -> list[str]:
@@ -241,7 +303,7 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
             if key not in ref or r["status"] != "ok" or pd.isna(r["mean"]):
                 return "—"
             return f"{100 * (r['mean'] - ref[key]):+.1f}"
-        return figure_text(r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], intervals)
+        return figure_text(r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], intervals, r["low_n"])
 
     cells = []
     for rk in row_keys:
@@ -263,7 +325,7 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     unit = " (%)" if metric != "auroc" else " (%, 50 = chance)"
     group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
     if values == "difference":
-        group = f"Difference, ours - paper (points), {METRIC_NAMES.get(metric, metric)} {layout.group}".strip()
+        group = f"Ours - paper (points) {layout.group}".strip()
     if (summary["n"] > 1).any() and values == "ours":
         notes.append("Mean ± standard deviation across seeds.")
     if intervals and values == "ours":
@@ -286,7 +348,8 @@ def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], int
             key = key if isinstance(key, tuple) else (key,)
             half = np.sqrt((((g["hi"] - g["lo"]) / 2) ** 2).sum()) / len(g)
             mean = g["mean"].mean()
-            out.setdefault(key, []).append(figure_text(mean, lo=mean - half, hi=mean + half, intervals=intervals))
+            out.setdefault(key, []).append(figure_text(mean, lo=mean - half, hi=mean + half, intervals=intervals,
+                                                       low=bool(g["low_n"].any())))
     return out
 
 
@@ -392,3 +455,34 @@ def metrics_table(rows: pd.DataFrame, layout: Layout, metrics: Sequence[str], in
         notes.append("[95 % interval: bootstrap over test trials; mean of the seeds' bounds with repeats].")
     columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
     return Table(layout.caption, headers, group or layout.group, columns, row_labels, cells, label_, notes=notes)
+
+
+def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], metric: str = "accuracy",
+                 label_: str = "") -> Table | None:
+    """Every detector of one protocol's table in one table: a row per detector, the layout's
+    value columns (and pair), each figure the mean over the layout's row keys (sensor units)
+    of each unit's figure (mean over seeds). None with fewer than two detectors."""
+    if len(detectors) < 2:
+        return None
+    keys = [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
+    per = summarize(rows, ["detector", *keys], metric)
+    per = per[per["status"] == "ok"]
+    by = ["detector", layout.column] + ([layout.pair] if layout.pair else [])
+    avg = per.groupby(by, dropna=False).agg(mean=("mean", "mean"), units=("mean", "size"), low=("low_n", "any"))
+    found = {k if isinstance(k, tuple) else (k,): r for k, r in avg.iterrows()}
+    columns = ordered(rows[layout.column].dropna().unique(), layout.column)
+
+    def one(key: tuple) -> str:
+        r = found.get(key)
+        return "NA" if r is None else figure_text(r["mean"], low=bool(r["low"]))
+
+    cells = [[f"{one((d, c, 'with'))} {one((d, c, 'without'))}*" if layout.pair else one((d, c)) for c in columns]
+             for d in detectors]
+    plain, latex, notes = _column_labels(layout, rows, columns)
+    units = avg["units"]
+    notes.append(f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
+                 f"unit's figure; {int(units.min())} units per figure" + (f" or up to {int(units.max())}" if units.max() != units.min() else "")
+                 + " (units a detector did not finish are left out).")
+    group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
+    caption = f"{layout.title or 'Protocol'}: every detector side by side."
+    return Table(caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes)

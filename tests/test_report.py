@@ -1,4 +1,5 @@
-"""Report layouts pinned by golden files; LaTeX that compiles; the paper's numbers; plots.
+"""Report layouts pinned by golden files; LaTeX that compiles within the text width; the
+paper's numbers; honest headers and marks; plots.
 
 Regenerate the golden files after an intended layout change with
 ``SLIPBENCH_UPDATE_GOLDEN=1 pytest -q tests/test_report.py`` and review the diff.
@@ -6,12 +7,14 @@ Regenerate the golden files after an intended layout change with
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shutil
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from resultgen import all_rows, fake_rows
@@ -20,6 +23,7 @@ from slipbench.cli import main
 from slipbench.paper import paper_frame
 from slipbench.registry import protocols
 from slipbench.report import protocol_table, render_report
+from slipbench.tables import LOW_NOTE
 
 GOLDEN = Path(__file__).parent / "golden"
 
@@ -52,14 +56,24 @@ def test_latex_structure():
     assert "_" not in re.sub(r"\\_|\\label\{[^}]*\}", "", text.split(r"\begin{document}")[1])
 
 
-@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no LaTeX engine installed")
-def test_latex_compiles(tmp_path):
+def _overfull(tmp_path, text: str) -> list[float]:
+    """Compile ``text`` with pdflatex; the widths (pt) of its overfull boxes."""
     tex = tmp_path / "report.tex"
-    tex.write_text(render_report(all_rows(), "latex", paper=True, intervals=True, standalone=True))
+    tex.write_text(text)
     done = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", tex.name],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+                          cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-2000:]
     assert (tmp_path / "report.pdf").stat().st_size > 0
+    log = (tmp_path / "report.log").read_text(errors="replace")
+    return [float(w) for w in re.findall(r"Overfull \\[hv]box \(([\d.]+)pt too", log)]
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no LaTeX engine installed")
+def test_latex_compiles_within_the_text_width(tmp_path):
+    rows = pd.concat([all_rows(), fake_rows("material-holdout", "holweg"), fake_rows("sampling-rate", "holweg"),
+                      fake_rows("cross-instance", "bandpass")], ignore_index=True)
+    widths = _overfull(tmp_path, render_report(rows, "latex", paper=True, intervals=True, standalone=True))
+    assert max(widths, default=0) <= 10, f"overfull boxes of {widths} pt"
 
 
 def test_repeats_show_mean_and_spread():
@@ -101,8 +115,12 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
         raise SystemExit(0)
     assert (exit_.value.code or 0) == 0
     text = (tmp_path / "report.md").read_text()
-    assert "Published (Van Wyk & Falco, LSTM)" in text and "holweg (paper)" in text
+    assert "Published (Van Wyk & Falco, their LSTM)" in text and "holweg (paper)" in text
+    assert "Ours minus published" not in text  # holweg is not the paper's model
+    assert "| Data | simulated (slipbench.synth model v2, scale 0.02, seed 1;" in re.sub(r" +", " ", text)
+    assert "Smallest test set" in text
     assert {p.name for p in (tmp_path / "fig").iterdir()} == {"window-size-holweg.png", "window-size-holweg.pdf"}
+    assert "![window-size, holweg (paper split).](fig/window-size-holweg.png)" in text
     with pytest.raises(SystemExit) as exit_:
         main(["report", str(tmp_path / "nothing")])
     assert exit_.value.code == 2
@@ -113,6 +131,104 @@ def test_plots_for_every_protocol(tmp_path):
 
     paths = write_plots(all_rows(), tmp_path)
     stems = {p.stem for p in paths}
-    assert stems == {"window-size-lstm", "window-size-holweg", "sampling-rate-lstm", "material-holdout-lstm",
-                     "speed-holdout-lstm", "cross-instance-lstm"}
+    assert stems == {"window-size-lstm", "window-size-holweg", "window-size-detectors", "sampling-rate-lstm",
+                     "material-holdout-lstm", "speed-holdout-lstm", "cross-instance-lstm"}
     assert all(p.stat().st_size > 1000 for p in paths)
+
+
+def test_figures_fit_a_column_with_one_legend_and_units():
+    from slipbench.plots import figure_specs
+
+    for spec in figure_specs(all_rows(), paper=True):
+        fig = spec.draw()
+        assert fig.get_size_inches()[0] == pytest.approx(3.5), spec.stem
+        assert len(fig.legends) <= 1 and not any(ax.get_legend() for ax in fig.axes), spec.stem
+        for ax in fig.axes:
+            if ax.get_images() or ax.lines:  # a panel (colour bars hold no image or line)
+                labels = [ax.get_ylabel(), *(a.get_xlabel() for a in fig.axes)]
+                assert any(labels), spec.stem
+        ylabels = {ax.get_ylabel() for ax in fig.axes if ax.lines}
+        assert ylabels <= {"accuracy (%)"}, (spec.stem, ylabels)
+        xlabels = {ax.get_xlabel() for ax in fig.axes} - {""}
+        assert xlabels and all("(" in x or x in ("material", "tested on") for x in xlabels), (spec.stem, xlabels)
+
+
+def test_colour_scale_shows_its_true_range():
+    from slipbench.plots import accuracy_range, figure_specs
+
+    assert accuracy_range(np.array([[62.0, 91.0]])) == (50.0, 100.0)  # chance stays on the scale
+    assert accuracy_range(np.array([[31.2, np.nan, 70.0]])) == (30.0, 100.0)  # nothing below 50 clamps
+    rows = fake_rows("material-holdout")
+    rows.loc[rows.index[0], "accuracy"] = 0.312
+    (spec,) = [s for s in figure_specs(rows, paper=False) if s.stem == "material-holdout-lstm"]
+    fig = spec.draw()
+    images = [im for ax in fig.axes for im in ax.get_images()]
+    assert len(images) == 3  # with, without, with minus without
+    assert images[0].get_clim() == (30.0, 100.0) and images[1].get_clim() == (30.0, 100.0)
+    low, high = images[2].get_clim()
+    assert -low == high > 0  # the difference panel centred on 0
+
+
+def test_captions_name_detector_and_protocol():
+    text = render_report(all_rows(), "latex")
+    captions = re.findall(r"\\caption\{(.*?)\}\n", text)
+    window = [c for c in captions if c.startswith("Slip state classification at various window sizes")]
+    assert len(window) == 2 and len(set(window)) == 2  # holweg's and lstm's no longer identical
+    assert any("Detector holweg, protocol window-size" in c for c in window)
+
+
+def test_few_test_trials_are_marked_in_every_table():
+    rows = fake_rows("window-size", "holweg").assign(n_test_trials=40)
+    rows.loc[rows["window"] == 5, "n_test_trials"] = 6
+    text = render_report(rows, "md")
+    body = text.split("\n## window-size\n")[1]
+    assert body.count("†") >= 8 and LOW_NOTE in body  # the eight units at window 5, and the footnote
+    assert "| Few test trials (†) | 8 finished cells (marked in every table)" in text.replace("  ", " ").replace("  ", " ") \
+        or "8 finished cells (marked in every table)" in text
+    flagged = rows.assign(low_n=False)  # the rows' own flag wins over the trial count
+    assert "†" not in render_report(flagged, "md").split("\n## window-size\n")[1]
+
+
+def test_header_says_where_the_data_come_from(tmp_path):
+    from slipbench.provenance import dataset_source
+
+    folder = tmp_path / "synth-v2-scale0.05-seed3"
+    assert dataset_source(str(folder)).startswith("simulated (slipbench.synth model v2, scale 0.05, seed 3")
+    assert "not readable here" in dataset_source(str(folder))
+    assert dataset_source("") == "a dataset built in memory (no path recorded)"
+    real = tmp_path / "lab"
+    real.mkdir()
+    pd.DataFrame({"source": ["lab A, 2026", None]}).to_parquet(real / "recordings.parquet")
+    assert dataset_source(str(real)) == f"recorded: source lab A, 2026 (at {real})"
+    assert "not readable here" in dataset_source(str(tmp_path / "gone"))
+
+
+def test_fitted_choices_and_warnings_are_shown():
+    rows = fake_rows("window-size", "holweg")
+    rows["fitted"] = ['{"band_hz": [0, 80], "threshold": 0.5}'] * 4 + ['{"band_hz": [40, 100], "threshold": 0.25}'] * (len(rows) - 4)
+    rows["warnings"] = ["the fitted band 0-80 Hz starts at 0 Hz: it thresholds drift, not vibration"] * 4 + [""] * (len(rows) - 4)
+    text = render_report(rows, "md")
+    assert "**What fitting chose: holweg.**" in text and "40–100 (2)" in text
+    assert "**Warnings about fitted choices (4 of 48 finished cells).**" in text and "starts at 0 Hz" in text
+
+
+def test_findings_of_the_paper_reproduce_on_its_own_numbers():
+    """Rows that hold the published numbers give, for each finding, the paper's own value."""
+    from slipbench.findings import findings_table
+    from slipbench.report import layouts, protocol_order
+
+    parts = []
+    for protocol in ("window-size", "sampling-rate", "material-holdout", "speed-holdout", "cross-instance"):
+        ref = paper_frame(protocol)
+        keys = [c for c in ref.columns if c not in ("accuracy", "tp_rate", "tn_rate")]
+        rows = ref.assign(protocol=protocol, detector="lstm", split="paper", seed=0, status="ok", decimation="plain",
+                          antialias=False, protocol_params="{}",
+                          cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")])
+        parts.append(rows)
+    rows = pd.concat(parts, ignore_index=True)
+    found = layouts(rows)
+    table = findings_table(rows, found, protocol_order(found))
+    assert len(table.rows) == 3 + 3 + 2 + 2 + 1
+    for (protocol, finding), (paper, ours) in zip(table.rows, table.cells):
+        assert paper == ours, (protocol, finding)
+    assert table.cells[7][0] == "Neoprene (-9.1)"  # the paper's material finding: neoprene needs its own data
