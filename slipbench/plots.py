@@ -269,7 +269,8 @@ def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     return fig
 
 
-def tradeoff(rows: pd.DataFrame, title: str):
+@_styled
+def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
     """Median delay (ms) against false alarms per minute, from the streaming rows' sweeps: one
     panel per sensor type, a colour per detector, a line style per unit; each row's own
     threshold a dot, its operating point a cross. None when no row holds a sweep."""
@@ -279,8 +280,9 @@ def tradeoff(rows: pd.DataFrame, title: str):
     rows = rows[rows["tradeoff"].notna()]
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
-    fig, axes = plt.subplots(1, len(sensors), figsize=(4.2 * len(sensors), 3.6), sharey=True, squeeze=False)
-    for ax, sensor in zip(axes[0], sensors):
+    fig = _figure(1.2 + 1.9 * len(sensors))
+    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]
+    for ax, sensor in zip(axes, sensors):
         part = rows[rows["sensor_type"] == sensor]
         units = ordered(part["sensor_instance"].unique(), "sensor_instance")
         for d, detector in enumerate(detectors):
@@ -295,10 +297,11 @@ def tradeoff(rows: pd.DataFrame, title: str):
                         ax.plot(row["op_false_alarms_per_min"], row["op_median_delay_ms"], "x", color=f"C{d}", ms=5)
         ax.set_xscale("symlog", linthresh=1.0)  # 0 false alarms is a result worth seeing
         ax.set_xlabel("false alarms per minute")
+        ax.set_ylabel("median delay (ms)")
         ax.set_title(label("sensor_type", sensor))
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=6)
-    axes[0][0].set_ylabel("median delay (ms)")
+    handles, names = axes[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize=5.5)  # once per figure
     fig.suptitle(title)
     return fig
 
