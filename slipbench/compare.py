@@ -60,7 +60,7 @@ from scipy.stats import t as student_t
 
 from .errors import DataError, UsageError
 from .metrics import FIGURES, LEVEL, paired_comparison
-from .report import layouts, protocol_order
+from .sections import layouts, protocol_order
 from .tables import ORDERS
 from .results import check_unique_keys, read_results
 

@@ -76,7 +76,7 @@ def _matrix(rows: pd.DataFrame, layout: Layout, values: str) -> float:
 
 
 def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
-    from .report import split_parts
+    from .sections import split_parts
 
     parts = split_parts(rows, layout)
     return parts[0][1] if parts else rows  # no rows (a detector that did not run the protocol): none
@@ -84,7 +84,7 @@ def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
 
 def findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> Table | None:
     """One line per finding: the paper's value (its LSTM) and each detector's, in points."""
-    from .report import DETECTOR_ORDER
+    from .sections import DETECTOR_ORDER
 
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     lines: list[tuple[str, str, list[str]]] = []

@@ -37,6 +37,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from .leaderboard import ALL, Leaderboard  # noqa: E402
 from .paper import paper_frame  # noqa: E402
 from .protocol import Layout  # noqa: E402
+from .sections import SPLIT_ORDER  # noqa: E402
 from .tables import label, ordered, rank, summarize  # noqa: E402
 
 FORMATS = ("png", "pdf")
@@ -44,7 +45,6 @@ WIDTH = 3.5  # inches: one column of a two-column paper
 DPI = 200
 STYLE = {"font.size": 7, "axes.titlesize": 7, "axes.labelsize": 7, "xtick.labelsize": 6.5, "ytick.labelsize": 6.5,
          "legend.fontsize": 6.5, "figure.titlesize": 7.5, "lines.linewidth": 1.1, "lines.markersize": 3}
-SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
 CHANCE = 50.0
 AXIS_LABELS = {  # a key column's axis label with its unit, where the layout gives none
     "window": "window (samples)", "window_ms": "window (ms)", "rate_hz": "sampling rate (Hz)",
@@ -383,7 +383,7 @@ def figure_specs(rows: pd.DataFrame, paper: bool = True, board: Leaderboard | No
 
     Stems: ``leaderboard``, ``<protocol>-detectors[-<split>][-<values>]``,
     ``<protocol>-<detector>[-<split>][-<values>]`` (split omitted for the paper's)."""
-    from .report import _sections, layouts, protocol_order, split_parts
+    from .sections import _sections, layouts, protocol_order, split_parts
 
     found = layouts(rows) if found is None else found
     specs = []

@@ -19,7 +19,6 @@ Every report has the same outline:
 from __future__ import annotations
 
 import base64
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,15 +27,14 @@ import pandas as pd
 
 from .errors import SlipbenchError
 from .leaderboard import leaderboard, leaderboard_tables
-from .paper import paper_frame, table_order
+from .paper import paper_frame
 from .protocol import Layout
 from .provenance import fitted_tables, header_tables
 from .render import standalone_latex, to_html, to_latex, to_markdown
+from .sections import DETECTOR_ORDER, SPLIT_ORDER, _sections, _splits, layouts, protocol_order, split_parts
 from .tables import (Table, baseline_table, build_table, escape, fits, generic_layout, metrics_table, rank, rates_table,
                      side_by_side)
 
-DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
-SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
 PAPER_DETECTOR = "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 FORMATS = ("md", "latex", "html")
 
@@ -50,67 +48,6 @@ class Heading:
 @dataclass
 class Text:
     text: str
-
-
-def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
-    """Each protocol's layout, from its class in the registry (built-in, entry point or plugin
-    folder) made with the options its rows ran with, and a note when it fell back to a layout
-    from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows)."""
-    from .registry import protocols
-
-    out = {}
-    for name in rows["protocol"].unique():
-        part = rows[rows["protocol"] == name]
-        try:
-            cls = protocols.get(name)
-            params = json.loads(part["protocol_params"].iloc[0]) if "protocol_params" in part else {}
-            layout, why = cls(**params).layout, ""
-            why = fits(layout, part)
-        except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError) as exc:
-            layout, why = None, f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins"
-        if why:
-            out[name] = (generic_layout(part, name), f"Laid out from its cell keys: {why}.")
-        else:
-            out[name] = (layout, "")
-    return out
-
-
-def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
-    """Protocols laid out as the paper's tables first, in the paper's order, then the others."""
-    paper_order = table_order()
-    return sorted(found, key=lambda p: (
-        paper_order.index(found[p][0].paper_table) if found[p][0].paper_table in paper_order else len(paper_order), p))
-
-
-def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
-    """(split, rows) per split of the rows (paper, grouped, ...), the paper's first."""
-    if "split" not in rows:
-        return [("paper", rows)]
-    return [(s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("paper", "grouped"))]
-
-
-def _sections(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> list[tuple[str, str, str, pd.DataFrame]]:
-    """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
-    out = []
-    for protocol in protocol_order(found):
-        prows = rows[rows["protocol"] == protocol]
-        for detector in rank(prows["detector"].unique(), DETECTOR_ORDER):
-            out += [(protocol, detector, split, part) for split, part in _splits(prows[prows["detector"] == detector])]
-    return out
-
-
-def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataFrame]]:
-    """The rows of each table: one part per combination of the layout's ``split`` columns
-    (those the rows hold), named by its values; the rows whole when there are none."""
-    splits = [c for c in layout.splits if c in rows]
-    if not splits:
-        return [({}, rows)]
-    parts = [(dict(zip(splits, k if isinstance(k, tuple) else (k,))), part)
-             for k, part in rows.groupby(splits if len(splits) > 1 else splits[0], sort=False, dropna=False)]
-    for c in reversed(splits):  # stable sorts, last column first: lexicographic order
-        order = rank([w[c] for w, _ in parts], SPLIT_ORDER)
-        parts.sort(key=lambda p: order.index(p[0][c]))
-    return parts
 
 
 def _which(which: dict) -> str:

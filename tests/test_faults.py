@@ -97,12 +97,13 @@ def test_bad_options_are_refused_before_any_work(args, words, tmp_path, cli):
     assert not (tmp_path / "o").exists()  # nothing started, nothing written
 
 
-def _slipbench(args: list[str]) -> int:
+def _slipbench(args: list[str], cwd) -> int:
+    """A command in a new process, run outside the source tree (so `slipbench` is the installed one)."""
     import subprocess
     import sys
 
     code = "import sys; from slipbench.cli import main; main(sys.argv[1:])"
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True).returncode
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd).returncode
 
 
 def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, tmp_path):
@@ -112,10 +113,10 @@ def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, 
     (folder / "energy.py").write_text(source)
     args = ["evaluate", "--detector", "energy", "--protocol", "window-size", "--dataset", str(one_unit),
             "--plugins", str(folder), "--out", str(tmp_path / "out"), "--quiet", "--protocol-param", "windows=[25,50]"]
-    assert _slipbench(args) == 0
+    assert _slipbench(args, tmp_path) == 0
     first = pd.read_parquet(tmp_path / "out" / "results.parquet")
     (folder / "energy.py").write_text(source.replace("> self.cut_", "< self.cut_"))  # the plugin's code changed
-    assert _slipbench(args) == 0
+    assert _slipbench(args, tmp_path) == 0
     rows = pd.read_parquet(tmp_path / "out" / "results.parquet")
     assert len(rows) == 2 * len(first)  # the old cells stay, the new code's cells are new
     new = rows[~rows["key"].isin(first["key"])]
