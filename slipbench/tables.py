@@ -37,6 +37,10 @@ LOW_NOTE = (f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of
 KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")  # how a cell's key reads
 
 
+# What a table's intervals are; with repeats, the seeds' bounds are averaged, which is not an interval
+# of the pooled result (metrics.pool_seeds computes that one from predictions; tables do not use it yet)
+INTERVAL_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, the mean "
+                 "of the seeds' bounds, not an interval of the pooled result].")
 ROW_HEADERS = {"sensor_type": "Sensor", "sensor_instance": "Finger", "train_instance": "Training Data"}
 COLUMN_UNITS = {"rate_hz": "Rates in Hz", "window_ms": "Window in ms", "window": "Window in samples"}
 
@@ -329,7 +333,7 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     if (summary["n"] > 1).any() and values == "ours":
         notes.append("Mean ± standard deviation across seeds.")
     if intervals and values == "ours":
-        notes.append("[95 % interval: bootstrap over recordings; mean of the seeds' bounds with repeats].")
+        notes.append(INTERVAL_NOTE)
     return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
 
 
@@ -452,7 +456,7 @@ def metrics_table(rows: pd.DataFrame, layout: Layout, metrics: Sequence[str], in
     if any((pd.DataFrame(per[m].values())["n"] > 1).any() for m in metrics if per[m]):
         notes.append("Mean ± standard deviation across seeds.")
     if intervals:
-        notes.append("[95 % interval: bootstrap over test trials; mean of the seeds' bounds with repeats].")
+        notes.append(INTERVAL_NOTE)
     columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
     return Table(layout.caption, headers, group or layout.group, columns, row_labels, cells, label_, notes=notes)
 
