@@ -435,22 +435,28 @@ def run_command(bench_file, out, jobs, force, quiet) -> None:
               help="Streaming cells: ms of median delay a cell may add before it counts as a regression.")
 @click.option("--alarm-margin", default=0.0, show_default=True,
               help="Streaming cells: false alarms per minute a cell may add before it counts as a regression.")
-@click.option("--out", type=click.Path(path_type=Path), help="Also write the Markdown to this file (a PR comment).")
+@click.option("--format", "fmt", type=click.Choice(["md", "json"]), default="md", show_default=True,
+              help="md: a pull-request comment (summary, regressed cells, at most --max-rows others); json: every cell, for bots.")
+@click.option("--max-rows", type=click.IntRange(min=0),
+              help="Markdown: cells listed besides the regressed ones, improved first, then the largest changes "
+                   "[default: 60, which keeps a whole-paper comparison near 30,000 characters].")
+@click.option("--out", type=click.Path(path_type=Path), help="Also write the text to this file (a PR comment).")
 @click.option("--plugins", multiple=True, type=click.Path(), help="A plugin folder whose protocols' layouts to use (repeatable).")
-def compare_command(base, candidate, margin, delay_margin, alarm_margin, out, plugins) -> None:
+def compare_command(base, candidate, margin, delay_margin, alarm_margin, fmt, max_rows, out, plugins) -> None:
     """Compare CANDIDATE results with BASE cell by cell; exit 1 if a cell regressed.
 
     Exit codes: 0 nothing regressed beyond --margin; 1 a cell regressed; 2 bad usage or data.
     """
-    from .compare import compare, to_markdown
+    from .atomic import write_text_atomic
+    from .compare import MAX_ROWS, compare, to_json, to_markdown
 
     _plugins(plugins)
     result = compare(base, candidate, margin, delay_margin_ms=delay_margin, alarm_margin=alarm_margin)
-    text = to_markdown(result)
+    text = to_json(result) if fmt == "json" else to_markdown(result, MAX_ROWS if max_rows is None else max_rows)
     click.echo(text, nl=False)
     if out:
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text)
+        write_text_atomic(out, text)
     sys.exit(result.exit_code)
 
 

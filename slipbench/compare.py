@@ -61,11 +61,10 @@ from scipy.stats import t as student_t
 from .errors import DataError, UsageError
 from .metrics import FIGURES, LEVEL, paired_comparison
 from .sections import layouts, protocol_order
-from .tables import ORDERS
+from .tables import KEY_ORDER, ORDERS, cell_label
 from .results import check_unique_keys, read_results
 
 ALPHA = 1 - LEVEL
-KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")
 MARKS = {"regressed": "▼ regressed", "improved": "▲ improved", "within margin": "≈ within margin",
          "no significant change": "= no significant change"}
 
@@ -144,11 +143,6 @@ def _cell_items(cell: str) -> list[tuple[str, object]]:
     return sorted(items, key=lambda kv: (KEY_ORDER.index(kv[0]) if kv[0] in KEY_ORDER else len(KEY_ORDER), kv[0]))
 
 
-def cell_name(cell: str) -> str:
-    """``sensor_type=Nano17, sensor_instance=index, window=50`` from a cell's JSON key."""
-    return ", ".join(f"{k}={v}" for k, v in _cell_items(cell))
-
-
 def _cell_rank(cell: str) -> tuple:
     """Sort key of a cell in the paper's order: sensors, fingers, materials as the tables list them."""
     out = []
@@ -181,7 +175,7 @@ def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
         first = rows[dup].iloc[0]
         raise DataError(
             f"{side} holds {int(dup.sum())} rows for one cell ({first['protocol']}, {first['detector']}, "
-            f"{cell_name(first['cell'])}, seed {first['seed']}): runs with different parameters or datasets "
+            f"{cell_label(first['cell'])}, seed {first['seed']}): runs with different parameters or datasets "
             "share the folder; compare folders that hold one run per cell")
     return rows
 
@@ -391,100 +385,191 @@ def verdict(r: dict, margin: float) -> str:
     return "no significant change"
 
 
-# ----------------------------------------------------------------------------- Markdown
-def _delta(r: dict, name: str) -> str:
-    d, lo, hi = r.get(f"d_{name}"), r.get(f"d_{name}_lo"), r.get(f"d_{name}_hi")
-    if d is None or pd.isna(d):
-        return "—"
-    text = f"{100 * d:+.1f}"
-    return text + (f" [{100 * lo:+.1f}, {100 * hi:+.1f}]" if not (pd.isna(lo) or pd.isna(hi)) else "")
+# ----------------------------------------------------------------------------- reports
+MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
+COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
+FORMATS = ("md", "json")
 
 
-def _stream_delta(r: dict, name: str, scale: float, digits: int) -> str:
+def _primary(r: dict) -> float:
+    """The change a cell is summarised by (points): accuracy, or a stream's detection rate."""
+    return 100 * float(r.get("d_detection_rate" if r["stream"] else "d_accuracy", np.nan))
+
+
+def summary(cmp: Comparison) -> pd.DataFrame:
+    """Per protocol and detector: cells compared, regressed and improved, the mean change of
+    the summarising figure and the cell that changed most for the worse."""
+    lines = []
+    for (protocol, detector), part in cmp.cells.groupby(["protocol", "detector"], sort=False):
+        records = part.to_dict("records")
+        changes = [(_primary(r), r) for r in records]
+        finite = [(d, r) for d, r in changes if np.isfinite(d)]
+        worst = min(finite, key=lambda dr: dr[0])[1] if finite else None
+        verdicts = part["verdict"].value_counts()
+        lines.append({"protocol": protocol, "detector": detector, "cells": len(part),
+                      "regressed": int(verdicts.get("regressed", 0)), "improved": int(verdicts.get("improved", 0)),
+                      "mean_change": float(np.mean([d for d, _ in finite])) if finite else np.nan,
+                      "worst_cell": _label(worst, cmp) if worst is not None else "",
+                      "worst_change": _primary(worst) if worst is not None else np.nan,
+                      "worst_lo": 100 * float(worst.get(f"d_{_figure(worst)}_lo", np.nan)) if worst is not None else np.nan,
+                      "worst_hi": 100 * float(worst.get(f"d_{_figure(worst)}_hi", np.nan)) if worst is not None else np.nan})
+    return pd.DataFrame(lines)
+
+
+def _figure(r: dict) -> str:
+    return "detection_rate" if r["stream"] else "accuracy"
+
+
+def _label(r: dict, cmp: Comparison) -> str:
+    """A cell's short label; the split and seed only where the comparison holds several."""
+    text = cell_label(r["cell"])
+    for column in ("split", "seed"):
+        if cmp.cells[column].nunique() > 1:
+            text += f", {column} {r[column]}"
+    return text
+
+
+def _delta(r: dict, name: str, scale: float = 100.0, digits: int = 1, bounds: bool = True) -> str:
     d, lo, hi = r.get(f"d_{name}"), r.get(f"d_{name}_lo"), r.get(f"d_{name}_hi")
     if d is None or pd.isna(d):
         return "—"
     text = f"{scale * d:+.{digits}f}"
-    return text + (f" [{scale * lo:+.{digits}f}, {scale * hi:+.{digits}f}]" if not (pd.isna(lo) or pd.isna(hi)) else "")
+    if bounds and not (pd.isna(lo) or pd.isna(hi)):
+        text += f" [{scale * lo:+.{digits}f}, {scale * hi:+.{digits}f}]"
+    return text
 
 
-def _streams_table(cells: pd.DataFrame) -> str:
-    """Streaming cells: median delay, false alarms per minute and detection rate, base → candidate."""
+def _row(r: dict, cmp: Comparison) -> dict:
+    """One compared cell as a table row: base -> candidate, the change and the verdict."""
+    both = r["base_status"] == r["candidate_status"] == "ok"
+    line = {"protocol": r["protocol"], "detector": r["detector"], "cell": _label(r, cmp)}
+    if r["stream"]:
+        line["base → candidate"] = (f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f} ms, "
+                                   f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f} /min"
+                                   if both else f"{r['base_status']} → {r['candidate_status']}")
+        line["Δ [simultaneous CI]"] = (f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
+                                       f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
+                                       f"{_delta(r, 'detection_rate')}")
+        line["Δ TP / TN rate"] = ""
+    else:
+        line["base → candidate"] = (f"{100 * r['base_accuracy']:.1f} → {100 * r['candidate_accuracy']:.1f}"
+                                    if both else f"{r['base_status']} → {r['candidate_status']}")
+        line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
+        line["Δ TP / TN rate"] = f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
+    line[""] = MARKS[r["verdict"]]
+    return line
+
+
+def _table(rows: list[dict]) -> str:
+    return pd.DataFrame(rows).to_markdown(index=False, disable_numparse=True)
+
+
+def _summary_table(cmp: Comparison) -> str:
     lines = []
-    for r in cells.to_dict("records"):
-        both = r["base_status"] == r["candidate_status"] == "ok"
-        lines.append({
-            "protocol": r["protocol"], "detector": r["detector"], "cell": cell_name(r["cell"]), "seed": r["seed"],
-            "median delay (ms)": f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f}"
-            if both else f"{r['base_status']} → {r['candidate_status']}",
-            "Δ median delay (ms)": _stream_delta(r, "median_delay_ms", 1.0, 1),
-            "false alarms / min": f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f}"
-            if both else "",
-            "Δ false alarms / min": _stream_delta(r, "false_alarms_per_min", 1.0, 2),
-            "Δ detection rate": _stream_delta(r, "detection_rate", 100.0, 1), "method": r["method"], "": MARKS[r["verdict"]],
-        })
-    return pd.DataFrame(lines).to_markdown(index=False, disable_numparse=True)
+    for s in summary(cmp).to_dict("records"):
+        bounds = "" if pd.isna(s["worst_lo"]) else f" [{s['worst_lo']:+.1f}, {s['worst_hi']:+.1f}]"
+        lines.append({"protocol": s["protocol"], "detector": s["detector"], "cells": s["cells"],
+                      "▼": s["regressed"], "▲": s["improved"],
+                      "mean Δ": "—" if pd.isna(s["mean_change"]) else f"{s['mean_change']:+.1f}",
+                      "worst cell": f"{s['worst_cell']}: {s['worst_change']:+.1f}{bounds}" if s["worst_cell"] else "—"})
+    return _table(lines)
 
 
-def _cells_table(cells: pd.DataFrame) -> str:
-    if "stream" in cells and cells["stream"].any():
-        parts = [_streams_table(cells[cells["stream"]])]
-        if not cells["stream"].all():
-            parts.insert(0, _cells_table(cells[~cells["stream"]]))
-        return "\n\n".join(parts)
-    lines = []
-    for r in cells.to_dict("records"):
-        lines.append({
-            "protocol": r["protocol"], "detector": r["detector"], "cell": cell_name(r["cell"]),
-            "seed": r["seed"],
-            "accuracy": f"{100 * r['base_accuracy']:.1f} → {100 * r['candidate_accuracy']:.1f}"
-            if r["base_status"] == r["candidate_status"] == "ok" else f"{r['base_status']} → {r['candidate_status']}",
-            "Δ accuracy [simultaneous CI]": _delta(r, "accuracy"), "Δ TP rate": _delta(r, "tp_rate"),
-            "Δ TN rate": _delta(r, "tn_rate"), "method": r["method"], "": MARKS[r["verdict"]],
-        })
-    return pd.DataFrame(lines).to_markdown(index=False, disable_numparse=True)
+def _others(cmp: Comparison) -> pd.DataFrame:
+    """The cells that did not regress, improved ones first, then by the size of their change."""
+    rest = cmp.cells[cmp.cells["verdict"] != "regressed"]
+    size = -np.abs([_primary(r) for r in rest.to_dict("records")])
+    order = np.lexsort((np.nan_to_num(size, nan=0.0), (rest["verdict"] != "improved").to_numpy()))
+    return rest.iloc[order]
 
 
-def _side_list(rows: pd.DataFrame) -> list[str]:
-    return [f"- {r['protocol']}, {r['detector']}, {cell_name(r['cell'])}, split {r['split']}, seed {r['seed']}"
-            for r in rows.to_dict("records")]
+def _side_lines(rows: pd.DataFrame, limit: int) -> list[str]:
+    """Cells on one side only, counted per protocol and detector, the first ``limit`` named."""
+    counts = rows.groupby(["protocol", "detector"], sort=False).size()
+    lines = [f"- {p}, {d}: {n} cell{'s' * (n > 1)}" for (p, d), n in counts.items()]
+    named = [f"  - {r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, seed {r['seed']}"
+             for r in rows.head(limit).to_dict("records")]
+    more = [f"  - … and {len(rows) - limit} more (`--format json` lists them all)"] if len(rows) > limit else []
+    return lines + named + more
 
 
-def to_markdown(cmp: Comparison) -> str:
-    """A pull-request comment: the verdict, the changed cells, then every cell folded away."""
+def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
+    """A pull-request comment: the verdict and a summary per protocol and detector, then the
+    regressed cells, then at most ``max_rows`` others (improved first, then the largest
+    changes); each cell once. Held under ``COMMENT_LIMIT`` characters: past it the regressed
+    list is cut with a line that says how many it leaves out."""
+    if max_rows < 0:
+        raise UsageError(f"--max-rows must be >= 0, got {max_rows}")
     cells = cmp.cells
     counts = cells["verdict"].value_counts()
     n_reg = int(counts.get("regressed", 0))
     head = ["## slipbench compare", "",
-            f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired; margin {cmp.margin:g} points.", ""]
-    if n_reg:
-        head.append(f"**{n_reg} cell{'s' * (n_reg > 1)} regressed** beyond the margin:")
-    else:
-        head.append("**No regression** beyond the margin.")
-    head.append("")
-    head.append(", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS))
-    parts = ["\n".join(head)]
-    changed = cells[cells["verdict"].isin(["regressed", "improved"])]
-    if len(changed):
-        order = changed.assign(_o=changed["verdict"].map({"regressed": 0, "improved": 1})).sort_values("_o", kind="stable")
-        parts.append(_cells_table(order.drop(columns="_o")))
-    parts.append("<details><summary>All paired cells</summary>\n\n" + _cells_table(cells) + "\n\n</details>")
+            f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired; margin {cmp.margin:g} points.", "",
+            f"**{n_reg} cell{'s' * (n_reg != 1)} regressed** beyond the margin." if n_reg else
+            "**No regression** beyond the margin.", "",
+            ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS)]
+    parts = ["\n".join(head), "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
+             "cell: accuracy points (streaming cells: detection rate), candidate − base, over the cells both sides "
+             "finished; ▼ regressed, ▲ improved._"]
+    notes = _notes(cmp)
     for title, rows in (("Cells only in BASE", cmp.only_base), ("Cells only in CANDIDATE", cmp.only_candidate)):
         if len(rows):
-            parts.append(f"**{title}** ({len(rows)}), not compared:\n\n" + "\n".join(_side_list(rows)))
-    n = len(cells[(cells["base_status"] == "ok") & (cells["candidate_status"] == "ok")])
-    parts.append(
-        f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval: a paired cluster bootstrap "
-        f"over the shared test windows (unpaired where predictions are missing), at a level that holds for all {n} "
-        f"cells compared at once (Bonferroni), so the chance that any cell is wrongly called regressed is at most "
-        f"{100 * ALPHA:g} %. A cell regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, "
-        "or when the candidate did not finish a cell the base finished; it improves when the interval lies entirely "
-        f"above +{cmp.margin:g}._")
+            notes.insert(0, f"**{title}** ({len(rows)}), not compared:\n\n" + "\n".join(_side_lines(rows, max_rows)))
+    budget = COMMENT_LIMIT - sum(len(p) + 2 for p in (*parts, *notes)) - 400  # 400: the headings and cut lines
+    regressed = [_row(r, cmp) for r in cmp.regressions.to_dict("records")]
+    table, listed = _fit(regressed, budget)
+    if regressed:
+        parts.append("### Regressed\n\n" + table + (f"\n\n_… and {len(regressed) - listed} more regressed cells: "
+                                                    "`--format json` lists them all._" if listed < len(regressed) else ""))
+    others = _others(cmp)
+    room = budget - len(table) if listed == len(regressed) else 0  # a regressed cell left out: no other cell in
+    table, listed = _fit([_row(r, cmp) for r in others.head(max_rows).to_dict("records")], room)
+    if listed:
+        parts.append("### Other cells\n\n" + table)
+    if listed < len(others):
+        parts.append(f"_{len(others) - listed} other cells not shown (`--max-rows`; `--format json` lists every cell)._")
+    return "\n\n".join(parts + notes) + "\n"
+
+
+def _fit(rows: list[dict], budget: int) -> tuple[str, int]:
+    """The table of the first rows that fits in ``budget`` characters, and how many it holds."""
+    n = len(rows)
+    while n and len(_table(rows[:n])) > budget:
+        n = max(0, min(n - 1, int(n * budget / len(_table(rows[:n])))))
+    return (_table(rows[:n]) if n else ""), n
+
+
+def _notes(cmp: Comparison) -> list[str]:
+    cells = cmp.cells
+    n = int(((cells["base_status"] == "ok") & (cells["candidate_status"] == "ok")).sum())
+    methods = cells["method"].str.replace(r", \d+ shared windows", "", regex=True).value_counts()
+    notes = [
+        f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval "
+        f"({'; '.join(f'{m}: {k} cells' for m, k in methods.items())}; a paired cluster bootstrap over the shared "
+        f"test windows where both sides kept predictions), at a level that holds for all {n} cells compared at once "
+        f"(Bonferroni), so the chance that any cell is wrongly called regressed is at most {100 * ALPHA:g} %. A cell "
+        f"regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, or when the candidate did "
+        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}._"]
     if cells["stream"].any():
-        parts.append(
+        notes.append(
             f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
             "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
             f"A streaming cell regresses when its median delay rises beyond {cmp.delay_margin_ms:g} ms, its false "
             f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points._")
-    parts += [f"_{n}_" for n in cmp.notes]
-    return "\n\n".join(parts) + "\n"
+    return notes + [f"_{n}_" for n in cmp.notes]
+
+
+def to_json(cmp: Comparison) -> str:
+    """Every compared cell with its changes and verdict, the summary and the one-sided cells,
+    for bots."""
+    def records(frame: pd.DataFrame) -> list[dict]:
+        return json.loads(frame.to_json(orient="records", double_precision=6))
+
+    cells = cmp.cells.assign(label=[_label(r, cmp) for r in cmp.cells.to_dict("records")])
+    doc = {"base": cmp.base, "candidate": cmp.candidate, "margin": cmp.margin, "delay_margin_ms": cmp.delay_margin_ms,
+           "alarm_margin": cmp.alarm_margin, "level": cmp.level, "exit_code": cmp.exit_code,
+           "verdict": "regressed" if cmp.exit_code else "no regression",
+           "counts": {v: int((cmp.cells["verdict"] == v).sum()) for v in MARKS},
+           "summary": records(summary(cmp)), "cells": records(cells),
+           "only_base": records(cmp.only_base), "only_candidate": records(cmp.only_candidate), "notes": cmp.notes}
+    return json.dumps(doc, indent=1, allow_nan=False, default=str) + "\n"

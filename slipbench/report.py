@@ -33,7 +33,7 @@ from .provenance import fitted_tables, header_tables
 from .render import standalone_latex, to_html, to_latex, to_markdown
 from .sections import DETECTOR_ORDER, SPLIT_ORDER, _sections, _splits, layouts, protocol_order, split_parts
 from .tables import (Table, baseline_table, build_table, escape, fits, generic_layout, metrics_table, rank, rates_table,
-                     side_by_side)
+                     side_by_side, split_table)
 
 PAPER_DETECTOR = "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 FORMATS = ("md", "latex", "html")
@@ -160,7 +160,9 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
     ``benchmark``: the benchmark file the rows come from, named in the header."""
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
-    board = leaderboard(rows, metric, protocols=order)
+    splits = _splits(rows)
+    lead = splits[0][1]  # the leaderboard and the findings rank one split: the grouped one where present
+    board = leaderboard(lead, metric, protocols=order)
     figures: dict[str | None, list] = {}
     if with_figures:
         from .plots import figure_specs
@@ -168,15 +170,22 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
         for spec in figure_specs(rows, paper, board, found):
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [Heading("slipbench report", 1), Heading("What this report stands on", 2), *header_tables(rows, metric, order, benchmark),
-                    Heading("Leaderboard", 2), *leaderboard_tables(board), *figures.get(None, [])]
+                    Heading("Leaderboard", 2)]
+    if len(splits) > 1:
+        blocks.append(Text(f"The leaderboard{' and the findings' if paper else ''} rank the {splits[0][0]} split; "
+                           f"the table after the leaderboard sets the {splits[1][0]} split beside it."))
+    blocks += [*leaderboard_tables(board), *figures.get(None, [])]
+    if len(splits) > 1:
+        blocks += [Heading("The splits side by side", 2), split_table(rows, [s for s, _ in splits], metric, order, DETECTOR_ORDER)]
     if leaderboard_only:
         return blocks
     if paper:
-        from .findings import findings_table
+        from .findings import findings_table, paper_findings_table
 
-        findings = findings_table(rows, found, order)
-        if findings is not None:
-            blocks += [Heading("The paper's findings, ours beside them", 2), findings]
+        shown = paper_findings_table(lead, found)
+        findings = findings_table(lead, found, order)
+        if shown is not None or findings is not None:
+            blocks += [Heading("The paper's findings, ours beside them", 2), *(t for t in (shown, findings) if t is not None)]
     fitted = fitted_tables(rows)
     if fitted:
         blocks += [Heading("What fitting chose", 2), *fitted]

@@ -48,10 +48,11 @@ def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
 
 
 def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
-    """(split, rows) per split of the rows (paper, grouped, ...), the paper's first."""
+    """(split, rows) per split of the rows (grouped, paper, ...): the split by trial first, as
+    the one whose test trials never trained the model through another unit."""
     if "split" not in rows:
         return [("paper", rows)]
-    return [(s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("paper", "grouped"))]
+    return [(s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("grouped", "paper"))]
 
 
 def _sections(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> list[tuple[str, str, str, pd.DataFrame]]:

@@ -490,3 +490,34 @@ def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], m
     group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes)
+
+
+def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accuracy",
+                protocols: Sequence[str] = (), detectors: Sequence[str] = ()) -> Table:
+    """Per protocol and detector (in these orders), the mean ``metric`` of the cells every split
+    finished, per split, and each other split minus the first: the mean change and its range
+    over cells."""
+    first, others = splits[0], list(splits[1:])
+    keys = ["protocol", "detector", "cell", "seed"]
+    ok = rows[rows["status"] == "ok"] if "status" in rows else rows
+    wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean").dropna(subset=list(splits))
+    lines, cells = [], []
+    for (protocol, detector), part in wide.groupby(level=["protocol", "detector"]):
+        line = [str(len(part)), *(f"{100 * part[s].mean():.1f}" for s in splits)]
+        for s in others:
+            d = 100 * (part[s] - part[first])
+            line.append(f"{d.mean():+.1f} [{d.min():+.1f}, {d.max():+.1f}]")
+        lines.append((protocol, detector))
+        cells.append(line)
+    order = {p: i for i, p in enumerate(protocols)}
+    by = sorted(range(len(lines)), key=lambda i: (order.get(lines[i][0], len(order)), lines[i][0],
+                                                   rank([d for _, d in lines], detectors).index(lines[i][1])))
+    what = metric.replace("_", " ")
+    return Table(f"The {first} split beside the {', '.join(others)} split: mean {what} (%) over the cells both "
+                 "finished, and the difference.", ["Protocol", "Detector"], "",
+                 ["cells", *splits, *(f"{s} − {first} [min, max]" for s in others)],
+                 [lines[i] for i in by], [cells[i] for i in by], "tab:splits", notes=[
+                     "grouped: whole trials on one side of the split for every unit, so no test trial has a twin "
+                     "recording (another finger, the same trial) that trained the model; paper: windows shuffled "
+                     "and halved, as the paper did. A positive difference is what the paper's split gains from "
+                     "testing on trials it trained on."])

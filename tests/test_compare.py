@@ -12,13 +12,14 @@ import textwrap
 import numpy as np
 import pandas as pd
 import pytest
-from resultgen import fake_rows
+from resultgen import fake_rows, whole_paper_pair
 from scipy.special import expit
 from scipy.stats import t as student_t
 from test_coverage import TAUS, dataset
+from test_report import check_golden
 
 from slipbench.cli import main
-from slipbench.compare import compare, family_level, verdict
+from slipbench.compare import COMMENT_LIMIT, MAX_ROWS, compare, family_level, to_json, to_markdown, verdict
 from slipbench.results import check_unique_keys
 from slipbench.errors import DataError
 from slipbench.metrics import classification_figures, paired_comparison
@@ -63,7 +64,9 @@ def test_self_compare_reports_no_change(runs, cli):
     code, out, _ = cli(["compare", str(runs / "base"), str(runs / "base" / "results.parquet")])
     assert code == 0
     assert "**No regression**" in out and "▼ regressed: 0" in out and "= no significant change: 2" in out
-    assert out.count("+0.0 [+0.0, +0.0]") == 6  # accuracy, TP and TN rate of both cells: exactly zero
+    rows = [line for line in out.splitlines() if line.endswith("= no significant change |")]
+    assert len(rows) == 2  # both cells, each once, exactly unchanged in accuracy, TP and TN rate
+    assert all("+0.0 [+0.0, +0.0]" in row and "+0.0 / +0.0" in row for row in rows)
 
 
 def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
@@ -72,7 +75,7 @@ def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
     assert code == 1
     assert "**2 cells regressed**" in out
     for finger in ("index", "middle"):
-        assert f"sensor_type=Nano17, sensor_instance={finger}, window=50" in out
+        assert f"Nano17 {finger.capitalize()} window 50" in out
     assert "paired" in out and comment.read_text() == out
     # the same drop is forgiven by a margin wider than it
     result = compare(runs / "base", runs / "degraded", margin=50)
@@ -90,8 +93,8 @@ def test_cells_on_one_side_are_listed(tmp_path, cli):
     code, out, _ = cli(["compare", str(tmp_path / "base"), str(tmp_path / "cand")])
     assert code == 0  # no predictions: unpaired, and nothing changed
     assert "**Cells only in BASE** (8)" in out and "**Cells only in CANDIDATE** (8)" in out
-    assert "sensor_type=Nano17, sensor_instance=index, window=5, split paper" in out
-    assert "window=400" in out and "unpaired" in out
+    assert "- window-size, holweg: 8 cells" in out and "Nano17 Index window 5, split paper" in out
+    assert "window 400" in out and "unpaired" in out
 
 
 def test_unpaired_regression_without_predictions(tmp_path):
@@ -241,3 +244,53 @@ def test_the_unpaired_fallback_is_no_more_liberal_than_the_paired_path(tmp_path)
     assert (ratio > 1).mean() >= 0.9 and ratio.median() > 1.2, ratio.describe()
     regressed = [int((c["verdict"] == "regressed").sum()) for c in (paired, unpaired)]
     assert regressed[1] <= regressed[0] and regressed[0] > 0, regressed
+
+
+# ---------------------------------------------------------------- a comment sized for a pull request
+@pytest.fixture
+def whole_paper(tmp_path, monkeypatch):
+    """A whole-paper comparison (1,405 cells) of files named relative to the working folder."""
+    monkeypatch.chdir(tmp_path)
+    return compare(*(p.name for p in whole_paper_pair(tmp_path)))
+
+
+def test_compare_summary_golden(whole_paper):
+    """The verdict, the summary per protocol and detector, the 12 regressed cells, 60 others."""
+    check_golden("compare.md", to_markdown(whole_paper))
+
+
+def test_a_whole_paper_comparison_fits_a_pull_request_comment(whole_paper):
+    text = to_markdown(whole_paper)
+    assert len(text) < 60_000
+    rows = [line for line in text.splitlines() if line.endswith(("▼ regressed |", "= no significant change |"))]
+    assert len(rows) == 12 + MAX_ROWS  # every regressed cell, then --max-rows others, each once
+    assert len(set(rows)) == len(rows)
+    assert f"_{1405 - 12 - MAX_ROWS} other cells not shown" in text
+    assert "<details>" not in text
+    assert len(to_markdown(whole_paper, max_rows=0)) < len(text)
+
+
+def test_a_comment_with_every_cell_regressed_is_cut_and_says_so(tmp_path):
+    base, cand = whole_paper_pair(tmp_path)
+    worse = pd.read_parquet(cand)
+    for col in [c for c in worse if c.startswith(("accuracy", "tp_rate", "tn_rate"))]:
+        worse[col] -= 0.3
+    worse.to_parquet(cand)
+    result = compare(base, cand)
+    assert len(result.regressions) == 1400  # all but the 5 cells both sides skipped
+    text = to_markdown(result, max_rows=10_000)
+    assert len(text) < COMMENT_LIMIT
+    listed = text.count("▼ regressed |")
+    assert 100 < listed < 1400 and f"… and {1400 - listed} more regressed cells" in text
+    assert "### Other cells" not in text  # regressed cells come first, whatever --max-rows says
+
+
+def test_json_holds_every_cell_for_bots(whole_paper, tmp_path, cli):
+    doc = json.loads(to_json(whole_paper))
+    assert doc["verdict"] == "regressed" and doc["exit_code"] == 1
+    assert len(doc["cells"]) == 1405 and doc["counts"]["regressed"] == 12
+    assert sum(s["cells"] for s in doc["summary"]) == 1405
+    worst = next(s for s in doc["summary"] if s["protocol"] == "sampling-rate" and s["detector"] == "lstm")
+    assert worst["regressed"] == 12 and worst["worst_change"] < -13 and worst["worst_hi"] < 0
+    code, out, _ = cli(["compare", "base.parquet", "candidate.parquet", "--format", "json", "--out", "cmp.json"])
+    assert code == 1 and json.loads(out) == json.loads((tmp_path / "cmp.json").read_text())

@@ -232,3 +232,66 @@ def test_findings_of_the_paper_reproduce_on_its_own_numbers():
     for (protocol, finding), (paper, ours) in zip(table.rows, table.cells):
         assert paper == ours, (protocol, finding)
     assert table.cells[7][0] == "Neoprene (-9.1)"  # the paper's material finding: neoprene needs its own data
+
+
+def _paper_rows() -> pd.DataFrame:
+    """Result rows that hold the published numbers: the LSTM's five tables, its TP/TN rates at
+    window 50 (per sensor, on every finger) and Holweg's accuracy at window 50 (per sensor)."""
+    parts = []
+    for protocol in ("window-size", "sampling-rate", "material-holdout", "speed-holdout", "cross-instance"):
+        ref = paper_frame(protocol)
+        keys = [c for c in ref.columns if c != "accuracy"]
+        parts.append(ref.assign(protocol=protocol, detector="lstm", split="paper", seed=0, status="ok",
+                                decimation="plain", antialias=False, protocol_params="{}",
+                                cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")]))
+    rows = pd.concat(parts, ignore_index=True)
+    rates = paper_frame("rates_window_50").set_index("sensor_type")
+    at50 = (rows["protocol"] == "window-size") & (rows["window"] == 50)
+    rows.loc[at50, "tp_rate"] = rows.loc[at50, "sensor_type"].map(rates["tp_rate"])
+    rows.loc[at50, "tn_rate"] = rows.loc[at50, "sensor_type"].map(rates["tn_rate"])
+    holweg = rows[at50].assign(detector="holweg", accuracy=lambda f: f["sensor_type"].map(
+        paper_frame("holweg").set_index("sensor_type")["accuracy"]))
+    return pd.concat([rows, holweg], ignore_index=True)
+
+
+def test_the_paper_shows_its_own_findings():
+    """Every finding's criterion holds on the published numbers, and rows holding them give
+    "ours" equal to "paper": the table measures what the paper states."""
+    from slipbench.findings import paper_findings_table
+    from slipbench.report import layouts
+
+    rows = _paper_rows()
+    table = paper_findings_table(rows, layouts(rows))
+    assert len(table.rows) == 9
+    for (finding,), (paper, ours, shown, _) in zip(table.rows, table.cells):
+        assert paper == ours and shown == "yes", finding
+    assert "82.7 → 61.1 (-21.5)" in table.cells[3][0]  # BioTac SP at 425-850 Hz against 212.5 Hz and below
+    assert table.cells[4][0].startswith("5 mm/s")
+
+
+def test_a_finding_ours_do_not_show_says_no():
+    from slipbench.findings import paper_findings_table
+    from slipbench.report import layouts
+
+    rows = _paper_rows()
+    flat = (rows["protocol"] == "sampling-rate") & (rows["sensor_type"] == "BioTacSP")
+    rows.loc[flat, "accuracy"] = 0.8  # no collapse at low rates, and no rise either
+    rows.loc[rows["detector"] == "holweg", "accuracy"] += 0.3  # Holweg ahead of the LSTM
+    table = paper_findings_table(rows, layouts(rows))
+    shown = {finding: verdict for (finding,), (_, _, verdict, _) in zip(table.rows, table.cells)}
+    assert shown["Accuracy rises with the sampling rate (lowest → full rate, points)"] == "partly"
+    assert shown["BioTac SP collapses at 212.5 Hz and below (mean at ≥ 425 Hz → at ≤ 212.5 Hz, %)"] == "no"
+    assert shown["The LSTM is ahead of Holweg by 10-20 points at window 50 (points; mean over sensors)"] == "no"
+
+
+def test_a_report_of_two_splits_leads_with_grouped_and_sets_paper_beside_it():
+    paper = pd.concat([fake_rows("window-size", d) for d in ("holweg", "lstm", "bandpass")], ignore_index=True)
+    grouped = paper.assign(split="grouped", accuracy=paper["accuracy"] - 0.05, key=paper["key"] + "g")
+    text = render_report(pd.concat([paper, grouped], ignore_index=True), "md")
+    assert text.index("(grouped split)") < text.index("(paper split)")
+    assert "The leaderboard rank the grouped split" in text
+    # the leaderboard ranks one split: 48 cells, not 96
+    assert "all (48)" in text and "all (96)" not in text
+    side = text[text.index("**The grouped split beside the paper split"):]
+    for detector in ("holweg", "lstm", "bandpass"):
+        assert re.search(rf"\|\s*window-size\s*\|\s*{detector}\s*\|\s*48\s*\|[^|]+\|[^|]+\|\s*\+5\.0 \[\+5\.0, \+5\.0\]", side)
