@@ -323,7 +323,7 @@ def run_benchmark(bench: Benchmark, out: Path | None = None, jobs: int | None = 
     rows = evaluate(ds, runs, ResultsStore(out), force=force, jobs=bench.jobs if jobs is None else jobs,
                     scheduler=bench.scheduler, cell_timeout=bench.cell_timeout, progress=progress)
     blocks = build_report(rows, bench.metric, bench.intervals, bench.paper, with_figures=bench.plots,
-                          benchmark=bench.describe)
+                          benchmark=bench.describe, predictions=[out])
     files = write_figures(blocks, out / "figures") if bench.plots else {}
     paths = [p for ps in files.values() for p in ps]
     from .atomic import write_text_atomic

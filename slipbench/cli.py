@@ -388,12 +388,15 @@ def report(results, fmt, metric, leaderboard_only, intervals, paper, standalone,
     _plugins(plugins)
     rows = check_unique_keys(pd.concat([read_results(p) for p in results], ignore_index=True),
                              " + ".join(map(str, results)))
-    blocks = build_report(rows, metric, intervals, paper, leaderboard_only, with_figures=fmt == "html" or plots_dir is not None)
+    blocks = build_report(rows, metric, intervals, paper, leaderboard_only, with_figures=fmt == "html" or plots_dir is not None,
+                          predictions=[p if p.is_dir() else p.parent for p in map(Path, results)])
     files = write_figures(blocks, plots_dir) if plots_dir else {}
     text = render(blocks, fmt, standalone, files, link_from=out.parent if out else None)
     if out:
+        from .atomic import write_text_atomic
+
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(text)
+        write_text_atomic(out, text)
         click.echo(f"wrote {out}")
     else:
         click.echo(text, nl=False)

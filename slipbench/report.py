@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import base64
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -136,7 +137,9 @@ def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: st
                     table.caption += _which(which)
                     table.subject = f"Protocol {protocol}, {split} split."
                     blocks.append(table)
-        blocks += [f for f in figures.get(protocol, []) if f.detector is None]
+        splits = [s for s, _ in _splits(prows)]
+        blocks += sorted((f for f in figures.get(protocol, []) if f.detector is None),
+                         key=lambda f: splits.index(f.split) if f.split in splits else len(splits))
     if paper:
         published = published_table(prows, layout, protocol)
         if published is not None:
@@ -154,10 +157,12 @@ def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: st
 
 def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool = False, paper: bool = False,
                  leaderboard_only: bool = False, found: dict[str, tuple[Layout, str]] | None = None,
-                 with_figures: bool = False, benchmark: str = "") -> list:
+                 with_figures: bool = False, benchmark: str = "", predictions: Sequence[str | os.PathLike] = ()) -> list:
     """The report as blocks (:class:`Heading`, :class:`Text`, tables, and, with
     ``with_figures``, :class:`~slipbench.plots.FigureSpec`), in the module's outline.
-    ``benchmark``: the benchmark file the rows come from, named in the header."""
+    ``benchmark``: the benchmark file the rows come from, named in the header.
+    ``predictions``: results folders holding the cells' test predictions; with ``intervals``,
+    means over fingers get one joint bootstrap over the trials the fingers share."""
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = _splits(rows)
@@ -193,13 +198,20 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
         layout, note = found[protocol]
         blocks += _protocol_blocks(rows, protocol, layout, note, metric, intervals, paper, figures)
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
-    if table_one and "window" in rows:
-        one = rows[rows["protocol"].isin(table_one)]
-        extra = [baseline_table(one, intervals, paper)]
-        extra += [rates_table(one, d, intervals, paper) for d in rank(one["detector"].unique(), DETECTOR_ORDER)]
+    if table_one and "window" in lead:
+        one = lead[lead["protocol"].isin(table_one)]
+        joint = None
+        if intervals and predictions:
+            from .joint import joint_means
+            from .tables import BASELINE_WINDOW
+
+            joint = joint_means(one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions)
+        extra = [baseline_table(one, intervals, paper, joint)]
+        extra += [rates_table(one, d, intervals, paper, joint) for d in rank(one["detector"].unique(), DETECTOR_ORDER)]
         extra = [t for t in extra if t is not None]
         if extra:
-            blocks += [Heading("At window 50: baseline and TP/TN rates", 2), *extra]
+            title = "At window 50: baseline and TP/TN rates" + (f" ({splits[0][0]} split)" if len(splits) > 1 else "")
+            blocks += [Heading(title, 2), *extra]
     return blocks
 
 

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from .check import LOW_N
+from .joint import JOINT_NOTE
 from .paper import paper_frame
 from .protocol import Layout
 
@@ -337,27 +338,50 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
 
 
-def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], intervals: bool) -> dict[tuple, list[str]]:
+def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], intervals: bool,
+              joint: dict[tuple, dict] | None = None) -> dict[tuple, list[str]]:
     """Figures averaged over fingers (mean of the per-finger figures, each averaged over seeds).
 
-    The interval of an average combines the fingers' interval half-widths as independent
-    errors (root of the summed squares, over the number of fingers): fingers are different
-    recordings, so their bootstrap errors are independent.
+    ``joint`` (from :func:`slipbench.joint.joint_means`, keyed by the values of ``by``): the
+    mean and interval of one bootstrap over the trials the fingers share. A group without it
+    combines the fingers' half-widths as independent (root of the summed squares over the
+    number of fingers), which understates the interval where fingers share trials.
     """
+    joint = joint or {}
     out: dict[tuple, list[str]] = {}
     for metric in metrics:
         per = summarize(rows, [*by, "sensor_instance"], metric)
         per = per[per["status"] == "ok"]
         for key, g in per.groupby(list(by), sort=False):
             key = key if isinstance(key, tuple) else (key,)
-            half = np.sqrt((((g["hi"] - g["lo"]) / 2) ** 2).sum()) / len(g)
-            mean = g["mean"].mean()
-            out.setdefault(key, []).append(figure_text(mean, lo=mean - half, hi=mean + half, intervals=intervals,
+            if key in joint:
+                j = joint[key]
+                mean, lo, hi = j[metric], j[f"{metric}_lo"], j[f"{metric}_hi"]
+            else:
+                half = np.sqrt((((g["hi"] - g["lo"]) / 2) ** 2).sum()) / len(g)
+                mean = g["mean"].mean()
+                lo, hi = mean - half, mean + half
+            out.setdefault(key, []).append(figure_text(mean, lo=lo, hi=hi, intervals=intervals,
                                                        low=bool(g["low_n"].any())))
     return out
 
 
-def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = False) -> Table | None:
+def _interval_note(joint: dict | None, intervals: bool) -> list[str]:
+    if not intervals:
+        return []
+    if joint:
+        return [f"[95 % interval: {JOINT_NOTE}.]"]
+    return ["[95 % interval: the fingers' half-widths combined as independent, which understates it where they "
+            "share trials; keep predictions for a joint bootstrap.]"]
+
+
+def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
+    """One detector's entries of a ``(detector, sensor_type)``-keyed joint mapping, by sensor type."""
+    return {k[1:]: v for k, v in (joint or {}).items() if k[0] == detector}
+
+
+def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = False,
+                   joint: dict[tuple, dict] | None = None) -> Table | None:
     """Accuracy at window 50 per sensor type (mean over fingers), one column per detector, from
     the rows of the protocol laid out as the paper's Table I; with ``paper``, the published
     Holweg accuracies and the LSTM's Table I means beside them."""
@@ -368,7 +392,7 @@ def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = Fa
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     columns, cells = list(detectors), [[] for _ in sensors]
     for det in detectors:
-        avg = _averaged(rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals)
+        avg = _averaged(rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det))
         for i, s in enumerate(sensors):
             cells[i].append(avg.get((s,), ["NA"])[0])
     if paper:
@@ -377,7 +401,8 @@ def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = Fa
         columns += ["holweg (paper)", "lstm (paper)"]
         for i, s in enumerate(sensors):
             cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
-    notes = ["Mean over fingers of each finger's accuracy at window 50, full sampling rate."]
+    notes = ["Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
+             *_interval_note(joint, intervals)]
     if paper:
         notes.append("Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
                      "LSTM: mean of Table I at window 50.")
@@ -386,14 +411,15 @@ def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = Fa
                  cells, "tab:baseline", notes=notes)
 
 
-def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, paper: bool = False) -> Table | None:
+def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, paper: bool = False,
+                joint: dict[tuple, dict] | None = None) -> Table | None:
     """TP and TN rates at window 50 per sensor type, averaged over fingers (paper, section VI.A),
     from the rows of the protocol laid out as the paper's Table I."""
     rows = rows[(rows["window"] == BASELINE_WINDOW) & (rows["detector"] == detector)]
     if rows.empty:
         return None
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    avg = _averaged(rows, ["tp_rate", "tn_rate"], ["sensor_type"], intervals)
+    avg = _averaged(rows, ["tp_rate", "tn_rate"], ["sensor_type"], intervals, _of(joint, detector))
     cells = [avg.get((s,), ["NA", "NA"]) for s in sensors]
     columns = ["TP rate", "TN rate"]
     if paper:
@@ -404,7 +430,8 @@ def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, pape
                                    if s in ref.index else ["—", "—"])
     return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
                  columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
-                 notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping."])
+                 notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping.",
+                        *_interval_note(joint, intervals)])
 
 
 # ----------------------------------------------------------------------------- one column per metric
@@ -468,6 +495,8 @@ def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], m
     of each unit's figure (mean over seeds). None with fewer than two detectors."""
     if len(detectors) < 2:
         return None
+    if layout.metrics:
+        return _metrics_side_by_side(rows, layout, detectors, label_)
     keys = [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
     per = summarize(rows, ["detector", *keys], metric)
     per = per[per["status"] == "ok"]
@@ -490,6 +519,24 @@ def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], m
     group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes)
+
+
+def _metrics_side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str) -> Table:
+    """A layout with several metrics (streaming): a row per detector, a column per metric, each
+    the mean over units of each unit's figure (mean over seeds)."""
+    keys = [k for k in layout.rows if k in rows]
+    cells = []
+    for d in detectors:
+        line = []
+        for m in layout.metrics:
+            per = summarize(rows[rows["detector"] == d], keys, m)
+            per = per[per["status"] == "ok"]
+            line.append(metric_text(m, per["mean"].mean()) if len(per) else "NA")
+        cells.append(line)
+    units = " and ".join(ROW_HEADERS.get(k, k).lower() for k in keys)
+    return Table(f"{layout.title or 'Protocol'}: every detector side by side.", ["Detector"], layout.group,
+                 [METRIC_COLUMNS.get(m, (m,))[0] for m in layout.metrics], [(d,) for d in detectors], cells, label_,
+                 notes=[f"Mean over units ({units}) of each unit's figure."])
 
 
 def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accuracy",

@@ -1,0 +1,53 @@
+"""Means over fingers get one joint bootstrap over the trials the fingers share: the same
+point estimate as the rows, an interval from the stored predictions, and the report says which
+interval it shows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from slipbench.detectors.holweg import Holweg
+from slipbench.joint import joint_means
+from slipbench.protocols.window_size import WindowSize
+from slipbench.report import build_report, render
+from slipbench.results import ResultsStore
+from slipbench.runner import Run, evaluate
+
+
+@pytest.fixture(scope="module")
+def run(small, tmp_path_factory):
+    folder = tmp_path_factory.mktemp("joint")
+    rows = evaluate(small, Run(Holweg(), WindowSize(windows=(50,)), split="grouped"), ResultsStore(folder), progress=False)
+    return rows, folder
+
+
+def test_the_joint_mean_is_the_mean_of_the_fingers_and_its_interval_holds_it(run):
+    rows, folder = run
+    joint = joint_means(rows, ["detector", "sensor_type"], [folder])
+    assert {k[1] for k in joint} == set(rows["sensor_type"])
+    for (detector, sensor), j in joint.items():
+        fingers = rows[rows["sensor_type"] == sensor]
+        assert j["accuracy"] == pytest.approx(fingers["accuracy"].mean(), abs=1e-12)
+        assert j["n_test_sets"] == len(fingers)
+        for name in ("accuracy", "tp_rate", "tn_rate"):
+            assert j[f"{name}_lo"] <= j[name] <= j[f"{name}_hi"]
+            assert np.isfinite(j[f"{name}_lo"]) and np.isfinite(j[f"{name}_hi"])
+
+
+def test_a_group_with_a_missing_predictions_file_gets_nothing(run, tmp_path):
+    rows, folder = run
+    (tmp_path / "predictions").mkdir()
+    kept = rows[rows["sensor_type"] != "Nano17"]
+    for key in kept["key"]:
+        (tmp_path / "predictions" / f"{key}.parquet").write_bytes((folder / "predictions" / f"{key}.parquet").read_bytes())
+    joint = joint_means(rows, ["detector", "sensor_type"], [tmp_path])
+    assert {k[1] for k in joint} == set(kept["sensor_type"])
+
+
+def test_the_report_says_which_interval_an_average_has(run):
+    rows, folder = run
+    joint = render(build_report(rows, intervals=True, predictions=[folder]), "md")
+    rows_only = render(build_report(rows, intervals=True), "md")
+    assert "one bootstrap over the trials the fingers share" in joint
+    assert "combined as independent, which understates it" in rows_only
