@@ -11,6 +11,7 @@
 # 'grouped' (whole trials on one side for every unit; the reports lead with it) and 'paper'
 # (windows shuffled and halved, as the paper did). Cost: see the closing table of reports/README.md.
 # Results go to $RESULTS (default build/reproduction); finished cells are reused on a rerun.
+# REPORT_ONLY=1 renders the reports from the results already in $RESULTS, computing nothing.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RESULTS=${RESULTS:-build/reproduction}
@@ -20,6 +21,7 @@ JOBS=${JOBS:-2}
 DETECTORS=${DETECTORS:-holweg bandpass wavelet-svm minirocket lstm}
 PROTOCOLS="window-size sampling-rate material-holdout speed-holdout cross-instance streaming"
 for split in grouped paper; do
+  [ -n "${REPORT_ONLY:-}" ] && break
   for detector in $DETECTORS; do
     params=()
     if [ "$detector" = lstm ]; then params=(--param max_epochs=100); fi

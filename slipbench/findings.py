@@ -119,7 +119,9 @@ def findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], ord
         return None
     return Table("The paper's findings and ours: each contrast on the published table (the paper's LSTM) and on each "
                  "detector's results.", ["Protocol", "Finding"], "", ["paper (LSTM)", *detectors],
-                 [(p, f) for p, f, _ in lines], [c for _, _, c in lines], "tab:findings", wrap={0: 0.12, 1: 0.24}, notes=[
+                 [(p, f) for p, f, _ in lines], [c for _, _, c in lines], "tab:findings",
+                 # value columns wrap too ("Neoprene (-9.1)"): six of them in a line overran the page by 143 pt
+                 wrap={0: 0.1, 1: 0.2, **{2 + i: 0.56 / (len(detectors) + 1) for i in range(len(detectors) + 1)}}, notes=[
                      "Means over units (sensor and finger) of each unit's figure; a curve from the paper's smallest "
                      "to its largest x (windows of 5 and 200 samples; the lowest and the full sampling rate), — where "
                      "the results lack either; a layout split into several tables is read at its first (plain "

@@ -210,7 +210,7 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
         extra += [rates_table(one, d, intervals, paper, joint) for d in rank(one["detector"].unique(), DETECTOR_ORDER)]
         extra = [t for t in extra if t is not None]
         if extra:
-            title = "At window 50: baseline and TP/TN rates" + (f" ({splits[0][0]} split)" if len(splits) > 1 else "")
+            title = "At window 50: baseline and TP/TN rates" + (f", {splits[0][0]} split" if len(splits) > 1 else "")
             blocks += [Heading(title, 2), *extra]
     return blocks
 
