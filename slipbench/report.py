@@ -34,7 +34,7 @@ from .provenance import fitted_tables, header_tables
 from .render import standalone_latex, to_html, to_latex, to_markdown
 from .sections import DETECTOR_ORDER, SPLIT_ORDER, _sections, _splits, layouts, protocol_order, split_parts
 from .tables import (Table, baseline_table, build_table, escape, fits, generic_layout, metrics_table, rank, rates_table,
-                     side_by_side, split_table)
+                     side_by_side, split_table, table_keys)
 
 PAPER_DETECTOR = "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 FORMATS = ("md", "latex", "html")
@@ -56,18 +56,21 @@ def _which(which: dict) -> str:
 
 
 def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, metric: str = "accuracy",
-                    intervals: bool = False, paper: bool = False, split: str = "") -> list[tuple[str, Table]]:
+                    intervals: bool = False, paper: bool = False, split: str = "",
+                    predictions: Sequence[str | os.PathLike] = ()) -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
     decimation), captions naming the detector and protocol. With ``paper``, the paper's model
     (PAPER_DETECTOR) gets ours minus published after each; the published table itself is
-    :func:`published_table`, shown once per protocol."""
+    :func:`published_table`, shown once per protocol. With ``intervals``, figures run under
+    several seeds get one interval pooled over the seeds from their ``predictions`` folders."""
     ref = paper_frame(layout.paper_table) if paper and layout.paper_table and detector == PAPER_DETECTOR else None
     named = f"Detector {detector}, protocol {protocol}" + (f", {split} split" if split else "") + "."
     out = []
     for which, part in split_parts(rows, layout):
         tag = "-".join([f"{protocol}-{detector}", *([split] if split and split != "paper" else []), *(str(v) for v in which.values())])
         suffix = f" ({', '.join(f'{c}: {v}' for c, v in which.items())})" if which else ""
-        table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}")
+        table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}",
+                            pooled=_pooled(part, layout, predictions) if intervals else None)
         table.caption += _which(which)
         table.subject = named
         out.append((f"{detector}{suffix}", table))
@@ -81,6 +84,17 @@ def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector:
             dt.subject = named
             out.append((f"{detector} - paper{suffix}", dt))
     return out
+
+
+def _pooled(rows: pd.DataFrame, layout: Layout, predictions: Sequence[str | os.PathLike]) -> dict[tuple, dict]:
+    """Per figure of the table that ran under several seeds: the joint bootstrap of its seeds."""
+    if not predictions or layout.metrics or "seed" not in rows or rows["seed"].nunique() < 2:
+        return {}
+    from .joint import joint_means
+
+    keys = table_keys(rows, layout)
+    repeated = rows.groupby(keys, dropna=False)["seed"].transform("nunique") > 1
+    return joint_means(rows[repeated], keys, predictions)
 
 
 def _stream_note(rows: pd.DataFrame) -> str:
@@ -120,7 +134,7 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
 
 
 def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: str, metric: str, intervals: bool,
-                     paper: bool, figures: dict[str, list]) -> list:
+                     paper: bool, figures: dict[str, list], predictions: Sequence[str | os.PathLike] = ()) -> list:
     prows = rows[rows["protocol"] == protocol]
     blocks: list = [Heading(protocol, 2)]
     if note:
@@ -150,7 +164,8 @@ def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: st
             if drows.empty:
                 continue
             blocks.append(Heading(f"{protocol}: {detector} ({split} split)", 3))
-            blocks += [t for _, t in protocol_tables(drows, layout, protocol, detector, metric, intervals, paper, split)]
+            blocks += [t for _, t in protocol_tables(drows, layout, protocol, detector, metric, intervals, paper, split,
+                                                     predictions)]
             blocks += [f for f in figures.get(protocol, []) if f.detector == detector and f.split == split]
     return blocks
 
@@ -162,7 +177,7 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
     ``with_figures``, :class:`~slipbench.plots.FigureSpec`), in the module's outline.
     ``benchmark``: the benchmark file the rows come from, named in the header.
     ``predictions``: results folders holding the cells' test predictions; with ``intervals``,
-    means over fingers get one joint bootstrap over the trials the fingers share."""
+    means over fingers and over seeds get one joint bootstrap over the trials they share."""
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = _splits(rows)
@@ -196,7 +211,7 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
         blocks += [Heading("What fitting chose", 2), *fitted]
     for protocol in order:
         layout, note = found[protocol]
-        blocks += _protocol_blocks(rows, protocol, layout, note, metric, intervals, paper, figures)
+        blocks += _protocol_blocks(rows, protocol, layout, note, metric, intervals, paper, figures, predictions)
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in lead:
         one = lead[lead["protocol"].isin(table_one)]

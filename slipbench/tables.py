@@ -38,10 +38,13 @@ LOW_NOTE = (f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of
 KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")  # how a cell's key reads
 
 
-# What a table's intervals are; with repeats, the seeds' bounds are averaged, which is not an interval
-# of the pooled result (metrics.pool_seeds computes that one from predictions; tables do not use it yet)
+# What a table's intervals are. With repeats and no predictions at hand, the seeds' bounds are
+# averaged, which is not an interval of the pooled result; with predictions, the seeds are
+# bootstrapped jointly (slipbench.joint)
 INTERVAL_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, the mean "
                  "of the seeds' bounds, not an interval of the pooled result].")
+POOLED_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, one "
+               "bootstrap of the mean over seeds, each resample drawing a trial for every seed at once].")
 ROW_HEADERS = {"sensor_type": "Sensor", "sensor_instance": "Finger", "train_instance": "Training Data"}
 COLUMN_UNITS = {"rate_hz": "Rates in Hz", "window_ms": "Window in ms", "window": "Window in samples"}
 
@@ -274,18 +277,27 @@ def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list
     return [f"{COLUMN_UNITS.get(col, col)} per column: {text}."]
 
 
+def table_keys(rows: pd.DataFrame, layout: Layout) -> list[str]:
+    """The columns that name one figure of ``layout``'s table: its rows, column and pair."""
+    return [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
+
+
 def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", intervals: bool = False,
-                values: str = "ours", paper: pd.DataFrame | None = None, label_: str = "") -> Table:
+                values: str = "ours", paper: pd.DataFrame | None = None, label_: str = "",
+                pooled: dict[tuple, dict] | None = None) -> Table:
     """One table of one detector's rows in ``layout``.
 
     ``values``: "ours" (the results), "paper" (the published numbers from ``paper``), or
     "difference" (ours minus paper, in percentage points). A layout with ``metrics`` gives
-    :func:`metrics_table` (``metric`` and ``values`` do not apply).
+    :func:`metrics_table` (``metric`` and ``values`` do not apply). ``pooled`` (keyed by the
+    values of :func:`table_keys`, from :func:`slipbench.joint.joint_means`): the interval of a
+    figure run under several seeds, one bootstrap over the recordings the seeds share, in place
+    of the mean of the seeds' bounds.
     """
     if layout.metrics:
         return metrics_table(rows, layout, layout.metrics, intervals, label_)
-    keys = [*layout.rows, layout.column] + ([layout.pair] if layout.pair else [])
-    keys = [k for k in keys if k in rows]
+    keys = table_keys(rows, layout)
+    pooled = pooled or {}
     summary = summarize(rows, keys, metric)
     row_values = summary[list(layout.rows)].drop_duplicates()
     for col in reversed(layout.rows):  # stable sorts, last key first: lexicographic order
@@ -308,7 +320,10 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
             if key not in ref or r["status"] != "ok" or pd.isna(r["mean"]):
                 return "—"
             return f"{100 * (r['mean'] - ref[key]):+.1f}"
-        return figure_text(r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], intervals, r["low_n"])
+        lo, hi = r["lo"], r["hi"]
+        if r["n"] > 1 and key in pooled:
+            lo, hi = pooled[key][f"{metric}_lo"], pooled[key][f"{metric}_hi"]
+        return figure_text(r["mean"], r["sd"], r["n"], lo, hi, r["status"], intervals, r["low_n"])
 
     cells = []
     for rk in row_keys:
@@ -334,7 +349,7 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     if (summary["n"] > 1).any() and values == "ours":
         notes.append("Mean ± standard deviation across seeds.")
     if intervals and values == "ours":
-        notes.append(INTERVAL_NOTE)
+        notes.append(POOLED_NOTE if pooled and (summary["n"] > 1).any() else INTERVAL_NOTE)
     return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
 
 

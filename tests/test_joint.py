@@ -51,3 +51,24 @@ def test_the_report_says_which_interval_an_average_has(run):
     rows_only = render(build_report(rows, intervals=True), "md")
     assert "one bootstrap over the trials the fingers share" in joint
     assert "combined as independent, which understates it" in rows_only
+
+
+def test_seeds_pool_into_one_interval(small, tmp_path):
+    """Two seeds of one cell: the table shows one interval of their mean, bootstrapped jointly,
+    not the mean of the two seeds' bounds, and says so."""
+    from slipbench.report import protocol_tables
+
+    store = ResultsStore(tmp_path)
+    rows = evaluate(small, [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)], store,
+                    progress=False)
+    layout = WindowSize(windows=(50,)).layout
+    pooled = joint_means(rows, ["sensor_type", "sensor_instance", "window"], [tmp_path])
+    assert len(pooled) == rows[["sensor_type", "sensor_instance"]].drop_duplicates().shape[0]
+    (_, table), = protocol_tables(rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path])
+    (_, averaged), = protocol_tables(rows, layout, "window-size", "holweg", intervals=True)
+    assert table.cells != averaged.cells  # same means, other bounds
+    key = next(iter(pooled))
+    one = pooled[key]
+    assert f"[{100 * one['accuracy_lo']:.1f}, {100 * one['accuracy_hi']:.1f}]" in " ".join(c for line in table.cells for c in line)
+    assert any("one bootstrap of the mean over seeds" in n for n in table.notes)
+    assert any("the mean of the seeds' bounds" in n for n in averaged.notes)
