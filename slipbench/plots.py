@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import os
+import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,6 +43,7 @@ from .tables import label, ordered, rank, summarize  # noqa: E402
 
 FORMATS = ("png", "pdf")
 WIDTH = 3.5  # inches: one column of a two-column paper
+TITLE_CHARS = 60  # a title wraps to the figure's width at its font size
 DPI = 200
 STYLE = {"font.size": 7, "axes.titlesize": 7, "axes.labelsize": 7, "xtick.labelsize": 6.5, "ytick.labelsize": 6.5,
          "legend.fontsize": 6.5, "figure.titlesize": 7.5, "lines.linewidth": 1.1, "lines.markersize": 3}
@@ -142,7 +144,7 @@ def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame 
         ax.set_ylabel("accuracy (%)")
     axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
-    fig.suptitle(title)
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
 
 
@@ -174,7 +176,7 @@ def _compare_curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.Da
         ax.set_ylabel("accuracy (%)")
     axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
-    fig.suptitle(title)
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
 
 
@@ -237,7 +239,7 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     axes[2].set_title("with minus without", loc="left", pad=2)
     fig.colorbar(im, ax=axes[2], label="difference (points)", fraction=0.05, pad=0.02)
     axes[2].set_xlabel(layout.x_label or AXIS_LABELS.get(column, (layout.title or column).lower()))
-    fig.suptitle(title)
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
 
 
@@ -265,7 +267,7 @@ def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
         ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
         fig.colorbar(im, ax=ax, label="accuracy (%)", fraction=0.05, pad=0.02)
     axes[-1].set_xlabel("tested on")
-    fig.suptitle(title)
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
 
 
@@ -302,7 +304,7 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
         ax.grid(alpha=0.3)
     handles, names = axes[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize=5.5)  # once per figure
-    fig.suptitle(title)
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
 
 
