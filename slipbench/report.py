@@ -192,7 +192,7 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
     blocks: list = [Heading("slipbench report", 1), Heading("What this report stands on", 2), *header_tables(rows, metric, order, benchmark),
                     Heading("Leaderboard", 2)]
     if len(splits) > 1:
-        blocks.append(Text(f"The leaderboard{' and the findings' if paper else ''} rank the {splits[0][0]} split; "
+        blocks.append(Text(f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split; "
                            f"the table after the leaderboard sets the {splits[1][0]} split beside it."))
     blocks += [*leaderboard_tables(board), *figures.get(None, [])]
     if len(splits) > 1:

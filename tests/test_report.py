@@ -289,7 +289,7 @@ def test_a_report_of_two_splits_leads_with_grouped_and_sets_paper_beside_it():
     grouped = paper.assign(split="grouped", accuracy=paper["accuracy"] - 0.05, key=paper["key"] + "g")
     text = render_report(pd.concat([paper, grouped], ignore_index=True), "md")
     assert text.index("(grouped split)") < text.index("(paper split)")
-    assert "The leaderboard rank the grouped split" in text
+    assert "The leaderboard ranks the grouped split" in text
     # the leaderboard ranks one split: 48 cells, not 96
     assert "all (48)" in text and "all (96)" not in text
     side = text[text.index("**The grouped split beside the paper split"):]
