@@ -388,12 +388,16 @@ def verdict(r: dict, margin: float) -> str:
 # ----------------------------------------------------------------------------- reports
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
-FORMATS = ("md", "json")
 
 
-def _primary(r: dict) -> float:
-    """The change a cell is summarised by (points): accuracy, or a stream's detection rate."""
-    return 100 * float(r.get("d_detection_rate" if r["stream"] else "d_accuracy", np.nan))
+def _figure(r: dict) -> str:
+    """The figure a cell is summarised by: accuracy, or a stream's detection rate."""
+    return "detection_rate" if r["stream"] else "accuracy"
+
+
+def _primary(r: dict, bound: str = "") -> float:
+    """The change of that figure (points), or with ``bound`` "_lo"/"_hi" its interval's bound."""
+    return 100 * float(r.get(f"d_{_figure(r)}{bound}", np.nan))
 
 
 def summary(cmp: Comparison) -> pd.DataFrame:
@@ -410,14 +414,9 @@ def summary(cmp: Comparison) -> pd.DataFrame:
                       "regressed": int(verdicts.get("regressed", 0)), "improved": int(verdicts.get("improved", 0)),
                       "mean_change": float(np.mean([d for d, _ in finite])) if finite else np.nan,
                       "worst_cell": _label(worst, cmp) if worst is not None else "",
-                      "worst_change": _primary(worst) if worst is not None else np.nan,
-                      "worst_lo": 100 * float(worst.get(f"d_{_figure(worst)}_lo", np.nan)) if worst is not None else np.nan,
-                      "worst_hi": 100 * float(worst.get(f"d_{_figure(worst)}_hi", np.nan)) if worst is not None else np.nan})
+                      **{f"worst_{name}": _primary(worst, bound) if worst is not None else np.nan
+                         for name, bound in (("change", ""), ("lo", "_lo"), ("hi", "_hi"))}})
     return pd.DataFrame(lines)
-
-
-def _figure(r: dict) -> str:
-    return "detection_rate" if r["stream"] else "accuracy"
 
 
 def _label(r: dict, cmp: Comparison) -> str:
