@@ -139,9 +139,19 @@ def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame 
                 ax.plot(ref[x], 100 * ref["accuracy"], "o", mfc="none", color=color, ms=5)
         if paper is not None and len(paper):
             ax.plot([], [], "o", mfc="none", color="0.3", ms=5, label="paper (LSTM)")
-        _x_axis(ax, rows.loc[rows["sensor_type"] == sensor, x], layout)
-        ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
-        ax.set_ylabel("accuracy (%)")
+        _finish_panel(ax, sensor, rows.loc[rows["sensor_type"] == sensor, x], layout)
+    return _finish_figure(fig, axes, layout, x, title)
+
+
+def _finish_panel(ax, sensor: str, xs: pd.Series, layout: Layout) -> None:
+    """A sensor's panel of an accuracy curve: its x ticks, title and y label."""
+    _x_axis(ax, xs, layout)
+    ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
+    ax.set_ylabel("accuracy (%)")
+
+
+def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Figure:
+    """Stacked panels: the x label under the last, one legend, the title wrapped to the width."""
     axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
     fig.suptitle(textwrap.fill(title, TITLE_CHARS))
@@ -171,13 +181,8 @@ def _compare_curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.Da
             ref = paper[paper["sensor_type"] == sensor].groupby(x)["accuracy"].mean().sort_index()
             ax.plot(ref.index, 100 * ref, "--", color="black", marker="o", mfc="none", ms=4, lw=0.9,
                     label="paper (LSTM)")
-        _x_axis(ax, part[x], layout)
-        ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
-        ax.set_ylabel("accuracy (%)")
-    axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
-    _legend_once(fig, axes)
-    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
-    return fig
+        _finish_panel(ax, sensor, part[x], layout)
+    return _finish_figure(fig, axes, layout, x, title)
 
 
 def accuracy_range(*grids: np.ndarray) -> tuple[float, float]:

@@ -191,12 +191,13 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [Heading("slipbench report", 1), Heading("What this report stands on", 2), *header_tables(rows, metric, order, benchmark),
                     Heading("Leaderboard", 2)]
+    side = split_table(rows, [s for s, _ in splits], metric, order, DETECTOR_ORDER) if len(splits) > 1 else None
     if len(splits) > 1:
-        blocks.append(Text(f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split; "
-                           f"the table after the leaderboard sets the {splits[1][0]} split beside it."))
+        blocks.append(Text(f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split"
+                           + (f"; the table after the leaderboard sets the {splits[1][0]} split beside it." if side else ".")))
     blocks += [*leaderboard_tables(board), *figures.get(None, [])]
-    if len(splits) > 1:
-        blocks += [Heading("The splits side by side", 2), split_table(rows, [s for s, _ in splits], metric, order, DETECTOR_ORDER)]
+    if side is not None:
+        blocks += [Heading("The splits side by side", 2), side]
     if leaderboard_only:
         return blocks
     if paper:

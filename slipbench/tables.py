@@ -555,14 +555,19 @@ def _metrics_side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequenc
 
 
 def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accuracy",
-                protocols: Sequence[str] = (), detectors: Sequence[str] = ()) -> Table:
+                protocols: Sequence[str] = (), detectors: Sequence[str] = ()) -> Table | None:
     """Per protocol and detector (in these orders), the mean ``metric`` of the cells every split
     finished, per split, and each other split minus the first: the mean change and its range
-    over cells."""
+    over cells. None where no cell has the figure on every split (streaming rows have no accuracy)."""
     first, others = splits[0], list(splits[1:])
     keys = ["protocol", "detector", "cell", "seed"]
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
-    wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean").dropna(subset=list(splits))
+    if metric not in ok or ok[metric].isna().all():
+        return None
+    wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean")
+    wide = wide.dropna(subset=[s for s in splits if s in wide]) if set(splits) <= set(wide.columns) else wide.iloc[:0]
+    if wide.empty:
+        return None
     lines, cells = [], []
     for (protocol, detector), part in wide.groupby(level=["protocol", "detector"]):
         line = [str(len(part)), *(f"{100 * part[s].mean():.1f}" for s in splits)]

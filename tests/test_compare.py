@@ -17,6 +17,7 @@ from scipy.special import expit
 from scipy.stats import t as student_t
 from test_coverage import TAUS, dataset
 from test_report import check_golden
+from test_store_faults import TWO_CELLS
 
 from slipbench.cli import main
 from slipbench.compare import COMMENT_LIMIT, MAX_ROWS, compare, family_level, to_json, to_markdown, verdict
@@ -27,21 +28,6 @@ from slipbench.metrics import classification_figures, paired_comparison
 NULL_RUNS = int(os.environ.get("SLIPBENCH_NULL_RUNS", "20"))  # 100 or more: the full study, 999 resamples
 NULL_CELLS = 280  # about the cells of a whole-paper run of one detector
 
-PROTOCOL = '''
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part
-
-
-class TwoCells(BaseProtocol):
-    """Window 50 of two Nano17 fingers: the window-size protocol, cut down for speed."""
-
-    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
-
-    def cells(self, recordings):
-        for finger in ("index", "middle"):
-            part = (("Nano17", finger),)
-            yield Cell(key={"sensor_type": "Nano17", "sensor_instance": finger, "window": 50},
-                       train=Part(part, "train"), test=Part(part, "test"), window=50)
-'''
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +35,7 @@ def runs(small_path, tmp_path_factory):
     """Holweg as shipped (BASE) and Holweg on a useless band (a degraded CANDIDATE)."""
     root = tmp_path_factory.mktemp("compare")
     (root / "plugins" / "protocols").mkdir(parents=True)
-    (root / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(PROTOCOL))
+    (root / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
     common = ["evaluate", "--detector", "holweg", "--protocol", "two-cells", "--dataset", str(small_path),
               "--plugins", str(root / "plugins"), "--quiet"]
     for name, extra in (("base", []), ("degraded", ["--param", "band=[300,495]"])):

@@ -295,3 +295,21 @@ def test_a_report_of_two_splits_leads_with_grouped_and_sets_paper_beside_it():
     side = text[text.index("**The grouped split beside the paper split"):]
     for detector in ("holweg", "lstm", "bandpass"):
         assert re.search(rf"\|\s*window-size\s*\|\s*{detector}\s*\|\s*48\s*\|[^|]+\|[^|]+\|\s*\+5\.0 \[\+5\.0, \+5\.0\]", side)
+
+
+def test_findings_on_a_labs_sensors_compare_what_they_can():
+    """A lab's own sensor type (not one of the paper's three) with --paper: the findings table
+    gives what its rows allow, and none of the paper's sensors' figures for it."""
+    from slipbench.findings import paper_findings_table
+    from slipbench.report import layouts
+
+    rows = fake_rows("window-size").assign(sensor_type="Vib")
+    rows["cell"] = [json.dumps({"sensor_type": "Vib", "sensor_instance": r["sensor_instance"], "window": r["window"]})
+                    for r in rows.to_dict("records")]
+    table = paper_findings_table(rows, layouts(rows))
+    cells = dict(zip((f for f, in table.rows), table.cells))
+    rise = cells["Accuracy rises with the window (window 5 → 200, points)"]
+    assert rise[1].startswith("Vib ") and "Nano17" not in rise[1]
+    assert cells["The LSTM is ahead of Holweg by 10-20 points at window 50 (points; mean over sensors)"][1:3] == ["—", "—"]
+    assert "BioTac SP collapses" not in " ".join(cells)  # no sampling-rate rows
+    render_report(rows, "md", paper=True)  # and the whole report renders

@@ -176,3 +176,15 @@ def test_a_recording_that_starts_in_slip_gives_no_onset():
     assert unknown_start(np.array([1, 1, 0, 0, 1, 1], np.int8)).tolist() == [-1, -1, 0, 0, 1, 1]
     assert unknown_start(np.array([1, 1], np.int8)).tolist() == [-1, -1]
     assert unknown_start(np.array([0, 1], np.int8)).tolist() == [0, 1]
+
+
+def test_a_streaming_report_of_two_splits_has_no_split_table_and_no_traceback(streamed):
+    """Streaming rows hold no accuracy: the splits' side-by-side table has nothing to set side
+    by side, and the report says only which split it ranks."""
+    from slipbench.report import build_report, render
+
+    rows, _ = streamed
+    both = pd.concat([rows, rows.assign(split="grouped", key=rows["key"] + "g")], ignore_index=True)
+    text = render(build_report(both, paper=True), "md")
+    assert "The splits side by side" not in text
+    assert "rank the grouped split." in text and "(grouped split)" in text
