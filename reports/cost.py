@@ -8,8 +8,9 @@ two sittings of a resumed run, and is left out. Per model: its training time (``
 plus the inference of its cells (``infer_us_per_window`` x test windows). Extrapolated:
 
 - scale 1.0 (the paper's size) on this machine: the wall time x 1/scale, since every cost of a
-  model (training epochs, inference, the bootstrap over test windows) grows with its windows;
-  the LSTM's epochs to early stopping are assumed not to change with the data's size;
+  model (training epochs, inference, the bootstrap over test windows) grows with its windows.
+  For the LSTM this is an upper bound: its epochs to early stopping fall as the data grow (on
+  the window-size protocol, 2.12x the training windows took 1.53x the training time);
 - the largest scale whose whole run fits in 2 hours: scale x 2 h / the wall time;
 - a dask cluster of 8 such machines (16 workers): the models' costs x 1/scale, each inflated by
   the measured ratio of CPU time (wall x jobs) to the models' own time (data loading, windows,
@@ -73,7 +74,8 @@ def cost_section(rows: pd.DataFrame, jobs: int) -> str:
         overhead = total * jobs / models["seconds"].sum()
         cluster = makespan(list(models["seconds"] * overhead / scale), WORKERS)
         text += [f"At scale {scale:g} the whole run (every detector, every protocol, both splits) took "
-                 f"{total / 60:.0f} min. Extrapolated linearly in the data's size (see `reports/cost.py`): the "
+                 f"{total / 60:.0f} min. Extrapolated linearly in the data's size (see `reports/cost.py`; an upper bound for the "
+                 "LSTM, which stops early after fewer epochs on more data): the "
                  f"largest scale that fits in 2 hours on this machine is about {scale * BUDGET_S / total:.2f}; scale "
                  f"1.0, the paper's size, would take about {total / scale / 3600:.1f} h here, and about "
                  f"{cluster / 3600:.1f} h on a dask cluster of 8 such machines (16 workers; the models' costs x "
