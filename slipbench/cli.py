@@ -381,7 +381,7 @@ def report(results, fmt, metric, leaderboard_only, intervals, paper, standalone,
     """Render RESULTS (results files or --out folders): what they stand on, the leaderboard,
     then each protocol in its own layout (the paper's tables)."""
     from .report import build_report, render, write_figures
-    from .results import check_unique_keys, read_results
+    from .results import check_unique_keys, read_results, results_folder
 
     import pandas as pd
 
@@ -389,7 +389,7 @@ def report(results, fmt, metric, leaderboard_only, intervals, paper, standalone,
     rows = check_unique_keys(pd.concat([read_results(p) for p in results], ignore_index=True),
                              " + ".join(map(str, results)))
     blocks = build_report(rows, metric, intervals, paper, leaderboard_only, with_figures=fmt == "html" or plots_dir is not None,
-                          predictions=[p if p.is_dir() else p.parent for p in map(Path, results)])
+                          predictions=[results_folder(p) for p in results])
     files = write_figures(blocks, plots_dir) if plots_dir else {}
     text = render(blocks, fmt, standalone, files, link_from=out.parent if out else None)
     if out:

@@ -54,7 +54,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 from scipy.stats import norm
 from scipy.stats import t as student_t
 
@@ -62,7 +61,7 @@ from .errors import DataError, UsageError
 from .metrics import FIGURES, LEVEL, paired_comparison
 from .sections import layouts, protocol_order
 from .tables import KEY_ORDER, ORDERS, cell_label
-from .results import check_unique_keys, read_results
+from .results import check_unique_keys, read_predictions, read_results, results_folder
 
 ALPHA = 1 - LEVEL
 MARKS = {"regressed": "▼ regressed", "improved": "▲ improved", "within margin": "≈ within margin",
@@ -117,23 +116,6 @@ def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
     return []
 
 
-def _folder(path: str | os.PathLike) -> Path:
-    path = Path(path)
-    return path if path.is_dir() else path.parent
-
-
-def _predictions(folder: Path, key: str) -> pd.DataFrame | None:
-    path = folder / "predictions" / f"{key}.parquet"
-    if not path.is_file():
-        return None
-    try:
-        names = set(pq.read_schema(path).names)
-        columns = ["recording_id", "window_index", "y_true", "score", *(["trial"] if "trial" in names else [])]
-        return pq.read_table(path, columns=columns).to_pandas()
-    except Exception as exc:  # a torn or foreign file is a data error naming the file
-        raise DataError(f"{path}: not a readable predictions file ({exc})") from None
-
-
 def _cell_items(cell: str) -> list[tuple[str, object]]:
     """A cell's key items, sensor first (the JSON is stored with sorted keys)."""
     try:
@@ -182,7 +164,7 @@ def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
 
 def _paired(base_row, cand_row, folders: tuple[Path, Path], seed: int, level: float) -> dict | None:
     """Paired figures from the two cells' predictions, or None when they cannot be joined."""
-    preds = [_predictions(f, r["key"]) for f, r in zip(folders, (base_row, cand_row))]
+    preds = [read_predictions(f, r["key"]) for f, r in zip(folders, (base_row, cand_row))]
     if any(p is None for p in preds):
         return None
     joined = preds[0].merge(preds[1], on=["recording_id", "window_index"], suffixes=("_b", "_c"))
@@ -325,7 +307,7 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
     if both.empty:
         raise DataError(f"BASE {base_path} and CANDIDATE {candidate_path} share no cell "
                         f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))})")
-    folders = (_folder(base_path), _folder(candidate_path))
+    folders = (results_folder(base_path), results_folder(candidate_path))
     rows = both.to_dict("records")
     pairs = [tuple({k[:-2]: v for k, v in row.items() if k.endswith(sfx)} | {k: row[k] for k in on} for sfx in ("_b", "_c"))
              for row in rows]

@@ -12,12 +12,15 @@ table falls back to the rows, and says so).
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
 import pandas as pd
 
+from .errors import DataError
 from .metrics import Predictions, mean_over_test_sets
+from .results import read_predictions
 
 JOINT_NOTE = ("the interval of a mean over fingers is one bootstrap over the trials the fingers share "
               "(each resample draws a trial for every finger at once)")
@@ -25,9 +28,12 @@ JOINT_NOTE = ("the interval of a mean over fingers is one bootstrap over the tri
 
 def _predictions(folders: Sequence[Path], key: str) -> Predictions | None:
     for folder in folders:
-        path = folder / "predictions" / f"{key}.parquet"
-        if path.is_file():
-            p = pd.read_parquet(path)
+        try:
+            p = read_predictions(folder, key)
+        except DataError as exc:  # a damaged file costs this group its joint interval, not the report
+            warnings.warn(f"{exc}; the tables fall back to the rows' intervals", stacklevel=2)
+            return None
+        if p is not None:
             score = p["score"].to_numpy()
             groups = p["trial"] if "trial" in p else p["recording_id"]  # a trial shared by fingers is one cluster
             return Predictions(p["y_true"].to_numpy().astype(bool), score >= 0.5, groups.astype(str).to_numpy(), score)

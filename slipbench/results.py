@@ -49,8 +49,8 @@ from .atomic import folder_lock, make_folder, write_atomic, write_text_atomic
 from .errors import ENVIRONMENT_ERRNOS, CellsFailed, DataError, environment_fault
 from .keys import cell_key
 
-__all__ = ["RESULTS_FILE", "REQUIRED_COLUMNS", "ResultsStore", "read_results", "cells_failed",
-           "cell_key", "write_atomic", "write_text_atomic"]
+__all__ = ["RESULTS_FILE", "REQUIRED_COLUMNS", "ResultsStore", "read_results", "read_predictions",
+           "results_folder", "cells_failed", "cell_key", "write_atomic", "write_text_atomic"]
 
 RESULTS_FILE = "results.parquet"
 #: columns every results row has, whatever its status (metrics exist only for cells that ran)
@@ -300,6 +300,31 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
     if missing:
         raise DataError(f"{path}: not a slipbench results file (missing columns: {', '.join(sorted(missing))})")
     return rows
+
+
+def results_folder(path: str | os.PathLike) -> Path:
+    """The results folder of ``path``: the folder itself, or the one holding a results file."""
+    path = Path(path)
+    return path if path.is_dir() else path.parent
+
+
+PREDICTION_COLUMNS = ("recording_id", "window_index", "y_true", "score")
+
+
+def read_predictions(folder: Path, key: str) -> pd.DataFrame | None:
+    """The stored test predictions of cell ``key`` (with ``trial`` where stored), or None where
+    the folder holds none; a file that cannot be read is a DataError naming it."""
+    path = folder / "predictions" / f"{key}.parquet"
+    if not path.is_file():
+        return None
+    try:
+        names = set(pq.read_schema(path).names)
+        if missing := [c for c in PREDICTION_COLUMNS if c not in names]:
+            raise DataError(f"{path}: not a readable predictions file (it lacks the columns {', '.join(missing)})")
+        columns = [*PREDICTION_COLUMNS, *(["trial"] if "trial" in names else [])]
+        return pq.read_table(path, columns=columns).to_pandas()
+    except (OSError, pa.ArrowException) as exc:
+        raise _read_error(exc, path, "not a readable predictions file") from None
 
 
 def check_unique_keys(rows: pd.DataFrame, source: str) -> pd.DataFrame:

@@ -349,8 +349,21 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     if (summary["n"] > 1).any() and values == "ours":
         notes.append("Mean ± standard deviation across seeds.")
     if intervals and values == "ours":
-        notes.append(POOLED_NOTE if pooled and (summary["n"] > 1).any() else INTERVAL_NOTE)
+        notes.append(_seeds_note({k for k, r in by_key.items() if r["n"] > 1}, pooled))
     return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+
+
+def _seeds_note(repeated: set[tuple], pooled: dict[tuple, dict]) -> str:
+    """What the intervals of figures run under several seeds are: pooled where ``pooled`` has
+    them, the mean of the seeds' bounds elsewhere (the note says how many of each)."""
+    missing = repeated - set(pooled)
+    if not repeated or not pooled or missing == repeated:
+        return INTERVAL_NOTE
+    if not missing:
+        return POOLED_NOTE
+    return (f"{POOLED_NOTE[:-2]}, for {len(repeated) - len(missing)} of the {len(repeated)} figures run under several "
+            f"seeds; for the {len(missing)} whose predictions are missing or unreadable, the mean of the seeds' bounds, "
+            "not an interval of the pooled result].")
 
 
 def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], intervals: bool,
@@ -381,13 +394,20 @@ def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], int
     return out
 
 
-def _interval_note(joint: dict | None, intervals: bool) -> list[str]:
+def _interval_note(joint: dict | None, intervals: bool, shown: Sequence[tuple]) -> list[str]:
+    """What the intervals of the ``shown`` averages (``(detector, sensor_type)`` keys) are: the
+    joint bootstrap where ``joint`` has the group, the combined half-widths elsewhere."""
     if not intervals:
         return []
-    if joint:
+    independent = ("the fingers' half-widths combined as independent, which understates it where they share "
+                   "trials; keep predictions for a joint bootstrap")
+    fallback = [k for k in shown if k not in (joint or {})]
+    if joint and not fallback:
         return [f"[95 % interval: {JOINT_NOTE}.]"]
-    return ["[95 % interval: the fingers' half-widths combined as independent, which understates it where they "
-            "share trials; keep predictions for a joint bootstrap.]"]
+    if not joint or len(fallback) == len(shown):
+        return [f"[95 % interval: {independent}.]"]
+    which = ", ".join(f"{label('sensor_type', s)} ({d})" for d, s in fallback)
+    return [f"[95 % interval: {JOINT_NOTE}; for {which}, whose predictions are missing or unreadable, {independent}.]"]
 
 
 def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
@@ -405,9 +425,10 @@ def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = Fa
         return None
     detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    columns, cells = list(detectors), [[] for _ in sensors]
+    columns, cells, shown = list(detectors), [[] for _ in sensors], []
     for det in detectors:
         avg = _averaged(rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det))
+        shown += [(det, *k) for k in avg]
         for i, s in enumerate(sensors):
             cells[i].append(avg.get((s,), ["NA"])[0])
     if paper:
@@ -417,7 +438,7 @@ def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = Fa
         for i, s in enumerate(sensors):
             cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
     notes = ["Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
-             *_interval_note(joint, intervals)]
+             *_interval_note(joint, intervals, shown)]
     if paper:
         notes.append("Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
                      "LSTM: mean of Table I at window 50.")
@@ -446,7 +467,7 @@ def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, pape
     return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
                  columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
                  notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping.",
-                        *_interval_note(joint, intervals)])
+                        *_interval_note(joint, intervals, [(detector, *k) for k in avg])])
 
 
 # ----------------------------------------------------------------------------- one column per metric

@@ -5,6 +5,7 @@ interval it shows."""
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from slipbench.detectors.holweg import Holweg
@@ -45,6 +46,29 @@ def test_a_group_with_a_missing_predictions_file_gets_nothing(run, tmp_path):
     assert {k[1] for k in joint} == set(kept["sensor_type"])
 
 
+@pytest.mark.parametrize("damage", ["torn", "foreign"])
+def test_a_damaged_predictions_file_costs_its_group_the_joint_interval_not_the_report(run, tmp_path, damage):
+    rows, folder = run
+    (tmp_path / "predictions").mkdir()
+    for key in rows["key"]:
+        (tmp_path / "predictions" / f"{key}.parquet").write_bytes((folder / "predictions" / f"{key}.parquet").read_bytes())
+    torn = rows[rows["sensor_type"] == "Nano17"]["key"].iloc[0]
+    path = tmp_path / "predictions" / f"{torn}.parquet"
+    if damage == "torn":
+        path.write_bytes(b"PAR1 torn")
+    else:  # a Parquet file of other columns
+        pd.DataFrame({"recording_id": ["a"], "window_index": [0]}).to_parquet(path)
+    why = "lacks the columns y_true, score" if damage == "foreign" else ""
+    with pytest.warns(UserWarning, match=f"{torn}.parquet: not a readable predictions file.*{why}"):
+        joint = joint_means(rows, ["detector", "sensor_type"], [tmp_path])
+    assert {k[1] for k in joint} == set(rows["sensor_type"]) - {"Nano17"}
+    with pytest.warns(UserWarning, match="not a readable predictions file"):
+        text = render(build_report(rows, intervals=True, predictions=[tmp_path]), "md")
+    # the other sensors keep the joint interval; the note names the one that fell back to the rows
+    assert "one bootstrap over the trials the fingers share" in text
+    assert "for Nano17 (holweg), whose predictions are missing or unreadable, the fingers' half-widths combined" in text
+
+
 def test_the_report_says_which_interval_an_average_has(run):
     rows, folder = run
     joint = render(build_report(rows, intervals=True, predictions=[folder]), "md")
@@ -72,3 +96,21 @@ def test_seeds_pool_into_one_interval(small, tmp_path):
     assert f"[{100 * one['accuracy_lo']:.1f}, {100 * one['accuracy_hi']:.1f}]" in " ".join(c for line in table.cells for c in line)
     assert any("one bootstrap of the mean over seeds" in n for n in table.notes)
     assert any("the mean of the seeds' bounds" in n for n in averaged.notes)
+
+
+def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
+    """A figure whose seeds' predictions are gone keeps the mean of the seeds' bounds, and the
+    note counts the figures of each kind instead of calling every interval pooled."""
+    from slipbench.report import protocol_tables
+
+    rows = evaluate(small, [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)],
+                    ResultsStore(tmp_path), progress=False)
+    gone = rows[(rows["sensor_type"] == "Nano17") & (rows["seed"] == 1)]["key"]
+    for key in gone:
+        (tmp_path / "predictions" / f"{key}.parquet").unlink()
+    layout = WindowSize(windows=(50,)).layout
+    (_, table), = protocol_tables(rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path])
+    figures = rows[["sensor_type", "sensor_instance"]].drop_duplicates()
+    pooled = len(figures) - len(gone)
+    assert any(f"for {pooled} of the {len(figures)} figures run under several seeds; for the {len(gone)} whose "
+               "predictions are missing or unreadable, the mean of the seeds' bounds" in n for n in table.notes)
