@@ -115,6 +115,8 @@ import numpy as np
 from scipy.stats import beta as beta_dist
 from scipy.stats import t as student_t
 
+from .seeding import rng_for
+
 LEVEL = 0.95
 N_RESAMPLES = 999
 METHODS = ("satterthwaite", "t", "percentile")
@@ -227,7 +229,7 @@ def resample_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) 
     -------
     ndarray of shape (n_resamples, n_clusters)
     """
-    rng = np.random.default_rng(seed)
+    rng = rng_for(seed, "bootstrap")
     w = np.ones((n_resamples, design.n_clusters))
     for h, n_h in enumerate(design.size):
         if n_h > 1:

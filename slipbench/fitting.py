@@ -22,6 +22,7 @@ from .base import BaseDetector, clone, plugin_id
 from .errors import EnvironmentFault, UsageError
 from .metrics import classification_figures
 from .results import write_text_atomic
+from .seeding import seed_int
 from .streamcell import StreamTest, streamed_figures
 
 
@@ -130,7 +131,7 @@ def _trained(detector: BaseDetector, seed: int, sampling_rate: float, train_x: n
     detector = clone(detector)
     with PeakMemory() as mem:
         t0 = time.perf_counter()
-        detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed)
+        detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed_int(seed, "detector"))
         train_s = time.perf_counter() - t0
     cost = {"train_s": train_s, "train_us_per_sample": train_s / train_x.size * 1e6, "peak_mem_mb": mem.mb}
     if model_path is not None:

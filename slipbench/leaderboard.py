@@ -35,6 +35,7 @@ from scipy.stats import bootstrap, friedmanchisquare, rankdata, wilcoxon
 from statsmodels.stats.multitest import multipletests
 
 from .tables import METRIC_NAMES, Table
+from .seeding import rng_for
 
 ALPHA = 0.05
 LEVEL = 0.95
@@ -187,7 +188,7 @@ def _mean_interval(values: np.ndarray, seed: int = 0) -> tuple[float, float, flo
     if np.all(values == values[0]):  # nothing to resample; scipy would warn of a degenerate distribution
         return float(values[0]), float(values[0]), float(values[0])
     res = bootstrap((values,), np.mean, n_resamples=N_RESAMPLES, confidence_level=LEVEL, method="percentile",
-                    rng=np.random.default_rng(seed))
+                    rng=rng_for(seed, "leaderboard"))
     return float(values.mean()), float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 

@@ -10,7 +10,6 @@ skipped with its reason; it never stops the others.
 from __future__ import annotations
 
 import sys
-import zlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,6 +23,7 @@ from .registry import detectors, protocols
 from .signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
 from .streaming import onsets
 from .transfer import SIDE_COLUMN
+from .seeding import STREAM_SCHEME, rng_for
 
 # a recordings column the runner adds: True where the dataset gives the recording per-sample
 # slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
@@ -134,8 +134,7 @@ class CellData:
             raise UsageError(f"no window of {window} samples of {name} can be labelled by {self.labelling}"
                              + (" (hold-slip recordings hold two states: label by samples, e.g. --labels majority)"
                                 if self.labelling == "scenario" else " (each touches an unlabelled sample)"))
-        words = [zlib.crc32(f"{sensor}|{window}".encode())]
-        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=words))
+        rng = rng_for(self.seed, "balance", *sensor, window)
         if self.how == "datasets":
             return self._across_datasets(windows, rng, name)
         windows = windows.take(balance(windows, rng))
@@ -255,7 +254,7 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
     except TypeError as exc:
         raise UsageError(f"detector {run.detector_name!r}: a parameter is not a plain value: {exc}") from None
     common = {"dataset": fingerprint, "detector": run.detector_name, "params": params,
-              "split": stream_split(run.split) if cell.stream else run.split, "seed": run.seed, "labels": run.labels, "code": code}
+              "split": stream_split(run.split) if cell.stream else run.split, "seed": run.seed, "streams": STREAM_SCHEME, "labels": run.labels, "code": code}
     # at the full rate every decimation gives the same windows: one model serves them all
     sampling = ({"decimation": "plain"} if cell.downsample == 1 else
                 {"decimation": cell.decimation, "antialias": bool(cell.antialias)})

@@ -12,6 +12,7 @@ from sklearn.model_selection import train_test_split
 
 from .data import Dataset
 from .errors import UsageError
+from .seeding import rng_for, seed_int
 
 SPLITS = ("paper", "grouped", "datasets")  # datasets: train on one dataset, test on another (slipbench.transfer)
 # How a window gets its class: from its recording's scenario (the paper), or from the per-sample
@@ -269,7 +270,7 @@ def trial_sides(recordings: pd.DataFrame, seed: int) -> np.ndarray:
     that share a trial (the fingers of one grasp) therefore land on the same side in every
     unit's split, so no model is tested on a trial whose twin trained it.
     """
-    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=[0x7472]))
+    rng = rng_for(seed, "sides")
     trials = recordings["trial"] if "trial" in recordings else recordings["recording_id"]
     key = [f"{sc}|{m}|{v:g}" for sc, m, v in zip(recordings["scenario"], recordings["material"].fillna(""),
                                                   recordings["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))]
@@ -297,7 +298,7 @@ def split(windows: Windows, how: str, seed: int, sides: np.ndarray | None = None
             strata = windows.y
         if np.unique(strata, return_counts=True)[1].min() < 2:
             raise UsageError("the paper split needs at least two windows of each class")
-        train, test = train_test_split(rows, test_size=0.5, stratify=strata, random_state=seed)
+        train, test = train_test_split(rows, test_size=0.5, stratify=strata, random_state=seed_int(seed, "split"))
     elif how == "grouped":
         if sides is None:
             sides = trial_sides(windows.recordings, seed)

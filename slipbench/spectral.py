@@ -58,6 +58,7 @@ from .data import Dataset
 from .errors import UsageError
 from .signals import SPLITS, Signals, Windows, balance
 from .spectra import amplitude_spectrum, grow_band
+from .seeding import rng_for
 
 # Bytes of sequences (float32) gathered and transformed at once: bounds peak memory.
 CHUNK_BYTES = 64 * 2**20
@@ -191,7 +192,7 @@ def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *
     length = int(round(sampling_rate))
     segment = nonslip.shape[1]
     pieces = -(-length // segment)
-    rng = np.random.default_rng(seed)
+    rng = rng_for(seed, "spectral", "spectra")
     # all draws up front, so the chunking below cannot change them
     draws = [rng.integers(len(pool), size=(repeats, n_boot, pieces)) for pool in (nonslip, slip)]
 
@@ -278,7 +279,7 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
     ids = set(recs["recording_id"])
     sig = Signals.from_dataset(Dataset(recs.reset_index(drop=True), dataset.samples,
                                        {k: v for k, v in dataset.slip_labels.items() if k in ids}))
-    rng = np.random.default_rng(seed)
+    rng = rng_for(seed, "spectral", "instances")
     parts = []
     for inst in chosen:
         rows = np.flatnonzero(sig.recordings["sensor_instance"].to_numpy() == inst)

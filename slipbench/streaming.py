@@ -52,6 +52,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import UsageError
+from .seeding import rng_for
 
 LEVEL = 0.95
 N_RESAMPLES = 999
@@ -269,7 +270,7 @@ def _intervals(streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, 
     """Percentile bootstrap intervals over trials; every statistic resamples the trials that
     contribute to it (onsets for the detection rate, detected onsets for the delays, non-slip
     time for false alarms), and one seed draws them all. Fewer than two such trials: NaN."""
-    rng = np.random.default_rng(seed)
+    rng = rng_for(seed, "stream-bootstrap")
     trial_codes, trial_of_rec = np.unique(streams.trial, return_inverse=True)
     n_trials = len(trial_codes)
     mine = recordings[streams.onset_recording]

@@ -20,7 +20,6 @@ order of generation.
 
 from __future__ import annotations
 
-import zlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -29,6 +28,7 @@ import pandas as pd
 from scipy import signal
 
 from .data import write_dataset
+from .seeding import rng_for
 
 MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
 SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)
@@ -174,11 +174,6 @@ class Design:
     physics: Physics = field(default_factory=Physics)
 
 
-def _rng(seed: int, *key: object) -> np.random.Generator:
-    words = [zlib.crc32(str(k).encode()) for k in key]
-    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=words))
-
-
 def _spread(rng: np.random.Generator, sd: float, size: int | None = None):
     """Log-normal factor(s) with median 1."""
     return np.exp(rng.normal(0.0, sd, size))
@@ -203,7 +198,7 @@ class Unit:
 def make_unit(seed: int, sensor_type: str, instance: str, physics: Physics) -> Unit:
     """Draw one unit of ``sensor_type`` mounted on finger ``instance`` (its own keyed stream)."""
     s, p = SENSORS[sensor_type], physics
-    rng = _rng(seed, "unit", sensor_type, instance)
+    rng = rng_for(seed, "unit", sensor_type, instance)
     k = p.unit_spread
     gain = float(_spread(rng, s.gain_sd * k))
     noise = float(_spread(rng, p.unit_noise_sd * k))
@@ -568,9 +563,9 @@ def generate(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> t
                 key = (sensor_type, scenario, material, speed, token)
                 trial_id = "/".join((sensor_type, scenario, material or "none", speed_name, token))
                 for inst, unit in units.items():
-                    trial_rng = _rng(seed, "trial", *key)
-                    rng = _rng(seed, "rec", sensor_type, inst, *key[1:])
-                    sig = _signature(_rng(seed, "signature", sensor_type, inst, *key[1:]), _rng(seed, "surface", *key), p)
+                    trial_rng = rng_for(seed, "trial", *key)
+                    rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
+                    sig = _signature(rng_for(seed, "signature", sensor_type, inst, *key[1:]), rng_for(seed, "surface", *key), p)
                     args = (trial_rng, rng, sig, unit, sensor, p)
                     if scenario == "slip":
                         forces, label = _slip_forces(n, fs, speed, material, *args)

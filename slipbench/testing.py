@@ -31,13 +31,14 @@ from .base import BaseDetector, NotFittedError, clone
 from .data import Dataset, read_dataset
 from .errors import UsageError
 from .protocol import BaseProtocol, Cell, Layout
+from .seeding import rng_for
 
 LENGTHS = (5, 50, 200)
 
 
 def toy_windows(n: int, length: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Balanced windows: non-slip is low noise, slip adds a 60 Hz burst (at 1 kHz) and more noise."""
-    rng = np.random.default_rng(seed)
+    rng = rng_for(seed, "toy")
     y = np.arange(n) % 2
     t = np.arange(length) / 1000.0
     x = rng.normal(0, 1, (n, length)) * np.where(y, 2.0, 1.0)[:, None]
@@ -223,7 +224,7 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     from .report import protocol_tables
 
     cells, _ = _cells(protocol, dataset or toy_dataset())
-    rng = np.random.default_rng(0)
+    rng = rng_for(0, "toy", "rows")
     rows = pd.DataFrame([{**c.key, "cell": c.name, "protocol": "checked", "detector": "d", "split": "paper", "seed": 0,
                           "status": "ok", "accuracy": a, "accuracy_lo": a - 0.05, "accuracy_hi": a + 0.05}
                          for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))])
