@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
-from slipbench.data import RECORDINGS_FILE, SAMPLES_FILE, content_fingerprint, read_dataset
-from slipbench.synth import synthesize
+from slipbench.data.dataset import RECORDINGS_FILE, SAMPLES_FILE, content_fingerprint, read_dataset
+from slipbench.data.synth import synthesize
 
 
 def best_of(fn, repeats: int = 3) -> float:

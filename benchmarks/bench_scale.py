@@ -42,7 +42,7 @@ def main() -> None:
     parser.add_argument("--scales", type=float, nargs="+", default=[0.05, 0.1, 0.2])
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args()
-    cli = [sys.executable, "-m", "slipbench.cli"]
+    cli = [sys.executable, "-m", "slipbench.app.cli"]
     peaks = []
     print(f"detector {args.detector}, protocol all, jobs {args.jobs}")
     print("| scale | samples/unit | synth s | evaluate s | cached rerun s | peak GiB |")

@@ -15,8 +15,8 @@ import time
 import numpy as np
 from scipy.stats import ks_2samp
 
-from slipbench.defaults import default_dataset
-from slipbench.spectral import analyze_pools, ks_2samp_last_axis, pools
+from slipbench.data.defaults import default_dataset
+from slipbench.analysis.spectral import analyze_pools, ks_2samp_last_axis, pools
 from slipbench.spectra import amplitude_spectrum
 
 

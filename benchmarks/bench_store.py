@@ -28,9 +28,9 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench import keys
+from slipbench.store import keys
 from slipbench.base import Part
-from slipbench.results import RESULTS_FILE, ResultsStore, cell_key, read_results
+from slipbench.store.results import RESULTS_FILE, ResultsStore, cell_key, read_results
 
 
 def row(i: int) -> dict:

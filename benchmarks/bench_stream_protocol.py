@@ -5,7 +5,7 @@ the same dataset, as a ratio measured in the same run (issue 10's target: under 
 
 Each protocol runs from scratch into its own temporary results folder (no cached cell or
 model), in this process's order window-size then streaming, after the dataset is read once.
-Wall time of ``slipbench.runner.evaluate``; on a shared machine run it twice and keep the lower.
+Wall time of ``slipbench.engine.runner.evaluate``; on a shared machine run it twice and keep the lower.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import argparse
 import tempfile
 import time
 
-from slipbench.defaults import default_dataset
-from slipbench.plan import Run
-from slipbench.results import ResultsStore
-from slipbench.runner import evaluate
+from slipbench.data.defaults import default_dataset
+from slipbench.engine.plan import Run
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import evaluate
 
 
 def main() -> None:

@@ -9,7 +9,7 @@ change): a stream runs on one, so the ratios compare work, and on a shared machi
 call waits for its slowest thread whenever another process holds a core. Batch costs are the
 best of repeated calls (wall time). Streaming costs time each push on its own, the median of the
 pushes of a kind (those that complete a score, those that only buffer) standing for all of that
-kind (``slipbench.streamer.push_costs``); the median push that completes a score is also the
+kind (``slipbench.base.push_costs``); the median push that completes a score is also the
 detector's compute time per hop (``hop_latency``), which the streaming protocol adds to every
 delay.
 """
@@ -25,8 +25,8 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
-from slipbench.registry import detectors
-from slipbench.streamer import DEFAULT_HOP, push_costs, stream_scores
+from slipbench.engine.registry import detectors
+from slipbench.base import DEFAULT_HOP, push_costs, stream_scores
 from slipbench.testing import toy_windows
 
 

@@ -11,7 +11,7 @@ import timeit
 import numpy as np
 import pandas as pd
 
-from slipbench.signals import Signals, balance
+from slipbench.data.signals import Signals, balance
 
 N_SAMPLES = 8_000_000
 RECORDING = 25_000  # a 25 s recording at 1 kHz

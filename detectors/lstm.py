@@ -25,7 +25,7 @@ from slipbench.detectors import lstm_kernels as kernels
 from slipbench.base import BaseDetector
 from slipbench.params import Interval, Options, Sequence
 from slipbench.errors import UsageError
-from slipbench.streamer import Streamer
+from slipbench.base import Streamer
 
 PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 

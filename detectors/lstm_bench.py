@@ -8,8 +8,8 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 
-from slipbench.bench import rate
-from slipbench.streamer import DEFAULT_HOP, Streamer, push_costs
+from slipbench.app.bench import rate
+from slipbench.base import DEFAULT_HOP, Streamer, push_costs
 from slipbench.detectors import lstm_kernels as kernels
 
 
@@ -20,7 +20,7 @@ def lstm_targets(detector_class: type, length: int = 50, seconds: float = 2.0, s
     serial) and, for reference, at batch 128 (ours parallel over chunks, torch at its best).
     Streaming (window ``length``, hop DEFAULT_HOP) is the cost per incoming sample of
     ``detector.streamer(hop).push`` fed a hop, or a sample, at a time (the median push, see
-    ``slipbench.streamer.push_costs``: robust to other processes); the references score
+    ``slipbench.base.push_costs``: robust to other processes); the references score
     each window anew every hop: stock torch (one thread), and the base class's stream, which
     calls ``predict_proba`` on each window as it completes."""
     import torch

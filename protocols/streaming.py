@@ -2,7 +2,7 @@
 
 Per sensor unit, a model trained as usual on balanced windows of the training trials is run
 causally over every test recording of the unit with per-sample labels, one score every ``hop``
-samples (:mod:`slipbench.streamer`), and scored by :mod:`slipbench.streaming`: detection rate and
+samples (:mod:`slipbench.base`), and scored by :mod:`slipbench.stream.metrics`: detection rate and
 delay per slip onset within ``max_delay_ms``, false alarms per minute of non-slip time. Test
 trials are never trained on: whatever the run's split, streaming holds out whole trials
 (``trial_sides`` with the run's seed; with ``--split datasets``, the test dataset). ``window``
@@ -14,8 +14,8 @@ from __future__ import annotations
 from slipbench.errors import UsageError
 from slipbench.params import Interval, WindowLength, parse_ms, window_samples
 from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, unit_rate, window_cells
-from slipbench.streamer import DEFAULT_HOP
-from slipbench.streaming import MAX_DELAY_MS
+from slipbench.base import DEFAULT_HOP
+from slipbench.stream.metrics import MAX_DELAY_MS
 
 METRICS = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
 LAYOUT = Layout("Slip onsets detected, their delays and false alarms while streaming test recordings, per sensor unit.",

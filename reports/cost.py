@@ -27,7 +27,7 @@ import sys
 
 import pandas as pd
 
-from slipbench.results import read_results
+from slipbench.store.results import read_results
 
 BUDGET_S = 2 * 3600
 WORKERS = 8 * 2  # 8 machines of 2 cores

@@ -27,7 +27,7 @@ from typing import BinaryIO
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from .errors import EnvironmentFault, writing
+from slipbench.errors import EnvironmentFault, writing
 
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
 

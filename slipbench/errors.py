@@ -50,6 +50,10 @@ class PluginError(SlipbenchError):
     exit_code = EXIT_PLUGIN
 
 
+class DetectorOutputError(PluginError):
+    """A detector returned scores that are not one probability per window."""
+
+
 class CellsFailed(SlipbenchError):
     """The run finished, but some cells failed or timed out (exit code 4).
 

@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from .errors import UsageError
+from slipbench.errors import UsageError
 
 
 @dataclass(frozen=True)

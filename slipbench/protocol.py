@@ -17,8 +17,8 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
-from .data import sensor_pairs
-from .params import Parameterized, window_samples
+from slipbench.data.dataset import sensor_pairs
+from slipbench.params import Parameterized, window_samples
 
 __all__ = ["BaseProtocol", "Cell", "Layout", "Part", "holdout_cells", "sensor_pairs", "unit_rate", "window_cells"]
 MIN_WINDOW = 5  # samples: the shortest window a detector is given

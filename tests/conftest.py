@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from slipbench.data import read_dataset
-from slipbench.synth import synthesize
+from slipbench.data.dataset import read_dataset
+from slipbench.data.synth import synthesize
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -21,7 +21,7 @@ def _isolated_cache(tmp_path_factory):
 def _fresh_registries():
     """Plugin folders a test registers (``--plugins`` runs in-process here) are forgotten after
     it, as they are when a user's command ends: no test sees another's plugins."""
-    from slipbench import registry
+    from slipbench.engine import registry
 
     for r in (registry.detectors, registry.protocols):
         r.names()  # discover the entry points first: they stay
@@ -34,7 +34,7 @@ def _fresh_registries():
 @pytest.fixture
 def cli(capsys):
     """Run ``slipbench`` in-process: ``cli(argv) -> (exit code, stdout, stderr)``."""
-    from slipbench.cli import main
+    from slipbench.app.cli import main
 
     def run(argv: list[str]) -> tuple[int, str, str]:
         with pytest.raises(SystemExit) as exit_:

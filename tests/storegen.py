@@ -26,7 +26,7 @@ def cell_predictions(i: int, n: int = 3000) -> pd.DataFrame:
 
 
 def main(folder: str, n: int, every: int, prefix: str) -> None:
-    from slipbench.results import ResultsStore
+    from slipbench.store.results import ResultsStore
 
     store = ResultsStore(folder)
     done = store.finished()

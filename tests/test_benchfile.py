@@ -11,7 +11,7 @@ import textwrap
 import pandas as pd
 import pytest
 
-from slipbench.benchfile import load_benchmark, plan_runs
+from slipbench.app.benchfile import load_benchmark, plan_runs
 from slipbench.errors import UsageError
 
 GOOD = """\

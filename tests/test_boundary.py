@@ -93,6 +93,6 @@ def test_no_import_cycles():
 def test_the_graph_sees_imports():
     """The checks above would pass on an empty graph: make sure the parser finds real imports."""
     graph = _graph()
-    assert "slipbench.base" in graph["slipbench.registry"]
+    assert "slipbench.base" in graph["slipbench.engine.registry"]
     assert "slipbench.protocol" in graph["slipbench.protocols.window_size"]
     assert "slipbench.detectors.lstm_kernels" in graph["slipbench.detectors.lstm"]

@@ -8,7 +8,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.data import SAMPLES_FILE
+from slipbench.data.dataset import SAMPLES_FILE
 
 
 def test_dataset_commands(tmp_path, cli):
@@ -68,7 +68,7 @@ def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_pa
 
 
 def test_window_longer_than_every_recording(tmp_path, cli):
-    from slipbench.synth import Design, synthesize
+    from slipbench.data.synth import Design, synthesize
 
     path = synthesize(tmp_path / "short", scale=0.0005, seed=0, design=Design(sensors=("BioTacSP",)))
     code, _, err = cli(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(path),
@@ -87,11 +87,11 @@ def test_bench_prints_costs(cli):
 
 
 def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
-    import slipbench.data
+    import slipbench.data.dataset
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("a slip of the pen")
 
-    monkeypatch.setattr(slipbench.data, "read_dataset", broken)
+    monkeypatch.setattr(slipbench.data.dataset, "read_dataset", broken)
     code, _, err = cli(["dataset", "validate", "anything"])
     assert code == 70 and "ZeroDivisionError: a slip of the pen" in err and "this is a bug in slipbench" in err

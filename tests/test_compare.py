@@ -19,11 +19,11 @@ from test_coverage import TAUS, dataset
 from test_report import check_golden
 from test_store_faults import TWO_CELLS
 
-from slipbench.cli import main
-from slipbench.compare import COMMENT_LIMIT, MAX_ROWS, compare, family_level, to_json, to_markdown, verdict
-from slipbench.results import check_unique_keys
+from slipbench.app.cli import main
+from slipbench.stats.compare import COMMENT_LIMIT, MAX_ROWS, compare, family_level, to_json, to_markdown, verdict
+from slipbench.store.results import check_unique_keys
 from slipbench.errors import DataError
-from slipbench.metrics import classification_figures, paired_comparison
+from slipbench.stats.metrics import classification_figures, paired_comparison
 
 NULL_RUNS = int(os.environ.get("SLIPBENCH_NULL_RUNS", "20"))  # 100 or more: the full study, 999 resamples
 NULL_CELLS = 280  # about the cells of a whole-paper run of one detector
@@ -174,7 +174,7 @@ def test_a_whole_paper_null_comparison_rarely_calls_a_regression():
     share of runs with any cell called regressed stays at or below 5 %, where per-cell 95 %
     intervals call one in nearly every run. CI runs 20 comparisons with 199 resamples per cell
     (a noisier standard error: a stricter test than the 999 compare uses); the full study
-    (``SLIPBENCH_NULL_RUNS=100``) is quoted in slipbench/compare.py."""
+    (``SLIPBENCH_NULL_RUNS=100``) is quoted in slipbench/stats/compare.py."""
     rng = np.random.default_rng(11)
     level = family_level(NULL_CELLS)
     false_runs = false_runs_95 = 0

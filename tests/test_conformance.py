@@ -8,7 +8,7 @@ import pytest
 
 from slipbench.base import BaseDetector
 from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs
-from slipbench.registry import detectors, protocols
+from slipbench.engine.registry import detectors, protocols
 from slipbench.testing import check_detector, check_protocol, parametrize_with_checks
 
 

@@ -15,7 +15,7 @@ the truth, not against a bigger simulation.
 
 The CI run uses ``N_DATASETS`` (40) datasets per setting, about 30 s on one core;
 ``SLIPBENCH_COVERAGE_DATASETS=1000 pytest tests/test_coverage.py`` runs the full study, and
-``python tests/test_coverage.py [N] [METHOD]`` prints the tables that :mod:`slipbench.bootstrap`
+``python tests/test_coverage.py [N] [METHOD]`` prints the tables that :mod:`slipbench.stats.bootstrap`
 quotes.
 """
 
@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 
-from slipbench.metrics import FIGURES, classification_figures, paired_comparison
+from slipbench.stats.metrics import FIGURES, classification_figures, paired_comparison
 
 N_DATASETS = int(os.environ.get("SLIPBENCH_COVERAGE_DATASETS", "40"))
 FULL = 500  # datasets per setting from which the study is held to the measured band itself
@@ -110,7 +110,7 @@ def pooled(table: pd.DataFrame, min_m: int = 10) -> pd.Series:
 
 
 # The band each figure's coverage, pooled over m >= 10, is held to: the target 93-97 % except
-# where slipbench.bootstrap documents a shortfall (the TN rate and its change when a few
+# where slipbench.stats.bootstrap documents a shortfall (the TN rate and its change when a few
 # recordings carry the failures) or a conservative excess (the change in AUROC).
 BANDS = {name: (0.93, 0.97) for name in (*FIGURES, *(f"d_{f}" for f in FIGURES))}
 BANDS |= {"tn_rate": (0.91, 0.97), "d_tn_rate": (0.91, 0.97), "d_auroc": (0.93, 0.995)}

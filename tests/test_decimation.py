@@ -11,13 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
-from slipbench.data import Dataset
+from slipbench.data.dataset import Dataset
 from slipbench.errors import UsageError
-from slipbench.plan import CellData, Run, keys
+from slipbench.engine.plan import CellData, Run, keys
 from slipbench.protocol import Cell, Part
 from slipbench.protocols.sampling_rate import SamplingRate
-from slipbench.report import protocol_tables
-from slipbench.signals import Signals, Windows, univariate
+from slipbench.report.document import protocol_tables
+from slipbench.data.signals import Signals, Windows, univariate
 
 from resultgen import fake_rows
 
@@ -174,7 +174,7 @@ def test_report_gives_one_table_per_variant(tmp_path):
                              & (rows["downsample"] == 32)]["accuracy"].iloc[0] + i / 100
         assert table.cells[0][0] == f"{100 * nano_index_32:.1f}"
     # and one figure per table; a run of one variant keeps its plain name
-    from slipbench.plots import write_plots
+    from slipbench.report.plots import write_plots
 
     both = pd.concat(frames, ignore_index=True).assign(protocol_params="{}")
     names = sorted(p.name for p in write_plots(both, tmp_path / "all", paper=False))

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slipbench.registry import Registry, detectors, protocols
+from slipbench.engine.registry import Registry, detectors, protocols
 from slipbench.base import BaseDetector
-from slipbench.results import ResultsStore
-from slipbench.runner import Run, evaluate
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import Run, evaluate
 from slipbench.testing import check_detector, toy_windows
 from slipbench.detectors.bandpass import effective_band
 from slipbench.detectors.wavelet_svm import wavelet_and_level

@@ -46,7 +46,7 @@ def plugins(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def one_unit(small_path, tmp_path_factory):
-    from slipbench.data import read_dataset, write_dataset
+    from slipbench.data.dataset import read_dataset, write_dataset
 
     ds = read_dataset(small_path)
     keep = ds.recordings["sensor_type"].eq("OptoForce20") & ds.recordings["sensor_instance"].eq("index")
@@ -102,7 +102,7 @@ def _slipbench(args: list[str], cwd) -> int:
     import subprocess
     import sys
 
-    code = "import sys; from slipbench.cli import main; main(sys.argv[1:])"
+    code = "import sys; from slipbench.app.cli import main; main(sys.argv[1:])"
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd).returncode
 
 
@@ -134,7 +134,7 @@ def test_report_refuses_the_same_results_twice(tmp_path, one_unit, cli):
 
 def test_messages_never_show_numpy_reprs(tmp_path):
     import numpy as np
-    from slipbench.data import write_dataset
+    from slipbench.data.dataset import write_dataset
     from slipbench.errors import DataError
 
     rec = pd.DataFrame([dict(recording_id=f"r{i}", sensor_type="T", sensor_instance="a", scenario=sc, material="m",

@@ -15,9 +15,9 @@ import pytest
 from resultgen import all_rows
 from test_report import check_golden
 
-from slipbench.plots import FigureSpec
-from slipbench.report import build_report, render
-from slipbench.tables import Table
+from slipbench.report.plots import FigureSpec
+from slipbench.report.document import build_report, render
+from slipbench.report.tables import Table
 
 CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)), None)
 

@@ -17,9 +17,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.data import read_dataset
+from slipbench.data.dataset import read_dataset
 from slipbench.errors import DataError, UsageError
-from slipbench.importers import import_csv, load_mapping
+from slipbench.data.importers import import_csv, load_mapping
 
 DOCS = Path(__file__).resolve().parents[1] / "datasets.md"
 

@@ -9,11 +9,11 @@ import pandas as pd
 import pytest
 
 from slipbench.detectors.holweg import Holweg
-from slipbench.joint import joint_means
+from slipbench.stats.joint import joint_means
 from slipbench.protocols.window_size import WindowSize
-from slipbench.report import build_report, render
-from slipbench.results import ResultsStore
-from slipbench.runner import Run, evaluate
+from slipbench.report.document import build_report, render
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import Run, evaluate
 
 
 @pytest.fixture(scope="module")
@@ -80,7 +80,7 @@ def test_the_report_says_which_interval_an_average_has(run):
 def test_seeds_pool_into_one_interval(small, tmp_path):
     """Two seeds of one cell: the table shows one interval of their mean, bootstrapped jointly,
     not the mean of the two seeds' bounds, and says so."""
-    from slipbench.report import protocol_tables
+    from slipbench.report.document import protocol_tables
 
     store = ResultsStore(tmp_path)
     rows = evaluate(small, [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)], store,
@@ -101,7 +101,7 @@ def test_seeds_pool_into_one_interval(small, tmp_path):
 def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
     """A figure whose seeds' predictions are gone keeps the mean of the seeds' bounds, and the
     note counts the figures of each kind instead of calling every interval pooled."""
-    from slipbench.report import protocol_tables
+    from slipbench.report.document import protocol_tables
 
     rows = evaluate(small, [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)],
                     ResultsStore(tmp_path), progress=False)

@@ -13,8 +13,8 @@ from scipy.stats import friedmanchisquare
 from statsmodels.stats.multitest import multipletests
 from test_report import check_golden
 
-from slipbench.leaderboard import ALL, cell_table, entrants, leaderboard, rank_scope
-from slipbench.report import render_report
+from slipbench.stats.leaderboard import ALL, cell_table, entrants, leaderboard, rank_scope
+from slipbench.report.document import render_report
 
 
 def board_rows() -> pd.DataFrame:

@@ -8,7 +8,7 @@ import torch
 
 from slipbench.detectors import lstm_kernels as fastlstm
 from slipbench.errors import UsageError
-from slipbench.registry import detectors
+from slipbench.engine.registry import detectors
 from slipbench.testing import toy_windows
 
 LSTM = detectors.get("lstm")

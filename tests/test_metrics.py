@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from sklearn.metrics import balanced_accuracy_score, roc_auc_score
 
-from slipbench.bootstrap import make_design, resample_weights
-from slipbench.metrics import (
+from slipbench.stats.bootstrap import make_design, resample_weights
+from slipbench.stats.metrics import (
     FIGURES, LOW_N, Predictions, classification_figures, cluster_counts, is_low_n, mean_over_test_sets,
     paired_comparison, pool_seeds, wilson_ci,
 )

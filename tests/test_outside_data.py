@@ -12,10 +12,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.data import read_dataset, write_dataset
-from slipbench.registry import detectors, protocols
-from slipbench.results import ResultsStore
-from slipbench.runner import Run, evaluate
+from slipbench.data.dataset import read_dataset, write_dataset
+from slipbench.engine.registry import detectors, protocols
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import Run, evaluate
 
 FAST = {"lstm": {"max_epochs": 1, "validation_fraction": 0.2}, "minirocket": {"n_kernels": 168},
         "wavelet-svm": {"n_components": 50}}

@@ -14,7 +14,7 @@ import pytest
 
 from slipbench.base import BaseDetector
 from slipbench.errors import PluginError
-from slipbench.registry import Registry, detectors
+from slipbench.engine.registry import Registry, detectors
 
 DETECTOR = '''
 import numpy as np
@@ -57,7 +57,7 @@ class TwoWindows(BaseProtocol):
 
 
 def _slipbench(args: list[str], env: dict, cwd) -> subprocess.CompletedProcess:
-    code = "import sys; from slipbench.cli import main; main(sys.argv[1:])"
+    code = "import sys; from slipbench.app.cli import main; main(sys.argv[1:])"
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, env=env, cwd=cwd)
 
 

@@ -6,14 +6,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.data import Dataset
+from slipbench.data.dataset import Dataset
 from slipbench.protocols.cross_instance import CrossInstance
 from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.protocols.speed_holdout import SpeedHoldout
 from slipbench.protocols.window_size import WindowSize
-from slipbench.plan import CellData
-from slipbench.signals import Signals
+from slipbench.engine.plan import CellData
+from slipbench.data.signals import Signals
 
 
 def subset(ds: Dataset, mask) -> Dataset:

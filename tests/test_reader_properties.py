@@ -49,7 +49,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slipbench.data import RATE_TOLERANCE, RECORDINGS_FILE, SAMPLES_FILE, VERSION_KEY, Dataset, read_dataset, write_dataset
+from slipbench.data.dataset import RATE_TOLERANCE, RECORDINGS_FILE, SAMPLES_FILE, VERSION_KEY, Dataset, read_dataset, write_dataset
 
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 RATES = (60.0, 100.0, 850.0, 1000.0, 2200.0)
@@ -302,7 +302,7 @@ def test_validate_in_a_separate_process_prints_no_traceback(tmp_path):
 
     path = _tiny(tmp_path)
     CORRUPTIONS["NaN value"][0](path)
-    done = subprocess.run([sys.executable, "-m", "slipbench.cli", "dataset", "validate", str(path)], capture_output=True, text=True,
+    done = subprocess.run([sys.executable, "-m", "slipbench.app.cli", "dataset", "validate", str(path)], capture_output=True, text=True,
                           cwd=tmp_path)
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
     shutil.rmtree(path)

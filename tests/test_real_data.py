@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from slipbench.data import info, read_dataset
+from slipbench.data.dataset import info, read_dataset
 from slipbench.detectors.holweg import Holweg
-from slipbench.importers import biotacsp_dos
+from slipbench.data.importers import biotacsp_dos
 from slipbench.protocols.window_size import WindowSize
-from slipbench.results import ResultsStore
-from slipbench.runner import Run, evaluate
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import Run, evaluate
 
 SOURCE = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
 pytestmark = pytest.mark.skipif(not SOURCE.is_dir(), reason=f"BioTacSP-DoS not found at {SOURCE}")

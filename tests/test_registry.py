@@ -9,7 +9,7 @@ import textwrap
 import pytest
 
 from slipbench.errors import PluginError, UsageError
-from slipbench.registry import Registry, add_plugin_folder, detectors
+from slipbench.engine.registry import Registry, add_plugin_folder, detectors
 from slipbench.base import BaseDetector
 
 PLUGIN = '''
@@ -80,7 +80,7 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
                     "--target", str(target), str(src)], check=True)
     code = textwrap.dedent('''
         import numpy as np
-        from slipbench.registry import detectors
+        from slipbench.engine.registry import detectors
         cls = detectors.get("third-energy")
         x = np.r_[np.zeros((4, 8)), np.ones((4, 8))]
         print(cls.__name__, cls().fit(x, [0]*4 + [1]*4).predict(x).tolist())

@@ -19,11 +19,11 @@ import pandas as pd
 import pytest
 from resultgen import all_rows, fake_rows
 
-from slipbench.cli import main
-from slipbench.paper import paper_frame
-from slipbench.registry import protocols
-from slipbench.report import protocol_table, render_report
-from slipbench.tables import LOW_NOTE
+from slipbench.app.cli import main
+from slipbench.report.paper import paper_frame
+from slipbench.engine.registry import protocols
+from slipbench.report.document import protocol_table, render_report
+from slipbench.report.tables import LOW_NOTE
 
 GOLDEN = Path(__file__).parent / "golden"
 
@@ -117,7 +117,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
     text = (tmp_path / "report.md").read_text()
     assert "Published (Van Wyk & Falco, their LSTM)" in text and "holweg (paper)" in text
     assert "Ours minus published" not in text  # holweg is not the paper's model
-    assert "| Data | simulated (slipbench.synth model v2, scale 0.02, seed 1;" in re.sub(r" +", " ", text)
+    assert "| Data | simulated (slipbench.data.synth model v2, scale 0.02, seed 1;" in re.sub(r" +", " ", text)
     assert "Smallest test set" in text
     assert {p.name for p in (tmp_path / "fig").iterdir()} == {"window-size-holweg.png", "window-size-holweg.pdf"}
     assert "![window-size, holweg (paper split).](fig/window-size-holweg.png)" in text
@@ -127,7 +127,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
 
 
 def test_plots_for_every_protocol(tmp_path):
-    from slipbench.plots import write_plots
+    from slipbench.report.plots import write_plots
 
     paths = write_plots(all_rows(), tmp_path)
     stems = {p.stem for p in paths}
@@ -137,7 +137,7 @@ def test_plots_for_every_protocol(tmp_path):
 
 
 def test_figures_fit_a_column_with_one_legend_and_units():
-    from slipbench.plots import figure_specs
+    from slipbench.report.plots import figure_specs
 
     for spec in figure_specs(all_rows(), paper=True):
         fig = spec.draw()
@@ -154,7 +154,7 @@ def test_figures_fit_a_column_with_one_legend_and_units():
 
 
 def test_colour_scale_shows_its_true_range():
-    from slipbench.plots import accuracy_range, figure_specs
+    from slipbench.report.plots import accuracy_range, figure_specs
 
     assert accuracy_range(np.array([[62.0, 91.0]])) == (50.0, 100.0)  # chance stays on the scale
     assert accuracy_range(np.array([[31.2, np.nan, 70.0]])) == (30.0, 100.0)  # nothing below 50 clamps
@@ -190,10 +190,10 @@ def test_few_test_trials_are_marked_in_every_table():
 
 
 def test_header_says_where_the_data_come_from(tmp_path):
-    from slipbench.provenance import dataset_source
+    from slipbench.report.provenance import dataset_source
 
     folder = tmp_path / "synth-v2-scale0.05-seed3"
-    assert dataset_source(str(folder)).startswith("simulated (slipbench.synth model v2, scale 0.05, seed 3")
+    assert dataset_source(str(folder)).startswith("simulated (slipbench.data.synth model v2, scale 0.05, seed 3")
     assert "not readable here" in dataset_source(str(folder))
     assert dataset_source("") == "a dataset built in memory (no path recorded)"
     real = tmp_path / "lab"
@@ -214,8 +214,8 @@ def test_fitted_choices_and_warnings_are_shown():
 
 def test_findings_of_the_paper_reproduce_on_its_own_numbers():
     """Rows that hold the published numbers give, for each finding, the paper's own value."""
-    from slipbench.findings import findings_table
-    from slipbench.report import layouts, protocol_order
+    from slipbench.report.findings import findings_table
+    from slipbench.report.document import layouts, protocol_order
 
     parts = []
     for protocol in ("window-size", "sampling-rate", "material-holdout", "speed-holdout", "cross-instance"):
@@ -257,8 +257,8 @@ def _paper_rows() -> pd.DataFrame:
 def test_the_paper_shows_its_own_findings():
     """Every finding's criterion holds on the published numbers, and rows holding them give
     "ours" equal to "paper": the table measures what the paper states."""
-    from slipbench.findings import paper_findings_table
-    from slipbench.report import layouts
+    from slipbench.report.findings import paper_findings_table
+    from slipbench.report.document import layouts
 
     rows = _paper_rows()
     table = paper_findings_table(rows, layouts(rows))
@@ -270,8 +270,8 @@ def test_the_paper_shows_its_own_findings():
 
 
 def test_a_finding_ours_do_not_show_says_no():
-    from slipbench.findings import paper_findings_table
-    from slipbench.report import layouts
+    from slipbench.report.findings import paper_findings_table
+    from slipbench.report.document import layouts
 
     rows = _paper_rows()
     flat = (rows["protocol"] == "sampling-rate") & (rows["sensor_type"] == "BioTacSP")
@@ -300,8 +300,8 @@ def test_a_report_of_two_splits_leads_with_grouped_and_sets_paper_beside_it():
 def test_findings_on_a_labs_sensors_compare_what_they_can():
     """A lab's own sensor type (not one of the paper's three) with --paper: the findings table
     gives what its rows allow, and none of the paper's sensors' figures for it."""
-    from slipbench.findings import paper_findings_table
-    from slipbench.report import layouts
+    from slipbench.report.findings import paper_findings_table
+    from slipbench.report.document import layouts
 
     rows = fake_rows("window-size").assign(sensor_type="Vib")
     rows["cell"] = [json.dumps({"sensor_type": "Vib", "sensor_instance": r["sensor_instance"], "window": r["window"]})

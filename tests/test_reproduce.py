@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.results import read_results
+from slipbench.store.results import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "reports" / "reproduce.sh"

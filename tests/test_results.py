@@ -21,12 +21,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slipbench import errors, keys
+from slipbench import errors
+from slipbench.store import keys
 from slipbench.base import BaseDetector
 from slipbench.protocol import Part
 from slipbench.errors import CellsFailed, DataError, EnvironmentFault, environment_fault, writing
-from slipbench.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
-from slipbench.results import RESULTS_FILE, ResultsStore, cells_failed, read_results
+from slipbench.store.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
+from slipbench.store.results import RESULTS_FILE, ResultsStore, cells_failed, read_results
 
 
 def row(i: int, **extra) -> dict:
@@ -317,13 +318,13 @@ def test_numpy_spellings_do_not_change_a_key(value):
 # ----------------------------------------------------------------------------- code identity
 def test_slipbench_and_its_built_in_plugins_share_one_identity():
     import slipbench
-    from slipbench.registry import detectors, protocols
+    from slipbench.engine.registry import detectors, protocols
 
     ident = code_identity(slipbench)
     assert ident.startswith("src:") and len(ident) == 36
     assert code_identity(BaseDetector) == code_identity(detectors.get("holweg")) == code_identity(protocols.get("window-size")) == ident
     labels = [label for label, _ in keys._source_files("slipbench")]
-    assert {"slipbench/keys.py", "slipbench.detectors/holweg.py", "slipbench.protocols/window_size.py"} <= set(labels)
+    assert {"slipbench/store/keys.py", "slipbench.detectors/holweg.py", "slipbench.protocols/window_size.py"} <= set(labels)
     assert not any("__pycache__" in label for label in labels)
 
 

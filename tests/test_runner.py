@@ -17,8 +17,8 @@ from slipbench.detectors.holweg import Holweg
 from slipbench.errors import UsageError
 from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.window_size import WindowSize
-from slipbench.results import ResultsStore
-from slipbench.runner import Run, evaluate
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import Run, evaluate
 
 from test_protocols import subset
 
@@ -113,7 +113,7 @@ def test_seeds_change_the_draw_and_repeat_exactly(index, tmp_path):
 def test_time_limit_reports_timeout(index, tmp_path, monkeypatch):
     (tmp_path / "plugins").mkdir()
     (tmp_path / "plugins" / "slow.py").write_text(SLOW)
-    from slipbench.registry import Registry
+    from slipbench.engine.registry import Registry
     from slipbench.base import BaseDetector
 
     reg = Registry("detector", BaseDetector, "slipbench.detectors")
@@ -144,7 +144,7 @@ def test_kill_and_resume(small_path, tmp_path):
     plugins.mkdir()
     (plugins / "slow.py").write_text(SLOW)
     out = tmp_path / "res"
-    argv = [sys.executable, "-m", "slipbench.cli", "evaluate", "--detector", "slow", "--protocol", "window-size",
+    argv = [sys.executable, "-m", "slipbench.app.cli", "evaluate", "--detector", "slow", "--protocol", "window-size",
             "--dataset", str(small_path), "--out", str(out), "--plugins", str(plugins), "--quiet"]
     # from outside the source tree, so that `slipbench` is the installed package
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
@@ -188,7 +188,7 @@ class Doomed(BaseDetector):
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_worker_killed_by_the_system_fails_its_cells_and_the_run_goes_on(index, tmp_path, jobs):
     from slipbench.base import BaseDetector
-    from slipbench.registry import Registry
+    from slipbench.engine.registry import Registry
 
     (tmp_path / "plugins").mkdir()
     (tmp_path / "plugins" / "doomed.py").write_text(KILLED)

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.signals import Signals, balance, split, univariate
+from slipbench.data.signals import Signals, balance, split, univariate
 
 
 def test_univariate_is_the_lag_one_difference_of_the_norm():
@@ -112,7 +112,7 @@ def test_windows_take_their_class_from_the_samples_as_asked():
 
 
 def test_grouped_split_keeps_each_trial_on_one_side_for_every_unit(small):
-    from slipbench.signals import trial_sides
+    from slipbench.data.signals import trial_sides
 
     rec = small.recordings
     sides = trial_sides(rec, seed=5)

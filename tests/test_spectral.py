@@ -10,10 +10,10 @@ import pandas as pd
 import pytest
 from scipy.stats import ks_2samp
 
-from slipbench.cli import _param, main
+from slipbench.app.cli import _param, main
 from slipbench.errors import UsageError
-from slipbench.registry import detectors
-from slipbench.spectral import analyze, analyze_pools, ks_2samp_last_axis, significant_bands
+from slipbench.engine.registry import detectors
+from slipbench.analysis.spectral import analyze, analyze_pools, ks_2samp_last_axis, significant_bands
 
 FS = 500
 BAND = (50.0, 80.0)
@@ -152,9 +152,9 @@ def test_recordings_shorter_than_a_segment_are_refused(small_path, cli):
 def _runner_sides(ds, sensor: str, split: str, seed: int, window: int):
     """The train and test windows (positions) the runner plans for a cell at ``window`` of each
     instance of ``sensor``."""
-    from slipbench.plan import Run, make_plan
+    from slipbench.engine.plan import Run, make_plan
     from slipbench.protocols.window_size import WindowSize
-    from slipbench.signals import Signals
+    from slipbench.data.signals import Signals
 
     run = Run("holweg", WindowSize(windows=[window]), split, seed)
     cells = [c for c in run.cells(ds.recordings) if c.key["sensor_type"] == sensor]
@@ -165,7 +165,7 @@ def _runner_sides(ds, sensor: str, split: str, seed: int, window: int):
 def _keep_only(ds, windows: list, window: int, seed: int):
     """``ds`` with every reading outside ``windows`` replaced by large noise. A window of s at
     position i holds readings i * window ... (i + 1) * window of its recording."""
-    from slipbench.data import Dataset
+    from slipbench.data.dataset import Dataset
 
     ids = ds.recordings["recording_id"].to_numpy()
     keep = {rid: np.zeros(len(x), bool) for rid, x in ds.samples.items()}

@@ -24,7 +24,7 @@ from storegen import cell_predictions, cell_row
 from slipbench.atomic import folder_lock, unique_folder, write_text_atomic
 from slipbench.base import BaseDetector
 from slipbench.errors import EnvironmentFault
-from slipbench.results import RESULTS_FILE, ResultsStore, read_results
+from slipbench.store.results import RESULTS_FILE, ResultsStore, read_results
 
 WRITER = str(Path(__file__).with_name("storegen.py"))
 
@@ -125,7 +125,7 @@ FSIZE = '''
 import resource, signal, sys
 from storegen import cell_predictions, cell_row
 from slipbench.errors import SlipbenchError
-from slipbench.results import ResultsStore
+from slipbench.store.results import ResultsStore
 
 signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # the kernel then fails the write with EFBIG
 resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
@@ -274,7 +274,7 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
     (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
 
     def evaluate(out: Path) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "slipbench.cli", "evaluate", "--detector", "holweg",
+        return subprocess.run([sys.executable, "-m", "slipbench.app.cli", "evaluate", "--detector", "holweg",
                                "--protocol", "two-cells", "--dataset", str(small_path), "--plugins",
                                str(tmp_path / "plugins"), "--out", str(out), "--quiet"],
                               capture_output=True, text=True, cwd=tmp_path)

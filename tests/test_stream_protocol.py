@@ -8,15 +8,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.compare import compare, stream_verdict, to_markdown
-from slipbench.data import Dataset
+from slipbench.stats.compare import compare, stream_verdict, to_markdown
+from slipbench.data.dataset import Dataset
 from slipbench.errors import UsageError
-from slipbench.plan import Run, make_plan
-from slipbench.plots import write_plots
+from slipbench.engine.plan import Run, make_plan
+from slipbench.report.plots import write_plots
 from slipbench.protocols.streaming import Streaming
-from slipbench.report import render_report
-from slipbench.results import ResultsStore
-from slipbench.runner import _signals, evaluate
+from slipbench.report.document import render_report
+from slipbench.store.results import ResultsStore
+from slipbench.engine.runner import _signals, evaluate
 
 FIGURES = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
 
@@ -171,7 +171,7 @@ def test_stream_verdict_rules():
 
 
 def test_a_recording_that_starts_in_slip_gives_no_onset():
-    from slipbench.streamcell import unknown_start
+    from slipbench.stream.cell import unknown_start
 
     assert unknown_start(np.array([1, 1, 0, 0, 1, 1], np.int8)).tolist() == [-1, -1, 0, 0, 1, 1]
     assert unknown_start(np.array([1, 1], np.int8)).tolist() == [-1, -1]
@@ -181,7 +181,7 @@ def test_a_recording_that_starts_in_slip_gives_no_onset():
 def test_a_streaming_report_of_two_splits_has_no_split_table_and_no_traceback(streamed):
     """Streaming rows hold no accuracy: the splits' side-by-side table has nothing to set side
     by side, and the report says only which split it ranks."""
-    from slipbench.report import build_report, render
+    from slipbench.report.document import build_report, render
 
     rows, _ = streamed
     both = pd.concat([rows, rows.assign(split="grouped", key=rows["key"] + "g")], ignore_index=True)

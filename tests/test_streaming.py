@@ -9,11 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
-from slipbench import streaming as S
+from slipbench.stream import metrics as S
 from slipbench.base import BaseDetector, DetectorOutputError, NotFittedError
 from slipbench.errors import UsageError
-from slipbench.registry import detectors
-from slipbench.streamer import Streamer, stream_scores
+from slipbench.engine.registry import detectors
+from slipbench.base import Streamer, stream_scores
 from slipbench.testing import toy_windows
 
 
@@ -362,7 +362,7 @@ def test_collect_refuses_inconsistent_input():
 
 
 def test_push_costs_and_hop_latency():
-    from slipbench.streamer import hop_latency, push_costs
+    from slipbench.base import hop_latency, push_costs
 
     x, y = toy_windows(100, 20)
     detector = Energy().fit(x, y)

@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from slipbench import data
-from slipbench.signals import univariate
+from slipbench.data import dataset as data
+from slipbench.data.signals import univariate
 from slipbench.spectra import amplitude_spectrum
-from slipbench.synth import (
+from slipbench.data.synth import (
     MATERIALS, SENSORS, UNLABELLED, Design, Physics, contact_mode, free_mode, generate, make_unit, synthesize,
     with_physics,
 )

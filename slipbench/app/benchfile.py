@@ -1,0 +1,335 @@
+"""Benchmark files: what to run, declared in TOML and versioned beside the code
+(``slipbench run bench.toml``).
+
+::
+
+    [benchmark]
+    out = "results"                # results folder, relative to this file
+    report = ["md", "html"]        # report formats written to out/report.<ext>
+    plots = true                   # figures (PNG, PDF) to out/figures
+    paper = true                   # the published tables beside ours
+    intervals = true
+    metric = "accuracy"
+
+    [dataset]                      # a dataset folder, or the simulated one (the default)
+    path = "data/my-lab"           # or: scale = 0.05, seed = 0 (simulated)
+    # train = "data/other-lab"     # train here, test on path (the 'datasets' split)
+    # sensor_map = ["Vib=BioTacSP"]
+
+    [run]
+    split = "grouped"              # paper | grouped
+    labels = "scenario"            # scenario | majority | any | last
+    seed = 0
+    repeats = 3                    # seeds seed, seed+1, seed+2
+    jobs = 2
+    cell_timeout = 600             # seconds
+    plugins = ["plugins"]          # plugin folders, relative to this file
+
+    [detectors.holweg]             # one table per detector: its parameters
+    [detectors.lstm]
+    max_epochs = 100
+
+    [protocols.window-size]        # one table per protocol: its options
+    windows = [25, 50, 100]
+    [protocols.sampling-rate]
+    decimation = "both"
+
+Every key is checked before anything runs: an unknown key, a wrong type or a value outside its
+constraint is a usage error (exit 2) naming the file, the line and the key. The file's text is
+copied into the results folder (``benchmark.toml``) and its SHA-256 written beside it
+(``benchmark.json``), so results say which declaration made them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import tomllib
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from slipbench.errors import SlipbenchError, UsageError
+
+BENCHMARK_FILE = "benchmark.toml"
+RECORD_FILE = "benchmark.json"
+REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
+METRICS = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
+SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
+    "benchmark": {"out": (str, "a folder"), "report": ((str, list), "a format or a list of them (md, latex, html)"),
+                  "plots": (bool, "true or false"), "paper": (bool, "true or false"),
+                  "intervals": (bool, "true or false"), "metric": (str, f"one of {', '.join(METRICS)}"),
+                  "name": (str, "a string")},
+    "dataset": {"path": (str, "a dataset folder"), "scale": ((int, float), "a number in (0, 10]"),
+                "seed": (int, "an int >= 0"), "train": (str, "a dataset folder"),
+                "sensor_map": (list, 'a list of "TEST=TRAIN" strings')},
+    "run": {"split": (str, "paper or grouped"), "labels": (str, "scenario, majority, any or last"),
+            "seed": (int, "an int in [0, 2**32 - 1]"), "repeats": (int, "an int >= 1"), "jobs": (int, "an int >= 0"),
+            "cell_timeout": ((int, float), "seconds > 0"), "scheduler": (str, "a dask scheduler address"),
+            "plugins": (list, "a list of folders")},
+}
+TABLES = ("benchmark", "dataset", "run", "detectors", "protocols")
+
+
+@dataclass
+class Benchmark:
+    """A parsed, checked benchmark file. Paths are absolute (resolved against the file's folder)."""
+
+    path: Path
+    text: str
+    sha256: str
+    out: Path
+    report: list[str]
+    plots: bool = True
+    paper: bool = False
+    intervals: bool = False
+    metric: str = "accuracy"
+    name: str = ""
+    dataset: Path | None = None
+    scale: float = 0.05
+    data_seed: int | None = None
+    train: Path | None = None
+    sensor_map: list[str] = field(default_factory=list)
+    split: str = "paper"
+    labels: str = "scenario"
+    seed: int = 0
+    repeats: int = 1
+    jobs: int = 1
+    cell_timeout: float | None = None
+    scheduler: str | None = None
+    plugins: list[Path] = field(default_factory=list)
+    detectors: dict[str, dict[str, Any]] = field(default_factory=dict)
+    protocols: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+    @property
+    def describe(self) -> str:
+        """One line for a report's header."""
+        return f"{self.path.name} (sha256 {self.sha256[:16]})" + (f": {self.name}" if self.name else "")
+
+
+def _line(text: str, table: str, key: str | None = None) -> int | None:
+    """The line of ``[table]`` (or of ``key`` inside it) in the file, for messages: tomllib
+    gives no positions, so the text is scanned (dotted tables, quoted keys)."""
+    header = re.compile(r"^\s*\[\s*(.+?)\s*\]\s*(#.*)?$")
+    current, found = None, None
+    for n, line in enumerate(text.splitlines(), 1):
+        m = header.match(line)
+        if m:
+            current = ".".join(part.strip().strip('"').strip("'") for part in re.split(r"\.(?=(?:[^\"]*\"[^\"]*\")*[^\"]*$)", m[1]))
+            if key is None and current == table:
+                return n
+            continue
+        if key is not None and current == table and re.match(rf"^\s*[\"']?{re.escape(key)}[\"']?\s*=", line):
+            return n
+        if key is None and found is None and re.match(rf"^\s*[\"']?{re.escape(table)}[\"']?\s*=", line):
+            found = n  # an inline table: "table = {...}"
+    return found
+
+
+class BenchmarkError(UsageError):
+    """A benchmark file that cannot be run as written (exit code 2)."""
+
+
+def _fail(bench: Path, text: str, what: str, table: str, key: str | None = None) -> BenchmarkError:
+    line = _line(text, table, key)
+    where = f"{bench}" + (f", line {line}" if line else "") + f", [{table}]" + (f" {key}" if key else "")
+    return BenchmarkError(f"{where}: {what}")
+
+
+def _checked(bench: Path, text: str, data: dict) -> dict:
+    """The file's tables, every key known and of its type."""
+    for name, value in data.items():
+        if name not in TABLES:
+            raise _fail(bench, text, f"unknown table or key {name!r}; a benchmark file has the tables "
+                        f"{', '.join(f'[{t}]' for t in TABLES)}", name)
+        if not isinstance(value, dict):
+            raise _fail(bench, text, f"{name!r} must be a table ([{name}])", name)
+    for name, schema in SCHEMA.items():
+        for key, value in data.get(name, {}).items():
+            if key not in schema:
+                raise _fail(bench, text, f"unknown key {key!r}; [{name}] takes {', '.join(schema)}", name, key)
+            types, meaning = schema[key]
+            if isinstance(value, bool) and bool not in (types if isinstance(types, tuple) else (types,)):
+                raise _fail(bench, text, f"{key} must be {meaning}, got {value!r}", name, key)
+            if not isinstance(value, types):
+                raise _fail(bench, text, f"{key} must be {meaning}, got {value!r}", name, key)
+    for kind in ("detectors", "protocols"):
+        for plugin, params in data.get(kind, {}).items():
+            if not isinstance(params, dict):
+                raise _fail(bench, text, f"{plugin!r} must be a table of its parameters ([{kind}.{plugin}])", kind, plugin)
+    if not data.get("detectors"):
+        raise _fail(bench, text, "no detector: add a table [detectors.<id>] per detector (see `slipbench list`)", "detectors")
+    if not data.get("protocols"):
+        raise _fail(bench, text, "no protocol: add a table [protocols.<id>] per protocol (see `slipbench list`)", "protocols")
+    return data
+
+
+def load_benchmark(path: str | Path) -> Benchmark:
+    """Read and check a benchmark file (syntax, tables, keys and their types; plugin names and
+    parameters are checked by :func:`plan_runs`)."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such benchmark file") from None
+    except IsADirectoryError:
+        raise UsageError(f"{path}: a folder, not a benchmark file (TOML)") from None
+    try:
+        text = raw.decode("utf-8")
+        data = tomllib.loads(text)
+    except UnicodeDecodeError as exc:
+        raise UsageError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise UsageError(f"{path}: not valid TOML: {exc}") from None
+    data = _checked(path, text, data)
+    home = path.resolve().parent
+    b, d, r = data.get("benchmark", {}), data.get("dataset", {}), data.get("run", {})
+
+    def check(ok: bool, what: str, table: str, key: str) -> None:
+        if not ok:
+            raise _fail(path, text, what, table, key)
+
+    formats = [b["report"]] if isinstance(b.get("report"), str) else b.get("report", ["md"])
+    for f in formats:
+        check(f in REPORT_FORMATS, f"unknown report format {f!r}; one of {', '.join(REPORT_FORMATS)}", "benchmark", "report")
+    check(b.get("metric", "accuracy") in METRICS, f"metric must be one of {', '.join(METRICS)}", "benchmark", "metric")
+    check("path" in d or "train" not in d, "train needs path: the dataset to test on", "dataset", "train")
+    check("train" in d or "sensor_map" not in d, "sensor_map matches a test dataset's sensors to a training dataset's: "
+          "it needs train", "dataset", "sensor_map")
+    check("path" not in d or not ({"scale", "seed"} & set(d)), "scale and seed describe the simulated dataset; "
+          "a dataset with a path has neither", "dataset", "scale" if "scale" in d else "seed")
+    check(0 < d.get("scale", 0.05) <= 10, "scale must be in (0, 10]", "dataset", "scale")
+    check(d.get("seed", 0) >= 0, "seed must be >= 0", "dataset", "seed")
+    check(r.get("split", "paper") in ("paper", "grouped"), "split must be paper or grouped", "run", "split")
+    check(r.get("labels", "scenario") in ("scenario", "majority", "any", "last"),
+          "labels must be scenario, majority, any or last", "run", "labels")
+    check(0 <= r.get("seed", 0) < 2**32, "seed must be in [0, 2**32 - 1]", "run", "seed")
+    check(r.get("repeats", 1) >= 1, "repeats must be >= 1", "run", "repeats")
+    check(r.get("jobs", 1) >= 0, "jobs must be >= 0", "run", "jobs")
+    check(r.get("cell_timeout", 1) > 0, "cell_timeout must be > 0 seconds", "run", "cell_timeout")
+    for item in d.get("sensor_map", []):
+        check(isinstance(item, str) and "=" in item, f'sensor_map entries are "TEST=TRAIN" strings, got {item!r}',
+              "dataset", "sensor_map")
+    for folder in r.get("plugins", []):
+        check(isinstance(folder, str), f"plugins holds folder names, got {folder!r}", "run", "plugins")
+    return Benchmark(
+        path=path, text=text, sha256=hashlib.sha256(raw).hexdigest(), out=home / b.get("out", "results"),
+        report=list(dict.fromkeys(formats)), plots=b.get("plots", True), paper=b.get("paper", False),
+        intervals=b.get("intervals", False), metric=b.get("metric", "accuracy"), name=b.get("name", ""),
+        dataset=home / d["path"] if "path" in d else None, scale=float(d.get("scale", 0.05)), data_seed=d.get("seed"),
+        train=home / d["train"] if "train" in d else None, sensor_map=list(d.get("sensor_map", [])),
+        split="datasets" if "train" in d else r.get("split", "paper"), labels=r.get("labels", "scenario"),
+        seed=r.get("seed", 0), repeats=r.get("repeats", 1), jobs=r.get("jobs", 1),
+        cell_timeout=float(r["cell_timeout"]) if "cell_timeout" in r else None, scheduler=r.get("scheduler"),
+        plugins=[home / p for p in r.get("plugins", [])],
+        detectors={k: dict(v) for k, v in data["detectors"].items()},
+        protocols={k: dict(v) for k, v in data["protocols"].items()},
+    )
+
+
+def plan_runs(bench: Benchmark) -> list:
+    """The runs the file declares, every plugin loaded and every parameter checked (a bad one
+    names the file, line and table); plugin folders are registered first."""
+    from slipbench.engine import registry
+    from slipbench.engine.runner import Run
+
+    for folder in bench.plugins:
+        if not folder.is_dir():
+            raise _fail(bench.path, bench.text, f"plugin folder {folder} does not exist", "run", "plugins")
+        registry.add_plugin_folder(folder)
+
+    def made(kind: str, reg, name: str, params: dict):
+        try:
+            return reg.get(name)(**params)
+        except TypeError:
+            plugin = reg.get(name)()
+            unknown = [k for k in params if k not in plugin.get_params()]
+            raise _fail(bench.path, bench.text, f"{kind} {name!r} has no parameter {unknown[0] if unknown else '?'}; its "
+                        f"parameters: {', '.join(plugin.get_params()) or 'none'}", f"{kind}s.{name}",
+                        unknown[0] if unknown else None) from None
+        except SlipbenchError as exc:
+            raise _fail(bench.path, bench.text, str(exc), f"{kind}s.{name}", _param_in(str(exc), params)) from None
+
+    detectors = {n: made("detector", registry.detectors, n, p) for n, p in bench.detectors.items()}
+    protocols = {n: made("protocol", registry.protocols, n, p) for n, p in bench.protocols.items()}
+    runs = []
+    for dn, det in detectors.items():
+        for pn, pro in protocols.items():
+            for r in range(bench.repeats):
+                run = Run(det, pro, bench.split, bench.seed + r, bench.labels)
+                try:
+                    run.validate()
+                except SlipbenchError as exc:
+                    table, key = (f"detectors.{dn}", _param_in(str(exc), bench.detectors[dn]))
+                    if key is None:
+                        table, key = f"protocols.{pn}", _param_in(str(exc), bench.protocols[pn])
+                    raise _fail(bench.path, bench.text, str(exc), table, key) from None
+                runs.append(run)
+    return runs
+
+
+def _param_in(message: str, params: dict) -> str | None:
+    """The parameter a validation message names ("The 'keep' parameter of ..."), if given here."""
+    m = re.search(r"The '([^']+)' (?:parameter|option)", message)
+    return m[1] if m and m[1] in params else None
+
+
+def record(bench: Benchmark, out: Path) -> None:
+    """Keep the file's text with the results: ``benchmark.toml`` (a copy) and ``benchmark.json``
+    (its SHA-256, where it came from, when it ran)."""
+    from slipbench.atomic import make_folder, write_text_atomic
+
+    make_folder(out)
+    write_text_atomic(out / BENCHMARK_FILE, bench.text)
+    write_text_atomic(out / RECORD_FILE, json.dumps({
+        "sha256": bench.sha256, "file": str(bench.path), "name": bench.name,
+        "started_at": datetime.now(timezone.utc).isoformat(),
+    }, indent=2) + "\n")
+
+
+def run_benchmark(bench: Benchmark, out: Path | None = None, jobs: int | None = None, force: bool = False,
+                  progress: bool = True, echo=print):
+    """Run what ``bench`` declares and write its reports.
+
+    Parameters
+    ----------
+    out, jobs : override the file's results folder and worker count (a CI job runs one file
+        into a base and a candidate folder).
+
+    Returns
+    -------
+    (rows, paths): the result rows of the declared runs, and the report and figure files written.
+    """
+    from slipbench.data.dataset import read_dataset
+    from slipbench.data.defaults import default_dataset
+    from slipbench.report.document import build_report, render, write_figures
+    from slipbench.store.results import ResultsStore
+    from slipbench.engine.runner import evaluate
+
+    out = Path(out) if out is not None else bench.out
+    runs = plan_runs(bench)  # every name and parameter before the dataset is read or simulated
+    if bench.train is not None:
+        from slipbench.data.transfer import combine, parse_sensor_map
+
+        ds = combine(read_dataset(bench.train), read_dataset(bench.dataset), parse_sensor_map(tuple(bench.sensor_map)))
+    elif bench.dataset is not None:
+        ds = read_dataset(bench.dataset)
+    else:
+        data_seed = bench.seed if bench.data_seed is None else bench.data_seed
+        ds = default_dataset(bench.scale, data_seed, echo=echo)
+    record(bench, out)
+    rows = evaluate(ds, runs, ResultsStore(out), force=force, jobs=bench.jobs if jobs is None else jobs,
+                    scheduler=bench.scheduler, cell_timeout=bench.cell_timeout, progress=progress)
+    blocks = build_report(rows, bench.metric, bench.intervals, bench.paper, with_figures=bench.plots,
+                          benchmark=bench.describe, predictions=[out])
+    files = write_figures(blocks, out / "figures") if bench.plots else {}
+    paths = [p for ps in files.values() for p in ps]
+    from slipbench.atomic import write_text_atomic
+
+    for fmt in bench.report:
+        path = out / f"report.{REPORT_FORMATS[fmt]}"
+        write_text_atomic(path, render(blocks, fmt, standalone=True, files=files, link_from=out))
+        paths.append(path)
+    return rows, paths

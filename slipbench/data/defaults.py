@@ -1,0 +1,34 @@
+"""The embedded default dataset: simulated on first use into the user's cache, then reused."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from pathlib import Path
+
+from platformdirs import user_cache_dir
+
+from slipbench.data.dataset import Dataset, read_dataset
+from slipbench.errors import DataError
+from slipbench.data.synth import MODEL_VERSION, synthesize
+
+DEFAULT_SCALE = 0.05
+
+
+def cache_dir() -> Path:
+    """``$SLIPBENCH_CACHE`` if set, else the platform's user cache folder for slipbench."""
+    return Path(os.environ.get("SLIPBENCH_CACHE") or user_cache_dir("slipbench"))
+
+
+def default_dataset(scale: float = DEFAULT_SCALE, seed: int = 0, echo: Callable[[str], None] | None = None) -> Dataset:
+    """The simulated dataset at ``scale`` and ``seed``, generated once per cache."""
+    path = cache_dir() / f"synth-v{MODEL_VERSION}-scale{scale:g}-seed{seed}"
+    if not path.is_dir():
+        if echo:
+            echo(f"simulating the default dataset (scale {scale:g}, seed {seed}) into {path} ...")
+        try:
+            synthesize(path, scale, seed)
+        except DataError:
+            if not path.is_dir():  # lost a race with another process: theirs is as good
+                raise
+    return read_dataset(path)

@@ -1,0 +1,309 @@
+"""From recordings to labelled windows: univariate reduction, windowing, downsampling,
+balancing and splitting. Pure numpy (plus scikit-learn's splitters)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import signal
+from sklearn.model_selection import train_test_split
+
+from slipbench.data.dataset import Dataset
+from slipbench.errors import UsageError
+from slipbench.seeding import rng_for, seed_int
+
+SPLITS = ("paper", "grouped", "datasets")  # datasets: train on one dataset, test on another (slipbench.data.transfer)
+# How a window gets its class: from its recording's scenario (the paper), or from the per-sample
+# ``slip`` labels: the majority of its samples, any slip sample, or its last sample.
+LABELLINGS = ("scenario", "majority", "any", "last")
+
+
+def univariate(a: np.ndarray, baseline: int = 0) -> np.ndarray:
+    """The paper's eq. (1): s_t = ||a_t|| - ||a_{t-1}||.
+
+    ||a_t|| depends on each channel's offset: a channel resting at 3000 counts weighs its
+    changes by its share of the norm, so two units with different offsets give different s for
+    the same contact. ``baseline`` removes that dependence.
+
+    Parameters
+    ----------
+    a : (n_samples, n_channels) samples of one recording.
+    baseline : 0 (the paper: raw values), or N > 0: subtract each channel's mean over the
+        recording's first N samples (all of them if it is shorter) before the norm.
+
+    Returns
+    -------
+    (n_samples - 1,) float32. Norms are taken in float64 so that a large static load does not
+    swallow the small changes that carry the slip signal.
+    """
+    if isinstance(baseline, (bool, np.bool_)) or not isinstance(baseline, (int, np.integer)) or baseline < 0:
+        raise UsageError(f"baseline must be an int >= 0 (samples averaged at the start; 0: none), got {baseline!r}")
+    a = np.asarray(a, dtype=np.float64)
+    if baseline:
+        a = a - a[:baseline].mean(axis=0)
+    return np.diff(np.linalg.norm(a, axis=1)).astype(np.float32)
+
+
+@dataclass
+class Signals:
+    """The univariate signal of every recording, concatenated, with its per-sample labels.
+
+    Attributes
+    ----------
+    buffer : (total,) float32, the recordings' signals one after another.
+    offsets : (n_recordings + 1,) int64, recording r occupies buffer[offsets[r]:offsets[r + 1]].
+    recordings : the dataset's metadata, row r describing recording r.
+    labels : (total,) int8 label of each value of s: that of its later sample (s_t spans
+        samples t-1 and t): 1 slip, 0 no slip, -1 unlabelled. Where the dataset has no
+        per-sample labels, a recording's scenario labels all its samples (hold-slip: -1).
+    """
+
+    buffer: np.ndarray
+    offsets: np.ndarray
+    recordings: pd.DataFrame
+    labels: np.ndarray | None = None
+
+    @classmethod
+    def from_dataset(cls, dataset: Dataset, baseline: int = 0) -> "Signals":
+        """``baseline``: see :func:`univariate`."""
+        ids = dataset.recordings["recording_id"]
+        parts = [univariate(dataset.samples[r], baseline) for r in ids]
+        offsets = np.r_[0, np.cumsum([len(p) for p in parts])].astype(np.int64)
+        by_scenario = {"slip": 1, "press": 0, "free-space": 0}
+        labels = [dataset.slip_labels[r][1:] if r in dataset.slip_labels
+                  else np.full(len(p), by_scenario.get(sc, -1), np.int8)
+                  for r, sc, p in zip(ids, dataset.recordings["scenario"], parts)]
+        return cls(np.concatenate(parts), offsets, dataset.recordings.reset_index(drop=True),
+                   np.concatenate(labels).astype(np.int8))
+
+    def antialiased(self, factor: int, order: int = 4) -> "Signals":
+        """The signal of a sensor whose norm passes an anti-aliasing filter before it is sampled
+        ``factor`` times slower, still at the full rate: :meth:`Windows.downsample` then
+        decimates it (``plain`` or ``lag``) as it would the raw signal.
+
+        Each recording's norm ||a_t|| goes through a causal Butterworth low-pass of ``order`` at
+        0.8 x the new Nyquist frequency (rate / (2 ``factor``)), as a sensor's analogue filter
+        would, at rest on the recording's first reading. The filter is linear and
+        time-invariant, so differencing its output equals filtering the difference: the
+        result is ``sosfilt`` of each recording's s, computed on s (float64) because the
+        norm's running sum would carry a large offset through the filter for nothing.
+
+        Returns
+        -------
+        Signals with the same offsets and recordings; buffer (total,) float32.
+        """
+        if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 2:
+            raise UsageError(f"an anti-aliasing filter needs a downsampling factor >= 2, got {factor!r}")
+        out = np.empty_like(self.buffer)
+        rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
+        for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
+            sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
+            out[lo:hi] = signal.sosfilt(sos, self.buffer[lo:hi].astype(np.float64))
+        return Signals(out, self.offsets, self.recordings, self.labels)
+
+    def windows(self, window: int, rows: np.ndarray | None = None, values: bool = True,
+                labelling: str = "scenario") -> "Windows":
+        """Cut non-overlapping windows of ``window`` samples from each recording in ``rows``,
+        labelled as ``labelling`` says (one of :data:`LABELLINGS`).
+
+        The tail of a recording shorter than a window is dropped; windows never span two
+        recordings. A window that cannot be labelled is left out: by scenario, one of a
+        hold-slip recording (it holds two states); by samples, one touching an unlabelled
+        sample. ``majority`` calls a window slip when at least half its samples slip. With
+        ``values=False`` only the windows' positions are computed (``x`` is None): enough to
+        balance and split, and cut later by :meth:`values`.
+        """
+        rows = np.arange(len(self.recordings)) if rows is None else np.asarray(rows)
+        lengths = (self.offsets[rows + 1] - self.offsets[rows]) // window
+        n = int(lengths.sum())
+        rec = np.repeat(rows, lengths).astype(np.int32)
+        # index of each window inside its recording: 0, 1, ..., lengths[r] - 1
+        local = (np.arange(n) - np.repeat(np.cumsum(lengths) - lengths, lengths)).astype(np.int32)
+        labels = self._window_labels(rec, local, window, labelling)
+        keep = labels >= 0
+        w = Windows(None, rec[keep], local[keep], self.recordings, labels[keep])
+        return Windows(self.values(w, window), w.recording, w.index, w.recordings, w.labels) if values else w
+
+    def _window_labels(self, rec: np.ndarray, local: np.ndarray, window: int, labelling: str) -> np.ndarray:
+        """(n_windows,) int8: 1 slip, 0 no slip, -1 cannot be labelled."""
+        if labelling not in LABELLINGS:
+            raise UsageError(f"unknown labelling {labelling!r}; choose one of: {', '.join(LABELLINGS)}")
+        if labelling == "scenario":
+            scenario = self.recordings["scenario"].to_numpy()[rec]
+            return np.select([scenario == "slip", scenario == "hold-slip"], [1, -1], 0).astype(np.int8)
+        starts = self.offsets[rec] + local.astype(np.int64) * window
+        per_sample = np.lib.stride_tricks.sliding_window_view(self.labels, window)[starts]
+        unlabelled = (per_sample < 0).any(axis=1)
+        if labelling == "majority":
+            out = (2 * (per_sample == 1).sum(axis=1) >= window).astype(np.int8)
+        elif labelling == "any":
+            out = (per_sample == 1).any(axis=1).astype(np.int8)
+        else:
+            out = per_sample[:, -1].astype(np.int8)
+        out[unlabelled] = -1
+        return out
+
+    def values(self, windows: "Windows", window: int) -> np.ndarray:
+        """The samples of windows given by position: (n_windows, window) float32."""
+        starts = self.offsets[windows.recording] + windows.index.astype(np.int64) * window
+        return np.lib.stride_tricks.sliding_window_view(self.buffer, window)[starts]
+
+
+@dataclass
+class Windows:
+    """Labelled windows.
+
+    Attributes
+    ----------
+    x : (n_windows, window_length) float32, or None for windows known by position only.
+    recording : (n_windows,) row of each window's recording in ``recordings``.
+    index : (n_windows,) position of the window inside its recording.
+    recordings : the dataset's metadata.
+    labels : (n_windows,) int8, 1 slip, 0 no slip (see :meth:`Signals.windows`).
+    """
+
+    x: np.ndarray | None
+    recording: np.ndarray
+    index: np.ndarray
+    recordings: pd.DataFrame
+    labels: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.recording)
+
+    def take(self, rows: np.ndarray) -> "Windows":
+        x = None if self.x is None else self.x[rows]
+        return Windows(x, self.recording[rows], self.index[rows], self.recordings, self.labels[rows])
+
+    def column(self, name: str) -> np.ndarray:
+        """A recordings column (scenario, material, speed_mm_s, ...) per window."""
+        return self.recordings[name].to_numpy()[self.recording]
+
+    @property
+    def y(self) -> np.ndarray:
+        """(n_windows,) int8: 1 slip, 0 no slip."""
+        return self.labels
+
+    def strata(self) -> np.ndarray:
+        """The balancing stratum of each window (section II.D of the paper): slip per material
+        and speed, pressing per material, free-space per speed; and, with labels from the
+        samples, contact held without slip ("hold", per material) for non-slip windows of slip
+        and hold-slip recordings."""
+        rec = self.recordings
+        scenario = rec["scenario"].to_numpy(dtype=str)[self.recording]
+        material = rec["material"].fillna("").to_numpy(dtype=str)[self.recording]
+        speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[self.recording]
+        held = (self.labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
+        category = np.where(self.labels == 1, "slip", np.where(held, "hold", scenario))
+        material = np.where(category == "free-space", "", material)
+        speed = np.where(np.isin(category, ("press", "hold")), "", speed)
+        return np.char.add(np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed))
+
+    def downsample(self, factor: int, decimation: str = "plain") -> "Windows":
+        """The windows as a sensor sampled ``factor`` times slower would see them.
+
+        A window of n samples of s_t = ||a_t|| - ||a_{t-1}|| spans the readings a_p ... a_{p+n};
+        a sensor ``factor`` = k times slower reads a_p, a_{p+k}, ..., a_{p+mk} of them, m = n // k
+        (the samples after the last whole block are dropped, so every decimation keeps m).
+        Sample j of the result is taken from block j, s[p+jk] ... s[p+jk+k-1]:
+
+        - ``"plain"``: its first sample, ||a_{p+jk+1}|| - ||a_{p+jk}||: every k-th sample of the
+          full-rate difference (the paper's "omitting every other sensor reading" read as
+          omitting samples of s);
+        - ``"lag"``: the block's sum, ||a_{p+(j+1)k}|| - ||a_{p+jk}||: the lag-one difference of
+          the slower sensor, which never reaches outside the window.
+
+        Returns
+        -------
+        Windows with x of shape (n_windows, n // factor) float32.
+        """
+        m = self.x.shape[1] // factor
+        if m < 1:
+            raise UsageError(f"windows of {self.x.shape[1]} samples downsampled by {factor} leave no sample")
+        if decimation == "plain":
+            x = self.x[:, : m * factor : factor]
+        elif decimation == "lag":
+            # float64 accumulation: the sum adds no rounding to that of the float32 samples
+            x = self.x[:, : m * factor].reshape(len(self.x), m, factor).sum(axis=2, dtype=np.float64)
+        else:
+            raise UsageError(f"unknown decimation {decimation!r}; choose plain or lag")
+        return Windows(np.ascontiguousarray(x, dtype=np.float32), self.recording, self.index, self.recordings, self.labels)
+
+
+def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
+    """Rows that give the paper's mix: half slip, half non-slip; slip equal per stratum;
+    non-slip split equally between pressing, free-space (and held contact, with labels from the
+    samples), equal per stratum inside each.
+
+    Kinds a dataset lacks drop out of the proportions (a dataset without free-space data
+    balances slip against pressing alone). Inside a stratum, windows are drawn at random.
+    """
+    strata = windows.strata()
+    names, codes, counts = np.unique(strata, return_inverse=True, return_counts=True)
+    category = np.array([n.split("|", 1)[0] for n in names])
+    # the largest equal share each kind can give to every one of its strata
+    capacity = {c: counts[category == c].min() * (category == c).sum() for c in np.unique(category)}
+    nonslip = sorted(c for c in capacity if c != "slip")
+    if "slip" not in capacity or not nonslip:
+        present = ", ".join(sorted(capacity)) or "none"
+        raise UsageError(f"balancing needs slip and non-slip windows; kinds present: {present}")
+    per_nonslip = min(capacity[c] for c in nonslip)
+    per_class = min(capacity["slip"], per_nonslip * len(nonslip))
+    target = {"slip": per_class, **{c: per_class // len(nonslip) for c in nonslip}}
+    keep = []
+    for code, name in enumerate(names):
+        cat = category[code]
+        share = target[cat] // (category == cat).sum()
+        rows = np.flatnonzero(codes == code)
+        keep.append(rng.choice(rows, size=share, replace=False))
+    return np.sort(np.concatenate(keep))
+
+
+def trial_sides(recordings: pd.DataFrame, seed: int) -> np.ndarray:
+    """(n_recordings,) 0 (train) or 1 (test) per recording, one side per trial for every unit.
+
+    Trials (the ``trial`` column; a recording is its own trial where there is none) are
+    assigned within strata of scenario, material and speed: shuffled with the seed, then dealt
+    to the two sides in turn, each stratum starting on a side drawn from the seed. Recordings
+    that share a trial (the fingers of one grasp) therefore land on the same side in every
+    unit's split, so no model is tested on a trial whose twin trained it.
+    """
+    rng = rng_for(seed, "sides")
+    trials = recordings["trial"] if "trial" in recordings else recordings["recording_id"]
+    key = [f"{sc}|{m}|{v:g}" for sc, m, v in zip(recordings["scenario"], recordings["material"].fillna(""),
+                                                  recordings["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))]
+    first = pd.DataFrame({"trial": trials.to_numpy(), "stratum": key}).drop_duplicates("trial")
+    side: dict = {}
+    for _, group in first.groupby("stratum", sort=True):
+        order = group["trial"].to_numpy()[rng.permutation(len(group))]
+        start = int(rng.integers(2))
+        side.update({t: (start + i) % 2 for i, t in enumerate(order)})
+    return trials.map(side).to_numpy(dtype=np.int8)
+
+
+def split(windows: Windows, how: str, seed: int, sides: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Train and test rows.
+
+    ``paper``: shuffle windows and halve them, stratified by balancing stratum so both halves
+    keep the paper's mix (by class alone where a stratum has a single window). ``grouped``:
+    each window goes to its recording's side in ``sides`` (:func:`trial_sides`): whole trials
+    on one side, the same for every unit.
+    """
+    rows = np.arange(len(windows))
+    if how == "paper":
+        strata = windows.strata()
+        if np.unique(strata, return_counts=True)[1].min() < 2:
+            strata = windows.y
+        if np.unique(strata, return_counts=True)[1].min() < 2:
+            raise UsageError("the paper split needs at least two windows of each class")
+        train, test = train_test_split(rows, test_size=0.5, stratify=strata, random_state=seed_int(seed, "split"))
+    elif how == "grouped":
+        if sides is None:
+            sides = trial_sides(windows.recordings, seed)
+        on_test = sides[windows.recording] == 1
+        train, test = rows[~on_test], rows[on_test]
+    else:
+        raise UsageError(f"unknown split {how!r}; choose one of: {', '.join(SPLITS)}")
+    return np.sort(train), np.sort(test)

@@ -1,0 +1,598 @@
+"""The embedded default dataset: a physical simulation of the paper's design of experiments.
+
+Three sensor types (Nano17, OptoForce20, BioTac SP) on the fingers of a hand, five materials,
+slip at four average speeds, pressing (palpation) on each material, free-space motion at three
+speeds, and continuous onset trials (``hold-slip``: contact held, then slip, sometimes a drop)
+for streaming detection. Every effect is a field of :class:`Physics`, :class:`Sensor` or
+:class:`Material` and is described, with where its value comes from, in ``datasets.md``. The
+model is physical and is *not* fitted to the paper's accuracies.
+
+Variability is layered as in a real campaign: each unit differs from its nominal type (gain,
+noise, the finger's share of the contact force, mass, finger stiffness, skin, mount); each
+trial differs (grip force, surface state, arm motion), and is shared by the fingers recorded in
+it (the ``trial`` column); each recording differs (contact patch, finger rolling, the spot of
+surface it slides over, mounting drift).
+
+All randomness flows from one seed. Each recording draws from its own streams, keyed by what it
+is (sensor, instance, scenario, material, speed, trial), so the result does not depend on the
+order of generation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy import signal
+
+from slipbench.data.dataset import write_dataset
+from slipbench.seeding import rng_for
+
+MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
+SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)
+FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)
+UNLABELLED = -1  # per-sample label of samples whose slip state is undefined (after a drop)
+MODEL_VERSION = 2  # bump when the simulation changes, so cached datasets are regenerated
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """One sensor type: sampling, channels and its mechanics."""
+
+    rate_hz: float
+    instances: tuple[str, ...]
+    channels: tuple[str, ...]
+    unit: str
+    units_per_newton: float
+    noise_floor_n: float  # white noise std of the force estimate, in N (datasheet resolution)
+    skin_cutoff_hz: float | None  # rubber skin as a mechanical low-pass; None: thin coating
+    idle_coupling: float  # how much of the arm's idle vibration reaches the sensor
+    tip_radius_mm: float  # radius of the touching surface (Hertz contact)
+    tip_modulus_mpa: float  # plane-strain modulus E / (1 - nu^2) of what touches the surface
+    tip_loss: float  # its loss factor (tan delta)
+    mass_g: float  # sensor and fingertip, moving with the contact
+    gain_sd: float  # unit-to-unit spread of sensitivity (log-normal sd)
+    highpass_hz: float | None = None  # BioTac SP: only the high-pass pressure channel is used
+
+
+SENSORS: dict[str, Sensor] = {
+    "Nano17": Sensor(1000.0, ("index", "middle", "little"), ("g1", "g2", "g3", "g4", "g5", "g6"),
+                     "N", 1.0, 0.006, None, 1.0, 8.0, 2300.0, 0.02, 12.0, 0.05),
+    "OptoForce20": Sensor(1000.0, ("index", "middle", "little"), ("fx", "fy", "fz"),
+                          "count", 400.0, 0.0025, 250.0, 0.0, 10.0, 1.33, 0.10, 10.0, 0.25),
+    "BioTacSP": Sensor(850.0, ("index", "middle"), ("pac",), "count", 100.0, 0.010, 250.0, 0.8,
+                       7.5, 0.40, 0.30, 30.0, 0.25, 10.0),
+}
+
+
+@dataclass(frozen=True)
+class Material:
+    """Mechanics and tribology of one surface."""
+
+    modulus_mpa: float  # plane-strain modulus E / (1 - nu^2), normal to the sheet
+    loss: float  # loss factor (tan delta)
+    critical_slip_mm: float  # mean sliding distance between two stick-slip snaps
+    snap_gain: float  # relative size of the force drop at a snap
+    smear_hz: float | None  # soft surfaces smear snaps: low-pass on the event train
+    texture_period_mm: float  # spatial period of the surface (grain, corrugation, brushing)
+    texture_gain: float
+    fibre_noise_gain: float  # broadband rubbing noise (cardboard fibres)
+    hardness: float  # impact transient when a finger lands on it while pressing
+
+
+MATERIAL_MODELS: dict[str, Material] = {
+    "aluminum": Material(77000.0, 0.001, 0.4, 1.0, None, 0.08, 0.10, 0.0, 1.0),
+    "PVC": Material(3600.0, 0.03, 0.5, 0.8, None, 0.25, 0.15, 0.0, 0.8),
+    "neoprene": Material(4.0, 0.20, 1.5, 0.35, 30.0, 1.00, 0.10, 0.0, 0.2),
+    "cardboard": Material(30.0, 0.08, 0.6, 0.6, None, 0.80, 0.30, 0.5, 0.5),
+    "plywood": Material(800.0, 0.03, 0.5, 0.8, None, 1.60, 0.60, 0.1, 0.7),
+}
+
+
+@dataclass(frozen=True)
+class Physics:
+    """Every effect of the simulation, with its size. Forces are in newtons."""
+
+    path_mm: float = 180.0  # back-and-forth drag path; speed ramps 0 -> 2 x average -> 0 per pass
+    stick_speed_mm_s: float = 0.5  # below this the contact sticks: no snaps, slip label off
+    normal_force_n: tuple[float, float] = (0.5, 2.0)  # range of per-trial contact force
+    arm_oscillation_hz: tuple[float, float] = (1.0, 3.0)  # natural oscillation of the moving arm
+    arm_oscillation_depth: float = 0.15  # relative normal-force modulation while dragging
+    friction: float = 0.6  # kinetic Coulomb coefficient: tangential / normal force while sliding
+    static_friction_ratio: float = 1.25  # static / kinetic friction of a rubber contact
+    snap_n_per_n: float = 0.03  # snap force drop per newton of normal force at 25 mm/s
+    snap_speed_exponent: float = 0.5  # snap size grows with local speed as (v / 25 mm/s)^k
+    texture_n_per_n: float = 0.01  # texture force per newton of normal force
+    fibre_noise_n: float = 0.008  # rubbing noise at fibre gain 1 and 25 mm/s
+    finger_stiffness_n_mm: float = 10.0  # the finger's structure, in series with the contact
+    finger_mass_g: float = 30.0  # the share of the distal link that moves with the fingertip
+    finger_loss: float = 0.1  # loss factor of the finger's structure
+    idle_hz: float = 200.0  # the arm's idling vibration
+    idle_n: float = 0.008
+    press_force_n: tuple[float, float] = (0.2, 4.0)  # palpation force levels
+    press_rate_hz: tuple[float, float] = (0.1, 4.0)  # palpation frequencies
+    press_shear_ratio: float = 0.2  # shear that a curling finger puts on the surface
+    impact_n: float = 0.02  # impact transient at hardness 1 and a 1 Hz palpation
+    crackle_n: float = 0.004  # fibres and grain crushing under load (cardboard, plywood)
+    inertial_n: float = 0.004  # fingertip inertia under free-space arm motion at 25 mm/s
+    jerk_n: float = 0.02  # transient when a free-space motion segment starts or stops
+    gear_hz_per_mm_s: float = 1.2  # drive vibration tone: frequency per mm/s of arm speed
+    gear_n: float = 0.003  # its size at 25 mm/s
+    # unit to unit (log-normal sd; the sensor type's own gain spread is Sensor.gain_sd)
+    unit_spread: float = 1.0  # multiplies every unit spread below and gain_sd (0: identical units)
+    unit_force_sd: float = 0.50  # the finger's share of the contact force, set by the hand pose
+    unit_coupling_sd: float = 0.30  # where the fixed pose puts the contact on the fingertip
+    unit_noise_sd: float = 0.30  # noise floor (cabling, electronics)
+    unit_mass_sd: float = 0.10  # moving mass (fingertip adapter, screws)
+    unit_finger_sd: float = 0.20  # the finger's structural stiffness (gear play, link)
+    unit_skin_sd: float = 0.20  # skin modulus and its low-pass cut-off (hardness tolerance)
+    unit_idle_sd: float = 0.50  # how the mount passes the arm's vibration
+    # trial and recording signatures (log-normal sd)
+    signature_spread: float = 1.0  # multiplies every signature spread below (0: none)
+    surface_trial_sd: float = 0.25  # the surface's state in a trial: snap spacing and size
+    surface_local_sd: float = 0.15  # the spot of surface one finger slides over
+    patch_gain_sd: float = 0.15  # where the contact patch sits on the fingertip
+    force_wobble_sd: float = 0.15  # the finger's rolling and twisting: its force in a recording
+    drift_gain_sd: float = 0.05  # mounting and thermal drift of the sensitivity over a session
+    # onset trials (hold, then slip, sometimes a drop)
+    hold_s: tuple[float, float] = (0.5, 1.5)  # contact held still before the arm moves
+    ramp_s: float = 0.3  # the arm accelerates to the trial's speed in this time
+    tangential_stiffness_n_mm: float = 0.3  # the finger's shear compliance before breakaway
+    hold_fluctuation: float = 0.05  # slow grip-force fluctuation while holding
+    grip_adjust_rate_hz: float = 0.5  # small pressing-like grip adjustments
+    grip_adjust_depth: float = 0.10
+    precursor_onset: float = 0.6  # shear / static friction at which edge micro-slips begin
+    precursor_gain: float = 0.15  # their size relative to a full snap
+    drop_fraction: float = 0.3  # share of onset trials that end in losing the contact
+    drop_after_s: tuple[float, float] = (0.5, 1.5)  # slip time before the drop
+    drop_fall_s: float = 0.03  # the contact force falls to zero in this time
+    release_n_per_n: float = 0.05  # spring-back transient of the finger at release
+
+
+@dataclass(frozen=True)
+class Design:
+    """How much of each scenario, in seconds per sensor instance at scale 1.0 (~8 M samples of
+    the paper's design plus ~4 M of onset trials and long non-slip recordings)."""
+
+    slip_s_per_cell: float = 200.0  # per material x speed: 20 cells, half the paper's data
+    press_s_per_material: float = 400.0  # a quarter of the paper's data
+    free_s_per_speed: float = 2000.0 / 3  # a quarter of the paper's data
+    slip_trials: int = 8  # recordings per material x speed
+    press_trials: int = 8  # recordings per material
+    free_trials: int = 12  # recordings per speed (joint-configuration sequences)
+    onset_s_per_cell: float = 120.0  # hold-slip trials per material x speed
+    onset_recording_s: float = 6.0  # nominal length of one onset trial
+    long_press_s_per_material: float = 200.0  # long continuous pressing, for false alarms
+    long_free_s_per_speed: float = 200.0  # long continuous free-space motion
+    long_recording_s: float = 10.0
+    materials: tuple[str, ...] = MATERIALS
+    slip_speeds: tuple[float, ...] = SLIP_SPEEDS
+    free_speeds: tuple[float, ...] = FREE_SPACE_SPEEDS
+    sensors: tuple[str, ...] = tuple(SENSORS)
+    physics: Physics = field(default_factory=Physics)
+
+
+def _spread(rng: np.random.Generator, sd: float, size: int | None = None):
+    """Log-normal factor(s) with median 1."""
+    return np.exp(rng.normal(0.0, sd, size))
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One physical sensor on one finger: how it differs from its nominal type."""
+
+    gain: float
+    noise: float
+    force_share: float  # the finger's contact force relative to the trial's grip level
+    coupling: float  # how much of the contact force reaches the transducer (contact location, lever arm)
+    mass_kg: float  # sensor, fingertip and the distal link's moving share
+    finger_stiffness_n_m: float
+    tip_modulus_pa: float
+    skin_cutoff_hz: float | None
+    idle_coupling: float
+    mixing: np.ndarray  # (n_channels, 3): force -> channels
+
+
+def make_unit(seed: int, sensor_type: str, instance: str, physics: Physics) -> Unit:
+    """Draw one unit of ``sensor_type`` mounted on finger ``instance`` (its own keyed stream)."""
+    s, p = SENSORS[sensor_type], physics
+    rng = rng_for(seed, "unit", sensor_type, instance)
+    k = p.unit_spread
+    gain = float(_spread(rng, s.gain_sd * k))
+    noise = float(_spread(rng, p.unit_noise_sd * k))
+    force_share = float(_spread(rng, p.unit_force_sd * k))
+    coupling = float(_spread(rng, p.unit_coupling_sd * k))
+    mass = (s.mass_g + p.finger_mass_g) * 1e-3 * float(_spread(rng, p.unit_mass_sd * k))
+    finger = p.finger_stiffness_n_mm * 1e3 * float(_spread(rng, p.unit_finger_sd * k))
+    skin = float(_spread(rng, p.unit_skin_sd * k))
+    # a harder skin (higher modulus) passes higher frequencies: both move together
+    modulus = s.tip_modulus_mpa * 1e6 * (skin if s.skin_cutoff_hz is not None else 1.0)
+    cutoff = None if s.skin_cutoff_hz is None else s.skin_cutoff_hz * skin
+    idle = s.idle_coupling * float(_spread(rng, p.unit_idle_sd * k))
+    n = len(s.channels)
+    if n == 3:
+        mixing = np.eye(3) + rng.normal(0, 0.03 * k, (3, 3))  # cross-talk of an optical 3-axis cell
+    elif n == 1:
+        # fluid pressure: mostly normal load; how much shear reaches it depends on the fit
+        mixing = np.array([[*np.abs(rng.normal(0.3, 0.1 * k, 2)), 1.0]])
+    else:
+        # strain gauges: a well-conditioned calibration matrix, normalised so that
+        # ||mixing @ f|| ~ ||f|| and the noise floor keeps its meaning in newtons
+        q, _ = np.linalg.qr(rng.normal(size=(n, 3)))
+        mixing = q * _spread(rng, 0.05 * k, 3)
+    return Unit(gain, noise, force_share, coupling, mass, finger, modulus, cutoff, idle, mixing)
+
+
+@dataclass(frozen=True)
+class Signature:
+    """What makes one recording differ from another of the same unit and trial."""
+
+    patch: float  # coupling of the contact patch's position on the fingertip
+    force: float  # the finger's force in this recording relative to its share (rolling, twist)
+    spacing: float  # local factor on the stick-slip critical distance
+    snap: float  # local factor on the snap size
+    drift: float  # mounting and thermal drift of the sensitivity
+
+
+def _signature(rng: np.random.Generator, trial_rng: np.random.Generator, p: Physics) -> Signature:
+    """Draw a recording's signature; the surface state of the trial is shared by its fingers."""
+    k = p.signature_spread
+    trial_spacing, trial_snap = _spread(trial_rng, p.surface_trial_sd * k, 2)
+    local_spacing, local_snap = _spread(rng, p.surface_local_sd * k, 2)
+    return Signature(
+        patch=float(_spread(rng, p.patch_gain_sd * k)), force=float(_spread(rng, p.force_wobble_sd * k)),
+        spacing=float(trial_spacing * local_spacing), snap=float(trial_snap * local_snap),
+        drift=float(_spread(rng, p.drift_gain_sd * k)),
+    )
+
+
+def contact_mode(sensor: Sensor, unit: Unit, material: str, normal_n: float, p: Physics) -> tuple[float, float]:
+    """Frequency (Hz) and damping ratio of the fingertip's ringing mode while touching.
+
+    A lumped one-mode model: the moving mass (sensor, fingertip, the distal link's share) on the
+    contact stiffness in series with the finger's structural stiffness. The contact stiffness is
+    Hertz's, k = (6 E*^2 R F)^(1/3), with E* the series combination of the tip's and the
+    surface's plane-strain moduli, so soft surfaces and light forces ring lower. The damping
+    ratio is half the compliance-weighted loss factor of the three elements.
+    """
+    m = MATERIAL_MODELS[material]
+    c_tip, c_surface = 1.0 / unit.tip_modulus_pa, 1.0 / (m.modulus_mpa * 1e6)
+    e_star = 1.0 / (c_tip + c_surface)
+    k_contact = (6.0 * e_star**2 * sensor.tip_radius_mm * 1e-3 * max(normal_n, 0.05)) ** (1 / 3)
+    c_contact, c_finger = 1.0 / k_contact, 1.0 / unit.finger_stiffness_n_m
+    compliance = c_contact + c_finger
+    contact_loss = (sensor.tip_loss * c_tip + m.loss * c_surface) / (c_tip + c_surface)
+    zeta = 0.5 * (contact_loss * c_contact + p.finger_loss * c_finger) / compliance
+    return float(np.sqrt(1.0 / (compliance * unit.mass_kg)) / (2 * np.pi)), float(zeta)
+
+
+def free_mode(unit: Unit, p: Physics) -> tuple[float, float]:
+    """Frequency (Hz) and damping ratio of the fingertip's mode without contact."""
+    return float(np.sqrt(unit.finger_stiffness_n_m / unit.mass_kg) / (2 * np.pi)), 0.5 * p.finger_loss
+
+
+def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.ndarray:
+    """Ring a damped oscillator at f0 with each impulse (a 2-pole IIR resonator)."""
+    w = 2 * np.pi * min(f0, 0.45 * fs) / fs
+    r = np.exp(-damping * w)
+    return signal.lfilter([np.sin(w)], [1.0, -2 * r * np.cos(w), r * r], impulses)
+
+
+def _lowpass(x: np.ndarray, cutoff: float, fs: float, order: int = 2, axis: int = -1) -> np.ndarray:
+    if cutoff >= 0.49 * fs:
+        return x
+    sos = signal.butter(order, cutoff, fs=fs, output="sos")
+    return signal.sosfilt(sos, x, axis=axis)
+
+
+def _events(distance_mm: np.ndarray, mean_spacing: float, rng: np.random.Generator) -> np.ndarray:
+    """Positions (mm of travel) of stick-slip snaps: gamma-spaced with the given mean."""
+    total = float(distance_mm[-1])
+    n_max = int(total / mean_spacing * 1.5) + 16
+    pos = np.cumsum(rng.gamma(4.0, mean_spacing / 4.0, n_max))
+    return pos[pos < total]
+
+
+def _snaps(speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray, m: Material, sig: Signature,
+           fs: float, rng: np.random.Generator, p: Physics) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stick-slip of a sliding contact: snap impulses, the shear sawtooth between snaps, travel.
+
+    Each time the travel since the last snap reaches a gamma-spread critical distance, the shear
+    drops by a snap; between snaps it builds up again. Returns arrays of shape (n,).
+    """
+    travel = np.cumsum(np.where(sliding, speed, 0.0)) / fs
+    spacing = m.critical_slip_mm * sig.spacing
+    rel = (np.maximum(speed, 1e-9) / 25.0) ** p.snap_speed_exponent
+    drop = p.snap_n_per_n * m.snap_gain * sig.snap * normal * rel  # force drop a snap would give now
+    impulses = np.zeros(len(speed))
+    if travel[-1] > 0:
+        pos = _events(travel, spacing, rng)
+        idx = np.searchsorted(travel, pos)
+        np.add.at(impulses, idx, drop[idx] * rng.lognormal(0, 0.3, len(idx)))
+        last = np.searchsorted(pos, travel, side="right") - 1
+        since = travel - np.r_[0.0, pos][last + 1]
+    else:
+        since = np.zeros(len(speed))
+    saw = drop * (np.clip(since / spacing, 0, 1.5) - 0.5) * sliding
+    return impulses, saw, travel
+
+
+def _surface(travel: np.ndarray, speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray, m: Material,
+             rng: np.random.Generator, p: Physics) -> np.ndarray:
+    """Texture tone at speed / spatial period and fibrous rubbing noise of a sliding contact."""
+    texture = p.texture_n_per_n * m.texture_gain * normal * np.sin(2 * np.pi * travel / m.texture_period_mm + rng.uniform(0, 2 * np.pi))
+    fibre = p.fibre_noise_n * m.fibre_noise_gain * np.sqrt(np.maximum(speed, 0) / 25.0) * rng.standard_normal(len(speed))
+    return (texture + fibre) * sliding
+
+
+def _drive(speed: np.ndarray, fs: float, p: Physics) -> np.ndarray:
+    """The arm's drive tone, whose frequency follows its speed."""
+    phase = 2 * np.pi * np.cumsum(p.gear_hz_per_mm_s * speed) / fs
+    return p.gear_n * (speed / 25.0) * np.sin(phase)
+
+
+def _slip_forces(n, fs, speed_avg, material, trial_rng, rng, sig, unit, sensor, p: Physics):
+    """Contact forces (3, n) of the finger dragged back and forth across a surface, and the
+    per-sample label (1 while the contact slides, 0 while it sticks at the path's ends)."""
+    m = MATERIAL_MODELS[material]
+    t = np.arange(n) / fs
+    pass_s = 2 * p.path_mm / (2 * speed_avg)  # one leg of the path, there or back
+    tt = t + trial_rng.uniform(0, pass_s)
+    speed = speed_avg * (1 - np.cos(2 * np.pi * tt / pass_s))  # mm/s, mean = speed_avg
+    direction = np.where((tt // pass_s) % 2 == 0, 1.0, -1.0)
+    normal0 = trial_rng.uniform(*p.normal_force_n) * unit.force_share * sig.force
+    osc = trial_rng.uniform(*p.arm_oscillation_hz)
+    normal = normal0 * (1 + p.arm_oscillation_depth * np.sin(2 * np.pi * osc * t + rng.uniform(0, 2 * np.pi)))
+    sliding = speed > p.stick_speed_mm_s
+
+    f0, zeta = contact_mode(sensor, unit, material, normal0, p)
+    impulses, saw, travel = _snaps(speed, sliding, normal, m, sig, fs, rng, p)
+    if m.smear_hz:
+        impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
+    ringing = _resonate(impulses, f0, zeta, fs)
+    vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
+    shear = direction * (p.friction * normal + saw) * sliding + vib
+    contact = unit.coupling * sig.patch * np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
+    return contact + _unit_vector(rng) * _drive(speed, fs, p), sliding.astype(np.int8)
+
+
+def _hold_slip_forces(n, fs, speed_target, material, trial_rng, rng, sig, unit, sensor, p: Physics):
+    """An onset trial: the contact is held, the arm starts to pull, the shear loads the finger
+    until it exceeds static friction (breakaway: slip onset, with a first large snap), then the
+    contact slides with stick-slip; in some trials the contact is then lost (a drop).
+
+    Returns forces (3, n) and the per-sample label: 0 before the onset, 1 from it, and
+    ``UNLABELLED`` from the moment the contact force starts to fall in a drop.
+    """
+    m = MATERIAL_MODELS[material]
+    t = np.arange(n) / fs
+    duration = n / fs
+    hold = min(trial_rng.uniform(*p.hold_s), 0.3 * duration)
+    normal0 = trial_rng.uniform(*p.normal_force_n) * unit.force_share * sig.force
+    drops = trial_rng.random() < p.drop_fraction
+    drop_after = trial_rng.uniform(*p.drop_after_s)
+    osc = trial_rng.uniform(*p.arm_oscillation_hz)
+
+    # grip: slow fluctuation plus small pressing-like adjustments (raised-cosine bumps)
+    grip = 1 + p.hold_fluctuation * np.sin(2 * np.pi * rng.uniform(0.3, 1.0) * t + rng.uniform(0, 2 * np.pi))
+    for start in np.cumsum(rng.exponential(1 / p.grip_adjust_rate_hz, int(duration * p.grip_adjust_rate_hz * 3) + 2)):
+        width = rng.uniform(0.2, 0.6)
+        inside = (t >= start) & (t < start + width)
+        grip[inside] += p.grip_adjust_depth * rng.uniform(0.3, 1.0) * np.sin(np.pi * (t[inside] - start) / width) ** 2
+    # the arm's speed rises smoothly to the target; its oscillation grows with it
+    moving = (1 - np.cos(np.pi * np.clip((t - hold) / p.ramp_s, 0, 1))) / 2
+    speed = speed_target * moving
+    normal = normal0 * grip * (1 + p.arm_oscillation_depth * moving * np.sin(2 * np.pi * osc * t))
+
+    # stick: the finger bends with the arm until the shear reaches static friction
+    arm_mm = np.cumsum(speed) / fs
+    static = p.friction * p.static_friction_ratio * normal
+    loading = p.tangential_stiffness_n_mm * arm_mm
+    broke = np.flatnonzero(loading >= static)
+    onset = int(broke[0]) if len(broke) else n
+    after = np.arange(n) >= onset
+    sliding = after & (speed > p.stick_speed_mm_s)
+
+    f0, zeta = contact_mode(sensor, unit, material, normal0, p)
+    impulses, saw, travel = _snaps(speed, sliding, normal, m, sig, fs, rng, p)
+    if onset < n:  # breakaway: the shear falls from static to kinetic friction at once
+        impulses[onset] += (p.static_friction_ratio - 1) * p.friction * normal[onset]
+    # incipient slip: micro-slips at the contact's edge once the shear nears static friction
+    edge = ~after & (loading >= p.precursor_onset * static)
+    if edge.any():
+        edge_travel = np.cumsum(np.where(edge, speed, 0.0)) / fs
+        pos = _events(edge_travel, m.critical_slip_mm * sig.spacing, rng)
+        idx = np.searchsorted(edge_travel, pos)
+        size = p.precursor_gain * p.snap_n_per_n * m.snap_gain * sig.snap * normal[idx]
+        np.add.at(impulses, idx, size * rng.lognormal(0, 0.3, len(idx)))
+    if m.smear_hz:
+        impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
+    ringing = _resonate(impulses, f0, zeta, fs)
+    vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
+    shear = np.where(after, p.friction * normal + saw, np.minimum(loading, static)) + vib
+
+    label = after.astype(np.int8)
+    contact = np.ones(n)
+    release = np.zeros(n)
+    lost = onset + int(round(drop_after * fs)) if drops else n
+    if lost < n:
+        fall = max(1, int(round(p.drop_fall_s * fs)))
+        contact[lost:] = 0.0
+        contact[lost : lost + fall] = (1 + np.cos(np.pi * np.arange(min(fall, n - lost)) / fall)) / 2
+        release[min(lost + fall, n - 1)] = p.release_n_per_n * normal0
+        label[lost:] = UNLABELLED
+    forces = np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing]) * contact * unit.coupling * sig.patch
+    spring_back = _resonate(release, *free_mode(unit, p), fs)
+    return forces + _unit_vector(rng) * (_drive(speed, fs, p) + spring_back), label
+
+
+def _press_forces(n, fs, material, trial_rng, rng, sig, unit, sensor, p: Physics):
+    """A finger palpating a surface: load-unload cycles at random levels and rates."""
+    m = MATERIAL_MODELS[material]
+    normal = np.zeros(n)
+    impulses = np.zeros(n)
+    i = int(trial_rng.integers(0, max(1, int(0.2 * fs))))
+    while i < n:
+        rate = np.exp(trial_rng.uniform(*np.log(p.press_rate_hz)))
+        level = trial_rng.uniform(*p.press_force_n) * unit.force_share * sig.force
+        length = max(4, int(fs / rate))
+        contact = int(length * trial_rng.uniform(0.5, 0.9))
+        seg = level * np.sin(np.pi * np.arange(contact) / contact) ** 2
+        end = min(n, i + contact)
+        normal[i:end] = seg[: end - i]
+        impulses[i] += p.impact_n * m.hardness * np.sqrt(rate) * rng.lognormal(0, 0.4)
+        i += length
+    loading = np.maximum(np.gradient(normal) * fs, 0)
+    crackle = p.crackle_n * (m.fibre_noise_gain + m.texture_gain) * np.sqrt(loading) * rng.standard_normal(n)
+    touching = normal > 0
+    f0, zeta = contact_mode(sensor, unit, material, float(normal[touching].mean()) if touching.any() else 0.0, p)
+    ringing = _resonate(impulses, f0, zeta, fs)
+    shear = p.press_shear_ratio * normal + 0.5 * ringing + crackle
+    forces = np.stack([shear, 0.2 * ringing, normal + ringing + crackle]) * unit.coupling * sig.patch
+    return forces, np.zeros(n, np.int8)
+
+
+def _free_space_forces(n, fs, speed_avg, trial_rng, rng, sig, unit, sensor, p: Physics):
+    """No contact: fingertip inertia, drive vibration and start/stop jerks of the moving arm."""
+    # motion segments between joint configurations; each starts and stops with a jerk
+    seg_s = trial_rng.uniform(1.0, 3.0, int(n / fs) + 2)
+    bounds = np.cumsum(seg_s) * fs
+    bounds = bounds[bounds < n].astype(int)
+    phase = np.interp(np.arange(n), np.r_[0, bounds, n], np.r_[0, np.arange(1, len(bounds) + 1), len(bounds) + 1])
+    speed = speed_avg * (1 - np.cos(2 * np.pi * phase))
+    accel = np.gradient(speed) * fs / 1000.0  # m/s^2
+    rel = speed_avg / 25.0
+    inertial = p.inertial_n * accel[None, :] * rng.normal(0, 1, (3, 1)) / max(np.abs(accel).max(), 1e-9) * rel
+    impulses = np.zeros(n)
+    impulses[bounds] = p.jerk_n * rel * rng.lognormal(0, 0.5, len(bounds))
+    ringing = _resonate(impulses, *free_mode(unit, p), fs)
+    forces = inertial + _unit_vector(rng) * (ringing + _drive(speed, fs, p))
+    return forces, np.zeros(n, np.int8)
+
+
+def _unit_vector(rng: np.random.Generator) -> np.ndarray:
+    """A random direction (3, 1): how the fingertip's pose projects a vibration on its axes."""
+    v = rng.normal(0, 1, (3, 1))
+    return v / np.linalg.norm(v)
+
+
+def _sense(forces: np.ndarray, sensor: Sensor, unit: Unit, sig: Signature, fs: float, rng, p: Physics) -> np.ndarray:
+    """What the sensor reports: idle vibration, skin filtering, mixing, high-pass, noise, gain;
+    (n, channels) float32."""
+    n = forces.shape[1]
+    idle = unit.idle_coupling * p.idle_n * np.sin(2 * np.pi * p.idle_hz * np.arange(n) / fs + rng.uniform(0, 2 * np.pi))
+    forces = forces + idle * np.array([[0.5], [0.5], [1.0]])
+    if unit.skin_cutoff_hz is not None:
+        forces = _lowpass(forces, unit.skin_cutoff_hz, fs, axis=1)
+    out = unit.mixing @ forces  # (channels, n)
+    if sensor.highpass_hz is not None:
+        out = signal.sosfilt(signal.butter(2, sensor.highpass_hz, "highpass", fs=fs, output="sos"), out, axis=1)
+    out = out + rng.normal(0, sensor.noise_floor_n * unit.noise, out.shape)
+    return (out.T * unit.gain * sig.drift * sensor.units_per_newton).astype(np.float32)
+
+
+def _count(seconds: float, nominal_s: float) -> int:
+    """Recordings of about ``nominal_s`` that share ``seconds``: none for none, else at least one."""
+    return 0 if seconds <= 0 else max(1, int(round(seconds / nominal_s)))
+
+
+def _plan(design: Design, scale: float) -> list[tuple[str, str | None, float | None, list[str], float]]:
+    """(scenario, material, speed, trial tokens, seconds per recording) for every cell."""
+    d = design
+    plan = []
+
+    def add(scenario, material, speed, tokens, seconds):
+        if tokens and seconds > 0:
+            plan.append((scenario, material, speed, tokens, seconds / len(tokens)))
+
+    def regular(n):
+        return [str(k) for k in range(n)]
+
+    def long(seconds, nominal):
+        return [f"long{k}" for k in range(_count(seconds, nominal))]
+
+    for mat in d.materials:
+        for v in d.slip_speeds:
+            add("slip", mat, v, regular(d.slip_trials), d.slip_s_per_cell * scale)
+    for mat in d.materials:
+        add("press", mat, None, regular(d.press_trials), d.press_s_per_material * scale)
+    for v in d.free_speeds:
+        add("free-space", None, v, regular(d.free_trials), d.free_s_per_speed * scale)
+    for mat in d.materials:
+        add("press", mat, None, long(d.long_press_s_per_material * scale, d.long_recording_s), d.long_press_s_per_material * scale)
+    for v in d.free_speeds:
+        add("free-space", None, v, long(d.long_free_s_per_speed * scale, d.long_recording_s), d.long_free_s_per_speed * scale)
+    for mat in d.materials:
+        for v in d.slip_speeds:
+            seconds = d.onset_s_per_cell * scale
+            add("hold-slip", mat, v, regular(_count(seconds, d.onset_recording_s)), seconds)
+    return plan
+
+
+def generate(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> tuple[pd.DataFrame, dict, dict]:
+    """Simulate the design of experiments.
+
+    Parameters
+    ----------
+    scale : fraction of the paper's amount of data (1.0: ~8 M samples per unit for its design).
+    seed : every random draw derives from it; each recording has its own keyed streams.
+    design : what to simulate (:class:`Design`, its ``physics`` a :class:`Physics`).
+
+    Returns
+    -------
+    recordings : metadata DataFrame in the dataset format, plus a ``trial`` column: recordings
+        of the units of one sensor type made at the same time share a trial id.
+    samples : recording_id -> float32 (n_samples, n_channels).
+    labels : recording_id -> int8 (n_samples,): 1 while the contact slides, 0 otherwise,
+        ``UNLABELLED`` (-1) after the contact is lost in a ``hold-slip`` trial.
+    """
+    if not scale > 0:
+        raise ValueError(f"scale must be > 0, got {scale}")
+    p = design.physics
+    rows, samples, labels = [], {}, {}
+    for sensor_type in design.sensors:
+        sensor = SENSORS[sensor_type]
+        fs = sensor.rate_hz
+        units = {inst: make_unit(seed, sensor_type, inst, p) for inst in sensor.instances}
+        for scenario, material, speed, tokens, seconds in _plan(design, scale):
+            n = max(64, int(round(seconds * fs)))
+            speed_name = "none" if speed is None else f"{speed:g}"
+            for token in tokens:
+                key = (sensor_type, scenario, material, speed, token)
+                trial_id = "/".join((sensor_type, scenario, material or "none", speed_name, token))
+                for inst, unit in units.items():
+                    trial_rng = rng_for(seed, "trial", *key)
+                    rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
+                    sig = _signature(rng_for(seed, "signature", sensor_type, inst, *key[1:]), rng_for(seed, "surface", *key), p)
+                    args = (trial_rng, rng, sig, unit, sensor, p)
+                    if scenario == "slip":
+                        forces, label = _slip_forces(n, fs, speed, material, *args)
+                    elif scenario == "hold-slip":
+                        forces, label = _hold_slip_forces(n, fs, speed, material, *args)
+                    elif scenario == "press":
+                        forces, label = _press_forces(n, fs, material, *args)
+                    else:
+                        forces, label = _free_space_forces(n, fs, speed, *args)
+                    rid = "-".join((sensor_type, inst, scenario, material or "none", speed_name, token))
+                    samples[rid] = _sense(forces, sensor, unit, sig, fs, rng, p)
+                    labels[rid] = label
+                    rows.append(dict(
+                        recording_id=rid, sensor_type=sensor_type, sensor_instance=inst, scenario=scenario,
+                        material=material, speed_mm_s=speed, sampling_rate_hz=fs,
+                        channels=sensor.channels, units=(sensor.unit,) * len(sensor.channels),
+                        source=f"slipbench.data.synth v{MODEL_VERSION} seed={seed} scale={scale:g}", trial=trial_id,
+                    ))
+    return pd.DataFrame(rows), samples, labels
+
+
+def synthesize(out: str | Path, scale: float = 0.05, seed: int = 0, design: Design = Design()) -> Path:
+    """Generate the simulated dataset into folder ``out`` (written atomically)."""
+    recordings, samples, labels = generate(scale, seed, design)
+    return write_dataset(out, recordings, samples, labels)
+
+
+def with_physics(design: Design = Design(), **changes) -> Design:
+    """A design whose physics differs in the named fields (for ablations and tests)."""
+    return replace(design, physics=replace(design.physics, **changes))

@@ -1,0 +1,143 @@
+"""The worker's job: fit one model (or load it from an earlier run) and score its test sets.
+
+Runs in whatever process an executor chooses, so it takes and returns plain data only. A
+detector that raises, or returns scores that are not probabilities, fails its cells with the
+reason; the rest of a run goes on.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import psutil
+
+from slipbench.base import BaseDetector, clone, plugin_id
+from slipbench.errors import EnvironmentFault, UsageError
+from slipbench.stats.metrics import classification_figures
+from slipbench.store.results import write_text_atomic
+from slipbench.seeding import seed_int
+from slipbench.stream.cell import StreamTest, streamed_figures
+
+
+class PeakMemory:
+    """Peak resident memory above the starting level while a block runs (sampled every 5 ms;
+    catches torch and numpy allocations alike, unlike tracemalloc)."""
+
+    def __enter__(self):
+        self._proc = psutil.Process()
+        self._base = self._peak = self._proc.memory_info().rss
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, daemon=True)
+        self._thread.start()
+        return self
+
+    def _watch(self):
+        while not self._stop.wait(0.005):
+            self._peak = max(self._peak, self._proc.memory_info().rss)
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+        self._peak = max(self._peak, self._proc.memory_info().rss)
+        self.mb = (self._peak - self._base) / 2**20
+
+
+@dataclass
+class TestSet:
+    """What one cell is tested on: windows (n, length), labels (n,), the cluster of each window
+    (n,): the unit its bootstrap resamples (a trial), and its balancing stratum (n,)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    groups: np.ndarray
+    strata: np.ndarray | None = None
+
+
+Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields and its test scores
+
+
+def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
+                 tests: list[TestSet | StreamTest], model_path: str | None = None) -> list[Result]:
+    """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
+    stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
+
+    With ``model_path``, a model an earlier run saved there for the same training windows is
+    loaded instead of refitted (its training cost is reported as measured then), and a newly
+    fitted one is saved there. Returns, per test set, its result fields and its scores.
+    """
+    try:
+        detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
+        out = []
+        for test in tests:
+            if isinstance(test, StreamTest):
+                out.append(({"status": "ok", "reason": "", "n_train": len(train_x), "sampling_rate_hz": sampling_rate,
+                             "n_test_trials": len(set(test.test.trials)),
+                             **streamed_figures(detector, seed, test), **cost, **_choices(detector, sampling_rate)}, None))
+                continue
+            t0 = time.perf_counter()
+            scores = detector.predict_proba(test.x)
+            infer_s = time.perf_counter() - t0
+            y_pred = (scores >= 0.5).astype(np.int8)
+            out.append(({
+                "status": "ok", "reason": _one_class(test.y), "n_train": len(train_x), "n_test": len(test.x),
+                "n_test_trials": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
+                **classification_figures(test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata),
+                **cost, "infer_us_per_window": infer_s / len(test.x) * 1e6,
+                **_choices(detector, sampling_rate),
+            }, scores))
+        return out
+    except EnvironmentFault:
+        raise  # a full disk is the machine's fault, not the detector's: the run stops, exit 5
+    except Exception as exc:  # noqa: BLE001 - whatever a plugin raises stays in its cells
+        detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+        return [({"status": "failed", "reason": f"detector {plugin_id(type(detector))!r} raised: {detail}"}, None)] * len(tests)
+
+
+def _one_class(y: np.ndarray) -> str:
+    """A note for a test set of one class: the rates of the other class do not exist."""
+    if len(np.unique(y)) == 2:
+        return ""
+    there, absent = ("slip", "TN rate") if y[0] == 1 else ("non-slip", "TP rate")
+    return f"the test set holds {there} windows only: accuracy is the {'TP' if y[0] == 1 else 'TN'} rate; the {absent} does not exist"
+
+
+def _choices(detector: BaseDetector, sampling_rate: float) -> dict[str, str]:
+    """The detector's fitted choices as JSON, and warnings about a band that thresholds drift
+    (from 0 Hz) or reaches the Nyquist frequency."""
+    choices = detector.fitted_choices()
+    warnings = []
+    band = choices.get("band_hz")
+    if band is not None:
+        if band[0] <= 0:
+            warnings.append(f"the fitted band {band[0]:g}-{band[1]:g} Hz starts at 0 Hz: it thresholds drift, not vibration")
+        if band[1] >= sampling_rate / 2:
+            warnings.append(f"the fitted band {band[0]:g}-{band[1]:g} Hz reaches the Nyquist frequency ({sampling_rate / 2:g} Hz)")
+    return {"fitted": json.dumps(choices, sort_keys=True), "warnings": "; ".join(warnings)}
+
+
+def _trained(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
+             model_path: str | None) -> tuple[BaseDetector, dict[str, Any]]:
+    """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
+    cost_path = None if model_path is None else Path(f"{model_path}.json")
+    if cost_path is not None and cost_path.is_file():
+        return type(detector).load(model_path), json.loads(cost_path.read_text())
+    detector = clone(detector)
+    with PeakMemory() as mem:
+        t0 = time.perf_counter()
+        detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed_int(seed, "detector"))
+        train_s = time.perf_counter() - t0
+    cost = {"train_s": train_s, "train_us_per_sample": train_s / train_x.size * 1e6, "peak_mem_mb": mem.mb}
+    if model_path is not None:
+        try:
+            detector.save(model_path)
+        except UsageError:
+            return detector, cost  # state that cannot be saved safely: reuse it in this run only
+        write_text_atomic(Path(cost_path), json.dumps(cost))  # written last: it marks the model complete
+    return detector, cost

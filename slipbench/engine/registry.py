@@ -1,0 +1,212 @@
+"""Detectors and protocols by id: entry points (built-ins included) and plugin folders.
+
+Every plugin, built-in or third-party, is found the same way: an entry point in the group
+``slipbench.detectors`` or ``slipbench.protocols`` (slipbench's own are declared in its
+``pyproject.toml``), or a file of a plugin folder. The entry-point or file name is the plugin's
+id, its one name: the registry writes it on the class as ``name``. A plugin is imported only
+when it is selected, so one that fails to import is reported then, with its id and the error,
+and never breaks start-up or the other plugins.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import inspect
+import sys
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any, Callable
+
+from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
+from slipbench.errors import PluginError, UsageError
+from slipbench.params import param_defaults
+from slipbench.protocol import BaseProtocol, Layout
+
+
+@dataclass(frozen=True)
+class Source:
+    origin: str  # where the id came from, for messages
+    target: str  # "module:attribute" (entry point) or the module name of a plugin file
+    load: Callable[[], Any]  # () -> module or class
+
+
+#: module name -> file of every plugin file imported in this process; worker processes import
+#: them again under the same names, so the classes they define unpickle there
+PLUGIN_FILES: dict[str, str] = {}
+
+
+def import_plugin_file(path: str | Path) -> object:
+    """The module of a plugin file, imported once per process under a name made from its path
+    (two plugin files with one stem stay apart in ``sys.modules``)."""
+    path = Path(path)
+    digest = hashlib.sha1(str(path.resolve()).encode()).hexdigest()[:10]
+    module_name = f"slipbench_plugin_{path.stem}_{digest}"
+    if module_name in sys.modules:
+        return sys.modules[module_name]
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[module_name]
+        raise
+    PLUGIN_FILES[module_name] = str(path)
+    return module
+
+
+@dataclass(frozen=True)
+class Status:
+    """Whether a plugin can be used: "ok", "missing dependency" or "import error", and why."""
+
+    state: str
+    detail: str = ""
+
+
+class Registry:
+    """Ids -> plugin classes of one kind (detector or protocol)."""
+
+    def __init__(self, kind: str, base: type, group: str):
+        self.kind, self.base, self.group = kind, base, group
+        self._sources: dict[str, Source] = {}
+        self._loaded: dict[str, type] = {}
+        self._discovered = False
+
+    def _add(self, name: str, source: Source) -> None:
+        if name in self._sources and self._sources[name].origin != source.origin:
+            raise UsageError(
+                f"two {self.kind}s are named {name!r}: one from {self._sources[name].origin}, one from {source.origin}"
+            )
+        self._sources[name] = source
+
+    def _discover(self) -> None:
+        if self._discovered:
+            return
+        self._discovered = True
+        for ep in entry_points(group=self.group):
+            dist = ep.dist.name if ep.dist else "?"
+            self._add(ep.name, Source(f"entry point {ep.value} ({dist})", ep.value, ep.load))
+
+    def add_folder(self, folder: str | Path) -> None:
+        """Register every ``*.py`` file of ``folder``; the file name (with - for _) is the id."""
+        folder = Path(folder)
+        if not folder.is_dir():
+            raise UsageError(f"plugin folder {folder} does not exist")
+        self._discover()
+        for path in sorted(folder.glob("*.py")):
+            if not path.name.startswith("_"):
+                self._add(path.stem.replace("_", "-"),
+                          Source(f"plugin file {path}", f"file:{path.resolve()}", lambda p=path: import_plugin_file(p)))
+
+    def names(self) -> list[str]:
+        self._discover()
+        return sorted(self._sources)
+
+    def get(self, name: str) -> type:
+        """The plugin class registered as ``name``; an unknown name lists the names that exist."""
+        self._discover()
+        if name in self._loaded:
+            return self._loaded[name]
+        if name not in self._sources:
+            raise UsageError(f"unknown {self.kind} {name!r}; available: {', '.join(self.names())}")
+        source = self._sources[name]
+        try:
+            obj = source.load()
+        except Exception as exc:  # a broken plugin must not take the others down
+            raise PluginError(f"{self.kind} {name!r} ({source.origin}) failed to import: {type(exc).__name__}: {exc}") from exc
+        cls = obj if isinstance(obj, type) else self._class_in(obj, name, source)
+        if not (isinstance(cls, type) and issubclass(cls, self.base)):
+            raise PluginError(f"{self.kind} {name!r} ({source.origin}) is not a subclass of {self.base.__name__}")
+        declared = cls.__dict__.get("name")
+        if declared and declared != name:
+            raise PluginError(f"{self.kind} {name!r} ({source.origin}) declares name = {declared!r}; its id is the name "
+                              f"it is registered under: drop the attribute or register it as {declared!r}")
+        self._check_class(cls, name, source)
+        cls.name = name  # the one source of the id, set on the class itself: a subclass gets its own
+        self._loaded[name] = cls
+        return cls
+
+    def _check_class(self, cls: type, name: str, source: Source) -> None:
+        if self.base is not BaseProtocol:
+            return
+        try:
+            layout = cls().layout  # a protocol's layout may depend on its options: check the defaults'
+        except Exception as exc:
+            raise PluginError(f"protocol {name!r} ({source.origin}) cannot be made with its default options: "
+                              f"{type(exc).__name__}: {exc}") from exc
+        if not isinstance(layout, Layout):
+            raise PluginError(f"protocol {name!r} ({source.origin}) must declare layout = slipbench.protocol.Layout(...), "
+                              f"got {layout!r}")
+
+    def _class_in(self, module, name: str, source: Source) -> type:
+        found = [
+            c for c in vars(module).values()
+            if isinstance(c, type) and issubclass(c, self.base) and c is not self.base and c.__module__ == module.__name__
+        ]
+        leaves = [c for c in found if not any(o is not c and issubclass(o, c) for o in found)]
+        if len(leaves) == 1:  # a module may hold a plugin's own base class beside the plugin
+            return leaves[0]
+        raise PluginError(f"{self.kind} {name!r} ({source.origin}) must define one {self.base.__name__} subclass, found {len(found)}")
+
+    def id_of(self, cls: type) -> str:
+        """The id of a plugin class: the name it was loaded under, the entry point or plugin
+        file that points at it, or (a class never registered) its kebab-case class name."""
+        if cls.__dict__.get("name"):
+            return cls.__dict__["name"]
+        self._discover()
+        target = f"{cls.__module__}:{cls.__qualname__}"
+        for name, source in self._sources.items():
+            if source.target == target or (name in self._loaded and self._loaded[name] is cls):
+                return name
+        return plugin_id(cls)
+
+    def status(self, name: str) -> Status:
+        """Load ``name`` and say whether it can run: its import and its declared ``requires``."""
+        try:
+            cls = self.get(name)
+        except PluginError as exc:
+            missing = exc.__cause__
+            if isinstance(missing, ModuleNotFoundError):
+                return Status("missing dependency", f"{missing.name} ({exc})")
+            return Status("import error", str(exc))
+        absent = [m for m in getattr(cls, "requires", ()) if importlib.util.find_spec(m.split(".")[0]) is None]
+        if absent:
+            return Status("missing dependency", ", ".join(absent) + (f": {cls.install_hint}" if getattr(cls, "install_hint", "") else ""))
+        return Status("ok")
+
+    def describe(self, name: str) -> dict[str, Any]:
+        """Id, status, one-line description and parameters with defaults (``slipbench list``)."""
+        status = self.status(name)
+        out: dict[str, Any] = {"name": name, "status": status.state, "detail": status.detail,
+                               "origin": self._sources[name].origin, "description": "", "parameters": {}}
+        if name in self._loaded:
+            cls = self._loaded[name]
+            out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
+            constraints = getattr(cls, "_parameter_constraints", {})
+            out["parameters"] = {p: {"default": None if d is inspect.Parameter.empty else d,
+                                     "constraint": str(constraints[p]) if p in constraints else ""}
+                                 for p, d in param_defaults(cls).items()}
+        return out
+
+
+detectors = Registry("detector", BaseDetector, DETECTOR_GROUP)
+protocols = Registry("protocol", BaseProtocol, "slipbench.protocols")
+
+
+def add_plugin_folder(folder: str | Path) -> None:
+    """Register a user's plugin folder.
+
+    It may mirror the project's layout (``detectors/`` and ``protocols/`` subfolders); a folder
+    with neither holds detectors.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise UsageError(f"plugin folder {folder} does not exist")
+    subfolders = [(folder / "detectors", detectors), (folder / "protocols", protocols)]
+    if not any(sub.is_dir() for sub, _ in subfolders):
+        subfolders = [(folder, detectors)]
+    for sub, registry in subfolders:
+        if sub.is_dir():
+            registry.add_folder(sub)

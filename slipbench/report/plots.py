@@ -1,0 +1,451 @@
+"""Figures from result rows (matplotlib, no pyplot state), of the kinds each protocol's layout
+declares (``Layout.figure``), never chosen by a protocol's name:
+
+- "curve": per detector, accuracy against ``Layout.x`` with one line per finger and its 95 %
+  interval as a band (the paper's LSTM values as hollow markers); across detectors, every
+  detector on one axis per sensor type (mean over fingers, the range over fingers shaded) with
+  the paper's LSTM as a dashed reference line;
+- "with-without": per detector, heatmaps with and without explicit training (``Layout.pair``)
+  and their difference;
+- "matrix": per detector, the last row key by the column key, one panel per sensor type;
+- "tradeoff": median delay against false alarms per minute over a threshold sweep (a streaming
+  cell's ``tradeoff`` column), one curve per detector and unit, one panel per sensor type, the
+  detector's own threshold as a dot and the operating point as a cross; every detector together;
+- and the leaderboard's critical-difference diagram.
+
+Every figure is drawn for a single column of print (3.5 in wide, 7 pt text), with one legend
+per figure and units on every axis. Accuracy colour scales run from 50 % (chance), or lower
+where a figure holds lower values, to 100 %: the scale shows the true range, nothing clamps.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import textwrap
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only, never a window; must precede any backend use
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from matplotlib.colors import TwoSlopeNorm  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
+from slipbench.report.paper import paper_frame  # noqa: E402
+from slipbench.protocol import Layout  # noqa: E402
+from slipbench.report.outline import SPLIT_ORDER  # noqa: E402
+from slipbench.report.tables import label, ordered, rank, summarize  # noqa: E402
+
+FORMATS = ("png", "pdf")
+WIDTH = 3.5  # inches: one column of a two-column paper
+TITLE_CHARS = 60  # a title wraps to the figure's width at its font size
+DPI = 200
+STYLE = {"font.size": 7, "axes.titlesize": 7, "axes.labelsize": 7, "xtick.labelsize": 6.5, "ytick.labelsize": 6.5,
+         "legend.fontsize": 6.5, "figure.titlesize": 7.5, "lines.linewidth": 1.1, "lines.markersize": 3}
+CHANCE = 50.0
+AXIS_LABELS = {  # a key column's axis label with its unit, where the layout gives none
+    "window": "window (samples)", "window_ms": "window (ms)", "rate_hz": "sampling rate (Hz)",
+    "speed_mm_s": "slip speed (mm/s)", "downsample": "downsampling factor",
+}
+
+
+@dataclass
+class FigureSpec:
+    """A figure to draw: its file stem, a caption, the protocol section it belongs to (None for
+    the leaderboard's) and how to draw it."""
+
+    stem: str
+    caption: str
+    section: str | None
+    draw: Callable[[], Figure]
+    detector: str | None = None  # the detector it shows alone, None for every detector
+    split: str | None = None
+
+
+def _figure(height: float) -> Figure:
+    return Figure(figsize=(WIDTH, height), layout="constrained")
+
+
+def _styled(draw: Callable[..., Figure]) -> Callable[..., Figure]:
+    def inner(*args, **kwargs) -> Figure:
+        with matplotlib.rc_context(STYLE):
+            return draw(*args, **kwargs)
+    inner.__doc__ = draw.__doc__
+    return inner
+
+
+def save(fig: Figure, folder: Path, stem: str) -> list[Path]:
+    """``fig`` as ``stem.png`` and ``stem.pdf`` in ``folder``."""
+    paths = []
+    for ext in FORMATS:
+        path = folder / f"{stem}.{ext}"
+        # a fixed creation date keeps PDFs byte-identical across runs
+        fig.savefig(path, dpi=DPI, metadata={"CreationDate": None} if ext == "pdf" else None)
+        paths.append(path)
+    return paths
+
+
+def _legend_once(fig: Figure, axes) -> None:
+    """One legend for the figure, under the panels, from every panel's labelled artists."""
+    seen: dict[str, object] = {}
+    for ax in axes:
+        for handle, text in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(text, handle)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), loc="outside lower center", ncol=min(3, len(seen)), frameon=False)
+
+
+def _sensors(rows: pd.DataFrame) -> list[str]:
+    return ordered(rows["sensor_type"].unique(), "sensor_type")
+
+
+def _x_axis(ax, x: pd.Series, layout: Layout) -> None:
+    if layout.log_base:
+        ax.set_xscale("log", base=layout.log_base)
+        ticks = sorted(x.dropna().unique())
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+        ax.minorticks_off()
+    ax.grid(alpha=0.3)
+
+
+@_styled
+def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None) -> Figure:
+    """One detector: one panel per sensor type, stacked; one line per finger (and per
+    combination of the layout's ``split`` columns that vary) with its interval band."""
+    x, line, splits = layout.x or layout.column, layout.rows[-1], layout.splits
+    sensors = _sensors(rows)
+    fig = _figure(0.6 + 1.35 * len(sensors))
+    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]  # each sensor its own x ticks (its rates)
+    extra = [c for c in splits if c in rows and rows[c].nunique(dropna=False) > 1]
+    variants = sorted(rows[extra].drop_duplicates().itertuples(index=False, name=None),
+                      key=lambda v: [rank(rows[c].unique(), SPLIT_ORDER).index(x_) for c, x_ in zip(extra, v)]) if extra else [()]
+    styles = dict(zip(variants, ("-", "--", ":", "-.") * len(variants)))  # the first (the paper's) solid
+    for ax, sensor in zip(axes, sensors):
+        s = summarize(rows[rows["sensor_type"] == sensor], [line, *extra, x])
+        for i, inst in enumerate(ordered(s[line].unique(), line)):
+            color = f"C{i}"
+            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((), s[s[line] == inst])]:
+                points = points.sort_values(x)
+                name = label(line, inst) + (f" ({', '.join(str(v) for v in dec)})" if extra else "")
+                ax.plot(points[x], 100 * points["mean"], styles.get(tuple(dec), "-"), marker="o", color=color, label=name)
+                ax.fill_between(points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0)
+            if paper is not None and len(paper) and line in paper and x in paper:
+                ref = paper[(paper["sensor_type"] == sensor) & (paper[line] == inst)].sort_values(x)
+                ax.plot(ref[x], 100 * ref["accuracy"], "o", mfc="none", color=color, ms=5)
+        if paper is not None and len(paper):
+            ax.plot([], [], "o", mfc="none", color="0.3", ms=5, label="paper (LSTM)")
+        _finish_panel(ax, sensor, rows.loc[rows["sensor_type"] == sensor, x], layout)
+    return _finish_figure(fig, axes, layout, x, title)
+
+
+def _finish_panel(ax, sensor: str, xs: pd.Series, layout: Layout) -> None:
+    """A sensor's panel of an accuracy curve: its x ticks, title and y label."""
+    _x_axis(ax, xs, layout)
+    ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
+    ax.set_ylabel("accuracy (%)")
+
+
+def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Figure:
+    """Stacked panels: the x label under the last, one legend, the title wrapped to the width."""
+    axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
+    _legend_once(fig, axes)
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
+    return fig
+
+
+@_styled
+def _compare_curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None) -> Figure:
+    """Every detector on one axis per sensor type: the mean over fingers of each finger's
+    figure (mean over seeds), the range over fingers shaded, the paper's LSTM dashed."""
+    x, unit = layout.x or layout.column, layout.rows[-1]
+    sensors = _sensors(rows)
+    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    fig = _figure(0.75 + 1.35 * len(sensors))
+    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]  # each sensor its own x ticks (its rates)
+    for ax, sensor in zip(axes, sensors):
+        part = rows[rows["sensor_type"] == sensor]
+        for i, det in enumerate(detectors):
+            s = summarize(part[part["detector"] == det], [unit, x])
+            s = s[s["status"] == "ok"]
+            if s.empty:
+                continue
+            g = s.groupby(x)["mean"].agg(["mean", "min", "max"]).sort_index()
+            ax.plot(g.index, 100 * g["mean"], marker="o", color=f"C{i}", label=det)
+            ax.fill_between(g.index, 100 * g["min"], 100 * g["max"], color=f"C{i}", alpha=0.12, lw=0)
+        if paper is not None and len(paper) and x in paper:
+            ref = paper[paper["sensor_type"] == sensor].groupby(x)["accuracy"].mean().sort_index()
+            ax.plot(ref.index, 100 * ref, "--", color="black", marker="o", mfc="none", ms=4, lw=0.9,
+                    label="paper (LSTM)")
+        _finish_panel(ax, sensor, part[x], layout)
+    return _finish_figure(fig, axes, layout, x, title)
+
+
+def accuracy_range(*grids: np.ndarray) -> tuple[float, float]:
+    """Colour limits of accuracy heatmaps: chance (50 %), or lower where the data go lower, to
+    100 %, in steps of 5 points."""
+    values = np.concatenate([g[np.isfinite(g)] for g in grids]) if grids else np.array([])
+    low = min(CHANCE, 5 * np.floor(values.min() / 5)) if values.size else CHANCE
+    return float(low), 100.0
+
+
+def _matrix(ax, grid: np.ndarray, ylabels: list[str] | None, xlabels: list[str], limits=None, cmap: str = "viridis",
+            diff: bool = False, fmt: str = "{:.1f}"):
+    """An annotated heatmap; text black or white by the colour under it."""
+    if diff:
+        top = max(1.0, float(np.nanmax(np.abs(grid)))) if np.isfinite(grid).any() else 1.0
+        norm = TwoSlopeNorm(0.0, -top, top)
+        im = ax.imshow(grid, cmap="RdBu", norm=norm, aspect="auto")
+    else:
+        im = ax.imshow(grid, cmap=cmap, vmin=limits[0], vmax=limits[1], aspect="auto")
+    ax.set_xticks(range(len(xlabels)), xlabels, rotation=30 if max(map(len, xlabels), default=0) > 4 else 0,
+                  ha="right" if max(map(len, xlabels), default=0) > 4 else "center")
+    ax.set_yticks(range(grid.shape[0]), ylabels if ylabels is not None else [])
+    for (i, j), v in np.ndenumerate(grid):
+        if np.isnan(v):
+            ax.text(j, i, "NA", ha="center", va="center", fontsize=5.5, color="0.4")
+            continue
+        r, g, b, _ = im.cmap(im.norm(v))
+        ax.text(j, i, fmt.format(v), ha="center", va="center", fontsize=5.5,
+                color="white" if 0.299 * r + 0.587 * g + 0.114 * b < 0.5 else "black")
+    return im
+
+
+@_styled
+def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
+    """With and without explicit training (``layout.pair``) and with minus without, stacked;
+    rows sensor and finger, columns ``layout.column``."""
+    column, pair = layout.column, layout.pair
+    s = summarize(rows, ["sensor_type", "sensor_instance", column, pair])
+    index = sorted(s[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None),
+                   key=lambda t: (ordered(s["sensor_type"].unique(), "sensor_type").index(t[0]),
+                                  ordered(s["sensor_instance"].unique(), "sensor_instance").index(t[1])))
+    cols = ordered(s[column].unique(), column)
+    grids = {}
+    for training in ("with", "without"):
+        grid = np.full((len(index), len(cols)), np.nan)
+        for r in s[(s[pair] == training) & (s["status"] == "ok")].to_dict("records"):
+            grid[index.index((r["sensor_type"], r["sensor_instance"])), cols.index(r[column])] = 100 * r["mean"]
+        grids[training] = grid
+    limits = accuracy_range(*grids.values())
+    names = [f"{label('sensor_type', a)} {label('sensor_instance', b)}" for a, b in index]
+    xlabels = [label(column, c) for c in cols]
+    fig = _figure(0.5 + 3 * (0.16 * len(index) + 0.5))
+    axes = fig.subplots(3, 1, sharex=True)
+    for ax, training in zip(axes, ("with", "without")):
+        im = _matrix(ax, grids[training], names, xlabels, limits)
+        ax.set_title(f"{training} explicit training" + ("" if training == "with" else " (*)"), loc="left", pad=2)
+        fig.colorbar(im, ax=ax, label="accuracy (%)", fraction=0.05, pad=0.02)
+    im = _matrix(axes[2], grids["with"] - grids["without"], names, xlabels, diff=True, fmt="{:+.1f}")
+    axes[2].set_title("with minus without", loc="left", pad=2)
+    fig.colorbar(im, ax=axes[2], label="difference (points)", fraction=0.05, pad=0.02)
+    axes[2].set_xlabel(layout.x_label or AXIS_LABELS.get(column, (layout.title or column).lower()))
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
+    return fig
+
+
+@_styled
+def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
+    """The last row key by the column key (training by test unit), one panel per sensor type."""
+    row, column = layout.rows[-1], layout.column
+    sensors = _sensors(rows)
+    summaries = {}
+    for sensor in sensors:
+        s = summarize(rows[rows["sensor_type"] == sensor], [row, column])
+        tr, te = ordered(s[row].unique(), row), ordered(s[column].unique(), column)
+        grid = np.full((len(tr), len(te)), np.nan)
+        for r in s[s["status"] == "ok"].to_dict("records"):
+            grid[tr.index(r[row]), te.index(r[column])] = 100 * r["mean"]
+        summaries[sensor] = (tr, te, grid)
+    limits = accuracy_range(*(g for _, _, g in summaries.values()))
+    fig = _figure(0.5 + sum(0.2 * len(tr) + 0.55 for tr, _, _ in summaries.values()))
+    axes = fig.subplots(len(sensors), 1, squeeze=False,
+                        height_ratios=[len(tr) + 2 for tr, _, _ in summaries.values()])[:, 0]
+    for ax, sensor in zip(axes, sensors):
+        tr, te, grid = summaries[sensor]
+        im = _matrix(ax, grid, [label(row, t) for t in tr], [label(column, t) for t in te], limits)
+        ax.set_ylabel("trained on")
+        ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
+        fig.colorbar(im, ax=ax, label="accuracy (%)", fraction=0.05, pad=0.02)
+    axes[-1].set_xlabel("tested on")
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
+    return fig
+
+
+@_styled
+def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
+    """Median delay (ms) against false alarms per minute, from the streaming rows' sweeps: one
+    panel per sensor type, a colour per detector, a line style per unit; each row's own
+    threshold a dot, its operating point a cross. None when no row holds a sweep."""
+    rows = rows[rows["status"] == "ok"] if "status" in rows else rows
+    if "tradeoff" not in rows or rows["tradeoff"].dropna().empty:
+        return None
+    rows = rows[rows["tradeoff"].notna()]
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    fig = _figure(1.2 + 1.9 * len(sensors))
+    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]
+    for ax, sensor in zip(axes, sensors):
+        part = rows[rows["sensor_type"] == sensor]
+        units = ordered(part["sensor_instance"].unique(), "sensor_instance")
+        for d, detector in enumerate(detectors):
+            for u, unit in enumerate(units):
+                for _, row in part[(part["detector"] == detector) & (part["sensor_instance"] == unit)].iterrows():
+                    curve = pd.DataFrame(json.loads(row["tradeoff"])).dropna(subset=["median_delay_ms", "false_alarms_per_min"])
+                    curve = curve.sort_values(["false_alarms_per_min", "median_delay_ms"])
+                    ax.plot(curve["false_alarms_per_min"], curve["median_delay_ms"], ("-", "--", ":", "-.")[u % 4], color=f"C{d}",
+                            lw=1, label=f"{detector}, {label('sensor_instance', unit)}")
+                    ax.plot(row["false_alarms_per_min"], row["median_delay_ms"], "o", color=f"C{d}", ms=4)
+                    if pd.notna(row.get("op_median_delay_ms", np.nan)):
+                        ax.plot(row["op_false_alarms_per_min"], row["op_median_delay_ms"], "x", color=f"C{d}", ms=5)
+        ax.set_xscale("symlog", linthresh=1.0)  # 0 false alarms is a result worth seeing
+        ax.set_xlabel("false alarms per minute")
+        ax.set_ylabel("median delay (ms)")
+        ax.set_title(label("sensor_type", sensor))
+        ax.grid(alpha=0.3)
+    handles, names = axes[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize=5.5)  # once per figure
+    fig.suptitle(textwrap.fill(title, TITLE_CHARS))
+    return fig
+
+
+@_styled
+def critical_difference(board: Leaderboard) -> Figure:
+    """The leaderboard's critical-difference diagram: per scope (every cell, then each
+    protocol), the detectors at their mean rank on a rank axis (1 = best, on the left), and a
+    bar joining each group that does not differ (Wilcoxon-Holm).
+
+    Drawn here rather than with aeon's ``plot_critical_difference``: that recomputes its own
+    tests (its "holm" is a fixed alpha / (k - 1), not Holm's step-down) and cannot take the
+    leaderboard's, so its bars could disagree with the table beside it; and aeon is optional.
+    """
+    scopes = [s for s in board.scopes if s.n_cells]
+    k = len(board.order)
+    rows_per = (k + 1) // 2
+    heights = [0.55 + 0.13 * rows_per + 0.06 * len(s.groups) for s in scopes]
+    fig = _figure(0.3 + sum(heights))
+    axes = fig.subplots(len(scopes), 1, squeeze=False, height_ratios=heights)[:, 0]
+    for ax, scope in zip(axes, scopes):
+        order = list(scope.ranks.index)
+        ax.set_xlim(0.5, k + 0.5)
+        ax.set_ylim(-(rows_per + 1.2 + 0.5 * len(scope.groups)), 1.5)
+        ax.axhline(0, color="black", lw=1)
+        for r in range(1, k + 1):
+            ax.plot([r, r], [0, 0.25], color="black", lw=0.8)
+            ax.text(r, 0.35, str(r), ha="center", va="bottom", fontsize=6.5)
+        for g, members in enumerate(scope.groups):
+            y = -0.35 - 0.5 * g
+            ax.plot([scope.ranks[members[0]] - 0.03, scope.ranks[members[-1]] + 0.03], [y, y], color="black", lw=2.2,
+                    solid_capstyle="round")
+        base = -0.6 - 0.5 * len(scope.groups)
+        for i, name in enumerate(order):
+            r = scope.ranks[name]
+            left = i < (len(order) + 1) // 2
+            level = base - (i if left else len(order) - 1 - i) * 0.8
+            end = 0.55 if left else k + 0.45
+            ax.plot([r, r, end], [0, level, level], color="0.25", lw=0.7)
+            ax.text(end + (-0.05 if left else 0.05), level, f"{name} ({r:.2f})", ha="right" if left else "left",
+                    va="center", fontsize=6.5, clip_on=False)
+        ax.set_axis_off()
+        ax.text((k + 1) / 2, 0.95, f"{'every protocol' if scope.name == ALL else scope.name}: {scope.n_cells} cells",
+                ha="center", va="bottom", fontsize=7)
+    fig.suptitle(f"Mean rank of {board.metric.replace('_', ' ')} over cells (1 = best)\n"
+                 "a bar joins detectors that do not differ (Wilcoxon-Holm)")
+    return fig
+
+
+def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figure | None:
+    """One detector's figure of the kind ``layout.figure`` asks for, or None (no figure kind,
+    or rows it cannot draw)."""
+    if layout.figure is None or "sensor_type" not in part:
+        return None
+    if layout.figure == "curve":
+        ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
+        return _curves(part, layout, f"Accuracy against {layout.title.lower() or layout.x or layout.column}: {title}", ref)
+    if layout.figure == "tradeoff":
+        return tradeoff(part, f"Delay against false alarms: {title}")
+    if layout.figure == "with-without":
+        return _heatmaps(part, layout, f"Accuracy per {layout.title.lower() or layout.column}: {title}")
+    return _transfer(part, layout, f"{layout.title or 'Accuracy'}: {title}")
+
+
+def compare_figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figure | None:
+    """Every detector of ``part`` on one figure, where ``layout.figure`` is a curve; else None."""
+    if layout.figure != "curve" or "sensor_type" not in part or part["detector"].nunique() < 2:
+        return None
+    ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
+    return _compare_curves(part, layout, f"Accuracy against {layout.title.lower() or layout.x or layout.column}: {title}",
+                           ref)
+
+
+def figure_specs(rows: pd.DataFrame, paper: bool = True, board: Leaderboard | None = None,
+                 found: dict | None = None) -> list[FigureSpec]:
+    """Every figure the rows allow: the critical-difference diagram (with ``board`` of two
+    detectors or more), then per protocol the figure of every detector together and each
+    detector's own, one per table where a layout splits its tables.
+
+    Stems: ``leaderboard``, ``<protocol>-detectors[-<split>][-<values>]``,
+    ``<protocol>-<detector>[-<split>][-<values>]`` (split omitted for the paper's)."""
+    from slipbench.report.outline import _sections, layouts, protocol_order, split_parts
+
+    found = layouts(rows) if found is None else found
+    specs = []
+    if board is not None and len(board.order) >= 2 and board.scopes[0].n_cells:
+        specs.append(FigureSpec("leaderboard", "Critical-difference diagram of the leaderboard: mean ranks per scope; "
+                                "a bar joins detectors that do not differ (Wilcoxon signed-rank, Holm).", None,
+                                lambda: critical_difference(board)))
+    for protocol in protocol_order(found):
+        layout = found[protocol][0]
+        prows = rows[rows["protocol"] == protocol]
+        for split in rank(prows["split"].unique() if "split" in prows else ["paper"], ("paper", "grouped")):
+            srows = prows[prows["split"] == split] if "split" in prows else prows
+            parts = split_parts(srows, layout)
+            for which, part in parts:
+                named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
+                tail = ("" if split == "paper" else f"-{split}") + ("".join(f"-{v}" for v in which.values()) if named else "")
+                if layout.figure == "tradeoff" and part["detector"].nunique() > 1 and "sensor_type" in part:
+                    specs.append(FigureSpec(
+                        f"{protocol}-detectors{tail}", f"{protocol}, every detector ({split} split{named}): median delay "
+                        "against false alarms per minute over the threshold sweep; dot: threshold 0.5, cross: the "
+                        "operating point chosen on the training trials.", protocol,
+                        lambda p=part, t=f"{protocol}, every detector ({split} split{named})": tradeoff(p, t), None, split))
+                if layout.figure == "curve" and part["detector"].nunique() > 1 and "sensor_type" in part:
+                    specs.append(FigureSpec(
+                        f"{protocol}-detectors{tail}",
+                        f"{protocol}, every detector ({split} split{named}): mean over fingers (line), range over "
+                        "fingers (band)" + ("; the paper's LSTM dashed." if paper and layout.paper_table else "."),
+                        protocol, lambda p=part, lay=layout, t=f"every detector ({split} split{named})":
+                        compare_figure(p, lay, t, paper), None, split))
+    for protocol, detector, split, part in _sections(rows, found):
+        layout = found[protocol][0]
+        parts = split_parts(part, layout)
+        for which, rows_ in parts:
+            named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
+            if layout.figure is None or "sensor_type" not in rows_:
+                continue
+            stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
+            stem += "".join(f"-{v}" for v in which.values()) if named else ""
+            specs.append(FigureSpec(stem, f"{protocol}, {detector} ({split} split{named}).", protocol,
+                                    lambda r=rows_, lay=layout, t=f"{detector} ({split} split{named})":
+                                    figure(r, lay, t, paper), detector, split))
+    return specs
+
+
+def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = True,
+                board: Leaderboard | None = None) -> list[Path]:
+    """Every figure the rows allow (see :func:`figure_specs`) as PNG and PDF in ``folder``.
+
+    ``paper`` overlays the published LSTM accuracies on curves whose layout names a paper table.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
+    for spec in figure_specs(rows, paper, board):
+        fig = spec.draw()
+        if fig is not None:
+            paths += save(fig, folder, spec.stem)
+    return paths

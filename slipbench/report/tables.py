@@ -1,0 +1,611 @@
+"""Result rows -> tables in a protocol's layout: labels, ordering, figures per cell, and the
+paper's extra tables at window 50. Format-independent: :mod:`slipbench.report.render` writes them out.
+
+Layouts follow Van Wyk & Falco where the protocol declares the paper's: window size (Table I),
+sampling rate with its per-sensor rate header (Table II), material and speed with two numbers
+per cell, the second starred for "without explicit training" (Tables III and IV), training
+instance by test instance (Table V); the Holweg baseline beside other detectors at window 50,
+and TP/TN rates per sensor type.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slipbench.engine.check import LOW_N
+from slipbench.stats.joint import JOINT_NOTE
+from slipbench.report.paper import paper_frame
+from slipbench.protocol import Layout
+
+SENSOR_NAMES = {"Nano17": "Nano17", "OptoForce20": "OptoForce20", "BioTacSP": "Biotac SP"}
+SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")
+INSTANCE_ORDER = ("index", "middle", "little", "combined")
+MATERIAL_ORDER = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
+METRIC_NAMES = {
+    "accuracy": "Classification Accuracy", "tp_rate": "TP Rate", "tn_rate": "TN Rate",
+    "balanced_accuracy": "Balanced Accuracy", "auroc": "AUROC",
+}
+BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
+LOW_MARK = "†"  # a cell resting on few test trials
+LOW_NOTE = (f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
+            f"else fewer than {LOW_N} in all): its interval is not to be trusted.")
+KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")  # how a cell's key reads
+
+
+# What a table's intervals are. With repeats and no predictions at hand, the seeds' bounds are
+# averaged, which is not an interval of the pooled result; with predictions, the seeds are
+# bootstrapped jointly (slipbench.stats.joint)
+INTERVAL_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, the mean "
+                 "of the seeds' bounds, not an interval of the pooled result].")
+POOLED_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, one "
+               "bootstrap of the mean over seeds, each resample drawing a trial for every seed at once].")
+ROW_HEADERS = {"sensor_type": "Sensor", "sensor_instance": "Finger", "train_instance": "Training Data"}
+COLUMN_UNITS = {"rate_hz": "Rates in Hz", "window_ms": "Window in ms", "window": "Window in samples"}
+
+
+@dataclass
+class Table:
+    """A rendered-format-independent table: labels and cell texts."""
+
+    caption: str
+    row_headers: list[str]
+    group: str  # header spanning the value columns
+    columns: list[str]  # plain-text column labels (Markdown)
+    rows: list[tuple[str, ...]]
+    cells: list[list[str]]
+    label: str
+    latex_columns: list[str] | None = None  # LaTeX column labels where they differ from ``columns``
+    notes: list[str] = field(default_factory=list)
+    # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
+    # each this fraction of the line width; text columns need it, numbers do not
+    wrap: dict[int, float] = field(default_factory=dict)
+    subject: str = ""  # what the table is of ("Detector holweg, protocol window-size, paper split."): after the caption
+
+    def __post_init__(self) -> None:
+        # every table that marks a cell says what the mark means, whoever built it
+        if any(LOW_MARK in c for line in self.cells for c in line) and LOW_NOTE not in self.notes:
+            self.notes.append(LOW_NOTE)
+
+
+# ----------------------------------------------------------------------------- ordering and labels
+def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
+    """Known values in ``order`` first, then numbers ascending, then the rest alphabetically."""
+    def key(v):
+        if v in order:
+            return (0, order.index(v), "")
+        try:
+            return (1, float(v), "")
+        except (TypeError, ValueError):
+            return (2, 0.0, str(v))
+    return sorted(set(values), key=key)
+
+
+ORDERS: dict[str, Sequence[Any]] = {
+    "sensor_type": SENSOR_ORDER, "sensor_instance": INSTANCE_ORDER, "train_instance": INSTANCE_ORDER,
+    "test_instance": INSTANCE_ORDER, "material": MATERIAL_ORDER,
+}
+
+
+def ordered(values: Iterable[Any], column: str) -> list[Any]:
+    out = rank(values, ORDERS.get(column, ()))
+    return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
+
+
+def label(column: str, value: Any) -> str:
+    """How a key value reads in a table."""
+    if column == "sensor_type":
+        return SENSOR_NAMES.get(value, str(value))
+    if column in ("sensor_instance", "train_instance", "test_instance", "material"):
+        text = str(value)
+        return text if text.isupper() else text.capitalize()
+    if column == "speed_mm_s":
+        return f"{float(value):g} mm/s"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+LATEX_CHARS = {
+    "\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "_": r"\_", "#": r"\#", "{": r"\{", "}": r"\}",
+    "$": r"\$", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "±": r"$\pm$", "—": "--", "–": "--",
+    "−": "-", LOW_MARK: r"\dag{}", "χ": r"$\chi$", "²": r"$^2$", "α": r"$\alpha$", "≥": r"$\geq$",
+    "≤": r"$\leq$", "×": r"$\times$", "µ": r"$\mu$", "≈": r"$\approx$", "→": r"$\rightarrow$", "<": r"$<$",
+    ">": r"$>$",
+}
+
+
+def escape(text: str) -> str:
+    """Plain text as LaTeX (kernel commands only), one character at a time so that no
+    replacement is escaped again."""
+    return "".join(LATEX_CHARS.get(c, c) for c in text)
+
+
+def _as_printed(percent: float) -> str:
+    """One decimal, or two where the paper printed two (its TN rate 89.79)."""
+    return f"{percent:.1f}" if abs(percent - round(percent, 1)) < 1e-9 else f"{percent:.2f}"
+
+
+def _rate(value: float) -> str:
+    return f"{value:.2f}".rstrip("0").rstrip(".")
+
+
+# ----------------------------------------------------------------------------- figures per cell
+def low_n(rows: pd.DataFrame) -> pd.Series:
+    """(n_rows,) bool: rows whose cell rests on few test trials: the rows' own ``low_n`` where
+    they carry it, else ``n_test_trials < LOW_N`` (False where neither is known)."""
+    if "low_n" in rows:
+        return rows["low_n"].fillna(False).astype(bool)
+    if "n_test_trials" in rows:
+        return pd.to_numeric(rows["n_test_trials"], errors="coerce").lt(LOW_N)
+    return pd.Series(False, index=rows.index)
+
+
+def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
+    """One line per combination of ``keys``: the mean of ``metric`` over seeds (``--repeats``),
+    its standard deviation across seeds, the number of seeds, the mean interval bounds, a
+    status ("ok", or the status of the cell when no seed finished) and ``low_n`` (a finished
+    seed rests on few test trials)."""
+    if metric not in rows.columns:
+        rows = rows.assign(**{metric: np.nan})
+    rows = rows.assign(_low=low_n(rows))
+    lo_col, hi_col = f"{metric}_lo", f"{metric}_hi"
+    out = []
+    for values, group in rows.groupby(keys, sort=False, dropna=False):
+        ok = group[group["status"] == "ok"] if "status" in group else group
+        vals = ok[metric].astype(float)
+        out.append({
+            **dict(zip(keys, values if isinstance(values, tuple) else (values,))),
+            "mean": vals.mean() if len(vals) else np.nan,
+            "sd": vals.std(ddof=1) if len(vals) > 1 else np.nan,
+            "n": len(vals),
+            "lo": ok[lo_col].astype(float).mean() if lo_col in ok and len(ok) else np.nan,
+            "hi": ok[hi_col].astype(float).mean() if hi_col in ok and len(ok) else np.nan,
+            "status": "ok" if len(ok) else str(group["status"].iloc[0]),
+            "low_n": bool(ok["_low"].any()),
+        })
+    return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status", "low_n"])
+
+
+def figure_text(mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
+                status: str = "ok", intervals: bool = False, low: bool = False) -> str:
+    """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals; 'NA' if absent;
+    ``LOW_MARK`` appended where the cell rests on few test trials (``low``)."""
+    if status != "ok":
+        return status
+    if pd.isna(mean):
+        return "NA"
+    text = f"{100 * mean:.1f}"
+    if n > 1 and not pd.isna(sd):
+        text += f" ± {100 * sd:.1f}"
+    if intervals and not (pd.isna(lo) or pd.isna(hi)):
+        text += f" [{100 * lo:.1f}, {100 * hi:.1f}]"
+    return text + (LOW_MARK if low else "")
+
+
+SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
+    "window": "window {}", "window_ms": "({} ms)", "rate_hz": "{} Hz", "downsample": "1/{}", "decimation": "{}",
+    "antialias": "antialiased", "speed_mm_s": "{} mm/s",
+}
+
+
+def cell_label(cell: str | dict) -> str:
+    """A cell key as a short label: "Nano17 Index window 50 (50 ms)" (sensor and unit first,
+    then the other keys); a transfer reads "Index → Middle"."""
+    key = json.loads(cell) if isinstance(cell, str) else dict(cell)
+    order = [*KEY_ORDER, *SHORT]
+    names = sorted(key, key=lambda k: order.index(k) if k in order else len(order))
+    parts = []
+    for k in names:
+        v = key[k]
+        if k == "test_instance" and "train_instance" in key:
+            parts[-1] += f" → {label(k, v)}"
+        elif (k == "downsample" and "rate_hz" in key) or (k == "antialias" and not v):
+            continue  # the rate says it; no filter is the default
+        elif k in SHORT:
+            parts.append(SHORT[k].format(f"{v:g}" if isinstance(v, float) else v))
+        else:
+            parts.append(label(k, v))
+    return " ".join(parts)
+
+
+def _key_columns(rows: pd.DataFrame) -> list[str]:
+    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
+    keys: list[str] = []
+    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
+        for k in json.loads(text):
+            if k not in keys:
+                keys.append(k)
+    return keys
+
+
+def generic_layout(rows: pd.DataFrame, protocol: str) -> Layout:
+    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
+    its rows): all keys but the last as rows, the last as columns."""
+    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
+    if len(keys) == 1:
+        return Layout(f"Protocol {protocol}.", tuple(keys), "detector", title=protocol)
+    return Layout(f"Protocol {protocol}.", tuple(keys[:-1]), keys[-1], title=protocol)
+
+
+def fits(layout: Layout, rows: pd.DataFrame) -> str:
+    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
+    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
+    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
+
+
+def _column_labels(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> tuple[list[str], list[str], list[str]]:
+    """Plain and LaTeX column labels, and notes. With ``layout.column_label``, the label's value
+    per sensor type, numbered by superscripts as the rates of the paper's Table II; with
+    ``layout.note_column``, a note listing that column's values per sensor type."""
+    notes = _note_column(layout, rows, columns)
+    if not layout.column_label or layout.column_label not in rows or "sensor_type" not in rows:
+        plain = [label(layout.column, c) for c in columns]
+        return plain, [escape(p) for p in plain], notes
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    number = {s: i + 1 for i, s in enumerate(sensors)}
+    plain, latex = [], []
+    for c in columns:
+        rates = rows[rows[layout.column] == c].groupby(layout.column_label, sort=True)["sensor_type"].unique()
+        parts = sorted(((sorted(number[s] for s in types), _rate(r)) for r, types in rates.items()), key=lambda p: p[0])
+        plain.append(" / ".join(f"{r} ({','.join(map(str, ns))})" for ns, r in parts) if len(parts) > 1
+                     else _rate(rates.index[0]) if len(parts) else label(layout.column, c))
+        latex.append(r"\begin{tabular}{@{}c@{}}" + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
+                     + r"\end{tabular}" if len(parts) > 1 else plain[-1])
+    notes.insert(0, f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
+                 + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items()) + ".")
+    return plain, latex, notes
+
+
+def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
+    """"Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
+    col = layout.note_column
+    if not col or col not in rows or "sensor_type" not in rows:
+        return []
+    per_sensor: dict[tuple, list[str]] = {}
+    for sensor in ordered(rows["sensor_type"].unique(), "sensor_type"):
+        part = rows[rows["sensor_type"] == sensor]
+        values = tuple(_rate(float(part.loc[part[layout.column] == c, col].iloc[0])) if (part[layout.column] == c).any()
+                       else "—" for c in columns)
+        per_sensor.setdefault(values, []).append(SENSOR_NAMES.get(sensor, sensor))
+    text = "; ".join(f"{', '.join(names)}: {', '.join(values)}" for values, names in per_sensor.items())
+    return [f"{COLUMN_UNITS.get(col, col)} per column: {text}."]
+
+
+def table_keys(rows: pd.DataFrame, layout: Layout) -> list[str]:
+    """The columns that name one figure of ``layout``'s table: its rows, column and pair."""
+    return [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
+
+
+def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", intervals: bool = False,
+                values: str = "ours", paper: pd.DataFrame | None = None, label_: str = "",
+                pooled: dict[tuple, dict] | None = None) -> Table:
+    """One table of one detector's rows in ``layout``.
+
+    ``values``: "ours" (the results), "paper" (the published numbers from ``paper``), or
+    "difference" (ours minus paper, in percentage points). A layout with ``metrics`` gives
+    :func:`metrics_table` (``metric`` and ``values`` do not apply). ``pooled`` (keyed by the
+    values of :func:`table_keys`, from :func:`slipbench.stats.joint.joint_means`): the interval of a
+    figure run under several seeds, one bootstrap over the recordings the seeds share, in place
+    of the mean of the seeds' bounds.
+    """
+    if layout.metrics:
+        return metrics_table(rows, layout, layout.metrics, intervals, label_)
+    keys = table_keys(rows, layout)
+    pooled = pooled or {}
+    summary = summarize(rows, keys, metric)
+    row_values = summary[list(layout.rows)].drop_duplicates()
+    for col in reversed(layout.rows):  # stable sorts, last key first: lexicographic order
+        order = ordered(row_values[col], col)
+        row_values = row_values.iloc[np.argsort([order.index(v) for v in row_values[col]], kind="stable")]
+    row_keys = list(row_values.itertuples(index=False, name=None))
+    columns = ordered(summary[layout.column].unique(), layout.column)
+    by_key = {tuple(r[k] for k in keys): r for r in summary.to_dict("records")}
+    ref = {}
+    if paper is not None and len(paper) and metric in paper and set(keys) <= set(paper.columns):
+        ref = {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
+
+    def one(key: tuple) -> str:
+        r = by_key.get(key)
+        if values == "paper":
+            return f"{100 * ref[key]:.1f}" if key in ref else "—"
+        if r is None:
+            return "NA"
+        if values == "difference":
+            if key not in ref or r["status"] != "ok" or pd.isna(r["mean"]):
+                return "—"
+            return f"{100 * (r['mean'] - ref[key]):+.1f}"
+        lo, hi = r["lo"], r["hi"]
+        if r["n"] > 1 and key in pooled:
+            lo, hi = pooled[key][f"{metric}_lo"], pooled[key][f"{metric}_hi"]
+        return figure_text(r["mean"], r["sd"], r["n"], lo, hi, r["status"], intervals, r["low_n"])
+
+    cells = []
+    for rk in row_keys:
+        line = []
+        for c in columns:
+            if layout.pair:
+                with_, without = one((*rk, c, "with")), one((*rk, c, "without"))
+                line.append(f"{with_} {without}*")
+            else:
+                line.append(one((*rk, c)))
+        cells.append(line)
+    plain, latex, notes = _column_labels(layout, rows, columns)
+    if layout.merge_rows:
+        row_labels = [(", ".join(label(k, v) for k, v in zip(layout.rows, rk)),) for rk in row_keys]
+        headers = [ROW_HEADERS.get(layout.rows[-1], layout.rows[-1])]
+    else:
+        row_labels = [tuple(label(k, v) for k, v in zip(layout.rows, rk)) for rk in row_keys]
+        headers = [ROW_HEADERS.get(k, k) for k in layout.rows]
+    unit = " (%)" if metric != "auroc" else " (%, 50 = chance)"
+    group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
+    if values == "difference":
+        group = f"Ours - paper (points) {layout.group}".strip()
+    if (summary["n"] > 1).any() and values == "ours":
+        notes.append("Mean ± standard deviation across seeds.")
+    if intervals and values == "ours":
+        notes.append(_seeds_note({k for k, r in by_key.items() if r["n"] > 1}, pooled))
+    return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+
+
+def _seeds_note(repeated: set[tuple], pooled: dict[tuple, dict]) -> str:
+    """What the intervals of figures run under several seeds are: pooled where ``pooled`` has
+    them, the mean of the seeds' bounds elsewhere (the note says how many of each)."""
+    missing = repeated - set(pooled)
+    if not repeated or not pooled or missing == repeated:
+        return INTERVAL_NOTE
+    if not missing:
+        return POOLED_NOTE
+    return (f"{POOLED_NOTE[:-2]}, for {len(repeated) - len(missing)} of the {len(repeated)} figures run under several "
+            f"seeds; for the {len(missing)} whose predictions are missing or unreadable, the mean of the seeds' bounds, "
+            "not an interval of the pooled result].")
+
+
+def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], intervals: bool,
+              joint: dict[tuple, dict] | None = None) -> dict[tuple, list[str]]:
+    """Figures averaged over fingers (mean of the per-finger figures, each averaged over seeds).
+
+    ``joint`` (from :func:`slipbench.stats.joint.joint_means`, keyed by the values of ``by``): the
+    mean and interval of one bootstrap over the trials the fingers share. A group without it
+    combines the fingers' half-widths as independent (root of the summed squares over the
+    number of fingers), which understates the interval where fingers share trials.
+    """
+    joint = joint or {}
+    out: dict[tuple, list[str]] = {}
+    for metric in metrics:
+        per = summarize(rows, [*by, "sensor_instance"], metric)
+        per = per[per["status"] == "ok"]
+        for key, g in per.groupby(list(by), sort=False):
+            key = key if isinstance(key, tuple) else (key,)
+            if key in joint:
+                j = joint[key]
+                mean, lo, hi = j[metric], j[f"{metric}_lo"], j[f"{metric}_hi"]
+            else:
+                half = np.sqrt((((g["hi"] - g["lo"]) / 2) ** 2).sum()) / len(g)
+                mean = g["mean"].mean()
+                lo, hi = mean - half, mean + half
+            out.setdefault(key, []).append(figure_text(mean, lo=lo, hi=hi, intervals=intervals,
+                                                       low=bool(g["low_n"].any())))
+    return out
+
+
+def _interval_note(joint: dict | None, intervals: bool, shown: Sequence[tuple]) -> list[str]:
+    """What the intervals of the ``shown`` averages (``(detector, sensor_type)`` keys) are: the
+    joint bootstrap where ``joint`` has the group, the combined half-widths elsewhere."""
+    if not intervals:
+        return []
+    independent = ("the fingers' half-widths combined as independent, which understates it where they share "
+                   "trials; keep predictions for a joint bootstrap")
+    fallback = [k for k in shown if k not in (joint or {})]
+    if joint and not fallback:
+        return [f"[95 % interval: {JOINT_NOTE}.]"]
+    if not joint or len(fallback) == len(shown):
+        return [f"[95 % interval: {independent}.]"]
+    which = ", ".join(f"{label('sensor_type', s)} ({d})" for d, s in fallback)
+    return [f"[95 % interval: {JOINT_NOTE}; for {which}, whose predictions are missing or unreadable, {independent}.]"]
+
+
+def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
+    """One detector's entries of a ``(detector, sensor_type)``-keyed joint mapping, by sensor type."""
+    return {k[1:]: v for k, v in (joint or {}).items() if k[0] == detector}
+
+
+def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = False,
+                   joint: dict[tuple, dict] | None = None) -> Table | None:
+    """Accuracy at window 50 per sensor type (mean over fingers), one column per detector, from
+    the rows of the protocol laid out as the paper's Table I; with ``paper``, the published
+    Holweg accuracies and the LSTM's Table I means beside them."""
+    rows = rows[rows["window"] == BASELINE_WINDOW]
+    if rows.empty:
+        return None
+    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    columns, cells, shown = list(detectors), [[] for _ in sensors], []
+    for det in detectors:
+        avg = _averaged(rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det))
+        shown += [(det, *k) for k in avg]
+        for i, s in enumerate(sensors):
+            cells[i].append(avg.get((s,), ["NA"])[0])
+    if paper:
+        holweg = paper_frame("holweg").set_index("sensor_type")["accuracy"]
+        lstm = paper_frame("window-size").query(f"window == {BASELINE_WINDOW}").groupby("sensor_type")["accuracy"].mean()
+        columns += ["holweg (paper)", "lstm (paper)"]
+        for i, s in enumerate(sensors):
+            cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
+    notes = ["Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
+             *_interval_note(joint, intervals, shown)]
+    if paper:
+        notes.append("Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
+                     "LSTM: mean of Table I at window 50.")
+    return Table("The Holweg baseline beside the other detectors at window 50.", ["Sensor"],
+                 "Classification Accuracy (%) by Detector", columns, [(label("sensor_type", s),) for s in sensors],
+                 cells, "tab:baseline", notes=notes)
+
+
+def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, paper: bool = False,
+                joint: dict[tuple, dict] | None = None) -> Table | None:
+    """TP and TN rates at window 50 per sensor type, averaged over fingers (paper, section VI.A),
+    from the rows of the protocol laid out as the paper's Table I."""
+    rows = rows[(rows["window"] == BASELINE_WINDOW) & (rows["detector"] == detector)]
+    if rows.empty:
+        return None
+    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    avg = _averaged(rows, ["tp_rate", "tn_rate"], ["sensor_type"], intervals, _of(joint, detector))
+    cells = [avg.get((s,), ["NA", "NA"]) for s in sensors]
+    columns = ["TP rate", "TN rate"]
+    if paper:
+        ref = paper_frame("rates_window_50").set_index("sensor_type")
+        columns += ["TP rate (paper, LSTM)", "TN rate (paper, LSTM)"]
+        for i, s in enumerate(sensors):
+            cells[i] = cells[i] + ([_as_printed(100 * ref.loc[s, c]) for c in ("tp_rate", "tn_rate")]
+                                   if s in ref.index else ["—", "—"])
+    return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
+                 columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
+                 notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping.",
+                        *_interval_note(joint, intervals, [(detector, *k) for k in avg])])
+
+
+# ----------------------------------------------------------------------------- one column per metric
+# How each streaming figure reads: its column label, and the factor and decimals it is shown with.
+METRIC_COLUMNS: dict[str, tuple[str, float, int]] = {
+    "detection_rate": ("Detection rate (%)", 100.0, 1), "median_delay_ms": ("Median delay (ms)", 1.0, 1),
+    "p95_delay_ms": ("95th pct. delay (ms)", 1.0, 1), "false_alarms_per_min": ("False alarms / min", 1.0, 2),
+}
+
+
+def metric_text(metric: str, mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
+                status: str = "ok", intervals: bool = False) -> str:
+    """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
+    ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals; 'NA' if absent."""
+    if status != "ok":
+        return status
+    if pd.isna(mean):
+        return "NA"
+    _, scale, digits = METRIC_COLUMNS.get(metric, (metric, 100.0, 1))
+    text = f"{scale * mean:.{digits}f}"
+    if n > 1 and not pd.isna(sd):
+        text += f" ± {scale * sd:.{digits}f}"
+    if intervals and not (pd.isna(lo) or pd.isna(hi)):
+        text += f" [{scale * lo:.{digits}f}, {scale * hi:.{digits}f}]"
+    return text
+
+
+def metrics_table(rows: pd.DataFrame, layout: Layout, metrics: Sequence[str], intervals: bool = False,
+                  label_: str = "", group: str = "", prefix: str = "") -> Table:
+    """One detector's rows in ``layout``, one value column per metric of ``metrics`` (result
+    columns ``prefix + metric``, e.g. "op_" for the streaming operating point), each averaged
+    over seeds as :func:`summarize` does."""
+    keys = [k for k in layout.rows if k in rows]
+    per = {m: {tuple(r[k] for k in keys): r for r in summarize(rows, keys, prefix + m).to_dict("records")} for m in metrics}
+    row_values = rows[keys].drop_duplicates()
+    for col in reversed(keys):  # stable sorts, last key first: lexicographic order
+        order = ordered(row_values[col], col)
+        row_values = row_values.iloc[np.argsort([order.index(v) for v in row_values[col]], kind="stable")]
+    row_keys = list(row_values.itertuples(index=False, name=None))
+    cells = [[metric_text(m, **{k: per[m][rk][k] for k in ("mean", "sd", "n", "lo", "hi", "status")}, intervals=intervals)
+              for m in metrics] for rk in row_keys]
+    if layout.merge_rows:
+        row_labels = [(", ".join(label(k, v) for k, v in zip(keys, rk)),) for rk in row_keys]
+        headers = [ROW_HEADERS.get(keys[-1], keys[-1])]
+    else:
+        row_labels = [tuple(label(k, v) for k, v in zip(keys, rk)) for rk in row_keys]
+        headers = [ROW_HEADERS.get(k, k) for k in keys]
+    notes = []
+    if any((pd.DataFrame(per[m].values())["n"] > 1).any() for m in metrics if per[m]):
+        notes.append("Mean ± standard deviation across seeds.")
+    if intervals:
+        notes.append(INTERVAL_NOTE)
+    columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
+    return Table(layout.caption, headers, group or layout.group, columns, row_labels, cells, label_, notes=notes)
+
+
+def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], metric: str = "accuracy",
+                 label_: str = "") -> Table | None:
+    """Every detector of one protocol's table in one table: a row per detector, the layout's
+    value columns (and pair), each figure the mean over the layout's row keys (sensor units)
+    of each unit's figure (mean over seeds). None with fewer than two detectors."""
+    if len(detectors) < 2:
+        return None
+    if layout.metrics:
+        return _metrics_side_by_side(rows, layout, detectors, label_)
+    keys = [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
+    per = summarize(rows, ["detector", *keys], metric)
+    per = per[per["status"] == "ok"]
+    by = ["detector", layout.column] + ([layout.pair] if layout.pair else [])
+    avg = per.groupby(by, dropna=False).agg(mean=("mean", "mean"), units=("mean", "size"), low=("low_n", "any"))
+    found = {k if isinstance(k, tuple) else (k,): r for k, r in avg.iterrows()}
+    columns = ordered(rows[layout.column].dropna().unique(), layout.column)
+
+    def one(key: tuple) -> str:
+        r = found.get(key)
+        return "NA" if r is None else figure_text(r["mean"], low=bool(r["low"]))
+
+    cells = [[f"{one((d, c, 'with'))} {one((d, c, 'without'))}*" if layout.pair else one((d, c)) for c in columns]
+             for d in detectors]
+    plain, latex, notes = _column_labels(layout, rows, columns)
+    units = avg["units"]
+    notes.append(f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
+                 f"unit's figure; {int(units.min())} units per figure" + (f" or up to {int(units.max())}" if units.max() != units.min() else "")
+                 + " (units a detector did not finish are left out).")
+    group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
+    caption = f"{layout.title or 'Protocol'}: every detector side by side."
+    return Table(caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes)
+
+
+def _metrics_side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str) -> Table:
+    """A layout with several metrics (streaming): a row per detector, a column per metric, each
+    the mean over units of each unit's figure (mean over seeds)."""
+    keys = [k for k in layout.rows if k in rows]
+    cells = []
+    for d in detectors:
+        line = []
+        for m in layout.metrics:
+            per = summarize(rows[rows["detector"] == d], keys, m)
+            per = per[per["status"] == "ok"]
+            line.append(metric_text(m, per["mean"].mean()) if len(per) else "NA")
+        cells.append(line)
+    units = " and ".join(ROW_HEADERS.get(k, k).lower() for k in keys)
+    return Table(f"{layout.title or 'Protocol'}: every detector side by side.", ["Detector"], layout.group,
+                 [METRIC_COLUMNS.get(m, (m,))[0] for m in layout.metrics], [(d,) for d in detectors], cells, label_,
+                 notes=[f"Mean over units ({units}) of each unit's figure."])
+
+
+def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accuracy",
+                protocols: Sequence[str] = (), detectors: Sequence[str] = ()) -> Table | None:
+    """Per protocol and detector (in these orders), the mean ``metric`` of the cells every split
+    finished, per split, and each other split minus the first: the mean change and its range
+    over cells. None where no cell has the figure on every split (streaming rows have no accuracy)."""
+    first, others = splits[0], list(splits[1:])
+    keys = ["protocol", "detector", "cell", "seed"]
+    ok = rows[rows["status"] == "ok"] if "status" in rows else rows
+    if metric not in ok or ok[metric].isna().all():
+        return None
+    wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean")
+    wide = wide.dropna(subset=[s for s in splits if s in wide]) if set(splits) <= set(wide.columns) else wide.iloc[:0]
+    if wide.empty:
+        return None
+    lines, cells = [], []
+    for (protocol, detector), part in wide.groupby(level=["protocol", "detector"]):
+        line = [str(len(part)), *(f"{100 * part[s].mean():.1f}" for s in splits)]
+        for s in others:
+            d = 100 * (part[s] - part[first])
+            line.append(f"{d.mean():+.1f} [{d.min():+.1f}, {d.max():+.1f}]")
+        lines.append((protocol, detector))
+        cells.append(line)
+    order = {p: i for i, p in enumerate(protocols)}
+    by = sorted(range(len(lines)), key=lambda i: (order.get(lines[i][0], len(order)), lines[i][0],
+                                                   rank([d for _, d in lines], detectors).index(lines[i][1])))
+    what = metric.replace("_", " ")
+    return Table(f"The {first} split beside the {', '.join(others)} split: mean {what} (%) over the cells both "
+                 "finished, and the difference.", ["Protocol", "Detector"], "",
+                 ["cells", *splits, *(f"{s} − {first} [min, max]" for s in others)],
+                 [lines[i] for i in by], [cells[i] for i in by], "tab:splits", notes=[
+                     "grouped: whole trials on one side of the split for every unit, so no test trial has a twin "
+                     "recording (another finger, the same trial) that trained the model; paper: windows shuffled "
+                     "and halved, as the paper did. A positive difference is what the paper's split gains from "
+                     "testing on trials it trained on."])

@@ -1,0 +1,343 @@
+"""Pure functions from (y_true, y_pred or scores, groups) to figures with confidence intervals.
+
+Windows cut from one recording are correlated, so every interval here comes from the
+stratified cluster bootstrap of :mod:`slipbench.stats.bootstrap`: whole clusters (``groups``: a
+recording, or a trial shared by several units) are resampled within their class, never single
+windows. Its coverage is measured, not assumed: see that module's docstring and
+``tests/test_coverage.py``. Window-level Wilson intervals are offered beside them for the view
+that treats windows as independent; ``tests/test_metrics.py`` shows they undercover.
+
+Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn_rate``
+(non-slip windows passed), ``balanced_accuracy`` (their mean) and ``auroc``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from statsmodels.stats.proportion import proportion_confint
+
+from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design
+
+FIGURES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
+RATES = ("accuracy", "tp_rate", "tn_rate")
+LOW_N = 10  # clusters per class below which a cell's intervals rest on too few recordings to trust
+
+
+# ----------------------------------------------------------------------------- low n
+def cluster_counts(y_true: np.ndarray, groups: np.ndarray) -> tuple[int, int]:
+    """Clusters holding slip windows and clusters holding non-slip windows.
+
+    Parameters
+    ----------
+    y_true, groups : ndarray of shape (n_windows,)
+
+    Returns
+    -------
+    (n_slip, n_nonslip); a cluster holding both classes counts in both.
+    """
+    y_true = np.asarray(y_true, bool)
+    groups = np.asarray(groups)
+    return len(np.unique(groups[y_true])), len(np.unique(groups[~y_true]))
+
+
+def is_low_n(y_true: np.ndarray, groups: np.ndarray) -> bool:
+    """True when the test set holds fewer than ``LOW_N`` clusters of either class.
+
+    Below 10 clusters per class the measured coverage of the intervals falls short of the
+    nominal 95 % (see :mod:`slipbench.stats.bootstrap`), and a figure rests on a handful of recordings:
+    tables flag such cells.
+    """
+    return min(cluster_counts(y_true, groups)) < LOW_N
+
+
+# ----------------------------------------------------------------------------- per-cluster totals
+@dataclass(frozen=True)
+class _Totals:
+    """One test set's sufficient statistics per design cluster, each of shape (n_clusters,);
+    ``pairs`` (slip clusters x non-slip clusters) holds correctly ranked window pairs."""
+
+    hits: dict[str, np.ndarray]
+    size: dict[str, np.ndarray]
+    pos: np.ndarray | None = None  # clusters holding slip windows (indices), for the AUROC
+    neg: np.ndarray | None = None
+    pairs: np.ndarray | None = None
+
+
+def _totals(y_true: np.ndarray, correct: np.ndarray, codes: np.ndarray, n_clusters: int,
+            scores: np.ndarray | None) -> _Totals:
+    y = np.asarray(y_true, bool)
+    hits, size = {}, {}
+    for name, mask in (("accuracy", np.ones(len(y), bool)), ("tp_rate", y), ("tn_rate", ~y)):
+        hits[name] = np.bincount(codes[mask], weights=correct[mask], minlength=n_clusters)
+        size[name] = np.bincount(codes[mask], minlength=n_clusters).astype(float)
+    if scores is None or y.all() or not y.any():
+        return _Totals(hits, size)
+    pos, neg = np.flatnonzero(size["tp_rate"]), np.flatnonzero(size["tn_rate"])
+    return _Totals(hits, size, pos, neg, _pair_counts(y, np.asarray(scores, float), codes, pos, neg))
+
+
+def _pair_counts(y: np.ndarray, scores: np.ndarray, codes: np.ndarray, pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
+    """``A[i, j]``: pairs (slip window of cluster pos[i], non-slip window of cluster neg[j])
+    ranked correctly, ties counting one half. Shape (len(pos), len(neg))."""
+    s_pos, c_pos = scores[y], np.searchsorted(pos, codes[y])
+    out = np.zeros((len(pos), len(neg)))
+    for j, d in enumerate(neg):
+        ns = np.sort(scores[~y & (codes == d)])
+        below = np.searchsorted(ns, s_pos, "left")
+        ties = np.searchsorted(ns, s_pos, "right") - below
+        out[:, j] = np.bincount(c_pos, weights=below + 0.5 * ties, minlength=len(pos))
+    return out
+
+
+def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
+    """A figure of one test set under cluster weights ``w`` (n, n_clusters): shape (n,).
+
+    The AUROC of a cluster resample is a bilinear form in the weights of slip and non-slip
+    clusters over the pair counts, ``w_pos @ A @ w_neg / ((w_pos @ n_pos) (w_neg @ n_neg))``:
+    milliseconds per cell, where 999 calls of ``sklearn.metrics.roc_auc_score`` take about a
+    second on 8 000 windows. The estimate equals ``roc_auc_score`` (tested).
+    """
+    if name == "balanced_accuracy":
+        return 0.5 * (_figure(t, "tp_rate", w) + _figure(t, "tn_rate", w))
+    if name == "auroc":
+        if t.pairs is None:
+            return np.full(len(w), np.nan)
+        wp, wn = w[:, t.pos], w[:, t.neg]
+        return ((wp @ t.pairs) * wn).sum(axis=1) / ((wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg]))
+    return (w @ t.hits[name]) / (w @ t.size[name])
+
+
+def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
+    """Derivative of a figure by each cluster's weight at weights ``w`` (n, n_clusters)."""
+    if name == "balanced_accuracy":
+        return 0.5 * (_influence(t, "tp_rate", w) + _influence(t, "tn_rate", w))
+    if name == "auroc":
+        out = np.zeros_like(w)
+        if t.pairs is None:
+            return out * np.nan
+        wp, wn = w[:, t.pos], w[:, t.neg]
+        n_pos, n_neg = wp @ t.size["tp_rate"][t.pos], wn @ t.size["tn_rate"][t.neg]
+        a = ((wp @ t.pairs) * wn).sum(axis=1) / (n_pos * n_neg)
+        out[:, t.pos] += (wn @ t.pairs.T - a[:, None] * t.size["tp_rate"][t.pos] * n_neg[:, None]) / (n_pos * n_neg)[:, None]
+        out[:, t.neg] += (wp @ t.pairs - a[:, None] * t.size["tn_rate"][t.neg] * n_pos[:, None]) / (n_pos * n_neg)[:, None]
+        return out
+    denom = w @ t.size[name]
+    r = (w @ t.hits[name]) / denom
+    return (t.hits[name] - r[:, None] * t.size[name]) / denom[:, None]
+
+
+def _sizes(t: _Totals, name: str) -> np.ndarray:
+    """Windows per cluster that a figure draws on, shape (n_clusters,)."""
+    return t.size[name] if name in RATES else t.size["accuracy"]
+
+
+def _used(t: _Totals, name: str) -> np.ndarray:
+    """The clusters a figure draws on."""
+    if name in RATES:
+        return t.size[name] > 0
+    return (t.size["tp_rate"] > 0) | (t.size["tn_rate"] > 0)
+
+
+@dataclass(frozen=True)
+class Predictions:
+    """One test set's windows: labels, hard predictions, clusters, and optionally scores and
+    balancing strata, each of shape (n_windows,)."""
+
+    y_true: np.ndarray
+    y_pred: np.ndarray
+    groups: np.ndarray
+    scores: np.ndarray | None = None
+    strata: np.ndarray | None = None
+
+
+def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
+    y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
+    n_slip, n_nonslip = cluster_counts(y, np.concatenate([np.asarray(p.groups) for p in parts]))
+    return {"n_test_clusters_slip": n_slip, "n_test_clusters_nonslip": n_nonslip,
+            "low_n": bool(min(n_slip, n_nonslip) < LOW_N)}
+
+
+def _joint_figures(parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str) -> dict:
+    """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
+    has_strata = [p.strata is not None for p in parts]
+    if any(has_strata) and not all(has_strata):
+        raise ValueError("give balancing strata for every test set or for none")
+    design, codes = make_design([p.y_true for p in parts], [p.groups for p in parts],
+                                [p.strata for p in parts] if all(has_strata) else None)
+    totals = []
+    for p, c in zip(parts, codes):
+        y = np.asarray(p.y_true, bool)
+        totals.append(_totals(y, (y == np.asarray(p.y_pred, bool)).astype(float), c, design.n_clusters, p.scores))
+    out: dict = {}
+    unestimable = []
+    for name in FIGURES:
+        iv = interval(lambda w, name=name: np.mean([_figure(t, name, w) for t in totals], axis=0),
+                      lambda w, name=name: np.mean([_influence(t, name, w) for t in totals], axis=0),
+                      design, np.logical_or.reduce([_used(t, name) for t in totals]),
+                      np.sum([_sizes(t, name) for t in totals], axis=0), seed, level, n_resamples, method)
+        out[name], out[f"{name}_lo"], out[f"{name}_hi"], out[f"{name}_se"] = iv.estimate, iv.lo, iv.hi, iv.se
+        if name == "accuracy":
+            out["df"] = iv.df
+        if np.isfinite(iv.estimate) and not iv.estimable:
+            unestimable.append(name)
+    out["ci_note"] = "" if not unestimable else (
+        f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures how its clusters vary; "
+        "the interval given is the figure's whole range")
+    return out | _class_counts(parts)
+
+
+# ----------------------------------------------------------------------------- one cell
+def classification_figures(
+    y_true: np.ndarray, y_pred: np.ndarray, groups: np.ndarray, seed: int, scores: np.ndarray | None = None,
+    strata: np.ndarray | None = None, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+) -> dict[str, float | int | bool | str]:
+    """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
+
+    Parameters
+    ----------
+    y_true, y_pred : ndarray of shape (n_windows,)
+        Labels (1 slip) and hard predictions.
+    groups : ndarray of shape (n_windows,)
+        The cluster of each window: its recording, or its trial where units share trials.
+    seed : int
+        Seeds every bootstrap, so figures are reproducible.
+    scores : ndarray of shape (n_windows,), optional
+        Slip probabilities; gives the AUROC.
+    strata : ndarray of shape (n_windows,), optional
+        Balancing stratum of each window (``Windows.strata()``): clusters are resampled within
+        class and stratum.
+    level, n_resamples, method
+        Interval level, bootstrap resamples, interval method (:func:`slipbench.stats.bootstrap.interval`).
+
+    Returns
+    -------
+    dict
+        Counts ``tp, tn, fp, fn``; each figure of ``FIGURES`` with ``_lo``/``_hi`` (interval) and
+        ``_se`` (bootstrap standard error); ``df``: the accuracy interval's degrees of freedom;
+        window-level Wilson bounds ``<rate>_wilson_lo``/``_hi`` for accuracy, TP and TN rate;
+        ``n_test_clusters_slip``, ``n_test_clusters_nonslip`` (clusters holding windows of each
+        class) and ``low_n`` (fewer than ``LOW_N`` of either); ``ci_note``: empty, or which
+        intervals are the figure's whole range because a class holds one cluster. A figure
+        without an estimate (no slip window for a TP rate; no scores for the AUROC) is NaN with
+        NaN bounds.
+    """
+    y_true = np.asarray(y_true).astype(bool)
+    y_pred = np.asarray(y_pred).astype(bool)
+    out: dict = {
+        "tp": int((y_true & y_pred).sum()), "tn": int((~y_true & ~y_pred).sum()),
+        "fp": int((~y_true & y_pred).sum()), "fn": int((y_true & ~y_pred).sum()),
+    }
+    out |= _joint_figures([Predictions(y_true, y_pred, np.asarray(groups), scores, strata)], seed, level, n_resamples, method)
+    correct = y_true == y_pred
+    for name, mask in (("accuracy", np.ones(len(y_true), bool)), ("tp_rate", y_true), ("tn_rate", ~y_true)):
+        out[f"{name}_wilson_lo"], out[f"{name}_wilson_hi"] = wilson_ci(int(correct[mask].sum()), int(mask.sum()))
+    return out
+
+
+def wilson_ci(hits: int, n: int, level: float = LEVEL) -> tuple[float, float]:
+    """Window-level Wilson interval (statsmodels): right only if windows were independent."""
+    if n == 0:
+        return float("nan"), float("nan")
+    lo, hi = proportion_confint(hits, n, alpha=1 - level, method="wilson")
+    return float(lo), float(hi)
+
+
+# ----------------------------------------------------------------------------- several test sets
+def mean_over_test_sets(
+    parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+) -> dict[str, float | int | bool | str]:
+    """The mean of each figure over several test sets, with ONE joint bootstrap.
+
+    The fingers of one sensor are recorded in the same trials, so their test sets share
+    clusters: pass the trial as ``groups`` and every resample draws a trial for all fingers at
+    once. Combining the fingers' half-widths as if they were independent understates the
+    interval when their errors move together (same trials, same contact).
+
+    Parameters
+    ----------
+    parts : sequence of Predictions
+        The test sets; a group value shared by two sets is one cluster.
+
+    Returns
+    -------
+    dict
+        Each figure of ``FIGURES`` (the mean over test sets of the per-set figure) with
+        ``_lo``/``_hi``/``_se``; ``n_test_sets``; ``n_test_clusters_slip``/``_nonslip`` (over
+        the union of the sets), ``low_n`` and ``ci_note`` as in :func:`classification_figures`.
+        A figure that one set lacks (no slip window there) is NaN.
+    """
+    if not parts:
+        raise ValueError("mean_over_test_sets needs at least one test set")
+    return {"n_test_sets": len(parts)} | _joint_figures(parts, seed, level, n_resamples, method)
+
+
+def pool_seeds(parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+               method: str = "satterthwaite") -> dict[str, float | int | bool | str]:
+    """One cell run under several seeds (``--repeats``): one figure and one interval.
+
+    The seeds' test sets differ (each seed balances and splits anew) but draw on the same
+    recordings, so they are bootstrapped jointly: each resample draws recordings once and
+    averages the seeds' figures on it. The result is an interval for the seed-averaged figure;
+    the mean of the seeds' bounds is not one (it ignores that the seeds share recordings and
+    that averaging narrows the seed-to-seed part). ``parts`` holds one Predictions per seed, with
+    recording ids as ``groups``; returns what :func:`mean_over_test_sets` returns.
+    """
+    return mean_over_test_sets(parts, seed, level, n_resamples, method)
+
+
+# ----------------------------------------------------------------------------- paired comparison
+def paired_comparison(
+    y_true: np.ndarray, base_pred: np.ndarray, cand_pred: np.ndarray, groups: np.ndarray, seed: int,
+    level: float = LEVEL, n_resamples: int = N_RESAMPLES, base_scores: np.ndarray | None = None,
+    cand_scores: np.ndarray | None = None, strata: np.ndarray | None = None, method: str = "satterthwaite",
+    figures: Sequence[str] = FIGURES,
+) -> dict[str, float | int | bool]:
+    """Two detectors' predictions on the same test windows: the change (candidate - base) of
+    every figure with a paired interval from the stratified cluster bootstrap.
+
+    Each resample draws clusters once and evaluates both detectors on them, so what the two
+    share (hard recordings) cancels. McNemar's test is not offered: it treats windows as
+    independent and, under an exact null, rejected in 17-23 % of cells (issue 11).
+
+    Parameters
+    ----------
+    y_true, base_pred, cand_pred, groups : ndarray of shape (n_windows,)
+        Labels, the two hard predictions, and each window's cluster.
+    level : float
+        Interval level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
+    base_scores, cand_scores : ndarray of shape (n_windows,), optional
+        Slip probabilities: give the change in AUROC.
+    figures : sequence of str
+        The figures to compare (``accuracy`` always comes first: it gives ``df``).
+
+    Returns
+    -------
+    dict
+        ``d_<figure>`` with ``_lo``/``_hi``/``_se`` for each of ``figures`` (NaN where a side
+        lacks the figure); ``df`` and ``estimable`` of the accuracy's change (not estimable when
+        a class holds one cluster: the interval is then [-1, 1]); ``n_test_clusters_slip``/``_nonslip``.
+    """
+    y_true = np.asarray(y_true, bool)
+    groups = np.asarray(groups)
+    design, (codes,) = make_design([y_true], [groups], None if strata is None else [strata])
+    sides = [_totals(y_true, (np.asarray(p, bool) == y_true).astype(float), codes, design.n_clusters, s)
+             for p, s in ((base_pred, base_scores), (cand_pred, cand_scores))]
+    out: dict = {}
+    unknown = set(figures) - set(FIGURES)
+    if unknown:
+        raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
+    for name in ("accuracy", *(f for f in figures if f != "accuracy")):
+        iv = interval(lambda w, name=name: _figure(sides[1], name, w) - _figure(sides[0], name, w),
+                      lambda w, name=name: _influence(sides[1], name, w) - _influence(sides[0], name, w),
+                      design, _used(sides[0], name), _sizes(sides[0], name), seed, level, n_resamples, method,
+                      bounds=(-1.0, 1.0))
+        out[f"d_{name}"], out[f"d_{name}_lo"], out[f"d_{name}_hi"], out[f"d_{name}_se"] = iv.estimate, iv.lo, iv.hi, iv.se
+        if name == "accuracy":
+            out["df"], out["estimable"] = iv.df, iv.estimable
+    out["n_test_clusters_slip"], out["n_test_clusters_nonslip"] = cluster_counts(y_true, groups)
+    return out

@@ -1,0 +1,276 @@
+"""The conformance suite for plugins: ``check_detector(detector)`` and
+``check_protocol(protocol)`` run every check and raise AssertionError naming the first that
+fails; ``parametrize_with_checks([...])`` makes each check one pytest item. A third-party
+plugin runs them in its own tests::
+
+    from slipbench.testing import parametrize_with_checks
+
+    @parametrize_with_checks([MyDetector(), MyProtocol()])
+    def test_conformance(plugin, check):
+        check(plugin)
+
+A detector class may declare ``check_params``: hyperparameters that make these checks fast (few
+epochs, few kernels); they are applied to a clone, never to the detector passed in.
+"""
+
+from __future__ import annotations
+
+import json
+
+import functools
+import io
+import tempfile
+import zipfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from slipbench.base import BaseDetector, NotFittedError, clone
+from slipbench.data.dataset import Dataset, read_dataset
+from slipbench.errors import UsageError
+from slipbench.protocol import BaseProtocol, Cell, Layout
+from slipbench.seeding import rng_for
+
+LENGTHS = (5, 50, 200)
+
+
+def toy_windows(n: int, length: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Balanced windows: non-slip is low noise, slip adds a 60 Hz burst (at 1 kHz) and more noise."""
+    rng = rng_for(seed, "toy")
+    y = np.arange(n) % 2
+    t = np.arange(length) / 1000.0
+    x = rng.normal(0, 1, (n, length)) * np.where(y, 2.0, 1.0)[:, None]
+    x += y[:, None] * 3 * np.sin(2 * np.pi * 60 * t + rng.uniform(0, 2 * np.pi, (n, 1)))
+    return x.astype(np.float32), y
+
+
+def _raises(kind: type[Exception], words: str, call, what: str) -> None:
+    try:
+        call()
+    except kind as exc:
+        assert words.lower() in str(exc).lower(), f"{what}: the error should mention {words!r}, got: {exc}"
+        return
+    except Exception as exc:  # noqa: BLE001 - the wrong kind of error is the failure reported
+        raise AssertionError(f"{what}: expected {kind.__name__}, got {type(exc).__name__}: {exc}") from exc
+    raise AssertionError(f"{what}: expected {kind.__name__}, nothing was raised")
+
+
+def check_params_protocol(detector: BaseDetector) -> None:
+    """__init__ stores parameters as given; get_params/set_params/clone round-trip."""
+    params = detector.get_params()
+    twin = clone(detector)
+    assert type(twin) is type(detector) and twin.get_params() == params, "clone must keep every parameter"
+    assert not any(k.endswith("_") for k in vars(twin)), "a new detector must hold no fitted state"
+    assert twin.set_params(**params) is twin and twin.get_params() == params, "set_params(**get_params()) must be a no-op"
+    _raises(UsageError, "no parameter", lambda: twin.set_params(no_such_parameter=1), "set_params with an unknown name")
+
+
+def check_fit_predict(detector: BaseDetector) -> None:
+    """Shapes, ranges and determinism for windows of 5 to 200 samples; parameters untouched by fit."""
+    for length in LENGTHS:
+        x, y = toy_windows(120, length)
+        before = detector.get_params()
+        a = clone(detector)
+        assert a.fit(x, y, sampling_rate=1000.0, seed=3) is a, "fit must return the detector"
+        assert a.get_params() == before, f"fit must not change parameters (window {length})"
+        assert a.window_length_ == length and a.sampling_rate_ == 1000.0
+        proba, pred = a.predict_proba(x[:37]), a.predict(x[:37])
+        assert proba.shape == (37,) and pred.shape == (37,), f"window {length}: one score per window, got {proba.shape}"
+        assert np.all((proba >= 0) & (proba <= 1)), f"window {length}: probabilities outside [0, 1]"
+        assert set(np.unique(pred)) <= {0, 1}, f"window {length}: predictions must be 0 or 1"
+        again = clone(detector).fit(x, y, sampling_rate=1000.0, seed=3).predict_proba(x[:37])
+        assert np.array_equal(proba, again), f"window {length}: two fits with one seed must give the same scores"
+        _raises(UsageError, f"{length}", lambda: a.predict_proba(x[:, :-1] if length > 5 else np.c_[x, x]), "predict on another window length")
+
+
+def check_refusals(detector: BaseDetector) -> None:
+    """NaN input, single-class training data and predicting before fit are refused clearly."""
+    x, y = toy_windows(40, 20)
+    bad = x.copy()
+    bad[3, 7] = np.nan
+    _raises(UsageError, "NaN", lambda: clone(detector).fit(bad, y), "fit on windows with NaN")
+    _raises(UsageError, "only class", lambda: clone(detector).fit(x, np.zeros_like(y)), "fit on one class")
+    _raises(NotFittedError, "not fitted", lambda: clone(detector).predict_proba(x), "predict before fit")
+    fitted = clone(detector).fit(x, y, seed=0)
+    _raises(UsageError, "NaN", lambda: fitted.predict_proba(bad), "predict on windows with NaN")
+
+
+def check_save_load(detector: BaseDetector) -> None:
+    """A fitted detector saves to a pickle-free file and loads back with the same scores."""
+    x, y = toy_windows(60, 50)
+    fitted = clone(detector).fit(x, y, seed=1)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "detector.npz"
+        fitted.save(path)
+        with zipfile.ZipFile(path) as zf:  # every member must load without pickle
+            for member in zf.namelist():
+                np.lib.format.read_array(io.BytesIO(zf.read(member)), allow_pickle=False)
+        for loader in (type(detector).load, BaseDetector.load):
+            loaded = loader(path)
+            assert type(loaded).__name__ == type(detector).__name__ and loaded.get_params() == fitted.get_params()
+            assert np.array_equal(loaded.predict_proba(x), fitted.predict_proba(x)), "a loaded detector must score as saved"
+
+
+def check_uses_input(detector: BaseDetector) -> None:
+    """Scores depend on the windows: a detector that ignores its input scores every window alike."""
+    x, y = toy_windows(120, 50)
+    scores = clone(detector).fit(x, y, seed=0).predict_proba(x)
+    assert np.ptp(scores) > 0, "every window got the same score: the detector ignores its input"
+
+
+def _fast(detector: BaseDetector) -> BaseDetector:
+    return clone(detector).set_params(**getattr(type(detector), "check_params", {}))
+
+
+DETECTOR_CHECKS: list[Callable[[BaseDetector], None]] = [
+    check_params_protocol, check_fit_predict, check_refusals, check_uses_input, check_save_load]
+
+
+def check_detector(detector: BaseDetector) -> None:
+    """Run every conformance check on ``detector`` (its class's ``check_params`` applied)."""
+    assert isinstance(detector, BaseDetector), f"{type(detector).__name__} is not a BaseDetector"
+    check_params_protocol(detector)
+    for check in DETECTOR_CHECKS[1:]:
+        check(_fast(detector))
+
+
+# ----------------------------------------------------------------------------- protocols
+@functools.cache
+def toy_dataset() -> Dataset:
+    """A small simulated dataset (every sensor, material and speed; about 0.6 M samples), made
+    once per process: what protocol checks plan their cells on."""
+    from slipbench.data.synth import synthesize
+
+    folder = Path(tempfile.mkdtemp(prefix="slipbench-check-"))
+    return read_dataset(synthesize(folder / "toy", scale=0.01, seed=0))
+
+
+def _cells(protocol: BaseProtocol, dataset: Dataset) -> tuple[list[Cell], pd.DataFrame]:
+    recordings = dataset.recordings.copy()
+    for name, values in protocol.columns(dataset.recordings).items():
+        recordings[name] = values
+    return list(protocol.cells(recordings)), recordings
+
+
+def check_protocol_params(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
+    """Options are keyword parameters (get_params/set_params round-trip), valid as given, and an
+    unknown option is refused; the layout is a Layout."""
+    params = protocol.get_params()
+    twin = type(protocol)(**params)
+    assert twin.get_params() == params, "the protocol must store every option as given (get_params round trip)"
+    protocol.validate_params()
+    _raises(UsageError, "no parameter", lambda: twin.set_params(no_such_option=1), "set_params with an unknown name")
+    assert isinstance(protocol.layout, Layout), f"layout must be a slipbench.protocol.Layout, got {protocol.layout!r}"
+
+
+def check_protocol_cells(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
+    """Cells are well formed: Cell objects with unique keys holding every column the layout
+    reads, on sensors the dataset has; and every cell that is not skipped has windows of both
+    classes on both sides (or a reason, from the plan, why not)."""
+    from slipbench.engine.plan import CellData
+    from slipbench.data.signals import Signals
+
+    dataset = dataset or toy_dataset()
+    cells, recordings = _cells(protocol, dataset)
+    assert cells, "the protocol made no cells on the check dataset"
+    assert all(isinstance(c, Cell) for c in cells), "cells() must yield slipbench.protocol.Cell objects"
+    names = [c.name for c in cells]
+    assert len(set(names)) == len(names), f"cell keys must be unique; repeated: {sorted({n for n in names if names.count(n) > 1})[:3]}"
+    wanted = set(protocol.layout.keys)
+    for cell in cells:
+        assert wanted <= set(cell.key), f"cell {cell.name} lacks the layout's columns {sorted(wanted - set(cell.key))}"
+    known = set(zip(recordings["sensor_type"], recordings["sensor_instance"]))
+    for cell in cells:
+        for part in (cell.train, cell.test):
+            assert set(part.sensors) <= known, f"cell {cell.name} uses sensors the dataset lacks: {set(part.sensors) - known}"
+            for column, _, _ in part.where:
+                assert column in recordings, f"cell {cell.name} filters on {column!r}, which is no recording column"
+    signals = Signals.from_dataset(dataset)
+    signals.recordings = recordings.reset_index(drop=True)
+    data = CellData(signals, "paper", 0)
+    ran = 0
+    for cell in cells:
+        if cell.skip:
+            continue
+        try:
+            train, test = data.part(cell.train, cell.window), data.part(cell.test, cell.window)
+        except UsageError:
+            continue  # the plan skips such a cell with this reason
+        ran += len(train) > 0 and len(test) > 0
+    assert ran, "no cell of the protocol has windows to train and test on the check dataset"
+
+
+def check_protocol_holdouts(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
+    """Holdout cells never train on what they test: where a cell tests on ``column == value``
+    and also filters its training windows on that column, no training recording has that value."""
+    cells, recordings = _cells(protocol, dataset or toy_dataset())
+    for cell in cells:
+        train_columns = {c for c, _, _ in cell.train.where}
+        trained = recordings[cell.train.mask(recordings)]
+        for column, op, value in cell.test.where:
+            if op == "==" and column in train_columns:
+                leaked = trained[trained[column].eq(value)]
+                assert leaked.empty, (f"cell {cell.name} tests on {column} == {value!r} and trains on "
+                                      f"{len(leaked)} recordings with that value (e.g. {leaked['recording_id'].iloc[0]})")
+
+
+def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
+    """The layout renders: fake results for every cell make a Markdown and a LaTeX table, and
+    the figure the layout declares."""
+    from slipbench.report.plots import figure
+    from slipbench.report.render import to_latex, to_markdown
+    from slipbench.report.document import protocol_tables
+
+    cells, _ = _cells(protocol, dataset or toy_dataset())
+    rng = rng_for(0, "toy", "rows")
+    rows = pd.DataFrame([{**c.key, "cell": c.name, "protocol": "checked", "detector": "d", "split": "paper", "seed": 0,
+                          "status": "ok", "accuracy": a, "accuracy_lo": a - 0.05, "accuracy_hi": a + 0.05}
+                         for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))])
+    for metric in protocol.layout.metrics:  # a layout of several metrics shows each
+        rows[metric] = rng.uniform(0.55, 0.95, len(rows))
+        rows[f"{metric}_lo"], rows[f"{metric}_hi"] = rows[metric] - 0.05, rows[metric] + 0.05
+    if protocol.layout.figure == "tradeoff":  # a streaming cell's threshold sweep
+        rows["tradeoff"] = json.dumps([{"threshold": t, "detection_rate": 1 - t, "median_delay_ms": 20 + 100 * t,
+                                        "false_alarms_per_min": 10 * (1 - t)} for t in (0.1, 0.5, 0.9)])
+    tables = protocol_tables(rows, protocol.layout, "checked", "d", intervals=True)
+    assert tables, "the layout made no table"
+    for _, table in tables:
+        assert table.rows and table.columns, f"table {table.caption!r} has no rows or columns"
+        assert to_markdown(table) and to_latex(table).count(r"\begin{tabular}") >= 1
+    if protocol.layout.figure:
+        import matplotlib.pyplot as plt
+
+        fig = figure(rows, protocol.layout, "check", paper=False)
+        assert fig is not None, f"the layout declares a {protocol.layout.figure!r} figure but none was drawn"
+        plt.close(fig)
+
+
+PROTOCOL_CHECKS: list[Callable[..., None]] = [
+    check_protocol_params, check_protocol_cells, check_protocol_holdouts, check_protocol_layout]
+
+
+def check_protocol(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
+    """Run every conformance check on ``protocol``, planning its cells on ``dataset`` (default:
+    a small simulated dataset)."""
+    assert isinstance(protocol, BaseProtocol), f"{type(protocol).__name__} is not a BaseProtocol"
+    for check in PROTOCOL_CHECKS:
+        check(protocol, dataset)
+
+
+def parametrize_with_checks(plugins: list) -> Callable:
+    """A ``pytest.mark.parametrize`` decorator over (plugin, check): one test item per check of
+    each detector or protocol, named ``<Class>-<check>``. The test calls ``check(plugin)``."""
+    import pytest
+
+    params = []
+    for plugin in plugins:
+        if isinstance(plugin, BaseDetector):
+            checks = [(check, plugin if check is check_params_protocol else _fast(plugin)) for check in DETECTOR_CHECKS]
+        elif isinstance(plugin, BaseProtocol):
+            checks = [(check, plugin) for check in PROTOCOL_CHECKS]
+        else:
+            raise TypeError(f"{plugin!r} is neither a BaseDetector nor a BaseProtocol")
+        params += [pytest.param(obj, check, id=f"{type(plugin).__name__}-{check.__name__}") for check, obj in checks]
+    return pytest.mark.parametrize("plugin, check", params)
