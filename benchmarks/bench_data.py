@@ -43,26 +43,39 @@ def main() -> None:
         path = synthesize(Path(tmp) / "ds", scale, 0)
         ds = read_dataset(path)
         values = sum(a.size for a in ds.samples.values())
-        print(f"scale {scale:g}: {len(ds.recordings)} recordings, {sum(len(a) for a in ds.samples.values()) / 1e6:.1f} M samples, "
-              f"{values / 1e6:.1f} M values")
-        arrow = best_of(lambda: (pq.read_table(path / RECORDINGS_FILE), pq.read_table(path / SAMPLES_FILE)))
+        print(
+            f"scale {scale:g}: {len(ds.recordings)} recordings, {sum(len(a) for a in ds.samples.values()) / 1e6:.1f} M samples, "
+            f"{values / 1e6:.1f} M values"
+        )
+        arrow = best_of(
+            lambda: (pq.read_table(path / RECORDINGS_FILE), pq.read_table(path / SAMPLES_FILE))
+        )
         print(f"reference: pyarrow read_table of both files: {arrow:.2f} s")
         read = best_of(lambda: read_dataset(path))
-        print(f"read_dataset (checks, places by sample_index): {read:.2f} s = {read / arrow:.1f} x read_table")
+        print(
+            f"read_dataset (checks, places by sample_index): {read:.2f} s = {read / arrow:.1f} x read_table"
+        )
         shuffled = Path(tmp) / "shuffled"
         shuffled.mkdir()
         table = pq.read_table(path / SAMPLES_FILE)
-        pq.write_table(table.take(np.random.default_rng(0).permutation(table.num_rows)), shuffled / SAMPLES_FILE,
-                       row_group_size=1 << 20)
+        pq.write_table(
+            table.take(np.random.default_rng(0).permutation(table.num_rows)),
+            shuffled / SAMPLES_FILE,
+            row_group_size=1 << 20,
+        )
         pq.write_table(pq.read_table(path / RECORDINGS_FILE), shuffled / RECORDINGS_FILE)
         del table
         read_shuffled = best_of(lambda: read_dataset(shuffled), repeats=1)
-        print(f"read_dataset, sample rows shuffled: {read_shuffled:.2f} s = {read_shuffled / arrow:.1f} x read_table")
+        print(
+            f"read_dataset, sample rows shuffled: {read_shuffled:.2f} s = {read_shuffled / arrow:.1f} x read_table"
+        )
         raw = best_of(lambda: file_hash(path))
         print(f"reference: BLAKE2b of the files' bytes: {raw:.2f} s")
         content = best_of(lambda: content_fingerprint(ds.recordings, ds.samples, ds.slip_labels))
-        print(f"content fingerprint: {content:.2f} s = {content / raw:.1f} x hashing the bytes "
-              f"({values / content / 1e6:.0f} M values/s)")
+        print(
+            f"content fingerprint: {content:.2f} s = {content / raw:.1f} x hashing the bytes "
+            f"({values / content / 1e6:.0f} M values/s)"
+        )
 
 
 if __name__ == "__main__":

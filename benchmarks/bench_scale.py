@@ -22,7 +22,13 @@ def measure(argv: list[str]) -> tuple[float, float]:
     """Wall seconds and peak resident memory (GiB, the process tree summed) of a command."""
     t0 = time.perf_counter()
     # outside the source tree, so that `slipbench` is the installed package
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=tempfile.gettempdir())
+    proc = subprocess.Popen(
+        argv,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tempfile.gettempdir(),
+    )
     root, peak = psutil.Process(proc.pid), 0
     while proc.poll() is None:
         try:
@@ -51,15 +57,31 @@ def main() -> None:
         for scale in args.scales:
             data, out = Path(tmp) / f"d{scale:g}", Path(tmp) / f"r{scale:g}"
             synth_s, _ = measure(cli + ["dataset", "synth", str(data), "--scale", str(scale)])
-            run = cli + ["evaluate", "--detector", args.detector, "--protocol", "all", "--dataset", str(data),
-                         "--out", str(out), "--quiet", "--jobs", str(args.jobs)]
+            run = cli + [
+                "evaluate",
+                "--detector",
+                args.detector,
+                "--protocol",
+                "all",
+                "--dataset",
+                str(data),
+                "--out",
+                str(out),
+                "--quiet",
+                "--jobs",
+                str(args.jobs),
+            ]
             wall, peak = measure(run)
             cached, _ = measure(run)
             peaks.append(peak)
-            print(f"| {scale:g} | {8e6 * scale / 1e6:.1f} M | {synth_s:.1f} | {wall:.1f} | {cached:.1f} | {peak:.2f} |")
+            print(
+                f"| {scale:g} | {8e6 * scale / 1e6:.1f} M | {synth_s:.1f} | {wall:.1f} | {cached:.1f} | {peak:.2f} |"
+            )
     if len(peaks) > 1:
         slope, intercept = np.polyfit(args.scales, peaks, 1)
-        print(f"\npeak memory ~ {intercept:.2f} + {slope:.2f} x scale GiB: {intercept + slope:.2f} GiB extrapolated to scale 1.0")
+        print(
+            f"\npeak memory ~ {intercept:.2f} + {slope:.2f} x scale GiB: {intercept + slope:.2f} GiB extrapolated to scale 1.0"
+        )
 
 
 if __name__ == "__main__":

@@ -15,8 +15,8 @@ import time
 import numpy as np
 from scipy.stats import ks_2samp
 
-from slipbench.data.defaults import default_dataset
 from slipbench.analysis.spectral import analyze_pools, ks_2samp_last_axis, pools
+from slipbench.data.defaults import default_dataset
 from slipbench.spectra import amplitude_spectrum
 
 
@@ -37,7 +37,9 @@ def main() -> None:
 
     ds = default_dataset(args.scale)
     t_pool, (nonslip, slip, rate) = timed(pools, ds, args.sensor, args.instance, None, 0)
-    t_all, _ = timed(analyze_pools, nonslip, slip, rate, n_boot=args.boot, repeats=args.repeats, seed=0)
+    t_all, _ = timed(
+        analyze_pools, nonslip, slip, rate, n_boot=args.boot, repeats=args.repeats, seed=0
+    )
 
     # references on data of the analysis' shape: (rounds, bins, n_boot) amplitudes per class
     length = int(round(rate))
@@ -51,14 +53,24 @@ def main() -> None:
     scale_up = args.repeats / share
 
     n_tests = args.repeats * amp.shape[-2]
-    print(f"{args.sensor} {args.instance}: {len(nonslip)} non-slip and {len(slip)} slip windows of {length} samples; "
-          f"{2 * args.repeats * args.boot} FFTs, {n_tests} KS tests")
+    print(
+        f"{args.sensor} {args.instance}: {len(nonslip)} non-slip and {len(slip)} slip windows of {length} samples; "
+        f"{2 * args.repeats * args.boot} FFTs, {n_tests} KS tests"
+    )
     print(f"pooling (univariate signal, windows, balance): {t_pool:6.2f} s")
     print(f"analysis (draws, FFTs, KS tests, percentiles):  {t_all:6.2f} s")
-    print(f"total per instance:                            {t_pool + t_all:6.2f} s  (target < 30 s)")
-    print(f"reference, one FFT pass over all sequences:    {t_fft:6.2f} s  (analysis / FFT pass = {t_all / t_fft:.1f})")
-    print(f"KS tests, vectorised here:  {t_ours * scale_up:6.2f} s (timed on {share} of {args.repeats} rounds, scaled)")
-    print(f"KS tests, scipy axis=-1:    {t_scipy * scale_up:6.2f} s  (scipy / here = {t_scipy / t_ours:.1f})")
+    print(
+        f"total per instance:                            {t_pool + t_all:6.2f} s  (target < 30 s)"
+    )
+    print(
+        f"reference, one FFT pass over all sequences:    {t_fft:6.2f} s  (analysis / FFT pass = {t_all / t_fft:.1f})"
+    )
+    print(
+        f"KS tests, vectorised here:  {t_ours * scale_up:6.2f} s (timed on {share} of {args.repeats} rounds, scaled)"
+    )
+    print(
+        f"KS tests, scipy axis=-1:    {t_scipy * scale_up:6.2f} s  (scipy / here = {t_scipy / t_ours:.1f})"
+    )
 
 
 if __name__ == "__main__":

@@ -16,8 +16,8 @@ import time
 
 from slipbench.data.defaults import default_dataset
 from slipbench.engine.plan import Run
-from slipbench.store.results import ResultsStore
 from slipbench.engine.runner import evaluate
+from slipbench.store.results import ResultsStore
 
 
 def main() -> None:
@@ -31,9 +31,17 @@ def main() -> None:
     for protocol in ("window-size", "streaming"):
         with tempfile.TemporaryDirectory() as out:
             t0 = time.perf_counter()
-            rows = evaluate(dataset, Run(args.detector, protocol), ResultsStore(out), jobs=args.jobs, progress=False)
+            rows = evaluate(
+                dataset,
+                Run(args.detector, protocol),
+                ResultsStore(out),
+                jobs=args.jobs,
+                progress=False,
+            )
             walls[protocol] = time.perf_counter() - t0
-        print(f"{protocol:12s} {walls[protocol]:8.1f} s  {len(rows)} cells, {int((rows['status'] == 'ok').sum())} ok")
+        print(
+            f"{protocol:12s} {walls[protocol]:8.1f} s  {len(rows)} cells, {int((rows['status'] == 'ok').sum())} ok"
+        )
     print(f"streaming / window-size: {walls['streaming'] / walls['window-size']:.2f} (target < 2)")
 
 

@@ -18,7 +18,9 @@ from slipbench.params import Band, Interval
 from slipbench.spectra import best_threshold, logistic
 
 
-def effective_band(band: tuple[float, float], sampling_rate: float) -> tuple[tuple[float, float], bool]:
+def effective_band(
+    band: tuple[float, float], sampling_rate: float
+) -> tuple[tuple[float, float], bool]:
     """The band actually used at ``sampling_rate``, and whether the fallback applied."""
     nyquist = sampling_rate / 2
     low, high = float(band[0]), min(float(band[1]), 0.9 * nyquist)
@@ -38,7 +40,9 @@ class BandPass(BaseDetector):
         self.order = order
 
     def _energy(self, x: np.ndarray) -> np.ndarray:
-        filtered = sosfilt(self.sos_, x, axis=1)  # zero initial state: each window on its own, causal
+        filtered = sosfilt(
+            self.sos_, x, axis=1
+        )  # zero initial state: each window on its own, causal
         return np.log(np.mean(filtered**2, axis=1) + 1e-20)
 
     def _fit(self, x, y, seed):
@@ -46,16 +50,26 @@ class BandPass(BaseDetector):
         (low, high), self.band_fallback_ = effective_band(band, self.sampling_rate_)
         self.band_hz_ = (low, high)
         if low > 0:
-            self.sos_ = butter(self.order, [low, high], btype="bandpass", fs=self.sampling_rate_, output="sos")
+            self.sos_ = butter(
+                self.order, [low, high], btype="bandpass", fs=self.sampling_rate_, output="sos"
+            )
         else:
-            self.sos_ = butter(self.order, high, btype="lowpass", fs=self.sampling_rate_, output="sos")
+            self.sos_ = butter(
+                self.order, high, btype="lowpass", fs=self.sampling_rate_, output="sos"
+            )
         energy = self._energy(x)
         self.threshold_, self.direction_, self.separation_ = best_threshold(energy, y)
-        self.scale_ = float(np.std(energy)) or 1.0  # scores: logistic of the distance, 0.5 on the threshold
+        self.scale_ = (
+            float(np.std(energy)) or 1.0
+        )  # scores: logistic of the distance, 0.5 on the threshold
 
     def fitted_choices(self):
-        return {"band_hz": list(self.band_hz_), "band_fallback": bool(self.band_fallback_),
-                "threshold": self.threshold_, "separation": self.separation_}
+        return {
+            "band_hz": list(self.band_hz_),
+            "band_fallback": bool(self.band_fallback_),
+            "threshold": self.threshold_,
+            "separation": self.separation_,
+        }
 
     def _predict_proba(self, x):
         z = self.direction_ * (self._energy(x) - self.threshold_) / self.scale_

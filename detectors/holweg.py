@@ -8,8 +8,8 @@ import numpy as np
 from scipy.stats import ks_2samp
 
 from slipbench.base import BaseDetector
-from slipbench.params import Band, Interval
 from slipbench.errors import UsageError
+from slipbench.params import Band, Interval
 from slipbench.spectra import amplitude_spectrum, best_threshold, grow_band, logistic
 
 
@@ -17,7 +17,9 @@ def significant_band(freqs: np.ndarray, amp: np.ndarray, y: np.ndarray, keep: fl
     """Bins of the most significant band: the contiguous run of bins around the bin whose
     slip and non-slip amplitudes differ most (two-sample KS statistic), extended while a bin's
     statistic stays at least ``keep`` times that maximum."""
-    stat = ks_2samp(amp[y == 1], amp[y == 0], axis=0, method="asymp").statistic  # no exact p-values needed
+    stat = ks_2samp(
+        amp[y == 1], amp[y == 0], axis=0, method="asymp"
+    ).statistic  # no exact p-values needed
     peak = int(np.argmax(stat))
     lo, hi = grow_band(stat >= keep * stat[peak], peak)
     return np.arange(lo, hi + 1)
@@ -63,8 +65,16 @@ class Holweg(BaseDetector):
         self.scale_ = float(np.std(np.log(sums + 1e-12))) or 1.0
 
     def fitted_choices(self):
-        return {"band_hz": list(self.band_hz_), "threshold": self.threshold_, "separation": self.separation_}
+        return {
+            "band_hz": list(self.band_hz_),
+            "threshold": self.threshold_,
+            "separation": self.separation_,
+        }
 
     def _predict_proba(self, x):
-        z = self.direction_ * (np.log(self._sums(x) + 1e-12) - np.log(self.threshold_ + 1e-12)) / self.scale_
+        z = (
+            self.direction_
+            * (np.log(self._sums(x) + 1e-12) - np.log(self.threshold_ + 1e-12))
+            / self.scale_
+        )
         return logistic(z)

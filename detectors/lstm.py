@@ -21,11 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from slipbench.base import BaseDetector, Streamer
 from slipbench.detectors import lstm_kernels as kernels
-from slipbench.base import BaseDetector
-from slipbench.params import Interval, Options, Sequence
 from slipbench.errors import UsageError
-from slipbench.base import Streamer
+from slipbench.params import Interval, Options, Sequence
 
 PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
@@ -35,14 +34,27 @@ class LSTM(BaseDetector):
 
     check_params = {"max_epochs": 2, "validation_fraction": 0.2}  # fast settings for check_detector
     _parameter_constraints = {
-        "hidden_size": Interval(int, 1, 512), "batch_size": Interval(int, 1, None),
-        "momentum": Interval(float, 0.0, 0.999), "patience": Interval(int, 1, None),
-        "validation_fraction": Interval(float, 0.01, 0.5), "device": Options(("auto", "cpu", "cuda")),
-        "learning_rates": Sequence(Interval(float, 1e-12, 10.0)), "max_epochs": Sequence(Interval(int, 1, 100_000)),
+        "hidden_size": Interval(int, 1, 512),
+        "batch_size": Interval(int, 1, None),
+        "momentum": Interval(float, 0.0, 0.999),
+        "patience": Interval(int, 1, None),
+        "validation_fraction": Interval(float, 0.01, 0.5),
+        "device": Options(("auto", "cpu", "cuda")),
+        "learning_rates": Sequence(Interval(float, 1e-12, 10.0)),
+        "max_epochs": Sequence(Interval(int, 1, 100_000)),
     }
 
-    def __init__(self, hidden_size=20, batch_size=1, momentum=0.125, learning_rates=(0.01, 1e-3, 1e-4, 1e-5),
-                 max_epochs=(20, 5, 3, 2), patience=10, validation_fraction=0.1, device="auto"):
+    def __init__(
+        self,
+        hidden_size=20,
+        batch_size=1,
+        momentum=0.125,
+        learning_rates=(0.01, 1e-3, 1e-4, 1e-5),
+        max_epochs=(20, 5, 3, 2),
+        patience=10,
+        validation_fraction=0.1,
+        device="auto",
+    ):
         self.hidden_size = hidden_size
         self.batch_size = batch_size
         self.momentum = momentum
@@ -56,11 +68,15 @@ class LSTM(BaseDetector):
         super().validate_params()
         rates, epochs = np.atleast_1d(self.learning_rates), np.atleast_1d(self.max_epochs)
         if len(epochs) not in (1, len(rates)):
-            raise UsageError(f"The 'max_epochs' parameter of LSTM needs one cap for all learning rates or one per rate "
-                             f"({len(rates)}); got {self.max_epochs!r}")
+            raise UsageError(
+                f"The 'max_epochs' parameter of LSTM needs one cap for all learning rates or one per rate "
+                f"({len(rates)}); got {self.max_epochs!r}"
+            )
         if self.device == "cuda" and not _cuda_available():
-            raise UsageError("The 'device' parameter of LSTM is 'cuda' but torch sees no CUDA device here; "
-                             "use 'cpu' or 'auto'")
+            raise UsageError(
+                "The 'device' parameter of LSTM is 'cuda' but torch sees no CUDA device here; "
+                "use 'cpu' or 'auto'"
+            )
 
     def _stages(self) -> list[tuple[float, int]]:
         rates = [float(r) for r in np.atleast_1d(self.learning_rates)]
@@ -71,13 +87,26 @@ class LSTM(BaseDetector):
         stages = self._stages()
         rng = np.random.default_rng(seed)
         lo, hi = np.percentile(x, [2.5, 97.5])
-        self.lo_, self.scale_ = float(lo), float(2.0 / max(hi - lo, 1e-12))  # [p2.5, p97.5] -> [-1, 1]
+        self.lo_, self.scale_ = (
+            float(lo),
+            float(2.0 / max(hi - lo, 1e-12)),
+        )  # [p2.5, p97.5] -> [-1, 1]
         xn = ((x - self.lo_) * self.scale_ - 1.0).astype(np.float32)
-        val = np.concatenate([rng.choice(np.flatnonzero(y == c), max(1, int(round(self.validation_fraction * (y == c).sum()))),
-                                         replace=False) for c in (0, 1)])
+        val = np.concatenate(
+            [
+                rng.choice(
+                    np.flatnonzero(y == c),
+                    max(1, int(round(self.validation_fraction * (y == c).sum()))),
+                    replace=False,
+                )
+                for c in (0, 1)
+            ]
+        )
         train = np.setdiff1d(np.arange(len(y)), val)
         if len(train) == 0:
-            raise UsageError("LSTM: too few windows to keep a validation part; lower validation_fraction")
+            raise UsageError(
+                "LSTM: too few windows to keep a validation part; lower validation_fraction"
+            )
         cuda = self.device == "cuda" or (self.device == "auto" and _cuda_available())
         params = kernels.init_params(self.hidden_size, rng)
         epoch = _torch_epoch if cuda else _numba_epoch
@@ -117,7 +146,9 @@ class LSTM(BaseDetector):
 
     def predict_window(self, window: np.ndarray) -> float:
         """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
-        return kernels.predict_window(window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+        return kernels.predict_window(
+            window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS)
+        )
 
 
 class LSTMStreamer(Streamer):
@@ -153,7 +184,13 @@ def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device
     import torch
 
     dev = torch.device(device)
-    to_torch = [lambda a: a[:, None], lambda a: a.T, lambda a: a, lambda a: a, lambda a: a]  # numpy -> torch layout
+    to_torch = [
+        lambda a: a[:, None],
+        lambda a: a.T,
+        lambda a: a,
+        lambda a: a,
+        lambda a: a,
+    ]  # numpy -> torch layout
     to_numpy = [lambda t: t[:, 0], lambda t: t.T, lambda t: t, lambda t: t, lambda t: t]
     lstm = torch.nn.LSTM(1, params[1].shape[0], batch_first=True).to(dev)
     lstm.bias_hh_l0.requires_grad_(False).zero_()

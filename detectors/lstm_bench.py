@@ -13,7 +13,9 @@ from slipbench.base import DEFAULT_HOP, Streamer, push_costs
 from slipbench.detectors import lstm_kernels as kernels
 
 
-def lstm_targets(detector_class: type, length: int = 50, seconds: float = 2.0, seed: int = 0) -> pd.DataFrame:
+def lstm_targets(
+    detector_class: type, length: int = 50, seconds: float = 2.0, seed: int = 0
+) -> pd.DataFrame:
     """The issue's LSTM targets, ours against stock torch.nn.LSTM (same size, same data).
 
     Training is an epoch of SGD with momentum at the detector's default batch size (ours
@@ -39,7 +41,9 @@ def lstm_targets(detector_class: type, length: int = 50, seconds: float = 2.0, s
     xt, yt = torch.tensor(x)[:, :, None], torch.tensor(y).long()
 
     def ours_epoch(bs: int) -> Callable[[], object]:
-        return lambda: kernels.train_epoch(x[:n_train], y, np.arange(n_train), bs, 1e-4, 0.125, *params, *velocity)
+        return lambda: kernels.train_epoch(
+            x[:n_train], y, np.arange(n_train), bs, 1e-4, 0.125, *params, *velocity
+        )
 
     def torch_epoch(bs: int, n: int) -> Callable[[], object]:
         def run():
@@ -49,6 +53,7 @@ def lstm_targets(detector_class: type, length: int = 50, seconds: float = 2.0, s
                 opt.zero_grad()
                 loss.backward()
                 opt.step()
+
         return run
 
     def torch_infer(xs):
@@ -74,29 +79,70 @@ def lstm_targets(detector_class: type, length: int = 50, seconds: float = 2.0, s
     torch.set_num_threads(threads)
     torch_per_sample = torch_window_us / hop
 
-    anew = Streamer(detector, hop)  # the base class's stream: predict_proba on each window as it completes
+    anew = Streamer(
+        detector, hop
+    )  # the base class's stream: predict_proba on each window as it completes
     figures = [
-        ("train samples/s, batch %d (default)" % batch, rate(ours_epoch(batch), n_train * length, seconds),
-         rate(torch_epoch(batch, n_torch1), n_torch1 * length, seconds), 2e6),
-        ("train samples/s, batch 128", rate(ours_epoch(128), n_train * length, seconds),
-         rate(torch_epoch(128, n_train), n_train * length, seconds), 2e6),
-        ("batched inference samples/s", rate(lambda: kernels.predict_proba(x, -1.0, 1.0, *params), x.size, seconds),
-         rate(lambda: torch_infer(xt), x.size, seconds), 20e6),
-        ("one window, µs (predict_window)", 1e6 / rate(lambda: detector.predict_window(single), 1, seconds),
-         torch_window_us, 20.0),
-        ("one window, µs (predict_proba, checked)", 1e6 / rate(lambda: detector.predict_proba(single[None]), 1, seconds),
-         torch_window_us, 20.0),
-        ("stream, a hop per push, µs/sample (hop %d)" % hop, min(push_costs(stream, pieces[hop])[0] for _ in range(3)),
-         torch_per_sample, 2.0),
-        ("stream, a sample per push, µs/sample (hop %d)" % hop, min(push_costs(stream, pieces[1])[0] for _ in range(3)),
-         torch_per_sample, np.nan),
-        ("each window anew, a hop per push, µs/sample (hop %d)" % hop, min(push_costs(anew, pieces[hop])[0] for _ in range(3)),
-         torch_per_sample, np.nan),
+        (
+            f"train samples/s, batch {batch} (default)",
+            rate(ours_epoch(batch), n_train * length, seconds),
+            rate(torch_epoch(batch, n_torch1), n_torch1 * length, seconds),
+            2e6,
+        ),
+        (
+            "train samples/s, batch 128",
+            rate(ours_epoch(128), n_train * length, seconds),
+            rate(torch_epoch(128, n_train), n_train * length, seconds),
+            2e6,
+        ),
+        (
+            "batched inference samples/s",
+            rate(lambda: kernels.predict_proba(x, -1.0, 1.0, *params), x.size, seconds),
+            rate(lambda: torch_infer(xt), x.size, seconds),
+            20e6,
+        ),
+        (
+            "one window, µs (predict_window)",
+            1e6 / rate(lambda: detector.predict_window(single), 1, seconds),
+            torch_window_us,
+            20.0,
+        ),
+        (
+            "one window, µs (predict_proba, checked)",
+            1e6 / rate(lambda: detector.predict_proba(single[None]), 1, seconds),
+            torch_window_us,
+            20.0,
+        ),
+        (
+            f"stream, a hop per push, µs/sample (hop {hop})",
+            min(push_costs(stream, pieces[hop])[0] for _ in range(3)),
+            torch_per_sample,
+            2.0,
+        ),
+        (
+            f"stream, a sample per push, µs/sample (hop {hop})",
+            min(push_costs(stream, pieces[1])[0] for _ in range(3)),
+            torch_per_sample,
+            np.nan,
+        ),
+        (
+            f"each window anew, a hop per push, µs/sample (hop {hop})",
+            min(push_costs(anew, pieces[hop])[0] for _ in range(3)),
+            torch_per_sample,
+            np.nan,
+        ),
     ]
     table = pd.DataFrame(figures, columns=["figure", "slipbench", "stock torch", "target"])
     lower_is_better = table["figure"].str.contains("µs")
-    table["speed-up vs torch"] = np.where(lower_is_better, table["stock torch"] / table["slipbench"],
-                                          table["slipbench"] / table["stock torch"])
-    meets = np.where(lower_is_better, table["slipbench"] <= table["target"], table["slipbench"] >= table["target"])
+    table["speed-up vs torch"] = np.where(
+        lower_is_better,
+        table["stock torch"] / table["slipbench"],
+        table["slipbench"] / table["stock torch"],
+    )
+    meets = np.where(
+        lower_is_better,
+        table["slipbench"] <= table["target"],
+        table["slipbench"] >= table["target"],
+    )
     table["meets target"] = np.where(table["target"].isna(), "", np.where(meets, "yes", "no"))
     return table

@@ -38,9 +38,19 @@ import numpy as np
 F32 = np.float32
 # Eigen's generic_fast_tanh_float coefficients (Eigen/src/Core/MathFunctionsImpl.h)
 _CLAMP = F32(7.90531110763549805)
-_A1, _A3, _A5, _A7 = F32(4.89352455891786e-03), F32(6.37261928875436e-04), F32(1.48572235717979e-05), F32(5.12229709037114e-08)
+_A1, _A3, _A5, _A7 = (
+    F32(4.89352455891786e-03),
+    F32(6.37261928875436e-04),
+    F32(1.48572235717979e-05),
+    F32(5.12229709037114e-08),
+)
 _A9, _A11, _A13 = F32(-8.60467152213735e-11), F32(2.00018790482477e-13), F32(-2.76076847742355e-16)
-_B0, _B2, _B4, _B6 = F32(4.89352518554385e-03), F32(2.26843463243900e-03), F32(1.18534705686654e-04), F32(1.19825839466702e-06)
+_B0, _B2, _B4, _B6 = (
+    F32(4.89352518554385e-03),
+    F32(2.26843463243900e-03),
+    F32(1.18534705686654e-04),
+    F32(1.19825839466702e-06),
+)
 _HALF, _ONE = F32(0.5), F32(1.0)
 N_CHUNKS = 8  # a batch is split into this many parallel chunks, whatever the thread count
 LANES = 32  # windows per block in batched inference: 4 AVX2 registers of float32 per gate row
@@ -58,7 +68,9 @@ def _twice(f):
     the serial ones launched threads for every update, depending on the order of first use)."""
     out = []
     for suffix, parallel in (("_parallel", True), ("_serial", False)):
-        g = types.FunctionType(f.__code__, f.__globals__, f.__name__ + suffix, f.__defaults__, f.__closure__)
+        g = types.FunctionType(
+            f.__code__, f.__globals__, f.__name__ + suffix, f.__defaults__, f.__closure__
+        )
         g.__qualname__, g.__doc__ = f.__qualname__ + suffix, f.__doc__
         out.append(nb.njit(parallel=parallel, **_jit)(g))
     return out
@@ -155,7 +167,11 @@ def _train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vr
     gwy, gby = np.zeros((N_CHUNKS, 2, H), F32), np.zeros((N_CHUNKS, 2), F32)
     acts_, tcs_ = np.empty((N_CHUNKS, T, G), F32), np.empty((N_CHUNKS, T, H), F32)
     cs_, hs_ = np.empty((N_CHUNKS, T + 1, H), F32), np.empty((N_CHUNKS, T + 1, H), F32)
-    dh_, dc_, da_ = np.empty((N_CHUNKS, H), F32), np.empty((N_CHUNKS, H), F32), np.empty((N_CHUNKS, G), F32)
+    dh_, dc_, da_ = (
+        np.empty((N_CHUNKS, H), F32),
+        np.empty((N_CHUNKS, H), F32),
+        np.empty((N_CHUNKS, G), F32),
+    )
     losses = np.zeros(N_CHUNKS)
     for start in range(0, n, batch_size):
         B = min(batch_size, n - start)
@@ -231,7 +247,9 @@ def _train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vr
 train_epoch_parallel, train_epoch_serial = _twice(_train_epoch)
 
 
-def train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt, vb, vwy, vby) -> float:
+def train_epoch(
+    x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt, vb, vwy, vby
+) -> float:
     """One epoch; see :func:`_train_epoch`. Batches under 256 windows run serially."""
     kernel = train_epoch_parallel if batch_size >= 256 else train_epoch_serial
     return kernel(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt, vb, vwy, vby)

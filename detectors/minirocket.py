@@ -20,9 +20,9 @@ import numpy as np
 from sklearn.linear_model import RidgeClassifierCV
 
 from slipbench.base import BaseDetector
-from slipbench.spectra import logistic
-from slipbench.params import Interval
 from slipbench.errors import UsageError
+from slipbench.params import Interval
+from slipbench.spectra import logistic
 
 MIN_LENGTH = 9
 
@@ -39,8 +39,11 @@ class MiniRocketDetector(BaseDetector):
     check_params = {"n_kernels": 168}
     requires = ("aeon",)
     install_hint = "pip install 'slipbench[minirocket]'"
-    _parameter_constraints = {"n_kernels": Interval(int, 84, 100_000), "max_dilations_per_kernel": Interval(int, 1, 128),
-                              "max_windows": Interval(int, 10, None)}
+    _parameter_constraints = {
+        "n_kernels": Interval(int, 84, 100_000),
+        "max_dilations_per_kernel": Interval(int, 1, 128),
+        "max_windows": Interval(int, 10, None),
+    }
 
     def __init__(self, n_kernels=1_000, max_dilations_per_kernel=32, max_windows=10_000):
         self.n_kernels = n_kernels
@@ -49,9 +52,18 @@ class MiniRocketDetector(BaseDetector):
 
     def _features(self, x: np.ndarray) -> np.ndarray:
         # aeon's own transform kernel; calling it directly keeps the fitted state plain arrays
-        from aeon.transformations.collection.convolution_based._minirocket import MiniRocket, _static_transform_uni
+        from aeon.transformations.collection.convolution_based._minirocket import (
+            MiniRocket,
+            _static_transform_uni,
+        )
 
-        params = (self.num_channels_, self.channel_indices_, self.dilations_, self.features_per_dilation_, self.biases_)
+        params = (
+            self.num_channels_,
+            self.channel_indices_,
+            self.dilations_,
+            self.features_per_dilation_,
+            self.biases_,
+        )
         features = _static_transform_uni(_pad(x).astype(np.float32), params, MiniRocket._indices)
         return (features - self.mean_) / self.std_
 
@@ -59,19 +71,32 @@ class MiniRocketDetector(BaseDetector):
         try:
             from aeon.transformations.collection.convolution_based import MiniRocket
         except ImportError as exc:
-            raise UsageError("the minirocket detector needs aeon: pip install 'slipbench[minirocket]'") from exc
+            raise UsageError(
+                "the minirocket detector needs aeon: pip install 'slipbench[minirocket]'"
+            ) from exc
 
         if len(x) > self.max_windows:
-            keep = np.sort(np.random.default_rng(seed).choice(len(x), self.max_windows, replace=False))
+            keep = np.sort(
+                np.random.default_rng(seed).choice(len(x), self.max_windows, replace=False)
+            )
             x, y = x[keep], y[keep]
-        transform = MiniRocket(self.n_kernels, self.max_dilations_per_kernel, n_jobs=1, random_state=seed)
+        transform = MiniRocket(
+            self.n_kernels, self.max_dilations_per_kernel, n_jobs=1, random_state=seed
+        )
         transform.fit(_pad(x)[:, None, :])
-        (self.num_channels_, self.channel_indices_, self.dilations_, self.features_per_dilation_,
-         self.biases_) = transform.parameters
+        (
+            self.num_channels_,
+            self.channel_indices_,
+            self.dilations_,
+            self.features_per_dilation_,
+            self.biases_,
+        ) = transform.parameters
         self.mean_, self.std_ = np.zeros(1, np.float32), np.ones(1, np.float32)
         raw = self._features(x)
         self.mean_, self.std_ = raw.mean(axis=0), raw.std(axis=0) + 1e-8
-        ridge = RidgeClassifierCV(alphas=np.logspace(-3, 3, 10)).fit((raw - self.mean_) / self.std_, y)
+        ridge = RidgeClassifierCV(alphas=np.logspace(-3, 3, 10)).fit(
+            (raw - self.mean_) / self.std_, y
+        )
         self.coef_, self.intercept_ = ridge.coef_.ravel(), float(ridge.intercept_[0])
         self.alpha_ = float(ridge.alpha_)
 

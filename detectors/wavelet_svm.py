@@ -19,8 +19,8 @@ from sklearn.kernel_approximation import Nystroem
 from sklearn.svm import LinearSVC
 
 from slipbench.base import BaseDetector
-from slipbench.spectra import logistic
 from slipbench.params import Interval, Options
+from slipbench.spectra import logistic
 
 
 def wavelet_and_level(length: int, wavelet: str, level: int) -> tuple[str, int]:
@@ -34,8 +34,10 @@ class WaveletSVM(BaseDetector):
     """DWT statistics into an RBF SVM (Nystroem approximation)."""
 
     _parameter_constraints = {
-        "wavelet": Options(tuple(pywt.wavelist(kind="discrete"))), "level": Interval(int, 1, 12),
-        "C": Interval(float, 1e-6, None), "n_components": Interval(int, 10, 20_000),
+        "wavelet": Options(tuple(pywt.wavelist(kind="discrete"))),
+        "level": Interval(int, 1, 12),
+        "C": Interval(float, 1e-6, None),
+        "n_components": Interval(int, 10, 20_000),
     }
 
     def __init__(self, wavelet="db4", level=4, C=1.0, n_components=300):
@@ -58,7 +60,11 @@ class WaveletSVM(BaseDetector):
         raw = self._features(x)
         self.mean_, self.std_ = raw.mean(axis=0), raw.std(axis=0) + 1e-8
         feats = (raw - self.mean_) / self.std_
-        nystroem = Nystroem(gamma=1.0 / feats.shape[1], n_components=min(self.n_components, len(x)), random_state=seed)
+        nystroem = Nystroem(
+            gamma=1.0 / feats.shape[1],
+            n_components=min(self.n_components, len(x)),
+            random_state=seed,
+        )
         mapped = nystroem.fit_transform(feats)
         svm = LinearSVC(C=self.C, class_weight="balanced", random_state=seed).fit(mapped, y)
         # keep plain arrays only (safe to save): the landmarks, the map's normalization, the SVM
@@ -68,7 +74,11 @@ class WaveletSVM(BaseDetector):
 
     def _predict_proba(self, x):
         f = self._features(x)
-        d2 = (f**2).sum(1)[:, None] - 2 * f @ self.landmarks_.T + (self.landmarks_**2).sum(1)[None, :]
+        d2 = (
+            (f**2).sum(1)[:, None]
+            - 2 * f @ self.landmarks_.T
+            + (self.landmarks_**2).sum(1)[None, :]
+        )
         mapped = np.exp(-self.gamma_ * np.maximum(d2, 0)) @ self.normalization_.T
         z = mapped @ self.coef_ + self.intercept_
         return logistic(z)

@@ -15,8 +15,13 @@ class CrossInstance(BaseProtocol):
 
     layout = Layout(
         "Classification trained and tested on data from one or all fingers of a single sensor type.",
-        ("sensor_type", "train_instance"), "test_instance", title="Cross-instance transfer", merge_rows=True,
-        figure="matrix", paper_table="cross-instance")
+        ("sensor_type", "train_instance"),
+        "test_instance",
+        title="Cross-instance transfer",
+        merge_rows=True,
+        figure="matrix",
+        paper_table="cross-instance",
+    )
     _parameter_constraints = {"window": WindowLength()}
 
     def __init__(self, window=50):
@@ -28,15 +33,36 @@ class CrossInstance(BaseProtocol):
             by_type.setdefault(sensor[0], []).append(sensor)
         for sensor_type, sensors in by_type.items():
             groups = {s[1]: (s,) for s in sensors} | {COMBINED: tuple(sensors)}
-            lengths = {window for s in sensors for window, _, _ in window_cells(recordings, s, self.window)}
-            (n, _, short), = window_cells(recordings, sensors[0], self.window)
-            skip = short or (f"{self.window} is {sorted(lengths)} samples on the units of {sensor_type}: units with "
-                             "different rates cannot share a model" if len(lengths) > 1 else "")
-            alone = f"sensor type {sensor_type} has one instance: nothing to transfer to" if len(sensors) < 2 else ""
+            lengths = {
+                window for s in sensors for window, _, _ in window_cells(recordings, s, self.window)
+            }
+            ((n, _, short),) = window_cells(recordings, sensors[0], self.window)
+            skip = short or (
+                f"{self.window} is {sorted(lengths)} samples on the units of {sensor_type}: units with "
+                "different rates cannot share a model"
+                if len(lengths) > 1
+                else ""
+            )
+            alone = (
+                f"sensor type {sensor_type} has one instance: nothing to transfer to"
+                if len(sensors) < 2
+                else ""
+            )
             for train_name, train in groups.items():
                 for test_name, test in groups.items():
                     yield Cell(
-                        key={"sensor_type": sensor_type, "train_instance": train_name, "test_instance": test_name},
-                        train=Part(train, "train"), test=Part(test, "test"), window=n,
-                        skip=skip or (alone if COMBINED in (train_name, test_name) or train_name != test_name else ""),
+                        key={
+                            "sensor_type": sensor_type,
+                            "train_instance": train_name,
+                            "test_instance": test_name,
+                        },
+                        train=Part(train, "train"),
+                        test=Part(test, "test"),
+                        window=n,
+                        skip=skip
+                        or (
+                            alone
+                            if COMBINED in (train_name, test_name) or train_name != test_name
+                            else ""
+                        ),
                     )

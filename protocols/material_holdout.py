@@ -17,8 +17,14 @@ class MaterialHoldout(BaseProtocol):
 
     layout = Layout(
         "Slip state classification with and without (*) explicit training of indicated materials across sensors.",
-        ("sensor_type", "sensor_instance"), "material", title="Material", group="with Material", pair="training",
-        figure="with-without", paper_table="material-holdout")
+        ("sensor_type", "sensor_instance"),
+        "material",
+        title="Material",
+        group="with Material",
+        pair="training",
+        figure="with-without",
+        paper_table="material-holdout",
+    )
     _parameter_constraints = {"window": WindowLength()}
 
     def __init__(self, window=50):

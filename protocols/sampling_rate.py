@@ -26,7 +26,15 @@ favouring it slightly; results name the decimation, and the README gives the dif
 from __future__ import annotations
 
 from slipbench.params import Interval, Options, Sequence, WindowLength
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, unit_rate, window_cells
+from slipbench.protocol import (
+    BaseProtocol,
+    Cell,
+    Layout,
+    Part,
+    sensor_pairs,
+    unit_rate,
+    window_cells,
+)
 
 FACTORS = (1, 2, 4, 8, 16, 32)
 
@@ -37,12 +45,24 @@ class SamplingRate(BaseProtocol):
     layout = Layout(
         "Slip state classification at various sampling rates (Hz) across sensors and fingers, window 200 "
         "downsampled. Superscripts indicate the sensor type for the selected sampling rate.",
-        ("sensor_type", "sensor_instance"), "downsample", title="Sampling rate", group="at Sampling Rate",
-        split=("decimation", "antialias"), column_label="rate_hz", figure="curve", x="rate_hz",
-        x_label="sampling rate (Hz)", log_base=2, paper_table="sampling-rate")
-    _parameter_constraints = {"decimation": Options(("plain", "lag", "both")),
-                              "antialias": Options((False, True, "both")), "window": WindowLength(),
-                              "factors": Sequence(Interval(int, 1, 1024))}
+        ("sensor_type", "sensor_instance"),
+        "downsample",
+        title="Sampling rate",
+        group="at Sampling Rate",
+        split=("decimation", "antialias"),
+        column_label="rate_hz",
+        figure="curve",
+        x="rate_hz",
+        x_label="sampling rate (Hz)",
+        log_base=2,
+        paper_table="sampling-rate",
+    )
+    _parameter_constraints = {
+        "decimation": Options(("plain", "lag", "both")),
+        "antialias": Options((False, True, "both")),
+        "window": WindowLength(),
+        "factors": Sequence(Interval(int, 1, 1024)),
+    }
 
     def __init__(self, decimation="plain", antialias=False, window=200, factors=FACTORS):
         self.decimation = decimation
@@ -56,17 +76,31 @@ class SamplingRate(BaseProtocol):
         factors = [self.factors] if isinstance(self.factors, int) else self.factors
         for sensor in sensor_pairs(recordings):
             rate = unit_rate(recordings, sensor)
-            (n, key, short), = window_cells(recordings, sensor, self.window)
+            ((n, key, short),) = window_cells(recordings, sensor, self.window)
             for decimation in decimations:
                 for antialias in filters:
                     for factor in factors:
-                        too_few = "" if n // factor >= 5 else f"window {n} downsampled by {factor} leaves {n // factor} samples"
+                        too_few = (
+                            ""
+                            if n // factor >= 5
+                            else f"window {n} downsampled by {factor} leaves {n // factor} samples"
+                        )
                         # the full-rate cell of every variant shares one model (the plan keys it so)
                         yield Cell(
-                            key={"sensor_type": sensor[0], "sensor_instance": sensor[1], "window": n,
-                                 "downsample": factor, "rate_hz": rate / factor, "decimation": decimation,
-                                 "antialias": antialias},
-                            train=Part((sensor,), "train"), test=Part((sensor,), "test"),
-                            window=n, downsample=factor, decimation=decimation, antialias=antialias,
+                            key={
+                                "sensor_type": sensor[0],
+                                "sensor_instance": sensor[1],
+                                "window": n,
+                                "downsample": factor,
+                                "rate_hz": rate / factor,
+                                "decimation": decimation,
+                                "antialias": antialias,
+                            },
+                            train=Part((sensor,), "train"),
+                            test=Part((sensor,), "test"),
+                            window=n,
+                            downsample=factor,
+                            decimation=decimation,
+                            antialias=antialias,
                             skip=short or too_few,
                         )

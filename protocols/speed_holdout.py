@@ -30,8 +30,14 @@ class SpeedHoldout(BaseProtocol):
 
     layout = Layout(
         "Slip state classification with and without (*) explicit training of indicated speeds across sensors.",
-        ("sensor_type", "sensor_instance"), "speed_mm_s", title="Slip speed", group="at Speed", pair="training",
-        figure="with-without", paper_table="speed-holdout")
+        ("sensor_type", "sensor_instance"),
+        "speed_mm_s",
+        title="Slip speed",
+        group="at Speed",
+        pair="training",
+        figure="with-without",
+        paper_table="speed-holdout",
+    )
     _parameter_constraints = {"window": WindowLength()}
 
     def __init__(self, window=50):
@@ -44,8 +50,12 @@ class SpeedHoldout(BaseProtocol):
             return {"speed_group": group}
         press = recordings[recordings["scenario"] == "press"]
         length = press["n_samples"] if "n_samples" in press else pd.Series(1, index=press.index)
-        press = press.assign(_length=length).sort_values(["_length", "recording_id"], ascending=[False, True])
-        for _, part in press.groupby(["sensor_type", "sensor_instance", "material"], sort=False, dropna=False):
+        press = press.assign(_length=length).sort_values(
+            ["_length", "recording_id"], ascending=[False, True]
+        )
+        for _, part in press.groupby(
+            ["sensor_type", "sensor_instance", "material"], sort=False, dropna=False
+        ):
             held = np.zeros(len(speeds))
             for index, n in zip(part.index, part["_length"]):
                 turn = int(np.argmin(held))  # ties go to the slower speed
@@ -54,4 +64,6 @@ class SpeedHoldout(BaseProtocol):
         return {"speed_group": group}
 
     def cells(self, recordings):
-        return holdout_cells(recordings, "speed_mm_s", _speeds(recordings), self.window, test_column="speed_group")
+        return holdout_cells(
+            recordings, "speed_mm_s", _speeds(recordings), self.window, test_column="speed_group"
+        )

@@ -9,12 +9,32 @@ from slipbench.params import Sequence, WindowLength
 from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, window_cells
 
 WINDOWS = (5, 10, 25, 50, 100, 200)
-CAPTION = "Slip state classification at various window sizes across three types of sensors and fingers."
-IN_SAMPLES = Layout(CAPTION, ("sensor_type", "sensor_instance"), "window", title="Window size",
-                    group="at Window Size", note_column="window_ms", figure="curve", x_label="window (samples)",
-                    log_base=10, paper_table="window-size")
-IN_MS = Layout(CAPTION, ("sensor_type", "sensor_instance"), "window_ms", title="Window size",
-               group="at Window Size (ms)", note_column="window", figure="curve", x_label="window (ms)", log_base=10)
+CAPTION = (
+    "Slip state classification at various window sizes across three types of sensors and fingers."
+)
+IN_SAMPLES = Layout(
+    CAPTION,
+    ("sensor_type", "sensor_instance"),
+    "window",
+    title="Window size",
+    group="at Window Size",
+    note_column="window_ms",
+    figure="curve",
+    x_label="window (samples)",
+    log_base=10,
+    paper_table="window-size",
+)
+IN_MS = Layout(
+    CAPTION,
+    ("sensor_type", "sensor_instance"),
+    "window_ms",
+    title="Window size",
+    group="at Window Size (ms)",
+    note_column="window",
+    figure="curve",
+    x_label="window (ms)",
+    log_base=10,
+)
 
 
 class WindowSize(BaseProtocol):
@@ -27,7 +47,10 @@ class WindowSize(BaseProtocol):
 
     @property
     def _in_ms(self) -> list[bool]:
-        return [isinstance(w, str) for w in (self.windows if isinstance(self.windows, (list, tuple)) else [self.windows])]
+        return [
+            isinstance(w, str)
+            for w in (self.windows if isinstance(self.windows, (list, tuple)) else [self.windows])
+        ]
 
     @property
     def layout(self) -> Layout:
@@ -36,11 +59,18 @@ class WindowSize(BaseProtocol):
     def validate_params(self) -> None:
         super().validate_params()
         if len(set(self._in_ms)) > 1:
-            raise UsageError(f"The 'windows' option of window-size takes samples or milliseconds, not both; "
-                             f"got {self.windows!r}")
+            raise UsageError(
+                f"The 'windows' option of window-size takes samples or milliseconds, not both; "
+                f"got {self.windows!r}"
+            )
 
     def cells(self, recordings):
         for sensor in sensor_pairs(recordings):
             for window, key, skip in window_cells(recordings, sensor, self.windows):
-                yield Cell(key={"sensor_type": sensor[0], "sensor_instance": sensor[1], **key},
-                           train=Part((sensor,), "train"), test=Part((sensor,), "test"), window=window, skip=skip)
+                yield Cell(
+                    key={"sensor_type": sensor[0], "sensor_instance": sensor[1], **key},
+                    train=Part((sensor,), "train"),
+                    test=Part((sensor,), "test"),
+                    window=window,
+                    skip=skip,
+                )

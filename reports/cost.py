@@ -37,7 +37,9 @@ def model_costs(rows: pd.DataFrame) -> pd.DataFrame:
     """Seconds per model: training plus the inference of every cell it tests."""
     ok = rows[rows["status"] == "ok"].copy()
     ok["infer_s"] = ok["infer_us_per_window"].fillna(0) * ok["n_test"].fillna(0) / 1e6
-    per = ok.groupby(["split", "detector", "model_key"]).agg(train_s=("train_s", "first"), infer_s=("infer_s", "sum"))
+    per = ok.groupby(["split", "detector", "model_key"]).agg(
+        train_s=("train_s", "first"), infer_s=("infer_s", "sum")
+    )
     return (per["train_s"].fillna(0) + per["infer_s"]).rename("seconds").reset_index()
 
 
@@ -50,8 +52,11 @@ def makespan(costs: list[float], workers: int) -> float:
 
 
 def cost_section(rows: pd.DataFrame, jobs: int) -> str:
-    scale = float(rows["dataset_path"].str.extract(r"scale([\d.]+)")[0].astype(float).iloc[0]) \
-        if rows["dataset_path"].str.contains("scale").any() else None
+    scale = (
+        float(rows["dataset_path"].str.extract(r"scale([\d.]+)")[0].astype(float).iloc[0])
+        if rows["dataset_path"].str.contains("scale").any()
+        else None
+    )
     models = model_costs(rows)
     done = pd.to_datetime(rows["finished_at"], format="ISO8601")
     ordered = rows.assign(t=done).sort_values("t")
@@ -59,29 +64,44 @@ def cost_section(rows: pd.DataFrame, jobs: int) -> str:
     idle = max(60.0, 2 * float(models["seconds"].max()))
     wall = gaps.where(gaps <= idle, 0.0).groupby([ordered["split"], ordered["detector"]]).sum()
     per = models.groupby(["split", "detector"])["seconds"].agg(["size", "sum", "max"])
-    lines = ["| Split | Detector | Models | Wall (min) | In models (CPU min) | Longest model (s) |",
-             "|:--|:--|--:|--:|--:|--:|"]
+    lines = [
+        "| Split | Detector | Models | Wall (min) | In models (CPU min) | Longest model (s) |",
+        "|:--|:--|--:|--:|--:|--:|",
+    ]
     for (split, detector), w in wall.items():
         p = per.loc[(split, detector)]
-        lines.append(f"| {split} | {detector} | {int(p['size'])} | {w / 60:.1f} | {p['sum'] / 60:.1f} | {p['max']:.0f} |")
+        lines.append(
+            f"| {split} | {detector} | {int(p['size'])} | {w / 60:.1f} | {p['sum'] / 60:.1f} | {p['max']:.0f} |"
+        )
     total = float(wall.sum())
-    lines.append(f"| **all** | | {len(models)} | **{total / 60:.1f}** | {models['seconds'].sum() / 60:.1f} | "
-                 f"{models['seconds'].max():.0f} |")
-    text = ["## What the reproduction cost", "",
-            f"Measured on this run's machine with `--jobs {jobs}` (wall: the time between cells finishing, idle "
-            "time between sittings left out; in models: training plus inference, summed over models):", "", *lines, ""]
+    lines.append(
+        f"| **all** | | {len(models)} | **{total / 60:.1f}** | {models['seconds'].sum() / 60:.1f} | "
+        f"{models['seconds'].max():.0f} |"
+    )
+    text = [
+        "## What the reproduction cost",
+        "",
+        f"Measured on this run's machine with `--jobs {jobs}` (wall: the time between cells finishing, idle "
+        "time between sittings left out; in models: training plus inference, summed over models):",
+        "",
+        *lines,
+        "",
+    ]
     if scale:
         overhead = total * jobs / models["seconds"].sum()
         cluster = makespan(list(models["seconds"] * overhead / scale), WORKERS)
-        text += [f"At scale {scale:g} the whole run (every detector, every protocol, both splits) took "
-                 f"{total / 60:.0f} min. Extrapolated linearly in the data's size (see `reports/cost.py`; an upper bound for the "
-                 "LSTM, which stops early after fewer epochs on more data): the "
-                 f"largest scale that fits in 2 hours on this machine is about {scale * BUDGET_S / total:.2f}; scale "
-                 f"1.0, the paper's size, would take about {total / scale / 3600:.1f} h here, and about "
-                 f"{cluster / 3600:.1f} h on a dask cluster of 8 such machines (16 workers; the models' costs x "
-                 f"{1 / scale:g}, inflated by the measured {overhead:.2f} of CPU time per second in models, scheduled "
-                 f"longest first; the longest single model, {models['seconds'].max() / scale / 60:.0f} min, bounds "
-                 "it from below).", ""]
+        text += [
+            f"At scale {scale:g} the whole run (every detector, every protocol, both splits) took "
+            f"{total / 60:.0f} min. Extrapolated linearly in the data's size (see `reports/cost.py`; an upper bound for the "
+            "LSTM, which stops early after fewer epochs on more data): the "
+            f"largest scale that fits in 2 hours on this machine is about {scale * BUDGET_S / total:.2f}; scale "
+            f"1.0, the paper's size, would take about {total / scale / 3600:.1f} h here, and about "
+            f"{cluster / 3600:.1f} h on a dask cluster of 8 such machines (16 workers; the models' costs x "
+            f"{1 / scale:g}, inflated by the measured {overhead:.2f} of CPU time per second in models, scheduled "
+            f"longest first; the longest single model, {models['seconds'].max() / scale / 60:.0f} min, bounds "
+            "it from below).",
+            "",
+        ]
     return "\n".join(text)
 
 

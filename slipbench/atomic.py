@@ -129,7 +129,9 @@ def folder_lock(folder: str | os.PathLike, timeout: float = 300.0) -> Iterator[N
                 break
             except BlockingIOError:
                 if time.monotonic() > deadline:
-                    raise EnvironmentFault(path, f"another process has held this lock for over {timeout:g} s", "lock") from None
+                    raise EnvironmentFault(
+                        path, f"another process has held this lock for over {timeout:g} s", "lock"
+                    ) from None
                 time.sleep(0.02)
         yield
     finally:

@@ -12,8 +12,8 @@ from __future__ import annotations
 import copy
 import importlib
 import json
-import os
 import math
+import os
 import re
 import sys
 import time
@@ -60,7 +60,9 @@ class BaseDetector(Parameterized):
     def _check_x(x: Any) -> np.ndarray:
         x = np.asarray(x, dtype=np.float32)
         if x.ndim != 2:
-            raise UsageError(f"windows must be a 2-D array (n_windows, window_length), got shape {x.shape}")
+            raise UsageError(
+                f"windows must be a 2-D array (n_windows, window_length), got shape {x.shape}"
+            )
         if x.shape[0] == 0:
             raise UsageError("no windows given")
         if x.shape[1] < MIN_WINDOW:
@@ -68,15 +70,19 @@ class BaseDetector(Parameterized):
         bad = ~np.isfinite(x)
         if bad.any():
             row, col = np.argwhere(bad)[0]
-            raise UsageError(f"windows contain NaN or infinity (first at window {row}, sample {col})")
+            raise UsageError(
+                f"windows contain NaN or infinity (first at window {row}, sample {col})"
+            )
         return np.ascontiguousarray(x)
 
     def _check_fitted(self) -> None:
         if not getattr(self, "window_length_", None):
-            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit before predict")
+            raise NotFittedError(
+                f"this {type(self).__name__} is not fitted yet; call fit before predict"
+            )
 
     # -- the public API
-    def fit(self, x: Any, y: Any, *, sampling_rate: float = 1000.0, seed: int = 0) -> "BaseDetector":
+    def fit(self, x: Any, y: Any, *, sampling_rate: float = 1000.0, seed: int = 0) -> BaseDetector:
         """Fit on windows ``x`` (n_windows, window_length) and labels ``y`` (1 = slip).
 
         ``sampling_rate`` (Hz) lets spectral detectors speak in hertz; ``seed`` drives every
@@ -90,7 +96,9 @@ class BaseDetector(Parameterized):
         if not np.isin(y, (0, 1)).all():
             raise UsageError("labels must be 0 (no slip) or 1 (slip)")
         if len(np.unique(y)) < 2:
-            raise UsageError(f"training data holds only class {int(y[0])}; a detector needs slip and non-slip windows")
+            raise UsageError(
+                f"training data holds only class {int(y[0])}; a detector needs slip and non-slip windows"
+            )
         if not (np.isfinite(sampling_rate) and sampling_rate > 0):
             raise UsageError(f"sampling_rate must be a positive number of Hz, got {sampling_rate}")
         self.sampling_rate_ = float(sampling_rate)
@@ -103,7 +111,9 @@ class BaseDetector(Parameterized):
         self._check_fitted()
         x = self._check_x(x)
         if x.shape[1] != self.window_length_:
-            raise UsageError(f"fitted on windows of {self.window_length_} samples, got {x.shape[1]}")
+            raise UsageError(
+                f"fitted on windows of {self.window_length_} samples, got {x.shape[1]}"
+            )
         return self._checked_output(self._predict_proba(x), len(x))
 
     def _checked_output(self, scores: Any, n: int) -> np.ndarray:
@@ -113,17 +123,25 @@ class BaseDetector(Parameterized):
         try:
             scores = np.asarray(scores, dtype=np.float64)
         except (TypeError, ValueError) as exc:
-            raise DetectorOutputError(f"{who} returned scores that are not numbers: {exc}") from None
+            raise DetectorOutputError(
+                f"{who} returned scores that are not numbers: {exc}"
+            ) from None
         if scores.shape != (n,):
-            raise DetectorOutputError(f"{who} returned scores of shape {scores.shape} for {n} windows; expected ({n},)")
+            raise DetectorOutputError(
+                f"{who} returned scores of shape {scores.shape} for {n} windows; expected ({n},)"
+            )
         bad = ~np.isfinite(scores)
         if bad.any():
-            raise DetectorOutputError(f"{who} returned {int(bad.sum())} non-finite scores (NaN or infinity) of {n}, "
-                                      f"first at window {int(np.argmax(bad))}")
+            raise DetectorOutputError(
+                f"{who} returned {int(bad.sum())} non-finite scores (NaN or infinity) of {n}, "
+                f"first at window {int(np.argmax(bad))}"
+            )
         outside = (scores < 0) | (scores > 1)
         if outside.any():
-            raise DetectorOutputError(f"{who} returned {int(outside.sum())} scores outside [0, 1] of {n} "
-                                      f"(from {scores.min():g} to {scores.max():g}); predict_proba gives probabilities")
+            raise DetectorOutputError(
+                f"{who} returned {int(outside.sum())} scores outside [0, 1] of {n} "
+                f"(from {scores.min():g} to {scores.max():g}); predict_proba gives probabilities"
+            )
         return scores
 
     def predict(self, x: Any) -> np.ndarray:
@@ -158,18 +176,29 @@ class BaseDetector(Parameterized):
             if key.endswith("_") and not key.startswith("_"):
                 arrays[key] = np.asarray(value)
                 if arrays[key].dtype == object:
-                    raise UsageError(f"cannot save {type(self).__name__}: fitted attribute {key!r} holds a "
-                                     f"{type(value).__name__}, not an array, number or string")
-                kinds[key] = type(value).__name__ if isinstance(value, (tuple, list, np.ndarray)) else "scalar"
+                    raise UsageError(
+                        f"cannot save {type(self).__name__}: fitted attribute {key!r} holds a "
+                        f"{type(value).__name__}, not an array, number or string"
+                    )
+                kinds[key] = (
+                    type(value).__name__
+                    if isinstance(value, (tuple, list, np.ndarray))
+                    else "scalar"
+                )
         cls = type(self)
-        meta = {"format": "slipbench-detector-1", "class": f"{cls.__module__}:{cls.__qualname__}",
-                "name": plugin_id(cls), "params": _encode(self.get_params()), "kinds": kinds}
+        meta = {
+            "format": "slipbench-detector-1",
+            "class": f"{cls.__module__}:{cls.__qualname__}",
+            "name": plugin_id(cls),
+            "params": _encode(self.get_params()),
+            "kinds": kinds,
+        }
         # a unique temporary name: two processes may save the same model key at once
         with atomic_file(path) as f:
             np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "BaseDetector":
+    def load(cls, path: str | os.PathLike) -> BaseDetector:
         """Read a detector written by :meth:`save`. ``SomeDetector.load`` insists on that class;
         ``BaseDetector.load`` finds the saved class among modules already imported and the
         modules of installed detector plugins (entry points), never importing anything else."""
@@ -182,12 +211,19 @@ class BaseDetector(Parameterized):
         if cls is BaseDetector:
             cls = _saved_class(meta["class"], path)
         elif meta["class"].rsplit(":", 1)[-1] != cls.__qualname__:
-            raise UsageError(f"{path} holds a {meta['class']} ({meta['name']!r}), not a {cls.__name__}")
+            raise UsageError(
+                f"{path} holds a {meta['class']} ({meta['name']!r}), not a {cls.__name__}"
+            )
         detector = cls(**_decode(meta["params"]))
         for key, value in arrays.items():
             kind = meta["kinds"][key]
-            detector.__dict__[key] = value.item() if kind == "scalar" else value if kind == "ndarray" else \
-                (tuple if kind == "tuple" else list)(value.tolist())
+            detector.__dict__[key] = (
+                value.item()
+                if kind == "scalar"
+                else value
+                if kind == "ndarray"
+                else (tuple if kind == "tuple" else list)(value.tolist())
+            )
         return detector
 
     def fitted_choices(self) -> dict[str, Any]:
@@ -215,15 +251,21 @@ def _saved_class(target: str, path: Any) -> type:
     installed plugin's module."""
     module_name, _, qualname = target.partition(":")
     module = sys.modules.get(module_name)
-    if module is None and (module_name.startswith("slipbench.") or any(
-            ep.value.partition(":")[0] == module_name for ep in entry_points(group=DETECTOR_GROUP))):
+    if module is None and (
+        module_name.startswith("slipbench.")
+        or any(
+            ep.value.partition(":")[0] == module_name for ep in entry_points(group=DETECTOR_GROUP)
+        )
+    ):
         module = importlib.import_module(module_name)
     obj = module
     for part in qualname.split(".") if module is not None else ():
         obj = getattr(obj, part, None)
     if not (isinstance(obj, type) and issubclass(obj, BaseDetector)):
-        raise UsageError(f"{path} holds a {target}, which is not an installed detector; load its plugin first "
-                         "(a plugin folder: slipbench.engine.registry.add_plugin_folder) or call TheClass.load")
+        raise UsageError(
+            f"{path} holds a {target}, which is not an installed detector; load its plugin first "
+            "(a plugin folder: slipbench.engine.registry.add_plugin_folder) or call TheClass.load"
+        )
     return obj
 
 
@@ -240,7 +282,11 @@ def _encode(value: Any) -> Any:
 
 def _decode(value: Any) -> Any:
     if isinstance(value, dict):
-        return tuple(_decode(v) for v in value["__tuple__"]) if "__tuple__" in value else {k: _decode(v) for k, v in value.items()}
+        return (
+            tuple(_decode(v) for v in value["__tuple__"])
+            if "__tuple__" in value
+            else {k: _decode(v) for k, v in value.items()}
+        )
     return [_decode(v) for v in value] if isinstance(value, list) else value
 
 
@@ -307,7 +353,7 @@ class Streamer:
     n_scores : int, scores given since then.
     """
 
-    def __init__(self, detector: "BaseDetector", hop: int, threshold: float = 0.5):
+    def __init__(self, detector: BaseDetector, hop: int, threshold: float = 0.5):
         self.detector = detector
         self.window = int(detector.window_length_)
         self.hop = check_hop(hop, self.window)
@@ -346,12 +392,16 @@ class Streamer:
             raise UsageError(f"samples must be numbers: {exc}") from None
         if x.ndim != 1:
             if x.ndim > 1:
-                raise UsageError(f"samples must be a number or a 1-D array of the univariate signal, got shape {x.shape}")
+                raise UsageError(
+                    f"samples must be a number or a 1-D array of the univariate signal, got shape {x.shape}"
+                )
             x = x.reshape(1)
         x = np.ascontiguousarray(x)
         if not _all_finite(x):
             i = int(np.argmin(np.isfinite(x)))
-            raise UsageError(f"sample {self.n_samples + i} of the stream is {x[i]} (NaN or infinity)")
+            raise UsageError(
+                f"sample {self.n_samples + i} of the stream is {x[i]} (NaN or infinity)"
+            )
         last = self.n_samples + len(x) - 1  # the stream index of the last new sample
         end = self.window - 1 + self.n_scores * self.hop  # where the next score falls
         n = (last - end) // self.hop + 1 if last >= end else 0
@@ -361,7 +411,9 @@ class Streamer:
         else:
             if not _all_probabilities(scores, n):
                 try:
-                    scores = self.detector._checked_output(scores, n)  # converts, or raises saying what is wrong
+                    scores = self.detector._checked_output(
+                        scores, n
+                    )  # converts, or raises saying what is wrong
                 except PluginError:  # DetectorOutputError
                     self.reset()  # the state has moved past samples that n_samples does not count
                     raise
@@ -384,9 +436,18 @@ class Streamer:
             start = self.n_scores * self.hop - first  # where the next window starts in data
             # the n windows from data[start], hop apart; they end inside data by the count of n
             # (as_strided: sliding_window_view's checks cost more than scoring one window)
-            views = np.lib.stride_tricks.as_strided(data[start:], (n, self.window), (self.hop * data.itemsize, data.itemsize), writeable=False)
-            scores = np.concatenate([self.detector._predict_proba(np.ascontiguousarray(views[i : i + MAX_BATCH]))
-                                     for i in range(0, n, MAX_BATCH)])
+            views = np.lib.stride_tricks.as_strided(
+                data[start:],
+                (n, self.window),
+                (self.hop * data.itemsize, data.itemsize),
+                writeable=False,
+            )
+            scores = np.concatenate(
+                [
+                    self.detector._predict_proba(np.ascontiguousarray(views[i : i + MAX_BATCH]))
+                    for i in range(0, n, MAX_BATCH)
+                ]
+            )
         keep = (self.n_scores + n) * self.hop - first  # the first sample a later window needs
         self._tail = data[keep:].copy()
         return scores
@@ -396,7 +457,9 @@ class Streamer:
 # more (the 2 µs a sample budget of the LSTM); plain Python is faster on a few numbers.
 SMALL = 32
 _NO_SCORES, _NO_DECISIONS = np.empty(0), np.empty(0, np.int8)
-_NO_SCORES.flags.writeable = _NO_DECISIONS.flags.writeable = False  # shared by every push that completes no window
+_NO_SCORES.flags.writeable = _NO_DECISIONS.flags.writeable = (
+    False  # shared by every push that completes no window
+)
 
 
 def _all_finite(x: np.ndarray) -> bool:
@@ -412,7 +475,7 @@ def _all_probabilities(scores: Any, n: int) -> bool:
     return bool(((scores >= 0.0) & (scores <= 1.0)).all())
 
 
-def stream_scores(detector: "BaseDetector", signal: Any, hop: int) -> tuple[np.ndarray, np.ndarray]:
+def stream_scores(detector: BaseDetector, signal: Any, hop: int) -> tuple[np.ndarray, np.ndarray]:
     """Every score a fresh stream gives over ``signal``: what pushing the whole signal into
     ``detector.streamer(hop)`` returns, with where each score falls.
 
@@ -434,7 +497,9 @@ def stream_scores(detector: "BaseDetector", signal: Any, hop: int) -> tuple[np.n
     stream = detector.streamer(hop)
     signal = np.asarray(signal)
     if signal.ndim == 1 and len(signal) < stream.window:
-        raise UsageError(f"the signal has {len(signal)} samples, fewer than the window ({stream.window} samples)")
+        raise UsageError(
+            f"the signal has {len(signal)} samples, fewer than the window ({stream.window} samples)"
+        )
     scores, _ = stream.push(signal)
     return stream.window - 1 + stream.hop * np.arange(len(scores), dtype=np.int64), scores
 
@@ -460,13 +525,21 @@ def push_costs(stream: Streamer, pieces: list[np.ndarray]) -> tuple[float, float
         scored[i] = len(scores) > 0
     counted = np.arange(len(pieces)) > np.argmax(scored)
     if not (scored & counted).any():
-        raise UsageError(f"timing a stream needs pieces that complete at least two scores "
-                         f"(window {stream.window}, hop {stream.hop}, {sum(map(len, pieces))} samples)")
-    total = sum(np.median(times[kind]) * kind.sum() for kind in (scored & counted, ~scored & counted) if kind.any())
-    return total / sum(len(p) for p, c in zip(pieces, counted) if c) * 1e6, float(np.median(times[scored & counted]) * 1e3)
+        raise UsageError(
+            f"timing a stream needs pieces that complete at least two scores "
+            f"(window {stream.window}, hop {stream.hop}, {sum(map(len, pieces))} samples)"
+        )
+    total = sum(
+        np.median(times[kind]) * kind.sum()
+        for kind in (scored & counted, ~scored & counted)
+        if kind.any()
+    )
+    return total / sum(len(p) for p, c in zip(pieces, counted) if c) * 1e6, float(
+        np.median(times[scored & counted]) * 1e3
+    )
 
 
-def hop_latency(detector: "BaseDetector", signal: Any, hop: int) -> float:
+def hop_latency(detector: BaseDetector, signal: Any, hop: int) -> float:
     """The detector's compute time per hop, in ms: the median wall time of the pushes that
     complete a score when ``signal`` is fed one hop at a time, as a control loop would
     (:func:`push_costs`). The streaming protocol adds it to every delay."""

@@ -77,8 +77,11 @@ class CellsFailed(SlipbenchError):
         groups: dict[tuple[str, str], list[str]] = {}
         for label, status, reason in self.cells:
             groups.setdefault((status, reason), []).append(label)
-        lines = [f"{len(self.cells)} of {total} cells did not finish"
-                 + (f" (their rows, with status and reason, are in {where})" if where else "") + ":"]
+        lines = [
+            f"{len(self.cells)} of {total} cells did not finish"
+            + (f" (their rows, with status and reason, are in {where})" if where else "")
+            + ":"
+        ]
         for (status, reason), labels in groups.items():
             shown = "; ".join(labels[: self.SHOWN])
             more = f"; and {len(labels) - self.SHOWN} more" if len(labels) > self.SHOWN else ""
@@ -119,7 +122,9 @@ class EnvironmentFault(SlipbenchError):
         return type(self), (self.path, self.cause, self.action)
 
 
-def environment_fault(exc: OSError, path: str | os.PathLike, action: str = "write") -> EnvironmentFault:
+def environment_fault(
+    exc: OSError, path: str | os.PathLike, action: str = "write"
+) -> EnvironmentFault:
     """The EnvironmentFault an OSError stands for; re-raises ``exc`` when it is anything else.
 
     ``path`` is the file the caller meant to write (a temporary file's name would mean
@@ -127,7 +132,9 @@ def environment_fault(exc: OSError, path: str | os.PathLike, action: str = "writ
     """
     if exc.errno not in ENVIRONMENT_ERRNOS:
         raise exc
-    return EnvironmentFault(path, f"{ENVIRONMENT_ERRNOS[exc.errno]} ({errno.errorcode[exc.errno]})", action)
+    return EnvironmentFault(
+        path, f"{ENVIRONMENT_ERRNOS[exc.errno]} ({errno.errorcode[exc.errno]})", action
+    )
 
 
 @contextmanager

@@ -27,7 +27,11 @@ class Interval:
 
     def check(self, value: Any) -> bool:
         kinds = (int, float) if self.kind is float else (self.kind,)
-        if isinstance(value, bool) or not isinstance(value, kinds) or (isinstance(value, float) and math.isnan(value)):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, kinds)
+            or (isinstance(value, float) and math.isnan(value))
+        ):
             return False
         return (self.low is None or value >= self.low) and (self.high is None or value <= self.high)
 
@@ -127,7 +131,9 @@ def param_names(cls: type) -> list[str]:
         return []
     sig = inspect.signature(cls.__init__)
     kinds = (inspect.Parameter.VAR_KEYWORD, inspect.Parameter.VAR_POSITIONAL)
-    return sorted(p.name for p in sig.parameters.values() if p.name != "self" and p.kind not in kinds)
+    return sorted(
+        p.name for p in sig.parameters.values() if p.name != "self" and p.kind not in kinds
+    )
 
 
 def param_defaults(cls: type) -> dict[str, Any]:
@@ -150,11 +156,13 @@ class Parameterized:
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return {k: getattr(self, k) for k in self._param_names()}
 
-    def set_params(self, **params: Any) -> "Parameterized":
+    def set_params(self, **params: Any) -> Parameterized:
         valid = self._param_names()
         for k, v in params.items():
             if k not in valid:
-                raise UsageError(f"{type(self).__name__} has no parameter {k!r}; its parameters: {', '.join(valid) or 'none'}")
+                raise UsageError(
+                    f"{type(self).__name__} has no parameter {k!r}; its parameters: {', '.join(valid) or 'none'}"
+                )
             setattr(self, k, v)
         return self
 

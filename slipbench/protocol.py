@@ -20,7 +20,16 @@ import pandas as pd
 from slipbench.data.dataset import sensor_pairs
 from slipbench.params import Parameterized, window_samples
 
-__all__ = ["BaseProtocol", "Cell", "Layout", "Part", "holdout_cells", "sensor_pairs", "unit_rate", "window_cells"]
+__all__ = [
+    "BaseProtocol",
+    "Cell",
+    "Layout",
+    "Part",
+    "holdout_cells",
+    "sensor_pairs",
+    "unit_rate",
+    "window_cells",
+]
 MIN_WINDOW = 5  # samples: the shortest window a detector is given
 
 SIDES = ("train", "test")
@@ -50,11 +59,15 @@ class Part:
         if self.side not in SIDES:
             raise ValueError(f"Part.side must be one of {SIDES}, got {self.side!r}")
         if not self.sensors or not all(isinstance(s, tuple) and len(s) == 2 for s in self.sensors):
-            raise ValueError(f"Part.sensors must be a non-empty tuple of (sensor_type, instance) pairs, got {self.sensors!r}")
+            raise ValueError(
+                f"Part.sensors must be a non-empty tuple of (sensor_type, instance) pairs, got {self.sensors!r}"
+            )
         for condition in self.where:
             if len(condition) != 3 or condition[1] not in OPERATORS:
-                raise ValueError(f"Part.where holds (column, operator, value) triples with operator one of "
-                                 f"{OPERATORS}; got {condition!r}")
+                raise ValueError(
+                    f"Part.where holds (column, operator, value) triples with operator one of "
+                    f"{OPERATORS}; got {condition!r}"
+                )
 
     def mask(self, recordings: pd.DataFrame) -> np.ndarray:
         """(n_recordings,) bool: recordings of these sensors that meet every condition."""
@@ -105,21 +118,31 @@ class Cell:
         if not isinstance(self.key, dict) or not self.key:
             raise ValueError(f"Cell.key must be a non-empty dict, got {self.key!r}")
         # NumPy scalars become Python values, so keys and messages never hold reprs like np.float64(25.0)
-        object.__setattr__(self, "key", {k: v.item() if isinstance(v, np.generic) else v for k, v in self.key.items()})
+        object.__setattr__(
+            self,
+            "key",
+            {k: v.item() if isinstance(v, np.generic) else v for k, v in self.key.items()},
+        )
         for k, v in self.key.items():
             if not isinstance(k, str) or type(v) not in (str, int, float, bool):
-                raise ValueError(f"Cell.key maps names to plain str/int/float/bool values; {k!r}: {v!r} is not")
+                raise ValueError(
+                    f"Cell.key maps names to plain str/int/float/bool values; {k!r}: {v!r} is not"
+                )
         if not (isinstance(self.train, Part) and isinstance(self.test, Part)):
             raise ValueError("Cell.train and Cell.test must be Part objects")
         if self.train.side != "train" or self.test.side != "test":
-            raise ValueError(f"a cell trains on the train side and tests on the test side; got train={self.train.side!r}, "
-                             f"test={self.test.side!r}")
+            raise ValueError(
+                f"a cell trains on the train side and tests on the test side; got train={self.train.side!r}, "
+                f"test={self.test.side!r}"
+            )
         for name in ("window", "downsample"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"Cell.{name} must be a positive int, got {value!r}")
         if self.decimation not in DECIMATIONS:
-            raise ValueError(f"Cell.decimation must be one of {DECIMATIONS}, got {self.decimation!r}")
+            raise ValueError(
+                f"Cell.decimation must be one of {DECIMATIONS}, got {self.decimation!r}"
+            )
         if not isinstance(self.antialias, (bool, np.bool_)):
             raise ValueError(f"Cell.antialias must be a bool, got {self.antialias!r}")
         if self.stream is not None:
@@ -127,14 +150,30 @@ class Cell:
 
     def _check_stream(self) -> None:
         if not isinstance(self.stream, dict) or set(self.stream) != set(STREAM_KEYS):
-            raise ValueError(f"Cell.stream must be None or a dict with keys {STREAM_KEYS}, got {self.stream!r}")
+            raise ValueError(
+                f"Cell.stream must be None or a dict with keys {STREAM_KEYS}, got {self.stream!r}"
+            )
         hop, max_delay = self.stream["hop"], self.stream["max_delay_ms"]
-        if isinstance(hop, bool) or not isinstance(hop, (int, np.integer)) or not 1 <= hop <= self.window:
-            raise ValueError(f"Cell.stream['hop'] must be an int in [1, window = {self.window}], got {hop!r}")
-        if isinstance(max_delay, bool) or not isinstance(max_delay, (int, float)) or not 0 < max_delay < float("inf"):
-            raise ValueError(f"Cell.stream['max_delay_ms'] must be a positive number, got {max_delay!r}")
+        if (
+            isinstance(hop, bool)
+            or not isinstance(hop, (int, np.integer))
+            or not 1 <= hop <= self.window
+        ):
+            raise ValueError(
+                f"Cell.stream['hop'] must be an int in [1, window = {self.window}], got {hop!r}"
+            )
+        if (
+            isinstance(max_delay, bool)
+            or not isinstance(max_delay, (int, float))
+            or not 0 < max_delay < float("inf")
+        ):
+            raise ValueError(
+                f"Cell.stream['max_delay_ms'] must be a positive number, got {max_delay!r}"
+            )
         if self.downsample != 1:
-            raise ValueError(f"a streaming cell runs at the full rate (downsample 1), got downsample {self.downsample}")
+            raise ValueError(
+                f"a streaming cell runs at the full rate (downsample 1), got downsample {self.downsample}"
+            )
         object.__setattr__(self, "stream", {"hop": int(hop), "max_delay_ms": float(max_delay)})
 
     @property
@@ -190,8 +229,14 @@ class Layout:
     metrics: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if not isinstance(self.rows, tuple) or not self.rows or not all(isinstance(r, str) for r in self.rows):
-            raise ValueError(f"Layout.rows must be a non-empty tuple of column names, got {self.rows!r}")
+        if (
+            not isinstance(self.rows, tuple)
+            or not self.rows
+            or not all(isinstance(r, str) for r in self.rows)
+        ):
+            raise ValueError(
+                f"Layout.rows must be a non-empty tuple of column names, got {self.rows!r}"
+            )
         for name in ("caption", "column", "title", "group", "x_label"):
             if not isinstance(getattr(self, name), str):
                 raise ValueError(f"Layout.{name} must be a str, got {getattr(self, name)!r}")
@@ -200,10 +245,16 @@ class Layout:
         if self.figure == "with-without" and not self.pair:
             raise ValueError("a 'with-without' figure needs Layout.pair")
         split = (self.split,) if isinstance(self.split, str) else self.split
-        if split is not None and not (isinstance(split, tuple) and split and all(isinstance(c, str) for c in split)):
-            raise ValueError(f"Layout.split must be None, a column name or a non-empty tuple of them, got {self.split!r}")
+        if split is not None and not (
+            isinstance(split, tuple) and split and all(isinstance(c, str) for c in split)
+        ):
+            raise ValueError(
+                f"Layout.split must be None, a column name or a non-empty tuple of them, got {self.split!r}"
+            )
         if not isinstance(self.metrics, tuple) or not all(isinstance(m, str) for m in self.metrics):
-            raise ValueError(f"Layout.metrics must be a tuple of result column names, got {self.metrics!r}")
+            raise ValueError(
+                f"Layout.metrics must be a tuple of result column names, got {self.metrics!r}"
+            )
         if self.log_base not in (0, 2, 10):
             raise ValueError(f"Layout.log_base must be 0 (linear), 2 or 10, got {self.log_base!r}")
 
@@ -215,7 +266,13 @@ class Layout:
     @property
     def splits(self) -> list[str]:
         """The ``split`` columns as a list (none, one or several)."""
-        return [] if not self.split else [self.split] if isinstance(self.split, str) else list(self.split)
+        return (
+            []
+            if not self.split
+            else [self.split]
+            if isinstance(self.split, str)
+            else list(self.split)
+        )
 
 
 class BaseProtocol(Parameterized):
@@ -247,8 +304,13 @@ class BaseProtocol(Parameterized):
         return {}
 
 
-def holdout_cells(recordings: pd.DataFrame, name: str, levels: Iterable[Any], window: int | str,
-                  test_column: str | None = None) -> Iterator[Cell]:
+def holdout_cells(
+    recordings: pd.DataFrame,
+    name: str,
+    levels: Iterable[Any],
+    window: int | str,
+    test_column: str | None = None,
+) -> Iterator[Cell]:
     """Cells "with" and "without" explicit training on each level of column ``name``, per sensor.
 
     Test windows are those whose ``test_column`` (default: ``name``) equals the level; the
@@ -257,25 +319,34 @@ def holdout_cells(recordings: pd.DataFrame, name: str, levels: Iterable[Any], wi
     ``training`` ("with" or "without"); ``window`` is in samples or milliseconds ("50ms").
     """
     for sensor in sensor_pairs(recordings):
-        (n, _, skip), = window_cells(recordings, sensor, window)
+        ((n, _, skip),) = window_cells(recordings, sensor, window)
         for level in levels:
             level = level.item() if isinstance(level, np.generic) else level
             test = Part((sensor,), "test", ((test_column or name, "==", level),))
             key = {"sensor_type": sensor[0], "sensor_instance": sensor[1], name: level}
             yield Cell({**key, "training": "with"}, Part((sensor,), "train"), test, n, skip=skip)
-            yield Cell({**key, "training": "without"}, Part((sensor,), "train", ((name, "!=", level),)), test, n, skip=skip)
+            yield Cell(
+                {**key, "training": "without"},
+                Part((sensor,), "train", ((name, "!=", level),)),
+                test,
+                n,
+                skip=skip,
+            )
 
 
 def unit_rate(recordings: pd.DataFrame, sensor: tuple[str, str]) -> float:
     """The sampling rate (Hz) of one unit: its recordings' pooled rate (``unit_rate_hz``, the
     median of rates within tolerance) where the dataset gives it, else their median."""
-    rows = recordings[(recordings["sensor_type"] == sensor[0]) & (recordings["sensor_instance"] == sensor[1])]
+    rows = recordings[
+        (recordings["sensor_type"] == sensor[0]) & (recordings["sensor_instance"] == sensor[1])
+    ]
     column = "unit_rate_hz" if "unit_rate_hz" in rows else "sampling_rate_hz"
     return float(np.median(rows[column].to_numpy(dtype=float)))
 
 
-def window_cells(recordings: pd.DataFrame, sensor: tuple[str, str],
-                 windows: int | str | Iterable[int | str]) -> Iterator[tuple[int, dict[str, Any], str]]:
+def window_cells(
+    recordings: pd.DataFrame, sensor: tuple[str, str], windows: int | str | Iterable[int | str]
+) -> Iterator[tuple[int, dict[str, Any], str]]:
     """Each window of ``windows`` (samples, or milliseconds as "50ms") for one unit: its length in
     samples at the unit's rate, the cell-key items ``window`` (samples) and ``window_ms``, and a
     skip reason when it is shorter than MIN_WINDOW samples."""
@@ -283,6 +354,12 @@ def window_cells(recordings: pd.DataFrame, sensor: tuple[str, str],
     for window in [windows] if isinstance(windows, (int, str)) else windows:
         n = window_samples(window, rate)
         ms = float(window[:-2]) if isinstance(window, str) else round(1000.0 * n / rate, 1)
-        skip = "" if n >= MIN_WINDOW else (f"{window} is {n} samples at {rate:g} Hz; a window needs at least "
-                                          f"{MIN_WINDOW} samples")
+        skip = (
+            ""
+            if n >= MIN_WINDOW
+            else (
+                f"{window} is {n} samples at {rate:g} Hz; a window needs at least "
+                f"{MIN_WINDOW} samples"
+            )
+        )
         yield max(n, 1), {"window": n, "window_ms": ms}, skip

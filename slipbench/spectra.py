@@ -60,5 +60,9 @@ def best_threshold(values: np.ndarray, y: np.ndarray) -> tuple[float, int, float
     gap = f_other - f_slip
     best = int(np.argmax(np.abs(gap)))
     upper = candidates[min(best + 1, len(candidates) - 1)]
-    threshold = (candidates[best] + upper) / 2 if upper > candidates[best] else candidates[best] * (1 + 1e-9) + 1e-12
+    threshold = (
+        (candidates[best] + upper) / 2
+        if upper > candidates[best]
+        else candidates[best] * (1 + 1e-9) + 1e-12
+    )
     return float(threshold), (1 if gap[best] >= 0 else -1), float(abs(gap[best]))

@@ -25,7 +25,9 @@ def _fresh_registries():
 
     for r in (registry.detectors, registry.protocols):
         r.names()  # discover the entry points first: they stay
-    saved = [(r, dict(r._sources), dict(r._loaded)) for r in (registry.detectors, registry.protocols)]
+    saved = [
+        (r, dict(r._sources), dict(r._loaded)) for r in (registry.detectors, registry.protocols)
+    ]
     yield
     for r, sources, loaded in saved:
         r._sources, r._loaded = sources, loaded

@@ -7,8 +7,11 @@ import zlib
 
 import pandas as pd
 
-SENSORS = {"Nano17": ("index", "middle", "little"), "OptoForce20": ("index", "middle", "little"),
-           "BioTacSP": ("index", "middle")}
+SENSORS = {
+    "Nano17": ("index", "middle", "little"),
+    "OptoForce20": ("index", "middle", "little"),
+    "BioTacSP": ("index", "middle"),
+}
 RATES = {"Nano17": 1000.0, "OptoForce20": 1000.0, "BioTacSP": 850.0}
 
 
@@ -26,7 +29,13 @@ def _cells(protocol: str):
                     yield {**base, "window": w}
             elif protocol == "sampling-rate":
                 for d in (32, 16, 8, 4, 2, 1):
-                    yield {**base, "window": 200, "downsample": d, "rate_hz": RATES[sensor] / d, "decimation": "plain"}
+                    yield {
+                        **base,
+                        "window": 200,
+                        "downsample": d,
+                        "rate_hz": RATES[sensor] / d,
+                        "decimation": "plain",
+                    }
             elif protocol == "material-holdout":
                 for m in ("aluminum", "PVC", "neoprene", "cardboard", "plywood"):
                     for t in ("with", "without"):
@@ -37,7 +46,9 @@ def _cells(protocol: str):
                         yield {**base, "speed_mm_s": s, "training": t}
 
 
-def fake_rows(protocol: str, detector: str = "lstm", seeds=(0,), shift: float = 0.0) -> pd.DataFrame:
+def fake_rows(
+    protocol: str, detector: str = "lstm", seeds=(0,), shift: float = 0.0
+) -> pd.DataFrame:
     """Rows as ``evaluate`` writes them, accuracies drawn from a hash of the cell (so stable)."""
     rows = []
     for cell in _cells(protocol):
@@ -46,11 +57,24 @@ def fake_rows(protocol: str, detector: str = "lstm", seeds=(0,), shift: float = 
             u = zlib.crc32(f"{text}|{detector}|{seed}".encode()) / 2**32
             acc = 0.6 + 0.35 * u + shift
             row = {
-                "key": f"{zlib.crc32((text + detector + str(seed)).encode()):08x}", "protocol": protocol,
-                "detector": detector, "split": "paper", "seed": seed, **cell, "cell": text, "status": "ok",
-                "reason": "", "accuracy": acc, "accuracy_lo": acc - 0.021, "accuracy_hi": acc + 0.019,
-                "tp_rate": acc + 0.02, "tp_rate_lo": acc, "tp_rate_hi": acc + 0.04,
-                "tn_rate": acc - 0.02, "tn_rate_lo": acc - 0.04, "tn_rate_hi": acc,
+                "key": f"{zlib.crc32((text + detector + str(seed)).encode()):08x}",
+                "protocol": protocol,
+                "detector": detector,
+                "split": "paper",
+                "seed": seed,
+                **cell,
+                "cell": text,
+                "status": "ok",
+                "reason": "",
+                "accuracy": acc,
+                "accuracy_lo": acc - 0.021,
+                "accuracy_hi": acc + 0.019,
+                "tp_rate": acc + 0.02,
+                "tp_rate_lo": acc,
+                "tp_rate_hi": acc + 0.04,
+                "tn_rate": acc - 0.02,
+                "tn_rate_lo": acc - 0.04,
+                "tn_rate_hi": acc,
                 "dataset_fingerprint": "f00d",
             }
             rows.append(row)
@@ -63,7 +87,9 @@ def fake_rows(protocol: str, detector: str = "lstm", seeds=(0,), shift: float = 
 
 def all_rows() -> pd.DataFrame:
     """Every protocol with lstm; window-size with holweg too, and lstm's sampling rate with 3 seeds."""
-    parts = [fake_rows(p) for p in ("window-size", "material-holdout", "speed-holdout", "cross-instance")]
+    parts = [
+        fake_rows(p) for p in ("window-size", "material-holdout", "speed-holdout", "cross-instance")
+    ]
     parts += [fake_rows("sampling-rate", seeds=(0, 1, 2)), fake_rows("window-size", "holweg")]
     return pd.concat(parts, ignore_index=True)
 
@@ -79,7 +105,11 @@ def whole_paper_pair(root) -> tuple:
     base = pd.concat([fake_rows(p, d) for d in DETECTORS for p in PROTOCOLS], ignore_index=True)
     cand = base.copy()
     u = base["cell"].map(lambda c: zlib.crc32(c.encode()) / 2**32) - 0.5
-    worse = (base["detector"] == "lstm") & (base["protocol"] == "sampling-rate") & (base["sensor_type"] == "BioTacSP")
+    worse = (
+        (base["detector"] == "lstm")
+        & (base["protocol"] == "sampling-rate")
+        & (base["sensor_type"] == "BioTacSP")
+    )
     change = 0.06 * u - 0.15 * worse
     for name in ("accuracy", "tp_rate", "tn_rate"):
         for col in (name, f"{name}_lo", f"{name}_hi"):

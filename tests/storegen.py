@@ -14,15 +14,29 @@ import pandas as pd
 
 
 def cell_row(prefix: str, i: int) -> dict:
-    return {"key": f"{prefix}{i:05d}", "protocol": "window-size", "detector": "holweg", "status": "ok",
-            "reason": "", "window": 5 + i % 7, "seed": i % 3, "accuracy": 50 + i / 7,
-            "cell": f'{{"window": {5 + i % 7}}}'}
+    return {
+        "key": f"{prefix}{i:05d}",
+        "protocol": "window-size",
+        "detector": "holweg",
+        "status": "ok",
+        "reason": "",
+        "window": 5 + i % 7,
+        "seed": i % 3,
+        "accuracy": 50 + i / 7,
+        "cell": f'{{"window": {5 + i % 7}}}',
+    }
 
 
 def cell_predictions(i: int, n: int = 3000) -> pd.DataFrame:
     rng = np.random.default_rng(i)
-    return pd.DataFrame({"recording_id": np.repeat(f"rec{i}", n), "window_index": np.arange(n),
-                         "y_true": rng.integers(0, 2, n).astype(np.int8), "score": rng.random(n)})
+    return pd.DataFrame(
+        {
+            "recording_id": np.repeat(f"rec{i}", n),
+            "window_index": np.arange(n),
+            "y_true": rng.integers(0, 2, n).astype(np.int8),
+            "score": rng.random(n),
+        }
+    )
 
 
 def main(folder: str, n: int, every: int, prefix: str) -> None:

@@ -10,9 +10,11 @@ import slipbench
 import slipbench.detectors
 import slipbench.protocols
 
-PACKAGES = {"slipbench": Path(slipbench.__file__).parent,
-            "slipbench.detectors": Path(slipbench.detectors.__file__).parent,
-            "slipbench.protocols": Path(slipbench.protocols.__file__).parent}
+PACKAGES = {
+    "slipbench": Path(slipbench.__file__).parent,
+    "slipbench.detectors": Path(slipbench.detectors.__file__).parent,
+    "slipbench.protocols": Path(slipbench.protocols.__file__).parent,
+}
 
 
 def _modules() -> dict[str, Path]:
@@ -38,7 +40,10 @@ def _imports(name: str, path: Path, known: set[str]) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
-                base = ".".join(package.split(".")[: len(package.split(".")) - node.level + 1] + ([base] if base else []))
+                base = ".".join(
+                    package.split(".")[: len(package.split(".")) - node.level + 1]
+                    + ([base] if base else [])
+                )
             targets = [base] + [f"{base}.{a.name}" for a in node.names]
         else:
             continue
@@ -52,10 +57,18 @@ def _graph() -> dict[str, set[str]]:
 
 
 def test_the_engine_never_imports_the_builtin_plugins():
-    engine = {n: deps for n, deps in _graph().items() if not n.startswith(("slipbench.detectors", "slipbench.protocols"))}
-    leaks = {n: sorted(d for d in deps if d.startswith(("slipbench.detectors", "slipbench.protocols")))
-             for n, deps in engine.items()}
-    assert not {n: d for n, d in leaks.items() if d}, "the engine imports plugins; it must reach them through the registry"
+    engine = {
+        n: deps
+        for n, deps in _graph().items()
+        if not n.startswith(("slipbench.detectors", "slipbench.protocols"))
+    }
+    leaks = {
+        n: sorted(d for d in deps if d.startswith(("slipbench.detectors", "slipbench.protocols")))
+        for n, deps in engine.items()
+    }
+    assert not {n: d for n, d in leaks.items() if d}, (
+        "the engine imports plugins; it must reach them through the registry"
+    )
 
 
 def test_a_protocol_never_imports_another_plugin():
@@ -63,8 +76,13 @@ def test_a_protocol_never_imports_another_plugin():
     for name, deps in graph.items():
         if name.startswith(("slipbench.detectors.", "slipbench.protocols.")):
             family = name.rsplit(".", 1)[0]
-            others = [d for d in deps if d.startswith(("slipbench.detectors.", "slipbench.protocols."))
-                      and not d.startswith(name.rsplit("_", 1)[0]) and d.rsplit(".", 1)[0] != family]
+            others = [
+                d
+                for d in deps
+                if d.startswith(("slipbench.detectors.", "slipbench.protocols."))
+                and not d.startswith(name.rsplit("_", 1)[0])
+                and d.rsplit(".", 1)[0] != family
+            ]
             assert not others, f"{name} imports another plugin: {others}"
 
 
@@ -78,7 +96,7 @@ def test_no_import_cycles():
         path.append(node)
         for dep in sorted(graph[node]):
             if state.get(dep) == 1:
-                cycle = path[path.index(dep):] + [dep]
+                cycle = path[path.index(dep) :] + [dep]
                 raise AssertionError("import cycle: " + " -> ".join(cycle))
             if dep not in state:
                 visit(dep)

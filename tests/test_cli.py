@@ -25,7 +25,10 @@ def test_corrupted_copy_is_refused(small_path, tmp_path, cli):
     broken = tmp_path / "broken"
     shutil.copytree(small_path, broken)
     table = pq.read_table(broken / SAMPLES_FILE)
-    pq.write_table(table.drop_columns(["values"]).replace_schema_metadata(table.schema.metadata), broken / SAMPLES_FILE)
+    pq.write_table(
+        table.drop_columns(["values"]).replace_schema_metadata(table.schema.metadata),
+        broken / SAMPLES_FILE,
+    )
     code, _, err = cli(["dataset", "validate", str(broken)])
     assert code == 2
     assert "samples.parquet: column 'values': required column missing" in err
@@ -34,17 +37,38 @@ def test_corrupted_copy_is_refused(small_path, tmp_path, cli):
 
 def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, cli):
     out = tmp_path / "res"
-    argv = ["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(small_path), "--out", str(out), "--quiet"]
+    argv = [
+        "evaluate",
+        "--detector",
+        "holweg",
+        "--protocol",
+        "window-size",
+        "--dataset",
+        str(small_path),
+        "--out",
+        str(out),
+        "--quiet",
+    ]
     code, text, _ = cli(argv)
     assert code == 0
     assert "Sensor |" in text and "Finger |" in text and "Biotac SP" in text and "Little" in text
     rows = pq.read_table(out / "results.parquet").to_pandas()
     assert len(rows) == 48 and (rows["status"] == "ok").all()
     assert set(rows["window"]) == {5, 10, 25, 50, 100, 200}
-    for column in ("accuracy_lo", "tp_rate_hi", "train_us_per_sample", "infer_us_per_window", "dataset_fingerprint",
-                   "slipbench_version", "detector_params", "seed"):
+    for column in (
+        "accuracy_lo",
+        "tp_rate_hi",
+        "train_us_per_sample",
+        "infer_us_per_window",
+        "dataset_fingerprint",
+        "slipbench_version",
+        "detector_params",
+        "seed",
+    ):
         assert rows[column].notna().all(), column
-    assert (rows["accuracy_lo"] <= rows["accuracy"]).all() and (rows["accuracy"] <= rows["accuracy_hi"]).all()
+    assert (rows["accuracy_lo"] <= rows["accuracy"]).all() and (
+        rows["accuracy"] <= rows["accuracy_hi"]
+    ).all()
     # a second run reuses every cell
     before = {p.name: p.stat().st_mtime_ns for p in (out / "cells").iterdir()}
     code, _, _ = cli(argv)
@@ -54,14 +78,35 @@ def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, cli)
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["evaluate", "--detector", "nope", "--protocol", "window-size"], "unknown detector 'nope'; available: "),
-        (["evaluate", "--detector", "holweg", "--protocol", "nope"], "unknown protocol 'nope'; available:"),
-        (["evaluate", "--detector", "holweg", "--protocol", "window-size", "--param", "band=[9,1]"], "The 'band' parameter of Holweg"),
+        (
+            ["evaluate", "--detector", "nope", "--protocol", "window-size"],
+            "unknown detector 'nope'; available: ",
+        ),
+        (
+            ["evaluate", "--detector", "holweg", "--protocol", "nope"],
+            "unknown protocol 'nope'; available:",
+        ),
+        (
+            [
+                "evaluate",
+                "--detector",
+                "holweg",
+                "--protocol",
+                "window-size",
+                "--param",
+                "band=[9,1]",
+            ],
+            "The 'band' parameter of Holweg",
+        ),
         (["dataset", "validate", "/nonexistent/folder"], "not a dataset folder"),
     ],
 )
 def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_path, cli):
-    argv = argv + (["--dataset", str(small_path), "--out", str(tmp_path / "res"), "--quiet"] if argv[0] == "evaluate" else [])
+    argv = argv + (
+        ["--dataset", str(small_path), "--out", str(tmp_path / "res"), "--quiet"]
+        if argv[0] == "evaluate"
+        else []
+    )
     code, _, err = cli(argv)
     assert code == 2 and message in err and "Traceback" not in err
     assert not (tmp_path / "res" / "results.parquet").exists()
@@ -70,18 +115,38 @@ def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_pa
 def test_window_longer_than_every_recording(tmp_path, cli):
     from slipbench.data.synth import Design, synthesize
 
-    path = synthesize(tmp_path / "short", scale=0.0005, seed=0, design=Design(sensors=("BioTacSP",)))
-    code, _, err = cli(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(path),
-                        "--out", str(tmp_path / "res"), "--quiet"])
-    assert code == 0, err  # the cells that fit run; the others are skipped with the reason, never the run
+    path = synthesize(
+        tmp_path / "short", scale=0.0005, seed=0, design=Design(sensors=("BioTacSP",))
+    )
+    code, _, err = cli(
+        [
+            "evaluate",
+            "--detector",
+            "holweg",
+            "--protocol",
+            "window-size",
+            "--dataset",
+            str(path),
+            "--out",
+            str(tmp_path / "res"),
+            "--quiet",
+        ]
+    )
+    assert code == 0, (
+        err
+    )  # the cells that fit run; the others are skipped with the reason, never the run
     rows = pd.read_parquet(tmp_path / "res" / "results.parquet")
     long = rows[rows["window"] >= 100]
-    assert (long["status"] == "skipped").all() and (rows.loc[rows["window"] < 100, "status"] == "ok").all()
+    assert (long["status"] == "skipped").all() and (
+        rows.loc[rows["window"] < 100, "status"] == "ok"
+    ).all()
     assert long["reason"].str.contains("is longer than every recording of BioTacSP").all()
 
 
 def test_bench_prints_costs(cli):
-    code, out, err = cli(["bench", "--detector", "holweg", "--windows", "40", "--length", "20", "--seconds", "0.05"])
+    code, out, err = cli(
+        ["bench", "--detector", "holweg", "--windows", "40", "--length", "20", "--seconds", "0.05"]
+    )
     assert code == 0, err
     assert "| holweg" in out and "train_us_per_sample" in out
 
@@ -94,4 +159,8 @@ def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
 
     monkeypatch.setattr(slipbench.data.dataset, "read_dataset", broken)
     code, _, err = cli(["dataset", "validate", "anything"])
-    assert code == 70 and "ZeroDivisionError: a slip of the pen" in err and "this is a bug in slipbench" in err
+    assert (
+        code == 70
+        and "ZeroDivisionError: a slip of the pen" in err
+        and "this is a bug in slipbench" in err
+    )

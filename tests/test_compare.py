@@ -20,14 +20,23 @@ from test_report import check_golden
 from test_store_faults import TWO_CELLS
 
 from slipbench.app.cli import main
-from slipbench.stats.compare import COMMENT_LIMIT, MAX_ROWS, compare, family_level, to_json, to_markdown, verdict
-from slipbench.store.results import check_unique_keys
 from slipbench.errors import DataError
+from slipbench.stats.compare import (
+    COMMENT_LIMIT,
+    MAX_ROWS,
+    compare,
+    family_level,
+    to_json,
+    to_markdown,
+    verdict,
+)
 from slipbench.stats.metrics import classification_figures, paired_comparison
+from slipbench.store.results import check_unique_keys
 
-NULL_RUNS = int(os.environ.get("SLIPBENCH_NULL_RUNS", "20"))  # 100 or more: the full study, 999 resamples
+NULL_RUNS = int(
+    os.environ.get("SLIPBENCH_NULL_RUNS", "20")
+)  # 100 or more: the full study, 999 resamples
 NULL_CELLS = 280  # about the cells of a whole-paper run of one detector
-
 
 
 @pytest.fixture(scope="module")
@@ -36,8 +45,18 @@ def runs(small_path, tmp_path_factory):
     root = tmp_path_factory.mktemp("compare")
     (root / "plugins" / "protocols").mkdir(parents=True)
     (root / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
-    common = ["evaluate", "--detector", "holweg", "--protocol", "two-cells", "--dataset", str(small_path),
-              "--plugins", str(root / "plugins"), "--quiet"]
+    common = [
+        "evaluate",
+        "--detector",
+        "holweg",
+        "--protocol",
+        "two-cells",
+        "--dataset",
+        str(small_path),
+        "--plugins",
+        str(root / "plugins"),
+        "--quiet",
+    ]
     for name, extra in (("base", []), ("degraded", ["--param", "band=[300,495]"])):
         with pytest.raises(SystemExit) as exit_:
             main([*common, "--out", str(root / name), *extra])
@@ -49,7 +68,11 @@ def runs(small_path, tmp_path_factory):
 def test_self_compare_reports_no_change(runs, cli):
     code, out, _ = cli(["compare", str(runs / "base"), str(runs / "base" / "results.parquet")])
     assert code == 0
-    assert "**No regression**" in out and "▼ regressed: 0" in out and "= no significant change: 2" in out
+    assert (
+        "**No regression**" in out
+        and "▼ regressed: 0" in out
+        and "= no significant change: 2" in out
+    )
     rows = [line for line in out.splitlines() if line.endswith("= no significant change |")]
     assert len(rows) == 2  # both cells, each once, exactly unchanged in accuracy, TP and TN rate
     assert all("+0.0 [+0.0, +0.0]" in row and "+0.0 / +0.0" in row for row in rows)
@@ -57,7 +80,9 @@ def test_self_compare_reports_no_change(runs, cli):
 
 def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
     comment = tmp_path / "comment.md"
-    code, out, _ = cli(["compare", str(runs / "base"), str(runs / "degraded"), "--out", str(comment)])
+    code, out, _ = cli(
+        ["compare", str(runs / "base"), str(runs / "degraded"), "--out", str(comment)]
+    )
     assert code == 1
     assert "**2 cells regressed**" in out
     for finger in ("index", "middle"):
@@ -71,8 +96,11 @@ def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
 def test_cells_on_one_side_are_listed(tmp_path, cli):
     base = fake_rows("window-size", "holweg")
     cand = base[base["window"] != 5].copy()
-    extra = base[base["window"] == 200].assign(cell=lambda f: f["cell"].str.replace("200", "400"), window=400,
-                                               key=lambda f: f["key"] + "-400")
+    extra = base[base["window"] == 200].assign(
+        cell=lambda f: f["cell"].str.replace("200", "400"),
+        window=400,
+        key=lambda f: f["key"] + "-400",
+    )
     for name, rows in (("base", base), ("cand", pd.concat([cand, extra]))):
         (tmp_path / name).mkdir()
         rows.to_parquet(tmp_path / name / "results.parquet")
@@ -105,13 +133,17 @@ def test_bad_input_exits_2(runs, tmp_path, cli):
     other = tmp_path / "other"
     other.mkdir()
     fingerprint = pd.read_parquet(runs / "base" / "results.parquet")["dataset_fingerprint"].iloc[0]
-    fake_rows("cross-instance").assign(dataset_fingerprint=fingerprint).to_parquet(other / "results.parquet")
+    fake_rows("cross-instance").assign(dataset_fingerprint=fingerprint).to_parquet(
+        other / "results.parquet"
+    )
     code, _, err = cli(["compare", str(runs / "base"), str(other)])
     assert code == 2 and "share no cell" in err
     two = tmp_path / "two"
     shutil.copytree(runs / "base", two)
     rows = pd.read_parquet(two / "results.parquet")
-    pd.concat([rows, rows.assign(detector="other", key=rows["key"] + "-other")]).to_parquet(two / "results.parquet")
+    pd.concat([rows, rows.assign(detector="other", key=rows["key"] + "-other")]).to_parquet(
+        two / "results.parquet"
+    )
     code, _, err = cli(["compare", str(other), str(two / "results.parquet")])
     assert code == 2 and "cannot pair detectors" in err
 
@@ -124,10 +156,16 @@ def _write(folder, rows: pd.DataFrame) -> None:
 def test_results_of_different_datasets_are_refused_first(tmp_path, cli):
     base = fake_rows("window-size")
     _write(tmp_path / "base", base)
-    _write(tmp_path / "cand", fake_rows("window-size", detector="holweg").assign(dataset_fingerprint="beef"))
+    _write(
+        tmp_path / "cand",
+        fake_rows("window-size", detector="holweg").assign(dataset_fingerprint="beef"),
+    )
     code, out, err = cli(["compare", str(tmp_path / "base"), str(tmp_path / "cand")])
     assert code == 2 and out == ""
-    assert err.startswith("error: BASE and CANDIDATE were computed on different datasets") and "f00d" in err
+    assert (
+        err.startswith("error: BASE and CANDIDATE were computed on different datasets")
+        and "f00d" in err
+    )
 
 
 def test_repeated_keys_are_refused(tmp_path, cli):
@@ -156,8 +194,16 @@ def test_a_cell_the_candidate_no_longer_finishes_is_a_regression(tmp_path, statu
 
 def test_verdict_rules():
     def v(lo, hi, margin=0.0, statuses=("ok", "ok")):
-        return verdict({"base_status": statuses[0], "candidate_status": statuses[1],
-                        "d_accuracy_lo": lo, "d_accuracy_hi": hi}, margin)
+        return verdict(
+            {
+                "base_status": statuses[0],
+                "candidate_status": statuses[1],
+                "d_accuracy_lo": lo,
+                "d_accuracy_hi": hi,
+            },
+            margin,
+        )
+
     assert v(-0.05, -0.01) == "regressed" and v(0.01, 0.05) == "improved"
     assert v(-0.05, 0.01) == "no significant change"
     assert v(-0.05, -0.005, margin=1) == "no significant change"  # not shown beyond -1 point
@@ -182,10 +228,22 @@ def test_a_whole_paper_null_comparison_rarely_calls_a_regression():
         any_false = any_false_95 = False
         for cell in range(NULL_CELLS):
             d = dataset(rng, int(rng.choice((10, 20, 40))), float(rng.choice(TAUS)))
-            out = paired_comparison(d["y"], d["base"] > 0, d["cand"] > 0, d["groups"], seed=cell, level=level,
-                                    n_resamples=199 if NULL_RUNS < 100 else 999, figures=("accuracy",))
-            any_false |= verdict({"base_status": "ok", "candidate_status": "ok", **out}, 0.0) == "regressed"
-            any_false_95 |= out["d_accuracy"] + student_t.ppf(0.975, out["df"]) * out["d_accuracy_se"] < 0
+            out = paired_comparison(
+                d["y"],
+                d["base"] > 0,
+                d["cand"] > 0,
+                d["groups"],
+                seed=cell,
+                level=level,
+                n_resamples=199 if NULL_RUNS < 100 else 999,
+                figures=("accuracy",),
+            )
+            any_false |= (
+                verdict({"base_status": "ok", "candidate_status": "ok", **out}, 0.0) == "regressed"
+            )
+            any_false_95 |= (
+                out["d_accuracy"] + student_t.ppf(0.975, out["df"]) * out["d_accuracy_se"] < 0
+            )
         false_runs += any_false
         false_runs_95 += any_false_95
     assert false_runs <= 0.05 * NULL_RUNS, false_runs
@@ -201,16 +259,34 @@ def _simulated_results(root, n_cells: int, shift: float) -> None:
         (root / name / "predictions").mkdir(parents=True)
     for i in range(n_cells):
         d = dataset(rng, 20, 0.5)
-        cell = json.dumps({"sensor_type": "Nano17", "sensor_instance": "index", "window": i}, sort_keys=True)
+        cell = json.dumps(
+            {"sensor_type": "Nano17", "sensor_instance": "index", "window": i}, sort_keys=True
+        )
         for name, score in (("base", d["base"]), ("cand", d["cand"] - shift)):
             key = f"{name}{i:04d}"
-            sides[name].append({
-                "key": key, "protocol": "window-size", "detector": "holweg", "split": "grouped", "seed": 0,
-                "cell": cell, "window": i, "status": "ok", "reason": "", "dataset_fingerprint": "f00d",
-                **classification_figures(d["y"], score > 0, d["groups"], seed=i, scores=score)})
-            pd.DataFrame({"recording_id": d["groups"].astype(str), "window_index": np.arange(len(score)),
-                          "y_true": d["y"].astype(np.int8), "score": expit(score)}).to_parquet(
-                root / name / "predictions" / f"{key}.parquet")
+            sides[name].append(
+                {
+                    "key": key,
+                    "protocol": "window-size",
+                    "detector": "holweg",
+                    "split": "grouped",
+                    "seed": 0,
+                    "cell": cell,
+                    "window": i,
+                    "status": "ok",
+                    "reason": "",
+                    "dataset_fingerprint": "f00d",
+                    **classification_figures(d["y"], score > 0, d["groups"], seed=i, scores=score),
+                }
+            )
+            pd.DataFrame(
+                {
+                    "recording_id": d["groups"].astype(str),
+                    "window_index": np.arange(len(score)),
+                    "y_true": d["y"].astype(np.int8),
+                    "score": expit(score),
+                }
+            ).to_parquet(root / name / "predictions" / f"{key}.parquet")
     for name, rows in sides.items():
         pd.DataFrame(rows).to_parquet(root / name / "results.parquet")
 
@@ -226,7 +302,9 @@ def test_the_unpaired_fallback_is_no_more_liberal_than_the_paired_path(tmp_path)
     # Two detectors on the same windows err together, which only the paired path can see: the
     # unpaired interval is wider in nearly every cell (not all: its degrees of freedom come
     # from each side's own figure, not from the change's)
-    ratio = (unpaired["d_accuracy_hi"] - unpaired["d_accuracy_lo"]) / (paired["d_accuracy_hi"] - paired["d_accuracy_lo"])
+    ratio = (unpaired["d_accuracy_hi"] - unpaired["d_accuracy_lo"]) / (
+        paired["d_accuracy_hi"] - paired["d_accuracy_lo"]
+    )
     assert (ratio > 1).mean() >= 0.9 and ratio.median() > 1.2, ratio.describe()
     regressed = [int((c["verdict"] == "regressed").sum()) for c in (paired, unpaired)]
     assert regressed[1] <= regressed[0] and regressed[0] > 0, regressed
@@ -248,7 +326,11 @@ def test_compare_summary_golden(whole_paper):
 def test_a_whole_paper_comparison_fits_a_pull_request_comment(whole_paper):
     text = to_markdown(whole_paper)
     assert len(text) < 60_000
-    rows = [line for line in text.splitlines() if line.endswith(("▼ regressed |", "= no significant change |"))]
+    rows = [
+        line
+        for line in text.splitlines()
+        if line.endswith(("▼ regressed |", "= no significant change |"))
+    ]
     assert len(rows) == 12 + MAX_ROWS  # every regressed cell, then --max-rows others, each once
     assert len(set(rows)) == len(rows)
     assert f"_{1405 - 12 - MAX_ROWS} other cells not shown" in text
@@ -276,7 +358,11 @@ def test_json_holds_every_cell_for_bots(whole_paper, tmp_path, cli):
     assert doc["verdict"] == "regressed" and doc["exit_code"] == 1
     assert len(doc["cells"]) == 1405 and doc["counts"]["regressed"] == 12
     assert sum(s["cells"] for s in doc["summary"]) == 1405
-    worst = next(s for s in doc["summary"] if s["protocol"] == "sampling-rate" and s["detector"] == "lstm")
+    worst = next(
+        s for s in doc["summary"] if s["protocol"] == "sampling-rate" and s["detector"] == "lstm"
+    )
     assert worst["regressed"] == 12 and worst["worst_change"] < -13 and worst["worst_hi"] < 0
-    code, out, _ = cli(["compare", "base.parquet", "candidate.parquet", "--format", "json", "--out", "cmp.json"])
+    code, out, _ = cli(
+        ["compare", "base.parquet", "candidate.parquet", "--format", "json", "--out", "cmp.json"]
+    )
     assert code == 1 and json.loads(out) == json.loads((tmp_path / "cmp.json").read_text())

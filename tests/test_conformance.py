@@ -7,12 +7,15 @@ import numpy as np
 import pytest
 
 from slipbench.base import BaseDetector
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs
 from slipbench.engine.registry import detectors, protocols
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs
 from slipbench.testing import check_detector, check_protocol, parametrize_with_checks
 
 
-@parametrize_with_checks([detectors.get(n)() for n in detectors.names()] + [protocols.get(n)() for n in protocols.names()])
+@parametrize_with_checks(
+    [detectors.get(n)() for n in detectors.names()]
+    + [protocols.get(n)() for n in protocols.names()]
+)
 def test_registered_plugin_conforms(plugin, check):
     registry = detectors if isinstance(plugin, BaseDetector) else protocols
     status = registry.status(registry.id_of(type(plugin)))
@@ -50,8 +53,14 @@ class _Unsaveable(_Renamer):
         self.cut_, self.model_ = 0.0, object()
 
 
-@pytest.mark.parametrize("cls, words", [(_Nondeterministic, "same scores"), (_Renamer, "clone must keep"),
-                                        (_Unsaveable, "cannot save")])
+@pytest.mark.parametrize(
+    "cls, words",
+    [
+        (_Nondeterministic, "same scores"),
+        (_Renamer, "clone must keep"),
+        (_Unsaveable, "cannot save"),
+    ],
+)
 def test_suite_catches_broken_detectors(cls, words):
     with pytest.raises((AssertionError, Exception), match=words):
         check_detector(cls())
@@ -94,8 +103,17 @@ class _Leaky(BaseProtocol):
         for sensor in sensor_pairs(recordings):
             for material in ("aluminum", "PVC"):
                 test = Part((sensor,), "test", (("material", "==", material),))
-                yield Cell({"sensor_type": sensor[0], "sensor_instance": sensor[1], "material": material, "training": "without"},
-                           Part((sensor,), "train", (("material", "==", material),)), test, 50)
+                yield Cell(
+                    {
+                        "sensor_type": sensor[0],
+                        "sensor_instance": sensor[1],
+                        "material": material,
+                        "training": "without",
+                    },
+                    Part((sensor,), "train", (("material", "==", material),)),
+                    test,
+                    50,
+                )
 
 
 class _Unlaid(_Leaky):
@@ -105,30 +123,58 @@ class _Unlaid(_Leaky):
 
     def cells(self, recordings):
         for sensor in sensor_pairs(recordings):
-            yield Cell({"sensor_type": sensor[0], "sensor_instance": sensor[1]}, Part((sensor,), "train"),
-                       Part((sensor,), "test"), 50)
+            yield Cell(
+                {"sensor_type": sensor[0], "sensor_instance": sensor[1]},
+                Part((sensor,), "train"),
+                Part((sensor,), "test"),
+                50,
+            )
 
 
-@pytest.mark.parametrize("protocol, words", [(_Leaky(), "trains on .* recordings with that value"),
-                                             (_Unlaid(), "lacks the layout's columns \\['window'\\]")])
+@pytest.mark.parametrize(
+    "protocol, words",
+    [
+        (_Leaky(), "trains on .* recordings with that value"),
+        (_Unlaid(), "lacks the layout's columns \\['window'\\]"),
+    ],
+)
 def test_suite_catches_broken_protocols(protocol, words):
     with pytest.raises(AssertionError, match=words):
         check_protocol(protocol)
 
 
-@pytest.mark.parametrize("make, words", [
-    (lambda: Part((("Nano17", "index"),), "validation"), "Part.side must be one of"),
-    (lambda: Part((("Nano17", "index"),), "train", (("material", "<", "PVC"),)), "operator one of"),
-    (lambda: Cell({"w": 1}, Part((("a", "b"),), "test"), Part((("a", "b"),), "test"), 50), "trains on the train side"),
-    (lambda: Cell({"w": np.ones(2)}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 50), "plain"),
-    (lambda: Layout("x", ("a",), "b", figure="pie"), "Layout.figure must be one of"),
-])
+@pytest.mark.parametrize(
+    "make, words",
+    [
+        (lambda: Part((("Nano17", "index"),), "validation"), "Part.side must be one of"),
+        (
+            lambda: Part((("Nano17", "index"),), "train", (("material", "<", "PVC"),)),
+            "operator one of",
+        ),
+        (
+            lambda: Cell({"w": 1}, Part((("a", "b"),), "test"), Part((("a", "b"),), "test"), 50),
+            "trains on the train side",
+        ),
+        (
+            lambda: Cell(
+                {"w": np.ones(2)}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 50
+            ),
+            "plain",
+        ),
+        (lambda: Layout("x", ("a",), "b", figure="pie"), "Layout.figure must be one of"),
+    ],
+)
 def test_malformed_parts_cells_and_layouts_are_refused(make, words):
     with pytest.raises(ValueError, match=words):
         make()
 
 
 def test_cell_keys_hold_plain_values():
-    cell = Cell({"speed_mm_s": np.float64(25.0), "n": np.int64(3)}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 50)
+    cell = Cell(
+        {"speed_mm_s": np.float64(25.0), "n": np.int64(3)},
+        Part((("a", "b"),), "train"),
+        Part((("a", "b"),), "test"),
+        50,
+    )
     assert type(cell.key["speed_mm_s"]) is float and type(cell.key["n"]) is int
     assert cell.name == '{"n": 3, "speed_mm_s": 25.0}'

@@ -37,7 +37,10 @@ SIZES = (4, 6, 8, 10, 20, 40)
 TAUS = (0.5, 1.5)
 TAU_DETECTOR = 0.5
 SHARED_NOISE = 0.5
-RATES = {False: ((0.80,), (0.92,)), True: ((0.70, 0.90), (0.96, 0.88))}  # per stratum: TP rates, TN rates
+RATES = {
+    False: ((0.80,), (0.92,)),
+    True: ((0.70, 0.90), (0.96, 0.88)),
+}  # per stratum: TP rates, TN rates
 SLIP_WINDOWS, NONSLIP_WINDOWS = (10, 200), (5, 100)
 SHIFT = 0.3  # the candidate's threshold, latent units
 
@@ -56,33 +59,62 @@ def truth(tau: float, stratified: bool = False) -> dict[str, float]:
 
     def figures(threshold: float) -> dict[str, float]:
         tp, tn = norm.cdf((mu1 - threshold) / sd).mean(), norm.cdf((threshold - mu0) / sd).mean()
-        auroc = np.mean([norm.cdf((a - b) / (np.sqrt(2) * sd)) for a, b in itertools.product(mu1, mu0)])
-        return {"accuracy": (n1 * tp + n0 * tn) / (n1 + n0), "tp_rate": tp, "tn_rate": tn,
-                "balanced_accuracy": (tp + tn) / 2, "auroc": auroc}
+        auroc = np.mean(
+            [norm.cdf((a - b) / (np.sqrt(2) * sd)) for a, b in itertools.product(mu1, mu0)]
+        )
+        return {
+            "accuracy": (n1 * tp + n0 * tn) / (n1 + n0),
+            "tp_rate": tp,
+            "tn_rate": tn,
+            "balanced_accuracy": (tp + tn) / 2,
+            "auroc": auroc,
+        }
 
     base, cand = figures(0.0), figures(SHIFT)
     return base | {f"d_{k}": cand[k] - base[k] for k in base}
 
 
-def dataset(rng: np.random.Generator, m: int, tau: float, stratified: bool = False) -> dict[str, np.ndarray]:
+def dataset(
+    rng: np.random.Generator, m: int, tau: float, stratified: bool = False
+) -> dict[str, np.ndarray]:
     """One simulated test set: labels, recordings, balancing strata, the two detectors' scores."""
     sd, mu1, mu0 = _means(tau, stratified)
-    sizes = np.concatenate([rng.integers(SLIP_WINDOWS[0], SLIP_WINDOWS[1] + 1, m),
-                            rng.integers(NONSLIP_WINDOWS[0], NONSLIP_WINDOWS[1] + 1, m)])
+    sizes = np.concatenate(
+        [
+            rng.integers(SLIP_WINDOWS[0], SLIP_WINDOWS[1] + 1, m),
+            rng.integers(NONSLIP_WINDOWS[0], NONSLIP_WINDOWS[1] + 1, m),
+        ]
+    )
     groups = np.repeat(np.arange(2 * m), sizes)
     y = groups < m
-    half = (groups % m) >= m // 2 if stratified else np.zeros(len(y), bool)  # second stratum of each class
-    mean = np.where(y, mu1[half.astype(int) * (len(mu1) - 1)], mu0[half.astype(int) * (len(mu0) - 1)])
+    half = (
+        (groups % m) >= m // 2 if stratified else np.zeros(len(y), bool)
+    )  # second stratum of each class
+    mean = np.where(
+        y, mu1[half.astype(int) * (len(mu1) - 1)], mu0[half.astype(int) * (len(mu0) - 1)]
+    )
     u = rng.normal(0, tau, 2 * m)[groups]
     shared = rng.normal(0, np.sqrt(SHARED_NOISE), len(y))
-    scores = [mean + u + rng.normal(0, TAU_DETECTOR, 2 * m)[groups] + shared
-              + rng.normal(0, np.sqrt(1 - SHARED_NOISE), len(y)) for _ in range(2)]
+    scores = [
+        mean
+        + u
+        + rng.normal(0, TAU_DETECTOR, 2 * m)[groups]
+        + shared
+        + rng.normal(0, np.sqrt(1 - SHARED_NOISE), len(y))
+        for _ in range(2)
+    ]
     strata = np.char.add(np.where(y, "slip|", "non-slip|"), half.astype(int).astype(str))
     return {"y": y, "groups": groups, "strata": strata, "base": scores[0], "cand": scores[1]}
 
 
-def study(n_datasets: int, sizes=SIZES, taus=TAUS, method: str = "satterthwaite", stratified: bool = False,
-          seed: int = 0) -> pd.DataFrame:
+def study(
+    n_datasets: int,
+    sizes=SIZES,
+    taus=TAUS,
+    method: str = "satterthwaite",
+    stratified: bool = False,
+    seed: int = 0,
+) -> pd.DataFrame:
     """Coverage of every figure's interval and of the paired changes: one row per (m, tau)."""
     rows = []
     for tau in taus:
@@ -93,10 +125,26 @@ def study(n_datasets: int, sizes=SIZES, taus=TAUS, method: str = "satterthwaite"
             for d in range(n_datasets):
                 data = dataset(rng, m, tau, stratified)
                 strata = data["strata"] if stratified else None
-                f = classification_figures(data["y"], data["base"] > 0, data["groups"], seed=d,
-                                           scores=data["base"], strata=strata, method=method)
-                p = paired_comparison(data["y"], data["base"] > 0, data["cand"] > SHIFT, data["groups"], seed=d,
-                                      base_scores=data["base"], cand_scores=data["cand"], strata=strata, method=method)
+                f = classification_figures(
+                    data["y"],
+                    data["base"] > 0,
+                    data["groups"],
+                    seed=d,
+                    scores=data["base"],
+                    strata=strata,
+                    method=method,
+                )
+                p = paired_comparison(
+                    data["y"],
+                    data["base"] > 0,
+                    data["cand"] > SHIFT,
+                    data["groups"],
+                    seed=d,
+                    base_scores=data["base"],
+                    cand_scores=data["cand"],
+                    strata=strata,
+                    method=method,
+                )
                 for name, value in true.items():
                     src = p if name.startswith("d_") else f
                     hits[name] += src[f"{name}_lo"] <= value <= src[f"{name}_hi"]
@@ -120,7 +168,11 @@ CI_SLACK = 0.03  # two standard errors of a pooled coverage of 240 datasets
 def _check(table: pd.DataFrame) -> None:
     cover = pooled(table)
     slack = 0.0 if N_DATASETS >= FULL else CI_SLACK
-    outside = {k: round(v, 3) for k, v in cover.items() if not BANDS[k][0] - slack <= v <= BANDS[k][1] + slack}
+    outside = {
+        k: round(v, 3)
+        for k, v in cover.items()
+        if not BANDS[k][0] - slack <= v <= BANDS[k][1] + slack
+    }
     assert not outside, outside
 
 

@@ -9,17 +9,16 @@ import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from resultgen import fake_rows
 from scipy import signal
 
 from slipbench.data.dataset import Dataset
-from slipbench.errors import UsageError
+from slipbench.data.signals import Signals, Windows, univariate
 from slipbench.engine.plan import CellData, Run, keys
+from slipbench.errors import UsageError
 from slipbench.protocol import Cell, Part
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.report.document import protocol_tables
-from slipbench.data.signals import Signals, Windows, univariate
-
-from resultgen import fake_rows
 
 
 def one_recording(a: np.ndarray, rate: float = 1000.0) -> Signals:
@@ -29,7 +28,12 @@ def one_recording(a: np.ndarray, rate: float = 1000.0) -> Signals:
 
 
 @settings(max_examples=60, deadline=None)
-@given(window=st.integers(5, 64), factor=st.integers(1, 9), n_windows=st.integers(1, 4), seed=st.integers(0, 2**16))
+@given(
+    window=st.integers(5, 64),
+    factor=st.integers(1, 9),
+    n_windows=st.integers(1, 4),
+    seed=st.integers(0, 2**16),
+)
 def test_lag_is_the_difference_a_slower_sensor_measures(window, factor, n_windows, seed):
     """Sample j of a lag-decimated window is ||a|| at the slower sensor's reading j + 1 minus
     ||a|| at its reading j, the slower sensor reading every k-th of the window's readings."""
@@ -51,7 +55,9 @@ def test_lag_is_the_difference_a_slower_sensor_measures(window, factor, n_window
 
 def test_plain_is_the_papers_every_kth_sample_where_the_factor_divides_the_window():
     x = np.arange(2 * 200, dtype=np.float32).reshape(2, 200)
-    w = Windows(x, np.zeros(2, np.int32), np.arange(2, dtype=np.int32), pd.DataFrame(), np.ones(2, np.int8))
+    w = Windows(
+        x, np.zeros(2, np.int32), np.arange(2, dtype=np.int32), pd.DataFrame(), np.ones(2, np.int8)
+    )
     for k in (2, 4, 8):
         np.testing.assert_array_equal(w.downsample(k).x, x[:, ::k])
     # 200 is not a multiple of 16 or 32: the samples after the last whole block are dropped
@@ -60,7 +66,13 @@ def test_plain_is_the_papers_every_kth_sample_where_the_factor_divides_the_windo
 
 
 def test_unknown_decimation_and_too_large_factor_are_refused():
-    w = Windows(np.zeros((1, 10), np.float32), np.zeros(1, np.int32), np.zeros(1, np.int32), pd.DataFrame(), np.ones(1, np.int8))
+    w = Windows(
+        np.zeros((1, 10), np.float32),
+        np.zeros(1, np.int32),
+        np.zeros(1, np.int32),
+        pd.DataFrame(),
+        np.ones(1, np.int8),
+    )
     with pytest.raises(UsageError, match="unknown decimation 'cubic'; choose plain or lag"):
         w.downsample(2, "cubic")
     with pytest.raises(UsageError, match="windows of 10 samples downsampled by 11 leave no sample"):
@@ -98,8 +110,11 @@ def test_antialias_filters_the_norm_before_differencing():
 @pytest.fixture(scope="module")
 def nano(small):
     rec = small.recordings[small.recordings["sensor_type"].eq("Nano17")].reset_index(drop=True)
-    return Dataset(rec, {k: small.samples[k] for k in rec["recording_id"]},
-                   {k: small.slip_labels[k] for k in rec["recording_id"] if k in small.slip_labels})
+    return Dataset(
+        rec,
+        {k: small.samples[k] for k in rec["recording_id"]},
+        {k: small.slip_labels[k] for k in rec["recording_id"] if k in small.slip_labels},
+    )
 
 
 def test_cells_are_decimation_by_antialias_and_say_which(nano):
@@ -109,7 +124,12 @@ def test_cells_are_decimation_by_antialias_and_say_which(nano):
     assert len(cells) == 3 * 2 * 2 * 6 and len({c.name for c in cells}) == len(cells)
     for c in cells:
         assert (c.key["decimation"], c.key["antialias"]) == (c.decimation, c.antialias)
-    assert {(c.decimation, c.antialias) for c in cells} == {("plain", False), ("plain", True), ("lag", False), ("lag", True)}
+    assert {(c.decimation, c.antialias) for c in cells} == {
+        ("plain", False),
+        ("plain", True),
+        ("lag", False),
+        ("lag", True),
+    }
     run = Run("holweg", protocol)
     models = {}
     for c in cells:
@@ -123,29 +143,49 @@ def test_cells_are_decimation_by_antialias_and_say_which(nano):
     assert keys(run, other, "f")[1] == keys(run, plain, "f")[1]
 
 
-@pytest.mark.parametrize("options, message", [
-    (dict(decimation="antialias"), "The 'decimation' parameter of SamplingRate must be one of 'plain', 'lag', 'both'"),
-    (dict(antialias="yes"), "The 'antialias' parameter of SamplingRate must be one of False, True, 'both'"),
-])
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (
+            dict(decimation="antialias"),
+            "The 'decimation' parameter of SamplingRate must be one of 'plain', 'lag', 'both'",
+        ),
+        (
+            dict(antialias="yes"),
+            "The 'antialias' parameter of SamplingRate must be one of False, True, 'both'",
+        ),
+    ],
+)
 def test_options_are_validated(options, message):
     with pytest.raises(UsageError, match=message):
         SamplingRate(**options).validate_params()
     with pytest.raises(ValueError, match="Cell.antialias must be a bool"):
-        Cell({"x": 1}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 10, antialias="yes")
+        Cell(
+            {"x": 1}, Part((("a", "b"),), "train"), Part((("a", "b"),), "test"), 10, antialias="yes"
+        )
 
 
 def test_cell_data_cuts_the_same_windows_for_every_variant(nano):
     data = CellData(Signals.from_dataset(nano), "paper", seed=0)
-    cells = {(c.decimation, c.antialias, c.downsample): c
-             for c in SamplingRate(decimation="both", antialias="both").cells(nano.recordings)
-             if c.key["sensor_instance"] == "index"}
+    cells = {
+        (c.decimation, c.antialias, c.downsample): c
+        for c in SamplingRate(decimation="both", antialias="both").cells(nano.recordings)
+        if c.key["sensor_instance"] == "index"
+    }
     full = cells[("plain", False, 1)]
     positions = data.part(full.train, full.window)
     x = data.values(positions, full).x
-    got = {v: data.values(positions, cells[(*v, 8)]) for v in (("plain", False), ("lag", False), ("plain", True), ("lag", True))}
-    np.testing.assert_array_equal(got["plain", False].x, x[:, ::8])  # the paper's decimation, unchanged
-    np.testing.assert_allclose(got["lag", False].x, x.reshape(len(x), 25, 8).sum(-1, dtype=np.float64), rtol=1e-6)
-    for v, w in got.items():
+    got = {
+        v: data.values(positions, cells[(*v, 8)])
+        for v in (("plain", False), ("lag", False), ("plain", True), ("lag", True))
+    }
+    np.testing.assert_array_equal(
+        got["plain", False].x, x[:, ::8]
+    )  # the paper's decimation, unchanged
+    np.testing.assert_allclose(
+        got["lag", False].x, x.reshape(len(x), 25, 8).sum(-1, dtype=np.float64), rtol=1e-6
+    )
+    for _v, w in got.items():
         assert w.x.shape == (len(x), 25)
         np.testing.assert_array_equal(w.recording, positions.recording)  # the same windows ...
     assert not np.allclose(got["plain", True].x, got["plain", False].x)  # ... low-passed
@@ -159,26 +199,44 @@ def test_report_gives_one_table_per_variant(tmp_path):
     variants = [("plain", False), ("lag", False), ("plain", True), ("lag", True)]
     frames = []
     for i, (decimation, antialias) in enumerate(variants):
-        part = rows.assign(decimation=decimation, antialias=antialias, accuracy=rows["accuracy"] + i / 100)
+        part = rows.assign(
+            decimation=decimation, antialias=antialias, accuracy=rows["accuracy"] + i / 100
+        )
         frames.append(part.assign(cell=part["cell"] + f"{decimation}{antialias}"))
-    tables = protocol_tables(pd.concat(frames, ignore_index=True), SamplingRate.layout, "sampling-rate", "lstm")
+    tables = protocol_tables(
+        pd.concat(frames, ignore_index=True), SamplingRate.layout, "sampling-rate", "lstm"
+    )
     names = [name for name, _ in tables]
-    assert names == [f"lstm (decimation: {d}, antialias: {a})" for d, a in
-                     [("plain", False), ("plain", True), ("lag", False), ("lag", True)]]
-    for (name, table), (d, a) in zip(tables, [("plain", False), ("plain", True), ("lag", False), ("lag", True)]):
+    assert names == [
+        f"lstm (decimation: {d}, antialias: {a})"
+        for d, a in [("plain", False), ("plain", True), ("lag", False), ("lag", True)]
+    ]
+    for (_name, table), (d, a) in zip(
+        tables, [("plain", False), ("plain", True), ("lag", False), ("lag", True)]
+    ):
         assert table.caption.endswith(f"Decimation: {d}. Antialias: {a}.")
         # one result per cell, never an average of two variants shown as seeds
         assert not any("±" in text for line in table.cells for text in line)
         i = variants.index((d, a))
-        nano_index_32 = rows[(rows["sensor_type"] == "Nano17") & (rows["sensor_instance"] == "index")
-                             & (rows["downsample"] == 32)]["accuracy"].iloc[0] + i / 100
+        nano_index_32 = (
+            rows[
+                (rows["sensor_type"] == "Nano17")
+                & (rows["sensor_instance"] == "index")
+                & (rows["downsample"] == 32)
+            ]["accuracy"].iloc[0]
+            + i / 100
+        )
         assert table.cells[0][0] == f"{100 * nano_index_32:.1f}"
     # and one figure per table; a run of one variant keeps its plain name
     from slipbench.report.plots import write_plots
 
     both = pd.concat(frames, ignore_index=True).assign(protocol_params="{}")
     names = sorted(p.name for p in write_plots(both, tmp_path / "all", paper=False))
-    assert names == sorted(f"sampling-rate-lstm-{d}-{a}.{ext}" for d, a in variants for ext in ("png", "pdf"))
+    assert names == sorted(
+        f"sampling-rate-lstm-{d}-{a}.{ext}" for d, a in variants for ext in ("png", "pdf")
+    )
     single = frames[0].assign(protocol_params="{}")
     assert sorted(p.name for p in write_plots(single, tmp_path / "one", paper=False)) == [
-        "sampling-rate-lstm.pdf", "sampling-rate-lstm.png"]
+        "sampling-rate-lstm.pdf",
+        "sampling-rate-lstm.png",
+    ]

@@ -6,20 +6,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slipbench.engine.registry import Registry, detectors, protocols
 from slipbench.base import BaseDetector
-from slipbench.store.results import ResultsStore
-from slipbench.engine.runner import Run, evaluate
-from slipbench.testing import check_detector, toy_windows
 from slipbench.detectors.bandpass import effective_band
 from slipbench.detectors.wavelet_svm import wavelet_and_level
+from slipbench.engine.registry import Registry, detectors, protocols
+from slipbench.engine.runner import Run, evaluate
+from slipbench.store.results import ResultsStore
+from slipbench.testing import check_detector, toy_windows
 
 
-@pytest.mark.parametrize("rate, band, fallback", [
-    (1000.0, (50.0, 400.0), False),  # as asked
-    (500.0, (50.0, 225.0), False),  # top clipped to 0.9 Nyquist
-    (62.5, (62.5 / 8, 0.9 * 31.25), True),  # the whole band above Nyquist: the fallback
-])
+@pytest.mark.parametrize(
+    "rate, band, fallback",
+    [
+        (1000.0, (50.0, 400.0), False),  # as asked
+        (500.0, (50.0, 225.0), False),  # top clipped to 0.9 Nyquist
+        (62.5, (62.5 / 8, 0.9 * 31.25), True),  # the whole band above Nyquist: the fallback
+    ],
+)
 def test_bandpass_clips_the_band_and_falls_back(rate, band, fallback):
     assert effective_band((50, 400), rate) == (pytest.approx(band), fallback)
     x, y = toy_windows(100, 30)
@@ -33,7 +36,9 @@ def test_bandpass_separates_a_burst_in_its_band():
     assert (d.predict(x[200:]) == y[200:]).mean() > 0.9
 
 
-@pytest.mark.parametrize("length, wavelet, level", [(5, "haar", 2), (50, "db4", 2), (200, "db4", 4)])
+@pytest.mark.parametrize(
+    "length, wavelet, level", [(5, "haar", 2), (50, "db4", 2), (200, "db4", 4)]
+)
 def test_wavelet_and_level_adapt_to_short_windows(length, wavelet, level):
     assert wavelet_and_level(length, "db4", 4) == (wavelet, level)
 
@@ -79,5 +84,9 @@ def test_a_folder_plugin_that_raises_in_fit_is_reported_and_the_run_goes_on(tmp_
     rows = evaluate(small, run, ResultsStore(tmp_path / "out"), progress=False)
     failed, ok = rows[rows["status"] == "failed"], rows[rows["status"] == "ok"]
     assert len(failed) == len(rows[rows["window"] == 5]) > 0 and (failed["window"] == 5).all()
-    assert failed["reason"].str.contains("detector 'flaky' raised: RuntimeError: diverged on short windows").all()
+    assert (
+        failed["reason"]
+        .str.contains("detector 'flaky' raised: RuntimeError: diverged on short windows")
+        .all()
+    )
     assert len(ok) == len(rows) - len(failed) and (ok["window"] > 5).all()  # the run went on

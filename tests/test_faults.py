@@ -38,7 +38,10 @@ def plugins(tmp_path_factory):
         name = "".join(p.title() for p in stem.split("_"))
         text = BAD_OUTPUT.format(name=name, what=what, body=body or "return score")
         if body is None:
-            text = text.replace("self.cut_ = float(", "from slipbench.errors import UsageError\n        raise UsageError('bad day')\n        self.cut_ = float(")
+            text = text.replace(
+                "self.cut_ = float(",
+                "from slipbench.errors import UsageError\n        raise UsageError('bad day')\n        self.cut_ = float(",
+            )
         (folder / f"{stem}.py").write_text(text)
     (folder / "broken.py").write_text("import no_such_module_slipbench\n")
     return folder
@@ -49,50 +52,110 @@ def one_unit(small_path, tmp_path_factory):
     from slipbench.data.dataset import read_dataset, write_dataset
 
     ds = read_dataset(small_path)
-    keep = ds.recordings["sensor_type"].eq("OptoForce20") & ds.recordings["sensor_instance"].eq("index")
+    keep = ds.recordings["sensor_type"].eq("OptoForce20") & ds.recordings["sensor_instance"].eq(
+        "index"
+    )
     rec = ds.recordings[keep]
     ids = set(rec["recording_id"])
-    return write_dataset(tmp_path_factory.mktemp("data") / "unit", rec, {k: v for k, v in ds.samples.items() if k in ids},
-                         {k: v for k, v in ds.slip_labels.items() if k in ids} or None)
+    return write_dataset(
+        tmp_path_factory.mktemp("data") / "unit",
+        rec,
+        {k: v for k, v in ds.samples.items() if k in ids},
+        {k: v for k, v in ds.slip_labels.items() if k in ids} or None,
+    )
 
 
 @pytest.mark.parametrize("stem", list(CASES))
-def test_a_detector_that_returns_garbage_fails_its_cells_with_the_reason(stem, plugins, one_unit, tmp_path, cli):
+def test_a_detector_that_returns_garbage_fails_its_cells_with_the_reason(
+    stem, plugins, one_unit, tmp_path, cli
+):
     out = tmp_path / "out"
-    code, text, err = cli(["evaluate", "--detector", stem.replace("_", "-"), "--protocol", "window-size", "--dataset",
-                           str(one_unit), "--plugins", str(plugins), "--out", str(out), "--quiet"])
+    code, text, err = cli(
+        [
+            "evaluate",
+            "--detector",
+            stem.replace("_", "-"),
+            "--protocol",
+            "window-size",
+            "--dataset",
+            str(one_unit),
+            "--plugins",
+            str(plugins),
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert code == 4, err
     assert CASES[stem][2] in err and f"detector '{stem.replace('_', '-')}'" in err
     rows = pd.read_parquet(out / "results.parquet")
-    assert (rows["status"] == "failed").all() and rows["reason"].str.contains(CASES[stem][2], regex=False).all()
-    assert not (out / "predictions").exists() or not any((out / "predictions").iterdir())  # no garbage stored
+    assert (rows["status"] == "failed").all() and rows["reason"].str.contains(
+        CASES[stem][2], regex=False
+    ).all()
+    assert not (out / "predictions").exists() or not any(
+        (out / "predictions").iterdir()
+    )  # no garbage stored
     code, text, _ = cli(["report", str(out)])  # a results set where every cell failed still reports
     assert code == 0 and "failed" in text
 
 
 def test_all_detectors_run_past_a_broken_plugin_and_exit_3(plugins, one_unit, tmp_path, cli):
-    code, _, err = cli(["evaluate", "--detector", "all", "--protocol", "window-size", "--dataset", str(one_unit),
-                        "--plugins", str(plugins), "--out", str(tmp_path / "out"), "--quiet",
-                        "--protocol-param", "windows=[50]", "--param", "max_epochs=1"])
+    code, _, err = cli(
+        [
+            "evaluate",
+            "--detector",
+            "all",
+            "--protocol",
+            "window-size",
+            "--dataset",
+            str(one_unit),
+            "--plugins",
+            str(plugins),
+            "--out",
+            str(tmp_path / "out"),
+            "--quiet",
+            "--protocol-param",
+            "windows=[50]",
+            "--param",
+            "max_epochs=1",
+        ]
+    )
     assert code == 3 and "detector 'broken'" in err and "the other plugins ran" in err
     rows = pd.read_parquet(tmp_path / "out" / "results.parquet")
     assert {"holweg", "lstm", "bandpass", "nan-scores"} <= set(rows["detector"])
     assert (rows.loc[rows["detector"] == "holweg", "status"] == "ok").all()
 
 
-@pytest.mark.parametrize("args, words", [
-    (["--param", "max_epochs=abc"], "The 'max_epochs' parameter of LSTM must be an int in [1, 100000]"),
-    (["--param", "learning_rates=[0.1,-1]"], "The 'learning_rates' parameter of LSTM must be"),
-    (["--param", "nope=1"], "no selected detector takes the parameter 'nope'"),
-    (["--protocol-param", "windows=abc"], "The 'windows' parameter of WindowSize must be"),
-    (["--seed", "-1"], "-1 is not in the range 0<=x<=4294967295"),
-    (["--seed", "99999999999999999999"], "is not in the range"),
-    (["--scale", "-1"], "is not in (0, 10]"),
-    (["--scale", "nan"], "is not in (0, 10]"),
-    (["--scale", "1e9"], "is not in (0, 10]"),
-])
+@pytest.mark.parametrize(
+    "args, words",
+    [
+        (
+            ["--param", "max_epochs=abc"],
+            "The 'max_epochs' parameter of LSTM must be an int in [1, 100000]",
+        ),
+        (["--param", "learning_rates=[0.1,-1]"], "The 'learning_rates' parameter of LSTM must be"),
+        (["--param", "nope=1"], "no selected detector takes the parameter 'nope'"),
+        (["--protocol-param", "windows=abc"], "The 'windows' parameter of WindowSize must be"),
+        (["--seed", "-1"], "-1 is not in the range 0<=x<=4294967295"),
+        (["--seed", "99999999999999999999"], "is not in the range"),
+        (["--scale", "-1"], "is not in (0, 10]"),
+        (["--scale", "nan"], "is not in (0, 10]"),
+        (["--scale", "1e9"], "is not in (0, 10]"),
+    ],
+)
 def test_bad_options_are_refused_before_any_work(args, words, tmp_path, cli):
-    code, _, err = cli(["evaluate", "--detector", "lstm", "--protocol", "window-size", "--out", str(tmp_path / "o"), *args])
+    code, _, err = cli(
+        [
+            "evaluate",
+            "--detector",
+            "lstm",
+            "--protocol",
+            "window-size",
+            "--out",
+            str(tmp_path / "o"),
+            *args,
+        ]
+    )
     assert code == 2 and words in err and "Traceback" not in err
     assert not (tmp_path / "o").exists()  # nothing started, nothing written
 
@@ -103,7 +166,9 @@ def _slipbench(args: list[str], cwd) -> int:
     import sys
 
     code = "import sys; from slipbench.app.cli import main; main(sys.argv[1:])"
-    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd).returncode
+    return subprocess.run(
+        [sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=cwd
+    ).returncode
 
 
 def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, tmp_path):
@@ -111,11 +176,27 @@ def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, 
     folder.mkdir()
     source = BAD_OUTPUT.format(name="Energy", what="a threshold", body="return score")
     (folder / "energy.py").write_text(source)
-    args = ["evaluate", "--detector", "energy", "--protocol", "window-size", "--dataset", str(one_unit),
-            "--plugins", str(folder), "--out", str(tmp_path / "out"), "--quiet", "--protocol-param", "windows=[25,50]"]
+    args = [
+        "evaluate",
+        "--detector",
+        "energy",
+        "--protocol",
+        "window-size",
+        "--dataset",
+        str(one_unit),
+        "--plugins",
+        str(folder),
+        "--out",
+        str(tmp_path / "out"),
+        "--quiet",
+        "--protocol-param",
+        "windows=[25,50]",
+    ]
     assert _slipbench(args, tmp_path) == 0
     first = pd.read_parquet(tmp_path / "out" / "results.parquet")
-    (folder / "energy.py").write_text(source.replace("> self.cut_", "< self.cut_"))  # the plugin's code changed
+    (folder / "energy.py").write_text(
+        source.replace("> self.cut_", "< self.cut_")
+    )  # the plugin's code changed
     assert _slipbench(args, tmp_path) == 0
     rows = pd.read_parquet(tmp_path / "out" / "results.parquet")
     assert len(rows) == 2 * len(first)  # the old cells stay, the new code's cells are new
@@ -126,23 +207,59 @@ def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, 
 
 def test_report_refuses_the_same_results_twice(tmp_path, one_unit, cli):
     out = tmp_path / "out"
-    assert cli(["evaluate", "--detector", "holweg", "--protocol", "window-size", "--dataset", str(one_unit),
-                "--out", str(out), "--quiet", "--protocol-param", "windows=[50]"])[0] == 0
+    assert (
+        cli(
+            [
+                "evaluate",
+                "--detector",
+                "holweg",
+                "--protocol",
+                "window-size",
+                "--dataset",
+                str(one_unit),
+                "--out",
+                str(out),
+                "--quiet",
+                "--protocol-param",
+                "windows=[50]",
+            ]
+        )[0]
+        == 0
+    )
     code, _, err = cli(["report", str(out), str(out)])
-    assert code == 2 and "appear more than once" in err and "the same results were given twice" in err
+    assert (
+        code == 2 and "appear more than once" in err and "the same results were given twice" in err
+    )
 
 
 def test_messages_never_show_numpy_reprs(tmp_path):
     import numpy as np
+
     from slipbench.data.dataset import write_dataset
     from slipbench.errors import DataError
 
-    rec = pd.DataFrame([dict(recording_id=f"r{i}", sensor_type="T", sensor_instance="a", scenario=sc, material="m",
-                             speed_mm_s=25.0, sampling_rate_hz=rate, channels=("c",), units=("u",), source="x")
-                        for i, (sc, rate) in enumerate([("slip", 59.738499926), ("press", 75.0)])])
+    rec = pd.DataFrame(
+        [
+            dict(
+                recording_id=f"r{i}",
+                sensor_type="T",
+                sensor_instance="a",
+                scenario=sc,
+                material="m",
+                speed_mm_s=25.0,
+                sampling_rate_hz=rate,
+                channels=("c",),
+                units=("u",),
+                source="x",
+            )
+            for i, (sc, rate) in enumerate([("slip", 59.738499926), ("press", 75.0)])
+        ]
+    )
     samples = {f"r{i}": np.random.default_rng(i).normal(size=(300, 1)) for i in range(2)}
     with pytest.raises(DataError) as info:
         write_dataset(tmp_path / "d", rec, samples)
     import re
 
-    assert not re.search(r"np\.(float|int|str)", str(info.value)) and "59.738499926 Hz in recording(s) 'r0'" in str(info.value)
+    assert not re.search(
+        r"np\.(float|int|str)", str(info.value)
+    ) and "59.738499926 Hz in recording(s) 'r0'" in str(info.value)

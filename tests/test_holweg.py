@@ -35,7 +35,9 @@ def _tones(n, rng, fs=1000.0, w=50):
     """Slip windows carry a 60 Hz tone, non-slip windows only noise."""
     t = np.arange(w) / fs
     y = rng.integers(0, 2, n)
-    x = rng.normal(0, 1, (n, w)) + 3 * y[:, None] * np.sin(2 * np.pi * 60 * t + rng.uniform(0, 6, (n, 1)))
+    x = rng.normal(0, 1, (n, w)) + 3 * y[:, None] * np.sin(
+        2 * np.pi * 60 * t + rng.uniform(0, 6, (n, 1))
+    )
     return x.astype(np.float32), y
 
 
@@ -62,5 +64,8 @@ def test_holweg_fixed_band_must_hold_a_bin():
 
 
 def test_holweg_parameter_validation_message():
-    with pytest.raises(UsageError, match=r"The 'band' parameter of Holweg must be None or a \(low_hz, high_hz\) pair.*Got \(5, 1\) instead"):
+    with pytest.raises(
+        UsageError,
+        match=r"The 'band' parameter of Holweg must be None or a \(low_hz, high_hz\) pair.*Got \(5, 1\) instead",
+    ):
         Holweg(band=(5, 1)).fit(np.zeros((4, 10)), [0, 1, 0, 1])

@@ -15,11 +15,14 @@ import pytest
 from resultgen import all_rows
 from test_report import check_golden
 
-from slipbench.report.plots import FigureSpec
 from slipbench.report.document import build_report, render
+from slipbench.report.plots import FigureSpec
 from slipbench.report.tables import Table
 
-CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)), None)
+CHROMIUM = next(
+    (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),
+    None,
+)
 
 
 class Outline(HTMLParser):
@@ -46,7 +49,14 @@ class Outline(HTMLParser):
         if tag in ("h1", "h2", "h3", "caption", "figcaption"):
             self._text = []
         elif tag == "table":
-            self._table = {"id": a.get("id", ""), "caption": "", "head": 0, "body": 0, "widths": set(), "section": ""}
+            self._table = {
+                "id": a.get("id", ""),
+                "caption": "",
+                "head": 0,
+                "body": 0,
+                "widths": set(),
+                "section": "",
+            }
         elif tag in ("thead", "tbody") and self._table is not None:
             self._table["section"] = tag
         elif tag == "tr" and self._table is not None:
@@ -55,7 +65,11 @@ class Outline(HTMLParser):
         elif tag in ("td", "th") and self._row is not None:
             self._row += int(a.get("colspan", 1))
         elif tag == "img":
-            data = base64.b64decode(a["src"].split(",", 1)[1]) if a.get("src", "").startswith("data:") else b""
+            data = (
+                base64.b64decode(a["src"].split(",", 1)[1])
+                if a.get("src", "").startswith("data:")
+                else b""
+            )
             ok = data[:8] == b"\x89PNG\r\n\x1a\n"
             width, height = struct.unpack(">II", data[16:24]) if ok else (0, 0)
             self.images.append((a.get("alt", ""), width, height))
@@ -78,7 +92,9 @@ class Outline(HTMLParser):
         elif tag == "table" and self._table is not None:
             t = self._table
             widths = ",".join(map(str, sorted(t["widths"])))
-            self.items.append(f"table #{t['id']} [{t['head']} head, {t['body']} rows x {widths} cells] {t['caption']}")
+            self.items.append(
+                f"table #{t['id']} [{t['head']} head, {t['body']} rows x {widths} cells] {t['caption']}"
+            )
             self._table = None
 
     def handle_data(self, data):
@@ -100,7 +116,9 @@ def test_page_has_every_table_and_figure_and_nothing_external(tmp_path):
     shown = [i for i in outline.items if i.startswith("table ")]
     assert len(shown) == len(tables) > 20
     for table, item in zip(tables, shown):
-        assert item.endswith(f"{table.caption} {table.subject}".strip()) and f"#{table.label} " in item
+        assert (
+            item.endswith(f"{table.caption} {table.subject}".strip()) and f"#{table.label} " in item
+        )
         assert f"{len(table.rows)} rows" in item
     assert len(outline.images) == len(figures) >= 7
     assert all(w > 300 and h > 200 for _, w, h in outline.images), outline.images
@@ -114,12 +132,25 @@ def test_report_command_writes_html(tmp_path, cli):
     folder = tmp_path / "res"
     folder.mkdir()
     rows.to_parquet(folder / "results.parquet")
-    code, out, err = cli(["report", str(folder), "--format", "html", "--leaderboard", "--out", str(tmp_path / "r.html")])
+    code, out, err = cli(
+        [
+            "report",
+            str(folder),
+            "--format",
+            "html",
+            "--leaderboard",
+            "--out",
+            str(tmp_path / "r.html"),
+        ]
+    )
     assert code == 0, err
     page = (tmp_path / "r.html").read_text()
     outline = Outline()
     outline.feed(page)
-    assert [i for i in outline.items if i.startswith("h2")] == ["h2 What this report stands on", "h2 Leaderboard"]
+    assert [i for i in outline.items if i.startswith("h2")] == [
+        "h2 What this report stands on",
+        "h2 Leaderboard",
+    ]
     assert len(outline.images) == 1  # the critical-difference diagram
 
 
@@ -129,18 +160,39 @@ def test_page_opens_in_headless_chromium(tmp_path):
     page = tmp_path / "report.html"
     page.write_text(text)
     shot = tmp_path / "report.png"
-    args = [CHROMIUM, "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
-            "--enable-logging=stderr", "--v=0", "--virtual-time-budget=10000"]
-    done = subprocess.run([*args, "--window-size=1280,3000", f"--screenshot={shot}", page.as_uri()],
-                          capture_output=True, text=True, timeout=120)
+    args = [
+        CHROMIUM,
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--hide-scrollbars",
+        "--enable-logging=stderr",
+        "--v=0",
+        "--virtual-time-budget=10000",
+    ]
+    done = subprocess.run(
+        [*args, "--window-size=1280,3000", f"--screenshot={shot}", page.as_uri()],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert shot.exists() and shot.stat().st_size > 50_000, done.stderr[-2000:]
-    assert "CONSOLE" not in done.stderr, [line for line in done.stderr.splitlines() if "CONSOLE" in line]
+    assert "CONSOLE" not in done.stderr, [
+        line for line in done.stderr.splitlines() if "CONSOLE" in line
+    ]
     # images checked in the browser: a copy of the page reports each image's decoded size
     probe = tmp_path / "probe.html"
-    probe.write_text(text.replace("</body>", "<script>window.addEventListener('load', () => document.body.setAttribute("
-                                  "'data-check', JSON.stringify([...document.images].map(i => i.complete ? i.naturalWidth : 0))))"
-                                  ";</script></body>"))
-    done = subprocess.run([*args, "--dump-dom", probe.as_uri()], capture_output=True, text=True, timeout=120)
+    probe.write_text(
+        text.replace(
+            "</body>",
+            "<script>window.addEventListener('load', () => document.body.setAttribute("
+            "'data-check', JSON.stringify([...document.images].map(i => i.complete ? i.naturalWidth : 0))))"
+            ";</script></body>",
+        )
+    )
+    done = subprocess.run(
+        [*args, "--dump-dom", probe.as_uri()], capture_output=True, text=True, timeout=120
+    )
     assert "CONSOLE" not in done.stderr
     marker = done.stdout.split('data-check="', 1)[1].split('"', 1)[0].replace("&quot;", '"')
     widths = json.loads(marker)

@@ -18,8 +18,8 @@ import pandas as pd
 import pytest
 
 from slipbench.data.dataset import read_dataset
-from slipbench.errors import DataError, UsageError
 from slipbench.data.importers import import_csv, load_mapping
+from slipbench.errors import DataError, UsageError
 
 DOCS = Path(__file__).resolve().parents[1] / "datasets.md"
 
@@ -51,7 +51,11 @@ def _taxel_trials(root: Path, n_trials: int = 6, seed: int = 0) -> dict[str, dic
         onset = int(rng.integers(100, n - 120))
         slip = int(rng.integers(20, 101))
         drop = k % 3 == 0
-        state = np.array(["hold"] * onset + ["slip"] * slip + (["drop"] if drop else ["hold"]) * (n - onset - slip))
+        state = np.array(
+            ["hold"] * onset
+            + ["slip"] * slip
+            + (["drop"] if drop else ["hold"]) * (n - onset - slip)
+        )
         counts = rng.integers(200, 4000, size=(n, 48))
         frame = pd.DataFrame(counts, columns=[f"taxel_{i}" for i in range(48)])
         frame.insert(0, "t", 1000.0 + np.arange(n) / rate)  # a logger's clock: seconds
@@ -73,14 +77,28 @@ def test_taxel_array_from_the_documented_mapping(tmp_path):
     rates = []
     for rid, t in truth.items():
         row = rec.loc[f"taxels/{rid}"]
-        assert (row["sensor_type"], row["sensor_instance"], row["scenario"], row["material"]) == ("TaxelArray", "right-hand", "hold-slip", t["material"])
-        assert row["channels"] == tuple(f"taxel_{i}" for i in range(48)) and row["units"] == ("count",) * 48
-        assert row["sampling_rate_hz"] == pytest.approx(t["rate"], rel=1e-9)  # the median step of its time column
+        assert (row["sensor_type"], row["sensor_instance"], row["scenario"], row["material"]) == (
+            "TaxelArray",
+            "right-hand",
+            "hold-slip",
+            t["material"],
+        )
+        assert (
+            row["channels"] == tuple(f"taxel_{i}" for i in range(48))
+            and row["units"] == ("count",) * 48
+        )
+        assert row["sampling_rate_hz"] == pytest.approx(
+            t["rate"], rel=1e-9
+        )  # the median step of its time column
         rates.append(row["sampling_rate_hz"])
-        np.testing.assert_array_equal(ds.samples[f"taxels/{rid}"], t["counts"])  # integer counts, exact
+        np.testing.assert_array_equal(
+            ds.samples[f"taxels/{rid}"], t["counts"]
+        )  # integer counts, exact
         np.testing.assert_array_equal(ds.slip_labels[f"taxels/{rid}"], t["labels"])
         assert row["trial"] == f"taxels/{rid}"  # one file, one trial
-    assert rec["unit_rate_hz"].to_numpy() == pytest.approx([np.median(rates)] * len(rates), rel=1e-12)
+    assert rec["unit_rate_hz"].to_numpy() == pytest.approx(
+        [np.median(rates)] * len(rates), rel=1e-12
+    )
     assert (rec["source"] == "Lab X, right hand, 2026").all()
 
 
@@ -93,11 +111,23 @@ def test_vibration_channel_with_trials_in_pieces(tmp_path):
         for piece in (1, 2):
             a = rng.normal(0, 0.02, size=(440, 1)).round(6)
             parts[f"{session}_part{piece}"] = a
-            _write(src / f"{session}_part{piece}.csv", pd.DataFrame(a, columns=["accel_g"]), header="# accelerometer log\n")
+            _write(
+                src / f"{session}_part{piece}.csv",
+                pd.DataFrame(a, columns=["accel_g"]),
+                header="# accelerometer log\n",
+            )
     mapping = {
-        "files": "*.csv", "comment": "#",
-        "recording": {"regex": r"(?P<session>s\d+)_part\d+\.csv", "sensor_type": "Vibro", "sensor_instance": "tip",
-                      "scenario": "slip", "material": "glass", "speed_mm_s": 20, "trial": "{session}"},
+        "files": "*.csv",
+        "comment": "#",
+        "recording": {
+            "regex": r"(?P<session>s\d+)_part\d+\.csv",
+            "sensor_type": "Vibro",
+            "sensor_instance": "tip",
+            "scenario": "slip",
+            "material": "glass",
+            "speed_mm_s": 20,
+            "trial": "{session}",
+        },
         "channels": {"names": ["accel_g"], "units": ["g"]},
         "rate": {"hz": 2200},
     }
@@ -105,7 +135,11 @@ def test_vibration_channel_with_trials_in_pieces(tmp_path):
     rec = ds.recordings
     assert list(rec["recording_id"]) == sorted(parts)
     assert list(rec["trial"]) == ["s1", "s1", "s2", "s2"]
-    assert set(rec["scenario"]) == {"slip"} and set(rec["sampling_rate_hz"]) == {2200.0} and set(rec["speed_mm_s"]) == {20.0}
+    assert (
+        set(rec["scenario"]) == {"slip"}
+        and set(rec["sampling_rate_hz"]) == {2200.0}
+        and set(rec["speed_mm_s"]) == {20.0}
+    )
     assert ds.slip_labels == {}  # labelled by scenario only
     for rid, a in parts.items():
         np.testing.assert_array_equal(ds.samples[rid], a)
@@ -122,12 +156,16 @@ def test_two_fingers_per_file_with_slip_segments(tmp_path):
             for speed in (10, 40):
                 name = f"{scenario}/{material}_{speed}mms.csv"
                 n = 300
-                frame = pd.DataFrame(rng.normal(size=(n, 6)).round(4), columns=["ix", "iy", "iz", "mx", "my", "mz"])
+                frame = pd.DataFrame(
+                    rng.normal(size=(n, 6)).round(4), columns=["ix", "iy", "iz", "mx", "my", "mz"]
+                )
                 _write(src / name, frame)
                 files[name] = frame
                 if scenario == "slip":
                     segments.append((name, 1.0, 2.5))  # seconds
-    pd.DataFrame(segments, columns=["file", "onset", "offset"]).to_csv(tmp_path / "segments.csv", index=False)
+    pd.DataFrame(segments, columns=["file", "onset", "offset"]).to_csv(
+        tmp_path / "segments.csv", index=False
+    )
     (tmp_path / "mapping.toml").write_text("""
 files = "*/*.csv"
 [recording]
@@ -157,11 +195,21 @@ unit = "s"
     rec = ds.recordings.set_index("recording_id")
     assert len(rec) == 16
     row = rec.loc["slip/pvc_10mms/middle"]
-    assert (row["sensor_instance"], row["material"], row["speed_mm_s"], row["trial"]) == ("middle", "PVC", 10.0, "slip/pvc_10mms")
+    assert (row["sensor_instance"], row["material"], row["speed_mm_s"], row["trial"]) == (
+        "middle",
+        "PVC",
+        10.0,
+        "slip/pvc_10mms",
+    )
     assert row["channels"] == ("mx", "my", "mz")
-    assert rec.loc["slip/pvc_10mms/index", "trial"] == "slip/pvc_10mms"  # the two fingers share the trial
+    assert (
+        rec.loc["slip/pvc_10mms/index", "trial"] == "slip/pvc_10mms"
+    )  # the two fingers share the trial
     assert np.isnan(rec.loc["press/cork_40mms/index", "speed_mm_s"])
-    np.testing.assert_array_equal(ds.samples["slip/cork_40mms/index"], files["slip/cork_40mms.csv"][["ix", "iy", "iz"]].to_numpy())
+    np.testing.assert_array_equal(
+        ds.samples["slip/cork_40mms/index"],
+        files["slip/cork_40mms.csv"][["ix", "iy", "iz"]].to_numpy(),
+    )
     labels = ds.slip_labels["slip/pvc_10mms/index"]
     assert labels.tolist() == [0] * 100 + [1] * 150 + [0] * 50  # [1.0 s, 2.5 s) at 100 Hz
     assert (ds.slip_labels["press/pvc_10mms/index"] == -1).all()  # not in the table: unlabelled
@@ -175,13 +223,21 @@ def test_onsets_from_file_names_and_drops_unlabelled(tmp_path):
         _write(src / name, pd.DataFrame({"p": np.arange(100) % 7}))
     mapping = {
         "recording": {"sensor_type": "P", "sensor_instance": "thumb", "scenario": "press"},
-        "rules": [{"regex": r"grip_onset(?P<slip_onset>\d+)_end(?P<slip_offset>\d*)\.csv", "scenario": "hold-slip"}],
-        "channels": {"names": ["p"]}, "rate": {"hz": 500},
+        "rules": [
+            {
+                "regex": r"grip_onset(?P<slip_onset>\d+)_end(?P<slip_offset>\d*)\.csv",
+                "scenario": "hold-slip",
+            }
+        ],
+        "channels": {"names": ["p"]},
+        "rate": {"hz": 500},
         "labels": {"unit": "sample", "after_offset": "unlabelled", "unlisted": "no-slip"},
     }
     ds = read_dataset(import_csv(src, tmp_path / "out", mapping))
     assert ds.slip_labels["grip_onset40_end70"].tolist() == [0] * 40 + [1] * 30 + [-1] * 30
-    assert ds.slip_labels["grip_onset10_end"].tolist() == [0] * 10 + [1] * 90  # no offset: slips to the end
+    assert (
+        ds.slip_labels["grip_onset10_end"].tolist() == [0] * 10 + [1] * 90
+    )  # no offset: slips to the end
     assert ds.slip_labels["still"].tolist() == [0] * 100
     assert list(ds.recordings["scenario"]) == ["hold-slip", "hold-slip", "press"]
     np.testing.assert_array_equal(ds.samples["still"][:, 0], np.arange(100) % 7)
@@ -190,16 +246,31 @@ def test_onsets_from_file_names_and_drops_unlabelled(tmp_path):
 def test_bad_segments_are_named(tmp_path):
     src = tmp_path / "src"
     _write(src / "a.csv", pd.DataFrame({"p": np.arange(50)}))
-    pd.DataFrame({"file": ["a.csv", "b.csv"], "onset": [10, 20], "offset": [20, 30]}).to_csv(tmp_path / "seg.csv", index=False)
-    mapping = {"recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "slip"}, "channels": {"names": ["p"]},
-               "rate": {"hz": 100}, "labels": {"segments": "seg.csv"}}
-    with pytest.raises(DataError, match=r"seg.csv: line 3: file 'b.csv' is not among the imported files"):
+    pd.DataFrame({"file": ["a.csv", "b.csv"], "onset": [10, 20], "offset": [20, 30]}).to_csv(
+        tmp_path / "seg.csv", index=False
+    )
+    mapping = {
+        "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "slip"},
+        "channels": {"names": ["p"]},
+        "rate": {"hz": 100},
+        "labels": {"segments": "seg.csv"},
+    }
+    with pytest.raises(
+        DataError, match=r"seg.csv: line 3: file 'b.csv' is not among the imported files"
+    ):
         import_csv(src, tmp_path / "out", mapping, base=tmp_path)
-    pd.DataFrame({"file": ["a.csv"], "onset": [40], "offset": [60]}).to_csv(tmp_path / "seg.csv", index=False)
-    with pytest.raises(DataError, match=r"seg.csv: line 2: slip segment \[40, 60\) does not fit .*a.csv \(50 samples\)"):
+    pd.DataFrame({"file": ["a.csv"], "onset": [40], "offset": [60]}).to_csv(
+        tmp_path / "seg.csv", index=False
+    )
+    with pytest.raises(
+        DataError,
+        match=r"seg.csv: line 2: slip segment \[40, 60\) does not fit .*a.csv \(50 samples\)",
+    ):
         import_csv(src, tmp_path / "out", mapping, base=tmp_path)
     pd.DataFrame({"file": ["a.csv"], "onset": ["soon"]}).to_csv(tmp_path / "seg.csv", index=False)
-    with pytest.raises(DataError, match=r"seg.csv: line 2: column 'onset': non-numeric value 'soon'"):
+    with pytest.raises(
+        DataError, match=r"seg.csv: line 2: column 'onset': non-numeric value 'soon'"
+    ):
         import_csv(src, tmp_path / "out", mapping, base=tmp_path)
 
 
@@ -208,8 +279,12 @@ def _one_file(tmp_path, text: str, **mapping) -> tuple[Path, dict]:
     src = tmp_path / "src"
     src.mkdir(exist_ok=True)
     (src / "r.csv").write_text(text)
-    base = {"comment": "#", "recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip"},
-            "channels": {"pattern": r"taxel_\d+"}, "rate": {"hz": 60}}
+    base = {
+        "comment": "#",
+        "recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip"},
+        "channels": {"pattern": r"taxel_\d+"},
+        "rate": {"hz": 60},
+    }
     for key, value in mapping.items():
         base[key] = {**base.get(key, {}), **value} if isinstance(value, dict) else value
     return src, base
@@ -224,22 +299,52 @@ def _lines(before: int, bad: str) -> str:
     return HEAD + "".join(GOOD[:before]) + bad + "".join(GOOD[before:])
 
 
-@pytest.mark.parametrize("text, extra, message", [
-    (_lines(15, "# a comment, then a blank line\n\n7,abc,3\n"), {}, r"r.csv: line 19: column 'taxel_12': non-numeric value 'abc'"),
-    (_lines(6, "7,,3\n"), {}, r"r.csv: line 8: column 'taxel_12': empty or missing value"),
-    (_lines(6, "7,1\n"), {}, r"r.csv: line 8: column 'taxel_13': empty or missing value"),  # a short row
-    (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value"),
-    (_lines(6, "7,1,3,4\n"), {}, r"r.csv: not a well-formed CSV file .*line 8"),
-    ("t,taxel_12,taxel_13\n" + "0,1,2\n1,2,3\n1,3,3\n", {"rate": {"time_column": "t"}}, r"r.csv: line 4: column 't': time does not increase"),
-    ("t,taxel_12,state\n" + "0,1,hold\n1,2,hold\n2,2,slide\n", {"labels": {"column": "state", "slip": ["slip"], "no_slip": ["hold"]}},
-     r"r.csv: line 4: column 'state': label 'slide' is not one of"),
-    ("t,x\n0,1\n1,2\n", {}, r"r.csv: no column matches the channel pattern"),
-    ("t,taxel_1\n0,1\n", {}, r"r.csv: 1 data row\(s\); a recording needs at least 2"),
-    ("", {}, r"r.csv: empty file"),
-    ("t,taxel_1\n0,1\n1,2\n", {"recording": {"scenario": "hold-slip"}}, r"r.csv: scenario hold-slip needs per-sample labels"),
-    ("t,taxel_1\n0,1\n1,2\n", {"channels": {"pattern": r"taxel_\d+", "count": 48}}, r"r.csv: 1 channel columns .* the mapping expects 48"),
-    ("t,taxel_1\n0,99999999999999999\n1,2\n", {}, r"r.csv: line 2: column 'taxel_1': integer 99999999999999999 beyond 2\*\*53"),
-])
+@pytest.mark.parametrize(
+    "text, extra, message",
+    [
+        (
+            _lines(15, "# a comment, then a blank line\n\n7,abc,3\n"),
+            {},
+            r"r.csv: line 19: column 'taxel_12': non-numeric value 'abc'",
+        ),
+        (_lines(6, "7,,3\n"), {}, r"r.csv: line 8: column 'taxel_12': empty or missing value"),
+        (
+            _lines(6, "7,1\n"),
+            {},
+            r"r.csv: line 8: column 'taxel_13': empty or missing value",
+        ),  # a short row
+        (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value"),
+        (_lines(6, "7,1,3,4\n"), {}, r"r.csv: not a well-formed CSV file .*line 8"),
+        (
+            "t,taxel_12,taxel_13\n" + "0,1,2\n1,2,3\n1,3,3\n",
+            {"rate": {"time_column": "t"}},
+            r"r.csv: line 4: column 't': time does not increase",
+        ),
+        (
+            "t,taxel_12,state\n" + "0,1,hold\n1,2,hold\n2,2,slide\n",
+            {"labels": {"column": "state", "slip": ["slip"], "no_slip": ["hold"]}},
+            r"r.csv: line 4: column 'state': label 'slide' is not one of",
+        ),
+        ("t,x\n0,1\n1,2\n", {}, r"r.csv: no column matches the channel pattern"),
+        ("t,taxel_1\n0,1\n", {}, r"r.csv: 1 data row\(s\); a recording needs at least 2"),
+        ("", {}, r"r.csv: empty file"),
+        (
+            "t,taxel_1\n0,1\n1,2\n",
+            {"recording": {"scenario": "hold-slip"}},
+            r"r.csv: scenario hold-slip needs per-sample labels",
+        ),
+        (
+            "t,taxel_1\n0,1\n1,2\n",
+            {"channels": {"pattern": r"taxel_\d+", "count": 48}},
+            r"r.csv: 1 channel columns .* the mapping expects 48",
+        ),
+        (
+            "t,taxel_1\n0,99999999999999999\n1,2\n",
+            {},
+            r"r.csv: line 2: column 'taxel_1': integer 99999999999999999 beyond 2\*\*53",
+        ),
+    ],
+)
 def test_bad_files_are_named_by_line_and_column(tmp_path, text, extra, message):
     src, mapping = _one_file(tmp_path, text, **extra)
     with pytest.raises(DataError, match=message):
@@ -250,23 +355,52 @@ def test_bad_files_are_named_by_line_and_column(tmp_path, text, extra, message):
 def test_rates_beyond_tolerance_name_the_recordings(tmp_path):
     src = tmp_path / "src"
     for name, rate in (("slow", 50.0), ("fast", 60.0)):
-        _write(src / f"{name}.csv", pd.DataFrame({"t": np.arange(10) / rate, "taxel_0": np.arange(10)}))
-    mapping = {"recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip"},
-               "channels": {"pattern": "taxel_.*"}, "rate": {"time_column": "t"}}
-    with pytest.raises(DataError, match=r"sensor 'S' unit 'u': sampling rates differ by 20 %.*lowest 50 Hz in recording\(s\) 'slow'.*"
-                                        r"highest 60 Hz in recording\(s\) 'fast'"):
+        _write(
+            src / f"{name}.csv", pd.DataFrame({"t": np.arange(10) / rate, "taxel_0": np.arange(10)})
+        )
+    mapping = {
+        "recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip"},
+        "channels": {"pattern": "taxel_.*"},
+        "rate": {"time_column": "t"},
+    }
+    with pytest.raises(
+        DataError,
+        match=r"sensor 'S' unit 'u': sampling rates differ by 20 %.*lowest 50 Hz in recording\(s\) 'slow'.*"
+        r"highest 60 Hz in recording\(s\) 'fast'",
+    ):
         import_csv(src, tmp_path / "out", mapping)
 
 
-@pytest.mark.parametrize("mapping, message", [
-    ({"chanels": {}}, r"unknown key 'chanels' in the mapping"),
-    ({"channels": {"names": ["a"], "pattern": "b"}}, r"\[channels\] needs exactly one of names"),
-    ({"channels": {"names": ["taxel_0"]}, "labels": {"column": "state"}}, r"\[labels\].column needs slip"),
-    ({"channels": {"names": ["taxel_0"]}, "rules": [{"scenario": "press"}]}, r"\[\[rules\]\] #1 needs a glob or a regex"),
-    ({"channels": {"names": ["taxel_0"]}, "rate": {"hz": -5}}, r"\[rate\].hz must be a number > 0"),
-    ({"channels": {"names": ["taxel_0"]}, "recording": {"regex": "("}}, r"\[recording\].regex '\(' is not a regular expression"),
-    ({"channels": [{"names": ["taxel_0"]}, {"names": ["taxel_1"]}]}, r"\[\[channels\]\] #1 needs sensor_instance"),
-])
+@pytest.mark.parametrize(
+    "mapping, message",
+    [
+        ({"chanels": {}}, r"unknown key 'chanels' in the mapping"),
+        (
+            {"channels": {"names": ["a"], "pattern": "b"}},
+            r"\[channels\] needs exactly one of names",
+        ),
+        (
+            {"channels": {"names": ["taxel_0"]}, "labels": {"column": "state"}},
+            r"\[labels\].column needs slip",
+        ),
+        (
+            {"channels": {"names": ["taxel_0"]}, "rules": [{"scenario": "press"}]},
+            r"\[\[rules\]\] #1 needs a glob or a regex",
+        ),
+        (
+            {"channels": {"names": ["taxel_0"]}, "rate": {"hz": -5}},
+            r"\[rate\].hz must be a number > 0",
+        ),
+        (
+            {"channels": {"names": ["taxel_0"]}, "recording": {"regex": "("}},
+            r"\[recording\].regex '\(' is not a regular expression",
+        ),
+        (
+            {"channels": [{"names": ["taxel_0"]}, {"names": ["taxel_1"]}]},
+            r"\[\[channels\]\] #1 needs sensor_instance",
+        ),
+    ],
+)
 def test_bad_mappings_name_the_key(mapping, message):
     with pytest.raises(UsageError, match=message):
         load_mapping(mapping)
@@ -276,16 +410,48 @@ def test_mapping_problems_found_while_importing(tmp_path):
     src = tmp_path / "src"
     for name in ("a/x.csv", "b/x.csv"):
         _write(src / name, pd.DataFrame({"taxel_0": [1, 2, 3]}))
-    mapping = {"recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip", "recording_id": "{stem}"},
-               "channels": {"names": ["taxel_0"]}, "rate": {"hz": 60}}
+    mapping = {
+        "recording": {
+            "sensor_type": "S",
+            "sensor_instance": "u",
+            "scenario": "slip",
+            "recording_id": "{stem}",
+        },
+        "channels": {"names": ["taxel_0"]},
+        "rate": {"hz": 60},
+    }
     with pytest.raises(UsageError, match=r"a/x.csv and b/x.csv both give recording_id 'x'"):
         import_csv(src, tmp_path / "out", mapping)
-    with pytest.raises(UsageError, match=r"material = '\{objekt\}': no value for 'objekt' in a/x.csv"):
-        import_csv(src, tmp_path / "out", {**mapping, "recording": {**mapping["recording"], "recording_id": "{path}", "material": "{objekt}"}})
+    with pytest.raises(
+        UsageError, match=r"material = '\{objekt\}': no value for 'objekt' in a/x.csv"
+    ):
+        import_csv(
+            src,
+            tmp_path / "out",
+            {
+                **mapping,
+                "recording": {
+                    **mapping["recording"],
+                    "recording_id": "{path}",
+                    "material": "{objekt}",
+                },
+            },
+        )
     with pytest.raises(UsageError, match=r"no scenario for a/x.csv"):
-        import_csv(src, tmp_path / "out", {**mapping, "recording": {"sensor_type": "S", "sensor_instance": "u"}})
+        import_csv(
+            src,
+            tmp_path / "out",
+            {**mapping, "recording": {"sensor_type": "S", "sensor_instance": "u"}},
+        )
     with pytest.raises(DataError, match=r"a/x.csv: the path does not match \[recording\].regex"):
-        import_csv(src, tmp_path / "out", {**mapping, "recording": {**mapping["recording"], "recording_id": "{path}", "regex": "b/.*"}})
+        import_csv(
+            src,
+            tmp_path / "out",
+            {
+                **mapping,
+                "recording": {**mapping["recording"], "recording_id": "{path}", "regex": "b/.*"},
+            },
+        )
     with pytest.raises(UsageError, match=r"glob '/etc/\*': .*relative to SRC"):
         import_csv(src, tmp_path / "out", {**mapping, "files": "/etc/*"})
     with pytest.raises(DataError, match=r"no file matches files = \['\*\.txt'\]"):
@@ -298,12 +464,32 @@ def test_cli_import_and_validate(tmp_path, cli):
     (tmp_path / "mapping.toml").write_text(_toml_block("taxel_"))
     code, out, err = cli(["dataset", "import", "csv", str(tmp_path / "src"), str(tmp_path / "out")])
     assert code == 2 and "needs --config" in err
-    code, out, err = cli(["dataset", "import", "csv", str(tmp_path / "src"), str(tmp_path / "out"), "--config", str(tmp_path / "mapping.toml")])
+    code, out, err = cli(
+        [
+            "dataset",
+            "import",
+            "csv",
+            str(tmp_path / "src"),
+            str(tmp_path / "out"),
+            "--config",
+            str(tmp_path / "mapping.toml"),
+        ]
+    )
     assert code == 0, err
     code, out, err = cli(["dataset", "validate", str(tmp_path / "out")])
     assert code == 0 and "2 recordings in 2 trials" in out
     bad = tmp_path / "src" / "taxels" / "wood" / "trial_1.csv"
     bad.write_text(bad.read_text().replace("\n", "\n1,x\n", 1))
-    code, out, err = cli(["dataset", "import", "csv", str(tmp_path / "src"), str(tmp_path / "out2"), "--config", str(tmp_path / "mapping.toml")])
+    code, out, err = cli(
+        [
+            "dataset",
+            "import",
+            "csv",
+            str(tmp_path / "src"),
+            str(tmp_path / "out2"),
+            "--config",
+            str(tmp_path / "mapping.toml"),
+        ]
+    )
     assert code == 2 and "trial_1.csv: line 2: column 'taxel_0': non-numeric value 'x'" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out2").exists()

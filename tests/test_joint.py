@@ -9,17 +9,22 @@ import pandas as pd
 import pytest
 
 from slipbench.detectors.holweg import Holweg
-from slipbench.stats.joint import joint_means
+from slipbench.engine.runner import Run, evaluate
 from slipbench.protocols.window_size import WindowSize
 from slipbench.report.document import build_report, render
+from slipbench.stats.joint import joint_means
 from slipbench.store.results import ResultsStore
-from slipbench.engine.runner import Run, evaluate
 
 
 @pytest.fixture(scope="module")
 def run(small, tmp_path_factory):
     folder = tmp_path_factory.mktemp("joint")
-    rows = evaluate(small, Run(Holweg(), WindowSize(windows=(50,)), split="grouped"), ResultsStore(folder), progress=False)
+    rows = evaluate(
+        small,
+        Run(Holweg(), WindowSize(windows=(50,)), split="grouped"),
+        ResultsStore(folder),
+        progress=False,
+    )
     return rows, folder
 
 
@@ -27,7 +32,7 @@ def test_the_joint_mean_is_the_mean_of_the_fingers_and_its_interval_holds_it(run
     rows, folder = run
     joint = joint_means(rows, ["detector", "sensor_type"], [folder])
     assert {k[1] for k in joint} == set(rows["sensor_type"])
-    for (detector, sensor), j in joint.items():
+    for (_detector, sensor), j in joint.items():
         fingers = rows[rows["sensor_type"] == sensor]
         assert j["accuracy"] == pytest.approx(fingers["accuracy"].mean(), abs=1e-12)
         assert j["n_test_sets"] == len(fingers)
@@ -41,17 +46,23 @@ def test_a_group_with_a_missing_predictions_file_gets_nothing(run, tmp_path):
     (tmp_path / "predictions").mkdir()
     kept = rows[rows["sensor_type"] != "Nano17"]
     for key in kept["key"]:
-        (tmp_path / "predictions" / f"{key}.parquet").write_bytes((folder / "predictions" / f"{key}.parquet").read_bytes())
+        (tmp_path / "predictions" / f"{key}.parquet").write_bytes(
+            (folder / "predictions" / f"{key}.parquet").read_bytes()
+        )
     joint = joint_means(rows, ["detector", "sensor_type"], [tmp_path])
     assert {k[1] for k in joint} == set(kept["sensor_type"])
 
 
 @pytest.mark.parametrize("damage", ["torn", "foreign"])
-def test_a_damaged_predictions_file_costs_its_group_the_joint_interval_not_the_report(run, tmp_path, damage):
+def test_a_damaged_predictions_file_costs_its_group_the_joint_interval_not_the_report(
+    run, tmp_path, damage
+):
     rows, folder = run
     (tmp_path / "predictions").mkdir()
     for key in rows["key"]:
-        (tmp_path / "predictions" / f"{key}.parquet").write_bytes((folder / "predictions" / f"{key}.parquet").read_bytes())
+        (tmp_path / "predictions" / f"{key}.parquet").write_bytes(
+            (folder / "predictions" / f"{key}.parquet").read_bytes()
+        )
     torn = rows[rows["sensor_type"] == "Nano17"]["key"].iloc[0]
     path = tmp_path / "predictions" / f"{torn}.parquet"
     if damage == "torn":
@@ -66,7 +77,10 @@ def test_a_damaged_predictions_file_costs_its_group_the_joint_interval_not_the_r
         text = render(build_report(rows, intervals=True, predictions=[tmp_path]), "md")
     # the other sensors keep the joint interval; the note names the one that fell back to the rows
     assert "one bootstrap over the trials the fingers share" in text
-    assert "for Nano17 (holweg), whose predictions are missing or unreadable, the fingers' half-widths combined" in text
+    assert (
+        "for Nano17 (holweg), whose predictions are missing or unreadable, the fingers' half-widths combined"
+        in text
+    )
 
 
 def test_the_report_says_which_interval_an_average_has(run):
@@ -83,17 +97,25 @@ def test_seeds_pool_into_one_interval(small, tmp_path):
     from slipbench.report.document import protocol_tables
 
     store = ResultsStore(tmp_path)
-    rows = evaluate(small, [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)], store,
-                    progress=False)
+    rows = evaluate(
+        small,
+        [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)],
+        store,
+        progress=False,
+    )
     layout = WindowSize(windows=(50,)).layout
     pooled = joint_means(rows, ["sensor_type", "sensor_instance", "window"], [tmp_path])
     assert len(pooled) == rows[["sensor_type", "sensor_instance"]].drop_duplicates().shape[0]
-    (_, table), = protocol_tables(rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path])
-    (_, averaged), = protocol_tables(rows, layout, "window-size", "holweg", intervals=True)
+    ((_, table),) = protocol_tables(
+        rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path]
+    )
+    ((_, averaged),) = protocol_tables(rows, layout, "window-size", "holweg", intervals=True)
     assert table.cells != averaged.cells  # same means, other bounds
     key = next(iter(pooled))
     one = pooled[key]
-    assert f"[{100 * one['accuracy_lo']:.1f}, {100 * one['accuracy_hi']:.1f}]" in " ".join(c for line in table.cells for c in line)
+    assert f"[{100 * one['accuracy_lo']:.1f}, {100 * one['accuracy_hi']:.1f}]" in " ".join(
+        c for line in table.cells for c in line
+    )
     assert any("one bootstrap of the mean over seeds" in n for n in table.notes)
     assert any("the mean of the seeds' bounds" in n for n in averaged.notes)
 
@@ -103,14 +125,23 @@ def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
     note counts the figures of each kind instead of calling every interval pooled."""
     from slipbench.report.document import protocol_tables
 
-    rows = evaluate(small, [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)],
-                    ResultsStore(tmp_path), progress=False)
+    rows = evaluate(
+        small,
+        [Run(Holweg(), WindowSize(windows=(50,)), split="grouped", seed=s) for s in (0, 1)],
+        ResultsStore(tmp_path),
+        progress=False,
+    )
     gone = rows[(rows["sensor_type"] == "Nano17") & (rows["seed"] == 1)]["key"]
     for key in gone:
         (tmp_path / "predictions" / f"{key}.parquet").unlink()
     layout = WindowSize(windows=(50,)).layout
-    (_, table), = protocol_tables(rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path])
+    ((_, table),) = protocol_tables(
+        rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path]
+    )
     figures = rows[["sensor_type", "sensor_instance"]].drop_duplicates()
     pooled = len(figures) - len(gone)
-    assert any(f"for {pooled} of the {len(figures)} figures run under several seeds; for the {len(gone)} whose "
-               "predictions are missing or unreadable, the mean of the seeds' bounds" in n for n in table.notes)
+    assert any(
+        f"for {pooled} of the {len(figures)} figures run under several seeds; for the {len(gone)} whose "
+        "predictions are missing or unreadable, the mean of the seeds' bounds" in n
+        for n in table.notes
+    )

@@ -7,8 +7,8 @@ import pytest
 import torch
 
 from slipbench.detectors import lstm_kernels as fastlstm
-from slipbench.errors import UsageError
 from slipbench.engine.registry import detectors
+from slipbench.errors import UsageError
 from slipbench.testing import toy_windows
 
 LSTM = detectors.get("lstm")
@@ -17,14 +17,20 @@ H = 20
 
 def _params(seed=0):
     rng = np.random.default_rng(seed)
-    return [rng.normal(0, 0.3, s).astype(np.float32) for s in ((4 * H,), (H, 4 * H), (4 * H,), (2, H), (2,))]
+    return [
+        rng.normal(0, 0.3, s).astype(np.float32)
+        for s in ((4 * H,), (H, 4 * H), (4 * H,), (2, H), (2,))
+    ]
 
 
 def _torch_model(params):
     w, rt, b, wy, by = params
     lstm, lin = torch.nn.LSTM(1, H, batch_first=True), torch.nn.Linear(H, 2)
     with torch.no_grad():
-        lstm.weight_ih_l0.copy_(torch.tensor(w[:, None])), lstm.weight_hh_l0.copy_(torch.tensor(rt.T))
+        (
+            lstm.weight_ih_l0.copy_(torch.tensor(w[:, None])),
+            lstm.weight_hh_l0.copy_(torch.tensor(rt.T)),
+        )
         lstm.bias_ih_l0.copy_(torch.tensor(b)), lstm.bias_hh_l0.zero_()
         lin.weight.copy_(torch.tensor(wy)), lin.bias.copy_(torch.tensor(by))
     return lstm, lin
@@ -43,13 +49,23 @@ def test_gradients_and_scores_match_torch_autograd():
     logits = lin(lstm(torch.tensor(x)[:, :, None])[0][:, -1])
     loss = torch.nn.functional.cross_entropy(logits, torch.tensor(y).long())
     loss.backward()
-    expected = [lstm.weight_ih_l0.grad[:, 0], lstm.weight_hh_l0.grad.T, lstm.bias_ih_l0.grad, lin.weight.grad, lin.bias.grad]
+    expected = [
+        lstm.weight_ih_l0.grad[:, 0],
+        lstm.weight_hh_l0.grad.T,
+        lstm.bias_ih_l0.grad,
+        lin.weight.grad,
+        lin.bias.grad,
+    ]
     new = [p.copy() for p in params]
     # one full batch, lr 1, no momentum: the update is minus the gradient
-    mean_loss = fastlstm.train_epoch(x, y, np.arange(48), 48, 1.0, 0.0, *new, *[np.zeros_like(p) for p in new])
+    mean_loss = fastlstm.train_epoch(
+        x, y, np.arange(48), 48, 1.0, 0.0, *new, *[np.zeros_like(p) for p in new]
+    )
     assert mean_loss == pytest.approx(loss.item(), rel=1e-5)
     for before, after, grad in zip(params, new, expected):
-        np.testing.assert_allclose(before - after, grad.numpy(), atol=1e-5 * np.abs(grad.numpy()).max())
+        np.testing.assert_allclose(
+            before - after, grad.numpy(), atol=1e-5 * np.abs(grad.numpy()).max()
+        )
     p_torch = torch.softmax(logits, 1)[:, 1].detach().numpy()
     np.testing.assert_allclose(fastlstm.predict_proba(x, -1.0, 1.0, *params), p_torch, atol=1e-6)
     assert fastlstm.predict_window(x[5], -1.0, 1.0, *params) == pytest.approx(p_torch[5], abs=1e-6)
@@ -64,8 +80,11 @@ def test_epochs_do_not_depend_on_the_thread_count():
     runs = []
     threads = numba.get_num_threads()
     try:
-        for kernel, n_threads in ((fastlstm.train_epoch_parallel, threads), (fastlstm.train_epoch_parallel, 1),
-                                  (fastlstm.train_epoch_serial, 1)):
+        for kernel, n_threads in (
+            (fastlstm.train_epoch_parallel, threads),
+            (fastlstm.train_epoch_parallel, 1),
+            (fastlstm.train_epoch_serial, 1),
+        ):
             numba.set_num_threads(n_threads)
             p = _params()
             kernel(x, y, order, 300, 0.01, 0.125, *p, *[np.zeros_like(a) for a in p])
@@ -79,9 +98,11 @@ def test_epochs_do_not_depend_on_the_thread_count():
 
 def test_parallel_and_serial_kernels_are_cached_apart():
     """numba's cache keys entries by function name and signature, not by the parallel flag."""
-    for pair in ((fastlstm.train_epoch_parallel, fastlstm.train_epoch_serial),
-                 (fastlstm.predict_proba_blocks_parallel, fastlstm.predict_proba_blocks_serial),
-                 (fastlstm.predict_proba_each_parallel, fastlstm.predict_proba_each_serial)):
+    for pair in (
+        (fastlstm.train_epoch_parallel, fastlstm.train_epoch_serial),
+        (fastlstm.predict_proba_blocks_parallel, fastlstm.predict_proba_blocks_serial),
+        (fastlstm.predict_proba_each_parallel, fastlstm.predict_proba_each_serial),
+    ):
         assert pair[0].py_func.__qualname__ != pair[1].py_func.__qualname__
         assert pair[0].targetoptions.get("parallel") and not pair[1].targetoptions.get("parallel")
 
@@ -92,8 +113,10 @@ def test_batched_inference_matches_window_by_window_and_torch(hidden):
     rng = np.random.default_rng(4)
     n = 3 * fastlstm.LANES + 5
     x = rng.normal(size=(n, 30)).astype(np.float32)
-    params = [rng.normal(0, 0.3, s).astype(np.float32)
-              for s in ((4 * hidden,), (hidden, 4 * hidden), (4 * hidden,), (2, hidden), (2,))]
+    params = [
+        rng.normal(0, 0.3, s).astype(np.float32)
+        for s in ((4 * hidden,), (hidden, 4 * hidden), (4 * hidden,), (2, hidden), (2,))
+    ]
     each = fastlstm.predict_proba_each_serial(x, 0.5, 1.5, *params)
     for kernel in (fastlstm.predict_proba_blocks_serial, fastlstm.predict_proba_blocks_parallel):
         blocks = kernel(x, 0.5, 1.5, *params)
@@ -104,12 +127,17 @@ def test_batched_inference_matches_window_by_window_and_torch(hidden):
     lstm = torch.nn.LSTM(1, hidden, batch_first=True)
     w, rt, b, wy, by = params
     with torch.no_grad():
-        lstm.weight_ih_l0.copy_(torch.tensor(w[:, None])), lstm.weight_hh_l0.copy_(torch.tensor(rt.T))
+        (
+            lstm.weight_ih_l0.copy_(torch.tensor(w[:, None])),
+            lstm.weight_hh_l0.copy_(torch.tensor(rt.T)),
+        )
         lstm.bias_ih_l0.copy_(torch.tensor(b)), lstm.bias_hh_l0.zero_()
         h = lstm(torch.tensor((x - 0.5) * 1.5 - 1.0)[:, :, None])[0][:, -1]
         p_torch = torch.softmax(h @ torch.tensor(wy).T + torch.tensor(by), 1)[:, 1].numpy()
     np.testing.assert_allclose(fastlstm.predict_proba(x, 0.5, 1.5, *params), p_torch, atol=1e-6)
-    assert fastlstm.predict_proba(x[:3], 0.5, 1.5, *params) == pytest.approx(each[:3], abs=0)  # few: one by one
+    assert fastlstm.predict_proba(x[:3], 0.5, 1.5, *params) == pytest.approx(
+        each[:3], abs=0
+    )  # few: one by one
 
 
 def test_gpu_epoch_matches_cpu_epoch():
@@ -145,9 +173,13 @@ def test_schedule_early_stopping_and_best_weights():
     # (the second stage starts from the best loss so far, so it has no first improvement)
     assert d.history_[:, 0].tolist() == [1e-9] * 4 + [1e-10] * 3
     # a real schedule: rates in order, no stage past its cap, the kept weights are the best seen
-    d = LSTM(batch_size=1, max_epochs=(6, 2), learning_rates=(0.05, 0.005), patience=10).fit(x, y, seed=0)
+    d = LSTM(batch_size=1, max_epochs=(6, 2), learning_rates=(0.05, 0.005), patience=10).fit(
+        x, y, seed=0
+    )
     rates = d.history_[:, 0]
-    assert (np.diff(rates) <= 0).all() and (rates == 0.05).sum() == 6 and (rates == 0.005).sum() == 2
+    assert (
+        (np.diff(rates) <= 0).all() and (rates == 0.05).sum() == 6 and (rates == 0.005).sum() == 2
+    )
     assert d.validation_loss_ == pytest.approx(d.history_[:, 1].min())
     assert d.validation_loss_ < 0.4  # it learned this easy problem (chance: log 2 = 0.69)
 
@@ -156,9 +188,14 @@ def test_bad_schedules_are_refused():
     x, y = toy_windows(40, 10)
     with pytest.raises(UsageError, match="one per rate"):
         LSTM(learning_rates=(0.1, 0.01), max_epochs=(3, 3, 3)).fit(x, y)
-    with pytest.raises(UsageError, match="'batch_size' parameter of LSTM must be an int in \\[1, inf\\]"):
+    with pytest.raises(
+        UsageError, match="'batch_size' parameter of LSTM must be an int in \\[1, inf\\]"
+    ):
         LSTM(batch_size=0).fit(x, y)
-    with pytest.raises(UsageError, match="'max_epochs' parameter of LSTM must be an int in \\[1, 100000\\], or a non-empty list"):
+    with pytest.raises(
+        UsageError,
+        match="'max_epochs' parameter of LSTM must be an int in \\[1, 100000\\], or a non-empty list",
+    ):
         LSTM(max_epochs="abc").validate_params()
     with pytest.raises(UsageError, match="'learning_rates' parameter of LSTM must be a float"):
         LSTM(learning_rates=(0.1, -1.0)).validate_params()

@@ -10,8 +10,16 @@ from sklearn.metrics import balanced_accuracy_score, roc_auc_score
 
 from slipbench.stats.bootstrap import make_design, resample_weights
 from slipbench.stats.metrics import (
-    FIGURES, LOW_N, Predictions, classification_figures, cluster_counts, is_low_n, mean_over_test_sets,
-    paired_comparison, pool_seeds, wilson_ci,
+    FIGURES,
+    LOW_N,
+    Predictions,
+    classification_figures,
+    cluster_counts,
+    is_low_n,
+    mean_over_test_sets,
+    paired_comparison,
+    pool_seeds,
+    wilson_ci,
 )
 
 
@@ -20,7 +28,11 @@ def correlated_test_set(rng, n_recordings: int, trial_sd: float = 1.0, windows=(
     sizes = rng.integers(*windows, size=2 * n_recordings)
     groups = np.repeat(np.arange(2 * n_recordings), sizes)
     y = groups < n_recordings
-    score = np.where(y, 0.8, -0.8) + rng.normal(0, trial_sd, 2 * n_recordings)[groups] + rng.normal(0, 1, len(y))
+    score = (
+        np.where(y, 0.8, -0.8)
+        + rng.normal(0, trial_sd, 2 * n_recordings)[groups]
+        + rng.normal(0, 1, len(y))
+    )
     return y, score > 0, groups, score
 
 
@@ -40,7 +52,10 @@ def test_wilson_undercovers_correlated_windows_where_the_cluster_interval_does_n
         cover_wilson += f["accuracy_wilson_lo"] <= 0.8 <= f["accuracy_wilson_hi"]
     assert cover_cluster >= 0.90 * 150, cover_cluster
     assert cover_wilson < 0.80 * 150, cover_wilson
-    independent = sum(lo <= 0.8 <= hi for lo, hi in (wilson_ci(int(rng.binomial(500, 0.8)), 500) for _ in range(400)))
+    independent = sum(
+        lo <= 0.8 <= hi
+        for lo, hi in (wilson_ci(int(rng.binomial(500, 0.8)), 500) for _ in range(400))
+    )
     assert 0.92 * 400 <= independent <= 0.98 * 400
 
 
@@ -86,7 +101,11 @@ def test_classification_figures_match_scikit_learn_and_are_deterministic():
     for name in FIGURES:
         assert f[f"{name}_lo"] < f[name] < f[f"{name}_hi"], name
         assert f[f"{name}_se"] > 0, name
-    assert f["n_test_clusters_slip"] == f["n_test_clusters_nonslip"] == 20 and not f["low_n"] and f["ci_note"] == ""
+    assert (
+        f["n_test_clusters_slip"] == f["n_test_clusters_nonslip"] == 20
+        and not f["low_n"]
+        and f["ci_note"] == ""
+    )
     assert f == classification_figures(y, pred, groups, seed=0, scores=score)
     assert np.isnan(classification_figures(y, pred, groups, seed=0)["auroc"])
 
@@ -95,7 +114,9 @@ def test_intervals_lean_away_from_the_bound():
     """Near 100 % the interval reaches further down than up, as a rate's sampling distribution does."""
     rng = np.random.default_rng(4)
     y, _, groups, score = correlated_test_set(rng, 15)
-    f = classification_figures(y, score > -1.5, groups, seed=0)  # a lenient threshold: TP rate near 1
+    f = classification_figures(
+        y, score > -1.5, groups, seed=0
+    )  # a lenient threshold: TP rate near 1
     assert f["tp_rate"] > 0.9
     assert f["tp_rate"] - f["tp_rate_lo"] > f["tp_rate_hi"] - f["tp_rate"] > 0
 
@@ -129,7 +150,11 @@ def test_a_class_of_one_recording_is_flagged_not_faked():
         assert (f[f"{name}_lo"], f[f"{name}_hi"]) == (0.0, 1.0) and np.isnan(f[f"{name}_se"]), name
         assert name in f["ci_note"]
     assert "tp_rate" not in f["ci_note"]
-    assert np.isnan(classification_figures(y[groups < 8], pred[groups < 8], groups[groups < 8], seed=0)["tn_rate"])
+    assert np.isnan(
+        classification_figures(y[groups < 8], pred[groups < 8], groups[groups < 8], seed=0)[
+            "tn_rate"
+        ]
+    )
 
 
 def test_low_n():
@@ -150,7 +175,12 @@ def _fingers(rng, n_trials: int, n_fingers: int = 3):
         sizes = rng.integers(10, 40, 2 * n_trials)
         groups = np.repeat(np.arange(2 * n_trials), sizes)
         y = groups < n_trials
-        score = np.where(y, 0.8, -0.8) + trial[groups] + rng.normal(0, 0.3, 2 * n_trials)[groups] + rng.normal(0, 1, len(y))
+        score = (
+            np.where(y, 0.8, -0.8)
+            + trial[groups]
+            + rng.normal(0, 0.3, 2 * n_trials)[groups]
+            + rng.normal(0, 1, len(y))
+        )
         parts.append(Predictions(y, score > 0, groups, score))
     return parts
 
@@ -158,12 +188,16 @@ def _fingers(rng, n_trials: int, n_fingers: int = 3):
 def test_mean_over_fingers_bootstraps_shared_trials_jointly():
     parts = _fingers(np.random.default_rng(7), 30)
     joint = mean_over_test_sets(parts, seed=0)
-    single = [classification_figures(p.y_true, p.y_pred, p.groups, seed=0, scores=p.scores) for p in parts]
+    single = [
+        classification_figures(p.y_true, p.y_pred, p.groups, seed=0, scores=p.scores) for p in parts
+    ]
     for name in FIGURES:
         assert joint[name] == pytest.approx(np.mean([s[name] for s in single]))
         # fingers err together on a shared trial: the joint interval is wider than the fingers'
         # half-widths combined as independent (the old report's rule)
-        independent = np.sqrt(sum(((s[f"{name}_hi"] - s[f"{name}_lo"]) / 2) ** 2 for s in single)) / len(single)
+        independent = np.sqrt(
+            sum(((s[f"{name}_hi"] - s[f"{name}_lo"]) / 2) ** 2 for s in single)
+        ) / len(single)
         assert (joint[f"{name}_hi"] - joint[f"{name}_lo"]) / 2 > 1.3 * independent, name
     assert joint["n_test_sets"] == 3 and joint["n_test_clusters_slip"] == 30
     one = mean_over_test_sets(parts[:1], seed=0)
@@ -180,14 +214,18 @@ def test_pooled_seeds_of_the_same_windows_give_the_single_interval():
     pooled = pool_seeds([Predictions(y, pred, groups, score)] * 4, seed=0)
     for name in FIGURES:
         assert (pooled[name], pooled[f"{name}_lo"], pooled[f"{name}_hi"]) == pytest.approx(
-            (one[name], one[f"{name}_lo"], one[f"{name}_hi"])), name
+            (one[name], one[f"{name}_lo"], one[f"{name}_hi"])
+        ), name
 
 
 def test_mixed_strata_inputs_are_refused():
     rng = np.random.default_rng(9)
     y, pred, groups, _ = correlated_test_set(rng, 5)
     with pytest.raises(ValueError, match="strata"):
-        mean_over_test_sets([Predictions(y, pred, groups, strata=y.astype(str)), Predictions(y, pred, groups)], seed=0)
+        mean_over_test_sets(
+            [Predictions(y, pred, groups, strata=y.astype(str)), Predictions(y, pred, groups)],
+            seed=0,
+        )
 
 
 def test_paired_comparison_of_identical_predictions_is_exactly_no_change():
@@ -206,6 +244,9 @@ def test_paired_comparison_finds_a_degraded_detector():
     assert out["d_accuracy"] == pytest.approx((cand == y).mean() - (base == y).mean())
     assert out["d_accuracy_lo"] < out["d_accuracy"] < out["d_accuracy_hi"] < 0
     assert np.isnan(out["d_auroc"])  # no scores
-    assert set(paired_comparison(y, base, cand, groups, seed=0, figures=("tp_rate",))) >= {"d_accuracy", "d_tp_rate"}
+    assert set(paired_comparison(y, base, cand, groups, seed=0, figures=("tp_rate",))) >= {
+        "d_accuracy",
+        "d_tp_rate",
+    }
     with pytest.raises(ValueError, match="unknown figures"):
         paired_comparison(y, base, cand, groups, seed=0, figures=("f1",))

@@ -7,20 +7,22 @@ import pandas as pd
 import pytest
 
 from slipbench.data.dataset import Dataset
+from slipbench.data.signals import Signals
+from slipbench.engine.plan import CellData
 from slipbench.protocols.cross_instance import CrossInstance
 from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.protocols.speed_holdout import SpeedHoldout
 from slipbench.protocols.window_size import WindowSize
-from slipbench.engine.plan import CellData
-from slipbench.data.signals import Signals
 
 
 def subset(ds: Dataset, mask) -> Dataset:
     rec = ds.recordings[np.asarray(mask)].reset_index(drop=True)
     ids = set(rec["recording_id"])
     labels = {k: v for k, v in ds.slip_labels.items() if k in ids}
-    return Dataset(rec, {k: v for k, v in ds.samples.items() if k in ids}, labels, ds.path)  # its fingerprint: from its content
+    return Dataset(
+        rec, {k: v for k, v in ds.samples.items() if k in ids}, labels, ds.path
+    )  # its fingerprint: from its content
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +65,11 @@ def test_material_holdout_never_trains_on_the_held_out_material(nano):
             assert material in trained_on
     # the "with" model is the window-size model at window 50: same train part
     with_cell = next(c for c in cells if c.key["training"] == "with")
-    ws = next(c for c in WindowSize().cells(nano.recordings) if c.window == 50 and c.train == with_cell.train)
+    ws = next(
+        c
+        for c in WindowSize().cells(nano.recordings)
+        if c.window == 50 and c.train == with_cell.train
+    )
     assert ws.train == with_cell.train and ws.window == with_cell.window
 
 
@@ -73,15 +79,23 @@ def test_speed_holdout_assigns_pressing_and_holds_out_speeds(nano):
     rec = nano.recordings.assign(group=group)
     press = rec[rec["scenario"] == "press"]
     assert set(press["group"]) == {5.0, 25.0, 50.0, 75.0}
-    time = press.groupby(["sensor_instance", "material", "group"])["n_samples"].sum().groupby(["sensor_instance", "material"])
-    assert ((time.max() - time.min()) <= press["n_samples"].max()).all()  # equal time, to within one recording
+    time = (
+        press.groupby(["sensor_instance", "material", "group"])["n_samples"]
+        .sum()
+        .groupby(["sensor_instance", "material"])
+    )
+    assert (
+        (time.max() - time.min()) <= press["n_samples"].max()
+    ).all()  # equal time, to within one recording
     data = _data(nano, protocol)
     for cell in protocol.cells(nano.recordings):
         speed = cell.key["speed_mm_s"]
         train, test = _windows(data, cell, cell.train), _windows(data, cell, cell.test)
         scenario = test.column("scenario")
         assert set(test.column("speed_group")) == {speed}
-        assert set(scenario) == ({"slip", "press"} if speed == 5 else {"slip", "press", "free-space"})
+        assert set(scenario) == (
+            {"slip", "press"} if speed == 5 else {"slip", "press", "free-space"}
+        )
         train_speeds = set(pd.Series(train.column("speed_mm_s")).dropna())
         if cell.key["training"] == "without":
             assert speed not in train_speeds and "press" in set(train.column("scenario"))
@@ -92,7 +106,12 @@ def test_speed_holdout_assigns_pressing_and_holds_out_speeds(nano):
 def test_cross_instance_cells(small):
     cells = list(CrossInstance().cells(small.recordings))
     assert len(cells) == 4 * 4 + 4 * 4 + 3 * 3
-    combined = next(c for c in cells if c.key == {"sensor_type": "Nano17", "train_instance": "combined", "test_instance": "index"})
+    combined = next(
+        c
+        for c in cells
+        if c.key
+        == {"sensor_type": "Nano17", "train_instance": "combined", "test_instance": "index"}
+    )
     assert len(combined.train.sensors) == 3 and combined.test.sensors == (("Nano17", "index"),)
     assert not any(c.skip for c in cells)
 
@@ -102,22 +121,37 @@ def test_cross_instance_skips_a_type_with_one_instance(small):
     cells = list(CrossInstance().cells(one.recordings))
     skipped = [c for c in cells if c.skip]
     assert skipped and all("has one instance" in c.skip for c in skipped)
-    assert all(c.key["train_instance"] == c.key["test_instance"] != "combined" for c in cells if not c.skip)
+    assert all(
+        c.key["train_instance"] == c.key["test_instance"] != "combined" for c in cells if not c.skip
+    )
 
 
 def test_sampling_rate_cells(nano):
-    cells = [c for c in SamplingRate().cells(nano.recordings) if c.key["sensor_instance"] == "index"]
+    cells = [
+        c for c in SamplingRate().cells(nano.recordings) if c.key["sensor_instance"] == "index"
+    ]
     assert [c.key["rate_hz"] for c in cells] == [1000, 500, 250, 125, 62.5, 31.25]
-    assert {(c.decimation, c.antialias) for c in cells} == {("plain", False)}  # the default; tests/test_decimation.py has the rest
+    assert {(c.decimation, c.antialias) for c in cells} == {
+        ("plain", False)
+    }  # the default; tests/test_decimation.py has the rest
 
 
-@pytest.mark.parametrize("protocol, message", [
-    (SamplingRate(decimation="cubic"), "The 'decimation' parameter of SamplingRate must be one of 'plain'"),
-    (WindowSize(windows="abc"), "The 'windows' parameter of WindowSize must be an int number of samples >= 5, or milliseconds"),
-    (WindowSize(windows=[50, "20ms"]), "takes samples or milliseconds, not both"),
-    (MaterialHoldout(window=2), "The 'window' parameter of MaterialHoldout must be"),
-    (CrossInstance(window=50.5), "The 'window' parameter of CrossInstance must be"),
-])
+@pytest.mark.parametrize(
+    "protocol, message",
+    [
+        (
+            SamplingRate(decimation="cubic"),
+            "The 'decimation' parameter of SamplingRate must be one of 'plain'",
+        ),
+        (
+            WindowSize(windows="abc"),
+            "The 'windows' parameter of WindowSize must be an int number of samples >= 5, or milliseconds",
+        ),
+        (WindowSize(windows=[50, "20ms"]), "takes samples or milliseconds, not both"),
+        (MaterialHoldout(window=2), "The 'window' parameter of MaterialHoldout must be"),
+        (CrossInstance(window=50.5), "The 'window' parameter of CrossInstance must be"),
+    ],
+)
 def test_protocol_options_are_validated(protocol, message):
     from slipbench.errors import UsageError
 
@@ -127,8 +161,17 @@ def test_protocol_options_are_validated(protocol, message):
 
 def test_windows_in_milliseconds_convert_per_sensor(small):
     cells = [c for c in WindowSize(windows=["50ms", "5ms"]).cells(small.recordings)]
-    by = {(c.key["sensor_type"], c.key["window_ms"]): c for c in cells if c.key["sensor_instance"] == "index"}
+    by = {
+        (c.key["sensor_type"], c.key["window_ms"]): c
+        for c in cells
+        if c.key["sensor_instance"] == "index"
+    }
     assert by["Nano17", 50.0].window == 50 and by["BioTacSP", 50.0].window == 42  # 850 Hz
-    assert by["BioTacSP", 5.0].skip == "5ms is 4 samples at 850 Hz; a window needs at least 5 samples"
+    assert (
+        by["BioTacSP", 5.0].skip == "5ms is 4 samples at 850 Hz; a window needs at least 5 samples"
+    )
     assert not by["Nano17", 5.0].skip
-    assert WindowSize(windows=["50ms"]).layout.column == "window_ms" and WindowSize().layout.column == "window"
+    assert (
+        WindowSize(windows=["50ms"]).layout.column == "window_ms"
+        and WindowSize().layout.column == "window"
+    )

@@ -49,9 +49,19 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slipbench.data.dataset import RATE_TOLERANCE, RECORDINGS_FILE, SAMPLES_FILE, VERSION_KEY, Dataset, read_dataset, write_dataset
+from slipbench.data.dataset import (
+    RATE_TOLERANCE,
+    RECORDINGS_FILE,
+    SAMPLES_FILE,
+    VERSION_KEY,
+    Dataset,
+    read_dataset,
+    write_dataset,
+)
 
-SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+SETTINGS = settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 RATES = (60.0, 100.0, 850.0, 1000.0, 2200.0)
 
 
@@ -62,7 +72,9 @@ def lab_datasets(draw):
     labelled = draw(st.sampled_from(["none", "all", "some"]))
     scenarios = ["slip", "press", "free-space"] + (["hold-slip"] if labelled != "none" else [])
     one_class = draw(st.booleans())
-    kinds = draw(st.sampled_from([("int",), ("float32",), ("float64",), ("int", "float32", "float64")]))
+    kinds = draw(
+        st.sampled_from([("int",), ("float32",), ("float64",), ("int", "float32", "float64")])
+    )
     rows, samples, labels = [], {}, {}
     for u in range(draw(st.integers(1, 3))):
         n_ch = draw(st.integers(1, 6))
@@ -79,20 +91,32 @@ def lab_datasets(draw):
             else:
                 a = rng.normal(0, 100, size=(n, n_ch)).astype(kind)
             samples[rid] = a
-            if scenario == "hold-slip" or (labelled == "all") or (labelled == "some" and draw(st.booleans())):
+            if (
+                scenario == "hold-slip"
+                or (labelled == "all")
+                or (labelled == "some" and draw(st.booleans()))
+            ):
                 lab = rng.choice(np.array([-1, 0, 1], np.int8), size=n)
                 if scenario == "hold-slip":
                     onset = draw(st.integers(1, n - 1))
                     lab[:onset] = np.where(lab[:onset] == 1, 0, lab[:onset])
                     lab[0], lab[onset] = 0, 1
                 labels[rid] = lab
-            rows.append(dict(
-                recording_id=rid, sensor_type=f"T{u % 2}", sensor_instance=f"unit{u}", scenario=scenario,
-                material=draw(st.sampled_from([None, "PVC", "foam"])), speed_mm_s=draw(st.sampled_from([None, 0.0, 5.0, 75.0])),
-                sampling_rate_hz=rate * (1 + draw(st.floats(0, RATE_TOLERANCE * 0.9))),
-                channels=tuple(f"c{i}" for i in range(n_ch)), units=("count",) * n_ch,
-                source=draw(st.sampled_from([None, "lab"])), trial=draw(st.sampled_from([None, "t1", "t2"])),
-            ))
+            rows.append(
+                dict(
+                    recording_id=rid,
+                    sensor_type=f"T{u % 2}",
+                    sensor_instance=f"unit{u}",
+                    scenario=scenario,
+                    material=draw(st.sampled_from([None, "PVC", "foam"])),
+                    speed_mm_s=draw(st.sampled_from([None, 0.0, 5.0, 75.0])),
+                    sampling_rate_hz=rate * (1 + draw(st.floats(0, RATE_TOLERANCE * 0.9))),
+                    channels=tuple(f"c{i}" for i in range(n_ch)),
+                    units=("count",) * n_ch,
+                    source=draw(st.sampled_from([None, "lab"])),
+                    trial=draw(st.sampled_from([None, "t1", "t2"])),
+                )
+            )
     return pd.DataFrame(rows), samples, (labels or None)
 
 
@@ -102,7 +126,9 @@ def _check_equal(ds: Dataset, rec: pd.DataFrame, samples: dict, labels: dict | N
     for row in ds.recordings.itertuples(index=False):
         given_row = by_id.loc[row.recording_id]
         assert row.sampling_rate_hz == given_row["sampling_rate_hz"]
-        assert row.trial == (row.recording_id if pd.isna(given_row["trial"]) else given_row["trial"])
+        assert row.trial == (
+            row.recording_id if pd.isna(given_row["trial"]) else given_row["trial"]
+        )
         assert row.channels == given_row["channels"] and row.scenario == given_row["scenario"]
     all_float32 = all(a.dtype == np.float32 for a in samples.values())
     for rid, a in samples.items():
@@ -114,7 +140,9 @@ def _check_equal(ds: Dataset, rec: pd.DataFrame, samples: dict, labels: dict | N
         else:
             expected = labels.get(rid, np.full(len(a), -1, np.int8))
             np.testing.assert_array_equal(ds.slip_labels[rid], expected)
-    unit_rates = ds.recordings.groupby(["sensor_type", "sensor_instance"])["sampling_rate_hz"].transform("median")
+    unit_rates = ds.recordings.groupby(["sensor_type", "sensor_instance"])[
+        "sampling_rate_hz"
+    ].transform("median")
     np.testing.assert_array_equal(ds.recordings["unit_rate_hz"], unit_rates)
 
 
@@ -134,9 +162,13 @@ def _flavours(table: pa.Table, rng: np.random.Generator) -> pa.Table:
     for i, f in enumerate(out.schema):
         column = out.column(i)
         if pa.types.is_dictionary(f.type) or pa.types.is_string(f.type):
-            column = column.cast(pa.string()).cast(rng.choice([pa.large_string(), pa.string_view(), pa.string()]))
+            column = column.cast(pa.string()).cast(
+                rng.choice([pa.large_string(), pa.string_view(), pa.string()])
+            )
         elif pa.types.is_list(f.type) or pa.types.is_large_list(f.type):
-            column = column.cast((pa.list_ if rng.random() < 0.5 else pa.large_list)(f.type.value_type))
+            column = column.cast(
+                (pa.list_ if rng.random() < 0.5 else pa.large_list)(f.type.value_type)
+            )
         out = out.set_column(i, f.name, column)
     return out
 
@@ -152,7 +184,11 @@ def test_any_row_order_and_flavour_reads_the_same(tmp_path_factory, data, seed, 
     rng = np.random.default_rng(seed)
     for name in (RECORDINGS_FILE, SAMPLES_FILE):
         table = pq.read_table(root / "ref" / name)
-        pq.write_table(_flavours(table, rng).replace_schema_metadata(table.schema.metadata), other / name, row_group_size=row_group)
+        pq.write_table(
+            _flavours(table, rng).replace_schema_metadata(table.schema.metadata),
+            other / name,
+            row_group_size=row_group,
+        )
     ds = read_dataset(other)
     _check_equal(ds, rec, samples, labels)
     assert ds.fingerprint == reference.fingerprint
@@ -171,13 +207,18 @@ def test_a_nan_anywhere_is_named(tmp_path_factory, data, pick):
     rids = table.column("recording_id").cast(pa.string()).to_pylist()
     index = table.column("sample_index").to_pylist()
     values = table.column("values").to_pylist()
-    values[next(i for i, (r, s) in enumerate(zip(rids, index)) if r == rid and s == row)][channel] = float("nan")
+    values[next(i for i, (r, s) in enumerate(zip(rids, index)) if r == rid and s == row)][
+        channel
+    ] = float("nan")
     table = table.set_column(2, "values", pa.array(values, pa.large_list(pa.float64())))
     pq.write_table(table, path / SAMPLES_FILE)
     with pytest.raises(Exception) as err:
         read_dataset(path)
     assert err.type.__name__ == "DataError"
-    assert f"recording {rid!r}: column 'values': non-finite value (NaN or infinity) at sample_index {row}" in str(err.value)
+    assert (
+        f"recording {rid!r}: column 'values': non-finite value (NaN or infinity) at sample_index {row}"
+        in str(err.value)
+    )
 
 
 @SETTINGS
@@ -191,19 +232,34 @@ def test_a_missing_row_is_named(tmp_path_factory, data, pick):
     pq.write_table(table.take([i for i in range(table.num_rows) if i != drop]), path / SAMPLES_FILE)
     with pytest.raises(Exception) as err:
         read_dataset(path)
-    assert err.type.__name__ == "DataError" and f"recording {rid!r}" in str(err.value) and SAMPLES_FILE in str(err.value)
+    assert (
+        err.type.__name__ == "DataError"
+        and f"recording {rid!r}" in str(err.value)
+        and SAMPLES_FILE in str(err.value)
+    )
 
 
 # ----------------------------------------------------------------------------- corruptions
 def _tiny(root):
-    rec = pd.DataFrame({
-        "recording_id": ["a", "b"], "sensor_type": ["S", "S"], "sensor_instance": ["index", "index"],
-        "scenario": ["slip", "press"], "material": ["PVC", "PVC"], "speed_mm_s": [5.0, None],
-        "sampling_rate_hz": [1000.0, 1000.0], "channels": [("x", "y"), ("x", "y")],
-        "units": [("N", "N"), ("N", "N")], "source": ["test", "test"], "trial": ["t", "t"],
-    })
+    rec = pd.DataFrame(
+        {
+            "recording_id": ["a", "b"],
+            "sensor_type": ["S", "S"],
+            "sensor_instance": ["index", "index"],
+            "scenario": ["slip", "press"],
+            "material": ["PVC", "PVC"],
+            "speed_mm_s": [5.0, None],
+            "sampling_rate_hz": [1000.0, 1000.0],
+            "channels": [("x", "y"), ("x", "y")],
+            "units": [("N", "N"), ("N", "N")],
+            "source": ["test", "test"],
+            "trial": ["t", "t"],
+        }
+    )
     samples = {"a": np.arange(20, dtype=np.float64).reshape(10, 2), "b": np.ones((6, 2))}
-    return write_dataset(root / "ds", rec, samples, {"a": np.ones(10, bool), "b": np.zeros(6, bool)})
+    return write_dataset(
+        root / "ds", rec, samples, {"a": np.ones(10, bool), "b": np.zeros(6, bool)}
+    )
 
 
 def _table(path, name, mutate, keep_meta=True):
@@ -216,6 +272,7 @@ def _table(path, name, mutate, keep_meta=True):
 def _col(name, values, type_=None):
     def mutate(t):
         return t.set_column(t.schema.get_field_index(name), name, pa.array(values, type_))
+
     return mutate
 
 
@@ -230,47 +287,253 @@ def _values(change):
 
 CORRUPTIONS = {
     "samples file missing": (lambda p: (p / S).unlink(), S, None, None),
-    "not a Parquet file": (lambda p: (p / R).write_bytes(b"recording_id,scenario\na,slip\n"), R, None, None),
-    "truncated file": (lambda p: (p / S).write_bytes((p / S).read_bytes()[: (p / S).stat().st_size // 2]), S, None, None),
+    "not a Parquet file": (
+        lambda p: (p / R).write_bytes(b"recording_id,scenario\na,slip\n"),
+        R,
+        None,
+        None,
+    ),
+    "truncated file": (
+        lambda p: (p / S).write_bytes((p / S).read_bytes()[: (p / S).stat().st_size // 2]),
+        S,
+        None,
+        None,
+    ),
     "no format version": (lambda p: _table(p, R, lambda t: t, keep_meta=False), R, None, None),
-    "unsupported version": (lambda p: pq.write_table(pq.read_table(p / S).replace_schema_metadata({VERSION_KEY: b"2"}), p / S), S, None, None),
-    "column missing": (lambda p: _table(p, R, lambda t: t.drop_columns(["sensor_type"])), R, None, "sensor_type"),
-    "wrong type": (lambda p: _table(p, R, _col("sampling_rate_hz", ["1000", "1000"])), R, None, "sampling_rate_hz"),
-    "null required": (lambda p: _table(p, R, _col("sensor_instance", ["index", None])), R, "b", "sensor_instance"),
-    "empty recording_id": (lambda p: _table(p, R, _col("recording_id", ["a", ""])), R, None, "recording_id"),
-    "duplicate recording_id": (lambda p: _table(p, R, _col("recording_id", ["a", "a"])), R, "a", "recording_id"),
-    "unknown scenario": (lambda p: _table(p, R, _col("scenario", ["slip", "poke"])), R, "b", "scenario"),
-    "NaN rate": (lambda p: _table(p, R, _col("sampling_rate_hz", [1000.0, float("nan")])), R, "b", "sampling_rate_hz"),
-    "negative speed": (lambda p: _table(p, R, _col("speed_mm_s", [-5.0, None])), R, "a", "speed_mm_s"),
-    "empty channels": (lambda p: _table(p, R, _col("channels", [[], ["x", "y"]])), R, "a", "channels"),
+    "unsupported version": (
+        lambda p: pq.write_table(
+            pq.read_table(p / S).replace_schema_metadata({VERSION_KEY: b"2"}), p / S
+        ),
+        S,
+        None,
+        None,
+    ),
+    "column missing": (
+        lambda p: _table(p, R, lambda t: t.drop_columns(["sensor_type"])),
+        R,
+        None,
+        "sensor_type",
+    ),
+    "wrong type": (
+        lambda p: _table(p, R, _col("sampling_rate_hz", ["1000", "1000"])),
+        R,
+        None,
+        "sampling_rate_hz",
+    ),
+    "null required": (
+        lambda p: _table(p, R, _col("sensor_instance", ["index", None])),
+        R,
+        "b",
+        "sensor_instance",
+    ),
+    "empty recording_id": (
+        lambda p: _table(p, R, _col("recording_id", ["a", ""])),
+        R,
+        None,
+        "recording_id",
+    ),
+    "duplicate recording_id": (
+        lambda p: _table(p, R, _col("recording_id", ["a", "a"])),
+        R,
+        "a",
+        "recording_id",
+    ),
+    "unknown scenario": (
+        lambda p: _table(p, R, _col("scenario", ["slip", "poke"])),
+        R,
+        "b",
+        "scenario",
+    ),
+    "NaN rate": (
+        lambda p: _table(p, R, _col("sampling_rate_hz", [1000.0, float("nan")])),
+        R,
+        "b",
+        "sampling_rate_hz",
+    ),
+    "negative speed": (
+        lambda p: _table(p, R, _col("speed_mm_s", [-5.0, None])),
+        R,
+        "a",
+        "speed_mm_s",
+    ),
+    "empty channels": (
+        lambda p: _table(p, R, _col("channels", [[], ["x", "y"]])),
+        R,
+        "a",
+        "channels",
+    ),
     "fewer units": (lambda p: _table(p, R, _col("units", [["N"], ["N", "N"]])), R, "a", "units"),
-    "null channel name": (lambda p: _table(p, R, _col("channels", [["x", None], ["x", "y"]])), R, "a", "channels"),
+    "null channel name": (
+        lambda p: _table(p, R, _col("channels", [["x", None], ["x", "y"]])),
+        R,
+        "a",
+        "channels",
+    ),
     "integer trial": (lambda p: _table(p, R, _col("trial", [1, 2])), R, None, "trial"),
-    "rates beyond tolerance": (lambda p: _table(p, R, _col("sampling_rate_hz", [1000.0, 1100.0])), R, None, "sampling_rate_hz"),
-    "unlisted recording": (lambda p: _table(p, S, _col("recording_id", ["a"] * 10 + ["c"] * 6)), S, "c", "recording_id"),
-    "recording without samples": (lambda p: _table(p, S, lambda t: t.slice(0, 10)), S, "b", "recording_id"),
+    "rates beyond tolerance": (
+        lambda p: _table(p, R, _col("sampling_rate_hz", [1000.0, 1100.0])),
+        R,
+        None,
+        "sampling_rate_hz",
+    ),
+    "unlisted recording": (
+        lambda p: _table(p, S, _col("recording_id", ["a"] * 10 + ["c"] * 6)),
+        S,
+        "c",
+        "recording_id",
+    ),
+    "recording without samples": (
+        lambda p: _table(p, S, lambda t: t.slice(0, 10)),
+        S,
+        "b",
+        "recording_id",
+    ),
     "one sample": (lambda p: _table(p, S, lambda t: t.slice(0, 11)), S, "b", "sample_index"),
-    "null sample_index": (lambda p: _table(p, S, _col("sample_index", [0, 1, None] + list(range(3, 10)) + list(range(6)), pa.int64())), S, "a", "sample_index"),
-    "negative sample_index": (lambda p: _table(p, S, _col("sample_index", [-1] + list(range(1, 10)) + list(range(6)), pa.int64())), S, "a", "sample_index"),
-    "repeated sample_index": (lambda p: _table(p, S, _col("sample_index", list(range(10)) + [0, 1, 2, 2, 4, 5], pa.int64())), S, "b", "sample_index"),
-    "gap in sample_index": (lambda p: _table(p, S, _col("sample_index", list(range(10)) + [0, 1, 2, 3, 4, 6], pa.int64())), S, "b", "sample_index"),
-    "row too wide": (lambda p: _table(p, S, _col("values", _values(lambda v: v[12].append(1.0)), pa.list_(pa.float64()))), S, "b", "values"),
-    "null list": (lambda p: _table(p, S, _col("values", _values(lambda v: v.__setitem__(3, None)), pa.list_(pa.float64()))), S, "a", "values"),
-    "null in list": (lambda p: _table(p, S, _col("values", _values(lambda v: v[3].__setitem__(1, None)), pa.list_(pa.float64()))), S, "a", "values"),
-    "NaN value": (lambda p: _table(p, S, _col("values", _values(lambda v: v[14].__setitem__(0, float("nan"))), pa.list_(pa.float64()))), S, "b", "values"),
-    "infinite value": (lambda p: _table(p, S, _col("values", _values(lambda v: v[0].__setitem__(0, float("-inf"))), pa.list_(pa.float64()))), S, "a", "values"),
-    "integer beyond 2**53": (lambda p: _table(p, S, _col("values", [[2**60, 1]] + [[1, 1]] * 15, pa.list_(pa.int64()))), S, "a", "values"),
-    "string values": (lambda p: _table(p, S, _col("values", [["1", "2"]] * 16, pa.list_(pa.string()))), S, None, "values"),
+    "null sample_index": (
+        lambda p: _table(
+            p,
+            S,
+            _col("sample_index", [0, 1, None] + list(range(3, 10)) + list(range(6)), pa.int64()),
+        ),
+        S,
+        "a",
+        "sample_index",
+    ),
+    "negative sample_index": (
+        lambda p: _table(
+            p, S, _col("sample_index", [-1] + list(range(1, 10)) + list(range(6)), pa.int64())
+        ),
+        S,
+        "a",
+        "sample_index",
+    ),
+    "repeated sample_index": (
+        lambda p: _table(
+            p, S, _col("sample_index", list(range(10)) + [0, 1, 2, 2, 4, 5], pa.int64())
+        ),
+        S,
+        "b",
+        "sample_index",
+    ),
+    "gap in sample_index": (
+        lambda p: _table(
+            p, S, _col("sample_index", list(range(10)) + [0, 1, 2, 3, 4, 6], pa.int64())
+        ),
+        S,
+        "b",
+        "sample_index",
+    ),
+    "row too wide": (
+        lambda p: _table(
+            p, S, _col("values", _values(lambda v: v[12].append(1.0)), pa.list_(pa.float64()))
+        ),
+        S,
+        "b",
+        "values",
+    ),
+    "null list": (
+        lambda p: _table(
+            p, S, _col("values", _values(lambda v: v.__setitem__(3, None)), pa.list_(pa.float64()))
+        ),
+        S,
+        "a",
+        "values",
+    ),
+    "null in list": (
+        lambda p: _table(
+            p,
+            S,
+            _col("values", _values(lambda v: v[3].__setitem__(1, None)), pa.list_(pa.float64())),
+        ),
+        S,
+        "a",
+        "values",
+    ),
+    "NaN value": (
+        lambda p: _table(
+            p,
+            S,
+            _col(
+                "values",
+                _values(lambda v: v[14].__setitem__(0, float("nan"))),
+                pa.list_(pa.float64()),
+            ),
+        ),
+        S,
+        "b",
+        "values",
+    ),
+    "infinite value": (
+        lambda p: _table(
+            p,
+            S,
+            _col(
+                "values",
+                _values(lambda v: v[0].__setitem__(0, float("-inf"))),
+                pa.list_(pa.float64()),
+            ),
+        ),
+        S,
+        "a",
+        "values",
+    ),
+    "integer beyond 2**53": (
+        lambda p: _table(p, S, _col("values", [[2**60, 1]] + [[1, 1]] * 15, pa.list_(pa.int64()))),
+        S,
+        "a",
+        "values",
+    ),
+    "string values": (
+        lambda p: _table(p, S, _col("values", [["1", "2"]] * 16, pa.list_(pa.string()))),
+        S,
+        None,
+        "values",
+    ),
     "string slip": (lambda p: _table(p, S, _col("slip", ["yes"] * 16)), S, None, "slip"),
-    "slip of 2": (lambda p: _table(p, S, _col("slip", [1] * 9 + [2] + [0] * 6, pa.int8())), S, "a", "slip"),
-    "hold-slip without labels": (lambda p: (_table(p, R, _col("scenario", ["hold-slip", "press"])), _table(p, S, lambda t: t.drop_columns(["slip"]))), S, "a", "slip"),
-    "hold-slip without a hold": (lambda p: (_table(p, R, _col("scenario", ["press", "hold-slip"])),
-                                            _table(p, S, _col("slip", [0] * 10 + [1] * 6, pa.int8()))), S, "b", "slip"),
+    "slip of 2": (
+        lambda p: _table(p, S, _col("slip", [1] * 9 + [2] + [0] * 6, pa.int8())),
+        S,
+        "a",
+        "slip",
+    ),
+    "hold-slip without labels": (
+        lambda p: (
+            _table(p, R, _col("scenario", ["hold-slip", "press"])),
+            _table(p, S, lambda t: t.drop_columns(["slip"])),
+        ),
+        S,
+        "a",
+        "slip",
+    ),
+    "hold-slip without a hold": (
+        lambda p: (
+            _table(p, R, _col("scenario", ["press", "hold-slip"])),
+            _table(p, S, _col("slip", [0] * 10 + [1] * 6, pa.int8())),
+        ),
+        S,
+        "b",
+        "slip",
+    ),
     "no rows": (lambda p: _table(p, S, lambda t: t.slice(0, 0)), S, None, None),
     "no recordings": (lambda p: _table(p, R, lambda t: t.slice(0, 0)), R, None, None),
-    "null recording_id": (lambda p: _table(p, S, _col("recording_id", ["a"] * 10 + [None] + ["b"] * 5)), S, None, "recording_id"),
-    "integer recording_id": (lambda p: _table(p, S, _col("recording_id", [1] * 10 + [2] * 6)), S, None, "recording_id"),
-    "rows lost at the end": (lambda p: _table(p, S, lambda t: t.slice(0, 15)), S, "b", "sample_index"),
+    "null recording_id": (
+        lambda p: _table(p, S, _col("recording_id", ["a"] * 10 + [None] + ["b"] * 5)),
+        S,
+        None,
+        "recording_id",
+    ),
+    "integer recording_id": (
+        lambda p: _table(p, S, _col("recording_id", [1] * 10 + [2] * 6)),
+        S,
+        None,
+        "recording_id",
+    ),
+    "rows lost at the end": (
+        lambda p: _table(p, S, lambda t: t.slice(0, 15)),
+        S,
+        "b",
+        "sample_index",
+    ),
 }
 
 
@@ -302,7 +565,13 @@ def test_validate_in_a_separate_process_prints_no_traceback(tmp_path):
 
     path = _tiny(tmp_path)
     CORRUPTIONS["NaN value"][0](path)
-    done = subprocess.run([sys.executable, "-m", "slipbench.app.cli", "dataset", "validate", str(path)], capture_output=True, text=True,
-                          cwd=tmp_path)
-    assert done.returncode == 2 and done.stderr.count("\n") == 1 and "Traceback" not in done.stderr, done.stderr
+    done = subprocess.run(
+        [sys.executable, "-m", "slipbench.app.cli", "dataset", "validate", str(path)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert (
+        done.returncode == 2 and done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    ), done.stderr
     shutil.rmtree(path)

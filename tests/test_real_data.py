@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from slipbench.data.dataset import info, read_dataset
-from slipbench.detectors.holweg import Holweg
 from slipbench.data.importers import biotacsp_dos
+from slipbench.detectors.holweg import Holweg
+from slipbench.engine.runner import Run, evaluate
 from slipbench.protocols.window_size import WindowSize
 from slipbench.store.results import ResultsStore
-from slipbench.engine.runner import Run, evaluate
 
 SOURCE = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
 pytestmark = pytest.mark.skipif(not SOURCE.is_dir(), reason=f"BioTacSP-DoS not found at {SOURCE}")
@@ -28,7 +28,19 @@ def test_import_keeps_every_recording(dos):
     rec = dos.recordings
     assert len(rec) == 306
     assert (rec["scenario"] == "press").sum() == len(list((SOURCE / "t").glob("*.csv")))
-    assert set(rec["material"]) == {"bottle", "brush", "bubbles", "cardboard", "case", "hd", "pen", "plate", "screw", "sponge", "striped"}
+    assert set(rec["material"]) == {
+        "bottle",
+        "brush",
+        "bubbles",
+        "cardboard",
+        "case",
+        "hd",
+        "pen",
+        "plate",
+        "screw",
+        "sponge",
+        "striped",
+    }
     first = sorted((SOURCE / "w").glob("*.csv"))[0]
     raw = np.loadtxt(first, delimiter=",", skiprows=1, dtype=np.float32)
     np.testing.assert_array_equal(dos.samples[f"w/{first.stem}"], raw)
@@ -42,7 +54,17 @@ def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
     docs = (Path(__file__).resolve().parents[1] / "datasets.md").read_text()
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", docs, flags=re.S) if "BioTacSP" in b]
     (tmp_path / "biotacsp-dos.toml").write_text(block)
-    code, out, err = cli(["dataset", "import", "csv", str(SOURCE), str(tmp_path / "csv"), "--config", str(tmp_path / "biotacsp-dos.toml")])
+    code, out, err = cli(
+        [
+            "dataset",
+            "import",
+            "csv",
+            str(SOURCE),
+            str(tmp_path / "csv"),
+            "--config",
+            str(tmp_path / "biotacsp-dos.toml"),
+        ]
+    )
     assert code == 0, err
     code, out, err = cli(["dataset", "validate", str(tmp_path / "csv")])
     assert code == 0 and f"fingerprint {dos.fingerprint}" in out, out + err
@@ -51,7 +73,9 @@ def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
 
 def test_holweg_on_real_slip_data_beats_chance(dos, tmp_path):
     """Balanced slip against touch on a real BioTac SP, grouped split: every recording on one side."""
-    rows = evaluate(dos, Run(Holweg(), WindowSize(), split="grouped"), ResultsStore(tmp_path), progress=False)
+    rows = evaluate(
+        dos, Run(Holweg(), WindowSize(), split="grouped"), ResultsStore(tmp_path), progress=False
+    )
     assert (rows["status"] == "ok").all()
     at50 = rows[rows["window"] == 50].iloc[0]
     assert at50["accuracy_lo"] > 0.5, at50[["accuracy", "accuracy_lo", "accuracy_hi"]].to_dict()

@@ -8,9 +8,9 @@ import textwrap
 
 import pytest
 
-from slipbench.errors import PluginError, UsageError
-from slipbench.engine.registry import Registry, add_plugin_folder, detectors
 from slipbench.base import BaseDetector
+from slipbench.engine.registry import Registry, add_plugin_folder, detectors
+from slipbench.errors import PluginError, UsageError
 
 PLUGIN = '''
 import numpy as np
@@ -42,16 +42,24 @@ def test_plugin_folder_and_broken_plugin(tmp_path):
     reg.add_folder(tmp_path)
     assert {"my-energy", "broken", "holweg"} <= set(reg.names())
     assert reg.get("my-energy").__name__ == "Energy"
-    with pytest.raises(PluginError, match=r"detector 'broken' \(plugin file .*broken.py\) failed to import: RuntimeError: boom"):
+    with pytest.raises(
+        PluginError,
+        match=r"detector 'broken' \(plugin file .*broken.py\) failed to import: RuntimeError: boom",
+    ):
         reg.get("broken")
-    with pytest.raises(UsageError, match="unknown detector 'x'; available: .*broken, holweg, .*my-energy"):
+    with pytest.raises(
+        UsageError, match="unknown detector 'x'; available: .*broken, holweg, .*my-energy"
+    ):
         reg.get("x")
 
 
 def test_duplicate_names_name_both_origins(tmp_path):
     (tmp_path / "holweg.py").write_text(PLUGIN.format(name="holweg"))
     reg = Registry("detector", BaseDetector, "slipbench.detectors")
-    with pytest.raises(UsageError, match=r"two detectors are named 'holweg': one from entry point slipbench.detectors.holweg:Holweg \(slipbench\), one from plugin file"):
+    with pytest.raises(
+        UsageError,
+        match=r"two detectors are named 'holweg': one from entry point slipbench.detectors.holweg:Holweg \(slipbench\), one from plugin file",
+    ):
         reg.add_folder(tmp_path)
 
 
@@ -65,7 +73,8 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
     src = tmp_path / "src"
     (src / "thirdparty_slip").mkdir(parents=True)
     (src / "thirdparty_slip" / "__init__.py").write_text(PLUGIN.format(name="third-energy"))
-    (src / "pyproject.toml").write_text(textwrap.dedent('''
+    (src / "pyproject.toml").write_text(
+        textwrap.dedent("""
         [build-system]
         requires = ["setuptools>=68"]
         build-backend = "setuptools.build_meta"
@@ -74,20 +83,36 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
         version = "0.1"
         [project.entry-points."slipbench.detectors"]
         third-energy = "thirdparty_slip:Energy"
-    '''))
+    """)
+    )
     target = tmp_path / "site"
-    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "--no-build-isolation", "-q",
-                    "--target", str(target), str(src)], check=True)
-    code = textwrap.dedent('''
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--no-deps",
+            "--no-build-isolation",
+            "-q",
+            "--target",
+            str(target),
+            str(src),
+        ],
+        check=True,
+    )
+    code = textwrap.dedent("""
         import numpy as np
         from slipbench.engine.registry import detectors
         cls = detectors.get("third-energy")
         x = np.r_[np.zeros((4, 8)), np.ones((4, 8))]
         print(cls.__name__, cls().fit(x, [0]*4 + [1]*4).predict(x).tolist())
-    ''')
+    """)
     env = {"PYTHONPATH": str(target), "PATH": ""}
     # run outside the source tree, so that `slipbench` is the installed package
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path
+    )
     assert done.returncode == 0, done.stderr
     out = done.stdout
     assert out.strip() == "Energy [0, 0, 0, 0, 1, 1, 1, 1]"

@@ -20,22 +20,50 @@ from slipbench.store.results import read_results
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "reports" / "reproduce.sh"
-PROTOCOLS = ("window-size", "sampling-rate", "material-holdout", "speed-holdout", "cross-instance", "streaming")
-FIGURES = ("accuracy", "accuracy_lo", "accuracy_hi", "tp_rate", "tn_rate", "median_delay_ms", "false_alarms_per_min",
-           "detection_rate")
+PROTOCOLS = (
+    "window-size",
+    "sampling-rate",
+    "material-holdout",
+    "speed-holdout",
+    "cross-instance",
+    "streaming",
+)
+FIGURES = (
+    "accuracy",
+    "accuracy_lo",
+    "accuracy_hi",
+    "tp_rate",
+    "tn_rate",
+    "median_delay_ms",
+    "false_alarms_per_min",
+    "detection_rate",
+)
 SCALE = "0.01"
 
 
 def _env(**extra: str) -> dict[str, str]:
     bin_dir = str(Path(sys.executable).parent)  # where this environment's `slipbench` lives
-    return {**os.environ, "PATH": bin_dir + os.pathsep + os.environ.get("PATH", ""), "PYTHON": sys.executable, **extra}
+    return {
+        **os.environ,
+        "PATH": bin_dir + os.pathsep + os.environ.get("PATH", ""),
+        "PYTHON": sys.executable,
+        **extra,
+    }
 
 
 @pytest.fixture(scope="module")
 def reproduced(tmp_path_factory):
     root = tmp_path_factory.mktemp("reproduce")
-    env = _env(DETECTORS="holweg", SCALE=SCALE, JOBS="1", RESULTS=str(root / "results"), REPORTS=str(root / "reports"))
-    done = subprocess.run(["bash", str(SCRIPT)], env=env, capture_output=True, text=True, timeout=1200)
+    env = _env(
+        DETECTORS="holweg",
+        SCALE=SCALE,
+        JOBS="1",
+        RESULTS=str(root / "results"),
+        REPORTS=str(root / "reports"),
+    )
+    done = subprocess.run(
+        ["bash", str(SCRIPT)], env=env, capture_output=True, text=True, timeout=1200
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     return root
 
@@ -43,27 +71,55 @@ def reproduced(tmp_path_factory):
 def _section(readme: str, protocol: str) -> str:
     start = readme.index(f"### {protocol}: holweg (grouped split)")
     end = readme.find("\n### ", start + 1)
-    return readme[start:end if end > 0 else None]
+    return readme[start : end if end > 0 else None]
 
 
 @pytest.mark.parametrize("protocol", PROTOCOLS)
 def test_one_cell_per_protocol_matches_a_fresh_run(reproduced, protocol, tmp_path):
     fresh = tmp_path / "fresh"
-    options = ["--protocol-param", "decimation=both"] if protocol == "sampling-rate" else []  # as the script runs it
-    done = subprocess.run(["slipbench", "evaluate", "--detector", "holweg", "--protocol", protocol, *options,
-                           "--split", "grouped", "--scale", SCALE, "--jobs", "0", "--out", str(fresh), "--quiet"],
-                          env=_env(), capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    options = (
+        ["--protocol-param", "decimation=both"] if protocol == "sampling-rate" else []
+    )  # as the script runs it
+    done = subprocess.run(
+        [
+            "slipbench",
+            "evaluate",
+            "--detector",
+            "holweg",
+            "--protocol",
+            protocol,
+            *options,
+            "--split",
+            "grouped",
+            "--scale",
+            SCALE,
+            "--jobs",
+            "0",
+            "--out",
+            str(fresh),
+            "--quiet",
+        ],
+        env=_env(),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     ours = read_results(fresh)
     ours = ours[ours["status"] == "ok"].sort_values("key")
     row = ours.iloc[len(ours) // 2]  # one cell, from the middle of the protocol
     theirs = read_results(reproduced / "results").set_index("key")
-    assert row["key"] in theirs.index, "the script's cell has another key: other data, settings or code"
+    assert row["key"] in theirs.index, (
+        "the script's cell has another key: other data, settings or code"
+    )
     script_row = theirs.loc[row["key"]]
     for name in FIGURES:
         if name in ours and pd.notna(row[name]):
             # a stream's delay includes the compute time measured per hop (microseconds of jitter)
-            assert script_row[name] == pytest.approx(row[name], abs=0.05 if name.endswith("_ms") else 0), name
+            assert script_row[name] == pytest.approx(
+                row[name], abs=0.05 if name.endswith("_ms") else 0
+            ), name
     readme = (reproduced / "reports" / "README.md").read_text()
     section = _section(readme, protocol)
     if protocol == "streaming":
@@ -76,11 +132,20 @@ def test_one_cell_per_protocol_matches_a_fresh_run(reproduced, protocol, tmp_pat
 def test_the_script_writes_every_part(reproduced):
     reports = reproduced / "reports"
     readme = (reports / "README.md").read_text()
-    for part in ("# The paper reproduced, on simulated data", "## Leaderboard", "## The splits side by side",
-                 "## What the reproduction cost", "(grouped split)", "(paper split)"):
+    for part in (
+        "# The paper reproduced, on simulated data",
+        "## Leaderboard",
+        "## The splits side by side",
+        "## What the reproduction cost",
+        "(grouped split)",
+        "(paper split)",
+    ):
         assert part in readme, part
     assert (reports / "tables.tex").read_text().startswith("\\documentclass")
-    assert list((reports / "figures").glob("*.png")) and (reproduced / "results" / "report.html").is_file()
+    assert (
+        list((reports / "figures").glob("*.png"))
+        and (reproduced / "results" / "report.html").is_file()
+    )
     assert not list(reports.glob(".*")), "temporary files left behind"
 
 
@@ -92,7 +157,10 @@ def test_the_committed_reports_were_made_with_the_scripts_settings():
     detectors = re.search(r"DETECTORS=\$\{DETECTORS:-([^}]+)\}", script)[1].split()
     readme = (ROOT / "reports" / "README.md").read_text()
     assert f"scale {scale}," in readme
-    assert "grouped: whole trials on one side" in readme and "paper: the balanced windows shuffled" in readme
+    assert (
+        "grouped: whole trials on one side" in readme
+        and "paper: the balanced windows shuffled" in readme
+    )
     for detector in detectors:
         assert re.search(rf"^\| {re.escape(detector)} +\|", readme, re.M), detector
     assert re.search(r"^\| lstm +\|[^\n]*max_epochs=100;", readme, re.M)

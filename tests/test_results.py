@@ -22,17 +22,25 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from slipbench import errors
-from slipbench.store import keys
 from slipbench.base import BaseDetector
-from slipbench.protocol import Part
 from slipbench.errors import CellsFailed, DataError, EnvironmentFault, environment_fault, writing
+from slipbench.protocol import Part
+from slipbench.store import keys
 from slipbench.store.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
 from slipbench.store.results import RESULTS_FILE, ResultsStore, cells_failed, read_results
 
 
 def row(i: int, **extra) -> dict:
-    return {"key": f"k{i:04d}", "protocol": "window-size", "detector": "holweg", "status": "ok",
-            "reason": "", "window": 5 * (i + 1), "accuracy": 50 + i / 8, **extra}
+    return {
+        "key": f"k{i:04d}",
+        "protocol": "window-size",
+        "detector": "holweg",
+        "status": "ok",
+        "reason": "",
+        "window": 5 * (i + 1),
+        "accuracy": 50 + i / 8,
+        **extra,
+    }
 
 
 def stored(folder: Path, n: int, **extra) -> ResultsStore:
@@ -43,20 +51,39 @@ def stored(folder: Path, n: int, **extra) -> ResultsStore:
 
 
 # ----------------------------------------------------------------------------- the store
-scalars = st.one_of(st.none(), st.booleans(), st.integers(-2**62, 2**62),
-                    st.floats(allow_nan=False, width=64), st.text(max_size=12))
+scalars = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**62), 2**62),
+    st.floats(allow_nan=False, width=64),
+    st.text(max_size=12),
+)
 
 
-@settings(max_examples=40, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(values=st.lists(st.fixed_dictionaries({"x": scalars.filter(lambda v: not isinstance(v, bool)),
-                                              "label": st.text(max_size=20)}), min_size=1, max_size=6))
+@settings(
+    max_examples=40,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    values=st.lists(
+        st.fixed_dictionaries(
+            {"x": scalars.filter(lambda v: not isinstance(v, bool)), "label": st.text(max_size=20)}
+        ),
+        min_size=1,
+        max_size=6,
+    )
+)
 def test_rows_round_trip_through_cells_and_results(values, tmp_path_factory):
     folder = tmp_path_factory.mktemp("rt")
     store = ResultsStore(folder)
     # one type per column across cells, as a plugin writes them
     kind = type(next((v["x"] for v in values if v["x"] is not None), None))
-    rows = [row(i, x=v["x"] if v["x"] is None or isinstance(v["x"], kind) else None, label=v["label"])
-            for i, v in enumerate(values)]
+    rows = [
+        row(i, x=v["x"] if v["x"] is None or isinstance(v["x"], kind) else None, label=v["label"])
+        for i, v in enumerate(values)
+    ]
     for r in rows:
         store.put(r)
     assert store.finished() == {r["key"]: r for r in rows}  # straight from cells/
@@ -82,7 +109,9 @@ def test_results_file_is_rewritten_only_when_a_row_changed(tmp_path):
     assert (path.stat().st_ino, path.stat().st_mtime_ns) == (before.st_ino, before.st_mtime_ns)
     store.put(row(1, accuracy=99.0))  # a cell recomputed (--force)
     store.put(row(7))  # and a new one
-    assert read_results(tmp_path).set_index("key").loc["k0001", "accuracy"] == 99.0  # before consolidating
+    assert (
+        read_results(tmp_path).set_index("key").loc["k0001", "accuracy"] == 99.0
+    )  # before consolidating
     store.consolidate()
     after = pq.read_table(path).to_pandas().set_index("key")
     assert path.stat().st_ino != before.st_ino
@@ -138,8 +167,10 @@ def test_a_damaged_cell_is_recomputed_by_a_run_and_refused_by_a_report(tmp_path)
 
 def write_cell(folder: Path, name: str, rows: list[dict]) -> None:
     (folder / "cells").mkdir(parents=True, exist_ok=True)
-    pq.write_table(pa.Table.from_pylist(rows) if rows else pa.table({"key": pa.array([], pa.string())}),
-                   folder / "cells" / f"{name}.parquet")
+    pq.write_table(
+        pa.Table.from_pylist(rows) if rows else pa.table({"key": pa.array([], pa.string())}),
+        folder / "cells" / f"{name}.parquet",
+    )
 
 
 def corrupt_results(folder: Path, data: bytes) -> None:
@@ -154,21 +185,34 @@ def parquet_bytes(rows: list[dict]) -> bytes:
 
 CORRUPTIONS = {
     "empty results file": lambda f: corrupt_results(f, b""),
-    "results file of random bytes": lambda f: corrupt_results(f, np.random.default_rng(0).bytes(2000)),
+    "results file of random bytes": lambda f: corrupt_results(
+        f, np.random.default_rng(0).bytes(2000)
+    ),
     "truncated results file": lambda f: corrupt_results(f, parquet_bytes([row(0)])[:-30]),
-    "results file without its footer magic": lambda f: corrupt_results(f, parquet_bytes([row(0)])[:-4] + b"XXXX"),
+    "results file without its footer magic": lambda f: corrupt_results(
+        f, parquet_bytes([row(0)])[:-4] + b"XXXX"
+    ),
     "JSON instead of Parquet": lambda f: corrupt_results(f, json.dumps([row(0)]).encode()),
-    "results file without a key column": lambda f: corrupt_results(f, parquet_bytes([{"protocol": "p", "detector": "d"}])),
-    "results file without a status column": lambda f: corrupt_results(f, parquet_bytes([{"key": "a", "protocol": "p", "detector": "d"}])),
+    "results file without a key column": lambda f: corrupt_results(
+        f, parquet_bytes([{"protocol": "p", "detector": "d"}])
+    ),
+    "results file without a status column": lambda f: corrupt_results(
+        f, parquet_bytes([{"key": "a", "protocol": "p", "detector": "d"}])
+    ),
     "a key twice in the results file beside cells/": lambda f: (
-        write_cell(f, "k0001", [row(1)]), corrupt_results(f, parquet_bytes([row(0), row(0, accuracy=1.0)]))),
+        write_cell(f, "k0001", [row(1)]),
+        corrupt_results(f, parquet_bytes([row(0), row(0, accuracy=1.0)])),
+    ),
     "empty cell file": lambda f: write_cell(f, "k0000", []),
     "cell file of two rows": lambda f: write_cell(f, "k0000", [row(0), row(1)]),
     "cell file whose key is not its name": lambda f: write_cell(f, "k0000", [row(5)]),
     "cell file without a key": lambda f: write_cell(f, "k0000", [{"protocol": "p"}]),
-    "truncated cell file": lambda f: (write_cell(f, "k0000", [row(0)]),
-                                      (f / "cells" / "k0000.parquet").write_bytes(
-                                          (f / "cells" / "k0000.parquet").read_bytes()[:50])),
+    "truncated cell file": lambda f: (
+        write_cell(f, "k0000", [row(0)]),
+        (f / "cells" / "k0000.parquet").write_bytes(
+            (f / "cells" / "k0000.parquet").read_bytes()[:50]
+        ),
+    ),
     "cell file that is a folder": lambda f: (f / "cells" / "k0000.parquet").mkdir(parents=True),
 }
 
@@ -193,13 +237,27 @@ def test_cells_failed_groups_reasons_and_exits_4(tmp_path):
     store = ResultsStore(tmp_path)
     for i in range(6):
         status = ("failed", "timeout", "ok", "skipped")[min(i, 3)] if i < 4 else "failed"
-        store.put(row(i, status=status, cell=json.dumps({"window": 5 * i}),
-                      reason={"failed": "detector 'x' raised: ValueError: nan", "timeout": "over 5 s"}.get(status, "")))
+        store.put(
+            row(
+                i,
+                status=status,
+                cell=json.dumps({"window": 5 * i}),
+                reason={
+                    "failed": "detector 'x' raised: ValueError: nan",
+                    "timeout": "over 5 s",
+                }.get(status, ""),
+            )
+        )
     err = cells_failed(read_results(tmp_path), str(tmp_path))
     assert isinstance(err, CellsFailed) and err.exit_code == 4 and len(err.cells) == 4
     text = str(err)
-    assert text.startswith(f"4 of 6 cells did not finish (their rows, with status and reason, are in {tmp_path})")
-    assert "  3 failed: detector 'x' raised: ValueError: nan [window-size/holweg {\"window\": 0};" in text
+    assert text.startswith(
+        f"4 of 6 cells did not finish (their rows, with status and reason, are in {tmp_path})"
+    )
+    assert (
+        "  3 failed: detector 'x' raised: ValueError: nan [window-size/holweg {\"window\": 0};"
+        in text
+    )
     assert "  1 timeout: over 5 s" in text
     many = CellsFailed([(f"c{i}", "failed", "boom") for i in range(10)], total=10)
     assert str(many).endswith("[c0; c1; c2; and 7 more]")
@@ -208,18 +266,34 @@ def test_cells_failed_groups_reasons_and_exits_4(tmp_path):
 
 # ----------------------------------------------------------------------------- errors
 def test_each_exit_code_means_one_thing():
-    codes = {errors.UsageError: 2, errors.DataError: 2, errors.PluginError: 3, errors.CellsFailed: 4,
-             errors.EnvironmentFault: 5}
+    codes = {
+        errors.UsageError: 2,
+        errors.DataError: 2,
+        errors.PluginError: 3,
+        errors.CellsFailed: 4,
+        errors.EnvironmentFault: 5,
+    }
     assert {c: c.exit_code for c in codes} == codes
-    assert (errors.EXIT_OK, errors.EXIT_REGRESSION, errors.EXIT_USAGE, errors.EXIT_PLUGIN,
-            errors.EXIT_CELLS_FAILED, errors.EXIT_ENVIRONMENT) == (0, 1, 2, 3, 4, 5)
+    assert (
+        errors.EXIT_OK,
+        errors.EXIT_REGRESSION,
+        errors.EXIT_USAGE,
+        errors.EXIT_PLUGIN,
+        errors.EXIT_CELLS_FAILED,
+        errors.EXIT_ENVIRONMENT,
+    ) == (0, 1, 2, 3, 4, 5)
 
 
-@pytest.mark.parametrize("code,cause", [(errno.ENOSPC, "no space left on device (ENOSPC)"),
-                                        (errno.EROFS, "read-only file system (EROFS)"),
-                                        (errno.EACCES, "permission denied (EACCES)"),
-                                        (errno.EPERM, "operation not permitted (EPERM)"),
-                                        (errno.EDQUOT, "disk quota exceeded (EDQUOT)")])
+@pytest.mark.parametrize(
+    "code,cause",
+    [
+        (errno.ENOSPC, "no space left on device (ENOSPC)"),
+        (errno.EROFS, "read-only file system (EROFS)"),
+        (errno.EACCES, "permission denied (EACCES)"),
+        (errno.EPERM, "operation not permitted (EPERM)"),
+        (errno.EDQUOT, "disk quota exceeded (EDQUOT)"),
+    ],
+)
 def test_environment_oserrors_become_one_line_faults(code, cause):
     fault = environment_fault(OSError(code, os.strerror(code), "/x/.tmp123"), "/x/cell.parquet")
     assert isinstance(fault, EnvironmentFault) and fault.exit_code == 5
@@ -251,41 +325,68 @@ def test_other_oserrors_pass_through_unchanged():
 def test_one_key_is_pinned():
     """Changing this value invalidates every cached cell of every user: bump KEY_SCHEMA instead
     of editing the canonical form, and update the value here deliberately."""
-    fields = {"dataset": "0f3c", "detector": "holweg", "params": {"band": (300, 495), "threshold": 0.5},
-              "cell": {"sensor_type": "Nano17", "speed_mm_s": np.float64(25.0)},
-              "train": Part((("Nano17", "index"),), "train", (("material", "!=", np.str_("PVC")),)),
-              "seed": np.int64(0)}
+    fields = {
+        "dataset": "0f3c",
+        "detector": "holweg",
+        "params": {"band": (300, 495), "threshold": 0.5},
+        "cell": {"sensor_type": "Nano17", "speed_mm_s": np.float64(25.0)},
+        "train": Part((("Nano17", "index"),), "train", (("material", "!=", np.str_("PVC")),)),
+        "seed": np.int64(0),
+    }
     assert canonical_json(fields) == (
         '{"fields":{"cell":{"sensor_type":"Nano17","speed_mm_s":25},"dataset":"0f3c","detector":"holweg",'
         '"params":{"band":[300,495],"threshold":0.5},"seed":0,"train":{"sensors":[["Nano17","index"]],'
-        '"side":"train","where":[["material","!=","PVC"]]}},"schema":1}')
+        '"side":"train","where":[["material","!=","PVC"]]}},"schema":1}'
+    )
     assert KEY_SCHEMA == 1
     assert cell_key(fields) == "eb7afa984081c4853102"
 
 
 def test_equal_meanings_give_equal_keys():
-    assert cell_key({"v": np.float64(25.0)}) == cell_key({"v": 25}) == cell_key({"v": 25.0}) == cell_key({"v": np.int32(25)})
-    assert cell_key({"v": (1, 2.0)}) == cell_key({"v": [1, 2]}) == cell_key({"v": np.array([1.0, 2.0])})
+    assert (
+        cell_key({"v": np.float64(25.0)})
+        == cell_key({"v": 25})
+        == cell_key({"v": 25.0})
+        == cell_key({"v": np.int32(25)})
+    )
+    assert (
+        cell_key({"v": (1, 2.0)})
+        == cell_key({"v": [1, 2]})
+        == cell_key({"v": np.array([1.0, 2.0])})
+    )
     assert cell_key({"v": np.str_("a"), "b": np.bool_(True)}) == cell_key({"v": "a", "b": True})
     assert cell_key({"v": -0.0}) == cell_key({"v": 0})
-    assert cell_key({"v": 0.1}) != cell_key({"v": 0.1 + 1e-16 * 2})  # a different float is a different key
+    assert cell_key({"v": 0.1}) != cell_key(
+        {"v": 0.1 + 1e-16 * 2}
+    )  # a different float is a different key
     assert cell_key({"v": True}) != cell_key({"v": 1})
     assert cell_key({"v": "25"}) != cell_key({"v": 25})
     assert cell_key({"v": float("inf")}) != cell_key({"v": "inf"})
     assert canonical(float("nan")) == {"__float__": "nan"}
 
 
-@pytest.mark.parametrize("value", [{1, 2}, Path("/tmp"), object(), b"bytes", pd.Timestamp(0), {1: "a"},
-                                   np.array(["a"]), 1 + 2j])
+@pytest.mark.parametrize(
+    "value",
+    [{1, 2}, Path("/tmp"), object(), b"bytes", pd.Timestamp(0), {1: "a"}, np.array(["a"]), 1 + 2j],
+)
 def test_values_without_one_plain_spelling_are_refused(value):
     with pytest.raises(TypeError, match=r"key\.params"):
         cell_key({"params": value})
 
 
 json_values = st.recursive(
-    st.one_of(st.none(), st.booleans(), st.integers(-2**53, 2**53), st.floats(allow_nan=False), st.text(max_size=8)),
-    lambda children: st.one_of(st.lists(children, max_size=4), st.dictionaries(st.text(max_size=6), children, max_size=4)),
-    max_leaves=20)
+    st.one_of(
+        st.none(),
+        st.booleans(),
+        st.integers(-(2**53), 2**53),
+        st.floats(allow_nan=False),
+        st.text(max_size=8),
+    ),
+    lambda children: st.one_of(
+        st.lists(children, max_size=4), st.dictionaries(st.text(max_size=6), children, max_size=4)
+    ),
+    max_leaves=20,
+)
 
 
 def numpyfied(value):
@@ -322,9 +423,18 @@ def test_slipbench_and_its_built_in_plugins_share_one_identity():
 
     ident = code_identity(slipbench)
     assert ident.startswith("src:") and len(ident) == 36
-    assert code_identity(BaseDetector) == code_identity(detectors.get("holweg")) == code_identity(protocols.get("window-size")) == ident
+    assert (
+        code_identity(BaseDetector)
+        == code_identity(detectors.get("holweg"))
+        == code_identity(protocols.get("window-size"))
+        == ident
+    )
     labels = [label for label, _ in keys._source_files("slipbench")]
-    assert {"slipbench/store/keys.py", "slipbench.detectors/holweg.py", "slipbench.protocols/window_size.py"} <= set(labels)
+    assert {
+        "slipbench/store/keys.py",
+        "slipbench.detectors/holweg.py",
+        "slipbench.protocols/window_size.py",
+    } <= set(labels)
     assert not any("__pycache__" in label for label in labels)
 
 
@@ -342,13 +452,13 @@ def load_plugin(folder: Path, name: str):
         sys.path.remove(str(folder))
 
 
-PLUGIN = textwrap.dedent('''
+PLUGIN = textwrap.dedent("""
     from slipbench.base import BaseDetector
     from .helper import THRESHOLD
 
     class Plug(BaseDetector):
         name = "plug"
-''')
+""")
 
 
 def test_a_changed_plugin_changes_its_identity(tmp_path):
@@ -363,7 +473,9 @@ def test_a_changed_plugin_changes_its_identity(tmp_path):
     keys._unit_identity.cache_clear()
     first = code_identity(load_plugin(tmp_path / "a", "plugpkg.det").Plug)
     keys._unit_identity.cache_clear()
-    assert code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Plug) == first  # same code, elsewhere
+    assert (
+        code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Plug) == first
+    )  # same code, elsewhere
     (tmp_path / "b" / "plugpkg" / "helper.py").write_text("THRESHOLD = 0.6\n")
     keys._unit_identity.cache_clear()
     changed = code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Plug)
@@ -390,7 +502,9 @@ def test_code_without_source_falls_back_to_its_distribution_or_this_process(monk
     exec("class Typed:\n    pass\n", module.__dict__)
     monkeypatch.setitem(sys.modules, "sourceless_plugin", module)
     keys._unit_identity.cache_clear()
-    assert code_identity(module.Typed) == keys._PROCESS_NONCE and keys._PROCESS_NONCE.startswith("process:")
+    assert code_identity(module.Typed) == keys._PROCESS_NONCE and keys._PROCESS_NONCE.startswith(
+        "process:"
+    )
     monkeypatch.setattr(keys, "packages_distributions", lambda: {"sourceless_plugin": ["numpy"]})
     keys._unit_identity.cache_clear()
     assert code_identity(module.Typed) == f"dist:numpy=={np.__version__}"
@@ -432,7 +546,9 @@ def test_models_saved_at_once_to_one_path_stay_whole(tmp_path):
     detectors = [Saved(scale=s).fit(x, y, sampling_rate=1000.0, seed=0) for s in (1.0, 2.0)]
     path = tmp_path / "models" / "m.npz"
     path.parent.mkdir()
-    threads = [threading.Thread(target=lambda d=d: [d.save(path) for _ in range(20)]) for d in detectors]
+    threads = [
+        threading.Thread(target=lambda d=d: [d.save(path) for _ in range(20)]) for d in detectors
+    ]
     for t in threads:
         t.start()
     for t in threads:
@@ -440,4 +556,3 @@ def test_models_saved_at_once_to_one_path_stay_whole(tmp_path):
     loaded = Saved.load(path)
     assert any(np.array_equal(loaded.mean_, d.mean_) for d in detectors)
     assert [p.name for p in path.parent.iterdir()] == ["m.npz"]
-

@@ -21,7 +21,9 @@ def test_univariate_keeps_small_changes_on_a_large_load():
 
 
 def _signals(lengths, labels=None, scenario="slip"):
-    rec = pd.DataFrame({"recording_id": [f"r{i}" for i in range(len(lengths))], "scenario": scenario})
+    rec = pd.DataFrame(
+        {"recording_id": [f"r{i}" for i in range(len(lengths))], "scenario": scenario}
+    )
     parts = [np.arange(n, dtype=np.float32) + 1000 * i for i, n in enumerate(lengths)]
     labels = np.ones(sum(lengths), np.int8) if labels is None else np.asarray(labels, np.int8)
     return Signals(np.concatenate(parts), np.r_[0, np.cumsum(lengths)], rec, labels)
@@ -45,14 +47,22 @@ def test_windows_of_selected_recordings_and_downsampling():
 
 
 def test_balancing_gives_the_papers_proportions(small):
-    w = Signals.from_dataset(small).windows(50, np.flatnonzero(small.recordings["sensor_instance"].eq("index") & small.recordings["sensor_type"].eq("Nano17")))
+    w = Signals.from_dataset(small).windows(
+        50,
+        np.flatnonzero(
+            small.recordings["sensor_instance"].eq("index")
+            & small.recordings["sensor_type"].eq("Nano17")
+        ),
+    )
     kept = w.take(balance(w, np.random.default_rng(0)))
     scenario = kept.column("scenario")
     n = len(kept)
     assert (scenario == "slip").sum() == n // 2
     assert (scenario == "press").sum() == (scenario == "free-space").sum() == n // 4
     slip = kept.take(np.flatnonzero(scenario == "slip"))
-    per_cell = pd.Series(list(zip(slip.column("material"), slip.column("speed_mm_s")))).value_counts()
+    per_cell = pd.Series(
+        list(zip(slip.column("material"), slip.column("speed_mm_s")))
+    ).value_counts()
     assert len(per_cell) == 20 and per_cell.nunique() == 1
     press = kept.take(np.flatnonzero(scenario == "press"))
     assert pd.Series(press.column("material")).value_counts().nunique() == 1
@@ -71,7 +81,10 @@ def test_balancing_is_seeded(small):
 @pytest.mark.parametrize("how", ["paper", "grouped"])
 def test_splits_halve_and_keep_both_classes(small, how):
     sig = Signals.from_dataset(small)
-    rows = np.flatnonzero(small.recordings["sensor_type"].eq("OptoForce20") & small.recordings["sensor_instance"].eq("middle"))
+    rows = np.flatnonzero(
+        small.recordings["sensor_type"].eq("OptoForce20")
+        & small.recordings["sensor_instance"].eq("middle")
+    )
     w = sig.windows(50, rows)
     w = w.take(balance(w, np.random.default_rng(0)))
     train, test = split(w, how, seed=0)
@@ -108,7 +121,11 @@ def test_windows_take_their_class_from_the_samples_as_asked():
     sig = _signals([9], [0, 0, 0, 1, 0, 0, 0, 0, 0], scenario="hold-slip")
     assert sig.windows(3, labelling="majority").y.tolist() == [0, 0, 0]
     assert sig.windows(3, labelling="any").y.tolist() == [0, 1, 0]
-    assert sig.windows(3, labelling="last").y.tolist() == [0, 0, 0]  # the slip sample is not the last
+    assert sig.windows(3, labelling="last").y.tolist() == [
+        0,
+        0,
+        0,
+    ]  # the slip sample is not the last
 
 
 def test_grouped_split_keeps_each_trial_on_one_side_for_every_unit(small):
@@ -129,8 +146,14 @@ def test_grouped_split_keeps_each_trial_on_one_side_for_every_unit(small):
         trials = rec["trial"].to_numpy()
         test_trials[unit] = set(trials[w.recording[test]])
         assert not set(trials[w.recording[train]]) & test_trials[unit]
-    train_index = set(rec["trial"].to_numpy()[np.flatnonzero(rec["sensor_instance"].eq("index").to_numpy() & (sides == 0))])
-    assert not test_trials[("Nano17", "middle")] & train_index  # no middle test trial trained the index model
+    train_index = set(
+        rec["trial"].to_numpy()[
+            np.flatnonzero(rec["sensor_instance"].eq("index").to_numpy() & (sides == 0))
+        ]
+    )
+    assert (
+        not test_trials[("Nano17", "middle")] & train_index
+    )  # no middle test trial trained the index model
 
 
 def test_the_paper_split_survives_single_window_strata():

@@ -10,10 +10,15 @@ import pandas as pd
 import pytest
 from scipy.stats import ks_2samp
 
-from slipbench.app.cli import _param, main
-from slipbench.errors import UsageError
+from slipbench.analysis.spectral import (
+    analyze,
+    analyze_pools,
+    ks_2samp_last_axis,
+    significant_bands,
+)
+from slipbench.app.cli import _param
 from slipbench.engine.registry import detectors
-from slipbench.analysis.spectral import analyze, analyze_pools, ks_2samp_last_axis, significant_bands
+from slipbench.errors import UsageError
 
 FS = 500
 BAND = (50.0, 80.0)
@@ -47,7 +52,9 @@ def test_a_known_band_is_found():
     assert (t.loc[inside, "slip_mean"] > 1.5 * t.loc[inside, "nonslip_mean"]).all()
     ratio = t.loc[~inside, "slip_mean"] / t.loc[~inside, "nonslip_mean"]
     assert ratio.between(0.9, 1.1).all()
-    assert (t["nonslip_lo"] <= t["nonslip_mean"]).all() and (t["nonslip_mean"] <= t["nonslip_hi"]).all()
+    assert (t["nonslip_lo"] <= t["nonslip_mean"]).all() and (
+        t["nonslip_mean"] <= t["nonslip_hi"]
+    ).all()
 
 
 def test_identical_classes_give_no_band():
@@ -112,19 +119,44 @@ def test_bad_parameters_are_named(small):
 
 def test_command_writes_figure_table_and_band(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
-    argv = ["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--sensor", "BioTacSP", "--instance", "index",
-            "--segment", "100", "--boot", "30", "--repeats", "10", "--out", str(out)]
+    argv = [
+        "spectral",
+        "--dataset",
+        str(small_path),
+        "--sensor",
+        "Nano17",
+        "--sensor",
+        "BioTacSP",
+        "--instance",
+        "index",
+        "--segment",
+        "100",
+        "--boot",
+        "30",
+        "--repeats",
+        "10",
+        "--out",
+        str(out),
+    ]
     code, text, err = cli(argv)
     assert code == 0, err
     for stem in ("Nano17-index", "BioTacSP-index"):
         for suffix in (".png", ".pdf", ".csv", ".json"):
             assert (out / f"{stem}{suffix}").stat().st_size > 0
     table = pd.read_csv(out / "BioTacSP-index.csv")
-    assert table["freq_hz"].iloc[-1] == 425 and {"significance", "slip_mean", "nonslip_hi"} <= set(table.columns)
+    assert table["freq_hz"].iloc[-1] == 425 and {"significance", "slip_mean", "nonslip_hi"} <= set(
+        table.columns
+    )
     summary = json.loads((out / "Nano17-index.json").read_text())
-    assert summary["sensor_type"] == "Nano17" and summary["repeats"] == 10 and summary["segment_samples"] == 100
+    assert (
+        summary["sensor_type"] == "Nano17"
+        and summary["repeats"] == 10
+        and summary["segment_samples"] == 100
+    )
     # the printed band is in the form `evaluate --param` reads, and holweg takes it
-    line = next(line for line in text.splitlines() if line.startswith("Nano17-index: most significant band"))
+    line = next(
+        line for line in text.splitlines() if line.startswith("Nano17-index: most significant band")
+    )
     param = line.rsplit("--param ", 1)[1]
     band = _param((param,))["band"]
     assert band == summary["most_significant_band"]
@@ -133,18 +165,39 @@ def test_command_writes_figure_table_and_band(small_path, tmp_path, cli):
 
 def test_unknown_sensor_or_instance_exits_2_and_writes_nothing(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
-    code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--sensor", "GelSight",
-                        "--segment", "100", "--repeats", "2", "--out", str(out)])
+    code, _, err = cli(
+        [
+            "spectral",
+            "--dataset",
+            str(small_path),
+            "--sensor",
+            "Nano17",
+            "--sensor",
+            "GelSight",
+            "--segment",
+            "100",
+            "--repeats",
+            "2",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 2 and "unknown sensor 'GelSight'" in err
-    assert "BioTacSP, Nano17, OptoForce20" in err and "Traceback" not in err  # recordings in canonical (id) order
+    assert (
+        "BioTacSP, Nano17, OptoForce20" in err and "Traceback" not in err
+    )  # recordings in canonical (id) order
     assert not out.exists()
-    code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "little"])
+    code, _, err = cli(
+        ["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "little"]
+    )
     assert code == 2 and "BioTacSP has no instance 'little'; its instances: index, middle" in err
 
 
 def test_recordings_shorter_than_a_segment_are_refused(small_path, cli):
     # at scale 0.02 a slip recording holds half a second: one contiguous second does not fit
-    code, _, err = cli(["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--instance", "index"])
+    code, _, err = cli(
+        ["spectral", "--dataset", str(small_path), "--sensor", "Nano17", "--instance", "index"]
+    )
     assert code == 2 and "holds a 1000-sample segment" in err and "--segment" in err
 
 
@@ -152,9 +205,9 @@ def test_recordings_shorter_than_a_segment_are_refused(small_path, cli):
 def _runner_sides(ds, sensor: str, split: str, seed: int, window: int):
     """The train and test windows (positions) the runner plans for a cell at ``window`` of each
     instance of ``sensor``."""
+    from slipbench.data.signals import Signals
     from slipbench.engine.plan import Run, make_plan
     from slipbench.protocols.window_size import WindowSize
-    from slipbench.data.signals import Signals
 
     run = Run("holweg", WindowSize(windows=[window]), split, seed)
     cells = [c for c in run.cells(ds.recordings) if c.key["sensor_type"] == sensor]
@@ -173,7 +226,10 @@ def _keep_only(ds, windows: list, window: int, seed: int):
         for r, i in zip(w.recording, w.index):
             keep[ids[r]][i * window : (i + 1) * window + 1] = True
     rng = np.random.default_rng(seed)
-    samples = {rid: np.where(keep[rid][:, None], x, 1e6 * rng.standard_normal(x.shape)) for rid, x in ds.samples.items()}
+    samples = {
+        rid: np.where(keep[rid][:, None], x, 1e6 * rng.standard_normal(x.shape))
+        for rid, x in ds.samples.items()
+    }
     return Dataset(ds.recordings, samples, ds.slip_labels)
 
 
@@ -190,30 +246,59 @@ def test_train_only_never_reads_a_test_window(small, split):
     for _, test in sides:
         ids = small.recordings["recording_id"].to_numpy()
         for r, i in zip(test.recording, test.index):
-            assert (poisoned.samples[ids[r]][i * 50 + 1 : (i + 1) * 50] != small.samples[ids[r]][i * 50 + 1 : (i + 1) * 50]).all()
+            assert (
+                poisoned.samples[ids[r]][i * 50 + 1 : (i + 1) * 50]
+                != small.samples[ids[r]][i * 50 + 1 : (i + 1) * 50]
+            ).all()
 
     clean = analyze(small, "OptoForce20", split=split, **kwargs)
     again = analyze(poisoned, "OptoForce20", split=split, **kwargs)
     pd.testing.assert_frame_equal(clean.table, again.table)
     assert clean.bands == again.bands and clean.best_band == again.best_band
     assert clean.params["train_split"] == split and clean.params["segment_samples"] == 50
-    assert clean.params["windows_slip"] + clean.params["windows_nonslip"] == sum(len(t) for t in train)
+    assert clean.params["windows_slip"] + clean.params["windows_nonslip"] == sum(
+        len(t) for t in train
+    )
 
-    one_less = [train[0].take(np.arange(1, len(train[0]))), *train[1:]]  # poison one training window too
+    one_less = [
+        train[0].take(np.arange(1, len(train[0]))),
+        *train[1:],
+    ]  # poison one training window too
     touched = analyze(_keep_only(small, one_less, 50, seed=0), "OptoForce20", split=split, **kwargs)
     assert not touched.table.equals(clean.table)
     everything = dict(kwargs, segment=100)
-    assert not analyze(poisoned, "OptoForce20", **everything).table.equals(analyze(small, "OptoForce20", **everything).table)
+    assert not analyze(poisoned, "OptoForce20", **everything).table.equals(
+        analyze(small, "OptoForce20", **everything).table
+    )
 
 
 def test_train_only_from_the_command_line(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
-    base = ["spectral", "--dataset", str(small_path), "--sensor", "BioTacSP", "--instance", "index", "--boot", "30",
-            "--repeats", "10", "--out", str(out), "--seed", "2"]
+    base = [
+        "spectral",
+        "--dataset",
+        str(small_path),
+        "--sensor",
+        "BioTacSP",
+        "--instance",
+        "index",
+        "--boot",
+        "30",
+        "--repeats",
+        "10",
+        "--out",
+        str(out),
+        "--seed",
+        "2",
+    ]
     code, text, err = cli([*base, "--train-only", "--split", "grouped"])
     assert code == 0, err
     summary = json.loads((out / "BioTacSP-index.json").read_text())
-    assert summary["train_split"] == "grouped" and summary["segment_samples"] == 50 and summary["seed"] == 2
+    assert (
+        summary["train_split"] == "grouped"
+        and summary["segment_samples"] == 50
+        and summary["seed"] == 2
+    )
     assert "training side only (grouped split, seed 2, window 50)" in text
     # a split without --train-only would be silently ignored: refused instead
     code, _, err = cli([*base, "--split", "grouped"])
@@ -221,4 +306,7 @@ def test_train_only_from_the_command_line(small_path, tmp_path, cli):
     # a window that only free-space recordings hold: the runner's reason, for these windows, exit 2
     code, _, err = cli([*base, "--train-only", "--segment", "850"])
     assert code == 2 and "Traceback" not in err
-    assert "BioTacSP index, paper split at window 850: balancing needs slip and non-slip windows" in err
+    assert (
+        "BioTacSP index, paper split at window 850: balancing needs slip and non-slip windows"
+        in err
+    )

@@ -31,21 +31,28 @@ WRITER = str(Path(__file__).with_name("storegen.py"))
 
 def writer(folder: Path, n: int, every: int, prefix: str = "c") -> subprocess.Popen:
     # from outside the source tree, so that `slipbench` is the installed package
-    return subprocess.Popen([sys.executable, WRITER, str(folder), str(n), str(every), prefix],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=folder.parent)
+    return subprocess.Popen(
+        [sys.executable, WRITER, str(folder), str(n), str(every), prefix],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=folder.parent,
+    )
 
 
 def leftovers(folder: Path) -> list[Path]:
     return [p for p in folder.rglob(".*.tmp")]
 
 
-def check_intact(folder: Path, prefix: str = "c", size=lambda i: 3000, checked: frozenset = frozenset()) -> set[str]:
+def check_intact(
+    folder: Path, prefix: str = "c", size=lambda i: 3000, checked: frozenset = frozenset()
+) -> set[str]:
     """Every finished cell reads back exactly as written, with its predictions (but those of
     ``checked`` cells); returns the keys."""
     rows = read_results(folder)
     assert rows["key"].is_unique
     for r in rows.to_dict("records"):
-        i = int(r["key"][len(prefix):])
+        i = int(r["key"][len(prefix) :])
         expected = cell_row(prefix, i)
         assert {k: r[k] for k in expected} == expected
         if r["key"] in checked:
@@ -72,8 +79,12 @@ def test_kill_9_at_random_moments_then_resume(tmp_path):
         counts.append(len(checked))
     assert counts[-1] > 0 and counts == sorted(counts), counts
     assert counts[-1] < n, "the writer finished before any kill; give it more cells"
-    done = subprocess.run([sys.executable, WRITER, str(folder), str(n), "9", "c"], capture_output=True, text=True,
-                          cwd=tmp_path)
+    done = subprocess.run(
+        [sys.executable, WRITER, str(folder), str(n), "9", "c"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     assert check_intact(folder, checked=checked) == {cell_row("c", i)["key"] for i in range(n)}
     assert pq.read_table(folder / RESULTS_FILE).num_rows == n  # consolidated, every row once
@@ -94,7 +105,9 @@ def test_disk_full_injected_gives_environment_fault_and_no_partial_file(tmp_path
     def full_disk(path, flags, mode=0o777, *args, **kwargs):
         fd = real_open(path, flags, mode, *args, **kwargs)
         if flags & os.O_CREAT:
-            os.write(fd, b"PAR1" + bytes(4096))  # part of the file reaches the disk, then it is full:
+            os.write(
+                fd, b"PAR1" + bytes(4096)
+            )  # part of the file reaches the disk, then it is full:
             full = real_open("/dev/full", os.O_WRONLY)  # every later write fails with ENOSPC
             os.dup2(full, fd)
             os.close(full)
@@ -114,14 +127,16 @@ def test_disk_full_injected_gives_environment_fault_and_no_partial_file(tmp_path
     monkeypatch.setattr(os, "fsync", fsync_fails)
     with pytest.raises(EnvironmentFault, match="no space left on device"):
         store.put(cell_row("c", 1), cell_predictions(1))
-    with pytest.raises(EnvironmentFault, match=re.escape(f"cannot write {tmp_path / RESULTS_FILE}: no space")):
+    with pytest.raises(
+        EnvironmentFault, match=re.escape(f"cannot write {tmp_path / RESULTS_FILE}: no space")
+    ):
         store.consolidate()
     monkeypatch.undo()
     assert not leftovers(tmp_path) and not (tmp_path / RESULTS_FILE).exists()
     assert check_intact(tmp_path) == {"c00000"}
 
 
-FSIZE = '''
+FSIZE = """
 import resource, signal, sys
 from storegen import cell_predictions, cell_row
 from slipbench.errors import SlipbenchError
@@ -136,18 +151,24 @@ try:
 except SlipbenchError as exc:
     print(f"error: {exc}", file=sys.stderr)
     sys.exit(exc.exit_code)
-'''
+"""
 
 
 def test_a_file_size_limit_is_an_environment_fault(tmp_path):
     """A real kernel write failure mid-file, without root: RLIMIT_FSIZE (EFBIG)."""
     folder = tmp_path / "out"
-    done = subprocess.run([sys.executable, "-c", FSIZE, str(folder)], capture_output=True, text=True,
-                          cwd=Path(WRITER).parent)
+    done = subprocess.run(
+        [sys.executable, "-c", FSIZE, str(folder)],
+        capture_output=True,
+        text=True,
+        cwd=Path(WRITER).parent,
+    )
     assert done.returncode == 5, done.stderr
     line = done.stderr.strip()
     assert "\n" not in line and "Traceback" not in line
-    assert line.startswith(f"error: cannot write {folder / 'predictions'}/c000") and line.endswith("(EFBIG)")
+    assert line.startswith(f"error: cannot write {folder / 'predictions'}/c000") and line.endswith(
+        "(EFBIG)"
+    )
     assert not leftovers(folder)
     assert 0 < len(check_intact(folder, size=lambda i: 1000 * (i + 1))) < 100
 
@@ -202,7 +223,9 @@ def read_only(folder: Path):
         return
     view = folder.with_name(folder.name + "-ro")
     with mounted(view, "--bind", source=str(folder)):
-        done = subprocess.run(["mount", "-o", "remount,bind,ro", str(view)], capture_output=True, text=True)
+        done = subprocess.run(
+            ["mount", "-o", "remount,bind,ro", str(view)], capture_output=True, text=True
+        )
         if done.returncode != 0:
             pytest.skip(f"cannot remount read-only: {done.stderr.strip()}")
         yield view
@@ -223,7 +246,9 @@ class Tiny(BaseDetector):
 
 def tiny() -> Tiny:
     rng = np.random.default_rng(0)
-    return Tiny().fit(rng.normal(size=(20, 50)), np.repeat([0, 1], 10), sampling_rate=1000.0, seed=0)
+    return Tiny().fit(
+        rng.normal(size=(20, 50)), np.repeat([0, 1], 10), sampling_rate=1000.0, seed=0
+    )
 
 
 def test_a_read_only_folder_reads_and_refuses_writes_with_exit_5(tmp_path):
@@ -241,14 +266,20 @@ def test_a_read_only_folder_reads_and_refuses_writes_with_exit_5(tmp_path):
         assert ResultsStore(done).consolidate() == done / RESULTS_FILE  # nothing changed: no write
         assert sorted(ResultsStore(done).finished()) == ["c00000", "c00001", "c00002"]
         assert ResultsStore(done).model_path("m") == done / "models" / "m.npz"
-        cause = "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
+        cause = (
+            "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
+        )
         with pytest.raises(EnvironmentFault) as err:
             ResultsStore(done).put(cell_row("c", 3), cell_predictions(3))
         assert str(err.value) == f"cannot write {done / 'predictions' / 'c00003.parquet'}: {cause}"
-        with pytest.raises(EnvironmentFault, match=re.escape(f"cannot write {done / 'models' / 'm.npz'}: {cause}")):
+        with pytest.raises(
+            EnvironmentFault, match=re.escape(f"cannot write {done / 'models' / 'm.npz'}: {cause}")
+        ):
             tiny().save(done / "models" / "m.npz")
         assert check_intact(late) == {"c00000", "c00001"}  # read straight from cells/
-        with pytest.raises(EnvironmentFault, match=re.escape(f"cannot lock {late / '.lock'}: {cause}")):
+        with pytest.raises(
+            EnvironmentFault, match=re.escape(f"cannot lock {late / '.lock'}: {cause}")
+        ):
             ResultsStore(late).consolidate()
 
 
@@ -274,10 +305,28 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
     (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
 
     def evaluate(out: Path) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "slipbench.app.cli", "evaluate", "--detector", "holweg",
-                               "--protocol", "two-cells", "--dataset", str(small_path), "--plugins",
-                               str(tmp_path / "plugins"), "--out", str(out), "--quiet"],
-                              capture_output=True, text=True, cwd=tmp_path)
+        return subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "slipbench.app.cli",
+                "evaluate",
+                "--detector",
+                "holweg",
+                "--protocol",
+                "two-cells",
+                "--dataset",
+                str(small_path),
+                "--plugins",
+                str(tmp_path / "plugins"),
+                "--out",
+                str(out),
+                "--quiet",
+            ],
+            capture_output=True,
+            text=True,
+            cwd=tmp_path,
+        )
 
     first = evaluate(tmp_path / "out")
     assert first.returncode == 0, first.stderr
@@ -287,10 +336,14 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
         assert again.returncode == 0, again.stderr
         assert len(read_results(out)) == 2 and (read_results(out)["status"] == "ok").all()
         new = evaluate(empty)  # cells to compute, nowhere to put them: exit 5, one line
-        cause = "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
+        cause = (
+            "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
+        )
         assert new.returncode == 5, new.stderr
-        assert re.fullmatch(rf"error: cannot (write|create the folder) {re.escape(str(empty))}/\S+: {re.escape(cause)}\n",
-                            new.stderr), new.stderr
+        assert re.fullmatch(
+            rf"error: cannot (write|create the folder) {re.escape(str(empty))}/\S+: {re.escape(cause)}\n",
+            new.stderr,
+        ), new.stderr
 
 
 # ----------------------------------------------------------------------------- two writers, the lock
@@ -306,21 +359,28 @@ def test_two_writers_on_one_folder_lose_no_row(tmp_path):
     assert set(read_results(folder)["key"]) == expected
 
 
-HOLDER = '''
+HOLDER = """
 import sys, time
 from slipbench.atomic import folder_lock
 with folder_lock(sys.argv[1]):
     print("locked", flush=True)
     time.sleep(600)
-'''
+"""
 
 
 def test_a_lock_held_by_a_hung_process_is_a_fault_and_dies_with_it(tmp_path):
-    holder = subprocess.Popen([sys.executable, "-c", HOLDER, str(tmp_path)], stdout=subprocess.PIPE, text=True,
-                              cwd=tmp_path)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, str(tmp_path)],
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=tmp_path,
+    )
     try:
         assert holder.stdout.readline().strip() == "locked"
-        with pytest.raises(EnvironmentFault, match=r"cannot lock .*\.lock: another process has held this lock for over 0\.3 s"):
+        with pytest.raises(
+            EnvironmentFault,
+            match=r"cannot lock .*\.lock: another process has held this lock for over 0\.3 s",
+        ):
             with folder_lock(tmp_path, timeout=0.3):
                 pass
     finally:
@@ -346,8 +406,18 @@ def test_files_and_folders_follow_the_umask(umask, tmp_path):
     finally:
         os.umask(old)
     out = tmp_path / "out"
-    files = [out / "cells" / "c00000.parquet", out / "predictions" / "c00001.parquet", out / RESULTS_FILE,
-             out / ".lock", model, Path(f"{model}.json")]
+    files = [
+        out / "cells" / "c00000.parquet",
+        out / "predictions" / "c00001.parquet",
+        out / RESULTS_FILE,
+        out / ".lock",
+        model,
+        Path(f"{model}.json"),
+    ]
     folders = [out, out / "cells", out / "predictions", out / "models", made]
-    assert {p.name: oct(p.stat().st_mode & 0o777) for p in files} == {p.name: oct(0o666 & ~umask) for p in files}
-    assert {p.name: oct(p.stat().st_mode & 0o777) for p in folders} == {p.name: oct(0o777 & ~umask) for p in folders}
+    assert {p.name: oct(p.stat().st_mode & 0o777) for p in files} == {
+        p.name: oct(0o666 & ~umask) for p in files
+    }
+    assert {p.name: oct(p.stat().st_mode & 0o777) for p in folders} == {
+        p.name: oct(0o777 & ~umask) for p in folders
+    }

@@ -8,15 +8,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.stats.compare import compare, stream_verdict, to_markdown
 from slipbench.data.dataset import Dataset
-from slipbench.errors import UsageError
 from slipbench.engine.plan import Run, make_plan
-from slipbench.report.plots import write_plots
+from slipbench.engine.runner import _signals, evaluate
+from slipbench.errors import UsageError
 from slipbench.protocols.streaming import Streaming
 from slipbench.report.document import render_report
+from slipbench.report.plots import write_plots
+from slipbench.stats.compare import compare, stream_verdict, to_markdown
 from slipbench.store.results import ResultsStore
-from slipbench.engine.runner import _signals, evaluate
 
 FIGURES = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
 
@@ -32,22 +32,37 @@ def streamed(small, tmp_path_factory):
 
 def test_every_unit_streams_its_test_trials_and_reports_the_figures(streamed, small):
     rows, _ = streamed
-    assert len(rows) == small.recordings[["sensor_type", "sensor_instance"]].drop_duplicates().shape[0]
+    assert (
+        len(rows) == small.recordings[["sensor_type", "sensor_instance"]].drop_duplicates().shape[0]
+    )
     assert (rows["status"] == "ok").all(), rows[["status", "reason"]]
     for f in FIGURES:
         assert rows[f].notna().all()
-        assert (rows[f"{f}_lo"] <= rows[f] + 1e-9).all() and (rows[f] <= rows[f"{f}_hi"] + 1e-9).all()
+        assert (rows[f"{f}_lo"] <= rows[f] + 1e-9).all() and (
+            rows[f] <= rows[f"{f}_hi"] + 1e-9
+        ).all()
     assert rows["detection_rate"].between(0, 1).all()
     # a delay includes at least the measured compute time per hop, never more than the maximum
     assert (rows["compute_ms"] > 0).all()
-    assert (rows["median_delay_ms"] >= rows["compute_ms"]).all() and (rows["p95_delay_ms"] <= 200).all()
-    assert (rows["n_onsets"] > 0).all() and (rows["nonslip_minutes"] > 0).all() and (rows["n_at_start"] == 0).all()
+    assert (rows["median_delay_ms"] >= rows["compute_ms"]).all() and (
+        rows["p95_delay_ms"] <= 200
+    ).all()
+    assert (
+        (rows["n_onsets"] > 0).all()
+        and (rows["nonslip_minutes"] > 0).all()
+        and (rows["n_at_start"] == 0).all()
+    )
     by_scenario = pd.DataFrame(json.loads(rows["false_alarms_by_scenario"].iloc[0]))
     assert {"press", "free-space"} <= set(by_scenario["scenario"])
     # the scenarios' false alarms add up to the cell's
     assert by_scenario["false_alarms"].sum() == rows["false_alarms"].iloc[0]
     curve = pd.DataFrame(json.loads(rows["tradeoff"].iloc[0]))
-    assert list(curve.columns) == ["threshold", "detection_rate", "median_delay_ms", "false_alarms_per_min"]
+    assert list(curve.columns) == [
+        "threshold",
+        "detection_rate",
+        "median_delay_ms",
+        "false_alarms_per_min",
+    ]
     assert curve["threshold"].is_monotonic_increasing and len(curve) > 10
     # the operating point was chosen on the training streams: on the test streams it is near,
     # not necessarily within, the budget; the threshold is one of the training scores' range
@@ -67,11 +82,18 @@ def test_test_trials_never_train_whatever_the_split(small):
             assert test and not test & set(trials[pc.train.recording])
             assert not test & set(trials[pc.streams["train"]])
             # every labelled test-side recording of the unit is streamed, of every scenario
-            assert set(signals.recordings["scenario"].to_numpy()[pc.streams["test"]]) == {"slip", "hold-slip", "press", "free-space"}
+            assert set(signals.recordings["scenario"].to_numpy()[pc.streams["test"]]) == {
+                "slip",
+                "hold-slip",
+                "press",
+                "free-space",
+            }
 
 
 def test_a_dataset_without_per_sample_labels_skips_with_the_reason(small, tmp_path):
-    kept = small.recordings[small.recordings["scenario"] != "hold-slip"]  # these cannot be read without labels
+    kept = small.recordings[
+        small.recordings["scenario"] != "hold-slip"
+    ]  # these cannot be read without labels
     bare = Dataset(kept, {r: small.samples[r] for r in kept["recording_id"]})
     rows = evaluate(bare, Run("holweg", Streaming()), ResultsStore(tmp_path), progress=False)
     assert (rows["status"] == "skipped").all()
@@ -80,21 +102,38 @@ def test_a_dataset_without_per_sample_labels_skips_with_the_reason(small, tmp_pa
 
 def test_a_unit_without_onset_in_its_test_trials_skips(small, tmp_path):
     # slip labels unknown wherever the object slides: no 0 -> 1 transition anywhere
-    labels = {r: np.where(lab == 1, -1, lab).astype(np.int8) for r, lab in small.slip_labels.items()}
-    rows = evaluate(Dataset(small.recordings, small.samples, labels), Run("holweg", Streaming()), ResultsStore(tmp_path),
-                    progress=False)
+    labels = {
+        r: np.where(lab == 1, -1, lab).astype(np.int8) for r, lab in small.slip_labels.items()
+    }
+    rows = evaluate(
+        Dataset(small.recordings, small.samples, labels),
+        Run("holweg", Streaming()),
+        ResultsStore(tmp_path),
+        progress=False,
+    )
     assert (rows["status"] == "skipped").all()
     assert rows["reason"].str.contains("no slip onset in the").all(), rows["reason"].iloc[0]
 
 
 def test_a_window_longer_than_the_recordings_skips(small, tmp_path):
-    rows = evaluate(small, Run("holweg", Streaming(window=10**6, hop=10)), ResultsStore(tmp_path), progress=False)
+    rows = evaluate(
+        small,
+        Run("holweg", Streaming(window=10**6, hop=10)),
+        ResultsStore(tmp_path),
+        progress=False,
+    )
     assert (rows["status"] == "skipped").all()
     assert rows["reason"].str.contains("longer than every recording").all()
 
 
-@pytest.mark.parametrize("window, hop, words", [(20, 30, ["hop=30", "window=20"]), ("20ms", "25ms", ["'25ms'", "'20ms'"]),
-                                                (50, "10ms", ["samples or milliseconds"])])
+@pytest.mark.parametrize(
+    "window, hop, words",
+    [
+        (20, 30, ["hop=30", "window=20"]),
+        ("20ms", "25ms", ["'25ms'", "'20ms'"]),
+        (50, "10ms", ["samples or milliseconds"]),
+    ],
+)
 def test_a_hop_larger_than_the_window_is_refused_by_value(window, hop, words):
     with pytest.raises(UsageError) as err:
         Streaming(window=window, hop=hop).validate_params()
@@ -102,20 +141,41 @@ def test_a_hop_larger_than_the_window_is_refused_by_value(window, hop, words):
 
 
 def test_a_hop_larger_than_the_window_exits_2_on_the_command_line(cli, small_path, tmp_path):
-    code, _, err = cli(["evaluate", "--detector", "holweg", "--protocol", "streaming", "--dataset", str(small_path),
-                        "--out", str(tmp_path), "--protocol-param", "hop=60"])
+    code, _, err = cli(
+        [
+            "evaluate",
+            "--detector",
+            "holweg",
+            "--protocol",
+            "streaming",
+            "--dataset",
+            str(small_path),
+            "--out",
+            str(tmp_path),
+            "--protocol-param",
+            "hop=60",
+        ]
+    )
     assert code == 2 and "hop=60" in err and "window=50" in err
 
 
 def test_tables_render_in_markdown_and_latex(streamed):
     rows, _ = streamed
     md = render_report(rows, "md", intervals=True)
-    assert "Detection rate (%)" in md and "False alarms / min" in md and "95th pct. delay (ms)" in md
+    assert (
+        "Detection rate (%)" in md and "False alarms / min" in md and "95th pct. delay (ms)" in md
+    )
     assert "At 1 false alarm per minute" in md and "whole test trials" in md
     nano = rows[(rows["sensor_type"] == "Nano17") & (rows["sensor_instance"] == "index")].iloc[0]
-    line = next(x for x in md.splitlines() if "Nano17" in x and "Index" in x and f"{100 * nano['detection_rate']:.1f} [" in x)
+    line = next(
+        x
+        for x in md.splitlines()
+        if "Nano17" in x and "Index" in x and f"{100 * nano['detection_rate']:.1f} [" in x
+    )
     assert f"{100 * nano['detection_rate']:.1f} [{100 * nano['detection_rate_lo']:.1f}, " in line
-    assert f"{nano['median_delay_ms']:.1f}" in line and f"{nano['false_alarms_per_min']:.2f}" in line
+    assert (
+        f"{nano['median_delay_ms']:.1f}" in line and f"{nano['false_alarms_per_min']:.2f}" in line
+    )
     tex = render_report(rows, "latex", standalone=True)
     assert "Detection rate" in tex and tex.count(r"\begin{table}") >= 2
 
@@ -125,7 +185,12 @@ def test_the_tradeoff_figure_has_a_curve_per_detector(streamed, tmp_path):
     other = rows.assign(detector="holweg-copy", median_delay_ms=rows["median_delay_ms"] + 10)
     paths = write_plots(pd.concat([rows, other], ignore_index=True), tmp_path)
     names = {p.name for p in paths}
-    assert {"streaming-holweg.png", "streaming-holweg-copy.png", "streaming-detectors.png", "streaming-detectors.pdf"} <= names
+    assert {
+        "streaming-holweg.png",
+        "streaming-holweg-copy.png",
+        "streaming-detectors.png",
+        "streaming-detectors.pdf",
+    } <= names
 
 
 def _worse(src, dst, **changes):
@@ -163,11 +228,28 @@ def test_stream_verdict_rules():
 
     assert stream_verdict(cell(median_delay_ms=(5, 20)), 0, 0, 0) == "regressed"
     assert stream_verdict(cell(median_delay_ms=(5, 20)), 0, 10, 0) == "no significant change"
-    assert stream_verdict(cell(median_delay_ms=(-20, -5), false_alarms_per_min=(-1, 1)), 0, 0, 0) == "improved"
-    assert stream_verdict(cell(median_delay_ms=(-20, -5), false_alarms_per_min=(0.5, 1)), 0, 0, 0) == "regressed"
-    assert stream_verdict(cell(detection_rate=(-0.3, -0.1)), 5, 0, 0) == "regressed"  # 10 points lost, margin 5
-    assert stream_verdict(cell(median_delay_ms=(-2, 2), false_alarms_per_min=(-1, 1), detection_rate=(-0.01, 0.01)),
-                          2, 5, 2) == "within margin"
+    assert (
+        stream_verdict(cell(median_delay_ms=(-20, -5), false_alarms_per_min=(-1, 1)), 0, 0, 0)
+        == "improved"
+    )
+    assert (
+        stream_verdict(cell(median_delay_ms=(-20, -5), false_alarms_per_min=(0.5, 1)), 0, 0, 0)
+        == "regressed"
+    )
+    assert (
+        stream_verdict(cell(detection_rate=(-0.3, -0.1)), 5, 0, 0) == "regressed"
+    )  # 10 points lost, margin 5
+    assert (
+        stream_verdict(
+            cell(
+                median_delay_ms=(-2, 2), false_alarms_per_min=(-1, 1), detection_rate=(-0.01, 0.01)
+            ),
+            2,
+            5,
+            2,
+        )
+        == "within margin"
+    )
 
 
 def test_a_recording_that_starts_in_slip_gives_no_onset():

@@ -9,11 +9,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
-from slipbench.stream import metrics as S
-from slipbench.base import BaseDetector, DetectorOutputError, NotFittedError
-from slipbench.errors import UsageError
+from slipbench.base import (
+    BaseDetector,
+    DetectorOutputError,
+    NotFittedError,
+    Streamer,
+    stream_scores,
+)
 from slipbench.engine.registry import detectors
-from slipbench.base import Streamer, stream_scores
+from slipbench.errors import UsageError
+from slipbench.stream import metrics as S
 from slipbench.testing import toy_windows
 
 
@@ -64,11 +69,17 @@ def test_every_detector_streams_the_scores_of_predict_proba(name):
         np.testing.assert_allclose(scores, _reference(detector, signal, ends), rtol=0, atol=1e-6)
         # pieces change the batches predict_proba sees: wavelet-svm's float32 features score a
         # window 2.6e-6 apart alone and in a batch
-        np.testing.assert_allclose(_pushed(detector.streamer(hop), signal, hop), scores, rtol=0, atol=1e-5)
+        np.testing.assert_allclose(
+            _pushed(detector.streamer(hop), signal, hop), scores, rtol=0, atol=1e-5
+        )
 
 
 @settings(max_examples=40, deadline=None)
-@given(cuts=st.lists(st.integers(0, 400), max_size=12), hop=st.integers(1, 20), window=st.integers(5, 20))
+@given(
+    cuts=st.lists(st.integers(0, 400), max_size=12),
+    hop=st.integers(1, 20),
+    window=st.integers(5, 20),
+)
 def test_pieces_of_any_size_give_the_scores_of_one_push(cuts, hop, window):
     hop = min(hop, window)
     x, y = toy_windows(60, window)
@@ -89,7 +100,9 @@ def test_decisions_follow_the_threshold_which_may_change_mid_stream():
     cut = float(np.median(scores))
     stream = detector.streamer(5, threshold=cut)
     s1, d1 = stream.push(signal[:200])
-    assert d1.dtype == np.int8 and np.array_equal(d1, (s1 >= cut).astype(np.int8))  # >=: a score on the threshold alarms
+    assert d1.dtype == np.int8 and np.array_equal(
+        d1, (s1 >= cut).astype(np.int8)
+    )  # >=: a score on the threshold alarms
     stream.threshold = 0.9
     s2, d2 = stream.push(signal[200:])
     assert np.array_equal(d2, (s2 >= 0.9).astype(np.int8))
@@ -102,7 +115,9 @@ def test_one_sample_at_a_time_and_reset():
     signal = _signal(60)
     stream = detector.streamer(3)
     got = [stream.push(float(v)) for v in signal]  # plain numbers are one sample each
-    assert [len(s) for s, _ in got[:9]] == [0] * 9 and len(got[9][0]) == 1  # the first score at sample window - 1
+    assert [len(s) for s, _ in got[:9]] == [0] * 9 and len(
+        got[9][0]
+    ) == 1  # the first score at sample window - 1
     scores = np.concatenate([s for s, _ in got])
     assert np.array_equal(scores, stream_scores(detector, signal, 3)[1])
     assert stream.push([])[0].shape == (0,)
@@ -175,10 +190,16 @@ def test_lstm_streams_carry_window_states_and_equal_predict_proba(hidden, window
     signal = _signal(2000)
     for hop in sorted({1, 3, 10, window - 1, window}):
         stream = detector.streamer(hop)
-        assert type(stream).__name__ == "LSTMStreamer" and stream._state.shape == (-(-window // hop), 2, hidden)
+        assert type(stream).__name__ == "LSTMStreamer" and stream._state.shape == (
+            -(-window // hop),
+            2,
+            hidden,
+        )
         ends, scores = stream_scores(detector, signal, hop)
         np.testing.assert_allclose(scores, _reference(detector, signal, ends), rtol=0, atol=1e-6)
-        assert np.array_equal(_pushed(stream, signal, hop), scores)  # the same arithmetic whatever the pieces
+        assert np.array_equal(
+            _pushed(stream, signal, hop), scores
+        )  # the same arithmetic whatever the pieces
 
 
 def test_lstm_stream_differs_from_a_stream_that_keeps_state_across_windows():
@@ -210,9 +231,17 @@ def _streams(recordings, max_delay_ms=10.0, compute_ms=0.0, trials=None, scenari
         d[list(positive)] = 1.0
         ends.append(e), scores.append(d[e]), labels.append(lab)
     n = len(recordings)
-    return S.collect(ends, scores, labels, window=WINDOW, sampling_rate=RATE, max_delay_ms=max_delay_ms,
-                     compute_ms=compute_ms, trials=trials or [f"t{i}" for i in range(n)],
-                     scenarios=scenarios or ["hold-slip"] * n)
+    return S.collect(
+        ends,
+        scores,
+        labels,
+        window=WINDOW,
+        sampling_rate=RATE,
+        max_delay_ms=max_delay_ms,
+        compute_ms=compute_ms,
+        trials=trials or [f"t{i}" for i in range(n)],
+        scenarios=scenarios or ["hold-slip"] * n,
+    )
 
 
 def _labels(*runs):
@@ -221,13 +250,27 @@ def _labels(*runs):
 
 
 def test_onsets_alarms_and_nonslip_time_definitions():
-    assert S.onsets([-1, 1, 1, 0, 0, 1, 1, 0, 1, -1, 1]).tolist() == [5, 8]  # a 1 after -1: no onset
+    assert S.onsets([-1, 1, 1, 0, 0, 1, 1, 0, 1, -1, 1]).tolist() == [
+        5,
+        8,
+    ]  # a 1 after -1: no onset
     assert S.onsets([1, 1, 0, 1]).tolist() == [0, 3]  # a recording that starts in slip: onset at 0
     assert S.onsets([0, 0, -1]).tolist() == [] and S.onsets([]).tolist() == []
     assert S.alarms([0, 1, 1, 0, 1, 0, 0, 1]).tolist() == [1, 4, 7]  # once per run
     assert S.alarms([1, 1]).tolist() == [0]
     quiet = S.nonslip([0, 0, 1, 1, 0, 0, 0, 0, 0, -1], window=3)
-    assert quiet.tolist() == [1, 1, 0, 0, 0, 0, 1, 1, 1, 0]  # slip still in the window: not non-slip time
+    assert quiet.tolist() == [
+        1,
+        1,
+        0,
+        0,
+        0,
+        0,
+        1,
+        1,
+        1,
+        0,
+    ]  # slip still in the window: not non-slip time
 
 
 def test_a_hold_slip_recording_false_alarm_before_onset_then_detection():
@@ -237,19 +280,32 @@ def test_a_hold_slip_recording_false_alarm_before_onset_then_detection():
     positive += [55, 56, 75]  # a second alarm during slip and one in unlabelled time: neither
     streams = _streams([(lab, positive)])
     table = S.onset_table(streams, 0.5)
-    assert table[["onset", "status", "alarm", "delay_ms", "at_start"]].values.tolist() == [[30, "detected", 33, 3.0, False]]
+    assert table[["onset", "status", "alarm", "delay_ms", "at_start"]].values.tolist() == [
+        [30, "detected", 33, 3.0, False]
+    ]
     s = S.summarize(streams, 0.5)
-    assert (s["false_alarms"], s["n_onsets"], s["n_detected"], s["detection_rate"]) == (1, 1, 1, 1.0)
-    assert s["nonslip_minutes"] == pytest.approx(26 / RATE / 60)  # samples 4..29: from the first score to the onset
+    assert (s["false_alarms"], s["n_onsets"], s["n_detected"], s["detection_rate"]) == (
+        1,
+        1,
+        1,
+        1.0,
+    )
+    assert s["nonslip_minutes"] == pytest.approx(
+        26 / RATE / 60
+    )  # samples 4..29: from the first score to the onset
     assert s["false_alarms_per_min"] == pytest.approx(1 / (26 / RATE / 60))
     assert s["median_delay_ms"] == s["p95_delay_ms"] == 3.0
 
 
 def test_a_missed_onset_and_the_maximum_delay_boundary():
     lab = _labels((0, 20), (1, 60))
-    assert S.onset_table(_streams([(lab, [30])]), 0.5)["status"].tolist() == ["detected"]  # 10 ms: at the limit
+    assert S.onset_table(_streams([(lab, [30])]), 0.5)["status"].tolist() == [
+        "detected"
+    ]  # 10 ms: at the limit
     missed = S.onset_table(_streams([(lab, [31])]), 0.5)
-    assert missed[["status", "alarm"]].values.tolist() == [["missed", -1]] and np.isnan(missed["delay_ms"][0])
+    assert missed[["status", "alarm"]].values.tolist() == [["missed", -1]] and np.isnan(
+        missed["delay_ms"][0]
+    )
     assert S.summarize(_streams([(lab, [31])]), 0.5)["detection_rate"] == 0.0
 
 
@@ -266,13 +322,17 @@ def test_a_run_that_began_before_the_onset_does_not_detect_it():
     lab = _labels((0, 20), (1, 60))
     through = S.summarize(_streams([(lab, range(15, 40))]), 0.5)
     assert (through["false_alarms"], through["n_detected"], through["n_missed"]) == (1, 0, 1)
-    again = _streams([(lab, list(range(15, 22)) + [26])])  # the run ends; a new alarm 6 ms after the onset
+    again = _streams(
+        [(lab, list(range(15, 22)) + [26])]
+    )  # the run ends; a new alarm 6 ms after the onset
     assert S.onset_table(again, 0.5)["delay_ms"].tolist() == [6.0]
 
 
 def test_an_onset_at_the_first_sample_and_one_inside_the_first_window():
     at_start = S.onset_table(_streams([(_labels((1, 30), (0, 30)), [4])]), 0.5).iloc[0]
-    assert at_start["onset"] == 0 and at_start["at_start"] and at_start["delay_ms"] == 4.0  # waits for the first window
+    assert (
+        at_start["onset"] == 0 and at_start["at_start"] and at_start["delay_ms"] == 4.0
+    )  # waits for the first window
     inside = S.onset_table(_streams([(_labels((0, 2), (1, 40)), [4])]), 0.5).iloc[0]
     assert inside["onset"] == 2 and not inside["at_start"] and inside["delay_ms"] == 2.0
     s = S.summarize(_streams([(_labels((1, 30), (0, 30)), [4])]), 0.5)
@@ -281,30 +341,45 @@ def test_an_onset_at_the_first_sample_and_one_inside_the_first_window():
 
 def test_a_recording_with_no_onset_gives_only_false_alarms():
     s = S.summarize(_streams([(_labels((0, 100)), [10, 11, 12, 40, 41])], scenarios=["press"]), 0.5)
-    assert (s["n_onsets"], s["false_alarms"]) == (0, 2) and np.isnan(s["detection_rate"]) and np.isnan(s["median_delay_ms"])
+    assert (
+        (s["n_onsets"], s["false_alarms"]) == (0, 2)
+        and np.isnan(s["detection_rate"])
+        and np.isnan(s["median_delay_ms"])
+    )
     assert s["nonslip_minutes"] == pytest.approx(96 / RATE / 60)
 
 
 def test_censored_onsets_and_the_next_onset_bound():
-    short = _streams([(_labels((0, 95), (1, 5)), [])])  # 4 ms of slip left in the recording, no alarm
+    short = _streams(
+        [(_labels((0, 95), (1, 5)), [])]
+    )  # 4 ms of slip left in the recording, no alarm
     s = S.summarize(short, 0.5)
     assert (s["n_censored"], s["n_onsets"]) == (1, 0)
-    assert S.onset_table(_streams([(_labels((0, 95), (1, 5)), [97])]), 0.5)["status"].tolist() == ["detected"]
+    assert S.onset_table(_streams([(_labels((0, 95), (1, 5)), [97])]), 0.5)["status"].tolist() == [
+        "detected"
+    ]
     # onsets at 10 and 14 (slip 10-11, stick 12-13): an alarm at 15 detects the second only
     two = S.onset_table(_streams([(_labels((0, 10), (1, 2), (0, 2), (1, 30)), [15])]), 0.5)
-    assert two[["onset", "status", "delay_ms"]].fillna(-1).values.tolist() == [[10, "missed", -1], [14, "detected", 1.0]]
+    assert two[["onset", "status", "delay_ms"]].fillna(-1).values.tolist() == [
+        [10, "missed", -1],
+        [14, "detected", 1.0],
+    ]
 
 
 def test_an_alarm_just_after_slip_is_neither_false_nor_a_detection():
     lab = _labels((0, 10), (1, 10), (0, 30))  # slip 10-19
-    streams = _streams([(lab, [22, 30])], max_delay_ms=5)  # 22: slip still in the window; 30: a false alarm
+    streams = _streams(
+        [(lab, [22, 30])], max_delay_ms=5
+    )  # 22: slip still in the window; 30: a false alarm
     s = S.summarize(streams, 0.5)
     assert (s["false_alarms"], s["n_missed"]) == (1, 1)
 
 
 def test_false_alarms_by_scenario():
-    streams = _streams([(_labels((0, 64)), [10, 20]), (_labels((0, 64)), []), (_labels((0, 124)), [30])],
-                       scenarios=["press", "press", "free-space"])
+    streams = _streams(
+        [(_labels((0, 64)), [10, 20]), (_labels((0, 64)), []), (_labels((0, 124)), [30])],
+        scenarios=["press", "press", "free-space"],
+    )
     table = S.false_alarms_by_scenario(streams, 0.5).set_index("scenario")
     assert table.loc["press", "false_alarms"] == 2 and table.loc["free-space", "false_alarms"] == 1
     assert table.loc["press", "false_alarms_per_min"] == pytest.approx(2 / (120 / RATE / 60))
@@ -322,7 +397,9 @@ def test_intervals_resample_whole_trials():
     assert (s["detection_rate_lo"], s["detection_rate_hi"]) == (0.0, 1.0)
     assert s == S.summarize(streams, 0.5, seed=3)  # deterministic for a seed
     one = S.summarize(_streams([hit, hit], trials=["a", "a"]), 0.5)
-    assert np.isnan(one["detection_rate_lo"]) and np.isnan(one["median_delay_ms_lo"])  # one trial: no interval
+    assert np.isnan(one["detection_rate_lo"]) and np.isnan(
+        one["median_delay_ms_lo"]
+    )  # one trial: no interval
 
 
 def test_delay_intervals_pool_each_resample_of_trials():
@@ -340,14 +417,24 @@ def test_sweep_and_the_operating_point_at_a_false_alarm_budget():
     scores[[50, 100, 150]] = 0.6  # noise that alarms below 0.7
     scores[205:230] = 0.8  # the slip, 5 ms after the onset
     e = np.arange(WINDOW - 1, 300)
-    streams = S.collect([e], [scores[e]], [lab], window=WINDOW, sampling_rate=RATE, trials=["t"], scenarios=["hold-slip"],
-                        max_delay_ms=10.0)
+    streams = S.collect(
+        [e],
+        [scores[e]],
+        [lab],
+        window=WINDOW,
+        sampling_rate=RATE,
+        trials=["t"],
+        scenarios=["hold-slip"],
+        max_delay_ms=10.0,
+    )
     curve = S.sweep(streams)
     assert set(curve["threshold"]) == {0.0, 0.6, 0.8}  # the scores themselves
     at = curve.set_index("threshold")
     assert at.loc[0.6, "false_alarms_per_min"] == pytest.approx(3 / (196 / RATE / 60))
     assert at.loc[0.8, "false_alarms_per_min"] == 0 and at.loc[0.8, "detection_rate"] == 1.0
-    assert at.loc[0.0, "detection_rate"] == 0.0  # one run from the first score: a false alarm, the onset missed
+    assert (
+        at.loc[0.0, "detection_rate"] == 0.0
+    )  # one run from the first score: a false alarm, the onset missed
     assert S.operating_point(curve, 1.0) == 0.8
     assert np.isnan(S.operating_point(curve[curve["threshold"] < 0.7], 1.0))
 
@@ -355,10 +442,26 @@ def test_sweep_and_the_operating_point_at_a_false_alarm_budget():
 def test_collect_refuses_inconsistent_input():
     lab = _labels((0, 20))
     with pytest.raises(UsageError, match="ends gives 2 recordings, labels 1"):
-        S.collect([np.arange(4, 20)] * 2, [np.zeros(16)], [lab], window=5, sampling_rate=RATE, trials=["a"], scenarios=["x"])
+        S.collect(
+            [np.arange(4, 20)] * 2,
+            [np.zeros(16)],
+            [lab],
+            window=5,
+            sampling_rate=RATE,
+            trials=["a"],
+            scenarios=["x"],
+        )
     with pytest.raises(UsageError, match="recording r1: score samples must rise within the 20"):
-        S.collect([np.arange(4, 21)], [np.zeros(17)], [lab], window=5, sampling_rate=RATE, trials=["a"], scenarios=["x"],
-                  recording_ids=["r1"])
+        S.collect(
+            [np.arange(4, 21)],
+            [np.zeros(17)],
+            [lab],
+            window=5,
+            sampling_rate=RATE,
+            trials=["a"],
+            scenarios=["x"],
+            recording_ids=["r1"],
+        )
 
 
 def test_push_costs_and_hop_latency():
@@ -367,7 +470,9 @@ def test_push_costs_and_hop_latency():
     x, y = toy_windows(100, 20)
     detector = Energy().fit(x, y)
     signal = _signal(400)
-    per_sample_us, scored_ms = push_costs(detector.streamer(5), [signal[i : i + 5] for i in range(0, 400, 5)])
+    per_sample_us, scored_ms = push_costs(
+        detector.streamer(5), [signal[i : i + 5] for i in range(0, 400, 5)]
+    )
     assert per_sample_us > 0 and scored_ms > 0
     assert hop_latency(detector, signal, 5) > 0
     with pytest.raises(UsageError, match="at least two scores"):

@@ -13,11 +13,20 @@ from hypothesis import strategies as st
 
 from slipbench.data import dataset as data
 from slipbench.data.signals import univariate
-from slipbench.spectra import amplitude_spectrum
 from slipbench.data.synth import (
-    MATERIALS, SENSORS, UNLABELLED, Design, Physics, contact_mode, free_mode, generate, make_unit, synthesize,
+    MATERIALS,
+    SENSORS,
+    UNLABELLED,
+    Design,
+    Physics,
+    contact_mode,
+    free_mode,
+    generate,
+    make_unit,
+    synthesize,
     with_physics,
 )
+from slipbench.spectra import amplitude_spectrum
 
 # per unit at scale 1.0: the paper's design (8,000 s), onset trials (20 cells x 120 s) and long
 # non-slip recordings (5 materials + 3 speeds, 200 s each)
@@ -59,19 +68,32 @@ def test_same_seed_same_data_and_the_scale_sets_the_size(sim):
     assert rec1.equals(rec2) and all(np.array_equal(samples1[k], samples2[k]) for k in samples1)
     assert all(np.array_equal(labels1[k], labels2[k]) for k in labels1)
     assert not np.array_equal(samples1[rec1["recording_id"][0]], samples3[rec1["recording_id"][0]])
-    seconds = rec.groupby(["sensor_type", "sensor_instance"]).apply(lambda g: (g["n"] / g["sampling_rate_hz"]).sum())
-    assert seconds.between(0.02 * SECONDS_PER_UNIT * 0.98, 0.02 * SECONDS_PER_UNIT * 1.02).all(), seconds
+    seconds = rec.groupby(["sensor_type", "sensor_instance"]).apply(
+        lambda g: (g["n"] / g["sampling_rate_hz"]).sum()
+    )
+    assert seconds.between(0.02 * SECONDS_PER_UNIT * 0.98, 0.02 * SECONDS_PER_UNIT * 1.02).all(), (
+        seconds
+    )
 
 
 def test_each_recording_comes_from_its_own_stream_whatever_else_is_generated():
     """Order independence: a smaller design reproduces its recordings of the full one exactly."""
-    full_rec, full, full_labels = generate(scale=0.003, seed=2, design=Design(sensors=("OptoForce20", "BioTacSP")))
-    part_rec, part, part_labels = generate(scale=0.003, seed=2, design=Design(
-        sensors=("BioTacSP",), materials=("cardboard",), slip_speeds=(5.0,), free_speeds=(75.0,)))
+    full_rec, full, full_labels = generate(
+        scale=0.003, seed=2, design=Design(sensors=("OptoForce20", "BioTacSP"))
+    )
+    part_rec, part, part_labels = generate(
+        scale=0.003,
+        seed=2,
+        design=Design(
+            sensors=("BioTacSP",), materials=("cardboard",), slip_speeds=(5.0,), free_speeds=(75.0,)
+        ),
+    )
     assert set(part) < set(full) and len(part) >= 10
     assert {"slip", "press", "free-space", "hold-slip"} <= set(part_rec["scenario"])
     for rid in part:
-        assert np.array_equal(part[rid], full[rid]) and np.array_equal(part_labels[rid], full_labels[rid]), rid
+        assert np.array_equal(part[rid], full[rid]) and np.array_equal(
+            part_labels[rid], full_labels[rid]
+        ), rid
 
 
 def test_channels_units_and_rates(sim):
@@ -79,15 +101,21 @@ def test_channels_units_and_rates(sim):
     for sensor, model in SENSORS.items():
         mine = rec[rec["sensor_type"] == sensor]
         assert set(mine["sensor_instance"]) == set(model.instances)
-        assert all(samples[r].shape[1] == len(model.channels) and samples[r].dtype == np.float32 for r in mine["recording_id"])
+        assert all(
+            samples[r].shape[1] == len(model.channels) and samples[r].dtype == np.float32
+            for r in mine["recording_id"]
+        )
         assert (mine["sampling_rate_hz"] == model.rate_hz).all()
         assert all(len(u) == len(model.channels) for u in mine["units"])
 
 
 def test_fingers_recorded_together_share_a_trial_and_nothing_else_does(sim):
     rec, _, _ = sim
-    per_trial = rec.groupby("trial").agg(types=("sensor_type", "nunique"), units=("sensor_instance", list),
-                                         keys=("recording_id", lambda r: {x.split("-", 2)[2] for x in r}))
+    per_trial = rec.groupby("trial").agg(
+        types=("sensor_type", "nunique"),
+        units=("sensor_instance", list),
+        keys=("recording_id", lambda r: {x.split("-", 2)[2] for x in r}),
+    )
     assert (per_trial["types"] == 1).all()
     for trial, row in per_trial.iterrows():
         # one recording per unit of the type, all of the same scenario, material, speed and trial
@@ -99,15 +127,29 @@ def test_fingers_recorded_together_share_a_trial_and_nothing_else_does(sim):
 
 def test_labels_follow_the_scenarios(sim):
     rec, _, labels = sim
-    assert all(labels[r].dtype == np.int8 and len(labels[r]) == n for r, n in zip(rec["recording_id"], rec["n"]))
+    assert all(
+        labels[r].dtype == np.int8 and len(labels[r]) == n
+        for r, n in zip(rec["recording_id"], rec["n"])
+    )
     by = {s: list(g["recording_id"]) for s, g in rec.groupby("scenario")}
-    assert np.mean([labels[r].mean() for r in by["slip"]]) > 0.8  # the contact slides most of the time...
-    assert all(set(np.unique(labels[r])) <= {0, 1} for r in by["slip"])  # (it sticks at the path's ends)
-    assert not any(labels[r].any() for r in by["press"] + by["free-space"])  # ...and never outside slip
+    assert (
+        np.mean([labels[r].mean() for r in by["slip"]]) > 0.8
+    )  # the contact slides most of the time...
+    assert all(
+        set(np.unique(labels[r])) <= {0, 1} for r in by["slip"]
+    )  # (it sticks at the path's ends)
+    assert not any(
+        labels[r].any() for r in by["press"] + by["free-space"]
+    )  # ...and never outside slip
 
 
-ONSETS_ONLY = Design(slip_s_per_cell=0.0, press_s_per_material=0.0, free_s_per_speed=0.0,
-                     long_press_s_per_material=0.0, long_free_s_per_speed=0.0)
+ONSETS_ONLY = Design(
+    slip_s_per_cell=0.0,
+    press_s_per_material=0.0,
+    free_s_per_speed=0.0,
+    long_press_s_per_material=0.0,
+    long_free_s_per_speed=0.0,
+)
 
 
 def _check_onset_labels(rec, labels) -> tuple[int, int]:
@@ -134,14 +176,21 @@ def _check_onset_labels(rec, labels) -> tuple[int, int]:
 @pytest.fixture(scope="module")
 def onsets():
     """The onset trials of Nano17 and BioTac SP at the default scale 0.05 (6 s each)."""
-    rec, samples, labels = generate(scale=0.05, seed=0, design=replace(ONSETS_ONLY, sensors=("Nano17", "BioTacSP")))
+    rec, samples, labels = generate(
+        scale=0.05, seed=0, design=replace(ONSETS_ONLY, sensors=("Nano17", "BioTacSP"))
+    )
     return rec.assign(n=[len(samples[r]) for r in rec["recording_id"]]), samples, labels
 
 
 def test_onset_trials_hold_then_slip_then_sometimes_drop(onsets):
     rec, _, labels = onsets
     assert set(rec["scenario"]) == {"hold-slip"}
-    assert set(rec["material"]) == set(MATERIALS) and set(rec["speed_mm_s"]) == {5.0, 25.0, 50.0, 75.0}
+    assert set(rec["material"]) == set(MATERIALS) and set(rec["speed_mm_s"]) == {
+        5.0,
+        25.0,
+        50.0,
+        75.0,
+    }
     # at the default scale each trial lasts 6 s: every one breaks away, about 30 % end in a drop
     assert np.allclose(rec["n"] / rec["sampling_rate_hz"], 6.0, atol=0.002)
     no_onset, dropped = _check_onset_labels(rec, labels)
@@ -151,7 +200,9 @@ def test_onset_trials_hold_then_slip_then_sometimes_drop(onsets):
 def test_short_onset_trials_may_end_before_a_slow_pull_breaks_away(sim):
     rec, _, labels = sim
     onsets = rec[rec["scenario"] == "hold-slip"]
-    assert np.allclose(onsets["n"] / onsets["sampling_rate_hz"], 0.02 * 120, atol=0.002)  # 2.4 s at scale 0.02
+    assert np.allclose(
+        onsets["n"] / onsets["sampling_rate_hz"], 0.02 * 120, atol=0.002
+    )  # 2.4 s at scale 0.02
     no_onset, dropped = _check_onset_labels(onsets, labels)
     never = onsets[[not (labels[r] == 1).any() for r in onsets["recording_id"]]]
     assert no_onset < len(onsets) / 2 and dropped > 0
@@ -180,14 +231,20 @@ def test_onset_is_a_stick_to_slip_transition_and_a_drop_loses_the_contact(onsets
 def test_slower_pulls_break_away_later(onsets):
     rec, _, labels = onsets
     on = rec.copy()
-    on["onset_s"] = [np.argmax(labels[r] == 1) / fs for r, fs in zip(on["recording_id"], on["sampling_rate_hz"])]
+    on["onset_s"] = [
+        np.argmax(labels[r] == 1) / fs for r, fs in zip(on["recording_id"], on["sampling_rate_hz"])
+    ]
     by_speed = on.groupby("speed_mm_s")["onset_s"].median()
     assert by_speed[5.0] > by_speed[75.0], by_speed
 
 
 def test_long_non_slip_recordings_give_minutes_of_continuous_non_slip_time():
-    rec, samples, _ = generate(scale=0.05, seed=0, design=Design(sensors=("Nano17",), slip_speeds=()))
-    seconds = pd.Series([len(samples[r]) / 1000.0 for r in rec["recording_id"]], index=rec["recording_id"])
+    rec, samples, _ = generate(
+        scale=0.05, seed=0, design=Design(sensors=("Nano17",), slip_speeds=())
+    )
+    seconds = pd.Series(
+        [len(samples[r]) / 1000.0 for r in rec["recording_id"]], index=rec["recording_id"]
+    )
     long = rec[rec["trial"].str.endswith("/long0")]
     # at the default scale each unit has a 10 s recording per material (pressing) and per speed
     # (free space), and 280 s (4.7 minutes) of non-slip time in all
@@ -201,7 +258,9 @@ def test_arm_idle_vibration_reaches_nano17_but_not_optoforce20(sim):
     rec, samples, _ = sim
     peaks = {}
     for sensor in ("Nano17", "OptoForce20"):
-        ids = list(rec.loc[(rec["sensor_type"] == sensor) & (rec["scenario"] == "press"), "recording_id"])
+        ids = list(
+            rec.loc[(rec["sensor_type"] == sensor) & (rec["scenario"] == "press"), "recording_id"]
+        )
         freqs, amp = _spectrum(samples, ids, 1000.0)
         near = (freqs > 180) & (freqs < 220) & (np.abs(freqs - 200) > 3)
         peaks[sensor] = amp[freqs == 200][0] / np.median(amp[near])
@@ -210,15 +269,27 @@ def test_arm_idle_vibration_reaches_nano17_but_not_optoforce20(sim):
 
 def test_stick_slip_snaps_carry_the_slip_signature_at_the_contact_mode():
     """Without snaps, slip loses most of its content around the fingertip's contact mode."""
-    design = Design(sensors=("Nano17",), materials=("aluminum",), slip_speeds=(50.0,), free_speeds=(),
-                    onset_s_per_cell=0.0, long_press_s_per_material=0.0)
+    design = Design(
+        sensors=("Nano17",),
+        materials=("aluminum",),
+        slip_speeds=(50.0,),
+        free_speeds=(),
+        onset_s_per_cell=0.0,
+        long_press_s_per_material=0.0,
+    )
     p = design.physics
-    f0 = np.mean([contact_mode(SENSORS["Nano17"], make_unit(0, "Nano17", i, p), "aluminum", 1.25, p)[0]
-                  for i in SENSORS["Nano17"].instances])
+    f0 = np.mean(
+        [
+            contact_mode(SENSORS["Nano17"], make_unit(0, "Nano17", i, p), "aluminum", 1.25, p)[0]
+            for i in SENSORS["Nano17"].instances
+        ]
+    )
     bands = {}
     for name, d in (("snaps", design), ("none", with_physics(design, snap_n_per_n=0.0))):
         rec, samples, _ = generate(scale=0.05, seed=0, design=d)
-        freqs, amp = _spectrum(samples, list(rec.loc[rec["scenario"] == "slip", "recording_id"]), 1000.0)
+        freqs, amp = _spectrum(
+            samples, list(rec.loc[rec["scenario"] == "slip", "recording_id"]), 1000.0
+        )
         bands[name] = amp[np.abs(freqs - f0) <= 10].mean()
     assert bands["snaps"] > 3 * bands["none"], bands
 
@@ -235,13 +306,26 @@ def test_contact_mode_follows_hertz_and_the_finger():
         assert hard < free_mode(unit, p)[0] * 1.0001
     # a rigid, thinly coated tip (Nano17) is limited by the finger; a soft skin by the contact
     nano, opto = SENSORS["Nano17"], SENSORS["OptoForce20"]
-    nano_unit, opto_unit = make_unit(0, "Nano17", "index", p), make_unit(0, "OptoForce20", "index", p)
-    assert contact_mode(nano, nano_unit, "PVC", 1.0, p)[0] > 0.97 * contact_mode(nano, nano_unit, "aluminum", 1.0, p)[0]
-    assert contact_mode(opto, opto_unit, "aluminum", 4.0, p)[0] > 1.1 * contact_mode(opto, opto_unit, "aluminum", 1.0, p)[0]
+    nano_unit, opto_unit = (
+        make_unit(0, "Nano17", "index", p),
+        make_unit(0, "OptoForce20", "index", p),
+    )
+    assert (
+        contact_mode(nano, nano_unit, "PVC", 1.0, p)[0]
+        > 0.97 * contact_mode(nano, nano_unit, "aluminum", 1.0, p)[0]
+    )
+    assert (
+        contact_mode(opto, opto_unit, "aluminum", 4.0, p)[0]
+        > 1.1 * contact_mode(opto, opto_unit, "aluminum", 1.0, p)[0]
+    )
 
 
 @settings(max_examples=50, deadline=None)
-@given(force=st.floats(0.01, 20.0), material=st.sampled_from(MATERIALS), sensor_type=st.sampled_from(list(SENSORS)))
+@given(
+    force=st.floats(0.01, 20.0),
+    material=st.sampled_from(MATERIALS),
+    sensor_type=st.sampled_from(list(SENSORS)),
+)
 def test_contact_mode_is_a_physical_lightly_damped_mode(force, material, sensor_type):
     p = Physics()
     unit = make_unit(3, sensor_type, SENSORS[sensor_type].instances[-1], p)
@@ -252,14 +336,28 @@ def test_contact_mode_is_a_physical_lightly_damped_mode(force, material, sensor_
 
 def test_units_of_a_type_differ_and_the_spread_can_be_switched_off():
     p, flat = Physics(), Physics(unit_spread=0.0)
-    fields = ("gain", "noise", "force_share", "coupling", "mass_kg", "finger_stiffness_n_m", "tip_modulus_pa", "idle_coupling")
+    fields = (
+        "gain",
+        "noise",
+        "force_share",
+        "coupling",
+        "mass_kg",
+        "finger_stiffness_n_m",
+        "tip_modulus_pa",
+        "idle_coupling",
+    )
     for sensor_type, sensor in SENSORS.items():
         units = [make_unit(0, sensor_type, i, p) for i in sensor.instances]
         same = [make_unit(0, sensor_type, i, flat) for i in sensor.instances]
         for name in fields:
             values = [getattr(u, name) for u in units]
             # a rigid tip has no skin to vary; an isolated dome passes no idle vibration at all
-            if not (name == "tip_modulus_pa" and sensor.skin_cutoff_hz is None or name == "idle_coupling" and sensor.idle_coupling == 0):
+            if not (
+                name == "tip_modulus_pa"
+                and sensor.skin_cutoff_hz is None
+                or name == "idle_coupling"
+                and sensor.idle_coupling == 0
+            ):
                 assert len(set(values)) == len(values), (sensor_type, name)
             assert len({getattr(u, name) for u in same}) == 1, (sensor_type, name)
 
@@ -267,13 +365,23 @@ def test_units_of_a_type_differ_and_the_spread_can_be_switched_off():
 def test_units_differ_enough_to_shift_the_slip_signal_between_fingers():
     """The level of slip windows differs between two fingers of a type by more than the
     recordings of one finger differ among themselves; with identical units it does not."""
-    design = Design(sensors=("OptoForce20",), materials=("PVC",), slip_speeds=(25.0,), free_speeds=(),
-                    onset_s_per_cell=0.0, long_press_s_per_material=0.0, slip_trials=12)
+    design = Design(
+        sensors=("OptoForce20",),
+        materials=("PVC",),
+        slip_speeds=(25.0,),
+        free_speeds=(),
+        onset_s_per_cell=0.0,
+        long_press_s_per_material=0.0,
+        slip_trials=12,
+    )
     spread = {}
     for name, d in (("units", design), ("identical", with_physics(design, unit_spread=0.0))):
         rec, samples, _ = generate(scale=0.1, seed=4, design=d)
         slip = rec[rec["scenario"] == "slip"]
-        level = {inst: np.median(_window_level(samples, g["recording_id"])) for inst, g in slip.groupby("sensor_instance")}
+        level = {
+            inst: np.median(_window_level(samples, g["recording_id"]))
+            for inst, g in slip.groupby("sensor_instance")
+        }
         spread[name] = max(level.values()) - min(level.values())
     assert spread["units"] > 0.3 and spread["identical"] < 0.15, spread
 
@@ -281,13 +389,26 @@ def test_units_differ_enough_to_shift_the_slip_signal_between_fingers():
 def test_recordings_carry_their_own_signature():
     """Recordings of one unit and cell differ in level (trial grip, surface, contact patch...);
     without trial and recording signatures much less."""
-    design = Design(sensors=("Nano17",), materials=("plywood",), slip_speeds=(50.0,), press_s_per_material=0.0,
-                    free_speeds=(), onset_s_per_cell=0.0, long_press_s_per_material=0.0, slip_trials=12)
+    design = Design(
+        sensors=("Nano17",),
+        materials=("plywood",),
+        slip_speeds=(50.0,),
+        press_s_per_material=0.0,
+        free_speeds=(),
+        onset_s_per_cell=0.0,
+        long_press_s_per_material=0.0,
+        slip_trials=12,
+    )
     sd = {}
-    for name, d in (("default", design), ("recordings", with_physics(design, normal_force_n=(1.0, 1.0))),
-                    ("none", with_physics(design, signature_spread=0.0, normal_force_n=(1.0, 1.0)))):
+    for name, d in (
+        ("default", design),
+        ("recordings", with_physics(design, normal_force_n=(1.0, 1.0))),
+        ("none", with_physics(design, signature_spread=0.0, normal_force_n=(1.0, 1.0))),
+    ):
         rec, samples, _ = generate(scale=0.3, seed=2, design=d)
-        ids = rec.loc[(rec["scenario"] == "slip") & (rec["sensor_instance"] == "index"), "recording_id"]
+        ids = rec.loc[
+            (rec["scenario"] == "slip") & (rec["sensor_instance"] == "index"), "recording_id"
+        ]
         sd[name] = np.std([np.median(_window_level(samples, [r])) for r in ids])
     assert sd["default"] > 2.5 * sd["none"] and sd["recordings"] > 1.5 * sd["none"], sd
 
@@ -297,11 +418,17 @@ def test_classes_overlap_and_5_mm_s_is_the_weakest_slip(sim):
     for sensor in SENSORS:
         mine = rec[rec["sensor_type"] == sensor]
         slip = _window_level(samples, mine.loc[mine["scenario"] == "slip", "recording_id"])
-        other = _window_level(samples, mine.loc[mine["scenario"].isin(["press", "free-space"]), "recording_id"])
+        other = _window_level(
+            samples, mine.loc[mine["scenario"].isin(["press", "free-space"]), "recording_id"]
+        )
         # no threshold on the level separates the classes: each class has windows on the other's side
-        assert np.mean(slip < np.median(other)) > 0.03 and np.mean(other > np.median(slip)) > 0.03, sensor
-        by_speed = {v: np.median(_window_level(samples, g["recording_id"]))
-                    for v, g in mine[mine["scenario"] == "slip"].groupby("speed_mm_s")}
+        assert (
+            np.mean(slip < np.median(other)) > 0.03 and np.mean(other > np.median(slip)) > 0.03
+        ), sensor
+        by_speed = {
+            v: np.median(_window_level(samples, g["recording_id"]))
+            for v, g in mine[mine["scenario"] == "slip"].groupby("speed_mm_s")
+        }
         assert min(by_speed, key=by_speed.get) == 5.0, (sensor, by_speed)
 
 
@@ -315,6 +442,8 @@ def test_written_dataset_keeps_trials_onsets_and_unlabelled_samples(tmp_path):
     design = Design(sensors=("BioTacSP",), materials=("PVC",), slip_speeds=(25.0,))
     rec, _, labels = generate(scale=0.05, seed=0, design=design)
     ds = data.read_dataset(synthesize(tmp_path / "d", scale=0.05, seed=0, design=design))
-    assert dict(zip(ds.recordings["recording_id"], ds.recordings["trial"])) == dict(zip(rec["recording_id"], rec["trial"]))
+    assert dict(zip(ds.recordings["recording_id"], ds.recordings["trial"])) == dict(
+        zip(rec["recording_id"], rec["trial"])
+    )
     assert "hold-slip" in set(ds.recordings["scenario"])
     assert all(np.array_equal(ds.slip_labels[r], labels[r]) for r in rec["recording_id"])

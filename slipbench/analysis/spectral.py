@@ -55,10 +55,10 @@ import pandas as pd
 from scipy.stats import ks_2samp
 
 from slipbench.data.dataset import Dataset
-from slipbench.errors import UsageError
 from slipbench.data.signals import SPLITS, Signals, Windows, balance
-from slipbench.spectra import amplitude_spectrum, grow_band
+from slipbench.errors import UsageError
 from slipbench.seeding import rng_for
+from slipbench.spectra import amplitude_spectrum, grow_band
 
 # Bytes of sequences (float32) gathered and transformed at once: bounds peak memory.
 CHUNK_BYTES = 64 * 2**20
@@ -127,11 +127,16 @@ class SpectralResult:
     params: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
-        return {**self.params, "significant_bands": [list(b) for b in self.bands],
-                "most_significant_band": list(self.best_band) if self.best_band else None}
+        return {
+            **self.params,
+            "significant_bands": [list(b) for b in self.bands],
+            "most_significant_band": list(self.best_band) if self.best_band else None,
+        }
 
 
-def significant_bands(freqs: np.ndarray, significance: np.ndarray, level: float, merge_hz: float) -> list[tuple[float, float]]:
+def significant_bands(
+    freqs: np.ndarray, significance: np.ndarray, level: float, merge_hz: float
+) -> list[tuple[float, float]]:
     """Maximal runs of bins with ``significance >= level``; gaps up to ``merge_hz`` are closed.
 
     Parameters
@@ -149,8 +154,9 @@ def significant_bands(freqs: np.ndarray, significance: np.ndarray, level: float,
     return [(float(freqs[s]), float(freqs[e])) for s, e in zip(starts, ends)]
 
 
-def most_significant_band(freqs: np.ndarray, significance: np.ndarray, statistic: np.ndarray,
-                          level: float, keep: float) -> tuple[float, float] | None:
+def most_significant_band(
+    freqs: np.ndarray, significance: np.ndarray, statistic: np.ndarray, level: float, keep: float
+) -> tuple[float, float] | None:
     """The run of significant bins around the bin with the largest mean KS statistic, extended
     while each bin stays significant and its statistic at least ``keep`` times the peak's.
 
@@ -166,9 +172,19 @@ def most_significant_band(freqs: np.ndarray, significance: np.ndarray, statistic
     return float(freqs[lo]), float(freqs[hi])
 
 
-def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *, n_boot: int = 100,
-                  repeats: int = 200, alpha: float = 0.05, level: float = 0.95, keep: float = 0.8,
-                  merge_hz: float = 5.0, seed: int = 0) -> SpectralResult:
+def analyze_pools(
+    nonslip: np.ndarray,
+    slip: np.ndarray,
+    sampling_rate: float,
+    *,
+    n_boot: int = 100,
+    repeats: int = 200,
+    alpha: float = 0.05,
+    level: float = 0.95,
+    keep: float = 0.8,
+    merge_hz: float = 5.0,
+    seed: int = 0,
+) -> SpectralResult:
     """The bootstrap spectral analysis of two pools of windows.
 
     Parameters
@@ -185,9 +201,14 @@ def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *
     _check(n_boot >= 2, f"n_boot must be an int >= 2, got {n_boot}")
     _check(repeats >= 1, f"repeats must be an int >= 1, got {repeats}")
     for name, value in (("alpha", alpha), ("level", level), ("keep", keep)):
-        _check(0 < value <= 1 if name != "alpha" else 0 < value < 1, f"{name} must be in (0, 1), got {value}")
-    _check(nonslip.ndim == slip.ndim == 2 and nonslip.shape[1] == slip.shape[1] > 0,
-           f"pools must be (n, segment) arrays of one segment length, got {nonslip.shape} and {slip.shape}")
+        _check(
+            0 < value <= 1 if name != "alpha" else 0 < value < 1,
+            f"{name} must be in (0, 1), got {value}",
+        )
+    _check(
+        nonslip.ndim == slip.ndim == 2 and nonslip.shape[1] == slip.shape[1] > 0,
+        f"pools must be (n, segment) arrays of one segment length, got {nonslip.shape} and {slip.shape}",
+    )
     _check(len(nonslip) > 0 and len(slip) > 0, "both classes need at least one window")
     length = int(round(sampling_rate))
     segment = nonslip.shape[1]
@@ -202,7 +223,9 @@ def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *
     for start in range(0, repeats, chunk):
         stop = min(start + chunk, repeats)
         for c, pool in enumerate((nonslip, slip)):
-            seq = pool[draws[c][start:stop]].reshape(stop - start, n_boot, pieces * segment)[..., :length]
+            seq = pool[draws[c][start:stop]].reshape(stop - start, n_boot, pieces * segment)[
+                ..., :length
+            ]
             amps[c, start:stop] = amplitude_spectrum(seq, sampling_rate)[1]
     # bins every sampling_rate / length Hz (1 Hz for integer rates), exact rather than rfftfreq's
     # 1 / (length / rate) steps, which print 425.0000000000001 Hz
@@ -222,15 +245,33 @@ def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *
 
     flat = amps.reshape(2, repeats * n_boot, n_bins)
     lo, hi = np.percentile(flat, [2.5, 97.5], axis=1)
-    table = pd.DataFrame({
-        "freq_hz": freqs,
-        "nonslip_mean": flat[0].mean(axis=0, dtype=np.float64), "nonslip_lo": lo[0], "nonslip_hi": hi[0],
-        "slip_mean": flat[1].mean(axis=0, dtype=np.float64), "slip_lo": lo[1], "slip_hi": hi[1],
-        "ks_statistic": statistic, "significance": significance,
-    })
-    params = dict(sampling_rate_hz=float(sampling_rate), sequence_samples=length, segment_samples=segment,
-                  n_boot=n_boot, repeats=repeats, alpha=alpha, level=level, keep=keep, merge_hz=merge_hz,
-                  seed=seed, windows_nonslip=len(nonslip), windows_slip=len(slip))
+    table = pd.DataFrame(
+        {
+            "freq_hz": freqs,
+            "nonslip_mean": flat[0].mean(axis=0, dtype=np.float64),
+            "nonslip_lo": lo[0],
+            "nonslip_hi": hi[0],
+            "slip_mean": flat[1].mean(axis=0, dtype=np.float64),
+            "slip_lo": lo[1],
+            "slip_hi": hi[1],
+            "ks_statistic": statistic,
+            "significance": significance,
+        }
+    )
+    params = dict(
+        sampling_rate_hz=float(sampling_rate),
+        sequence_samples=length,
+        segment_samples=segment,
+        n_boot=n_boot,
+        repeats=repeats,
+        alpha=alpha,
+        level=level,
+        keep=keep,
+        merge_hz=merge_hz,
+        seed=seed,
+        windows_nonslip=len(nonslip),
+        windows_slip=len(slip),
+    )
     return SpectralResult(
         table,
         significant_bands(freqs, significance, level, merge_hz),
@@ -239,8 +280,14 @@ def analyze_pools(nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, *
     )
 
 
-def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | None,
-          seed: int, split: str | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+def pools(
+    dataset: Dataset,
+    sensor: str,
+    instance: str | None,
+    segment: int | None,
+    seed: int,
+    split: str | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
     """Balanced non-slip and slip windows of one sensor type (all its instances, each balanced
     on its own) or of one instance.
 
@@ -262,23 +309,36 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
     recs = recs[recs["sensor_type"] == sensor]
     instances = list(dict.fromkeys(recs["sensor_instance"]))
     if instance is not None and instance not in instances:
-        raise UsageError(f"{sensor} has no instance {instance!r}; its instances: {', '.join(instances)}")
+        raise UsageError(
+            f"{sensor} has no instance {instance!r}; its instances: {', '.join(instances)}"
+        )
     rates = recs["sampling_rate_hz"].unique()
     if len(rates) > 1:
-        raise UsageError(f"{sensor}: recordings at several sampling rates ({', '.join(f'{r:g}' for r in rates)} Hz); "
-                         "the analysis needs one")
+        raise UsageError(
+            f"{sensor}: recordings at several sampling rates ({', '.join(f'{r:g}' for r in rates)} Hz); "
+            "the analysis needs one"
+        )
     rate = float(rates[0])
     length = int(round(rate))
     segment = (length if split is None else TRAIN_WINDOW) if segment is None else segment
-    _check(not isinstance(segment, bool) and isinstance(segment, (int, np.integer)) and 1 <= segment <= length,
-           f"segment must be an int in [1, {length}] (one second of {sensor}), got {segment}")
+    _check(
+        not isinstance(segment, bool)
+        and isinstance(segment, (int, np.integer))
+        and 1 <= segment <= length,
+        f"segment must be an int in [1, {length}] (one second of {sensor}), got {segment}",
+    )
     chosen = instances if instance is None else [instance]
     if split is not None:
         return (*_training_side(dataset, sensor, chosen, int(segment), split, seed), rate)
 
     ids = set(recs["recording_id"])
-    sig = Signals.from_dataset(Dataset(recs.reset_index(drop=True), dataset.samples,
-                                       {k: v for k, v in dataset.slip_labels.items() if k in ids}))
+    sig = Signals.from_dataset(
+        Dataset(
+            recs.reset_index(drop=True),
+            dataset.samples,
+            {k: v for k, v in dataset.slip_labels.items() if k in ids},
+        )
+    )
     rng = rng_for(seed, "spectral", "instances")
     parts = []
     for inst in chosen:
@@ -291,12 +351,15 @@ def pools(dataset: Dataset, sensor: str, instance: str | None, segment: int | No
     return x[y == 0], x[y == 1], rate
 
 
-def _training_side(dataset: Dataset, sensor: str, instances: list[str], window: int, split: str,
-                   seed: int) -> tuple[np.ndarray, np.ndarray]:
+def _training_side(
+    dataset: Dataset, sensor: str, instances: list[str], window: int, split: str, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Non-slip and slip windows, (n, window) float32, of the training side of each instance:
     the runner's own CellData, on the whole dataset as the runner builds it, so that the
     balancing and the split are the runner's whatever they depend on."""
-    from slipbench.engine.plan import CellData  # the planner pulls in the registry; only this path needs it
+    from slipbench.engine.plan import (
+        CellData,  # the planner pulls in the registry; only this path needs it
+    )
 
     if split not in SPLITS:
         raise UsageError(f"unknown split {split!r}; choose one of: {', '.join(SPLITS)}")
@@ -312,25 +375,46 @@ def _training_side(dataset: Dataset, sensor: str, instances: list[str], window: 
     return x[y == 0], x[y == 1]
 
 
-def _check_strata(sig: Signals, rows: np.ndarray, windows: Windows, segment: int, what: str) -> None:
+def _check_strata(
+    sig: Signals, rows: np.ndarray, windows: Windows, segment: int, what: str
+) -> None:
     """Refuse a stratum whose every recording is shorter than a segment: balancing would drop it
     silently and change the mix."""
     scenario = sig.recordings["scenario"].to_numpy()[rows]
     rows = rows[scenario != "hold-slip"]  # two states: the scenario labels none of its windows
     scenario_labels = (sig.recordings["scenario"].to_numpy()[rows] == "slip").astype(np.int8)
-    per_recording = Windows(np.empty((len(rows), 0)), rows, np.zeros(len(rows), np.int32), sig.recordings,
-                            scenario_labels).strata()
+    per_recording = Windows(
+        np.empty((len(rows), 0)),
+        rows,
+        np.zeros(len(rows), np.int32),
+        sig.recordings,
+        scenario_labels,
+    ).strata()
     missing = sorted(set(per_recording) - set(windows.strata()))
     if missing:
         lengths = sig.offsets[rows + 1] - sig.offsets[rows]
         longest = int(lengths[per_recording == missing[0]].max())
-        raise UsageError(f"{what}: no recording of {str(missing[0])!r} holds a {segment}-sample segment (longest "
-                         f"signal: {longest} samples); pass a shorter segment (e.g. --segment {max(1, longest // 2)})")
+        raise UsageError(
+            f"{what}: no recording of {str(missing[0])!r} holds a {segment}-sample segment (longest "
+            f"signal: {longest} samples); pass a shorter segment (e.g. --segment {max(1, longest // 2)})"
+        )
 
 
-def analyze(dataset: Dataset, sensor: str, instance: str | None = None, *, segment: int | None = None,
-            n_boot: int = 100, repeats: int = 200, alpha: float = 0.05, level: float = 0.95,
-            keep: float = 0.8, merge_hz: float = 5.0, seed: int = 0, split: str | None = None) -> SpectralResult:
+def analyze(
+    dataset: Dataset,
+    sensor: str,
+    instance: str | None = None,
+    *,
+    segment: int | None = None,
+    n_boot: int = 100,
+    repeats: int = 200,
+    alpha: float = 0.05,
+    level: float = 0.95,
+    keep: float = 0.8,
+    merge_hz: float = 5.0,
+    seed: int = 0,
+    split: str | None = None,
+) -> SpectralResult:
     """The spectral analysis of one sensor type, or one of its instances, in ``dataset``.
 
     ``segment``: samples per balanced window (None: one second, i.e. each sequence one
@@ -340,11 +424,25 @@ def analyze(dataset: Dataset, sensor: str, instance: str | None = None, *, segme
     :func:`analyze_pools`.
     """
     nonslip, slip, rate = pools(dataset, sensor, instance, segment, seed, split)
-    result = analyze_pools(nonslip, slip, rate, n_boot=n_boot, repeats=repeats, alpha=alpha, level=level,
-                           keep=keep, merge_hz=merge_hz, seed=seed)
-    result.params = dict(sensor_type=sensor, sensor_instance=instance or "all",
-                         dataset_fingerprint=dataset.fingerprint, train_split=split,
-                         **result.params)
+    result = analyze_pools(
+        nonslip,
+        slip,
+        rate,
+        n_boot=n_boot,
+        repeats=repeats,
+        alpha=alpha,
+        level=level,
+        keep=keep,
+        merge_hz=merge_hz,
+        seed=seed,
+    )
+    result.params = dict(
+        sensor_type=sensor,
+        sensor_instance=instance or "all",
+        dataset_fingerprint=dataset.fingerprint,
+        train_split=split,
+        **result.params,
+    )
     return result
 
 
@@ -370,7 +468,9 @@ def plot(result: SpectralResult, title: str):
     ax = fig.add_subplot()
     for cls, label in (("nonslip", "non-slip"), ("slip", "slip")):
         color = PAPER_COLORS[cls]
-        ax.fill_between(t["freq_hz"], t[f"{cls}_lo"], t[f"{cls}_hi"], color=color, alpha=0.2, linewidth=0)
+        ax.fill_between(
+            t["freq_hz"], t[f"{cls}_lo"], t[f"{cls}_hi"], color=color, alpha=0.2, linewidth=0
+        )
         ax.plot(t["freq_hz"], t[f"{cls}_mean"], color=color, linewidth=1, label=label)
     ax.set_yscale("log")  # amplitudes span decades between 0 Hz and Nyquist
     ax.set_xlabel("frequency (Hz)")
@@ -379,12 +479,20 @@ def plot(result: SpectralResult, title: str):
     if result.best_band:
         ax.axvspan(*result.best_band, color="0.85", zorder=0, label="most significant band")
     sig = ax.twinx()
-    sig.plot(t["freq_hz"], t["significance"], color=PAPER_COLORS["significance"], linewidth=1, label="significance")
+    sig.plot(
+        t["freq_hz"],
+        t["significance"],
+        color=PAPER_COLORS["significance"],
+        linewidth=1,
+        label="significance",
+    )
     sig.set_ylim(0, 1.05)
     sig.set_ylabel("significance", color=PAPER_COLORS["significance"])
     handles = ax.get_legend_handles_labels()
     more = sig.get_legend_handles_labels()
-    ax.legend(handles[0] + more[0], handles[1] + more[1], loc="lower left", fontsize=8, framealpha=0.8)
+    ax.legend(
+        handles[0] + more[0], handles[1] + more[1], loc="lower left", fontsize=8, framealpha=0.8
+    )
     ax.set_title(title, fontsize=10)
     return fig
 
@@ -399,11 +507,17 @@ def write(result: SpectralResult, out: Path, name: str) -> list[Path]:
     run leaves no partial file."""
     out.mkdir(parents=True, exist_ok=True)
     p = result.params
-    band = f"most significant {result.best_band[0]:g}-{result.best_band[1]:g} Hz" if result.best_band else "no significant band"
+    band = (
+        f"most significant {result.best_band[0]:g}-{result.best_band[1]:g} Hz"
+        if result.best_band
+        else "no significant band"
+    )
     who = p.get("sensor_instance", "")
     who = "all instances" if who == "all" else who
-    title = (f"{p.get('sensor_type', '')} ({who}): {p['repeats']} x {p['n_boot']} "
-             f"bootstrap sequences per class, KS alpha {p['alpha']:g}; {band}")
+    title = (
+        f"{p.get('sensor_type', '')} ({who}): {p['repeats']} x {p['n_boot']} "
+        f"bootstrap sequences per class, KS alpha {p['alpha']:g}; {band}"
+    )
     fig = plot(result, title)
     paths = []
 
@@ -421,7 +535,12 @@ def write(result: SpectralResult, out: Path, name: str) -> list[Path]:
 
     # fixed metadata keeps the PDF and PNG byte-stable between runs
     atomic(".png", lambda f: fig.savefig(f, format="png", dpi=150, metadata={"Software": None}))
-    atomic(".pdf", lambda f: fig.savefig(f, format="pdf", metadata={"CreationDate": None, "Creator": None, "Producer": None}))
+    atomic(
+        ".pdf",
+        lambda f: fig.savefig(
+            f, format="pdf", metadata={"CreationDate": None, "Creator": None, "Producer": None}
+        ),
+    )
     atomic(".csv", lambda f: result.table.to_csv(f, index=False, float_format="%.6g"))
     atomic(".json", lambda f: Path(f).write_text(json.dumps(result.summary(), indent=2) + "\n"))
     return paths
@@ -432,11 +551,15 @@ def provenance(result: SpectralResult) -> str:
     chosen on their own test data."""
     p = result.params
     if p.get("train_split") is None:
-        return ("bands chosen on every recording, test windows included; for a detector's band, "
-                "analyse a run's training side (--train-only)")
-    return (f"bands chosen on the training side only ({p['train_split']} split, seed {p['seed']}, window "
-            f"{p['segment_samples']}): free of test data for cells at window {p['segment_samples']} of runs "
-            f"with this dataset, split and seed")
+        return (
+            "bands chosen on every recording, test windows included; for a detector's band, "
+            "analyse a run's training side (--train-only)"
+        )
+    return (
+        f"bands chosen on the training side only ({p['train_split']} split, seed {p['seed']}, window "
+        f"{p['segment_samples']}): free of test data for cells at window {p['segment_samples']} of runs "
+        f"with this dataset, split and seed"
+    )
 
 
 def band_param(band: tuple[float, float]) -> str:

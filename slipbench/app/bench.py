@@ -9,11 +9,10 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-import numpy as np
 import pandas as pd
 
-from slipbench.engine.registry import detectors
 from slipbench.engine.fitting import PeakMemory
+from slipbench.engine.registry import detectors
 from slipbench.testing import toy_windows
 
 
@@ -42,12 +41,21 @@ def detector_costs(names: list[str], n_windows: int, length: int, seed: int = 0)
             t1 = time.perf_counter()
             detector.predict_proba(x)
             t2 = time.perf_counter()
-        rows.append({"detector": name, "train_us_per_sample": (t1 - t0) / x.size * 1e6,
-                     "infer_us_per_window": (t2 - t1) / n_windows * 1e6, "peak_mem_mb": mem.mb, "train_s": t1 - t0})
+        rows.append(
+            {
+                "detector": name,
+                "train_us_per_sample": (t1 - t0) / x.size * 1e6,
+                "infer_us_per_window": (t2 - t1) / n_windows * 1e6,
+                "peak_mem_mb": mem.mb,
+                "train_s": t1 - t0,
+            }
+        )
     return pd.DataFrame(rows)
 
 
-def detector_benchmarks(names: list[str], length: int, seconds: float, seed: int = 0) -> dict[str, pd.DataFrame]:
+def detector_benchmarks(
+    names: list[str], length: int, seconds: float, seed: int = 0
+) -> dict[str, pd.DataFrame]:
     """Each detector's own speed figures (``BaseDetector.benchmark``), for those that have them."""
     tables = {}
     for name in names:

@@ -45,11 +45,12 @@ from __future__ import annotations
 import hashlib
 import json
 import re
-import tomllib
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
+
+import tomllib
 
 from slipbench.errors import SlipbenchError, UsageError
 
@@ -58,17 +59,32 @@ RECORD_FILE = "benchmark.json"
 REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
 METRICS = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
 SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
-    "benchmark": {"out": (str, "a folder"), "report": ((str, list), "a format or a list of them (md, latex, html)"),
-                  "plots": (bool, "true or false"), "paper": (bool, "true or false"),
-                  "intervals": (bool, "true or false"), "metric": (str, f"one of {', '.join(METRICS)}"),
-                  "name": (str, "a string")},
-    "dataset": {"path": (str, "a dataset folder"), "scale": ((int, float), "a number in (0, 10]"),
-                "seed": (int, "an int >= 0"), "train": (str, "a dataset folder"),
-                "sensor_map": (list, 'a list of "TEST=TRAIN" strings')},
-    "run": {"split": (str, "paper or grouped"), "labels": (str, "scenario, majority, any or last"),
-            "seed": (int, "an int in [0, 2**32 - 1]"), "repeats": (int, "an int >= 1"), "jobs": (int, "an int >= 0"),
-            "cell_timeout": ((int, float), "seconds > 0"), "scheduler": (str, "a dask scheduler address"),
-            "plugins": (list, "a list of folders")},
+    "benchmark": {
+        "out": (str, "a folder"),
+        "report": ((str, list), "a format or a list of them (md, latex, html)"),
+        "plots": (bool, "true or false"),
+        "paper": (bool, "true or false"),
+        "intervals": (bool, "true or false"),
+        "metric": (str, f"one of {', '.join(METRICS)}"),
+        "name": (str, "a string"),
+    },
+    "dataset": {
+        "path": (str, "a dataset folder"),
+        "scale": ((int, float), "a number in (0, 10]"),
+        "seed": (int, "an int >= 0"),
+        "train": (str, "a dataset folder"),
+        "sensor_map": (list, 'a list of "TEST=TRAIN" strings'),
+    },
+    "run": {
+        "split": (str, "paper or grouped"),
+        "labels": (str, "scenario, majority, any or last"),
+        "seed": (int, "an int in [0, 2**32 - 1]"),
+        "repeats": (int, "an int >= 1"),
+        "jobs": (int, "an int >= 0"),
+        "cell_timeout": ((int, float), "seconds > 0"),
+        "scheduler": (str, "a dask scheduler address"),
+        "plugins": (list, "a list of folders"),
+    },
 }
 TABLES = ("benchmark", "dataset", "run", "detectors", "protocols")
 
@@ -106,7 +122,9 @@ class Benchmark:
     @property
     def describe(self) -> str:
         """One line for a report's header."""
-        return f"{self.path.name} (sha256 {self.sha256[:16]})" + (f": {self.name}" if self.name else "")
+        return f"{self.path.name} (sha256 {self.sha256[:16]})" + (
+            f": {self.name}" if self.name else ""
+        )
 
 
 def _line(text: str, table: str, key: str | None = None) -> int | None:
@@ -117,13 +135,24 @@ def _line(text: str, table: str, key: str | None = None) -> int | None:
     for n, line in enumerate(text.splitlines(), 1):
         m = header.match(line)
         if m:
-            current = ".".join(part.strip().strip('"').strip("'") for part in re.split(r"\.(?=(?:[^\"]*\"[^\"]*\")*[^\"]*$)", m[1]))
+            current = ".".join(
+                part.strip().strip('"').strip("'")
+                for part in re.split(r"\.(?=(?:[^\"]*\"[^\"]*\")*[^\"]*$)", m[1])
+            )
             if key is None and current == table:
                 return n
             continue
-        if key is not None and current == table and re.match(rf"^\s*[\"']?{re.escape(key)}[\"']?\s*=", line):
+        if (
+            key is not None
+            and current == table
+            and re.match(rf"^\s*[\"']?{re.escape(key)}[\"']?\s*=", line)
+        ):
             return n
-        if key is None and found is None and re.match(rf"^\s*[\"']?{re.escape(table)}[\"']?\s*=", line):
+        if (
+            key is None
+            and found is None
+            and re.match(rf"^\s*[\"']?{re.escape(table)}[\"']?\s*=", line)
+        ):
             found = n  # an inline table: "table = {...}"
     return found
 
@@ -134,7 +163,12 @@ class BenchmarkError(UsageError):
 
 def _fail(bench: Path, text: str, what: str, table: str, key: str | None = None) -> BenchmarkError:
     line = _line(text, table, key)
-    where = f"{bench}" + (f", line {line}" if line else "") + f", [{table}]" + (f" {key}" if key else "")
+    where = (
+        f"{bench}"
+        + (f", line {line}" if line else "")
+        + f", [{table}]"
+        + (f" {key}" if key else "")
+    )
     return BenchmarkError(f"{where}: {what}")
 
 
@@ -142,27 +176,56 @@ def _checked(bench: Path, text: str, data: dict) -> dict:
     """The file's tables, every key known and of its type."""
     for name, value in data.items():
         if name not in TABLES:
-            raise _fail(bench, text, f"unknown table or key {name!r}; a benchmark file has the tables "
-                        f"{', '.join(f'[{t}]' for t in TABLES)}", name)
+            raise _fail(
+                bench,
+                text,
+                f"unknown table or key {name!r}; a benchmark file has the tables "
+                f"{', '.join(f'[{t}]' for t in TABLES)}",
+                name,
+            )
         if not isinstance(value, dict):
             raise _fail(bench, text, f"{name!r} must be a table ([{name}])", name)
     for name, schema in SCHEMA.items():
         for key, value in data.get(name, {}).items():
             if key not in schema:
-                raise _fail(bench, text, f"unknown key {key!r}; [{name}] takes {', '.join(schema)}", name, key)
+                raise _fail(
+                    bench,
+                    text,
+                    f"unknown key {key!r}; [{name}] takes {', '.join(schema)}",
+                    name,
+                    key,
+                )
             types, meaning = schema[key]
-            if isinstance(value, bool) and bool not in (types if isinstance(types, tuple) else (types,)):
+            if isinstance(value, bool) and bool not in (
+                types if isinstance(types, tuple) else (types,)
+            ):
                 raise _fail(bench, text, f"{key} must be {meaning}, got {value!r}", name, key)
             if not isinstance(value, types):
                 raise _fail(bench, text, f"{key} must be {meaning}, got {value!r}", name, key)
     for kind in ("detectors", "protocols"):
         for plugin, params in data.get(kind, {}).items():
             if not isinstance(params, dict):
-                raise _fail(bench, text, f"{plugin!r} must be a table of its parameters ([{kind}.{plugin}])", kind, plugin)
+                raise _fail(
+                    bench,
+                    text,
+                    f"{plugin!r} must be a table of its parameters ([{kind}.{plugin}])",
+                    kind,
+                    plugin,
+                )
     if not data.get("detectors"):
-        raise _fail(bench, text, "no detector: add a table [detectors.<id>] per detector (see `slipbench list`)", "detectors")
+        raise _fail(
+            bench,
+            text,
+            "no detector: add a table [detectors.<id>] per detector (see `slipbench list`)",
+            "detectors",
+        )
     if not data.get("protocols"):
-        raise _fail(bench, text, "no protocol: add a table [protocols.<id>] per protocol (see `slipbench list`)", "protocols")
+        raise _fail(
+            bench,
+            text,
+            "no protocol: add a table [protocols.<id>] per protocol (see `slipbench list`)",
+            "protocols",
+        )
     return data
 
 
@@ -193,36 +256,88 @@ def load_benchmark(path: str | Path) -> Benchmark:
 
     formats = [b["report"]] if isinstance(b.get("report"), str) else b.get("report", ["md"])
     for f in formats:
-        check(f in REPORT_FORMATS, f"unknown report format {f!r}; one of {', '.join(REPORT_FORMATS)}", "benchmark", "report")
-    check(b.get("metric", "accuracy") in METRICS, f"metric must be one of {', '.join(METRICS)}", "benchmark", "metric")
-    check("path" in d or "train" not in d, "train needs path: the dataset to test on", "dataset", "train")
-    check("train" in d or "sensor_map" not in d, "sensor_map matches a test dataset's sensors to a training dataset's: "
-          "it needs train", "dataset", "sensor_map")
-    check("path" not in d or not ({"scale", "seed"} & set(d)), "scale and seed describe the simulated dataset; "
-          "a dataset with a path has neither", "dataset", "scale" if "scale" in d else "seed")
+        check(
+            f in REPORT_FORMATS,
+            f"unknown report format {f!r}; one of {', '.join(REPORT_FORMATS)}",
+            "benchmark",
+            "report",
+        )
+    check(
+        b.get("metric", "accuracy") in METRICS,
+        f"metric must be one of {', '.join(METRICS)}",
+        "benchmark",
+        "metric",
+    )
+    check(
+        "path" in d or "train" not in d,
+        "train needs path: the dataset to test on",
+        "dataset",
+        "train",
+    )
+    check(
+        "train" in d or "sensor_map" not in d,
+        "sensor_map matches a test dataset's sensors to a training dataset's: it needs train",
+        "dataset",
+        "sensor_map",
+    )
+    check(
+        "path" not in d or not ({"scale", "seed"} & set(d)),
+        "scale and seed describe the simulated dataset; a dataset with a path has neither",
+        "dataset",
+        "scale" if "scale" in d else "seed",
+    )
     check(0 < d.get("scale", 0.05) <= 10, "scale must be in (0, 10]", "dataset", "scale")
     check(d.get("seed", 0) >= 0, "seed must be >= 0", "dataset", "seed")
-    check(r.get("split", "paper") in ("paper", "grouped"), "split must be paper or grouped", "run", "split")
-    check(r.get("labels", "scenario") in ("scenario", "majority", "any", "last"),
-          "labels must be scenario, majority, any or last", "run", "labels")
+    check(
+        r.get("split", "paper") in ("paper", "grouped"),
+        "split must be paper or grouped",
+        "run",
+        "split",
+    )
+    check(
+        r.get("labels", "scenario") in ("scenario", "majority", "any", "last"),
+        "labels must be scenario, majority, any or last",
+        "run",
+        "labels",
+    )
     check(0 <= r.get("seed", 0) < 2**32, "seed must be in [0, 2**32 - 1]", "run", "seed")
     check(r.get("repeats", 1) >= 1, "repeats must be >= 1", "run", "repeats")
     check(r.get("jobs", 1) >= 0, "jobs must be >= 0", "run", "jobs")
     check(r.get("cell_timeout", 1) > 0, "cell_timeout must be > 0 seconds", "run", "cell_timeout")
     for item in d.get("sensor_map", []):
-        check(isinstance(item, str) and "=" in item, f'sensor_map entries are "TEST=TRAIN" strings, got {item!r}',
-              "dataset", "sensor_map")
+        check(
+            isinstance(item, str) and "=" in item,
+            f'sensor_map entries are "TEST=TRAIN" strings, got {item!r}',
+            "dataset",
+            "sensor_map",
+        )
     for folder in r.get("plugins", []):
-        check(isinstance(folder, str), f"plugins holds folder names, got {folder!r}", "run", "plugins")
+        check(
+            isinstance(folder, str), f"plugins holds folder names, got {folder!r}", "run", "plugins"
+        )
     return Benchmark(
-        path=path, text=text, sha256=hashlib.sha256(raw).hexdigest(), out=home / b.get("out", "results"),
-        report=list(dict.fromkeys(formats)), plots=b.get("plots", True), paper=b.get("paper", False),
-        intervals=b.get("intervals", False), metric=b.get("metric", "accuracy"), name=b.get("name", ""),
-        dataset=home / d["path"] if "path" in d else None, scale=float(d.get("scale", 0.05)), data_seed=d.get("seed"),
-        train=home / d["train"] if "train" in d else None, sensor_map=list(d.get("sensor_map", [])),
-        split="datasets" if "train" in d else r.get("split", "paper"), labels=r.get("labels", "scenario"),
-        seed=r.get("seed", 0), repeats=r.get("repeats", 1), jobs=r.get("jobs", 1),
-        cell_timeout=float(r["cell_timeout"]) if "cell_timeout" in r else None, scheduler=r.get("scheduler"),
+        path=path,
+        text=text,
+        sha256=hashlib.sha256(raw).hexdigest(),
+        out=home / b.get("out", "results"),
+        report=list(dict.fromkeys(formats)),
+        plots=b.get("plots", True),
+        paper=b.get("paper", False),
+        intervals=b.get("intervals", False),
+        metric=b.get("metric", "accuracy"),
+        name=b.get("name", ""),
+        dataset=home / d["path"] if "path" in d else None,
+        scale=float(d.get("scale", 0.05)),
+        data_seed=d.get("seed"),
+        train=home / d["train"] if "train" in d else None,
+        sensor_map=list(d.get("sensor_map", [])),
+        split="datasets" if "train" in d else r.get("split", "paper"),
+        labels=r.get("labels", "scenario"),
+        seed=r.get("seed", 0),
+        repeats=r.get("repeats", 1),
+        jobs=r.get("jobs", 1),
+        cell_timeout=float(r["cell_timeout"]) if "cell_timeout" in r else None,
+        scheduler=r.get("scheduler"),
         plugins=[home / p for p in r.get("plugins", [])],
         detectors={k: dict(v) for k, v in data["detectors"].items()},
         protocols={k: dict(v) for k, v in data["protocols"].items()},
@@ -237,7 +352,9 @@ def plan_runs(bench: Benchmark) -> list:
 
     for folder in bench.plugins:
         if not folder.is_dir():
-            raise _fail(bench.path, bench.text, f"plugin folder {folder} does not exist", "run", "plugins")
+            raise _fail(
+                bench.path, bench.text, f"plugin folder {folder} does not exist", "run", "plugins"
+            )
         registry.add_plugin_folder(folder)
 
     def made(kind: str, reg, name: str, params: dict):
@@ -246,11 +363,18 @@ def plan_runs(bench: Benchmark) -> list:
         except TypeError:
             plugin = reg.get(name)()
             unknown = [k for k in params if k not in plugin.get_params()]
-            raise _fail(bench.path, bench.text, f"{kind} {name!r} has no parameter {unknown[0] if unknown else '?'}; its "
-                        f"parameters: {', '.join(plugin.get_params()) or 'none'}", f"{kind}s.{name}",
-                        unknown[0] if unknown else None) from None
+            raise _fail(
+                bench.path,
+                bench.text,
+                f"{kind} {name!r} has no parameter {unknown[0] if unknown else '?'}; its "
+                f"parameters: {', '.join(plugin.get_params()) or 'none'}",
+                f"{kind}s.{name}",
+                unknown[0] if unknown else None,
+            ) from None
         except SlipbenchError as exc:
-            raise _fail(bench.path, bench.text, str(exc), f"{kind}s.{name}", _param_in(str(exc), params)) from None
+            raise _fail(
+                bench.path, bench.text, str(exc), f"{kind}s.{name}", _param_in(str(exc), params)
+            ) from None
 
     detectors = {n: made("detector", registry.detectors, n, p) for n, p in bench.detectors.items()}
     protocols = {n: made("protocol", registry.protocols, n, p) for n, p in bench.protocols.items()}
@@ -283,14 +407,29 @@ def record(bench: Benchmark, out: Path) -> None:
 
     make_folder(out)
     write_text_atomic(out / BENCHMARK_FILE, bench.text)
-    write_text_atomic(out / RECORD_FILE, json.dumps({
-        "sha256": bench.sha256, "file": str(bench.path), "name": bench.name,
-        "started_at": datetime.now(timezone.utc).isoformat(),
-    }, indent=2) + "\n")
+    write_text_atomic(
+        out / RECORD_FILE,
+        json.dumps(
+            {
+                "sha256": bench.sha256,
+                "file": str(bench.path),
+                "name": bench.name,
+                "started_at": datetime.now(timezone.utc).isoformat(),
+            },
+            indent=2,
+        )
+        + "\n",
+    )
 
 
-def run_benchmark(bench: Benchmark, out: Path | None = None, jobs: int | None = None, force: bool = False,
-                  progress: bool = True, echo=print):
+def run_benchmark(
+    bench: Benchmark,
+    out: Path | None = None,
+    jobs: int | None = None,
+    force: bool = False,
+    progress: bool = True,
+    echo=print,
+):
     """Run what ``bench`` declares and write its reports.
 
     Parameters
@@ -304,26 +443,45 @@ def run_benchmark(bench: Benchmark, out: Path | None = None, jobs: int | None = 
     """
     from slipbench.data.dataset import read_dataset
     from slipbench.data.defaults import default_dataset
+    from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.store.results import ResultsStore
-    from slipbench.engine.runner import evaluate
 
     out = Path(out) if out is not None else bench.out
     runs = plan_runs(bench)  # every name and parameter before the dataset is read or simulated
     if bench.train is not None:
         from slipbench.data.transfer import combine, parse_sensor_map
 
-        ds = combine(read_dataset(bench.train), read_dataset(bench.dataset), parse_sensor_map(tuple(bench.sensor_map)))
+        ds = combine(
+            read_dataset(bench.train),
+            read_dataset(bench.dataset),
+            parse_sensor_map(tuple(bench.sensor_map)),
+        )
     elif bench.dataset is not None:
         ds = read_dataset(bench.dataset)
     else:
         data_seed = bench.seed if bench.data_seed is None else bench.data_seed
         ds = default_dataset(bench.scale, data_seed, echo=echo)
     record(bench, out)
-    rows = evaluate(ds, runs, ResultsStore(out), force=force, jobs=bench.jobs if jobs is None else jobs,
-                    scheduler=bench.scheduler, cell_timeout=bench.cell_timeout, progress=progress)
-    blocks = build_report(rows, bench.metric, bench.intervals, bench.paper, with_figures=bench.plots,
-                          benchmark=bench.describe, predictions=[out])
+    rows = evaluate(
+        ds,
+        runs,
+        ResultsStore(out),
+        force=force,
+        jobs=bench.jobs if jobs is None else jobs,
+        scheduler=bench.scheduler,
+        cell_timeout=bench.cell_timeout,
+        progress=progress,
+    )
+    blocks = build_report(
+        rows,
+        bench.metric,
+        bench.intervals,
+        bench.paper,
+        with_figures=bench.plots,
+        benchmark=bench.describe,
+        predictions=[out],
+    )
     files = write_figures(blocks, out / "figures") if bench.plots else {}
     paths = [p for ps in files.values() for p in ps]
     from slipbench.atomic import write_text_atomic

@@ -72,7 +72,15 @@ OPTIONAL = {"trial", "n_samples"}
 N_SAMPLES = pa.field("n_samples", pa.int64())
 # Columns that may hold nulls: free-space has no material, pressing has no speed.
 NULLABLE = {"material", "speed_mm_s", "source", "trial"}
-STRING_COLUMNS = ("recording_id", "sensor_type", "sensor_instance", "scenario", "material", "source", "trial")
+STRING_COLUMNS = (
+    "recording_id",
+    "sensor_type",
+    "sensor_instance",
+    "scenario",
+    "material",
+    "source",
+    "trial",
+)
 # Derived by the reader: channels per recording, and the rate every recording of a unit pools at.
 DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples")
 IN_MEMORY = "in-memory dataset"
@@ -105,8 +113,14 @@ class Dataset:
 
     def __post_init__(self) -> None:
         self.path = None if self.path is None else Path(self.path)
-        where = (self.path / RECORDINGS_FILE, self.path / SAMPLES_FILE) if self.path else (IN_MEMORY, IN_MEMORY)
-        self.recordings, self.samples, self.slip_labels = _canonical(self.recordings, self.samples, self.slip_labels, *where)
+        where = (
+            (self.path / RECORDINGS_FILE, self.path / SAMPLES_FILE)
+            if self.path
+            else (IN_MEMORY, IN_MEMORY)
+        )
+        self.recordings, self.samples, self.slip_labels = _canonical(
+            self.recordings, self.samples, self.slip_labels, *where
+        )
 
     @cached_property
     def fingerprint(self) -> str:
@@ -131,7 +145,9 @@ def sensor_pairs(recordings: pd.DataFrame) -> list[tuple[str, str]]:
 
 
 # ----------------------------------------------------------------------------- messages
-def _fail(where: str | Path, what: str, recording: str | None = None, column: str | None = None) -> DataError:
+def _fail(
+    where: str | Path, what: str, recording: str | None = None, column: str | None = None
+) -> DataError:
     parts = [str(where)]
     if recording is not None:
         parts.append(f"recording {str(recording)!r}")
@@ -153,8 +169,12 @@ def _names(ids, limit: int = 3) -> str:
 
 # ----------------------------------------------------------------------------- Arrow flavours
 def _is_string(t: pa.DataType) -> bool:
-    return (pa.types.is_string(t) or pa.types.is_large_string(t) or pa.types.is_string_view(t)
-            or (pa.types.is_dictionary(t) and _is_string(t.value_type)))
+    return (
+        pa.types.is_string(t)
+        or pa.types.is_large_string(t)
+        or pa.types.is_string_view(t)
+        or (pa.types.is_dictionary(t) and _is_string(t.value_type))
+    )
 
 
 def _is_list(t: pa.DataType) -> bool:
@@ -189,7 +209,9 @@ def _open_parquet(file: Path) -> pq.ParquetFile:
     """Open a Parquet file of the format, checking its version; columns are read later, one row
     group at a time, so that reading a large dataset never holds every column at once."""
     if not file.is_file():
-        raise DataError(f"{file}: missing (a slipbench dataset folder holds {RECORDINGS_FILE} and {SAMPLES_FILE})")
+        raise DataError(
+            f"{file}: missing (a slipbench dataset folder holds {RECORDINGS_FILE} and {SAMPLES_FILE})"
+        )
     try:
         pf = pq.ParquetFile(file)
         schema = pf.schema_arrow
@@ -197,9 +219,14 @@ def _open_parquet(file: Path) -> pq.ParquetFile:
         raise DataError(f"{file}: not a readable Parquet file ({_one_line(exc)})") from None
     version = (schema.metadata or {}).get(VERSION_KEY)
     if version is None:
-        raise _fail(file, f"no {VERSION_KEY.decode()} in the schema metadata; is this a slipbench dataset?")
+        raise _fail(
+            file, f"no {VERSION_KEY.decode()} in the schema metadata; is this a slipbench dataset?"
+        )
     if version.decode(errors="replace") != FORMAT_VERSION:
-        raise _fail(file, f"format version {version.decode(errors='replace')!r} is not supported (this slipbench reads {FORMAT_VERSION!r})")
+        raise _fail(
+            file,
+            f"format version {version.decode(errors='replace')!r} is not supported (this slipbench reads {FORMAT_VERSION!r})",
+        )
     return pf
 
 
@@ -209,7 +236,11 @@ def _one_line(exc: BaseException) -> str:
 
 def _check_type(schema: pa.Schema, file: Path, name: str, check, type_name: str) -> None:
     if name not in schema.names:
-        raise _fail(file, f"required column missing (columns present: {', '.join(schema.names)})", column=name)
+        raise _fail(
+            file,
+            f"required column missing (columns present: {', '.join(schema.names)})",
+            column=name,
+        )
     if not check(schema.field(name).type):
         raise _fail(file, f"must be {type_name}, found {schema.field(name).type}", column=name)
 
@@ -233,7 +264,11 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
     """Validate a recordings table and bring it to the canonical form (see :class:`Dataset`)."""
     missing = [c for c in FORMAT_COLUMNS if c not in frame.columns and c not in OPTIONAL]
     if missing:
-        raise _fail(where, f"required column missing (columns present: {', '.join(map(str, frame.columns))})", column=missing[0])
+        raise _fail(
+            where,
+            f"required column missing (columns present: {', '.join(map(str, frame.columns))})",
+            column=missing[0],
+        )
     n = len(frame)
     if n == 0:
         raise _fail(where, "no recordings")
@@ -251,7 +286,9 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
     for name in STRING_COLUMNS:
         for i, v in enumerate(cols[name]):
             if v is not None and not isinstance(v, str):
-                raise _fail(where, f"must be a string, found {type(v).__name__} {v!r}", ids[i], name)
+                raise _fail(
+                    where, f"must be a string, found {type(v).__name__} {v!r}", ids[i], name
+                )
             if v == "" and name in ("recording_id", "sensor_type", "sensor_instance"):
                 raise _fail(where, "empty string", None if name == "recording_id" else ids[i], name)
     seen: set[str] = set()
@@ -261,17 +298,29 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
         seen.add(rid)
     for rid, scenario in zip(ids, cols["scenario"]):
         if scenario not in SCENARIOS:
-            raise _fail(where, f"scenario {scenario!r} is not one of {', '.join(SCENARIOS)}", rid, "scenario")
+            raise _fail(
+                where,
+                f"scenario {scenario!r} is not one of {', '.join(SCENARIOS)}",
+                rid,
+                "scenario",
+            )
     rate = _floats(cols["sampling_rate_hz"], ids, where, "sampling_rate_hz")
     bad = ~(np.isfinite(rate) & (rate > 0))
     if bad.any():
         i = int(np.argmax(bad))
-        raise _fail(where, f"sampling rate must be a finite positive number, got {_num(rate[i])}", ids[i], "sampling_rate_hz")
+        raise _fail(
+            where,
+            f"sampling rate must be a finite positive number, got {_num(rate[i])}",
+            ids[i],
+            "sampling_rate_hz",
+        )
     speed = _floats(cols["speed_mm_s"], ids, where, "speed_mm_s")
     bad = ~np.isnan(speed) & ~(np.isfinite(speed) & (speed >= 0))
     if bad.any():
         i = int(np.argmax(bad))
-        raise _fail(where, f"speed must be finite and >= 0, got {_num(speed[i])}", ids[i], "speed_mm_s")
+        raise _fail(
+            where, f"speed must be finite and >= 0, got {_num(speed[i])}", ids[i], "speed_mm_s"
+        )
     for name in ("channels", "units"):
         cols[name] = [_strings(v, rid, where, name) for rid, v in zip(ids, cols[name])]
     n_ch = np.array([len(c) for c in cols["channels"]], dtype=np.int64)
@@ -279,7 +328,12 @@ def _canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFram
         if not channels:
             raise _fail(where, "no channels", rid, "channels")
         if len(units) != len(channels):
-            raise _fail(where, f"units must list one unit per channel ({len(channels)} channels, {len(units)} units)", rid, "units")
+            raise _fail(
+                where,
+                f"units must list one unit per channel ({len(channels)} channels, {len(units)} units)",
+                rid,
+                "units",
+            )
     cols["trial"] = [rid if t is None else t for rid, t in zip(ids, cols["trial"])]
     cols["speed_mm_s"], cols["sampling_rate_hz"] = speed, rate
     out = pd.DataFrame(cols)
@@ -301,7 +355,9 @@ def _floats(values: list, ids: list, where, name: str) -> np.ndarray:
     for i, v in enumerate(values):
         if v is None:
             continue
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(
+            v, (int, float, np.integer, np.floating)
+        ):
             raise _fail(where, f"must be a number, found {type(v).__name__} {v!r}", ids[i], name)
         out[i] = float(v)
     return out
@@ -313,7 +369,12 @@ def _strings(value: Any, rid: str, where, name: str) -> tuple[str, ...]:
     items = tuple(value)
     for item in items:
         if not isinstance(item, str):
-            raise _fail(where, f"must be a list of strings, found {'null' if _is_null(item) else repr(item)} in it", rid, name)
+            raise _fail(
+                where,
+                f"must be a list of strings, found {'null' if _is_null(item) else repr(item)} in it",
+                rid,
+                name,
+            )
     return items
 
 
@@ -323,7 +384,9 @@ def _unit_rates(rec: pd.DataFrame, where) -> np.ndarray:
     out = np.empty(len(rec))
     rates = rec["sampling_rate_hz"].to_numpy(dtype=float)
     ids = rec["recording_id"].to_numpy(dtype=object)
-    for (sensor, unit), rows in rec.groupby(["sensor_type", "sensor_instance"], sort=True).indices.items():
+    for (sensor, unit), rows in rec.groupby(
+        ["sensor_type", "sensor_instance"], sort=True
+    ).indices.items():
         r = rates[rows]
         lo, hi = r.min(), r.max()
         if hi > lo * (1 + RATE_TOLERANCE):
@@ -354,7 +417,12 @@ def _codes(chunk: pa.Array, index: pd.Index, file: Path, row0: int) -> np.ndarra
         used[indices] = True
         unknown = used & (lookup < 0)
         if unknown.any():
-            raise _fail(file, f"recording not listed in {RECORDINGS_FILE}", names[np.argmax(unknown)], "recording_id")
+            raise _fail(
+                file,
+                f"recording not listed in {RECORDINGS_FILE}",
+                names[np.argmax(unknown)],
+                "recording_id",
+            )
     return lookup[indices].astype(np.int64)
 
 
@@ -372,7 +440,9 @@ def _row_groups(pf: pq.ParquetFile, columns: list[str]) -> Iterator[tuple[int, p
         row0 += table.num_rows
 
 
-def _labels_of(chunk: pa.Array, file: Path, ids: np.ndarray, codes: np.ndarray, index: np.ndarray) -> np.ndarray:
+def _labels_of(
+    chunk: pa.Array, file: Path, ids: np.ndarray, codes: np.ndarray, index: np.ndarray
+) -> np.ndarray:
     """A ``slip`` chunk as int8: -1 null (unlabelled), 0, 1."""
     if pa.types.is_null(chunk.type):
         return np.full(len(chunk), -1, np.int8)
@@ -381,8 +451,12 @@ def _labels_of(chunk: pa.Array, file: Path, ids: np.ndarray, codes: np.ndarray, 
     bad = (given != 0) & (given != 1)
     if bad.any():
         i = int(np.argmax(bad))
-        raise _fail(file, f"slip must be true/false (or 1/0), or null for unlabelled; sample_index {int(index[i])} has {int(given[i])}",
-                    ids[codes[i]], "slip")
+        raise _fail(
+            file,
+            f"slip must be true/false (or 1/0), or null for unlabelled; sample_index {int(index[i])} has {int(given[i])}",
+            ids[codes[i]],
+            "slip",
+        )
     return pc.fill_null(ints, -1).to_numpy().astype(np.int8)
 
 
@@ -393,12 +467,22 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
     schema = pf.schema_arrow
     _check_type(schema, file, "recording_id", _is_string, "a string")
     _check_type(schema, file, "sample_index", pa.types.is_integer, "an integer")
-    _check_type(schema, file, "values", lambda t: _is_list(t) and _is_number(t.value_type),
-                "a list of numbers (list, large_list or fixed_size_list of integers or floats)")
+    _check_type(
+        schema,
+        file,
+        "values",
+        lambda t: _is_list(t) and _is_number(t.value_type),
+        "a list of numbers (list, large_list or fixed_size_list of integers or floats)",
+    )
     has_slip = "slip" in schema.names
     if has_slip:
-        _check_type(schema, file, "slip", lambda t: pa.types.is_boolean(t) or pa.types.is_integer(t) or pa.types.is_null(t),
-                    "bool (null for unlabelled)")
+        _check_type(
+            schema,
+            file,
+            "slip",
+            lambda t: pa.types.is_boolean(t) or pa.types.is_integer(t) or pa.types.is_null(t),
+            "bool (null for unlabelled)",
+        )
     value_type = schema.field("values").type.value_type
     is_int = pa.types.is_integer(value_type)
     dtype = np.float32 if value_type in (pa.float16(), pa.float32()) else np.float64
@@ -419,10 +503,17 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
         raise _fail(file, "recording has no samples", ids[np.argmax(counts == 0)], "recording_id")
     for k, rid in enumerate(ids):  # the writer's record of each length: rows lost at an end show
         if rid in declared and declared[rid] != counts[k]:
-            raise _fail(file, f"{int(counts[k])} rows, but {RECORDINGS_FILE} gives n_samples {declared[rid]}: rows are missing "
-                        "or left over", rid, "sample_index")
+            raise _fail(
+                file,
+                f"{int(counts[k])} rows, but {RECORDINGS_FILE} gives n_samples {declared[rid]}: rows are missing "
+                "or left over",
+                rid,
+                "sample_index",
+            )
     if (counts < 2).any():
-        raise _fail(file, "a recording needs at least 2 samples", ids[np.argmax(counts < 2)], "sample_index")
+        raise _fail(
+            file, "a recording needs at least 2 samples", ids[np.argmax(counts < 2)], "sample_index"
+        )
     row_start = np.r_[0, np.cumsum(counts)]
     elem_start = np.r_[0, np.cumsum(counts * n_ch)]
 
@@ -430,7 +521,9 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
     flat = np.empty(int(elem_start[-1]), dtype)
     filled = np.zeros(n_rows, bool)
     labels = np.full(n_rows, -1, np.int8) if has_slip else None
-    for row0, table in _row_groups(pf, ["recording_id", "sample_index", "values"] + (["slip"] if has_slip else [])):
+    for row0, table in _row_groups(
+        pf, ["recording_id", "sample_index", "values"] + (["slip"] if has_slip else [])
+    ):
         if table.num_rows == 0:
             continue
         table = table.combine_chunks()
@@ -443,15 +536,36 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
         bad = (si < 0) | (si >= counts[codes])
         if bad.any():
             i = int(np.argmax(bad))
-            raise _fail(file, f"sample_index {int(si[i])} (row {row0 + i}) is out of range: the recording has {int(counts[codes[i]])} "
-                        f"rows, so its indices must be 0 to {int(counts[codes[i]]) - 1}, each once", ids[codes[i]], "sample_index")
+            raise _fail(
+                file,
+                f"sample_index {int(si[i])} (row {row0 + i}) is out of range: the recording has {int(counts[codes[i]])} "
+                f"rows, so its indices must be 0 to {int(counts[codes[i]]) - 1}, each once",
+                ids[codes[i]],
+                "sample_index",
+            )
         dest = row_start[codes] + si
         again = filled[dest] | _repeated(dest)
         if again.any():
             i = int(np.argmax(again))
-            raise _fail(file, f"sample_index {int(si[i])} appears more than once", ids[codes[i]], "sample_index")
+            raise _fail(
+                file,
+                f"sample_index {int(si[i])} appears more than once",
+                ids[codes[i]],
+                "sample_index",
+            )
         filled[dest] = True
-        _place_values(table.column("values").chunk(0), file, ids, codes, si, n_ch, elem_start, flat, is_int, row0)
+        _place_values(
+            table.column("values").chunk(0),
+            file,
+            ids,
+            codes,
+            si,
+            n_ch,
+            elem_start,
+            flat,
+            is_int,
+            row0,
+        )
         if has_slip:
             labels[dest] = _labels_of(table.column("slip").chunk(0), file, ids, codes, si)
 
@@ -466,7 +580,9 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
 
 def _repeated(x: np.ndarray) -> np.ndarray:
     """True where a value already appeared earlier in ``x``."""
-    ordered = np.sort(x, kind="stable")  # timsort: a few ms on rows in order, 70 ms per million shuffled
+    ordered = np.sort(
+        x, kind="stable"
+    )  # timsort: a few ms on rows in order, 70 ms per million shuffled
     if not (ordered[1:] == ordered[:-1]).any():
         return np.zeros(len(x), bool)
     order = np.argsort(x, kind="stable")
@@ -475,11 +591,15 @@ def _repeated(x: np.ndarray) -> np.ndarray:
     return dup
 
 
-def _place_values(chunk: pa.Array, file: Path, ids, codes, si, n_ch, elem_start, flat, is_int: bool, row0: int) -> None:
+def _place_values(
+    chunk: pa.Array, file: Path, ids, codes, si, n_ch, elem_start, flat, is_int: bool, row0: int
+) -> None:
     """Check one chunk of ``values`` (widths, nulls, finite, exact) and copy it into ``flat``."""
     if chunk.null_count:
         i = _first_null(chunk)
-        raise _fail(file, f"null list of values at sample_index {int(si[i])}", ids[codes[i]], "values")
+        raise _fail(
+            file, f"null list of values at sample_index {int(si[i])}", ids[codes[i]], "values"
+        )
     if pa.types.is_fixed_size_list(chunk.type):
         widths = np.full(len(chunk), chunk.type.list_size, np.int64)
     else:  # offsets, not pc.list_value_length: ten times faster on a million rows
@@ -487,8 +607,13 @@ def _place_values(chunk: pa.Array, file: Path, ids, codes, si, n_ch, elem_start,
     bad = widths != n_ch[codes]
     if bad.any():
         i = int(np.argmax(bad))
-        raise _fail(file, f"sample_index {int(si[i])} (row {row0 + i}) has {int(widths[i])} values but the recording has "
-                    f"{int(n_ch[codes[i]])} channels", ids[codes[i]], "values")
+        raise _fail(
+            file,
+            f"sample_index {int(si[i])} (row {row0 + i}) has {int(widths[i])} values but the recording has "
+            f"{int(n_ch[codes[i]])} channels",
+            ids[codes[i]],
+            "values",
+        )
     part = chunk.flatten()
     ends = np.cumsum(widths)
 
@@ -497,18 +622,30 @@ def _place_values(chunk: pa.Array, file: Path, ids, codes, si, n_ch, elem_start,
 
     if part.null_count:
         i = row_of(_first_null(part))
-        raise _fail(file, f"null channel value at sample_index {int(si[i])}", ids[codes[i]], "values")
+        raise _fail(
+            file, f"null channel value at sample_index {int(si[i])}", ids[codes[i]], "values"
+        )
     raw = part.to_numpy()
     if is_int:
         too_big = np.abs(raw.astype(np.float64)) > EXACT_INT
         if too_big.any():
             i = row_of(int(np.argmax(too_big)))
-            raise _fail(file, f"integer beyond 2**53 at sample_index {int(si[i])}: float64 cannot hold it exactly", ids[codes[i]], "values")
+            raise _fail(
+                file,
+                f"integer beyond 2**53 at sample_index {int(si[i])}: float64 cannot hold it exactly",
+                ids[codes[i]],
+                "values",
+            )
     values = raw.astype(flat.dtype, copy=False)
     finite = np.isfinite(values)
     if not finite.all():
         i = row_of(int(np.argmin(finite)))
-        raise _fail(file, f"non-finite value (NaN or infinity) at sample_index {int(si[i])}", ids[codes[i]], "values")
+        raise _fail(
+            file,
+            f"non-finite value (NaN or infinity) at sample_index {int(si[i])}",
+            ids[codes[i]],
+            "values",
+        )
     # where each row's values go: its recording's block, plus sample_index rows of it
     row_pos = elem_start[codes] + si * widths
     first = ends - widths
@@ -523,8 +660,11 @@ def _place_values(chunk: pa.Array, file: Path, ids, codes, si, n_ch, elem_start,
 
 # ----------------------------------------------------------------------------- canonical form
 def _canonical(
-    recordings: pd.DataFrame, samples: Mapping[str, np.ndarray], slip_labels: Mapping[str, np.ndarray] | None,
-    rec_where: str | Path, samples_where: str | Path,
+    recordings: pd.DataFrame,
+    samples: Mapping[str, np.ndarray],
+    slip_labels: Mapping[str, np.ndarray] | None,
+    rec_where: str | Path,
+    samples_where: str | Path,
 ) -> tuple[pd.DataFrame, dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Validated canonical recordings, samples and labels; cheap when they already are (no copies)."""
     rec = _canonical_recordings(recordings, rec_where)
@@ -539,17 +679,31 @@ def _canonical(
         elif a.dtype == np.float16:
             a = a.astype(np.float32)
         elif a.dtype not in (np.float32, np.float64):
-            raise _fail(samples_where, f"samples must be numbers, found dtype {a.dtype}", rid, "values")
+            raise _fail(
+                samples_where, f"samples must be numbers, found dtype {a.dtype}", rid, "values"
+            )
         if a.ndim != 2 or a.shape[1] != channels or len(a) < 2:
-            raise _fail(samples_where, f"samples must have shape (n >= 2, {int(channels)} channels), found {a.shape}", rid, "values")
+            raise _fail(
+                samples_where,
+                f"samples must have shape (n >= 2, {int(channels)} channels), found {a.shape}",
+                rid,
+                "values",
+            )
         out_samples[rid] = a
     labels: dict[str, np.ndarray] = {}
     if slip_labels:
         unknown = set(slip_labels) - set(ids)
         if unknown:
-            raise _fail(samples_where, f"labels of a recording not listed in {RECORDINGS_FILE}", sorted(unknown)[0], "slip")
+            raise _fail(
+                samples_where,
+                f"labels of a recording not listed in {RECORDINGS_FILE}",
+                sorted(unknown)[0],
+                "slip",
+            )
         for rid in ids:
-            labels[rid] = _canonical_labels(slip_labels.get(rid), len(out_samples[rid]), rid, samples_where)
+            labels[rid] = _canonical_labels(
+                slip_labels.get(rid), len(out_samples[rid]), rid, samples_where
+            )
     for rid, scenario in zip(ids, rec["scenario"]):
         if scenario == "hold-slip":
             _check_onset(labels.get(rid), rid, samples_where)
@@ -564,7 +718,12 @@ def _canonical_labels(labels, n: int, rid: str, where) -> np.ndarray:
     if a.dtype == bool:
         a = a.astype(np.int8)
     elif a.dtype.kind not in "iu" or a.ndim != 1 or (len(a) and (a.min() < -1 or a.max() > 1)):
-        raise _fail(where, f"labels must be bool, or int with -1 unlabelled, 0 no slip, 1 slip; found dtype {a.dtype}", rid, "slip")
+        raise _fail(
+            where,
+            f"labels must be bool, or int with -1 unlabelled, 0 no slip, 1 slip; found dtype {a.dtype}",
+            rid,
+            "slip",
+        )
     if a.shape != (n,):
         raise _fail(where, f"{a.shape[0] if a.ndim else 0} labels for {n} samples", rid, "slip")
     return a.astype(np.int8, copy=False)
@@ -574,11 +733,21 @@ def _check_onset(labels: np.ndarray | None, rid: str, where) -> None:
     """A hold-slip recording holds (labelled 0) and then may slip (labelled 1) from a known
     sample; a trial that held throughout (no onset) is kept: it is non-slip time."""
     if labels is None:
-        raise _fail(where, "a hold-slip recording needs per-sample labels (a slip column) to give its onset", rid, "slip")
+        raise _fail(
+            where,
+            "a hold-slip recording needs per-sample labels (a slip column) to give its onset",
+            rid,
+            "slip",
+        )
     slipping = np.flatnonzero(labels == 1)
     before = labels[: slipping[0]] if len(slipping) else labels
     if not (before == 0).any():
-        raise _fail(where, "a hold-slip recording has no sample labelled no-slip before its onset: no hold", rid, "slip")
+        raise _fail(
+            where,
+            "a hold-slip recording has no sample labelled no-slip before its onset: no hold",
+            rid,
+            "slip",
+        )
 
 
 # ----------------------------------------------------------------------------- fingerprint
@@ -591,8 +760,11 @@ def _plain(v: Any) -> Any:
     return None if _is_null(v) else v
 
 
-def content_fingerprint(recordings: pd.DataFrame, samples: Mapping[str, np.ndarray],
-                        slip_labels: Mapping[str, np.ndarray]) -> str:
+def content_fingerprint(
+    recordings: pd.DataFrame,
+    samples: Mapping[str, np.ndarray],
+    slip_labels: Mapping[str, np.ndarray],
+) -> str:
     """BLAKE2b (16 hex digits) of a canonical dataset's content.
 
     Hashes the format's columns of every recording (sorted by ``recording_id``) as JSON, then
@@ -600,9 +772,18 @@ def content_fingerprint(recordings: pd.DataFrame, samples: Mapping[str, np.ndarr
     a recording has none). Independent of storage: float32 values hash as their exact float64.
     """
     h = hashlib.blake2b(digest_size=8)
-    meta = [[_plain(v) for v in row] for row in recordings[list(FORMAT_COLUMNS)].itertuples(index=False, name=None)]
-    h.update(json.dumps({"format": FORMAT_VERSION, "columns": FORMAT_COLUMNS, "rows": meta},
-                        ensure_ascii=False, allow_nan=False, separators=(",", ":")).encode())
+    meta = [
+        [_plain(v) for v in row]
+        for row in recordings[list(FORMAT_COLUMNS)].itertuples(index=False, name=None)
+    ]
+    h.update(
+        json.dumps(
+            {"format": FORMAT_VERSION, "columns": FORMAT_COLUMNS, "rows": meta},
+            ensure_ascii=False,
+            allow_nan=False,
+            separators=(",", ":"),
+        ).encode()
+    )
     block = 1 << 18  # rows per hashed piece: a large recording is never copied whole
     for rid in recordings["recording_id"]:
         a = samples[rid]
@@ -610,7 +791,13 @@ def content_fingerprint(recordings: pd.DataFrame, samples: Mapping[str, np.ndarr
         for lo in range(0, len(a), block):
             h.update(np.ascontiguousarray(a[lo : lo + block], dtype="<f8").tobytes())
         labels = slip_labels.get(rid)
-        h.update((np.full(len(a), -1, np.int8) if labels is None else np.ascontiguousarray(labels, np.int8)).tobytes())
+        h.update(
+            (
+                np.full(len(a), -1, np.int8)
+                if labels is None
+                else np.ascontiguousarray(labels, np.int8)
+            ).tobytes()
+        )
     return h.hexdigest()
 
 
@@ -622,7 +809,9 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
     """
     path = Path(path)
     if not path.is_dir():
-        raise DataError(f"{path}: not a dataset folder (expected a folder with {RECORDINGS_FILE} and {SAMPLES_FILE})")
+        raise DataError(
+            f"{path}: not a dataset folder (expected a folder with {RECORDINGS_FILE} and {SAMPLES_FILE})"
+        )
     file = path / RECORDINGS_FILE
     try:
         recordings, declared = _read_recordings(file)
@@ -662,16 +851,24 @@ def write_dataset(
         value_type = pa.int64()
         for rid in ids:
             if np.abs(np.asarray(samples[rid], np.float64)).max() > EXACT_INT:
-                raise _fail(where, "integers beyond 2**53 cannot be read back exactly", rid, "values")
+                raise _fail(
+                    where, "integers beyond 2**53 cannot be read back exactly", rid, "values"
+                )
         arrays = {rid: np.asarray(samples[rid], np.int64) for rid in ids}
     else:
-        value_type = pa.float32() if all(a.dtype == np.float32 for a in arrays.values()) else pa.float64()
+        value_type = (
+            pa.float32() if all(a.dtype == np.float32 for a in arrays.values()) else pa.float64()
+        )
     for rid in ids:
         if value_type != pa.int64() and not np.isfinite(arrays[rid]).all():
             raise _fail(where, "non-finite value (NaN or infinity)", rid, "values")
 
     meta = {VERSION_KEY: FORMAT_VERSION.encode()}
-    schema = RECORDINGS_SCHEMA if "trial" in recordings.columns else RECORDINGS_SCHEMA.remove(RECORDINGS_SCHEMA.get_field_index("trial"))
+    schema = (
+        RECORDINGS_SCHEMA
+        if "trial" in recordings.columns
+        else RECORDINGS_SCHEMA.remove(RECORDINGS_SCHEMA.get_field_index("trial"))
+    )
     schema = schema.append(N_SAMPLES)
     table = {f.name: pa.array([_plain(v) for v in rec[f.name]], f.type) for f in schema}
     rec_table = pa.table(table, schema=schema).replace_schema_metadata(meta)
@@ -683,7 +880,8 @@ def write_dataset(
     flat = np.concatenate([np.ascontiguousarray(a).ravel() for a in parts])
     columns = {
         "recording_id": pa.DictionaryArray.from_arrays(
-            pa.array(np.repeat(np.arange(len(ids), dtype=np.int32), lengths)), pa.array(ids, pa.string())
+            pa.array(np.repeat(np.arange(len(ids), dtype=np.int32), lengths)),
+            pa.array(ids, pa.string()),
         ),
         "sample_index": pa.array(np.concatenate([np.arange(n, dtype=np.int64) for n in lengths])),
         "values": pa.LargeListArray.from_arrays(pa.array(offsets), pa.array(flat, value_type)),
@@ -696,7 +894,9 @@ def write_dataset(
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
-        tmp.chmod(0o777 & ~_umask())  # mkdtemp makes it 0700: a shared lab folder must stay readable
+        tmp.chmod(
+            0o777 & ~_umask()
+        )  # mkdtemp makes it 0700: a shared lab folder must stay readable
         pq.write_table(rec_table, tmp / RECORDINGS_FILE)
         pq.write_table(samples_table, tmp / SAMPLES_FILE, row_group_size=1 << 20)
         if path.exists():
@@ -714,7 +914,11 @@ def _umask() -> int:
     return mask
 
 
-SCENARIO_LABEL = {"slip": 1, "press": 0, "free-space": 0}  # what labelling by scenario calls each sample
+SCENARIO_LABEL = {
+    "slip": 1,
+    "press": 0,
+    "free-space": 0,
+}  # what labelling by scenario calls each sample
 
 
 def info(dataset: Dataset) -> pd.DataFrame:
@@ -726,20 +930,33 @@ def info(dataset: Dataset) -> pd.DataFrame:
     rec = dataset.recordings.copy()
     rec["samples"] = [len(dataset.samples[r]) for r in rec["recording_id"]]
     rec["seconds"] = rec["samples"] / rec["sampling_rate_hz"]
-    aggregations = dict(recordings=("recording_id", "size"), trials=("trial", "nunique"), samples=("samples", "sum"),
-                        seconds=("seconds", "sum"))
+    aggregations = dict(
+        recordings=("recording_id", "size"),
+        trials=("trial", "nunique"),
+        samples=("samples", "sum"),
+        seconds=("seconds", "sum"),
+    )
     if dataset.slip_labels:
         labels = [dataset.slip_labels[r] for r in rec["recording_id"]]
         rec["labelled"] = [int((lab >= 0).sum()) for lab in labels]
         rec["slipping"] = [int((lab == 1).sum()) for lab in labels]
-        rec["disagreeing"] = [int(((lab >= 0) & (lab != SCENARIO_LABEL[sc])).sum()) if sc in SCENARIO_LABEL else np.nan
-                              for lab, sc in zip(labels, rec["scenario"])]
-        aggregations |= dict(labelled=("labelled", "sum"), slipping=("slipping", "sum"),
-                             disagreeing=("disagreeing", lambda v: v.sum(min_count=1)))
+        rec["disagreeing"] = [
+            int(((lab >= 0) & (lab != SCENARIO_LABEL[sc])).sum())
+            if sc in SCENARIO_LABEL
+            else np.nan
+            for lab, sc in zip(labels, rec["scenario"])
+        ]
+        aggregations |= dict(
+            labelled=("labelled", "sum"),
+            slipping=("slipping", "sum"),
+            disagreeing=("disagreeing", lambda v: v.sum(min_count=1)),
+        )
     keys = ["sensor_type", "sensor_instance", "scenario", "material", "speed_mm_s"]
     table = rec.groupby(keys, dropna=False, sort=True).agg(**aggregations).reset_index()
     if dataset.slip_labels:
         table["slip_fraction"] = table["slipping"] / table["labelled"].where(table["labelled"] > 0)
-        table["scenario_disagreement"] = table["disagreeing"] / table["labelled"].where(table["labelled"] > 0)
+        table["scenario_disagreement"] = table["disagreeing"] / table["labelled"].where(
+            table["labelled"] > 0
+        )
         table = table.drop(columns=["labelled", "slipping", "disagreeing"])
     return table

@@ -9,8 +9,8 @@ from pathlib import Path
 from platformdirs import user_cache_dir
 
 from slipbench.data.dataset import Dataset, read_dataset
-from slipbench.errors import DataError
 from slipbench.data.synth import MODEL_VERSION, synthesize
+from slipbench.errors import DataError
 
 DEFAULT_SCALE = 0.05
 
@@ -20,7 +20,9 @@ def cache_dir() -> Path:
     return Path(os.environ.get("SLIPBENCH_CACHE") or user_cache_dir("slipbench"))
 
 
-def default_dataset(scale: float = DEFAULT_SCALE, seed: int = 0, echo: Callable[[str], None] | None = None) -> Dataset:
+def default_dataset(
+    scale: float = DEFAULT_SCALE, seed: int = 0, echo: Callable[[str], None] | None = None
+) -> Dataset:
     """The simulated dataset at ``scale`` and ``seed``, generated once per cache."""
     path = cache_dir() / f"synth-v{MODEL_VERSION}-scale{scale:g}-seed{seed}"
     if not path.is_dir():

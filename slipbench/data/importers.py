@@ -12,7 +12,6 @@ which files form one trial. One CSV file is one recording (or one per channel gr
 from __future__ import annotations
 
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,17 +19,49 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import tomllib
 
 from slipbench.data.dataset import EXACT_INT, write_dataset
 from slipbench.errors import DataError, UsageError
 
-FIELDS = ("recording_id", "sensor_type", "sensor_instance", "scenario", "material", "speed_mm_s", "source", "trial",
-          "sampling_rate_hz", "slip_onset", "slip_offset")
+FIELDS = (
+    "recording_id",
+    "sensor_type",
+    "sensor_instance",
+    "scenario",
+    "material",
+    "speed_mm_s",
+    "source",
+    "trial",
+    "sampling_rate_hz",
+    "slip_onset",
+    "slip_offset",
+)
 NUMERIC_FIELDS = ("speed_mm_s", "sampling_rate_hz", "slip_onset", "slip_offset")
-TOP_KEYS = {"files", "delimiter", "comment", "skip_rows", "recording", "rules", "map", "channels", "rate", "labels"}
+TOP_KEYS = {
+    "files",
+    "delimiter",
+    "comment",
+    "skip_rows",
+    "recording",
+    "rules",
+    "map",
+    "channels",
+    "rate",
+    "labels",
+}
 CHANNEL_KEYS = {"names", "pattern", "count", "units", "sensor_instance", "sensor_type"}
 RATE_KEYS = {"hz", "time_column", "time_unit"}
-LABEL_KEYS = {"column", "slip", "no_slip", "unlabelled", "segments", "unit", "after_offset", "unlisted"}
+LABEL_KEYS = {
+    "column",
+    "slip",
+    "no_slip",
+    "unlabelled",
+    "segments",
+    "unit",
+    "after_offset",
+    "unlisted",
+}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 
 
@@ -70,7 +101,9 @@ def _keys(table: Any, known: set[str], where: str, section: str) -> dict:
         raise _bad(where, f"{section} must be a table")
     unknown = sorted(set(table) - known)
     if unknown:
-        raise _bad(where, f"unknown key {unknown[0]!r} in {section} (known: {', '.join(sorted(known))})")
+        raise _bad(
+            where, f"unknown key {unknown[0]!r} in {section} (known: {', '.join(sorted(known))})"
+        )
     return table
 
 
@@ -86,7 +119,9 @@ def _regex(text: Any, where: str, section: str) -> re.Pattern | None:
 
 
 def _rule(table: Any, where: str, section: str, selector: bool) -> Rule:
-    table = _keys(table, set(FIELDS) | {"regex"} | ({"glob"} if selector else set()), where, section)
+    table = _keys(
+        table, set(FIELDS) | {"regex"} | ({"glob"} if selector else set()), where, section
+    )
     glob = table.get("glob")
     if glob is not None and not isinstance(glob, str):
         raise _bad(where, f"{section}.glob must be a string")
@@ -120,46 +155,76 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
     _keys(raw, TOP_KEYS, where, "the mapping")
     files = raw.get("files", "**/*.csv")
     files = (files,) if isinstance(files, str) else files
-    if not isinstance(files, (list, tuple)) or not files or not all(isinstance(f, str) for f in files):
-        raise _bad(where, "files must be a glob or a list of globs relative to SRC, e.g. \"**/*.csv\"")
-    csv = {"delimiter": raw.get("delimiter", ","), "comment": raw.get("comment"), "skip_rows": raw.get("skip_rows", 0)}
+    if (
+        not isinstance(files, (list, tuple))
+        or not files
+        or not all(isinstance(f, str) for f in files)
+    ):
+        raise _bad(
+            where, 'files must be a glob or a list of globs relative to SRC, e.g. "**/*.csv"'
+        )
+    csv = {
+        "delimiter": raw.get("delimiter", ","),
+        "comment": raw.get("comment"),
+        "skip_rows": raw.get("skip_rows", 0),
+    }
     if not isinstance(csv["delimiter"], str) or len(csv["delimiter"]) != 1:
         raise _bad(where, f"delimiter must be one character, got {csv['delimiter']!r}")
-    if csv["comment"] is not None and (not isinstance(csv["comment"], str) or len(csv["comment"]) != 1):
+    if csv["comment"] is not None and (
+        not isinstance(csv["comment"], str) or len(csv["comment"]) != 1
+    ):
         raise _bad(where, f"comment must be one character, got {csv['comment']!r}")
-    if not isinstance(csv["skip_rows"], int) or isinstance(csv["skip_rows"], bool) or csv["skip_rows"] < 0:
+    if (
+        not isinstance(csv["skip_rows"], int)
+        or isinstance(csv["skip_rows"], bool)
+        or csv["skip_rows"] < 0
+    ):
         raise _bad(where, f"skip_rows must be an int >= 0, got {csv['skip_rows']!r}")
     recording = _rule(raw.get("recording", {}), where, "[recording]", selector=False)
     rules = raw.get("rules", [])
     if not isinstance(rules, list):
         raise _bad(where, "rules must be an array of tables: [[rules]]")
-    rules = tuple(_rule(r, where, f"[[rules]] #{i + 1}", selector=True) for i, r in enumerate(rules))
+    rules = tuple(
+        _rule(r, where, f"[[rules]] #{i + 1}", selector=True) for i, r in enumerate(rules)
+    )
     maps = _keys(raw.get("map", {}), set(FIELDS), where, "[map]")
     for key, table in maps.items():
         if not isinstance(table, dict):
             raise _bad(where, f"[map.{key}] must be a table of old = new values")
     channels = raw.get("channels")
     if channels is None:
-        raise _bad(where, "[channels] is missing: give names = [...] or pattern = \"...\"")
+        raise _bad(where, '[channels] is missing: give names = [...] or pattern = "..."')
     channels = tuple(channels) if isinstance(channels, list) else (channels,)
     for i, group in enumerate(channels):
         section = "[channels]" if len(channels) == 1 else f"[[channels]] #{i + 1}"
         _keys(group, CHANNEL_KEYS, where, section)
         if ("names" in group) == ("pattern" in group):
-            raise _bad(where, f"{section} needs exactly one of names = [...] or pattern = \"...\"")
-        if "names" in group and (not isinstance(group["names"], list) or not group["names"]
-                                 or not all(isinstance(n, str) for n in group["names"])):
+            raise _bad(where, f'{section} needs exactly one of names = [...] or pattern = "..."')
+        if "names" in group and (
+            not isinstance(group["names"], list)
+            or not group["names"]
+            or not all(isinstance(n, str) for n in group["names"])
+        ):
             raise _bad(where, f"{section}.names must be a non-empty list of column names")
         if "pattern" in group:
             group = {**group, "pattern": _regex(group["pattern"], where, section)}
         if len(channels) > 1 and "sensor_instance" not in group:
-            raise _bad(where, f"{section} needs sensor_instance: several channel groups are several units")
+            raise _bad(
+                where, f"{section} needs sensor_instance: several channel groups are several units"
+            )
         channels = channels[:i] + (group,) + channels[i + 1 :]
     rate = _keys(raw.get("rate", {}), RATE_KEYS, where, "[rate]")
-    if "hz" in rate and (isinstance(rate["hz"], bool) or not isinstance(rate["hz"], (int, float)) or not rate["hz"] > 0):
+    if "hz" in rate and (
+        isinstance(rate["hz"], bool)
+        or not isinstance(rate["hz"], (int, float))
+        or not rate["hz"] > 0
+    ):
         raise _bad(where, f"[rate].hz must be a number > 0, got {rate['hz']!r}")
     if rate.get("time_unit", "s") not in TIME_UNITS:
-        raise _bad(where, f"[rate].time_unit must be one of {', '.join(TIME_UNITS)}, got {rate['time_unit']!r}")
+        raise _bad(
+            where,
+            f"[rate].time_unit must be one of {', '.join(TIME_UNITS)}, got {rate['time_unit']!r}",
+        )
     labels = _keys(raw.get("labels", {}), LABEL_KEYS, where, "[labels]")
     if "column" in labels and "segments" in labels:
         raise _bad(where, "[labels] takes a column or segments, not both")
@@ -167,12 +232,25 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
         raise _bad(where, "[labels].column needs slip = [...]: the values that mean slip")
     for key in ("slip", "no_slip", "unlabelled"):
         value = labels.get(key, [])
-        if not isinstance(value, list) or not all(isinstance(v, (str, int)) and not isinstance(v, bool) for v in value):
-            raise _bad(where, f"[labels].{key} must be a list of values as written in the files (strings or integers)")
-    for key, allowed in (("unit", ("sample", "s")), ("after_offset", ("no-slip", "unlabelled")), ("unlisted", ("unlabelled", "no-slip"))):
+        if not isinstance(value, list) or not all(
+            isinstance(v, (str, int)) and not isinstance(v, bool) for v in value
+        ):
+            raise _bad(
+                where,
+                f"[labels].{key} must be a list of values as written in the files (strings or integers)",
+            )
+    for key, allowed in (
+        ("unit", ("sample", "s")),
+        ("after_offset", ("no-slip", "unlabelled")),
+        ("unlisted", ("unlabelled", "no-slip")),
+    ):
         if key in labels and labels[key] not in allowed:
-            raise _bad(where, f"[labels].{key} must be one of {', '.join(allowed)}, got {labels[key]!r}")
-    return CsvMapping(where, tuple(files), csv, recording, rules, maps, channels, rate, labels, base)
+            raise _bad(
+                where, f"[labels].{key} must be one of {', '.join(allowed)}, got {labels[key]!r}"
+            )
+    return CsvMapping(
+        where, tuple(files), csv, recording, rules, maps, channels, rate, labels, base
+    )
 
 
 # ----------------------------------------------------------------------------- per file
@@ -180,8 +258,13 @@ def _fields(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, Any]
     """The resolved metadata of one file: [recording], then each rule that selects it, in order;
     templates filled from path parts and named regex groups; values mapped; numbers parsed."""
     parts = rel.rsplit("/", 1)
-    variables = {"path": _default_id(rel), "name": parts[-1], "stem": Path(parts[-1]).stem,
-                 "parent": parts[0] if len(parts) == 2 else "", "file": rel}
+    variables = {
+        "path": _default_id(rel),
+        "name": parts[-1],
+        "stem": Path(parts[-1]).stem,
+        "parent": parts[0] if len(parts) == 2 else "",
+        "file": rel,
+    }
     fields: dict[str, Any] = {}
     for rule, chosen in [(m.recording, None)] + list(zip(m.rules, selected)):
         if chosen is not None and rel not in chosen:
@@ -190,7 +273,9 @@ def _fields(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, Any]
             match = rule.regex.fullmatch(rel)
             if match is None:
                 if chosen is None:
-                    raise DataError(f"{rel}: the path does not match {rule.name}.regex {rule.regex.pattern!r} (paths are relative to SRC, with /)")
+                    raise DataError(
+                        f"{rel}: the path does not match {rule.name}.regex {rule.regex.pattern!r} (paths are relative to SRC, with /)"
+                    )
                 continue
             groups = {k: v for k, v in match.groupdict().items() if v is not None}
             variables.update(groups)
@@ -202,7 +287,9 @@ def _fields(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, Any]
             try:
                 value = value.format_map(variables)
             except (KeyError, IndexError, ValueError) as exc:
-                raise UsageError(f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})") from None
+                raise UsageError(
+                    f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})"
+                ) from None
         value = m.maps.get(key, {}).get(value, value)
         if key in NUMERIC_FIELDS:
             value = _number(value, rel, key)
@@ -227,7 +314,11 @@ def _line_of(path: Path, row: int, csv: dict[str, Any]) -> int:
     with open(path, encoding="utf-8", errors="replace") as fh:
         seen = -1  # -1: the header is still to come
         for number, line in enumerate(fh, start=1):
-            if number <= csv["skip_rows"] or not line.strip() or (csv["comment"] and line.lstrip().startswith(csv["comment"])):
+            if (
+                number <= csv["skip_rows"]
+                or not line.strip()
+                or (csv["comment"] and line.lstrip().startswith(csv["comment"]))
+            ):
                 continue
             if seen == row:
                 return number
@@ -235,14 +326,26 @@ def _line_of(path: Path, row: int, csv: dict[str, Any]) -> int:
     return -1
 
 
-def _read_csv(path: Path, csv: dict[str, Any], text_columns: list[str], min_rows: int = 2) -> pd.DataFrame:
+def _read_csv(
+    path: Path, csv: dict[str, Any], text_columns: list[str], min_rows: int = 2
+) -> pd.DataFrame:
     try:
-        frame = pd.read_csv(path, sep=csv["delimiter"], comment=csv["comment"], skiprows=csv["skip_rows"],
-                            dtype={c: str for c in text_columns}, low_memory=False)
+        frame = pd.read_csv(
+            path,
+            sep=csv["delimiter"],
+            comment=csv["comment"],
+            skiprows=csv["skip_rows"],
+            dtype={c: str for c in text_columns},
+            low_memory=False,
+        )
     except pd.errors.EmptyDataError:
         raise DataError(f"{path}: empty file (no header and no rows)") from None
-    except pd.errors.ParserError as exc:  # pandas names the line: "Expected 3 fields in line 17, saw 4"
-        raise DataError(f"{path}: not a well-formed CSV file ({' '.join(str(exc).split())})") from None
+    except (
+        pd.errors.ParserError
+    ) as exc:  # pandas names the line: "Expected 3 fields in line 17, saw 4"
+        raise DataError(
+            f"{path}: not a well-formed CSV file ({' '.join(str(exc).split())})"
+        ) from None
     except UnicodeDecodeError as exc:
         raise DataError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except OSError as exc:
@@ -262,8 +365,11 @@ def _numbers(frame: pd.DataFrame, column: str, path: Path, csv: dict[str, Any]) 
         row = int(np.argmax(np.abs(values.astype(np.float64)) > EXACT_INT))
         what = f"integer {values[row]} beyond 2**53 (float64 cannot hold it exactly)"
     else:
-        numeric = pd.to_numeric(series, errors="coerce").to_numpy(np.float64, na_value=np.nan) if series.dtype.kind != "f" \
+        numeric = (
+            pd.to_numeric(series, errors="coerce").to_numpy(np.float64, na_value=np.nan)
+            if series.dtype.kind != "f"
             else series.to_numpy(np.float64, na_value=np.nan)
+        )
         bad = ~np.isfinite(numeric)
         if not bad.any():
             return numeric
@@ -283,18 +389,26 @@ def _channel_names(frame: pd.DataFrame, group: dict[str, Any], path: Path) -> li
     if "names" in group:
         missing = [n for n in group["names"] if n not in present]
         if missing:
-            raise DataError(f"{path}: column {missing[0]!r} not found (columns: {', '.join(present[:12])}{', ...' if len(present) > 12 else ''})")
+            raise DataError(
+                f"{path}: column {missing[0]!r} not found (columns: {', '.join(present[:12])}{', ...' if len(present) > 12 else ''})"
+            )
         names = list(group["names"])
     else:
         names = [c for c in present if group["pattern"].fullmatch(c)]
         if not names:
-            raise DataError(f"{path}: no column matches the channel pattern {group['pattern'].pattern!r} (columns: {', '.join(present[:12])})")
+            raise DataError(
+                f"{path}: no column matches the channel pattern {group['pattern'].pattern!r} (columns: {', '.join(present[:12])})"
+            )
     if "count" in group and len(names) != group["count"]:
-        raise DataError(f"{path}: {len(names)} channel columns ({names[0]} ... {names[-1]}), the mapping expects {group['count']}")
+        raise DataError(
+            f"{path}: {len(names)} channel columns ({names[0]} ... {names[-1]}), the mapping expects {group['count']}"
+        )
     return names
 
 
-def _rate(m: CsvMapping, fields: dict, frame: pd.DataFrame, path: Path) -> tuple[float, np.ndarray | None]:
+def _rate(
+    m: CsvMapping, fields: dict, frame: pd.DataFrame, path: Path
+) -> tuple[float, np.ndarray | None]:
     """Sampling rate of one file (a field, [rate].hz, or the median step of its time column) and
     its times in seconds from the first sample, when it has a time column."""
     times = None
@@ -302,12 +416,17 @@ def _rate(m: CsvMapping, fields: dict, frame: pd.DataFrame, path: Path) -> tuple
         column = m.rate["time_column"]
         if column not in frame.columns:
             raise DataError(f"{path}: time column {column!r} not found")
-        t = _numbers(frame, column, path, m.csv).astype(np.float64) * TIME_UNITS[m.rate.get("time_unit", "s")]
+        t = (
+            _numbers(frame, column, path, m.csv).astype(np.float64)
+            * TIME_UNITS[m.rate.get("time_unit", "s")]
+        )
         step = np.diff(t)
         if (step <= 0).any():
             row = int(np.argmax(step <= 0)) + 1
-            raise DataError(f"{path}: line {_line_of(path, row, m.csv)}: column {column!r}: time does not increase "
-                            f"({t[row - 1]:g} then {t[row]:g} s)")
+            raise DataError(
+                f"{path}: line {_line_of(path, row, m.csv)}: column {column!r}: time does not increase "
+                f"({t[row - 1]:g} then {t[row]:g} s)"
+            )
         times = t - t[0]
     if fields.get("sampling_rate_hz") is not None:
         return fields["sampling_rate_hz"], times
@@ -315,7 +434,9 @@ def _rate(m: CsvMapping, fields: dict, frame: pd.DataFrame, path: Path) -> tuple
         return float(m.rate["hz"]), times
     if times is not None:  # 12 significant digits: no floating-point noise of the differences
         return float(f"{1.0 / np.median(np.diff(times)):.12g}"), times
-    raise UsageError(f"{m.where}: no sampling rate for {path}: give [rate] hz = ... or time_column = ..., or a sampling_rate_hz field")
+    raise UsageError(
+        f"{m.where}: no sampling rate for {path}: give [rate] hz = ... or time_column = ..., or a sampling_rate_hz field"
+    )
 
 
 def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
@@ -331,18 +452,28 @@ def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
     bad = np.isnan(labels)
     if bad.any():
         row = int(np.argmax(bad))
-        raise DataError(f"{path}: line {_line_of(path, row, m.csv)}: column {column!r}: label {text.iloc[row]!r} is not one of "
-                        f"the mapping's slip {list(m.labels['slip'])}, no_slip {list(m.labels.get('no_slip', []))} "
-                        f"or unlabelled {list(m.labels.get('unlabelled', []))}")
+        raise DataError(
+            f"{path}: line {_line_of(path, row, m.csv)}: column {column!r}: label {text.iloc[row]!r} is not one of "
+            f"the mapping's slip {list(m.labels['slip'])}, no_slip {list(m.labels.get('no_slip', []))} "
+            f"or unlabelled {list(m.labels.get('unlabelled', []))}"
+        )
     return labels.astype(np.int8)
 
 
-def _segment_labels(m: CsvMapping, segments: list[tuple[float, float | None, str]], n: int, rate: float,
-                    times: np.ndarray | None, path: Path) -> np.ndarray | None:
+def _segment_labels(
+    m: CsvMapping,
+    segments: list[tuple[float, float | None, str]],
+    n: int,
+    rate: float,
+    times: np.ndarray | None,
+    path: Path,
+) -> np.ndarray | None:
     """Labels from (onset, offset, where) segments: 1 inside [onset, offset), 0 before and
     between, after the last offset as [labels].after_offset says."""
     if not segments:
-        return None if m.labels.get("unlisted", "unlabelled") == "unlabelled" else np.zeros(n, np.int8)
+        return (
+            None if m.labels.get("unlisted", "unlabelled") == "unlabelled" else np.zeros(n, np.int8)
+        )
     in_seconds = m.labels.get("unit", "sample") == "s"
     t = times if times is not None else np.arange(n) / rate
 
@@ -356,8 +487,10 @@ def _segment_labels(m: CsvMapping, segments: list[tuple[float, float | None, str
     for onset, offset, where in sorted(segments, key=lambda s: s[0]):
         lo, hi = sample(onset), n if offset is None else sample(offset)
         if not 0 <= lo < hi <= n or lo < last:
-            raise DataError(f"{where}: slip segment [{onset:g}, {'end' if offset is None else f'{offset:g}'}) does not fit "
-                            f"{path} ({n} samples) after the previous segment")
+            raise DataError(
+                f"{where}: slip segment [{onset:g}, {'end' if offset is None else f'{offset:g}'}) does not fit "
+                f"{path} ({n} samples) after the previous segment"
+            )
         labels[lo:hi] = 1
         last = hi
     if m.labels.get("after_offset", "no-slip") == "unlabelled":
@@ -377,19 +510,28 @@ def _segments_table(m: CsvMapping) -> dict[str, list[tuple[float, float | None, 
     frame = _read_csv(path, csv, ["file"], min_rows=1)
     for column in ("file", "onset"):
         if column not in frame.columns:
-            raise DataError(f"{path}: column {column!r} missing (a segments table has columns file, onset, offset)")
+            raise DataError(
+                f"{path}: column {column!r} missing (a segments table has columns file, onset, offset)"
+            )
     onset = _numbers(frame, "onset", path, csv)
-    offset = (pd.to_numeric(frame["offset"], errors="coerce").to_numpy(np.float64, na_value=np.nan)
-              if "offset" in frame.columns else np.full(len(frame), np.nan))
+    offset = (
+        pd.to_numeric(frame["offset"], errors="coerce").to_numpy(np.float64, na_value=np.nan)
+        if "offset" in frame.columns
+        else np.full(len(frame), np.nan)
+    )
     if "offset" in frame.columns:
         bad = frame["offset"].notna().to_numpy() & ~np.isfinite(offset)
         if bad.any():
             row = int(np.argmax(bad))
-            raise DataError(f"{path}: line {_line_of(path, row, csv)}: column 'offset': non-numeric value {frame['offset'].iloc[row]!r}")
+            raise DataError(
+                f"{path}: line {_line_of(path, row, csv)}: column 'offset': non-numeric value {frame['offset'].iloc[row]!r}"
+            )
     table: dict[str, list] = {}
     for row, (file, lo, hi) in enumerate(zip(frame["file"], onset, offset)):
         where = f"{path}: line {_line_of(path, row, csv)}"
-        table.setdefault(str(file), []).append((float(lo), None if np.isnan(hi) else float(hi), where))
+        table.setdefault(str(file), []).append(
+            (float(lo), None if np.isnan(hi) else float(hi), where)
+        )
     return table
 
 
@@ -399,22 +541,40 @@ def _glob(src: Path, pattern: str, m: CsvMapping) -> set[str]:
     try:
         return {p.relative_to(src).as_posix() for p in src.glob(pattern) if p.is_file()}
     except (ValueError, NotImplementedError) as exc:
-        raise UsageError(f"{m.where}: glob {pattern!r}: {exc} (globs are relative to SRC)") from None
+        raise UsageError(
+            f"{m.where}: glob {pattern!r}: {exc} (globs are relative to SRC)"
+        ) from None
 
 
-def _file_labels(m: CsvMapping, fields: dict, segments: list, frame: pd.DataFrame, rate: float,
-                 times: np.ndarray | None, path: Path) -> np.ndarray | None:
+def _file_labels(
+    m: CsvMapping,
+    fields: dict,
+    segments: list,
+    frame: pd.DataFrame,
+    rate: float,
+    times: np.ndarray | None,
+    path: Path,
+) -> np.ndarray | None:
     """One file's per-sample labels (int8, -1 unlabelled), or None where it has none."""
     if "column" in m.labels:
         return _label_column(m, frame, path)
     segments = list(segments)
     if fields.get("slip_onset") is not None:
-        segments.append((fields["slip_onset"], fields.get("slip_offset"), f"{m.where}: slip_onset of {path}"))
+        segments.append(
+            (fields["slip_onset"], fields.get("slip_offset"), f"{m.where}: slip_onset of {path}")
+        )
     return _segment_labels(m, segments, len(frame), rate, times, path)
 
 
-def _recordings_of(m: CsvMapping, rel: str, path: Path, fields: dict, frame: pd.DataFrame, rate: float,
-                   labels: np.ndarray | None) -> list[tuple[dict, np.ndarray]]:
+def _recordings_of(
+    m: CsvMapping,
+    rel: str,
+    path: Path,
+    fields: dict,
+    frame: pd.DataFrame,
+    rate: float,
+    labels: np.ndarray | None,
+) -> list[tuple[dict, np.ndarray]]:
     """(metadata row, samples) of each recording in one file: one per channel group."""
     file_id = str(fields.get("recording_id", _default_id(rel)))
     out = []
@@ -422,31 +582,49 @@ def _recordings_of(m: CsvMapping, rel: str, path: Path, fields: dict, frame: pd.
         meta = {**fields, **{k: group[k] for k in ("sensor_instance", "sensor_type") if k in group}}
         for key in ("sensor_type", "sensor_instance", "scenario"):
             if meta.get(key) in (None, ""):
-                raise UsageError(f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file")
+                raise UsageError(
+                    f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file"
+                )
         if meta["scenario"] == "hold-slip" and (labels is None or not (labels == 1).any()):
-            raise DataError(f"{path}: scenario hold-slip needs per-sample labels with a slip onset: "
-                            "give [labels] a column, or segments (a table or slip_onset)")
+            raise DataError(
+                f"{path}: scenario hold-slip needs per-sample labels with a slip onset: "
+                "give [labels] a column, or segments (a table or slip_onset)"
+            )
         names = _channel_names(frame, group, path)
         values = [_numbers(frame, c, path, m.csv) for c in names]
         units = group.get("units", "raw")
         units = [units] * len(names) if isinstance(units, str) else list(units)
         if len(units) != len(names):
-            raise UsageError(f"{m.where}: [channels].units lists {len(units)} units for {len(names)} channels of {path}")
+            raise UsageError(
+                f"{m.where}: [channels].units lists {len(units)} units for {len(names)} channels of {path}"
+            )
         several = len(m.channels) > 1
         row = dict(
             recording_id=f"{file_id}/{meta['sensor_instance']}" if several else file_id,
-            sensor_type=str(meta["sensor_type"]), sensor_instance=str(meta["sensor_instance"]), scenario=str(meta["scenario"]),
-            material=_text(meta.get("material")), speed_mm_s=meta.get("speed_mm_s"), sampling_rate_hz=rate,
-            channels=tuple(names), units=tuple(str(u) for u in units), source=_text(meta.get("source")),
+            sensor_type=str(meta["sensor_type"]),
+            sensor_instance=str(meta["sensor_instance"]),
+            scenario=str(meta["scenario"]),
+            material=_text(meta.get("material")),
+            speed_mm_s=meta.get("speed_mm_s"),
+            sampling_rate_hz=rate,
+            channels=tuple(names),
+            units=tuple(str(u) for u in units),
+            source=_text(meta.get("source")),
             # the units of one file were recorded together: one trial unless the mapping says
             trial=_text(meta.get("trial")) or (file_id if several else None),
         )
-        integers = all(v.dtype.kind == "i" for v in values)  # raw counts stay integers, written exactly
-        out.append((row, np.column_stack(values if integers else [v.astype(np.float64) for v in values])))
+        integers = all(
+            v.dtype.kind == "i" for v in values
+        )  # raw counts stay integers, written exactly
+        out.append(
+            (row, np.column_stack(values if integers else [v.astype(np.float64) for v in values]))
+        )
     return out
 
 
-def import_csv(src: str | Path, out: str | Path, config: str | Path | Mapping, base: Path | None = None) -> Path:
+def import_csv(
+    src: str | Path, out: str | Path, config: str | Path | Mapping, base: Path | None = None
+) -> Path:
     """Convert the CSV files under ``src`` into a dataset folder ``out`` as the mapping says.
 
     Parameters
@@ -472,7 +650,9 @@ def import_csv(src: str | Path, out: str | Path, config: str | Path | Mapping, b
     segments = _segments_table(m)
     for name, parts in segments.items():
         if name not in files:
-            raise DataError(f"{parts[0][2]}: file {name!r} is not among the imported files (paths relative to SRC, with /)")
+            raise DataError(
+                f"{parts[0][2]}: file {name!r} is not among the imported files (paths relative to SRC, with /)"
+            )
     text_columns = [m.labels["column"]] if "column" in m.labels else []
 
     rows, samples, labels, origin = [], {}, {}, {}
@@ -485,7 +665,9 @@ def import_csv(src: str | Path, out: str | Path, config: str | Path | Mapping, b
         for row, values in _recordings_of(m, rel, path, fields, frame, rate, file_labels):
             rid = row["recording_id"]
             if rid in origin:
-                raise UsageError(f"{m.where}: {origin[rid]} and {rel} both give recording_id {rid!r}; set recording_id to tell them apart")
+                raise UsageError(
+                    f"{m.where}: {origin[rid]} and {rel} both give recording_id {rid!r}; set recording_id to tell them apart"
+                )
             origin[rid] = rel
             rows.append(row)
             samples[rid] = values

@@ -14,7 +14,11 @@ from slipbench.data.dataset import Dataset
 from slipbench.errors import UsageError
 from slipbench.seeding import rng_for, seed_int
 
-SPLITS = ("paper", "grouped", "datasets")  # datasets: train on one dataset, test on another (slipbench.data.transfer)
+SPLITS = (
+    "paper",
+    "grouped",
+    "datasets",
+)  # datasets: train on one dataset, test on another (slipbench.data.transfer)
 # How a window gets its class: from its recording's scenario (the paper), or from the per-sample
 # ``slip`` labels: the majority of its samples, any slip sample, or its last sample.
 LABELLINGS = ("scenario", "majority", "any", "last")
@@ -38,8 +42,14 @@ def univariate(a: np.ndarray, baseline: int = 0) -> np.ndarray:
     (n_samples - 1,) float32. Norms are taken in float64 so that a large static load does not
     swallow the small changes that carry the slip signal.
     """
-    if isinstance(baseline, (bool, np.bool_)) or not isinstance(baseline, (int, np.integer)) or baseline < 0:
-        raise UsageError(f"baseline must be an int >= 0 (samples averaged at the start; 0: none), got {baseline!r}")
+    if (
+        isinstance(baseline, (bool, np.bool_))
+        or not isinstance(baseline, (int, np.integer))
+        or baseline < 0
+    ):
+        raise UsageError(
+            f"baseline must be an int >= 0 (samples averaged at the start; 0: none), got {baseline!r}"
+        )
     a = np.asarray(a, dtype=np.float64)
     if baseline:
         a = a - a[:baseline].mean(axis=0)
@@ -66,19 +76,26 @@ class Signals:
     labels: np.ndarray | None = None
 
     @classmethod
-    def from_dataset(cls, dataset: Dataset, baseline: int = 0) -> "Signals":
+    def from_dataset(cls, dataset: Dataset, baseline: int = 0) -> Signals:
         """``baseline``: see :func:`univariate`."""
         ids = dataset.recordings["recording_id"]
         parts = [univariate(dataset.samples[r], baseline) for r in ids]
         offsets = np.r_[0, np.cumsum([len(p) for p in parts])].astype(np.int64)
         by_scenario = {"slip": 1, "press": 0, "free-space": 0}
-        labels = [dataset.slip_labels[r][1:] if r in dataset.slip_labels
-                  else np.full(len(p), by_scenario.get(sc, -1), np.int8)
-                  for r, sc, p in zip(ids, dataset.recordings["scenario"], parts)]
-        return cls(np.concatenate(parts), offsets, dataset.recordings.reset_index(drop=True),
-                   np.concatenate(labels).astype(np.int8))
+        labels = [
+            dataset.slip_labels[r][1:]
+            if r in dataset.slip_labels
+            else np.full(len(p), by_scenario.get(sc, -1), np.int8)
+            for r, sc, p in zip(ids, dataset.recordings["scenario"], parts)
+        ]
+        return cls(
+            np.concatenate(parts),
+            offsets,
+            dataset.recordings.reset_index(drop=True),
+            np.concatenate(labels).astype(np.int8),
+        )
 
-    def antialiased(self, factor: int, order: int = 4) -> "Signals":
+    def antialiased(self, factor: int, order: int = 4) -> Signals:
         """The signal of a sensor whose norm passes an anti-aliasing filter before it is sampled
         ``factor`` times slower, still at the full rate: :meth:`Windows.downsample` then
         decimates it (``plain`` or ``lag``) as it would the raw signal.
@@ -95,7 +112,9 @@ class Signals:
         Signals with the same offsets and recordings; buffer (total,) float32.
         """
         if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 2:
-            raise UsageError(f"an anti-aliasing filter needs a downsampling factor >= 2, got {factor!r}")
+            raise UsageError(
+                f"an anti-aliasing filter needs a downsampling factor >= 2, got {factor!r}"
+            )
         out = np.empty_like(self.buffer)
         rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
         for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
@@ -103,8 +122,13 @@ class Signals:
             out[lo:hi] = signal.sosfilt(sos, self.buffer[lo:hi].astype(np.float64))
         return Signals(out, self.offsets, self.recordings, self.labels)
 
-    def windows(self, window: int, rows: np.ndarray | None = None, values: bool = True,
-                labelling: str = "scenario") -> "Windows":
+    def windows(
+        self,
+        window: int,
+        rows: np.ndarray | None = None,
+        values: bool = True,
+        labelling: str = "scenario",
+    ) -> Windows:
         """Cut non-overlapping windows of ``window`` samples from each recording in ``rows``,
         labelled as ``labelling`` says (one of :data:`LABELLINGS`).
 
@@ -124,15 +148,25 @@ class Signals:
         labels = self._window_labels(rec, local, window, labelling)
         keep = labels >= 0
         w = Windows(None, rec[keep], local[keep], self.recordings, labels[keep])
-        return Windows(self.values(w, window), w.recording, w.index, w.recordings, w.labels) if values else w
+        return (
+            Windows(self.values(w, window), w.recording, w.index, w.recordings, w.labels)
+            if values
+            else w
+        )
 
-    def _window_labels(self, rec: np.ndarray, local: np.ndarray, window: int, labelling: str) -> np.ndarray:
+    def _window_labels(
+        self, rec: np.ndarray, local: np.ndarray, window: int, labelling: str
+    ) -> np.ndarray:
         """(n_windows,) int8: 1 slip, 0 no slip, -1 cannot be labelled."""
         if labelling not in LABELLINGS:
-            raise UsageError(f"unknown labelling {labelling!r}; choose one of: {', '.join(LABELLINGS)}")
+            raise UsageError(
+                f"unknown labelling {labelling!r}; choose one of: {', '.join(LABELLINGS)}"
+            )
         if labelling == "scenario":
             scenario = self.recordings["scenario"].to_numpy()[rec]
-            return np.select([scenario == "slip", scenario == "hold-slip"], [1, -1], 0).astype(np.int8)
+            return np.select([scenario == "slip", scenario == "hold-slip"], [1, -1], 0).astype(
+                np.int8
+            )
         starts = self.offsets[rec] + local.astype(np.int64) * window
         per_sample = np.lib.stride_tricks.sliding_window_view(self.labels, window)[starts]
         unlabelled = (per_sample < 0).any(axis=1)
@@ -145,7 +179,7 @@ class Signals:
         out[unlabelled] = -1
         return out
 
-    def values(self, windows: "Windows", window: int) -> np.ndarray:
+    def values(self, windows: Windows, window: int) -> np.ndarray:
         """The samples of windows given by position: (n_windows, window) float32."""
         starts = self.offsets[windows.recording] + windows.index.astype(np.int64) * window
         return np.lib.stride_tricks.sliding_window_view(self.buffer, window)[starts]
@@ -173,9 +207,11 @@ class Windows:
     def __len__(self) -> int:
         return len(self.recording)
 
-    def take(self, rows: np.ndarray) -> "Windows":
+    def take(self, rows: np.ndarray) -> Windows:
         x = None if self.x is None else self.x[rows]
-        return Windows(x, self.recording[rows], self.index[rows], self.recordings, self.labels[rows])
+        return Windows(
+            x, self.recording[rows], self.index[rows], self.recordings, self.labels[rows]
+        )
 
     def column(self, name: str) -> np.ndarray:
         """A recordings column (scenario, material, speed_mm_s, ...) per window."""
@@ -194,14 +230,18 @@ class Windows:
         rec = self.recordings
         scenario = rec["scenario"].to_numpy(dtype=str)[self.recording]
         material = rec["material"].fillna("").to_numpy(dtype=str)[self.recording]
-        speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[self.recording]
+        speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[
+            self.recording
+        ]
         held = (self.labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
         category = np.where(self.labels == 1, "slip", np.where(held, "hold", scenario))
         material = np.where(category == "free-space", "", material)
         speed = np.where(np.isin(category, ("press", "hold")), "", speed)
-        return np.char.add(np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed))
+        return np.char.add(
+            np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed)
+        )
 
-    def downsample(self, factor: int, decimation: str = "plain") -> "Windows":
+    def downsample(self, factor: int, decimation: str = "plain") -> Windows:
         """The windows as a sensor sampled ``factor`` times slower would see them.
 
         A window of n samples of s_t = ||a_t|| - ||a_{t-1}|| spans the readings a_p ... a_{p+n};
@@ -221,15 +261,27 @@ class Windows:
         """
         m = self.x.shape[1] // factor
         if m < 1:
-            raise UsageError(f"windows of {self.x.shape[1]} samples downsampled by {factor} leave no sample")
+            raise UsageError(
+                f"windows of {self.x.shape[1]} samples downsampled by {factor} leave no sample"
+            )
         if decimation == "plain":
             x = self.x[:, : m * factor : factor]
         elif decimation == "lag":
             # float64 accumulation: the sum adds no rounding to that of the float32 samples
-            x = self.x[:, : m * factor].reshape(len(self.x), m, factor).sum(axis=2, dtype=np.float64)
+            x = (
+                self.x[:, : m * factor]
+                .reshape(len(self.x), m, factor)
+                .sum(axis=2, dtype=np.float64)
+            )
         else:
             raise UsageError(f"unknown decimation {decimation!r}; choose plain or lag")
-        return Windows(np.ascontiguousarray(x, dtype=np.float32), self.recording, self.index, self.recordings, self.labels)
+        return Windows(
+            np.ascontiguousarray(x, dtype=np.float32),
+            self.recording,
+            self.index,
+            self.recordings,
+            self.labels,
+        )
 
 
 def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
@@ -253,7 +305,7 @@ def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
     per_class = min(capacity["slip"], per_nonslip * len(nonslip))
     target = {"slip": per_class, **{c: per_class // len(nonslip) for c in nonslip}}
     keep = []
-    for code, name in enumerate(names):
+    for code, _name in enumerate(names):
         cat = category[code]
         share = target[cat] // (category == cat).sum()
         rows = np.flatnonzero(codes == code)
@@ -272,8 +324,14 @@ def trial_sides(recordings: pd.DataFrame, seed: int) -> np.ndarray:
     """
     rng = rng_for(seed, "sides")
     trials = recordings["trial"] if "trial" in recordings else recordings["recording_id"]
-    key = [f"{sc}|{m}|{v:g}" for sc, m, v in zip(recordings["scenario"], recordings["material"].fillna(""),
-                                                  recordings["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))]
+    key = [
+        f"{sc}|{m}|{v:g}"
+        for sc, m, v in zip(
+            recordings["scenario"],
+            recordings["material"].fillna(""),
+            recordings["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan),
+        )
+    ]
     first = pd.DataFrame({"trial": trials.to_numpy(), "stratum": key}).drop_duplicates("trial")
     side: dict = {}
     for _, group in first.groupby("stratum", sort=True):
@@ -283,7 +341,9 @@ def trial_sides(recordings: pd.DataFrame, seed: int) -> np.ndarray:
     return trials.map(side).to_numpy(dtype=np.int8)
 
 
-def split(windows: Windows, how: str, seed: int, sides: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def split(
+    windows: Windows, how: str, seed: int, sides: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Train and test rows.
 
     ``paper``: shuffle windows and halve them, stratified by balancing stratum so both halves
@@ -298,7 +358,9 @@ def split(windows: Windows, how: str, seed: int, sides: np.ndarray | None = None
             strata = windows.y
         if np.unique(strata, return_counts=True)[1].min() < 2:
             raise UsageError("the paper split needs at least two windows of each class")
-        train, test = train_test_split(rows, test_size=0.5, stratify=strata, random_state=seed_int(seed, "split"))
+        train, test = train_test_split(
+            rows, test_size=0.5, stratify=strata, random_state=seed_int(seed, "split")
+        )
     elif how == "grouped":
         if sides is None:
             sides = trial_sides(windows.recordings, seed)

@@ -58,12 +58,52 @@ class Sensor:
 
 
 SENSORS: dict[str, Sensor] = {
-    "Nano17": Sensor(1000.0, ("index", "middle", "little"), ("g1", "g2", "g3", "g4", "g5", "g6"),
-                     "N", 1.0, 0.006, None, 1.0, 8.0, 2300.0, 0.02, 12.0, 0.05),
-    "OptoForce20": Sensor(1000.0, ("index", "middle", "little"), ("fx", "fy", "fz"),
-                          "count", 400.0, 0.0025, 250.0, 0.0, 10.0, 1.33, 0.10, 10.0, 0.25),
-    "BioTacSP": Sensor(850.0, ("index", "middle"), ("pac",), "count", 100.0, 0.010, 250.0, 0.8,
-                       7.5, 0.40, 0.30, 30.0, 0.25, 10.0),
+    "Nano17": Sensor(
+        1000.0,
+        ("index", "middle", "little"),
+        ("g1", "g2", "g3", "g4", "g5", "g6"),
+        "N",
+        1.0,
+        0.006,
+        None,
+        1.0,
+        8.0,
+        2300.0,
+        0.02,
+        12.0,
+        0.05,
+    ),
+    "OptoForce20": Sensor(
+        1000.0,
+        ("index", "middle", "little"),
+        ("fx", "fy", "fz"),
+        "count",
+        400.0,
+        0.0025,
+        250.0,
+        0.0,
+        10.0,
+        1.33,
+        0.10,
+        10.0,
+        0.25,
+    ),
+    "BioTacSP": Sensor(
+        850.0,
+        ("index", "middle"),
+        ("pac",),
+        "count",
+        100.0,
+        0.010,
+        250.0,
+        0.8,
+        7.5,
+        0.40,
+        0.30,
+        30.0,
+        0.25,
+        10.0,
+    ),
 }
 
 
@@ -186,7 +226,9 @@ class Unit:
     gain: float
     noise: float
     force_share: float  # the finger's contact force relative to the trial's grip level
-    coupling: float  # how much of the contact force reaches the transducer (contact location, lever arm)
+    coupling: (
+        float  # how much of the contact force reaches the transducer (contact location, lever arm)
+    )
     mass_kg: float  # sensor, fingertip and the distal link's moving share
     finger_stiffness_n_m: float
     tip_modulus_pa: float
@@ -242,13 +284,17 @@ def _signature(rng: np.random.Generator, trial_rng: np.random.Generator, p: Phys
     trial_spacing, trial_snap = _spread(trial_rng, p.surface_trial_sd * k, 2)
     local_spacing, local_snap = _spread(rng, p.surface_local_sd * k, 2)
     return Signature(
-        patch=float(_spread(rng, p.patch_gain_sd * k)), force=float(_spread(rng, p.force_wobble_sd * k)),
-        spacing=float(trial_spacing * local_spacing), snap=float(trial_snap * local_snap),
+        patch=float(_spread(rng, p.patch_gain_sd * k)),
+        force=float(_spread(rng, p.force_wobble_sd * k)),
+        spacing=float(trial_spacing * local_spacing),
+        snap=float(trial_snap * local_snap),
         drift=float(_spread(rng, p.drift_gain_sd * k)),
     )
 
 
-def contact_mode(sensor: Sensor, unit: Unit, material: str, normal_n: float, p: Physics) -> tuple[float, float]:
+def contact_mode(
+    sensor: Sensor, unit: Unit, material: str, normal_n: float, p: Physics
+) -> tuple[float, float]:
     """Frequency (Hz) and damping ratio of the fingertip's ringing mode while touching.
 
     A lumped one-mode model: the moving mass (sensor, fingertip, the distal link's share) on the
@@ -270,7 +316,9 @@ def contact_mode(sensor: Sensor, unit: Unit, material: str, normal_n: float, p: 
 
 def free_mode(unit: Unit, p: Physics) -> tuple[float, float]:
     """Frequency (Hz) and damping ratio of the fingertip's mode without contact."""
-    return float(np.sqrt(unit.finger_stiffness_n_m / unit.mass_kg) / (2 * np.pi)), 0.5 * p.finger_loss
+    return float(
+        np.sqrt(unit.finger_stiffness_n_m / unit.mass_kg) / (2 * np.pi)
+    ), 0.5 * p.finger_loss
 
 
 def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.ndarray:
@@ -295,8 +343,16 @@ def _events(distance_mm: np.ndarray, mean_spacing: float, rng: np.random.Generat
     return pos[pos < total]
 
 
-def _snaps(speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray, m: Material, sig: Signature,
-           fs: float, rng: np.random.Generator, p: Physics) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _snaps(
+    speed: np.ndarray,
+    sliding: np.ndarray,
+    normal: np.ndarray,
+    m: Material,
+    sig: Signature,
+    fs: float,
+    rng: np.random.Generator,
+    p: Physics,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stick-slip of a sliding contact: snap impulses, the shear sawtooth between snaps, travel.
 
     Each time the travel since the last snap reaches a gamma-spread critical distance, the shear
@@ -305,7 +361,9 @@ def _snaps(speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray, m: Materi
     travel = np.cumsum(np.where(sliding, speed, 0.0)) / fs
     spacing = m.critical_slip_mm * sig.spacing
     rel = (np.maximum(speed, 1e-9) / 25.0) ** p.snap_speed_exponent
-    drop = p.snap_n_per_n * m.snap_gain * sig.snap * normal * rel  # force drop a snap would give now
+    drop = (
+        p.snap_n_per_n * m.snap_gain * sig.snap * normal * rel
+    )  # force drop a snap would give now
     impulses = np.zeros(len(speed))
     if travel[-1] > 0:
         pos = _events(travel, spacing, rng)
@@ -319,11 +377,28 @@ def _snaps(speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray, m: Materi
     return impulses, saw, travel
 
 
-def _surface(travel: np.ndarray, speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray, m: Material,
-             rng: np.random.Generator, p: Physics) -> np.ndarray:
+def _surface(
+    travel: np.ndarray,
+    speed: np.ndarray,
+    sliding: np.ndarray,
+    normal: np.ndarray,
+    m: Material,
+    rng: np.random.Generator,
+    p: Physics,
+) -> np.ndarray:
     """Texture tone at speed / spatial period and fibrous rubbing noise of a sliding contact."""
-    texture = p.texture_n_per_n * m.texture_gain * normal * np.sin(2 * np.pi * travel / m.texture_period_mm + rng.uniform(0, 2 * np.pi))
-    fibre = p.fibre_noise_n * m.fibre_noise_gain * np.sqrt(np.maximum(speed, 0) / 25.0) * rng.standard_normal(len(speed))
+    texture = (
+        p.texture_n_per_n
+        * m.texture_gain
+        * normal
+        * np.sin(2 * np.pi * travel / m.texture_period_mm + rng.uniform(0, 2 * np.pi))
+    )
+    fibre = (
+        p.fibre_noise_n
+        * m.fibre_noise_gain
+        * np.sqrt(np.maximum(speed, 0) / 25.0)
+        * rng.standard_normal(len(speed))
+    )
     return (texture + fibre) * sliding
 
 
@@ -344,7 +419,9 @@ def _slip_forces(n, fs, speed_avg, material, trial_rng, rng, sig, unit, sensor, 
     direction = np.where((tt // pass_s) % 2 == 0, 1.0, -1.0)
     normal0 = trial_rng.uniform(*p.normal_force_n) * unit.force_share * sig.force
     osc = trial_rng.uniform(*p.arm_oscillation_hz)
-    normal = normal0 * (1 + p.arm_oscillation_depth * np.sin(2 * np.pi * osc * t + rng.uniform(0, 2 * np.pi)))
+    normal = normal0 * (
+        1 + p.arm_oscillation_depth * np.sin(2 * np.pi * osc * t + rng.uniform(0, 2 * np.pi))
+    )
     sliding = speed > p.stick_speed_mm_s
 
     f0, zeta = contact_mode(sensor, unit, material, normal0, p)
@@ -354,7 +431,11 @@ def _slip_forces(n, fs, speed_avg, material, trial_rng, rng, sig, unit, sensor, 
     ringing = _resonate(impulses, f0, zeta, fs)
     vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
     shear = direction * (p.friction * normal + saw) * sliding + vib
-    contact = unit.coupling * sig.patch * np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
+    contact = (
+        unit.coupling
+        * sig.patch
+        * np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
+    )
     return contact + _unit_vector(rng) * _drive(speed, fs, p), sliding.astype(np.int8)
 
 
@@ -376,11 +457,19 @@ def _hold_slip_forces(n, fs, speed_target, material, trial_rng, rng, sig, unit, 
     osc = trial_rng.uniform(*p.arm_oscillation_hz)
 
     # grip: slow fluctuation plus small pressing-like adjustments (raised-cosine bumps)
-    grip = 1 + p.hold_fluctuation * np.sin(2 * np.pi * rng.uniform(0.3, 1.0) * t + rng.uniform(0, 2 * np.pi))
-    for start in np.cumsum(rng.exponential(1 / p.grip_adjust_rate_hz, int(duration * p.grip_adjust_rate_hz * 3) + 2)):
+    grip = 1 + p.hold_fluctuation * np.sin(
+        2 * np.pi * rng.uniform(0.3, 1.0) * t + rng.uniform(0, 2 * np.pi)
+    )
+    for start in np.cumsum(
+        rng.exponential(1 / p.grip_adjust_rate_hz, int(duration * p.grip_adjust_rate_hz * 3) + 2)
+    ):
         width = rng.uniform(0.2, 0.6)
         inside = (t >= start) & (t < start + width)
-        grip[inside] += p.grip_adjust_depth * rng.uniform(0.3, 1.0) * np.sin(np.pi * (t[inside] - start) / width) ** 2
+        grip[inside] += (
+            p.grip_adjust_depth
+            * rng.uniform(0.3, 1.0)
+            * np.sin(np.pi * (t[inside] - start) / width) ** 2
+        )
     # the arm's speed rises smoothly to the target; its oscillation grows with it
     moving = (1 - np.cos(np.pi * np.clip((t - hold) / p.ramp_s, 0, 1))) / 2
     speed = speed_target * moving
@@ -420,10 +509,17 @@ def _hold_slip_forces(n, fs, speed_target, material, trial_rng, rng, sig, unit, 
     if lost < n:
         fall = max(1, int(round(p.drop_fall_s * fs)))
         contact[lost:] = 0.0
-        contact[lost : lost + fall] = (1 + np.cos(np.pi * np.arange(min(fall, n - lost)) / fall)) / 2
+        contact[lost : lost + fall] = (
+            1 + np.cos(np.pi * np.arange(min(fall, n - lost)) / fall)
+        ) / 2
         release[min(lost + fall, n - 1)] = p.release_n_per_n * normal0
         label[lost:] = UNLABELLED
-    forces = np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing]) * contact * unit.coupling * sig.patch
+    forces = (
+        np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
+        * contact
+        * unit.coupling
+        * sig.patch
+    )
     spring_back = _resonate(release, *free_mode(unit, p), fs)
     return forces + _unit_vector(rng) * (_drive(speed, fs, p) + spring_back), label
 
@@ -445,12 +541,21 @@ def _press_forces(n, fs, material, trial_rng, rng, sig, unit, sensor, p: Physics
         impulses[i] += p.impact_n * m.hardness * np.sqrt(rate) * rng.lognormal(0, 0.4)
         i += length
     loading = np.maximum(np.gradient(normal) * fs, 0)
-    crackle = p.crackle_n * (m.fibre_noise_gain + m.texture_gain) * np.sqrt(loading) * rng.standard_normal(n)
+    crackle = (
+        p.crackle_n
+        * (m.fibre_noise_gain + m.texture_gain)
+        * np.sqrt(loading)
+        * rng.standard_normal(n)
+    )
     touching = normal > 0
-    f0, zeta = contact_mode(sensor, unit, material, float(normal[touching].mean()) if touching.any() else 0.0, p)
+    f0, zeta = contact_mode(
+        sensor, unit, material, float(normal[touching].mean()) if touching.any() else 0.0, p
+    )
     ringing = _resonate(impulses, f0, zeta, fs)
     shear = p.press_shear_ratio * normal + 0.5 * ringing + crackle
-    forces = np.stack([shear, 0.2 * ringing, normal + ringing + crackle]) * unit.coupling * sig.patch
+    forces = (
+        np.stack([shear, 0.2 * ringing, normal + ringing + crackle]) * unit.coupling * sig.patch
+    )
     return forces, np.zeros(n, np.int8)
 
 
@@ -460,11 +565,19 @@ def _free_space_forces(n, fs, speed_avg, trial_rng, rng, sig, unit, sensor, p: P
     seg_s = trial_rng.uniform(1.0, 3.0, int(n / fs) + 2)
     bounds = np.cumsum(seg_s) * fs
     bounds = bounds[bounds < n].astype(int)
-    phase = np.interp(np.arange(n), np.r_[0, bounds, n], np.r_[0, np.arange(1, len(bounds) + 1), len(bounds) + 1])
+    phase = np.interp(
+        np.arange(n), np.r_[0, bounds, n], np.r_[0, np.arange(1, len(bounds) + 1), len(bounds) + 1]
+    )
     speed = speed_avg * (1 - np.cos(2 * np.pi * phase))
     accel = np.gradient(speed) * fs / 1000.0  # m/s^2
     rel = speed_avg / 25.0
-    inertial = p.inertial_n * accel[None, :] * rng.normal(0, 1, (3, 1)) / max(np.abs(accel).max(), 1e-9) * rel
+    inertial = (
+        p.inertial_n
+        * accel[None, :]
+        * rng.normal(0, 1, (3, 1))
+        / max(np.abs(accel).max(), 1e-9)
+        * rel
+    )
     impulses = np.zeros(n)
     impulses[bounds] = p.jerk_n * rel * rng.lognormal(0, 0.5, len(bounds))
     ringing = _resonate(impulses, *free_mode(unit, p), fs)
@@ -478,17 +591,25 @@ def _unit_vector(rng: np.random.Generator) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _sense(forces: np.ndarray, sensor: Sensor, unit: Unit, sig: Signature, fs: float, rng, p: Physics) -> np.ndarray:
+def _sense(
+    forces: np.ndarray, sensor: Sensor, unit: Unit, sig: Signature, fs: float, rng, p: Physics
+) -> np.ndarray:
     """What the sensor reports: idle vibration, skin filtering, mixing, high-pass, noise, gain;
     (n, channels) float32."""
     n = forces.shape[1]
-    idle = unit.idle_coupling * p.idle_n * np.sin(2 * np.pi * p.idle_hz * np.arange(n) / fs + rng.uniform(0, 2 * np.pi))
+    idle = (
+        unit.idle_coupling
+        * p.idle_n
+        * np.sin(2 * np.pi * p.idle_hz * np.arange(n) / fs + rng.uniform(0, 2 * np.pi))
+    )
     forces = forces + idle * np.array([[0.5], [0.5], [1.0]])
     if unit.skin_cutoff_hz is not None:
         forces = _lowpass(forces, unit.skin_cutoff_hz, fs, axis=1)
     out = unit.mixing @ forces  # (channels, n)
     if sensor.highpass_hz is not None:
-        out = signal.sosfilt(signal.butter(2, sensor.highpass_hz, "highpass", fs=fs, output="sos"), out, axis=1)
+        out = signal.sosfilt(
+            signal.butter(2, sensor.highpass_hz, "highpass", fs=fs, output="sos"), out, axis=1
+        )
     out = out + rng.normal(0, sensor.noise_floor_n * unit.noise, out.shape)
     return (out.T * unit.gain * sig.drift * sensor.units_per_newton).astype(np.float32)
 
@@ -498,7 +619,9 @@ def _count(seconds: float, nominal_s: float) -> int:
     return 0 if seconds <= 0 else max(1, int(round(seconds / nominal_s)))
 
 
-def _plan(design: Design, scale: float) -> list[tuple[str, str | None, float | None, list[str], float]]:
+def _plan(
+    design: Design, scale: float
+) -> list[tuple[str, str | None, float | None, list[str], float]]:
     """(scenario, material, speed, trial tokens, seconds per recording) for every cell."""
     d = design
     plan = []
@@ -521,9 +644,21 @@ def _plan(design: Design, scale: float) -> list[tuple[str, str | None, float | N
     for v in d.free_speeds:
         add("free-space", None, v, regular(d.free_trials), d.free_s_per_speed * scale)
     for mat in d.materials:
-        add("press", mat, None, long(d.long_press_s_per_material * scale, d.long_recording_s), d.long_press_s_per_material * scale)
+        add(
+            "press",
+            mat,
+            None,
+            long(d.long_press_s_per_material * scale, d.long_recording_s),
+            d.long_press_s_per_material * scale,
+        )
     for v in d.free_speeds:
-        add("free-space", None, v, long(d.long_free_s_per_speed * scale, d.long_recording_s), d.long_free_s_per_speed * scale)
+        add(
+            "free-space",
+            None,
+            v,
+            long(d.long_free_s_per_speed * scale, d.long_recording_s),
+            d.long_free_s_per_speed * scale,
+        )
     for mat in d.materials:
         for v in d.slip_speeds:
             seconds = d.onset_s_per_cell * scale
@@ -531,7 +666,9 @@ def _plan(design: Design, scale: float) -> list[tuple[str, str | None, float | N
     return plan
 
 
-def generate(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> tuple[pd.DataFrame, dict, dict]:
+def generate(
+    scale: float = 0.05, seed: int = 0, design: Design = Design()
+) -> tuple[pd.DataFrame, dict, dict]:
     """Simulate the design of experiments.
 
     Parameters
@@ -565,7 +702,11 @@ def generate(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> t
                 for inst, unit in units.items():
                     trial_rng = rng_for(seed, "trial", *key)
                     rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
-                    sig = _signature(rng_for(seed, "signature", sensor_type, inst, *key[1:]), rng_for(seed, "surface", *key), p)
+                    sig = _signature(
+                        rng_for(seed, "signature", sensor_type, inst, *key[1:]),
+                        rng_for(seed, "surface", *key),
+                        p,
+                    )
                     args = (trial_rng, rng, sig, unit, sensor, p)
                     if scenario == "slip":
                         forces, label = _slip_forces(n, fs, speed, material, *args)
@@ -575,19 +716,32 @@ def generate(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> t
                         forces, label = _press_forces(n, fs, material, *args)
                     else:
                         forces, label = _free_space_forces(n, fs, speed, *args)
-                    rid = "-".join((sensor_type, inst, scenario, material or "none", speed_name, token))
+                    rid = "-".join(
+                        (sensor_type, inst, scenario, material or "none", speed_name, token)
+                    )
                     samples[rid] = _sense(forces, sensor, unit, sig, fs, rng, p)
                     labels[rid] = label
-                    rows.append(dict(
-                        recording_id=rid, sensor_type=sensor_type, sensor_instance=inst, scenario=scenario,
-                        material=material, speed_mm_s=speed, sampling_rate_hz=fs,
-                        channels=sensor.channels, units=(sensor.unit,) * len(sensor.channels),
-                        source=f"slipbench.data.synth v{MODEL_VERSION} seed={seed} scale={scale:g}", trial=trial_id,
-                    ))
+                    rows.append(
+                        dict(
+                            recording_id=rid,
+                            sensor_type=sensor_type,
+                            sensor_instance=inst,
+                            scenario=scenario,
+                            material=material,
+                            speed_mm_s=speed,
+                            sampling_rate_hz=fs,
+                            channels=sensor.channels,
+                            units=(sensor.unit,) * len(sensor.channels),
+                            source=f"slipbench.data.synth v{MODEL_VERSION} seed={seed} scale={scale:g}",
+                            trial=trial_id,
+                        )
+                    )
     return pd.DataFrame(rows), samples, labels
 
 
-def synthesize(out: str | Path, scale: float = 0.05, seed: int = 0, design: Design = Design()) -> Path:
+def synthesize(
+    out: str | Path, scale: float = 0.05, seed: int = 0, design: Design = Design()
+) -> Path:
     """Generate the simulated dataset into folder ``out`` (written atomically)."""
     recordings, samples, labels = generate(scale, seed, design)
     return write_dataset(out, recordings, samples, labels)

@@ -19,13 +19,17 @@ from slipbench.errors import UsageError
 SIDE_COLUMN = "dataset_side"
 
 
-def parse_sensor_map(items: tuple[str, ...] | list[str]) -> dict[tuple[str, str | None], tuple[str, str | None]]:
+def parse_sensor_map(
+    items: tuple[str, ...] | list[str],
+) -> dict[tuple[str, str | None], tuple[str, str | None]]:
     """``["Vib=BioTacSP", "Taxels:left=Nano17:index"]`` -> {(type, instance or None): (type, instance or None)}."""
     out = {}
     for item in items:
         src, sep, dst = item.partition("=")
         if not sep or not src or not dst:
-            raise UsageError(f"--sensor-map {item!r}: expected TYPE=TYPE or TYPE:INSTANCE=TYPE:INSTANCE")
+            raise UsageError(
+                f"--sensor-map {item!r}: expected TYPE=TYPE or TYPE:INSTANCE=TYPE:INSTANCE"
+            )
         key = tuple(src.split(":", 1)) if ":" in src else (src, None)
         value = tuple(dst.split(":", 1)) if ":" in dst else (dst, None)
         out[key] = value
@@ -39,18 +43,24 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
     sensor_map = sensor_map or {}
     a, b = train.recordings.copy(), test.recordings.copy()
     for (src_type, src_inst), (dst_type, dst_inst) in sensor_map.items():
-        hit = b["sensor_type"].eq(src_type) & (b["sensor_instance"].eq(src_inst) if src_inst else True)
+        hit = b["sensor_type"].eq(src_type) & (
+            b["sensor_instance"].eq(src_inst) if src_inst else True
+        )
         if not hit.any():
-            raise UsageError(f"--sensor-map: the test dataset has no sensor {src_type}{':' + src_inst if src_inst else ''}")
+            raise UsageError(
+                f"--sensor-map: the test dataset has no sensor {src_type}{':' + src_inst if src_inst else ''}"
+            )
         b.loc[hit, "sensor_type"] = dst_type
         if dst_inst:
             b.loc[hit, "sensor_instance"] = dst_inst
     units_a = set(zip(a["sensor_type"], a["sensor_instance"]))
     units_b = set(zip(b["sensor_type"], b["sensor_instance"]))
     if not units_a & units_b:
-        raise UsageError(f"no unit of the test dataset ({', '.join(sorted(map(':'.join, units_b)))}) matches one of the "
-                         f"training dataset ({', '.join(sorted(map(':'.join, units_a)))}); map them with "
-                         "--sensor-map TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE]")
+        raise UsageError(
+            f"no unit of the test dataset ({', '.join(sorted(map(':'.join, units_b)))}) matches one of the "
+            f"training dataset ({', '.join(sorted(map(':'.join, units_a)))}); map them with "
+            "--sensor-map TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE]"
+        )
     parts, samples, labels = [], {}, {}
     for side, frame, ds in (("train", a, train), ("test", b, test)):
         frame = frame.assign(**{SIDE_COLUMN: side})

@@ -13,9 +13,9 @@ import numpy as np
 import pandas as pd
 
 from slipbench.data.dataset import Dataset
-from slipbench.errors import UsageError
-from slipbench.engine.plan import CellData, Run
 from slipbench.data.signals import Signals
+from slipbench.engine.plan import CellData, Run
+from slipbench.errors import UsageError
 
 LOW_N = 10  # test trials per class below which a cell's intervals undercover (see metrics)
 SIZES = (5, 10, 25, 50, 100, 200)
@@ -38,9 +38,16 @@ def _units(signals: Signals, labelling: str) -> pd.DataFrame:
         windows = signals.windows(50, part.index.to_numpy(), values=False, labelling=labelling)
         for label, name in ((1, "slip"), (0, "non-slip")):
             mine = windows.recording[windows.y == label]
-            rows.append({"sensor_type": sensor, "sensor_instance": instance, "class": name,
-                         "recordings": len(np.unique(mine)), "trials": rec["trial"].iloc[np.unique(mine)].nunique(),
-                         "windows_of_50": len(mine)})
+            rows.append(
+                {
+                    "sensor_type": sensor,
+                    "sensor_instance": instance,
+                    "class": name,
+                    "recordings": len(np.unique(mine)),
+                    "trials": rec["trial"].iloc[np.unique(mine)].nunique(),
+                    "windows_of_50": len(mine),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -48,11 +55,17 @@ def _windows(signals: Signals, labelling: str) -> pd.DataFrame:
     rec = signals.recordings
     rows = []
     for (sensor, instance), part in rec.groupby(["sensor_type", "sensor_instance"], sort=False):
-        rate = float(part["unit_rate_hz"].iloc[0]) if "unit_rate_hz" in part else float(part["sampling_rate_hz"].iloc[0])
+        rate = (
+            float(part["unit_rate_hz"].iloc[0])
+            if "unit_rate_hz" in part
+            else float(part["sampling_rate_hz"].iloc[0])
+        )
         row = {"sensor_type": sensor, "sensor_instance": instance, "rate_hz": rate}
         for size in SIZES:
             w = signals.windows(size, part.index.to_numpy(), values=False, labelling=labelling)
-            row[f"{size} ({1000 * size / rate:.4g} ms)"] = f"{int((w.y == 1).sum())} / {int((w.y == 0).sum())}"
+            row[f"{size} ({1000 * size / rate:.4g} ms)"] = (
+                f"{int((w.y == 1).sum())} / {int((w.y == 0).sum())}"
+            )
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -70,15 +83,28 @@ def _cells(signals: Signals, runs: list[Run]) -> pd.DataFrame:
                 train, test = data.part(cell.train, cell.window), data.part(cell.test, cell.window)
                 for part, role in ((train, "train"), (test, "test")):
                     if len(np.unique(part.y)) < 2:
-                        raise UsageError(f"no {'slip' if 1 not in part.y else 'non-slip'} windows to {role} on")
+                        raise UsageError(
+                            f"no {'slip' if 1 not in part.y else 'non-slip'} windows to {role} on"
+                        )
                 n_slip = len(np.unique(trials[test.recording[test.y == 1]]))
                 n_non = len(np.unique(trials[test.recording[test.y == 0]]))
                 if min(n_slip, n_non) < LOW_N:
-                    verdict, reason = "low n", f"fewer than {LOW_N} test trials of a class: its intervals are not to be trusted"
+                    verdict, reason = (
+                        "low n",
+                        f"fewer than {LOW_N} test trials of a class: its intervals are not to be trusted",
+                    )
             except UsageError as exc:
                 verdict, reason = "skipped", str(exc)
-            rows.append({"protocol": run.protocol_name, "cell": cell.name, "verdict": verdict,
-                         "test_trials_slip": n_slip, "test_trials_nonslip": n_non, "reason": reason})
+            rows.append(
+                {
+                    "protocol": run.protocol_name,
+                    "cell": cell.name,
+                    "verdict": verdict,
+                    "test_trials_slip": n_slip,
+                    "test_trials_nonslip": n_non,
+                    "reason": reason,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -92,4 +118,6 @@ def check_dataset(dataset: Dataset, runs: list[Run]) -> DatasetCheck:
     for run in runs:
         for name, values in run.protocol.columns(dataset.recordings).items():
             signals.recordings[name] = values
-    return DatasetCheck(_units(signals, labelling), _windows(signals, labelling), _cells(signals, runs))
+    return DatasetCheck(
+        _units(signals, labelling), _windows(signals, labelling), _cells(signals, runs)
+    )

@@ -14,8 +14,8 @@ import sys
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
-from slipbench.errors import UsageError
 from slipbench.engine.fitting import Result, fit_and_test
+from slipbench.errors import UsageError
 
 T = TypeVar("T")
 Payload = Callable[[T], tuple]
@@ -46,7 +46,9 @@ def _failed(n: int, status: str, reason: str) -> list[Result]:
     return [({"status": status, "reason": reason}, None)] * n
 
 
-def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | None) -> Iterator[tuple[T, list[Result]]]:
+def process_pool(
+    tasks: list[T], payload: Payload, jobs: int, timeout: float | None
+) -> Iterator[tuple[T, list[Result]]]:
     """Local worker processes; at most two tasks per worker in flight, so their windows are not
     all in memory at once. pebble, unlike concurrent.futures, kills a worker past its time limit
     and replaces a worker that died.
@@ -61,13 +63,19 @@ def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | N
     from slipbench.engine.registry import PLUGIN_FILES
 
     context = multiprocessing.get_context("forkserver")
-    with ProcessPool(max_workers=jobs, initializer=_worker_init, initargs=(jobs, dict(PLUGIN_FILES)),
-                     context=context) as pool:
+    with ProcessPool(
+        max_workers=jobs,
+        initializer=_worker_init,
+        initargs=(jobs, dict(PLUGIN_FILES)),
+        context=context,
+    ) as pool:
         pending: list[Any] = []
         queue = iter(tasks)
         while True:
             for task in queue:
-                pending.append((pool.schedule(fit_and_test, args=payload(task), timeout=timeout), task))
+                pending.append(
+                    (pool.schedule(fit_and_test, args=payload(task), timeout=timeout), task)
+                )
                 if len(pending) >= 2 * jobs:
                     break
             if not pending:
@@ -77,19 +85,31 @@ def process_pool(tasks: list[T], payload: Payload, jobs: int, timeout: float | N
             try:
                 yield task, future.result()
             except FutureTimeout:
-                yield task, _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s")
+                yield (
+                    task,
+                    _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s"),
+                )
             except ProcessExpired as exc:
                 killed = exc.exitcode is not None and exc.exitcode < 0
-                yield task, _failed(n, "failed", f"the worker process died (exit code {exc.exitcode}"
-                                    + (": killed by a signal, e.g. the out-of-memory killer" if killed else "")
-                                    + ") while fitting or testing this model")
+                yield (
+                    task,
+                    _failed(
+                        n,
+                        "failed",
+                        f"the worker process died (exit code {exc.exitcode}"
+                        + (": killed by a signal, e.g. the out-of-memory killer" if killed else "")
+                        + ") while fitting or testing this model",
+                    ),
+                )
 
 
 def dask_client(address: str):
     try:
         from distributed import Client
     except ImportError:
-        raise UsageError("--scheduler needs dask.distributed: pip install 'slipbench[dask]'") from None
+        raise UsageError(
+            "--scheduler needs dask.distributed: pip install 'slipbench[dask]'"
+        ) from None
     try:
         return Client(address, timeout="3s")
     except (OSError, TimeoutError) as exc:
@@ -109,8 +129,13 @@ def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, li
         client.close()
 
 
-def execute(tasks: list[T], payload: Payload, jobs: int = 1, scheduler: str | None = None,
-            timeout: float | None = None) -> Iterator[tuple[T, list[Result]]]:
+def execute(
+    tasks: list[T],
+    payload: Payload,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    timeout: float | None = None,
+) -> Iterator[tuple[T, list[Result]]]:
     """Run tasks on the executor the options ask for: ``jobs`` worker processes, or in this
     process for ``jobs=0`` (no protection against a crash, no time limit)."""
     if scheduler:

@@ -20,9 +20,9 @@ import psutil
 
 from slipbench.base import BaseDetector, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
+from slipbench.seeding import seed_int
 from slipbench.stats.metrics import classification_figures
 from slipbench.store.results import write_text_atomic
-from slipbench.seeding import seed_int
 from slipbench.stream.cell import StreamTest, streamed_figures
 
 
@@ -63,8 +63,15 @@ class TestSet:
 Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields and its test scores
 
 
-def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
-                 tests: list[TestSet | StreamTest], model_path: str | None = None) -> list[Result]:
+def fit_and_test(
+    detector: BaseDetector,
+    seed: int,
+    sampling_rate: float,
+    train_x: np.ndarray,
+    train_y: np.ndarray,
+    tests: list[TestSet | StreamTest],
+    model_path: str | None = None,
+) -> list[Result]:
     """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
     stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
 
@@ -77,27 +84,59 @@ def fit_and_test(detector: BaseDetector, seed: int, sampling_rate: float, train_
         out = []
         for test in tests:
             if isinstance(test, StreamTest):
-                out.append(({"status": "ok", "reason": "", "n_train": len(train_x), "sampling_rate_hz": sampling_rate,
-                             "n_test_trials": len(set(test.test.trials)),
-                             **streamed_figures(detector, seed, test), **cost, **_choices(detector, sampling_rate)}, None))
+                out.append(
+                    (
+                        {
+                            "status": "ok",
+                            "reason": "",
+                            "n_train": len(train_x),
+                            "sampling_rate_hz": sampling_rate,
+                            "n_test_trials": len(set(test.test.trials)),
+                            **streamed_figures(detector, seed, test),
+                            **cost,
+                            **_choices(detector, sampling_rate),
+                        },
+                        None,
+                    )
+                )
                 continue
             t0 = time.perf_counter()
             scores = detector.predict_proba(test.x)
             infer_s = time.perf_counter() - t0
             y_pred = (scores >= 0.5).astype(np.int8)
-            out.append(({
-                "status": "ok", "reason": _one_class(test.y), "n_train": len(train_x), "n_test": len(test.x),
-                "n_test_trials": int(len(np.unique(test.groups))), "sampling_rate_hz": sampling_rate,
-                **classification_figures(test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata),
-                **cost, "infer_us_per_window": infer_s / len(test.x) * 1e6,
-                **_choices(detector, sampling_rate),
-            }, scores))
+            out.append(
+                (
+                    {
+                        "status": "ok",
+                        "reason": _one_class(test.y),
+                        "n_train": len(train_x),
+                        "n_test": len(test.x),
+                        "n_test_trials": int(len(np.unique(test.groups))),
+                        "sampling_rate_hz": sampling_rate,
+                        **classification_figures(
+                            test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
+                        ),
+                        **cost,
+                        "infer_us_per_window": infer_s / len(test.x) * 1e6,
+                        **_choices(detector, sampling_rate),
+                    },
+                    scores,
+                )
+            )
         return out
     except EnvironmentFault:
         raise  # a full disk is the machine's fault, not the detector's: the run stops, exit 5
     except Exception as exc:  # noqa: BLE001 - whatever a plugin raises stays in its cells
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-        return [({"status": "failed", "reason": f"detector {plugin_id(type(detector))!r} raised: {detail}"}, None)] * len(tests)
+        return [
+            (
+                {
+                    "status": "failed",
+                    "reason": f"detector {plugin_id(type(detector))!r} raised: {detail}",
+                },
+                None,
+            )
+        ] * len(tests)
 
 
 def _one_class(y: np.ndarray) -> str:
@@ -116,14 +155,24 @@ def _choices(detector: BaseDetector, sampling_rate: float) -> dict[str, str]:
     band = choices.get("band_hz")
     if band is not None:
         if band[0] <= 0:
-            warnings.append(f"the fitted band {band[0]:g}-{band[1]:g} Hz starts at 0 Hz: it thresholds drift, not vibration")
+            warnings.append(
+                f"the fitted band {band[0]:g}-{band[1]:g} Hz starts at 0 Hz: it thresholds drift, not vibration"
+            )
         if band[1] >= sampling_rate / 2:
-            warnings.append(f"the fitted band {band[0]:g}-{band[1]:g} Hz reaches the Nyquist frequency ({sampling_rate / 2:g} Hz)")
+            warnings.append(
+                f"the fitted band {band[0]:g}-{band[1]:g} Hz reaches the Nyquist frequency ({sampling_rate / 2:g} Hz)"
+            )
     return {"fitted": json.dumps(choices, sort_keys=True), "warnings": "; ".join(warnings)}
 
 
-def _trained(detector: BaseDetector, seed: int, sampling_rate: float, train_x: np.ndarray, train_y: np.ndarray,
-             model_path: str | None) -> tuple[BaseDetector, dict[str, Any]]:
+def _trained(
+    detector: BaseDetector,
+    seed: int,
+    sampling_rate: float,
+    train_x: np.ndarray,
+    train_y: np.ndarray,
+    model_path: str | None,
+) -> tuple[BaseDetector, dict[str, Any]]:
     """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
     cost_path = None if model_path is None else Path(f"{model_path}.json")
     if cost_path is not None and cost_path.is_file():
@@ -133,11 +182,17 @@ def _trained(detector: BaseDetector, seed: int, sampling_rate: float, train_x: n
         t0 = time.perf_counter()
         detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed_int(seed, "detector"))
         train_s = time.perf_counter() - t0
-    cost = {"train_s": train_s, "train_us_per_sample": train_s / train_x.size * 1e6, "peak_mem_mb": mem.mb}
+    cost = {
+        "train_s": train_s,
+        "train_us_per_sample": train_s / train_x.size * 1e6,
+        "peak_mem_mb": mem.mb,
+    }
     if model_path is not None:
         try:
             detector.save(model_path)
         except UsageError:
             return detector, cost  # state that cannot be saved safely: reuse it in this run only
-        write_text_atomic(Path(cost_path), json.dumps(cost))  # written last: it marks the model complete
+        write_text_atomic(
+            Path(cost_path), json.dumps(cost)
+        )  # written last: it marks the model complete
     return detector, cost

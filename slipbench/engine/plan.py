@@ -16,14 +16,14 @@ import numpy as np
 import pandas as pd
 
 from slipbench.base import BaseDetector
-from slipbench.errors import PluginError, UsageError
-from slipbench.store.keys import canonical, cell_key, code_identity
-from slipbench.protocol import BaseProtocol, Cell, Part
-from slipbench.engine.registry import detectors, protocols
 from slipbench.data.signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
-from slipbench.stream.metrics import onsets
 from slipbench.data.transfer import SIDE_COLUMN
+from slipbench.engine.registry import detectors, protocols
+from slipbench.errors import PluginError, UsageError
+from slipbench.protocol import BaseProtocol, Cell, Part
 from slipbench.seeding import STREAM_SCHEME, rng_for
+from slipbench.store.keys import canonical, cell_key, code_identity
+from slipbench.stream.metrics import onsets
 
 # a recordings column the runner adds: True where the dataset gives the recording per-sample
 # slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
@@ -66,8 +66,14 @@ class Run:
         if self.split not in SPLITS:
             raise UsageError(f"unknown split {self.split!r}; choose one of: {', '.join(SPLITS)}")
         if self.labels not in LABELLINGS:
-            raise UsageError(f"unknown labelling {self.labels!r}; choose one of: {', '.join(LABELLINGS)}")
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
+            raise UsageError(
+                f"unknown labelling {self.labels!r}; choose one of: {', '.join(LABELLINGS)}"
+            )
+        if (
+            isinstance(self.seed, bool)
+            or not isinstance(self.seed, int)
+            or not 0 <= self.seed < 2**32
+        ):
             raise UsageError(f"seed must be an int in [0, 2**32 - 1], got {self.seed!r}")
 
     def validate(self) -> None:
@@ -80,12 +86,19 @@ class Run:
         try:
             return list(self.protocol.cells(recordings))
         except Exception as exc:  # noqa: BLE001 - a plugin's bug, reported as such
-            raise PluginError(f"protocol {self.protocol_name!r} failed to make its cells: {type(exc).__name__}: {exc}") from exc
+            raise PluginError(
+                f"protocol {self.protocol_name!r} failed to make its cells: {type(exc).__name__}: {exc}"
+            ) from exc
 
 
 def _concat(parts: list[Windows]) -> Windows:
-    return Windows(None, np.concatenate([p.recording for p in parts]), np.concatenate([p.index for p in parts]),
-                   parts[0].recordings, np.concatenate([p.labels for p in parts]))
+    return Windows(
+        None,
+        np.concatenate([p.recording for p in parts]),
+        np.concatenate([p.index for p in parts]),
+        parts[0].recordings,
+        np.concatenate([p.labels for p in parts]),
+    )
 
 
 class CellData:
@@ -98,14 +111,18 @@ class CellData:
         self.signals, self.how, self.seed, self.labelling = signals, how, seed, labelling
         self._sides = trial_sides(signals.recordings, seed) if how == "grouped" else None
         if how == "datasets" and SIDE_COLUMN not in signals.recordings:
-            raise UsageError("the datasets split needs a dataset combined by slipbench.data.transfer.combine "
-                             "(evaluate --train-dataset A --dataset B)")
+            raise UsageError(
+                "the datasets split needs a dataset combined by slipbench.data.transfer.combine "
+                "(evaluate --train-dataset A --dataset B)"
+            )
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
         rec = signals.recordings
         self._rows = {
             k: np.flatnonzero((rec["sensor_type"] == k[0]) & (rec["sensor_instance"] == k[1]))
-            for k in rec[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None)
+            for k in rec[["sensor_type", "sensor_instance"]]
+            .drop_duplicates()
+            .itertuples(index=False, name=None)
         }
 
     def sides(self, sensor: tuple[str, str], window: int) -> tuple[Windows, Windows]:
@@ -130,10 +147,17 @@ class CellData:
         if len(windows) == 0:
             longest = int(np.max(np.diff(self.signals.offsets)[rows]))
             if longest < window:
-                raise UsageError(f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)")
-            raise UsageError(f"no window of {window} samples of {name} can be labelled by {self.labelling}"
-                             + (" (hold-slip recordings hold two states: label by samples, e.g. --labels majority)"
-                                if self.labelling == "scenario" else " (each touches an unlabelled sample)"))
+                raise UsageError(
+                    f"window {window} is longer than every recording of {name} (longest signal: {longest} samples)"
+                )
+            raise UsageError(
+                f"no window of {window} samples of {name} can be labelled by {self.labelling}"
+                + (
+                    " (hold-slip recordings hold two states: label by samples, e.g. --labels majority)"
+                    if self.labelling == "scenario"
+                    else " (each touches an unlabelled sample)"
+                )
+            )
         rng = rng_for(self.seed, "balance", *sensor, window)
         if self.how == "datasets":
             return self._across_datasets(windows, rng, name)
@@ -143,10 +167,14 @@ class CellData:
             classes = set(np.unique(windows.y[idx]))
             if classes != {0, 1}:
                 missing = "slip" if 1 not in classes else "non-slip"
-                raise UsageError(f"the {self.how} split of {name} at window {window} leaves no {missing} windows on the {side} side")
+                raise UsageError(
+                    f"the {self.how} split of {name} at window {window} leaves no {missing} windows on the {side} side"
+                )
         return windows.take(train), windows.take(test)
 
-    def _across_datasets(self, windows: Windows, rng: np.random.Generator, name: str) -> tuple[Windows, Windows]:
+    def _across_datasets(
+        self, windows: Windows, rng: np.random.Generator, name: str
+    ) -> tuple[Windows, Windows]:
         """Balanced windows of the training dataset; every window of the test dataset, balanced
         when it holds both classes (a one-class test set reports the rate that exists)."""
         on_test = windows.column(SIDE_COLUMN) == "test"
@@ -163,7 +191,9 @@ class CellData:
         its conditions, carry per-sample labels and lie on its side of the split by whole trials
         (this CellData's split must be :func:`stream_split`'s). Sorted; may be empty."""
         rec = self.signals.recordings
-        on_test = (rec[SIDE_COLUMN] == "test").to_numpy() if self.how == "datasets" else self._sides == 1
+        on_test = (
+            (rec[SIDE_COLUMN] == "test").to_numpy() if self.how == "datasets" else self._sides == 1
+        )
         labelled = rec[LABELLED].to_numpy(bool) if LABELLED in rec else np.zeros(len(rec), bool)
         return np.flatnonzero(part.mask(rec) & labelled & (on_test == (part.side == "test")))
 
@@ -178,15 +208,25 @@ class CellData:
         them: low-passed first if ``cell.antialias``, then decimated as ``cell.decimation`` says.
         At the full rate there is nothing to filter or decimate."""
         if cell.downsample == 1:
-            return Windows(self.signals.values(windows, cell.window), windows.recording, windows.index,
-                           windows.recordings, windows.labels)
+            return Windows(
+                self.signals.values(windows, cell.window),
+                windows.recording,
+                windows.index,
+                windows.recordings,
+                windows.labels,
+            )
         signals = self.signals
         if cell.antialias:
             if cell.downsample not in self._antialiased:
                 self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
             signals = self._antialiased[cell.downsample]
-        out = Windows(signals.values(windows, cell.window), windows.recording, windows.index, windows.recordings,
-                      windows.labels)
+        out = Windows(
+            signals.values(windows, cell.window),
+            windows.recording,
+            windows.index,
+            windows.recordings,
+            windows.labels,
+        )
         return out.downsample(cell.downsample, cell.decimation)
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
@@ -197,8 +237,10 @@ class CellData:
         rates = rows[column].unique()
         if len(rates) > 1:
             lo, hi = rows.loc[rows[column].idxmin()], rows.loc[rows[column].idxmax()]
-            raise UsageError(f"a cell pools sensors with different sampling rates: {float(lo[column]):g} Hz (recording "
-                             f"{lo['recording_id']}) to {float(hi[column]):g} Hz (recording {hi['recording_id']})")
+            raise UsageError(
+                f"a cell pools sensors with different sampling rates: {float(lo[column]):g} Hz (recording "
+                f"{lo['recording_id']}) to {float(hi[column]):g} Hz (recording {hi['recording_id']})"
+            )
         return float(rates[0]) / downsample
 
 
@@ -214,7 +256,9 @@ class PlannedCell:
     test: Windows | None = None
     sampling_rate: float = 0.0
     skip: str = ""
-    streams: dict[str, np.ndarray] | None = None  # streaming cells: "train"/"test" -> recording rows
+    streams: dict[str, np.ndarray] | None = (
+        None  # streaming cells: "train"/"test" -> recording rows
+    )
 
 
 @dataclass
@@ -248,20 +292,53 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
     on the same windows). Both hold the identity of the code that runs: slipbench's and the
     detector's (and the cell key the protocol's), so a changed plugin or engine never returns
     results cached by the old code."""
-    code = {"slipbench": code_identity(sys.modules["slipbench"]), "detector": code_identity(type(run.detector))}
+    code = {
+        "slipbench": code_identity(sys.modules["slipbench"]),
+        "detector": code_identity(type(run.detector)),
+    }
     try:
         params = canonical(run.detector.get_params())
     except TypeError as exc:
-        raise UsageError(f"detector {run.detector_name!r}: a parameter is not a plain value: {exc}") from None
-    common = {"dataset": fingerprint, "detector": run.detector_name, "params": params,
-              "split": stream_split(run.split) if cell.stream else run.split, "seed": run.seed, "streams": STREAM_SCHEME, "labels": run.labels, "code": code}
+        raise UsageError(
+            f"detector {run.detector_name!r}: a parameter is not a plain value: {exc}"
+        ) from None
+    common = {
+        "dataset": fingerprint,
+        "detector": run.detector_name,
+        "params": params,
+        "split": stream_split(run.split) if cell.stream else run.split,
+        "seed": run.seed,
+        "streams": STREAM_SCHEME,
+        "labels": run.labels,
+        "code": code,
+    }
     # at the full rate every decimation gives the same windows: one model serves them all
-    sampling = ({"decimation": "plain"} if cell.downsample == 1 else
-                {"decimation": cell.decimation, "antialias": bool(cell.antialias)})
-    model = cell_key({**common, "train": cell.train, "window": cell.window, "downsample": cell.downsample, **sampling})
-    key = cell_key({**common, "protocol": run.protocol_name, "protocol_params": run.protocol.get_params(),
-                    "protocol_code": code_identity(type(run.protocol)), "cell": cell.key, "test": cell.test, "model": model,
-                    **({"stream": cell.stream, "run_split": run.split} if cell.stream else {})})
+    sampling = (
+        {"decimation": "plain"}
+        if cell.downsample == 1
+        else {"decimation": cell.decimation, "antialias": bool(cell.antialias)}
+    )
+    model = cell_key(
+        {
+            **common,
+            "train": cell.train,
+            "window": cell.window,
+            "downsample": cell.downsample,
+            **sampling,
+        }
+    )
+    key = cell_key(
+        {
+            **common,
+            "protocol": run.protocol_name,
+            "protocol_params": run.protocol.get_params(),
+            "protocol_code": code_identity(type(run.protocol)),
+            "cell": cell.key,
+            "test": cell.test,
+            "model": model,
+            **({"stream": cell.stream, "run_split": run.split} if cell.stream else {}),
+        }
+    )
     return key, model
 
 
@@ -270,7 +347,9 @@ def _missing_classes(y: np.ndarray) -> str:
     return " and ".join(n for c, n in ((1, "slip"), (0, "non-slip")) if c not in classes)
 
 
-def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint: str, done: set[str]) -> Plan:
+def make_plan(
+    signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint: str, done: set[str]
+) -> Plan:
     """Plan every cell of every run (a run with its protocol's cells); cells whose key is in
     ``done`` are listed but not computed."""
     data: dict[tuple[str, int, str], CellData] = {}
@@ -278,7 +357,9 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
     tasks: dict[str, Task] = {}
     for run, cells in runs:
         if (run.split, run.seed, run.labels) not in data:
-            data[run.split, run.seed, run.labels] = CellData(signals, run.split, run.seed, run.labels)
+            data[run.split, run.seed, run.labels] = CellData(
+                signals, run.split, run.seed, run.labels
+            )
         cells_data = data[run.split, run.seed, run.labels]
         for cell in cells:
             key, model = keys(run, cell, fingerprint)
@@ -292,7 +373,10 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
                     tasks.setdefault(model, Task(model)).cells.append(pc)
                 continue
             try:
-                pc.train, pc.test = cells_data.part(cell.train, cell.window), cells_data.part(cell.test, cell.window)
+                pc.train, pc.test = (
+                    cells_data.part(cell.train, cell.window),
+                    cells_data.part(cell.test, cell.window),
+                )
                 pc.sampling_rate = cells_data.sampling_rate(cell.train, cell.downsample)
             except UsageError as exc:
                 pc.skip = str(exc)
@@ -307,7 +391,9 @@ def make_plan(signals: Signals, runs: list[tuple[Run, list[Cell]]], fingerprint:
     return Plan(planned, list(tasks.values()), data)
 
 
-def _plan_stream(pc: PlannedCell, data: dict[tuple[str, int, str], CellData], signals: Signals) -> None:
+def _plan_stream(
+    pc: PlannedCell, data: dict[tuple[str, int, str], CellData], signals: Signals
+) -> None:
     """A streaming cell's training windows (from the training trials) and the recordings it
     streams, or the reason it is skipped."""
     run, cell = pc.run, pc.cell
@@ -329,11 +415,21 @@ def _plan_stream(pc: PlannedCell, data: dict[tuple[str, int, str], CellData], si
     pc.streams = {side.side: cells_data.streamed(side) for side in (cell.train, cell.test)}
     test = pc.streams["test"]
     if not len(test):
-        labelled = LABELLED in signals.recordings and signals.recordings[LABELLED].to_numpy(bool)[cell.test.mask(signals.recordings)].any()
-        pc.skip = (f"no recording of {units} on the test side of the trial split carries per-sample slip labels" if labelled else
-                   f"the dataset gives no per-sample slip labels for {units}: streaming needs them to time slip onsets")
+        labelled = (
+            LABELLED in signals.recordings
+            and signals.recordings[LABELLED]
+            .to_numpy(bool)[cell.test.mask(signals.recordings)]
+            .any()
+        )
+        pc.skip = (
+            f"no recording of {units} on the test side of the trial split carries per-sample slip labels"
+            if labelled
+            else f"the dataset gives no per-sample slip labels for {units}: streaming needs them to time slip onsets"
+        )
         return
     o = signals.offsets
     # a recording that starts in slip shows no onset (slipbench.stream.cell.unknown_start)
-    if not any((onsets(signals.labels[o[r]:o[r + 1]]) > 0).any() for r in test):
-        pc.skip = f"no slip onset in the {len(test)} test recordings of {units} (labels 0 followed by 1)"
+    if not any((onsets(signals.labels[o[r] : o[r + 1]]) > 0).any() for r in test):
+        pc.skip = (
+            f"no slip onset in the {len(test)} test recordings of {units} (labels 0 followed by 1)"
+        )

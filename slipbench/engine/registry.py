@@ -14,10 +14,11 @@ import hashlib
 import importlib.util
 import inspect
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
@@ -97,8 +98,14 @@ class Registry:
         self._discover()
         for path in sorted(folder.glob("*.py")):
             if not path.name.startswith("_"):
-                self._add(path.stem.replace("_", "-"),
-                          Source(f"plugin file {path}", f"file:{path.resolve()}", lambda p=path: import_plugin_file(p)))
+                self._add(
+                    path.stem.replace("_", "-"),
+                    Source(
+                        f"plugin file {path}",
+                        f"file:{path.resolve()}",
+                        lambda p=path: import_plugin_file(p),
+                    ),
+                )
 
     def names(self) -> list[str]:
         self._discover()
@@ -115,16 +122,24 @@ class Registry:
         try:
             obj = source.load()
         except Exception as exc:  # a broken plugin must not take the others down
-            raise PluginError(f"{self.kind} {name!r} ({source.origin}) failed to import: {type(exc).__name__}: {exc}") from exc
+            raise PluginError(
+                f"{self.kind} {name!r} ({source.origin}) failed to import: {type(exc).__name__}: {exc}"
+            ) from exc
         cls = obj if isinstance(obj, type) else self._class_in(obj, name, source)
         if not (isinstance(cls, type) and issubclass(cls, self.base)):
-            raise PluginError(f"{self.kind} {name!r} ({source.origin}) is not a subclass of {self.base.__name__}")
+            raise PluginError(
+                f"{self.kind} {name!r} ({source.origin}) is not a subclass of {self.base.__name__}"
+            )
         declared = cls.__dict__.get("name")
         if declared and declared != name:
-            raise PluginError(f"{self.kind} {name!r} ({source.origin}) declares name = {declared!r}; its id is the name "
-                              f"it is registered under: drop the attribute or register it as {declared!r}")
+            raise PluginError(
+                f"{self.kind} {name!r} ({source.origin}) declares name = {declared!r}; its id is the name "
+                f"it is registered under: drop the attribute or register it as {declared!r}"
+            )
         self._check_class(cls, name, source)
-        cls.name = name  # the one source of the id, set on the class itself: a subclass gets its own
+        cls.name = (
+            name  # the one source of the id, set on the class itself: a subclass gets its own
+        )
         self._loaded[name] = cls
         return cls
 
@@ -132,23 +147,35 @@ class Registry:
         if self.base is not BaseProtocol:
             return
         try:
-            layout = cls().layout  # a protocol's layout may depend on its options: check the defaults'
+            layout = (
+                cls().layout
+            )  # a protocol's layout may depend on its options: check the defaults'
         except Exception as exc:
-            raise PluginError(f"protocol {name!r} ({source.origin}) cannot be made with its default options: "
-                              f"{type(exc).__name__}: {exc}") from exc
+            raise PluginError(
+                f"protocol {name!r} ({source.origin}) cannot be made with its default options: "
+                f"{type(exc).__name__}: {exc}"
+            ) from exc
         if not isinstance(layout, Layout):
-            raise PluginError(f"protocol {name!r} ({source.origin}) must declare layout = slipbench.protocol.Layout(...), "
-                              f"got {layout!r}")
+            raise PluginError(
+                f"protocol {name!r} ({source.origin}) must declare layout = slipbench.protocol.Layout(...), "
+                f"got {layout!r}"
+            )
 
     def _class_in(self, module, name: str, source: Source) -> type:
         found = [
-            c for c in vars(module).values()
-            if isinstance(c, type) and issubclass(c, self.base) and c is not self.base and c.__module__ == module.__name__
+            c
+            for c in vars(module).values()
+            if isinstance(c, type)
+            and issubclass(c, self.base)
+            and c is not self.base
+            and c.__module__ == module.__name__
         ]
         leaves = [c for c in found if not any(o is not c and issubclass(o, c) for o in found)]
         if len(leaves) == 1:  # a module may hold a plugin's own base class beside the plugin
             return leaves[0]
-        raise PluginError(f"{self.kind} {name!r} ({source.origin}) must define one {self.base.__name__} subclass, found {len(found)}")
+        raise PluginError(
+            f"{self.kind} {name!r} ({source.origin}) must define one {self.base.__name__} subclass, found {len(found)}"
+        )
 
     def id_of(self, cls: type) -> str:
         """The id of a plugin class: the name it was loaded under, the entry point or plugin
@@ -171,23 +198,41 @@ class Registry:
             if isinstance(missing, ModuleNotFoundError):
                 return Status("missing dependency", f"{missing.name} ({exc})")
             return Status("import error", str(exc))
-        absent = [m for m in getattr(cls, "requires", ()) if importlib.util.find_spec(m.split(".")[0]) is None]
+        absent = [
+            m
+            for m in getattr(cls, "requires", ())
+            if importlib.util.find_spec(m.split(".")[0]) is None
+        ]
         if absent:
-            return Status("missing dependency", ", ".join(absent) + (f": {cls.install_hint}" if getattr(cls, "install_hint", "") else ""))
+            return Status(
+                "missing dependency",
+                ", ".join(absent)
+                + (f": {cls.install_hint}" if getattr(cls, "install_hint", "") else ""),
+            )
         return Status("ok")
 
     def describe(self, name: str) -> dict[str, Any]:
         """Id, status, one-line description and parameters with defaults (``slipbench list``)."""
         status = self.status(name)
-        out: dict[str, Any] = {"name": name, "status": status.state, "detail": status.detail,
-                               "origin": self._sources[name].origin, "description": "", "parameters": {}}
+        out: dict[str, Any] = {
+            "name": name,
+            "status": status.state,
+            "detail": status.detail,
+            "origin": self._sources[name].origin,
+            "description": "",
+            "parameters": {},
+        }
         if name in self._loaded:
             cls = self._loaded[name]
             out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
             constraints = getattr(cls, "_parameter_constraints", {})
-            out["parameters"] = {p: {"default": None if d is inspect.Parameter.empty else d,
-                                     "constraint": str(constraints[p]) if p in constraints else ""}
-                                 for p, d in param_defaults(cls).items()}
+            out["parameters"] = {
+                p: {
+                    "default": None if d is inspect.Parameter.empty else d,
+                    "constraint": str(constraints[p]) if p in constraints else "",
+                }
+                for p, d in param_defaults(cls).items()
+            }
         return out
 
 

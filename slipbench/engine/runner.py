@@ -14,45 +14,63 @@ import platform
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from slipbench import __version__
 from slipbench.data.dataset import Dataset
-from slipbench.errors import EnvironmentFault
+from slipbench.data.signals import Signals
 from slipbench.engine.executors import execute
-from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, make_plan
-from slipbench.protocol import Cell, Part
 from slipbench.engine.fitting import TestSet
-from slipbench.stream.cell import Recordings, StreamTest
+from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, make_plan
+from slipbench.errors import EnvironmentFault
+from slipbench.protocol import Cell, Part
 from slipbench.store.keys import canonical
 from slipbench.store.results import ResultsStore
-from slipbench.data.signals import Signals
+from slipbench.stream.cell import Recordings, StreamTest
 
 
 def environment() -> dict[str, str]:
     torch = sys.modules.get("torch")
     return {
-        "slipbench_version": __version__, "python_version": platform.python_version(),
-        "numpy_version": np.__version__, "torch_version": getattr(torch, "__version__", ""),
+        "slipbench_version": __version__,
+        "python_version": platform.python_version(),
+        "numpy_version": np.__version__,
+        "torch_version": getattr(torch, "__version__", ""),
         "platform": platform.platform(),
     }
 
 
-def _row(pc: PlannedCell, fields: dict, fingerprint: str, path: str, env: dict, run_id: str) -> dict:
+def _row(
+    pc: PlannedCell, fields: dict, fingerprint: str, path: str, env: dict, run_id: str
+) -> dict:
     run, cell = pc.run, pc.cell
     return {
-        "key": pc.key, "model_key": pc.model_key, "run_id": run_id, "protocol": run.protocol_name,
+        "key": pc.key,
+        "model_key": pc.model_key,
+        "run_id": run_id,
+        "protocol": run.protocol_name,
         "protocol_params": _json(run.protocol.get_params()),
         "detector": run.detector_name,
         "detector_params": _json(run.detector.get_params()),
-        "split": run.split, "seed": run.seed, "labels": run.labels, **cell.key, "window": cell.window, "downsample": cell.downsample,
-        "decimation": cell.decimation, "antialias": cell.antialias, "cell": cell.name,
-        "train_sensors": _json(cell.train.sensors), "train_where": _json(cell.train.where),
-        "test_sensors": _json(cell.test.sensors), "test_where": _json(cell.test.where),
-        **fields, "dataset_fingerprint": fingerprint, "dataset_path": path, **env,
+        "split": run.split,
+        "seed": run.seed,
+        "labels": run.labels,
+        **cell.key,
+        "window": cell.window,
+        "downsample": cell.downsample,
+        "decimation": cell.decimation,
+        "antialias": cell.antialias,
+        "cell": cell.name,
+        "train_sensors": _json(cell.train.sensors),
+        "train_where": _json(cell.train.where),
+        "test_sensors": _json(cell.test.sensors),
+        "test_where": _json(cell.test.where),
+        **fields,
+        "dataset_fingerprint": fingerprint,
+        "dataset_path": path,
+        **env,
         "finished_at": datetime.now(timezone.utc).isoformat(),
     }
 
@@ -66,14 +84,21 @@ def _no_cells(run: Run, dataset: Dataset) -> Cell:
     """A skipped stand-in for a protocol that makes no cell on this dataset, so the run says so
     in its results instead of stopping."""
     unit = tuple(dataset.recordings[["sensor_type", "sensor_instance"]].iloc[0])
-    return Cell({"cells": "none"}, Part((unit,), "train"), Part((unit,), "test"), 1,
-                skip=f"protocol {run.protocol_name!r} makes no cell on this dataset (scenarios: "
-                     f"{', '.join(sorted(set(dataset.recordings['scenario'])))})")
+    return Cell(
+        {"cells": "none"},
+        Part((unit,), "train"),
+        Part((unit,), "test"),
+        1,
+        skip=f"protocol {run.protocol_name!r} makes no cell on this dataset (scenarios: "
+        f"{', '.join(sorted(set(dataset.recordings['scenario'])))})",
+    )
 
 
 def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
     signals = Signals.from_dataset(dataset)
-    signals.recordings[LABELLED] = signals.recordings["recording_id"].isin(list(dataset.slip_labels)).to_numpy()
+    signals.recordings[LABELLED] = (
+        signals.recordings["recording_id"].isin(list(dataset.slip_labels)).to_numpy()
+    )
     for run in runs:
         for name, values in run.protocol.columns(dataset.recordings).items():
             signals.recordings[name] = values
@@ -118,11 +143,15 @@ def evaluate(
         predictions = None
         if scores is not None:
             rec = signals.recordings
-            predictions = pd.DataFrame({
-                "recording_id": rec["recording_id"].to_numpy()[pc.test.recording],
-                "trial": rec["trial"].to_numpy()[pc.test.recording],
-                "window_index": pc.test.index, "y_true": pc.test.y, "score": scores,
-            })
+            predictions = pd.DataFrame(
+                {
+                    "recording_id": rec["recording_id"].to_numpy()[pc.test.recording],
+                    "trial": rec["trial"].to_numpy()[pc.test.recording],
+                    "window_index": pc.test.index,
+                    "y_true": pc.test.y,
+                    "score": scores,
+                }
+            )
         store.put(row, predictions)
         rows[pc.key] = row
 
@@ -147,21 +176,34 @@ def evaluate(
     return pd.DataFrame([rows[pc.key] for pc in plan.cells])
 
 
-def _payload(plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler: str | None) -> tuple:
+def _payload(
+    plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler: str | None
+) -> tuple:
     """The arguments of ``fit_and_test`` for a task: samples are cut here, one task at a time."""
     first = task.first
     data = plan.data_of(first.run)
     train = data.values(first.train, first.cell)
     trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
-    tests = [_stream_test(data.signals, pc) if pc.streams is not None else _window_test(data.values(pc.test, pc.cell), trials)
-             for pc in task.cells]
+    tests = [
+        _stream_test(data.signals, pc)
+        if pc.streams is not None
+        else _window_test(data.values(pc.test, pc.cell), trials)
+        for pc in task.cells
+    ]
     model_path = None
     if not scheduler:  # dask workers may not see this disk
         model_path = store.model_path(task.model_key)
         if force:
             Path(f"{model_path}.json").unlink(missing_ok=True)
-    return (first.run.detector, first.run.seed, first.sampling_rate, train.x, train.y, tests,
-            None if model_path is None else str(model_path))
+    return (
+        first.run.detector,
+        first.run.seed,
+        first.sampling_rate,
+        train.x,
+        train.y,
+        tests,
+        None if model_path is None else str(model_path),
+    )
 
 
 def _window_test(windows, trials: np.ndarray) -> TestSet:
@@ -174,25 +216,38 @@ def _stream_test(signals: Signals, pc: PlannedCell) -> StreamTest:
     rates = rec["sampling_rate_hz"].to_numpy(dtype=float)
 
     def recordings(rows: np.ndarray) -> Recordings:
-        return Recordings([signals.buffer[o[r]:o[r + 1]] for r in rows], [signals.labels[o[r]:o[r + 1]] for r in rows],
-                          [str(t) for t in rec["trial"].to_numpy()[rows]], [str(s) for s in rec["scenario"].to_numpy()[rows]],
-                          [str(i) for i in rec["recording_id"].to_numpy()[rows]], [float(rates[r]) for r in rows])
+        return Recordings(
+            [signals.buffer[o[r] : o[r + 1]] for r in rows],
+            [signals.labels[o[r] : o[r + 1]] for r in rows],
+            [str(t) for t in rec["trial"].to_numpy()[rows]],
+            [str(s) for s in rec["scenario"].to_numpy()[rows]],
+            [str(i) for i in rec["recording_id"].to_numpy()[rows]],
+            [float(rates[r]) for r in rows],
+        )
 
-    return StreamTest(recordings(pc.streams["test"]), recordings(pc.streams["train"]), pc.cell.stream["hop"],
-                      pc.cell.stream["max_delay_ms"])
+    return StreamTest(
+        recordings(pc.streams["test"]),
+        recordings(pc.streams["train"]),
+        pc.cell.stream["hop"],
+        pc.cell.stream["max_delay_ms"],
+    )
 
 
 def _describe(runs: list[Run]) -> str:
     detector_names = dict.fromkeys(r.detector_name for r in runs)
     protocol_names = dict.fromkeys(r.protocol_name for r in runs)
-    return " x ".join(next(iter(names)) if len(names) == 1 else f"{len(names)} {kind}"
-                      for names, kind in ((detector_names, "detectors"), (protocol_names, "protocols")))
+    return " x ".join(
+        next(iter(names)) if len(names) == 1 else f"{len(names)} {kind}"
+        for names, kind in ((detector_names, "detectors"), (protocol_names, "protocols"))
+    )
 
 
 def _progress(total: int, done: int, enabled: bool, desc: str):
     """A progress bar: cells done (cached and skipped ones count at once) and the time left."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, initial=done, desc=desc, unit="cell", file=sys.stderr, disable=not enabled)
+    bar = tqdm(
+        total=total, initial=done, desc=desc, unit="cell", file=sys.stderr, disable=not enabled
+    )
     bar.set_postfix_str(f"{done} cached or skipped", refresh=False)
     return bar

@@ -27,16 +27,36 @@ from pathlib import Path
 import pandas as pd
 
 from slipbench.errors import SlipbenchError
-from slipbench.stats.leaderboard import leaderboard, leaderboard_tables
-from slipbench.report.paper import paper_frame
 from slipbench.protocol import Layout
+from slipbench.report.outline import (
+    DETECTOR_ORDER,
+    _splits,
+    layouts,
+    protocol_order,
+    split_parts,
+)
+from slipbench.report.paper import paper_frame
 from slipbench.report.provenance import fitted_tables, header_tables
-from slipbench.report.render import standalone_latex, to_html, to_latex, to_markdown
-from slipbench.report.outline import DETECTOR_ORDER, SPLIT_ORDER, _sections, _splits, layouts, protocol_order, split_parts
-from slipbench.report.tables import (Table, baseline_table, build_table, escape, fits, generic_layout, metrics_table, rank, rates_table,
-                     side_by_side, split_table, table_keys)
+from slipbench.report.render import standalone_latex, to_latex, to_markdown
+from slipbench.report.tables import (
+    Table,
+    baseline_table,
+    build_table,
+    escape,
+    fits,
+    generic_layout,
+    metrics_table,
+    rank,
+    rates_table,
+    side_by_side,
+    split_table,
+    table_keys,
+)
+from slipbench.stats.leaderboard import leaderboard, leaderboard_tables
 
-PAPER_DETECTOR = "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
+PAPER_DETECTOR = (
+    "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
+)
 FORMATS = ("md", "latex", "html")
 
 
@@ -55,38 +75,75 @@ def _which(which: dict) -> str:
     return "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
 
 
-def protocol_tables(rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, metric: str = "accuracy",
-                    intervals: bool = False, paper: bool = False, split: str = "",
-                    predictions: Sequence[str | os.PathLike] = ()) -> list[tuple[str, Table]]:
+def protocol_tables(
+    rows: pd.DataFrame,
+    layout: Layout,
+    protocol: str,
+    detector: str,
+    metric: str = "accuracy",
+    intervals: bool = False,
+    paper: bool = False,
+    split: str = "",
+    predictions: Sequence[str | os.PathLike] = (),
+) -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
     decimation), captions naming the detector and protocol. With ``paper``, the paper's model
     (PAPER_DETECTOR) gets ours minus published after each; the published table itself is
     :func:`published_table`, shown once per protocol. With ``intervals``, figures run under
     several seeds get one interval pooled over the seeds from their ``predictions`` folders."""
-    ref = paper_frame(layout.paper_table) if paper and layout.paper_table and detector == PAPER_DETECTOR else None
-    named = f"Detector {detector}, protocol {protocol}" + (f", {split} split" if split else "") + "."
+    ref = (
+        paper_frame(layout.paper_table)
+        if paper and layout.paper_table and detector == PAPER_DETECTOR
+        else None
+    )
+    named = (
+        f"Detector {detector}, protocol {protocol}" + (f", {split} split" if split else "") + "."
+    )
     out = []
     for which, part in split_parts(rows, layout):
-        tag = "-".join([f"{protocol}-{detector}", *([split] if split and split != "paper" else []), *(str(v) for v in which.values())])
+        tag = "-".join(
+            [
+                f"{protocol}-{detector}",
+                *([split] if split and split != "paper" else []),
+                *(str(v) for v in which.values()),
+            ]
+        )
         suffix = f" ({', '.join(f'{c}: {v}' for c, v in which.items())})" if which else ""
-        table = build_table(part, layout, metric, intervals, label_=f"tab:{tag}",
-                            pooled=_pooled(part, layout, predictions) if intervals else None)
+        table = build_table(
+            part,
+            layout,
+            metric,
+            intervals,
+            label_=f"tab:{tag}",
+            pooled=_pooled(part, layout, predictions) if intervals else None,
+        )
         table.caption += _which(which)
         table.subject = named
         out.append((f"{detector}{suffix}", table))
         if layout.metrics and "stream_s" in part:
             table.notes.append(_stream_note(part))
         if layout.metrics and any(f"op_{m}" in part for m in layout.metrics):
-            out.append((f"{detector}{suffix}, operating point", _operating_point(part, layout, intervals, f"tab:{tag}-op")))
+            out.append(
+                (
+                    f"{detector}{suffix}, operating point",
+                    _operating_point(part, layout, intervals, f"tab:{tag}-op"),
+                )
+            )
         if ref is not None and len(ref) and metric == "accuracy":
-            dt = build_table(part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference")
-            dt.caption = f"Ours minus published, {detector} against the paper's LSTM.{_which(which)}"
+            dt = build_table(
+                part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference"
+            )
+            dt.caption = (
+                f"Ours minus published, {detector} against the paper's LSTM.{_which(which)}"
+            )
             dt.subject = named
             out.append((f"{detector} - paper{suffix}", dt))
     return out
 
 
-def _pooled(rows: pd.DataFrame, layout: Layout, predictions: Sequence[str | os.PathLike]) -> dict[tuple, dict]:
+def _pooled(
+    rows: pd.DataFrame, layout: Layout, predictions: Sequence[str | os.PathLike]
+) -> dict[tuple, dict]:
     """Per figure of the table that ran under several seeds: the joint bootstrap of its seeds."""
     if not predictions or layout.metrics or "seed" not in rows or rows["seed"].nunique() < 2:
         return {}
@@ -99,20 +156,39 @@ def _pooled(rows: pd.DataFrame, layout: Layout, predictions: Sequence[str | os.P
 
 def _stream_note(rows: pd.DataFrame) -> str:
     """How the recordings were streamed, from the rows."""
+
     def values(column: str) -> str:
-        return ", ".join(str(v) for v in rank(rows[column].dropna().unique())) if column in rows else "?"
-    return (f"Streamed: window {values('window')} samples, a score every {values('hop')} samples; whole test trials, "
-            f"held out from training by trial (seed {values('seed')}) whatever the run's split. Delays include the "
-            f"compute time per hop measured on this machine ({rows['compute_ms'].median():.3f} ms median).")
+        return (
+            ", ".join(str(v) for v in rank(rows[column].dropna().unique()))
+            if column in rows
+            else "?"
+        )
+
+    return (
+        f"Streamed: window {values('window')} samples, a score every {values('hop')} samples; whole test trials, "
+        f"held out from training by trial (seed {values('seed')}) whatever the run's split. Delays include the "
+        f"compute time per hop measured on this machine ({rows['compute_ms'].median():.3f} ms median)."
+    )
 
 
 def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_: str) -> Table:
     """A streaming table at the operating point (``op_`` columns): the threshold that keeps 1
     false alarm per minute on the training trials' streams, evaluated on the test trials."""
-    budget = rows["op_budget_per_min"].dropna() if "op_budget_per_min" in rows else pd.Series(dtype=float)
+    budget = (
+        rows["op_budget_per_min"].dropna()
+        if "op_budget_per_min" in rows
+        else pd.Series(dtype=float)
+    )
     per_min = f"{budget.iloc[0]:g}" if len(budget) else "1"
-    table = metrics_table(rows, layout, layout.metrics, intervals, label_, prefix="op_",
-                          group=f"At {per_min} false alarm per minute (threshold chosen on the training trials' streams)")
+    table = metrics_table(
+        rows,
+        layout,
+        layout.metrics,
+        intervals,
+        label_,
+        prefix="op_",
+        group=f"At {per_min} false alarm per minute (threshold chosen on the training trials' streams)",
+    )
     notes = rows["op_note"].dropna() if "op_note" in rows else pd.Series(dtype=str)
     for note in sorted(set(notes) - {""}):
         table.notes.append(f"NA: {note}.")
@@ -127,14 +203,25 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
         return None
     part = split_parts(rows, layout)[0][1]
     table = build_table(part, layout, values="paper", paper=ref, label_=f"tab:{protocol}-paper")
-    table.caption = f"Published (Van Wyk & Falco, their LSTM): {layout.caption[0].lower()}{layout.caption[1:]}"
+    table.caption = (
+        f"Published (Van Wyk & Falco, their LSTM): {layout.caption[0].lower()}{layout.caption[1:]}"
+    )
     if layout.column_label:
         table.notes.append("The full-rate column is Table I at window 200, the same setting.")
     return table
 
 
-def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: str, metric: str, intervals: bool,
-                     paper: bool, figures: dict[str, list], predictions: Sequence[str | os.PathLike] = ()) -> list:
+def _protocol_blocks(
+    rows: pd.DataFrame,
+    protocol: str,
+    layout: Layout,
+    note: str,
+    metric: str,
+    intervals: bool,
+    paper: bool,
+    figures: dict[str, list],
+    predictions: Sequence[str | os.PathLike] = (),
+) -> list:
     prows = rows[rows["protocol"] == protocol]
     blocks: list = [Heading(protocol, 2)]
     if note:
@@ -144,16 +231,30 @@ def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: st
         blocks.append(Heading(f"{protocol}: every detector", 3))
         for split, srows in _splits(prows):
             for which, part in split_parts(srows, layout):
-                tag = "-".join([protocol, "detectors", *([split] if split != "paper" else []), *(str(v) for v in which.values())])
-                table = side_by_side(part, layout, [d for d in detectors if d in set(part["detector"])], metric,
-                                     label_=f"tab:{tag}")
+                tag = "-".join(
+                    [
+                        protocol,
+                        "detectors",
+                        *([split] if split != "paper" else []),
+                        *(str(v) for v in which.values()),
+                    ]
+                )
+                table = side_by_side(
+                    part,
+                    layout,
+                    [d for d in detectors if d in set(part["detector"])],
+                    metric,
+                    label_=f"tab:{tag}",
+                )
                 if table is not None:
                     table.caption += _which(which)
                     table.subject = f"Protocol {protocol}, {split} split."
                     blocks.append(table)
         splits = [s for s, _ in _splits(prows)]
-        blocks += sorted((f for f in figures.get(protocol, []) if f.detector is None),
-                         key=lambda f: splits.index(f.split) if f.split in splits else len(splits))
+        blocks += sorted(
+            (f for f in figures.get(protocol, []) if f.detector is None),
+            key=lambda f: splits.index(f.split) if f.split in splits else len(splits),
+        )
     if paper:
         published = published_table(prows, layout, protocol)
         if published is not None:
@@ -164,15 +265,29 @@ def _protocol_blocks(rows: pd.DataFrame, protocol: str, layout: Layout, note: st
             if drows.empty:
                 continue
             blocks.append(Heading(f"{protocol}: {detector} ({split} split)", 3))
-            blocks += [t for _, t in protocol_tables(drows, layout, protocol, detector, metric, intervals, paper, split,
-                                                     predictions)]
-            blocks += [f for f in figures.get(protocol, []) if f.detector == detector and f.split == split]
+            blocks += [
+                t
+                for _, t in protocol_tables(
+                    drows, layout, protocol, detector, metric, intervals, paper, split, predictions
+                )
+            ]
+            blocks += [
+                f for f in figures.get(protocol, []) if f.detector == detector and f.split == split
+            ]
     return blocks
 
 
-def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool = False, paper: bool = False,
-                 leaderboard_only: bool = False, found: dict[str, tuple[Layout, str]] | None = None,
-                 with_figures: bool = False, benchmark: str = "", predictions: Sequence[str | os.PathLike] = ()) -> list:
+def build_report(
+    rows: pd.DataFrame,
+    metric: str = "accuracy",
+    intervals: bool = False,
+    paper: bool = False,
+    leaderboard_only: bool = False,
+    found: dict[str, tuple[Layout, str]] | None = None,
+    with_figures: bool = False,
+    benchmark: str = "",
+    predictions: Sequence[str | os.PathLike] = (),
+) -> list:
     """The report as blocks (:class:`Heading`, :class:`Text`, tables, and, with
     ``with_figures``, :class:`~slipbench.report.plots.FigureSpec`), in the module's outline.
     ``benchmark``: the benchmark file the rows come from, named in the header.
@@ -181,7 +296,9 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = _splits(rows)
-    lead = splits[0][1]  # the leaderboard and the findings rank one split: the grouped one where present
+    lead = splits[0][
+        1
+    ]  # the leaderboard and the findings rank one split: the grouped one where present
     board = leaderboard(lead, metric, protocols=order)
     figures: dict[str | None, list] = {}
     if with_figures:
@@ -189,12 +306,28 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
 
         for spec in figure_specs(rows, paper, board, found):
             figures.setdefault(spec.section, []).append(spec)
-    blocks: list = [Heading("slipbench report", 1), Heading("What this report stands on", 2), *header_tables(rows, metric, order, benchmark),
-                    Heading("Leaderboard", 2)]
-    side = split_table(rows, [s for s, _ in splits], metric, order, DETECTOR_ORDER) if len(splits) > 1 else None
+    blocks: list = [
+        Heading("slipbench report", 1),
+        Heading("What this report stands on", 2),
+        *header_tables(rows, metric, order, benchmark),
+        Heading("Leaderboard", 2),
+    ]
+    side = (
+        split_table(rows, [s for s, _ in splits], metric, order, DETECTOR_ORDER)
+        if len(splits) > 1
+        else None
+    )
     if len(splits) > 1:
-        blocks.append(Text(f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split"
-                           + (f"; the table after the leaderboard sets the {splits[1][0]} split beside it." if side else ".")))
+        blocks.append(
+            Text(
+                f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split"
+                + (
+                    f"; the table after the leaderboard sets the {splits[1][0]} split beside it."
+                    if side
+                    else "."
+                )
+            )
+        )
     blocks += [*leaderboard_tables(board), *figures.get(None, [])]
     if side is not None:
         blocks += [Heading("The splits side by side", 2), side]
@@ -206,27 +339,39 @@ def build_report(rows: pd.DataFrame, metric: str = "accuracy", intervals: bool =
         shown = paper_findings_table(lead, found)
         findings = findings_table(lead, found, order)
         if shown is not None or findings is not None:
-            blocks += [Heading("The paper's findings, ours beside them", 2), *(t for t in (shown, findings) if t is not None)]
+            blocks += [
+                Heading("The paper's findings, ours beside them", 2),
+                *(t for t in (shown, findings) if t is not None),
+            ]
     fitted = fitted_tables(rows)
     if fitted:
         blocks += [Heading("What fitting chose", 2), *fitted]
     for protocol in order:
         layout, note = found[protocol]
-        blocks += _protocol_blocks(rows, protocol, layout, note, metric, intervals, paper, figures, predictions)
+        blocks += _protocol_blocks(
+            rows, protocol, layout, note, metric, intervals, paper, figures, predictions
+        )
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in lead:
         one = lead[lead["protocol"].isin(table_one)]
         joint = None
         if intervals and predictions:
-            from slipbench.stats.joint import joint_means
             from slipbench.report.tables import BASELINE_WINDOW
+            from slipbench.stats.joint import joint_means
 
-            joint = joint_means(one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions)
+            joint = joint_means(
+                one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions
+            )
         extra = [baseline_table(one, intervals, paper, joint)]
-        extra += [rates_table(one, d, intervals, paper, joint) for d in rank(one["detector"].unique(), DETECTOR_ORDER)]
+        extra += [
+            rates_table(one, d, intervals, paper, joint)
+            for d in rank(one["detector"].unique(), DETECTOR_ORDER)
+        ]
         extra = [t for t in extra if t is not None]
         if extra:
-            title = "At window 50: baseline and TP/TN rates" + (f", {splits[0][0]} split" if len(splits) > 1 else "")
+            title = "At window 50: baseline and TP/TN rates" + (
+                f", {splits[0][0]} split" if len(splits) > 1 else ""
+            )
             blocks += [Heading(title, 2), *extra]
     return blocks
 
@@ -264,8 +409,13 @@ def _png(block, files: dict[str, list[Path]]) -> bytes | None:
     return buffer.getvalue()
 
 
-def render(blocks: list, fmt: str = "md", standalone: bool = False, files: dict[str, list[Path]] | None = None,
-           link_from: str | os.PathLike | None = None) -> str:
+def render(
+    blocks: list,
+    fmt: str = "md",
+    standalone: bool = False,
+    files: dict[str, list[Path]] | None = None,
+    link_from: str | os.PathLike | None = None,
+) -> str:
     """Blocks as one Markdown, LaTeX or HTML text.
 
     ``files``: figures drawn already (stem -> paths, from :func:`write_figures`): Markdown links
@@ -284,7 +434,12 @@ def render(blocks: list, fmt: str = "md", standalone: bool = False, files: dict[
             if isinstance(block, FigureSpec):
                 png = _png(block, files)
                 if png is not None:
-                    parts.append(("figure", (block.stem, block.caption, base64.b64encode(png).decode("ascii"))))
+                    parts.append(
+                        (
+                            "figure",
+                            (block.stem, block.caption, base64.b64encode(png).decode("ascii")),
+                        )
+                    )
             else:
                 parts.append((type(block).__name__.lower(), block))
         return page(parts)
@@ -299,32 +454,61 @@ def render(blocks: list, fmt: str = "md", standalone: bool = False, files: dict[
             elif block.level == 1:
                 out.append(rf"{{\LARGE\bfseries {escape(block.text)}\par}}")
             elif block.level == 2:  # a section per page: its floats stay near its heading
-                out.append((r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}")
+                out.append(
+                    (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
+                )
                 sections += 1
             else:
                 out.append(rf"\subsection*{{{escape(block.text)}}}")
         elif isinstance(block, Text):
-            out.append(block.text if fmt == "md" else escape(block.text) if standalone else f"% {block.text}")
+            out.append(
+                block.text
+                if fmt == "md"
+                else escape(block.text)
+                if standalone
+                else f"% {block.text}"
+            )
         elif isinstance(block, Table):
             out.append(to_markdown(block) if fmt == "md" else to_latex(block))
         elif isinstance(block, FigureSpec) and block.stem in files:
             paths = {p.suffix: p for p in files[block.stem]}
             if fmt == "md" and ".png" in paths:
-                out.append(f"![{block.caption}]({Path(os.path.relpath(paths['.png'], base)).as_posix()})\n\n_{block.caption}_")
+                out.append(
+                    f"![{block.caption}]({Path(os.path.relpath(paths['.png'], base)).as_posix()})\n\n_{block.caption}_"
+                )
             elif fmt == "latex" and ".pdf" in paths:
-                out.append("\n".join([r"\begin{figure}[!htbp]", r"\centering",
-                                      rf"\includegraphics[width=\linewidth]{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
-                                      rf"\caption{{{escape(block.caption)}}}", r"\end{figure}"]))
+                out.append(
+                    "\n".join(
+                        [
+                            r"\begin{figure}[!htbp]",
+                            r"\centering",
+                            rf"\includegraphics[width=\linewidth]{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
+                            rf"\caption{{{escape(block.caption)}}}",
+                            r"\end{figure}",
+                        ]
+                    )
+                )
     text = "\n\n".join(out) + "\n"
     if fmt == "latex" and standalone:
-        return standalone_latex(text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks))
+        return standalone_latex(
+            text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks)
+        )
     return text
 
 
-def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy", intervals: bool = False,
-                  paper: bool = False, standalone: bool = False,
-                  found: dict[str, tuple[Layout, str]] | None = None, *, leaderboard_only: bool = False,
-                  plots_dir: str | os.PathLike | None = None, link_from: str | os.PathLike | None = None) -> str:
+def render_report(
+    rows: pd.DataFrame,
+    fmt: str = "md",
+    metric: str = "accuracy",
+    intervals: bool = False,
+    paper: bool = False,
+    standalone: bool = False,
+    found: dict[str, tuple[Layout, str]] | None = None,
+    *,
+    leaderboard_only: bool = False,
+    plots_dir: str | os.PathLike | None = None,
+    link_from: str | os.PathLike | None = None,
+) -> str:
     """Every table the rows allow, in the paper's order, after the report's header and the
     leaderboard, as one Markdown, LaTeX or HTML text.
 
@@ -338,8 +522,15 @@ def render_report(rows: pd.DataFrame, fmt: str = "md", metric: str = "accuracy",
     """
     if fmt not in FORMATS:
         raise SlipbenchError(f"unknown report format {fmt!r}; one of {', '.join(FORMATS)}")
-    blocks = build_report(rows, metric, intervals, paper, leaderboard_only, found,
-                          with_figures=fmt == "html" or plots_dir is not None)
+    blocks = build_report(
+        rows,
+        metric,
+        intervals,
+        paper,
+        leaderboard_only,
+        found,
+        with_figures=fmt == "html" or plots_dir is not None,
+    )
     files = write_figures(blocks, plots_dir) if plots_dir is not None else {}
     return render(blocks, fmt, standalone, files, link_from)
 
@@ -351,9 +542,27 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
         return "(no cells)"
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
     why = fits(layout, rows)
-    tables = protocol_tables(rows, generic_layout(rows, protocol) if why else layout, protocol, detector, intervals=intervals)
+    tables = protocol_tables(
+        rows,
+        generic_layout(rows, protocol) if why else layout,
+        protocol,
+        detector,
+        intervals=intervals,
+    )
     return "\n\n".join(to_markdown(t) for _, t in tables)
 
 
-__all__ = ["Heading", "Text", "build_report", "layouts", "protocol_order", "protocol_table",
-           "protocol_tables", "published_table", "render", "render_report", "split_parts", "write_figures"]
+__all__ = [
+    "Heading",
+    "Text",
+    "build_report",
+    "layouts",
+    "protocol_order",
+    "protocol_table",
+    "protocol_tables",
+    "published_table",
+    "render",
+    "render_report",
+    "split_parts",
+    "write_figures",
+]

@@ -63,11 +63,27 @@ def page(parts: list[tuple[str, Any]]) -> str:
             body.append(to_html(block))
         elif kind == "figure":
             stem, caption, data = block
-            body.append(f'<figure id="fig-{esc(stem)}"><img src="data:image/png;base64,{data}" alt="{esc(caption)}">'
-                        f"<figcaption>{esc(caption)}</figcaption></figure>")
+            body.append(
+                f'<figure id="fig-{esc(stem)}"><img src="data:image/png;base64,{data}" alt="{esc(caption)}">'
+                f"<figcaption>{esc(caption)}</figcaption></figure>"
+            )
     if body and body[0].startswith("<h1"):
         body.insert(1, f'<nav aria-label="contents"><ol>{"".join(contents)}</ol></nav>')
-    return "\n".join(['<!DOCTYPE html>', '<html lang="en">', "<head>", '<meta charset="utf-8">',
-                      '<meta name="viewport" content="width=device-width, initial-scale=1">',
-                      '<meta name="generator" content="slipbench">', f"<title>{esc(title)}</title>",
-                      f"<style>{CSS}</style>", "</head>", "<body>", *body, "</body>", "</html>", ""])
+    return "\n".join(
+        [
+            "<!DOCTYPE html>",
+            '<html lang="en">',
+            "<head>",
+            '<meta charset="utf-8">',
+            '<meta name="viewport" content="width=device-width, initial-scale=1">',
+            '<meta name="generator" content="slipbench">',
+            f"<title>{esc(title)}</title>",
+            f"<style>{CSS}</style>",
+            "</head>",
+            "<body>",
+            *body,
+            "</body>",
+            "</html>",
+            "",
+        ]
+    )

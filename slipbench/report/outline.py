@@ -9,8 +9,8 @@ import json
 import pandas as pd
 
 from slipbench.errors import SlipbenchError
-from slipbench.report.paper import table_order
 from slipbench.protocol import Layout
+from slipbench.report.paper import table_order
 from slipbench.report.tables import fits, generic_layout, rank
 
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
@@ -28,11 +28,16 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
         part = rows[rows["protocol"] == name]
         try:
             cls = protocols.get(name)
-            params = json.loads(part["protocol_params"].iloc[0]) if "protocol_params" in part else {}
+            params = (
+                json.loads(part["protocol_params"].iloc[0]) if "protocol_params" in part else {}
+            )
             layout, why = cls(**params).layout, ""
             why = fits(layout, part)
         except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError) as exc:
-            layout, why = None, f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins"
+            layout, why = (
+                None,
+                f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins",
+            )
         if why:
             out[name] = (generic_layout(part, name), f"Laid out from its cell keys: {why}.")
         else:
@@ -43,8 +48,15 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
 def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
     """Protocols laid out as the paper's tables first, in the paper's order, then the others."""
     paper_order = table_order()
-    return sorted(found, key=lambda p: (
-        paper_order.index(found[p][0].paper_table) if found[p][0].paper_table in paper_order else len(paper_order), p))
+    return sorted(
+        found,
+        key=lambda p: (
+            paper_order.index(found[p][0].paper_table)
+            if found[p][0].paper_table in paper_order
+            else len(paper_order),
+            p,
+        ),
+    )
 
 
 def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
@@ -52,16 +64,23 @@ def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     the one whose test trials never trained the model through another unit."""
     if "split" not in rows:
         return [("paper", rows)]
-    return [(s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("grouped", "paper"))]
+    return [
+        (s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("grouped", "paper"))
+    ]
 
 
-def _sections(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> list[tuple[str, str, str, pd.DataFrame]]:
+def _sections(
+    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]
+) -> list[tuple[str, str, str, pd.DataFrame]]:
     """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
     out = []
     for protocol in protocol_order(found):
         prows = rows[rows["protocol"] == protocol]
         for detector in rank(prows["detector"].unique(), DETECTOR_ORDER):
-            out += [(protocol, detector, split, part) for split, part in _splits(prows[prows["detector"] == detector])]
+            out += [
+                (protocol, detector, split, part)
+                for split, part in _splits(prows[prows["detector"] == detector])
+            ]
     return out
 
 
@@ -71,8 +90,12 @@ def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataF
     splits = [c for c in layout.splits if c in rows]
     if not splits:
         return [({}, rows)]
-    parts = [(dict(zip(splits, k if isinstance(k, tuple) else (k,))), part)
-             for k, part in rows.groupby(splits if len(splits) > 1 else splits[0], sort=False, dropna=False)]
+    parts = [
+        (dict(zip(splits, k if isinstance(k, tuple) else (k,))), part)
+        for k, part in rows.groupby(
+            splits if len(splits) > 1 else splits[0], sort=False, dropna=False
+        )
+    ]
     for c in reversed(splits):  # stable sorts, last column first: lexicographic order
         order = rank([w[c] for w, _ in parts], SPLIT_ORDER)
         parts.sort(key=lambda p: order.index(p[0][c]))

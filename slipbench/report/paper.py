@@ -34,7 +34,9 @@ def paper_frame(name: str) -> pd.DataFrame:
             frame[col] = frame[col] / 100
     if name == "sampling-rate":
         full = paper_frame("window-size").query("window == 200").drop(columns="window")
-        full = full.assign(downsample=1, rate_hz=full["sensor_type"].map({"BioTacSP": 850.0}).fillna(1000.0))
+        full = full.assign(
+            downsample=1, rate_hz=full["sensor_type"].map({"BioTacSP": 850.0}).fillna(1000.0)
+        )
         frame = pd.concat([frame, full[frame.columns]], ignore_index=True)
     return frame
 

@@ -35,22 +35,34 @@ import pandas as pd  # noqa: E402
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
-from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.protocol import Layout  # noqa: E402
 from slipbench.report.outline import SPLIT_ORDER  # noqa: E402
+from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.report.tables import label, ordered, rank, summarize  # noqa: E402
+from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 
 FORMATS = ("png", "pdf")
 WIDTH = 3.5  # inches: one column of a two-column paper
 TITLE_CHARS = 60  # a title wraps to the figure's width at its font size
 DPI = 200
-STYLE = {"font.size": 7, "axes.titlesize": 7, "axes.labelsize": 7, "xtick.labelsize": 6.5, "ytick.labelsize": 6.5,
-         "legend.fontsize": 6.5, "figure.titlesize": 7.5, "lines.linewidth": 1.1, "lines.markersize": 3}
+STYLE = {
+    "font.size": 7,
+    "axes.titlesize": 7,
+    "axes.labelsize": 7,
+    "xtick.labelsize": 6.5,
+    "ytick.labelsize": 6.5,
+    "legend.fontsize": 6.5,
+    "figure.titlesize": 7.5,
+    "lines.linewidth": 1.1,
+    "lines.markersize": 3,
+}
 CHANCE = 50.0
 AXIS_LABELS = {  # a key column's axis label with its unit, where the layout gives none
-    "window": "window (samples)", "window_ms": "window (ms)", "rate_hz": "sampling rate (Hz)",
-    "speed_mm_s": "slip speed (mm/s)", "downsample": "downsampling factor",
+    "window": "window (samples)",
+    "window_ms": "window (ms)",
+    "rate_hz": "sampling rate (Hz)",
+    "speed_mm_s": "slip speed (mm/s)",
+    "downsample": "downsampling factor",
 }
 
 
@@ -75,6 +87,7 @@ def _styled(draw: Callable[..., Figure]) -> Callable[..., Figure]:
     def inner(*args, **kwargs) -> Figure:
         with matplotlib.rc_context(STYLE):
             return draw(*args, **kwargs)
+
     inner.__doc__ = draw.__doc__
     return inner
 
@@ -97,7 +110,13 @@ def _legend_once(fig: Figure, axes) -> None:
         for handle, text in zip(*ax.get_legend_handles_labels()):
             seen.setdefault(text, handle)
     if seen:
-        fig.legend(list(seen.values()), list(seen), loc="outside lower center", ncol=min(3, len(seen)), frameon=False)
+        fig.legend(
+            list(seen.values()),
+            list(seen),
+            loc="outside lower center",
+            ncol=min(3, len(seen)),
+            frameon=False,
+        )
 
 
 def _sensors(rows: pd.DataFrame) -> list[str]:
@@ -120,20 +139,43 @@ def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame 
     x, line, splits = layout.x or layout.column, layout.rows[-1], layout.splits
     sensors = _sensors(rows)
     fig = _figure(0.6 + 1.35 * len(sensors))
-    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]  # each sensor its own x ticks (its rates)
+    axes = fig.subplots(len(sensors), 1, squeeze=False)[
+        :, 0
+    ]  # each sensor its own x ticks (its rates)
     extra = [c for c in splits if c in rows and rows[c].nunique(dropna=False) > 1]
-    variants = sorted(rows[extra].drop_duplicates().itertuples(index=False, name=None),
-                      key=lambda v: [rank(rows[c].unique(), SPLIT_ORDER).index(x_) for c, x_ in zip(extra, v)]) if extra else [()]
-    styles = dict(zip(variants, ("-", "--", ":", "-.") * len(variants)))  # the first (the paper's) solid
+    variants = (
+        sorted(
+            rows[extra].drop_duplicates().itertuples(index=False, name=None),
+            key=lambda v: [
+                rank(rows[c].unique(), SPLIT_ORDER).index(x_) for c, x_ in zip(extra, v)
+            ],
+        )
+        if extra
+        else [()]
+    )
+    styles = dict(
+        zip(variants, ("-", "--", ":", "-.") * len(variants))
+    )  # the first (the paper's) solid
     for ax, sensor in zip(axes, sensors):
         s = summarize(rows[rows["sensor_type"] == sensor], [line, *extra, x])
         for i, inst in enumerate(ordered(s[line].unique(), line)):
             color = f"C{i}"
-            for dec, points in s[s[line] == inst].groupby(extra) if extra else [((), s[s[line] == inst])]:
+            for dec, points in (
+                s[s[line] == inst].groupby(extra) if extra else [((), s[s[line] == inst])]
+            ):
                 points = points.sort_values(x)
                 name = label(line, inst) + (f" ({', '.join(str(v) for v in dec)})" if extra else "")
-                ax.plot(points[x], 100 * points["mean"], styles.get(tuple(dec), "-"), marker="o", color=color, label=name)
-                ax.fill_between(points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0)
+                ax.plot(
+                    points[x],
+                    100 * points["mean"],
+                    styles.get(tuple(dec), "-"),
+                    marker="o",
+                    color=color,
+                    label=name,
+                )
+                ax.fill_between(
+                    points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0
+                )
             if paper is not None and len(paper) and line in paper and x in paper:
                 ref = paper[(paper["sensor_type"] == sensor) & (paper[line] == inst)].sort_values(x)
                 ax.plot(ref[x], 100 * ref["accuracy"], "o", mfc="none", color=color, ms=5)
@@ -159,14 +201,18 @@ def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Fig
 
 
 @_styled
-def _compare_curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None) -> Figure:
+def _compare_curves(
+    rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None
+) -> Figure:
     """Every detector on one axis per sensor type: the mean over fingers of each finger's
     figure (mean over seeds), the range over fingers shaded, the paper's LSTM dashed."""
     x, unit = layout.x or layout.column, layout.rows[-1]
     sensors = _sensors(rows)
     detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
     fig = _figure(0.75 + 1.35 * len(sensors))
-    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]  # each sensor its own x ticks (its rates)
+    axes = fig.subplots(len(sensors), 1, squeeze=False)[
+        :, 0
+    ]  # each sensor its own x ticks (its rates)
     for ax, sensor in zip(axes, sensors):
         part = rows[rows["sensor_type"] == sensor]
         for i, det in enumerate(detectors):
@@ -176,11 +222,22 @@ def _compare_curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.Da
                 continue
             g = s.groupby(x)["mean"].agg(["mean", "min", "max"]).sort_index()
             ax.plot(g.index, 100 * g["mean"], marker="o", color=f"C{i}", label=det)
-            ax.fill_between(g.index, 100 * g["min"], 100 * g["max"], color=f"C{i}", alpha=0.12, lw=0)
+            ax.fill_between(
+                g.index, 100 * g["min"], 100 * g["max"], color=f"C{i}", alpha=0.12, lw=0
+            )
         if paper is not None and len(paper) and x in paper:
             ref = paper[paper["sensor_type"] == sensor].groupby(x)["accuracy"].mean().sort_index()
-            ax.plot(ref.index, 100 * ref, "--", color="black", marker="o", mfc="none", ms=4, lw=0.9,
-                    label="paper (LSTM)")
+            ax.plot(
+                ref.index,
+                100 * ref,
+                "--",
+                color="black",
+                marker="o",
+                mfc="none",
+                ms=4,
+                lw=0.9,
+                label="paper (LSTM)",
+            )
         _finish_panel(ax, sensor, part[x], layout)
     return _finish_figure(fig, axes, layout, x, title)
 
@@ -193,8 +250,16 @@ def accuracy_range(*grids: np.ndarray) -> tuple[float, float]:
     return float(low), 100.0
 
 
-def _matrix(ax, grid: np.ndarray, ylabels: list[str] | None, xlabels: list[str], limits=None, cmap: str = "viridis",
-            diff: bool = False, fmt: str = "{:.1f}"):
+def _matrix(
+    ax,
+    grid: np.ndarray,
+    ylabels: list[str] | None,
+    xlabels: list[str],
+    limits=None,
+    cmap: str = "viridis",
+    diff: bool = False,
+    fmt: str = "{:.1f}",
+):
     """An annotated heatmap; text black or white by the colour under it."""
     if diff:
         top = max(1.0, float(np.nanmax(np.abs(grid)))) if np.isfinite(grid).any() else 1.0
@@ -202,16 +267,27 @@ def _matrix(ax, grid: np.ndarray, ylabels: list[str] | None, xlabels: list[str],
         im = ax.imshow(grid, cmap="RdBu", norm=norm, aspect="auto")
     else:
         im = ax.imshow(grid, cmap=cmap, vmin=limits[0], vmax=limits[1], aspect="auto")
-    ax.set_xticks(range(len(xlabels)), xlabels, rotation=30 if max(map(len, xlabels), default=0) > 4 else 0,
-                  ha="right" if max(map(len, xlabels), default=0) > 4 else "center")
+    ax.set_xticks(
+        range(len(xlabels)),
+        xlabels,
+        rotation=30 if max(map(len, xlabels), default=0) > 4 else 0,
+        ha="right" if max(map(len, xlabels), default=0) > 4 else "center",
+    )
     ax.set_yticks(range(grid.shape[0]), ylabels if ylabels is not None else [])
     for (i, j), v in np.ndenumerate(grid):
         if np.isnan(v):
             ax.text(j, i, "NA", ha="center", va="center", fontsize=5.5, color="0.4")
             continue
         r, g, b, _ = im.cmap(im.norm(v))
-        ax.text(j, i, fmt.format(v), ha="center", va="center", fontsize=5.5,
-                color="white" if 0.299 * r + 0.587 * g + 0.114 * b < 0.5 else "black")
+        ax.text(
+            j,
+            i,
+            fmt.format(v),
+            ha="center",
+            va="center",
+            fontsize=5.5,
+            color="white" if 0.299 * r + 0.587 * g + 0.114 * b < 0.5 else "black",
+        )
     return im
 
 
@@ -221,15 +297,21 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     rows sensor and finger, columns ``layout.column``."""
     column, pair = layout.column, layout.pair
     s = summarize(rows, ["sensor_type", "sensor_instance", column, pair])
-    index = sorted(s[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None),
-                   key=lambda t: (ordered(s["sensor_type"].unique(), "sensor_type").index(t[0]),
-                                  ordered(s["sensor_instance"].unique(), "sensor_instance").index(t[1])))
+    index = sorted(
+        s[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None),
+        key=lambda t: (
+            ordered(s["sensor_type"].unique(), "sensor_type").index(t[0]),
+            ordered(s["sensor_instance"].unique(), "sensor_instance").index(t[1]),
+        ),
+    )
     cols = ordered(s[column].unique(), column)
     grids = {}
     for training in ("with", "without"):
         grid = np.full((len(index), len(cols)), np.nan)
         for r in s[(s[pair] == training) & (s["status"] == "ok")].to_dict("records"):
-            grid[index.index((r["sensor_type"], r["sensor_instance"])), cols.index(r[column])] = 100 * r["mean"]
+            grid[index.index((r["sensor_type"], r["sensor_instance"])), cols.index(r[column])] = (
+                100 * r["mean"]
+            )
         grids[training] = grid
     limits = accuracy_range(*grids.values())
     names = [f"{label('sensor_type', a)} {label('sensor_instance', b)}" for a, b in index]
@@ -238,9 +320,15 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     axes = fig.subplots(3, 1, sharex=True)
     for ax, training in zip(axes, ("with", "without")):
         im = _matrix(ax, grids[training], names, xlabels, limits)
-        ax.set_title(f"{training} explicit training" + ("" if training == "with" else " (*)"), loc="left", pad=2)
+        ax.set_title(
+            f"{training} explicit training" + ("" if training == "with" else " (*)"),
+            loc="left",
+            pad=2,
+        )
         fig.colorbar(im, ax=ax, label="accuracy (%)", fraction=0.05, pad=0.02)
-    im = _matrix(axes[2], grids["with"] - grids["without"], names, xlabels, diff=True, fmt="{:+.1f}")
+    im = _matrix(
+        axes[2], grids["with"] - grids["without"], names, xlabels, diff=True, fmt="{:+.1f}"
+    )
     axes[2].set_title("with minus without", loc="left", pad=2)
     fig.colorbar(im, ax=axes[2], label="difference (points)", fraction=0.05, pad=0.02)
     axes[2].set_xlabel(layout.x_label or AXIS_LABELS.get(column, (layout.title or column).lower()))
@@ -263,8 +351,12 @@ def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
         summaries[sensor] = (tr, te, grid)
     limits = accuracy_range(*(g for _, _, g in summaries.values()))
     fig = _figure(0.5 + sum(0.2 * len(tr) + 0.55 for tr, _, _ in summaries.values()))
-    axes = fig.subplots(len(sensors), 1, squeeze=False,
-                        height_ratios=[len(tr) + 2 for tr, _, _ in summaries.values()])[:, 0]
+    axes = fig.subplots(
+        len(sensors),
+        1,
+        squeeze=False,
+        height_ratios=[len(tr) + 2 for tr, _, _ in summaries.values()],
+    )[:, 0]
     for ax, sensor in zip(axes, sensors):
         tr, te, grid = summaries[sensor]
         im = _matrix(ax, grid, [label(row, t) for t in tr], [label(column, t) for t in te], limits)
@@ -294,14 +386,36 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
         units = ordered(part["sensor_instance"].unique(), "sensor_instance")
         for d, detector in enumerate(detectors):
             for u, unit in enumerate(units):
-                for _, row in part[(part["detector"] == detector) & (part["sensor_instance"] == unit)].iterrows():
-                    curve = pd.DataFrame(json.loads(row["tradeoff"])).dropna(subset=["median_delay_ms", "false_alarms_per_min"])
+                for _, row in part[
+                    (part["detector"] == detector) & (part["sensor_instance"] == unit)
+                ].iterrows():
+                    curve = pd.DataFrame(json.loads(row["tradeoff"])).dropna(
+                        subset=["median_delay_ms", "false_alarms_per_min"]
+                    )
                     curve = curve.sort_values(["false_alarms_per_min", "median_delay_ms"])
-                    ax.plot(curve["false_alarms_per_min"], curve["median_delay_ms"], ("-", "--", ":", "-.")[u % 4], color=f"C{d}",
-                            lw=1, label=f"{detector}, {label('sensor_instance', unit)}")
-                    ax.plot(row["false_alarms_per_min"], row["median_delay_ms"], "o", color=f"C{d}", ms=4)
+                    ax.plot(
+                        curve["false_alarms_per_min"],
+                        curve["median_delay_ms"],
+                        ("-", "--", ":", "-.")[u % 4],
+                        color=f"C{d}",
+                        lw=1,
+                        label=f"{detector}, {label('sensor_instance', unit)}",
+                    )
+                    ax.plot(
+                        row["false_alarms_per_min"],
+                        row["median_delay_ms"],
+                        "o",
+                        color=f"C{d}",
+                        ms=4,
+                    )
                     if pd.notna(row.get("op_median_delay_ms", np.nan)):
-                        ax.plot(row["op_false_alarms_per_min"], row["op_median_delay_ms"], "x", color=f"C{d}", ms=5)
+                        ax.plot(
+                            row["op_false_alarms_per_min"],
+                            row["op_median_delay_ms"],
+                            "x",
+                            color=f"C{d}",
+                            ms=5,
+                        )
         ax.set_xscale("symlog", linthresh=1.0)  # 0 false alarms is a result worth seeing
         ax.set_xlabel("false alarms per minute")
         ax.set_ylabel("median delay (ms)")
@@ -339,8 +453,13 @@ def critical_difference(board: Leaderboard) -> Figure:
             ax.text(r, 0.35, str(r), ha="center", va="bottom", fontsize=6.5)
         for g, members in enumerate(scope.groups):
             y = -0.35 - 0.5 * g
-            ax.plot([scope.ranks[members[0]] - 0.03, scope.ranks[members[-1]] + 0.03], [y, y], color="black", lw=2.2,
-                    solid_capstyle="round")
+            ax.plot(
+                [scope.ranks[members[0]] - 0.03, scope.ranks[members[-1]] + 0.03],
+                [y, y],
+                color="black",
+                lw=2.2,
+                solid_capstyle="round",
+            )
         base = -0.6 - 0.5 * len(scope.groups)
         for i, name in enumerate(order):
             r = scope.ranks[name]
@@ -348,13 +467,28 @@ def critical_difference(board: Leaderboard) -> Figure:
             level = base - (i if left else len(order) - 1 - i) * 0.8
             end = 0.55 if left else k + 0.45
             ax.plot([r, r, end], [0, level, level], color="0.25", lw=0.7)
-            ax.text(end + (-0.05 if left else 0.05), level, f"{name} ({r:.2f})", ha="right" if left else "left",
-                    va="center", fontsize=6.5, clip_on=False)
+            ax.text(
+                end + (-0.05 if left else 0.05),
+                level,
+                f"{name} ({r:.2f})",
+                ha="right" if left else "left",
+                va="center",
+                fontsize=6.5,
+                clip_on=False,
+            )
         ax.set_axis_off()
-        ax.text((k + 1) / 2, 0.95, f"{'every protocol' if scope.name == ALL else scope.name}: {scope.n_cells} cells",
-                ha="center", va="bottom", fontsize=7)
-    fig.suptitle(f"Mean rank of {board.metric.replace('_', ' ')} over cells (1 = best)\n"
-                 "a bar joins detectors that do not differ (Wilcoxon-Holm)")
+        ax.text(
+            (k + 1) / 2,
+            0.95,
+            f"{'every protocol' if scope.name == ALL else scope.name}: {scope.n_cells} cells",
+            ha="center",
+            va="bottom",
+            fontsize=7,
+        )
+    fig.suptitle(
+        f"Mean rank of {board.metric.replace('_', ' ')} over cells (1 = best)\n"
+        "a bar joins detectors that do not differ (Wilcoxon-Holm)"
+    )
     return fig
 
 
@@ -365,11 +499,18 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figur
         return None
     if layout.figure == "curve":
         ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
-        return _curves(part, layout, f"Accuracy against {layout.title.lower() or layout.x or layout.column}: {title}", ref)
+        return _curves(
+            part,
+            layout,
+            f"Accuracy against {layout.title.lower() or layout.x or layout.column}: {title}",
+            ref,
+        )
     if layout.figure == "tradeoff":
         return tradeoff(part, f"Delay against false alarms: {title}")
     if layout.figure == "with-without":
-        return _heatmaps(part, layout, f"Accuracy per {layout.title.lower() or layout.column}: {title}")
+        return _heatmaps(
+            part, layout, f"Accuracy per {layout.title.lower() or layout.column}: {title}"
+        )
     return _transfer(part, layout, f"{layout.title or 'Accuracy'}: {title}")
 
 
@@ -378,12 +519,20 @@ def compare_figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) 
     if layout.figure != "curve" or "sensor_type" not in part or part["detector"].nunique() < 2:
         return None
     ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
-    return _compare_curves(part, layout, f"Accuracy against {layout.title.lower() or layout.x or layout.column}: {title}",
-                           ref)
+    return _compare_curves(
+        part,
+        layout,
+        f"Accuracy against {layout.title.lower() or layout.x or layout.column}: {title}",
+        ref,
+    )
 
 
-def figure_specs(rows: pd.DataFrame, paper: bool = True, board: Leaderboard | None = None,
-                 found: dict | None = None) -> list[FigureSpec]:
+def figure_specs(
+    rows: pd.DataFrame,
+    paper: bool = True,
+    board: Leaderboard | None = None,
+    found: dict | None = None,
+) -> list[FigureSpec]:
     """Every figure the rows allow: the critical-difference diagram (with ``board`` of two
     detectors or more), then per protocol the figure of every detector together and each
     detector's own, one per table where a layout splits its tables.
@@ -395,31 +544,70 @@ def figure_specs(rows: pd.DataFrame, paper: bool = True, board: Leaderboard | No
     found = layouts(rows) if found is None else found
     specs = []
     if board is not None and len(board.order) >= 2 and board.scopes[0].n_cells:
-        specs.append(FigureSpec("leaderboard", "Critical-difference diagram of the leaderboard: mean ranks per scope; "
-                                "a bar joins detectors that do not differ (Wilcoxon signed-rank, Holm).", None,
-                                lambda: critical_difference(board)))
+        specs.append(
+            FigureSpec(
+                "leaderboard",
+                "Critical-difference diagram of the leaderboard: mean ranks per scope; "
+                "a bar joins detectors that do not differ (Wilcoxon signed-rank, Holm).",
+                None,
+                lambda: critical_difference(board),
+            )
+        )
     for protocol in protocol_order(found):
         layout = found[protocol][0]
         prows = rows[rows["protocol"] == protocol]
-        for split in rank(prows["split"].unique() if "split" in prows else ["paper"], ("paper", "grouped")):
+        for split in rank(
+            prows["split"].unique() if "split" in prows else ["paper"], ("paper", "grouped")
+        ):
             srows = prows[prows["split"] == split] if "split" in prows else prows
             parts = split_parts(srows, layout)
             for which, part in parts:
                 named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
-                tail = ("" if split == "paper" else f"-{split}") + ("".join(f"-{v}" for v in which.values()) if named else "")
-                if layout.figure == "tradeoff" and part["detector"].nunique() > 1 and "sensor_type" in part:
-                    specs.append(FigureSpec(
-                        f"{protocol}-detectors{tail}", f"{protocol}, every detector ({split} split{named}): median delay "
-                        "against false alarms per minute over the threshold sweep; dot: threshold 0.5, cross: the "
-                        "operating point chosen on the training trials.", protocol,
-                        lambda p=part, t=f"{protocol}, every detector ({split} split{named})": tradeoff(p, t), None, split))
-                if layout.figure == "curve" and part["detector"].nunique() > 1 and "sensor_type" in part:
-                    specs.append(FigureSpec(
-                        f"{protocol}-detectors{tail}",
-                        f"{protocol}, every detector ({split} split{named}): mean over fingers (line), range over "
-                        "fingers (band)" + ("; the paper's LSTM dashed." if paper and layout.paper_table else "."),
-                        protocol, lambda p=part, lay=layout, t=f"every detector ({split} split{named})":
-                        compare_figure(p, lay, t, paper), None, split))
+                tail = ("" if split == "paper" else f"-{split}") + (
+                    "".join(f"-{v}" for v in which.values()) if named else ""
+                )
+                if (
+                    layout.figure == "tradeoff"
+                    and part["detector"].nunique() > 1
+                    and "sensor_type" in part
+                ):
+                    specs.append(
+                        FigureSpec(
+                            f"{protocol}-detectors{tail}",
+                            f"{protocol}, every detector ({split} split{named}): median delay "
+                            "against false alarms per minute over the threshold sweep; dot: threshold 0.5, cross: the "
+                            "operating point chosen on the training trials.",
+                            protocol,
+                            lambda p=part, t=f"{protocol}, every detector ({split} split{named})": (
+                                tradeoff(p, t)
+                            ),
+                            None,
+                            split,
+                        )
+                    )
+                if (
+                    layout.figure == "curve"
+                    and part["detector"].nunique() > 1
+                    and "sensor_type" in part
+                ):
+                    specs.append(
+                        FigureSpec(
+                            f"{protocol}-detectors{tail}",
+                            f"{protocol}, every detector ({split} split{named}): mean over fingers (line), range over "
+                            "fingers (band)"
+                            + (
+                                "; the paper's LSTM dashed."
+                                if paper and layout.paper_table
+                                else "."
+                            ),
+                            protocol,
+                            lambda p=part, lay=layout, t=f"every detector ({split} split{named})": (
+                                compare_figure(p, lay, t, paper)
+                            ),
+                            None,
+                            split,
+                        )
+                    )
     for protocol, detector, split, part in _sections(rows, found):
         layout = found[protocol][0]
         parts = split_parts(part, layout)
@@ -429,14 +617,27 @@ def figure_specs(rows: pd.DataFrame, paper: bool = True, board: Leaderboard | No
                 continue
             stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
             stem += "".join(f"-{v}" for v in which.values()) if named else ""
-            specs.append(FigureSpec(stem, f"{protocol}, {detector} ({split} split{named}).", protocol,
-                                    lambda r=rows_, lay=layout, t=f"{detector} ({split} split{named})":
-                                    figure(r, lay, t, paper), detector, split))
+            specs.append(
+                FigureSpec(
+                    stem,
+                    f"{protocol}, {detector} ({split} split{named}).",
+                    protocol,
+                    lambda r=rows_, lay=layout, t=f"{detector} ({split} split{named})": figure(
+                        r, lay, t, paper
+                    ),
+                    detector,
+                    split,
+                )
+            )
     return specs
 
 
-def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = True,
-                board: Leaderboard | None = None) -> list[Path]:
+def write_plots(
+    rows: pd.DataFrame,
+    folder: str | os.PathLike,
+    paper: bool = True,
+    board: Leaderboard | None = None,
+) -> list[Path]:
     """Every figure the rows allow (see :func:`figure_specs`) as PNG and PDF in ``folder``.
 
     ``paper`` overlays the published LSTM accuracies on curves whose layout names a paper table.

@@ -20,25 +20,32 @@ import pyarrow.parquet as pq
 from slipbench.report.tables import LOW_MARK, Table, cell_label, label, low_n, ordered
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
-SYNTH_SOURCE = re.compile(r"slipbench\.synth v(?P<version>\S+) seed=(?P<seed>\d+) scale=(?P<scale>[0-9.e+-]+)")
+SYNTH_SOURCE = re.compile(
+    r"slipbench\.synth v(?P<version>\S+) seed=(?P<seed>\d+) scale=(?P<scale>[0-9.e+-]+)"
+)
 SYNTH_FOLDER = re.compile(r"synth-v(?P<version>\w+)-scale(?P<scale>[0-9.e+-]+)-seed(?P<seed>\d+)$")
 SPLITS = {
     "paper": "paper: the balanced windows shuffled and halved (windows of one recording on both sides, which "
-             "flatters every detector)",
+    "flatters every detector)",
     "grouped": "grouped: whole trials on one side, the same for every unit",
     "datasets": "datasets: trained on one dataset, tested on another",
 }
-LABELS = {"scenario": "scenario: a window's class is its recording's scenario (the paper)",
-          "majority": "majority: at least half the window's samples slip", "any": "any: a sample of the window slips",
-          "last": "last: the window's last sample slips"}
+LABELS = {
+    "scenario": "scenario: a window's class is its recording's scenario (the paper)",
+    "majority": "majority: at least half the window's samples slip",
+    "any": "any: a sample of the window slips",
+    "last": "last: the window's last sample slips",
+}
 TOP_VALUES = 2  # fitted values listed per unit before "k more"
 MAX_WARNINGS = 12
 
 
 def _simulated(match: re.Match) -> str:
     scale = float(match["scale"])
-    return (f"simulated (slipbench.data.synth model v{match['version']}, scale {scale:g}, seed {match['seed']}; "
-            f"scale 1.0 is about the paper's size, 8 M samples per unit)")
+    return (
+        f"simulated (slipbench.data.synth model v{match['version']}, scale {scale:g}, seed {match['seed']}; "
+        f"scale 1.0 is about the paper's size, 8 M samples per unit)"
+    )
 
 
 def dataset_source(path: str) -> str:
@@ -48,7 +55,9 @@ def dataset_source(path: str) -> str:
     if not path:
         return "a dataset built in memory (no path recorded)"
     try:
-        column = pq.read_table(Path(path) / "recordings.parquet", columns=["source"]).column("source")
+        column = pq.read_table(Path(path) / "recordings.parquet", columns=["source"]).column(
+            "source"
+        )
         sources = sorted({str(s) for s in column.to_pylist() if s is not None})
     except (OSError, pa.ArrowException, KeyError):
         sources = None
@@ -70,13 +79,18 @@ def _params(text: str) -> str:
         params = json.loads(text)
     except (TypeError, json.JSONDecodeError):
         return str(text)
-    return "; ".join(f"{k}={json.dumps(v, separators=(', ', ': '))}" for k, v in params.items()) or "(none)"
+    return (
+        "; ".join(f"{k}={json.dumps(v, separators=(', ', ': '))}" for k, v in params.items())
+        or "(none)"
+    )
 
 
 def _counts(rows: pd.DataFrame) -> str:
     counts = rows["status"].value_counts()
     others = [s for s in counts.index if s not in STATUSES]
-    return f"{len(rows)}: " + ", ".join(f"{int(counts.get(s, 0))} {s}" for s in (*STATUSES, *others))
+    return f"{len(rows)}: " + ", ".join(
+        f"{int(counts.get(s, 0))} {s}" for s in (*STATUSES, *others)
+    )
 
 
 def _values(rows: pd.DataFrame, column: str) -> list:
@@ -84,7 +98,11 @@ def _values(rows: pd.DataFrame, column: str) -> list:
 
 
 def _where(row: pd.Series) -> str:
-    return f"{row['protocol']}, {row['detector']}, {cell_label(row['cell'])}" if "cell" in row else str(row["protocol"])
+    return (
+        f"{row['protocol']}, {row['detector']}, {cell_label(row['cell'])}"
+        if "cell" in row
+        else str(row["protocol"])
+    )
 
 
 def _smallest(rows: pd.DataFrame) -> str:
@@ -95,24 +113,41 @@ def _smallest(rows: pd.DataFrame) -> str:
         if column in ok and ok[column].notna().any():
             at = pd.to_numeric(ok[column], errors="coerce").idxmin()
             found.setdefault(at, []).append(f"{int(ok.loc[at, column])} {unit}")
-    return "; ".join(f"{', '.join(what)} ({_where(ok.loc[at])})" for at, what in found.items()) or "unknown (the rows do not say)"
+    return (
+        "; ".join(f"{', '.join(what)} ({_where(ok.loc[at])})" for at, what in found.items())
+        or "unknown (the rows do not say)"
+    )
 
 
-def header_tables(rows: pd.DataFrame, metric: str = "accuracy", protocols: list[str] | None = None,
-                  benchmark: str = "") -> list[Table]:
+def header_tables(
+    rows: pd.DataFrame,
+    metric: str = "accuracy",
+    protocols: list[str] | None = None,
+    benchmark: str = "",
+) -> list[Table]:
     """The report's opening tables: the run (data, split, labels, seeds, cells, smallest test
     set), the detectors with their parameters, and the protocols (in the order ``protocols``,
     default as the rows first name them) with their options."""
     low = low_n(rows) & rows["status"].eq("ok")
     run = [
-        ("Data", "; ".join(dataset_source(p) for p in _values(rows, "dataset_path")) or "unknown (the rows do not say)"),
-        ("Dataset fingerprint", ", ".join(map(str, _values(rows, "dataset_fingerprint"))) or "unknown"),
+        (
+            "Data",
+            "; ".join(dataset_source(p) for p in _values(rows, "dataset_path"))
+            or "unknown (the rows do not say)",
+        ),
+        (
+            "Dataset fingerprint",
+            ", ".join(map(str, _values(rows, "dataset_fingerprint"))) or "unknown",
+        ),
         ("Split", "; ".join(SPLITS.get(s, s) for s in _values(rows, "split")) or "unknown"),
         ("Labels", "; ".join(LABELS.get(s, s) for s in _values(rows, "labels")) or "unknown"),
         ("Seeds", ", ".join(str(int(s)) for s in _values(rows, "seed")) or "unknown"),
         ("Cells", _counts(rows)),
         ("Smallest test set", _smallest(rows)),
-        (f"Few test trials ({LOW_MARK})", f"{int(low.sum())} finished cells" + (" (marked in every table)" if low.any() else "")),
+        (
+            f"Few test trials ({LOW_MARK})",
+            f"{int(low.sum())} finished cells" + (" (marked in every table)" if low.any() else ""),
+        ),
         ("Metric", metric),
         ("slipbench", ", ".join(map(str, _values(rows, "slipbench_version"))) or "unknown"),
     ]
@@ -121,23 +156,67 @@ def header_tables(rows: pd.DataFrame, metric: str = "accuracy", protocols: list[
     if "finished_at" in rows and rows["finished_at"].notna().any():
         times = rows["finished_at"].dropna().astype(str)
         run.append(("Cells finished", f"{times.min()[:19]} to {times.max()[:19]} (UTC)"))
-    tables = [Table("The run: data, split, seeds, cells.", ["What"], "", ["Value"], [(a,) for a, _ in run],
-                    [[b] for _, b in run], "tab:provenance", wrap={1: 0.7})]
+    tables = [
+        Table(
+            "The run: data, split, seeds, cells.",
+            ["What"],
+            "",
+            ["Value"],
+            [(a,) for a, _ in run],
+            [[b] for _, b in run],
+            "tab:provenance",
+            wrap={1: 0.7},
+        )
+    ]
     det_rows, det_cells = [], []
-    for (det, params), part in rows.groupby(["detector", rows.get("detector_params", pd.Series("", index=rows.index))],
-                                            sort=False, dropna=False):
+    for (det, params), part in rows.groupby(
+        ["detector", rows.get("detector_params", pd.Series("", index=rows.index))],
+        sort=False,
+        dropna=False,
+    ):
         det_rows.append((str(det),))
-        det_cells.append([_params(params) if isinstance(params, str) and params else "(not recorded)", _counts(part)])
-    tables.append(Table("Detectors and their parameters.", ["Detector"], "", ["Parameters", "Cells"], det_rows,
-                        det_cells, "tab:detectors", wrap={1: 0.5, 2: 0.25}))
+        det_cells.append(
+            [
+                _params(params) if isinstance(params, str) and params else "(not recorded)",
+                _counts(part),
+            ]
+        )
+    tables.append(
+        Table(
+            "Detectors and their parameters.",
+            ["Detector"],
+            "",
+            ["Parameters", "Cells"],
+            det_rows,
+            det_cells,
+            "tab:detectors",
+            wrap={1: 0.5, 2: 0.25},
+        )
+    )
     pro_rows, pro_cells = [], []
     for protocol in protocols or list(dict.fromkeys(rows["protocol"])):
         part = rows[rows["protocol"] == protocol]
         params = _values(part, "protocol_params")
         pro_rows.append((str(protocol),))
-        pro_cells.append(["; ".join(_params(p) for p in params) or "(not recorded)", _counts(part), _smallest(part)])
-    tables.append(Table("Protocols and their options.", ["Protocol"], "", ["Options", "Cells", "Smallest test set"],
-                        pro_rows, pro_cells, "tab:protocols", wrap={1: 0.22, 2: 0.2, 3: 0.33}))
+        pro_cells.append(
+            [
+                "; ".join(_params(p) for p in params) or "(not recorded)",
+                _counts(part),
+                _smallest(part),
+            ]
+        )
+    tables.append(
+        Table(
+            "Protocols and their options.",
+            ["Protocol"],
+            "",
+            ["Options", "Cells", "Smallest test set"],
+            pro_rows,
+            pro_cells,
+            "tab:protocols",
+            wrap={1: 0.22, 2: 0.2, 3: 0.33},
+        )
+    )
     return tables
 
 
@@ -154,14 +233,17 @@ def _summary(values: list) -> str:
         return f"true in {sum(values)} of {len(values)}"
     if all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values):
         x = np.asarray(values, dtype=float)
-        return f"{np.median(x):.3g}" + (f" ({x.min():.3g} to {x.max():.3g})" if x.min() != x.max() else "")
+        return f"{np.median(x):.3g}" + (
+            f" ({x.min():.3g} to {x.max():.3g})" if x.min() != x.max() else ""
+        )
     if all(isinstance(v, list) and len(v) == 2 for v in values):
         counted = Counter(f"{v[0]:.0f}–{v[1]:.0f}" for v in values).most_common()
         text = ", ".join(f"{b} ({n})" for b, n in counted[:TOP_VALUES])
         return text + (f", {len(counted) - TOP_VALUES} more" if len(counted) > TOP_VALUES else "")
     counted = Counter(json.dumps(v) for v in values).most_common()
     return ", ".join(f"{v} ({n})" for v, n in counted[:TOP_VALUES]) + (
-        f", {len(counted) - TOP_VALUES} more" if len(counted) > TOP_VALUES else "")
+        f", {len(counted) - TOP_VALUES} more" if len(counted) > TOP_VALUES else ""
+    )
 
 
 def fitted_tables(rows: pd.DataFrame) -> list[Table]:
@@ -181,16 +263,36 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
         if not per_unit:
             continue
         keys = list(dict.fromkeys(k for cs in per_unit.values() for c in cs for k in c))
-        units = sorted(per_unit, key=lambda u: (ordered([x[0] for x in per_unit], "sensor_type").index(u[0]),
-                                                ordered([x[1] for x in per_unit], "sensor_instance").index(u[1])))
-        cells = [[_summary([c[k] for c in per_unit[u] if k in c]) for k in keys] + [str(len(per_unit[u]))] for u in units]
+        units = sorted(
+            per_unit,
+            key=lambda u: (
+                ordered([x[0] for x in per_unit], "sensor_type").index(u[0]),
+                ordered([x[1] for x in per_unit], "sensor_instance").index(u[1]),
+            ),
+        )
+        cells = [
+            [_summary([c[k] for c in per_unit[u] if k in c]) for k in keys]
+            + [str(len(per_unit[u]))]
+            for u in units
+        ]
         columns = [f"{k[:-3]} (Hz)" if k.endswith("_hz") else k for k in keys] + ["cells"]
-        tables.append(Table(f"What fitting chose: {det}.", ["Sensor", "Finger"], "", columns,
-                            [(label("sensor_type", u[0]), label("sensor_instance", u[1])) for u in units], cells,
-                            f"tab:fitted-{det}", wrap={2 + i: 0.55 / len(keys) for i in range(len(keys))}, notes=[
-                                "Over each unit's finished cells of every protocol (a cross-instance cell counts for the "
-                                "unit it trained on): numbers as median (range); bands as the most frequent [low, high] "
-                                "with their number of cells."]))
+        tables.append(
+            Table(
+                f"What fitting chose: {det}.",
+                ["Sensor", "Finger"],
+                "",
+                columns,
+                [(label("sensor_type", u[0]), label("sensor_instance", u[1])) for u in units],
+                cells,
+                f"tab:fitted-{det}",
+                wrap={2 + i: 0.55 / len(keys) for i in range(len(keys))},
+                notes=[
+                    "Over each unit's finished cells of every protocol (a cross-instance cell counts for the "
+                    "unit it trained on): numbers as median (range); bands as the most frequent [low, high] "
+                    "with their number of cells."
+                ],
+            )
+        )
     if "warnings" in rows:
         tables += _warnings_table(ok)
     return tables
@@ -203,18 +305,43 @@ def _warnings_table(ok: pd.DataFrame) -> list[Table]:
     kinds: dict[tuple[str, str], list[tuple[str, dict]]] = {}
     for row in flagged.to_dict("records"):
         for text in str(row["warnings"]).split("; "):
-            kinds.setdefault((str(row["detector"]), re.sub(r"\d+(\.\d+)?", "#", text)), []).append((text, row))
+            kinds.setdefault((str(row["detector"]), re.sub(r"\d+(\.\d+)?", "#", text)), []).append(
+                (text, row)
+            )
     if not kinds:
         return []
     lines = sorted(kinds.items(), key=lambda kv: (-len(kv[1]), kv[0]))
     cells = []
     for _, found in lines[:MAX_WARNINGS]:
         wording = Counter(t for t, _ in found).most_common()
-        text = wording[0][0] + (f" (and {len(wording) - 1} other values)" if len(wording) > 1 else "")
+        text = wording[0][0] + (
+            f" (and {len(wording) - 1} other values)" if len(wording) > 1 else ""
+        )
         units = list(dict.fromkeys(_unit(r) for _, r in found))
-        cells.append([text, str(len(found)), ", ".join(f"{label('sensor_type', s)} {label('sensor_instance', i)}"
-                                                       for s, i in units)])
-    notes = [f"{len(lines) - MAX_WARNINGS} further kinds of warning not shown."] if len(lines) > MAX_WARNINGS else []
-    return [Table(f"Warnings about fitted choices ({len(flagged)} of {len(ok)} finished cells).", ["Detector"], "",
-                  ["Warning", "Cells", "Units"], [(d,) for (d, _), _ in lines[:MAX_WARNINGS]], cells, "tab:warnings",
-                  notes=notes, wrap={1: 0.45, 3: 0.3})]
+        cells.append(
+            [
+                text,
+                str(len(found)),
+                ", ".join(
+                    f"{label('sensor_type', s)} {label('sensor_instance', i)}" for s, i in units
+                ),
+            ]
+        )
+    notes = (
+        [f"{len(lines) - MAX_WARNINGS} further kinds of warning not shown."]
+        if len(lines) > MAX_WARNINGS
+        else []
+    )
+    return [
+        Table(
+            f"Warnings about fitted choices ({len(flagged)} of {len(ok)} finished cells).",
+            ["Detector"],
+            "",
+            ["Warning", "Cells", "Units"],
+            [(d,) for (d, _), _ in lines[:MAX_WARNINGS]],
+            cells,
+            "tab:warnings",
+            notes=notes,
+            wrap={1: 0.45, 3: 0.3},
+        )
+    ]

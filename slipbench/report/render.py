@@ -11,9 +11,13 @@ from slipbench.report.tables import Table, escape
 
 # one figure of a cell as ``figure_text`` writes it ("88.0 ± 0.4 [86.9, 89.1]†"), its marks after
 # it ("*": without explicit training); a paired cell holds two, separated by a space
-FIGURE = re.compile(r"(?P<value>-?\d+(?:\.\d+)?|NA|—|\w+)(?P<sd> ± \d+(?:\.\d+)?)?"
-                    r"(?: \[(?P<lo>-?\d+(?:\.\d+)?), (?P<hi>-?\d+(?:\.\d+)?)\])?(?P<mark>[*†]*)")
-LATEX_TABLE_SIZE = r"\footnotesize"  # with intervals on a second line, the paper's tables fit the text width
+FIGURE = re.compile(
+    r"(?P<value>-?\d+(?:\.\d+)?|NA|—|\w+)(?P<sd> ± \d+(?:\.\d+)?)?"
+    r"(?: \[(?P<lo>-?\d+(?:\.\d+)?), (?P<hi>-?\d+(?:\.\d+)?)\])?(?P<mark>[*†]*)"
+)
+LATEX_TABLE_SIZE = (
+    r"\footnotesize"  # with intervals on a second line, the paper's tables fit the text width
+)
 LATEX_COLUMN_SEP = "3pt"
 
 
@@ -21,15 +25,26 @@ def to_markdown(table: Table) -> str:
     """Markdown: caption in bold, one pipe table, notes in italics."""
     header = [*table.row_headers, *table.columns]
     frame = pd.DataFrame([[*r, *c] for r, c in zip(table.rows, table.cells)], columns=header)
-    body = frame.to_markdown(index=False, stralign="left" if table.wrap else "right", disable_numparse=True)
-    parts = [f"**{table.caption}**" + (f" {table.group}." if table.group else "") + (f" {table.subject}" if table.subject else ""),
-             "", body]
+    body = frame.to_markdown(
+        index=False, stralign="left" if table.wrap else "right", disable_numparse=True
+    )
+    parts = [
+        f"**{table.caption}**"
+        + (f" {table.group}." if table.group else "")
+        + (f" {table.subject}" if table.subject else ""),
+        "",
+        body,
+    ]
     parts += [""] + [f"_{n}_" for n in table.notes] if table.notes else []
     return "\n".join(parts)
 
 
 def _stacked(lines: list[str]) -> str:
-    return r"\begin{tabular}{@{}c@{}}" + r"\\".join(lines) + r"\end{tabular}" if len(lines) > 1 else lines[0]
+    return (
+        r"\begin{tabular}{@{}c@{}}" + r"\\".join(lines) + r"\end{tabular}"
+        if len(lines) > 1
+        else lines[0]
+    )
 
 
 def latex_cell(text: str) -> str:
@@ -37,7 +52,9 @@ def latex_cell(text: str) -> str:
     spread over seeds) on its own line in a smaller size (``88.0`` over ``86.9--89.1``), the
     two figures of a paired cell (with, without*) one above the other."""
     figures = list(FIGURE.finditer(text))
-    if " ".join(m[0] for m in figures) != text or not (len(figures) > 1 or any(m["lo"] or m["sd"] for m in figures)):
+    if " ".join(m[0] for m in figures) != text or not (
+        len(figures) > 1 or any(m["lo"] or m["sd"] for m in figures)
+    ):
         named = re.fullmatch(r"(\S+) \((.+)\)", text)  # "Neoprene (-9.1)": the name over its figure
         return _stacked([escape(named[1]), escape(f"({named[2]})")]) if named else escape(text)
     lines = []
@@ -65,7 +82,7 @@ def _two_lines(text: str, limit: int = 44) -> str:
     if len(text) <= limit or " " not in text:
         return escape(text)
     middle = min((i for i, c in enumerate(text) if c == " "), key=lambda i: abs(i - len(text) / 2))
-    return _stacked([escape(text[:middle]), escape(text[middle + 1:])])
+    return _stacked([escape(text[:middle]), escape(text[middle + 1 :])])
 
 
 def to_latex(table: Table) -> str:
@@ -84,32 +101,60 @@ def to_latex(table: Table) -> str:
 
     def wrapped(i: int, text: str) -> str:
         # a ragged-right paragraph: a justified p{} column stretches spaces across narrow lines
-        return rf"\parbox[t]{{{table.wrap[i]:.2f}\linewidth}}{{\raggedright {text}\strut}}" if i in table.wrap else text
+        return (
+            rf"\parbox[t]{{{table.wrap[i]:.2f}\linewidth}}{{\raggedright {text}\strut}}"
+            if i in table.wrap
+            else text
+        )
 
     caption = f"{table.caption} {table.subject}".strip()
-    lines = [r"\begin{table}[!htbp]", rf"\caption{{{escape(caption)}}}", r"\centering", LATEX_TABLE_SIZE,
-             rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}", rf"\begin{{tabular}}{{{spec}}}", r"\hline"]
+    lines = [
+        r"\begin{table}[!htbp]",
+        rf"\caption{{{escape(caption)}}}",
+        r"\centering",
+        LATEX_TABLE_SIZE,
+        rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}",
+        rf"\begin{{tabular}}{{{spec}}}",
+        r"\hline",
+    ]
     heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
     if table.group:
-        lines.append(rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_two_lines(table.group)}}}\\")
+        lines.append(
+            rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_two_lines(table.group)}}}\\"
+        )
         lines.append(rf"\cline{{{first}-{n_rows + n_cols}}}")
         heads = " & " * n_rows
     else:
         heads += " & "
     latex_cols = table.latex_columns or [escape(c) for c in table.columns]
-    lines.append(heads + " & ".join(wrapped(n_rows + j, c) if n_rows + j in table.wrap else _latex_header(c)
-                                    for j, c in enumerate(latex_cols)) + r"\\")
+    lines.append(
+        heads
+        + " & ".join(
+            wrapped(n_rows + j, c) if n_rows + j in table.wrap else _latex_header(c)
+            for j, c in enumerate(latex_cols)
+        )
+        + r"\\"
+    )
     lines.append(r"\hline")
     previous: tuple[str, ...] | None = None
     for i, (labels, cells) in enumerate(zip(table.rows, table.cells)):
         shown = list(labels)
         if n_rows > 1 and previous is not None and labels[0] == previous[0]:
             shown[0] = ""  # the sensor name once per group, as the paper's multirow
-        texts = [*(escape(x) for x in shown),
-                 *(escape(c) if n_rows + j in table.wrap else latex_cell(c) for j, c in enumerate(cells))]
+        texts = [
+            *(escape(x) for x in shown),
+            *(
+                escape(c) if n_rows + j in table.wrap else latex_cell(c)
+                for j, c in enumerate(cells)
+            ),
+        ]
         lines.append(" & ".join(wrapped(j, t) for j, t in enumerate(texts)) + r"\\")
         nxt = table.rows[i + 1] if i + 1 < len(table.rows) else None
-        lines.append(rf"\cline{{2-{n_rows + n_cols}}}" if n_rows > 1 and nxt is not None and nxt[0] == labels[0] else r"\hline")
+        lines.append(
+            rf"\cline{{2-{n_rows + n_cols}}}"
+            if n_rows > 1 and nxt is not None and nxt[0] == labels[0]
+            else r"\hline"
+        )
         previous = labels
     lines.append(r"\end{tabular}")
     if table.label:
@@ -123,8 +168,17 @@ def to_latex(table: Table) -> str:
 def standalone_latex(body: str, graphics: bool = False) -> str:
     """Wrap table floats in a minimal document that compiles with the LaTeX kernel alone (and
     ``graphicx``, part of every LaTeX installation, where ``graphics`` includes figures)."""
-    return "\n".join([r"\documentclass{article}", r"\usepackage[utf8]{inputenc}",
-                      *([r"\usepackage{graphicx}"] if graphics else []), r"\begin{document}", body, r"\end{document}", ""])
+    return "\n".join(
+        [
+            r"\documentclass{article}",
+            r"\usepackage[utf8]{inputenc}",
+            *([r"\usepackage{graphicx}"] if graphics else []),
+            r"\begin{document}",
+            body,
+            r"\end{document}",
+            "",
+        ]
+    )
 
 
 def to_html(table: Table) -> str:
@@ -133,12 +187,21 @@ def to_html(table: Table) -> str:
     n_rows = len(table.row_headers)
     esc = html.escape
     head = "".join(f'<th scope="col" rowspan="2">{esc(h)}</th>' for h in table.row_headers)
-    group = f'<th scope="colgroup" colspan="{len(table.columns)}">{esc(table.group)}</th>' if table.group else ""
+    group = (
+        f'<th scope="colgroup" colspan="{len(table.columns)}">{esc(table.group)}</th>'
+        if table.group
+        else ""
+    )
     columns = "".join(f'<th scope="col">{esc(c)}</th>' for c in table.columns)
     if table.group:
         thead = f"<tr>{head}{group}</tr><tr>{columns}</tr>"
     else:
-        thead = "<tr>" + "".join(f'<th scope="col">{esc(h)}</th>' for h in table.row_headers) + columns + "</tr>"
+        thead = (
+            "<tr>"
+            + "".join(f'<th scope="col">{esc(h)}</th>' for h in table.row_headers)
+            + columns
+            + "</tr>"
+        )
     body = []
     for labels, cells in zip(table.rows, table.cells):
         row_heads = "".join(f'<th scope="row">{esc(x)}</th>' for x in labels)
@@ -146,7 +209,9 @@ def to_html(table: Table) -> str:
     ident = f' id="{esc(table.label)}"' if table.label else ""
     notes = "".join(f'<p class="note">{esc(n)}</p>' for n in table.notes)
     classes = "text" if table.wrap else "numbers"
-    return (f'<div class="table-wrap"><table class="{classes}"{ident} data-row-headers="{n_rows}">'
-            f"<caption>{esc(table.caption)}{f' <span class=subject>{esc(table.subject)}</span>' if table.subject else ''}"
-            f"</caption><thead>{thead}</thead><tbody>{''.join(body)}</tbody></table>"
-            f"{notes}</div>")
+    return (
+        f'<div class="table-wrap"><table class="{classes}"{ident} data-row-headers="{n_rows}">'
+        f"<caption>{esc(table.caption)}{f' <span class=subject>{esc(table.subject)}</span>' if table.subject else ''}"
+        f"</caption><thead>{thead}</thead><tbody>{''.join(body)}</tbody></table>"
+        f"{notes}</div>"
+    )

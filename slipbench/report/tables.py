@@ -19,34 +19,56 @@ import numpy as np
 import pandas as pd
 
 from slipbench.engine.check import LOW_N
-from slipbench.stats.joint import JOINT_NOTE
-from slipbench.report.paper import paper_frame
 from slipbench.protocol import Layout
+from slipbench.report.paper import paper_frame
+from slipbench.stats.joint import JOINT_NOTE
 
 SENSOR_NAMES = {"Nano17": "Nano17", "OptoForce20": "OptoForce20", "BioTacSP": "Biotac SP"}
 SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")
 INSTANCE_ORDER = ("index", "middle", "little", "combined")
 MATERIAL_ORDER = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
 METRIC_NAMES = {
-    "accuracy": "Classification Accuracy", "tp_rate": "TP Rate", "tn_rate": "TN Rate",
-    "balanced_accuracy": "Balanced Accuracy", "auroc": "AUROC",
+    "accuracy": "Classification Accuracy",
+    "tp_rate": "TP Rate",
+    "tn_rate": "TN Rate",
+    "balanced_accuracy": "Balanced Accuracy",
+    "auroc": "AUROC",
 }
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
 LOW_MARK = "†"  # a cell resting on few test trials
-LOW_NOTE = (f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
-            f"else fewer than {LOW_N} in all): its interval is not to be trusted.")
-KEY_ORDER = ("sensor_type", "sensor_instance", "train_instance", "test_instance")  # how a cell's key reads
+LOW_NOTE = (
+    f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
+    f"else fewer than {LOW_N} in all): its interval is not to be trusted."
+)
+KEY_ORDER = (
+    "sensor_type",
+    "sensor_instance",
+    "train_instance",
+    "test_instance",
+)  # how a cell's key reads
 
 
 # What a table's intervals are. With repeats and no predictions at hand, the seeds' bounds are
 # averaged, which is not an interval of the pooled result; with predictions, the seeds are
 # bootstrapped jointly (slipbench.stats.joint)
-INTERVAL_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, the mean "
-                 "of the seeds' bounds, not an interval of the pooled result].")
-POOLED_NOTE = ("[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, one "
-               "bootstrap of the mean over seeds, each resample drawing a trial for every seed at once].")
-ROW_HEADERS = {"sensor_type": "Sensor", "sensor_instance": "Finger", "train_instance": "Training Data"}
-COLUMN_UNITS = {"rate_hz": "Rates in Hz", "window_ms": "Window in ms", "window": "Window in samples"}
+INTERVAL_NOTE = (
+    "[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, the mean "
+    "of the seeds' bounds, not an interval of the pooled result]."
+)
+POOLED_NOTE = (
+    "[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, one "
+    "bootstrap of the mean over seeds, each resample drawing a trial for every seed at once]."
+)
+ROW_HEADERS = {
+    "sensor_type": "Sensor",
+    "sensor_instance": "Finger",
+    "train_instance": "Training Data",
+}
+COLUMN_UNITS = {
+    "rate_hz": "Rates in Hz",
+    "window_ms": "Window in ms",
+    "window": "Window in samples",
+}
 
 
 @dataclass
@@ -76,6 +98,7 @@ class Table:
 # ----------------------------------------------------------------------------- ordering and labels
 def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
     """Known values in ``order`` first, then numbers ascending, then the rest alphabetically."""
+
     def key(v):
         if v in order:
             return (0, order.index(v), "")
@@ -83,12 +106,16 @@ def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
             return (1, float(v), "")
         except (TypeError, ValueError):
             return (2, 0.0, str(v))
+
     return sorted(set(values), key=key)
 
 
 ORDERS: dict[str, Sequence[Any]] = {
-    "sensor_type": SENSOR_ORDER, "sensor_instance": INSTANCE_ORDER, "train_instance": INSTANCE_ORDER,
-    "test_instance": INSTANCE_ORDER, "material": MATERIAL_ORDER,
+    "sensor_type": SENSOR_ORDER,
+    "sensor_instance": INSTANCE_ORDER,
+    "train_instance": INSTANCE_ORDER,
+    "test_instance": INSTANCE_ORDER,
+    "material": MATERIAL_ORDER,
 }
 
 
@@ -112,10 +139,31 @@ def label(column: str, value: Any) -> str:
 
 
 LATEX_CHARS = {
-    "\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "_": r"\_", "#": r"\#", "{": r"\{", "}": r"\}",
-    "$": r"\$", "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "±": r"$\pm$", "—": "--", "–": "--",
-    "−": "-", LOW_MARK: r"\dag{}", "χ": r"$\chi$", "²": r"$^2$", "α": r"$\alpha$", "≥": r"$\geq$",
-    "≤": r"$\leq$", "×": r"$\times$", "µ": r"$\mu$", "≈": r"$\approx$", "→": r"$\rightarrow$", "<": r"$<$",
+    "\\": r"\textbackslash{}",
+    "&": r"\&",
+    "%": r"\%",
+    "_": r"\_",
+    "#": r"\#",
+    "{": r"\{",
+    "}": r"\}",
+    "$": r"\$",
+    "~": r"\textasciitilde{}",
+    "^": r"\textasciicircum{}",
+    "±": r"$\pm$",
+    "—": "--",
+    "–": "--",
+    "−": "-",
+    LOW_MARK: r"\dag{}",
+    "χ": r"$\chi$",
+    "²": r"$^2$",
+    "α": r"$\alpha$",
+    "≥": r"$\geq$",
+    "≤": r"$\leq$",
+    "×": r"$\times$",
+    "µ": r"$\mu$",
+    "≈": r"$\approx$",
+    "→": r"$\rightarrow$",
+    "<": r"$<$",
     ">": r"$>$",
 }
 
@@ -159,21 +207,31 @@ def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> 
     for values, group in rows.groupby(keys, sort=False, dropna=False):
         ok = group[group["status"] == "ok"] if "status" in group else group
         vals = ok[metric].astype(float)
-        out.append({
-            **dict(zip(keys, values if isinstance(values, tuple) else (values,))),
-            "mean": vals.mean() if len(vals) else np.nan,
-            "sd": vals.std(ddof=1) if len(vals) > 1 else np.nan,
-            "n": len(vals),
-            "lo": ok[lo_col].astype(float).mean() if lo_col in ok and len(ok) else np.nan,
-            "hi": ok[hi_col].astype(float).mean() if hi_col in ok and len(ok) else np.nan,
-            "status": "ok" if len(ok) else str(group["status"].iloc[0]),
-            "low_n": bool(ok["_low"].any()),
-        })
+        out.append(
+            {
+                **dict(zip(keys, values if isinstance(values, tuple) else (values,))),
+                "mean": vals.mean() if len(vals) else np.nan,
+                "sd": vals.std(ddof=1) if len(vals) > 1 else np.nan,
+                "n": len(vals),
+                "lo": ok[lo_col].astype(float).mean() if lo_col in ok and len(ok) else np.nan,
+                "hi": ok[hi_col].astype(float).mean() if hi_col in ok and len(ok) else np.nan,
+                "status": "ok" if len(ok) else str(group["status"].iloc[0]),
+                "low_n": bool(ok["_low"].any()),
+            }
+        )
     return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status", "low_n"])
 
 
-def figure_text(mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
-                status: str = "ok", intervals: bool = False, low: bool = False) -> str:
+def figure_text(
+    mean: float,
+    sd: float = np.nan,
+    n: int = 1,
+    lo: float = np.nan,
+    hi: float = np.nan,
+    status: str = "ok",
+    intervals: bool = False,
+    low: bool = False,
+) -> str:
     """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals; 'NA' if absent;
     ``LOW_MARK`` appended where the cell rests on few test trials (``low``)."""
     if status != "ok":
@@ -189,8 +247,13 @@ def figure_text(mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan,
 
 
 SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
-    "window": "window {}", "window_ms": "({} ms)", "rate_hz": "{} Hz", "downsample": "1/{}", "decimation": "{}",
-    "antialias": "antialiased", "speed_mm_s": "{} mm/s",
+    "window": "window {}",
+    "window_ms": "({} ms)",
+    "rate_hz": "{} Hz",
+    "downsample": "1/{}",
+    "decimation": "{}",
+    "antialias": "antialiased",
+    "speed_mm_s": "{} mm/s",
 }
 
 
@@ -239,7 +302,9 @@ def fits(layout: Layout, rows: pd.DataFrame) -> str:
     return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
 
 
-def _column_labels(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> tuple[list[str], list[str], list[str]]:
+def _column_labels(
+    layout: Layout, rows: pd.DataFrame, columns: list[Any]
+) -> tuple[list[str], list[str], list[str]]:
     """Plain and LaTeX column labels, and notes. With ``layout.column_label``, the label's value
     per sensor type, numbered by superscripts as the rates of the paper's Table II; with
     ``layout.note_column``, a note listing that column's values per sensor type."""
@@ -251,29 +316,56 @@ def _column_labels(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> tu
     number = {s: i + 1 for i, s in enumerate(sensors)}
     plain, latex = [], []
     for c in columns:
-        rates = rows[rows[layout.column] == c].groupby(layout.column_label, sort=True)["sensor_type"].unique()
-        parts = sorted(((sorted(number[s] for s in types), _rate(r)) for r, types in rates.items()), key=lambda p: p[0])
-        plain.append(" / ".join(f"{r} ({','.join(map(str, ns))})" for ns, r in parts) if len(parts) > 1
-                     else _rate(rates.index[0]) if len(parts) else label(layout.column, c))
-        latex.append(r"\begin{tabular}{@{}c@{}}" + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
-                     + r"\end{tabular}" if len(parts) > 1 else plain[-1])
-    notes.insert(0, f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
-                 + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items()) + ".")
+        rates = (
+            rows[rows[layout.column] == c]
+            .groupby(layout.column_label, sort=True)["sensor_type"]
+            .unique()
+        )
+        parts = sorted(
+            ((sorted(number[s] for s in types), _rate(r)) for r, types in rates.items()),
+            key=lambda p: p[0],
+        )
+        plain.append(
+            " / ".join(f"{r} ({','.join(map(str, ns))})" for ns, r in parts)
+            if len(parts) > 1
+            else _rate(rates.index[0])
+            if len(parts)
+            else label(layout.column, c)
+        )
+        latex.append(
+            r"\begin{tabular}{@{}c@{}}"
+            + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
+            + r"\end{tabular}"
+            if len(parts) > 1
+            else plain[-1]
+        )
+    notes.insert(
+        0,
+        f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
+        + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items())
+        + ".",
+    )
     return plain, latex, notes
 
 
 def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
-    """"Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
+    """ "Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
     col = layout.note_column
     if not col or col not in rows or "sensor_type" not in rows:
         return []
     per_sensor: dict[tuple, list[str]] = {}
     for sensor in ordered(rows["sensor_type"].unique(), "sensor_type"):
         part = rows[rows["sensor_type"] == sensor]
-        values = tuple(_rate(float(part.loc[part[layout.column] == c, col].iloc[0])) if (part[layout.column] == c).any()
-                       else "—" for c in columns)
+        values = tuple(
+            _rate(float(part.loc[part[layout.column] == c, col].iloc[0]))
+            if (part[layout.column] == c).any()
+            else "—"
+            for c in columns
+        )
         per_sensor.setdefault(values, []).append(SENSOR_NAMES.get(sensor, sensor))
-    text = "; ".join(f"{', '.join(names)}: {', '.join(values)}" for values, names in per_sensor.items())
+    text = "; ".join(
+        f"{', '.join(names)}: {', '.join(values)}" for values, names in per_sensor.items()
+    )
     return [f"{COLUMN_UNITS.get(col, col)} per column: {text}."]
 
 
@@ -282,9 +374,16 @@ def table_keys(rows: pd.DataFrame, layout: Layout) -> list[str]:
     return [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
 
 
-def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", intervals: bool = False,
-                values: str = "ours", paper: pd.DataFrame | None = None, label_: str = "",
-                pooled: dict[tuple, dict] | None = None) -> Table:
+def build_table(
+    rows: pd.DataFrame,
+    layout: Layout,
+    metric: str = "accuracy",
+    intervals: bool = False,
+    values: str = "ours",
+    paper: pd.DataFrame | None = None,
+    label_: str = "",
+    pooled: dict[tuple, dict] | None = None,
+) -> Table:
     """One table of one detector's rows in ``layout``.
 
     ``values``: "ours" (the results), "paper" (the published numbers from ``paper``), or
@@ -302,7 +401,9 @@ def build_table(rows: pd.DataFrame, layout: Layout, metric: str = "accuracy", in
     row_values = summary[list(layout.rows)].drop_duplicates()
     for col in reversed(layout.rows):  # stable sorts, last key first: lexicographic order
         order = ordered(row_values[col], col)
-        row_values = row_values.iloc[np.argsort([order.index(v) for v in row_values[col]], kind="stable")]
+        row_values = row_values.iloc[
+            np.argsort([order.index(v) for v in row_values[col]], kind="stable")
+        ]
     row_keys = list(row_values.itertuples(index=False, name=None))
     columns = ordered(summary[layout.column].unique(), layout.column)
     by_key = {tuple(r[k] for k in keys): r for r in summary.to_dict("records")}
@@ -361,13 +462,20 @@ def _seeds_note(repeated: set[tuple], pooled: dict[tuple, dict]) -> str:
         return INTERVAL_NOTE
     if not missing:
         return POOLED_NOTE
-    return (f"{POOLED_NOTE[:-2]}, for {len(repeated) - len(missing)} of the {len(repeated)} figures run under several "
-            f"seeds; for the {len(missing)} whose predictions are missing or unreadable, the mean of the seeds' bounds, "
-            "not an interval of the pooled result].")
+    return (
+        f"{POOLED_NOTE[:-2]}, for {len(repeated) - len(missing)} of the {len(repeated)} figures run under several "
+        f"seeds; for the {len(missing)} whose predictions are missing or unreadable, the mean of the seeds' bounds, "
+        "not an interval of the pooled result]."
+    )
 
 
-def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], intervals: bool,
-              joint: dict[tuple, dict] | None = None) -> dict[tuple, list[str]]:
+def _averaged(
+    rows: pd.DataFrame,
+    metrics: Sequence[str],
+    by: Sequence[str],
+    intervals: bool,
+    joint: dict[tuple, dict] | None = None,
+) -> dict[tuple, list[str]]:
     """Figures averaged over fingers (mean of the per-finger figures, each averaged over seeds).
 
     ``joint`` (from :func:`slipbench.stats.joint.joint_means`, keyed by the values of ``by``): the
@@ -389,8 +497,9 @@ def _averaged(rows: pd.DataFrame, metrics: Sequence[str], by: Sequence[str], int
                 half = np.sqrt((((g["hi"] - g["lo"]) / 2) ** 2).sum()) / len(g)
                 mean = g["mean"].mean()
                 lo, hi = mean - half, mean + half
-            out.setdefault(key, []).append(figure_text(mean, lo=lo, hi=hi, intervals=intervals,
-                                                       low=bool(g["low_n"].any())))
+            out.setdefault(key, []).append(
+                figure_text(mean, lo=lo, hi=hi, intervals=intervals, low=bool(g["low_n"].any()))
+            )
     return out
 
 
@@ -399,15 +508,19 @@ def _interval_note(joint: dict | None, intervals: bool, shown: Sequence[tuple]) 
     joint bootstrap where ``joint`` has the group, the combined half-widths elsewhere."""
     if not intervals:
         return []
-    independent = ("the fingers' half-widths combined as independent, which understates it where they share "
-                   "trials; keep predictions for a joint bootstrap")
+    independent = (
+        "the fingers' half-widths combined as independent, which understates it where they share "
+        "trials; keep predictions for a joint bootstrap"
+    )
     fallback = [k for k in shown if k not in (joint or {})]
     if joint and not fallback:
         return [f"[95 % interval: {JOINT_NOTE}.]"]
     if not joint or len(fallback) == len(shown):
         return [f"[95 % interval: {independent}.]"]
     which = ", ".join(f"{label('sensor_type', s)} ({d})" for d, s in fallback)
-    return [f"[95 % interval: {JOINT_NOTE}; for {which}, whose predictions are missing or unreadable, {independent}.]"]
+    return [
+        f"[95 % interval: {JOINT_NOTE}; for {which}, whose predictions are missing or unreadable, {independent}.]"
+    ]
 
 
 def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
@@ -415,8 +528,12 @@ def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
     return {k[1:]: v for k, v in (joint or {}).items() if k[0] == detector}
 
 
-def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = False,
-                   joint: dict[tuple, dict] | None = None) -> Table | None:
+def baseline_table(
+    rows: pd.DataFrame,
+    intervals: bool = False,
+    paper: bool = False,
+    joint: dict[tuple, dict] | None = None,
+) -> Table | None:
     """Accuracy at window 50 per sensor type (mean over fingers), one column per detector, from
     the rows of the protocol laid out as the paper's Table I; with ``paper``, the published
     Holweg accuracies and the LSTM's Table I means beside them."""
@@ -427,28 +544,51 @@ def baseline_table(rows: pd.DataFrame, intervals: bool = False, paper: bool = Fa
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     columns, cells, shown = list(detectors), [[] for _ in sensors], []
     for det in detectors:
-        avg = _averaged(rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det))
+        avg = _averaged(
+            rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det)
+        )
         shown += [(det, *k) for k in avg]
         for i, s in enumerate(sensors):
             cells[i].append(avg.get((s,), ["NA"])[0])
     if paper:
         holweg = paper_frame("holweg").set_index("sensor_type")["accuracy"]
-        lstm = paper_frame("window-size").query(f"window == {BASELINE_WINDOW}").groupby("sensor_type")["accuracy"].mean()
+        lstm = (
+            paper_frame("window-size")
+            .query(f"window == {BASELINE_WINDOW}")
+            .groupby("sensor_type")["accuracy"]
+            .mean()
+        )
         columns += ["holweg (paper)", "lstm (paper)"]
         for i, s in enumerate(sensors):
             cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
-    notes = ["Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
-             *_interval_note(joint, intervals, shown)]
+    notes = [
+        "Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
+        *_interval_note(joint, intervals, shown),
+    ]
     if paper:
-        notes.append("Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
-                     "LSTM: mean of Table I at window 50.")
-    return Table("The Holweg baseline beside the other detectors at window 50.", ["Sensor"],
-                 "Classification Accuracy (%) by Detector", columns, [(label("sensor_type", s),) for s in sensors],
-                 cells, "tab:baseline", notes=notes)
+        notes.append(
+            "Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
+            "LSTM: mean of Table I at window 50."
+        )
+    return Table(
+        "The Holweg baseline beside the other detectors at window 50.",
+        ["Sensor"],
+        "Classification Accuracy (%) by Detector",
+        columns,
+        [(label("sensor_type", s),) for s in sensors],
+        cells,
+        "tab:baseline",
+        notes=notes,
+    )
 
 
-def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, paper: bool = False,
-                joint: dict[tuple, dict] | None = None) -> Table | None:
+def rates_table(
+    rows: pd.DataFrame,
+    detector: str,
+    intervals: bool = False,
+    paper: bool = False,
+    joint: dict[tuple, dict] | None = None,
+) -> Table | None:
     """TP and TN rates at window 50 per sensor type, averaged over fingers (paper, section VI.A),
     from the rows of the protocol laid out as the paper's Table I."""
     rows = rows[(rows["window"] == BASELINE_WINDOW) & (rows["detector"] == detector)]
@@ -462,24 +602,46 @@ def rates_table(rows: pd.DataFrame, detector: str, intervals: bool = False, pape
         ref = paper_frame("rates_window_50").set_index("sensor_type")
         columns += ["TP rate (paper, LSTM)", "TN rate (paper, LSTM)"]
         for i, s in enumerate(sensors):
-            cells[i] = cells[i] + ([_as_printed(100 * ref.loc[s, c]) for c in ("tp_rate", "tn_rate")]
-                                   if s in ref.index else ["—", "—"])
-    return Table(f"TP and TN rates at window 50 averaged across fingers ({detector}).", ["Sensor"], "Rate (%)",
-                 columns, [(label("sensor_type", s),) for s in sensors], cells, f"tab:rates-{detector}",
-                 notes=["TP: slip detected while slipping; TN: non-slip passed while not slipping.",
-                        *_interval_note(joint, intervals, [(detector, *k) for k in avg])])
+            cells[i] = cells[i] + (
+                [_as_printed(100 * ref.loc[s, c]) for c in ("tp_rate", "tn_rate")]
+                if s in ref.index
+                else ["—", "—"]
+            )
+    return Table(
+        f"TP and TN rates at window 50 averaged across fingers ({detector}).",
+        ["Sensor"],
+        "Rate (%)",
+        columns,
+        [(label("sensor_type", s),) for s in sensors],
+        cells,
+        f"tab:rates-{detector}",
+        notes=[
+            "TP: slip detected while slipping; TN: non-slip passed while not slipping.",
+            *_interval_note(joint, intervals, [(detector, *k) for k in avg]),
+        ],
+    )
 
 
 # ----------------------------------------------------------------------------- one column per metric
 # How each streaming figure reads: its column label, and the factor and decimals it is shown with.
 METRIC_COLUMNS: dict[str, tuple[str, float, int]] = {
-    "detection_rate": ("Detection rate (%)", 100.0, 1), "median_delay_ms": ("Median delay (ms)", 1.0, 1),
-    "p95_delay_ms": ("95th pct. delay (ms)", 1.0, 1), "false_alarms_per_min": ("False alarms / min", 1.0, 2),
+    "detection_rate": ("Detection rate (%)", 100.0, 1),
+    "median_delay_ms": ("Median delay (ms)", 1.0, 1),
+    "p95_delay_ms": ("95th pct. delay (ms)", 1.0, 1),
+    "false_alarms_per_min": ("False alarms / min", 1.0, 2),
 }
 
 
-def metric_text(metric: str, mean: float, sd: float = np.nan, n: int = 1, lo: float = np.nan, hi: float = np.nan,
-                status: str = "ok", intervals: bool = False) -> str:
+def metric_text(
+    metric: str,
+    mean: float,
+    sd: float = np.nan,
+    n: int = 1,
+    lo: float = np.nan,
+    hi: float = np.nan,
+    status: str = "ok",
+    intervals: bool = False,
+) -> str:
     """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
     ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals; 'NA' if absent."""
     if status != "ok":
@@ -495,20 +657,44 @@ def metric_text(metric: str, mean: float, sd: float = np.nan, n: int = 1, lo: fl
     return text
 
 
-def metrics_table(rows: pd.DataFrame, layout: Layout, metrics: Sequence[str], intervals: bool = False,
-                  label_: str = "", group: str = "", prefix: str = "") -> Table:
+def metrics_table(
+    rows: pd.DataFrame,
+    layout: Layout,
+    metrics: Sequence[str],
+    intervals: bool = False,
+    label_: str = "",
+    group: str = "",
+    prefix: str = "",
+) -> Table:
     """One detector's rows in ``layout``, one value column per metric of ``metrics`` (result
     columns ``prefix + metric``, e.g. "op_" for the streaming operating point), each averaged
     over seeds as :func:`summarize` does."""
     keys = [k for k in layout.rows if k in rows]
-    per = {m: {tuple(r[k] for k in keys): r for r in summarize(rows, keys, prefix + m).to_dict("records")} for m in metrics}
+    per = {
+        m: {
+            tuple(r[k] for k in keys): r
+            for r in summarize(rows, keys, prefix + m).to_dict("records")
+        }
+        for m in metrics
+    }
     row_values = rows[keys].drop_duplicates()
     for col in reversed(keys):  # stable sorts, last key first: lexicographic order
         order = ordered(row_values[col], col)
-        row_values = row_values.iloc[np.argsort([order.index(v) for v in row_values[col]], kind="stable")]
+        row_values = row_values.iloc[
+            np.argsort([order.index(v) for v in row_values[col]], kind="stable")
+        ]
     row_keys = list(row_values.itertuples(index=False, name=None))
-    cells = [[metric_text(m, **{k: per[m][rk][k] for k in ("mean", "sd", "n", "lo", "hi", "status")}, intervals=intervals)
-              for m in metrics] for rk in row_keys]
+    cells = [
+        [
+            metric_text(
+                m,
+                **{k: per[m][rk][k] for k in ("mean", "sd", "n", "lo", "hi", "status")},
+                intervals=intervals,
+            )
+            for m in metrics
+        ]
+        for rk in row_keys
+    ]
     if layout.merge_rows:
         row_labels = [(", ".join(label(k, v) for k, v in zip(keys, rk)),) for rk in row_keys]
         headers = [ROW_HEADERS.get(keys[-1], keys[-1])]
@@ -521,11 +707,25 @@ def metrics_table(rows: pd.DataFrame, layout: Layout, metrics: Sequence[str], in
     if intervals:
         notes.append(INTERVAL_NOTE)
     columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
-    return Table(layout.caption, headers, group or layout.group, columns, row_labels, cells, label_, notes=notes)
+    return Table(
+        layout.caption,
+        headers,
+        group or layout.group,
+        columns,
+        row_labels,
+        cells,
+        label_,
+        notes=notes,
+    )
 
 
-def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], metric: str = "accuracy",
-                 label_: str = "") -> Table | None:
+def side_by_side(
+    rows: pd.DataFrame,
+    layout: Layout,
+    detectors: Sequence[str],
+    metric: str = "accuracy",
+    label_: str = "",
+) -> Table | None:
     """Every detector of one protocol's table in one table: a row per detector, the layout's
     value columns (and pair), each figure the mean over the layout's row keys (sensor units)
     of each unit's figure (mean over seeds). None with fewer than two detectors."""
@@ -537,7 +737,9 @@ def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], m
     per = summarize(rows, ["detector", *keys], metric)
     per = per[per["status"] == "ok"]
     by = ["detector", layout.column] + ([layout.pair] if layout.pair else [])
-    avg = per.groupby(by, dropna=False).agg(mean=("mean", "mean"), units=("mean", "size"), low=("low_n", "any"))
+    avg = per.groupby(by, dropna=False).agg(
+        mean=("mean", "mean"), units=("mean", "size"), low=("low_n", "any")
+    )
     found = {k if isinstance(k, tuple) else (k,): r for k, r in avg.iterrows()}
     columns = ordered(rows[layout.column].dropna().unique(), layout.column)
 
@@ -545,19 +747,31 @@ def side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], m
         r = found.get(key)
         return "NA" if r is None else figure_text(r["mean"], low=bool(r["low"]))
 
-    cells = [[f"{one((d, c, 'with'))} {one((d, c, 'without'))}*" if layout.pair else one((d, c)) for c in columns]
-             for d in detectors]
+    cells = [
+        [
+            f"{one((d, c, 'with'))} {one((d, c, 'without'))}*" if layout.pair else one((d, c))
+            for c in columns
+        ]
+        for d in detectors
+    ]
     plain, latex, notes = _column_labels(layout, rows, columns)
     units = avg["units"]
-    notes.append(f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
-                 f"unit's figure; {int(units.min())} units per figure" + (f" or up to {int(units.max())}" if units.max() != units.min() else "")
-                 + " (units a detector did not finish are left out).")
+    notes.append(
+        f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
+        f"unit's figure; {int(units.min())} units per figure"
+        + (f" or up to {int(units.max())}" if units.max() != units.min() else "")
+        + " (units a detector did not finish are left out)."
+    )
     group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
-    return Table(caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes)
+    return Table(
+        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes
+    )
 
 
-def _metrics_side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str) -> Table:
+def _metrics_side_by_side(
+    rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str
+) -> Table:
     """A layout with several metrics (streaming): a row per detector, a column per metric, each
     the mean over units of each unit's figure (mean over seeds)."""
     keys = [k for k in layout.rows if k in rows]
@@ -570,13 +784,25 @@ def _metrics_side_by_side(rows: pd.DataFrame, layout: Layout, detectors: Sequenc
             line.append(metric_text(m, per["mean"].mean()) if len(per) else "NA")
         cells.append(line)
     units = " and ".join(ROW_HEADERS.get(k, k).lower() for k in keys)
-    return Table(f"{layout.title or 'Protocol'}: every detector side by side.", ["Detector"], layout.group,
-                 [METRIC_COLUMNS.get(m, (m,))[0] for m in layout.metrics], [(d,) for d in detectors], cells, label_,
-                 notes=[f"Mean over units ({units}) of each unit's figure."])
+    return Table(
+        f"{layout.title or 'Protocol'}: every detector side by side.",
+        ["Detector"],
+        layout.group,
+        [METRIC_COLUMNS.get(m, (m,))[0] for m in layout.metrics],
+        [(d,) for d in detectors],
+        cells,
+        label_,
+        notes=[f"Mean over units ({units}) of each unit's figure."],
+    )
 
 
-def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accuracy",
-                protocols: Sequence[str] = (), detectors: Sequence[str] = ()) -> Table | None:
+def split_table(
+    rows: pd.DataFrame,
+    splits: Sequence[str],
+    metric: str = "accuracy",
+    protocols: Sequence[str] = (),
+    detectors: Sequence[str] = (),
+) -> Table | None:
     """Per protocol and detector (in these orders), the mean ``metric`` of the cells every split
     finished, per split, and each other split minus the first: the mean change and its range
     over cells. None where no cell has the figure on every split (streaming rows have no accuracy)."""
@@ -586,7 +812,11 @@ def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accura
     if metric not in ok or ok[metric].isna().all():
         return None
     wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean")
-    wide = wide.dropna(subset=[s for s in splits if s in wide]) if set(splits) <= set(wide.columns) else wide.iloc[:0]
+    wide = (
+        wide.dropna(subset=[s for s in splits if s in wide])
+        if set(splits) <= set(wide.columns)
+        else wide.iloc[:0]
+    )
     if wide.empty:
         return None
     lines, cells = [], []
@@ -598,14 +828,28 @@ def split_table(rows: pd.DataFrame, splits: Sequence[str], metric: str = "accura
         lines.append((protocol, detector))
         cells.append(line)
     order = {p: i for i, p in enumerate(protocols)}
-    by = sorted(range(len(lines)), key=lambda i: (order.get(lines[i][0], len(order)), lines[i][0],
-                                                   rank([d for _, d in lines], detectors).index(lines[i][1])))
+    by = sorted(
+        range(len(lines)),
+        key=lambda i: (
+            order.get(lines[i][0], len(order)),
+            lines[i][0],
+            rank([d for _, d in lines], detectors).index(lines[i][1]),
+        ),
+    )
     what = metric.replace("_", " ")
-    return Table(f"The {first} split beside the {', '.join(others)} split: mean {what} (%) over the cells both "
-                 "finished, and the difference.", ["Protocol", "Detector"], "",
-                 ["cells", *splits, *(f"{s} − {first} [min, max]" for s in others)],
-                 [lines[i] for i in by], [cells[i] for i in by], "tab:splits", notes=[
-                     "grouped: whole trials on one side of the split for every unit, so no test trial has a twin "
-                     "recording (another finger, the same trial) that trained the model; paper: windows shuffled "
-                     "and halved, as the paper did. A positive difference is what the paper's split gains from "
-                     "testing on trials it trained on."])
+    return Table(
+        f"The {first} split beside the {', '.join(others)} split: mean {what} (%) over the cells both "
+        "finished, and the difference.",
+        ["Protocol", "Detector"],
+        "",
+        ["cells", *splits, *(f"{s} − {first} [min, max]" for s in others)],
+        [lines[i] for i in by],
+        [cells[i] for i in by],
+        "tab:splits",
+        notes=[
+            "grouped: whole trials on one side of the split for every unit, so no test trial has a twin "
+            "recording (another finger, the same trial) that trained the model; paper: windows shuffled "
+            "and halved, as the paper did. A positive difference is what the paper's split gains from "
+            "testing on trials it trained on."
+        ],
+    )

@@ -157,7 +157,9 @@ class Design:
 
 
 def make_design(
-    y_true: Sequence[np.ndarray], groups: Sequence[np.ndarray], strata: Sequence[np.ndarray] | None = None,
+    y_true: Sequence[np.ndarray],
+    groups: Sequence[np.ndarray],
+    strata: Sequence[np.ndarray] | None = None,
 ) -> tuple[Design, list[np.ndarray]]:
     """The joint design of one or more test sets whose clusters may be shared.
 
@@ -188,7 +190,9 @@ def make_design(
     """
     if len(y_true) != len(groups) or (strata is not None and len(strata) != len(groups)):
         raise ValueError("y_true, groups and strata must hold one array per test set")
-    labels, codes_all = np.unique(np.concatenate([np.asarray(g) for g in groups]), return_inverse=True)
+    labels, codes_all = np.unique(
+        np.concatenate([np.asarray(g) for g in groups]), return_inverse=True
+    )
     bounds = np.cumsum([0, *(len(g) for g in groups)])
     codes = [codes_all[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
     y = np.concatenate([np.asarray(v, bool) for v in y_true])
@@ -197,11 +201,15 @@ def make_design(
     neg = np.bincount(codes_all, weights=~y, minlength=n)
     kind = np.where(neg == 0, "slip", np.where(pos == 0, "non-slip", "mixed")).astype(object)
     if (kind == "mixed").sum() == 1:
-        kind[kind == "mixed"] = "slip" if pos[kind == "mixed"][0] >= neg[kind == "mixed"][0] else "non-slip"
+        kind[kind == "mixed"] = (
+            "slip" if pos[kind == "mixed"][0] >= neg[kind == "mixed"][0] else "non-slip"
+        )
     if strata is None:
         sub = np.full(n, "", dtype=object)
     else:
-        s_labels, s_codes = np.unique(np.concatenate([np.asarray(s, str) for s in strata]), return_inverse=True)
+        s_labels, s_codes = np.unique(
+            np.concatenate([np.asarray(s, str) for s in strata]), return_inverse=True
+        )
         counts = np.zeros((n, len(s_labels)))
         np.add.at(counts, (codes_all, s_codes), 1)
         sub = s_labels[counts.argmax(axis=1)].astype(object)
@@ -234,11 +242,15 @@ def resample_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) 
     for h, n_h in enumerate(design.size):
         if n_h > 1:
             members = np.flatnonzero(design.stratum == h)
-            w[:, members] = rng.multinomial(n_h - 1, np.full(n_h, 1 / n_h), size=n_resamples) * (n_h / (n_h - 1))
+            w[:, members] = rng.multinomial(n_h - 1, np.full(n_h, 1 / n_h), size=n_resamples) * (
+                n_h / (n_h - 1)
+            )
     return w
 
 
-def satterthwaite_df(design: Design, influence: np.ndarray, sizes: np.ndarray, used: np.ndarray) -> float:
+def satterthwaite_df(
+    design: Design, influence: np.ndarray, sizes: np.ndarray, used: np.ndarray
+) -> float:
     """Effective degrees of freedom of a figure's variance.
 
     Parameters
@@ -287,9 +299,16 @@ class Interval:
 
 
 def interval(
-    statistic: Callable[[np.ndarray], np.ndarray], influence: Callable[[np.ndarray], np.ndarray],
-    design: Design, used: np.ndarray, sizes: np.ndarray, seed: int, level: float = LEVEL,
-    n_resamples: int = N_RESAMPLES, method: str = "satterthwaite", bounds: tuple[float, float] = (0.0, 1.0),
+    statistic: Callable[[np.ndarray], np.ndarray],
+    influence: Callable[[np.ndarray], np.ndarray],
+    design: Design,
+    used: np.ndarray,
+    sizes: np.ndarray,
+    seed: int,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+    bounds: tuple[float, float] = (0.0, 1.0),
 ) -> Interval:
     """Interval of a figure by the stratified cluster bootstrap.
 

@@ -58,14 +58,23 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import DataError, UsageError
-from slipbench.stats.metrics import FIGURES, LEVEL, paired_comparison
 from slipbench.report.outline import layouts, protocol_order
 from slipbench.report.tables import KEY_ORDER, ORDERS, cell_label
-from slipbench.store.results import check_unique_keys, read_predictions, read_results, results_folder
+from slipbench.stats.metrics import FIGURES, LEVEL, paired_comparison
+from slipbench.store.results import (
+    check_unique_keys,
+    read_predictions,
+    read_results,
+    results_folder,
+)
 
 ALPHA = 1 - LEVEL
-MARKS = {"regressed": "▼ regressed", "improved": "▲ improved", "within margin": "≈ within margin",
-         "no significant change": "= no significant change"}
+MARKS = {
+    "regressed": "▼ regressed",
+    "improved": "▲ improved",
+    "within margin": "≈ within margin",
+    "no significant change": "= no significant change",
+}
 
 
 @dataclass
@@ -110,9 +119,12 @@ def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
         raise DataError(
             f"BASE and CANDIDATE were computed on different datasets (fingerprints {', '.join(sorted(fb))} vs "
             f"{', '.join(sorted(fc))}): their cells test different windows and cannot be compared; evaluate "
-            "both on the same dataset")
+            "both on the same dataset"
+        )
     if not (fb and fc):
-        return ["A side holds no dataset fingerprint, so that both used the same dataset was not checked."]
+        return [
+            "A side holds no dataset fingerprint, so that both used the same dataset was not checked."
+        ]
     return []
 
 
@@ -122,7 +134,10 @@ def _cell_items(cell: str) -> list[tuple[str, object]]:
         items = json.loads(cell).items()
     except (TypeError, json.JSONDecodeError):
         return [("cell", cell)]
-    return sorted(items, key=lambda kv: (KEY_ORDER.index(kv[0]) if kv[0] in KEY_ORDER else len(KEY_ORDER), kv[0]))
+    return sorted(
+        items,
+        key=lambda kv: (KEY_ORDER.index(kv[0]) if kv[0] in KEY_ORDER else len(KEY_ORDER), kv[0]),
+    )
 
 
 def _cell_rank(cell: str) -> tuple:
@@ -130,8 +145,13 @@ def _cell_rank(cell: str) -> tuple:
     out = []
     for k, v in _cell_items(cell):
         order = ORDERS.get(k, ())
-        out.append((0, order.index(v), "") if v in order else
-                   (1, float(v), "") if isinstance(v, (int, float)) else (2, 0.0, str(v)))
+        out.append(
+            (0, order.index(v), "")
+            if v in order
+            else (1, float(v), "")
+            if isinstance(v, (int, float))
+            else (2, 0.0, str(v))
+        )
     return tuple(out)
 
 
@@ -148,7 +168,8 @@ def _pairing(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
         return on
     raise UsageError(
         f"cannot pair detectors: BASE holds {', '.join(sorted(b))}, CANDIDATE holds {', '.join(sorted(c))}; "
-        "compare results of the same detectors, or of one detector on each side")
+        "compare results of the same detectors, or of one detector on each side"
+    )
 
 
 def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
@@ -158,7 +179,8 @@ def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
         raise DataError(
             f"{side} holds {int(dup.sum())} rows for one cell ({first['protocol']}, {first['detector']}, "
             f"{cell_label(first['cell'])}, seed {first['seed']}): runs with different parameters or datasets "
-            "share the folder; compare folders that hold one run per cell")
+            "share the folder; compare folders that hold one run per cell"
+        )
     return rows
 
 
@@ -172,10 +194,18 @@ def _paired(base_row, cand_row, folders: tuple[Path, Path], seed: int, level: fl
         return None
     by_trial = "trial_b" in joined  # both files hold trials: a trial shared by units is one cluster
     out = paired_comparison(
-        joined["y_true_b"].to_numpy(), joined["score_b"].to_numpy() >= 0.5, joined["score_c"].to_numpy() >= 0.5,
-        joined["trial_b" if by_trial else "recording_id"].to_numpy(), seed, level=level,
-        base_scores=joined["score_b"].to_numpy(), cand_scores=joined["score_c"].to_numpy())
-    shared = "" if len(joined) == len(preds[0]) == len(preds[1]) else f", {len(joined)} shared windows"
+        joined["y_true_b"].to_numpy(),
+        joined["score_b"].to_numpy() >= 0.5,
+        joined["score_c"].to_numpy() >= 0.5,
+        joined["trial_b" if by_trial else "recording_id"].to_numpy(),
+        seed,
+        level=level,
+        base_scores=joined["score_b"].to_numpy(),
+        cand_scores=joined["score_c"].to_numpy(),
+    )
+    shared = (
+        "" if len(joined) == len(preds[0]) == len(preds[1]) else f", {len(joined)} shared windows"
+    )
     out["method"] = f"paired over {'trials' if by_trial else 'recordings'}{shared}"
     return out
 
@@ -187,7 +217,11 @@ def _unpaired(base_row: dict, cand_row: dict, level: float) -> dict:
     1.96, with normal quantiles (method says so)."""
     out: dict = {"method": "unpaired"}
     dfs = [r.get("df") for r in (base_row, cand_row)]
-    df = min(float(d) for d in dfs) if all(d is not None and np.isfinite(float(d)) for d in dfs) else np.inf
+    df = (
+        min(float(d) for d in dfs)
+        if all(d is not None and np.isfinite(float(d)) for d in dfs)
+        else np.inf
+    )
     for name in FIGURES:
         d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
         ses = []
@@ -195,13 +229,20 @@ def _unpaired(base_row: dict, cand_row: dict, level: float) -> dict:
             if f"{name}_se" in r:
                 ses.append(float(r[f"{name}_se"]))
             else:
-                ses.append((float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan))) / (2 * norm.ppf(1 - ALPHA / 2)))
+                ses.append(
+                    (float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan)))
+                    / (2 * norm.ppf(1 - ALPHA / 2))
+                )
                 df, out["method"] = np.inf, "unpaired (standard errors from 95 % bounds)"
         se = float(np.hypot(*ses))
         half = student_t.ppf(1 - (1 - level) / 2, df) * se
-        lo, hi = (d - half, d + half) if np.isfinite(se) else (-1.0, 1.0)  # no spread known: the whole range
+        lo, hi = (
+            (d - half, d + half) if np.isfinite(se) else (-1.0, 1.0)
+        )  # no spread known: the whole range
         out[f"d_{name}"], out[f"d_{name}_se"] = d, se
-        out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (max(lo, -1.0), min(hi, 1.0)) if np.isfinite(d) else (np.nan, np.nan)
+        out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (
+            (max(lo, -1.0), min(hi, 1.0)) if np.isfinite(d) else (np.nan, np.nan)
+        )
     out["df"] = df
     return out
 
@@ -222,12 +263,20 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
     z = norm.ppf(1 - (1 - level) / 2)
     for name in STREAM_FIGURES:
         d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
-        ses = [max((float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan))) / (2 * norm.ppf(1 - ALPHA / 2)),
-                   _resolution(r) if name.endswith("_ms") else 0.0) for r in (base_row, cand_row)]
+        ses = [
+            max(
+                (float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan)))
+                / (2 * norm.ppf(1 - ALPHA / 2)),
+                _resolution(r) if name.endswith("_ms") else 0.0,
+            )
+            for r in (base_row, cand_row)
+        ]
         se = float(np.hypot(*ses))
         ok = np.isfinite(d) and np.isfinite(se)
         out[f"d_{name}"], out[f"d_{name}_se"] = d, se
-        out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (d - z * se, d + z * se) if ok else (np.nan, np.nan)
+        out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (
+            (d - z * se, d + z * se) if ok else (np.nan, np.nan)
+        )
     return out
 
 
@@ -245,7 +294,11 @@ def stream_verdict(r: dict, margin: float, delay_margin_ms: float, alarm_margin:
     intervals: ``margin`` in points of detection rate, ``delay_margin_ms`` in ms of median
     delay, ``alarm_margin`` in false alarms per minute. A figure without an interval (no
     detected onset, no non-slip time) decides nothing."""
-    margins = {"median_delay_ms": delay_margin_ms, "false_alarms_per_min": alarm_margin, "detection_rate": margin / 100}
+    margins = {
+        "median_delay_ms": delay_margin_ms,
+        "false_alarms_per_min": alarm_margin,
+        "detection_rate": margin / 100,
+    }
     worse = better = False
     inside = True
     for name, sign in STREAM_FIGURES.items():
@@ -265,8 +318,14 @@ def stream_verdict(r: dict, margin: float, delay_margin_ms: float, alarm_margin:
     return "within margin" if inside and max(margins.values()) > 0 else "no significant change"
 
 
-def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, margin: float = 0.0,
-            seed: int = 0, delay_margin_ms: float = 0.0, alarm_margin: float = 0.0) -> Comparison:
+def compare(
+    base_path: str | os.PathLike,
+    candidate_path: str | os.PathLike,
+    margin: float = 0.0,
+    seed: int = 0,
+    delay_margin_ms: float = 0.0,
+    alarm_margin: float = 0.0,
+) -> Comparison:
     """Compare CANDIDATE against BASE cell by cell.
 
     Parameters
@@ -290,10 +349,15 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
     if not margin >= 0:
         raise UsageError(f"--margin must be >= 0 percentage points, got {margin}")
     if not (delay_margin_ms >= 0 and alarm_margin >= 0):
-        raise UsageError(f"--delay-margin and --alarm-margin must be >= 0, got {delay_margin_ms} and {alarm_margin}")
+        raise UsageError(
+            f"--delay-margin and --alarm-margin must be >= 0, got {delay_margin_ms} and {alarm_margin}"
+        )
     base, cand = read_results(base_path), read_results(candidate_path)
     notes = check_same_dataset(base, cand)
-    base, cand = check_unique_keys(base, f"BASE {base_path}"), check_unique_keys(cand, f"CANDIDATE {candidate_path}")
+    base, cand = (
+        check_unique_keys(base, f"BASE {base_path}"),
+        check_unique_keys(cand, f"CANDIDATE {candidate_path}"),
+    )
     on = _pairing(base, cand)
     base, cand = _unique(base, on, "BASE"), _unique(cand, on, "CANDIDATE")
     merged = base.merge(cand, on=on, how="outer", suffixes=("_b", "_c"), indicator=True)
@@ -301,28 +365,47 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
     sides = []
     for tag, suffix in (("left_only", "_b"), ("right_only", "_c")):
         rows = merged[merged["_merge"] == tag]
-        sides.append((rows if "detector" in on else rows.assign(detector=rows[f"detector{suffix}"]))[ident])
+        sides.append(
+            (rows if "detector" in on else rows.assign(detector=rows[f"detector{suffix}"]))[ident]
+        )
     only_base, only_cand = sides
     both = merged[merged["_merge"] == "both"]
     if both.empty:
-        raise DataError(f"BASE {base_path} and CANDIDATE {candidate_path} share no cell "
-                        f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))})")
+        raise DataError(
+            f"BASE {base_path} and CANDIDATE {candidate_path} share no cell "
+            f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))})"
+        )
     folders = (results_folder(base_path), results_folder(candidate_path))
     rows = both.to_dict("records")
-    pairs = [tuple({k[:-2]: v for k, v in row.items() if k.endswith(sfx)} | {k: row[k] for k in on} for sfx in ("_b", "_c"))
-             for row in rows]
+    pairs = [
+        tuple(
+            {k[:-2]: v for k, v in row.items() if k.endswith(sfx)} | {k: row[k] for k in on}
+            for sfx in ("_b", "_c")
+        )
+        for row in rows
+    ]
     # every cell both sides finished is one member of the family the error rate is held over
-    level = family_level(sum(b.get("status", "ok") == c.get("status", "ok") == "ok" for b, c in pairs))
+    level = family_level(
+        sum(b.get("status", "ok") == c.get("status", "ok") == "ok" for b, c in pairs)
+    )
     out = []
     for row, (b, c) in zip(rows, pairs):
         sb, sc = b.get("status", "ok"), c.get("status", "ok")
         entry = {k: row[k] for k in on}
-        entry["detector"] = row["detector"] if "detector" in on else f"{row['detector_b']} → {row['detector_c']}"
-        entry["base_accuracy"], entry["candidate_accuracy"] = b.get("accuracy", np.nan), c.get("accuracy", np.nan)
+        entry["detector"] = (
+            row["detector"] if "detector" in on else f"{row['detector_b']} → {row['detector_c']}"
+        )
+        entry["base_accuracy"], entry["candidate_accuracy"] = (
+            b.get("accuracy", np.nan),
+            c.get("accuracy", np.nan),
+        )
         entry["base_status"], entry["candidate_status"] = sb, sc
         entry["stream"] = _is_stream(b) and _is_stream(c)
         for name in STREAM_FIGURES:
-            entry[f"base_{name}"], entry[f"candidate_{name}"] = b.get(name, np.nan), c.get(name, np.nan)
+            entry[f"base_{name}"], entry[f"candidate_{name}"] = (
+                b.get(name, np.nan),
+                c.get(name, np.nan),
+            )
         if sb == sc == "ok" and entry["stream"]:
             entry |= _streamed(b, c, level)
         elif sb == sc == "ok":
@@ -332,17 +415,36 @@ def compare(base_path: str | os.PathLike, candidate_path: str | os.PathLike, mar
         out.append(entry)
     cells = pd.DataFrame(out)
     order = protocol_order(layouts(pd.concat([base, cand], ignore_index=True)))
-    rank = [(order.index(p), p, d, sp, _cell_rank(c), s)
-            for p, d, sp, c, s in cells[["protocol", "detector", "split", "cell", "seed"]].itertuples(index=False)]
+    rank = [
+        (order.index(p), p, d, sp, _cell_rank(c), s)
+        for p, d, sp, c, s in cells[["protocol", "detector", "split", "cell", "seed"]].itertuples(
+            index=False
+        )
+    ]
     cells = cells.iloc[sorted(range(len(cells)), key=rank.__getitem__)].reset_index(drop=True)
-    for col in (f"d_{n}{s}" for n in (*FIGURES, *STREAM_FIGURES) for s in ("", "_lo", "_hi", "_se")):
+    for col in (
+        f"d_{n}{s}" for n in (*FIGURES, *STREAM_FIGURES) for s in ("", "_lo", "_hi", "_se")
+    ):
         if col not in cells:
             cells[col] = np.nan
-    cells["verdict"] = [stream_verdict(r, margin, delay_margin_ms, alarm_margin)
-                        if r["stream"] and r["base_status"] == r["candidate_status"] == "ok" else verdict(r, margin)
-                        for r in cells.to_dict("records")]
-    return Comparison(cells, only_base, only_cand, str(base_path), str(candidate_path), margin, notes, level,
-                      delay_margin_ms, alarm_margin)
+    cells["verdict"] = [
+        stream_verdict(r, margin, delay_margin_ms, alarm_margin)
+        if r["stream"] and r["base_status"] == r["candidate_status"] == "ok"
+        else verdict(r, margin)
+        for r in cells.to_dict("records")
+    ]
+    return Comparison(
+        cells,
+        only_base,
+        only_cand,
+        str(base_path),
+        str(candidate_path),
+        margin,
+        notes,
+        level,
+        delay_margin_ms,
+        alarm_margin,
+    )
 
 
 def verdict(r: dict, margin: float) -> str:
@@ -392,12 +494,21 @@ def summary(cmp: Comparison) -> pd.DataFrame:
         finite = [(d, r) for d, r in changes if np.isfinite(d)]
         worst = min(finite, key=lambda dr: dr[0])[1] if finite else None
         verdicts = part["verdict"].value_counts()
-        lines.append({"protocol": protocol, "detector": detector, "cells": len(part),
-                      "regressed": int(verdicts.get("regressed", 0)), "improved": int(verdicts.get("improved", 0)),
-                      "mean_change": float(np.mean([d for d, _ in finite])) if finite else np.nan,
-                      "worst_cell": _label(worst, cmp) if worst is not None else "",
-                      **{f"worst_{name}": _primary(worst, bound) if worst is not None else np.nan
-                         for name, bound in (("change", ""), ("lo", "_lo"), ("hi", "_hi"))}})
+        lines.append(
+            {
+                "protocol": protocol,
+                "detector": detector,
+                "cells": len(part),
+                "regressed": int(verdicts.get("regressed", 0)),
+                "improved": int(verdicts.get("improved", 0)),
+                "mean_change": float(np.mean([d for d, _ in finite])) if finite else np.nan,
+                "worst_cell": _label(worst, cmp) if worst is not None else "",
+                **{
+                    f"worst_{name}": _primary(worst, bound) if worst is not None else np.nan
+                    for name, bound in (("change", ""), ("lo", "_lo"), ("hi", "_hi"))
+                },
+            }
+        )
     return pd.DataFrame(lines)
 
 
@@ -425,18 +536,28 @@ def _row(r: dict, cmp: Comparison) -> dict:
     both = r["base_status"] == r["candidate_status"] == "ok"
     line = {"protocol": r["protocol"], "detector": r["detector"], "cell": _label(r, cmp)}
     if r["stream"]:
-        line["base → candidate"] = (f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f} ms, "
-                                   f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f} /min"
-                                   if both else f"{r['base_status']} → {r['candidate_status']}")
-        line["Δ [simultaneous CI]"] = (f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
-                                       f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
-                                       f"{_delta(r, 'detection_rate')}")
+        line["base → candidate"] = (
+            f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f} ms, "
+            f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f} /min"
+            if both
+            else f"{r['base_status']} → {r['candidate_status']}"
+        )
+        line["Δ [simultaneous CI]"] = (
+            f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
+            f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
+            f"{_delta(r, 'detection_rate')}"
+        )
         line["Δ TP / TN rate"] = ""
     else:
-        line["base → candidate"] = (f"{100 * r['base_accuracy']:.1f} → {100 * r['candidate_accuracy']:.1f}"
-                                    if both else f"{r['base_status']} → {r['candidate_status']}")
+        line["base → candidate"] = (
+            f"{100 * r['base_accuracy']:.1f} → {100 * r['candidate_accuracy']:.1f}"
+            if both
+            else f"{r['base_status']} → {r['candidate_status']}"
+        )
         line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
-        line["Δ TP / TN rate"] = f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
+        line["Δ TP / TN rate"] = (
+            f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
+        )
     line[""] = MARKS[r["verdict"]]
     return line
 
@@ -449,10 +570,19 @@ def _summary_table(cmp: Comparison) -> str:
     lines = []
     for s in summary(cmp).to_dict("records"):
         bounds = "" if pd.isna(s["worst_lo"]) else f" [{s['worst_lo']:+.1f}, {s['worst_hi']:+.1f}]"
-        lines.append({"protocol": s["protocol"], "detector": s["detector"], "cells": s["cells"],
-                      "▼": s["regressed"], "▲": s["improved"],
-                      "mean Δ": "—" if pd.isna(s["mean_change"]) else f"{s['mean_change']:+.1f}",
-                      "worst cell": f"{s['worst_cell']}: {s['worst_change']:+.1f}{bounds}" if s["worst_cell"] else "—"})
+        lines.append(
+            {
+                "protocol": s["protocol"],
+                "detector": s["detector"],
+                "cells": s["cells"],
+                "▼": s["regressed"],
+                "▲": s["improved"],
+                "mean Δ": "—" if pd.isna(s["mean_change"]) else f"{s['mean_change']:+.1f}",
+                "worst cell": f"{s['worst_cell']}: {s['worst_change']:+.1f}{bounds}"
+                if s["worst_cell"]
+                else "—",
+            }
+        )
     return _table(lines)
 
 
@@ -468,9 +598,15 @@ def _side_lines(rows: pd.DataFrame, limit: int) -> list[str]:
     """Cells on one side only, counted per protocol and detector, the first ``limit`` named."""
     counts = rows.groupby(["protocol", "detector"], sort=False).size()
     lines = [f"- {p}, {d}: {n} cell{'s' * (n > 1)}" for (p, d), n in counts.items()]
-    named = [f"  - {r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, seed {r['seed']}"
-             for r in rows.head(limit).to_dict("records")]
-    more = [f"  - … and {len(rows) - limit} more (`--format json` lists them all)"] if len(rows) > limit else []
+    named = [
+        f"  - {r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, seed {r['seed']}"
+        for r in rows.head(limit).to_dict("records")
+    ]
+    more = (
+        [f"  - … and {len(rows) - limit} more (`--format json` lists them all)"]
+        if len(rows) > limit
+        else []
+    )
     return lines + named + more
 
 
@@ -484,31 +620,61 @@ def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     cells = cmp.cells
     counts = cells["verdict"].value_counts()
     n_reg = int(counts.get("regressed", 0))
-    head = ["## slipbench compare", "",
-            f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired; margin {cmp.margin:g} points.", "",
-            f"**{n_reg} cell{'s' * (n_reg != 1)} regressed** beyond the margin." if n_reg else
-            "**No regression** beyond the margin.", "",
-            ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS)]
-    parts = ["\n".join(head), "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
-             "cell: accuracy points (streaming cells: detection rate), candidate − base, over the cells both sides "
-             "finished; ▼ regressed, ▲ improved._"]
+    head = [
+        "## slipbench compare",
+        "",
+        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired; margin {cmp.margin:g} points.",
+        "",
+        f"**{n_reg} cell{'s' * (n_reg != 1)} regressed** beyond the margin."
+        if n_reg
+        else "**No regression** beyond the margin.",
+        "",
+        ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS),
+    ]
+    parts = [
+        "\n".join(head),
+        "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
+        "cell: accuracy points (streaming cells: detection rate), candidate − base, over the cells both sides "
+        "finished; ▼ regressed, ▲ improved._",
+    ]
     notes = _notes(cmp)
-    for title, rows in (("Cells only in BASE", cmp.only_base), ("Cells only in CANDIDATE", cmp.only_candidate)):
+    for title, rows in (
+        ("Cells only in BASE", cmp.only_base),
+        ("Cells only in CANDIDATE", cmp.only_candidate),
+    ):
         if len(rows):
-            notes.insert(0, f"**{title}** ({len(rows)}), not compared:\n\n" + "\n".join(_side_lines(rows, max_rows)))
-    budget = COMMENT_LIMIT - sum(len(p) + 2 for p in (*parts, *notes)) - 400  # 400: the headings and cut lines
+            notes.insert(
+                0,
+                f"**{title}** ({len(rows)}), not compared:\n\n"
+                + "\n".join(_side_lines(rows, max_rows)),
+            )
+    budget = (
+        COMMENT_LIMIT - sum(len(p) + 2 for p in (*parts, *notes)) - 400
+    )  # 400: the headings and cut lines
     regressed = [_row(r, cmp) for r in cmp.regressions.to_dict("records")]
     table, listed = _fit(regressed, budget)
     if regressed:
-        parts.append("### Regressed\n\n" + table + (f"\n\n_… and {len(regressed) - listed} more regressed cells: "
-                                                    "`--format json` lists them all._" if listed < len(regressed) else ""))
+        parts.append(
+            "### Regressed\n\n"
+            + table
+            + (
+                f"\n\n_… and {len(regressed) - listed} more regressed cells: "
+                "`--format json` lists them all._"
+                if listed < len(regressed)
+                else ""
+            )
+        )
     others = _others(cmp)
-    room = budget - len(table) if listed == len(regressed) else 0  # a regressed cell left out: no other cell in
+    room = (
+        budget - len(table) if listed == len(regressed) else 0
+    )  # a regressed cell left out: no other cell in
     table, listed = _fit([_row(r, cmp) for r in others.head(max_rows).to_dict("records")], room)
     if listed:
         parts.append("### Other cells\n\n" + table)
     if listed < len(others):
-        parts.append(f"_{len(others) - listed} other cells not shown (`--max-rows`; `--format json` lists every cell)._")
+        parts.append(
+            f"_{len(others) - listed} other cells not shown (`--max-rows`; `--format json` lists every cell)._"
+        )
     return "\n\n".join(parts + notes) + "\n"
 
 
@@ -530,27 +696,40 @@ def _notes(cmp: Comparison) -> list[str]:
         f"test windows where both sides kept predictions), at a level that holds for all {n} cells compared at once "
         f"(Bonferroni), so the chance that any cell is wrongly called regressed is at most {100 * ALPHA:g} %. A cell "
         f"regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, or when the candidate did "
-        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}._"]
+        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}._"
+    ]
     if cells["stream"].any():
         notes.append(
             f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
             "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
             f"A streaming cell regresses when its median delay rises beyond {cmp.delay_margin_ms:g} ms, its false "
-            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points._")
+            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points._"
+        )
     return notes + [f"_{n}_" for n in cmp.notes]
 
 
 def to_json(cmp: Comparison) -> str:
     """Every compared cell with its changes and verdict, the summary and the one-sided cells,
     for bots."""
+
     def records(frame: pd.DataFrame) -> list[dict]:
         return json.loads(frame.to_json(orient="records", double_precision=6))
 
     cells = cmp.cells.assign(label=[_label(r, cmp) for r in cmp.cells.to_dict("records")])
-    doc = {"base": cmp.base, "candidate": cmp.candidate, "margin": cmp.margin, "delay_margin_ms": cmp.delay_margin_ms,
-           "alarm_margin": cmp.alarm_margin, "level": cmp.level, "exit_code": cmp.exit_code,
-           "verdict": "regressed" if cmp.exit_code else "no regression",
-           "counts": {v: int((cmp.cells["verdict"] == v).sum()) for v in MARKS},
-           "summary": records(summary(cmp)), "cells": records(cells),
-           "only_base": records(cmp.only_base), "only_candidate": records(cmp.only_candidate), "notes": cmp.notes}
+    doc = {
+        "base": cmp.base,
+        "candidate": cmp.candidate,
+        "margin": cmp.margin,
+        "delay_margin_ms": cmp.delay_margin_ms,
+        "alarm_margin": cmp.alarm_margin,
+        "level": cmp.level,
+        "exit_code": cmp.exit_code,
+        "verdict": "regressed" if cmp.exit_code else "no regression",
+        "counts": {v: int((cmp.cells["verdict"] == v).sum()) for v in MARKS},
+        "summary": records(summary(cmp)),
+        "cells": records(cells),
+        "only_base": records(cmp.only_base),
+        "only_candidate": records(cmp.only_candidate),
+        "notes": cmp.notes,
+    }
     return json.dumps(doc, indent=1, allow_nan=False, default=str) + "\n"

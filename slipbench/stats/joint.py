@@ -22,26 +22,38 @@ from slipbench.errors import DataError
 from slipbench.stats.metrics import Predictions, mean_over_test_sets
 from slipbench.store.results import read_predictions
 
-JOINT_NOTE = ("the interval of a mean over fingers is one bootstrap over the trials the fingers share "
-              "(each resample draws a trial for every finger at once)")
+JOINT_NOTE = (
+    "the interval of a mean over fingers is one bootstrap over the trials the fingers share "
+    "(each resample draws a trial for every finger at once)"
+)
 
 
 def _predictions(folders: Sequence[Path], key: str) -> Predictions | None:
     for folder in folders:
         try:
             p = read_predictions(folder, key)
-        except DataError as exc:  # a damaged file costs this group its joint interval, not the report
+        except (
+            DataError
+        ) as exc:  # a damaged file costs this group its joint interval, not the report
             warnings.warn(f"{exc}; the tables fall back to the rows' intervals", stacklevel=2)
             return None
         if p is not None:
             score = p["score"].to_numpy()
-            groups = p["trial"] if "trial" in p else p["recording_id"]  # a trial shared by fingers is one cluster
-            return Predictions(p["y_true"].to_numpy().astype(bool), score >= 0.5, groups.astype(str).to_numpy(), score)
+            groups = (
+                p["trial"] if "trial" in p else p["recording_id"]
+            )  # a trial shared by fingers is one cluster
+            return Predictions(
+                p["y_true"].to_numpy().astype(bool),
+                score >= 0.5,
+                groups.astype(str).to_numpy(),
+                score,
+            )
     return None
 
 
-def joint_means(rows: pd.DataFrame, by: Sequence[str], folders: Sequence[str | os.PathLike],
-                seed: int = 0) -> dict[tuple, dict]:
+def joint_means(
+    rows: pd.DataFrame, by: Sequence[str], folders: Sequence[str | os.PathLike], seed: int = 0
+) -> dict[tuple, dict]:
     """Per combination of ``by``: the mean over its finished cells of every figure with one joint
     bootstrap interval (``{figure, figure_lo, figure_hi, ...}``), where every cell of the group
     has its predictions in one of ``folders``."""
@@ -53,4 +65,3 @@ def joint_means(rows: pd.DataFrame, by: Sequence[str], folders: Sequence[str | o
         if parts and all(p is not None for p in parts):
             out[key if isinstance(key, tuple) else (key,)] = mean_over_test_sets(parts, seed)
     return out
-

@@ -112,8 +112,18 @@ def entrants(rows: pd.DataFrame) -> pd.Series:
         if len(texts) < 2:
             continue
         params = {t: json.loads(t) for t in texts}
-        varying = sorted({k for p in params.values() for k in p if len({json.dumps(q.get(k)) for q in params.values()}) > 1})
-        names = {t: f"{det} ({', '.join(f'{k}={json.dumps(p.get(k))}' for k in varying)})" for t, p in params.items()}
+        varying = sorted(
+            {
+                k
+                for p in params.values()
+                for k in p
+                if len({json.dumps(q.get(k)) for q in params.values()}) > 1
+            }
+        )
+        names = {
+            t: f"{det} ({', '.join(f'{k}={json.dumps(p.get(k))}' for k in varying)})"
+            for t, p in params.items()
+        }
         out[part.index] = part["detector_params"].fillna("{}").map(names)
     return out
 
@@ -123,9 +133,15 @@ def cell_table(rows: pd.DataFrame, metric: str) -> pd.DataFrame:
     entrant has no finished row of the cell. Index: the cell identity columns the rows hold."""
     ident = [c for c in CELL_IDENTITY if c in rows]
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
-    ok = ok.assign(_entrant=entrants(rows).loc[ok.index], _value=pd.to_numeric(ok.get(metric), errors="coerce"))
+    ok = ok.assign(
+        _entrant=entrants(rows).loc[ok.index], _value=pd.to_numeric(ok.get(metric), errors="coerce")
+    )
     every = rows.assign(_entrant=entrants(rows))[[*ident, "_entrant"]].drop_duplicates()
-    table = ok.groupby([*ident, "_entrant"], sort=False, dropna=False)["_value"].mean().unstack("_entrant")
+    table = (
+        ok.groupby([*ident, "_entrant"], sort=False, dropna=False)["_value"]
+        .mean()
+        .unstack("_entrant")
+    )
     cells = every[ident].drop_duplicates().set_index(ident).index
     return table.reindex(index=cells, columns=every["_entrant"].unique())
 
@@ -134,10 +150,14 @@ def _holm_pairs(scores: pd.DataFrame, order: list[str]) -> pd.DataFrame:
     """Wilcoxon signed-rank test of each pair over cells, Holm-corrected across the pairs."""
     out = []
     for i, a in enumerate(order):
-        for b in order[i + 1:]:
+        for b in order[i + 1 :]:
             d = scores[a].to_numpy() - scores[b].to_numpy()
             # zsplit keeps tied cells in the count (they favour neither); all ties: no evidence
-            p = 1.0 if len(d) == 0 or np.all(d == 0) else float(wilcoxon(d, zero_method="zsplit").pvalue)
+            p = (
+                1.0
+                if len(d) == 0 or np.all(d == 0)
+                else float(wilcoxon(d, zero_method="zsplit").pvalue)
+            )
             out.append({"a": a, "b": b, "p": p})
     pairs = pd.DataFrame(out, columns=["a", "b", "p"])
     if len(pairs):
@@ -154,11 +174,13 @@ def _groups(order: list[str], pairs: pd.DataFrame) -> list[list[str]]:
     runs = []
     for i in range(len(order)):
         j = i
-        while j + 1 < len(order) and not any((order[k], order[j + 1]) in differ for k in range(i, j + 1)):
+        while j + 1 < len(order) and not any(
+            (order[k], order[j + 1]) in differ for k in range(i, j + 1)
+        ):
             j += 1
         if j > i and not any(s <= i and j <= e for s, e in runs):
             runs.append((i, j))
-    return [order[s:e + 1] for s, e in runs]
+    return [order[s : e + 1] for s, e in runs]
 
 
 def rank_scope(scores: pd.DataFrame, name: str) -> Scope:
@@ -168,7 +190,9 @@ def rank_scope(scores: pd.DataFrame, name: str) -> Scope:
     if complete.empty or scores.shape[1] == 0:
         empty = pd.Series(dtype=float)
         return Scope(name, 0, n_excluded, empty, empty, None, _holm_pairs(complete, []), [])
-    ranks = pd.DataFrame(rankdata(-complete.to_numpy(), axis=1), index=complete.index, columns=complete.columns)
+    ranks = pd.DataFrame(
+        rankdata(-complete.to_numpy(), axis=1), index=complete.index, columns=complete.columns
+    )
     mean = ranks.mean().sort_values(kind="stable")
     order = list(mean.index)
     wins = (ranks == ranks.min(axis=1).to_numpy()[:, None]).sum()[order]
@@ -177,7 +201,9 @@ def rank_scope(scores: pd.DataFrame, name: str) -> Scope:
         stat, p = friedmanchisquare(*(complete[c].to_numpy() for c in order))
         friedman = (float(stat), float(p)) if np.isfinite(stat) else (0.0, 1.0)  # every cell tied
     pairs = _holm_pairs(complete, order)
-    return Scope(name, len(complete), n_excluded, mean, wins, friedman, pairs, _groups(order, pairs))
+    return Scope(
+        name, len(complete), n_excluded, mean, wins, friedman, pairs, _groups(order, pairs)
+    )
 
 
 def _mean_interval(values: np.ndarray, seed: int = 0) -> tuple[float, float, float]:
@@ -185,14 +211,28 @@ def _mean_interval(values: np.ndarray, seed: int = 0) -> tuple[float, float, flo
     values = values[np.isfinite(values)]
     if len(values) < 2:
         return (float(values[0]) if len(values) else np.nan), np.nan, np.nan
-    if np.all(values == values[0]):  # nothing to resample; scipy would warn of a degenerate distribution
+    if np.all(
+        values == values[0]
+    ):  # nothing to resample; scipy would warn of a degenerate distribution
         return float(values[0]), float(values[0]), float(values[0])
-    res = bootstrap((values,), np.mean, n_resamples=N_RESAMPLES, confidence_level=LEVEL, method="percentile",
-                    rng=rng_for(seed, "leaderboard"))
-    return float(values.mean()), float(res.confidence_interval.low), float(res.confidence_interval.high)
+    res = bootstrap(
+        (values,),
+        np.mean,
+        n_resamples=N_RESAMPLES,
+        confidence_level=LEVEL,
+        method="percentile",
+        rng=rng_for(seed, "leaderboard"),
+    )
+    return (
+        float(values.mean()),
+        float(res.confidence_interval.low),
+        float(res.confidence_interval.high),
+    )
 
 
-def leaderboard(rows: pd.DataFrame, metric: str = "accuracy", protocols: list[str] | None = None) -> Leaderboard:
+def leaderboard(
+    rows: pd.DataFrame, metric: str = "accuracy", protocols: list[str] | None = None
+) -> Leaderboard:
     """Rank the detectors in ``rows`` (result rows of one or more detectors) by ``metric``.
 
     Parameters
@@ -235,7 +275,9 @@ def _p(p: float) -> str:
 def _percent(mean: float, lo: float, hi: float) -> str:
     if not np.isfinite(mean):
         return "NA"
-    return f"{100 * mean:.1f}" + (f" [{100 * lo:.1f}, {100 * hi:.1f}]" if np.isfinite(lo) and np.isfinite(hi) else "")
+    return f"{100 * mean:.1f}" + (
+        f" [{100 * lo:.1f}, {100 * hi:.1f}]" if np.isfinite(lo) and np.isfinite(hi) else ""
+    )
 
 
 def leaderboard_tables(board: Leaderboard) -> list[Table]:
@@ -244,52 +286,115 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     overall = board.scopes[0] if board.scopes else None
     if overall is None or overall.n_cells == 0:
         excluded = overall.n_excluded if overall else 0
-        return [Table("Leaderboard.", ["Detector"], "", ["Mean rank"], [], [], "tab:leaderboard",
-                      notes=[f"No cell was finished by every detector ({excluded} cells): nothing to rank."])]
+        return [
+            Table(
+                "Leaderboard.",
+                ["Detector"],
+                "",
+                ["Mean rank"],
+                [],
+                [],
+                "tab:leaderboard",
+                notes=[
+                    f"No cell was finished by every detector ({excluded} cells): nothing to rank."
+                ],
+            )
+        ]
     order = board.order
     name = METRIC_NAMES.get(board.metric, board.metric)
     scopes = [s for s in board.scopes if s.n_cells]
     columns = [f"{'all' if s.name == ALL else s.name} ({s.n_cells})" for s in scopes]
     cells = [[f"{s.ranks[e]:.2f}" for s in scopes] for e in order]
-    notes = [f"Mean rank of {name.lower()} over cells, in parentheses the cells ranked (1 = best): per cell the "
-             "detectors are ranked by their figure (mean over seeds), ties sharing the mean rank. Only cells every "
-             "detector finished are ranked"
-             + (f"; {overall.n_excluded} {'cell was' if overall.n_excluded == 1 else 'cells were'} not (failed, skipped "
-                "or absent for some detector)." if overall.n_excluded else "; every cell was.")]
+    notes = [
+        f"Mean rank of {name.lower()} over cells, in parentheses the cells ranked (1 = best): per cell the "
+        "detectors are ranked by their figure (mean over seeds), ties sharing the mean rank. Only cells every "
+        "detector finished are ranked"
+        + (
+            f"; {overall.n_excluded} {'cell was' if overall.n_excluded == 1 else 'cells were'} not (failed, skipped "
+            "or absent for some detector)."
+            if overall.n_excluded
+            else "; every cell was."
+        )
+    ]
     if len(order) == 1:
         notes.append("One detector: nothing to rank it against.")
-    tables = [Table(f"Leaderboard: detectors ranked by {name.lower()}.", ["Place", "Detector"], "Mean rank (cells)",
-                    columns, [(str(i + 1), e) for i, e in enumerate(order)], cells, "tab:leaderboard", notes=notes)]
-    shown = [m for m in MEAN_METRICS if board.means[f"{m}_cells"].max() > 0]  # figures the rows hold
+    tables = [
+        Table(
+            f"Leaderboard: detectors ranked by {name.lower()}.",
+            ["Place", "Detector"],
+            "Mean rank (cells)",
+            columns,
+            [(str(i + 1), e) for i, e in enumerate(order)],
+            cells,
+            "tab:leaderboard",
+            notes=notes,
+        )
+    ]
+    shown = [
+        m for m in MEAN_METRICS if board.means[f"{m}_cells"].max() > 0
+    ]  # figures the rows hold
     mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in shown] + ["Cells won"]
-    mean_cells = [[_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in shown]
-                  + [str(int(overall.wins[e]))] for e in order]
-    fewer = [f"{METRIC_NAMES.get(m, m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
-             "test set)" for m in shown if board.means[f"{m}_cells"].min() < overall.n_cells]
-    tables.append(Table(f"Mean figures over the {overall.n_cells} ranked cells.", ["Detector"], "", mean_cols,
-                        [(e,) for e in order], mean_cells, "tab:leaderboard-means", notes=[
-                            "[95 % interval: percentile bootstrap over the ranked cells, each cell's figure fixed: how "
-                            "the mean depends on which conditions make up the benchmark, not the test noise within a "
-                            "cell, which the per-cell intervals show.] Cells won: cells where the detector ranked first "
-                            "(a tie counts for each)." + (" " + "; ".join(fewer) + "." if fewer else "")]))
+    mean_cells = [
+        [_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in shown]
+        + [str(int(overall.wins[e]))]
+        for e in order
+    ]
+    fewer = [
+        f"{METRIC_NAMES.get(m, m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
+        "test set)"
+        for m in shown
+        if board.means[f"{m}_cells"].min() < overall.n_cells
+    ]
+    tables.append(
+        Table(
+            f"Mean figures over the {overall.n_cells} ranked cells.",
+            ["Detector"],
+            "",
+            mean_cols,
+            [(e,) for e in order],
+            mean_cells,
+            "tab:leaderboard-means",
+            notes=[
+                "[95 % interval: percentile bootstrap over the ranked cells, each cell's figure fixed: how "
+                "the mean depends on which conditions make up the benchmark, not the test noise within a "
+                "cell, which the per-cell intervals show.] Cells won: cells where the detector ranked first "
+                "(a tie counts for each)." + (" " + "; ".join(fewer) + "." if fewer else "")
+            ],
+        )
+    )
     if len(order) >= 2:
         test_cells = []
         for s in scopes:
             chi = "—" if s.friedman is None else f"{s.friedman[0]:.1f}"
             p = "—" if s.friedman is None else _p(s.friedman[1])
-            groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups) or "none: every pair differs"
+            groups = (
+                "; ".join("{" + ", ".join(g) + "}" for g in s.groups) or "none: every pair differs"
+            )
             if len(order) == 2:  # no Friedman test: the one pair's own p-value
                 p2 = float(s.pairs["p"].iloc[0])
                 groups += f" (Wilcoxon p {'< 0.001' if p2 < 0.001 else f'= {p2:.3f}'})"
             test_cells.append([str(s.n_cells), chi, p, groups])
-        tables.append(Table("Do the detectors differ? Friedman test per scope, then pairwise Wilcoxon signed-rank tests.",
-                            ["Scope"], "", ["Cells", "Friedman χ²", "p", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
-                            [("all" if s.name == ALL else s.name,) for s in scopes], test_cells, "tab:leaderboard-tests",
-                            wrap={4: 0.4}, notes=[
-                                (f"Friedman's χ² has {len(order) - 1} degrees of freedom. " if len(order) >= 3 else
-                                 "Friedman's test needs three detectors or more. ") +
-                                "A group lists detectors, in rank order, no pair of which differs after Holm's correction "
-                                "across the scope's pairs; a detector in no group differs from every other. Cells share "
-                                "recordings (window 50 of a unit appears in several protocols), so they are not "
-                                "independent blocks and these p-values are optimistic."]))
+        tables.append(
+            Table(
+                "Do the detectors differ? Friedman test per scope, then pairwise Wilcoxon signed-rank tests.",
+                ["Scope"],
+                "",
+                ["Cells", "Friedman χ²", "p", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
+                [("all" if s.name == ALL else s.name,) for s in scopes],
+                test_cells,
+                "tab:leaderboard-tests",
+                wrap={4: 0.4},
+                notes=[
+                    (
+                        f"Friedman's χ² has {len(order) - 1} degrees of freedom. "
+                        if len(order) >= 3
+                        else "Friedman's test needs three detectors or more. "
+                    )
+                    + "A group lists detectors, in rank order, no pair of which differs after Holm's correction "
+                    "across the scope's pairs; a detector in no group differs from every other. Cells share "
+                    "recordings (window 50 of a unit appears in several protocols), so they are not "
+                    "independent blocks and these p-values are optimistic."
+                ],
+            )
+        )
     return tables

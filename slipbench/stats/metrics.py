@@ -66,8 +66,13 @@ class _Totals:
     pairs: np.ndarray | None = None
 
 
-def _totals(y_true: np.ndarray, correct: np.ndarray, codes: np.ndarray, n_clusters: int,
-            scores: np.ndarray | None) -> _Totals:
+def _totals(
+    y_true: np.ndarray,
+    correct: np.ndarray,
+    codes: np.ndarray,
+    n_clusters: int,
+    scores: np.ndarray | None,
+) -> _Totals:
     y = np.asarray(y_true, bool)
     hits, size = {}, {}
     for name, mask in (("accuracy", np.ones(len(y), bool)), ("tp_rate", y), ("tn_rate", ~y)):
@@ -76,10 +81,14 @@ def _totals(y_true: np.ndarray, correct: np.ndarray, codes: np.ndarray, n_cluste
     if scores is None or y.all() or not y.any():
         return _Totals(hits, size)
     pos, neg = np.flatnonzero(size["tp_rate"]), np.flatnonzero(size["tn_rate"])
-    return _Totals(hits, size, pos, neg, _pair_counts(y, np.asarray(scores, float), codes, pos, neg))
+    return _Totals(
+        hits, size, pos, neg, _pair_counts(y, np.asarray(scores, float), codes, pos, neg)
+    )
 
 
-def _pair_counts(y: np.ndarray, scores: np.ndarray, codes: np.ndarray, pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
+def _pair_counts(
+    y: np.ndarray, scores: np.ndarray, codes: np.ndarray, pos: np.ndarray, neg: np.ndarray
+) -> np.ndarray:
     """``A[i, j]``: pairs (slip window of cluster pos[i], non-slip window of cluster neg[j])
     ranked correctly, ties counting one half. Shape (len(pos), len(neg))."""
     s_pos, c_pos = scores[y], np.searchsorted(pos, codes[y])
@@ -106,7 +115,9 @@ def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
         if t.pairs is None:
             return np.full(len(w), np.nan)
         wp, wn = w[:, t.pos], w[:, t.neg]
-        return ((wp @ t.pairs) * wn).sum(axis=1) / ((wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg]))
+        return ((wp @ t.pairs) * wn).sum(axis=1) / (
+            (wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg])
+        )
     return (w @ t.hits[name]) / (w @ t.size[name])
 
 
@@ -121,8 +132,12 @@ def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
         wp, wn = w[:, t.pos], w[:, t.neg]
         n_pos, n_neg = wp @ t.size["tp_rate"][t.pos], wn @ t.size["tn_rate"][t.neg]
         a = ((wp @ t.pairs) * wn).sum(axis=1) / (n_pos * n_neg)
-        out[:, t.pos] += (wn @ t.pairs.T - a[:, None] * t.size["tp_rate"][t.pos] * n_neg[:, None]) / (n_pos * n_neg)[:, None]
-        out[:, t.neg] += (wp @ t.pairs - a[:, None] * t.size["tn_rate"][t.neg] * n_pos[:, None]) / (n_pos * n_neg)[:, None]
+        out[:, t.pos] += (
+            wn @ t.pairs.T - a[:, None] * t.size["tp_rate"][t.pos] * n_neg[:, None]
+        ) / (n_pos * n_neg)[:, None]
+        out[:, t.neg] += (wp @ t.pairs - a[:, None] * t.size["tn_rate"][t.neg] * n_pos[:, None]) / (
+            n_pos * n_neg
+        )[:, None]
         return out
     denom = w @ t.size[name]
     r = (w @ t.hits[name]) / denom
@@ -156,43 +171,78 @@ class Predictions:
 def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
     y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
     n_slip, n_nonslip = cluster_counts(y, np.concatenate([np.asarray(p.groups) for p in parts]))
-    return {"n_test_clusters_slip": n_slip, "n_test_clusters_nonslip": n_nonslip,
-            "low_n": bool(min(n_slip, n_nonslip) < LOW_N)}
+    return {
+        "n_test_clusters_slip": n_slip,
+        "n_test_clusters_nonslip": n_nonslip,
+        "low_n": bool(min(n_slip, n_nonslip) < LOW_N),
+    }
 
 
-def _joint_figures(parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str) -> dict:
+def _joint_figures(
+    parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str
+) -> dict:
     """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
     has_strata = [p.strata is not None for p in parts]
     if any(has_strata) and not all(has_strata):
         raise ValueError("give balancing strata for every test set or for none")
-    design, codes = make_design([p.y_true for p in parts], [p.groups for p in parts],
-                                [p.strata for p in parts] if all(has_strata) else None)
+    design, codes = make_design(
+        [p.y_true for p in parts],
+        [p.groups for p in parts],
+        [p.strata for p in parts] if all(has_strata) else None,
+    )
     totals = []
     for p, c in zip(parts, codes):
         y = np.asarray(p.y_true, bool)
-        totals.append(_totals(y, (y == np.asarray(p.y_pred, bool)).astype(float), c, design.n_clusters, p.scores))
+        totals.append(
+            _totals(
+                y, (y == np.asarray(p.y_pred, bool)).astype(float), c, design.n_clusters, p.scores
+            )
+        )
     out: dict = {}
     unestimable = []
     for name in FIGURES:
-        iv = interval(lambda w, name=name: np.mean([_figure(t, name, w) for t in totals], axis=0),
-                      lambda w, name=name: np.mean([_influence(t, name, w) for t in totals], axis=0),
-                      design, np.logical_or.reduce([_used(t, name) for t in totals]),
-                      np.sum([_sizes(t, name) for t in totals], axis=0), seed, level, n_resamples, method)
-        out[name], out[f"{name}_lo"], out[f"{name}_hi"], out[f"{name}_se"] = iv.estimate, iv.lo, iv.hi, iv.se
+        iv = interval(
+            lambda w, name=name: np.mean([_figure(t, name, w) for t in totals], axis=0),
+            lambda w, name=name: np.mean([_influence(t, name, w) for t in totals], axis=0),
+            design,
+            np.logical_or.reduce([_used(t, name) for t in totals]),
+            np.sum([_sizes(t, name) for t in totals], axis=0),
+            seed,
+            level,
+            n_resamples,
+            method,
+        )
+        out[name], out[f"{name}_lo"], out[f"{name}_hi"], out[f"{name}_se"] = (
+            iv.estimate,
+            iv.lo,
+            iv.hi,
+            iv.se,
+        )
         if name == "accuracy":
             out["df"] = iv.df
         if np.isfinite(iv.estimate) and not iv.estimable:
             unestimable.append(name)
-    out["ci_note"] = "" if not unestimable else (
-        f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures how its clusters vary; "
-        "the interval given is the figure's whole range")
+    out["ci_note"] = (
+        ""
+        if not unestimable
+        else (
+            f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures how its clusters vary; "
+            "the interval given is the figure's whole range"
+        )
+    )
     return out | _class_counts(parts)
 
 
 # ----------------------------------------------------------------------------- one cell
 def classification_figures(
-    y_true: np.ndarray, y_pred: np.ndarray, groups: np.ndarray, seed: int, scores: np.ndarray | None = None,
-    strata: np.ndarray | None = None, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+    y_true: np.ndarray,
+    y_pred: np.ndarray,
+    groups: np.ndarray,
+    seed: int,
+    scores: np.ndarray | None = None,
+    strata: np.ndarray | None = None,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
     method: str = "satterthwaite",
 ) -> dict[str, float | int | bool | str]:
     """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
@@ -228,13 +278,27 @@ def classification_figures(
     y_true = np.asarray(y_true).astype(bool)
     y_pred = np.asarray(y_pred).astype(bool)
     out: dict = {
-        "tp": int((y_true & y_pred).sum()), "tn": int((~y_true & ~y_pred).sum()),
-        "fp": int((~y_true & y_pred).sum()), "fn": int((y_true & ~y_pred).sum()),
+        "tp": int((y_true & y_pred).sum()),
+        "tn": int((~y_true & ~y_pred).sum()),
+        "fp": int((~y_true & y_pred).sum()),
+        "fn": int((y_true & ~y_pred).sum()),
     }
-    out |= _joint_figures([Predictions(y_true, y_pred, np.asarray(groups), scores, strata)], seed, level, n_resamples, method)
+    out |= _joint_figures(
+        [Predictions(y_true, y_pred, np.asarray(groups), scores, strata)],
+        seed,
+        level,
+        n_resamples,
+        method,
+    )
     correct = y_true == y_pred
-    for name, mask in (("accuracy", np.ones(len(y_true), bool)), ("tp_rate", y_true), ("tn_rate", ~y_true)):
-        out[f"{name}_wilson_lo"], out[f"{name}_wilson_hi"] = wilson_ci(int(correct[mask].sum()), int(mask.sum()))
+    for name, mask in (
+        ("accuracy", np.ones(len(y_true), bool)),
+        ("tp_rate", y_true),
+        ("tn_rate", ~y_true),
+    ):
+        out[f"{name}_wilson_lo"], out[f"{name}_wilson_hi"] = wilson_ci(
+            int(correct[mask].sum()), int(mask.sum())
+        )
     return out
 
 
@@ -248,7 +312,10 @@ def wilson_ci(hits: int, n: int, level: float = LEVEL) -> tuple[float, float]:
 
 # ----------------------------------------------------------------------------- several test sets
 def mean_over_test_sets(
-    parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
+    parts: Sequence[Predictions],
+    seed: int,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
     method: str = "satterthwaite",
 ) -> dict[str, float | int | bool | str]:
     """The mean of each figure over several test sets, with ONE joint bootstrap.
@@ -276,8 +343,13 @@ def mean_over_test_sets(
     return {"n_test_sets": len(parts)} | _joint_figures(parts, seed, level, n_resamples, method)
 
 
-def pool_seeds(parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_resamples: int = N_RESAMPLES,
-               method: str = "satterthwaite") -> dict[str, float | int | bool | str]:
+def pool_seeds(
+    parts: Sequence[Predictions],
+    seed: int,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+) -> dict[str, float | int | bool | str]:
     """One cell run under several seeds (``--repeats``): one figure and one interval.
 
     The seeds' test sets differ (each seed balances and splits anew) but draw on the same
@@ -292,9 +364,17 @@ def pool_seeds(parts: Sequence[Predictions], seed: int, level: float = LEVEL, n_
 
 # ----------------------------------------------------------------------------- paired comparison
 def paired_comparison(
-    y_true: np.ndarray, base_pred: np.ndarray, cand_pred: np.ndarray, groups: np.ndarray, seed: int,
-    level: float = LEVEL, n_resamples: int = N_RESAMPLES, base_scores: np.ndarray | None = None,
-    cand_scores: np.ndarray | None = None, strata: np.ndarray | None = None, method: str = "satterthwaite",
+    y_true: np.ndarray,
+    base_pred: np.ndarray,
+    cand_pred: np.ndarray,
+    groups: np.ndarray,
+    seed: int,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+    base_scores: np.ndarray | None = None,
+    cand_scores: np.ndarray | None = None,
+    strata: np.ndarray | None = None,
+    method: str = "satterthwaite",
     figures: Sequence[str] = FIGURES,
 ) -> dict[str, float | int | bool]:
     """Two detectors' predictions on the same test windows: the change (candidate - base) of
@@ -325,18 +405,33 @@ def paired_comparison(
     y_true = np.asarray(y_true, bool)
     groups = np.asarray(groups)
     design, (codes,) = make_design([y_true], [groups], None if strata is None else [strata])
-    sides = [_totals(y_true, (np.asarray(p, bool) == y_true).astype(float), codes, design.n_clusters, s)
-             for p, s in ((base_pred, base_scores), (cand_pred, cand_scores))]
+    sides = [
+        _totals(y_true, (np.asarray(p, bool) == y_true).astype(float), codes, design.n_clusters, s)
+        for p, s in ((base_pred, base_scores), (cand_pred, cand_scores))
+    ]
     out: dict = {}
     unknown = set(figures) - set(FIGURES)
     if unknown:
         raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
-        iv = interval(lambda w, name=name: _figure(sides[1], name, w) - _figure(sides[0], name, w),
-                      lambda w, name=name: _influence(sides[1], name, w) - _influence(sides[0], name, w),
-                      design, _used(sides[0], name), _sizes(sides[0], name), seed, level, n_resamples, method,
-                      bounds=(-1.0, 1.0))
-        out[f"d_{name}"], out[f"d_{name}_lo"], out[f"d_{name}_hi"], out[f"d_{name}_se"] = iv.estimate, iv.lo, iv.hi, iv.se
+        iv = interval(
+            lambda w, name=name: _figure(sides[1], name, w) - _figure(sides[0], name, w),
+            lambda w, name=name: _influence(sides[1], name, w) - _influence(sides[0], name, w),
+            design,
+            _used(sides[0], name),
+            _sizes(sides[0], name),
+            seed,
+            level,
+            n_resamples,
+            method,
+            bounds=(-1.0, 1.0),
+        )
+        out[f"d_{name}"], out[f"d_{name}_lo"], out[f"d_{name}_hi"], out[f"d_{name}_se"] = (
+            iv.estimate,
+            iv.lo,
+            iv.hi,
+            iv.se,
+        )
         if name == "accuracy":
             out["df"], out["estimable"] = iv.df, iv.estimable
     out["n_test_clusters_slip"], out["n_test_clusters_nonslip"] = cluster_counts(y_true, groups)

@@ -64,26 +64,40 @@ def canonical(value: Any, where: str = "key") -> Any:
         return [canonical(v, f"{where}[{i}]") for i, v in enumerate(value)]
     if isinstance(value, np.ndarray):
         if value.dtype.kind not in "biuf":
-            raise TypeError(f"{where}: a NumPy array of dtype {value.dtype} cannot be part of a cache key")
+            raise TypeError(
+                f"{where}: a NumPy array of dtype {value.dtype} cannot be part of a cache key"
+            )
         return canonical(value.tolist(), where)
     if isinstance(value, dict):
         out = {}
         for k, v in value.items():
             if not isinstance(k, str):
-                raise TypeError(f"{where}: dict key {k!r} is a {type(k).__name__}, not a str; cache keys take string keys only")
+                raise TypeError(
+                    f"{where}: dict key {k!r} is a {type(k).__name__}, not a str; cache keys take string keys only"
+                )
             out[str(k)] = canonical(v, f"{where}.{k}")
         return out
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: canonical(getattr(value, f.name), f"{where}.{f.name}") for f in dataclasses.fields(value)}
-    raise TypeError(f"{where}: {value!r} (a {type(value).__module__}.{type(value).__qualname__}) cannot be part of a "
-                    "cache key; pass plain numbers, strings, booleans, None, lists, tuples, dicts or dataclasses")
+        return {
+            f.name: canonical(getattr(value, f.name), f"{where}.{f.name}")
+            for f in dataclasses.fields(value)
+        }
+    raise TypeError(
+        f"{where}: {value!r} (a {type(value).__module__}.{type(value).__qualname__}) cannot be part of a "
+        "cache key; pass plain numbers, strings, booleans, None, lists, tuples, dicts or dataclasses"
+    )
 
 
 def canonical_json(fields: dict[str, Any]) -> str:
     """The exact text that :func:`cell_key` hashes: ``{"fields": ..., "schema": KEY_SCHEMA}``,
     sorted keys, no spaces, UTF-8 kept as is."""
-    return json.dumps({"schema": KEY_SCHEMA, "fields": canonical(fields)}, sort_keys=True,
-                      separators=(",", ":"), ensure_ascii=False, allow_nan=False)
+    return json.dumps(
+        {"schema": KEY_SCHEMA, "fields": canonical(fields)},
+        sort_keys=True,
+        separators=(",", ":"),
+        ensure_ascii=False,
+        allow_nan=False,
+    )
 
 
 def cell_key(fields: dict[str, Any]) -> str:
@@ -173,9 +187,16 @@ def _source_files(unit: str) -> list[tuple[str, Path]]:
         for root in folders:
             for path in sorted(root.rglob("*")):
                 relative = path.relative_to(root)
-                if (path.name.endswith(_CODE_SUFFIXES) and path.is_file()
-                        and not any(p.startswith(".") or p == "__pycache__" for p in relative.parts[:-1])):
-                    files.setdefault(".".join([package, *relative.parts[:-1]]) + f"/{path.name}", path)
+                if (
+                    path.name.endswith(_CODE_SUFFIXES)
+                    and path.is_file()
+                    and not any(
+                        p.startswith(".") or p == "__pycache__" for p in relative.parts[:-1]
+                    )
+                ):
+                    files.setdefault(
+                        ".".join([package, *relative.parts[:-1]]) + f"/{path.name}", path
+                    )
     return list(files.items())
 
 

@@ -49,8 +49,18 @@ from slipbench.atomic import folder_lock, make_folder, write_atomic, write_text_
 from slipbench.errors import ENVIRONMENT_ERRNOS, CellsFailed, DataError, environment_fault
 from slipbench.store.keys import cell_key
 
-__all__ = ["RESULTS_FILE", "REQUIRED_COLUMNS", "ResultsStore", "read_results", "read_predictions",
-           "results_folder", "cells_failed", "cell_key", "write_atomic", "write_text_atomic"]
+__all__ = [
+    "RESULTS_FILE",
+    "REQUIRED_COLUMNS",
+    "ResultsStore",
+    "read_results",
+    "read_predictions",
+    "results_folder",
+    "cells_failed",
+    "cell_key",
+    "write_atomic",
+    "write_text_atomic",
+]
 
 RESULTS_FILE = "results.parquet"
 #: columns every results row has, whatever its status (metrics exist only for cells that ran)
@@ -68,7 +78,9 @@ class _Scan:
     """What a results folder holds: results.parquet's table, and the cell files it lacks."""
 
     table: pa.Table | None  # results.parquet, or None
-    newer: dict[str, dict[str, Any]]  # rows of cell files that results.parquet lacks or says otherwise
+    newer: dict[
+        str, dict[str, Any]
+    ]  # rows of cell files that results.parquet lacks or says otherwise
     versions: dict[str, list[int]]  # the version of each cell file whose row is known
     unreadable: list[tuple[Path, str]]  # cell files that could not be read, and why
 
@@ -80,7 +92,9 @@ class _Scan:
     def _older(self) -> pa.Table | None:
         if self.table is None or not self.newer:
             return self.table
-        return self.table.filter(pc.invert(pc.is_in(self.table["key"], pa.array(list(self.newer), pa.string()))))
+        return self.table.filter(
+            pc.invert(pc.is_in(self.table["key"], pa.array(list(self.newer), pa.string())))
+        )
 
     def rows(self) -> dict[str, dict[str, Any]]:
         older = self._older()
@@ -89,8 +103,14 @@ class _Scan:
 
     def frame(self) -> pd.DataFrame:
         older = self._older()
-        parts = ([] if older is None else [older.to_pandas()]) + ([pd.DataFrame(list(self.newer.values()))] if self.newer else [])
-        return pd.concat(parts, ignore_index=True) if len(parts) > 1 else (parts[0] if parts else pd.DataFrame())
+        parts = ([] if older is None else [older.to_pandas()]) + (
+            [pd.DataFrame(list(self.newer.values()))] if self.newer else []
+        )
+        return (
+            pd.concat(parts, ignore_index=True)
+            if len(parts) > 1
+            else (parts[0] if parts else pd.DataFrame())
+        )
 
     def combined(self, folder: Path) -> pa.Table:
         """Every row as one table (protocols have different cell columns: the union is taken)."""
@@ -125,13 +145,19 @@ class ResultsStore:
         """
         scan = self._scan()
         for path, why in scan.unreadable:
-            warnings.warn(f"{path}: unreadable cell file, its cell will be computed again ({why})", stacklevel=2)
+            warnings.warn(
+                f"{path}: unreadable cell file, its cell will be computed again ({why})",
+                stacklevel=2,
+            )
         return scan.rows()
 
     def put(self, row: dict[str, Any], predictions: pd.DataFrame | None = None) -> None:
         """Store one finished cell; its predictions first, so a row never lacks them."""
         if predictions is not None:
-            write_atomic(pa.Table.from_pandas(predictions, preserve_index=False), self.folder / "predictions" / f"{row['key']}.parquet")
+            write_atomic(
+                pa.Table.from_pandas(predictions, preserve_index=False),
+                self.folder / "predictions" / f"{row['key']}.parquet",
+            )
         write_atomic(pa.Table.from_pylist([row]), self._cell_path(row["key"]))
 
     def consolidate(self) -> Path:
@@ -160,8 +186,14 @@ class ResultsStore:
         path = self.folder / RESULTS_FILE
         cells = self.folder / "cells"
         try:
-            entries = sorted((e for e in os.scandir(cells) if e.name.endswith(".parquet") and not e.name.startswith(".")),
-                             key=lambda e: e.name)  # a hidden .*.tmp file is a write that never finished
+            entries = sorted(
+                (
+                    e
+                    for e in os.scandir(cells)
+                    if e.name.endswith(".parquet") and not e.name.startswith(".")
+                ),
+                key=lambda e: e.name,
+            )  # a hidden .*.tmp file is a write that never finished
         except FileNotFoundError:
             entries = []
         except OSError as exc:
@@ -175,9 +207,11 @@ class ResultsStore:
                 index = {k: i for i, k in enumerate(table["key"].to_pylist())}
                 if len(index) < table.num_rows:
                     twice = pd.Series(table["key"].to_pylist()).value_counts()
-                    raise DataError(f"{path}: {int((twice > 1).sum())} key(s) appear more than once (e.g. {twice.index[0]}) "
-                                    "beside the cells/ folder; slipbench never writes that: delete the file and it is "
-                                    "rebuilt from cells/")
+                    raise DataError(
+                        f"{path}: {int((twice > 1).sum())} key(s) appear more than once (e.g. {twice.index[0]}) "
+                        "beside the cells/ folder; slipbench never writes that: delete the file and it is "
+                        "rebuilt from cells/"
+                    )
             try:
                 held = json.loads((table.schema.metadata or {}).get(_MANIFEST, b"{}"))
             except ValueError:
@@ -243,8 +277,10 @@ def _read_cell(path: Path, key: str) -> tuple[dict[str, Any], list[int]]:
     except (OSError, pa.ArrowException) as exc:
         raise _read_error(exc, path, "not a readable cell file") from None
     if len(rows) != 1 or rows[0].get("key") != key:
-        raise DataError(f"{path}: a cell file holds one row whose key is its name, found "
-                        f"{len(rows)} row(s){'' if not rows else ' with key ' + repr(rows[0].get('key'))}")
+        raise DataError(
+            f"{path}: a cell file holds one row whose key is its name, found "
+            f"{len(rows)} row(s){'' if not rows else ' with key ' + repr(rows[0].get('key'))}"
+        )
     return rows[0], version
 
 
@@ -258,7 +294,8 @@ def _same_row(cell: dict[str, Any], stored: dict[str, Any]) -> bool:
     """Whether results.parquet's row says what the cell file says. Its other columns (of other
     protocols' cells) must be empty; ints it promoted to floats compare equal."""
     return all(_same(v, stored.get(k)) for k, v in cell.items()) and all(
-        v is None for k, v in stored.items() if k not in cell)
+        v is None for k, v in stored.items() if k not in cell
+    )
 
 
 def _table(rows: dict[str, dict[str, Any]], folder: Path) -> pa.Table:
@@ -274,9 +311,13 @@ def _table(rows: dict[str, dict[str, Any]], folder: Path) -> pa.Table:
         try:
             pa.array([row.get(column) for row in rows.values()])
         except (pa.ArrowInvalid, pa.ArrowTypeError) as exc:
-            kinds = sorted({type(r[column]).__name__ for r in rows.values() if r.get(column) is not None})
-            raise DataError(f"{folder}: cells disagree on the type of column {column!r} ({', '.join(kinds)}): "
-                            f"{exc}; rerun the cells of one of the plugins with --force") from None
+            kinds = sorted(
+                {type(r[column]).__name__ for r in rows.values() if r.get(column) is not None}
+            )
+            raise DataError(
+                f"{folder}: cells disagree on the type of column {column!r} ({', '.join(kinds)}): "
+                f"{exc}; rerun the cells of one of the plugins with --force"
+            ) from None
     raise DataError(f"{folder}: the cell rows cannot be combined into one table")
 
 
@@ -291,14 +332,20 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
     if path.is_dir():
         rows = ResultsStore(path)._scan(strict=True).frame()
         if rows.empty:
-            raise DataError(f"{path}: no results here (run `slipbench evaluate --out FOLDER` first)")
+            raise DataError(
+                f"{path}: no results here (run `slipbench evaluate --out FOLDER` first)"
+            )
     elif path.is_file():
         rows = _read_table(path).to_pandas()
     else:
-        raise DataError(f"{path}: no results file here (run `slipbench evaluate --out FOLDER` first)")
+        raise DataError(
+            f"{path}: no results file here (run `slipbench evaluate --out FOLDER` first)"
+        )
     missing = set(REQUIRED_COLUMNS) - set(rows.columns)
     if missing:
-        raise DataError(f"{path}: not a slipbench results file (missing columns: {', '.join(sorted(missing))})")
+        raise DataError(
+            f"{path}: not a slipbench results file (missing columns: {', '.join(sorted(missing))})"
+        )
     return rows
 
 
@@ -320,7 +367,9 @@ def read_predictions(folder: Path, key: str) -> pd.DataFrame | None:
     try:
         names = set(pq.read_schema(path).names)
         if missing := [c for c in PREDICTION_COLUMNS if c not in names]:
-            raise DataError(f"{path}: not a readable predictions file (it lacks the columns {', '.join(missing)})")
+            raise DataError(
+                f"{path}: not a readable predictions file (it lacks the columns {', '.join(missing)})"
+            )
         columns = [*PREDICTION_COLUMNS, *(["trial"] if "trial" in names else [])]
         return pq.read_table(path, columns=columns).to_pandas()
     except (OSError, pa.ArrowException) as exc:
@@ -342,7 +391,8 @@ def check_unique_keys(rows: pd.DataFrame, source: str) -> pd.DataFrame:
         raise DataError(
             f"{source}: {len(dup)} key{'s' * (len(dup) > 1)} appear more than once ({int(dup.sum())} rows; "
             f"key {dup.index[0]} {int(dup.iloc[0])} times): the same results were given twice; give each "
-            "results file or folder once")
+            "results file or folder once"
+        )
     return rows
 
 
@@ -359,6 +409,8 @@ def cells_failed(rows: pd.DataFrame, where: str = "") -> CellsFailed | None:
     reason = bad["reason"] if "reason" in bad else pd.Series("", index=bad.index)
     cells: Sequence[tuple[str, str, str]] = [
         (f"{p}/{d} {c}".rstrip(), str(s), "" if r is None or r != r else str(r))
-        for p, d, c, s, r in zip(bad["protocol"], bad["detector"], cell.fillna(""), bad["status"], reason)
+        for p, d, c, s, r in zip(
+            bad["protocol"], bad["detector"], cell.fillna(""), bad["status"], reason
+        )
     ]
     return CellsFailed(cells, total=len(rows), where=where)

@@ -14,13 +14,21 @@ from typing import Any
 
 import numpy as np
 
-from slipbench.base import BaseDetector
-from slipbench.base import hop_latency, stream_scores
-from slipbench.stream.metrics import Streams, collect, false_alarms_by_scenario, operating_point, summarize, sweep
+from slipbench.base import BaseDetector, hop_latency, stream_scores
+from slipbench.stream.metrics import (
+    Streams,
+    collect,
+    false_alarms_by_scenario,
+    operating_point,
+    summarize,
+    sweep,
+)
 
 OWN_THRESHOLD = 0.5  # the detector's own decision: predict() calls slip at a probability >= 0.5
 BUDGET = 1.0  # false alarms per minute of the reported operating point (issue 10)
-LATENCY_HOPS = 300  # pushes timed for the compute time per hop: a stable median, well under a second
+LATENCY_HOPS = (
+    300  # pushes timed for the compute time per hop: a stable median, well under a second
+)
 FIGURES = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
 CURVE = ("threshold", "detection_rate", "median_delay_ms", "false_alarms_per_min")
 
@@ -62,7 +70,9 @@ def unknown_start(labels: np.ndarray) -> np.ndarray:
     return out
 
 
-def _streams(detector: BaseDetector, recs: Recordings, hop: int, compute_ms: float, max_delay_ms: float) -> Streams:
+def _streams(
+    detector: BaseDetector, recs: Recordings, hop: int, compute_ms: float, max_delay_ms: float
+) -> Streams:
     window = int(detector.window_length_)
     ends, scores = [], []
     for signal in recs.signals:
@@ -73,8 +83,18 @@ def _streams(detector: BaseDetector, recs: Recordings, hop: int, compute_ms: flo
         e, s = stream_scores(detector, signal, hop)
         ends.append(e)
         scores.append(s)
-    return collect(ends, scores, [unknown_start(lab) for lab in recs.labels], window=window, sampling_rate=recs.rates, trials=recs.trials,
-                   scenarios=recs.scenarios, recording_ids=recs.ids, compute_ms=compute_ms, max_delay_ms=max_delay_ms)
+    return collect(
+        ends,
+        scores,
+        [unknown_start(lab) for lab in recs.labels],
+        window=window,
+        sampling_rate=recs.rates,
+        trials=recs.trials,
+        scenarios=recs.scenarios,
+        recording_ids=recs.ids,
+        compute_ms=compute_ms,
+        max_delay_ms=max_delay_ms,
+    )
 
 
 def _compute_ms(detector: BaseDetector, recs: Recordings, hop: int) -> float:
@@ -116,19 +136,33 @@ def streamed_figures(detector: BaseDetector, seed: int, test: StreamTest) -> dic
     note = ""
     if np.isnan(threshold):
         op = {k: np.nan for k in (*FIGURES, *(f"{f}_{b}" for f in FIGURES for b in ("lo", "hi")))}
-        note = (f"no threshold keeps {BUDGET:g} false alarm per minute on the training streams"
-                if len(train.scores) else "no training recording to choose the operating point on")
+        note = (
+            f"no threshold keeps {BUDGET:g} false alarm per minute on the training streams"
+            if len(train.scores)
+            else "no training recording to choose the operating point on"
+        )
     else:
         op = summarize(streams, threshold, seed)
     curve = sweep(streams)[list(CURVE)]
     stream_s = time.perf_counter() - t0
     return {
-        **{k: v for k, v in own.items() if k != "threshold"}, "threshold": OWN_THRESHOLD,
+        **{k: v for k, v in own.items() if k != "threshold"},
+        "threshold": OWN_THRESHOLD,
         "false_alarms_by_scenario": by_scenario.to_json(orient="records"),
-        "op_threshold": float(threshold), "op_budget_per_min": BUDGET, "op_note": note,
-        **{f"op_{k}": float(op[k]) for k in (*FIGURES, *(f"{f}_{b}" for f in FIGURES for b in ("lo", "hi")))},
-        "tradeoff": json.dumps([{k: (None if not np.isfinite(v) else float(v)) for k, v in point.items()}
-                                for point in curve.to_dict("records")]),
-        "n_test_recordings": len(test.test.signals), "n_train_recordings": len(test.train.signals),
+        "op_threshold": float(threshold),
+        "op_budget_per_min": BUDGET,
+        "op_note": note,
+        **{
+            f"op_{k}": float(op[k])
+            for k in (*FIGURES, *(f"{f}_{b}" for f in FIGURES for b in ("lo", "hi")))
+        },
+        "tradeoff": json.dumps(
+            [
+                {k: (None if not np.isfinite(v) else float(v)) for k, v in point.items()}
+                for point in curve.to_dict("records")
+            ]
+        ),
+        "n_test_recordings": len(test.test.signals),
+        "n_train_recordings": len(test.train.signals),
         "stream_s": stream_s,
     }

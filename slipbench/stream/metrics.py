@@ -127,9 +127,17 @@ class Streams:
 
 
 def collect(
-    ends: Sequence[np.ndarray], scores: Sequence[np.ndarray], labels: Sequence[np.ndarray], *, window: int,
-    sampling_rate: float | Sequence[float], trials: Sequence[str], scenarios: Sequence[str],
-    recording_ids: Sequence[str] | None = None, compute_ms: float = 0.0, max_delay_ms: float = MAX_DELAY_MS,
+    ends: Sequence[np.ndarray],
+    scores: Sequence[np.ndarray],
+    labels: Sequence[np.ndarray],
+    *,
+    window: int,
+    sampling_rate: float | Sequence[float],
+    trials: Sequence[str],
+    scenarios: Sequence[str],
+    recording_ids: Sequence[str] | None = None,
+    compute_ms: float = 0.0,
+    max_delay_ms: float = MAX_DELAY_MS,
 ) -> Streams:
     """Gather the scored test recordings of one cell.
 
@@ -149,22 +157,58 @@ def collect(
     """
     n_rec = len(labels)
     rates = np.broadcast_to(np.asarray(sampling_rate, float), (n_rec,))
-    for name, seq in (("ends", ends), ("scores", scores), ("trials", trials), ("scenarios", scenarios)):
+    for name, seq in (
+        ("ends", ends),
+        ("scores", scores),
+        ("trials", trials),
+        ("scenarios", scenarios),
+    ):
         if len(seq) != n_rec:
             raise UsageError(f"{name} gives {len(seq)} recordings, labels {n_rec}")
-    if not (np.isfinite(compute_ms) and compute_ms >= 0 and np.isfinite(max_delay_ms) and max_delay_ms > 0):
-        raise UsageError(f"compute_ms must be >= 0 and max_delay_ms > 0, got {compute_ms} and {max_delay_ms}")
-    ids = np.array([str(i) for i in range(n_rec)] if recording_ids is None else [str(r) for r in recording_ids])
-    parts: dict[str, list] = {k: [] for k in ("scores", "ends", "recording", "first", "quiet", "o_sample", "o_rec",
-                                              "o_first", "o_last", "o_short", "o_start")}
+    if not (
+        np.isfinite(compute_ms)
+        and compute_ms >= 0
+        and np.isfinite(max_delay_ms)
+        and max_delay_ms > 0
+    ):
+        raise UsageError(
+            f"compute_ms must be >= 0 and max_delay_ms > 0, got {compute_ms} and {max_delay_ms}"
+        )
+    ids = np.array(
+        [str(i) for i in range(n_rec)] if recording_ids is None else [str(r) for r in recording_ids]
+    )
+    parts: dict[str, list] = {
+        k: []
+        for k in (
+            "scores",
+            "ends",
+            "recording",
+            "first",
+            "quiet",
+            "o_sample",
+            "o_rec",
+            "o_first",
+            "o_last",
+            "o_short",
+            "o_start",
+        )
+    }
     quiet_minutes = np.zeros(n_rec)
     offset = 0
     for r in range(n_rec):
-        e, s, lab = np.asarray(ends[r], np.int64), np.asarray(scores[r], float), np.asarray(labels[r])
+        e, s, lab = (
+            np.asarray(ends[r], np.int64),
+            np.asarray(scores[r], float),
+            np.asarray(labels[r]),
+        )
         if e.shape != s.shape or e.ndim != 1:
-            raise UsageError(f"recording {ids[r]}: ends {e.shape} and scores {s.shape} must be one score per end")
+            raise UsageError(
+                f"recording {ids[r]}: ends {e.shape} and scores {s.shape} must be one score per end"
+            )
         if len(e) and (e[0] < 0 or e[-1] >= len(lab) or np.any(np.diff(e) <= 0)):
-            raise UsageError(f"recording {ids[r]}: score samples must rise within the {len(lab)} labelled samples")
+            raise UsageError(
+                f"recording {ids[r]}: score samples must rise within the {len(lab)} labelled samples"
+            )
         quiet = nonslip(lab, window)
         if len(e):
             quiet_minutes[r] = quiet[e[0] : e[-1] + 1].sum() / rates[r] / 60.0
@@ -186,14 +230,25 @@ def collect(
         offset += len(e)
     cat = {k: np.concatenate(v) if v else np.empty(0) for k, v in parts.items()}
     return Streams(
-        scores=cat["scores"].astype(float), ends=cat["ends"].astype(np.int64), recording=cat["recording"].astype(np.int64),
-        first=cat["first"].astype(bool), quiet=cat["quiet"].astype(bool),
-        onset_sample=cat["o_sample"].astype(np.int64), onset_recording=cat["o_rec"].astype(np.int64),
-        onset_first=cat["o_first"].astype(np.int64), onset_last=cat["o_last"].astype(np.int64),
-        onset_short=cat["o_short"].astype(bool), onset_at_start=cat["o_start"].astype(bool),
-        rate=np.array(rates, float), quiet_minutes=quiet_minutes, trial=np.array([str(t) for t in trials]),
-        scenario=np.array([str(s) for s in scenarios]), recording_id=ids, window=int(window),
-        compute_ms=float(compute_ms), max_delay_ms=float(max_delay_ms),
+        scores=cat["scores"].astype(float),
+        ends=cat["ends"].astype(np.int64),
+        recording=cat["recording"].astype(np.int64),
+        first=cat["first"].astype(bool),
+        quiet=cat["quiet"].astype(bool),
+        onset_sample=cat["o_sample"].astype(np.int64),
+        onset_recording=cat["o_rec"].astype(np.int64),
+        onset_first=cat["o_first"].astype(np.int64),
+        onset_last=cat["o_last"].astype(np.int64),
+        onset_short=cat["o_short"].astype(bool),
+        onset_at_start=cat["o_start"].astype(bool),
+        rate=np.array(rates, float),
+        quiet_minutes=quiet_minutes,
+        trial=np.array([str(t) for t in trials]),
+        scenario=np.array([str(s) for s in scenarios]),
+        recording_id=ids,
+        window=int(window),
+        compute_ms=float(compute_ms),
+        max_delay_ms=float(max_delay_ms),
     )
 
 
@@ -224,14 +279,24 @@ def outcome(streams: Streams, threshold: float) -> Outcome:
     positive = st.scores >= threshold
     alarm = positive & (st.first | ~np.r_[False, positive[:-1]])
     # for every score, the next alarm at or after it (n: none)
-    following = np.minimum.accumulate(np.where(alarm, np.arange(n), n)[::-1])[::-1] if n else np.empty(0, np.int64)
+    following = (
+        np.minimum.accumulate(np.where(alarm, np.arange(n), n)[::-1])[::-1]
+        if n
+        else np.empty(0, np.int64)
+    )
     nxt = np.r_[following, n][np.minimum(st.onset_first, n)]
     detected = nxt <= st.onset_last
     at = np.where(detected, nxt, 0)
     sample = np.where(detected, st.ends[at] if n else 0, -1)
-    delay = np.where(detected, (sample - st.onset_sample) / st.rate[st.onset_recording] * 1000.0 + st.compute_ms, np.nan)
+    delay = np.where(
+        detected,
+        (sample - st.onset_sample) / st.rate[st.onset_recording] * 1000.0 + st.compute_ms,
+        np.nan,
+    )
     status = np.where(detected, "detected", np.where(st.onset_short, "censored", "missed"))
-    false_alarms = np.bincount(st.recording[alarm & st.quiet], minlength=len(st.rate)).astype(np.int64)
+    false_alarms = np.bincount(st.recording[alarm & st.quiet], minlength=len(st.rate)).astype(
+        np.int64
+    )
     return Outcome(float(threshold), status, sample.astype(np.int64), delay, false_alarms)
 
 
@@ -240,9 +305,18 @@ def onset_table(streams: Streams, threshold: float) -> pd.DataFrame:
     status, alarm (sample, -1 none), delay_ms."""
     o = outcome(streams, threshold)
     r = streams.onset_recording
-    return pd.DataFrame({"recording": streams.recording_id[r], "trial": streams.trial[r], "scenario": streams.scenario[r],
-                         "onset": streams.onset_sample, "at_start": streams.onset_at_start, "status": o.status,
-                         "alarm": o.alarm, "delay_ms": o.delay_ms})
+    return pd.DataFrame(
+        {
+            "recording": streams.recording_id[r],
+            "trial": streams.trial[r],
+            "scenario": streams.scenario[r],
+            "onset": streams.onset_sample,
+            "at_start": streams.onset_at_start,
+            "status": o.status,
+            "alarm": o.alarm,
+            "delay_ms": o.delay_ms,
+        }
+    )
 
 
 # ----------------------------------------------------------------------------- summaries
@@ -256,17 +330,23 @@ def _figures(streams: Streams, o: Outcome, recordings: np.ndarray) -> dict[str, 
     n_eval = int(det.sum() + miss.sum())
     p50, p95 = np.quantile(delays, [0.5, 0.95]) if len(delays) else (np.nan, np.nan)
     return {
-        "n_onsets": n_eval, "n_detected": int(det.sum()), "n_missed": int(miss.sum()),
-        "n_censored": int((mine & (o.status == "censored")).sum()), "n_at_start": int((mine & streams.onset_at_start).sum()),
+        "n_onsets": n_eval,
+        "n_detected": int(det.sum()),
+        "n_missed": int(miss.sum()),
+        "n_censored": int((mine & (o.status == "censored")).sum()),
+        "n_at_start": int((mine & streams.onset_at_start).sum()),
         "detection_rate": float(det.sum() / n_eval) if n_eval else np.nan,
-        "median_delay_ms": float(p50), "p95_delay_ms": float(p95),
-        "false_alarms": false, "nonslip_minutes": float(minutes),
+        "median_delay_ms": float(p50),
+        "p95_delay_ms": float(p95),
+        "false_alarms": false,
+        "nonslip_minutes": float(minutes),
         "false_alarms_per_min": float(false / minutes) if minutes > 0 else np.nan,
     }
 
 
-def _intervals(streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, level: float,
-               n_resamples: int) -> dict[str, float]:
+def _intervals(
+    streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, level: float, n_resamples: int
+) -> dict[str, float]:
     """Percentile bootstrap intervals over trials; every statistic resamples the trials that
     contribute to it (onsets for the detection rate, detected onsets for the delays, non-slip
     time for false alarms), and one seed draws them all. Fewer than two such trials: NaN."""
@@ -277,9 +357,14 @@ def _intervals(streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, 
     t_onset = trial_of_rec[streams.onset_recording]
     det, miss = mine & (o.status == "detected"), mine & (o.status == "missed")
     per = {  # per trial: counts that the ratio statistics sum
-        "det": np.bincount(t_onset[det], minlength=n_trials), "eval": np.bincount(t_onset[det | miss], minlength=n_trials),
-        "fa": np.bincount(trial_of_rec[recordings], weights=o.false_alarms[recordings], minlength=n_trials),
-        "min": np.bincount(trial_of_rec[recordings], weights=streams.quiet_minutes[recordings], minlength=n_trials),
+        "det": np.bincount(t_onset[det], minlength=n_trials),
+        "eval": np.bincount(t_onset[det | miss], minlength=n_trials),
+        "fa": np.bincount(
+            trial_of_rec[recordings], weights=o.false_alarms[recordings], minlength=n_trials
+        ),
+        "min": np.bincount(
+            trial_of_rec[recordings], weights=streams.quiet_minutes[recordings], minlength=n_trials
+        ),
     }
     alpha = (1 - level) / 2
     out: dict[str, float] = {}
@@ -291,7 +376,11 @@ def _intervals(streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, 
 
     def weights(keep: np.ndarray) -> np.ndarray | None:
         k = int(keep.sum())
-        return rng.multinomial(k, np.full(k, 1 / k), size=n_resamples).astype(float) if k >= 2 else None
+        return (
+            rng.multinomial(k, np.full(k, 1 / k), size=n_resamples).astype(float)
+            if k >= 2
+            else None
+        )
 
     def ratio(name: str, num: np.ndarray, den: np.ndarray) -> None:
         keep = den > 0
@@ -315,14 +404,21 @@ def _intervals(streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, 
         delays = o.delay_ms[det][order]
         column = np.cumsum(has) - 1  # trial -> column of w
         owner = column[t_onset[det][order]]
-        stats = np.array([np.quantile(np.repeat(delays, wb[owner].astype(np.int64)), [0.5, 0.95]) for wb in w])
+        stats = np.array(
+            [np.quantile(np.repeat(delays, wb[owner].astype(np.int64)), [0.5, 0.95]) for wb in w]
+        )
         interval("median_delay_ms", stats[:, 0])
         interval("p95_delay_ms", stats[:, 1])
     return out
 
 
-def summarize(streams: Streams, threshold: float, seed: int = 0, level: float = LEVEL,
-              n_resamples: int = N_RESAMPLES) -> dict[str, float]:
+def summarize(
+    streams: Streams,
+    threshold: float,
+    seed: int = 0,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+) -> dict[str, float]:
     """Every streaming figure of one cell at ``threshold``, with bootstrap intervals over trials.
 
     Returns
@@ -335,12 +431,22 @@ def summarize(streams: Streams, threshold: float, seed: int = 0, level: float = 
     """
     o = outcome(streams, threshold)
     everything = np.ones(len(streams.rate), bool)
-    return {"threshold": float(threshold), "compute_ms": streams.compute_ms, "n_trials": len(np.unique(streams.trial)),
-            **_figures(streams, o, everything), **_intervals(streams, o, everything, seed, level, n_resamples)}
+    return {
+        "threshold": float(threshold),
+        "compute_ms": streams.compute_ms,
+        "n_trials": len(np.unique(streams.trial)),
+        **_figures(streams, o, everything),
+        **_intervals(streams, o, everything, seed, level, n_resamples),
+    }
 
 
-def false_alarms_by_scenario(streams: Streams, threshold: float, seed: int = 0, level: float = LEVEL,
-                             n_resamples: int = N_RESAMPLES) -> pd.DataFrame:
+def false_alarms_by_scenario(
+    streams: Streams,
+    threshold: float,
+    seed: int = 0,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+) -> pd.DataFrame:
     """False alarms per minute of non-slip time in each scenario, with intervals over trials:
     one row per scenario (columns ``scenario``, ``false_alarms``, ``nonslip_minutes``,
     ``false_alarms_per_min`` and its ``_lo``/``_hi``)."""
@@ -349,10 +455,16 @@ def false_alarms_by_scenario(streams: Streams, threshold: float, seed: int = 0, 
     for scenario in np.unique(streams.scenario):
         mask = streams.scenario == scenario
         fig, ci = _figures(streams, o, mask), _intervals(streams, o, mask, seed, level, n_resamples)
-        rows.append({"scenario": scenario, "false_alarms": fig["false_alarms"], "nonslip_minutes": fig["nonslip_minutes"],
-                     "false_alarms_per_min": fig["false_alarms_per_min"],
-                     "false_alarms_per_min_lo": ci["false_alarms_per_min_lo"],
-                     "false_alarms_per_min_hi": ci["false_alarms_per_min_hi"]})
+        rows.append(
+            {
+                "scenario": scenario,
+                "false_alarms": fig["false_alarms"],
+                "nonslip_minutes": fig["nonslip_minutes"],
+                "false_alarms_per_min": fig["false_alarms_per_min"],
+                "false_alarms_per_min_lo": ci["false_alarms_per_min_lo"],
+                "false_alarms_per_min_hi": ci["false_alarms_per_min_hi"],
+            }
+        )
     return pd.DataFrame(rows)
 
 
@@ -366,15 +478,43 @@ def sweep(streams: Streams, thresholds: np.ndarray | None = None) -> pd.DataFram
     a score itself: numpy's "lower" method).
     """
     if thresholds is None:
-        thresholds = np.unique(np.quantile(streams.scores, np.linspace(0, 1, N_THRESHOLDS), method="lower")) if len(streams.scores) else []
+        thresholds = (
+            np.unique(np.quantile(streams.scores, np.linspace(0, 1, N_THRESHOLDS), method="lower"))
+            if len(streams.scores)
+            else []
+        )
     everything = np.ones(len(streams.rate), bool)
     rows = []
     for threshold in np.asarray(thresholds, float):
         fig = _figures(streams, outcome(streams, threshold), everything)
-        rows.append({"threshold": threshold, **{k: fig[k] for k in ("detection_rate", "median_delay_ms", "p95_delay_ms",
-                                                                    "false_alarms_per_min", "n_detected", "n_onsets")}})
-    return pd.DataFrame(rows, columns=["threshold", "detection_rate", "median_delay_ms", "p95_delay_ms",
-                                       "false_alarms_per_min", "n_detected", "n_onsets"])
+        rows.append(
+            {
+                "threshold": threshold,
+                **{
+                    k: fig[k]
+                    for k in (
+                        "detection_rate",
+                        "median_delay_ms",
+                        "p95_delay_ms",
+                        "false_alarms_per_min",
+                        "n_detected",
+                        "n_onsets",
+                    )
+                },
+            }
+        )
+    return pd.DataFrame(
+        rows,
+        columns=[
+            "threshold",
+            "detection_rate",
+            "median_delay_ms",
+            "p95_delay_ms",
+            "false_alarms_per_min",
+            "n_detected",
+            "n_onsets",
+        ],
+    )
 
 
 def operating_point(curve: pd.DataFrame, false_alarms_per_min: float = 1.0) -> float:
@@ -388,6 +528,10 @@ def operating_point(curve: pd.DataFrame, false_alarms_per_min: float = 1.0) -> f
     ok = curve[curve["false_alarms_per_min"] <= false_alarms_per_min]
     if ok.empty:
         return float("nan")
-    best = ok.sort_values(["detection_rate", "median_delay_ms", "threshold"], ascending=[False, True, True],
-                          na_position="last", kind="stable")
+    best = ok.sort_values(
+        ["detection_rate", "median_delay_ms", "threshold"],
+        ascending=[False, True, True],
+        na_position="last",
+        kind="stable",
+    )
     return float(best["threshold"].iloc[0])

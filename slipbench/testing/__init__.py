@@ -15,10 +15,9 @@ epochs, few kernels); they are applied to a clone, never to the detector passed 
 
 from __future__ import annotations
 
-import json
-
 import functools
 import io
+import json
 import tempfile
 import zipfile
 from collections.abc import Callable
@@ -50,10 +49,14 @@ def _raises(kind: type[Exception], words: str, call, what: str) -> None:
     try:
         call()
     except kind as exc:
-        assert words.lower() in str(exc).lower(), f"{what}: the error should mention {words!r}, got: {exc}"
+        assert words.lower() in str(exc).lower(), (
+            f"{what}: the error should mention {words!r}, got: {exc}"
+        )
         return
     except Exception as exc:  # noqa: BLE001 - the wrong kind of error is the failure reported
-        raise AssertionError(f"{what}: expected {kind.__name__}, got {type(exc).__name__}: {exc}") from exc
+        raise AssertionError(
+            f"{what}: expected {kind.__name__}, got {type(exc).__name__}: {exc}"
+        ) from exc
     raise AssertionError(f"{what}: expected {kind.__name__}, nothing was raised")
 
 
@@ -61,10 +64,19 @@ def check_params_protocol(detector: BaseDetector) -> None:
     """__init__ stores parameters as given; get_params/set_params/clone round-trip."""
     params = detector.get_params()
     twin = clone(detector)
-    assert type(twin) is type(detector) and twin.get_params() == params, "clone must keep every parameter"
+    assert type(twin) is type(detector) and twin.get_params() == params, (
+        "clone must keep every parameter"
+    )
     assert not any(k.endswith("_") for k in vars(twin)), "a new detector must hold no fitted state"
-    assert twin.set_params(**params) is twin and twin.get_params() == params, "set_params(**get_params()) must be a no-op"
-    _raises(UsageError, "no parameter", lambda: twin.set_params(no_such_parameter=1), "set_params with an unknown name")
+    assert twin.set_params(**params) is twin and twin.get_params() == params, (
+        "set_params(**get_params()) must be a no-op"
+    )
+    _raises(
+        UsageError,
+        "no parameter",
+        lambda: twin.set_params(no_such_parameter=1),
+        "set_params with an unknown name",
+    )
 
 
 def check_fit_predict(detector: BaseDetector) -> None:
@@ -77,12 +89,22 @@ def check_fit_predict(detector: BaseDetector) -> None:
         assert a.get_params() == before, f"fit must not change parameters (window {length})"
         assert a.window_length_ == length and a.sampling_rate_ == 1000.0
         proba, pred = a.predict_proba(x[:37]), a.predict(x[:37])
-        assert proba.shape == (37,) and pred.shape == (37,), f"window {length}: one score per window, got {proba.shape}"
+        assert proba.shape == (37,) and pred.shape == (37,), (
+            f"window {length}: one score per window, got {proba.shape}"
+        )
         assert np.all((proba >= 0) & (proba <= 1)), f"window {length}: probabilities outside [0, 1]"
         assert set(np.unique(pred)) <= {0, 1}, f"window {length}: predictions must be 0 or 1"
         again = clone(detector).fit(x, y, sampling_rate=1000.0, seed=3).predict_proba(x[:37])
-        assert np.array_equal(proba, again), f"window {length}: two fits with one seed must give the same scores"
-        _raises(UsageError, f"{length}", lambda: a.predict_proba(x[:, :-1] if length > 5 else np.c_[x, x]), "predict on another window length")
+        assert np.array_equal(proba, again), (
+            f"window {length}: two fits with one seed must give the same scores"
+        )
+        other = x[:, :-1] if length > 5 else np.c_[x, x]
+        _raises(
+            UsageError,
+            f"{length}",
+            functools.partial(a.predict_proba, other),
+            "predict on another window length",
+        )
 
 
 def check_refusals(detector: BaseDetector) -> None:
@@ -91,8 +113,15 @@ def check_refusals(detector: BaseDetector) -> None:
     bad = x.copy()
     bad[3, 7] = np.nan
     _raises(UsageError, "NaN", lambda: clone(detector).fit(bad, y), "fit on windows with NaN")
-    _raises(UsageError, "only class", lambda: clone(detector).fit(x, np.zeros_like(y)), "fit on one class")
-    _raises(NotFittedError, "not fitted", lambda: clone(detector).predict_proba(x), "predict before fit")
+    _raises(
+        UsageError,
+        "only class",
+        lambda: clone(detector).fit(x, np.zeros_like(y)),
+        "fit on one class",
+    )
+    _raises(
+        NotFittedError, "not fitted", lambda: clone(detector).predict_proba(x), "predict before fit"
+    )
     fitted = clone(detector).fit(x, y, seed=0)
     _raises(UsageError, "NaN", lambda: fitted.predict_proba(bad), "predict on windows with NaN")
 
@@ -109,8 +138,13 @@ def check_save_load(detector: BaseDetector) -> None:
                 np.lib.format.read_array(io.BytesIO(zf.read(member)), allow_pickle=False)
         for loader in (type(detector).load, BaseDetector.load):
             loaded = loader(path)
-            assert type(loaded).__name__ == type(detector).__name__ and loaded.get_params() == fitted.get_params()
-            assert np.array_equal(loaded.predict_proba(x), fitted.predict_proba(x)), "a loaded detector must score as saved"
+            assert (
+                type(loaded).__name__ == type(detector).__name__
+                and loaded.get_params() == fitted.get_params()
+            )
+            assert np.array_equal(loaded.predict_proba(x), fitted.predict_proba(x)), (
+                "a loaded detector must score as saved"
+            )
 
 
 def check_uses_input(detector: BaseDetector) -> None:
@@ -125,7 +159,12 @@ def _fast(detector: BaseDetector) -> BaseDetector:
 
 
 DETECTOR_CHECKS: list[Callable[[BaseDetector], None]] = [
-    check_params_protocol, check_fit_predict, check_refusals, check_uses_input, check_save_load]
+    check_params_protocol,
+    check_fit_predict,
+    check_refusals,
+    check_uses_input,
+    check_save_load,
+]
 
 
 def check_detector(detector: BaseDetector) -> None:
@@ -159,34 +198,53 @@ def check_protocol_params(protocol: BaseProtocol, dataset: Dataset | None = None
     unknown option is refused; the layout is a Layout."""
     params = protocol.get_params()
     twin = type(protocol)(**params)
-    assert twin.get_params() == params, "the protocol must store every option as given (get_params round trip)"
+    assert twin.get_params() == params, (
+        "the protocol must store every option as given (get_params round trip)"
+    )
     protocol.validate_params()
-    _raises(UsageError, "no parameter", lambda: twin.set_params(no_such_option=1), "set_params with an unknown name")
-    assert isinstance(protocol.layout, Layout), f"layout must be a slipbench.protocol.Layout, got {protocol.layout!r}"
+    _raises(
+        UsageError,
+        "no parameter",
+        lambda: twin.set_params(no_such_option=1),
+        "set_params with an unknown name",
+    )
+    assert isinstance(protocol.layout, Layout), (
+        f"layout must be a slipbench.protocol.Layout, got {protocol.layout!r}"
+    )
 
 
 def check_protocol_cells(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
     """Cells are well formed: Cell objects with unique keys holding every column the layout
     reads, on sensors the dataset has; and every cell that is not skipped has windows of both
     classes on both sides (or a reason, from the plan, why not)."""
-    from slipbench.engine.plan import CellData
     from slipbench.data.signals import Signals
+    from slipbench.engine.plan import CellData
 
     dataset = dataset or toy_dataset()
     cells, recordings = _cells(protocol, dataset)
     assert cells, "the protocol made no cells on the check dataset"
-    assert all(isinstance(c, Cell) for c in cells), "cells() must yield slipbench.protocol.Cell objects"
+    assert all(isinstance(c, Cell) for c in cells), (
+        "cells() must yield slipbench.protocol.Cell objects"
+    )
     names = [c.name for c in cells]
-    assert len(set(names)) == len(names), f"cell keys must be unique; repeated: {sorted({n for n in names if names.count(n) > 1})[:3]}"
+    assert len(set(names)) == len(names), (
+        f"cell keys must be unique; repeated: {sorted({n for n in names if names.count(n) > 1})[:3]}"
+    )
     wanted = set(protocol.layout.keys)
     for cell in cells:
-        assert wanted <= set(cell.key), f"cell {cell.name} lacks the layout's columns {sorted(wanted - set(cell.key))}"
+        assert wanted <= set(cell.key), (
+            f"cell {cell.name} lacks the layout's columns {sorted(wanted - set(cell.key))}"
+        )
     known = set(zip(recordings["sensor_type"], recordings["sensor_instance"]))
     for cell in cells:
         for part in (cell.train, cell.test):
-            assert set(part.sensors) <= known, f"cell {cell.name} uses sensors the dataset lacks: {set(part.sensors) - known}"
+            assert set(part.sensors) <= known, (
+                f"cell {cell.name} uses sensors the dataset lacks: {set(part.sensors) - known}"
+            )
             for column, _, _ in part.where:
-                assert column in recordings, f"cell {cell.name} filters on {column!r}, which is no recording column"
+                assert column in recordings, (
+                    f"cell {cell.name} filters on {column!r}, which is no recording column"
+                )
     signals = Signals.from_dataset(dataset)
     signals.recordings = recordings.reset_index(drop=True)
     data = CellData(signals, "paper", 0)
@@ -212,28 +270,53 @@ def check_protocol_holdouts(protocol: BaseProtocol, dataset: Dataset | None = No
         for column, op, value in cell.test.where:
             if op == "==" and column in train_columns:
                 leaked = trained[trained[column].eq(value)]
-                assert leaked.empty, (f"cell {cell.name} tests on {column} == {value!r} and trains on "
-                                      f"{len(leaked)} recordings with that value (e.g. {leaked['recording_id'].iloc[0]})")
+                assert leaked.empty, (
+                    f"cell {cell.name} tests on {column} == {value!r} and trains on "
+                    f"{len(leaked)} recordings with that value (e.g. {leaked['recording_id'].iloc[0]})"
+                )
 
 
 def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
     """The layout renders: fake results for every cell make a Markdown and a LaTeX table, and
     the figure the layout declares."""
+    from slipbench.report.document import protocol_tables
     from slipbench.report.plots import figure
     from slipbench.report.render import to_latex, to_markdown
-    from slipbench.report.document import protocol_tables
 
     cells, _ = _cells(protocol, dataset or toy_dataset())
     rng = rng_for(0, "toy", "rows")
-    rows = pd.DataFrame([{**c.key, "cell": c.name, "protocol": "checked", "detector": "d", "split": "paper", "seed": 0,
-                          "status": "ok", "accuracy": a, "accuracy_lo": a - 0.05, "accuracy_hi": a + 0.05}
-                         for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))])
+    rows = pd.DataFrame(
+        [
+            {
+                **c.key,
+                "cell": c.name,
+                "protocol": "checked",
+                "detector": "d",
+                "split": "paper",
+                "seed": 0,
+                "status": "ok",
+                "accuracy": a,
+                "accuracy_lo": a - 0.05,
+                "accuracy_hi": a + 0.05,
+            }
+            for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))
+        ]
+    )
     for metric in protocol.layout.metrics:  # a layout of several metrics shows each
         rows[metric] = rng.uniform(0.55, 0.95, len(rows))
         rows[f"{metric}_lo"], rows[f"{metric}_hi"] = rows[metric] - 0.05, rows[metric] + 0.05
     if protocol.layout.figure == "tradeoff":  # a streaming cell's threshold sweep
-        rows["tradeoff"] = json.dumps([{"threshold": t, "detection_rate": 1 - t, "median_delay_ms": 20 + 100 * t,
-                                        "false_alarms_per_min": 10 * (1 - t)} for t in (0.1, 0.5, 0.9)])
+        rows["tradeoff"] = json.dumps(
+            [
+                {
+                    "threshold": t,
+                    "detection_rate": 1 - t,
+                    "median_delay_ms": 20 + 100 * t,
+                    "false_alarms_per_min": 10 * (1 - t),
+                }
+                for t in (0.1, 0.5, 0.9)
+            ]
+        )
     tables = protocol_tables(rows, protocol.layout, "checked", "d", intervals=True)
     assert tables, "the layout made no table"
     for _, table in tables:
@@ -243,12 +326,18 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
         import matplotlib.pyplot as plt
 
         fig = figure(rows, protocol.layout, "check", paper=False)
-        assert fig is not None, f"the layout declares a {protocol.layout.figure!r} figure but none was drawn"
+        assert fig is not None, (
+            f"the layout declares a {protocol.layout.figure!r} figure but none was drawn"
+        )
         plt.close(fig)
 
 
 PROTOCOL_CHECKS: list[Callable[..., None]] = [
-    check_protocol_params, check_protocol_cells, check_protocol_holdouts, check_protocol_layout]
+    check_protocol_params,
+    check_protocol_cells,
+    check_protocol_holdouts,
+    check_protocol_layout,
+]
 
 
 def check_protocol(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
@@ -267,10 +356,16 @@ def parametrize_with_checks(plugins: list) -> Callable:
     params = []
     for plugin in plugins:
         if isinstance(plugin, BaseDetector):
-            checks = [(check, plugin if check is check_params_protocol else _fast(plugin)) for check in DETECTOR_CHECKS]
+            checks = [
+                (check, plugin if check is check_params_protocol else _fast(plugin))
+                for check in DETECTOR_CHECKS
+            ]
         elif isinstance(plugin, BaseProtocol):
             checks = [(check, plugin) for check in PROTOCOL_CHECKS]
         else:
             raise TypeError(f"{plugin!r} is neither a BaseDetector nor a BaseProtocol")
-        params += [pytest.param(obj, check, id=f"{type(plugin).__name__}-{check.__name__}") for check, obj in checks]
+        params += [
+            pytest.param(obj, check, id=f"{type(plugin).__name__}-{check.__name__}")
+            for check, obj in checks
+        ]
     return pytest.mark.parametrize("plugin, check", params)
