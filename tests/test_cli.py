@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
 
 import pandas as pd
 import pyarrow.parquet as pq
@@ -164,3 +166,19 @@ def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
         and "ZeroDivisionError: a slip of the pen" in err
         and "this is a bug in slipbench" in err
     )
+
+
+def test_python_m_slipbench_is_the_slipbench_command(cli, tmp_path):
+    """`python -m slipbench` runs the same main: the same help, the same errors and exit codes."""
+
+    def module(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(
+            [sys.executable, "-m", "slipbench", *args], capture_output=True, text=True
+        )
+
+    shown = module("--help")
+    code, out, _ = cli(["--help"])
+    assert shown.returncode == code == 0
+    assert shown.stdout == out and out.startswith("Usage: slipbench [OPTIONS] COMMAND")
+    missing = module("dataset", "validate", str(tmp_path / "nowhere"))
+    assert missing.returncode == 2 and "not a dataset folder" in missing.stderr

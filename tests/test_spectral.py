@@ -16,7 +16,7 @@ from slipbench.analysis.spectral import (
     ks_2samp_last_axis,
     significant_bands,
 )
-from slipbench.app.cli import _param
+from slipbench.app.options import parse_params
 from slipbench.engine.registry import detectors
 from slipbench.errors import UsageError
 
@@ -158,7 +158,7 @@ def test_command_writes_figure_table_and_band(small_path, tmp_path, cli):
         line for line in text.splitlines() if line.startswith("Nano17-index: most significant band")
     )
     param = line.rsplit("--param ", 1)[1]
-    band = _param((param,))["band"]
+    band = parse_params((param,))["band"]
     assert band == summary["most_significant_band"]
     detectors.get("holweg")().set_params(band=band)
 

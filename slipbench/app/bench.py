@@ -11,9 +11,9 @@ from collections.abc import Callable
 
 import pandas as pd
 
+from slipbench.data.toy import toy_windows
 from slipbench.engine.fitting import PeakMemory
 from slipbench.engine.registry import detectors
-from slipbench.testing import toy_windows
 
 
 def rate(call: Callable[[], object], units: float, seconds: float) -> float:

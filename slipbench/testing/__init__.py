@@ -28,21 +28,12 @@ import pandas as pd
 
 from slipbench.base import BaseDetector, NotFittedError, clone
 from slipbench.data.dataset import Dataset, read_dataset
+from slipbench.data.toy import toy_windows
 from slipbench.errors import UsageError
 from slipbench.protocol import BaseProtocol, Cell, Layout
 from slipbench.seeding import rng_for
 
 LENGTHS = (5, 50, 200)
-
-
-def toy_windows(n: int, length: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Balanced windows: non-slip is low noise, slip adds a 60 Hz burst (at 1 kHz) and more noise."""
-    rng = rng_for(seed, "toy")
-    y = np.arange(n) % 2
-    t = np.arange(length) / 1000.0
-    x = rng.normal(0, 1, (n, length)) * np.where(y, 2.0, 1.0)[:, None]
-    x += y[:, None] * 3 * np.sin(2 * np.pi * 60 * t + rng.uniform(0, 2 * np.pi, (n, 1)))
-    return x.astype(np.float32), y
 
 
 def _raises(kind: type[Exception], words: str, call, what: str) -> None:

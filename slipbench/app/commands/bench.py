@@ -1,0 +1,46 @@
+"""`slipbench bench`: what each detector costs (train and inference time, peak memory) on toy
+windows, and the speed figures detectors declare themselves."""
+
+from __future__ import annotations
+
+import click
+
+from slipbench.app.options import plugins_option
+from slipbench.app.selection import add_plugin_folders
+from slipbench.engine import registry
+from slipbench.errors import UsageError
+
+
+@click.command("bench")
+@click.option(
+    "--detector", "names", multiple=True, help="A detector id (repeatable) [default: all]."
+)
+@click.option(
+    "--windows",
+    default=3840,
+    show_default=True,
+    help="Training windows (3840 x 50 is a default-dataset cell).",
+)
+@click.option("--length", default=50, show_default=True, help="Window length in samples.")
+@click.option("--seconds", default=2.0, show_default=True, help="Time spent on each LSTM figure.")
+@click.option(
+    "--no-own-figures",
+    is_flag=True,
+    help="Skip the figures detectors declare themselves (the LSTM against stock torch).",
+)
+@plugins_option()
+def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
+    """Train µs/sample, inference µs/window and peak memory per detector; each detector's own
+    figures (the LSTM's against stock torch.nn.LSTM) as ratios timed in the same run."""
+    from slipbench.app.bench import detector_benchmarks, detector_costs
+
+    add_plugin_folders(plugins)
+    if windows < 2 or length < 5:
+        raise UsageError(f"--windows must be >= 2 and --length >= 5, got {windows} and {length}")
+    names = list(names) or registry.detectors.names()
+    costs = detector_costs(names, windows, length)
+    click.echo(costs.to_markdown(index=False, floatfmt=".3g"))
+    if not no_own_figures:
+        for name, table in detector_benchmarks(names, length, seconds).items():
+            click.echo(f"\n{name}: its own figures against a reference timed in the same run\n")
+            click.echo(table.to_markdown(index=False, floatfmt=".3g"))

@@ -1,0 +1,148 @@
+"""`slipbench dataset`: create (simulate or import), validate, describe and check Parquet
+datasets; each command parses its options and calls the data and engine wings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from slipbench.app.options import (
+    labels_option,
+    parse_params,
+    plugins_option,
+    protocol_params_option,
+    scale_option,
+    seed_option,
+    split_option,
+)
+from slipbench.app.selection import add_plugin_folders, load_plugins, with_options
+from slipbench.engine import registry
+from slipbench.errors import PluginError, UsageError
+
+
+@click.group("dataset")
+def dataset() -> None:
+    """Create, check and describe Parquet datasets."""
+
+
+@dataset.command("synth")
+@click.argument("out", type=click.Path(path_type=Path))
+@scale_option("1.0 gives ~8 million samples per sensor instance.")
+@seed_option()
+def dataset_synth(out: Path, scale: float, seed: int) -> None:
+    """Write the simulated design of experiments to folder OUT."""
+    from slipbench.data.synth import synthesize
+
+    synthesize(out, scale, seed)
+    click.echo(f"wrote {out}")
+
+
+@dataset.command("validate")
+@click.argument("path", type=click.Path(path_type=Path))
+def dataset_validate(path: Path) -> None:
+    """Check that PATH follows the dataset format; name the first problem found."""
+    from slipbench.data.dataset import read_dataset
+
+    ds = read_dataset(path)
+    n = sum(len(s) for s in ds.samples.values())
+    labelled = sum(int((labels >= 0).sum()) for labels in ds.slip_labels.values())
+    click.echo(
+        f"{path}: valid slipbench dataset v1, {len(ds.recordings)} recordings in {ds.recordings['trial'].nunique()} trials, "
+        f"{n} samples ({labelled} labelled per sample), fingerprint {ds.fingerprint}"
+    )
+
+
+@dataset.command("info")
+@click.argument("path", type=click.Path(path_type=Path))
+def dataset_info(path: Path) -> None:
+    """Recordings, trials, samples and duration per sensor, instance, scenario, material and
+    speed; with per-sample labels, the slip fraction and how far they disagree with the scenario."""
+    from slipbench.data.dataset import info, read_dataset
+
+    table = info(read_dataset(path))
+    click.echo(table.to_markdown(index=False, floatfmt=".3g"))
+    click.echo(
+        f"\ntotal: {int(table['recordings'].sum())} recordings, {int(table['samples'].sum())} samples, "
+        f"{table['seconds'].sum():.1f} s"
+    )
+
+
+@dataset.command("check")
+@click.argument("path", type=click.Path(path_type=Path))
+@click.option(
+    "--protocol",
+    "protocol_names",
+    multiple=True,
+    default=("all",),
+    show_default=True,
+    help="A protocol id (repeatable), or 'all'.",
+)
+@protocol_params_option("Protocol option NAME=VALUE, e.g. windows='[\"50ms\"]'.")
+@split_option()
+@labels_option()
+@seed_option()
+@plugins_option()
+def dataset_check(path, protocol_names, protocol_params, split, labels, seed, plugins) -> None:
+    """What PATH can support: classes, recordings and trials per unit, windows per size, and
+    which protocol cells would run, be skipped, or rest on too few test trials."""
+    from slipbench.data.dataset import read_dataset
+    from slipbench.engine.check import LOW_N, check_dataset
+    from slipbench.engine.runner import Run
+
+    add_plugin_folders(plugins)
+    broken: list[str] = []
+    protocols = {}
+    for name in protocol_names:
+        protocols |= load_plugins(registry.protocols, name, broken)
+    protocols = with_options(protocols, parse_params(protocol_params), "protocol")
+    runs = [Run("holweg", p, split, seed, labels) for p in protocols.values()]
+    for run in runs:
+        run.validate()
+    result = check_dataset(read_dataset(path), runs)
+    click.echo(f"## {path}: classes per unit (labels: {labels}; windows of 50 samples)\n")
+    click.echo(result.units.to_markdown(index=False))
+    click.echo("\n## Windows per size: slip / non-slip, before balancing\n")
+    click.echo(result.windows.to_markdown(index=False, floatfmt="g"))
+    for name, cells in result.cells.groupby("protocol", sort=False):
+        counts = cells["verdict"].value_counts()
+        click.echo(
+            f"\n## {name} ({split} split, seed {seed}): "
+            + ", ".join(f"{int(counts.get(v, 0))} {v}" for v in ("runs", "low n", "skipped"))
+            + f" of {len(cells)} cells\n"
+        )
+        flagged = cells[cells["verdict"] != "runs"]
+        if len(flagged):
+            click.echo(flagged.drop(columns="protocol").to_markdown(index=False))
+    click.echo(
+        f"\nlow n: fewer than {LOW_N} test trials of a class; such cells are flagged in results and tables."
+    )
+    if broken:
+        raise PluginError("; ".join(broken))
+
+
+@dataset.command("import")
+@click.argument("kind", type=click.Choice(["csv", "biotacsp-dos"]))
+@click.argument("src", type=click.Path(path_type=Path))
+@click.argument("out", type=click.Path(path_type=Path))
+@click.option(
+    "--config",
+    type=click.Path(path_type=Path),
+    help="csv: the mapping file (TOML; see datasets.md).",
+)
+def dataset_import(kind: str, src: Path, out: Path, config: Path | None) -> None:
+    """Convert CSV files (KIND csv, with --config) or a published dataset at SRC into a
+    slipbench dataset folder OUT."""
+    from slipbench.data.importers import IMPORTERS, import_csv
+
+    if kind == "csv":
+        if config is None:
+            raise UsageError(
+                "dataset import csv needs --config MAPPING.toml (see datasets.md, 'Bring your own recordings')"
+            )
+        import_csv(src, out, config)
+    elif config is not None:
+        raise UsageError(f"dataset import {kind} takes no --config; its mapping is built in")
+    else:
+        IMPORTERS[kind](src, out)
+    click.echo(f"wrote {out}")

@@ -1,0 +1,38 @@
+"""`slipbench run`: run what a benchmark file (TOML) declares and write its results, its
+reports and a copy of the file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from slipbench.app.options import force_option, jobs_option, out_option, quiet_option
+
+
+@click.command("run")
+@click.argument("bench_file", type=click.Path(path_type=Path))
+@out_option("Results folder [default: the file's benchmark.out].")
+@jobs_option("Local worker processes [default: the file's run.jobs].")
+@force_option()
+@quiet_option()
+def run_command(bench_file, out, jobs, force, quiet) -> None:
+    """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
+    options, split, seeds; write its results, its reports and a copy of the file."""
+    from slipbench.app.benchfile import load_benchmark, run_benchmark
+    from slipbench.store.results import cells_failed
+
+    bench = load_benchmark(bench_file)
+    rows, paths = run_benchmark(bench, out, jobs, force, progress=not quiet, echo=click.echo)
+    folder = out or bench.out
+    counts = rows["status"].value_counts()
+    click.echo(
+        f"{len(rows)} cells: "
+        + ", ".join(f"{int(counts.get(s, 0))} {s}" for s in ("ok", "skipped", "failed", "timeout"))
+        + f"; results in {folder / 'results.parquet'}"
+    )
+    for path in paths:
+        click.echo(f"wrote {path}")
+    failed = cells_failed(rows, str(folder))
+    if failed:
+        raise failed

@@ -1,0 +1,121 @@
+"""Options that several `slipbench` commands share, as click decorators (``@plugins_option()``,
+``@out_option(...)``, ``@seed_option()``, ...), with their parameter types (a dataset scale, a
+seed) and the parser of repeated NAME=VALUE options, so an option reads, validates and defaults
+the same in every command that takes it. The help text stays each command's: the same option
+means a different folder or file to ``evaluate`` and to ``report``."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import click
+
+from slipbench.errors import UsageError
+
+MAX_SCALE = 10.0  # 80 M samples per unit: beyond this machine's memory for any protocol
+SEED = click.IntRange(0, 2**32 - 1)  # what numpy's SeedSequence and every seeded library accept
+SPLITS = ["paper", "grouped"]
+LABELS = ["scenario", "majority", "any", "last"]
+
+
+class Scale(click.ParamType):
+    """A finite scale of the simulated dataset in (0, MAX_SCALE]."""
+
+    name = "scale"
+
+    def convert(self, value, param, ctx):
+        try:
+            scale = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not (math.isfinite(scale) and 0 < scale <= MAX_SCALE):
+            self.fail(
+                f"{value!r} is not in (0, {MAX_SCALE:g}] (1.0 is the paper's size, about 8 M samples per unit)",
+                param,
+                ctx,
+            )
+        return scale
+
+
+def parse_params(values: tuple[str, ...]) -> dict:
+    """The NAME=VALUE items of a repeated option as a dict; a VALUE that is not JSON stays text."""
+    params = {}
+    for item in values:
+        if "=" not in item:
+            raise UsageError(f"--param {item!r}: expected NAME=VALUE, e.g. --param band=[0,100]")
+        name, text = item.split("=", 1)
+        try:
+            params[name] = json.loads(text)
+        except json.JSONDecodeError:
+            params[name] = text
+    return params
+
+
+def _shown(default) -> dict:
+    """A default worth showing in the help; None (decided later, e.g. by a file) is not."""
+    return {} if default is None else {"show_default": True}
+
+
+PLUGINS_HELP = "A plugin folder (repeatable)."
+# report and compare load no plugin to run it: only its protocols' table layouts
+LAYOUT_PLUGINS_HELP = "A plugin folder whose protocols' layouts to use (repeatable)."
+
+
+def plugins_option(help: str = PLUGINS_HELP):
+    return click.option("--plugins", multiple=True, type=click.Path(), help=help)
+
+
+def out_option(help: str, default: str | None = None):
+    """``--out``: a folder or file; without a default it is optional and the command decides."""
+    given = {} if default is None else {"default": default, "show_default": True}
+    return click.option("--out", type=click.Path(path_type=Path), help=help, **given)
+
+
+def seed_option(help: str | None = None):
+    return click.option("--seed", default=0, show_default=True, type=SEED, help=help)
+
+
+def scale_option(help: str):
+    return click.option("--scale", default=0.05, show_default=True, type=Scale(), help=help)
+
+
+def dataset_option(help: str):
+    return click.option("--dataset", "dataset_path", type=click.Path(path_type=Path), help=help)
+
+
+def split_option(help: str | None = None, default: str | None = "paper"):
+    return click.option(
+        "--split", type=click.Choice(SPLITS), default=default, help=help, **_shown(default)
+    )
+
+
+def labels_option(help: str | None = None):
+    return click.option(
+        "--labels", type=click.Choice(LABELS), default="scenario", show_default=True, help=help
+    )
+
+
+def protocol_params_option(help: str):
+    return click.option("--protocol-param", "protocol_params", multiple=True, help=help)
+
+
+def jobs_option(help: str, default: int | None = None):
+    return click.option(
+        "--jobs", type=click.IntRange(0), default=default, help=help, **_shown(default)
+    )
+
+
+def force_option():
+    return click.option(
+        "--force", is_flag=True, help="Recompute cells already in the results folder."
+    )
+
+
+def quiet_option():
+    return click.option("--quiet", is_flag=True, help="No progress bar.")
+
+
+def intervals_option(help: str):
+    return click.option("--intervals", is_flag=True, help=help)
