@@ -21,15 +21,8 @@ from test_store_faults import TWO_CELLS
 
 from slipbench.app.cli import main
 from slipbench.errors import DataError
-from slipbench.stats.compare import (
-    COMMENT_LIMIT,
-    MAX_ROWS,
-    compare,
-    family_level,
-    to_json,
-    to_markdown,
-    verdict,
-)
+from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, to_json, to_markdown
+from slipbench.stats.compare import compare, family_level, verdict
 from slipbench.stats.metrics import classification_figures, paired_comparison
 from slipbench.store.results import check_unique_keys
 

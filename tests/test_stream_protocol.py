@@ -13,9 +13,10 @@ from slipbench.engine.plan import Run, make_plan
 from slipbench.engine.runner import _signals, evaluate
 from slipbench.errors import UsageError
 from slipbench.protocols.streaming import Streaming
+from slipbench.report.compare import to_markdown
 from slipbench.report.document import render_report
 from slipbench.report.plots import write_plots
-from slipbench.stats.compare import compare, stream_verdict, to_markdown
+from slipbench.stats.compare import compare, stream_verdict
 from slipbench.store.results import ResultsStore
 
 FIGURES = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")

@@ -5,7 +5,8 @@ Every report has the same outline:
 
 1. what it stands on (:mod:`slipbench.report.provenance`): data source, fingerprint, split, labels,
    seeds, detectors with parameters, cells, the smallest test set;
-2. the leaderboard (:mod:`slipbench.stats.leaderboard`) and its critical-difference diagram;
+2. the leaderboard (:mod:`slipbench.stats.leaderboard`, its tables
+   :mod:`slipbench.report.leaderboard`) and its critical-difference diagram;
    with ``paper``, how the paper's findings fare (:mod:`slipbench.report.findings`);
 3. what fitting chose, and its warnings;
 4. per protocol, in the paper's order: every detector side by side (with the figure that
@@ -28,12 +29,13 @@ import pandas as pd
 
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
+from slipbench.report.leaderboard import leaderboard_tables
 from slipbench.report.outline import (
     DETECTOR_ORDER,
-    _splits,
     layouts,
     protocol_order,
     split_parts,
+    splits_of,
 )
 from slipbench.report.paper import paper_frame
 from slipbench.report.provenance import fitted_tables, header_tables
@@ -52,7 +54,7 @@ from slipbench.report.tables import (
     split_table,
     table_keys,
 )
-from slipbench.stats.leaderboard import leaderboard, leaderboard_tables
+from slipbench.stats.leaderboard import leaderboard
 
 PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
@@ -229,7 +231,7 @@ def _protocol_blocks(
     detectors = rank(prows["detector"].unique(), DETECTOR_ORDER)
     if len(detectors) > 1:
         blocks.append(Heading(f"{protocol}: every detector", 3))
-        for split, srows in _splits(prows):
+        for split, srows in splits_of(prows):
             for which, part in split_parts(srows, layout):
                 tag = "-".join(
                     [
@@ -250,7 +252,7 @@ def _protocol_blocks(
                     table.caption += _which(which)
                     table.subject = f"Protocol {protocol}, {split} split."
                     blocks.append(table)
-        splits = [s for s, _ in _splits(prows)]
+        splits = [s for s, _ in splits_of(prows)]
         blocks += sorted(
             (f for f in figures.get(protocol, []) if f.detector is None),
             key=lambda f: splits.index(f.split) if f.split in splits else len(splits),
@@ -259,7 +261,7 @@ def _protocol_blocks(
         published = published_table(prows, layout, protocol)
         if published is not None:
             blocks += [Heading(f"{protocol}: published", 3), published]
-    for split, srows in _splits(prows):
+    for split, srows in splits_of(prows):
         for detector in detectors:
             drows = srows[srows["detector"] == detector]
             if drows.empty:
@@ -295,7 +297,7 @@ def build_report(
     means over fingers and over seeds get one joint bootstrap over the trials they share."""
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
-    splits = _splits(rows)
+    splits = splits_of(rows)
     lead = splits[0][
         1
     ]  # the leaderboard and the findings rank one split: the grouped one where present

@@ -59,7 +59,7 @@ def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
     )
 
 
-def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+def splits_of(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     """(split, rows) per split of the rows (grouped, paper, ...): the split by trial first, as
     the one whose test trials never trained the model through another unit."""
     if "split" not in rows:
@@ -69,7 +69,7 @@ def _splits(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     ]
 
 
-def _sections(
+def sections_of(
     rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]
 ) -> list[tuple[str, str, str, pd.DataFrame]]:
     """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
@@ -79,7 +79,7 @@ def _sections(
         for detector in rank(prows["detector"].unique(), DETECTOR_ORDER):
             out += [
                 (protocol, detector, split, part)
-                for split, part in _splits(prows[prows["detector"] == detector])
+                for split, part in splits_of(prows[prows["detector"] == detector])
             ]
     return out
 

@@ -539,7 +539,7 @@ def figure_specs(
 
     Stems: ``leaderboard``, ``<protocol>-detectors[-<split>][-<values>]``,
     ``<protocol>-<detector>[-<split>][-<values>]`` (split omitted for the paper's)."""
-    from slipbench.report.outline import _sections, layouts, protocol_order, split_parts
+    from slipbench.report.outline import layouts, protocol_order, sections_of, split_parts
 
     found = layouts(rows) if found is None else found
     specs = []
@@ -608,7 +608,7 @@ def figure_specs(
                             split,
                         )
                     )
-    for protocol, detector, split, part in _sections(rows, found):
+    for protocol, detector, split, part in sections_of(rows, found):
         layout = found[protocol][0]
         parts = split_parts(part, layout)
         for which, rows_ in parts:

@@ -57,7 +57,8 @@ def compare_command(
     Exit codes: 0 nothing regressed beyond --margin; 1 a cell regressed; 2 bad usage or data.
     """
     from slipbench.atomic import write_text_atomic
-    from slipbench.stats.compare import MAX_ROWS, compare, to_json, to_markdown
+    from slipbench.report.compare import MAX_ROWS, to_json, to_markdown
+    from slipbench.stats.compare import compare
 
     add_plugin_folders(plugins)
     result = compare(

@@ -1,0 +1,304 @@
+"""`slipbench compare` said: the pull-request comment (Markdown) and the JSON for bots.
+
+The decisions (paired intervals, per-cell and summary verdicts, the exit code) are made by
+:mod:`slipbench.stats.compare`; this module only writes them down: cells in the paper's order
+(protocols as the paper's tables, then sensors, fingers, materials as the tables list them),
+short cell labels, the verdicts' marks, and a comment held under the size a pull request takes.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+
+from slipbench.errors import UsageError
+from slipbench.report.outline import layouts, protocol_order
+from slipbench.report.tables import KEY_ORDER, ORDERS, cell_label
+from slipbench.stats.compare import ALPHA, VERDICTS, Comparison, primary_change, summary
+
+MARKS = dict(
+    zip(VERDICTS, ("▼ regressed", "▲ improved", "≈ within margin", "= no significant change"))
+)
+MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
+COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
+
+
+def _cell_items(cell: str) -> list[tuple[str, object]]:
+    """A cell's key items, sensor first (the JSON is stored with sorted keys)."""
+    try:
+        items = json.loads(cell).items()
+    except (TypeError, json.JSONDecodeError):
+        return [("cell", cell)]
+    return sorted(
+        items,
+        key=lambda kv: (KEY_ORDER.index(kv[0]) if kv[0] in KEY_ORDER else len(KEY_ORDER), kv[0]),
+    )
+
+
+def _cell_rank(cell: str) -> tuple:
+    """Sort key of a cell in the paper's order: sensors, fingers, materials as the tables list them."""
+    out = []
+    for k, v in _cell_items(cell):
+        order = ORDERS.get(k, ())
+        out.append(
+            (0, order.index(v), "")
+            if v in order
+            else (1, float(v), "")
+            if isinstance(v, (int, float))
+            else (2, 0.0, str(v))
+        )
+    return tuple(out)
+
+
+def in_paper_order(cmp: Comparison) -> Comparison:
+    """The comparison with its cells in the paper's order: protocols as the paper's tables
+    (laid out from the result rows), then detector, split, the cell key as the tables list it,
+    seed."""
+    cells = cmp.cells
+    order = protocol_order(layouts(cells if cmp.rows is None else cmp.rows))
+    rank = [
+        (order.index(p), p, d, sp, _cell_rank(c), s)
+        for p, d, sp, c, s in cells[["protocol", "detector", "split", "cell", "seed"]].itertuples(
+            index=False
+        )
+    ]
+    cells = cells.iloc[sorted(range(len(cells)), key=rank.__getitem__)].reset_index(drop=True)
+    return replace(cmp, cells=cells)
+
+
+def summary_rows(cmp: Comparison) -> pd.DataFrame:
+    """:func:`slipbench.stats.compare.summary` with its worst cell named by its label."""
+    lines = summary(cmp)
+    lines["worst_row"] = [
+        "" if i is None or pd.isna(i) else _label(cmp.cells.loc[int(i)], cmp)
+        for i in lines["worst_row"]
+    ]
+    return lines.rename(columns={"worst_row": "worst_cell"})
+
+
+def _label(r: dict, cmp: Comparison) -> str:
+    """A cell's short label; the split and seed only where the comparison holds several."""
+    text = cell_label(r["cell"])
+    for column in ("split", "seed"):
+        if cmp.cells[column].nunique() > 1:
+            text += f", {column} {r[column]}"
+    return text
+
+
+def _delta(r: dict, name: str, scale: float = 100.0, digits: int = 1, bounds: bool = True) -> str:
+    d, lo, hi = r.get(f"d_{name}"), r.get(f"d_{name}_lo"), r.get(f"d_{name}_hi")
+    if d is None or pd.isna(d):
+        return "—"
+    text = f"{scale * d:+.{digits}f}"
+    if bounds and not (pd.isna(lo) or pd.isna(hi)):
+        text += f" [{scale * lo:+.{digits}f}, {scale * hi:+.{digits}f}]"
+    return text
+
+
+def _row(r: dict, cmp: Comparison) -> dict:
+    """One compared cell as a table row: base -> candidate, the change and the verdict."""
+    both = r["base_status"] == r["candidate_status"] == "ok"
+    line = {"protocol": r["protocol"], "detector": r["detector"], "cell": _label(r, cmp)}
+    if r["stream"]:
+        line["base → candidate"] = (
+            f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f} ms, "
+            f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f} /min"
+            if both
+            else f"{r['base_status']} → {r['candidate_status']}"
+        )
+        line["Δ [simultaneous CI]"] = (
+            f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
+            f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
+            f"{_delta(r, 'detection_rate')}"
+        )
+        line["Δ TP / TN rate"] = ""
+    else:
+        line["base → candidate"] = (
+            f"{100 * r['base_accuracy']:.1f} → {100 * r['candidate_accuracy']:.1f}"
+            if both
+            else f"{r['base_status']} → {r['candidate_status']}"
+        )
+        line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
+        line["Δ TP / TN rate"] = (
+            f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
+        )
+    line[""] = MARKS[r["verdict"]]
+    return line
+
+
+def _table(rows: list[dict]) -> str:
+    return pd.DataFrame(rows).to_markdown(index=False, disable_numparse=True)
+
+
+def _summary_table(cmp: Comparison) -> str:
+    lines = []
+    for s in summary_rows(cmp).to_dict("records"):
+        bounds = "" if pd.isna(s["worst_lo"]) else f" [{s['worst_lo']:+.1f}, {s['worst_hi']:+.1f}]"
+        lines.append(
+            {
+                "protocol": s["protocol"],
+                "detector": s["detector"],
+                "cells": s["cells"],
+                "▼": s["regressed"],
+                "▲": s["improved"],
+                "mean Δ": "—" if pd.isna(s["mean_change"]) else f"{s['mean_change']:+.1f}",
+                "worst cell": f"{s['worst_cell']}: {s['worst_change']:+.1f}{bounds}"
+                if s["worst_cell"]
+                else "—",
+            }
+        )
+    return _table(lines)
+
+
+def _others(cmp: Comparison) -> pd.DataFrame:
+    """The cells that did not regress, improved ones first, then by the size of their change."""
+    rest = cmp.cells[cmp.cells["verdict"] != "regressed"]
+    size = -np.abs([primary_change(r) for r in rest.to_dict("records")])
+    order = np.lexsort((np.nan_to_num(size, nan=0.0), (rest["verdict"] != "improved").to_numpy()))
+    return rest.iloc[order]
+
+
+def _side_lines(rows: pd.DataFrame, limit: int) -> list[str]:
+    """Cells on one side only, counted per protocol and detector, the first ``limit`` named."""
+    counts = rows.groupby(["protocol", "detector"], sort=False).size()
+    lines = [f"- {p}, {d}: {n} cell{'s' * (n > 1)}" for (p, d), n in counts.items()]
+    named = [
+        f"  - {r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, seed {r['seed']}"
+        for r in rows.head(limit).to_dict("records")
+    ]
+    more = (
+        [f"  - … and {len(rows) - limit} more (`--format json` lists them all)"]
+        if len(rows) > limit
+        else []
+    )
+    return lines + named + more
+
+
+def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
+    """A pull-request comment: the verdict and a summary per protocol and detector, then the
+    regressed cells, then at most ``max_rows`` others (improved first, then the largest
+    changes); each cell once. Held under ``COMMENT_LIMIT`` characters: past it the regressed
+    list is cut with a line that says how many it leaves out."""
+    if max_rows < 0:
+        raise UsageError(f"--max-rows must be >= 0, got {max_rows}")
+    cmp = in_paper_order(cmp)
+    cells = cmp.cells
+    counts = cells["verdict"].value_counts()
+    n_reg = int(counts.get("regressed", 0))
+    head = [
+        "## slipbench compare",
+        "",
+        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired; margin {cmp.margin:g} points.",
+        "",
+        f"**{n_reg} cell{'s' * (n_reg != 1)} regressed** beyond the margin."
+        if n_reg
+        else "**No regression** beyond the margin.",
+        "",
+        ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS),
+    ]
+    parts = [
+        "\n".join(head),
+        "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
+        "cell: accuracy points (streaming cells: detection rate), candidate − base, over the cells both sides "
+        "finished; ▼ regressed, ▲ improved._",
+    ]
+    notes = _notes(cmp)
+    for title, rows in (
+        ("Cells only in BASE", cmp.only_base),
+        ("Cells only in CANDIDATE", cmp.only_candidate),
+    ):
+        if len(rows):
+            notes.insert(
+                0,
+                f"**{title}** ({len(rows)}), not compared:\n\n"
+                + "\n".join(_side_lines(rows, max_rows)),
+            )
+    budget = (
+        COMMENT_LIMIT - sum(len(p) + 2 for p in (*parts, *notes)) - 400
+    )  # 400: the headings and cut lines
+    regressed = [_row(r, cmp) for r in cmp.regressions.to_dict("records")]
+    table, listed = _fit(regressed, budget)
+    if regressed:
+        parts.append(
+            "### Regressed\n\n"
+            + table
+            + (
+                f"\n\n_… and {len(regressed) - listed} more regressed cells: "
+                "`--format json` lists them all._"
+                if listed < len(regressed)
+                else ""
+            )
+        )
+    others = _others(cmp)
+    room = (
+        budget - len(table) if listed == len(regressed) else 0
+    )  # a regressed cell left out: no other cell in
+    table, listed = _fit([_row(r, cmp) for r in others.head(max_rows).to_dict("records")], room)
+    if listed:
+        parts.append("### Other cells\n\n" + table)
+    if listed < len(others):
+        parts.append(
+            f"_{len(others) - listed} other cells not shown (`--max-rows`; `--format json` lists every cell)._"
+        )
+    return "\n\n".join(parts + notes) + "\n"
+
+
+def _fit(rows: list[dict], budget: int) -> tuple[str, int]:
+    """The table of the first rows that fits in ``budget`` characters, and how many it holds."""
+    n = len(rows)
+    while n and len(_table(rows[:n])) > budget:
+        n = max(0, min(n - 1, int(n * budget / len(_table(rows[:n])))))
+    return (_table(rows[:n]) if n else ""), n
+
+
+def _notes(cmp: Comparison) -> list[str]:
+    cells = cmp.cells
+    n = int(((cells["base_status"] == "ok") & (cells["candidate_status"] == "ok")).sum())
+    methods = cells["method"].str.replace(r", \d+ shared windows", "", regex=True).value_counts()
+    notes = [
+        f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval "
+        f"({'; '.join(f'{m}: {k} cells' for m, k in methods.items())}; a paired cluster bootstrap over the shared "
+        f"test windows where both sides kept predictions), at a level that holds for all {n} cells compared at once "
+        f"(Bonferroni), so the chance that any cell is wrongly called regressed is at most {100 * ALPHA:g} %. A cell "
+        f"regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, or when the candidate did "
+        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}._"
+    ]
+    if cells["stream"].any():
+        notes.append(
+            f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
+            "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
+            f"A streaming cell regresses when its median delay rises beyond {cmp.delay_margin_ms:g} ms, its false "
+            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points._"
+        )
+    return notes + [f"_{n}_" for n in cmp.notes]
+
+
+def to_json(cmp: Comparison) -> str:
+    """Every compared cell with its changes and verdict, the summary and the one-sided cells,
+    for bots."""
+
+    def records(frame: pd.DataFrame) -> list[dict]:
+        return json.loads(frame.to_json(orient="records", double_precision=6))
+
+    cmp = in_paper_order(cmp)
+    cells = cmp.cells.assign(label=[_label(r, cmp) for r in cmp.cells.to_dict("records")])
+    doc = {
+        "base": cmp.base,
+        "candidate": cmp.candidate,
+        "margin": cmp.margin,
+        "delay_margin_ms": cmp.delay_margin_ms,
+        "alarm_margin": cmp.alarm_margin,
+        "level": cmp.level,
+        "exit_code": cmp.exit_code,
+        "verdict": "regressed" if cmp.exit_code else "no regression",
+        "counts": {v: int((cmp.cells["verdict"] == v).sum()) for v in VERDICTS},
+        "summary": records(summary_rows(cmp)),
+        "cells": records(cells),
+        "only_base": records(cmp.only_base),
+        "only_candidate": records(cmp.only_candidate),
+        "notes": cmp.notes,
+    }
+    return json.dumps(doc, indent=1, allow_nan=False, default=str) + "\n"
