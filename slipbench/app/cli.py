@@ -191,8 +191,9 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
     """What PATH can support: classes, recordings and trials per unit, windows per size, and
     which protocol cells would run, be skipped, or rest on too few test trials."""
     from slipbench.data.dataset import read_dataset
-    from slipbench.engine.check import LOW_N, check_dataset
+    from slipbench.engine.check import check_dataset
     from slipbench.engine.runner import Run
+    from slipbench.vocabulary import LOW_N
 
     _plugins(plugins)
     broken: list[str] = []
@@ -497,10 +498,13 @@ def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
     """Train µs/sample, inference µs/window and peak memory per detector; each detector's own
     figures (the LSTM's against stock torch.nn.LSTM) as ratios timed in the same run."""
     from slipbench.app.bench import detector_benchmarks, detector_costs
+    from slipbench.vocabulary import MIN_WINDOW
 
     _plugins(plugins)
-    if windows < 2 or length < 5:
-        raise UsageError(f"--windows must be >= 2 and --length >= 5, got {windows} and {length}")
+    if windows < 2 or length < MIN_WINDOW:
+        raise UsageError(
+            f"--windows must be >= 2 and --length >= {MIN_WINDOW}, got {windows} and {length}"
+        )
     names = list(names) or registry.detectors.names()
     costs = detector_costs(names, windows, length)
     click.echo(costs.to_markdown(index=False, floatfmt=".3g"))

@@ -29,7 +29,6 @@ import pandas as pd
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
 from slipbench.report.outline import (
-    DETECTOR_ORDER,
     _splits,
     layouts,
     protocol_order,
@@ -53,6 +52,7 @@ from slipbench.report.tables import (
     table_keys,
 )
 from slipbench.stats.leaderboard import leaderboard, leaderboard_tables
+from slipbench.vocabulary import DETECTOR_ORDER
 
 PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"

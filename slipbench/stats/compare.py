@@ -59,7 +59,6 @@ from scipy.stats import t as student_t
 
 from slipbench.errors import DataError, UsageError
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.tables import KEY_ORDER, ORDERS, cell_label
 from slipbench.stats.metrics import FIGURES, LEVEL, paired_comparison
 from slipbench.store.results import (
     check_unique_keys,
@@ -67,6 +66,7 @@ from slipbench.store.results import (
     read_results,
     results_folder,
 )
+from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 ALPHA = 1 - LEVEL
 MARKS = {

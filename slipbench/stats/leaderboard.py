@@ -34,8 +34,9 @@ import pandas as pd
 from scipy.stats import bootstrap, friedmanchisquare, rankdata, wilcoxon
 from statsmodels.stats.multitest import multipletests
 
-from slipbench.report.tables import METRIC_NAMES, Table
+from slipbench.report.tables import Table
 from slipbench.seeding import rng_for
+from slipbench.vocabulary import METRIC_NAMES
 
 ALPHA = 0.05
 LEVEL = 0.95
