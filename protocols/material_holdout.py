@@ -6,13 +6,11 @@ starred numbers."""
 
 from __future__ import annotations
 
-from slipbench.params import WindowLength
-from slipbench.protocol import BaseProtocol, Layout, holdout_cells
-
-MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
+from slipbench.protocol import HoldoutProtocol, Layout
+from slipbench.vocabulary import MATERIALS
 
 
-class MaterialHoldout(BaseProtocol):
+class MaterialHoldout(HoldoutProtocol):
     """Each material with and without explicit training (the paper's Table III)."""
 
     layout = Layout(
@@ -25,14 +23,10 @@ class MaterialHoldout(BaseProtocol):
         figure="with-without",
         paper_table="material-holdout",
     )
-    _parameter_constraints = {"window": WindowLength()}
+    holdout_column = "material"
 
-    def __init__(self, window=50):
-        self.window = window
-
-    def cells(self, recordings):
-        materials = sorted(recordings["material"].dropna().unique(), key=_paper_order)
-        return holdout_cells(recordings, "material", materials, self.window)
+    def levels(self, recordings):
+        return sorted(recordings["material"].dropna().unique(), key=_paper_order)
 
 
 def _paper_order(material: str):

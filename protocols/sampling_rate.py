@@ -35,6 +35,7 @@ from slipbench.protocol import (
     unit_rate,
     window_cells,
 )
+from slipbench.vocabulary import MIN_WINDOW
 
 FACTORS = (1, 2, 4, 8, 16, 32)
 
@@ -82,7 +83,7 @@ class SamplingRate(BaseProtocol):
                     for factor in factors:
                         too_few = (
                             ""
-                            if n // factor >= 5
+                            if n // factor >= MIN_WINDOW
                             else f"window {n} downsampled by {factor} leaves {n // factor} samples"
                         )
                         # the full-rate cell of every variant shares one model (the plan keys it so)

@@ -16,8 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from slipbench.params import WindowLength
-from slipbench.protocol import BaseProtocol, Layout, holdout_cells
+from slipbench.protocol import HoldoutProtocol, Layout
 
 
 def _speeds(recordings) -> list[float]:
@@ -25,7 +24,7 @@ def _speeds(recordings) -> list[float]:
     return sorted(float(s) for s in recordings.loc[slipping, "speed_mm_s"].dropna().unique())
 
 
-class SpeedHoldout(BaseProtocol):
+class SpeedHoldout(HoldoutProtocol):
     """Each slip speed with and without explicit training (the paper's Table IV)."""
 
     layout = Layout(
@@ -38,10 +37,8 @@ class SpeedHoldout(BaseProtocol):
         figure="with-without",
         paper_table="speed-holdout",
     )
-    _parameter_constraints = {"window": WindowLength()}
-
-    def __init__(self, window=50):
-        self.window = window
+    holdout_column = "speed_mm_s"
+    test_column = "speed_group"  # pressing has no speed: columns() assigns it one
 
     def columns(self, recordings):
         speeds = _speeds(recordings)
@@ -63,7 +60,5 @@ class SpeedHoldout(BaseProtocol):
                 group[recordings.index.get_loc(index)] = speeds[turn]
         return {"speed_group": group}
 
-    def cells(self, recordings):
-        return holdout_cells(
-            recordings, "speed_mm_s", _speeds(recordings), self.window, test_column="speed_group"
-        )
+    def levels(self, recordings):
+        return _speeds(recordings)

@@ -25,10 +25,9 @@ import numpy as np
 from slipbench.atomic import atomic_file
 from slipbench.errors import DetectorOutputError, PluginError, UsageError
 from slipbench.params import Parameterized
+from slipbench.vocabulary import MIN_WINDOW
 
 DETECTOR_GROUP = "slipbench.detectors"  # the entry-point group of detector plugins
-
-MIN_WINDOW = 5
 
 
 class NotFittedError(UsageError):
@@ -51,9 +50,18 @@ class BaseDetector(Parameterized):
     Subclasses define ``__init__`` with keyword hyperparameters only, declare their
     constraints in ``_parameter_constraints`` (parameter -> Interval/Options/...), and implement
     ``_fit`` and ``_predict_proba``. Their id is the name they are registered under.
+
+    Optional capabilities a subclass may declare (class attributes, defaults below):
+    ``requires``, modules it imports that slipbench does not install (``slipbench list`` reports
+    the absent ones) with ``install_hint``, how to install them; ``check_params``,
+    hyperparameters that make the conformance checks fast (few epochs, few kernels), applied to
+    a clone by :mod:`slipbench.testing`; and the classmethod :meth:`benchmark`.
     """
 
     name: ClassVar[str] = ""  # set by the registry on each class it loads: the plugin's id
+    requires: ClassVar[tuple[str, ...]] = ()  # optional modules, e.g. ("aeon",)
+    install_hint: ClassVar[str | None] = None  # e.g. "pip install 'slipbench[minirocket]'"
+    check_params: ClassVar[dict[str, Any]] = {}  # fast settings for the conformance checks
 
     # -- input checks
     @staticmethod

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from slipbench.errors import UsageError
+from slipbench.vocabulary import MIN_WINDOW
 
 
 @dataclass(frozen=True)
@@ -95,7 +96,7 @@ class WindowLength:
     """A window length: an int number of samples (>= ``low``), or milliseconds as a string
     "50ms", converted per sensor by its sampling rate (:func:`window_samples`)."""
 
-    low: int = 5
+    low: int = MIN_WINDOW
 
     def check(self, value: Any) -> bool:
         if isinstance(value, str):

@@ -17,12 +17,13 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
-from slipbench.data.dataset import sensor_pairs
-from slipbench.params import Parameterized, window_samples
+from slipbench.params import Parameterized, WindowLength, window_samples
+from slipbench.vocabulary import MIN_WINDOW, sensor_pairs
 
 __all__ = [
     "BaseProtocol",
     "Cell",
+    "HoldoutProtocol",
     "Layout",
     "Part",
     "holdout_cells",
@@ -30,7 +31,6 @@ __all__ = [
     "unit_rate",
     "window_cells",
 ]
-MIN_WINDOW = 5  # samples: the shortest window a detector is given
 
 SIDES = ("train", "test")
 OPERATORS = ("==", "!=")
@@ -280,10 +280,14 @@ class BaseProtocol(Parameterized):
 
     Subclasses declare ``layout`` (a :class:`Layout`), options as keyword arguments of
     ``__init__`` with ``_parameter_constraints`` (as detectors do), and implement
-    :meth:`cells`. The registry gives each protocol class its id (``name``).
+    :meth:`cells`. The registry gives each protocol class its id (``name``). Like a detector,
+    it may declare ``requires`` (modules slipbench does not install; ``slipbench list``
+    reports the absent ones) with ``install_hint``.
     """
 
     name: ClassVar[str] = ""
+    requires: ClassVar[tuple[str, ...]] = ()
+    install_hint: ClassVar[str | None] = None
     layout: ClassVar[Layout | None] = None
     _parameter_constraints: ClassVar[dict[str, Any]] = {}
 
@@ -332,6 +336,36 @@ def holdout_cells(
                 n,
                 skip=skip,
             )
+
+
+class HoldoutProtocol(BaseProtocol):
+    """Each level of one recording column with and without explicit training on it, per unit,
+    at one window (the paper's Tables III and IV; cells from :func:`holdout_cells`).
+
+    Subclasses declare ``layout``, ``holdout_column`` (the column whose levels are held out),
+    optionally ``test_column`` (the column that picks a level's test windows; default
+    ``holdout_column``), and implement :meth:`levels`.
+    """
+
+    holdout_column: ClassVar[str] = ""
+    test_column: ClassVar[str | None] = None
+    _parameter_constraints = {"window": WindowLength()}
+
+    def __init__(self, window=50):
+        self.window = window
+
+    def levels(self, recordings: pd.DataFrame) -> list[Any]:
+        """The levels of ``holdout_column`` to hold out, in the order the table shows them."""
+        raise NotImplementedError
+
+    def cells(self, recordings: pd.DataFrame) -> Iterator[Cell]:
+        return holdout_cells(
+            recordings,
+            self.holdout_column,
+            self.levels(recordings),
+            self.window,
+            test_column=self.test_column,
+        )
 
 
 def unit_rate(recordings: pd.DataFrame, sensor: tuple[str, str]) -> float:

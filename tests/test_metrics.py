@@ -11,7 +11,6 @@ from sklearn.metrics import balanced_accuracy_score, roc_auc_score
 from slipbench.stats.bootstrap import make_design, resample_weights
 from slipbench.stats.metrics import (
     FIGURES,
-    LOW_N,
     Predictions,
     classification_figures,
     cluster_counts,
@@ -21,6 +20,7 @@ from slipbench.stats.metrics import (
     pool_seeds,
     wilson_ci,
 )
+from slipbench.vocabulary import LOW_N
 
 
 def correlated_test_set(rng, n_recordings: int, trial_sd: float = 1.0, windows=(10, 60)):

@@ -59,7 +59,7 @@ def _pushed(stream, signal, seed):
 @pytest.mark.parametrize("name", detectors.names())
 def test_every_detector_streams_the_scores_of_predict_proba(name):
     cls = detectors.get(name)
-    detector = cls(**getattr(cls, "check_params", {}))
+    detector = cls(**cls.check_params)
     x, y = toy_windows(200, 30)
     detector.fit(x, y, sampling_rate=1000.0, seed=0)
     signal = _signal(1500)

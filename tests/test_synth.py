@@ -14,7 +14,6 @@ from hypothesis import strategies as st
 from slipbench.data import dataset as data
 from slipbench.data.signals import univariate
 from slipbench.data.synth import (
-    MATERIALS,
     SENSORS,
     UNLABELLED,
     Design,
@@ -27,6 +26,7 @@ from slipbench.data.synth import (
     with_physics,
 )
 from slipbench.spectra import amplitude_spectrum
+from slipbench.vocabulary import MATERIALS
 
 # per unit at scale 1.0: the paper's design (8,000 s), onset trials (20 cells x 120 s) and long
 # non-slip recordings (5 materials + 3 speeds, 200 s each)

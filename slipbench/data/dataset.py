@@ -36,6 +36,7 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from slipbench.errors import DataError
+from slipbench.vocabulary import sensor_pairs
 
 FORMAT_VERSION = "1"
 VERSION_KEY = b"slipbench.format_version"
@@ -136,12 +137,6 @@ class Dataset:
     def sensors(self) -> list[tuple[str, str]]:
         """(sensor_type, sensor_instance) pairs in order of first appearance."""
         return sensor_pairs(self.recordings)
-
-
-def sensor_pairs(recordings: pd.DataFrame) -> list[tuple[str, str]]:
-    """(sensor_type, sensor_instance) pairs of a recordings table, in order of first appearance."""
-    pairs = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
-    return list(pairs.itertuples(index=False, name=None))
 
 
 # ----------------------------------------------------------------------------- messages

@@ -29,10 +29,8 @@ from scipy import signal
 
 from slipbench.data.dataset import write_dataset
 from slipbench.seeding import rng_for
+from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SLIP_SPEEDS
 
-MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
-SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)
-FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)
 UNLABELLED = -1  # per-sample label of samples whose slip state is undefined (after a drop)
 MODEL_VERSION = 2  # bump when the simulation changes, so cached datasets are regenerated
 

@@ -16,8 +16,8 @@ from slipbench.data.dataset import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData, Run
 from slipbench.errors import UsageError
+from slipbench.vocabulary import LOW_N
 
-LOW_N = 10  # test trials per class below which a cell's intervals undercover (see metrics)
 SIZES = (5, 10, 25, 50, 100, 200)
 
 

@@ -198,16 +198,11 @@ class Registry:
             if isinstance(missing, ModuleNotFoundError):
                 return Status("missing dependency", f"{missing.name} ({exc})")
             return Status("import error", str(exc))
-        absent = [
-            m
-            for m in getattr(cls, "requires", ())
-            if importlib.util.find_spec(m.split(".")[0]) is None
-        ]
+        absent = [m for m in cls.requires if importlib.util.find_spec(m.split(".")[0]) is None]
         if absent:
             return Status(
                 "missing dependency",
-                ", ".join(absent)
-                + (f": {cls.install_hint}" if getattr(cls, "install_hint", "") else ""),
+                ", ".join(absent) + (f": {cls.install_hint}" if cls.install_hint else ""),
             )
         return Status("ok")
 
@@ -225,7 +220,7 @@ class Registry:
         if name in self._loaded:
             cls = self._loaded[name]
             out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
-            constraints = getattr(cls, "_parameter_constraints", {})
+            constraints = cls._parameter_constraints
             out["parameters"] = {
                 p: {
                     "default": None if d is inspect.Parameter.empty else d,

@@ -16,8 +16,8 @@ import pandas as pd
 
 from slipbench.errors import UsageError
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.tables import KEY_ORDER, ORDERS, cell_label
 from slipbench.stats.compare import ALPHA, VERDICTS, Comparison, primary_change, summary
+from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
     zip(VERDICTS, ("▼ regressed", "▲ improved", "≈ within margin", "= no significant change"))

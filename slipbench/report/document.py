@@ -31,7 +31,6 @@ from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
 from slipbench.report.leaderboard import leaderboard_tables
 from slipbench.report.outline import (
-    DETECTOR_ORDER,
     layouts,
     protocol_order,
     split_parts,
@@ -55,6 +54,7 @@ from slipbench.report.tables import (
     table_keys,
 )
 from slipbench.stats.leaderboard import leaderboard
+from slipbench.vocabulary import DETECTOR_ORDER
 
 PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"

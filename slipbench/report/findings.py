@@ -19,7 +19,8 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
-from slipbench.report.tables import Table, label, ordered, rank, summarize
+from slipbench.report.tables import Table, ordered, rank, summarize
+from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
 
 COMBINED = "combined"
 
@@ -92,8 +93,6 @@ def findings_table(
     rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]
 ) -> Table | None:
     """One line per finding: the paper's value (its LSTM) and each detector's, in points."""
-    from slipbench.report.outline import DETECTOR_ORDER
-
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     lines: list[tuple[str, str, list[str]]] = []
     for protocol in order:
@@ -175,7 +174,6 @@ def findings_table(
 
 # ----------------------------------------------------------------------------- does ours show it?
 PAPER_MODEL = "lstm"  # the detector behind the published tables
-SENSORS = ("Nano17", "OptoForce20", "BioTacSP")
 
 
 def _per_sensor(rows: pd.DataFrame, column: str, values: str) -> pd.DataFrame:
@@ -327,7 +325,8 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
     )
     h50 = holweg[holweg["window"] == 50] if "window" in holweg else holweg.iloc[:0]
     ours_lead = {
-        s: 100 * (_sensor_mean(at50, s, "ours") - _sensor_mean(h50, s, "ours")) for s in SENSORS
+        s: 100 * (_sensor_mean(at50, s, "ours") - _sensor_mean(h50, s, "ours"))
+        for s in SENSOR_ORDER
     }
     ours_lead = {s: v for s, v in ours_lead.items() if np.isfinite(v)}
     rates = paper_frame("rates_window_50").set_index("sensor_type")

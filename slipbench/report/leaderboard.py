@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from slipbench.report.tables import METRIC_NAMES, Table
+from slipbench.report.tables import Table
 from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard
+from slipbench.vocabulary import METRIC_NAMES
 
 
 def _p(p: float) -> str:

@@ -12,9 +12,7 @@ from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
 from slipbench.report.paper import table_order
 from slipbench.report.tables import fits, generic_layout, rank
-
-DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
-SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
+from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
 
 
 def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:

@@ -36,10 +36,10 @@ from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from slipbench.protocol import Layout  # noqa: E402
-from slipbench.report.outline import SPLIT_ORDER  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
-from slipbench.report.tables import label, ordered, rank, summarize  # noqa: E402
+from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
+from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E402
 
 FORMATS = ("png", "pdf")
 WIDTH = 3.5  # inches: one column of a two-column paper
@@ -208,7 +208,7 @@ def _compare_curves(
     figure (mean over seeds), the range over fingers shaded, the paper's LSTM dashed."""
     x, unit = layout.x or layout.column, layout.rows[-1]
     sensors = _sensors(rows)
-    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     fig = _figure(0.75 + 1.35 * len(sensors))
     axes = fig.subplots(len(sensors), 1, squeeze=False)[
         :, 0
@@ -378,7 +378,7 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
         return None
     rows = rows[rows["tradeoff"].notna()]
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     fig = _figure(1.2 + 1.9 * len(sensors))
     axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]
     for ax, sensor in zip(axes, sensors):

@@ -17,7 +17,8 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench.report.tables import LOW_MARK, Table, cell_label, label, low_n, ordered
+from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
+from slipbench.vocabulary import cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
 SYNTH_SOURCE = re.compile(

@@ -18,34 +18,24 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.engine.check import LOW_N
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
 from slipbench.stats.joint import JOINT_NOTE
+from slipbench.vocabulary import (
+    DETECTOR_ORDER,
+    LOW_N,
+    METRIC_NAMES,
+    ORDERS,
+    SENSOR_NAMES,
+    label,
+)
 
-SENSOR_NAMES = {"Nano17": "Nano17", "OptoForce20": "OptoForce20", "BioTacSP": "Biotac SP"}
-SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")
-INSTANCE_ORDER = ("index", "middle", "little", "combined")
-MATERIAL_ORDER = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")
-METRIC_NAMES = {
-    "accuracy": "Classification Accuracy",
-    "tp_rate": "TP Rate",
-    "tn_rate": "TN Rate",
-    "balanced_accuracy": "Balanced Accuracy",
-    "auroc": "AUROC",
-}
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
 LOW_MARK = "†"  # a cell resting on few test trials
 LOW_NOTE = (
     f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
     f"else fewer than {LOW_N} in all): its interval is not to be trusted."
 )
-KEY_ORDER = (
-    "sensor_type",
-    "sensor_instance",
-    "train_instance",
-    "test_instance",
-)  # how a cell's key reads
 
 
 # What a table's intervals are. With repeats and no predictions at hand, the seeds' bounds are
@@ -110,32 +100,9 @@ def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
     return sorted(set(values), key=key)
 
 
-ORDERS: dict[str, Sequence[Any]] = {
-    "sensor_type": SENSOR_ORDER,
-    "sensor_instance": INSTANCE_ORDER,
-    "train_instance": INSTANCE_ORDER,
-    "test_instance": INSTANCE_ORDER,
-    "material": MATERIAL_ORDER,
-}
-
-
 def ordered(values: Iterable[Any], column: str) -> list[Any]:
     out = rank(values, ORDERS.get(column, ()))
     return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
-
-
-def label(column: str, value: Any) -> str:
-    """How a key value reads in a table."""
-    if column == "sensor_type":
-        return SENSOR_NAMES.get(value, str(value))
-    if column in ("sensor_instance", "train_instance", "test_instance", "material"):
-        text = str(value)
-        return text if text.isupper() else text.capitalize()
-    if column == "speed_mm_s":
-        return f"{float(value):g} mm/s"
-    if isinstance(value, float):
-        return f"{value:g}"
-    return str(value)
 
 
 LATEX_CHARS = {
@@ -244,37 +211,6 @@ def figure_text(
     if intervals and not (pd.isna(lo) or pd.isna(hi)):
         text += f" [{100 * lo:.1f}, {100 * hi:.1f}]"
     return text + (LOW_MARK if low else "")
-
-
-SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
-    "window": "window {}",
-    "window_ms": "({} ms)",
-    "rate_hz": "{} Hz",
-    "downsample": "1/{}",
-    "decimation": "{}",
-    "antialias": "antialiased",
-    "speed_mm_s": "{} mm/s",
-}
-
-
-def cell_label(cell: str | dict) -> str:
-    """A cell key as a short label: "Nano17 Index window 50 (50 ms)" (sensor and unit first,
-    then the other keys); a transfer reads "Index → Middle"."""
-    key = json.loads(cell) if isinstance(cell, str) else dict(cell)
-    order = [*KEY_ORDER, *SHORT]
-    names = sorted(key, key=lambda k: order.index(k) if k in order else len(order))
-    parts = []
-    for k in names:
-        v = key[k]
-        if k == "test_instance" and "train_instance" in key:
-            parts[-1] += f" → {label(k, v)}"
-        elif (k == "downsample" and "rate_hz" in key) or (k == "antialias" and not v):
-            continue  # the rate says it; no filter is the default
-        elif k in SHORT:
-            parts.append(SHORT[k].format(f"{v:g}" if isinstance(v, float) else v))
-        else:
-            parts.append(label(k, v))
-    return " ".join(parts)
 
 
 def _key_columns(rows: pd.DataFrame) -> list[str]:
@@ -540,7 +476,7 @@ def baseline_table(
     rows = rows[rows["window"] == BASELINE_WINDOW]
     if rows.empty:
         return None
-    detectors = rank(rows["detector"].unique(), ("holweg", "lstm"))
+    detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     columns, cells, shown = list(detectors), [[] for _ in sensors], []
     for det in detectors:

@@ -20,10 +20,10 @@ import numpy as np
 from statsmodels.stats.proportion import proportion_confint
 
 from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design
+from slipbench.vocabulary import LOW_N
 
 FIGURES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
 RATES = ("accuracy", "tp_rate", "tn_rate")
-LOW_N = 10  # clusters per class below which a cell's intervals rest on too few recordings to trust
 
 
 # ----------------------------------------------------------------------------- low n

@@ -146,7 +146,7 @@ def check_uses_input(detector: BaseDetector) -> None:
 
 
 def _fast(detector: BaseDetector) -> BaseDetector:
-    return clone(detector).set_params(**getattr(type(detector), "check_params", {}))
+    return clone(detector).set_params(**type(detector).check_params)
 
 
 DETECTOR_CHECKS: list[Callable[[BaseDetector], None]] = [

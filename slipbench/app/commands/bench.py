@@ -9,6 +9,7 @@ from slipbench.app.options import plugins_option
 from slipbench.app.selection import add_plugin_folders
 from slipbench.engine import registry
 from slipbench.errors import UsageError
+from slipbench.vocabulary import MIN_WINDOW
 
 
 @click.command("bench")
@@ -35,8 +36,10 @@ def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
     from slipbench.app.bench import detector_benchmarks, detector_costs
 
     add_plugin_folders(plugins)
-    if windows < 2 or length < 5:
-        raise UsageError(f"--windows must be >= 2 and --length >= 5, got {windows} and {length}")
+    if windows < 2 or length < MIN_WINDOW:
+        raise UsageError(
+            f"--windows must be >= 2 and --length >= {MIN_WINDOW}, got {windows} and {length}"
+        )
     names = list(names) or registry.detectors.names()
     costs = detector_costs(names, windows, length)
     click.echo(costs.to_markdown(index=False, floatfmt=".3g"))

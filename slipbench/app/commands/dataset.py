@@ -87,8 +87,9 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
     """What PATH can support: classes, recordings and trials per unit, windows per size, and
     which protocol cells would run, be skipped, or rest on too few test trials."""
     from slipbench.data.dataset import read_dataset
-    from slipbench.engine.check import LOW_N, check_dataset
+    from slipbench.engine.check import check_dataset
     from slipbench.engine.runner import Run
+    from slipbench.vocabulary import LOW_N
 
     add_plugin_folders(plugins)
     broken: list[str] = []

@@ -1,0 +1,99 @@
+"""The benchmark's vocabulary: the names of the paper's design (sensors, fingers, materials,
+speeds), the order in which results list detectors, splits and key columns, how a key value and
+a whole cell key read, and the thresholds every stage shares (the shortest window, the fewest
+test trials to trust an interval). Defined here once, beside the plugin contract, so the
+simulation, the protocols, the statistics and the report agree without importing each other.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from typing import Any
+
+import pandas as pd
+
+# ----------------------------------------------------------------------------- the paper's design
+SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")  # sensor types, in the paper's order
+SENSOR_NAMES = {"Nano17": "Nano17", "OptoForce20": "OptoForce20", "BioTacSP": "Biotac SP"}
+INSTANCE_ORDER = ("index", "middle", "little", "combined")  # fingers; "combined" pools them
+MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")  # in the paper's table order
+SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)  # mm/s, average speeds of slip
+FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)  # mm/s, arm speeds of free-space motion
+
+# ----------------------------------------------------------------------------- thresholds
+MIN_WINDOW = 5  # samples: the shortest window a detector is given
+LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover
+
+# ----------------------------------------------------------------------------- orders and names
+DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
+SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
+KEY_ORDER = (
+    "sensor_type",
+    "sensor_instance",
+    "train_instance",
+    "test_instance",
+)  # how a cell's key reads
+ORDERS: dict[str, Sequence[Any]] = {  # the known values of a key column, in the order shown
+    "sensor_type": SENSOR_ORDER,
+    "sensor_instance": INSTANCE_ORDER,
+    "train_instance": INSTANCE_ORDER,
+    "test_instance": INSTANCE_ORDER,
+    "material": MATERIALS,
+}
+METRIC_NAMES = {
+    "accuracy": "Classification Accuracy",
+    "tp_rate": "TP Rate",
+    "tn_rate": "TN Rate",
+    "balanced_accuracy": "Balanced Accuracy",
+    "auroc": "AUROC",
+}
+SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
+    "window": "window {}",
+    "window_ms": "({} ms)",
+    "rate_hz": "{} Hz",
+    "downsample": "1/{}",
+    "decimation": "{}",
+    "antialias": "antialiased",
+    "speed_mm_s": "{} mm/s",
+}
+
+
+def label(column: str, value: Any) -> str:
+    """How a key value reads in a table."""
+    if column == "sensor_type":
+        return SENSOR_NAMES.get(value, str(value))
+    if column in ("sensor_instance", "train_instance", "test_instance", "material"):
+        text = str(value)
+        return text if text.isupper() else text.capitalize()
+    if column == "speed_mm_s":
+        return f"{float(value):g} mm/s"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def cell_label(cell: str | dict) -> str:
+    """A cell key as a short label: "Nano17 Index window 50 (50 ms)" (sensor and unit first,
+    then the other keys); a transfer reads "Index → Middle"."""
+    key = json.loads(cell) if isinstance(cell, str) else dict(cell)
+    order = [*KEY_ORDER, *SHORT]
+    names = sorted(key, key=lambda k: order.index(k) if k in order else len(order))
+    parts = []
+    for k in names:
+        v = key[k]
+        if k == "test_instance" and "train_instance" in key:
+            parts[-1] += f" → {label(k, v)}"
+        elif (k == "downsample" and "rate_hz" in key) or (k == "antialias" and not v):
+            continue  # the rate says it; no filter is the default
+        elif k in SHORT:
+            parts.append(SHORT[k].format(f"{v:g}" if isinstance(v, float) else v))
+        else:
+            parts.append(label(k, v))
+    return " ".join(parts)
+
+
+def sensor_pairs(recordings: pd.DataFrame) -> list[tuple[str, str]]:
+    """(sensor_type, sensor_instance) pairs of a recordings table, in order of first appearance."""
+    pairs = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
+    return list(pairs.itertuples(index=False, name=None))
