@@ -17,7 +17,7 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
-from slipbench.data.dataset import sensor_pairs
+from slipbench.data.format import sensor_pairs
 from slipbench.params import Parameterized, window_samples
 
 __all__ = [
