@@ -17,7 +17,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 
-from slipbench.data.dataset import RECORDINGS_FILE, SAMPLES_FILE, content_fingerprint, read_dataset
+from slipbench.data.fingerprint import content_fingerprint
+from slipbench.data.read import read_dataset
+from slipbench.data.schema import RECORDINGS_FILE, SAMPLES_FILE
 from slipbench.data.synth import synthesize
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from slipbench.data.dataset import read_dataset
+from slipbench.data.read import read_dataset
 from slipbench.data.synth import synthesize
 
 

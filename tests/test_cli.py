@@ -10,7 +10,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.data.dataset import SAMPLES_FILE
+from slipbench.data.schema import SAMPLES_FILE
 
 
 def test_dataset_commands(tmp_path, cli):
@@ -154,12 +154,12 @@ def test_bench_prints_costs(cli):
 
 
 def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
-    import slipbench.data.dataset
+    import slipbench.data.read
 
     def broken(*args, **kwargs):
         raise ZeroDivisionError("a slip of the pen")
 
-    monkeypatch.setattr(slipbench.data.dataset, "read_dataset", broken)
+    monkeypatch.setattr(slipbench.data.read, "read_dataset", broken)
     code, _, err = cli(["dataset", "validate", "anything"])
     assert (
         code == 70

@@ -10,18 +10,18 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.data.dataset import (
+from slipbench.app.info import info
+from slipbench.data.format import Dataset
+from slipbench.data.read import read_dataset
+from slipbench.data.schema import (
     RATE_TOLERANCE,
     RECORDINGS_FILE,
     SAMPLES_FILE,
     SCENARIOS,
     VERSION_KEY,
-    Dataset,
-    info,
-    read_dataset,
-    write_dataset,
 )
 from slipbench.data.signals import univariate
+from slipbench.data.write import write_dataset
 from slipbench.errors import DataError
 
 META = {VERSION_KEY: b"1"}
@@ -571,7 +571,7 @@ def test_missing_version_and_missing_file(tmp_path):
 
 
 def test_info_reports_slip_fraction_and_disagreement_with_the_scenario(tmp_path):
-    from slipbench.data.dataset import info
+    from slipbench.app.info import info
 
     labels = {"a": np.array([1] * 6 + [0] * 4, np.int8), "b": np.array([0, 0, 0, 0, 0, 1], np.int8)}
     table = info(read_dataset(write_dataset(tmp_path / "d", _frame(), SAMPLES, labels))).set_index(

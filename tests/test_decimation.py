@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from resultgen import fake_rows
 from scipy import signal
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals, Windows, univariate
 from slipbench.engine.plan import CellData, Run, keys
 from slipbench.errors import UsageError

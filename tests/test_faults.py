@@ -49,7 +49,8 @@ def plugins(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def one_unit(small_path, tmp_path_factory):
-    from slipbench.data.dataset import read_dataset, write_dataset
+    from slipbench.data.read import read_dataset
+    from slipbench.data.write import write_dataset
 
     ds = read_dataset(small_path)
     keep = ds.recordings["sensor_type"].eq("OptoForce20") & ds.recordings["sensor_instance"].eq(
@@ -235,7 +236,7 @@ def test_report_refuses_the_same_results_twice(tmp_path, one_unit, cli):
 def test_messages_never_show_numpy_reprs(tmp_path):
     import numpy as np
 
-    from slipbench.data.dataset import write_dataset
+    from slipbench.data.write import write_dataset
     from slipbench.errors import DataError
 
     rec = pd.DataFrame(

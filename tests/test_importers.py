@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.data.dataset import read_dataset
 from slipbench.data.importers import import_csv, load_mapping
+from slipbench.data.read import read_dataset
 from slipbench.errors import DataError, UsageError
 
 DOCS = Path(__file__).resolve().parents[1] / "datasets.md"

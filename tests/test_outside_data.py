@@ -12,7 +12,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.data.dataset import read_dataset, write_dataset
+from slipbench.data.read import read_dataset
+from slipbench.data.write import write_dataset
 from slipbench.engine.registry import detectors, protocols
 from slipbench.engine.runner import Run, evaluate
 from slipbench.store.results import ResultsStore

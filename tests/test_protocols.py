@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData
 from slipbench.protocols.cross_instance import CrossInstance

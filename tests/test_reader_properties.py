@@ -49,15 +49,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from slipbench.data.dataset import (
-    RATE_TOLERANCE,
-    RECORDINGS_FILE,
-    SAMPLES_FILE,
-    VERSION_KEY,
-    Dataset,
-    read_dataset,
-    write_dataset,
-)
+from slipbench.data.format import Dataset
+from slipbench.data.read import read_dataset
+from slipbench.data.schema import RATE_TOLERANCE, RECORDINGS_FILE, SAMPLES_FILE, VERSION_KEY
+from slipbench.data.write import write_dataset
 
 SETTINGS = settings(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]

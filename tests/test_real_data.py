@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from slipbench.data.dataset import info, read_dataset
+from slipbench.app.info import info
 from slipbench.data.importers import biotacsp_dos
+from slipbench.data.read import read_dataset
 from slipbench.detectors.holweg import Holweg
 from slipbench.engine.runner import Run, evaluate
 from slipbench.protocols.window_size import WindowSize

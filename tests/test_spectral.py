@@ -218,7 +218,7 @@ def _runner_sides(ds, sensor: str, split: str, seed: int, window: int):
 def _keep_only(ds, windows: list, window: int, seed: int):
     """``ds`` with every reading outside ``windows`` replaced by large noise. A window of s at
     position i holds readings i * window ... (i + 1) * window of its recording."""
-    from slipbench.data.dataset import Dataset
+    from slipbench.data.format import Dataset
 
     ids = ds.recordings["recording_id"].to_numpy()
     keep = {rid: np.zeros(len(x), bool) for rid, x in ds.samples.items()}

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.engine.plan import Run, make_plan
 from slipbench.engine.runner import _signals, evaluate
 from slipbench.errors import UsageError

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from slipbench.data import dataset as data
+from slipbench.data.read import read_dataset
 from slipbench.data.signals import univariate
 from slipbench.data.synth import (
     SENSORS,
@@ -441,7 +441,7 @@ def test_written_dataset_keeps_trials_onsets_and_unlabelled_samples(tmp_path):
     """The format carries what the simulation writes: trial ids, hold-slip and unlabelled samples."""
     design = Design(sensors=("BioTacSP",), materials=("PVC",), slip_speeds=(25.0,))
     rec, _, labels = generate(scale=0.05, seed=0, design=design)
-    ds = data.read_dataset(synthesize(tmp_path / "d", scale=0.05, seed=0, design=design))
+    ds = read_dataset(synthesize(tmp_path / "d", scale=0.05, seed=0, design=design))
     assert dict(zip(ds.recordings["recording_id"], ds.recordings["trial"])) == dict(
         zip(rec["recording_id"], rec["trial"])
     )

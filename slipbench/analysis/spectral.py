@@ -54,7 +54,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import ks_2samp
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.data.signals import SPLITS, Signals, Windows, balance
 from slipbench.errors import UsageError
 from slipbench.seeding import rng_for

@@ -441,8 +441,8 @@ def run_benchmark(
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
-    from slipbench.data.dataset import read_dataset
     from slipbench.data.defaults import default_dataset
+    from slipbench.data.read import read_dataset
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.store.results import ResultsStore

@@ -8,7 +8,8 @@ from pathlib import Path
 
 from platformdirs import user_cache_dir
 
-from slipbench.data.dataset import Dataset, read_dataset
+from slipbench.data.format import Dataset
+from slipbench.data.read import read_dataset
 from slipbench.data.synth import MODEL_VERSION, synthesize
 from slipbench.errors import DataError
 

@@ -10,7 +10,7 @@ import pandas as pd
 from scipy import signal
 from sklearn.model_selection import train_test_split
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.errors import UsageError
 from slipbench.seeding import rng_for, seed_int
 

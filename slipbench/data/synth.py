@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal
 
-from slipbench.data.dataset import write_dataset
+from slipbench.data.write import write_dataset
 from slipbench.seeding import rng_for
 from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SLIP_SPEEDS
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.errors import UsageError
 
 SIDE_COLUMN = "dataset_side"

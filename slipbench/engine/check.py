@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData, Run
 from slipbench.errors import UsageError

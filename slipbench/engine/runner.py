@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench import __version__
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.executors import execute
 from slipbench.engine.fitting import TestSet

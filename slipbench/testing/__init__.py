@@ -27,7 +27,8 @@ import numpy as np
 import pandas as pd
 
 from slipbench.base import BaseDetector, NotFittedError, clone
-from slipbench.data.dataset import Dataset, read_dataset
+from slipbench.data.format import Dataset
+from slipbench.data.read import read_dataset
 from slipbench.data.toy import toy_windows
 from slipbench.errors import UsageError
 from slipbench.protocol import BaseProtocol, Cell, Layout

@@ -42,7 +42,7 @@ def dataset_synth(out: Path, scale: float, seed: int) -> None:
 @click.argument("path", type=click.Path(path_type=Path))
 def dataset_validate(path: Path) -> None:
     """Check that PATH follows the dataset format; name the first problem found."""
-    from slipbench.data.dataset import read_dataset
+    from slipbench.data.read import read_dataset
 
     ds = read_dataset(path)
     n = sum(len(s) for s in ds.samples.values())
@@ -58,7 +58,8 @@ def dataset_validate(path: Path) -> None:
 def dataset_info(path: Path) -> None:
     """Recordings, trials, samples and duration per sensor, instance, scenario, material and
     speed; with per-sample labels, the slip fraction and how far they disagree with the scenario."""
-    from slipbench.data.dataset import info, read_dataset
+    from slipbench.app.info import info
+    from slipbench.data.read import read_dataset
 
     table = info(read_dataset(path))
     click.echo(table.to_markdown(index=False, floatfmt=".3g"))
@@ -86,7 +87,7 @@ def dataset_info(path: Path) -> None:
 def dataset_check(path, protocol_names, protocol_params, split, labels, seed, plugins) -> None:
     """What PATH can support: classes, recordings and trials per unit, windows per size, and
     which protocol cells would run, be skipped, or rest on too few test trials."""
-    from slipbench.data.dataset import read_dataset
+    from slipbench.data.read import read_dataset
     from slipbench.engine.check import check_dataset
     from slipbench.engine.runner import Run
     from slipbench.vocabulary import LOW_N

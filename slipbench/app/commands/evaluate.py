@@ -112,8 +112,8 @@ def evaluate(
     quiet,
 ) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
-    from slipbench.data.dataset import read_dataset
     from slipbench.data.defaults import default_dataset
+    from slipbench.data.read import read_dataset
     from slipbench.engine.runner import Run
     from slipbench.engine.runner import evaluate as run_protocols
     from slipbench.report.document import protocol_table

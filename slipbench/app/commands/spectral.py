@@ -84,8 +84,8 @@ def spectral_cmd(
     import time
 
     from slipbench.analysis import spectral
-    from slipbench.data.dataset import read_dataset
     from slipbench.data.defaults import default_dataset
+    from slipbench.data.read import read_dataset
 
     if split is not None and not train_only:
         raise UsageError(

@@ -1,0 +1,55 @@
+"""The content fingerprint of a canonical dataset: the same recordings give the same 16 hex
+digits however they were stored (row order, Arrow flavours, pyarrow version) or built in memory."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+
+from slipbench.data.canonical import plain_value
+from slipbench.data.schema import FORMAT_COLUMNS, FORMAT_VERSION
+
+
+def content_fingerprint(
+    recordings: pd.DataFrame,
+    samples: Mapping[str, np.ndarray],
+    slip_labels: Mapping[str, np.ndarray],
+) -> str:
+    """BLAKE2b (16 hex digits) of a canonical dataset's content.
+
+    Hashes the format's columns of every recording (sorted by ``recording_id``) as JSON, then
+    each recording's shape, its samples as little-endian float64 and its labels as int8 (-1 where
+    a recording has none). Independent of storage: float32 values hash as their exact float64.
+    """
+    h = hashlib.blake2b(digest_size=8)
+    meta = [
+        [plain_value(v) for v in row]
+        for row in recordings[list(FORMAT_COLUMNS)].itertuples(index=False, name=None)
+    ]
+    h.update(
+        json.dumps(
+            {"format": FORMAT_VERSION, "columns": FORMAT_COLUMNS, "rows": meta},
+            ensure_ascii=False,
+            allow_nan=False,
+            separators=(",", ":"),
+        ).encode()
+    )
+    block = 1 << 18  # rows per hashed piece: a large recording is never copied whole
+    for rid in recordings["recording_id"]:
+        a = samples[rid]
+        h.update(np.array(a.shape, "<i8").tobytes())
+        for lo in range(0, len(a), block):
+            h.update(np.ascontiguousarray(a[lo : lo + block], dtype="<f8").tobytes())
+        labels = slip_labels.get(rid)
+        h.update(
+            (
+                np.full(len(a), -1, np.int8)
+                if labels is None
+                else np.ascontiguousarray(labels, np.int8)
+            ).tobytes()
+        )
+    return h.hexdigest()

@@ -1,0 +1,207 @@
+"""The CSV importer: the files under SRC that a mapping selects become one dataset folder.
+
+One CSV file is one recording (or one per channel group when ``[[channels]]`` lists several
+units recorded together), with its metadata from the mapping, its channels, its sampling rate
+and its per-sample labels. Everything goes through :func:`slipbench.data.write.write_dataset`:
+validated, then written atomically.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slipbench.data.importers.labels import labels_of_file, segments_table
+from slipbench.data.importers.mapping import (
+    TIME_UNITS,
+    CsvMapping,
+    default_id,
+    file_fields,
+    load_mapping,
+)
+from slipbench.data.importers.tables import column_numbers, line_of, read_csv
+from slipbench.data.write import write_dataset
+from slipbench.errors import DataError, UsageError
+
+
+def import_csv(
+    src: str | Path, out: str | Path, config: str | Path | Mapping, base: Path | None = None
+) -> Path:
+    """Convert the CSV files under ``src`` into a dataset folder ``out`` as the mapping says.
+
+    Parameters
+    ----------
+    src : folder holding the files; ``files`` globs and rule paths are relative to it.
+    out : the new dataset folder (must not exist or be empty).
+    config : the mapping: a TOML file, or the same structure as a dict (see ``datasets.md``).
+    base : folder that relative paths in the mapping start from [default: the TOML file's].
+
+    Raises
+    ------
+    UsageError : the mapping is wrong (its file and key named).
+    DataError : a file is wrong (its path, line and column named), or the result breaks the format.
+    """
+    src = Path(src)
+    m = load_mapping(config, base)
+    if not src.is_dir():
+        raise DataError(f"{src}: not a folder")
+    files = sorted(set().union(*(_glob(src, g, m) for g in m.files)))
+    if not files:
+        raise DataError(f"{src}: no file matches files = {list(m.files)}")
+    selected = [_glob(src, r.glob, m) if r.glob else set(files) for r in m.rules]
+    segments = segments_table(m)
+    for name, parts in segments.items():
+        if name not in files:
+            raise DataError(
+                f"{parts[0][2]}: file {name!r} is not among the imported files (paths relative to SRC, with /)"
+            )
+    text_columns = [m.labels["column"]] if "column" in m.labels else []
+
+    rows, samples, labels, origin = [], {}, {}, {}
+    for rel in files:
+        path = src / rel
+        fields = file_fields(m, rel, selected)
+        frame = read_csv(path, m.csv, text_columns)
+        rate, times = _rate(m, fields, frame, path)
+        file_labels = labels_of_file(m, fields, segments.get(rel, []), frame, rate, times, path)
+        for row, values in _recordings_of(m, rel, path, fields, frame, rate, file_labels):
+            rid = row["recording_id"]
+            if rid in origin:
+                raise UsageError(
+                    f"{m.where}: {origin[rid]} and {rel} both give recording_id {rid!r}; set recording_id to tell them apart"
+                )
+            origin[rid] = rel
+            rows.append(row)
+            samples[rid] = values
+            if file_labels is not None:
+                labels[rid] = file_labels
+    return write_dataset(out, pd.DataFrame(rows), samples, labels or None)
+
+
+def _glob(src: Path, pattern: str, m: CsvMapping) -> set[str]:
+    """Paths (relative to ``src``, with /) of the files a glob selects."""
+    try:
+        return {p.relative_to(src).as_posix() for p in src.glob(pattern) if p.is_file()}
+    except (ValueError, NotImplementedError) as exc:
+        raise UsageError(
+            f"{m.where}: glob {pattern!r}: {exc} (globs are relative to SRC)"
+        ) from None
+
+
+def _channel_names(frame: pd.DataFrame, group: dict[str, Any], path: Path) -> list[str]:
+    present = [str(c) for c in frame.columns]
+    if "names" in group:
+        missing = [n for n in group["names"] if n not in present]
+        if missing:
+            raise DataError(
+                f"{path}: column {missing[0]!r} not found (columns: {', '.join(present[:12])}{', ...' if len(present) > 12 else ''})"
+            )
+        names = list(group["names"])
+    else:
+        names = [c for c in present if group["pattern"].fullmatch(c)]
+        if not names:
+            raise DataError(
+                f"{path}: no column matches the channel pattern {group['pattern'].pattern!r} (columns: {', '.join(present[:12])})"
+            )
+    if "count" in group and len(names) != group["count"]:
+        raise DataError(
+            f"{path}: {len(names)} channel columns ({names[0]} ... {names[-1]}), the mapping expects {group['count']}"
+        )
+    return names
+
+
+def _rate(
+    m: CsvMapping, fields: dict, frame: pd.DataFrame, path: Path
+) -> tuple[float, np.ndarray | None]:
+    """Sampling rate of one file (a field, [rate].hz, or the median step of its time column) and
+    its times in seconds from the first sample, when it has a time column."""
+    times = None
+    if "time_column" in m.rate:
+        column = m.rate["time_column"]
+        if column not in frame.columns:
+            raise DataError(f"{path}: time column {column!r} not found")
+        t = (
+            column_numbers(frame, column, path, m.csv).astype(np.float64)
+            * TIME_UNITS[m.rate.get("time_unit", "s")]
+        )
+        step = np.diff(t)
+        if (step <= 0).any():
+            row = int(np.argmax(step <= 0)) + 1
+            raise DataError(
+                f"{path}: line {line_of(path, row, m.csv)}: column {column!r}: time does not increase "
+                f"({t[row - 1]:g} then {t[row]:g} s)"
+            )
+        times = t - t[0]
+    if fields.get("sampling_rate_hz") is not None:
+        return fields["sampling_rate_hz"], times
+    if "hz" in m.rate:
+        return float(m.rate["hz"]), times
+    if times is not None:  # 12 significant digits: no floating-point noise of the differences
+        return float(f"{1.0 / np.median(np.diff(times)):.12g}"), times
+    raise UsageError(
+        f"{m.where}: no sampling rate for {path}: give [rate] hz = ... or time_column = ..., or a sampling_rate_hz field"
+    )
+
+
+def _recordings_of(
+    m: CsvMapping,
+    rel: str,
+    path: Path,
+    fields: dict,
+    frame: pd.DataFrame,
+    rate: float,
+    labels: np.ndarray | None,
+) -> list[tuple[dict, np.ndarray]]:
+    """(metadata row, samples) of each recording in one file: one per channel group."""
+    file_id = str(fields.get("recording_id", default_id(rel)))
+    out = []
+    for group in m.channels:
+        meta = {**fields, **{k: group[k] for k in ("sensor_instance", "sensor_type") if k in group}}
+        for key in ("sensor_type", "sensor_instance", "scenario"):
+            if meta.get(key) in (None, ""):
+                raise UsageError(
+                    f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file"
+                )
+        if meta["scenario"] == "hold-slip" and (labels is None or not (labels == 1).any()):
+            raise DataError(
+                f"{path}: scenario hold-slip needs per-sample labels with a slip onset: "
+                "give [labels] a column, or segments (a table or slip_onset)"
+            )
+        names = _channel_names(frame, group, path)
+        values = [column_numbers(frame, c, path, m.csv) for c in names]
+        units = group.get("units", "raw")
+        units = [units] * len(names) if isinstance(units, str) else list(units)
+        if len(units) != len(names):
+            raise UsageError(
+                f"{m.where}: [channels].units lists {len(units)} units for {len(names)} channels of {path}"
+            )
+        several = len(m.channels) > 1
+        row = dict(
+            recording_id=f"{file_id}/{meta['sensor_instance']}" if several else file_id,
+            sensor_type=str(meta["sensor_type"]),
+            sensor_instance=str(meta["sensor_instance"]),
+            scenario=str(meta["scenario"]),
+            material=_text(meta.get("material")),
+            speed_mm_s=meta.get("speed_mm_s"),
+            sampling_rate_hz=rate,
+            channels=tuple(names),
+            units=tuple(str(u) for u in units),
+            source=_text(meta.get("source")),
+            # the units of one file were recorded together: one trial unless the mapping says
+            trial=_text(meta.get("trial")) or (file_id if several else None),
+        )
+        integers = all(
+            v.dtype.kind == "i" for v in values
+        )  # raw counts stay integers, written exactly
+        out.append(
+            (row, np.column_stack(values if integers else [v.astype(np.float64) for v in values]))
+        )
+    return out
+
+
+def _text(value: Any) -> str | None:
+    return None if value is None or value == "" else str(value)

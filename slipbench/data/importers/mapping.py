@@ -1,0 +1,304 @@
+"""The mapping of a lab's CSV files (TOML, documented with a full example in ``datasets.md``):
+parsed and checked (:func:`load_mapping`), then applied to one file's path to give its
+metadata (:func:`file_fields`): ``[recording]``, then each ``[[rules]]`` that selects the file,
+templates filled from path parts and named regex groups, values mapped, numbers parsed."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import tomllib
+
+from slipbench.errors import DataError, UsageError
+
+FIELDS = (
+    "recording_id",
+    "sensor_type",
+    "sensor_instance",
+    "scenario",
+    "material",
+    "speed_mm_s",
+    "source",
+    "trial",
+    "sampling_rate_hz",
+    "slip_onset",
+    "slip_offset",
+)
+NUMERIC_FIELDS = ("speed_mm_s", "sampling_rate_hz", "slip_onset", "slip_offset")
+TOP_KEYS = {
+    "files",
+    "delimiter",
+    "comment",
+    "skip_rows",
+    "recording",
+    "rules",
+    "map",
+    "channels",
+    "rate",
+    "labels",
+}
+CHANNEL_KEYS = {"names", "pattern", "count", "units", "sensor_instance", "sensor_type"}
+RATE_KEYS = {"hz", "time_column", "time_unit"}
+LABEL_KEYS = {
+    "column",
+    "slip",
+    "no_slip",
+    "unlabelled",
+    "segments",
+    "unit",
+    "after_offset",
+    "unlisted",
+}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+
+
+@dataclass(frozen=True)
+class Rule:
+    """Fields for the files a glob and/or a regex (on the path relative to SRC) select."""
+
+    name: str
+    glob: str | None
+    regex: re.Pattern | None
+    fields: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class CsvMapping:
+    """A parsed, checked mapping file."""
+
+    where: str
+    files: tuple[str, ...]
+    csv: dict[str, Any]
+    recording: Rule
+    rules: tuple[Rule, ...]
+    maps: dict[str, dict[str, Any]]
+    channels: tuple[dict[str, Any], ...]
+    rate: dict[str, Any]
+    labels: dict[str, Any]
+    base: Path
+
+
+def _bad(where: str, what: str) -> UsageError:
+    return UsageError(f"{where}: {what}")
+
+
+def _keys(table: Any, known: set[str], where: str, section: str) -> dict:
+    if not isinstance(table, dict):
+        raise _bad(where, f"{section} must be a table")
+    unknown = sorted(set(table) - known)
+    if unknown:
+        raise _bad(
+            where, f"unknown key {unknown[0]!r} in {section} (known: {', '.join(sorted(known))})"
+        )
+    return table
+
+
+def _regex(text: Any, where: str, section: str) -> re.Pattern | None:
+    if text is None:
+        return None
+    if not isinstance(text, str):
+        raise _bad(where, f"{section}.regex must be a string")
+    try:
+        return re.compile(text)
+    except re.error as exc:
+        raise _bad(where, f"{section}.regex {text!r} is not a regular expression ({exc})") from None
+
+
+def _rule(table: Any, where: str, section: str, selector: bool) -> Rule:
+    table = _keys(
+        table, set(FIELDS) | {"regex"} | ({"glob"} if selector else set()), where, section
+    )
+    glob = table.get("glob")
+    if glob is not None and not isinstance(glob, str):
+        raise _bad(where, f"{section}.glob must be a string")
+    if selector and glob is None and "regex" not in table:
+        raise _bad(where, f"{section} needs a glob or a regex saying which files it applies to")
+    fields = {k: v for k, v in table.items() if k in FIELDS}
+    for key, value in fields.items():
+        if not isinstance(value, (str, int, float)) or isinstance(value, bool):
+            raise _bad(where, f"{section}.{key} must be a string or a number, got {value!r}")
+    return Rule(section, glob, _regex(table.get("regex"), where, section), fields)
+
+
+def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvMapping:
+    """Parse and check a mapping: a TOML file, or the same structure as a dict.
+
+    ``base`` is the folder relative paths in the mapping (a segments table) start from: the
+    mapping file's folder, or the working folder for a dict.
+    """
+    if isinstance(config, Mapping):
+        where, raw, base = "mapping", dict(config), Path(base or ".")
+    else:
+        path = Path(config)
+        where = str(path)
+        try:
+            raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise UsageError(f"{path}: cannot read the mapping ({exc.strerror or exc})") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise UsageError(f"{path}: not valid TOML ({exc})") from None
+        base = Path(base) if base else path.parent
+    _keys(raw, TOP_KEYS, where, "the mapping")
+    files = raw.get("files", "**/*.csv")
+    files = (files,) if isinstance(files, str) else files
+    if (
+        not isinstance(files, (list, tuple))
+        or not files
+        or not all(isinstance(f, str) for f in files)
+    ):
+        raise _bad(
+            where, 'files must be a glob or a list of globs relative to SRC, e.g. "**/*.csv"'
+        )
+    csv = {
+        "delimiter": raw.get("delimiter", ","),
+        "comment": raw.get("comment"),
+        "skip_rows": raw.get("skip_rows", 0),
+    }
+    if not isinstance(csv["delimiter"], str) or len(csv["delimiter"]) != 1:
+        raise _bad(where, f"delimiter must be one character, got {csv['delimiter']!r}")
+    if csv["comment"] is not None and (
+        not isinstance(csv["comment"], str) or len(csv["comment"]) != 1
+    ):
+        raise _bad(where, f"comment must be one character, got {csv['comment']!r}")
+    if (
+        not isinstance(csv["skip_rows"], int)
+        or isinstance(csv["skip_rows"], bool)
+        or csv["skip_rows"] < 0
+    ):
+        raise _bad(where, f"skip_rows must be an int >= 0, got {csv['skip_rows']!r}")
+    recording = _rule(raw.get("recording", {}), where, "[recording]", selector=False)
+    rules = raw.get("rules", [])
+    if not isinstance(rules, list):
+        raise _bad(where, "rules must be an array of tables: [[rules]]")
+    rules = tuple(
+        _rule(r, where, f"[[rules]] #{i + 1}", selector=True) for i, r in enumerate(rules)
+    )
+    maps = _keys(raw.get("map", {}), set(FIELDS), where, "[map]")
+    for key, table in maps.items():
+        if not isinstance(table, dict):
+            raise _bad(where, f"[map.{key}] must be a table of old = new values")
+    channels = raw.get("channels")
+    if channels is None:
+        raise _bad(where, '[channels] is missing: give names = [...] or pattern = "..."')
+    channels = tuple(channels) if isinstance(channels, list) else (channels,)
+    for i, group in enumerate(channels):
+        section = "[channels]" if len(channels) == 1 else f"[[channels]] #{i + 1}"
+        _keys(group, CHANNEL_KEYS, where, section)
+        if ("names" in group) == ("pattern" in group):
+            raise _bad(where, f'{section} needs exactly one of names = [...] or pattern = "..."')
+        if "names" in group and (
+            not isinstance(group["names"], list)
+            or not group["names"]
+            or not all(isinstance(n, str) for n in group["names"])
+        ):
+            raise _bad(where, f"{section}.names must be a non-empty list of column names")
+        if "pattern" in group:
+            group = {**group, "pattern": _regex(group["pattern"], where, section)}
+        if len(channels) > 1 and "sensor_instance" not in group:
+            raise _bad(
+                where, f"{section} needs sensor_instance: several channel groups are several units"
+            )
+        channels = channels[:i] + (group,) + channels[i + 1 :]
+    rate = _keys(raw.get("rate", {}), RATE_KEYS, where, "[rate]")
+    if "hz" in rate and (
+        isinstance(rate["hz"], bool)
+        or not isinstance(rate["hz"], (int, float))
+        or not rate["hz"] > 0
+    ):
+        raise _bad(where, f"[rate].hz must be a number > 0, got {rate['hz']!r}")
+    if rate.get("time_unit", "s") not in TIME_UNITS:
+        raise _bad(
+            where,
+            f"[rate].time_unit must be one of {', '.join(TIME_UNITS)}, got {rate['time_unit']!r}",
+        )
+    labels = _keys(raw.get("labels", {}), LABEL_KEYS, where, "[labels]")
+    if "column" in labels and "segments" in labels:
+        raise _bad(where, "[labels] takes a column or segments, not both")
+    if "column" in labels and not labels.get("slip"):
+        raise _bad(where, "[labels].column needs slip = [...]: the values that mean slip")
+    for key in ("slip", "no_slip", "unlabelled"):
+        value = labels.get(key, [])
+        if not isinstance(value, list) or not all(
+            isinstance(v, (str, int)) and not isinstance(v, bool) for v in value
+        ):
+            raise _bad(
+                where,
+                f"[labels].{key} must be a list of values as written in the files (strings or integers)",
+            )
+    for key, allowed in (
+        ("unit", ("sample", "s")),
+        ("after_offset", ("no-slip", "unlabelled")),
+        ("unlisted", ("unlabelled", "no-slip")),
+    ):
+        if key in labels and labels[key] not in allowed:
+            raise _bad(
+                where, f"[labels].{key} must be one of {', '.join(allowed)}, got {labels[key]!r}"
+            )
+    return CsvMapping(
+        where, tuple(files), csv, recording, rules, maps, channels, rate, labels, base
+    )
+
+
+def file_fields(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, Any]:
+    """The resolved metadata of one file: [recording], then each rule that selects it, in order;
+    templates filled from path parts and named regex groups; values mapped; numbers parsed."""
+    parts = rel.rsplit("/", 1)
+    variables = {
+        "path": default_id(rel),
+        "name": parts[-1],
+        "stem": Path(parts[-1]).stem,
+        "parent": parts[0] if len(parts) == 2 else "",
+        "file": rel,
+    }
+    fields: dict[str, Any] = {}
+    for rule, chosen in [(m.recording, None)] + list(zip(m.rules, selected)):
+        if chosen is not None and rel not in chosen:
+            continue
+        if rule.regex is not None:
+            match = rule.regex.fullmatch(rel)
+            if match is None:
+                if chosen is None:
+                    raise DataError(
+                        f"{rel}: the path does not match {rule.name}.regex {rule.regex.pattern!r} (paths are relative to SRC, with /)"
+                    )
+                continue
+            groups = {k: v for k, v in match.groupdict().items() if v is not None}
+            variables.update(groups)
+            fields.update({k: v for k, v in groups.items() if k in FIELDS})
+        fields.update(rule.fields)
+    out: dict[str, Any] = {}
+    for key, value in fields.items():
+        if isinstance(value, str):
+            try:
+                value = value.format_map(variables)
+            except (KeyError, IndexError, ValueError) as exc:
+                raise UsageError(
+                    f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})"
+                ) from None
+        value = m.maps.get(key, {}).get(value, value)
+        if key in NUMERIC_FIELDS:
+            value = _number(value, rel, key)
+        out[key] = value
+    return out
+
+
+def _number(value: Any, rel: str, key: str) -> float | None:
+    if isinstance(value, str):
+        if value.strip().lower() in ("", "none", "null", "nan"):
+            return None
+        try:
+            return float(value)
+        except ValueError:
+            raise DataError(f"{rel}: {key} = {value!r} is not a number") from None
+    return float(value)
+
+
+def default_id(rel: str) -> str:
+    """The default recording id of a file: its path relative to SRC without the extension."""
+    head, _, name = rel.rpartition("/")
+    stem = name.rsplit(".", 1)[0] if "." in name else name
+    return f"{head}/{stem}" if head else stem

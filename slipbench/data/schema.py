@@ -1,0 +1,67 @@
+"""The Parquet dataset format, version 1: its files, columns and the limits the reader holds.
+
+A dataset is a folder holding two Parquet files (see ``datasets.md``):
+
+``recordings.parquet``
+    one row per recording: ``recording_id``, ``sensor_type``, ``sensor_instance``,
+    ``scenario`` (one of :data:`SCENARIOS`), ``material``, ``speed_mm_s``, ``sampling_rate_hz``,
+    ``channels``, ``units``, ``source`` and optionally ``trial``.
+``samples.parquet``
+    one row per sample: ``recording_id``, ``sample_index`` (0, 1, ... per recording, rows in any
+    order), ``values`` (one number per channel) and optionally ``slip`` (bool; null = unlabelled).
+
+Both files carry ``slipbench.format_version = "1"`` in their schema metadata. This module only
+names the layout; :mod:`slipbench.data.read` and :mod:`slipbench.data.write` hold the files to it.
+"""
+
+from __future__ import annotations
+
+import pyarrow as pa
+
+FORMAT_VERSION = "1"
+VERSION_KEY = b"slipbench.format_version"
+RECORDINGS_FILE = "recordings.parquet"
+SAMPLES_FILE = "samples.parquet"
+SCENARIOS = ("slip", "press", "free-space", "hold-slip")
+# Rates of one unit may differ by this fraction of the lowest and still pool (at their median).
+# A logger's clock and dropped frames move a nominal 60 Hz between 59.7 and 60.0 Hz (0.5 %);
+# a changed rate setting moves it by far more (50 -> 60 Hz is 20 %). 1 % moves a 100 ms window
+# by at most 1 ms and a frequency by 1 %, less than one bin of a window shorter than 100 samples.
+RATE_TOLERANCE = 0.01
+# Integers beyond 2**53 have no exact float64: refused rather than rounded.
+EXACT_INT = 2**53
+
+RECORDINGS_SCHEMA = pa.schema(
+    [
+        ("recording_id", pa.string()),
+        ("sensor_type", pa.string()),
+        ("sensor_instance", pa.string()),
+        ("scenario", pa.string()),
+        ("material", pa.string()),
+        ("speed_mm_s", pa.float64()),
+        ("sampling_rate_hz", pa.float64()),
+        ("channels", pa.list_(pa.string())),
+        ("units", pa.list_(pa.string())),
+        ("source", pa.string()),
+        ("trial", pa.string()),
+    ]
+)
+FORMAT_COLUMNS = tuple(RECORDINGS_SCHEMA.names)
+# Columns that may be absent from the file: a recording is then its own trial; its length is
+# then not checked (written by write_dataset, it catches rows lost at a recording's end).
+OPTIONAL = {"trial", "n_samples"}
+N_SAMPLES = pa.field("n_samples", pa.int64())
+# Columns that may hold nulls: free-space has no material, pressing has no speed.
+NULLABLE = {"material", "speed_mm_s", "source", "trial"}
+STRING_COLUMNS = (
+    "recording_id",
+    "sensor_type",
+    "sensor_instance",
+    "scenario",
+    "material",
+    "source",
+    "trial",
+)
+# Derived by the reader: channels per recording, and the rate every recording of a unit pools at.
+DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples")
+IN_MEMORY = "in-memory dataset"
