@@ -180,7 +180,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
     text = (tmp_path / "report.md").read_text()
     assert "Published (Van Wyk & Falco, their LSTM)" in text and "holweg (paper)" in text
     assert "Ours minus published" not in text  # holweg is not the paper's model
-    assert "| Data | simulated (slipbench.data.synth model v2, scale 0.02, seed 1;" in re.sub(
+    assert "| Data | simulated (slipbench.synth model v2, scale 0.02, seed 1;" in re.sub(
         r" +", " ", text
     )
     assert "Smallest test set" in text
@@ -282,7 +282,7 @@ def test_header_says_where_the_data_come_from(tmp_path):
 
     folder = tmp_path / "synth-v2-scale0.05-seed3"
     assert dataset_source(str(folder)).startswith(
-        "simulated (slipbench.data.synth model v2, scale 0.05, seed 3"
+        "simulated (slipbench.synth model v2, scale 0.05, seed 3"
     )
     assert "not readable here" in dataset_source(str(folder))
     assert dataset_source("") == "a dataset built in memory (no path recorded)"

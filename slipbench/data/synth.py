@@ -730,7 +730,7 @@ def generate(
                             sampling_rate_hz=fs,
                             channels=sensor.channels,
                             units=(sensor.unit,) * len(sensor.channels),
-                            source=f"slipbench.data.synth v{MODEL_VERSION} seed={seed} scale={scale:g}",
+                            source=f"slipbench.synth v{MODEL_VERSION} seed={seed} scale={scale:g}",
                             trial=trial_id,
                         )
                     )

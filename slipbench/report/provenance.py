@@ -44,7 +44,7 @@ MAX_WARNINGS = 12
 def _simulated(match: re.Match) -> str:
     scale = float(match["scale"])
     return (
-        f"simulated (slipbench.data.synth model v{match['version']}, scale {scale:g}, seed {match['seed']}; "
+        f"simulated (slipbench.synth model v{match['version']}, scale {scale:g}, seed {match['seed']}; "
         f"scale 1.0 is about the paper's size, 8 M samples per unit)"
     )
 
