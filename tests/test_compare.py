@@ -7,17 +7,16 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import textwrap
 
 import numpy as np
 import pandas as pd
 import pytest
+import toys
 from resultgen import fake_rows, whole_paper_pair
 from scipy.special import expit
 from scipy.stats import t as student_t
 from test_coverage import TAUS, dataset
 from test_report import check_golden
-from test_store_faults import TWO_CELLS
 
 from slipbench.app.cli import main
 from slipbench.errors import DataError
@@ -44,7 +43,7 @@ def runs(small_path, tmp_path_factory):
     """Holweg as shipped (BASE) and Holweg on a useless band (a degraded CANDIDATE)."""
     root = tmp_path_factory.mktemp("compare")
     (root / "plugins" / "protocols").mkdir(parents=True)
-    (root / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
+    (root / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
     common = [
         "evaluate",
         "--detector",

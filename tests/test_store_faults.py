@@ -10,7 +10,6 @@ import re
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+import toys
 from storegen import cell_predictions, cell_row
 
 from slipbench.atomic import folder_lock, unique_folder, write_text_atomic
@@ -283,26 +283,9 @@ def test_a_read_only_folder_reads_and_refuses_writes_with_exit_5(tmp_path):
             ResultsStore(late).consolidate()
 
 
-TWO_CELLS = '''
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part
-
-
-class TwoCells(BaseProtocol):
-    """Window 50 of two Nano17 fingers."""
-
-    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
-
-    def cells(self, recordings):
-        for finger in ("index", "middle"):
-            part = (("Nano17", finger),)
-            yield Cell(key={"sensor_type": "Nano17", "sensor_instance": finger, "window": 50},
-                       train=Part(part, "train"), test=Part(part, "test"), window=50)
-'''
-
-
 def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_path, tmp_path):
     (tmp_path / "plugins" / "protocols").mkdir(parents=True)
-    (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
+    (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
 
     def evaluate(out: Path) -> subprocess.CompletedProcess:
         return subprocess.run(
