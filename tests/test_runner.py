@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+import toys
 from test_protocols import subset
 
 from slipbench.detectors.holweg import Holweg
@@ -21,25 +22,7 @@ from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.window_size import WindowSize
 from slipbench.store.results import ResultsStore
 
-SLOW = '''
-import time
-import numpy as np
-from slipbench.base import BaseDetector
-
-class Slow(BaseDetector):
-    """Sleeps, then thresholds the mean absolute signal (for time-limit and resume tests)."""
-    name = "slow"
-
-    def __init__(self, seconds=0.3):
-        self.seconds = seconds
-
-    def _fit(self, x, y, seed):
-        time.sleep(self.seconds)
-        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
-'''
+SLOW = toys.source(toys.Slow)
 
 
 @pytest.fixture(scope="module")
@@ -214,24 +197,7 @@ def test_kill_and_resume(small_path, tmp_path):
         assert (out / "cells" / name).stat().st_mtime_ns == mtime  # not recomputed
 
 
-KILLED = '''
-import os
-import signal
-import numpy as np
-from slipbench.base import BaseDetector
-
-
-class Doomed(BaseDetector):
-    """Killed by the system (as the out-of-memory killer does) on 5-sample windows."""
-
-    def _fit(self, x, y, seed):
-        if x.shape[1] == 5:
-            os.kill(os.getpid(), signal.SIGKILL)
-        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
-'''
+KILLED = toys.source(toys.Doomed)
 
 
 @pytest.mark.parametrize("jobs", [1, 2])

@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import ast
 import inspect
+import os
+import signal
+import time
 from pathlib import Path
 
 import numpy as np
@@ -84,6 +87,34 @@ class Flaky(BaseDetector):
 
     def _predict_proba(self, x):
         return (np.abs(x).mean(axis=1) > self.level_ * self.cut).astype(float)
+
+
+class Slow(BaseDetector):
+    """Sleeps, then thresholds the mean absolute signal (for time-limit and resume tests)."""
+
+    name = "slow"
+
+    def __init__(self, seconds=0.3):
+        self.seconds = seconds
+
+    def _fit(self, x, y, seed):
+        time.sleep(self.seconds)
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+class Doomed(BaseDetector):
+    """Killed by the system (as the out-of-memory killer does) on 5-sample windows."""
+
+    def _fit(self, x, y, seed):
+        if x.shape[1] == 5:
+            os.kill(os.getpid(), signal.SIGKILL)
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
 
 
 class TwoCells(BaseProtocol):
