@@ -12,11 +12,11 @@ import numpy as np
 import pandas as pd
 import pytest
 import toys
+from goldens import check_golden
 from resultgen import fake_rows, whole_paper_pair
 from scipy.special import expit
 from scipy.stats import t as student_t
 from test_coverage import TAUS, dataset
-from test_report import check_golden
 
 from slipbench.app.cli import main
 from slipbench.errors import DataError

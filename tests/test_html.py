@@ -12,8 +12,8 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+from goldens import check_golden
 from resultgen import all_rows
-from test_report import check_golden
 
 from slipbench.report.document import build_report, render
 from slipbench.report.plots import FigureSpec

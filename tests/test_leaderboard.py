@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from goldens import check_golden
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from resultgen import fake_rows
 from scipy.stats import friedmanchisquare
 from statsmodels.stats.multitest import multipletests
-from test_report import check_golden
 
 from slipbench.report.document import render_report
 from slipbench.stats.leaderboard import ALL, cell_table, entrants, leaderboard, rank_scope

@@ -11,6 +11,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from datagen import subset
 
 from slipbench.data.dataset import read_dataset, write_dataset
 from slipbench.engine.registry import detectors, protocols
@@ -228,8 +229,6 @@ def _shuffled_copy(src, dst, seed):
 
 
 def test_row_order_of_the_files_leaves_results_identical(tmp_path, small_path):
-    from test_protocols import subset
-
     units = small_path.parent / "units"
     if not units.exists():
         ds = read_dataset(small_path)

@@ -13,7 +13,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 import pytest
 import toys
-from test_protocols import subset
+from datagen import subset
 
 from slipbench.detectors.holweg import Holweg
 from slipbench.engine.runner import Run, evaluate
