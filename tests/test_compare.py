@@ -213,6 +213,7 @@ def test_verdict_rules():
     assert family_level(280) == pytest.approx(1 - 0.05 / 280)
 
 
+@pytest.mark.slow
 def test_a_whole_paper_null_comparison_rarely_calls_a_regression():
     """Two equally good detectors that differ at random per recording (each its own
     detector-by-recording effect), compared over 280 cells of 10-40 recordings per class: the

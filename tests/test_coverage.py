@@ -27,6 +27,7 @@ import sys
 
 import numpy as np
 import pandas as pd
+import pytest
 from scipy.stats import norm
 
 from slipbench.stats.metrics import FIGURES, classification_figures, paired_comparison
@@ -176,6 +177,7 @@ def _check(table: pd.DataFrame) -> None:
     assert not outside, outside
 
 
+@pytest.mark.slow
 def test_intervals_cover_at_10_or_more_recordings_per_class():
     table = study(N_DATASETS)
     assert list(table.columns) == ["m", "tau", *BANDS]

@@ -56,6 +56,7 @@ def test_minirocket_pads_short_windows():
 RAISES = toys.source(toys.Flaky)
 
 
+@pytest.mark.slow
 def test_a_folder_plugin_that_raises_in_fit_is_reported_and_the_run_goes_on(tmp_path, small):
     (tmp_path / "flaky.py").write_text(RAISES)
     reg = Registry("detector", BaseDetector, "slipbench.detectors")

@@ -78,6 +78,7 @@ def test_a_detector_that_returns_garbage_fails_its_cells_with_the_reason(
     assert code == 0 and "failed" in text
 
 
+@pytest.mark.slow
 def test_all_detectors_run_past_a_broken_plugin_and_exit_3(plugins, one_unit, tmp_path, cli):
     code, _, err = cli(
         [
@@ -150,6 +151,7 @@ def _slipbench(args: list[str], cwd) -> int:
     ).returncode
 
 
+@pytest.mark.slow
 def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, tmp_path):
     folder = tmp_path / "p"
     folder.mkdir()

@@ -107,6 +107,7 @@ def _page(tmp_path: Path) -> tuple[str, list]:
     return render(blocks, "html"), blocks
 
 
+@pytest.mark.slow
 def test_page_has_every_table_and_figure_and_nothing_external(tmp_path):
     text, blocks = _page(tmp_path)
     outline = Outline()

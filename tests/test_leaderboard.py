@@ -102,6 +102,7 @@ def test_degenerate_boards_say_why():
     assert "No cell was finished by every detector (128 cells): nothing to rank." in text
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(st.integers(2, 6), st.integers(1, 25), st.integers(0, 2**32 - 1))
 def test_any_score_matrix_gives_consistent_ranks(k, n, seed):

@@ -135,6 +135,7 @@ def _all_runs(split, labels, windows):
     return runs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "shape, split, labels, windows",
     [
@@ -228,6 +229,7 @@ def _shuffled_copy(src, dst, seed):
         pq.write_table(table.take(pa.array(order)), dst / name)
 
 
+@pytest.mark.slow
 def test_row_order_of_the_files_leaves_results_identical(tmp_path, small_path):
     units = small_path.parent / "units"
     if not units.exists():

@@ -28,6 +28,7 @@ def _slipbench(args: list[str], env: dict, cwd) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_an_installed_plugin_package_runs_evaluate_report_and_compare(tmp_path, small_path):
     src = tmp_path / "src"
     (src / "labslip").mkdir(parents=True)
@@ -108,6 +109,7 @@ def test_an_installed_plugin_package_runs_evaluate_report_and_compare(tmp_path, 
     )
 
 
+@pytest.mark.slow
 def test_report_reads_a_folder_protocols_layout_with_plugins(tmp_path, small_path, cli):
     plugins = tmp_path / "plugins"
     (plugins / "protocols").mkdir(parents=True)

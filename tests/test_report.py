@@ -125,6 +125,7 @@ def test_paper_numbers_are_complete():
     assert rates.loc["OptoForce20", "tn_rate"] == pytest.approx(0.8979)
 
 
+@pytest.mark.slow
 def test_report_command_on_real_results(small_path, tmp_path, capsys):
     out = tmp_path / "results"
     with pytest.raises(SystemExit) as exit_:
@@ -181,6 +182,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
     assert exit_.value.code == 2
 
 
+@pytest.mark.slow
 def test_plots_for_every_protocol(tmp_path):
     from slipbench.report.plots import write_plots
 

@@ -18,6 +18,8 @@ import pytest
 
 from slipbench.store.results import read_results
 
+pytestmark = pytest.mark.slow  # reproduce.sh runs every protocol at a small scale: minutes
+
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "reports" / "reproduce.sh"
 PROTOCOLS = (

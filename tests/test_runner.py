@@ -52,6 +52,7 @@ def test_models_are_shared_between_protocols(index, tmp_path):
     assert rows[rows["training"].eq("without")]["model_key"].nunique() == 5
 
 
+@pytest.mark.slow
 def test_models_are_reused_by_a_later_command(index, tmp_path):
     store = ResultsStore(tmp_path)
     ws = evaluate(index, Run(Holweg(), WindowSize()), store, progress=False)
@@ -69,6 +70,7 @@ def test_models_are_reused_by_a_later_command(index, tmp_path):
     pd.testing.assert_frame_equal(_figures(forced), _figures(mh))
 
 
+@pytest.mark.slow
 def test_process_pool_gives_the_same_results(index, tmp_path):
     run = Run(Holweg(), WindowSize(), seed=3)
     local = evaluate(index, run, ResultsStore(tmp_path / "a"), progress=False)
@@ -76,6 +78,7 @@ def test_process_pool_gives_the_same_results(index, tmp_path):
     pd.testing.assert_frame_equal(_figures(local), _figures(pooled))
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_results(index, tmp_path):
     distributed = pytest.importorskip("distributed")
     run = Run(Holweg(), WindowSize(), seed=3)
@@ -93,6 +96,7 @@ def test_dask_local_cluster_gives_the_same_results(index, tmp_path):
     pd.testing.assert_frame_equal(_figures(local), _figures(remote))
 
 
+@pytest.mark.slow
 def test_unreachable_scheduler_is_named(index, tmp_path):
     pytest.importorskip("distributed")
     run = Run(Holweg(), WindowSize())
@@ -100,6 +104,7 @@ def test_unreachable_scheduler_is_named(index, tmp_path):
         evaluate(index, run, ResultsStore(tmp_path), scheduler="tcp://127.0.0.1:9", progress=False)
 
 
+@pytest.mark.slow
 def test_seeds_change_the_draw_and_repeat_exactly(index, tmp_path):
     a = evaluate(
         index, Run(Holweg(), WindowSize(), seed=1), ResultsStore(tmp_path / "a"), progress=False
@@ -114,6 +119,7 @@ def test_seeds_change_the_draw_and_repeat_exactly(index, tmp_path):
     assert not np.allclose(a["accuracy"], c["accuracy"])
 
 
+@pytest.mark.slow
 def test_time_limit_reports_timeout(index, tmp_path, monkeypatch):
     (tmp_path / "plugins").mkdir()
     (tmp_path / "plugins" / "slow.py").write_text(SLOW)
@@ -152,6 +158,7 @@ def test_missing_class_is_skipped_with_its_reason(small, tmp_path):
     assert (stored["status"] == "skipped").sum() == 2
 
 
+@pytest.mark.slow
 def test_kill_and_resume(small_path, tmp_path):
     """SIGKILL a run mid-way: the results on disk stay readable, and rerunning the command
     recomputes only what had not finished."""
@@ -200,6 +207,7 @@ def test_kill_and_resume(small_path, tmp_path):
 KILLED = toys.source(toys.Doomed)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_worker_killed_by_the_system_fails_its_cells_and_the_run_goes_on(index, tmp_path, jobs):
     from slipbench.base import BaseDetector

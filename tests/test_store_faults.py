@@ -62,6 +62,7 @@ def check_intact(
     return set(rows["key"])
 
 
+@pytest.mark.slow
 def test_kill_9_at_random_moments_then_resume(tmp_path):
     """A writer killed by SIGKILL at seeded random moments (mid-put, mid-consolidate, anywhere)
     leaves every finished cell whole and readable; resuming completes the rest."""
@@ -283,6 +284,7 @@ def test_a_read_only_folder_reads_and_refuses_writes_with_exit_5(tmp_path):
             ResultsStore(late).consolidate()
 
 
+@pytest.mark.slow
 def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_path, tmp_path):
     (tmp_path / "plugins" / "protocols").mkdir(parents=True)
     (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
