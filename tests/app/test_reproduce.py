@@ -20,7 +20,7 @@ from slipbench.store.results import read_results
 
 pytestmark = pytest.mark.slow  # reproduce.sh runs every protocol at a small scale: minutes
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "reports" / "reproduce.sh"
 PROTOCOLS = (
     "window-size",

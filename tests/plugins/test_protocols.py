@@ -123,7 +123,7 @@ def test_sampling_rate_cells(nano):
     assert [c.key["rate_hz"] for c in cells] == [1000, 500, 250, 125, 62.5, 31.25]
     assert {(c.decimation, c.antialias) for c in cells} == {
         ("plain", False)
-    }  # the default; tests/test_decimation.py has the rest
+    }  # the default; tests/data/test_decimation.py has the rest
 
 
 @pytest.mark.parametrize(

@@ -14,8 +14,8 @@ Every population figure has a closed form (normal integrals), so coverage is cou
 the truth, not against a bigger simulation.
 
 The CI run uses ``N_DATASETS`` (40) datasets per setting, about 30 s on one core;
-``SLIPBENCH_COVERAGE_DATASETS=1000 pytest tests/test_coverage.py`` runs the full study, and
-``python tests/test_coverage.py [N] [METHOD]`` prints the tables that :mod:`slipbench.stats.bootstrap`
+``SLIPBENCH_COVERAGE_DATASETS=1000 pytest tests/stats/test_coverage.py`` runs the full study, and
+``python tests/stats/test_coverage.py [N] [METHOD]`` prints the tables that :mod:`slipbench.stats.bootstrap`
 quotes.
 """
 

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+import storegen
 import toys
 from storegen import cell_predictions, cell_row
 
@@ -26,7 +27,7 @@ from slipbench.base import BaseDetector
 from slipbench.errors import EnvironmentFault
 from slipbench.store.results import RESULTS_FILE, ResultsStore, read_results
 
-WRITER = str(Path(__file__).with_name("storegen.py"))
+WRITER = storegen.__file__
 
 
 def writer(folder: Path, n: int, every: int, prefix: str = "c") -> subprocess.Popen:
