@@ -6,43 +6,22 @@ from __future__ import annotations
 
 import pandas as pd
 import pytest
+import toys
 
-BAD_OUTPUT = '''
-import numpy as np
-from slipbench.base import BaseDetector
-
-
-class {name}(BaseDetector):
-    """Returns {what}."""
-
-    def _fit(self, x, y, seed):
-        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        score = (np.abs(x).mean(axis=1) > self.cut_).astype(float)
-        {body}
-'''
-
+# plugin file stem -> (toy, what the failed cells must say)
 CASES = {
-    "nan_scores": ("NaN scores", "score[::3] = np.nan\n        return score", "non-finite scores"),
-    "big_scores": ("scores up to 909", "return score * 909", "scores outside [0, 1]"),
-    "short_scores": ("too few scores", "return score[:-1]", "scores of shape"),
-    "usage_in_fit": ("a UsageError from fit", None, "UsageError: bad day"),
+    "nan_scores": (toys.NanScores, "non-finite scores"),
+    "big_scores": (toys.BigScores, "scores outside [0, 1]"),
+    "short_scores": (toys.ShortScores, "scores of shape"),
+    "usage_in_fit": (toys.UsageInFit, "UsageError: bad day"),
 }
 
 
 @pytest.fixture(scope="module")
 def plugins(tmp_path_factory):
     folder = tmp_path_factory.mktemp("plugins")
-    for stem, (what, body, _) in CASES.items():
-        name = "".join(p.title() for p in stem.split("_"))
-        text = BAD_OUTPUT.format(name=name, what=what, body=body or "return score")
-        if body is None:
-            text = text.replace(
-                "self.cut_ = float(",
-                "from slipbench.errors import UsageError\n        raise UsageError('bad day')\n        self.cut_ = float(",
-            )
-        (folder / f"{stem}.py").write_text(text)
+    for stem, (toy, _) in CASES.items():
+        (folder / f"{stem}.py").write_text(toys.source(toy))
     (folder / "broken.py").write_text("import no_such_module_slipbench\n")
     return folder
 
@@ -88,10 +67,10 @@ def test_a_detector_that_returns_garbage_fails_its_cells_with_the_reason(
         ]
     )
     assert code == 4, err
-    assert CASES[stem][2] in err and f"detector '{stem.replace('_', '-')}'" in err
+    assert CASES[stem][1] in err and f"detector '{stem.replace('_', '-')}'" in err
     rows = pd.read_parquet(out / "results.parquet")
     assert (rows["status"] == "failed").all() and rows["reason"].str.contains(
-        CASES[stem][2], regex=False
+        CASES[stem][1], regex=False
     ).all()
     assert not (out / "predictions").exists() or not any(
         (out / "predictions").iterdir()
@@ -100,6 +79,7 @@ def test_a_detector_that_returns_garbage_fails_its_cells_with_the_reason(
     assert code == 0 and "failed" in text
 
 
+@pytest.mark.slow
 def test_all_detectors_run_past_a_broken_plugin_and_exit_3(plugins, one_unit, tmp_path, cli):
     code, _, err = cli(
         [
@@ -172,10 +152,11 @@ def _slipbench(args: list[str], cwd) -> int:
     ).returncode
 
 
+@pytest.mark.slow
 def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, tmp_path):
     folder = tmp_path / "p"
     folder.mkdir()
-    source = BAD_OUTPUT.format(name="Energy", what="a threshold", body="return score")
+    source = toys.source(toys.Energy)
     (folder / "energy.py").write_text(source)
     args = [
         "evaluate",

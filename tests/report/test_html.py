@@ -12,8 +12,8 @@ from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
+from goldens import check_golden
 from resultgen import all_rows
-from test_report import check_golden
 
 from slipbench.report.document import build_report, render
 from slipbench.report.plots import FigureSpec
@@ -107,6 +107,7 @@ def _page(tmp_path: Path) -> tuple[str, list]:
     return render(blocks, "html"), blocks
 
 
+@pytest.mark.slow
 def test_page_has_every_table_and_figure_and_nothing_external(tmp_path):
     text, blocks = _page(tmp_path)
     outline = Outline()

@@ -91,6 +91,7 @@ def test_the_report_says_which_interval_an_average_has(run):
     assert "combined as independent, which understates it" in rows_only
 
 
+@pytest.mark.slow
 def test_seeds_pool_into_one_interval(small, tmp_path):
     """Two seeds of one cell: the table shows one interval of their mean, bootstrapped jointly,
     not the mean of the two seeds' bounds, and says so."""
@@ -120,6 +121,7 @@ def test_seeds_pool_into_one_interval(small, tmp_path):
     assert any("the mean of the seeds' bounds" in n for n in averaged.notes)
 
 
+@pytest.mark.slow
 def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
     """A figure whose seeds' predictions are gone keeps the mean of the seeds' bounds, and the
     note counts the figures of each kind instead of calling every interval pooled."""

@@ -1,6 +1,6 @@
 """Statistics: the stratified design, Rao-Wu variance, AUROC against scikit-learn, flags for
 designs too small to estimate, joint intervals over test sets and seeds, paired comparison.
-Coverage itself is measured in tests/test_coverage.py."""
+Coverage itself is measured in tests/stats/test_coverage.py."""
 
 from __future__ import annotations
 

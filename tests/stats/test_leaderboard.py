@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from goldens import check_golden
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from resultgen import fake_rows
 from scipy.stats import friedmanchisquare
 from statsmodels.stats.multitest import multipletests
-from test_report import check_golden
 
 from slipbench.report.document import render_report
 from slipbench.stats.leaderboard import ALL, cell_table, entrants, leaderboard, rank_scope
@@ -102,6 +102,7 @@ def test_degenerate_boards_say_why():
     assert "No cell was finished by every detector (128 cells): nothing to rank." in text
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(st.integers(2, 6), st.integers(1, 25), st.integers(0, 2**32 - 1))
 def test_any_score_matrix_gives_consistent_ranks(k, n, seed):

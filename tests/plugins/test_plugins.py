@@ -11,49 +11,14 @@ import textwrap
 
 import pandas as pd
 import pytest
+import toys
 
 from slipbench.base import BaseDetector
 from slipbench.engine.registry import Registry, detectors
 from slipbench.errors import PluginError
 
-DETECTOR = '''
-import numpy as np
-from slipbench.base import BaseDetector
-from slipbench.params import Interval
-
-
-class Energy(BaseDetector):
-    """Mean absolute signal above a training quantile."""
-
-    _parameter_constraints = {"quantile": Interval(float, 0.0, 1.0)}
-
-    def __init__(self, quantile=0.5):
-        self.quantile = quantile
-
-    def _fit(self, x, y, seed):
-        self.cut_ = float(np.quantile(np.abs(x).mean(axis=1), self.quantile))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
-'''
-
-PROTOCOL = '''
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part
-
-
-class TwoWindows(BaseProtocol):
-    """Windows of 25 and 50 samples on two Nano17 fingers."""
-
-    layout = Layout("Energy at two window lengths.", ("sensor_type", "sensor_instance"), "window",
-                    title="Two windows", group="at Window", figure="curve", x_label="window (samples)")
-
-    def cells(self, recordings):
-        for finger in ("index", "middle"):
-            part = (("Nano17", finger),)
-            for window in (25, 50):
-                yield Cell({"sensor_type": "Nano17", "sensor_instance": finger, "window": window},
-                           Part(part, "train"), Part(part, "test"), window)
-'''
+DETECTOR = toys.source(toys.Energy)
+PROTOCOL = toys.source(toys.TwoWindows)
 
 
 def _slipbench(args: list[str], env: dict, cwd) -> subprocess.CompletedProcess:
@@ -63,6 +28,7 @@ def _slipbench(args: list[str], env: dict, cwd) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_an_installed_plugin_package_runs_evaluate_report_and_compare(tmp_path, small_path):
     src = tmp_path / "src"
     (src / "labslip").mkdir(parents=True)
@@ -143,6 +109,7 @@ def test_an_installed_plugin_package_runs_evaluate_report_and_compare(tmp_path, 
     )
 
 
+@pytest.mark.slow
 def test_report_reads_a_folder_protocols_layout_with_plugins(tmp_path, small_path, cli):
     plugins = tmp_path / "plugins"
     (plugins / "protocols").mkdir(parents=True)
@@ -185,12 +152,7 @@ def test_report_reads_a_folder_protocols_layout_with_plugins(tmp_path, small_pat
 
 def test_list_shows_parameters_and_status(tmp_path, cli):
     (tmp_path / "broken.py").write_text("raise RuntimeError('boom')\n")
-    (tmp_path / "needs_dep.py").write_text(
-        DETECTOR.replace(
-            "class Energy(BaseDetector):",
-            'class NeedsDep(BaseDetector):\n    requires = ("no_such_module_slipbench",)',
-        )
-    )
+    (tmp_path / "needs_dep.py").write_text(toys.source(toys.NeedsDep))
     (tmp_path / "missing_import.py").write_text("import no_such_module_slipbench\n")
     code, text, _ = cli(["list", "--plugins", str(tmp_path)])
     assert code == 0

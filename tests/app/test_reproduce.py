@@ -18,7 +18,9 @@ import pytest
 
 from slipbench.store.results import read_results
 
-ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.slow  # reproduce.sh runs every protocol at a small scale: minutes
+
+ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "reports" / "reproduce.sh"
 PROTOCOLS = (
     "window-size",

@@ -7,17 +7,16 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import textwrap
 
 import numpy as np
 import pandas as pd
 import pytest
+import toys
+from goldens import check_golden
 from resultgen import fake_rows, whole_paper_pair
 from scipy.special import expit
 from scipy.stats import t as student_t
 from test_coverage import TAUS, dataset
-from test_report import check_golden
-from test_store_faults import TWO_CELLS
 
 from slipbench.app.cli import main
 from slipbench.errors import DataError
@@ -37,7 +36,7 @@ def runs(small_path, tmp_path_factory):
     """Holweg as shipped (BASE) and Holweg on a useless band (a degraded CANDIDATE)."""
     root = tmp_path_factory.mktemp("compare")
     (root / "plugins" / "protocols").mkdir(parents=True)
-    (root / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
+    (root / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
     common = [
         "evaluate",
         "--detector",
@@ -207,6 +206,7 @@ def test_verdict_rules():
     assert family_level(280) == pytest.approx(1 - 0.05 / 280)
 
 
+@pytest.mark.slow
 def test_a_whole_paper_null_comparison_rarely_calls_a_regression():
     """Two equally good detectors that differ at random per recording (each its own
     detector-by-recording effect), compared over 280 cells of 10-40 recordings per class: the

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import toys
 
 from slipbench.base import BaseDetector
 from slipbench.detectors.bandpass import effective_band
@@ -52,27 +53,10 @@ def test_minirocket_pads_short_windows():
     assert _pad(np.ones((2, 12))).shape == (2, 12)
 
 
-RAISES = '''
-import numpy as np
-from slipbench.base import BaseDetector
-
-class Flaky(BaseDetector):
-    """Raises on 5-sample windows, thresholds the mean absolute value otherwise."""
-    name = "flaky"
-
-    def __init__(self, cut=1.0):
-        self.cut = cut
-
-    def _fit(self, x, y, seed):
-        if x.shape[1] == 5:
-            raise RuntimeError("diverged on short windows")
-        self.level_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) > self.level_ * self.cut).astype(float)
-'''
+RAISES = toys.source(toys.Flaky)
 
 
+@pytest.mark.slow
 def test_a_folder_plugin_that_raises_in_fit_is_reported_and_the_run_goes_on(tmp_path, small):
     (tmp_path / "flaky.py").write_text(RAISES)
     reg = Registry("detector", BaseDetector, "slipbench.detectors")

@@ -45,6 +45,7 @@ def write(tmp_path, text: str, **fields) -> str:
     return str(path)
 
 
+@pytest.mark.slow
 def test_run_declares_everything_and_records_the_file(tmp_path, small_path, cli):
     bench = write(tmp_path, GOOD, data=small_path)
     code, out, err = cli(["run", bench, "--quiet"])

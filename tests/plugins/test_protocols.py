@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 import pytest
+from datagen import subset
 
-from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData
 from slipbench.protocols.cross_instance import CrossInstance
@@ -14,15 +13,6 @@ from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.protocols.speed_holdout import SpeedHoldout
 from slipbench.protocols.window_size import WindowSize
-
-
-def subset(ds: Dataset, mask) -> Dataset:
-    rec = ds.recordings[np.asarray(mask)].reset_index(drop=True)
-    ids = set(rec["recording_id"])
-    labels = {k: v for k, v in ds.slip_labels.items() if k in ids}
-    return Dataset(
-        rec, {k: v for k, v in ds.samples.items() if k in ids}, labels, ds.path
-    )  # its fingerprint: from its content
 
 
 @pytest.fixture(scope="module")
@@ -133,7 +123,7 @@ def test_sampling_rate_cells(nano):
     assert [c.key["rate_hz"] for c in cells] == [1000, 500, 250, 125, 62.5, 31.25]
     assert {(c.decimation, c.antialias) for c in cells} == {
         ("plain", False)
-    }  # the default; tests/test_decimation.py has the rest
+    }  # the default; tests/data/test_decimation.py has the rest
 
 
 @pytest.mark.parametrize(

@@ -12,7 +12,8 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
-from test_protocols import subset
+import toys
+from datagen import subset
 
 from slipbench.detectors.holweg import Holweg
 from slipbench.engine.runner import Run, evaluate
@@ -21,25 +22,7 @@ from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.window_size import WindowSize
 from slipbench.store.results import ResultsStore
 
-SLOW = '''
-import time
-import numpy as np
-from slipbench.base import BaseDetector
-
-class Slow(BaseDetector):
-    """Sleeps, then thresholds the mean absolute signal (for time-limit and resume tests)."""
-    name = "slow"
-
-    def __init__(self, seconds=0.3):
-        self.seconds = seconds
-
-    def _fit(self, x, y, seed):
-        time.sleep(self.seconds)
-        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
-'''
+SLOW = toys.source(toys.Slow)
 
 
 @pytest.fixture(scope="module")
@@ -69,6 +52,7 @@ def test_models_are_shared_between_protocols(index, tmp_path):
     assert rows[rows["training"].eq("without")]["model_key"].nunique() == 5
 
 
+@pytest.mark.slow
 def test_models_are_reused_by_a_later_command(index, tmp_path):
     store = ResultsStore(tmp_path)
     ws = evaluate(index, Run(Holweg(), WindowSize()), store, progress=False)
@@ -86,6 +70,7 @@ def test_models_are_reused_by_a_later_command(index, tmp_path):
     pd.testing.assert_frame_equal(_figures(forced), _figures(mh))
 
 
+@pytest.mark.slow
 def test_process_pool_gives_the_same_results(index, tmp_path):
     run = Run(Holweg(), WindowSize(), seed=3)
     local = evaluate(index, run, ResultsStore(tmp_path / "a"), progress=False)
@@ -93,6 +78,7 @@ def test_process_pool_gives_the_same_results(index, tmp_path):
     pd.testing.assert_frame_equal(_figures(local), _figures(pooled))
 
 
+@pytest.mark.slow
 def test_dask_local_cluster_gives_the_same_results(index, tmp_path):
     distributed = pytest.importorskip("distributed")
     run = Run(Holweg(), WindowSize(), seed=3)
@@ -110,6 +96,7 @@ def test_dask_local_cluster_gives_the_same_results(index, tmp_path):
     pd.testing.assert_frame_equal(_figures(local), _figures(remote))
 
 
+@pytest.mark.slow
 def test_unreachable_scheduler_is_named(index, tmp_path):
     pytest.importorskip("distributed")
     run = Run(Holweg(), WindowSize())
@@ -117,6 +104,7 @@ def test_unreachable_scheduler_is_named(index, tmp_path):
         evaluate(index, run, ResultsStore(tmp_path), scheduler="tcp://127.0.0.1:9", progress=False)
 
 
+@pytest.mark.slow
 def test_seeds_change_the_draw_and_repeat_exactly(index, tmp_path):
     a = evaluate(
         index, Run(Holweg(), WindowSize(), seed=1), ResultsStore(tmp_path / "a"), progress=False
@@ -131,6 +119,7 @@ def test_seeds_change_the_draw_and_repeat_exactly(index, tmp_path):
     assert not np.allclose(a["accuracy"], c["accuracy"])
 
 
+@pytest.mark.slow
 def test_time_limit_reports_timeout(index, tmp_path, monkeypatch):
     (tmp_path / "plugins").mkdir()
     (tmp_path / "plugins" / "slow.py").write_text(SLOW)
@@ -169,6 +158,7 @@ def test_missing_class_is_skipped_with_its_reason(small, tmp_path):
     assert (stored["status"] == "skipped").sum() == 2
 
 
+@pytest.mark.slow
 def test_kill_and_resume(small_path, tmp_path):
     """SIGKILL a run mid-way: the results on disk stay readable, and rerunning the command
     recomputes only what had not finished."""
@@ -214,26 +204,10 @@ def test_kill_and_resume(small_path, tmp_path):
         assert (out / "cells" / name).stat().st_mtime_ns == mtime  # not recomputed
 
 
-KILLED = '''
-import os
-import signal
-import numpy as np
-from slipbench.base import BaseDetector
+KILLED = toys.source(toys.Doomed)
 
 
-class Doomed(BaseDetector):
-    """Killed by the system (as the out-of-memory killer does) on 5-sample windows."""
-
-    def _fit(self, x, y, seed):
-        if x.shape[1] == 5:
-            os.kill(os.getpid(), signal.SIGKILL)
-        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
-'''
-
-
+@pytest.mark.slow
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_a_worker_killed_by_the_system_fails_its_cells_and_the_run_goes_on(index, tmp_path, jobs):
     from slipbench.base import BaseDetector

@@ -9,7 +9,6 @@ import json
 import os
 import shutil
 import sys
-import textwrap
 import threading
 from pathlib import Path
 
@@ -18,6 +17,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+import toys
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -452,13 +452,8 @@ def load_plugin(folder: Path, name: str):
         sys.path.remove(str(folder))
 
 
-PLUGIN = textwrap.dedent("""
-    from slipbench.base import BaseDetector
-    from .helper import THRESHOLD
-
-    class Plug(BaseDetector):
-        name = "plug"
-""")
+# a plugin package: the detector module imports a helper of its package
+PLUGIN = toys.source(toys.Energy) + "\nfrom .helper import THRESHOLD  # noqa: F401\n"
 
 
 def test_a_changed_plugin_changes_its_identity(tmp_path):
@@ -471,14 +466,14 @@ def test_a_changed_plugin_changes_its_identity(tmp_path):
         (pkg / "det.py").write_text(PLUGIN)
         (pkg / "helper.py").write_text("THRESHOLD = 0.5\n")
     keys._unit_identity.cache_clear()
-    first = code_identity(load_plugin(tmp_path / "a", "plugpkg.det").Plug)
+    first = code_identity(load_plugin(tmp_path / "a", "plugpkg.det").Energy)
     keys._unit_identity.cache_clear()
     assert (
-        code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Plug) == first
+        code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Energy) == first
     )  # same code, elsewhere
     (tmp_path / "b" / "plugpkg" / "helper.py").write_text("THRESHOLD = 0.6\n")
     keys._unit_identity.cache_clear()
-    changed = code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Plug)
+    changed = code_identity(load_plugin(tmp_path / "b", "plugpkg.det").Energy)
     assert changed.startswith("src:") and changed != first
     assert changed != code_identity(BaseDetector)
     for mod in [m for m in sys.modules if m.startswith("plugpkg")]:

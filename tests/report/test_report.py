@@ -1,22 +1,18 @@
 """Report layouts pinned by golden files; LaTeX that compiles within the text width; the
-paper's numbers; honest headers and marks; plots.
-
-Regenerate the golden files after an intended layout change with
-``SLIPBENCH_UPDATE_GOLDEN=1 pytest -q tests/test_report.py`` and review the diff.
+paper's numbers; honest headers and marks; plots. (Updating the golden files: tests/goldens.py.)
 """
 
 from __future__ import annotations
 
 import json
-import os
 import re
 import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from goldens import check_golden
 from resultgen import all_rows, fake_rows
 
 from slipbench.app.cli import main
@@ -24,15 +20,6 @@ from slipbench.engine.registry import protocols
 from slipbench.report.document import protocol_table, render_report
 from slipbench.report.paper import paper_frame
 from slipbench.report.tables import LOW_NOTE
-
-GOLDEN = Path(__file__).parent / "golden"
-
-
-def check_golden(name: str, text: str) -> None:
-    path = GOLDEN / name
-    if os.environ.get("SLIPBENCH_UPDATE_GOLDEN"):
-        path.write_text(text)
-    assert text == path.read_text(), f"{name} changed; see the module docstring to update it"
 
 
 def test_markdown_layout_of_every_table():
@@ -138,6 +125,7 @@ def test_paper_numbers_are_complete():
     assert rates.loc["OptoForce20", "tn_rate"] == pytest.approx(0.8979)
 
 
+@pytest.mark.slow
 def test_report_command_on_real_results(small_path, tmp_path, capsys):
     out = tmp_path / "results"
     with pytest.raises(SystemExit) as exit_:
@@ -194,6 +182,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
     assert exit_.value.code == 2
 
 
+@pytest.mark.slow
 def test_plots_for_every_protocol(tmp_path):
     from slipbench.report.plots import write_plots
 

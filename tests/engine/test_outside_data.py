@@ -11,6 +11,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from datagen import subset
 
 from slipbench.data.read import read_dataset
 from slipbench.data.write import write_dataset
@@ -135,6 +136,7 @@ def _all_runs(split, labels, windows):
     return runs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "shape, split, labels, windows",
     [
@@ -228,9 +230,8 @@ def _shuffled_copy(src, dst, seed):
         pq.write_table(table.take(pa.array(order)), dst / name)
 
 
+@pytest.mark.slow
 def test_row_order_of_the_files_leaves_results_identical(tmp_path, small_path):
-    from test_protocols import subset
-
     units = small_path.parent / "units"
     if not units.exists():
         ds = read_dataset(small_path)

@@ -14,8 +14,8 @@ Every population figure has a closed form (normal integrals), so coverage is cou
 the truth, not against a bigger simulation.
 
 The CI run uses ``N_DATASETS`` (40) datasets per setting, about 30 s on one core;
-``SLIPBENCH_COVERAGE_DATASETS=1000 pytest tests/test_coverage.py`` runs the full study, and
-``python tests/test_coverage.py [N] [METHOD]`` prints the tables that :mod:`slipbench.stats.bootstrap`
+``SLIPBENCH_COVERAGE_DATASETS=1000 pytest tests/stats/test_coverage.py`` runs the full study, and
+``python tests/stats/test_coverage.py [N] [METHOD]`` prints the tables that :mod:`slipbench.stats.bootstrap`
 quotes.
 """
 
@@ -27,6 +27,7 @@ import sys
 
 import numpy as np
 import pandas as pd
+import pytest
 from scipy.stats import norm
 
 from slipbench.stats.metrics import FIGURES, classification_figures, paired_comparison
@@ -176,6 +177,7 @@ def _check(table: pd.DataFrame) -> None:
     assert not outside, outside
 
 
+@pytest.mark.slow
 def test_intervals_cover_at_10_or_more_recordings_per_class():
     table = study(N_DATASETS)
     assert list(table.columns) == ["m", "tau", *BANDS]

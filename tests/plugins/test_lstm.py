@@ -71,6 +71,7 @@ def test_gradients_and_scores_match_torch_autograd():
     assert fastlstm.predict_window(x[5], -1.0, 1.0, *params) == pytest.approx(p_torch[5], abs=1e-6)
 
 
+@pytest.mark.slow
 def test_epochs_do_not_depend_on_the_thread_count():
     import numba
 
@@ -140,6 +141,7 @@ def test_batched_inference_matches_window_by_window_and_torch(hidden):
     )  # few: one by one
 
 
+@pytest.mark.slow
 def test_gpu_epoch_matches_cpu_epoch():
     """The torch path (used on GPUs) runs here on the CPU: same model, same updates."""
     from slipbench.detectors.lstm import _numba_epoch, _torch_epoch

@@ -7,28 +7,13 @@ import sys
 import textwrap
 
 import pytest
+import toys
 
 from slipbench.base import BaseDetector
 from slipbench.engine.registry import Registry, add_plugin_folder, detectors
 from slipbench.errors import PluginError, UsageError
 
-PLUGIN = '''
-import numpy as np
-from slipbench.base import BaseDetector
-
-class Energy(BaseDetector):
-    """Mean absolute signal, thresholded at the median of the training windows."""
-    name = "{name}"
-
-    def __init__(self, factor=1.0):
-        self.factor = factor
-
-    def _fit(self, x, y, seed):
-        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
-
-    def _predict_proba(self, x):
-        return (np.abs(x).mean(axis=1) * self.factor > self.cut_).astype(float)
-'''
+PLUGIN = toys.source(toys.Energy)
 
 
 def test_builtins_are_listed_without_importing_them():
@@ -36,7 +21,7 @@ def test_builtins_are_listed_without_importing_them():
 
 
 def test_plugin_folder_and_broken_plugin(tmp_path):
-    (tmp_path / "my_energy.py").write_text(PLUGIN.format(name="my-energy"))
+    (tmp_path / "my_energy.py").write_text(PLUGIN)
     (tmp_path / "broken.py").write_text("raise RuntimeError('boom')\n")
     reg = Registry("detector", BaseDetector, "slipbench.detectors")
     reg.add_folder(tmp_path)
@@ -54,7 +39,7 @@ def test_plugin_folder_and_broken_plugin(tmp_path):
 
 
 def test_duplicate_names_name_both_origins(tmp_path):
-    (tmp_path / "holweg.py").write_text(PLUGIN.format(name="holweg"))
+    (tmp_path / "holweg.py").write_text(PLUGIN)
     reg = Registry("detector", BaseDetector, "slipbench.detectors")
     with pytest.raises(
         UsageError,
@@ -72,7 +57,7 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
     """Build and install a real distribution exposing `slipbench.detectors` into a target folder."""
     src = tmp_path / "src"
     (src / "thirdparty_slip").mkdir(parents=True)
-    (src / "thirdparty_slip" / "__init__.py").write_text(PLUGIN.format(name="third-energy"))
+    (src / "thirdparty_slip" / "__init__.py").write_text(PLUGIN)
     (src / "pyproject.toml").write_text(
         textwrap.dedent("""
         [build-system]
@@ -121,7 +106,7 @@ def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
 def test_a_folder_plugin_runs_the_public_conformance_suite(tmp_path):
     from slipbench.testing import check_detector
 
-    (tmp_path / "my_energy.py").write_text(PLUGIN.format(name="my-energy"))
+    (tmp_path / "my_energy.py").write_text(PLUGIN)
     reg = Registry("detector", BaseDetector, "slipbench.detectors")
     reg.add_folder(tmp_path)
     check_detector(reg.get("my-energy")())

@@ -10,7 +10,6 @@ import re
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +18,8 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+import storegen
+import toys
 from storegen import cell_predictions, cell_row
 
 from slipbench.atomic import folder_lock, unique_folder, write_text_atomic
@@ -26,7 +27,7 @@ from slipbench.base import BaseDetector
 from slipbench.errors import EnvironmentFault
 from slipbench.store.results import RESULTS_FILE, ResultsStore, read_results
 
-WRITER = str(Path(__file__).with_name("storegen.py"))
+WRITER = storegen.__file__
 
 
 def writer(folder: Path, n: int, every: int, prefix: str = "c") -> subprocess.Popen:
@@ -62,6 +63,7 @@ def check_intact(
     return set(rows["key"])
 
 
+@pytest.mark.slow
 def test_kill_9_at_random_moments_then_resume(tmp_path):
     """A writer killed by SIGKILL at seeded random moments (mid-put, mid-consolidate, anywhere)
     leaves every finished cell whole and readable; resuming completes the rest."""
@@ -283,26 +285,10 @@ def test_a_read_only_folder_reads_and_refuses_writes_with_exit_5(tmp_path):
             ResultsStore(late).consolidate()
 
 
-TWO_CELLS = '''
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part
-
-
-class TwoCells(BaseProtocol):
-    """Window 50 of two Nano17 fingers."""
-
-    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
-
-    def cells(self, recordings):
-        for finger in ("index", "middle"):
-            part = (("Nano17", finger),)
-            yield Cell(key={"sensor_type": "Nano17", "sensor_instance": finger, "window": 50},
-                       train=Part(part, "train"), test=Part(part, "test"), window=50)
-'''
-
-
+@pytest.mark.slow
 def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_path, tmp_path):
     (tmp_path / "plugins" / "protocols").mkdir(parents=True)
-    (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(textwrap.dedent(TWO_CELLS))
+    (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
 
     def evaluate(out: Path) -> subprocess.CompletedProcess:
         return subprocess.run(

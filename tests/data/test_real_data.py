@@ -16,7 +16,7 @@ from slipbench.engine.runner import Run, evaluate
 from slipbench.protocols.window_size import WindowSize
 from slipbench.store.results import ResultsStore
 
-SOURCE = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
+SOURCE = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
 pytestmark = pytest.mark.skipif(not SOURCE.is_dir(), reason=f"BioTacSP-DoS not found at {SOURCE}")
 
 
@@ -52,7 +52,7 @@ def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
     """datasets.md's biotacsp-dos.toml through `dataset import csv` is `dataset import biotacsp-dos`."""
     import re
 
-    docs = (Path(__file__).resolve().parents[1] / "datasets.md").read_text()
+    docs = (Path(__file__).resolve().parents[2] / "datasets.md").read_text()
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", docs, flags=re.S) if "BioTacSP" in b]
     (tmp_path / "biotacsp-dos.toml").write_text(block)
     code, out, err = cli(

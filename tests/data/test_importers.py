@@ -21,7 +21,7 @@ from slipbench.data.importers import import_csv, load_mapping
 from slipbench.data.read import read_dataset
 from slipbench.errors import DataError, UsageError
 
-DOCS = Path(__file__).resolve().parents[1] / "datasets.md"
+DOCS = Path(__file__).resolve().parents[2] / "datasets.md"
 
 
 def _write(path: Path, frame: pd.DataFrame, header: str = "") -> Path:

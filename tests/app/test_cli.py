@@ -37,6 +37,7 @@ def test_corrupted_copy_is_refused(small_path, tmp_path, cli):
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_evaluate_writes_results_and_prints_the_table(small_path, tmp_path, cli):
     out = tmp_path / "res"
     argv = [

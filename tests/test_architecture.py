@@ -1,0 +1,264 @@
+"""The package's shape, read from the source with `ast` (nothing is imported): the wings import
+only downwards, no module imports itself back through others, the top level stays small, and the
+built-in plugins reach the package through the plugin contract alone.
+
+The wings, top to bottom (a wing may import its own wing, any wing below it, and the contract)::
+
+    app, testing
+    report, analysis
+    engine
+    stats, stream
+    data, store
+    contract (the top-level modules: params, base, protocol, spectra, errors, seeding, atomic)
+
+Two wings on one level do not import each other, in either direction. Decided from the code:
+stats and stream share no import (stats reads stored rows, stream scores live pushes; both sit on
+data/store and the contract), nor do data and store (they meet only in the engine), nor report
+and analysis (two readers of engine output); a level whose wings call each other would be one
+wing in all but name. (app -> testing, app/bench.py timing on the kit's toy windows, breaks
+this today.) Every import counts for the layering, also one inside a function or under
+``if TYPE_CHECKING:``; for the cycles only those that run (not ``TYPE_CHECKING`` ones).
+
+Each offence is listed as ``file:line module -> module``.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = next(p for p in Path(__file__).resolve().parents if (p / "pyproject.toml").is_file())
+#: the folders of the package's modules: the built-in plugins ship inside it
+FOLDERS = {
+    "slipbench": ROOT / "slipbench",
+    "slipbench.detectors": ROOT / "detectors",
+    "slipbench.protocols": ROOT / "protocols",
+}
+PLUGIN_PACKAGES = ("slipbench.detectors", "slipbench.protocols")
+CONTRACT = "contract"
+#: wing -> level; a wing may import wings of a lower level, its own wing and the contract
+LEVELS = {
+    CONTRACT: 0,
+    "data": 1,
+    "store": 1,
+    "stats": 2,
+    "stream": 2,
+    "engine": 3,
+    "report": 4,
+    "analysis": 4,
+    "app": 5,
+    "testing": 5,
+}
+#: most .py files directly in slipbench/ (the contract and the package's __init__)
+MAX_TOP_LEVEL = 10
+#: plugin imports outside the contract, each with its reason; each is a debt to pay off
+PLUGIN_EXCEPTIONS = {
+    ("slipbench.detectors.lstm_bench", "slipbench.app.bench"): (
+        "the LSTM's timing script borrows the bench harness's timer and report; it is a script "
+        "beside the plugin, never imported by the plugin itself"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class Import:
+    source: str  # the importing module
+    target: str  # the imported module of the package
+    file: str  # the importing file, relative to the repository
+    line: int
+    runs: bool  # False under ``if TYPE_CHECKING:``
+
+    def __str__(self) -> str:
+        return f"{self.file}:{self.line} {self.source} -> {self.target}"
+
+
+def modules() -> dict[str, Path]:
+    """Every module of the package (plugins included) by dotted name."""
+    found = {}
+    for package, folder in FOLDERS.items():
+        for path in sorted(folder.rglob("*.py")):
+            if package == "slipbench" and path.relative_to(folder).parts[0] in (
+                "detectors",
+                "protocols",
+            ):
+                continue  # never the case in a source tree; an installed tree would nest them
+            parts = path.relative_to(folder).with_suffix("").parts
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            found[".".join((package, *parts))] = path
+    return found
+
+
+def _type_checking_lines(tree: ast.AST) -> set[int]:
+    lines = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            for child in node.body:
+                lines.update(range(child.lineno, child.end_lineno + 1))
+    return lines
+
+
+def imports(name: str, path: Path, known: set[str]) -> tuple[list[Import], list[Import]]:
+    """The imports of package modules made by ``name`` (at any depth: module level, functions,
+    ``TYPE_CHECKING`` blocks), and those of ``slipbench.*`` names that match no module."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    tree = ast.parse(path.read_text(), filename=str(path))
+    typing_only = _type_checking_lines(tree)
+    file = path.relative_to(ROOT).as_posix()
+    found, unknown = [], []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                kept = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(kept + ([base] if base else []))
+            # `from a import b`: b is a module of a or a name in a
+            targets = [
+                f"{base}.{a.name}" if f"{base}.{a.name}" in known else base for a in node.names
+            ]
+        else:
+            continue
+        for target in dict.fromkeys(targets):
+            if not (target == "slipbench" or target.startswith("slipbench.")):
+                continue
+            owner = target
+            while owner not in known and "." in owner:
+                owner = owner.rpartition(".")[0]  # `import a.b.c` of a name: its module
+            edge = Import(name, owner, file, node.lineno, node.lineno not in typing_only)
+            if target not in known and owner == "slipbench" and target != "slipbench":
+                unknown.append(Import(name, target, file, node.lineno, edge.runs))
+            elif owner != name:
+                found.append(edge)
+    return found, unknown
+
+
+def graph() -> tuple[dict[str, list[Import]], list[Import]]:
+    mods = modules()
+    known = set(mods)
+    edges, unknown = {}, []
+    for name, path in mods.items():
+        edges[name], missing = imports(name, path, known)
+        unknown += missing
+    return edges, unknown
+
+
+def wing(module: str) -> str | None:
+    """The wing of a module of slipbench proper; None for the built-in plugins."""
+    parts = module.split(".")
+    if module.startswith(PLUGIN_PACKAGES):
+        return None
+    if len(parts) == 1:
+        return CONTRACT  # slipbench/__init__.py
+    return parts[1] if (ROOT / "slipbench" / parts[1]).is_dir() else CONTRACT
+
+
+def _listing(offences) -> str:
+    return "\n".join(f"  {o}" for o in sorted(offences, key=str))
+
+
+def test_every_module_belongs_to_a_known_wing():
+    strays = [m for m in modules() if wing(m) is not None and wing(m) not in LEVELS]
+    assert not strays, (
+        f"modules in no wing (add the wing to LEVELS and the docstring): {sorted(strays)}"
+    )
+
+
+def test_wings_import_only_downwards():
+    edges, _ = graph()
+    bad = []
+    for found in edges.values():
+        for imp in found:
+            src, dst = wing(imp.source), wing(imp.target)
+            if src is None:
+                continue  # plugins: test_builtin_plugins_import_only_the_contract
+            if dst is None:
+                bad.append(imp)  # the package never imports a plugin: it reaches them by id
+            elif src != dst and dst != CONTRACT and LEVELS[dst] >= LEVELS[src]:
+                bad.append(imp)
+    assert not bad, (
+        "imports against the wing order (app, testing -> report, analysis -> engine -> "
+        "stats, stream -> data, store -> contract):\n" + _listing(bad)
+    )
+
+
+def test_imports_of_the_package_name_real_modules():
+    _, unknown = graph()
+    assert not unknown, "imports of slipbench names that no module defines:\n" + _listing(unknown)
+
+
+def test_no_import_cycles():
+    edges, _ = graph()
+    runtime = {m: [i for i in found if i.runs] for m, found in edges.items()}
+    cycles, state, path = [], {}, []
+
+    def visit(node: str) -> None:
+        state[node] = 1
+        for imp in sorted(runtime[node], key=lambda i: i.target):
+            path.append(imp)
+            if state.get(imp.target) == 1:
+                start = next(k for k, i in enumerate(path) if i.source == imp.target)
+                cycles.append(path[start:])
+            elif imp.target not in state:
+                visit(imp.target)
+            path.pop()
+        state[node] = 2
+
+    for node in sorted(runtime):
+        if node not in state:
+            visit(node)
+    assert not cycles, "import cycles, each as its imports in turn:\n" + "\n--\n".join(
+        "\n".join(f"  {i}" for i in cycle) for cycle in cycles
+    )
+
+
+def test_the_top_level_stays_small():
+    top = sorted(p.name for p in (ROOT / "slipbench").glob("*.py"))
+    assert len(top) <= MAX_TOP_LEVEL, (
+        f"{len(top)} .py files directly in slipbench/ (at most {MAX_TOP_LEVEL}): {top}; "
+        "a module with a job of its own belongs in a wing"
+    )
+
+
+def _own_helper(source: str, target: str) -> bool:
+    """A plugin's own helpers: its folder's __init__ and the modules of its folder whose name
+    starts with the plugin's first word (lstm, lstm_kernels and lstm_bench are one family)."""
+    folder, stem = source.rsplit(".", 1)
+    if target == folder:
+        return True
+    if target.rpartition(".")[0] != folder:
+        return False
+    return target.rpartition(".")[2].split("_")[0] == stem.split("_")[0]
+
+
+def test_builtin_plugins_import_only_the_contract():
+    edges, _ = graph()
+    bad, excused = [], set()
+    for name, found in edges.items():
+        if not name.startswith(PLUGIN_PACKAGES):
+            continue
+        for imp in found:
+            if wing(imp.target) == CONTRACT or _own_helper(name, imp.target):
+                continue
+            if (imp.source, imp.target) in PLUGIN_EXCEPTIONS:
+                excused.add((imp.source, imp.target))
+                continue
+            bad.append(imp)
+    assert not bad, (
+        "built-in plugins importing beyond the contract and their own helpers:\n" + _listing(bad)
+    )
+    stale = set(PLUGIN_EXCEPTIONS) - excused
+    assert not stale, f"exceptions no longer needed (remove them): {sorted(stale)}"
+
+
+def test_the_graph_sees_imports():
+    """The checks above would pass on an empty graph: make sure the parser finds real imports,
+    of every kind (absolute, from-import of a module, relative, inside a function)."""
+    edges, _ = graph()
+    targets = {m: {i.target for i in found} for m, found in edges.items()}
+    assert "slipbench.base" in targets["slipbench.engine.registry"]
+    assert "slipbench.protocol" in targets["slipbench.protocols.window_size"]
+    assert "slipbench.detectors.lstm_kernels" in targets["slipbench.detectors.lstm"]
+    assert {wing(m) for m in edges} >= set(LEVELS) | {None}

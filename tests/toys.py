@@ -1,0 +1,171 @@
+"""The toy plugins of the tests, in one place: detectors and protocols as small as the contract
+allows, and detectors broken on purpose. Tests use the classes in process, and `source` gives the
+text of a plugin file (this module's imports, then the toys) for those that need a plugin
+folder, an installed package or a changed plugin; a plugin file holds one plugin and the toys it
+derives from, as the registry asks."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+import os
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+
+from slipbench.base import BaseDetector
+from slipbench.errors import UsageError
+from slipbench.params import Interval
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part
+
+
+class Energy(BaseDetector):
+    """Mean absolute signal above a training quantile."""
+
+    _parameter_constraints = {"quantile": Interval(float, 0.0, 1.0)}
+
+    def __init__(self, quantile=0.5):
+        self.quantile = quantile
+
+    def _fit(self, x, y, seed):
+        self.cut_ = float(np.quantile(np.abs(x).mean(axis=1), self.quantile))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+class NeedsDep(Energy):
+    """Energy that declares a dependency no one has installed."""
+
+    requires = ("no_such_module_slipbench",)
+
+
+class NanScores(Energy):
+    """Returns NaN scores."""
+
+    def _predict_proba(self, x):
+        score = super()._predict_proba(x)
+        score[::3] = np.nan
+        return score
+
+
+class BigScores(Energy):
+    """Returns scores up to 909."""
+
+    def _predict_proba(self, x):
+        return super()._predict_proba(x) * 909
+
+
+class ShortScores(Energy):
+    """Returns too few scores."""
+
+    def _predict_proba(self, x):
+        return super()._predict_proba(x)[:-1]
+
+
+class UsageInFit(Energy):
+    """Raises a UsageError from fit."""
+
+    def _fit(self, x, y, seed):
+        raise UsageError("bad day")
+
+
+class Flaky(BaseDetector):
+    """Raises on 5-sample windows, thresholds the mean absolute value otherwise."""
+
+    name = "flaky"
+
+    def __init__(self, cut=1.0):
+        self.cut = cut
+
+    def _fit(self, x, y, seed):
+        if x.shape[1] == 5:
+            raise RuntimeError("diverged on short windows")
+        self.level_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.level_ * self.cut).astype(float)
+
+
+class Slow(BaseDetector):
+    """Sleeps, then thresholds the mean absolute signal (for time-limit and resume tests)."""
+
+    name = "slow"
+
+    def __init__(self, seconds=0.3):
+        self.seconds = seconds
+
+    def _fit(self, x, y, seed):
+        time.sleep(self.seconds)
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+class Doomed(BaseDetector):
+    """Killed by the system (as the out-of-memory killer does) on 5-sample windows."""
+
+    def _fit(self, x, y, seed):
+        if x.shape[1] == 5:
+            os.kill(os.getpid(), signal.SIGKILL)
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+class TwoCells(BaseProtocol):
+    """Window 50 of two Nano17 fingers."""
+
+    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
+
+    def cells(self, recordings):
+        for finger in ("index", "middle"):
+            part = (("Nano17", finger),)
+            yield Cell(
+                key={"sensor_type": "Nano17", "sensor_instance": finger, "window": 50},
+                train=Part(part, "train"),
+                test=Part(part, "test"),
+                window=50,
+            )
+
+
+class TwoWindows(BaseProtocol):
+    """Windows of 25 and 50 samples on two Nano17 fingers."""
+
+    layout = Layout(
+        "Energy at two window lengths.",
+        ("sensor_type", "sensor_instance"),
+        "window",
+        title="Two windows",
+        group="at Window",
+        figure="curve",
+        x_label="window (samples)",
+    )
+
+    def cells(self, recordings):
+        for finger in ("index", "middle"):
+            part = (("Nano17", finger),)
+            for window in (25, 50):
+                yield Cell(
+                    {"sensor_type": "Nano17", "sensor_instance": finger, "window": window},
+                    Part(part, "train"),
+                    Part(part, "test"),
+                    window,
+                )
+
+
+def source(toy: type) -> str:
+    """The text of a plugin file defining ``toy`` and the toys it derives from (bases first),
+    under this module's imports."""
+    text = Path(__file__).read_text()
+    header = [
+        ast.get_source_segment(text, node)
+        for node in ast.parse(text).body
+        if isinstance(node, ast.Import | ast.ImportFrom)
+    ]
+    classes = [c for c in reversed(toy.__mro__) if c.__module__ == __name__]
+    return "\n".join(header) + "\n\n\n" + "\n\n".join(inspect.getsource(c) for c in classes)
