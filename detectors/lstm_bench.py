@@ -8,8 +8,7 @@ from collections.abc import Callable
 import numpy as np
 import pandas as pd
 
-from slipbench.app.bench import rate
-from slipbench.base import DEFAULT_HOP, Streamer, push_costs
+from slipbench.base import DEFAULT_HOP, Streamer, push_costs, rate
 from slipbench.detectors import lstm_kernels as kernels
 
 

@@ -23,7 +23,7 @@ from slipbench.protocol import (
     unit_rate,
     window_cells,
 )
-from slipbench.stream.metrics import MAX_DELAY_MS
+from slipbench.vocabulary import MAX_DELAY_MS
 
 METRICS = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
 LAYOUT = Layout(

@@ -17,6 +17,7 @@ import os
 import re
 import sys
 import time
+from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Any, ClassVar
 
@@ -510,6 +511,18 @@ def stream_scores(detector: BaseDetector, signal: Any, hop: int) -> tuple[np.nda
         )
     scores, _ = stream.push(signal)
     return stream.window - 1 + stream.hop * np.arange(len(scores), dtype=np.int64), scores
+
+
+def rate(call: Callable[[], object], units: float, seconds: float) -> float:
+    """Units per second of ``call``, repeated for at least ``seconds`` after one warm-up call."""
+    call()
+    n, start = 0, time.perf_counter()
+    while True:
+        call()
+        n += 1
+        elapsed = time.perf_counter() - start
+        if elapsed >= seconds:
+            return n * units / elapsed
 
 
 def push_costs(stream: Streamer, pieces: list[np.ndarray]) -> tuple[float, float]:

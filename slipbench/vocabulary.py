@@ -24,6 +24,8 @@ FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)  # mm/s, arm speeds of free-space motion
 # ----------------------------------------------------------------------------- thresholds
 MIN_WINDOW = 5  # samples: the shortest window a detector is given
 LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover
+# a slip onset counts as detected within this delay: a grasp controller's reaction budget
+MAX_DELAY_MS = 200.0
 
 # ----------------------------------------------------------------------------- orders and names
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name

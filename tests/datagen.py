@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slipbench.data.dataset import Dataset
+from slipbench.data.format import Dataset
 
 
 def subset(ds: Dataset, mask) -> Dataset:

@@ -7,25 +7,12 @@ taken minutes apart do not).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 
 import pandas as pd
 
 from slipbench.data.toy import toy_windows
 from slipbench.engine.fitting import PeakMemory
 from slipbench.engine.registry import detectors
-
-
-def rate(call: Callable[[], object], units: float, seconds: float) -> float:
-    """Units per second of ``call``, repeated for at least ``seconds`` after one warm-up call."""
-    call()
-    n, start = 0, time.perf_counter()
-    while True:
-        call()
-        n += 1
-        elapsed = time.perf_counter() - start
-        if elapsed >= seconds:
-            return n * units / elapsed
 
 
 def detector_costs(names: list[str], n_windows: int, length: int, seed: int = 0) -> pd.DataFrame:

@@ -53,10 +53,10 @@ import pandas as pd
 
 from slipbench.errors import UsageError
 from slipbench.seeding import rng_for
+from slipbench.vocabulary import MAX_DELAY_MS
 
 LEVEL = 0.95
 N_RESAMPLES = 999
-MAX_DELAY_MS = 200.0
 N_THRESHOLDS = 201  # thresholds of a sweep: quantiles 0, 0.5 %, ..., 100 % of the scores
 
 
