@@ -1,0 +1,7 @@
+"""The stats wing: deciding. Figures, intervals and verdicts; never how they are written.
+
+The cluster bootstrap (``bootstrap``), a cell's figures with intervals and paired changes
+(``metrics``), joint intervals over fingers and seeds from stored predictions (``joint``), the
+leaderboard's rank tests (``leaderboard``) and compare's per-cell and summary verdicts
+(``compare``). May import: ``store``, ``data`` and the contract; never ``report`` or ``app``.
+"""
