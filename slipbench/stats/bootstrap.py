@@ -4,7 +4,7 @@ Windows cut from one recording are correlated, so the unit of resampling is the 
 recording, or a trial that several units recorded at once), never the window; and a test set
 holds a fixed number of slip and non-slip clusters, so clusters are resampled within their class
 (and balancing stratum, when given). The interval is built in three steps, each chosen by
-measuring coverage (``tests/test_coverage.py``):
+measuring coverage (``tests/stats/test_coverage.py``):
 
 1. **Standard error**: Rao and Wu's rescaling bootstrap (J. Am. Stat. Assoc. 83, 1988): in a
    stratum of ``n_h`` clusters draw ``n_h - 1`` with replacement and weight them
@@ -31,7 +31,7 @@ Measured coverage of 95 % intervals, 1,000 simulated test sets per setting, two 
 recordings each, window counts 10-200 (slip) and 5-100 (non-slip); ``tau`` is the per-recording
 random effect: 0.5 gives an intra-recording correlation of hits of 0.14-0.18, 1.5 of 0.41-0.47
 (cells of real BioTac SP and of simulated Holweg results measured 0.05-0.52). ``d``: the paired
-change between two detectors on the same windows (compare). Model: ``tests/test_coverage.py``.
+change between two detectors on the same windows (compare). Model: ``tests/stats/test_coverage.py``.
 
     ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
       m  tau  acc    TP     TN     BA     AUROC  d acc  d TP   d TN   d BA   d AUROC

@@ -14,14 +14,14 @@ predictions files hold one, else the recording). Otherwise the change is judged 
 rows alone (unpaired): the figures' bootstrap standard errors combined as independent, with the
 smaller of the two rows' degrees of freedom. Two detectors tested on the same windows err
 together more often than not, which only the paired path can see, so the unpaired interval errs
-wide: on simulated cells (``tests/test_compare.py``) it was wider in 39 of 40 cells (median 1.45
+wide: on simulated cells (``tests/stats/test_compare.py``) it was wider in 39 of 40 cells (median 1.45
 times) and found 0 of the 7 regressions the paired path found. Keep predictions to compare with
 power.
 
 Verdicts. Every interval is simultaneous over ALL the cells the run compares: with ``m`` cells
 compared (both sides finished), each is a t-interval at level ``1 - 0.05 / m`` (Bonferroni), so
 the chance that any cell of the run is wrongly called regressed or improved is at most 5 %.
-Measured (``tests/test_compare.py``, ``SLIPBENCH_NULL_RUNS=100``): 100 simulated comparisons
+Measured (``tests/stats/test_compare.py``, ``SLIPBENCH_NULL_RUNS=100``): 100 simulated comparisons
 of two equally good detectors that differ at random per recording, 280 cells each of 10-40
 recordings per class, margin 0: no run called any cell regressed, where per-cell 95 %
 intervals called one in all 100 runs. A cell *regressed*

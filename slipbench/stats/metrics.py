@@ -4,8 +4,8 @@ Windows cut from one recording are correlated, so every interval here comes from
 stratified cluster bootstrap of :mod:`slipbench.stats.bootstrap`: whole clusters (``groups``: a
 recording, or a trial shared by several units) are resampled within their class, never single
 windows. Its coverage is measured, not assumed: see that module's docstring and
-``tests/test_coverage.py``. Window-level Wilson intervals are offered beside them for the view
-that treats windows as independent; ``tests/test_metrics.py`` shows they undercover.
+``tests/stats/test_coverage.py``. Window-level Wilson intervals are offered beside them for the view
+that treats windows as independent; ``tests/stats/test_metrics.py`` shows they undercover.
 
 Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn_rate``
 (non-slip windows passed), ``balanced_accuracy`` (their mean) and ``auroc``.
