@@ -311,10 +311,14 @@ def _lines(before: int, bad: str) -> str:
         (
             _lines(6, "7,1\n"),
             {},
-            r"r.csv: line 8: column 'taxel_13': empty or missing value",
-        ),  # a short row
+            r"r.csv: line 8: 2 fields, but the header \(line 1\) names 3 columns: a short row",
+        ),
         (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value"),
-        (_lines(6, "7,1,3,4\n"), {}, r"r.csv: not a well-formed CSV file .*line 8"),
+        (
+            _lines(6, "7,1,3,4\n"),
+            {},
+            r"r.csv: line 8: 4 fields, but the header \(line 1\) names 3 columns: value '4' has no column",
+        ),
         (
             "t,taxel_12,taxel_13\n" + "0,1,2\n1,2,3\n1,3,3\n",
             {"rate": {"time_column": "t"}},
@@ -479,7 +483,7 @@ def test_cli_import_and_validate(tmp_path, cli):
     code, out, err = cli(["dataset", "validate", str(tmp_path / "out")])
     assert code == 0 and "2 recordings in 2 trials" in out
     bad = tmp_path / "src" / "taxels" / "wood" / "trial_1.csv"
-    bad.write_text(bad.read_text().replace("\n", "\n1,x\n", 1))
+    bad.write_text(bad.read_text().replace("\n", "\n1,x," + "1," * 47 + "hold\n", 1))
     code, out, err = cli(
         [
             "dataset",
@@ -493,3 +497,86 @@ def test_cli_import_and_validate(tmp_path, cli):
     )
     assert code == 2 and "trial_1.csv: line 2: column 'taxel_0': non-numeric value 'x'" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out2").exists()
+
+
+# ----------------------------------------------------------------------------- CSV shapes: never a shifted column
+def _pac_ele(
+    rows_end: str, header_end: str, newline: str = "\n", bom: str = ""
+) -> tuple[str, np.ndarray]:
+    """A BioTac-like file: t, pac1..pac22, ele1..ele19, with the given line ends; and its
+    numbers (t, pac, ele), each column distinct so that a shift shows."""
+    names = ["t"] + [f"pac{i}" for i in range(1, 23)] + [f"ele{i}" for i in range(1, 20)]
+    values = np.arange(5)[:, None] * 1000 + np.arange(len(names))[None, :]
+    values[:, 0] = np.arange(5) * 10  # t in ms at 100 Hz
+    lines = [",".join(names) + header_end] + [",".join(map(str, r)) + rows_end for r in values]
+    return bom + newline.join(lines) + newline, values
+
+
+@pytest.mark.parametrize(
+    "rows_end, header_end, newline, bom",
+    [
+        (",", "", "\n", ""),  # the issue's files: every row ends in a comma, the header does not
+        (",", ",", "\n", ""),  # both end in a comma
+        ("", ",", "\n", ""),  # only the header does
+        (",,", "", "\r\n", "\ufeff"),  # two trailing commas, Windows line ends, a byte-order mark
+    ],
+)
+def test_trailing_delimiters_are_read_unshifted(tmp_path, rows_end, header_end, newline, bom):
+    text, values = _pac_ele(rows_end, header_end, newline, bom)
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "r.csv").write_bytes(text.encode())
+    base = {
+        "recording": {"sensor_type": "BioTac", "sensor_instance": "ff", "scenario": "slip"},
+        "rate": {"time_column": "t", "time_unit": "ms"},
+    }
+    by_pattern = read_dataset(
+        import_csv(src, tmp_path / "p", {**base, "channels": {"pattern": r"pac\d+", "count": 22}})
+    )
+    np.testing.assert_array_equal(by_pattern.samples["r"], values[:, 1:23])  # pac1 holds pac1
+    assert by_pattern.recordings["sampling_rate_hz"].iloc[0] == 100.0
+    by_name = read_dataset(
+        import_csv(src, tmp_path / "n", {**base, "channels": {"names": ["ele1", "ele19"]}})
+    )
+    np.testing.assert_array_equal(by_name.samples["r"], values[:, [23, 41]])  # ele19 is not empty
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        # every row has one value more than the header names: a name is missing
+        (
+            "a,b,c\n1,2,3,4\n5,6,7,8\n",
+            r"line 2: 4 fields, but the header \(line 1\) names 3 columns: value '4' has no column",
+        ),
+        # the header ends in a comma, but the rows hold a value there: a nameless column
+        (
+            "a,b,c,\n1,2,3\n5,6,7,8\n",
+            r"line 3: 4 fields, but the header \(line 1\) names 3 columns: value '8'",
+        ),
+        # one ragged row among trailing-comma rows, after skipped and comment lines
+        (
+            "logger v2\n# units: N\na,b,c\n1,2,3,\n\n5,6\n",
+            r"line 6: 2 fields, but the header \(line 3\) names 3 columns: a short row",
+        ),
+        (
+            "a,b,a\n1,2,3\n4,5,6\n",
+            r"line 1: column name 'a' appears twice in the header \(columns 1 and 3\)",
+        ),
+        (",,\n1,2,3\n", r"line 1: the header names no column"),
+    ],
+)
+def test_ragged_rows_are_refused_by_line(tmp_path, text, message):
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "r.csv").write_text(text)
+    mapping = {
+        "skip_rows": 1 if text.startswith("logger") else 0,
+        "comment": "#",
+        "recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip"},
+        "channels": {"names": ["a", "b"]},
+        "rate": {"hz": 100},
+    }
+    with pytest.raises(DataError, match=r"r\.csv: " + message):
+        import_csv(src, tmp_path / "out", mapping)
+    assert not (tmp_path / "out").exists()
