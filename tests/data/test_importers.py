@@ -580,3 +580,165 @@ def test_ragged_rows_are_refused_by_line(tmp_path, text, message):
     with pytest.raises(DataError, match=r"r\.csv: " + message):
         import_csv(src, tmp_path / "out", mapping)
     assert not (tmp_path / "out").exists()
+
+
+# ----------------------------------------------------------------------------- hold-slip trials, per-file labels
+def _holds(src: Path, names: dict[str, list[str]]) -> None:
+    for name, states in names.items():
+        _write(src / name, pd.DataFrame({"p": np.arange(len(states)) % 5, "state": states}))
+
+
+def test_hold_slip_trial_that_never_slips_is_kept(tmp_path):
+    src = tmp_path / "src"
+    _holds(src, {"held.csv": ["hold"] * 30, "slipped.csv": ["hold"] * 10 + ["slip"] * 20})
+    mapping = {
+        "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "hold-slip"},
+        "channels": {"names": ["p"]},
+        "rate": {"hz": 100},
+        "labels": {
+            "column": "state",
+            "slip": ["slip"],
+            "no_slip": ["hold"],
+            "unlabelled": ["drop"],
+        },
+    }
+    ds = read_dataset(import_csv(src, tmp_path / "out", mapping))
+    assert ds.slip_labels["held"].tolist() == [0] * 30  # all of it hold, as the reader keeps it
+    # from segments: a file without one is no-slip throughout where unlisted says so
+    plain = {**mapping, "labels": {"unlisted": "no-slip"}, "channels": {"names": ["p"]}}
+    ds = read_dataset(import_csv(src, tmp_path / "seg", plain))
+    assert (ds.slip_labels["held"] == 0).all()
+    _holds(src, {"held.csv": ["drop"] * 30})  # no hold at all: refused, naming the file
+    with pytest.raises(
+        DataError, match=r"held.csv: scenario hold-slip: no sample labelled no-slip"
+    ):
+        import_csv(src, tmp_path / "bad", mapping)
+
+
+def test_after_offset_per_file_and_per_segment(tmp_path):
+    """Drops are unlabelled after the slip by default of this mapping; one file holds again after
+    its slip (a rule says so), and one segment of the table is followed by an unlabelled stretch."""
+    src = tmp_path / "src"
+    for name in ("drop.csv", "regrip.csv", "twice.csv"):
+        _write(src / name, pd.DataFrame({"p": np.arange(100) % 7}))
+    pd.DataFrame(
+        {
+            "file": ["drop.csv", "regrip.csv", "twice.csv", "twice.csv"],
+            "onset": [40, 40, 10, 60],
+            "offset": [70, 70, 20, 80],
+            "after_offset": ["", "", "unlabelled", "no-slip"],
+        }
+    ).to_csv(tmp_path / "seg.csv", index=False)
+    mapping = {
+        "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "hold-slip"},
+        "rules": [{"glob": "regrip.csv", "after_offset": "no-slip"}],
+        "channels": {"names": ["p"]},
+        "rate": {"hz": 100},
+        "labels": {"segments": "seg.csv", "after_offset": "unlabelled"},
+    }
+    ds = read_dataset(import_csv(src, tmp_path / "out", mapping, base=tmp_path))
+    assert ds.slip_labels["drop"].tolist() == [0] * 40 + [1] * 30 + [-1] * 30
+    assert ds.slip_labels["regrip"].tolist() == [0] * 40 + [1] * 30 + [0] * 30
+    assert ds.slip_labels["twice"].tolist() == [0] * 10 + [1] * 10 + [-1] * 40 + [1] * 20 + [0] * 20
+    bad = {**mapping, "rules": [{"glob": "regrip.csv", "after_offset": "hold"}]}
+    with pytest.raises(
+        UsageError, match=r"after_offset of .*regrip.csv is 'hold'; it must be one of"
+    ):
+        import_csv(src, tmp_path / "bad", bad, base=tmp_path)
+    table = pd.read_csv(tmp_path / "seg.csv").fillna("")
+    table.loc[2, "after_offset"] = "dropped"
+    table.to_csv(tmp_path / "seg.csv", index=False)
+    with pytest.raises(
+        DataError, match=r"seg.csv: line 4: column 'after_offset': 'dropped' is not one of"
+    ):
+        import_csv(src, tmp_path / "bad", mapping, base=tmp_path)
+
+
+# ----------------------------------------------------------------------------- fields from metadata files
+def _sessions(src: Path, rates: dict[str, float]) -> None:
+    for session, rate in rates.items():
+        for k in (1, 2):
+            t = np.arange(50) / rate
+            _write(
+                src / session / f"trial_{k}.csv", pd.DataFrame({"p": np.round(np.sin(t * 7), 6)})
+            )
+
+
+BASE = {
+    "files": "*/*.csv",
+    "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "slip"},
+    "channels": {"names": ["p"]},
+}
+
+
+def test_rate_from_a_metadata_file_per_folder(tmp_path):
+    src = tmp_path / "src"
+    _sessions(src, {"monday": 120.0, "tuesday": 119.5})
+    (src / "monday" / "info.json").write_text('{"logger": "v2", "rate_hz": 120}')
+    (src / "tuesday" / "info.json").write_text('{"logger": "v2", "rate_hz": 119.5}')
+    mapping = {
+        **BASE,
+        "metadata": [{"table": "{parent}/info.json", "fields": {"sampling_rate_hz": "rate_hz"}}],
+    }
+    rec = read_dataset(import_csv(src, tmp_path / "out", mapping)).recordings
+    assert dict(zip(rec["recording_id"], rec["sampling_rate_hz"])) == {
+        "monday/trial_1": 120.0,
+        "monday/trial_2": 120.0,
+        "tuesday/trial_1": 119.5,
+        "tuesday/trial_2": 119.5,
+    }
+    (src / "tuesday" / "info.json").unlink()
+    with pytest.raises(
+        DataError,
+        match=r"tuesday/info.json: not found \(\[\[metadata\]\] #1.table for tuesday/trial_1.csv\)",
+    ):
+        import_csv(src, tmp_path / "bad", mapping)
+
+
+def test_rate_and_speed_from_one_table_keyed_by_file_name(tmp_path):
+    src = tmp_path / "src"
+    _sessions(src, {"a": 60.0, "b": 60.0})
+    (src / "log.csv").write_text(
+        "file,hz,speed\n"
+        "a/trial_1.csv,60,10\na/trial_2.csv,59.9,20\nb/trial_1.csv,60.1,\nb/trial_2.csv,60,40\n"
+    )
+    entry = {
+        "table": "log.csv",
+        "key": "file",
+        "fields": {"sampling_rate_hz": "hz", "speed_mm_s": "speed"},
+    }
+    rec = read_dataset(import_csv(src, tmp_path / "out", {**BASE, "metadata": [entry]})).recordings
+    assert rec["sampling_rate_hz"].tolist() == [60.0, 59.9, 60.1, 60.0]
+    assert rec["speed_mm_s"].tolist()[:2] == [10.0, 20.0] and np.isnan(rec["speed_mm_s"].iloc[2])
+    # keyed by a column from the path: a TOML list of sessions
+    (src / "sessions.toml").write_text(
+        '[[session]]\nname = "a"\nrate = 50\n[[session]]\nname = "b"\nrate = 50.5\n'
+    )
+    by_session = {
+        "table": "sessions.toml",
+        "key": "name",
+        "match": "{parent}",
+        "fields": {"sampling_rate_hz": "rate"},
+    }
+    rec = read_dataset(
+        import_csv(src, tmp_path / "toml", {**BASE, "metadata": [by_session]})
+    ).recordings
+    assert rec["sampling_rate_hz"].tolist() == [50.0, 50.0, 50.5, 50.5]
+    # a record missing, twice, or the table imported as a recording: named
+    entry = {**entry, "fields": {"sampling_rate_hz": "hz"}}
+    (src / "log.csv").write_text("file,hz\na/trial_1.csv,60\n")
+    with pytest.raises(
+        DataError, match=r"log.csv: no record with file = 'a/trial_2.csv', for a/trial_2.csv"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "metadata": [entry]})
+    (src / "log.csv").write_text("file,hz\na/trial_1.csv,60\na/trial_1.csv,61\n")
+    with pytest.raises(
+        DataError, match=r"log.csv: line 2 and .*log.csv: line 3: both have file = 'a/trial_1.csv'"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "metadata": [entry]})
+    with pytest.raises(
+        UsageError, match=r"the table log.csv is also selected as a recording by files"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "files": "**/*.csv", "metadata": [entry]})
+    with pytest.raises(UsageError, match=r"\[\[metadata\]\] #1.fields: 'rate' is not a field"):
+        load_mapping({**BASE, "metadata": [{"table": "x.csv", "fields": {"rate": "hz"}}]})

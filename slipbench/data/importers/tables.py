@@ -39,10 +39,10 @@ def line_of(path: Path, row: int, csv: dict[str, Any]) -> int:
 
 
 def read_csv(
-    path: Path, csv: dict[str, Any], text_columns: list[str], min_rows: int = 2
+    path: Path, csv: dict[str, Any], text_columns: list[str], min_rows: int = 2, text: bool = False
 ) -> pd.DataFrame:
-    """The table of one CSV file as the mapping's ``csv`` settings say; ``text_columns`` stay
-    text. A file that cannot be read, a row with a value beyond the header's last column or
+    """The table of one CSV file as the mapping's ``csv`` settings say; ``text_columns`` (every
+    column with ``text``) stay text. A file that cannot be read, a row with a value beyond the header's last column or
     fewer fields than it names, or fewer than ``min_rows`` rows, is refused naming the line."""
     lines = _data_lines(path, csv)
     if not lines:
@@ -56,7 +56,7 @@ def read_csv(
             header=0,
             index_col=False,
             usecols=range(width),
-            dtype={c: str for c in text_columns},
+            dtype=str if text else {c: str for c in text_columns},
             low_memory=False,
         )
     except pd.errors.ParserError as exc:  # e.g. an unterminated quote
