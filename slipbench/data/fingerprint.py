@@ -26,18 +26,7 @@ def content_fingerprint(
     a recording has none). Independent of storage: float32 values hash as their exact float64.
     """
     h = hashlib.blake2b(digest_size=8)
-    meta = [
-        [plain_value(v) for v in row]
-        for row in recordings[list(FORMAT_COLUMNS)].itertuples(index=False, name=None)
-    ]
-    h.update(
-        json.dumps(
-            {"format": FORMAT_VERSION, "columns": FORMAT_COLUMNS, "rows": meta},
-            ensure_ascii=False,
-            allow_nan=False,
-            separators=(",", ":"),
-        ).encode()
-    )
+    h.update(_metadata_json(recordings))
     block = 1 << 18  # rows per hashed piece: a large recording is never copied whole
     for rid in recordings["recording_id"]:
         a = samples[rid]
@@ -53,3 +42,23 @@ def content_fingerprint(
             ).tobytes()
         )
     return h.hexdigest()
+
+
+def recordings_digest(recordings: pd.DataFrame) -> str:
+    """BLAKE2b (16 hex digits) of the format's columns of every recording (sorted by
+    ``recording_id``): what ``recordings.parquet`` holds, so that a change of it is told apart
+    from a change of the samples."""
+    return hashlib.blake2b(_metadata_json(recordings), digest_size=8).hexdigest()
+
+
+def _metadata_json(recordings: pd.DataFrame) -> bytes:
+    meta = [
+        [plain_value(v) for v in row]
+        for row in recordings[list(FORMAT_COLUMNS)].itertuples(index=False, name=None)
+    ]
+    return json.dumps(
+        {"format": FORMAT_VERSION, "columns": FORMAT_COLUMNS, "rows": meta},
+        ensure_ascii=False,
+        allow_nan=False,
+        separators=(",", ":"),
+    ).encode()

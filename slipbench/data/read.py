@@ -5,6 +5,10 @@ and lists (list, large_list, fixed_size_list) that pandas, pyarrow and Polars wr
 the same :class:`~slipbench.data.format.Dataset`, with the same fingerprint, whatever the row
 order of either file. A wrong file raises :class:`DataError` naming file, recording and column;
 the samples file is read one row group at a time, so a large dataset never sits in memory whole.
+
+A damaged file is refused, naming it: pages are checked against their CRC checksums where the
+writer stored them, and the content against the fingerprint (and the recordings table against
+its digest) stored in the files' metadata. Datasets written without them still read.
 """
 
 from __future__ import annotations
@@ -20,12 +24,15 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from slipbench.data.canonical import canonical_recordings
+from slipbench.data.fingerprint import recordings_digest
 from slipbench.data.format import Dataset
 from slipbench.data.messages import data_error, one_line
 from slipbench.data.schema import (
     EXACT_INT,
+    FINGERPRINT_KEY,
     FORMAT_VERSION,
     OPTIONAL,
+    RECORDINGS_DIGEST_KEY,
     RECORDINGS_FILE,
     SAMPLES_FILE,
     VERSION_KEY,
@@ -45,12 +52,48 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
         )
     file = path / RECORDINGS_FILE
     try:
-        recordings, declared = _read_recordings(file)
+        recordings, declared, rec_meta = _read_recordings(file)
         file = path / SAMPLES_FILE
-        samples, labels = _read_samples(file, recordings, declared)
+        samples, labels, samples_meta = _read_samples(file, recordings, declared)
     except (pa.ArrowException, OSError) as exc:  # a damaged page, found while reading
         raise DataError(f"{file}: unreadable ({one_line(exc)})") from None
-    return Dataset(recordings, samples, labels, path)
+    ds = Dataset(recordings, samples, labels, path)
+    _verify(ds, path, rec_meta, samples_meta)
+    return ds
+
+
+def _verify(ds: Dataset, path: Path, rec_meta: Mapping, samples_meta: Mapping) -> None:
+    """Compare the content with what the writer stored (where it did): the recordings digest
+    first, so that a change in recordings.parquet is not blamed on samples.parquet."""
+    after = "the file is damaged, or was changed after slipbench wrote it"
+    stored = rec_meta.get(RECORDINGS_DIGEST_KEY)
+    if stored is not None:
+        now = recordings_digest(ds.recordings)
+        if stored.decode(errors="replace") != now:
+            raise data_error(
+                path / RECORDINGS_FILE,
+                f"its recordings give digest {now}, not the {stored.decode(errors='replace')} "
+                f"stored when it was written: {after}",
+            )
+    stored = {
+        name: meta[FINGERPRINT_KEY].decode(errors="replace")
+        for name, meta in ((RECORDINGS_FILE, rec_meta), (SAMPLES_FILE, samples_meta))
+        if FINGERPRINT_KEY in meta
+    }
+    wrong = sorted(name for name, value in stored.items() if value != ds.fingerprint)
+    if wrong:
+        # the recordings table passed its digest: the samples changed, unless only the
+        # recordings file's own record of the fingerprint differs from an intact samples file
+        blamed = (
+            RECORDINGS_FILE
+            if wrong == [RECORDINGS_FILE] and SAMPLES_FILE in stored
+            else SAMPLES_FILE
+        )
+        raise data_error(
+            path / blamed,
+            f"the dataset's content gives fingerprint {ds.fingerprint}, not the "
+            f"{stored[wrong[0]]} stored in {wrong[0]} when it was written: {after}",
+        )
 
 
 # ----------------------------------------------------------------------------- Arrow flavours
@@ -98,8 +141,8 @@ def _open_parquet(file: Path) -> pq.ParquetFile:
         raise DataError(
             f"{file}: missing (a slipbench dataset folder holds {RECORDINGS_FILE} and {SAMPLES_FILE})"
         )
-    try:
-        pf = pq.ParquetFile(file)
+    try:  # pages written with a CRC are checked as they are read; older files have none
+        pf = pq.ParquetFile(file, page_checksum_verification=True)
         schema = pf.schema_arrow
     except (pa.ArrowException, OSError) as exc:
         raise DataError(f"{file}: not a readable Parquet file ({one_line(exc)})") from None
@@ -128,9 +171,11 @@ def _check_type(schema: pa.Schema, file: Path, name: str, check, type_name: str)
 
 
 # ----------------------------------------------------------------------------- recordings
-def _read_recordings(file: Path) -> tuple[pd.DataFrame, dict[str, int]]:
-    """The canonical recordings, and the lengths the file declares (its ``n_samples``)."""
-    table = _open_parquet(file).read()
+def _read_recordings(file: Path) -> tuple[pd.DataFrame, dict[str, int], Mapping[bytes, bytes]]:
+    """The canonical recordings, the lengths the file declares (its ``n_samples``), and its
+    schema metadata."""
+    pf = _open_parquet(file)
+    table = pf.read()
     columns = {}
     for name, (check, type_name) in RECORDING_TYPES.items():
         if name in OPTIONAL and name not in table.column_names:
@@ -139,7 +184,8 @@ def _read_recordings(file: Path) -> tuple[pd.DataFrame, dict[str, int]]:
         columns[name] = table.column(name).to_pylist()  # plain Python values: every flavour alike
     declared = columns.pop("n_samples", [])
     rec = canonical_recordings(pd.DataFrame(columns), file)
-    return rec, {rid: n for rid, n in zip(columns["recording_id"], declared) if n is not None}
+    lengths = {rid: n for rid, n in zip(columns["recording_id"], declared) if n is not None}
+    return rec, lengths, pf.schema_arrow.metadata or {}
 
 
 # ----------------------------------------------------------------------------- samples
@@ -202,9 +248,12 @@ def _labels_of(
     return pc.fill_null(ints, -1).to_numpy().astype(np.int8)
 
 
-def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) -> tuple[dict, dict]:
-    """Every recording's samples and labels, placed by ``sample_index`` whatever the row order;
-    ``declared``: recording_id -> the n_samples that recordings.parquet gives."""
+def _read_samples(
+    file: Path, rec: pd.DataFrame, declared: Mapping[str, int]
+) -> tuple[dict, dict, Mapping[bytes, bytes]]:
+    """Every recording's samples and labels, placed by ``sample_index`` whatever the row order,
+    and the file's schema metadata; ``declared``: recording_id -> the n_samples that
+    recordings.parquet gives."""
     pf = _open_parquet(file)
     schema = pf.schema_arrow
     _check_type(schema, file, "recording_id", _is_string, "a string")
@@ -319,7 +368,7 @@ def _read_samples(file: Path, rec: pd.DataFrame, declared: Mapping[str, int]) ->
         samples[rid] = flat[elem_start[k] : elem_start[k + 1]].reshape(int(counts[k]), int(n_ch[k]))
         if labels is not None:
             slip[rid] = labels[row_start[k] : row_start[k + 1]]
-    return samples, slip
+    return samples, slip, schema.metadata or {}
 
 
 def _repeated(x: np.ndarray) -> np.ndarray:

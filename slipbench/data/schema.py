@@ -10,7 +10,9 @@ A dataset is a folder holding two Parquet files (see ``datasets.md``):
     one row per sample: ``recording_id``, ``sample_index`` (0, 1, ... per recording, rows in any
     order), ``values`` (one number per channel) and optionally ``slip`` (bool; null = unlabelled).
 
-Both files carry ``slipbench.format_version = "1"`` in their schema metadata. This module only
+Both files carry ``slipbench.format_version = "1"`` in their schema metadata; written by
+:func:`~slipbench.data.write.write_dataset`, also the content fingerprint (and the recordings
+file a digest of its table), and a CRC checksum on every page. This module only
 names the layout; :mod:`slipbench.data.read` and :mod:`slipbench.data.write` hold the files to it.
 """
 
@@ -20,6 +22,10 @@ import pyarrow as pa
 
 FORMAT_VERSION = "1"
 VERSION_KEY = b"slipbench.format_version"
+# Written since page checksums came in (readers verify them where stored): the content
+# fingerprint in both files' metadata, and a digest of the recordings table in recordings.parquet.
+FINGERPRINT_KEY = b"slipbench.fingerprint"
+RECORDINGS_DIGEST_KEY = b"slipbench.recordings_digest"
 RECORDINGS_FILE = "recordings.parquet"
 SAMPLES_FILE = "samples.parquet"
 SCENARIOS = ("slip", "press", "free-space", "hold-slip")

@@ -16,12 +16,15 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from slipbench.data.canonical import canonical_dataset, plain_value
+from slipbench.data.fingerprint import content_fingerprint, recordings_digest
 from slipbench.data.messages import data_error
 from slipbench.data.schema import (
     EXACT_INT,
+    FINGERPRINT_KEY,
     FORMAT_VERSION,
     IN_MEMORY,
     N_SAMPLES,
+    RECORDINGS_DIGEST_KEY,
     RECORDINGS_FILE,
     RECORDINGS_SCHEMA,
     SAMPLES_FILE,
@@ -37,6 +40,9 @@ def write_dataset(
     slip_labels: Mapping[str, np.ndarray] | None = None,
 ) -> Path:
     """Validate, then write a dataset folder atomically: it appears whole or not at all.
+
+    Every page carries a CRC checksum, and both files the content fingerprint (recordings.parquet
+    also a digest of its table): the readers verify both, so a damaged file is refused, not read.
 
     Parameters
     ----------
@@ -71,7 +77,9 @@ def write_dataset(
         if value_type != pa.int64() and not np.isfinite(arrays[rid]).all():
             raise data_error(where, "non-finite value (NaN or infinity)", rid, "values")
 
-    meta = {VERSION_KEY: FORMAT_VERSION.encode()}
+    # the readers check pages against their checksums and the content against these
+    fingerprint = content_fingerprint(rec, arrays, labels).encode()
+    meta = {VERSION_KEY: FORMAT_VERSION.encode(), FINGERPRINT_KEY: fingerprint}
     schema = (
         RECORDINGS_SCHEMA
         if "trial" in recordings.columns
@@ -79,7 +87,9 @@ def write_dataset(
     )
     schema = schema.append(N_SAMPLES)
     table = {f.name: pa.array([plain_value(v) for v in rec[f.name]], f.type) for f in schema}
-    rec_table = pa.table(table, schema=schema).replace_schema_metadata(meta)
+    rec_table = pa.table(table, schema=schema).replace_schema_metadata(
+        {**meta, RECORDINGS_DIGEST_KEY: recordings_digest(rec).encode()}
+    )
 
     parts = [arrays[r] for r in ids]
     lengths = np.array([len(a) for a in parts])
@@ -105,8 +115,10 @@ def write_dataset(
         tmp.chmod(
             0o777 & ~_umask()
         )  # mkdtemp makes it 0700: a shared lab folder must stay readable
-        pq.write_table(rec_table, tmp / RECORDINGS_FILE)
-        pq.write_table(samples_table, tmp / SAMPLES_FILE, row_group_size=1 << 20)
+        pq.write_table(rec_table, tmp / RECORDINGS_FILE, write_page_checksum=True)
+        pq.write_table(
+            samples_table, tmp / SAMPLES_FILE, row_group_size=1 << 20, write_page_checksum=True
+        )
         if path.exists():
             path.rmdir()
         os.replace(tmp, path)

@@ -56,9 +56,9 @@ def dataset_source(path: str) -> str:
     if not path:
         return "a dataset built in memory (no path recorded)"
     try:
-        column = pq.read_table(Path(path) / "recordings.parquet", columns=["source"]).column(
-            "source"
-        )
+        column = pq.read_table(
+            Path(path) / "recordings.parquet", columns=["source"], page_checksum_verification=True
+        ).column("source")
         sources = sorted({str(s) for s in column.to_pylist() if s is not None})
     except (OSError, pa.ArrowException, KeyError):
         sources = None

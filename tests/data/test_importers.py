@@ -311,10 +311,14 @@ def _lines(before: int, bad: str) -> str:
         (
             _lines(6, "7,1\n"),
             {},
-            r"r.csv: line 8: column 'taxel_13': empty or missing value",
-        ),  # a short row
+            r"r.csv: line 8: 2 fields, but the header \(line 1\) names 3 columns: a short row",
+        ),
         (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value"),
-        (_lines(6, "7,1,3,4\n"), {}, r"r.csv: not a well-formed CSV file .*line 8"),
+        (
+            _lines(6, "7,1,3,4\n"),
+            {},
+            r"r.csv: line 8: 4 fields, but the header \(line 1\) names 3 columns: value '4' has no column",
+        ),
         (
             "t,taxel_12,taxel_13\n" + "0,1,2\n1,2,3\n1,3,3\n",
             {"rate": {"time_column": "t"}},
@@ -479,7 +483,7 @@ def test_cli_import_and_validate(tmp_path, cli):
     code, out, err = cli(["dataset", "validate", str(tmp_path / "out")])
     assert code == 0 and "2 recordings in 2 trials" in out
     bad = tmp_path / "src" / "taxels" / "wood" / "trial_1.csv"
-    bad.write_text(bad.read_text().replace("\n", "\n1,x\n", 1))
+    bad.write_text(bad.read_text().replace("\n", "\n1,x," + "1," * 47 + "hold\n", 1))
     code, out, err = cli(
         [
             "dataset",
@@ -493,3 +497,248 @@ def test_cli_import_and_validate(tmp_path, cli):
     )
     assert code == 2 and "trial_1.csv: line 2: column 'taxel_0': non-numeric value 'x'" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out2").exists()
+
+
+# ----------------------------------------------------------------------------- CSV shapes: never a shifted column
+def _pac_ele(
+    rows_end: str, header_end: str, newline: str = "\n", bom: str = ""
+) -> tuple[str, np.ndarray]:
+    """A BioTac-like file: t, pac1..pac22, ele1..ele19, with the given line ends; and its
+    numbers (t, pac, ele), each column distinct so that a shift shows."""
+    names = ["t"] + [f"pac{i}" for i in range(1, 23)] + [f"ele{i}" for i in range(1, 20)]
+    values = np.arange(5)[:, None] * 1000 + np.arange(len(names))[None, :]
+    values[:, 0] = np.arange(5) * 10  # t in ms at 100 Hz
+    lines = [",".join(names) + header_end] + [",".join(map(str, r)) + rows_end for r in values]
+    return bom + newline.join(lines) + newline, values
+
+
+@pytest.mark.parametrize(
+    "rows_end, header_end, newline, bom",
+    [
+        (",", "", "\n", ""),  # the issue's files: every row ends in a comma, the header does not
+        (",", ",", "\n", ""),  # both end in a comma
+        ("", ",", "\n", ""),  # only the header does
+        (",,", "", "\r\n", "\ufeff"),  # two trailing commas, Windows line ends, a byte-order mark
+    ],
+)
+def test_trailing_delimiters_are_read_unshifted(tmp_path, rows_end, header_end, newline, bom):
+    text, values = _pac_ele(rows_end, header_end, newline, bom)
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "r.csv").write_bytes(text.encode())
+    base = {
+        "recording": {"sensor_type": "BioTac", "sensor_instance": "ff", "scenario": "slip"},
+        "rate": {"time_column": "t", "time_unit": "ms"},
+    }
+    by_pattern = read_dataset(
+        import_csv(src, tmp_path / "p", {**base, "channels": {"pattern": r"pac\d+", "count": 22}})
+    )
+    np.testing.assert_array_equal(by_pattern.samples["r"], values[:, 1:23])  # pac1 holds pac1
+    assert by_pattern.recordings["sampling_rate_hz"].iloc[0] == 100.0
+    by_name = read_dataset(
+        import_csv(src, tmp_path / "n", {**base, "channels": {"names": ["ele1", "ele19"]}})
+    )
+    np.testing.assert_array_equal(by_name.samples["r"], values[:, [23, 41]])  # ele19 is not empty
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        # every row has one value more than the header names: a name is missing
+        (
+            "a,b,c\n1,2,3,4\n5,6,7,8\n",
+            r"line 2: 4 fields, but the header \(line 1\) names 3 columns: value '4' has no column",
+        ),
+        # the header ends in a comma, but the rows hold a value there: a nameless column
+        (
+            "a,b,c,\n1,2,3\n5,6,7,8\n",
+            r"line 3: 4 fields, but the header \(line 1\) names 3 columns: value '8'",
+        ),
+        # one ragged row among trailing-comma rows, after skipped and comment lines
+        (
+            "logger v2\n# units: N\na,b,c\n1,2,3,\n\n5,6\n",
+            r"line 6: 2 fields, but the header \(line 3\) names 3 columns: a short row",
+        ),
+        (
+            "a,b,a\n1,2,3\n4,5,6\n",
+            r"line 1: column name 'a' appears twice in the header \(columns 1 and 3\)",
+        ),
+        (",,\n1,2,3\n", r"line 1: the header names no column"),
+    ],
+)
+def test_ragged_rows_are_refused_by_line(tmp_path, text, message):
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "r.csv").write_text(text)
+    mapping = {
+        "skip_rows": 1 if text.startswith("logger") else 0,
+        "comment": "#",
+        "recording": {"sensor_type": "S", "sensor_instance": "u", "scenario": "slip"},
+        "channels": {"names": ["a", "b"]},
+        "rate": {"hz": 100},
+    }
+    with pytest.raises(DataError, match=r"r\.csv: " + message):
+        import_csv(src, tmp_path / "out", mapping)
+    assert not (tmp_path / "out").exists()
+
+
+# ----------------------------------------------------------------------------- hold-slip trials, per-file labels
+def _holds(src: Path, names: dict[str, list[str]]) -> None:
+    for name, states in names.items():
+        _write(src / name, pd.DataFrame({"p": np.arange(len(states)) % 5, "state": states}))
+
+
+def test_hold_slip_trial_that_never_slips_is_kept(tmp_path):
+    src = tmp_path / "src"
+    _holds(src, {"held.csv": ["hold"] * 30, "slipped.csv": ["hold"] * 10 + ["slip"] * 20})
+    mapping = {
+        "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "hold-slip"},
+        "channels": {"names": ["p"]},
+        "rate": {"hz": 100},
+        "labels": {
+            "column": "state",
+            "slip": ["slip"],
+            "no_slip": ["hold"],
+            "unlabelled": ["drop"],
+        },
+    }
+    ds = read_dataset(import_csv(src, tmp_path / "out", mapping))
+    assert ds.slip_labels["held"].tolist() == [0] * 30  # all of it hold, as the reader keeps it
+    # from segments: a file without one is no-slip throughout where unlisted says so
+    plain = {**mapping, "labels": {"unlisted": "no-slip"}, "channels": {"names": ["p"]}}
+    ds = read_dataset(import_csv(src, tmp_path / "seg", plain))
+    assert (ds.slip_labels["held"] == 0).all()
+    _holds(src, {"held.csv": ["drop"] * 30})  # no hold at all: refused, naming the file
+    with pytest.raises(
+        DataError, match=r"held.csv: scenario hold-slip: no sample labelled no-slip"
+    ):
+        import_csv(src, tmp_path / "bad", mapping)
+
+
+def test_after_offset_per_file_and_per_segment(tmp_path):
+    """Drops are unlabelled after the slip by default of this mapping; one file holds again after
+    its slip (a rule says so), and one segment of the table is followed by an unlabelled stretch."""
+    src = tmp_path / "src"
+    for name in ("drop.csv", "regrip.csv", "twice.csv"):
+        _write(src / name, pd.DataFrame({"p": np.arange(100) % 7}))
+    pd.DataFrame(
+        {
+            "file": ["drop.csv", "regrip.csv", "twice.csv", "twice.csv"],
+            "onset": [40, 40, 10, 60],
+            "offset": [70, 70, 20, 80],
+            "after_offset": ["", "", "unlabelled", "no-slip"],
+        }
+    ).to_csv(tmp_path / "seg.csv", index=False)
+    mapping = {
+        "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "hold-slip"},
+        "rules": [{"glob": "regrip.csv", "after_offset": "no-slip"}],
+        "channels": {"names": ["p"]},
+        "rate": {"hz": 100},
+        "labels": {"segments": "seg.csv", "after_offset": "unlabelled"},
+    }
+    ds = read_dataset(import_csv(src, tmp_path / "out", mapping, base=tmp_path))
+    assert ds.slip_labels["drop"].tolist() == [0] * 40 + [1] * 30 + [-1] * 30
+    assert ds.slip_labels["regrip"].tolist() == [0] * 40 + [1] * 30 + [0] * 30
+    assert ds.slip_labels["twice"].tolist() == [0] * 10 + [1] * 10 + [-1] * 40 + [1] * 20 + [0] * 20
+    bad = {**mapping, "rules": [{"glob": "regrip.csv", "after_offset": "hold"}]}
+    with pytest.raises(
+        UsageError, match=r"after_offset of .*regrip.csv is 'hold'; it must be one of"
+    ):
+        import_csv(src, tmp_path / "bad", bad, base=tmp_path)
+    table = pd.read_csv(tmp_path / "seg.csv").fillna("")
+    table.loc[2, "after_offset"] = "dropped"
+    table.to_csv(tmp_path / "seg.csv", index=False)
+    with pytest.raises(
+        DataError, match=r"seg.csv: line 4: column 'after_offset': 'dropped' is not one of"
+    ):
+        import_csv(src, tmp_path / "bad", mapping, base=tmp_path)
+
+
+# ----------------------------------------------------------------------------- fields from metadata files
+def _sessions(src: Path, rates: dict[str, float]) -> None:
+    for session, rate in rates.items():
+        for k in (1, 2):
+            t = np.arange(50) / rate
+            _write(
+                src / session / f"trial_{k}.csv", pd.DataFrame({"p": np.round(np.sin(t * 7), 6)})
+            )
+
+
+BASE = {
+    "files": "*/*.csv",
+    "recording": {"sensor_type": "P", "sensor_instance": "u", "scenario": "slip"},
+    "channels": {"names": ["p"]},
+}
+
+
+def test_rate_from_a_metadata_file_per_folder(tmp_path):
+    src = tmp_path / "src"
+    _sessions(src, {"monday": 120.0, "tuesday": 119.5})
+    (src / "monday" / "info.json").write_text('{"logger": "v2", "rate_hz": 120}')
+    (src / "tuesday" / "info.json").write_text('{"logger": "v2", "rate_hz": 119.5}')
+    mapping = {
+        **BASE,
+        "metadata": [{"table": "{parent}/info.json", "fields": {"sampling_rate_hz": "rate_hz"}}],
+    }
+    rec = read_dataset(import_csv(src, tmp_path / "out", mapping)).recordings
+    assert dict(zip(rec["recording_id"], rec["sampling_rate_hz"])) == {
+        "monday/trial_1": 120.0,
+        "monday/trial_2": 120.0,
+        "tuesday/trial_1": 119.5,
+        "tuesday/trial_2": 119.5,
+    }
+    (src / "tuesday" / "info.json").unlink()
+    with pytest.raises(
+        DataError,
+        match=r"tuesday/info.json: not found \(\[\[metadata\]\] #1.table for tuesday/trial_1.csv\)",
+    ):
+        import_csv(src, tmp_path / "bad", mapping)
+
+
+def test_rate_and_speed_from_one_table_keyed_by_file_name(tmp_path):
+    src = tmp_path / "src"
+    _sessions(src, {"a": 60.0, "b": 60.0})
+    (src / "log.csv").write_text(
+        "file,hz,speed\n"
+        "a/trial_1.csv,60,10\na/trial_2.csv,59.9,20\nb/trial_1.csv,60.1,\nb/trial_2.csv,60,40\n"
+    )
+    entry = {
+        "table": "log.csv",
+        "key": "file",
+        "fields": {"sampling_rate_hz": "hz", "speed_mm_s": "speed"},
+    }
+    rec = read_dataset(import_csv(src, tmp_path / "out", {**BASE, "metadata": [entry]})).recordings
+    assert rec["sampling_rate_hz"].tolist() == [60.0, 59.9, 60.1, 60.0]
+    assert rec["speed_mm_s"].tolist()[:2] == [10.0, 20.0] and np.isnan(rec["speed_mm_s"].iloc[2])
+    # keyed by a column from the path: a TOML list of sessions
+    (src / "sessions.toml").write_text(
+        '[[session]]\nname = "a"\nrate = 50\n[[session]]\nname = "b"\nrate = 50.5\n'
+    )
+    by_session = {
+        "table": "sessions.toml",
+        "key": "name",
+        "match": "{parent}",
+        "fields": {"sampling_rate_hz": "rate"},
+    }
+    rec = read_dataset(
+        import_csv(src, tmp_path / "toml", {**BASE, "metadata": [by_session]})
+    ).recordings
+    assert rec["sampling_rate_hz"].tolist() == [50.0, 50.0, 50.5, 50.5]
+    # a record missing, twice, or the table imported as a recording: named
+    entry = {**entry, "fields": {"sampling_rate_hz": "hz"}}
+    (src / "log.csv").write_text("file,hz\na/trial_1.csv,60\n")
+    with pytest.raises(
+        DataError, match=r"log.csv: no record with file = 'a/trial_2.csv', for a/trial_2.csv"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "metadata": [entry]})
+    (src / "log.csv").write_text("file,hz\na/trial_1.csv,60\na/trial_1.csv,61\n")
+    with pytest.raises(
+        DataError, match=r"log.csv: line 2 and .*log.csv: line 3: both have file = 'a/trial_1.csv'"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "metadata": [entry]})
+    with pytest.raises(
+        UsageError, match=r"the table log.csv is also selected as a recording by files"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "files": "**/*.csv", "metadata": [entry]})
+    with pytest.raises(UsageError, match=r"\[\[metadata\]\] #1.fields: 'rate' is not a field"):
+        load_mapping({**BASE, "metadata": [{"table": "x.csv", "fields": {"rate": "hz"}}]})

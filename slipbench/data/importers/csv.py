@@ -23,6 +23,7 @@ from slipbench.data.importers.mapping import (
     file_fields,
     load_mapping,
 )
+from slipbench.data.importers.metadata import MetadataReader
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.data.write import write_dataset
 from slipbench.errors import DataError, UsageError
@@ -53,6 +54,7 @@ def import_csv(
     if not files:
         raise DataError(f"{src}: no file matches files = {list(m.files)}")
     selected = [_glob(src, r.glob, m) if r.glob else set(files) for r in m.rules]
+    metadata = MetadataReader(src, m.where, set(files))
     segments = segments_table(m)
     for name, parts in segments.items():
         if name not in files:
@@ -64,7 +66,7 @@ def import_csv(
     rows, samples, labels, origin = [], {}, {}, {}
     for rel in files:
         path = src / rel
-        fields = file_fields(m, rel, selected)
+        fields = file_fields(m, rel, selected, metadata)
         frame = read_csv(path, m.csv, text_columns)
         rate, times = _rate(m, fields, frame, path)
         file_labels = labels_of_file(m, fields, segments.get(rel, []), frame, rate, times, path)
@@ -166,11 +168,8 @@ def _recordings_of(
                 raise UsageError(
                     f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file"
                 )
-        if meta["scenario"] == "hold-slip" and (labels is None or not (labels == 1).any()):
-            raise DataError(
-                f"{path}: scenario hold-slip needs per-sample labels with a slip onset: "
-                "give [labels] a column, or segments (a table or slip_onset)"
-            )
+        if meta["scenario"] == "hold-slip":
+            _check_hold(labels, path)
         names = _channel_names(frame, group, path)
         values = [column_numbers(frame, c, path, m.csv) for c in names]
         units = group.get("units", "raw")
@@ -201,6 +200,23 @@ def _recordings_of(
             (row, np.column_stack(values if integers else [v.astype(np.float64) for v in values]))
         )
     return out
+
+
+def _check_hold(labels: np.ndarray | None, path: Path) -> None:
+    """A hold-slip trial holds (labelled no-slip), then may slip; one that never slips is kept
+    (all of it is hold), as the dataset reader keeps it."""
+    if labels is None:
+        raise DataError(
+            f"{path}: scenario hold-slip needs per-sample labels: give [labels] a column, or "
+            'segments (a table or slip_onset), or unlisted = "no-slip" for a trial that never slips'
+        )
+    slipping = np.flatnonzero(labels == 1)
+    if not (labels[: slipping[0] if len(slipping) else len(labels)] == 0).any():
+        raise DataError(
+            f"{path}: scenario hold-slip: no sample labelled no-slip before "
+            + ("the slip onset" if len(slipping) else "the end (and no slip)")
+            + ": the trial has no hold"
+        )
 
 
 def _text(value: Any) -> str | None:

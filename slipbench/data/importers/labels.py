@@ -8,9 +8,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from slipbench.data.importers.mapping import CsvMapping
+from slipbench.data.importers.mapping import LABEL_CHOICES, CsvMapping
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.errors import DataError, UsageError
+
+# (onset, offset or None for the end, where it was given, what follows it or None: the default)
+Segment = tuple[float, float | None, str, str | None]
 
 
 def labels_of_file(
@@ -28,9 +31,25 @@ def labels_of_file(
     segments = list(segments)
     if fields.get("slip_onset") is not None:
         segments.append(
-            (fields["slip_onset"], fields.get("slip_offset"), f"{m.where}: slip_onset of {path}")
+            (
+                fields["slip_onset"],
+                fields.get("slip_offset"),
+                f"{m.where}: slip_onset of {path}",
+                None,
+            )
         )
-    return _segment_labels(m, segments, len(frame), rate, times, path)
+    return _segment_labels(m, fields, segments, len(frame), rate, times, path)
+
+
+def _choice(m: CsvMapping, fields: dict, key: str, path: Path) -> str:
+    """A file's after_offset or unlisted: its own field (from [recording], [[rules]] or a
+    metadata table) or [labels]'s, checked here since a template may fill it."""
+    value = fields.get(key, m.labels.get(key, LABEL_CHOICES[key][0]))
+    if value not in LABEL_CHOICES[key]:
+        raise UsageError(
+            f"{m.where}: {key} of {path} is {value!r}; it must be one of {', '.join(LABEL_CHOICES[key])}"
+        )
+    return str(value)
 
 
 def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
@@ -56,18 +75,21 @@ def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
 
 def _segment_labels(
     m: CsvMapping,
-    segments: list[tuple[float, float | None, str]],
+    fields: dict,
+    segments: list[Segment],
     n: int,
     rate: float,
     times: np.ndarray | None,
     path: Path,
 ) -> np.ndarray | None:
-    """Labels from (onset, offset, where) segments: 1 inside [onset, offset), 0 before and
-    between, after the last offset as [labels].after_offset says."""
+    """Labels from (onset, offset, where, after) segments: 1 inside [onset, offset), 0 before;
+    what follows a segment up to the next one (or the end) as its ``after`` says, else no slip
+    between segments and the file's after_offset after the last."""
     if not segments:
         return (
-            None if m.labels.get("unlisted", "unlabelled") == "unlabelled" else np.zeros(n, np.int8)
+            None if _choice(m, fields, "unlisted", path) == "unlabelled" else np.zeros(n, np.int8)
         )
+    file_after = _choice(m, fields, "after_offset", path)
     in_seconds = m.labels.get("unit", "sample") == "s"
     t = times if times is not None else np.arange(n) / rate
 
@@ -78,7 +100,8 @@ def _segment_labels(
 
     labels = np.zeros(n, np.int8)
     last = 0
-    for onset, offset, where in sorted(segments, key=lambda s: s[0]):
+    ordered = sorted(segments, key=lambda s: s[0])
+    for k, (onset, offset, where, after) in enumerate(ordered):
         lo, hi = sample(onset), n if offset is None else sample(offset)
         if not 0 <= lo < hi <= n or lo < last:
             raise DataError(
@@ -87,13 +110,15 @@ def _segment_labels(
             )
         labels[lo:hi] = 1
         last = hi
-    if m.labels.get("after_offset", "no-slip") == "unlabelled":
-        labels[last:] = -1
+        until = sample(ordered[k + 1][0]) if k + 1 < len(ordered) else n
+        if (after or ("no-slip" if k + 1 < len(ordered) else file_after)) == "unlabelled":
+            labels[hi:until] = -1  # a drop, or a stretch nobody labelled
     return labels
 
 
-def segments_table(m: CsvMapping) -> dict[str, list[tuple[float, float | None, str]]]:
-    """file (relative to SRC) -> its segments, from the [labels].segments table."""
+def segments_table(m: CsvMapping) -> dict[str, list[Segment]]:
+    """file (relative to SRC) -> its segments, from the [labels].segments table; an optional
+    column ``after_offset`` says what follows a segment (empty: the default)."""
     name = m.labels.get("segments")
     if not isinstance(name, str):
         return {}
@@ -101,7 +126,7 @@ def segments_table(m: CsvMapping) -> dict[str, list[tuple[float, float | None, s
     if not path.is_file():
         raise UsageError(f"{m.where}: [labels].segments: {path} not found")
     csv = {"delimiter": ",", "comment": "#", "skip_rows": 0}
-    frame = read_csv(path, csv, ["file"], min_rows=1)
+    frame = read_csv(path, csv, ["file", "after_offset"], min_rows=1)
     for column in ("file", "onset"):
         if column not in frame.columns:
             raise DataError(
@@ -120,10 +145,17 @@ def segments_table(m: CsvMapping) -> dict[str, list[tuple[float, float | None, s
             raise DataError(
                 f"{path}: line {line_of(path, row, csv)}: column 'offset': non-numeric value {frame['offset'].iloc[row]!r}"
             )
+    after = frame["after_offset"] if "after_offset" in frame.columns else [None] * len(frame)
     table: dict[str, list] = {}
-    for row, (file, lo, hi) in enumerate(zip(frame["file"], onset, offset)):
+    for row, (file, lo, hi, then) in enumerate(zip(frame["file"], onset, offset, after)):
         where = f"{path}: line {line_of(path, row, csv)}"
+        then = None if pd.isna(then) or not str(then).strip() else str(then).strip()
+        if then is not None and then not in LABEL_CHOICES["after_offset"]:
+            raise DataError(
+                f"{where}: column 'after_offset': {then!r} is not one of "
+                f"{', '.join(LABEL_CHOICES['after_offset'])} (or empty)"
+            )
         table.setdefault(str(file), []).append(
-            (float(lo), None if np.isnan(hi) else float(hi), where)
+            (float(lo), None if np.isnan(hi) else float(hi), where, then)
         )
     return table

@@ -13,6 +13,7 @@ from typing import Any
 
 import tomllib
 
+from slipbench.data.importers.metadata import MetadataReader, MetadataTable, parse_metadata
 from slipbench.errors import DataError, UsageError
 
 FIELDS = (
@@ -27,6 +28,8 @@ FIELDS = (
     "sampling_rate_hz",
     "slip_onset",
     "slip_offset",
+    "after_offset",  # per file, overriding [labels]
+    "unlisted",
 )
 NUMERIC_FIELDS = ("speed_mm_s", "sampling_rate_hz", "slip_onset", "slip_offset")
 TOP_KEYS = {
@@ -40,6 +43,7 @@ TOP_KEYS = {
     "channels",
     "rate",
     "labels",
+    "metadata",
 }
 CHANNEL_KEYS = {"names", "pattern", "count", "units", "sensor_instance", "sensor_type"}
 RATE_KEYS = {"hz", "time_column", "time_unit"}
@@ -52,6 +56,12 @@ LABEL_KEYS = {
     "unit",
     "after_offset",
     "unlisted",
+}
+# What [labels] after_offset and unlisted (or a file's own fields of those names) may say; the
+# first is the default
+LABEL_CHOICES = {
+    "after_offset": ("no-slip", "unlabelled"),
+    "unlisted": ("unlabelled", "no-slip"),
 }
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 
@@ -80,6 +90,7 @@ class CsvMapping:
     rate: dict[str, Any]
     labels: dict[str, Any]
     base: Path
+    metadata: tuple[MetadataTable, ...] = ()
 
 
 def _bad(where: str, what: str) -> UsageError:
@@ -229,23 +240,23 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
                 where,
                 f"[labels].{key} must be a list of values as written in the files (strings or integers)",
             )
-    for key, allowed in (
-        ("unit", ("sample", "s")),
-        ("after_offset", ("no-slip", "unlabelled")),
-        ("unlisted", ("unlabelled", "no-slip")),
-    ):
+    for key, allowed in (("unit", ("sample", "s")), *LABEL_CHOICES.items()):
         if key in labels and labels[key] not in allowed:
             raise _bad(
                 where, f"[labels].{key} must be one of {', '.join(allowed)}, got {labels[key]!r}"
             )
+    metadata = parse_metadata(raw.get("metadata", []), where, FIELDS)
     return CsvMapping(
-        where, tuple(files), csv, recording, rules, maps, channels, rate, labels, base
+        where, tuple(files), csv, recording, rules, maps, channels, rate, labels, base, metadata
     )
 
 
-def file_fields(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, Any]:
+def file_fields(
+    m: CsvMapping, rel: str, selected: list[set[str]], metadata: MetadataReader | None = None
+) -> dict[str, Any]:
     """The resolved metadata of one file: [recording], then each rule that selects it, in order;
-    templates filled from path parts and named regex groups; values mapped; numbers parsed."""
+    templates filled from path parts and named regex groups; then the fields its
+    [[metadata]] tables give (as written there, not templates); values mapped; numbers parsed."""
     parts = rel.rsplit("/", 1)
     variables = {
         "path": default_id(rel),
@@ -270,15 +281,21 @@ def file_fields(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, 
             variables.update(groups)
             fields.update({k: v for k, v in groups.items() if k in FIELDS})
         fields.update(rule.fields)
+
+    def fill(value: str, key: str) -> str:
+        try:
+            return value.format_map(variables)
+        except (KeyError, IndexError, ValueError) as exc:
+            raise UsageError(
+                f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})"
+            ) from None
+
+    fields = {k: fill(v, k) if isinstance(v, str) else v for k, v in fields.items()}
+    if metadata is not None:
+        for entry in m.metadata:
+            fields.update(metadata.fields(entry, rel, fill))
     out: dict[str, Any] = {}
     for key, value in fields.items():
-        if isinstance(value, str):
-            try:
-                value = value.format_map(variables)
-            except (KeyError, IndexError, ValueError) as exc:
-                raise UsageError(
-                    f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})"
-                ) from None
         value = m.maps.get(key, {}).get(value, value)
         if key in NUMERIC_FIELDS:
             value = _number(value, rel, key)
