@@ -193,9 +193,11 @@ def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device
     ]  # numpy -> torch layout
     to_numpy = [lambda t: t[:, 0], lambda t: t.T, lambda t: t, lambda t: t, lambda t: t]
     lstm = torch.nn.LSTM(1, params[1].shape[0], batch_first=True).to(dev)
-    lstm.bias_hh_l0.requires_grad_(False).zero_()
+    # get_parameter, not attribute access: torch types a module's attributes as Tensor | Module
+    lstm.get_parameter("bias_hh_l0").requires_grad_(False).zero_()
     wy, by = (torch.tensor(p, device=dev, requires_grad=True) for p in params[3:])
-    tensors = [lstm.weight_ih_l0, lstm.weight_hh_l0, lstm.bias_ih_l0, wy, by]
+    weights = (lstm.get_parameter(n) for n in ("weight_ih_l0", "weight_hh_l0", "bias_ih_l0"))
+    tensors = [*weights, wy, by]
     with torch.no_grad():
         for t, p, f in zip(tensors[:3], params, to_torch):
             t.copy_(torch.tensor(np.ascontiguousarray(f(p)), device=dev))

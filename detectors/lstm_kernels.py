@@ -31,6 +31,7 @@ Parameter layout (torch's gate order i, f, g, o; one bias per gate as in the pap
 from __future__ import annotations
 
 import types
+from typing import Literal, TypedDict
 
 import numba as nb
 import numpy as np
@@ -56,8 +57,16 @@ N_CHUNKS = 8  # a batch is split into this many parallel chunks, whatever the th
 LANES = 32  # windows per block in batched inference: 4 AVX2 registers of float32 per gate row
 MIN_BLOCK = 16  # fewer windows than this are scored one by one (a padded block costs more)
 
+
+class _JitOptions(TypedDict):  # typed, so that numba's overloads accept **_jit
+    fastmath: bool
+    cache: bool
+    nogil: bool
+    error_model: Literal["python", "numpy"]
+
+
 # error_model="numpy": no ZeroDivisionError checks, which would stop the loops vectorizing
-_jit = dict(fastmath=True, cache=True, nogil=True, error_model="numpy")
+_jit = _JitOptions(fastmath=True, cache=True, nogil=True, error_model="numpy")
 
 
 def _twice(f):

@@ -61,8 +61,13 @@ class Streaming(BaseProtocol):
                 f"The 'window' and 'hop' options of streaming take samples or milliseconds, both the same; "
                 f"got window={self.window!r}, hop={self.hop!r}"
             )
-        in_ms = isinstance(self.window, str)
-        if (parse_ms(self.hop) > parse_ms(self.window)) if in_ms else self.hop > self.window:
+        if isinstance(self.window, str):
+            hop_ms, window_ms = parse_ms(self.hop), parse_ms(self.window)
+            assert hop_ms is not None and window_ms is not None  # both checked by super()
+            too_long = hop_ms > window_ms
+        else:
+            too_long = self.hop > self.window
+        if too_long:
             raise UsageError(
                 f"The 'hop' option of streaming must not exceed the window: a score every {self.hop} "
                 f"leaves samples no window sees; got hop={self.hop!r}, window={self.window!r}"

@@ -204,7 +204,7 @@ class BaseDetector(Parameterized):
         }
         # a unique temporary name: two processes may save the same model key at once
         with atomic_file(path) as f:
-            np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)
+            np.savez(f, __meta__=np.array(json.dumps(meta)), **arrays)  # type: ignore[arg-type]  # keys end in "_": none is savez's allow_pickle
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> BaseDetector:

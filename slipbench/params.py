@@ -11,7 +11,7 @@ from __future__ import annotations
 import inspect
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 from slipbench.errors import UsageError
 from slipbench.vocabulary import MIN_WINDOW
@@ -22,7 +22,7 @@ class Interval:
     """A number of ``kind`` (int or float; an int is a valid float) in [low, high]; either bound
     may be None."""
 
-    kind: type
+    kind: type[float]  # int or float (mypy counts an int as a float)
     low: float | None
     high: float | None
 
@@ -122,11 +122,14 @@ def parse_ms(text: str) -> float | None:
 def window_samples(window: int | str, rate_hz: float) -> int:
     """Samples of a window given in samples (int) or milliseconds ("50ms") at ``rate_hz``."""
     if isinstance(window, str):
-        return int(round(parse_ms(window) * rate_hz / 1000.0))
+        ms = parse_ms(window)
+        if ms is None:  # a validated window length never is
+            raise UsageError(f"not a window length in samples or milliseconds: {window!r}")
+        return int(round(ms * rate_hz / 1000.0))
     return int(window)
 
 
-def param_names(cls: type) -> list[str]:
+def param_names(cls: type[object]) -> list[str]:
     """The keyword parameters of ``cls.__init__`` (none when the class defines no ``__init__``)."""
     if cls.__init__ is object.__init__:
         return []
@@ -137,12 +140,15 @@ def param_names(cls: type) -> list[str]:
     )
 
 
-def param_defaults(cls: type) -> dict[str, Any]:
+def param_defaults(cls: type[object]) -> dict[str, Any]:
     """Each parameter's default value (``inspect.Parameter.empty`` where there is none)."""
     if cls.__init__ is object.__init__:
         return {}
     sig = inspect.signature(cls.__init__)
     return {name: sig.parameters[name].default for name in param_names(cls)}
+
+
+_Self = TypeVar("_Self", bound="Parameterized")
 
 
 class Parameterized:
@@ -157,7 +163,7 @@ class Parameterized:
     def get_params(self, deep: bool = True) -> dict[str, Any]:
         return {k: getattr(self, k) for k in self._param_names()}
 
-    def set_params(self, **params: Any) -> Parameterized:
+    def set_params(self: _Self, **params: Any) -> _Self:
         valid = self._param_names()
         for k, v in params.items():
             if k not in valid:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 import pandas as pd
@@ -288,7 +288,13 @@ class BaseProtocol(Parameterized):
     name: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
     install_hint: ClassVar[str | None] = None
-    layout: ClassVar[Layout | None] = None
+    if TYPE_CHECKING:
+        # read on an instance only: a class attribute, or a property where the layout depends
+        # on the options (window_size's unit)
+        @property
+        def layout(self) -> Layout | None: ...
+    else:
+        layout = None
     _parameter_constraints: ClassVar[dict[str, Any]] = {}
 
     def cells(self, recordings: pd.DataFrame) -> Iterable[Cell]:

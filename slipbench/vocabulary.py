@@ -81,7 +81,7 @@ def cell_label(cell: str | dict) -> str:
     key = json.loads(cell) if isinstance(cell, str) else dict(cell)
     order = [*KEY_ORDER, *SHORT]
     names = sorted(key, key=lambda k: order.index(k) if k in order else len(order))
-    parts = []
+    parts: list[str] = []
     for k in names:
         v = key[k]
         if k == "test_instance" and "train_instance" in key:

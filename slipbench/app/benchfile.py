@@ -452,6 +452,7 @@ def run_benchmark(
     if bench.train is not None:
         from slipbench.data.transfer import combine, parse_sensor_map
 
+        assert bench.dataset is not None  # the bench file's check: train needs path
         ds = combine(
             read_dataset(bench.train),
             read_dataset(bench.dataset),

@@ -3,6 +3,9 @@ scenario, material and speed, and how its per-sample labels sit with its scenari
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -24,7 +27,8 @@ def info(dataset: Dataset) -> pd.DataFrame:
     rec = dataset.recordings.copy()
     rec["samples"] = [len(dataset.samples[r]) for r in rec["recording_id"]]
     rec["seconds"] = rec["samples"] / rec["sampling_rate_hz"]
-    aggregations = dict(
+    # column -> (source column, a pandas aggregation name or function)
+    aggregations: dict[str, tuple[str, str | Callable[[pd.Series], Any]]] = dict(
         recordings=("recording_id", "size"),
         trials=("trial", "nunique"),
         samples=("samples", "sum"),

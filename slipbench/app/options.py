@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -69,7 +70,7 @@ def plugins_option(help: str = PLUGINS_HELP):
 
 def out_option(help: str, default: str | None = None):
     """``--out``: a folder or file; without a default it is optional and the command decides."""
-    given = {} if default is None else {"default": default, "show_default": True}
+    given: dict[str, Any] = {} if default is None else {"default": default, "show_default": True}
     return click.option("--out", type=click.Path(path_type=Path), help=help, **given)
 
 

@@ -5,6 +5,7 @@ the plugins that take them."""
 from __future__ import annotations
 
 from slipbench.engine import registry
+from slipbench.engine.registry import Plugin
 from slipbench.errors import PluginError, UsageError
 
 
@@ -13,12 +14,12 @@ def add_plugin_folders(folders: tuple[str, ...]) -> None:
         registry.add_plugin_folder(folder)
 
 
-def load_plugins(reg: registry.Registry, name: str, broken: list[str]) -> dict:
+def load_plugins(reg: registry.Registry[Plugin], name: str, broken: list[str]) -> dict[str, Plugin]:
     """The plugin called ``name`` (or every plugin, for 'all'), made with its defaults. With 'all',
     a plugin that fails to load is noted in ``broken`` and the others run."""
     if name != "all":
         return {name: reg.get(name)()}
-    out = {}
+    out: dict[str, Plugin] = {}
     for n in reg.names():
         try:
             out[n] = reg.get(n)()

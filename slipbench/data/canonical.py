@@ -41,8 +41,8 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
     for name in FORMAT_COLUMNS:
         values = list(frame[name]) if name in frame.columns else [None] * n
         # a NaN rate is a bad number, not a missing one; elsewhere NaN is how pandas says null
-        missing = (lambda v: v is None or v is pd.NA) if name == "sampling_rate_hz" else is_null
-        cols[name] = [None if missing(v) else v for v in values]
+        absent = (lambda v: v is None or v is pd.NA) if name == "sampling_rate_hz" else is_null
+        cols[name] = [None if absent(v) else v for v in values]
     ids = cols["recording_id"]
     for name in FORMAT_COLUMNS:
         for i, v in enumerate(cols[name]):
@@ -107,8 +107,7 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
                 "units",
             )
     cols["trial"] = [rid if t is None else t for rid, t in zip(ids, cols["trial"])]
-    cols["speed_mm_s"], cols["sampling_rate_hz"] = speed, rate
-    out = pd.DataFrame(cols)
+    out = pd.DataFrame({**cols, "speed_mm_s": speed, "sampling_rate_hz": rate})
     out["n_channels"] = n_ch
     for name in frame.columns:  # a caller's own columns ride along (the format ignores them)
         if name not in out.columns and name not in DERIVED_COLUMNS:

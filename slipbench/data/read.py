@@ -359,7 +359,7 @@ def _read_samples(
             is_int,
             row0,
         )
-        if has_slip:
+        if labels is not None:  # the file has a slip column
             labels[dest] = _labels_of(table.column("slip").chunk(0), file, ids, codes, si)
 
     samples: dict[str, np.ndarray] = {}

@@ -168,7 +168,7 @@ class Signals:
                 np.int8
             )
         starts = self.offsets[rec] + local.astype(np.int64) * window
-        per_sample = np.lib.stride_tricks.sliding_window_view(self.labels, window)[starts]
+        per_sample = np.lib.stride_tricks.sliding_window_view(self.sample_labels(), window)[starts]
         unlabelled = (per_sample < 0).any(axis=1)
         if labelling == "majority":
             out = (2 * (per_sample == 1).sum(axis=1) >= window).astype(np.int8)
@@ -178,6 +178,13 @@ class Signals:
             out = per_sample[:, -1].astype(np.int8)
         out[unlabelled] = -1
         return out
+
+    def sample_labels(self) -> np.ndarray:
+        """``labels``; UsageError for signals made without them (labelling by samples and
+        streaming need them; :meth:`from_dataset` always gives them)."""
+        if self.labels is None:
+            raise UsageError("these signals carry no per-sample labels")
+        return self.labels
 
     def values(self, windows: Windows, window: int) -> np.ndarray:
         """The samples of windows given by position: (n_windows, window) float32."""
@@ -259,6 +266,8 @@ class Windows:
         -------
         Windows with x of shape (n_windows, n // factor) float32.
         """
+        if self.x is None:
+            raise UsageError("windows known by position only have no samples to downsample")
         m = self.x.shape[1] // factor
         if m < 1:
             raise UsageError(

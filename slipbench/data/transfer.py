@@ -23,17 +23,21 @@ def parse_sensor_map(
     items: tuple[str, ...] | list[str],
 ) -> dict[tuple[str, str | None], tuple[str, str | None]]:
     """``["Vib=BioTacSP", "Taxels:left=Nano17:index"]`` -> {(type, instance or None): (type, instance or None)}."""
-    out = {}
+    out: dict[tuple[str, str | None], tuple[str, str | None]] = {}
     for item in items:
         src, sep, dst = item.partition("=")
         if not sep or not src or not dst:
             raise UsageError(
                 f"--sensor-map {item!r}: expected TYPE=TYPE or TYPE:INSTANCE=TYPE:INSTANCE"
             )
-        key = tuple(src.split(":", 1)) if ":" in src else (src, None)
-        value = tuple(dst.split(":", 1)) if ":" in dst else (dst, None)
-        out[key] = value
+        out[_unit(src)] = _unit(dst)
     return out
+
+
+def _unit(text: str) -> tuple[str, str | None]:
+    """``"Taxels:left"`` -> ("Taxels", "left"); ``"Vib"`` -> ("Vib", None)."""
+    sensor_type, sep, instance = text.partition(":")
+    return (sensor_type, instance) if sep else (text, None)
 
 
 def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Dataset:
@@ -61,7 +65,9 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
             f"training dataset ({', '.join(sorted(map(':'.join, units_a)))}); map them with "
             "--sensor-map TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE]"
         )
-    parts, samples, labels = [], {}, {}
+    parts: list[pd.DataFrame] = []
+    samples: dict[str, np.ndarray] = {}
+    labels: dict[str, np.ndarray] = {}
     for side, frame, ds in (("train", a, train), ("test", b, test)):
         frame = frame.assign(**{SIDE_COLUMN: side})
         old = frame["recording_id"].tolist()

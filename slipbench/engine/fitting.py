@@ -81,7 +81,7 @@ def fit_and_test(
     """
     try:
         detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
-        out = []
+        out: list[Result] = []
         for test in tests:
             if isinstance(test, StreamTest):
                 out.append(
@@ -174,8 +174,8 @@ def _trained(
     model_path: str | None,
 ) -> tuple[BaseDetector, dict[str, Any]]:
     """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
-    cost_path = None if model_path is None else Path(f"{model_path}.json")
-    if cost_path is not None and cost_path.is_file():
+    cost_path = Path(f"{model_path}.json")  # read and written only where there is a model_path
+    if model_path is not None and cost_path.is_file():
         return type(detector).load(model_path), json.loads(cost_path.read_text())
     detector = clone(detector)
     with PeakMemory() as mem:
@@ -192,7 +192,5 @@ def _trained(
             detector.save(model_path)
         except UsageError:
             return detector, cost  # state that cannot be saved safely: reuse it in this run only
-        write_text_atomic(
-            Path(cost_path), json.dumps(cost)
-        )  # written last: it marks the model complete
+        write_text_atomic(cost_path, json.dumps(cost))  # written last: it marks the model complete
     return detector, cost

@@ -37,7 +37,7 @@ def stream_split(how: str) -> str:
     return "datasets" if how == "datasets" else "grouped"
 
 
-@dataclass
+@dataclass(init=False)  # __init__ takes ids as well as objects; the fields hold objects
 class Run:
     """One detector on one protocol, with a split, a seed and a way to label windows.
 
@@ -46,23 +46,31 @@ class Run:
     ``labels``: one of :data:`slipbench.data.signals.LABELLINGS`.
     """
 
-    detector: BaseDetector | str
-    protocol: BaseProtocol | str
+    detector: BaseDetector
+    protocol: BaseProtocol
     split: str = "paper"
     seed: int = 0
     labels: str = "scenario"
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
 
-    def __post_init__(self) -> None:
-        if isinstance(self.detector, str):
-            self.detector_name, self.detector = self.detector, detectors.get(self.detector)()
+    def __init__(
+        self,
+        detector: BaseDetector | str,
+        protocol: BaseProtocol | str,
+        split: str = "paper",
+        seed: int = 0,
+        labels: str = "scenario",
+    ) -> None:
+        self.split, self.seed, self.labels = split, seed, labels
+        if isinstance(detector, str):
+            self.detector_name, self.detector = detector, detectors.get(detector)()
         else:
-            self.detector_name = detectors.id_of(type(self.detector))
-        if isinstance(self.protocol, str):
-            self.protocol_name, self.protocol = self.protocol, protocols.get(self.protocol)()
+            self.detector_name, self.detector = detectors.id_of(type(detector)), detector
+        if isinstance(protocol, str):
+            self.protocol_name, self.protocol = protocol, protocols.get(protocol)()
         else:
-            self.protocol_name = protocols.id_of(type(self.protocol))
+            self.protocol_name, self.protocol = protocols.id_of(type(protocol)), protocol
         if self.split not in SPLITS:
             raise UsageError(f"unknown split {self.split!r}; choose one of: {', '.join(SPLITS)}")
         if self.labels not in LABELLINGS:
@@ -134,9 +142,10 @@ class CellData:
                 self._cache[key] = self._prepare(*key)
             except UsageError as exc:
                 self._cache[key] = str(exc)
-        if isinstance(self._cache[key], str):
-            raise UsageError(self._cache[key])
-        return self._cache[key]
+        cached = self._cache[key]
+        if isinstance(cached, str):
+            raise UsageError(cached)
+        return cached
 
     def _prepare(self, sensor, window):
         name = f"{sensor[0]} {sensor[1]}"
@@ -259,6 +268,13 @@ class PlannedCell:
     streams: dict[str, np.ndarray] | None = (
         None  # streaming cells: "train"/"test" -> recording rows
     )
+
+    def windows(self, side: str) -> Windows:
+        """The "train" or "test" windows of a cell that runs: planning set them (a streaming
+        cell has train windows only)."""
+        windows = self.train if side == "train" else self.test
+        assert windows is not None, f"cell {self.key} has no {side} windows planned"
+        return windows
 
 
 @dataclass
@@ -429,7 +445,8 @@ def _plan_stream(
         return
     o = signals.offsets
     # a recording that starts in slip shows no onset (slipbench.stream.cell.unknown_start)
-    if not any((onsets(signals.labels[o[r] : o[r + 1]]) > 0).any() for r in test):
+    labels = signals.sample_labels()
+    if not any((onsets(labels[o[r] : o[r + 1]]) > 0).any() for r in test):
         pc.skip = (
             f"no slip onset in the {len(test)} test recordings of {units} (labels 0 followed by 1)"
         )

@@ -10,6 +10,7 @@ and never breaks start-up or the other plugins.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import inspect
@@ -18,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
@@ -47,6 +48,7 @@ def import_plugin_file(path: str | Path) -> object:
     if module_name in sys.modules:
         return sys.modules[module_name]
     spec = importlib.util.spec_from_file_location(module_name, path)
+    assert spec is not None and spec.loader is not None  # a .py file has a source loader
     module = importlib.util.module_from_spec(spec)
     sys.modules[module_name] = module
     try:
@@ -66,13 +68,18 @@ class Status:
     detail: str = ""
 
 
-class Registry:
+#: the kind of plugin a registry holds
+Plugin = TypeVar("Plugin", BaseDetector, BaseProtocol)
+
+
+class Registry(Generic[Plugin]):
     """Ids -> plugin classes of one kind (detector or protocol)."""
 
-    def __init__(self, kind: str, base: type, group: str):
-        self.kind, self.base, self.group = kind, base, group
+    def __init__(self, kind: str, base: type[Plugin], group: str):
+        self.kind, self.group = kind, group
+        self.base: type[Plugin] = base
         self._sources: dict[str, Source] = {}
-        self._loaded: dict[str, type] = {}
+        self._loaded: dict[str, type[Plugin]] = {}
         self._discovered = False
 
     def _add(self, name: str, source: Source) -> None:
@@ -103,7 +110,7 @@ class Registry:
                     Source(
                         f"plugin file {path}",
                         f"file:{path.resolve()}",
-                        lambda p=path: import_plugin_file(p),
+                        functools.partial(import_plugin_file, path),
                     ),
                 )
 
@@ -111,7 +118,7 @@ class Registry:
         self._discover()
         return sorted(self._sources)
 
-    def get(self, name: str) -> type:
+    def get(self, name: str) -> type[Plugin]:
         """The plugin class registered as ``name``; an unknown name lists the names that exist."""
         self._discover()
         if name in self._loaded:
@@ -161,7 +168,7 @@ class Registry:
                 f"got {layout!r}"
             )
 
-    def _class_in(self, module, name: str, source: Source) -> type:
+    def _class_in(self, module, name: str, source: Source) -> type[Plugin]:
         found = [
             c
             for c in vars(module).values()
@@ -244,7 +251,10 @@ def add_plugin_folder(folder: str | Path) -> None:
     folder = Path(folder)
     if not folder.is_dir():
         raise UsageError(f"plugin folder {folder} does not exist")
-    subfolders = [(folder / "detectors", detectors), (folder / "protocols", protocols)]
+    subfolders: list[tuple[Path, Registry[Any]]] = [
+        (folder / "detectors", detectors),
+        (folder / "protocols", protocols),
+    ]
     if not any(sub.is_dir() for sub, _ in subfolders):
         subfolders = [(folder, detectors)]
     for sub, registry in subfolders:

@@ -141,14 +141,14 @@ def evaluate(
     def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
         row = _row(pc, fields, fingerprint, path, env, run_id)
         predictions = None
-        if scores is not None:
-            rec = signals.recordings
+        if scores is not None:  # the scores of test windows (a streaming cell keeps none)
+            rec, test = signals.recordings, pc.windows("test")
             predictions = pd.DataFrame(
                 {
-                    "recording_id": rec["recording_id"].to_numpy()[pc.test.recording],
-                    "trial": rec["trial"].to_numpy()[pc.test.recording],
-                    "window_index": pc.test.index,
-                    "y_true": pc.test.y,
+                    "recording_id": rec["recording_id"].to_numpy()[test.recording],
+                    "trial": rec["trial"].to_numpy()[test.recording],
+                    "window_index": test.index,
+                    "y_true": test.y,
                     "score": scores,
                 }
             )
@@ -182,12 +182,12 @@ def _payload(
     """The arguments of ``fit_and_test`` for a task: samples are cut here, one task at a time."""
     first = task.first
     data = plan.data_of(first.run)
-    train = data.values(first.train, first.cell)
+    train = data.values(first.windows("train"), first.cell)
     trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
     tests = [
         _stream_test(data.signals, pc)
         if pc.streams is not None
-        else _window_test(data.values(pc.test, pc.cell), trials)
+        else _window_test(data.values(pc.windows("test"), pc.cell), trials)
         for pc in task.cells
     ]
     model_path = None
@@ -212,13 +212,15 @@ def _window_test(windows, trials: np.ndarray) -> TestSet:
 
 def _stream_test(signals: Signals, pc: PlannedCell) -> StreamTest:
     """A streaming cell's recordings, whole, as plain data."""
-    rec, o = signals.recordings, signals.offsets
+    rec, o, labels = signals.recordings, signals.offsets, signals.sample_labels()
     rates = rec["sampling_rate_hz"].to_numpy(dtype=float)
+    streams, stream = pc.streams, pc.cell.stream
+    assert streams is not None and stream is not None  # planned as a streaming cell
 
     def recordings(rows: np.ndarray) -> Recordings:
         return Recordings(
             [signals.buffer[o[r] : o[r + 1]] for r in rows],
-            [signals.labels[o[r] : o[r + 1]] for r in rows],
+            [labels[o[r] : o[r + 1]] for r in rows],
             [str(t) for t in rec["trial"].to_numpy()[rows]],
             [str(s) for s in rec["scenario"].to_numpy()[rows]],
             [str(i) for i in rec["recording_id"].to_numpy()[rows]],
@@ -226,10 +228,10 @@ def _stream_test(signals: Signals, pc: PlannedCell) -> StreamTest:
         )
 
     return StreamTest(
-        recordings(pc.streams["test"]),
-        recordings(pc.streams["train"]),
-        pc.cell.stream["hop"],
-        pc.cell.stream["max_delay_ms"],
+        recordings(streams["test"]),
+        recordings(streams["train"]),
+        stream["hop"],
+        stream["max_delay_ms"],
     )
 
 

@@ -93,7 +93,7 @@ def _delta(r: dict, name: str, scale: float = 100.0, digits: int = 1, bounds: bo
     if d is None or pd.isna(d):
         return "—"
     text = f"{scale * d:+.{digits}f}"
-    if bounds and not (pd.isna(lo) or pd.isna(hi)):
+    if bounds and lo is not None and hi is not None and not (pd.isna(lo) or pd.isna(hi)):
         text += f" [{scale * lo:+.{digits}f}, {scale * hi:+.{digits}f}]"
     return text
 

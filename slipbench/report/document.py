@@ -221,7 +221,7 @@ def _protocol_blocks(
     metric: str,
     intervals: bool,
     paper: bool,
-    figures: dict[str, list],
+    figures: dict[str | None, list],  # section -> FigureSpecs
     predictions: Sequence[str | os.PathLike] = (),
 ) -> list:
     prows = rows[rows["protocol"] == protocol]

@@ -23,6 +23,8 @@ from slipbench.report.tables import Table, ordered, rank, summarize
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
 
 COMBINED = "combined"
+#: one side of a finding: its text, and whether each of its checks holds
+_Shown = tuple[str, list[bool]]
 
 
 def _means(rows: pd.DataFrame, keys: list[str], values: str) -> pd.DataFrame:
@@ -57,10 +59,9 @@ def _ends(rows: pd.DataFrame, layout: Layout) -> dict:
 
 def _pair(rows: pd.DataFrame, layout: Layout, values: str) -> tuple[float, str]:
     """The mean change without explicit training (points) and the level losing most."""
-    keys = [*layout.rows, layout.column]
-    m = _means(rows, [*keys, layout.pair], values).pivot_table(
-        index=keys, columns=layout.pair, values="mean"
-    )
+    keys, pair = [*layout.rows, layout.column], layout.pair
+    assert pair is not None  # a with-without layout: its cells come in with/without pairs
+    m = _means(rows, [*keys, pair], values).pivot_table(index=keys, columns=pair, values="mean")
     if not {"with", "without"} <= set(m.columns):
         return np.nan, ""
     change = 100 * (m["without"] - m["with"]).dropna()
@@ -120,30 +121,34 @@ def findings_table(
                     )
                 )
         elif layout.figure == "with-without":
-            paper = _pair(ref, layout, "paper")
-            mine = {d: _pair(r, layout, "ours") for d, r in ours.items()}
+            pairs = [
+                _pair(ref, layout, "paper"),
+                *(_pair(r, layout, "ours") for r in ours.values()),
+            ]
             lines.append(
                 (
                     protocol,
                     "mean change without explicit training (points)",
-                    [f"{v[0]:+.1f}" if np.isfinite(v[0]) else "—" for v in (paper, *mine.values())],
+                    [f"{v[0]:+.1f}" if np.isfinite(v[0]) else "—" for v in pairs],
                 )
             )
             lines.append(
                 (
                     protocol,
                     f"the {(layout.title or layout.column).lower()} losing most without it",
-                    [v[1] or "—" for v in (paper, *mine.values())],
+                    [v[1] or "—" for v in pairs],
                 )
             )
         else:
-            paper = _matrix(ref, layout, "paper")
-            mine = {d: _matrix(r, layout, "ours") for d, r in ours.items()}
+            penalties = [
+                _matrix(ref, layout, "paper"),
+                *(_matrix(r, layout, "ours") for r in ours.values()),
+            ]
             lines.append(
                 (
                     protocol,
                     "transfer penalty: the unit trained on minus other units (points)",
-                    [f"{v:+.1f}" if np.isfinite(v) else "—" for v in (paper, *mine.values())],
+                    [f"{v:+.1f}" if np.isfinite(v) else "—" for v in penalties],
                 )
             )
     if not lines:
@@ -198,7 +203,7 @@ def _verdict(flags: list[bool]) -> str:
 
 
 def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
-    lines = [[], []]
+    lines: list[list[_Shown]] = [[], []]
     for what, values in (("paper", paper), ("ours", ours)):
         t = _per_sensor(values, "window", what)
         rise = {s: t.loc[s, 200] - t.loc[s, 5] for s in t.index if {5, 200} <= set(t.columns)}
@@ -220,13 +225,13 @@ def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]
     ]
 
 
-def _texts(pair: list[tuple[str, list[bool]]]) -> list[str]:
+def _texts(pair: list[_Shown]) -> list[str]:
     """[paper's numbers, ours, whether ours show it]."""
     return [pair[0][0], pair[1][0], _verdict(pair[1][1])]
 
 
 def _rate_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
-    lines = [[], []]
+    lines: list[list[_Shown]] = [[], []]
     for what, values in (("paper", paper), ("ours", ours)):
         t = _per_sensor(values, "rate_hz", what)
         rise = {
@@ -255,7 +260,7 @@ def _rate_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
 
 
 def _speed_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
-    line = []
+    line: list[_Shown] = []
     for what, values in (("paper", paper), ("ours", ours)):
         m = (
             _means(values[values["training"] == "without"], ["speed_mm_s"], what)
@@ -277,7 +282,7 @@ def _speed_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
 
 
 def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) -> list[list[str]]:
-    line = []
+    line: list[_Shown] = []
     worst = {}
     for what, values in (("paper", paper), ("ours", ours)):
         change, text = _pair(values, layout, what) if len(values) else (np.nan, "")
@@ -294,7 +299,7 @@ def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
 
 
 def _transfer_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) -> list[list[str]]:
-    line = []
+    line: list[_Shown] = []
     for what, values in (("paper", paper), ("ours", ours)):
         penalty = _matrix(values, layout, what) if len(values) else np.nan
         line.append(
@@ -401,10 +406,10 @@ def paper_findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]
     if len(sp):
         lines += _speed_findings(sp, sp_paper)
     mh, mh_paper, layout = part("material-holdout")
-    if len(mh):
+    if len(mh) and layout is not None:  # rows come with their layout
         lines += _material_findings(mh, mh_paper, layout)
     ci, ci_paper, layout = part("cross-instance")
-    if len(ci):
+    if len(ci) and layout is not None:
         lines += _transfer_findings(ci, ci_paper, layout)
     if len(ws):
         lines += _lead_findings(ws, part("window-size", "holweg")[0])

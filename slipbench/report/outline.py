@@ -21,40 +21,40 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
     from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows)."""
     from slipbench.engine.registry import protocols
 
-    out = {}
+    out: dict[str, tuple[Layout, str]] = {}
     for name in rows["protocol"].unique():
         part = rows[rows["protocol"] == name]
+        layout: Layout | None
         try:
             cls = protocols.get(name)
             params = (
                 json.loads(part["protocol_params"].iloc[0]) if "protocol_params" in part else {}
             )
-            layout, why = cls(**params).layout, ""
-            why = fits(layout, part)
+            layout = cls(**params).layout
+            why = "it declares no layout" if layout is None else fits(layout, part)
         except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError) as exc:
             layout, why = (
                 None,
                 f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins",
             )
-        if why:
-            out[name] = (generic_layout(part, name), f"Laid out from its cell keys: {why}.")
-        else:
+        if layout is not None and not why:
             out[name] = (layout, "")
+        else:
+            out[name] = (generic_layout(part, name), f"Laid out from its cell keys: {why}.")
     return out
 
 
 def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
     """Protocols laid out as the paper's tables first, in the paper's order, then the others."""
     paper_order = table_order()
-    return sorted(
-        found,
-        key=lambda p: (
-            paper_order.index(found[p][0].paper_table)
-            if found[p][0].paper_table in paper_order
-            else len(paper_order),
-            p,
-        ),
-    )
+
+    def position(p: str) -> tuple[int, str]:
+        table = found[p][0].paper_table
+        if table is not None and table in paper_order:
+            return paper_order.index(table), p
+        return len(paper_order), p
+
+    return sorted(found, key=position)
 
 
 def splits_of(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:

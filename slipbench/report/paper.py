@@ -13,7 +13,13 @@ import pandas as pd
 @cache
 def paper_data() -> dict[str, Any]:
     """The published numbers of Van Wyk & Falco (package data ``slipbench/report/paper/van_wyk_falco.json``)."""
-    text = resources.files("slipbench.report").joinpath("paper", "van_wyk_falco.json").read_text()
+    # one name per joinpath: Python 3.10's Traversable takes no more
+    text = (
+        resources.files("slipbench.report")
+        .joinpath("paper")
+        .joinpath("van_wyk_falco.json")
+        .read_text()
+    )
     return json.loads(text)
 
 

@@ -25,13 +25,16 @@ import os
 import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import matplotlib
 
 matplotlib.use("Agg")  # files only, never a window; must precede any backend use
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
+from matplotlib.artist import Artist  # noqa: E402
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
@@ -41,11 +44,14 @@ from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E402
 
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType
+
 FORMATS = ("png", "pdf")
 WIDTH = 3.5  # inches: one column of a two-column paper
 TITLE_CHARS = 60  # a title wraps to the figure's width at its font size
 DPI = 200
-STYLE = {
+STYLE: dict[RcKeyType, Any] = {
     "font.size": 7,
     "axes.titlesize": 7,
     "axes.labelsize": 7,
@@ -69,12 +75,12 @@ AXIS_LABELS = {  # a key column's axis label with its unit, where the layout giv
 @dataclass
 class FigureSpec:
     """A figure to draw: its file stem, a caption, the protocol section it belongs to (None for
-    the leaderboard's) and how to draw it."""
+    the leaderboard's) and how to draw it (None: the rows hold nothing to draw)."""
 
     stem: str
     caption: str
     section: str | None
-    draw: Callable[[], Figure]
+    draw: Callable[[], Figure | None]
     detector: str | None = None  # the detector it shows alone, None for every detector
     split: str | None = None
 
@@ -83,8 +89,12 @@ def _figure(height: float) -> Figure:
     return Figure(figsize=(WIDTH, height), layout="constrained")
 
 
-def _styled(draw: Callable[..., Figure]) -> Callable[..., Figure]:
-    def inner(*args, **kwargs) -> Figure:
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def _styled(draw: Callable[_P, _R]) -> Callable[_P, _R]:
+    def inner(*args: _P.args, **kwargs: _P.kwargs) -> _R:
         with matplotlib.rc_context(STYLE):
             return draw(*args, **kwargs)
 
@@ -105,7 +115,7 @@ def save(fig: Figure, folder: Path, stem: str) -> list[Path]:
 
 def _legend_once(fig: Figure, axes) -> None:
     """One legend for the figure, under the panels, from every panel's labelled artists."""
-    seen: dict[str, object] = {}
+    seen: dict[str, Artist] = {}
     for ax in axes:
         for handle, text in zip(*ax.get_legend_handles_labels()):
             seen.setdefault(text, handle)
@@ -296,6 +306,7 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     """With and without explicit training (``layout.pair``) and with minus without, stacked;
     rows sensor and finger, columns ``layout.column``."""
     column, pair = layout.column, layout.pair
+    assert pair is not None  # drawn for with-without layouts only
     s = summarize(rows, ["sensor_type", "sensor_instance", column, pair])
     index = sorted(
         s[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None),
@@ -578,8 +589,8 @@ def figure_specs(
                             "against false alarms per minute over the threshold sweep; dot: threshold 0.5, cross: the "
                             "operating point chosen on the training trials.",
                             protocol,
-                            lambda p=part, t=f"{protocol}, every detector ({split} split{named})": (
-                                tradeoff(p, t)
+                            partial(
+                                tradeoff, part, f"{protocol}, every detector ({split} split{named})"
                             ),
                             None,
                             split,
@@ -601,8 +612,12 @@ def figure_specs(
                                 else "."
                             ),
                             protocol,
-                            lambda p=part, lay=layout, t=f"every detector ({split} split{named})": (
-                                compare_figure(p, lay, t, paper)
+                            partial(
+                                compare_figure,
+                                part,
+                                layout,
+                                f"every detector ({split} split{named})",
+                                paper,
                             ),
                             None,
                             split,
@@ -622,9 +637,7 @@ def figure_specs(
                     stem,
                     f"{protocol}, {detector} ({split} split{named}).",
                     protocol,
-                    lambda r=rows_, lay=layout, t=f"{detector} ({split} split{named})": figure(
-                        r, lay, t, paper
-                    ),
+                    partial(figure, rows_, layout, f"{detector} ({split} split{named})", paper),
                     detector,
                     split,
                 )

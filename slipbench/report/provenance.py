@@ -169,7 +169,8 @@ def header_tables(
             wrap={1: 0.7},
         )
     ]
-    det_rows, det_cells = [], []
+    det_rows: list[tuple[str, ...]] = []
+    det_cells: list[list[str]] = []
     for (det, params), part in rows.groupby(
         ["detector", rows.get("detector_params", pd.Series("", index=rows.index))],
         sort=False,
@@ -194,7 +195,8 @@ def header_tables(
             wrap={1: 0.5, 2: 0.25},
         )
     )
-    pro_rows, pro_cells = [], []
+    pro_rows: list[tuple[str, ...]] = []
+    pro_cells: list[list[str]] = []
     for protocol in protocols or list(dict.fromkeys(rows["protocol"])):
         part = rows[rows["protocol"] == protocol]
         params = _values(part, "protocol_params")

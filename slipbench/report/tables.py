@@ -373,6 +373,7 @@ def build_table(
                 line.append(one((*rk, c)))
         cells.append(line)
     plain, latex, notes = _column_labels(layout, rows, columns)
+    row_labels: list[tuple[str, ...]]
     if layout.merge_rows:
         row_labels = [(", ".join(label(k, v) for k, v in zip(layout.rows, rk)),) for rk in row_keys]
         headers = [ROW_HEADERS.get(layout.rows[-1], layout.rows[-1])]
@@ -478,7 +479,8 @@ def baseline_table(
         return None
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    columns, cells, shown = list(detectors), [[] for _ in sensors], []
+    cells: list[list[str]] = [[] for _ in sensors]
+    columns, shown = list(detectors), []
     for det in detectors:
         avg = _averaged(
             rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det)
@@ -631,6 +633,7 @@ def metrics_table(
         ]
         for rk in row_keys
     ]
+    row_labels: list[tuple[str, ...]]
     if layout.merge_rows:
         row_labels = [(", ".join(label(k, v) for k, v in zip(keys, rk)),) for rk in row_keys]
         headers = [ROW_HEADERS.get(keys[-1], keys[-1])]

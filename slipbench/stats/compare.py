@@ -53,6 +53,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -159,14 +160,14 @@ def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
 
 def _paired(base_row, cand_row, folders: tuple[Path, Path], seed: int, level: float) -> dict | None:
     """Paired figures from the two cells' predictions, or None when they cannot be joined."""
-    preds = [read_predictions(f, r["key"]) for f, r in zip(folders, (base_row, cand_row))]
-    if any(p is None for p in preds):
+    base, cand = (read_predictions(f, r["key"]) for f, r in zip(folders, (base_row, cand_row)))
+    if base is None or cand is None:
         return None
-    joined = preds[0].merge(preds[1], on=["recording_id", "window_index"], suffixes=("_b", "_c"))
+    joined = base.merge(cand, on=["recording_id", "window_index"], suffixes=("_b", "_c"))
     if joined.empty or (joined["y_true_b"] != joined["y_true_c"]).any():
         return None
     by_trial = "trial_b" in joined  # both files hold trials: a trial shared by units is one cluster
-    out = paired_comparison(
+    out: dict[str, Any] = paired_comparison(
         joined["y_true_b"].to_numpy(),
         joined["score_b"].to_numpy() >= 0.5,
         joined["score_c"].to_numpy() >= 0.5,
@@ -176,9 +177,7 @@ def _paired(base_row, cand_row, folders: tuple[Path, Path], seed: int, level: fl
         base_scores=joined["score_b"].to_numpy(),
         cand_scores=joined["score_c"].to_numpy(),
     )
-    shared = (
-        "" if len(joined) == len(preds[0]) == len(preds[1]) else f", {len(joined)} shared windows"
-    )
+    shared = "" if len(joined) == len(base) == len(cand) else f", {len(joined)} shared windows"
     out["method"] = f"paired over {'trials' if by_trial else 'recordings'}{shared}"
     return out
 
@@ -189,7 +188,7 @@ def _unpaired(base_row: dict, cand_row: dict, level: float) -> dict:
     Rows written before standard errors were stored give theirs as the 95 % half-width over
     1.96, with normal quantiles (method says so)."""
     out: dict = {"method": "unpaired"}
-    dfs = [r.get("df") for r in (base_row, cand_row)]
+    dfs: list[Any] = [r.get("df") for r in (base_row, cand_row)]  # numbers or None
     df = (
         min(float(d) for d in dfs)
         if all(d is not None and np.isfinite(float(d)) for d in dfs)
@@ -207,7 +206,7 @@ def _unpaired(base_row: dict, cand_row: dict, level: float) -> dict:
                     / (2 * norm.ppf(1 - ALPHA / 2))
                 )
                 df, out["method"] = np.inf, "unpaired (standard errors from 95 % bounds)"
-        se = float(np.hypot(*ses))
+        se = float(np.hypot(ses[0], ses[1]))
         half = student_t.ppf(1 - (1 - level) / 2, df) * se
         lo, hi = (
             (d - half, d + half) if np.isfinite(se) else (-1.0, 1.0)

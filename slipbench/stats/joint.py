@@ -57,11 +57,12 @@ def joint_means(
     """Per combination of ``by``: the mean over its finished cells of every figure with one joint
     bootstrap interval (``{figure, figure_lo, figure_hi, ...}``), where every cell of the group
     has its predictions in one of ``folders``."""
-    folders = [Path(f) for f in folders]
+    paths = [Path(f) for f in folders]
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
     out: dict[tuple, dict] = {}
     for key, group in ok.groupby(list(by), sort=False):
-        parts = [_predictions(folders, k) for k in group["key"]]
-        if parts and all(p is not None for p in parts):
-            out[key if isinstance(key, tuple) else (key,)] = mean_over_test_sets(parts, seed)
+        parts = [_predictions(paths, k) for k in group["key"]]
+        found = [p for p in parts if p is not None]
+        if parts and len(found) == len(parts):
+            out[key if isinstance(key, tuple) else (key,)] = mean_over_test_sets(found, seed)
     return out

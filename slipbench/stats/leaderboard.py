@@ -172,7 +172,7 @@ def _holm_pairs(scores: pd.DataFrame, order: list[str]) -> pd.DataFrame:
 def _groups(order: list[str], pairs: pd.DataFrame) -> list[list[str]]:
     """Maximal runs of rank-ordered entrants no two of which differ (the diagram's bars)."""
     differ = {(a, b) for a, b, d in pairs[["a", "b", "differ"]].itertuples(index=False) if d}
-    runs = []
+    runs: list[tuple[int, int]] = []  # (first, last) positions in ``order``
     for i in range(len(order)):
         j = i
         while j + 1 < len(order) and not any(

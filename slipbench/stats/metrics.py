@@ -13,8 +13,9 @@ Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from statsmodels.stats.proportion import proportion_confint
@@ -144,6 +145,20 @@ def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
     return (t.hits[name] - r[:, None] * t.size[name]) / denom[:, None]
 
 
+#: a figure of one test set under cluster weights, or its influence (_figure, _influence)
+_PerSet = Callable[[_Totals, str, np.ndarray], np.ndarray]
+
+
+def _pooled(of: _PerSet, totals: Sequence[_Totals], name: str, w: np.ndarray) -> np.ndarray:
+    """``of`` averaged over test sets."""
+    return np.mean([of(t, name, w) for t in totals], axis=0)
+
+
+def _change(of: _PerSet, sides: Sequence[_Totals], name: str, w: np.ndarray) -> np.ndarray:
+    """``of`` of the candidate (``sides[1]``) minus that of the base."""
+    return of(sides[1], name, w) - of(sides[0], name, w)
+
+
 def _sizes(t: _Totals, name: str) -> np.ndarray:
     """Windows per cluster that a figure draws on, shape (n_clusters,)."""
     return t.size[name] if name in RATES else t.size["accuracy"]
@@ -188,7 +203,7 @@ def _joint_figures(
     design, codes = make_design(
         [p.y_true for p in parts],
         [p.groups for p in parts],
-        [p.strata for p in parts] if all(has_strata) else None,
+        [p.strata for p in parts if p.strata is not None] if all(has_strata) else None,
     )
     totals = []
     for p, c in zip(parts, codes):
@@ -202,8 +217,8 @@ def _joint_figures(
     unestimable = []
     for name in FIGURES:
         iv = interval(
-            lambda w, name=name: np.mean([_figure(t, name, w) for t in totals], axis=0),
-            lambda w, name=name: np.mean([_influence(t, name, w) for t in totals], axis=0),
+            partial(_pooled, _figure, totals, name),
+            partial(_pooled, _influence, totals, name),
             design,
             np.logical_or.reduce([_used(t, name) for t in totals]),
             np.sum([_sizes(t, name) for t in totals], axis=0),
@@ -415,8 +430,8 @@ def paired_comparison(
         raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
         iv = interval(
-            lambda w, name=name: _figure(sides[1], name, w) - _figure(sides[0], name, w),
-            lambda w, name=name: _influence(sides[1], name, w) - _influence(sides[0], name, w),
+            partial(_change, _figure, sides, name),
+            partial(_change, _influence, sides, name),
             design,
             _used(sides[0], name),
             _sizes(sides[0], name),

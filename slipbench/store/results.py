@@ -237,7 +237,11 @@ class ResultsStore:
                     scan.unreadable.append((Path(entry.path), str(exc).split(": ", 1)[-1]))
                     continue
             scan.versions[key] = version
-            if key not in index or not _same_row(row, table.slice(index[key], 1).to_pylist()[0]):
+            if (
+                table is None  # then index is empty: mypy cannot tell
+                or key not in index
+                or not _same_row(row, table.slice(index[key], 1).to_pylist()[0])
+            ):
                 scan.newer[key] = row
         return scan
 

@@ -481,7 +481,7 @@ def sweep(streams: Streams, thresholds: np.ndarray | None = None) -> pd.DataFram
         thresholds = (
             np.unique(np.quantile(streams.scores, np.linspace(0, 1, N_THRESHOLDS), method="lower"))
             if len(streams.scores)
-            else []
+            else np.empty(0)
         )
     everything = np.ones(len(streams.rate), bool)
     rows = []

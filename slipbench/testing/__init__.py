@@ -200,9 +200,14 @@ def check_protocol_params(protocol: BaseProtocol, dataset: Dataset | None = None
         lambda: twin.set_params(no_such_option=1),
         "set_params with an unknown name",
     )
+    _layout(protocol)
+
+
+def _layout(protocol: BaseProtocol) -> Layout:
     assert isinstance(protocol.layout, Layout), (
         f"layout must be a slipbench.protocol.Layout, got {protocol.layout!r}"
     )
+    return protocol.layout
 
 
 def check_protocol_cells(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
@@ -222,7 +227,7 @@ def check_protocol_cells(protocol: BaseProtocol, dataset: Dataset | None = None)
     assert len(set(names)) == len(names), (
         f"cell keys must be unique; repeated: {sorted({n for n in names if names.count(n) > 1})[:3]}"
     )
-    wanted = set(protocol.layout.keys)
+    wanted = set(_layout(protocol).keys)
     for cell in cells:
         assert wanted <= set(cell.key), (
             f"cell {cell.name} lacks the layout's columns {sorted(wanted - set(cell.key))}"
@@ -275,6 +280,7 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     from slipbench.report.plots import figure
     from slipbench.report.render import to_latex, to_markdown
 
+    layout = _layout(protocol)
     cells, _ = _cells(protocol, dataset or toy_dataset())
     rng = rng_for(0, "toy", "rows")
     rows = pd.DataFrame(
@@ -294,10 +300,10 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
             for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))
         ]
     )
-    for metric in protocol.layout.metrics:  # a layout of several metrics shows each
+    for metric in layout.metrics:  # a layout of several metrics shows each
         rows[metric] = rng.uniform(0.55, 0.95, len(rows))
         rows[f"{metric}_lo"], rows[f"{metric}_hi"] = rows[metric] - 0.05, rows[metric] + 0.05
-    if protocol.layout.figure == "tradeoff":  # a streaming cell's threshold sweep
+    if layout.figure == "tradeoff":  # a streaming cell's threshold sweep
         rows["tradeoff"] = json.dumps(
             [
                 {
@@ -309,18 +315,16 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
                 for t in (0.1, 0.5, 0.9)
             ]
         )
-    tables = protocol_tables(rows, protocol.layout, "checked", "d", intervals=True)
+    tables = protocol_tables(rows, layout, "checked", "d", intervals=True)
     assert tables, "the layout made no table"
     for _, table in tables:
         assert table.rows and table.columns, f"table {table.caption!r} has no rows or columns"
         assert to_markdown(table) and to_latex(table).count(r"\begin{tabular}") >= 1
-    if protocol.layout.figure:
+    if layout.figure:
         import matplotlib.pyplot as plt
 
-        fig = figure(rows, protocol.layout, "check", paper=False)
-        assert fig is not None, (
-            f"the layout declares a {protocol.layout.figure!r} figure but none was drawn"
-        )
+        fig = figure(rows, layout, "check", paper=False)
+        assert fig is not None, f"the layout declares a {layout.figure!r} figure but none was drawn"
         plt.close(fig)
 
 
@@ -346,6 +350,7 @@ def parametrize_with_checks(plugins: list) -> Callable:
     import pytest
 
     params = []
+    checks: list[tuple[Callable[..., None], BaseDetector | BaseProtocol]]
     for plugin in plugins:
         if isinstance(plugin, BaseDetector):
             checks = [

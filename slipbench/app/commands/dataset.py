@@ -19,6 +19,7 @@ from slipbench.app.options import (
 from slipbench.app.selection import add_plugin_folders, load_plugins, with_options
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
+from slipbench.protocol import BaseProtocol
 
 
 @click.group("dataset")
@@ -94,7 +95,7 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
 
     add_plugin_folders(plugins)
     broken: list[str] = []
-    protocols = {}
+    protocols: dict[str, BaseProtocol] = {}
     for name in protocol_names:
         protocols |= load_plugins(registry.protocols, name, broken)
     protocols = with_options(protocols, parse_params(protocol_params), "protocol")

@@ -63,7 +63,10 @@ def import_csv(
             )
     text_columns = [m.labels["column"]] if "column" in m.labels else []
 
-    rows, samples, labels, origin = [], {}, {}, {}
+    rows: list[dict[str, Any]] = []
+    samples: dict[str, np.ndarray] = {}
+    labels: dict[str, np.ndarray] = {}
+    origin: dict[str, str] = {}  # recording_id -> the file that gave it
     for rel in files:
         path = src / rel
         fields = file_fields(m, rel, selected, metadata)
