@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.data.format import Dataset
+from slipbench.data.schema import RATE_TOLERANCE
 from slipbench.errors import UsageError
 from slipbench.vocabulary import DATASET_SIDE
 
@@ -95,6 +96,27 @@ def resolve_sensor_map(
     return out
 
 
+def _rate(recordings: pd.DataFrame, unit: Unit) -> float:
+    rows = recordings[
+        (recordings["sensor_type"] == unit[0]) & (recordings["sensor_instance"] == unit[1])
+    ]
+    return float(np.median(rows["sampling_rate_hz"].to_numpy(dtype=float)))
+
+
+def _same_rates(matched: dict[Unit, Unit], train: pd.DataFrame, test: pd.DataFrame) -> None:
+    """UsageError naming a test unit whose rate is not its training unit's: a window of n
+    samples would span another time and band, and one unit cannot hold two rates."""
+    for unit, as_ in matched.items():
+        lo, hi = sorted((_rate(test, unit), _rate(train, as_)))
+        if hi > lo * (1 + RATE_TOLERANCE):
+            raise UsageError(
+                f"the test unit {_name(unit)} is sampled at {_rate(test, unit):g} Hz, the training unit "
+                f"{_name(as_)} it is tested as at {_rate(train, as_):g} Hz: a model of windows at one "
+                "rate cannot be tested at another (resample one dataset first, or map the test unit "
+                "to a training unit of its rate)"
+            )
+
+
 def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Dataset:
     """One dataset holding ``train``'s recordings (side "train") and ``test``'s (side "test"),
     ``test``'s units renamed by ``sensor_map`` (see :func:`resolve_sensor_map`); UsageError
@@ -108,6 +130,7 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
     b["sensor_type"] = [u[0] for u in renamed]
     b["sensor_instance"] = [u[1] for u in renamed]
     matched = {u: resolved.get(u, u) for u in units_b if resolved.get(u, u) in set(units_a)}
+    _same_rates(matched, train.recordings, test.recordings)
     if not matched:
         raise UsageError(
             f"no unit of the test dataset ({_names(units_b)}) has the name of a unit of the "

@@ -5,11 +5,14 @@ signal's scale, and the constant "slip" detector beside a one-class test set."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from datagen import subset
 
+from slipbench.data.format import Dataset
 from slipbench.data.read import read_dataset
 from slipbench.data.signals import Signals, robust_scale
 from slipbench.data.transfer import combine, parse_sensor_map, resolve_sensor_map
@@ -301,3 +304,62 @@ def test_a_one_class_test_set_shows_what_a_constant_slip_detector_scores(tmp_pat
     assert "constant_slip_accuracy" not in both and "constant" not in protocol_table(
         both, WindowSize().layout
     )
+
+
+# ----------------------------------------------------------------------------- real recordings
+
+DOS = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
+
+
+def _as_other_lab(ds: Dataset, mask, unit: tuple[str, str], gain: float) -> Dataset:
+    """The recordings of ``ds`` where ``mask`` holds, as another lab's sensor would give them:
+    another unit name, samples times ``gain``."""
+    part = subset(ds, mask)
+    rec = part.recordings.assign(sensor_type=unit[0], sensor_instance=unit[1])
+    return Dataset(rec, {k: v * gain for k, v in part.samples.items()})
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not DOS.is_dir(), reason=f"BioTacSP-DoS not found at {DOS}")
+def test_real_recordings_across_labs_of_different_gain(tmp_path):
+    """BioTacSP-DoS split by object into two "labs", the second's sensor named BioTac th and
+    reading 1/500 of the counts: a type-only map finds the training finger, the raw threshold
+    carries the first lab's scale and per-unit normalization bridges it; the material holdout
+    has nothing to compare (no object on both sides); a sensor at another rate is refused."""
+    from slipbench.data.importers import biotacsp_dos
+
+    dos = read_dataset(biotacsp_dos(DOS, tmp_path / "dos"))
+    first = dos.recordings["material"].isin(
+        ["bottle", "brush", "bubbles", "cardboard", "case", "hd"]
+    )
+    ds = combine(
+        subset(dos, first),
+        _as_other_lab(dos, ~first, ("BioTac", "th"), 0.002),
+        parse_sensor_map(["BioTac=BioTacSP"]),
+    )
+    assert json.loads(ds.origin["sensor_map"]) == {"BioTac:th": "BioTacSP:ff"}
+    rows = {
+        how: _run(WindowSize(windows=[50]), ds, tmp_path, how, out=how) for how in ("none", "unit")
+    }
+    raw, unit = rows["none"].iloc[0], rows["unit"].iloc[0]
+    assert raw["status"] == "ok" and unit["status"] == "ok"
+    assert unit["normalize_scale_train"] / unit["normalize_scale_test"] == pytest.approx(
+        500, rel=0.3
+    )
+    assert raw["tp_rate"] < 0.1  # at 1/500 of the counts nothing crosses the threshold
+    assert unit["balanced_accuracy"] > raw["balanced_accuracy"] + 0.1
+    held = _run(MaterialHoldout(), ds, tmp_path, out="material")
+    assert set(held["material"]) == set(dos.recordings.loc[~first, "material"])
+    assert (held["status"] == "skipped").all()
+    assert held["reason"].str.startswith("with and without are the same model").all()
+
+
+def test_a_test_unit_at_another_rate_is_refused(tmp_path):
+    a = lab(tmp_path, "a", ("BioTacSP", "ff"), 1.0)
+    b = lab(tmp_path, "b", ("BioTacSP", "ff"), 1.0, seed=1)
+    slow = Dataset(b.recordings.assign(sampling_rate_hz=100.0), b.samples)
+    with pytest.raises(
+        UsageError,
+        match="sampled at 100 Hz, the training unit BioTacSP:ff it is tested as at 1000 Hz",
+    ):
+        combine(a, slow)
