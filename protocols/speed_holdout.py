@@ -8,7 +8,7 @@ longest first, to the speed with the least pressing time so far, so every speed'
 slip at that speed, free-space motion at that speed (there is none at 5 mm/s) and an equal share
 of pressing time on every material (equal to within one recording). Training
 "without" a speed drops the slip and free-space windows at that speed; pressing, having no
-speed, stays.
+speed, stays. Across two datasets, each dataset's pressing goes to its own slip speeds.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.protocol import HoldoutProtocol, Layout
+from slipbench.vocabulary import DATASET_SIDE
 
 
 def _speeds(recordings) -> list[float]:
@@ -41,10 +42,20 @@ class SpeedHoldout(HoldoutProtocol):
     test_column = "speed_group"  # pressing has no speed: columns() assigns it one
 
     def columns(self, recordings):
+        if DATASET_SIDE not in recordings:
+            return {"speed_group": self._groups(recordings)}
+        # across two datasets, each side's pressing is shared among the speeds of that side
+        group = recordings["speed_mm_s"].to_numpy(dtype=float).copy()
+        for side in recordings[DATASET_SIDE].unique():
+            rows = np.flatnonzero(recordings[DATASET_SIDE].eq(side).to_numpy())
+            group[rows] = self._groups(recordings.iloc[rows])
+        return {"speed_group": group}
+
+    def _groups(self, recordings):
         speeds = _speeds(recordings)
         group = recordings["speed_mm_s"].to_numpy(dtype=float).copy()
         if not speeds:
-            return {"speed_group": group}
+            return group
         press = recordings[recordings["scenario"] == "press"]
         length = press["n_samples"] if "n_samples" in press else pd.Series(1, index=press.index)
         press = press.assign(_length=length).sort_values(
@@ -58,7 +69,7 @@ class SpeedHoldout(HoldoutProtocol):
                 turn = int(np.argmin(held))  # ties go to the slower speed
                 held[turn] += n
                 group[recordings.index.get_loc(index)] = speeds[turn]
-        return {"speed_group": group}
+        return group
 
     def levels(self, recordings):
         return _speeds(recordings)

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.params import Parameterized, WindowLength, window_samples
-from slipbench.vocabulary import MIN_WINDOW, sensor_pairs
+from slipbench.vocabulary import DATASET_SIDE, MIN_WINDOW, sensor_pairs
 
 __all__ = [
     "BaseProtocol",
@@ -102,6 +102,11 @@ class Cell:
         trials); training windows come from the training side of that split, whatever the run's.
         Only at the full rate (``downsample`` 1).
     skip : a reason the cell cannot run on this dataset, reported instead of results.
+    holdout : None, or ``(column, value)`` for a cell of a "with and without" pair on that
+        value (:func:`holdout_cells`): the planner skips the cell, with the reason, when the
+        training side of its units holds no window of that value, since the models with and
+        without it are then the same model (across datasets, say, a material only the test
+        dataset has). Not part of the cell's keys.
     """
 
     key: dict[str, Any]
@@ -113,6 +118,7 @@ class Cell:
     antialias: bool = False
     stream: dict[str, Any] | None = None
     skip: str = ""
+    holdout: tuple[str, Any] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.key, dict) or not self.key:
@@ -147,6 +153,12 @@ class Cell:
             raise ValueError(f"Cell.antialias must be a bool, got {self.antialias!r}")
         if self.stream is not None:
             self._check_stream()
+        if self.holdout is not None and not (
+            isinstance(self.holdout, tuple)
+            and len(self.holdout) == 2
+            and isinstance(self.holdout[0], str)
+        ):
+            raise ValueError(f"Cell.holdout must be None or (column, value), got {self.holdout!r}")
 
     def _check_stream(self) -> None:
         if not isinstance(self.stream, dict) or set(self.stream) != set(STREAM_KEYS):
@@ -327,20 +339,43 @@ def holdout_cells(
     "with" model trains on every training window, the "without" model on those whose ``name``
     differs from the level. The cell key holds sensor_type, sensor_instance, ``name`` and
     ``training`` ("with" or "without"); ``window`` is in samples or milliseconds ("50ms").
+    Each cell carries ``holdout=(name, level)``: where the training side holds no window of the
+    level, the planner skips the pair (the two models are one). Across two datasets (a
+    ``dataset_side`` column), a unit's levels are those its test side has (in ``name`` and in
+    ``test_column``): a level only the training dataset has has nothing to test, and is no
+    column of the table.
     """
+    column = test_column or name
+    levels = [v.item() if isinstance(v, np.generic) else v for v in levels]
     for sensor in sensor_pairs(recordings):
         ((n, _, skip),) = window_cells(recordings, sensor, window)
-        for level in levels:
-            level = level.item() if isinstance(level, np.generic) else level
-            test = Part((sensor,), "test", ((test_column or name, "==", level),))
+        tested = levels
+        if DATASET_SIDE in recordings and column in recordings:
+            rows = recordings[
+                (recordings["sensor_type"] == sensor[0])
+                & (recordings["sensor_instance"] == sensor[1])
+                & (recordings[DATASET_SIDE] == "test")
+            ]
+            tested = [v for v in levels if rows[name].eq(v).any() and rows[column].eq(v).any()]
+        for level in tested:
+            test = Part((sensor,), "test", ((column, "==", level),))
             key = {"sensor_type": sensor[0], "sensor_instance": sensor[1], name: level}
-            yield Cell({**key, "training": "with"}, Part((sensor,), "train"), test, n, skip=skip)
+            held = (name, level)
+            yield Cell(
+                {**key, "training": "with"},
+                Part((sensor,), "train"),
+                test,
+                n,
+                skip=skip,
+                holdout=held,
+            )
             yield Cell(
                 {**key, "training": "without"},
                 Part((sensor,), "train", ((name, "!=", level),)),
                 test,
                 n,
                 skip=skip,
+                holdout=held,
             )
 
 
@@ -365,8 +400,10 @@ class HoldoutProtocol(BaseProtocol):
         raise NotImplementedError
 
     def cells(self, recordings: pd.DataFrame) -> Iterator[Cell]:
+        # the test column may be one this protocol adds (speed-holdout's speed_group)
+        added = {k: v for k, v in self.columns(recordings).items() if k not in recordings}
         return holdout_cells(
-            recordings,
+            recordings.assign(**added) if added else recordings,
             self.holdout_column,
             self.levels(recordings),
             self.window,

@@ -26,6 +26,9 @@ MIN_WINDOW = 5  # samples: the shortest window a detector is given
 LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover
 # a slip onset counts as detected within this delay: a grasp controller's reaction budget
 MAX_DELAY_MS = 200.0
+# the recordings column of a dataset combined from two (slipbench.data.transfer): "train" or
+# "test", the side of the 'datasets' split each recording lies on
+DATASET_SIDE = "dataset_side"
 
 # ----------------------------------------------------------------------------- orders and names
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name

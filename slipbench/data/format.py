@@ -37,12 +37,16 @@ class Dataset:
     slip_labels : dict recording_id -> int8 array of shape (n_samples,): -1 unlabelled, 0 no
         slip, 1 slip. Every recording has one when the file has a ``slip`` column; empty when not.
     path : where the dataset was read from (None if built in memory).
+    origin : for a dataset built from others (:func:`slipbench.data.transfer.combine`), what
+        they were: plain strings (paths, fingerprints, the sensor map) that every result row
+        and report carries; empty otherwise.
     """
 
     recordings: pd.DataFrame
     samples: dict[str, np.ndarray]
     slip_labels: dict[str, np.ndarray] = field(default_factory=dict)
     path: Path | None = None
+    origin: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.path = None if self.path is None else Path(self.path)

@@ -22,6 +22,34 @@ SPLITS = (
 # How a window gets its class: from its recording's scenario (the paper), or from the per-sample
 # ``slip`` labels: the majority of its samples, any slip sample, or its last sample.
 LABELLINGS = ("scenario", "majority", "any", "last")
+# How the signal is scaled before windows are cut (see Signals.normalized): not at all (the
+# paper), per recording, or per sensor unit.
+NORMALIZATIONS = ("none", "recording", "unit")
+MAD_TO_SD = 1.4826  # the median absolute deviation of a normal distribution x this = its sd
+MEAN_AD_TO_SD = 1.2533  # the same for the mean absolute deviation
+
+
+def robust_scale(s: np.ndarray) -> tuple[float, float]:
+    """Centre and scale of a signal: its median, and 1.4826 x its median absolute deviation
+    (the standard deviation where s is normal noise).
+
+    Median and MAD rather than mean and sd: s has heavy tails (impacts, the bursts of slip), and
+    the share of slip in a set of recordings would move a standard deviation with it; the MAD
+    follows the sensor's noise and gain (its counts per unit of force), which is what differs
+    between two sensors measuring the same slip. Where more than half of s equals its median
+    (integer counts at rest), the MAD is 0 and 1.2533 x the mean absolute deviation from the
+    median stands in; a constant s (all at its median) gets scale 1 (it is 0 after centring
+    whatever the scale). Computed in float64.
+    """
+    x = np.asarray(s, dtype=np.float64)
+    if not len(x):
+        return 0.0, 1.0
+    centre = float(np.median(x))
+    dev = np.abs(x - centre)
+    scale = MAD_TO_SD * float(np.median(dev))
+    if scale <= 0:
+        scale = MEAN_AD_TO_SD * float(dev.mean())
+    return centre, scale if scale > 0 else 1.0
 
 
 def univariate(a: np.ndarray, baseline: int = 0) -> np.ndarray:
@@ -121,6 +149,40 @@ class Signals:
             sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
             out[lo:hi] = signal.sosfilt(sos, self.buffer[lo:hi].astype(np.float64))
         return Signals(out, self.offsets, self.recordings, self.labels)
+
+    def normalized(self, groups: np.ndarray, reference: np.ndarray) -> tuple[Signals, np.ndarray]:
+        """The signal centred and scaled per group: (s - centre) / scale, with the
+        :func:`robust_scale` of the samples of the group's ``reference`` recordings (all of the
+        group's recordings where none is a reference).
+
+        Parameters
+        ----------
+        groups : (n_recordings,) int, the group of each recording (one recording, one unit).
+        reference : (n_recordings,) bool, the recordings whose samples give the statistics.
+
+        Returns
+        -------
+        The Signals (same offsets, recordings and labels; buffer float32) and an
+        (n_recordings, 2) float64 array of the centre and scale each recording got.
+        """
+        groups, reference = np.asarray(groups), np.asarray(reference, bool)
+        out = np.empty_like(self.buffer)
+        stats = np.empty((len(groups), 2))
+        o = self.offsets
+        for g in np.unique(groups):
+            members = np.flatnonzero(groups == g)
+            chosen = members[reference[members]]
+            if not len(chosen):
+                chosen = members
+            centre, scale = robust_scale(
+                np.concatenate([self.buffer[o[r] : o[r + 1]] for r in chosen])
+            )
+            stats[members] = centre, scale
+            for r in members:
+                out[o[r] : o[r + 1]] = (
+                    self.buffer[o[r] : o[r + 1]].astype(np.float64) - centre
+                ) / scale
+        return Signals(out, self.offsets, self.recordings, self.labels), stats
 
     def windows(
         self,

@@ -10,13 +10,21 @@ to A's by name or by a map. A test set of one class is not a dead end: the rate 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 
 from slipbench.data.format import Dataset
+from slipbench.data.schema import RATE_TOLERANCE
 from slipbench.errors import UsageError
+from slipbench.vocabulary import DATASET_SIDE
 
-SIDE_COLUMN = "dataset_side"
+SIDE_COLUMN = DATASET_SIDE
+
+
+Unit = tuple[str, str]  # (sensor_type, sensor_instance)
+MAP_SYNTAX = "TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE]"
 
 
 def parse_sensor_map(
@@ -26,10 +34,8 @@ def parse_sensor_map(
     out: dict[tuple[str, str | None], tuple[str, str | None]] = {}
     for item in items:
         src, sep, dst = item.partition("=")
-        if not sep or not src or not dst:
-            raise UsageError(
-                f"--sensor-map {item!r}: expected TYPE=TYPE or TYPE:INSTANCE=TYPE:INSTANCE"
-            )
+        if not sep or not src or not dst or src.endswith(":") or dst.endswith(":"):
+            raise UsageError(f"--sensor-map {item!r}: expected {MAP_SYNTAX}")
         out[_unit(src)] = _unit(dst)
     return out
 
@@ -40,30 +46,100 @@ def _unit(text: str) -> tuple[str, str | None]:
     return (sensor_type, instance) if sep else (text, None)
 
 
+def _name(unit: tuple[str, str | None]) -> str:
+    return unit[0] + (f":{unit[1]}" if unit[1] else "")
+
+
+def _names(units) -> str:
+    return ", ".join(sorted(map(_name, units))) or "none"
+
+
+def resolve_sensor_map(
+    sensor_map: dict[tuple[str, str | None], tuple[str, str | None]],
+    test_units: list[Unit],
+    train_units: list[Unit],
+) -> dict[Unit, Unit]:
+    """Each test unit a map entry names -> the training unit it is tested as.
+
+    An entry naming an instance (``Taxels:left=...``) wins over one naming only the type
+    (``Taxels=...``). A training side naming an instance takes it; one naming only the type
+    (``BioTac=BioTacSP``) takes, for each test instance, the same-named instance of that type
+    in the training dataset, else its only instance; where it has several and none of that
+    name the entry is refused, since picking one would be a guess. UsageError naming the entry
+    when a side names a sensor its dataset lacks.
+    """
+    out: dict[Unit, Unit] = {}
+    for (src_type, src_inst), (dst_type, dst_inst) in sorted(
+        sensor_map.items(), key=lambda kv: kv[0][1] is None
+    ):
+        entry = f"--sensor-map {_name((src_type, src_inst))}={_name((dst_type, dst_inst))}"
+        hits = [u for u in test_units if u[0] == src_type and src_inst in (None, u[1])]
+        if not hits:
+            raise UsageError(
+                f"{entry}: the test dataset has no sensor {_name((src_type, src_inst))} "
+                f"(its units: {_names(test_units)})"
+            )
+        candidates = [u for u in train_units if u[0] == dst_type and dst_inst in (None, u[1])]
+        if not candidates:
+            raise UsageError(
+                f"{entry}: the training dataset has no sensor {_name((dst_type, dst_inst))} "
+                f"(its units: {_names(train_units)})"
+            )
+        for unit in hits:
+            if unit in out:  # an entry naming the instance came first
+                continue
+            same = [c for c in candidates if c[1] == unit[1]]
+            if same or len(candidates) == 1:
+                out[unit] = (same or candidates)[0]
+                continue
+            raise UsageError(
+                f"{entry}: the test unit {_name(unit)} has no same-named {dst_type} instance in the "
+                f"training dataset, which has several ({_names(candidates)}); name the one to test "
+                f"it as, e.g. --sensor-map {_name(unit)}={_name(candidates[0])}"
+            )
+    return out
+
+
+def _rate(recordings: pd.DataFrame, unit: Unit) -> float:
+    rows = recordings[
+        (recordings["sensor_type"] == unit[0]) & (recordings["sensor_instance"] == unit[1])
+    ]
+    return float(np.median(rows["sampling_rate_hz"].to_numpy(dtype=float)))
+
+
+def _same_rates(matched: dict[Unit, Unit], train: pd.DataFrame, test: pd.DataFrame) -> None:
+    """UsageError naming a test unit whose rate is not its training unit's: a window of n
+    samples would span another time and band, and one unit cannot hold two rates."""
+    for unit, as_ in matched.items():
+        lo, hi = sorted((_rate(test, unit), _rate(train, as_)))
+        if hi > lo * (1 + RATE_TOLERANCE):
+            raise UsageError(
+                f"the test unit {_name(unit)} is sampled at {_rate(test, unit):g} Hz, the training unit "
+                f"{_name(as_)} it is tested as at {_rate(train, as_):g} Hz: a model of windows at one "
+                "rate cannot be tested at another (resample one dataset first, or map the test unit "
+                "to a training unit of its rate)"
+            )
+
+
 def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Dataset:
     """One dataset holding ``train``'s recordings (side "train") and ``test``'s (side "test"),
-    ``test``'s sensors renamed by ``sensor_map``; UsageError when no unit of ``test`` matches
-    one of ``train``."""
-    sensor_map = sensor_map or {}
+    ``test``'s units renamed by ``sensor_map`` (see :func:`resolve_sensor_map`); UsageError
+    when no unit of ``test`` matches one of ``train``. Its ``origin`` names both datasets (path,
+    fingerprint) and which test unit is tested as which training unit."""
     a, b = train.recordings.copy(), test.recordings.copy()
-    for (src_type, src_inst), (dst_type, dst_inst) in sensor_map.items():
-        hit = b["sensor_type"].eq(src_type) & (
-            b["sensor_instance"].eq(src_inst) if src_inst else True
-        )
-        if not hit.any():
-            raise UsageError(
-                f"--sensor-map: the test dataset has no sensor {src_type}{':' + src_inst if src_inst else ''}"
-            )
-        b.loc[hit, "sensor_type"] = dst_type
-        if dst_inst:
-            b.loc[hit, "sensor_instance"] = dst_inst
-    units_a = set(zip(a["sensor_type"], a["sensor_instance"]))
-    units_b = set(zip(b["sensor_type"], b["sensor_instance"]))
-    if not units_a & units_b:
+    units_a, units_b = train.sensors(), test.sensors()
+    resolved = resolve_sensor_map(sensor_map or {}, units_b, units_a)
+    pairs = list(zip(b["sensor_type"], b["sensor_instance"]))
+    renamed = [resolved.get(u, u) for u in pairs]
+    b["sensor_type"] = [u[0] for u in renamed]
+    b["sensor_instance"] = [u[1] for u in renamed]
+    matched = {u: resolved.get(u, u) for u in units_b if resolved.get(u, u) in set(units_a)}
+    _same_rates(matched, train.recordings, test.recordings)
+    if not matched:
         raise UsageError(
-            f"no unit of the test dataset ({', '.join(sorted(map(':'.join, units_b)))}) matches one of the "
-            f"training dataset ({', '.join(sorted(map(':'.join, units_a)))}); map them with "
-            "--sensor-map TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE]"
+            f"no unit of the test dataset ({_names(units_b)}) has the name of a unit of the "
+            f"training dataset ({_names(units_a)}); say which to test as which with "
+            f"--sensor-map {MAP_SYNTAX} (a type alone maps every instance of it)"
         )
     parts: list[pd.DataFrame] = []
     samples: dict[str, np.ndarray] = {}
@@ -83,4 +159,11 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
         for rid, scenario in zip(recordings["recording_id"], recordings["scenario"]):
             if rid not in labels:
                 labels[rid] = np.full(len(samples[rid]), by_scenario[scenario], np.int8)
-    return Dataset(recordings, samples, labels)
+    origin = {
+        "train_dataset_path": str(train.path or ""),
+        "train_dataset_fingerprint": train.fingerprint,
+        "test_dataset_path": str(test.path or ""),
+        "test_dataset_fingerprint": test.fingerprint,
+        "sensor_map": json.dumps({_name(u): _name(v) for u, v in sorted(matched.items())}),
+    }
+    return Dataset(recordings, samples, labels, origin=origin)

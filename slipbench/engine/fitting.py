@@ -117,6 +117,7 @@ def fit_and_test(
                             test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
                         ),
                         **cost,
+                        **_constant(test.y),
                         "infer_us_per_window": infer_s / len(test.x) * 1e6,
                         **_choices(detector, sampling_rate),
                     },
@@ -145,6 +146,15 @@ def _one_class(y: np.ndarray) -> str:
         return ""
     there, absent = ("slip", "TN rate") if y[0] == 1 else ("non-slip", "TP rate")
     return f"the test set holds {there} windows only: accuracy is the {'TP' if y[0] == 1 else 'TN'} rate; the {absent} does not exist"
+
+
+def _constant(y: np.ndarray) -> dict[str, float]:
+    """On a test set of one class, the accuracy a detector that always says "slip" scores
+    (1 on slip windows only, 0 on non-slip only): what a figure there is to be read against.
+    Absent on a set of both classes, so the rows of balanced cells keep their columns."""
+    if len(np.unique(y)) == 2:
+        return {}
+    return {"constant_slip_accuracy": float(np.mean(y == 1))}
 
 
 def _choices(detector: BaseDetector, sampling_rate: float) -> dict[str, str]:

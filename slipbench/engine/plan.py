@@ -16,7 +16,16 @@ import numpy as np
 import pandas as pd
 
 from slipbench.base import BaseDetector
-from slipbench.data.signals import LABELLINGS, SPLITS, Signals, Windows, balance, split, trial_sides
+from slipbench.data.signals import (
+    LABELLINGS,
+    NORMALIZATIONS,
+    SPLITS,
+    Signals,
+    Windows,
+    balance,
+    split,
+    trial_sides,
+)
 from slipbench.data.transfer import SIDE_COLUMN
 from slipbench.engine.registry import detectors, protocols
 from slipbench.errors import PluginError, UsageError
@@ -43,7 +52,8 @@ class Run:
 
     ``detector`` and ``protocol`` are objects or ids (``"holweg"``, ``"window-size"``); an id
     is looked up in the registry, an object's id is the name its class is registered under.
-    ``labels``: one of :data:`slipbench.data.signals.LABELLINGS`.
+    ``labels``: one of :data:`slipbench.data.signals.LABELLINGS`. ``normalize``: one of
+    :data:`slipbench.data.signals.NORMALIZATIONS` (see :meth:`CellData.normalization`).
     """
 
     detector: BaseDetector
@@ -51,6 +61,7 @@ class Run:
     split: str = "paper"
     seed: int = 0
     labels: str = "scenario"
+    normalize: str = "none"
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
 
@@ -61,8 +72,9 @@ class Run:
         split: str = "paper",
         seed: int = 0,
         labels: str = "scenario",
+        normalize: str = "none",
     ) -> None:
-        self.split, self.seed, self.labels = split, seed, labels
+        self.split, self.seed, self.labels, self.normalize = split, seed, labels, normalize
         if isinstance(detector, str):
             self.detector_name, self.detector = detector, detectors.get(detector)()
         else:
@@ -76,6 +88,10 @@ class Run:
         if self.labels not in LABELLINGS:
             raise UsageError(
                 f"unknown labelling {self.labels!r}; choose one of: {', '.join(LABELLINGS)}"
+            )
+        if self.normalize not in NORMALIZATIONS:
+            raise UsageError(
+                f"unknown normalization {self.normalize!r}; choose one of: {', '.join(NORMALIZATIONS)}"
             )
         if (
             isinstance(self.seed, bool)
@@ -115,7 +131,14 @@ class CellData:
     part's samples are cut when a model needs them, so memory holds one task's windows at a
     time. The same windows serve every downsampling, as the paper downsamples its 200-sample set."""
 
-    def __init__(self, signals: Signals, how: str, seed: int, labelling: str = "scenario"):
+    def __init__(
+        self,
+        signals: Signals,
+        how: str,
+        seed: int,
+        labelling: str = "scenario",
+        normalize: str = "none",
+    ):
         self.signals, self.how, self.seed, self.labelling = signals, how, seed, labelling
         self._sides = trial_sides(signals.recordings, seed) if how == "grouped" else None
         if how == "datasets" and SIDE_COLUMN not in signals.recordings:
@@ -123,6 +146,11 @@ class CellData:
                 "the datasets split needs a dataset combined by slipbench.data.transfer.combine "
                 "(evaluate --train-dataset A --dataset B)"
             )
+        self.normalize = normalize
+        # (n_recordings, 2) centre and scale each recording's signal was normalized by
+        self.scales: np.ndarray | None = None
+        if normalize != "none":
+            self.signals, self.scales = signals.normalized(*self.normalization(normalize))
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
         rec = signals.recordings
@@ -132,6 +160,35 @@ class CellData:
             .drop_duplicates()
             .itertuples(index=False, name=None)
         }
+
+    def normalization(self, how: str) -> tuple[np.ndarray, np.ndarray]:
+        """The groups whose signal shares one centre and scale, and the recordings that give
+        each group's statistics (see :meth:`Signals.normalized`).
+
+        ``recording``: each recording alone, by its own statistics (the test side's too: they
+        use no label). ``unit``: each sensor unit of each dataset (across datasets, the test
+        dataset's unit is another physical unit than the training dataset's of that name), by
+        its recordings on the training side of this split: every recording for ``paper``
+        (windows of one recording lie on both sides), the training trials for ``grouped``; a
+        unit with none there (the test dataset's units) by all of its own recordings.
+        """
+        rec = self.signals.recordings
+        if how == "recording":
+            return np.arange(len(rec)), np.ones(len(rec), bool)
+        side = (
+            rec[SIDE_COLUMN].astype(str).to_numpy() if SIDE_COLUMN in rec else np.full(len(rec), "")
+        )
+        units = pd.Series(
+            [f"{d}|{t}|{i}" for d, t, i in zip(side, rec["sensor_type"], rec["sensor_instance"])]
+        )
+        groups = pd.factorize(units)[0]
+        if self._sides is not None:  # grouped
+            reference = np.asarray(self._sides == 0)
+        elif self.how == "datasets":
+            reference = np.asarray(side == "train")
+        else:
+            reference = np.ones(len(rec), bool)
+        return groups, reference
 
     def sides(self, sensor: tuple[str, str], window: int) -> tuple[Windows, Windows]:
         """Train and test windows (positions only) of one sensor; UsageError saying why there
@@ -297,10 +354,13 @@ class Plan:
 
     cells: list[PlannedCell]
     tasks: list[Task]
-    data: dict[tuple[str, int, str], CellData]
+    data: dict[tuple[str, int, str, str], CellData]
 
-    def data_of(self, run: Run) -> CellData:
-        return self.data[run.split, run.seed, run.labels]
+    def data_of(self, pc: PlannedCell) -> CellData:
+        """The windows and signal a cell was planned on (a streaming cell: its trial split's)."""
+        run = pc.run
+        how = stream_split(run.split) if pc.cell.stream else run.split
+        return self.data[how, run.seed, run.labels, run.normalize]
 
 
 def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
@@ -327,6 +387,8 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
         "streams": STREAM_SCHEME,
         "labels": run.labels,
         "code": code,
+        # absent when "none", so the keys of runs without it stay those of earlier versions
+        **({"normalize": run.normalize} if run.normalize != "none" else {}),
     }
     # at the full rate every decimation gives the same windows: one model serves them all
     sampling = (
@@ -368,15 +430,11 @@ def make_plan(
 ) -> Plan:
     """Plan every cell of every run (a run with its protocol's cells); cells whose key is in
     ``done`` are listed but not computed."""
-    data: dict[tuple[str, int, str], CellData] = {}
+    data: dict[tuple[str, int, str, str], CellData] = {}
     planned: list[PlannedCell] = []
     tasks: dict[str, Task] = {}
     for run, cells in runs:
-        if (run.split, run.seed, run.labels) not in data:
-            data[run.split, run.seed, run.labels] = CellData(
-                signals, run.split, run.seed, run.labels
-            )
-        cells_data = data[run.split, run.seed, run.labels]
+        cells_data = _data(data, signals, run, run.split)
         for cell in cells:
             key, model = keys(run, cell, fingerprint)
             pc = PlannedCell(run, cell, key, model, skip=cell.skip)
@@ -389,15 +447,18 @@ def make_plan(
                     tasks.setdefault(model, Task(model)).cells.append(pc)
                 continue
             try:
-                pc.train, pc.test = (
+                train, test = (
                     cells_data.part(cell.train, cell.window),
                     cells_data.part(cell.test, cell.window),
                 )
+                pc.train, pc.test = train, test
                 pc.sampling_rate = cells_data.sampling_rate(cell.train, cell.downsample)
+                pc.skip = _same_model(cells_data, cell)
             except UsageError as exc:
                 pc.skip = str(exc)
+            if pc.skip:
                 continue
-            for windows, role in ((pc.train, "train"), (pc.test, "test")):
+            for windows, role in ((train, "train"), (test, "test")):
                 missing = _missing_classes(windows.y)
                 if missing and not (role == "test" and run.split == "datasets" and len(windows)):
                     pc.skip = f"no {missing} windows to {role} on"
@@ -407,16 +468,42 @@ def make_plan(
     return Plan(planned, list(tasks.values()), data)
 
 
+def _data(
+    data: dict[tuple[str, int, str, str], CellData], signals: Signals, run: Run, how: str
+) -> CellData:
+    """The CellData of a run's split (``how``), made once and shared."""
+    key = (how, run.seed, run.labels, run.normalize)
+    if key not in data:
+        data[key] = CellData(signals, how, run.seed, run.labels, run.normalize)
+    return data[key]
+
+
+def _same_model(cells_data: CellData, cell: Cell) -> str:
+    """Why a cell of a "with and without" pair cannot run: the training side of its units
+    holds no window of the held-out value, so with and without are the same model; "" if it
+    holds some."""
+    if cell.holdout is None:
+        return ""
+    column, value = cell.holdout
+    where = tuple(c for c in cell.train.where if c != (column, "!=", value))
+    trained = cells_data.part(Part(cell.train.sensors, "train", where), cell.window)
+    if (trained.column(column) == value).any():
+        return ""
+    units = ", ".join(f"{t} {i}" for t, i in cell.train.sensors)
+    shown = f"{value:g}" if isinstance(value, float) else str(value)
+    return (
+        f"with and without are the same model: the training side of {units} holds no "
+        f"{column} {shown} windows"
+    )
+
+
 def _plan_stream(
-    pc: PlannedCell, data: dict[tuple[str, int, str], CellData], signals: Signals
+    pc: PlannedCell, data: dict[tuple[str, int, str, str], CellData], signals: Signals
 ) -> None:
     """A streaming cell's training windows (from the training trials) and the recordings it
     streams, or the reason it is skipped."""
     run, cell = pc.run, pc.cell
-    how = stream_split(run.split)
-    if (how, run.seed, run.labels) not in data:
-        data[how, run.seed, run.labels] = CellData(signals, how, run.seed, run.labels)
-    cells_data = data[how, run.seed, run.labels]
+    cells_data = _data(data, signals, run, stream_split(run.split))
     units = ", ".join(f"{t} {i}" for t, i in cell.test.sensors)
     try:
         pc.train = cells_data.part(cell.train, cell.window)

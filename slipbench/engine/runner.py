@@ -43,8 +43,16 @@ def environment() -> dict[str, str]:
 
 
 def _row(
-    pc: PlannedCell, fields: dict, fingerprint: str, path: str, env: dict, run_id: str
+    pc: PlannedCell,
+    fields: dict,
+    fingerprint: str,
+    path: str,
+    env: dict,
+    run_id: str,
+    origin: dict | None = None,
 ) -> dict:
+    """One result row. ``origin``: the datasets a combined dataset was built from (paths,
+    fingerprints, sensor map; see :func:`slipbench.data.transfer.combine`)."""
     run, cell = pc.run, pc.cell
     return {
         "key": pc.key,
@@ -57,6 +65,7 @@ def _row(
         "split": run.split,
         "seed": run.seed,
         "labels": run.labels,
+        "normalize": run.normalize,
         **cell.key,
         "window": cell.window,
         "downsample": cell.downsample,
@@ -70,6 +79,7 @@ def _row(
         **fields,
         "dataset_fingerprint": fingerprint,
         "dataset_path": path,
+        **(origin or {}),
         **env,
         "finished_at": datetime.now(timezone.utc).isoformat(),
     }
@@ -132,14 +142,14 @@ def evaluate(
     with_cells = [(run, run.cells(dataset.recordings) or [_no_cells(run, dataset)]) for run in runs]
     stored = {} if force else store.finished()
     done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}
-    fingerprint, path = dataset.fingerprint, str(dataset.path or "")
+    fingerprint, path, origin = dataset.fingerprint, str(dataset.path or ""), dataset.origin
     signals = _signals(dataset, runs)
     plan = make_plan(signals, with_cells, fingerprint, done)
     env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
 
     def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
-        row = _row(pc, fields, fingerprint, path, env, run_id)
+        row = _row(pc, {**fields, **_scales(plan, pc)}, fingerprint, path, env, run_id, origin)
         predictions = None
         if scores is not None:  # the scores of test windows (a streaming cell keeps none)
             rec, test = signals.recordings, pc.windows("test")
@@ -181,13 +191,13 @@ def _payload(
 ) -> tuple:
     """The arguments of ``fit_and_test`` for a task: samples are cut here, one task at a time."""
     first = task.first
-    data = plan.data_of(first.run)
+    data = plan.data_of(first)
     train = data.values(first.windows("train"), first.cell)
     trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
     tests = [
-        _stream_test(data.signals, pc)
+        _stream_test(plan.data_of(pc).signals, pc)
         if pc.streams is not None
-        else _window_test(data.values(pc.windows("test"), pc.cell), trials)
+        else _window_test(plan.data_of(pc).values(pc.windows("test"), pc.cell), trials)
         for pc in task.cells
     ]
     model_path = None
@@ -204,6 +214,27 @@ def _payload(
         tests,
         None if model_path is None else str(model_path),
     )
+
+
+def _scales(plan: Plan, pc: PlannedCell) -> dict[str, float]:
+    """With a normalization, the median scale the cell's training and test recordings were
+    divided by (one value per unit with ``unit``), so a row shows the scales it bridged."""
+    if pc.train is None or pc.run.normalize == "none":
+        return {}
+    data = plan.data_of(pc)
+    if data.scales is None:
+        return {}
+    if pc.streams is not None:
+        tested = pc.streams["test"]
+    elif pc.test is not None:
+        tested = pc.test.recording
+    else:  # skipped before its test windows were known
+        return {}
+    return {
+        f"normalize_scale_{side}": float(np.median(data.scales[np.unique(rows), 1]))
+        for side, rows in (("train", pc.train.recording), ("test", tested))
+        if len(rows)
+    }
 
 
 def _window_test(windows, trials: np.ndarray) -> TestSet:

@@ -37,6 +37,14 @@ LABELS = {
     "any": "any: a sample of the window slips",
     "last": "last: the window's last sample slips",
 }
+NORMALIZATIONS = {
+    "none": "none: the signal as measured (the paper)",
+    "recording": "recording: each recording's signal minus its median, over 1.4826 x its median absolute "
+    "deviation (its own statistics, the test side's too; this also evens out the amplitude that tells "
+    "slip from pressing recordings)",
+    "unit": "unit: each sensor unit's signal minus its median, over 1.4826 x its median absolute deviation, "
+    "taken on the unit's training-side recordings (a test dataset's unit: on its own recordings)",
+}
 TOP_VALUES = 2  # fitted values listed per unit before "k more"
 MAX_WARNINGS = 12
 
@@ -72,6 +80,62 @@ def dataset_source(path: str) -> str:
         return _simulated(folder) + " (from its folder's name; the dataset is not readable here)"
     state = "no source column" if sources == [] else "not readable here"
     return f"the dataset at {path} ({state})"
+
+
+def _data_lines(rows: pd.DataFrame) -> list[tuple[str, str]]:
+    """The header's lines on the data: its source and fingerprint; for rows trained on one
+    dataset and tested on another, both datasets (source, path, fingerprint) and how the test
+    dataset's units were matched to the training dataset's."""
+    crossed = (
+        rows["train_dataset_path"].notna().to_numpy()
+        if "train_dataset_path" in rows
+        else np.zeros(len(rows), bool)
+    )
+    across, within = rows[crossed], rows[~crossed]
+    lines = []
+    if len(within) or not len(across):
+        lines += [
+            (
+                "Data",
+                "; ".join(dataset_source(p) for p in _values(within, "dataset_path"))
+                or "unknown (the rows do not say)",
+            ),
+            (
+                "Dataset fingerprint",
+                ", ".join(map(str, _values(within, "dataset_fingerprint"))) or "unknown",
+            ),
+        ]
+    pairs = (
+        across[
+            [
+                "train_dataset_path",
+                "train_dataset_fingerprint",
+                "test_dataset_path",
+                "test_dataset_fingerprint",
+            ]
+        ]
+        .drop_duplicates()
+        .itertuples(index=False, name=None)
+        if len(across)
+        else []
+    )
+    for train_path, train_fp, test_path, test_fp in pairs:
+        lines += [
+            ("Trained on", f"{dataset_source(str(train_path))}; fingerprint {train_fp}"),
+            ("Tested on", f"{dataset_source(str(test_path))}; fingerprint {test_fp}"),
+        ]
+    for text in _values(across, "sensor_map"):
+        try:
+            pairs_ = json.loads(text)
+        except (TypeError, json.JSONDecodeError):
+            pairs_ = {"?": str(text)}
+        lines.append(
+            (
+                "Sensor map (test unit → training unit)",
+                ", ".join(f"{a} → {b}" for a, b in pairs_.items()) or "(none)",
+            )
+        )
+    return lines
 
 
 def _params(text: str) -> str:
@@ -131,14 +195,16 @@ def header_tables(
     default as the rows first name them) with their options."""
     low = low_n(rows) & rows["status"].eq("ok")
     run = [
-        (
-            "Data",
-            "; ".join(dataset_source(p) for p in _values(rows, "dataset_path"))
-            or "unknown (the rows do not say)",
-        ),
-        (
-            "Dataset fingerprint",
-            ", ".join(map(str, _values(rows, "dataset_fingerprint"))) or "unknown",
+        *_data_lines(rows),
+        *(
+            [
+                (
+                    "Normalization",
+                    "; ".join(NORMALIZATIONS.get(s, s) for s in _values(rows, "normalize")),
+                )
+            ]
+            if _values(rows, "normalize")
+            else []
         ),
         ("Split", "; ".join(SPLITS.get(s, s) for s in _values(rows, "split")) or "unknown"),
         ("Labels", "; ".join(LABELS.get(s, s) for s in _values(rows, "labels")) or "unknown"),

@@ -388,7 +388,26 @@ def build_table(
         notes.append("Mean ± standard deviation across seeds.")
     if intervals and values == "ours":
         notes.append(_seeds_note({k for k, r in by_key.items() if r["n"] > 1}, pooled))
+    if values == "ours":
+        notes += _one_class_note(rows)
     return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+
+
+def _one_class_note(rows: pd.DataFrame) -> list[str]:
+    """Where cells test on one class only: what a detector that always says "slip" scores
+    there (the rows' ``constant_slip_accuracy``), so a figure near 100 % reads as what it is."""
+    if "constant_slip_accuracy" not in rows:
+        return []
+    ok = rows[rows["status"].eq("ok")] if "status" in rows else rows
+    constant = pd.to_numeric(ok["constant_slip_accuracy"], errors="coerce").dropna()
+    if constant.empty:
+        return []
+    scores = " or ".join(f"{100 * v:.0f} %" for v in sorted(constant.unique(), reverse=True))
+    return [
+        f"{len(constant)} of {len(ok)} finished cells test on one class only: there a constant "
+        f'"slip" detector scores {scores} (column constant_slip_accuracy), and a figure near it '
+        "says the detector calls that class, not that it tells slip from non-slip."
+    ]
 
 
 def _seeds_note(repeated: set[tuple], pooled: dict[tuple, dict]) -> str:

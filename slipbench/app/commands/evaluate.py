@@ -60,6 +60,15 @@ from slipbench.errors import PluginError, UsageError
 @labels_option(
     "A window's class: its recording's scenario (the paper), or its samples' slip labels."
 )
+@click.option(
+    "--normalize",
+    type=click.Choice(["none", "recording", "unit"]),
+    default="none",
+    show_default=True,
+    help="Scale the signal before windows are cut: not at all (the paper), per recording, or per "
+    "sensor unit (median and 1.4826 x MAD of the unit's training-side signal; across datasets, each "
+    "dataset's unit by its own).",
+)
 @seed_option("Seed of balancing, splitting and training (and of the simulated data).")
 @click.option(
     "--repeats",
@@ -99,6 +108,7 @@ def evaluate(
     out,
     split,
     labels,
+    normalize,
     seed,
     repeats,
     params,
@@ -137,7 +147,7 @@ def evaluate(
         "protocol",
     )
     runs = [
-        Run(d, p, split, seed + r, labels)
+        Run(d, p, split, seed + r, labels, normalize)
         for d in detectors.values()
         for p in protocols.values()
         for r in range(repeats)
