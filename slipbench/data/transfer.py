@@ -10,7 +10,6 @@ to A's by name or by a map. A test set of one class is not a dead end: the rate 
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
 from slipbench.data.format import Dataset
@@ -71,10 +70,6 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
         labels |= {f"{side}/{r}": ds.slip_labels[r] for r in old if r in ds.slip_labels}
         parts.append(frame)
     recordings = pd.concat(parts, ignore_index=True)
-    if labels and len(labels) != len(samples):
-        # one dataset has per-sample labels and the other not: its scenarios label its samples
-        by_scenario = {"slip": 1, "press": 0, "free-space": 0}
-        for rid, scenario in zip(recordings["recording_id"], recordings["scenario"]):
-            if rid not in labels:
-                labels[rid] = np.full(len(samples[rid]), by_scenario[scenario], np.int8)
+    # where one dataset has per-sample labels and the other not, the other's recordings stay
+    # unlabelled (-1): labelling by samples skips them with the reason, never by their scenario
     return Dataset(recordings, samples, labels)
