@@ -73,13 +73,17 @@ class UsageInFit(Energy):
 
 
 class Constant(BaseDetector):
-    """Learns nothing: every window scores 0.5 (called slip at the threshold 0.5)."""
+    """Learns nothing: every window scores 0.5 (called slip at the threshold 0.5); reports the
+    one epoch it "ran"."""
 
     def _fit(self, x, y, seed):
         self.fitted_ = True
 
     def _predict_proba(self, x):
         return np.full(len(x), 0.5)
+
+    def fitted_choices(self):
+        return {"epochs": 1}
 
 
 class Coin(BaseDetector):

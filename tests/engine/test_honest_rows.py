@@ -154,6 +154,8 @@ def test_a_detector_at_chance_on_its_training_windows_is_flagged(tmp_path):
     rows = evaluate(ds, runs, ResultsStore(tmp_path / "r"), progress=False).set_index("detector")
     assert (rows["status"] == "ok").all()
     assert rows.loc["constant", "train_balanced_accuracy"] == 0.5
+    # epochs where the detector reports them (the LSTM does), else left empty
+    assert rows.loc["constant", "epochs"] == 1 and np.isnan(rows.loc["energy", "epochs"])
     for toy in ("constant", "coin"):
         row = rows.loc[toy]
         assert row["train_balanced_accuracy_lo"] <= 0.5 <= row["train_balanced_accuracy_hi"]
