@@ -134,6 +134,11 @@ class LSTM(BaseDetector):
     def _predict_proba(self, x):
         return kernels.predict_proba(x, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
 
+    def fitted_choices(self):
+        """Epochs run over all learning-rate stages (early stopping ends a stage before its cap),
+        and the lowest validation loss (cross-entropy; ln 2 = 0.693 is a coin's)."""
+        return {"epochs": int(len(self.history_)), "validation_loss": float(self.validation_loss_)}
+
     @classmethod
     def benchmark(cls, length: int, seconds: float, seed: int = 0):
         """Training, batched inference and one-window latency against stock torch.nn.LSTM."""

@@ -237,8 +237,9 @@ class BaseDetector(Parameterized):
 
     def fitted_choices(self) -> dict[str, Any]:
         """What fitting chose that a reader of the results should see (plain JSON values): a
-        band in Hz as ``band_hz`` [low, high], a ``threshold``, .... Stored in each result row
-        and shown by the report; a band at 0 Hz or reaching Nyquist is flagged there."""
+        band in Hz as ``band_hz`` [low, high], a ``threshold``, ``epochs`` (the epochs an
+        iterative fit ran; also its own column of the row), .... Stored in each result row and
+        shown by the report; a band at 0 Hz or reaching Nyquist is flagged there."""
         return {}
 
     @classmethod

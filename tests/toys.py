@@ -72,6 +72,30 @@ class UsageInFit(Energy):
         raise UsageError("bad day")
 
 
+class Constant(BaseDetector):
+    """Learns nothing: every window scores 0.5 (called slip at the threshold 0.5); reports the
+    one epoch it "ran"."""
+
+    def _fit(self, x, y, seed):
+        self.fitted_ = True
+
+    def _predict_proba(self, x):
+        return np.full(len(x), 0.5)
+
+    def fitted_choices(self):
+        return {"epochs": 1}
+
+
+class Coin(BaseDetector):
+    """Learns nothing: scores drawn at random (from the fit's seed), whatever the window."""
+
+    def _fit(self, x, y, seed):
+        self.seed_ = int(seed)
+
+    def _predict_proba(self, x):
+        return np.random.default_rng([self.seed_, len(x)]).random(len(x))
+
+
 class Flaky(BaseDetector):
     """Raises on 5-sample windows, thresholds the mean absolute value otherwise."""
 

@@ -52,6 +52,19 @@ def robust_scale(s: np.ndarray) -> tuple[float, float]:
     return centre, scale if scale > 0 else 1.0
 
 
+def has_sample_labels(dataset: Dataset) -> np.ndarray:
+    """(n_recordings,) bool, in the order of ``dataset.recordings``: True where the dataset gives
+    the recording per-sample slip labels, at least one of its samples labelled (a dataset with a
+    ``slip`` column holds labels for every recording, -1 where the column is empty)."""
+    return np.array(
+        [
+            r in dataset.slip_labels and bool((dataset.slip_labels[r] >= 0).any())
+            for r in dataset.recordings["recording_id"]
+        ],
+        dtype=bool,
+    )
+
+
 def univariate(a: np.ndarray, baseline: int = 0) -> np.ndarray:
     """The paper's eq. (1): s_t = ||a_t|| - ||a_{t-1}||.
 
@@ -95,13 +108,19 @@ class Signals:
     recordings : the dataset's metadata, row r describing recording r.
     labels : (total,) int8 label of each value of s: that of its later sample (s_t spans
         samples t-1 and t): 1 slip, 0 no slip, -1 unlabelled. Where the dataset has no
-        per-sample labels, a recording's scenario labels all its samples (hold-slip: -1).
+        per-sample labels, a recording's scenario labels all its samples (hold-slip: -1), for
+        the scenario labelling only: see ``labelled``.
+    labelled : (n_recordings,) bool, True where the dataset gives the recording per-sample
+        labels (at least one sample labelled); None: all of them. Labelling by samples
+        (``majority``, ``any``, ``last``) leaves out every window of the other recordings, so
+        that no window is silently labelled by its scenario under their name.
     """
 
     buffer: np.ndarray
     offsets: np.ndarray
     recordings: pd.DataFrame
     labels: np.ndarray | None = None
+    labelled: np.ndarray | None = None
 
     @classmethod
     def from_dataset(cls, dataset: Dataset, baseline: int = 0) -> Signals:
@@ -121,6 +140,7 @@ class Signals:
             offsets,
             dataset.recordings.reset_index(drop=True),
             np.concatenate(labels).astype(np.int8),
+            has_sample_labels(dataset),
         )
 
     def antialiased(self, factor: int, order: int = 4) -> Signals:
@@ -148,7 +168,7 @@ class Signals:
         for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
             sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
             out[lo:hi] = signal.sosfilt(sos, self.buffer[lo:hi].astype(np.float64))
-        return Signals(out, self.offsets, self.recordings, self.labels)
+        return Signals(out, self.offsets, self.recordings, self.labels, self.labelled)
 
     def normalized(self, groups: np.ndarray, reference: np.ndarray) -> tuple[Signals, np.ndarray]:
         """The signal centred and scaled per group: (s - centre) / scale, with the
@@ -197,7 +217,7 @@ class Signals:
         The tail of a recording shorter than a window is dropped; windows never span two
         recordings. A window that cannot be labelled is left out: by scenario, one of a
         hold-slip recording (it holds two states); by samples, one touching an unlabelled
-        sample. ``majority`` calls a window slip when at least half its samples slip. With
+        sample or of a recording without per-sample labels. ``majority`` calls a window slip when at least half its samples slip. With
         ``values=False`` only the windows' positions are computed (``x`` is None): enough to
         balance and split, and cut later by :meth:`values`.
         """
@@ -232,6 +252,8 @@ class Signals:
         starts = self.offsets[rec] + local.astype(np.int64) * window
         per_sample = np.lib.stride_tricks.sliding_window_view(self.sample_labels(), window)[starts]
         unlabelled = (per_sample < 0).any(axis=1)
+        if self.labelled is not None:  # the scenario stands in for missing labels: not here
+            unlabelled |= ~self.labelled[rec]
         if labelling == "majority":
             out = (2 * (per_sample == 1).sum(axis=1) >= window).astype(np.int8)
         elif labelling == "any":
@@ -362,6 +384,13 @@ def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
 
     Kinds a dataset lacks drop out of the proportions (a dataset without free-space data
     balances slip against pressing alone). Inside a stratum, windows are drawn at random.
+
+    Each kind's share is the paper's equal floor share, ``target // n_strata`` per stratum. Where
+    that is 0 (a kind has more strata than the other class has windows to match: thousands of
+    slip windows in 40 strata against 26 non-slip windows), every stratum of the kind keeps one
+    window instead, so no stratum, and no class present, is ever dropped; the two classes are
+    then unequal, and the counts each side keeps are recorded in every result row. Where every
+    share is at least 1 the allocation, and so the drawn rows, are the paper's.
     """
     strata = windows.strata()
     names, codes, counts = np.unique(strata, return_inverse=True, return_counts=True)
@@ -378,7 +407,8 @@ def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
     keep = []
     for code, _name in enumerate(names):
         cat = category[code]
-        share = target[cat] // (category == cat).sum()
+        # at least one window: a floor share of 0 would drop the stratum (and maybe its class)
+        share = max(1, target[cat] // (category == cat).sum())
         rows = np.flatnonzero(codes == code)
         keep.append(rng.choice(rows, size=share, replace=False))
     return np.sort(np.concatenate(keep))

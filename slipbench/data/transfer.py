@@ -153,12 +153,8 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
         labels |= {f"{side}/{r}": ds.slip_labels[r] for r in old if r in ds.slip_labels}
         parts.append(frame)
     recordings = pd.concat(parts, ignore_index=True)
-    if labels and len(labels) != len(samples):
-        # one dataset has per-sample labels and the other not: its scenarios label its samples
-        by_scenario = {"slip": 1, "press": 0, "free-space": 0}
-        for rid, scenario in zip(recordings["recording_id"], recordings["scenario"]):
-            if rid not in labels:
-                labels[rid] = np.full(len(samples[rid]), by_scenario[scenario], np.int8)
+    # where one dataset has per-sample labels and the other not, the other's recordings stay
+    # unlabelled (-1): labelling by samples skips them with the reason, never by their scenario
     origin = {
         "train_dataset_path": str(train.path or ""),
         "train_dataset_fingerprint": train.fingerprint,

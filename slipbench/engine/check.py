@@ -14,7 +14,7 @@ import pandas as pd
 
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
-from slipbench.engine.plan import CellData, Run
+from slipbench.engine.plan import CellData, Run, check_labels
 from slipbench.errors import UsageError
 from slipbench.vocabulary import LOW_N
 
@@ -114,6 +114,8 @@ def check_dataset(dataset: Dataset, runs: list[Run]) -> DatasetCheck:
     The runs' detectors are not used; their split, seed and labelling are (the first run's for
     the per-unit tables)."""
     labelling = runs[0].labels if runs else "scenario"
+    for labels in dict.fromkeys([labelling, *(run.labels for run in runs)]):
+        check_labels(labels, dataset)
     signals = Signals.from_dataset(dataset)
     for run in runs:
         for name, values in run.protocol.columns(dataset.recordings).items():

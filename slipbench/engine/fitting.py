@@ -21,7 +21,7 @@ import psutil
 from slipbench.base import BaseDetector, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
-from slipbench.stats.metrics import classification_figures
+from slipbench.stats.metrics import chance_interval, classification_figures
 from slipbench.store.results import write_text_atomic
 from slipbench.stream.cell import StreamTest, streamed_figures
 
@@ -81,6 +81,8 @@ def fit_and_test(
     """
     try:
         detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
+        learned, warning = _learned(train_y, detector.predict_proba(train_x))
+        choices = _choices(detector, sampling_rate, [warning] if warning else [])
         out: list[Result] = []
         for test in tests:
             if isinstance(test, StreamTest):
@@ -94,7 +96,8 @@ def fit_and_test(
                             "n_test_trials": len(set(test.test.trials)),
                             **streamed_figures(detector, seed, test),
                             **cost,
-                            **_choices(detector, sampling_rate),
+                            **learned,
+                            **choices,
                         },
                         None,
                     )
@@ -119,7 +122,8 @@ def fit_and_test(
                         **cost,
                         **_constant(test.y),
                         "infer_us_per_window": infer_s / len(test.x) * 1e6,
-                        **_choices(detector, sampling_rate),
+                        **learned,
+                        **choices,
                     },
                     scores,
                 )
@@ -157,11 +161,35 @@ def _constant(y: np.ndarray) -> dict[str, float]:
     return {"constant_slip_accuracy": float(np.mean(y == 1))}
 
 
-def _choices(detector: BaseDetector, sampling_rate: float) -> dict[str, str]:
-    """The detector's fitted choices as JSON, and warnings about a band that thresholds drift
-    (from 0 Hz) or reaches the Nyquist frequency."""
+def _learned(train_y: np.ndarray, train_scores: np.ndarray) -> tuple[dict[str, float], str]:
+    """How the fitted model scores its own training windows (threshold 0.5): balanced accuracy
+    with its 95 % Wilson interval (:func:`slipbench.stats.metrics.chance_interval`), and a
+    warning where that interval reaches 0.5 (or lies below it): the model does better than
+    chance on no data at all, so its test figures say it did not learn, not that it fails to
+    generalize."""
+    c = chance_interval(train_y, train_scores >= 0.5)
+    fields = {
+        "train_balanced_accuracy": c["balanced_accuracy"],
+        "train_balanced_accuracy_lo": c["lo"],
+        "train_balanced_accuracy_hi": c["hi"],
+    }
+    if not c["chance"]:
+        return fields, ""
+    return fields, (
+        f"did not learn: on its own {len(train_y)} training windows its balanced accuracy, "
+        f"{c['balanced_accuracy']:.2f} (95 % interval {c['lo']:.2f}-{c['hi']:.2f}), cannot be told "
+        "from chance (0.5)"
+    )
+
+
+def _choices(
+    detector: BaseDetector, sampling_rate: float, warnings: list[str] | None = None
+) -> dict[str, Any]:
+    """The detector's fitted choices as JSON (and ``epochs``, where it reports the epochs it
+    ran), and warnings: ``warnings`` given, then about a band that thresholds drift (from 0 Hz)
+    or reaches the Nyquist frequency."""
     choices = detector.fitted_choices()
-    warnings = []
+    warnings = list(warnings or [])
     band = choices.get("band_hz")
     if band is not None:
         if band[0] <= 0:
@@ -172,7 +200,13 @@ def _choices(detector: BaseDetector, sampling_rate: float) -> dict[str, str]:
             warnings.append(
                 f"the fitted band {band[0]:g}-{band[1]:g} Hz reaches the Nyquist frequency ({sampling_rate / 2:g} Hz)"
             )
-    return {"fitted": json.dumps(choices, sort_keys=True), "warnings": "; ".join(warnings)}
+    out: dict[str, Any] = {
+        "fitted": json.dumps(choices, sort_keys=True),
+        "warnings": "; ".join(warnings),
+    }
+    if "epochs" in choices:
+        out["epochs"] = int(choices["epochs"])
+    return out
 
 
 def _trained(

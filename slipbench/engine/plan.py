@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.base import BaseDetector
+from slipbench.data.format import Dataset
 from slipbench.data.signals import (
     LABELLINGS,
     NORMALIZATIONS,
@@ -23,6 +24,7 @@ from slipbench.data.signals import (
     Signals,
     Windows,
     balance,
+    has_sample_labels,
     split,
     trial_sides,
 )
@@ -113,6 +115,25 @@ class Run:
             raise PluginError(
                 f"protocol {self.protocol_name!r} failed to make its cells: {type(exc).__name__}: {exc}"
             ) from exc
+
+
+def check_labels(labelling: str, dataset: Dataset) -> None:
+    """UsageError (exit 2), before any work, where labelling by samples (``majority``, ``any``,
+    ``last``) meets a dataset none of whose recordings has per-sample slip labels: every cell
+    would otherwise be labelled by scenario under another name. Where only some units (or one
+    dataset of two) lack them, their cells are skipped with the reason instead
+    (:meth:`CellData.sides`)."""
+    if labelling == "scenario" or has_sample_labels(dataset).any():
+        return
+    if SIDE_COLUMN in dataset.recordings:
+        where = "neither the training dataset nor the test dataset has"
+    else:
+        where = f"the dataset{f' {dataset.path}' if dataset.path else ''} has"
+    raise UsageError(
+        f"labelling {labelling!r} (--labels {labelling}) labels each window from its samples' slip "
+        f"labels, but {where} no per-sample slip labels (no `slip` column, or every value empty); "
+        "use --labels scenario, or add the labels (datasets.md)"
+    )
 
 
 def _concat(parts: list[Windows]) -> Windows:
@@ -209,6 +230,7 @@ class CellData:
         if sensor not in self._rows:
             raise UsageError(f"the dataset has no recordings of sensor {name}")
         rows = self._rows[sensor]
+        self._require_labels(rows, name)
         windows = self.signals.windows(window, rows, values=False, labelling=self.labelling)
         if len(windows) == 0:
             longest = int(np.max(np.diff(self.signals.offsets)[rows]))
@@ -238,16 +260,43 @@ class CellData:
                 )
         return windows.take(train), windows.take(test)
 
+    def _require_labels(self, rows: np.ndarray, name: str) -> None:
+        """UsageError where labelling by samples meets recordings of a unit (on a side of the
+        datasets split) of which none has per-sample labels: its cells are skipped saying so,
+        rather than labelled by scenario under another name."""
+        labelled = self.signals.labelled
+        if self.labelling == "scenario" or labelled is None:
+            return
+        rec = self.signals.recordings
+        sides = (
+            [("training dataset", rec[SIDE_COLUMN].to_numpy()[rows] == "train")]
+            + [("test dataset", rec[SIDE_COLUMN].to_numpy()[rows] == "test")]
+            if self.how == "datasets"
+            else [("dataset", np.ones(len(rows), bool))]
+        )
+        for side, mine in sides:
+            if mine.any() and not labelled[rows[mine]].any():
+                raise UsageError(
+                    f"the {side} gives no per-sample slip labels for {name}: labelling "
+                    f"{self.labelling!r} needs them (--labels scenario labels by scenario)"
+                )
+
     def _across_datasets(
         self, windows: Windows, rng: np.random.Generator, name: str
     ) -> tuple[Windows, Windows]:
         """Balanced windows of the training dataset; every window of the test dataset, balanced
-        when it holds both classes (a one-class test set reports the rate that exists)."""
+        when it holds both classes (a one-class test set reports the rate that exists). Balancing
+        keeps every class present (:func:`balance`), so a test set of both classes stays one."""
         on_test = windows.column(SIDE_COLUMN) == "test"
         train, test = windows.take(np.flatnonzero(~on_test)), windows.take(np.flatnonzero(on_test))
         if len(test) == 0:
             raise UsageError(f"the test dataset has no windows of {name}")
-        train = train.take(balance(train, rng))
+        if len(train) == 0:
+            raise UsageError(f"the training dataset has no windows of {name}")
+        try:
+            train = train.take(balance(train, rng))
+        except UsageError as exc:
+            raise UsageError(f"the training dataset's windows of {name}: {exc}") from None
         if len(np.unique(test.y)) == 2:
             test = test.take(balance(test, rng))
         return train, test

@@ -23,7 +23,7 @@ from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.executors import execute
 from slipbench.engine.fitting import TestSet
-from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, make_plan
+from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
 from slipbench.protocol import Cell, Part
 from slipbench.store.keys import canonical
@@ -76,6 +76,7 @@ def _row(
         "train_where": _json(cell.train.where),
         "test_sensors": _json(cell.test.sensors),
         "test_where": _json(cell.test.where),
+        **window_counts(pc),
         **fields,
         "dataset_fingerprint": fingerprint,
         "dataset_path": path,
@@ -83,6 +84,18 @@ def _row(
         **env,
         "finished_at": datetime.now(timezone.utc).isoformat(),
     }
+
+
+def window_counts(pc: PlannedCell) -> dict[str, int]:
+    """Windows per class on each side after balancing and splitting (``train_slip_windows``,
+    ``train_nonslip_windows``, ``test_slip_windows``, ``test_nonslip_windows``), where the cell
+    got that far (a streaming cell tests on recordings, not windows: train counts only)."""
+    out = {}
+    for role, windows in (("train", pc.train), ("test", pc.test)):
+        if windows is not None:
+            out[f"{role}_slip_windows"] = int((windows.y == 1).sum())
+            out[f"{role}_nonslip_windows"] = int((windows.y == 0).sum())
+    return out
 
 
 def _json(value) -> str:
@@ -106,9 +119,7 @@ def _no_cells(run: Run, dataset: Dataset) -> Cell:
 
 def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
     signals = Signals.from_dataset(dataset)
-    signals.recordings[LABELLED] = (
-        signals.recordings["recording_id"].isin(list(dataset.slip_labels)).to_numpy()
-    )
+    signals.recordings[LABELLED] = signals.labelled
     for run in runs:
         for name, values in run.protocol.columns(dataset.recordings).items():
             signals.recordings[name] = values
@@ -139,6 +150,7 @@ def evaluate(
     runs = [runs] if isinstance(runs, Run) else runs
     for run in runs:
         run.validate()
+        check_labels(run.labels, dataset)
     with_cells = [(run, run.cells(dataset.recordings) or [_no_cells(run, dataset)]) for run in runs]
     stored = {} if force else store.finished()
     done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}

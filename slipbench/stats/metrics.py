@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from scipy.stats import norm
 from statsmodels.stats.proportion import proportion_confint
 
 from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design
@@ -323,6 +324,40 @@ def wilson_ci(hits: int, n: int, level: float = LEVEL) -> tuple[float, float]:
         return float("nan"), float("nan")
     lo, hi = proportion_confint(hits, n, alpha=1 - level, method="wilson")
     return float(lo), float(hi)
+
+
+def chance_interval(
+    y_true: np.ndarray, y_pred: np.ndarray, level: float = LEVEL
+) -> dict[str, float | bool]:
+    """Whether hard predictions can be told from chance: the balanced accuracy and its Wilson
+    interval, used on a detector's own training windows to say it did not learn.
+
+    Balanced accuracy BA = (TP rate + TN rate) / 2. Its interval is Wilson's score interval of a
+    proportion BA observed on n_eff = 4 / (1 / n_slip + 1 / n_nonslip) windows: the size at
+    which a proportion has BA's variance under chance (both rates 0.5), so n_eff is the number
+    of windows when the classes are balanced and BA is then the accuracy. Windows count as
+    independent (as in :func:`wilson_ci`), which narrows the interval: a warning it gives is
+    not a false alarm of the width.
+
+    Returns
+    -------
+    dict: ``balanced_accuracy``, ``lo``, ``hi`` (NaN without both classes), ``n_eff`` and
+    ``chance``: True where ``lo`` <= 0.5, the interval holding 0.5 (or lying below it: worse than
+    chance); False without both classes.
+    """
+    y_true = np.asarray(y_true).astype(bool)
+    y_pred = np.asarray(y_pred).astype(bool)
+    n_slip, n_nonslip = int(y_true.sum()), int((~y_true).sum())
+    if not n_slip or not n_nonslip:
+        nan = float("nan")
+        return {"balanced_accuracy": nan, "lo": nan, "hi": nan, "n_eff": 0.0, "chance": False}
+    ba = ((y_pred & y_true).sum() / n_slip + (~y_pred & ~y_true).sum() / n_nonslip) / 2
+    n = 4 / (1 / n_slip + 1 / n_nonslip)
+    z = float(norm.ppf(0.5 + level / 2))
+    centre = (ba + z**2 / (2 * n)) / (1 + z**2 / n)
+    half = z * np.sqrt(ba * (1 - ba) / n + z**2 / (4 * n**2)) / (1 + z**2 / n)
+    lo, hi = float(centre - half), float(centre + half)
+    return {"balanced_accuracy": float(ba), "lo": lo, "hi": hi, "n_eff": n, "chance": lo <= 0.5}
 
 
 # ----------------------------------------------------------------------------- several test sets

@@ -174,6 +174,8 @@ def test_schedule_early_stopping_and_best_weights():
     d = LSTM(learning_rates=(1e-9, 1e-10), max_epochs=50, patience=3).fit(x, y, seed=0)
     # (the second stage starts from the best loss so far, so it has no first improvement)
     assert d.history_[:, 0].tolist() == [1e-9] * 4 + [1e-10] * 3
+    # the epochs it ran are a fitted choice the result row records (column ``epochs``)
+    assert d.fitted_choices() == {"epochs": 7, "validation_loss": d.validation_loss_}
     # a real schedule: rates in order, no stage past its cap, the kept weights are the best seen
     d = LSTM(batch_size=1, max_epochs=(6, 2), learning_rates=(0.05, 0.005), patience=10).fit(
         x, y, seed=0

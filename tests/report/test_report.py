@@ -293,8 +293,7 @@ def test_fitted_choices_and_warnings_are_shown():
     text = render_report(rows, "md")
     assert "**What fitting chose: holweg.**" in text and "40–100 (2)" in text
     assert (
-        "**Warnings about fitted choices (4 of 48 finished cells).**" in text
-        and "starts at 0 Hz" in text
+        "**Warnings about fitting (4 of 48 finished cells).**" in text and "starts at 0 Hz" in text
     )
 
 

@@ -250,3 +250,30 @@ def test_paired_comparison_finds_a_degraded_detector():
     }
     with pytest.raises(ValueError, match="unknown figures"):
         paired_comparison(y, base, cand, groups, seed=0, figures=("f1",))
+
+
+def test_chance_interval_is_wilsons_on_the_balanced_accuracy():
+    from statsmodels.stats.proportion import proportion_confint
+
+    from slipbench.stats.metrics import chance_interval
+
+    y = np.r_[np.ones(50), np.zeros(50)]
+    # balanced classes: the Wilson interval of the accuracy over every window
+    pred = np.r_[np.ones(35), np.zeros(15), np.zeros(35), np.ones(15)]
+    c = chance_interval(y, pred)
+    assert c["balanced_accuracy"] == pytest.approx(0.7) and c["n_eff"] == 100
+    assert (c["lo"], c["hi"]) == pytest.approx(proportion_confint(70, 100, method="wilson"))
+    assert not c["chance"]
+    # a constant answer is chance whatever the class sizes
+    for y_ in (y, np.r_[np.ones(10), np.zeros(90)]):
+        c = chance_interval(y_, np.ones(len(y_)))
+        assert c["balanced_accuracy"] == 0.5 and c["lo"] < 0.5 < c["hi"] and c["chance"]
+    # unequal classes: n_eff = 4 / (1/10 + 1/90) = 36; 0.65 on it reaches 0.5 (too few windows)
+    y_ = np.r_[np.ones(10), np.zeros(90)]
+    c = chance_interval(y_, np.r_[np.ones(8), np.zeros(2), np.ones(45), np.zeros(45)])
+    assert c["n_eff"] == pytest.approx(36) and c["balanced_accuracy"] == pytest.approx(0.65)
+    assert c["lo"] < 0.5 and c["chance"]
+    # worse than chance counts too; one class cannot say
+    assert chance_interval(y, 1 - y)["chance"]
+    one = chance_interval(np.ones(5), np.ones(5))
+    assert np.isnan(one["balanced_accuracy"]) and not one["chance"]
