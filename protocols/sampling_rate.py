@@ -44,7 +44,7 @@ class SamplingRate(BaseProtocol):
     """Accuracy against sampling rate, windows of 200 full-rate samples downsampled (Table II)."""
 
     layout = Layout(
-        "Slip state classification at various sampling rates (Hz) across sensors and fingers, window 200 "
+        "Slip state classification at various sampling rates (Hz) across sensors and fingers, window {window} "
         "downsampled. Superscripts indicate the sensor type for the selected sampling rate.",
         ("sensor_type", "sensor_instance"),
         "downsample",

@@ -19,9 +19,11 @@ import pandas as pd
 from slipbench.protocol import HoldoutProtocol, Layout
 from slipbench.vocabulary import DATASET_SIDE
 
+SLIPPING = ("slip", "hold-slip")  # the scenarios whose speed is a slip speed
+
 
 def _speeds(recordings) -> list[float]:
-    slipping = recordings["scenario"].isin(["slip", "hold-slip"])
+    slipping = recordings["scenario"].isin(SLIPPING)
     return sorted(float(s) for s in recordings.loc[slipping, "speed_mm_s"].dropna().unique())
 
 
@@ -73,3 +75,15 @@ class SpeedHoldout(HoldoutProtocol):
 
     def levels(self, recordings):
         return _speeds(recordings)
+
+    def why_no_cells(self, recordings):
+        slipping = recordings["scenario"].isin(SLIPPING)
+        if not slipping.any():
+            return (
+                f"no recording slips (scenarios {', '.join(sorted(set(recordings['scenario'])))}; "
+                f"slip speeds come from {' or '.join(SLIPPING)} recordings)"
+            )
+        return (
+            f"none of its {int(slipping.sum())} slip recordings gives a speed (speed_mm_s is empty): "
+            "there is no slip speed to hold out"
+        )

@@ -26,7 +26,9 @@ __all__ = [
     "HoldoutProtocol",
     "Layout",
     "Part",
+    "NO_CELL",
     "holdout_cells",
+    "no_cell",
     "sensor_pairs",
     "unit_rate",
     "window_cells",
@@ -37,6 +39,10 @@ OPERATORS = ("==", "!=")
 DECIMATIONS = ("plain", "lag")
 FIGURES = ("curve", "with-without", "matrix", "tradeoff")
 STREAM_KEYS = ("hop", "max_delay_ms")
+# The key of the stand-in cell a run records for a protocol that makes no cell on a dataset
+# (:func:`no_cell`); reports and checks find such rows by it.
+NO_CELL_KEY = {"cells": "none"}
+NO_CELL = json.dumps(NO_CELL_KEY, sort_keys=True)  # the rows' ``cell`` column
 
 
 @dataclass(frozen=True)
@@ -200,7 +206,8 @@ class Layout:
 
     Attributes
     ----------
-    caption : the table's caption.
+    caption : the table's caption. A result column named in braces ("window {window}") is
+        replaced by the values the table's rows hold there.
     rows : cell-key columns that label the table's rows, outermost first.
     column : the cell-key column whose values make the value columns.
     title : a short name for headings and figure titles (default: the protocol's id).
@@ -325,6 +332,26 @@ class BaseProtocol(Parameterized):
         ``where`` filters refer to."""
         return {}
 
+    def why_no_cells(self, recordings: pd.DataFrame) -> str:
+        """Why :meth:`cells` yields nothing on these recordings (asked only then): what the data
+        lack, in a few words, for the skipped stand-in row the run records instead."""
+        scenarios = ", ".join(sorted(set(recordings["scenario"].astype(str))))
+        return f"no cell fits these recordings (scenarios: {scenarios})"
+
+
+def no_cell(name: str, why: str, recordings: pd.DataFrame) -> Cell:
+    """A skipped stand-in for protocol ``name`` that makes no cell on ``recordings``, so a run
+    records why instead of stopping (key :data:`NO_CELL_KEY`, the first recording's unit)."""
+    unit = tuple(recordings[["sensor_type", "sensor_instance"]].iloc[0])
+    part = Part((unit,), "train")
+    return Cell(
+        dict(NO_CELL_KEY),
+        part,
+        Part(part.sensors, "test"),
+        1,
+        skip=f"protocol {name!r} makes no cell on this dataset: {why}",
+    )
+
 
 def holdout_cells(
     recordings: pd.DataFrame,
@@ -398,6 +425,12 @@ class HoldoutProtocol(BaseProtocol):
     def levels(self, recordings: pd.DataFrame) -> list[Any]:
         """The levels of ``holdout_column`` to hold out, in the order the table shows them."""
         raise NotImplementedError
+
+    def why_no_cells(self, recordings: pd.DataFrame) -> str:
+        column = self.holdout_column
+        if column not in recordings or recordings[column].isna().all():
+            return f"no recording gives a {column}: there is nothing to hold out"
+        return super().why_no_cells(recordings)
 
     def cells(self, recordings: pd.DataFrame) -> Iterator[Cell]:
         # the test column may be one this protocol adds (speed-holdout's speed_group)

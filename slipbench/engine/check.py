@@ -1,6 +1,7 @@
 """What a dataset can support, said before anything trains (``slipbench dataset check``).
 
-Per unit: the classes, and the recordings and trials of each; windows available at each size.
+Per unit: the classes, and the recordings and trials of each; windows available at each window
+length the protocols use.
 Per protocol cell: whether it would run, be skipped (and why), or rest on fewer than
 ``LOW_N`` test trials of a class, where its intervals are not to be trusted.
 """
@@ -16,15 +17,37 @@ from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData, Run, check_labels
 from slipbench.errors import UsageError
+from slipbench.protocol import NO_CELL_KEY, Cell, unit_rate
+from slipbench.stats.metrics import classes_low_n
 from slipbench.vocabulary import LOW_N
 
-SIZES = (5, 10, 25, 50, 100, 200)
+SIZES = (5, 10, 25, 50, 100, 200)  # the window table's sizes where no protocol cell names one
+WINDOW_COLUMNS = [
+    "sensor_type",
+    "sensor_instance",
+    "rate_hz",
+    "window",
+    "window_ms",
+    "slip",
+    "non_slip",
+    "used_by",
+]
+CELL_COLUMNS = [
+    "protocol",
+    "cell",
+    "verdict",
+    "test_trials_slip",
+    "test_trials_nonslip",
+    "reason",
+]
 
 
 @dataclass
 class DatasetCheck:
-    """``units``: one row per unit and class; ``windows``: windows per unit and size;
-    ``cells``: one row per protocol cell with its verdict ("runs", "low n", "skipped")."""
+    """``units``: one row per unit and class; ``windows``: slip and non-slip windows per unit
+    and window length the protocols use (columns :data:`WINDOW_COLUMNS`); ``cells``: one row
+    per protocol cell with its verdict ("runs", "low n", "skipped"), a protocol that makes no
+    cell on the dataset as one skipped row saying why."""
 
     units: pd.DataFrame
     windows: pd.DataFrame
@@ -51,31 +74,49 @@ def _units(signals: Signals, labelling: str) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _windows(signals: Signals, labelling: str) -> pd.DataFrame:
+def _windows(signals: Signals, labelling: str, runs: list[tuple[Run, list[Cell]]]) -> pd.DataFrame:
+    """Slip and non-slip windows before balancing, once per unit and window length the runs'
+    cells use (in samples at the unit's full rate, and in ms), with the protocols that use it;
+    the sizes of :data:`SIZES` where no cell names a window."""
     rec = signals.recordings
+    used: dict[tuple[tuple[str, str], int], list[str]] = {}
+    for run, cells in runs:
+        for cell in cells:
+            if cell.key == NO_CELL_KEY:
+                continue
+            for unit in dict.fromkeys((*cell.train.sensors, *cell.test.sensors)):
+                names = used.setdefault((unit, cell.window), [])
+                if run.protocol_name not in names:
+                    names.append(run.protocol_name)
+    units = list(rec.groupby(["sensor_type", "sensor_instance"], sort=False).groups.items())
+    if not used:
+        used = {(unit, size): ["—"] for unit, _ in units for size in SIZES}
     rows = []
-    for (sensor, instance), part in rec.groupby(["sensor_type", "sensor_instance"], sort=False):
-        rate = (
-            float(part["unit_rate_hz"].iloc[0])
-            if "unit_rate_hz" in part
-            else float(part["sampling_rate_hz"].iloc[0])
-        )
-        row = {"sensor_type": sensor, "sensor_instance": instance, "rate_hz": rate}
-        for size in SIZES:
-            w = signals.windows(size, part.index.to_numpy(), values=False, labelling=labelling)
-            row[f"{size} ({1000 * size / rate:.4g} ms)"] = (
-                f"{int((w.y == 1).sum())} / {int((w.y == 0).sum())}"
+    for unit, index in units:
+        rate = unit_rate(rec, unit)
+        for size in sorted(w for u, w in used if u == unit):
+            w = signals.windows(size, np.asarray(index), values=False, labelling=labelling)
+            rows.append(
+                {
+                    "sensor_type": unit[0],
+                    "sensor_instance": unit[1],
+                    "rate_hz": rate,
+                    "window": size,
+                    "window_ms": round(1000.0 * size / rate, 1),
+                    "slip": int((w.y == 1).sum()),
+                    "non_slip": int((w.y == 0).sum()),
+                    "used_by": ", ".join(used[unit, size]),
+                }
             )
-        rows.append(row)
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=WINDOW_COLUMNS)
 
 
-def _cells(signals: Signals, runs: list[Run]) -> pd.DataFrame:
+def _cells(signals: Signals, runs: list[tuple[Run, list[Cell]]]) -> pd.DataFrame:
     rows = []
     trials = signals.recordings["trial"].to_numpy()
-    for run in runs:
+    for run, cells in runs:
         data = CellData(signals, run.split, run.seed, run.labels)
-        for cell in run.cells(signals.recordings):
+        for cell in cells:
             verdict, reason, n_slip, n_non = "runs", "", 0, 0
             try:
                 if cell.skip:
@@ -88,7 +129,7 @@ def _cells(signals: Signals, runs: list[Run]) -> pd.DataFrame:
                         )
                 n_slip = len(np.unique(trials[test.recording[test.y == 1]]))
                 n_non = len(np.unique(trials[test.recording[test.y == 0]]))
-                if min(n_slip, n_non) < LOW_N:
+                if classes_low_n(n_slip, n_non):
                     verdict, reason = (
                         "low n",
                         f"fewer than {LOW_N} test trials of a class: its intervals are not to be trusted",
@@ -105,7 +146,7 @@ def _cells(signals: Signals, runs: list[Run]) -> pd.DataFrame:
                     "reason": reason,
                 }
             )
-    return pd.DataFrame(rows)
+    return pd.DataFrame(rows, columns=CELL_COLUMNS)
 
 
 def check_dataset(dataset: Dataset, runs: list[Run]) -> DatasetCheck:
@@ -120,6 +161,7 @@ def check_dataset(dataset: Dataset, runs: list[Run]) -> DatasetCheck:
     for run in runs:
         for name, values in run.protocol.columns(dataset.recordings).items():
             signals.recordings[name] = values
+    planned = [(run, run.cells_or_stand_in(signals.recordings)) for run in runs]
     return DatasetCheck(
-        _units(signals, labelling), _windows(signals, labelling), _cells(signals, runs)
+        _units(signals, labelling), _windows(signals, labelling, planned), _cells(signals, planned)
     )

@@ -21,7 +21,7 @@ import psutil
 from slipbench.base import BaseDetector, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
-from slipbench.stats.metrics import chance_interval, classification_figures
+from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
 from slipbench.store.results import write_text_atomic
 from slipbench.stream.cell import StreamTest, streamed_figures
 
@@ -86,6 +86,10 @@ def fit_and_test(
         out: list[Result] = []
         for test in tests:
             if isinstance(test, StreamTest):
+                trials, streamed = (
+                    len(set(test.test.trials)),
+                    streamed_figures(detector, seed, test),
+                )
                 out.append(
                     (
                         {
@@ -93,8 +97,9 @@ def fit_and_test(
                             "reason": "",
                             "n_train": len(train_x),
                             "sampling_rate_hz": sampling_rate,
-                            "n_test_trials": len(set(test.test.trials)),
-                            **streamed_figures(detector, seed, test),
+                            "n_test_trials": trials,
+                            **streamed,
+                            "low_n": stream_low_n(trials, streamed["n_onsets"]),
                             **cost,
                             **learned,
                             **choices,

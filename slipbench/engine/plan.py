@@ -31,7 +31,7 @@ from slipbench.data.signals import (
 from slipbench.data.transfer import SIDE_COLUMN
 from slipbench.engine.registry import detectors, protocols
 from slipbench.errors import PluginError, UsageError
-from slipbench.protocol import BaseProtocol, Cell, Part
+from slipbench.protocol import BaseProtocol, Cell, Part, no_cell
 from slipbench.seeding import STREAM_SCHEME, rng_for
 from slipbench.store.keys import canonical, cell_key, code_identity
 from slipbench.stream.metrics import onsets
@@ -115,6 +115,23 @@ class Run:
             raise PluginError(
                 f"protocol {self.protocol_name!r} failed to make its cells: {type(exc).__name__}: {exc}"
             ) from exc
+
+    def cells_or_stand_in(self, recordings: pd.DataFrame) -> list[Cell]:
+        """The protocol's cells, or where it makes none on these recordings one skipped stand-in
+        (:func:`slipbench.protocol.no_cell`) saying why: results, reports and checks show the
+        protocol and its reason instead of leaving it out."""
+        cells = self.cells(recordings)
+        if cells:
+            return cells
+        protocol = self.protocol  # an object since __post_init__; narrowed for the type checker
+        try:
+            why = protocol.why_no_cells(recordings) if isinstance(protocol, BaseProtocol) else ""
+        except Exception as exc:  # noqa: BLE001 - a plugin's bug, reported as such
+            raise PluginError(
+                f"protocol {self.protocol_name!r} failed to say why it makes no cell: "
+                f"{type(exc).__name__}: {exc}"
+            ) from exc
+        return [no_cell(self.protocol_name, str(why), recordings)]
 
 
 def check_labels(labelling: str, dataset: Dataset) -> None:

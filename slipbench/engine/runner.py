@@ -25,7 +25,6 @@ from slipbench.engine.executors import execute
 from slipbench.engine.fitting import TestSet
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
-from slipbench.protocol import Cell, Part
 from slipbench.store.keys import canonical
 from slipbench.store.results import ResultsStore
 from slipbench.stream.cell import Recordings, StreamTest
@@ -103,20 +102,6 @@ def _json(value) -> str:
     return json.dumps(canonical(value), sort_keys=True)
 
 
-def _no_cells(run: Run, dataset: Dataset) -> Cell:
-    """A skipped stand-in for a protocol that makes no cell on this dataset, so the run says so
-    in its results instead of stopping."""
-    unit = tuple(dataset.recordings[["sensor_type", "sensor_instance"]].iloc[0])
-    return Cell(
-        {"cells": "none"},
-        Part((unit,), "train"),
-        Part((unit,), "test"),
-        1,
-        skip=f"protocol {run.protocol_name!r} makes no cell on this dataset (scenarios: "
-        f"{', '.join(sorted(set(dataset.recordings['scenario'])))})",
-    )
-
-
 def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
     signals = Signals.from_dataset(dataset)
     signals.recordings[LABELLED] = signals.labelled
@@ -151,7 +136,7 @@ def evaluate(
     for run in runs:
         run.validate()
         check_labels(run.labels, dataset)
-    with_cells = [(run, run.cells(dataset.recordings) or [_no_cells(run, dataset)]) for run in runs]
+    with_cells = [(run, run.cells_or_stand_in(dataset.recordings)) for run in runs]
     stored = {} if force else store.finished()
     done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}
     fingerprint, path, origin = dataset.fingerprint, str(dataset.path or ""), dataset.origin

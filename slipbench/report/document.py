@@ -32,9 +32,11 @@ from slipbench.protocol import Layout
 from slipbench.report.leaderboard import leaderboard_tables
 from slipbench.report.outline import (
     layouts,
+    no_cell_note,
     protocol_order,
     split_parts,
     splits_of,
+    stand_ins,
 )
 from slipbench.report.paper import paper_frame
 from slipbench.report.provenance import fitted_tables, header_tables
@@ -206,7 +208,7 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
     part = split_parts(rows, layout)[0][1]
     table = build_table(part, layout, values="paper", paper=ref, label_=f"tab:{protocol}-paper")
     table.caption = (
-        f"Published (Van Wyk & Falco, their LSTM): {layout.caption[0].lower()}{layout.caption[1:]}"
+        f"Published (Van Wyk & Falco, their LSTM): {table.caption[0].lower()}{table.caption[1:]}"
     )
     if layout.column_label:
         table.notes.append("The full-rate column is Table I at window 200, the same setting.")
@@ -226,6 +228,13 @@ def _protocol_blocks(
 ) -> list:
     prows = rows[rows["protocol"] == protocol]
     blocks: list = [Heading(protocol, 2)]
+    standing = stand_ins(prows)
+    if standing.any():  # the protocol made no cell on (some of) the data: say why
+        datasets = prows["dataset_fingerprint"].nunique() if "dataset_fingerprint" in prows else 1
+        blocks.append(Text(no_cell_note(prows[standing], datasets)))
+        prows = prows[~standing]
+        if prows.empty:
+            return blocks
     if note:
         blocks.append(Text(note))
     detectors = rank(prows["detector"].unique(), DETECTOR_ORDER)
@@ -298,15 +307,19 @@ def build_report(
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = splits_of(rows)
+    # the header counts every row; the rest lays out cells, not the stand-ins of protocols that
+    # made none (their sections say why)
+    cells = rows[~stand_ins(rows)]
     lead = splits[0][
         1
     ]  # the leaderboard and the findings rank one split: the grouped one where present
+    lead = lead[~stand_ins(lead)]
     board = leaderboard(lead, metric, protocols=order)
     figures: dict[str | None, list] = {}
     if with_figures:
         from slipbench.report.plots import figure_specs
 
-        for spec in figure_specs(rows, paper, board, found):
+        for spec in figure_specs(cells, paper, board, found):
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [
         Heading("slipbench report", 1),
@@ -315,7 +328,7 @@ def build_report(
         Heading("Leaderboard", 2),
     ]
     side = (
-        split_table(rows, [s for s, _ in splits], metric, order, DETECTOR_ORDER)
+        split_table(cells, [s for s, _ in splits], metric, order, DETECTOR_ORDER)
         if len(splits) > 1
         else None
     )
@@ -345,7 +358,7 @@ def build_report(
                 Heading("The paper's findings, ours beside them", 2),
                 *(t for t in (shown, findings) if t is not None),
             ]
-    fitted = fitted_tables(rows)
+    fitted = fitted_tables(cells)
     if fitted:
         blocks += [Heading("What fitting chose", 2), *fitted]
     for protocol in order:
@@ -542,6 +555,10 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     rows = pd.DataFrame(rows)
     if rows.empty:
         return "(no cells)"
+    standing = stand_ins(rows)
+    if standing.all():
+        return no_cell_note(rows)
+    rows = rows[~standing]
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
     why = fits(layout, rows)
     tables = protocol_tables(

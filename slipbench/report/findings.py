@@ -19,7 +19,7 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
-from slipbench.report.tables import Table, ordered, rank, summarize
+from slipbench.report.tables import Table, fits, ordered, rank, summarize
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
 
 COMBINED = "combined"
@@ -99,9 +99,9 @@ def findings_table(
     for protocol in order:
         layout = found[protocol][0]
         ref = paper_frame(layout.paper_table) if layout.paper_table else pd.DataFrame()
-        if ref.empty or layout.figure is None:
-            continue
         prows = rows[rows["protocol"] == protocol]
+        if ref.empty or layout.figure is None or prows.empty or fits(layout, prows):
+            continue  # no cell of the protocol here, or rows its layout cannot read
         ours = {d: _first_table(prows[prows["detector"] == d], layout) for d in detectors}
         if layout.figure == "curve":
             paper = _curve(ref, layout, "paper")

@@ -9,38 +9,74 @@ import json
 import pandas as pd
 
 from slipbench.errors import SlipbenchError
-from slipbench.protocol import Layout
+from slipbench.protocol import NO_CELL, Layout
 from slipbench.report.paper import table_order
 from slipbench.report.tables import fits, generic_layout, rank
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
 
 
+def stand_ins(rows: pd.DataFrame) -> pd.Series:
+    """(n_rows,) bool: the skipped stand-in rows of protocols that made no cell on a dataset
+    (:func:`slipbench.protocol.no_cell`): reports say why instead of laying them out."""
+    if "cell" not in rows:
+        return pd.Series(False, index=rows.index, dtype=bool)
+    return rows["cell"].eq(NO_CELL)
+
+
+def no_cell_note(rows: pd.DataFrame, datasets: int = 1) -> str:
+    """What a protocol's stand-in rows say: each reason once, with the detectors it stands for
+    and, where the protocol's rows come from several ``datasets``, the dataset."""
+    parts = []
+    many = "dataset_fingerprint" in rows and datasets > 1
+    by = ["reason"] + (["dataset_fingerprint"] if many else [])
+    for values, part in rows.fillna({c: "" for c in by}).groupby(by, sort=False):
+        reason = values[0] if isinstance(values, tuple) else values
+        detectors = ", ".join(rank(part["detector"].unique(), DETECTOR_ORDER))
+        where = ""
+        if many:
+            path = str(part["dataset_path"].iloc[0]) if "dataset_path" in part else ""
+            where = f" On dataset {path or str(values[1])[:12]}:"
+        parts.append(f"{where} {str(reason).rstrip('.') or 'no cell'}. Detectors: {detectors}.")
+    return "No table:" + "".join(parts)
+
+
 def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
     """Each protocol's layout, from its class in the registry (built-in, entry point or plugin
     folder) made with the options its rows ran with, and a note when it fell back to a layout
-    from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows)."""
+    from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows).
+    Stand-in rows (:func:`stand_ins`) are not laid out: a protocol with nothing else keeps its
+    own layout, for its place in the report."""
     from slipbench.engine.registry import protocols
 
     out: dict[str, tuple[Layout, str]] = {}
     for name in rows["protocol"].unique():
-        part = rows[rows["protocol"] == name]
+        every = rows[rows["protocol"] == name]
+        part = every[~stand_ins(every)]
         layout: Layout | None
         try:
             cls = protocols.get(name)
-            params = (
-                json.loads(part["protocol_params"].iloc[0]) if "protocol_params" in part else {}
-            )
+            given = every["protocol_params"].iloc[0] if "protocol_params" in every else None
+            params = json.loads(given) if isinstance(given, str) else {}  # absent: the defaults
             layout = cls(**params).layout
-            why = "it declares no layout" if layout is None else fits(layout, part)
+            why = (
+                "it declares no layout"
+                if layout is None
+                else fits(layout, part)
+                if len(part)
+                else ""
+            )
         except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError) as exc:
             layout, why = (
                 None,
                 f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins",
             )
-        if layout is not None and not why:
-            out[name] = (layout, "")
+        if why or layout is None:
+            out[name] = (
+                generic_layout(part if len(part) else every, name),
+                f"Laid out from its cell keys: {why}.",
+            )
         else:
-            out[name] = (generic_layout(part, name), f"Laid out from its cell keys: {why}.")
+            out[name] = (layout, "")
     return out
 
 

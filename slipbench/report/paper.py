@@ -43,7 +43,8 @@ def paper_frame(name: str) -> pd.DataFrame:
         full = full.assign(
             downsample=1, rate_hz=full["sensor_type"].map({"BioTacSP": 850.0}).fillna(1000.0)
         )
-        frame = pd.concat([frame, full[frame.columns]], ignore_index=True)
+        # every published rate is of windows of 200 full-rate samples: the caption's window
+        frame = pd.concat([frame, full[frame.columns]], ignore_index=True).assign(window=200)
     return frame
 
 

@@ -11,6 +11,7 @@ and TP/TN rates per sensor type.
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -21,6 +22,7 @@ import pandas as pd
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
 from slipbench.stats.joint import JOINT_NOTE
+from slipbench.stats.metrics import classes_low_n, stream_low_n
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
@@ -35,6 +37,10 @@ LOW_MARK = "†"  # a cell resting on few test trials
 LOW_NOTE = (
     f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
     f"else fewer than {LOW_N} in all): its interval is not to be trusted."
+)
+STREAM_LOW_NOTE = (
+    f"{LOW_MARK} few events behind this cell (fewer than {LOW_N} test trials or fewer than {LOW_N} "
+    "slip onsets): its figures are not to be trusted."
 )
 
 
@@ -81,7 +87,8 @@ class Table:
 
     def __post_init__(self) -> None:
         # every table that marks a cell says what the mark means, whoever built it
-        if any(LOW_MARK in c for line in self.cells for c in line) and LOW_NOTE not in self.notes:
+        marked = any(LOW_MARK in c for line in self.cells for c in line)
+        if marked and not any(n.startswith(LOW_MARK) for n in self.notes):
             self.notes.append(LOW_NOTE)
 
 
@@ -150,15 +157,74 @@ def _rate(value: float) -> str:
     return f"{value:.2f}".rstrip("0").rstrip(".")
 
 
+# ----------------------------------------------------------------------------- captions
+PLACEHOLDER = re.compile(r"\{(\w+)\}")
+
+
+def _value_text(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_, str)):
+        return str(value)
+    try:
+        return _rate(float(value))
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def caption_of(caption: str, rows: pd.DataFrame) -> str:
+    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Layout`) replaced
+    by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor type
+    where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)". A name the rows do
+    not give stays as written."""
+
+    def values(match: re.Match) -> str:
+        column = match.group(1)
+        if column not in rows or rows[column].dropna().empty:
+            return match.group(0)
+        if "sensor_type" in rows and rows[column].nunique() > 1:
+            per: dict[tuple[str, ...], list[str]] = {}
+            for sensor in ordered(rows["sensor_type"].dropna().unique(), "sensor_type"):
+                mine = rows.loc[rows["sensor_type"] == sensor, column].dropna().unique()
+                if len(mine):
+                    texts = tuple(_value_text(v) for v in rank(mine))
+                    per.setdefault(texts, []).append(SENSOR_NAMES.get(sensor, sensor))
+            if len(per) > 1:
+                return ", ".join(f"{'/'.join(t)} ({', '.join(n)})" for t, n in per.items())
+        return ", ".join(_value_text(v) for v in rank(rows[column].dropna().unique()))
+
+    return PLACEHOLDER.sub(values, caption)
+
+
 # ----------------------------------------------------------------------------- figures per cell
 def low_n(rows: pd.DataFrame) -> pd.Series:
-    """(n_rows,) bool: rows whose cell rests on few test trials: the rows' own ``low_n`` where
-    they carry it, else ``n_test_trials < LOW_N`` (False where neither is known)."""
+    """(n_rows,) bool: rows whose cell rests on few test trials, from the counts the rows give:
+    trials per class where they give them (:func:`~slipbench.stats.metrics.classes_low_n`: a
+    class the test set lacks is absent, not few), a streaming cell's test trials and onsets
+    (:func:`~slipbench.stats.metrics.stream_low_n`); else the rows' own ``low_n``; else
+    ``n_test_trials < LOW_N``; False where none is known."""
+
+    def column(name: str) -> np.ndarray:
+        if name not in rows:
+            return np.full(len(rows), np.nan)
+        return pd.to_numeric(rows[name], errors="coerce").to_numpy(dtype=float)
+
+    out = np.zeros(len(rows), bool)
+    slip, nonslip = column("n_test_clusters_slip"), column("n_test_clusters_nonslip")
+    trials, onsets = column("n_test_trials"), column("n_onsets")
+    known = ~np.isnan(slip) & ~np.isnan(nonslip)
+    for i in np.flatnonzero(known):
+        out[i] = classes_low_n(int(slip[i]), int(nonslip[i]))
+    streamed = ~known & ~np.isnan(onsets)
+    for i in np.flatnonzero(streamed):
+        out[i] = stream_low_n(trials[i], onsets[i])
+    known |= streamed
     if "low_n" in rows:
-        return rows["low_n"].fillna(False).astype(bool)
-    if "n_test_trials" in rows:
-        return pd.to_numeric(rows["n_test_trials"], errors="coerce").lt(LOW_N)
-    return pd.Series(False, index=rows.index)
+        own = rows["low_n"].to_numpy(dtype=object)
+        given = ~known & pd.notna(own)
+        out[given] = own[given].astype(bool)
+        known |= given
+    rest = ~known & ~np.isnan(trials)
+    out[rest] = trials[rest] < LOW_N
+    return pd.Series(out, index=rows.index)
 
 
 def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
@@ -166,6 +232,7 @@ def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> 
     its standard deviation across seeds, the number of seeds, the mean interval bounds, a
     status ("ok", or the status of the cell when no seed finished) and ``low_n`` (a finished
     seed rests on few test trials)."""
+    keys = list(dict.fromkeys(keys))  # a key named twice (a layout by detector) groups once
     if metric not in rows.columns:
         rows = rows.assign(**{metric: np.nan})
     rows = rows.assign(_low=low_n(rows))
@@ -390,7 +457,9 @@ def build_table(
         notes.append(_seeds_note({k for k, r in by_key.items() if r["n"] > 1}, pooled))
     if values == "ours":
         notes += _one_class_note(rows)
-    return Table(layout.caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+    caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
+    caption = caption_of(caption, rows)  # what the published table does not give, the rows do
+    return Table(caption, headers, group, plain, row_labels, cells, label_, latex, notes)
 
 
 def _one_class_note(rows: pd.DataFrame) -> list[str]:
@@ -598,9 +667,11 @@ def metric_text(
     hi: float = np.nan,
     status: str = "ok",
     intervals: bool = False,
+    low: bool = False,
 ) -> str:
     """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
-    ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals; 'NA' if absent."""
+    ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals; 'NA' if absent;
+    ``LOW_MARK`` appended where the cell rests on few test trials or onsets (``low``)."""
     if status != "ok":
         return status
     if pd.isna(mean):
@@ -611,7 +682,7 @@ def metric_text(
         text += f" ± {scale * sd:.{digits}f}"
     if intervals and not (pd.isna(lo) or pd.isna(hi)):
         text += f" [{scale * lo:.{digits}f}, {scale * hi:.{digits}f}]"
-    return text
+    return text + (LOW_MARK if low else "")
 
 
 def metrics_table(
@@ -647,6 +718,7 @@ def metrics_table(
                 m,
                 **{k: per[m][rk][k] for k in ("mean", "sd", "n", "lo", "hi", "status")},
                 intervals=intervals,
+                low=bool(per[m][rk]["low_n"]),
             )
             for m in metrics
         ]
@@ -664,9 +736,11 @@ def metrics_table(
         notes.append("Mean ± standard deviation across seeds.")
     if intervals:
         notes.append(INTERVAL_NOTE)
+    if any(LOW_MARK in c for line in cells for c in line):
+        notes.append(STREAM_LOW_NOTE)
     columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
     return Table(
-        layout.caption,
+        caption_of(layout.caption, rows),
         headers,
         group or layout.group,
         columns,
@@ -692,6 +766,10 @@ def side_by_side(
     if layout.metrics:
         return _metrics_side_by_side(rows, layout, detectors, label_)
     keys = [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
+    if "detector" in keys:  # a layout by detector (from cell keys) sets them side by side itself
+        table = build_table(rows, layout, metric, label_=label_)
+        table.caption = f"{layout.title or 'Protocol'}: every detector side by side."
+        return table
     per = summarize(rows, ["detector", *keys], metric)
     per = per[per["status"] == "ok"]
     by = ["detector", layout.column] + ([layout.pair] if layout.pair else [])
@@ -739,7 +817,11 @@ def _metrics_side_by_side(
         for m in layout.metrics:
             per = summarize(rows[rows["detector"] == d], keys, m)
             per = per[per["status"] == "ok"]
-            line.append(metric_text(m, per["mean"].mean()) if len(per) else "NA")
+            line.append(
+                metric_text(m, per["mean"].mean(), low=bool(per["low_n"].any()))
+                if len(per)
+                else "NA"
+            )
         cells.append(line)
     units = " and ".join(ROW_HEADERS.get(k, k).lower() for k in keys)
     return Table(
@@ -750,7 +832,8 @@ def _metrics_side_by_side(
         [(d,) for d in detectors],
         cells,
         label_,
-        notes=[f"Mean over units ({units}) of each unit's figure."],
+        notes=[f"Mean over units ({units}) of each unit's figure."]
+        + ([STREAM_LOW_NOTE] if any(LOW_MARK in c for line in cells for c in line) else []),
     )
 
 

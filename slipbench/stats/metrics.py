@@ -45,14 +45,32 @@ def cluster_counts(y_true: np.ndarray, groups: np.ndarray) -> tuple[int, int]:
     return len(np.unique(groups[y_true])), len(np.unique(groups[~y_true]))
 
 
+def classes_low_n(n_slip: int, n_nonslip: int) -> bool:
+    """True when a class the test set holds has fewer than ``LOW_N`` clusters (trials).
+
+    A class the test set does not hold at all (a one-class test set, tested with a model
+    trained elsewhere) is no small sample: its figure (TN or TP rate) is absent, not uncertain,
+    so a one-class test set of many trials is not flagged; an empty one is.
+    """
+    present = [n for n in (n_slip, n_nonslip) if n > 0]
+    return not present or min(present) < LOW_N
+
+
+def stream_low_n(n_trials: float, n_onsets: float) -> bool:
+    """True when a streaming cell rests on fewer than ``LOW_N`` test trials or slip onsets: its
+    detection rate and delays, or its false alarms, come from a handful of events."""
+    return not (n_trials >= LOW_N and n_onsets >= LOW_N)  # NaN counts are low too
+
+
 def is_low_n(y_true: np.ndarray, groups: np.ndarray) -> bool:
-    """True when the test set holds fewer than ``LOW_N`` clusters of either class.
+    """True when the test set holds fewer than ``LOW_N`` clusters of a class it holds
+    (:func:`classes_low_n`).
 
     Below 10 clusters per class the measured coverage of the intervals falls short of the
     nominal 95 % (see :mod:`slipbench.stats.bootstrap`), and a figure rests on a handful of recordings:
     tables flag such cells.
     """
-    return min(cluster_counts(y_true, groups)) < LOW_N
+    return classes_low_n(*cluster_counts(y_true, groups))
 
 
 # ----------------------------------------------------------------------------- per-cluster totals
@@ -190,7 +208,7 @@ def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
     return {
         "n_test_clusters_slip": n_slip,
         "n_test_clusters_nonslip": n_nonslip,
-        "low_n": bool(min(n_slip, n_nonslip) < LOW_N),
+        "low_n": classes_low_n(n_slip, n_nonslip),
     }
 
 
@@ -286,7 +304,7 @@ def classification_figures(
         ``_se`` (bootstrap standard error); ``df``: the accuracy interval's degrees of freedom;
         window-level Wilson bounds ``<rate>_wilson_lo``/``_hi`` for accuracy, TP and TN rate;
         ``n_test_clusters_slip``, ``n_test_clusters_nonslip`` (clusters holding windows of each
-        class) and ``low_n`` (fewer than ``LOW_N`` of either); ``ci_note``: empty, or which
+        class) and ``low_n`` (fewer than ``LOW_N`` of a class it holds); ``ci_note``: empty, or which
         intervals are the figure's whole range because a class holds one cluster. A figure
         without an estimate (no slip window for a TP rate; no scores for the AUROC) is NaN with
         NaN bounds.

@@ -91,6 +91,7 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
     from slipbench.data.read import read_dataset
     from slipbench.engine.check import check_dataset
     from slipbench.engine.runner import Run
+    from slipbench.protocol import NO_CELL
     from slipbench.vocabulary import LOW_N
 
     add_plugin_folders(plugins)
@@ -105,9 +106,14 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
     result = check_dataset(read_dataset(path), runs)
     click.echo(f"## {path}: classes per unit (labels: {labels}; windows of 50 samples)\n")
     click.echo(result.units.to_markdown(index=False))
-    click.echo("\n## Windows per size: slip / non-slip, before balancing\n")
+    click.echo(
+        "\n## Windows the protocols use, per unit: slip and non-slip windows before balancing\n"
+    )
     click.echo(result.windows.to_markdown(index=False, floatfmt="g"))
     for name, cells in result.cells.groupby("protocol", sort=False):
+        if (cells["cell"] == NO_CELL).all():  # the protocol's stand-in: it makes no cell here
+            click.echo(f"\n## {name}: no cell\n\n{cells['reason'].iloc[0]}")
+            continue
         counts = cells["verdict"].value_counts()
         click.echo(
             f"\n## {name} ({split} split, seed {seed}): "
