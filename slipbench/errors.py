@@ -109,17 +109,18 @@ class EnvironmentFault(SlipbenchError):
     """Disk full, a read-only folder, no permission (exit code 5).
 
     The message is one line naming the path, the action and the cause, e.g.
-    ``cannot write out/cells/3f2a.parquet: no space left on device (ENOSPC)``.
+    ``cannot write out/cells/3f2a.parquet: no space left on device (ENOSPC)``, and ``hint``,
+    what to do, where the caller knows it.
     """
 
     exit_code = EXIT_ENVIRONMENT
 
-    def __init__(self, path: str | os.PathLike, cause: str, action: str = "write"):
-        self.path, self.cause, self.action = os.fspath(path), cause, action
-        super().__init__(f"cannot {action} {self.path}: {cause}")
+    def __init__(self, path: str | os.PathLike, cause: str, action: str = "write", hint: str = ""):
+        self.path, self.cause, self.action, self.hint = os.fspath(path), cause, action, hint
+        super().__init__(f"cannot {action} {self.path}: {cause}" + (f"; {hint}" if hint else ""))
 
     def __reduce__(self):  # a worker's fault reaches the parent whole (pebble, dask pickle it)
-        return type(self), (self.path, self.cause, self.action)
+        return type(self), (self.path, self.cause, self.action, self.hint)
 
 
 def environment_fault(

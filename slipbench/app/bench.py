@@ -7,6 +7,7 @@ taken minutes apart do not).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import pandas as pd
 
@@ -15,12 +16,21 @@ from slipbench.engine.fitting import PeakMemory
 from slipbench.engine.registry import detectors
 
 
-def detector_costs(names: list[str], n_windows: int, length: int, seed: int = 0) -> pd.DataFrame:
+def detector_costs(
+    names: list[str],
+    n_windows: int,
+    length: int,
+    seed: int = 0,
+    echo: Callable[[str], None] | None = None,
+) -> pd.DataFrame:
     """Fit each detector once with its defaults on ``n_windows`` toy windows of ``length``
-    samples (3840 x 50 is a default-dataset cell at window 50) and predict as many."""
+    samples (3840 x 50 is a default-dataset cell at window 50) and predict as many; ``echo``
+    hears which detector is being timed (some take minutes)."""
     x, y = toy_windows(n_windows, length, seed)
     rows = []
     for name in names:
+        if echo:
+            echo(f"timing {name} on {n_windows} windows of {length} samples ...")
         detector = detectors.get(name)()
         with PeakMemory() as mem:
             t0 = time.perf_counter()

@@ -52,7 +52,7 @@ from typing import Any
 
 import tomllib
 
-from slipbench.errors import SlipbenchError, UsageError
+from slipbench.errors import PluginError, SlipbenchError, UsageError
 
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
@@ -344,9 +344,12 @@ def load_benchmark(path: str | Path) -> Benchmark:
     )
 
 
-def plan_runs(bench: Benchmark) -> list:
+def plan_runs(bench: Benchmark, echo=print) -> list:
     """The runs the file declares, every plugin loaded and every parameter checked (a bad one
-    names the file, line and table); plugin folders are registered first."""
+    names the file, line and table); plugin folders are registered first. A plugin whose
+    optional dependency is not installed here is skipped with a line to ``echo`` (one file
+    serves machines with and without it); a kind left with none is refused (exit 3)."""
+    from slipbench.app.selection import available
     from slipbench.engine import registry
     from slipbench.engine.runner import Run
 
@@ -376,8 +379,19 @@ def plan_runs(bench: Benchmark) -> list:
                 bench.path, bench.text, str(exc), f"{kind}s.{name}", _param_in(str(exc), params)
             ) from None
 
-    detectors = {n: made("detector", registry.detectors, n, p) for n, p in bench.detectors.items()}
-    protocols = {n: made("protocol", registry.protocols, n, p) for n, p in bench.protocols.items()}
+    chosen = {}
+    for kind, reg, declared in (
+        ("detector", registry.detectors, bench.detectors),
+        ("protocol", registry.protocols, bench.protocols),
+    ):
+        names = [n for n in declared if n in reg.names()]  # an unknown one: made() names it
+        runnable = available(reg, names, echo) + [n for n in declared if n not in names]
+        if not runnable:
+            raise PluginError(
+                f"{bench.path}: every {kind} it declares is unavailable here (see the lines above)"
+            )
+        chosen[kind] = {n: made(kind, reg, n, declared[n]) for n in declared if n in runnable}
+    detectors, protocols = chosen["detector"], chosen["protocol"]
     runs = []
     for dn, det in detectors.items():
         for pn, pro in protocols.items():
@@ -448,7 +462,9 @@ def run_benchmark(
     from slipbench.store.results import ResultsStore
 
     out = Path(out) if out is not None else bench.out
-    runs = plan_runs(bench)  # every name and parameter before the dataset is read or simulated
+    runs = plan_runs(
+        bench, echo
+    )  # every name and parameter before the dataset is read or simulated
     if bench.train is not None:
         from slipbench.data.transfer import combine, parse_sensor_map
 

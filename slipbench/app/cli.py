@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import sys
 import traceback
+import warnings
 
 import click
 
@@ -45,22 +46,34 @@ for command in (
     cli.add_command(command)
 
 
+INTERRUPTED = "interrupted; finished cells are kept, run the same command again to resume"
+
+
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line for the human (``warning: ...``), without the source line."""
+    click.echo(f"warning: {message}", err=True)
+
+
 def main(argv: list[str] | None = None) -> None:
+    # the CLI's own warning format; catch_warnings restores Python's when main returns, so an
+    # importer of slipbench (or a test calling main) keeps its own
+    with warnings.catch_warnings():
+        warnings.showwarning = _one_line_warning
+        _main(argv)
+
+
+def _main(argv: list[str] | None) -> None:
     try:
         cli.main(args=argv, prog_name="slipbench", standalone_mode=False)
     except click.exceptions.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
-    except click.exceptions.Abort:
+    except (click.exceptions.Abort, KeyboardInterrupt):  # click turns Ctrl-C into Abort
+        click.echo(INTERRUPTED, err=True)
         sys.exit(130)
     except SlipbenchError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(exc.exit_code)
-    except KeyboardInterrupt:
-        click.echo(
-            "interrupted; finished cells are kept, rerun the same command to resume", err=True
-        )
-        sys.exit(130)
     except OSError as exc:
         if exc.errno not in ENVIRONMENT_ERRNOS:
             _bug()

@@ -1,8 +1,14 @@
 """The plugins a command line selects: plugin folders added to the registries, plugins loaded
 by name or all of them ('all' runs the ones that load and notes the others), and options set on
-the plugins that take them."""
+the plugins that take them.
+
+A plugin whose declared optional dependency is not installed (minirocket without aeon) is a
+state, not a failure: 'all' and benchmark files skip it with one line naming it and its install
+hint; named on its own it is refused before any work (exit 3, with the hint)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 from slipbench.engine import registry
 from slipbench.engine.registry import Plugin
@@ -14,19 +20,61 @@ def add_plugin_folders(folders: tuple[str, ...]) -> None:
         registry.add_plugin_folder(folder)
 
 
-def load_plugins(reg: registry.Registry[Plugin], name: str, broken: list[str]) -> dict[str, Plugin]:
+def skip_line(kind: str, name: str, why: str) -> str:
+    """The one line that says an unavailable plugin is skipped, and how to install what it needs."""
+    return f"skipped {kind} {name!r}: unavailable here, {why}"
+
+
+def require_available(reg: registry.Registry, name: str) -> None:
+    """Refuse a plugin named on its own whose optional dependency is not installed (exit 3)."""
+    why = reg.unavailable(name)
+    if why:
+        raise PluginError(f"{reg.kind} {name!r} is unavailable here: {why}")
+
+
+def available(reg: registry.Registry, names: list[str], echo: Callable[[str], None]) -> list[str]:
+    """``names`` without the unavailable plugins, each of those named by ``echo`` in one line;
+    a plugin that fails to import is left in, for the caller to report."""
+    out = []
+    for name in names:
+        try:
+            why = reg.unavailable(name)
+        except PluginError:
+            why = ""
+        if why:
+            echo(skip_line(reg.kind, name, why))
+        else:
+            out.append(name)
+    return out
+
+
+def load_plugins(
+    reg: registry.Registry[Plugin],
+    name: str,
+    broken: list[str],
+    echo: Callable[[str], None] = print,
+) -> dict[str, Plugin]:
     """The plugin called ``name`` (or every plugin, for 'all'), made with its defaults. With 'all',
-    a plugin that fails to load is noted in ``broken`` and the others run."""
+    a plugin that fails to load is noted in ``broken`` and the others run; an unavailable one is
+    skipped with a line to ``echo``. Named on its own, an unavailable plugin is refused."""
     if name != "all":
+        require_available(reg, name)
         return {name: reg.get(name)()}
     out: dict[str, Plugin] = {}
+    skipped: list[str] = []
     for n in reg.names():
         try:
+            why = reg.unavailable(n)
+            if why:
+                skipped.append(skip_line(reg.kind, n, why))
+                continue
             out[n] = reg.get(n)()
         except PluginError as exc:
             broken.append(str(exc))
     if not out:
-        raise PluginError("; ".join(broken))
+        raise PluginError("; ".join(broken + skipped) or f"no {reg.kind} is registered")
+    for line in skipped:
+        echo(line)
     return out
 
 

@@ -11,9 +11,14 @@ from platformdirs import user_cache_dir
 from slipbench.data.format import Dataset
 from slipbench.data.read import read_dataset
 from slipbench.data.synth import MODEL_VERSION, synthesize
-from slipbench.errors import DataError
+from slipbench.errors import DataError, EnvironmentFault, environment_fault
 
 DEFAULT_SCALE = 0.05
+#: what to do when the cache cannot be written: the newcomer's first command simulates into it
+CACHE_HINT = (
+    "the simulated default dataset is cached there: set SLIPBENCH_CACHE (or, on Linux, "
+    "XDG_CACHE_HOME) to a writable folder, or pass a dataset folder with --dataset"
+)
 
 
 def cache_dir() -> Path:
@@ -34,4 +39,9 @@ def default_dataset(
         except DataError:
             if not path.is_dir():  # lost a race with another process: theirs is as good
                 raise
+        except EnvironmentFault as exc:
+            raise EnvironmentFault(exc.path, exc.cause, exc.action, CACHE_HINT) from None
+        except OSError as exc:  # raised before a file was opened, e.g. making the folder
+            fault = environment_fault(exc, path)  # anything else is re-raised as it is
+            raise EnvironmentFault(fault.path, fault.cause, fault.action, CACHE_HINT) from None
     return read_dataset(path)

@@ -71,14 +71,20 @@ def fit_and_test(
     train_y: np.ndarray,
     tests: list[TestSet | StreamTest],
     model_path: str | None = None,
+    name: str = "",
 ) -> list[Result]:
     """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
     stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
 
     With ``model_path``, a model an earlier run saved there for the same training windows is
     loaded instead of refitted (its training cost is reported as measured then), and a newly
-    fitted one is saved there. Returns, per test set, its result fields and its scores.
+    fitted one is saved there. ``name`` is the detector's registry id: a worker process imports
+    the class afresh, without the id the registry stamped on it in the parent, and messages
+    must name the id a user can pass (``minirocket``), not the class. Returns, per test set,
+    its result fields and its scores.
     """
+    if name and not type(detector).__dict__.get("name"):
+        type(detector).name = name
     try:
         detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
         learned, warning = _learned(train_y, detector.predict_proba(train_x))

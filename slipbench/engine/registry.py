@@ -62,7 +62,13 @@ def import_plugin_file(path: str | Path) -> object:
 
 @dataclass(frozen=True)
 class Status:
-    """Whether a plugin can be used: "ok", "missing dependency" or "import error", and why."""
+    """Whether a plugin can be used, and why not.
+
+    "ok"; "unavailable": a module it declares in ``requires`` is not installed (the detail names
+    it and the plugin's ``install_hint``): an optional part, skipped where all plugins are
+    selected; "missing dependency": its import raised ModuleNotFoundError (undeclared, so a
+    typo and an absent package look alike); "import error": anything else.
+    """
 
     state: str
     detail: str = ""
@@ -199,19 +205,25 @@ class Registry(Generic[Plugin]):
     def status(self, name: str) -> Status:
         """Load ``name`` and say whether it can run: its import and its declared ``requires``."""
         try:
-            cls = self.get(name)
+            self.get(name)
         except PluginError as exc:
             missing = exc.__cause__
             if isinstance(missing, ModuleNotFoundError):
                 return Status("missing dependency", f"{missing.name} ({exc})")
             return Status("import error", str(exc))
+        why = self.unavailable(name)
+        return Status("unavailable", why) if why else Status("ok")
+
+    def unavailable(self, name: str) -> str:
+        """What an importable plugin lacks to run here: the modules of its ``requires`` that are
+        not installed, and its ``install_hint`` (e.g. "needs aeon; install it with: pip install
+        'slipbench[minirocket]'"); "" when nothing is absent."""
+        cls = self.get(name)
         absent = [m for m in cls.requires if importlib.util.find_spec(m.split(".")[0]) is None]
-        if absent:
-            return Status(
-                "missing dependency",
-                ", ".join(absent) + (f": {cls.install_hint}" if cls.install_hint else ""),
-            )
-        return Status("ok")
+        if not absent:
+            return ""
+        hint = f"; install it with: {cls.install_hint}" if cls.install_hint else ""
+        return f"needs {', '.join(absent)}{hint}"
 
     def describe(self, name: str) -> dict[str, Any]:
         """Id, status, one-line description and parameters with defaults (``slipbench list``)."""

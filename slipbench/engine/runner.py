@@ -210,6 +210,7 @@ def _payload(
         train.y,
         tests,
         None if model_path is None else str(model_path),
+        first.run.detector_name,
     )
 
 

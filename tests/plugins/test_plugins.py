@@ -161,8 +161,8 @@ def test_list_shows_parameters_and_status(tmp_path, cli):
     found = {e["name"]: e for e in json.loads(text)["detectors"]}
     assert found["broken"]["status"] == "import error" and "boom" in found["broken"]["detail"]
     assert (
-        found["needs-dep"]["status"] == "missing dependency"
-        and "no_such_module_slipbench" in found["needs-dep"]["detail"]
+        found["needs-dep"]["status"] == "unavailable"
+        and "needs no_such_module_slipbench" in found["needs-dep"]["detail"]
     )
     assert found["missing-import"]["status"] == "missing dependency"
     assert (

@@ -6,7 +6,7 @@ from __future__ import annotations
 import click
 
 from slipbench.app.options import plugins_option
-from slipbench.app.selection import add_plugin_folders
+from slipbench.app.selection import add_plugin_folders, available, require_available
 from slipbench.engine import registry
 from slipbench.errors import UsageError
 from slipbench.vocabulary import MIN_WINDOW
@@ -40,8 +40,14 @@ def bench(names, windows, length, seconds, no_own_figures, plugins) -> None:
         raise UsageError(
             f"--windows must be >= 2 and --length >= {MIN_WINDOW}, got {windows} and {length}"
         )
-    names = list(names) or registry.detectors.names()
-    costs = detector_costs(names, windows, length)
+    note = lambda line: click.echo(line, err=True)  # noqa: E731
+    if names:
+        for name in names:  # each named one must run: refused before any detector is timed
+            require_available(registry.detectors, name)
+        names = list(names)
+    else:
+        names = available(registry.detectors, registry.detectors.names(), note)
+    costs = detector_costs(names, windows, length, echo=note)
     click.echo(costs.to_markdown(index=False, floatfmt=".3g"))
     if not no_own_figures:
         for name, table in detector_benchmarks(names, length, seconds).items():

@@ -138,11 +138,14 @@ def evaluate(
         )
     split = "datasets" if train_path else split
     broken: list[str] = []
+    note = lambda line: click.echo(line, err=True)  # noqa: E731
     detectors = with_options(
-        load_plugins(registry.detectors, detector_name, broken), parse_params(params), "detector"
+        load_plugins(registry.detectors, detector_name, broken, note),
+        parse_params(params),
+        "detector",
     )
     protocols = with_options(
-        load_plugins(registry.protocols, protocol_name, broken),
+        load_plugins(registry.protocols, protocol_name, broken, note),
         parse_params(protocol_params),
         "protocol",
     )
@@ -187,8 +190,10 @@ def evaluate(
     )
     for reason in rows.loc[rows["status"] == "skipped", "reason"].unique():
         click.echo(f"skipped: {reason}", err=True)
-    if broken:
-        raise PluginError("; ".join(broken) + " (the other plugins ran)")
     failed = cells_failed(rows, str(out))
+    if broken:  # exit 3 outranks 4, so the cells that did not finish are listed with it
+        raise PluginError(
+            "; ".join(broken) + " (the other plugins ran)" + (f"\n{failed}" if failed else "")
+        )
     if failed:
         raise failed
