@@ -8,7 +8,7 @@ code  meaning                                                          raised as
 0     every cell ok or skipped; ``compare`` found no regression        (no error)
 1     ``compare`` found a regression                                   ``EXIT_REGRESSION``
 2     bad usage or bad data (an option, a name, a file's format)       UsageError, DataError
-3     a plugin failed to load                                          PluginError
+3     a plugin failed to load, or one named is unavailable here        PluginError
 4     the run finished, but cells failed or timed out (listed)         CellsFailed
 5     an environment fault: disk full, read-only folder, no permission EnvironmentFault
       (or a lock another process holds too long, a failing disk)

@@ -22,7 +22,7 @@ from slipbench.errors import ENVIRONMENT_ERRNOS, SlipbenchError, environment_fau
 
 EXIT_BUG = 70  # sysexits' EX_SOFTWARE: an internal error, reported with its traceback
 EXIT_CODES = """Exit codes: 0 every cell ok or skipped; 1 compare found a regression; 2 bad usage or
-bad data; 3 a plugin failed to load; 4 the run finished but cells failed or timed out (listed);
+bad data; 3 a plugin failed to load (failed cells listed too) or one named is unavailable; 4 the run finished but cells failed or timed out (listed);
 5 an environment fault (disk full, read-only folder, permission); 70 a bug in slipbench (with
 its traceback); 130 interrupted."""
 
