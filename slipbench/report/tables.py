@@ -760,7 +760,8 @@ def side_by_side(
 ) -> Table | None:
     """Every detector of one protocol's table in one table: a row per detector, the layout's
     value columns (and pair), each figure the mean over the layout's row keys (sensor units)
-    of each unit's figure (mean over seeds). None with fewer than two detectors."""
+    of each unit's figure (mean over seeds). None with fewer than two detectors or no finished
+    cell."""
     if len(detectors) < 2:
         return None
     if layout.metrics:
@@ -772,6 +773,8 @@ def side_by_side(
         return table
     per = summarize(rows, ["detector", *keys], metric)
     per = per[per["status"] == "ok"]
+    if per.empty:  # every cell skipped or failed: each detector's own table says why
+        return None
     by = ["detector", layout.column] + ([layout.pair] if layout.pair else [])
     avg = per.groupby(by, dropna=False).agg(
         mean=("mean", "mean"), units=("mean", "size"), low=("low_n", "any")

@@ -17,6 +17,7 @@ from slipbench.data.read import read_dataset
 from slipbench.data.write import write_dataset
 from slipbench.engine.registry import detectors, protocols
 from slipbench.engine.runner import Run, evaluate
+from slipbench.report.document import render_report
 from slipbench.store.results import ResultsStore
 
 FAST = {
@@ -164,6 +165,15 @@ def test_every_protocol_and_detector_runs_or_skips_with_a_reason(
     )
     if shape is not vibration:  # the one-class dataset can train nothing on its own
         assert (rows["status"] == "ok").sum() > 0
+    # no dropped class: every model trained on both classes, as balanced and recorded in its row
+    counted = rows if "train_slip_windows" in rows else rows.assign(train_slip_windows=np.nan)
+    trained = counted[counted["status"].eq("ok") & counted["train_slip_windows"].notna()]
+    assert (trained["train_slip_windows"] > 0).all() and (
+        trained["train_nonslip_windows"] > 0
+    ).all()
+    for fmt in ("md", "latex", "html"):  # every report format renders these rows
+        text = render_report(rows, fmt, intervals=True, paper=True)
+        assert all(p in text for p in set(rows["protocol"])), fmt
 
 
 def test_one_class_data_is_tested_with_a_model_trained_elsewhere(tmp_path, cli):
