@@ -57,3 +57,17 @@ def small_path(tmp_path_factory):
 @pytest.fixture(scope="session")
 def small(small_path):
     return read_dataset(small_path)
+
+
+@pytest.fixture(scope="session")
+def unit(small, tmp_path_factory):
+    """One sensor unit of the small simulation: a few seconds for holweg."""
+    from datagen import subset
+
+    from slipbench.data.write import write_dataset
+
+    rec = small.recordings
+    ds = subset(small, rec["sensor_type"].eq("OptoForce20") & rec["sensor_instance"].eq("index"))
+    return write_dataset(
+        tmp_path_factory.mktemp("data") / "unit", ds.recordings, ds.samples, ds.slip_labels
+    )

@@ -78,6 +78,24 @@ def load_plugins(
     return out
 
 
+def select_plugins(
+    reg: registry.Registry[Plugin],
+    names: tuple[str, ...] | list[str],
+    broken: list[str],
+    echo: Callable[[str], None] = print,
+) -> dict[str, Plugin]:
+    """The plugins named by a repeated option, each value an id, a comma list of ids or 'all'
+    (``--detector holweg --detector lstm``, ``--detector holweg,lstm``): every one of them, in
+    the order given, each once. Before, a repeated option silently kept only its last value."""
+    out: dict[str, Plugin] = {}
+    for name in [n.strip() for value in names for n in value.split(",") if n.strip()]:
+        for n, plugin in load_plugins(reg, name, broken, echo).items():
+            out.setdefault(n, plugin)
+    if not out:
+        raise UsageError(f"no {reg.kind} named: give an id, a comma list of ids or 'all'")
+    return out
+
+
 def with_options(plugins: dict, options: dict, kind: str) -> dict:
     """Each option set on the plugins that take it; one that none takes is a usage error."""
     for name, value in options.items():

@@ -12,7 +12,6 @@ import warnings
 import pandas as pd
 import pytest
 import toys
-from datagen import subset
 
 from slipbench.engine import registry
 
@@ -21,18 +20,6 @@ pytestmark = pytest.mark.skipif(
 )
 HINT = "pip install 'slipbench[minirocket]'"
 FAST = ["--protocol-param", "windows=[50]", "--quiet"]
-
-
-@pytest.fixture(scope="module")
-def unit(small, tmp_path_factory):
-    """One sensor unit of the small simulation: a few seconds for holweg."""
-    from slipbench.data.write import write_dataset
-
-    rec = small.recordings
-    ds = subset(small, rec["sensor_type"].eq("OptoForce20") & rec["sensor_instance"].eq("index"))
-    return write_dataset(
-        tmp_path_factory.mktemp("data") / "unit", ds.recordings, ds.samples, ds.slip_labels
-    )
 
 
 def _only(monkeypatch, *names: str) -> None:

@@ -22,7 +22,7 @@ from slipbench.app.options import (
     seed_option,
     split_option,
 )
-from slipbench.app.selection import add_plugin_folders, load_plugins, with_options
+from slipbench.app.selection import add_plugin_folders, select_plugins, with_options
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
 
@@ -32,13 +32,15 @@ from slipbench.errors import PluginError, UsageError
     "--detector",
     "detector_name",
     required=True,
-    help="A detector id, or 'all' (see `slipbench list`).",
+    multiple=True,
+    help="A detector id, a comma list of ids, or 'all' (repeatable; see `slipbench list`).",
 )
 @click.option(
     "--protocol",
     "protocol_name",
     required=True,
-    help="A protocol id, or 'all' (see `slipbench list`).",
+    multiple=True,
+    help="A protocol id, a comma list of ids, or 'all' (repeatable; see `slipbench list`).",
 )
 @dataset_option("Dataset folder [default: the simulated one].")
 @click.option(
@@ -140,12 +142,12 @@ def evaluate(
     broken: list[str] = []
     note = lambda line: click.echo(line, err=True)  # noqa: E731
     detectors = with_options(
-        load_plugins(registry.detectors, detector_name, broken, note),
+        select_plugins(registry.detectors, detector_name, broken, note),
         parse_params(params),
         "detector",
     )
     protocols = with_options(
-        load_plugins(registry.protocols, protocol_name, broken, note),
+        select_plugins(registry.protocols, protocol_name, broken, note),
         parse_params(protocol_params),
         "protocol",
     )

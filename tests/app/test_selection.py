@@ -1,0 +1,46 @@
+"""Several detectors and protocols in one `evaluate`: a repeated option runs each value, and a
+value may be a comma list (before, a repeated --detector silently kept only its last value)."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pytest
+
+from slipbench.errors import UsageError
+
+FAST = ["--protocol-param", "windows=[50]", "--quiet"]
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        ["--detector", "holweg", "--detector", "bandpass"],
+        ["--detector", "holweg,bandpass"],
+        ["--detector", "bandpass, holweg", "--detector", "holweg"],  # each once
+    ],
+)
+def test_every_named_detector_runs(unit, tmp_path, cli, options):
+    out = tmp_path / "out"
+    argv = ["evaluate", *options, "--protocol", "window-size", "--dataset", str(unit)]
+    code, _, err = cli(argv + ["--out", str(out), *FAST])
+    assert code == 0, err
+    rows = pd.read_parquet(out / "results.parquet")
+    assert sorted(rows["detector"].unique()) == ["bandpass", "holweg"]
+    assert len(rows) == 2  # one window-size cell of one unit, per detector
+
+
+def test_repeated_protocols_run_each(unit, tmp_path, cli):
+    out = tmp_path / "out"
+    argv = ["evaluate", "--detector", "holweg", "--protocol", "window-size,cross-instance"]
+    code, _, err = cli(argv + ["--dataset", str(unit), "--out", str(out), "--quiet"])
+    assert code == 0, err
+    rows = pd.read_parquet(out / "results.parquet")
+    assert set(rows["protocol"]) == {"window-size", "cross-instance"}
+
+
+def test_an_empty_list_is_refused():
+    from slipbench.app.selection import select_plugins
+    from slipbench.engine import registry
+
+    with pytest.raises(UsageError, match="no detector named"):
+        select_plugins(registry.detectors, [" , "], [])
