@@ -32,6 +32,7 @@ class Source:
     origin: str  # where the id came from, for messages
     target: str  # "module:attribute" (entry point) or the module name of a plugin file
     load: Callable[[], Any]  # () -> module or class
+    package: str = ""  # the distribution and version that installed it ("" for a plugin file)
 
 
 #: module name -> file of every plugin file imported in this process; worker processes import
@@ -101,7 +102,10 @@ class Registry(Generic[Plugin]):
         self._discovered = True
         for ep in entry_points(group=self.group):
             dist = ep.dist.name if ep.dist else "?"
-            self._add(ep.name, Source(f"entry point {ep.value} ({dist})", ep.value, ep.load))
+            package = f"{ep.dist.name} {ep.dist.version}" if ep.dist else ""
+            self._add(
+                ep.name, Source(f"entry point {ep.value} ({dist})", ep.value, ep.load, package)
+            )
 
     def add_folder(self, folder: str | Path) -> None:
         """Register every ``*.py`` file of ``folder``; the file name (with - for _) is the id."""
@@ -233,6 +237,7 @@ class Registry(Generic[Plugin]):
             "status": status.state,
             "detail": status.detail,
             "origin": self._sources[name].origin,
+            "package": self._sources[name].package,
             "description": "",
             "parameters": {},
         }

@@ -16,7 +16,8 @@ from slipbench.engine import registry
 @plugins_option()
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable: one object per plugin.")
 def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
-    """The detectors and protocols that can be selected: status, description, parameters."""
+    """The detectors and protocols that can be selected: status, description, where each comes
+    from (package and version, or plugin file), parameters."""
     add_plugin_folders(plugins)
     found = {
         kind: [reg.describe(n) for n in reg.names()]
@@ -30,6 +31,7 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
         for e in entries:
             state = e["status"] + (f" ({e['detail']})" if e["detail"] else "")
             click.echo(f"  {e['name']:<18} {state if e['status'] != 'ok' else e['description']}")
+            click.echo(f"      from {e['package'] or e['origin']}")
             for name, p in e["parameters"].items():
                 click.echo(
                     f"      {name}={p['default']!r}"
