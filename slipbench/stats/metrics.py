@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from scipy.stats import norm
 from statsmodels.stats.proportion import proportion_confint
 
 from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design
@@ -336,7 +335,7 @@ def classification_figures(
     return out
 
 
-def wilson_ci(hits: int, n: int, level: float = LEVEL) -> tuple[float, float]:
+def wilson_ci(hits: float, n: float, level: float = LEVEL) -> tuple[float, float]:
     """Window-level Wilson interval (statsmodels): right only if windows were independent."""
     if n == 0:
         return float("nan"), float("nan")
@@ -371,10 +370,7 @@ def chance_interval(
         return {"balanced_accuracy": nan, "lo": nan, "hi": nan, "n_eff": 0.0, "chance": False}
     ba = ((y_pred & y_true).sum() / n_slip + (~y_pred & ~y_true).sum() / n_nonslip) / 2
     n = 4 / (1 / n_slip + 1 / n_nonslip)
-    z = float(norm.ppf(0.5 + level / 2))
-    centre = (ba + z**2 / (2 * n)) / (1 + z**2 / n)
-    half = z * np.sqrt(ba * (1 - ba) / n + z**2 / (4 * n**2)) / (1 + z**2 / n)
-    lo, hi = float(centre - half), float(centre + half)
+    lo, hi = wilson_ci(ba * n, n, level)  # a real count: statsmodels takes one
     return {"balanced_accuracy": float(ba), "lo": lo, "hi": hi, "n_eff": n, "chance": lo <= 0.5}
 
 
