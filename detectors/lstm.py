@@ -19,6 +19,9 @@ score is ready one step after its last sample (:class:`LSTMStreamer`).
 
 from __future__ import annotations
 
+import importlib.util
+import warnings
+
 import numpy as np
 
 from slipbench.base import BaseDetector, Streamer
@@ -71,6 +74,11 @@ class LSTM(BaseDetector):
             raise UsageError(
                 f"The 'max_epochs' parameter of LSTM needs one cap for all learning rates or one per rate "
                 f"({len(rates)}); got {self.max_epochs!r}"
+            )
+        if self.device == "cuda" and not _torch_installed():
+            raise UsageError(
+                "The 'device' parameter of LSTM is 'cuda', which runs on torch, and torch is not "
+                "installed; install it with: pip install 'slipbench[torch]' (or use 'cpu')"
             )
         if self.device == "cuda" and not _cuda_available():
             raise UsageError(
@@ -141,7 +149,15 @@ class LSTM(BaseDetector):
 
     @classmethod
     def benchmark(cls, length: int, seconds: float, seed: int = 0):
-        """Training, batched inference and one-window latency against stock torch.nn.LSTM."""
+        """Training, batched inference and one-window latency against stock torch.nn.LSTM;
+        None, with a warning saying what to install, where torch (the reference) is missing."""
+        if not _torch_installed():
+            warnings.warn(
+                "lstm: no speed figures against stock torch.nn.LSTM, the reference, because torch "
+                "is not installed; install it with: pip install 'slipbench[torch]'",
+                stacklevel=2,
+            )
+            return None
         from slipbench.detectors.lstm_bench import lstm_targets
 
         return lstm_targets(cls, length, seconds, seed)
@@ -173,7 +189,14 @@ class LSTMStreamer(Streamer):
         return out
 
 
+def _torch_installed() -> bool:
+    return importlib.util.find_spec("torch") is not None
+
+
 def _cuda_available() -> bool:
+    """Whether torch is installed and sees a CUDA device ("auto" runs on the CPU without torch)."""
+    if not _torch_installed():
+        return False
     import torch
 
     return torch.cuda.is_available()
