@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import importlib
+import inspect
 import json
 import math
 import os
@@ -91,11 +92,21 @@ class BaseDetector(Parameterized):
             )
 
     # -- the public API
-    def fit(self, x: Any, y: Any, *, sampling_rate: float = 1000.0, seed: int = 0) -> BaseDetector:
+    def fit(
+        self,
+        x: Any,
+        y: Any,
+        *,
+        sampling_rate: float = 1000.0,
+        seed: int = 0,
+        groups: Any = None,
+    ) -> BaseDetector:
         """Fit on windows ``x`` (n_windows, window_length) and labels ``y`` (1 = slip).
 
         ``sampling_rate`` (Hz) lets spectral detectors speak in hertz; ``seed`` drives every
-        random choice the detector makes.
+        random choice the detector makes; ``groups`` (n_windows,), optional, is the trial of
+        each window (the engine always gives it), passed on to a ``_fit`` that takes a
+        ``groups`` keyword, so that a held-out validation part can be whole trials.
         """
         self.validate_params()
         x = self._check_x(x)
@@ -112,7 +123,11 @@ class BaseDetector(Parameterized):
             raise UsageError(f"sampling_rate must be a positive number of Hz, got {sampling_rate}")
         self.sampling_rate_ = float(sampling_rate)
         self.window_length_ = x.shape[1]
-        self._fit(x, y.astype(np.int8), seed)
+        trials = None if groups is None else np.asarray(groups)
+        if trials is not None and trials.shape != (x.shape[0],):
+            raise UsageError(f"groups must have shape ({x.shape[0]},), got {trials.shape}")
+        takes_groups = "groups" in inspect.signature(self._fit).parameters
+        self._fit(x, y.astype(np.int8), seed, **({"groups": trials} if takes_groups else {}))
         return self
 
     def predict_proba(self, x: Any) -> np.ndarray:

@@ -9,7 +9,9 @@ other stream by construction, the same on every platform and NumPy version.
 The streams in use: ``unit``, ``trial``, ``rec``, ``signature``, ``surface`` (the simulation),
 ``balance`` (which windows a cell keeps), ``sides`` and ``split`` (trials and windows to train
 or test), ``detector`` (what a detector's ``fit`` receives as its seed), ``bootstrap``,
-``stream-bootstrap``, ``leaderboard``, ``spectral``, ``toy`` (the test kit's data).
+``stream-bootstrap``, ``leaderboard``, ``spectral``, ``toy`` (the test kit's data),
+``torch-init``, ``torch-validation``, ``torch-batches`` (a TorchDetector's weights, validation
+trials and batch order).
 """
 
 from __future__ import annotations

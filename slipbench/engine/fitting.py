@@ -72,6 +72,7 @@ def fit_and_test(
     tests: list[TestSet | StreamTest],
     model_path: str | None = None,
     name: str = "",
+    train_groups: np.ndarray | None = None,
 ) -> list[Result]:
     """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
     stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
@@ -80,13 +81,17 @@ def fit_and_test(
     loaded instead of refitted (its training cost is reported as measured then), and a newly
     fitted one is saved there. ``name`` is the detector's registry id: a worker process imports
     the class afresh, without the id the registry stamped on it in the parent, and messages
-    must name the id a user can pass (``minirocket``), not the class. Returns, per test set,
+    must name the id a user can pass (``minirocket``), not the class. ``train_groups`` is the
+    trial of each training window (a detector may hold whole trials out for validation).
+    Returns, per test set,
     its result fields and its scores.
     """
     if name and not type(detector).__dict__.get("name"):
         type(detector).name = name
     try:
-        detector, cost = _trained(detector, seed, sampling_rate, train_x, train_y, model_path)
+        detector, cost = _trained(
+            detector, seed, sampling_rate, train_x, train_y, model_path, train_groups
+        )
         learned, warning = _learned(train_y, detector.predict_proba(train_x))
         choices = _choices(detector, sampling_rate, [warning] if warning else [])
         out: list[Result] = []
@@ -227,6 +232,7 @@ def _trained(
     train_x: np.ndarray,
     train_y: np.ndarray,
     model_path: str | None,
+    train_groups: np.ndarray | None = None,
 ) -> tuple[BaseDetector, dict[str, Any]]:
     """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
     cost_path = Path(f"{model_path}.json")  # read and written only where there is a model_path
@@ -235,7 +241,13 @@ def _trained(
     detector = clone(detector)
     with PeakMemory() as mem:
         t0 = time.perf_counter()
-        detector.fit(train_x, train_y, sampling_rate=sampling_rate, seed=seed_int(seed, "detector"))
+        detector.fit(
+            train_x,
+            train_y,
+            sampling_rate=sampling_rate,
+            seed=seed_int(seed, "detector"),
+            groups=train_groups,
+        )
         train_s = time.perf_counter() - t0
     cost = {
         "train_s": train_s,

@@ -211,6 +211,7 @@ def _payload(
         tests,
         None if model_path is None else str(model_path),
         first.run.detector_name,
+        trials[train.recording],
     )
 
 

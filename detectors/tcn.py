@@ -1,0 +1,89 @@
+"""A temporal convolutional network (after Bai, Kolter & Koltun, "An Empirical Evaluation of
+Generic Convolutional and Recurrent Networks for Sequence Modeling", 2018): stacked causal
+dilated 1-D convolutions with residual connections, dilation doubling per block so the receptive
+field covers the window, the last time step's features to one logit. On PyTorch, through
+:class:`slipbench.torch.TorchDetector` (training, early stopping, saving, streaming)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from slipbench.params import Interval
+from slipbench.torch import TorchDetector
+
+
+class TCN(TorchDetector):
+    """``channels`` features per block, ``kernel_size`` taps per convolution, ``blocks`` residual
+    blocks with dilations 1, 2, 4, ...; the training parameters are TorchDetector's."""
+
+    _parameter_constraints = {
+        **TorchDetector.TRAINING_CONSTRAINTS,
+        "channels": Interval(int, 1, 256),
+        "kernel_size": Interval(int, 2, 16),
+        "blocks": Interval(int, 1, 12),
+        "dropout": Interval(float, 0.0, 0.9),
+    }
+    check_params = {"max_epochs": 2, "patience": 1, "channels": 4, "blocks": 2}
+
+    def __init__(
+        self,
+        channels=16,
+        kernel_size=3,
+        blocks=4,
+        dropout=0.1,
+        batch_size=64,
+        learning_rate=1e-3,
+        max_epochs=30,
+        patience=5,
+        validation_fraction=0.2,
+        device="auto",
+    ):
+        super().__init__(
+            batch_size, learning_rate, max_epochs, patience, validation_fraction, device
+        )
+        self.channels = channels
+        self.kernel_size = kernel_size
+        self.blocks = blocks
+        self.dropout = dropout
+
+    def build(self, window_length: int) -> Any:
+        return _network(self.channels, self.kernel_size, self.blocks, self.dropout)
+
+
+def _network(channels: int, kernel_size: int, blocks: int, dropout: float) -> Any:
+    from torch import nn
+
+    class Block(nn.Module):
+        """Two causal dilated convolutions (left padding only) and a residual connection."""
+
+        def __init__(self, c_in: int, dilation: int):
+            super().__init__()
+            pad = (kernel_size - 1) * dilation
+            self.body = nn.Sequential(
+                nn.ConstantPad1d((pad, 0), 0.0),
+                nn.Conv1d(c_in, channels, kernel_size, dilation=dilation),
+                nn.ReLU(),
+                nn.Dropout(dropout),
+                nn.ConstantPad1d((pad, 0), 0.0),
+                nn.Conv1d(channels, channels, kernel_size, dilation=dilation),
+                nn.ReLU(),
+                nn.Dropout(dropout),
+            )
+            self.skip = nn.Conv1d(c_in, channels, 1) if c_in != channels else nn.Identity()
+
+        def forward(self, x):
+            return self.body(x) + self.skip(x)
+
+    class Network(nn.Module):
+        def __init__(self):
+            super().__init__()
+            self.blocks = nn.Sequential(
+                *(Block(1 if i == 0 else channels, 2**i) for i in range(blocks))
+            )
+            self.head = nn.Linear(channels, 1)
+
+        def forward(self, x):  # (batch, window) -> (batch,)
+            features = self.blocks(x[:, None, :])
+            return self.head(features[:, :, -1])[:, 0]
+
+    return Network()
