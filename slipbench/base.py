@@ -265,9 +265,18 @@ class BaseDetector(Parameterized):
 
     # -- what plugins implement
     def _fit(self, x: np.ndarray, y: np.ndarray, seed: int) -> None:
+        """The plugin's training, called by :meth:`fit` after every check: ``x`` (n_windows,
+        window_length) finite float32, ``y`` (n_windows,) int8 0/1 holding both classes,
+        ``seed`` an int for every random choice (drawn from the run's stream ``detector``).
+        Store what it learns in attributes ending in ``_``; ``sampling_rate_`` (Hz) and
+        ``window_length_`` are already set. Returns nothing."""
         raise NotImplementedError
 
     def _predict_proba(self, x: np.ndarray) -> np.ndarray:
+        """The plugin's scoring, called by :meth:`predict_proba` (and the default streamer)
+        after every check: ``x`` (n_windows, ``window_length_``) finite float32. Returns
+        (n_windows,) probabilities of slip; a wrong shape, a non-finite value or one outside
+        [0, 1] fails the cell with a DetectorOutputError naming the detector."""
         raise NotImplementedError
 
 
@@ -387,6 +396,8 @@ class Streamer:
 
     @property
     def threshold(self) -> float:
+        """The decision threshold in [0, 1]: a decision is 1 where score >= threshold. Setting
+        it checks the value (UsageError) and applies from the next push."""
         return self._threshold
 
     @threshold.setter

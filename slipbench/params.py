@@ -161,9 +161,13 @@ class Parameterized:
         return param_names(cls)
 
     def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """The parameters (keyword arguments of ``__init__``) by name, as stored; ``deep`` is
+        scikit-learn's and changes nothing here (no parameter is itself an estimator)."""
         return {k: getattr(self, k) for k in self._param_names()}
 
     def set_params(self: _Self, **params: Any) -> _Self:
+        """Set parameters by name and return ``self``; an unknown name is a UsageError listing
+        the known ones. Values are checked by :meth:`validate_params` (``fit`` calls it)."""
         valid = self._param_names()
         for k, v in params.items():
             if k not in valid:

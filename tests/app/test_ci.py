@@ -1,0 +1,194 @@
+"""The CI workflows as shipped: this repository's (.github/workflows/slipbench.yml, bench.toml)
+and the plugin repository's example (examples/plugin-repo/). The README shows them verbatim;
+each workflow has the permissions to comment, caches the base branch's results by its commit,
+guards its comment step, lets compare decide the job; its `slipbench` steps run here through
+bash as GitHub runs them, on one sensor unit instead of the simulated dataset."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import tomllib
+import yaml
+
+ROOT = Path(__file__).resolve().parents[2]
+REPOS = {
+    "this": (ROOT / ".github/workflows/slipbench.yml", ROOT / "bench.toml"),
+    "plugin": (
+        ROOT / "examples/plugin-repo/.github/workflows/slipbench.yml",
+        ROOT / "examples/plugin-repo/bench.toml",
+    ),
+}
+SHIPPED = [p for pair in REPOS.values() for p in pair]
+
+
+def workflow(path: Path) -> dict:
+    data = yaml.safe_load(path.read_text())
+    # YAML 1.1 reads the key `on` as True
+    data["on"] = data.pop(True, data.get("on"))
+    return data
+
+
+def steps(path: Path) -> list[dict]:
+    (job,) = workflow(path)["jobs"].values()
+    return job["steps"]
+
+
+def step_named(path: Path, words: str) -> dict:
+    found = [s for s in steps(path) if words in s.get("name", "")]
+    assert len(found) == 1, f"{path}: one step named '... {words} ...'"
+    return found[0]
+
+
+def commands(script: str) -> list[str]:
+    return [
+        line.strip()
+        for line in script.splitlines()
+        if line.strip() and not line.strip().startswith("#")
+    ]
+
+
+def compare_out(path: Path) -> str:
+    """The file the Markdown compare writes (its --out), from the workflow's last compare line."""
+    lines = [c for s in steps(path) for c in commands(s.get("run", "")) if "slipbench compare" in c]
+    m = re.search(r"--out (\S+)$", lines[-1])
+    assert m and "--format" not in lines[-1], lines[-1]
+    return m[1]
+
+
+def test_readme_shows_the_shipped_files_verbatim():
+    blocks = re.findall(r"^```\w*\n(.*?)^```$", (ROOT / "README.md").read_text(), re.M | re.S)
+    for path in SHIPPED:
+        assert path.read_text() in blocks, f"README.md does not show {path.relative_to(ROOT)}"
+
+
+def test_readme_names_no_missing_plugin_folder():
+    text = (ROOT / "README.md").read_text()
+    for m in re.finditer(r"^plugins = (\[.*?\])", text, re.M):
+        assert json.loads(m[1]) == ["plugins"]
+    for _, bench in REPOS.values():
+        for folder in tomllib.loads(bench.read_text()).get("run", {}).get("plugins", []):
+            assert (bench.parent / folder).is_dir(), f"{bench} names a missing folder {folder}"
+    assert "plugins" in tomllib.loads(REPOS["plugin"][1].read_text())["run"]
+
+
+@pytest.mark.parametrize("repo", REPOS)
+def test_workflow_comments_caches_and_gates(repo):
+    path, bench = REPOS[repo]
+    wf = workflow(path)
+    assert wf["on"] == "pull_request"
+    assert wf["permissions"] == {"contents": "read", "pull-requests": "write"}
+    assert wf["env"]["BENCH"] == bench.name
+    # the base results: restored and saved under a key of the base commit and the bench file
+    restore = next(s for s in steps(path) if s.get("uses", "").startswith("actions/cache/restore"))
+    key = restore["with"]["key"]
+    assert "github.event.pull_request.base.sha" in key and "hashFiles(env.BENCH)" in key
+    save = next(s for s in steps(path) if s.get("uses", "").startswith("actions/cache/save"))
+    assert save["with"]["key"] == f"${{{{ steps.{restore['id']}.outputs.cache-primary-key }}}}"
+    assert save["with"]["path"] == restore["with"]["path"] == "base"
+    miss = f"steps.{restore['id']}.outputs.cache-hit != 'true'"
+    base_run = step_named(path, "on the base branch")
+    assert base_run["if"] == save["if"] == miss and "--out base" in base_run["run"]
+    # torch from PyTorch's CPU index, pinned by the constraints file
+    installs = " ".join(s.get("run", "") for s in steps(path))
+    assert "--index-url https://download.pytorch.org/whl/cpu" in installs
+    assert all("-c constraints.txt" in c for c in commands(installs) if "pip install" in c)
+    assert (path.parents[2] / "constraints.txt").is_file()
+    # compare decides the job: its Markdown call is the step's last command, nothing masks it
+    gate = next(s for s in steps(path) if "slipbench compare" in s.get("run", ""))
+    assert not gate.get("continue-on-error") and "if" not in gate
+    last = commands(gate["run"])[-1]
+    assert last.startswith("slipbench compare base candidate") and "||" not in last
+    # the comment: posted whenever compare wrote its file, never failing when it did not
+    out = compare_out(path)
+    comment = step_named(path, "Comment")
+    assert comment["if"].startswith("always() && ")
+    assert f"hashFiles('{out}') != ''" in comment["if"]
+    assert f"--body-file {out}" in comment["run"] and "GH_TOKEN" in comment["env"]
+
+
+def tiny(bench: Path, data: Path) -> Path:
+    """``bench`` on one sensor unit, one seed, one window: everything else as shipped."""
+    text = re.sub(r"(?ms)^\[dataset\].*?(?=^\[)", "", bench.read_text())
+    text = re.sub(r"(?m)^repeats = \d+", "repeats = 1", text)
+    text = re.sub(r"(?m)^jobs = \d+", "jobs = 1", text)
+    text = re.sub(r"(?m)^windows = \[.*\]", "windows = [50]", text)
+    text += f'\n[dataset]\npath = "{data.as_posix()}"\n'
+    small, shipped = tomllib.loads(text), tomllib.loads(bench.read_text())
+    assert small["detectors"] == shipped["detectors"]
+    assert small["protocols"].keys() == shipped["protocols"].keys()
+    out = bench.parent / "tiny.toml"
+    out.write_text(text)
+    return out
+
+
+def slipbench_steps(path: Path) -> list[dict]:
+    """The steps whose every command is a `slipbench` one (installs and git are GitHub's)."""
+    return [
+        s
+        for s in steps(path)
+        if "run" in s and all(c.startswith("slipbench ") for c in commands(s["run"]))
+    ]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("repo", REPOS)
+def test_workflow_slipbench_steps_run(repo, tmp_path, unit):
+    path, bench = REPOS[repo]
+    work = tmp_path / "repo"
+    work.mkdir()
+    shutil.copy(bench, work)
+    for folder in tomllib.loads(bench.read_text()).get("run", {}).get("plugins", []):
+        shutil.copytree(bench.parent / folder, work / folder)
+    # what the base branch's checkout step makes: here the same files
+    shutil.copytree(work, tmp_path / "base-src")
+    small = tiny(work / bench.name, unit)
+    shutil.copy(small, tmp_path / "base-src" / small.name)
+    env = {
+        **os.environ,
+        **{k: str(v) for k, v in workflow(path)["env"].items()},
+        "BENCH": small.name,
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+    }
+    ran = slipbench_steps(path)
+    assert [("--out base" in s["run"], "compare" in s["run"]) for s in ran] == [
+        (True, False),
+        (False, False),
+        (False, True),
+    ]
+    for step in ran:
+        # GitHub runs a `run:` script with bash -eo pipefail
+        done = subprocess.run(
+            ["bash", "--noprofile", "--norc", "-eo", "pipefail", "-c", step["run"]],
+            cwd=work,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert done.returncode == 0, f"{step['name']}: {done.stderr[-2000:]}"
+    # the same code on both sides: nothing regressed, and both files the later steps read exist
+    assert (work / compare_out(path)).read_text().strip()
+    result = json.loads((work / "compare.json").read_text())
+    assert result["exit_code"] == 0 and result["counts"]["regressed"] == 0 and result["cells"]
+    assert not result["only_base"] and not result["only_candidate"]
+    assert (work / "candidate" / "report.html").is_file()
+    assert (work / "base" / "benchmark.toml").read_text() == small.read_text()
+
+
+@pytest.mark.parametrize("repo", REPOS)
+def test_shipped_bench_files_plan(repo):
+    """Every plugin and parameter the shipped files declare exists and is valid here."""
+    from slipbench.app.benchfile import load_benchmark, plan_runs
+
+    bench = load_benchmark(REPOS[repo][1])
+    runs = plan_runs(bench, echo=lambda line: pytest.fail(f"skipped: {line}"))
+    shipped = tomllib.loads(REPOS[repo][1].read_text())
+    assert len(runs) == len(shipped["detectors"]) * len(shipped["protocols"]) * bench.repeats
