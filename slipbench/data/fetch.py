@@ -124,12 +124,12 @@ def download(card: Card, base: str, folder: Path) -> None:
         return None
 
     with _quiet_pooch():
-        try:
-            with ThreadPoolExecutor(WORKERS) as pool:
+        with ThreadPoolExecutor(WORKERS) as pool:
+            try:
                 errors = list(pool.map(one, card.files))
-        except KeyboardInterrupt:
-            stop.set()
-            raise
+            except BaseException:  # Ctrl-C: queued files are skipped, not waited for
+                stop.set()
+                raise
     for f, exc in zip(card.files, errors):
         if exc is not None:
             raise _explain(exc, card, f, store.get_url(f.path), folder, recorder) from None
