@@ -11,7 +11,8 @@ code  meaning                                                          raised as
 3     a plugin failed to load, or one named is unavailable here        PluginError
 4     the run finished, but cells failed or timed out (listed)         CellsFailed
 5     an environment fault: disk full, read-only folder, no permission EnvironmentFault
-      (or a lock another process holds too long, a failing disk)
+      (or a lock another process holds too long, a failing disk, no
+      network or an HTTP error for a download)
 ====  ===============================================================  =======================
 """
 

@@ -58,3 +58,24 @@ def info(dataset: Dataset) -> pd.DataFrame:
         )
         table = table.drop(columns=["labelled", "slipping", "disagreeing"])
     return table
+
+
+def describe(description: dict[str, str]) -> list[str]:
+    """The lines ``dataset info`` prints for a dataset's stored source and citation (what
+    ``dataset fetch`` records from the card): none when the dataset has neither."""
+    import json
+
+    lines = []
+    source = description.get("slipbench.source")
+    if source:
+        try:
+            s = json.loads(source)
+            lines.append(
+                f"source: {s['title']} ({s['homepage']}), card {s['card']}, downloaded from "
+                f"{s['downloaded_from']}; license: {s['license']}"
+            )
+        except (ValueError, TypeError, KeyError):  # written by other means: shown as it is
+            lines.append(f"source: {source}")
+    if description.get("slipbench.citation"):
+        lines.append(f"cite: {description['slipbench.citation']}")
+    return lines

@@ -30,6 +30,7 @@ from slipbench.data.messages import data_error, one_line
 from slipbench.data.schema import (
     EXACT_INT,
     FINGERPRINT_KEY,
+    FORMAT_KEYS,
     FORMAT_VERSION,
     OPTIONAL,
     RECORDINGS_DIGEST_KEY,
@@ -60,6 +61,23 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
     ds = Dataset(recordings, samples, labels, path)
     _verify(ds, path, rec_meta, samples_meta)
     return ds
+
+
+def read_description(path: str | os.PathLike) -> dict[str, str]:
+    """What a dataset folder says about itself beyond its content: the keys of recordings.parquet's
+    schema metadata other than the format's own (``slipbench.source``, ``slipbench.citation``
+    where ``dataset fetch`` wrote them), as text. Reads the schema only; call
+    :func:`read_dataset` to validate the folder."""
+    file = Path(path) / RECORDINGS_FILE
+    try:
+        meta = pq.read_schema(file).metadata or {}
+    except (pa.ArrowException, OSError) as exc:
+        raise DataError(f"{file}: unreadable ({one_line(exc)})") from None
+    return {
+        k.decode(errors="replace"): v.decode(errors="replace")
+        for k, v in meta.items()
+        if k.startswith(b"slipbench.") and k not in FORMAT_KEYS
+    }
 
 
 def _verify(ds: Dataset, path: Path, rec_meta: Mapping, samples_meta: Mapping) -> None:

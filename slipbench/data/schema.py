@@ -26,8 +26,13 @@ VERSION_KEY = b"slipbench.format_version"
 # fingerprint in both files' metadata, and a digest of the recordings table in recordings.parquet.
 FINGERPRINT_KEY = b"slipbench.fingerprint"
 RECORDINGS_DIGEST_KEY = b"slipbench.recordings_digest"
+# What the dataset is and how to cite it, where its writer knows (`dataset fetch` writes both,
+# from the dataset's card): free text in recordings.parquet's metadata, outside the fingerprint.
+SOURCE_KEY = b"slipbench.source"
+CITATION_KEY = b"slipbench.citation"
 RECORDINGS_FILE = "recordings.parquet"
 SAMPLES_FILE = "samples.parquet"
+FORMAT_KEYS = frozenset({VERSION_KEY, FINGERPRINT_KEY, RECORDINGS_DIGEST_KEY})
 SCENARIOS = ("slip", "press", "free-space", "hold-slip")
 # Rates of one unit may differ by this fraction of the lowest and still pool (at their median).
 # A logger's clock and dropped frames move a nominal 60 Hz between 59.7 and 60.0 Hz (0.5 %);

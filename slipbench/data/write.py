@@ -21,6 +21,7 @@ from slipbench.data.messages import data_error
 from slipbench.data.schema import (
     EXACT_INT,
     FINGERPRINT_KEY,
+    FORMAT_KEYS,
     FORMAT_VERSION,
     IN_MEMORY,
     N_SAMPLES,
@@ -38,6 +39,7 @@ def write_dataset(
     recordings: pd.DataFrame,
     samples: Mapping[str, np.ndarray],
     slip_labels: Mapping[str, np.ndarray] | None = None,
+    description: Mapping[bytes, str] | None = None,
 ) -> Path:
     """Validate, then write a dataset folder atomically: it appears whole or not at all.
 
@@ -53,8 +55,17 @@ def write_dataset(
         float64.
     slip_labels : recording_id -> (n_samples,) bool, or int8 with -1 unlabelled (written null);
         a recording left out is unlabelled. None: no ``slip`` column.
+    description : more keys for recordings.parquet's schema metadata, e.g. ``SOURCE_KEY`` and
+        ``CITATION_KEY`` (:func:`slipbench.data.read.read_description` reads them back). They are
+        not part of the content fingerprint; the format's own keys cannot be set this way.
     """
     path = Path(path)
+    description = dict(description or {})
+    owned = sorted(k.decode() for k in description if k in FORMAT_KEYS)
+    if owned:
+        raise DataError(
+            f"{path}: the format writes {', '.join(owned)} itself; describe with other keys"
+        )
     if path.exists() and (not path.is_dir() or any(path.iterdir())):
         raise DataError(f"{path}: already exists and is not empty; choose a new folder")
     where = f"{IN_MEMORY} to be written to {path}"
@@ -88,7 +99,11 @@ def write_dataset(
     schema = schema.append(N_SAMPLES)
     table = {f.name: pa.array([plain_value(v) for v in rec[f.name]], f.type) for f in schema}
     rec_table = pa.table(table, schema=schema).replace_schema_metadata(
-        {**meta, RECORDINGS_DIGEST_KEY: recordings_digest(rec).encode()}
+        {
+            **{k: v.encode() for k, v in description.items()},
+            **meta,
+            RECORDINGS_DIGEST_KEY: recordings_digest(rec).encode(),
+        }
     )
 
     parts = [arrays[r] for r in ids]

@@ -26,6 +26,7 @@ def dos(tmp_path_factory):
 
 
 def test_import_keeps_every_recording(dos):
+    assert dos.fingerprint == "aac611fa5f8ae950"  # what `dataset fetch biotacsp-dos` must give
     rec = dos.recordings
     assert len(rec) == 306
     assert (rec["scenario"] == "press").sum() == len(list((SOURCE / "t").glob("*.csv")))

@@ -59,8 +59,8 @@ def dataset_validate(path: Path) -> None:
 def dataset_info(path: Path) -> None:
     """Recordings, trials, samples and duration per sensor, instance, scenario, material and
     speed; with per-sample labels, the slip fraction and how far they disagree with the scenario."""
-    from slipbench.app.info import info
-    from slipbench.data.read import read_dataset
+    from slipbench.app.info import describe, info
+    from slipbench.data.read import read_dataset, read_description
 
     table = info(read_dataset(path))
     click.echo(table.to_markdown(index=False, floatfmt=".3g"))
@@ -68,6 +68,8 @@ def dataset_info(path: Path) -> None:
         f"\ntotal: {int(table['recordings'].sum())} recordings, {int(table['samples'].sum())} samples, "
         f"{table['seconds'].sum():.1f} s"
     )
+    for line in describe(read_description(path)):
+        click.echo(line)
 
 
 @dataset.command("check")
@@ -155,3 +157,69 @@ def dataset_import(kind: str, src: Path, out: Path, config: Path | None) -> None
     else:
         IMPORTERS[kind](src, out)
     click.echo(f"wrote {out}")
+
+
+@dataset.command("cards")
+def dataset_cards() -> None:
+    """List the dataset cards: published datasets that `dataset fetch NAME` downloads."""
+    import pandas as pd
+
+    from slipbench.data.card import builtin_cards
+
+    rows = [
+        {
+            "name": c.name,
+            "title": c.title,
+            "files": len(c.files),
+            "size": f"{c.size / 1e6:.1f} MB",
+            "license": c.license,
+        }
+        for c in builtin_cards().values()
+    ]
+    click.echo(pd.DataFrame(rows).to_markdown(index=False))
+    click.echo(
+        "\nslipbench dataset fetch NAME [--url MIRROR] [--out FOLDER]; cards: see datasets.md"
+    )
+
+
+@dataset.command("fetch")
+@click.argument("name")
+@click.option(
+    "--url",
+    help="Download from this base URL (a mirror) instead of the card's; file paths are appended.",
+)
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path),
+    help="The new dataset folder [default: NAME in the working folder].",
+)
+def dataset_fetch(name: str, url: str | None, out: Path | None) -> None:
+    """Download the published dataset of card NAME (or of a card file NAME.toml), check every
+    file's SHA-256, keep them in slipbench's cache, and convert them into a dataset folder."""
+    from slipbench.data.card import find_card
+    from slipbench.data.fetch import fetch
+
+    card = find_card(name)
+    out = Path(card.name) if out is None else out
+    fetch(card, out, url, echo=lambda line: click.echo(line, err=True))
+    click.echo(f"wrote {out}")
+    click.echo(f"cite: {card.citation}")
+    click.echo(f"license: {card.license}")
+
+
+@dataset.command("card-files")
+@click.argument("folder", type=click.Path(path_type=Path, exists=True, file_okay=False))
+@click.option(
+    "--glob",
+    "patterns",
+    multiple=True,
+    default=("**/*",),
+    show_default=True,
+    help="Which files (relative to FOLDER, repeatable).",
+)
+def dataset_card_files(folder: Path, patterns: tuple[str, ...]) -> None:
+    """Print the `files = [...]` entries of a card (path, SHA-256, size) for the files under
+    FOLDER, a copy of what the lab publishes."""
+    from slipbench.data.card import files_block
+
+    click.echo(files_block(folder, patterns), nl=False)

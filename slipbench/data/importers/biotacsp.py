@@ -3,6 +3,7 @@ Sensors 19(3):523, 2019) as a mapping of the CSV importer."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import tomllib
@@ -37,15 +38,21 @@ hz = 100.0
 """
 
 
-def biotacsp_dos(src: str | Path, out: str | Path, rate_hz: float = 100.0) -> Path:
+def biotacsp_dos(
+    src: str | Path,
+    out: str | Path,
+    rate_hz: float = 100.0,
+    description: Mapping[bytes, str] | None = None,
+) -> Path:
     """Import BioTacSP-DoS (Zapata-Impata, Gil, Torres, Sensors 19(3):523, 2019).
 
     ``src`` is its ``csvs`` folder: one subfolder per class (``n e s w cw aw``: slip, ``t``:
     touch), one CSV per recording with the 24 electrode channels ``ff_e1..ff_e24``. Slip folders
     become scenario ``slip``, touch becomes ``press``; the object (the file name without its
     running number; "strippes" is the striped object) becomes ``material``; speed is unknown.
-    It is :data:`BIOTACSP_DOS_MAPPING` run through :func:`import_csv`.
+    It is :data:`BIOTACSP_DOS_MAPPING` run through :func:`import_csv`; ``description`` goes to
+    the dataset's metadata (``dataset fetch`` passes the card's source and citation).
     """
     mapping = tomllib.loads(BIOTACSP_DOS_MAPPING)
     mapping["rate"]["hz"] = rate_hz
-    return import_csv(src, out, mapping)
+    return import_csv(src, out, mapping, description=description)

@@ -30,7 +30,11 @@ from slipbench.errors import DataError, UsageError
 
 
 def import_csv(
-    src: str | Path, out: str | Path, config: str | Path | Mapping, base: Path | None = None
+    src: str | Path,
+    out: str | Path,
+    config: str | Path | Mapping,
+    base: Path | None = None,
+    description: Mapping[bytes, str] | None = None,
 ) -> Path:
     """Convert the CSV files under ``src`` into a dataset folder ``out`` as the mapping says.
 
@@ -40,6 +44,7 @@ def import_csv(
     out : the new dataset folder (must not exist or be empty).
     config : the mapping: a TOML file, or the same structure as a dict (see ``datasets.md``).
     base : folder that relative paths in the mapping start from [default: the TOML file's].
+    description : source and citation for the dataset's metadata (see ``write_dataset``).
 
     Raises
     ------
@@ -84,7 +89,7 @@ def import_csv(
             samples[rid] = values
             if file_labels is not None:
                 labels[rid] = file_labels
-    return write_dataset(out, pd.DataFrame(rows), samples, labels or None)
+    return write_dataset(out, pd.DataFrame(rows), samples, labels or None, description)
 
 
 def _glob(src: Path, pattern: str, m: CsvMapping) -> set[str]:
