@@ -75,6 +75,8 @@ def _row(
         "train_where": _json(cell.train.where),
         "test_sensors": _json(cell.test.sensors),
         "test_where": _json(cell.test.where),
+        # with the model key, what the cell is scored on (the leaderboard merges cells alike)
+        "test_stream": _json(cell.stream) if cell.stream else "",
         **window_counts(pc),
         **fields,
         "dataset_fingerprint": fingerprint,

@@ -48,10 +48,19 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     scopes = [s for s in board.scopes if s.n_cells]
     columns = [f"{'all' if s.name == ALL else s.name} ({s.n_cells})" for s in scopes]
     cells = [[f"{s.ranks[e]:.2f}" for s in scopes] for e in order]
+    dup = overall.n_duplicates
     notes = [
-        f"Mean rank of {name.lower()} over cells, in parentheses the cells ranked (1 = best): per cell the "
-        "detectors are ranked by their figure (mean over seeds), ties sharing the mean rank. Only cells every "
-        "detector finished are ranked"
+        f"Mean rank of {name.lower()} over blocks, in parentheses the blocks ranked (1 = best): per block the "
+        "detectors are ranked by their figure (mean over seeds), ties sharing the mean rank. A block is one "
+        "model tested on one set of test windows: "
+        + (
+            f"{overall.n_cells + dup} finished cells were ranked as {overall.n_cells} blocks, {dup} "
+            f"{'duplicate' if dup == 1 else 'duplicates'} merged (cells with the same model key and test part, "
+            "e.g. the sampling rate's full-rate cells and window-size's window 200)"
+            if dup
+            else f"{overall.n_cells} finished cells were ranked, no duplicate among them"
+        )
+        + ". Only cells every detector finished are ranked"
         + (
             f"; {overall.n_excluded} {'cell was' if overall.n_excluded == 1 else 'cells were'} not (failed, skipped "
             "or absent for some detector)."
@@ -65,7 +74,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         Table(
             f"Leaderboard: detectors ranked by {name.lower()}.",
             ["Place", "Detector"],
-            "Mean rank (cells)",
+            "Mean rank (blocks)",
             columns,
             [(str(i + 1), e) for i, e in enumerate(order)],
             cells,
@@ -76,7 +85,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     shown = [
         m for m in MEAN_METRICS if board.means[f"{m}_cells"].max() > 0
     ]  # figures the rows hold
-    mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in shown] + ["Cells won"]
+    mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in shown] + ["Blocks won"]
     mean_cells = [
         [_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in shown]
         + [str(int(overall.wins[e]))]
@@ -90,7 +99,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     ]
     tables.append(
         Table(
-            f"Mean figures over the {overall.n_cells} ranked cells.",
+            f"Mean figures over the {overall.n_cells} ranked blocks.",
             ["Detector"],
             "",
             mean_cols,
@@ -98,9 +107,9 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
             mean_cells,
             "tab:leaderboard-means",
             notes=[
-                "[95 % interval: percentile bootstrap over the ranked cells, each cell's figure fixed: how "
+                "[95 % interval: percentile bootstrap over the ranked blocks, each block's figure fixed: how "
                 "the mean depends on which conditions make up the benchmark, not the test noise within a "
-                "cell, which the per-cell intervals show.] Cells won: cells where the detector ranked first "
+                "cell, which the per-cell intervals show.] Blocks won: blocks where the detector ranked first "
                 "(a tie counts for each)." + (" " + "; ".join(fewer) + "." if fewer else "")
             ],
         )
@@ -122,7 +131,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
                 "Do the detectors differ? Friedman test per scope, then pairwise Wilcoxon signed-rank tests.",
                 ["Scope"],
                 "",
-                ["Cells", "Friedman χ²", "p", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
+                ["Blocks", "Friedman χ²", "p", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
                 [("all" if s.name == ALL else s.name,) for s in scopes],
                 test_cells,
                 "tab:leaderboard-tests",
@@ -134,10 +143,50 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
                         else "Friedman's test needs three detectors or more. "
                     )
                     + "A group lists detectors, in rank order, no pair of which differs after Holm's correction "
-                    "across the scope's pairs; a detector in no group differs from every other. Cells share "
-                    "recordings (window 50 of a unit appears in several protocols), so they are not "
-                    "independent blocks and these p-values are optimistic."
+                    "across the scope's pairs; a detector in no group differs from every other. Blocks share "
+                    "recordings (window 50 of a unit appears in several protocols, with another model or test "
+                    "set), so they are not independent and these p-values are optimistic."
                 ],
             )
         )
+        tables.append(_pairs_table(board, name))
     return tables
+
+
+def _points(diff: float, lo: float, hi: float) -> str:
+    text = f"{100 * diff:+.1f}"
+    return text + (
+        f" [{100 * lo:+.1f}, {100 * hi:+.1f}]" if np.isfinite(lo) and np.isfinite(hi) else ""
+    )
+
+
+def _pairs_table(board: Leaderboard, name: str) -> Table:
+    """Each pair of detectors: the mean difference over the ranked blocks with its interval."""
+    pairs = board.pairs
+    n = board.scopes[0].n_cells
+    cells = [
+        [
+            _points(r.diff, r.lo, r.hi),
+            "—" if not np.isfinite(r.p) else _p(r.p),
+            "—" if not np.isfinite(r.p_holm) else _p(r.p_holm),
+            "yes" if r.differ else "no",
+        ]
+        for r in pairs.itertuples(index=False)
+    ]
+    return Table(
+        f"Pairwise: {name.lower()} of A minus B over the {n} ranked blocks (points).",
+        ["A", "B"],
+        "",
+        ["A − B [95 % interval]", "p", "p (Holm)", f"Differ (α = {ALPHA:g})"],
+        [(r.a, r.b) for r in pairs.itertuples(index=False)],
+        cells,
+        "tab:leaderboard-pairs",
+        notes=[
+            "A − B: the mean over the ranked blocks of A's figure minus B's (each the mean over its seeds); "
+            "[95 % interval: percentile bootstrap over blocks, each block's figure fixed, every pair on the "
+            "same draws; not adjusted]. p: the bootstrap's two-sided p-value of no difference; p (Holm): "
+            f"Holm-adjusted over the {len(pairs)} {'pair' if len(pairs) == 1 else 'pairs'}; a pair differs where "
+            f"p (Holm) < {ALPHA:g}. Like the ranks, the interval covers which conditions make up the "
+            "benchmark, not the test noise within a block."
+        ],
+    )

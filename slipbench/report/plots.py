@@ -491,13 +491,14 @@ def critical_difference(board: Leaderboard) -> Figure:
         ax.text(
             (k + 1) / 2,
             0.95,
-            f"{'every protocol' if scope.name == ALL else scope.name}: {scope.n_cells} cells",
+            f"{'every protocol' if scope.name == ALL else scope.name}: {scope.n_cells} blocks"
+            + (f" ({scope.n_duplicates} duplicate cells merged)" if scope.n_duplicates else ""),
             ha="center",
             va="bottom",
             fontsize=7,
         )
     fig.suptitle(
-        f"Mean rank of {board.metric.replace('_', ' ')} over cells (1 = best)\n"
+        f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)\n"
         "a bar joins detectors that do not differ (Wilcoxon-Holm)"
     )
     return fig
@@ -558,8 +559,9 @@ def figure_specs(
         specs.append(
             FigureSpec(
                 "leaderboard",
-                "Critical-difference diagram of the leaderboard: mean ranks per scope; "
-                "a bar joins detectors that do not differ (Wilcoxon signed-rank, Holm).",
+                "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
+                "(duplicate cells merged); a bar joins detectors that do not differ (Wilcoxon "
+                "signed-rank, Holm).",
                 None,
                 lambda: critical_difference(board),
             )

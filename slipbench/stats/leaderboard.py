@@ -15,8 +15,17 @@ with a protocol *cell* in the role of a dataset:
    per-cell figures, p-values Holm-corrected within the scope (``statsmodels``), and detectors
    no pair of which differs at ``ALPHA`` form a group, drawn as one bar in the diagram.
 
-Cells share recordings (window 50 of one unit appears in four protocols), so they are not
-independent blocks: the tests' p-values are optimistic, and the report says so.
+A block is counted once: cells that test the same model on the same test windows (the
+sampling rate's full-rate cells are the window-size window-200 cells; with ``decimation=both``
+three of them) are duplicates, found by the rows' model keys and test parts
+(:func:`block_signature`), and merged into one block before anything is ranked, tested or
+averaged. Blocks still share recordings (window 50 of one unit appears in several protocols,
+each with another model or test set), so they are not independent: the tests' p-values are
+optimistic, and the report says so.
+
+Each pair of detectors also gets its mean difference over the ranked blocks with a percentile
+bootstrap interval over blocks (blocks resampled, each block's figure fixed, every pair on the
+same draws) and a bootstrap p-value, Holm-adjusted over the pairs (:func:`pairwise`).
 
 Mean accuracy, balanced accuracy and AUROC are over the same ranked cells, so they compare.
 Their 95 % interval is a percentile bootstrap over cells (cells resampled, each cell's figure
@@ -44,6 +53,8 @@ N_RESAMPLES = 2000
 ALL = "all"
 #: columns that, with the cell's key, name one cell across detectors
 CELL_IDENTITY = ("protocol", "split", "labels", "dataset_fingerprint", "cell")
+#: columns that, with the model key, name the windows a cell is scored on
+TEST_IDENTITY = ("test_sensors", "test_where", "test_stream")
 MEAN_METRICS = ("accuracy", "balanced_accuracy", "auroc")
 
 
@@ -54,7 +65,7 @@ class Scope:
     Attributes
     ----------
     name : the protocol, or ``ALL``.
-    n_cells : cells ranked (every detector finished them).
+    n_cells : blocks ranked (every detector finished them), duplicates merged.
     n_excluded : cells some detector did not finish (failed, skipped or absent).
     ranks : entrant -> mean rank (1 = best), best first.
     wins : entrant -> cells where it ranked first (a tie counts for each tied entrant).
@@ -72,6 +83,7 @@ class Scope:
     friedman: tuple[float, float] | None
     pairs: pd.DataFrame
     groups: list[list[str]]
+    n_duplicates: int = 0  # finished cells merged into a block another cell already stands for
 
 
 @dataclass
@@ -86,12 +98,14 @@ class Leaderboard:
         ``<m>``, ``<m>_lo``, ``<m>_hi`` for each of MEAN_METRICS, and ``<m>_cells`` (cells
         with a value: balanced accuracy and AUROC do not exist on a one-class test set).
     entrants : entrant -> the detector and parameters it stands for.
+    pairs : :func:`pairwise` over the ranked blocks of ``ALL``.
     """
 
     metric: str
     scopes: list[Scope]
     means: pd.DataFrame
     entrants: dict[str, str] = field(default_factory=dict)
+    pairs: pd.DataFrame = field(default_factory=lambda: pairwise(pd.DataFrame(), []))
 
     @property
     def order(self) -> list[str]:
@@ -145,6 +159,94 @@ def cell_table(rows: pd.DataFrame, metric: str) -> pd.DataFrame:
     )
     cells = every[ident].drop_duplicates().set_index(ident).index
     return table.reindex(index=cells, columns=every["_entrant"].unique())
+
+
+def block_signature(rows: pd.DataFrame) -> pd.Series:
+    """Per cell (the index of :func:`cell_table`): what it measures, as one hashable value.
+
+    Two cells measure the same thing when every row of one has a row of the other with the
+    same model key (data, split, seed, detector, training windows, window, rate) and the same
+    test part (sensors, filters, streaming or not): the same model on the same test windows.
+    A cell some row of which lacks its model key (rows of an old version) is its own block.
+    """
+    ident = [c for c in CELL_IDENTITY if c in rows]
+    if rows.empty:
+        return pd.Series(dtype=object)
+    cols = ["model_key", *TEST_IDENTITY]
+    parts = pd.DataFrame(
+        {c: rows[c].astype(str) if c in rows else pd.Series("", index=rows.index) for c in cols}
+    )
+    if "test_stream" not in rows and "stream_s" in rows:  # rows written before test_stream
+        parts["test_stream"] = rows["stream_s"].notna().map({True: "stream", False: ""})
+    known = rows["model_key"].notna() if "model_key" in rows else pd.Series(False, rows.index)
+    parts["_sig"] = parts[cols].agg("|".join, axis=1)
+    parts["_known"] = known
+    out = {}
+    for cell, group in parts.join(rows[ident]).groupby(ident, sort=False, dropna=False):
+        cell = cell if isinstance(cell, tuple) else (cell,)
+        out[cell] = tuple(sorted(set(group["_sig"]))) if group["_known"].all() else ("cell", *cell)
+    index = pd.MultiIndex.from_tuples(list(out), names=ident)
+    return pd.Series(list(out.values()), index=index, dtype=object)
+
+
+def merge_blocks(table: pd.DataFrame, signature: pd.Series) -> tuple[pd.DataFrame, int]:
+    """``table`` (cells x entrants) with duplicate cells merged: one line per block, at its first
+    cell, each entrant's figure the mean over the block's cells that hold one (the same model
+    on the same windows: equal where both finished). Returns the blocks and how many finished
+    cells were merged into a block another cell already stood for."""
+    if table.empty:
+        return table, 0
+    sig = signature.reindex(table.index)
+    # a cell the signature does not know (no rows of it): its own block
+    sig = pd.Series(
+        [s if isinstance(s, tuple) else ("cell", *i) for i, s in zip(table.index, sig)],
+        index=table.index,
+    )
+    codes = pd.Series(pd.factorize(sig)[0], index=table.index)
+    first = ~codes.duplicated()
+    merged = table.groupby(codes.to_numpy(), sort=False).mean()
+    merged.index = table.index[first.to_numpy()]
+    complete = table.notna().all(axis=1)
+    n_dup = int(complete.sum()) - int(
+        merged.notna().all(axis=1).reindex(table.index[first.to_numpy()]).sum()
+    )
+    return merged, max(n_dup, 0)
+
+
+def pairwise(blocks: pd.DataFrame, order: list[str], seed: int = 0) -> pd.DataFrame:
+    """Every pair (a ranked above b): the mean of a - b over the complete ``blocks``, its
+    percentile bootstrap interval over blocks (each block's figure fixed; every pair on the same
+    draws), the bootstrap p-value of no difference, and that p Holm-adjusted over the pairs.
+    Columns: a, b, diff, lo, hi, p, p_holm, differ (p_holm < ALPHA)."""
+    columns = ["a", "b", "diff", "lo", "hi", "p", "p_holm", "differ"]
+    complete = blocks[order].dropna() if len(order) else blocks.iloc[:0]
+    n = len(complete)
+    if n == 0 or len(order) < 2:
+        return pd.DataFrame(columns=columns)
+    draws = rng_for(seed, "leaderboard-pairs").integers(0, n, (N_RESAMPLES, n))
+    out = []
+    for i, a in enumerate(order):
+        for b in order[i + 1 :]:
+            d = complete[a].to_numpy(dtype=float) - complete[b].to_numpy(dtype=float)
+            boot = d[draws].mean(axis=1)
+            q = (1 - LEVEL) / 2
+            lo, hi = np.quantile(boot, [q, 1 - q]) if n > 1 else (np.nan, np.nan)
+            if np.all(d == 0):
+                p = 1.0
+            elif n < 2:
+                p = np.nan
+            else:  # two-sided: how often a resample lands on zero or beyond it
+                below = (np.sum(boot <= 0) + 1) / (N_RESAMPLES + 1)
+                above = (np.sum(boot >= 0) + 1) / (N_RESAMPLES + 1)
+                p = min(1.0, 2 * min(below, above))
+            out.append({"a": a, "b": b, "diff": float(d.mean()), "lo": lo, "hi": hi, "p": p})
+    pairs = pd.DataFrame(out, columns=columns[:6])
+    finite = pairs["p"].notna()
+    pairs["p_holm"] = np.nan
+    if finite.any():
+        pairs.loc[finite, "p_holm"] = multipletests(pairs.loc[finite, "p"], method="holm")[1]
+    pairs["differ"] = pairs["p_holm"] < ALPHA
+    return pairs
 
 
 def _holm_pairs(scores: pd.DataFrame, order: list[str]) -> pd.DataFrame:
@@ -246,20 +348,33 @@ def leaderboard(
     names = {e: _params_text(rows.loc[who == e]) for e in who.unique()}
     protocols = list(dict.fromkeys(rows["protocol"])) if protocols is None else protocols
     table = cell_table(rows, metric)
-    scopes = [rank_scope(table, ALL)]
+    signature = block_signature(rows)
+
+    def scope(part: pd.DataFrame, name: str) -> tuple[Scope, pd.DataFrame]:
+        blocks, n_dup = merge_blocks(part, signature)
+        ranked = rank_scope(blocks, name)
+        ranked.n_duplicates = n_dup
+        return ranked, blocks
+
+    overall, blocks = scope(table, ALL)
+    scopes = [overall]
     for protocol in protocols:
         part = table[table.index.get_level_values("protocol") == protocol]
         if len(part):
-            scopes.append(rank_scope(part, protocol))
-    ranked = table.dropna().index
-    means = pd.DataFrame(index=pd.Index(scopes[0].ranks.index, name=None))
+            scopes.append(scope(part, protocol)[0])
+    ranked = blocks.dropna().index
+    means = pd.DataFrame(index=pd.Index(overall.ranks.index, name=None))
     for m in MEAN_METRICS:
-        values = cell_table(rows, m).reindex(ranked) if m != metric else table.reindex(ranked)
+        values = (
+            merge_blocks(cell_table(rows, m), signature)[0].reindex(ranked)
+            if m != metric
+            else blocks.reindex(ranked)
+        )
         for e in means.index:
             x = values[e].to_numpy(dtype=float)
             means.loc[e, [m, f"{m}_lo", f"{m}_hi"]] = _mean_interval(x)
             means.loc[e, f"{m}_cells"] = int(np.isfinite(x).sum())
-    return Leaderboard(metric, scopes, means, names)
+    return Leaderboard(metric, scopes, means, names, pairwise(blocks, list(overall.ranks.index)))
 
 
 def _params_text(rows: pd.DataFrame) -> str:

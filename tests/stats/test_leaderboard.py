@@ -122,3 +122,75 @@ def test_any_score_matrix_gives_consistent_ranks(k, n, seed):
         assert scope.friedman is None
     else:
         assert 0 <= scope.friedman[1] <= 1
+
+
+def _keyed(protocol: str, detector: str, decimation: str = "plain") -> pd.DataFrame:
+    """Rows with model keys and test parts: a full-rate sampling-rate cell tests the model of
+    window-size's window 200 on the same windows, so it holds the same figure."""
+    rows = fake_rows(protocol, detector)
+    if protocol == "sampling-rate":
+        rows = rows.assign(decimation=decimation)
+        rows["cell"] = rows["cell"] + decimation
+    down = rows["downsample"] if "downsample" in rows else pd.Series(1, index=rows.index)
+    dec = rows["decimation"].where(down > 1, "plain") if "decimation" in rows else "plain"
+    unit = rows["sensor_type"] + "/" + rows["sensor_instance"]
+    rows["model_key"] = detector + "|" + unit + "|" + rows["window"].astype(str) + "|"
+    rows["model_key"] += down.astype(str) + "|" + pd.Series(dec, index=rows.index).astype(str)
+    rows["test_sensors"], rows["test_where"] = unit, "[]"
+    return rows
+
+
+def test_cells_with_one_model_and_test_set_are_one_block():
+    parts = []
+    for det in ("holweg", "lstm"):
+        parts.append(_keyed("window-size", det))
+        for dec in ("plain", "lag"):
+            parts.append(_keyed("sampling-rate", det, dec))
+    rows = pd.concat(parts, ignore_index=True)
+    ws = rows[(rows["protocol"] == "window-size") & (rows["window"] == 200)]
+    full = rows[(rows["protocol"] == "sampling-rate") & (rows["downsample"] == 1)]
+    acc = ws.set_index(["detector", "sensor_type", "sensor_instance"])["accuracy"]
+    rows.loc[full.index, "accuracy"] = acc.loc[
+        list(zip(full["detector"], full["sensor_type"], full["sensor_instance"]))
+    ].to_numpy()  # the same model on the same windows: the same figure
+    board = leaderboard(rows)
+    overall = board.scope(ALL)
+    # 48 + 96 cells; each unit's two full-rate sampling-rate cells are its window-200 cell
+    assert (overall.n_cells, overall.n_duplicates) == (128, 16)
+    assert (board.scope("sampling-rate").n_cells, board.scope("sampling-rate").n_duplicates) == (
+        88,
+        8,
+    )
+    assert board.scope("window-size").n_duplicates == 0
+    # ranks and means over blocks are those over each block counted once
+    blocks = cell_table(rows.drop(full.index), "accuracy").dropna()
+    assert len(blocks) == 128
+    ranks = blocks.rank(axis=1, ascending=False).mean()
+    pd.testing.assert_series_equal(
+        overall.ranks.sort_index(), ranks.sort_index(), check_names=False
+    )
+    assert board.means.loc["lstm", "accuracy"] == pytest.approx(blocks["lstm"].mean())
+    # the pairwise table: one pair, its difference over blocks, its interval around it
+    (pair,) = board.pairs.itertuples(index=False)
+    d = blocks[pair.a] - blocks[pair.b]
+    assert pair.diff == pytest.approx(d.mean()) and pair.lo < d.mean() < pair.hi
+    assert pair.p_holm == pytest.approx(pair.p)  # one pair: Holm leaves it
+    text = render_report(rows, "md", leaderboard_only=True)
+    assert "144 finished cells were ranked as 128 blocks, 16 duplicates merged" in text
+    assert "Holm-adjusted over the 1 pair" in text
+
+
+def test_pairwise_holm_over_the_pairs():
+    from slipbench.stats.leaderboard import pairwise
+
+    rng = np.random.default_rng(3)
+    blocks = pd.DataFrame(rng.normal(0.7, 0.05, (60, 4)), columns=list("abcd"))
+    blocks["a"] += 0.05  # a is ahead of every other; b, c, d are alike
+    pairs = pairwise(blocks, list("abcd"))
+    assert len(pairs) == 6
+    assert list(pairs["p_holm"]) == pytest.approx(list(multipletests(pairs["p"], method="holm")[1]))
+    assert pairs[pairs["a"] == "a"]["differ"].all()
+    assert not pairs[pairs["a"] != "a"]["differ"].any()
+    for r in pairs.itertuples():
+        d = blocks[r.a] - blocks[r.b]
+        assert r.diff == pytest.approx(d.mean()) and r.lo < r.diff < r.hi
