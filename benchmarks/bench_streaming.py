@@ -10,8 +10,8 @@ call waits for its slowest thread whenever another process holds a core. Batch c
 best of repeated calls (wall time). Streaming costs time each push on its own, the median of the
 pushes of a kind (those that complete a score, those that only buffer) standing for all of that
 kind (``slipbench.base.push_costs``); the median push that completes a score is also the
-detector's compute time per hop (``hop_latency``), which the streaming protocol adds to every
-delay.
+detector's compute time per hop (``hop_latency``), which the streaming protocol reports as
+``compute_ms_per_hop`` against its real-time budget, the hop period (delays do not include it).
 """
 
 from __future__ import annotations

@@ -110,7 +110,11 @@ def fit_and_test(
                             "sampling_rate_hz": sampling_rate,
                             "n_test_trials": trials,
                             **streamed,
-                            "low_n": stream_low_n(trials, streamed["n_onsets"]),
+                            "low_n": stream_low_n(
+                                streamed["n_onset_trials"],
+                                streamed["n_onsets"],
+                                streamed["n_nonslip_trials"],
+                            ),
                             **cost,
                             **learned,
                             **choices,

@@ -34,7 +34,7 @@ from slipbench.errors import PluginError, UsageError
 from slipbench.protocol import BaseProtocol, Cell, Part, no_cell
 from slipbench.seeding import STREAM_SCHEME, rng_for
 from slipbench.store.keys import canonical, cell_key, code_identity
-from slipbench.stream.metrics import onsets
+from slipbench.stream.metrics import DELAY_CLOCK, onsets
 
 # a recordings column the runner adds: True where the dataset gives the recording per-sample
 # slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
@@ -480,7 +480,11 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
             "cell": cell.key,
             "test": cell.test,
             "model": model,
-            **({"stream": cell.stream, "run_split": run.split} if cell.stream else {}),
+            **(
+                {"stream": cell.stream, "run_split": run.split, "delays": DELAY_CLOCK}
+                if cell.stream
+                else {}
+            ),
         }
     )
     return key, model

@@ -112,7 +112,7 @@ def _row(r: dict, cmp: Comparison) -> dict:
         line["Δ [simultaneous CI]"] = (
             f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
             f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
-            f"{_delta(r, 'detection_rate')}"
+            f"{_delta(r, 'detection_rate')}" + _compute_text(r)
         )
         line["Δ TP / TN rate"] = ""
     else:
@@ -127,6 +127,18 @@ def _row(r: dict, cmp: Comparison) -> dict:
         )
     line[""] = MARKS[r["verdict"]]
     return line
+
+
+def _compute_text(r: dict) -> str:
+    """A streaming cell's compute check, where the candidate is over its real-time budget: a
+    note beside the verdict, never part of it (the figure is the candidate machine's)."""
+    if r.get("compute_check") != "over the real-time budget":
+        return ""
+    on = f" on {r['candidate_processor']}" if r.get("candidate_processor") else ""
+    return (
+        f"; ⚠ over the real-time budget: {r['candidate_compute_ms_per_hop']:.3g} ms per hop > "
+        f"{r['candidate_compute_budget_ms']:.3g} ms{on}"
+    )
 
 
 def _table(rows: list[dict]) -> str:
@@ -271,9 +283,29 @@ def _notes(cmp: Comparison) -> list[str]:
             f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
             "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
             f"A streaming cell regresses when its median delay rises beyond {cmp.delay_margin_ms:g} ms, its false "
-            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points._"
+            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points. "
+            "Delays are counted on the streams' samples, the same on every machine. The compute time per hop "
+            "is each machine's own and never makes a verdict: "
+            + _compute_summary(cells[cells["stream"]])
+            + "_"
         )
     return notes + [f"_{n}_" for n in cmp.notes]
+
+
+def _compute_summary(cells: pd.DataFrame) -> str:
+    """How many streaming cells of the candidate run over their real-time budget."""
+    check = cells["compute_check"] if "compute_check" in cells else pd.Series("", index=cells.index)
+    measured = int(check.isin(["over the real-time budget", "within the real-time budget"]).sum())
+    if not measured:
+        return "these rows hold none (written before it was measured apart)."
+    over = int((check == "over the real-time budget").sum())
+    machines = sorted(set(cells.get("candidate_processor", pd.Series(dtype=str)).dropna()) - {""})
+    on = f" (measured on {'; '.join(machines)})" if machines else ""
+    return (
+        f"{over} of {measured} candidate cells over the real-time budget, the hop period{on}."
+        if over
+        else f"all {measured} candidate cells within the real-time budget, the hop period{on}."
+    )
 
 
 def to_json(cmp: Comparison) -> str:

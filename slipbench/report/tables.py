@@ -39,8 +39,9 @@ LOW_NOTE = (
     f"else fewer than {LOW_N} in all): its interval is not to be trusted."
 )
 STREAM_LOW_NOTE = (
-    f"{LOW_MARK} few events behind this cell (fewer than {LOW_N} test trials or fewer than {LOW_N} "
-    "slip onsets): its figures are not to be trusted."
+    f"{LOW_MARK} few events behind this cell (fewer than {LOW_N} test trials holding slip onsets, "
+    f"fewer than {LOW_N} onsets, or fewer than {LOW_N} trials with non-slip time): its figures are "
+    "not to be trusted."
 )
 
 
@@ -199,7 +200,8 @@ def low_n(rows: pd.DataFrame) -> pd.Series:
     """(n_rows,) bool: rows whose cell rests on few test trials, from the counts the rows give:
     trials per class where they give them (:func:`~slipbench.stats.metrics.classes_low_n`: a
     class the test set lacks is absent, not few), a streaming cell's test trials and onsets
-    (:func:`~slipbench.stats.metrics.stream_low_n`); else the rows' own ``low_n``; else
+    (:func:`~slipbench.stats.metrics.stream_low_n`: the trials holding its onsets, the
+    onsets, the trials with non-slip time); else the rows' own ``low_n``; else
     ``n_test_trials < LOW_N``; False where none is known."""
 
     def column(name: str) -> np.ndarray:
@@ -213,9 +215,13 @@ def low_n(rows: pd.DataFrame) -> pd.Series:
     known = ~np.isnan(slip) & ~np.isnan(nonslip)
     for i in np.flatnonzero(known):
         out[i] = classes_low_n(int(slip[i]), int(nonslip[i]))
+    # the trials holding onsets where the rows count them (older rows: every test trial)
+    onset_trials, quiet_trials = column("n_onset_trials"), column("n_nonslip_trials")
+    onset_trials = np.where(np.isnan(onset_trials), trials, onset_trials)
+    quiet_trials = np.where(np.isnan(quiet_trials), np.inf, quiet_trials)
     streamed = ~known & ~np.isnan(onsets)
     for i in np.flatnonzero(streamed):
-        out[i] = stream_low_n(trials[i], onsets[i])
+        out[i] = stream_low_n(onset_trials[i], onsets[i], quiet_trials[i])
     known |= streamed
     if "low_n" in rows:
         own = rows["low_n"].to_numpy(dtype=object)
@@ -705,13 +711,7 @@ def metrics_table(
         }
         for m in metrics
     }
-    row_values = rows[keys].drop_duplicates()
-    for col in reversed(keys):  # stable sorts, last key first: lexicographic order
-        order = ordered(row_values[col], col)
-        row_values = row_values.iloc[
-            np.argsort([order.index(v) for v in row_values[col]], kind="stable")
-        ]
-    row_keys = list(row_values.itertuples(index=False, name=None))
+    row_keys = _row_keys(rows, keys)
     cells = [
         [
             metric_text(
@@ -748,6 +748,69 @@ def metrics_table(
         cells,
         label_,
         notes=notes,
+    )
+
+
+def _row_keys(rows: pd.DataFrame, keys: list[str]) -> list[tuple]:
+    """The distinct values of ``keys`` in ``rows``, in the tables' order."""
+    row_values = rows[keys].drop_duplicates()
+    for col in reversed(keys):  # stable sorts, last key first: lexicographic order
+        order = ordered(row_values[col], col)
+        row_values = row_values.iloc[
+            np.argsort([order.index(v) for v in row_values[col]], kind="stable")
+        ]
+    return list(row_values.itertuples(index=False, name=None))
+
+
+def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table | None:
+    """A streaming detector's compute time per hop against its real-time budget, one line per
+    row of ``layout``: the compute time (mean over seeds), the budget (the hop period) and
+    whether it was met ("yes", "no", or in how many seeds). None where the rows hold no compute
+    time of their own (rows written while delays still held it)."""
+    ok = rows[rows["status"].eq("ok")] if "status" in rows else rows
+    if "compute_ms_per_hop" not in ok or ok["compute_ms_per_hop"].isna().all():
+        return None
+    ok = ok[ok["compute_ms_per_hop"].notna()]
+    keys = [k for k in layout.rows if k in ok]
+    cells, groups = (
+        [],
+        {
+            (k if isinstance(k, tuple) else (k,)): g
+            for k, g in ok.groupby(keys, sort=False, dropna=False)
+        },
+    )
+    order = _row_keys(ok, keys)
+    for rk in order:
+        g = groups[rk]
+        met = g["realtime"].astype(bool) if "realtime" in g else pd.Series(dtype=bool)
+        cells.append(
+            [
+                f"{g['compute_ms_per_hop'].astype(float).mean():.3f}",
+                f"{g['compute_budget_ms'].astype(float).mean():.2f}",
+                "yes"
+                if len(met) and met.all()
+                else "no"
+                if not met.any()
+                else f"in {int(met.sum())} of {len(met)} seeds",
+            ]
+        )
+    machines = sorted(set(ok.get("compute_processor", pd.Series(dtype=str)).dropna()) - {""})
+    on = f" ({'; '.join(machines)})" if machines else ""
+    return Table(
+        f"Compute time per hop on the machine that ran the cells{on}, against the real-time "
+        "budget: the hop period (hop / sampling rate).",
+        [ROW_HEADERS.get(k, k) for k in keys],
+        "Real-time check (this machine's, unlike the delays)",
+        ["Compute per hop (ms)", "Budget (ms)", "Real time"],
+        [tuple(label(k, v) for k, v in zip(keys, rk)) for rk in order],
+        cells,
+        label_,
+        notes=[
+            "Compute per hop: the median time a push that completes a score took on that machine "
+            "(another machine gives another figure); real time: it is within the hop period, so "
+            "the detector keeps up with the sensor. The delays do not include it: they are "
+            "counted on the stream's samples and are the same on every machine."
+        ],
     )
 
 

@@ -33,7 +33,13 @@ treats correlated windows as independent (issue 11 measured 17-23 % false reject
 
 Streaming cells (rows without ``accuracy``, with the streaming figures of
 :mod:`slipbench.stream.cell`) are judged on their median delay, false alarms per minute and
-detection rate at the detector's own threshold. No per-onset predictions are stored, so the
+detection rate at the detector's own threshold: figures counted on the streams' samples, the
+same on every machine. The compute time per hop is this machine's; it is a separate check
+(:func:`compute_check`: is the candidate within the real-time budget, the hop period) that is
+reported and never makes a verdict. Rows written before delays left out the compute time (they
+hold ``compute_ms`` and no ``compute_ms_per_hop``) have machine-dependent delays and detection
+rates (the compute time shortened the horizon): those two are not judged on them, only false
+alarms. No per-onset predictions are stored, so the
 change is unpaired: each row's 95 % bootstrap interval over trials gives its standard error
 (half-width / 1.96; for delays at least hop / sqrt(12), the resolution of a score once a hop),
 the two combined as independent, at the same simultaneous level as every
@@ -228,10 +234,52 @@ def _is_stream(row: dict) -> bool:
     return pd.notna(row.get("stream_s", np.nan))
 
 
+def machine_timed(row: dict) -> bool:
+    """A streaming row whose delays hold the compute time measured on its machine: written
+    before delays were counted on the stream alone (``compute_ms``, no ``compute_ms_per_hop``)."""
+    return pd.notna(row.get("compute_ms", np.nan)) and pd.isna(
+        row.get("compute_ms_per_hop", np.nan)
+    )
+
+
+def compute_check(base_row: dict, cand_row: dict) -> dict:
+    """The compute time per hop of both sides and the candidate's against its real-time budget
+    (the hop period): reported beside the verdict, never part of it, since it is each
+    machine's own figure. ``compute_check`` is "over the real-time budget", "within the
+    real-time budget" or "" (not measured: rows from before the check)."""
+    c_ms, budget = (
+        float(cand_row.get("compute_ms_per_hop", np.nan)),
+        float(cand_row.get("compute_budget_ms", np.nan)),
+    )
+    out: dict = {
+        "base_compute_ms_per_hop": float(base_row.get("compute_ms_per_hop", np.nan)),
+        "candidate_compute_ms_per_hop": c_ms,
+        "candidate_compute_budget_ms": budget,
+        "base_processor": str(base_row.get("compute_processor") or ""),
+        "candidate_processor": str(cand_row.get("compute_processor") or ""),
+    }
+    known = np.isfinite(c_ms) and np.isfinite(budget)
+    out["compute_check"] = (
+        ("over the real-time budget" if c_ms > budget else "within the real-time budget")
+        if known
+        else ""
+    )
+    return out
+
+
 def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
     """Unpaired changes of the streaming figures (candidate - base) with intervals at
-    ``level``: standard errors from each row's 95 % bootstrap bounds, combined as independent."""
+    ``level``: standard errors from each row's 95 % bootstrap bounds, combined as independent.
+    The delays and the detection rate of a :func:`machine_timed` row are not judged (no
+    interval). The compute check (:func:`compute_check`) rides along."""
     out: dict = {"method": "unpaired streams (standard errors from 95 % bounds over trials)"}
+    stale = [side for side, r in (("BASE", base_row), ("CANDIDATE", cand_row)) if machine_timed(r)]
+    if stale:
+        out["method"] += (
+            f"; delays and detection rate not judged: {' and '.join(stale)} holds delays with "
+            "its machine's compute time (rows from before delays were counted on the stream)"
+        )
+    out |= compute_check(base_row, cand_row)
     z = norm.ppf(1 - (1 - level) / 2)
     for name in STREAM_FIGURES:
         d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
@@ -244,7 +292,7 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
             for r in (base_row, cand_row)
         ]
         se = float(np.hypot(*ses))
-        ok = np.isfinite(d) and np.isfinite(se)
+        ok = np.isfinite(d) and np.isfinite(se) and not (stale and name != "false_alarms_per_min")
         out[f"d_{name}"], out[f"d_{name}_se"] = d, se
         out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (
             (d - z * se, d + z * se) if ok else (np.nan, np.nan)
@@ -255,8 +303,8 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
 def _resolution(row: dict) -> float:
     """The standard error a delay has at least: a score comes once a hop, so a delay is known
     to one hop (uniform rounding, hop / sqrt(12)). Without this floor, cells whose onsets all
-    fall at the same phase of the hop give zero-width bootstrap intervals, and the jitter of the
-    measured compute time per hop (hundredths of a ms) would read as a significant change."""
+    fall at the same phase of the hop give zero-width bootstrap intervals, and any change of a
+    delay, however small, would read as a significant change."""
     hop, rate = float(row.get("hop", np.nan)), float(row.get("sampling_rate_hz", np.nan))
     return hop / rate * 1000.0 / np.sqrt(12.0) if np.isfinite(hop) and rate > 0 else 0.0
 

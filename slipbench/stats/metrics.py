@@ -55,10 +55,19 @@ def classes_low_n(n_slip: int, n_nonslip: int) -> bool:
     return not present or min(present) < LOW_N
 
 
-def stream_low_n(n_trials: float, n_onsets: float) -> bool:
-    """True when a streaming cell rests on fewer than ``LOW_N`` test trials or slip onsets: its
-    detection rate and delays, or its false alarms, come from a handful of events."""
-    return not (n_trials >= LOW_N and n_onsets >= LOW_N)  # NaN counts are low too
+def stream_low_n(n_trials: float, n_onsets: float, n_nonslip_trials: float = np.inf) -> bool:
+    """True when a streaming cell rests on few events: fewer than ``LOW_N`` test trials that
+    hold its slip onsets (``n_trials``), fewer than ``LOW_N`` onsets, or fewer than ``LOW_N``
+    trials with non-slip time behind its false alarms (``n_nonslip_trials``, where known).
+
+    ``n_trials`` must count the trials the intervals resample, those holding a detected or
+    missed onset (``n_onset_trials`` of :func:`slipbench.stream.metrics.summarize`), not every
+    trial streamed: 3 slip trials of 5 onsets each among 20 trials of pressing give intervals
+    over 3 clusters. Rows written before onset trials were counted hold only all their test
+    trials, which flags no fewer cells than it should.
+    """
+    counts = (n_trials, n_onsets, n_nonslip_trials)
+    return not all(n >= LOW_N for n in counts)  # NaN counts are low too
 
 
 def is_low_n(y_true: np.ndarray, groups: np.ndarray) -> bool:

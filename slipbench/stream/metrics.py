@@ -17,15 +17,16 @@ Definitions, per recording:
   delay runs from the first sample, as for a detector switched on while the object already
   slips; such onsets are flagged ``at_start``. A 1 after an unlabelled sample is no onset: when
   that slip began is unknown.
-- **delay** of an onset o: ``(a - o) / rate`` in ms plus ``compute_ms``, where a is the first
-  alarm at or after o and before the next onset, and ``compute_ms`` the detector's own compute
-  time per hop (measured; the decision is ready that long after the hop's last sample). An
+- **delay** of an onset o: ``(a - o) / rate`` in ms, where a is the first alarm at or after o
+  and before the next onset: the stream's own timing (samples and the rate), so a delay is
+  the same on every machine. The time a detector takes to compute a score is no part of it:
+  :mod:`slipbench.stream.cell` measures it apart and checks it against the hop period. An
   onset before the first score (inside the first window) is no exception: its delay includes
   the wait for the first full window. A run of positive decisions that began before the onset
   does not detect it: its alarm was raised while nothing slipped (a false alarm below), and the
   onset needs an alarm of its own.
 - **detected**: an alarm with delay <= ``max_delay_ms``; **missed**: none; **censored**: none,
-  but the recording ends before o + (max_delay_ms - compute_ms) (and before the next onset),
+  but the recording ends before o + max_delay_ms (and before the next onset),
   so the detector had not had its full time. Censored onsets leave the rates and are counted.
 - **non-slip time**: the samples labelled 0 whose window (the sample and the ``window - 1``
   before it) holds no sample labelled 1, between the first and the last score: the time the
@@ -58,6 +59,11 @@ from slipbench.vocabulary import MAX_DELAY_MS
 LEVEL = 0.95
 N_RESAMPLES = 999
 N_THRESHOLDS = 201  # thresholds of a sweep: quantiles 0, 0.5 %, ..., 100 % of the scores
+#: How delays are timed, part of every streaming cell's key: "stream" = the stream's samples at
+#: its rate, no time measured on the machine (issue 20; earlier delays held the compute time per
+#: hop, and their cells must not be served for these).
+DELAY_CLOCK = "stream"
+_EVALUATED = ("detected", "missed")  # the onsets the detection rate counts (censored ones leave)
 
 
 def onsets(labels: np.ndarray) -> np.ndarray:
@@ -102,7 +108,7 @@ class Streams:
     rate : (R,) float, each recording's sampling rate (Hz).
     quiet_minutes : (R,) float, each recording's non-slip time.
     trial, scenario, recording_id : (R,) str per recording.
-    window, compute_ms, max_delay_ms : as given to :func:`collect`.
+    window, max_delay_ms : as given to :func:`collect`.
     """
 
     scores: np.ndarray
@@ -122,7 +128,6 @@ class Streams:
     scenario: np.ndarray
     recording_id: np.ndarray
     window: int
-    compute_ms: float
     max_delay_ms: float
 
 
@@ -136,7 +141,6 @@ def collect(
     trials: Sequence[str],
     scenarios: Sequence[str],
     recording_ids: Sequence[str] | None = None,
-    compute_ms: float = 0.0,
     max_delay_ms: float = MAX_DELAY_MS,
 ) -> Streams:
     """Gather the scored test recordings of one cell.
@@ -152,7 +156,6 @@ def collect(
     trials, scenarios : per recording; trials are the bootstrap's clusters, scenarios group the
         false alarms.
     recording_ids : per recording, for the onset table (default: their positions).
-    compute_ms : the detector's compute time per hop, in ms, added to every delay.
     max_delay_ms : an alarm later than this after the onset misses it.
     """
     n_rec = len(labels)
@@ -165,15 +168,8 @@ def collect(
     ):
         if len(seq) != n_rec:
             raise UsageError(f"{name} gives {len(seq)} recordings, labels {n_rec}")
-    if not (
-        np.isfinite(compute_ms)
-        and compute_ms >= 0
-        and np.isfinite(max_delay_ms)
-        and max_delay_ms > 0
-    ):
-        raise UsageError(
-            f"compute_ms must be >= 0 and max_delay_ms > 0, got {compute_ms} and {max_delay_ms}"
-        )
+    if not (np.isfinite(max_delay_ms) and max_delay_ms > 0):
+        raise UsageError(f"max_delay_ms must be > 0, got {max_delay_ms}")
     ids = np.array(
         [str(i) for i in range(n_rec)] if recording_ids is None else [str(r) for r in recording_ids]
     )
@@ -214,7 +210,7 @@ def collect(
             quiet_minutes[r] = quiet[e[0] : e[-1] + 1].sum() / rates[r] / 60.0
         o = onsets(lab)
         # the last sample an alarm may fall on: the horizon, and before the next onset
-        horizon = int(np.floor((max_delay_ms - compute_ms) * rates[r] / 1000.0 + 1e-9))
+        horizon = int(np.floor(max_delay_ms * rates[r] / 1000.0 + 1e-9))
         limit = np.minimum(o + horizon, np.r_[o[1:] - 1, np.iinfo(np.int64).max])
         parts["scores"].append(s)
         parts["ends"].append(e)
@@ -247,7 +243,6 @@ def collect(
         scenario=np.array([str(s) for s in scenarios]),
         recording_id=ids,
         window=int(window),
-        compute_ms=float(compute_ms),
         max_delay_ms=float(max_delay_ms),
     )
 
@@ -290,7 +285,7 @@ def outcome(streams: Streams, threshold: float) -> Outcome:
     sample = np.where(detected, st.ends[at] if n else 0, -1)
     delay = np.where(
         detected,
-        (sample - st.onset_sample) / st.rate[st.onset_recording] * 1000.0 + st.compute_ms,
+        (sample - st.onset_sample) / st.rate[st.onset_recording] * 1000.0,
         np.nan,
     )
     status = np.where(detected, "detected", np.where(st.onset_short, "censored", "missed"))
@@ -423,9 +418,11 @@ def summarize(
 
     Returns
     -------
-    dict: ``threshold``, ``compute_ms`` (per hop, already inside every delay); counts
-    ``n_onsets`` (detected + missed), ``n_detected``, ``n_missed``, ``n_censored``,
-    ``n_at_start``, ``false_alarms``, ``nonslip_minutes``, ``n_trials``; and
+    dict: ``threshold``; counts ``n_onsets`` (detected + missed), ``n_detected``, ``n_missed``,
+    ``n_censored``, ``n_at_start``, ``false_alarms``, ``nonslip_minutes``, ``n_trials`` (every
+    trial streamed), ``n_onset_trials`` (trials holding a detected or missed onset: the
+    clusters the detection rate's and the delays' intervals resample) and ``n_nonslip_trials``
+    (trials with non-slip time: those of the false alarms' interval); and
     ``detection_rate``, ``median_delay_ms``, ``p95_delay_ms``, ``false_alarms_per_min``, each
     with ``_lo``/``_hi``. A figure without data (no onset, no non-slip time) is NaN.
     """
@@ -433,8 +430,11 @@ def summarize(
     everything = np.ones(len(streams.rate), bool)
     return {
         "threshold": float(threshold),
-        "compute_ms": streams.compute_ms,
         "n_trials": len(np.unique(streams.trial)),
+        "n_onset_trials": len(
+            np.unique(streams.trial[streams.onset_recording[np.isin(o.status, _EVALUATED)]])
+        ),
+        "n_nonslip_trials": len(np.unique(streams.trial[streams.quiet_minutes > 0])),
         **_figures(streams, o, everything),
         **_intervals(streams, o, everything, seed, level, n_resamples),
     }

@@ -43,10 +43,19 @@ def test_every_unit_streams_its_test_trials_and_reports_the_figures(streamed, sm
             rows[f] <= rows[f"{f}_hi"] + 1e-9
         ).all()
     assert rows["detection_rate"].between(0, 1).all()
-    # a delay includes at least the measured compute time per hop, never more than the maximum
-    assert (rows["compute_ms"] > 0).all()
-    assert (rows["median_delay_ms"] >= rows["compute_ms"]).all() and (
-        rows["p95_delay_ms"] <= 200
+    # delays from the stream alone: whole samples at the unit's rate, never past the maximum;
+    # the compute time per hop is its own column, checked against the hop period
+    assert "compute_ms" not in rows and (rows["p95_delay_ms"] <= 200).all()
+    samples = rows["median_delay_ms"] * rows["sampling_rate_hz"] / 1000
+    assert np.allclose(2 * samples, np.round(2 * samples))  # a median of whole samples
+    assert (rows["compute_ms_per_hop"] > 0).all()
+    assert np.allclose(rows["compute_budget_ms"], rows["hop"] / rows["sampling_rate_hz"] * 1000)
+    assert (rows["realtime"] == (rows["compute_ms_per_hop"] <= rows["compute_budget_ms"])).all()
+    assert (rows["compute_processor"].str.len() > 0).all()
+    # low-n by the trials that hold onsets, the onsets and the trials with non-slip time
+    assert (rows["n_onset_trials"] <= rows["n_test_trials"]).all()
+    assert (
+        rows["low_n"] == (rows[["n_onset_trials", "n_onsets", "n_nonslip_trials"]].min(axis=1) < 10)
     ).all()
     assert (
         (rows["n_onsets"] > 0).all()
@@ -271,3 +280,73 @@ def test_a_streaming_report_of_two_splits_has_no_split_table_and_no_traceback(st
     text = render(build_report(both, paper=True), "md")
     assert "The splits side by side" not in text
     assert "rank the grouped split." in text and "(grouped split)" in text
+
+
+# ----------------------------------------------------------------------------- machine-independent figures (issue 20)
+def _rows(out) -> pd.DataFrame:
+    return pd.read_parquet(out / "results.parquet")
+
+
+def test_a_slower_machine_alone_never_regresses_and_is_reported(streamed, tmp_path):
+    _, out = streamed
+    slow = _rows(out)
+    slow["compute_ms_per_hop"] *= 10_000.0
+    slow["realtime"] = slow["compute_ms_per_hop"] <= slow["compute_budget_ms"]
+    assert not slow["realtime"].any()
+    slow.to_parquet(tmp_path / "slow.parquet")
+    cmp = compare(out, tmp_path / "slow.parquet")
+    assert cmp.exit_code == 0 and (cmp.cells["verdict"] == "no significant change").all()
+    assert (cmp.cells["compute_check"] == "over the real-time budget").all()
+    from slipbench.report.compare import to_json, to_markdown
+
+    md = to_markdown(cmp)
+    assert "over the real-time budget" in md and "never makes a verdict" in md
+    assert f"{len(slow)} of {len(slow)} candidate cells over the real-time budget" in md
+    assert '"compute_check": "over the real-time budget"' in to_json(cmp)
+    same = to_markdown(compare(out, out))
+    assert "⚠" not in same and f"all {len(slow)} candidate cells within" in same
+
+
+def _old(rows: pd.DataFrame, compute_ms: float) -> pd.DataFrame:
+    """Rows as slipbench wrote them while delays held the compute time per hop."""
+    old = rows.drop(
+        columns=["compute_ms_per_hop", "compute_budget_ms", "realtime", "compute_processor"]
+    )
+    old["compute_ms"] = compute_ms
+    for name in ("median_delay_ms", "p95_delay_ms"):
+        for suffix in ("", "_lo", "_hi"):
+            old[name + suffix] += compute_ms
+    return old
+
+
+def test_rows_with_machine_timed_delays_are_not_judged_on_delays(streamed, tmp_path):
+    """The issue's case: a slower machine added 8.2 ms to every delay of the old rows."""
+    _, out = streamed
+    rows = _rows(out)
+    _old(rows, 0.02).to_parquet(tmp_path / "base.parquet")
+    _old(rows, 8.2).to_parquet(tmp_path / "cand.parquet")
+    cmp = compare(tmp_path / "base.parquet", tmp_path / "cand.parquet")
+    assert cmp.exit_code == 0, cmp.cells[["verdict", "d_median_delay_ms_lo"]]
+    assert cmp.cells["d_median_delay_ms_lo"].isna().all()
+    assert cmp.cells["method"].str.contains("delays and detection rate not judged").all()
+    assert (cmp.cells["compute_check"] == "").all()
+    # false alarms do not depend on the machine: still judged
+    noisy = _old(rows, 8.2)
+    for suffix in ("", "_lo", "_hi"):
+        noisy["false_alarms_per_min" + suffix] += 1000.0
+    noisy.to_parquet(tmp_path / "noisy.parquet")
+    assert (
+        compare(tmp_path / "base.parquet", tmp_path / "noisy.parquet").cells["verdict"]
+        == "regressed"
+    ).all()
+
+
+def test_the_report_gives_delays_and_the_compute_check_apart(streamed):
+    rows, _ = streamed
+    md = render_report(rows, "md")
+    assert "Compute per hop (ms)" in md and "Real time" in md and "Budget (ms)" in md
+    assert "this machine's, unlike the delays" in md
+    assert "the same on every machine" in md and "Delays include" not in md
+    old = render_report(_old(rows, 0.02), "md")
+    assert "Compute per hop (ms)" not in old
+    assert "rows written before delays were counted on the stream alone" in old

@@ -223,7 +223,7 @@ def test_lstm_stream_differs_from_a_stream_that_keeps_state_across_windows():
 WINDOW, RATE = 5, 1000.0  # 1 sample = 1 ms
 
 
-def _streams(recordings, max_delay_ms=10.0, compute_ms=0.0, trials=None, scenarios=None):
+def _streams(recordings, max_delay_ms=10.0, trials=None, scenarios=None):
     """Hand-made streams: each recording is (labels, positive samples); one score per sample
     from window - 1 on (hop 1), 1 where the decision is positive."""
     ends, scores, labels = [], [], []
@@ -241,7 +241,6 @@ def _streams(recordings, max_delay_ms=10.0, compute_ms=0.0, trials=None, scenari
         window=WINDOW,
         sampling_rate=RATE,
         max_delay_ms=max_delay_ms,
-        compute_ms=compute_ms,
         trials=trials or [f"t{i}" for i in range(n)],
         scenarios=scenarios or ["hold-slip"] * n,
     )
@@ -312,13 +311,38 @@ def test_a_missed_onset_and_the_maximum_delay_boundary():
     assert S.summarize(_streams([(lab, [31])]), 0.5)["detection_rate"] == 0.0
 
 
-def test_compute_time_adds_to_every_delay():
+def test_a_delay_is_counted_on_the_stream_alone():
+    """No time measured on the machine enters a delay or the horizon: the delay is the samples
+    from the onset to the alarm at the rate, and an alarm exactly max_delay_ms after the onset
+    still detects it."""
     lab = _labels((0, 20), (1, 60))
-    row = S.onset_table(_streams([(lab, [24])], compute_ms=1.5), 0.5).iloc[0]
-    assert row["status"] == "detected" and row["delay_ms"] == 5.5
-    late = S.onset_table(_streams([(lab, [29])], compute_ms=1.5), 0.5).iloc[0]
-    assert late["status"] == "missed"  # 9 ms + 1.5 ms of compute is past 10 ms
-    assert S.summarize(_streams([(lab, [24])], compute_ms=1.5), 0.5)["compute_ms"] == 1.5
+    row = S.onset_table(_streams([(lab, [24])]), 0.5).iloc[0]
+    assert row["status"] == "detected" and row["delay_ms"] == 4.0
+    last = S.onset_table(_streams([(lab, [30])]), 0.5).iloc[0]
+    assert last["status"] == "detected" and last["delay_ms"] == 10.0
+    s = S.summarize(_streams([(lab, [24])]), 0.5)
+    assert "compute_ms" not in s and s["median_delay_ms"] == 4.0
+    with pytest.raises(TypeError):
+        S.collect([], [], [], window=5, sampling_rate=RATE, trials=[], scenarios=[], compute_ms=1.0)
+
+
+def test_onset_trials_count_the_trials_the_intervals_resample():
+    """3 trials of 5 onsets each among 12 trials of pressing: 15 onsets, 15 trials, yet the
+    detection rate and delays rest on 3 clusters, and the cell is low-n."""
+    from slipbench.stats.metrics import stream_low_n
+
+    slip = _labels(*[(v, 20) for _ in range(5) for v in (0, 1)])
+    press = _labels((0, 100))
+    recs = [(slip, [25, 65, 105]) for _ in range(3)] + [(press, []) for _ in range(12)]
+    s = S.summarize(_streams(recs, trials=[f"t{i}" for i in range(15)]), 0.5)
+    assert (s["n_trials"], s["n_onsets"], s["n_onset_trials"], s["n_nonslip_trials"]) == (
+        15,
+        15,
+        3,
+        15,
+    )
+    assert stream_low_n(s["n_onset_trials"], s["n_onsets"], s["n_nonslip_trials"])
+    assert not stream_low_n(s["n_trials"], s["n_onsets"])  # what counting every trial said
 
 
 def test_a_run_that_began_before_the_onset_does_not_detect_it():
