@@ -173,6 +173,38 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
         ],
     ),
     (
+        "PyTorch detectors",
+        "`slipbench.torch.TorchDetector` (with `pip install 'slipbench[torch]'`) owns training, "
+        "validation by whole trials, early stopping, seeding, the device, saving and streaming; "
+        "a plugin writes `build` and its own parameters.",
+        [
+            Entry(
+                "slipbench.torch.detector:TorchDetector",
+                "from torch import nn\n"
+                "from slipbench.torch import TorchDetector\n\n"
+                "class TinyCNN(TorchDetector):\n"
+                "    _parameter_constraints = {\n"
+                '        **TorchDetector.TRAINING_CONSTRAINTS, "filters": Interval(int, 1, 64)\n'
+                "    }\n\n"
+                "    def __init__(self, filters=8, batch_size=64, learning_rate=1e-2, max_epochs=20,\n"
+                '                 patience=3, validation_fraction=0.2, device="auto"):\n'
+                "        super().__init__(batch_size, learning_rate, max_epochs, patience,\n"
+                "                         validation_fraction, device)\n"
+                "        self.filters = filters\n\n"
+                "    def build(self, window_length):\n"
+                "        return nn.Sequential(\n"
+                "            nn.Unflatten(1, (1, window_length)), nn.Conv1d(1, self.filters, 5, padding=2),\n"
+                "            nn.ReLU(), nn.AdaptiveAvgPool1d(1), nn.Flatten(), nn.Linear(self.filters, 1))\n\n"
+                "cnn = TinyCNN(max_epochs=2).fit(x, y, seed=0, groups=np.arange(100) // 10)\n"
+                'assert cnn.fitted_choices()["validation_by"] == "trial"\n',
+            ),
+            Entry(
+                "slipbench.torch.detector:TorchDetector.build",
+                "net = TinyCNN().build(50)  # windows (batch, 50) -> one logit each\n",
+            ),
+        ],
+    ),
+    (
         "Parameters",
         "Detectors and protocols share scikit-learn's parameter protocol: keyword arguments of "
         "`__init__`, stored under their own names, checked against `_parameter_constraints` "
