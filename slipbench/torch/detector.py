@@ -75,6 +75,17 @@ class TorchDetector(BaseDetector):
         self.validation_fraction = validation_fraction
         self.device = device
 
+    @classmethod
+    def benchmark(cls, length: int, seconds: float, seed: int = 0) -> Any:
+        """Training and batched inference against the same network in a plain hand-written torch
+        loop, timed in the same run (:func:`slipbench.torch.bench.torch_targets`); None where
+        torch is missing (``slipbench bench`` lists the detector as unavailable)."""
+        if importlib.util.find_spec("torch") is None:
+            return None
+        from slipbench.torch.bench import torch_targets
+
+        return torch_targets(cls, length, seconds, seed)
+
     def build(self, window_length: int) -> Any:
         """The network: windows (batch, window_length) -> logits (batch,)."""
         raise NotImplementedError(f"{type(self).__name__} must implement build(window_length)")

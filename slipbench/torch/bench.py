@@ -1,0 +1,90 @@
+"""A TorchDetector's speed against the same network trained and run by a plain hand-written torch
+loop, timed in the same run (``slipbench bench``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slipbench.base import rate
+
+EPOCHS = 3  # per timed fit: enough that set-up is a small part, few enough to repeat
+
+
+def torch_targets(detector_class: type, length: int, seconds: float, seed: int = 0) -> pd.DataFrame:
+    """Training windows/s and batched inference windows/s of ``detector_class`` (its defaults,
+    ``EPOCHS`` epochs, no early stop) against a plain loop over the network its ``build``
+    returns: Adam, binary cross-entropy, the same batch size, data and epochs, one validation
+    pass per epoch, on the CPU with one thread for both (a shared machine's other processes
+    make torch's thread pool wait)."""
+    import torch
+
+    rng = np.random.default_rng(seed)
+    n = 2000
+    x = rng.normal(size=(n, length)).astype(np.float32)
+    y = (np.arange(n) % 2).astype(np.int8)
+    detector = detector_class(max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu")
+    n_val = int(round(detector.validation_fraction * n))
+    xt, yt = torch.from_numpy(x), torch.from_numpy(y.astype(np.float32))
+
+    def plain_fit() -> Callable[[], object]:
+        def run() -> None:
+            torch.manual_seed(seed)
+            net = detector.build(length)
+            opt = torch.optim.Adam(net.parameters(), lr=detector.learning_rate)
+            loss_fn = torch.nn.BCEWithLogitsLoss()
+            train, val = xt[n_val:], xt[:n_val]
+            for _ in range(EPOCHS):
+                net.train()
+                order = torch.randperm(len(train))
+                for s in range(0, len(train), detector.batch_size):
+                    b = order[s : s + detector.batch_size]
+                    opt.zero_grad()
+                    loss_fn(net(train[b]).reshape(-1), yt[n_val:][b]).backward()
+                    opt.step()
+                net.eval()
+                with torch.no_grad():
+                    loss_fn(net(val).reshape(-1), yt[:n_val])
+
+        return run
+
+    fitted = detector_class(max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu").fit(
+        x, y, seed=seed
+    )
+    net = fitted._network()
+
+    def plain_infer() -> Any:
+        with torch.no_grad():
+            return torch.sigmoid(net(xt).reshape(-1)).numpy()
+
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        train_windows = (n - n_val) * EPOCHS
+        figures = [
+            (
+                f"train windows/s ({EPOCHS} epochs, batch {detector.batch_size})",
+                rate(
+                    lambda: detector_class(
+                        max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu"
+                    ).fit(x, y, seed=seed),
+                    train_windows,
+                    seconds,
+                ),
+                rate(plain_fit(), train_windows, seconds),
+            ),
+            (
+                "batched inference windows/s",
+                rate(lambda: fitted.predict_proba(x), n, seconds),
+                rate(plain_infer, n, seconds),
+            ),
+        ]
+    finally:
+        torch.set_num_threads(threads)
+    table = pd.DataFrame(figures, columns=["figure", "slipbench", "plain torch loop"])
+    table["ratio vs plain loop"] = table["slipbench"] / table["plain torch loop"]
+    table["target"] = 0.9
+    return table
