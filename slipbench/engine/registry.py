@@ -25,6 +25,7 @@ from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
 from slipbench.params import param_defaults
 from slipbench.protocol import BaseProtocol, Layout
+from slipbench.store.keys import missing_data_files
 
 
 @dataclass(frozen=True)
@@ -42,12 +43,17 @@ PLUGIN_FILES: dict[str, str] = {}
 
 def import_plugin_file(path: str | Path) -> object:
     """The module of a plugin file, imported once per process under a name made from its path
-    (two plugin files with one stem stay apart in ``sys.modules``)."""
+    (two plugin files with one stem stay apart in ``sys.modules``). Its folder goes to the end
+    of ``sys.path``, so it may import the modules and packages beside it (``import helper``);
+    installed packages keep precedence over them."""
     path = Path(path)
     digest = hashlib.sha1(str(path.resolve()).encode()).hexdigest()[:10]
     module_name = f"slipbench_plugin_{path.stem}_{digest}"
     if module_name in sys.modules:
         return sys.modules[module_name]
+    folder = str(path.resolve().parent)
+    if folder not in sys.path:
+        sys.path.append(folder)
     spec = importlib.util.spec_from_file_location(module_name, path)
     assert spec is not None and spec.loader is not None  # a .py file has a source loader
     module = importlib.util.module_from_spec(spec)
@@ -161,6 +167,12 @@ class Registry(Generic[Plugin]):
         return cls
 
     def _check_class(self, cls: type, name: str, source: Source) -> None:
+        missing = missing_data_files(cls)
+        if missing:  # its cache keys would not see the files it reads
+            raise PluginError(
+                f"{self.kind} {name!r} ({source.origin}) declares data files that are not there: "
+                f"{', '.join(missing)} (paths relative to its module's folder)"
+            )
         if self.base is not BaseProtocol:
             return
         try:
