@@ -74,8 +74,10 @@ def out_option(help: str, default: str | None = None):
     return click.option("--out", type=click.Path(path_type=Path), help=help, **given)
 
 
-def seed_option(help: str | None = None):
-    return click.option("--seed", default=0, show_default=True, type=SEED, help=help)
+def seed_option(help: str | None = None, default: int | None = 0):
+    """``--seed``; ``default=None`` leaves it unset (a benchmark file's own seed then holds)."""
+    shown = {"show_default": True} if default is not None else {}
+    return click.option("--seed", default=default, type=SEED, help=help, **shown)
 
 
 def scale_option(help: str):

@@ -241,6 +241,15 @@ class Registry(Generic[Plugin]):
         hint = f"; install it with: {cls.install_hint}" if cls.install_hint else ""
         return f"needs {', '.join(absent)}{hint}"
 
+    def provenance(self, name: str) -> str:
+        """Where ``name`` comes from, in words: ``built in (slipbench 0.1.0)``, the package and
+        version that installed it (``labslip 1.2``), or its plugin file."""
+        self._discover()
+        source = self._sources[name]
+        if source.package and source.target.startswith(("slipbench.", "slipbench:")):
+            return f"built in ({source.package})"
+        return source.package or source.origin
+
     def describe(self, name: str) -> dict[str, Any]:
         """Id, status, one-line description and parameters with defaults (``slipbench list``)."""
         status = self.status(name)
@@ -250,6 +259,7 @@ class Registry(Generic[Plugin]):
             "detail": status.detail,
             "origin": self._sources[name].origin,
             "package": self._sources[name].package,
+            "from": self.provenance(name),
             "description": "",
             "parameters": {},
         }
