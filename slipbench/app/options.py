@@ -76,8 +76,9 @@ def out_option(help: str, default: str | None = None):
 
 def seed_option(help: str | None = None, default: int | None = 0):
     """``--seed``; ``default=None`` leaves it unset (a benchmark file's own seed then holds)."""
-    shown = {"show_default": True} if default is not None else {}
-    return click.option("--seed", default=default, type=SEED, help=help, **shown)
+    return click.option(
+        "--seed", default=default, show_default=default is not None, type=SEED, help=help
+    )
 
 
 def scale_option(help: str):
