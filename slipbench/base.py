@@ -57,13 +57,16 @@ class BaseDetector(Parameterized):
     ``requires``, modules it imports that slipbench does not install (``slipbench list`` reports
     the absent ones) with ``install_hint``, how to install them; ``check_params``,
     hyperparameters that make the conformance checks fast (few epochs, few kernels), applied to
-    a clone by :mod:`slipbench.testing`; and the classmethod :meth:`benchmark`.
+    a clone by :mod:`slipbench.testing`; ``data_files``, files (or folders) the plugin reads,
+    relative to the folder of the module that declares them, which are part of its code
+    identity (cache keys); and the classmethod :meth:`benchmark`.
     """
 
     name: ClassVar[str] = ""  # set by the registry on each class it loads: the plugin's id
     requires: ClassVar[tuple[str, ...]] = ()  # optional modules, e.g. ("aeon",)
     install_hint: ClassVar[str | None] = None  # e.g. "pip install 'slipbench[minirocket]'"
     check_params: ClassVar[dict[str, Any]] = {}  # fast settings for the conformance checks
+    data_files: ClassVar[tuple[str, ...]] = ()  # e.g. ("weights.json",): hashed into cache keys
 
     # -- input checks
     @staticmethod

@@ -301,12 +301,14 @@ class BaseProtocol(Parameterized):
     ``__init__`` with ``_parameter_constraints`` (as detectors do), and implement
     :meth:`cells`. The registry gives each protocol class its id (``name``). Like a detector,
     it may declare ``requires`` (modules slipbench does not install; ``slipbench list``
-    reports the absent ones) with ``install_hint``.
+    reports the absent ones) with ``install_hint``, and ``data_files`` (files it reads, part of
+    its code identity).
     """
 
     name: ClassVar[str] = ""
     requires: ClassVar[tuple[str, ...]] = ()
     install_hint: ClassVar[str | None] = None
+    data_files: ClassVar[tuple[str, ...]] = ()
     if TYPE_CHECKING:
         # read on an instance only: a class attribute, or a property where the layout depends
         # on the options (window_size's unit)

@@ -42,6 +42,7 @@ copied into the results folder (``benchmark.toml``) and its SHA-256 written besi
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import re
@@ -428,6 +429,7 @@ def record(bench: Benchmark, out: Path) -> None:
                 "sha256": bench.sha256,
                 "file": str(bench.path),
                 "name": bench.name,
+                "seed": bench.seed,
                 "started_at": datetime.now(timezone.utc).isoformat(),
             },
             indent=2,
@@ -443,6 +445,7 @@ def run_benchmark(
     force: bool = False,
     progress: bool = True,
     echo=print,
+    seed: int | None = None,
 ):
     """Run what ``bench`` declares and write its reports.
 
@@ -450,6 +453,8 @@ def run_benchmark(
     ----------
     out, jobs : override the file's results folder and worker count (a CI job runs one file
         into a base and a candidate folder).
+    seed : overrides the file's ``run.seed`` (and so the simulated data's, unless ``[dataset]``
+        gives a seed); recorded in ``benchmark.json``.
 
     Returns
     -------
@@ -462,6 +467,8 @@ def run_benchmark(
     from slipbench.store.results import ResultsStore
 
     out = Path(out) if out is not None else bench.out
+    if seed is not None:
+        bench = dataclasses.replace(bench, seed=seed)
     runs = plan_runs(
         bench, echo
     )  # every name and parameter before the dataset is read or simulated

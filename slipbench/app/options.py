@@ -74,8 +74,11 @@ def out_option(help: str, default: str | None = None):
     return click.option("--out", type=click.Path(path_type=Path), help=help, **given)
 
 
-def seed_option(help: str | None = None):
-    return click.option("--seed", default=0, show_default=True, type=SEED, help=help)
+def seed_option(help: str | None = None, default: int | None = 0):
+    """``--seed``; ``default=None`` leaves it unset (a benchmark file's own seed then holds)."""
+    return click.option(
+        "--seed", default=default, show_default=default is not None, type=SEED, help=help
+    )
 
 
 def scale_option(help: str):

@@ -86,14 +86,26 @@ def select_plugins(
 ) -> dict[str, Plugin]:
     """The plugins named by a repeated option, each value an id, a comma list of ids or 'all'
     (``--detector holweg --detector lstm``, ``--detector holweg,lstm``): every one of them, in
-    the order given, each once. Before, a repeated option silently kept only its last value."""
+    the order given, each once. Before, a repeated option silently kept only its last value.
+    What 'all' means depends on what is installed, so 'all' names each plugin it selects and
+    where it comes from, one line each to ``echo`` (:func:`provenance_line`)."""
     out: dict[str, Plugin] = {}
-    for name in [n.strip() for value in names for n in value.split(",") if n.strip()]:
+    wanted = [n.strip() for value in names for n in value.split(",") if n.strip()]
+    for name in wanted:
         for n, plugin in load_plugins(reg, name, broken, echo).items():
             out.setdefault(n, plugin)
     if not out:
         raise UsageError(f"no {reg.kind} named: give an id, a comma list of ids or 'all'")
+    if "all" in wanted:
+        for n in out:
+            echo(provenance_line(reg, n))
     return out
+
+
+def provenance_line(reg: registry.Registry, name: str) -> str:
+    """``all: protocol 'window-size' from built in (slipbench 0.1.0)``: the line 'all' prints
+    per selected plugin; the place is the one ``slipbench list`` shows."""
+    return f"all: {reg.kind} {name!r} from {reg.provenance(name)}"
 
 
 def with_options(plugins: dict, options: dict, kind: str) -> dict:

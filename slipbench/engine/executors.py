@@ -9,9 +9,12 @@ code), fails its task's cells with the reason; the run goes on in a fresh worker
 
 from __future__ import annotations
 
+import ast
 import os
 import sys
+import types
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import Any, TypeVar
 
 from slipbench.engine.fitting import Result, fit_and_test
@@ -127,6 +130,60 @@ def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, li
             yield futures[future], future.result()
     finally:
         client.close()
+
+
+def unguarded_script() -> str:
+    """``file:line`` of the statement of the running script (``__main__``, run from a file) that
+    is calling slipbench outside an ``if __name__ == "__main__":`` block, or "" (no such script:
+    the command line, a REPL, ``python -c``, a notebook, a guarded call).
+
+    Worker processes import the script again before they take work (multiprocessing's spawn
+    and forkserver methods, the default on macOS and Windows and here): without the guard each
+    would run the script's calls anew and die, and the run would end in "All workers expired"."""
+    main = sys.modules.get("__main__")
+    if main is None or not getattr(main, "__file__", None):
+        return ""
+    frame: types.FrameType | None = sys._getframe(1)
+    outer = None
+    while frame is not None:
+        if frame.f_globals is vars(main) and frame.f_code.co_name == "<module>":
+            outer = frame
+        frame = frame.f_back
+    if outer is None:  # called from a thread, or from code the script does not run at import
+        return ""
+    file, line = outer.f_code.co_filename, outer.f_lineno
+    try:
+        tree = ast.parse(Path(file).read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return ""
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.If)
+            and "__name__" in {n.id for n in ast.walk(node.test) if isinstance(n, ast.Name)}
+            and node.lineno <= line <= (node.end_lineno or node.lineno)
+        ):
+            return ""
+    return f"{file}:{line}"
+
+
+def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
+    """The local worker processes to start for ``jobs``: ``jobs`` itself, or 0 (run in this
+    process) where a script without an ``if __name__ == "__main__":`` guard asked for one (the
+    default), since its workers would run the script again. Such a script asking for more, or
+    for a time limit (which needs a worker to kill), is refused with one line saying what to add."""
+    if scheduler or jobs == 0:
+        return jobs
+    where = unguarded_script()
+    if not where:
+        return jobs
+    if jobs == 1 and not timeout:
+        return 0
+    asked = f"jobs={jobs}" + (f" with cell_timeout={timeout:g}" if timeout else "")
+    raise UsageError(
+        f"{where}: {asked} starts worker processes, which import this script again: put its "
+        'calls under `if __name__ == "__main__":` (or use jobs=1 without a time limit, which '
+        "runs in this process)"
+    )
 
 
 def execute(

@@ -25,6 +25,7 @@ from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
 from slipbench.params import param_defaults
 from slipbench.protocol import BaseProtocol, Layout
+from slipbench.store.keys import missing_data_files
 
 
 @dataclass(frozen=True)
@@ -42,12 +43,17 @@ PLUGIN_FILES: dict[str, str] = {}
 
 def import_plugin_file(path: str | Path) -> object:
     """The module of a plugin file, imported once per process under a name made from its path
-    (two plugin files with one stem stay apart in ``sys.modules``)."""
+    (two plugin files with one stem stay apart in ``sys.modules``). Its folder goes to the end
+    of ``sys.path``, so it may import the modules and packages beside it (``import helper``);
+    installed packages keep precedence over them."""
     path = Path(path)
     digest = hashlib.sha1(str(path.resolve()).encode()).hexdigest()[:10]
     module_name = f"slipbench_plugin_{path.stem}_{digest}"
     if module_name in sys.modules:
         return sys.modules[module_name]
+    folder = str(path.resolve().parent)
+    if folder not in sys.path:
+        sys.path.append(folder)
     spec = importlib.util.spec_from_file_location(module_name, path)
     assert spec is not None and spec.loader is not None  # a .py file has a source loader
     module = importlib.util.module_from_spec(spec)
@@ -161,6 +167,12 @@ class Registry(Generic[Plugin]):
         return cls
 
     def _check_class(self, cls: type, name: str, source: Source) -> None:
+        missing = missing_data_files(cls)
+        if missing:  # its cache keys would not see the files it reads
+            raise PluginError(
+                f"{self.kind} {name!r} ({source.origin}) declares data files that are not there: "
+                f"{', '.join(missing)} (paths relative to its module's folder)"
+            )
         if self.base is not BaseProtocol:
             return
         try:
@@ -229,6 +241,15 @@ class Registry(Generic[Plugin]):
         hint = f"; install it with: {cls.install_hint}" if cls.install_hint else ""
         return f"needs {', '.join(absent)}{hint}"
 
+    def provenance(self, name: str) -> str:
+        """Where ``name`` comes from, in words: ``built in (slipbench 0.1.0)``, the package and
+        version that installed it (``labslip 1.2``), or its plugin file."""
+        self._discover()
+        source = self._sources[name]
+        if source.package and source.target.startswith(("slipbench.", "slipbench:")):
+            return f"built in ({source.package})"
+        return source.package or source.origin
+
     def describe(self, name: str) -> dict[str, Any]:
         """Id, status, one-line description and parameters with defaults (``slipbench list``)."""
         status = self.status(name)
@@ -238,6 +259,7 @@ class Registry(Generic[Plugin]):
             "detail": status.detail,
             "origin": self._sources[name].origin,
             "package": self._sources[name].package,
+            "from": self.provenance(name),
             "description": "",
             "parameters": {},
         }

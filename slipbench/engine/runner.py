@@ -21,7 +21,7 @@ import pandas as pd
 from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
-from slipbench.engine.executors import execute
+from slipbench.engine.executors import execute, workers_for
 from slipbench.engine.fitting import TestSet
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
@@ -130,11 +130,15 @@ def evaluate(
     Parameters
     ----------
     jobs : local worker processes (0: in this process, for debugging: a crash there ends the run).
+        Called from a script without an ``if __name__ == "__main__":`` guard, ``jobs=1`` runs
+        in this process (workers would import the script again) and more jobs or a
+        ``cell_timeout`` are refused with a UsageError saying to add the guard.
     scheduler : address of a dask.distributed scheduler; tasks run on its workers.
     cell_timeout : seconds one model may take to fit and test its cells in a local worker
         before they are reported with status "timeout".
     """
     runs = [runs] if isinstance(runs, Run) else runs
+    jobs = workers_for(jobs, scheduler, cell_timeout)  # before any work: a script may be refused
     for run in runs:
         run.validate()
         check_labels(run.labels, dataset)

@@ -14,6 +14,7 @@ go stale silently, and this module closes both:
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import hashlib
 import importlib.machinery
@@ -119,11 +120,15 @@ _CODE_SUFFIXES = (".py", *importlib.machinery.EXTENSION_SUFFIXES)
 def code_identity(obj: type | types.ModuleType) -> str:
     """An identity of the code that runs ``obj`` (a class or a module), for cache keys.
 
-    The unit hashed is the top-level regular package that holds ``obj`` (or its module, when
-    that module is not in a package): every ``.py`` file and compiled extension under it,
-    with their paths relative to it, so the same code installed elsewhere has the same
-    identity. For slipbench itself the unit is the whole engine, including the packages of its
-    built-in detectors and protocols. Returns
+    The unit hashed is the top-level regular package that holds ``obj``: every ``.py`` file and
+    compiled extension under it, with their paths relative to it, so the same code installed
+    elsewhere has the same identity. For slipbench itself the unit is the whole engine,
+    including the packages of its built-in detectors and protocols. A module that is in no
+    package (a plugin file of a ``--plugins`` folder, a script) is hashed with the modules and
+    packages beside it that it imports, followed through their own imports (see
+    :func:`local_files`). A class's declared ``data_files`` (paths relative to the folder of the
+    module that declares them; a folder stands for every file under it) are hashed too.
+    Returns
 
     - ``"src:<32 hex>"``: a SHA-256 of those files;
     - ``"dist:<name>==<version>"``: where no source file is readable (a zip or frozen import),
@@ -138,7 +143,58 @@ def code_identity(obj: type | types.ModuleType) -> str:
     name = obj.__name__ if isinstance(obj, types.ModuleType) else getattr(obj, "__module__", None)
     if not isinstance(name, str) or not (isinstance(obj, (type, types.ModuleType))):
         raise TypeError(f"code_identity takes a class or a module, got {obj!r}")
-    return _unit_identity(_unit(name))
+    code = _unit_identity(_unit(name))
+    data = data_files(obj) if isinstance(obj, type) else ()
+    return _with_data(code, tuple((label, str(path)) for label, path in data)) if data else code
+
+
+def data_files(cls: type) -> list[tuple[str, Path]]:
+    """(label, path) of every file a class declares in ``data_files``: each entry relative to
+    the folder of the module of the class (in its MRO) that declares the attribute; a folder
+    entry gives every file under it (hidden ones and ``__pycache__`` aside). A declared path
+    that does not exist is listed as it is (its absence is part of the identity); the registry
+    refuses such a plugin when it loads it (:func:`missing_data_files`)."""
+    owner = next((c for c in cls.__mro__ if "data_files" in vars(c)), None)
+    declared = getattr(cls, "data_files", ())
+    if owner is None or not declared:
+        return []
+    file = getattr(sys.modules.get(owner.__module__), "__file__", None)
+    if not file:
+        return []
+    home = Path(file).parent
+    out: list[tuple[str, Path]] = []
+    for entry in declared:
+        path = home / entry
+        if path.is_dir():
+            out += [(f"{entry}/{label}", p) for label, p in _files_under(path, None)]
+        else:
+            out.append((str(entry), path))
+    return out
+
+
+def missing_data_files(cls: type) -> list[str]:
+    """The declared ``data_files`` of a class that are not there (or not relative paths)."""
+    declared = getattr(cls, "data_files", ())
+    if isinstance(declared, str) or not isinstance(declared, (tuple, list)):
+        return [f"data_files must be a tuple of paths, got {declared!r}"]
+    bad = [str(e) for e in declared if not isinstance(e, str) or Path(e).is_absolute()]
+    if bad:
+        return [f"{e} (data_files are paths relative to the plugin's module)" for e in bad]
+    return [label for label, path in data_files(cls) if not path.exists()]
+
+
+@cache
+def _with_data(code: str, files: tuple[tuple[str, str], ...]) -> str:
+    digest = hashlib.sha256(code.encode())
+    for label, path in sorted(files):
+        try:
+            data = Path(path).read_bytes()
+        except OSError:
+            digest.update(f"{label}\0missing\0".encode())
+            continue
+        digest.update(f"{label}\0{len(data)}\0".encode())
+        digest.update(data)
+    return f"src:{digest.hexdigest()[:32]}"
 
 
 def _unit(module: str) -> str:
@@ -183,21 +239,109 @@ def _source_files(unit: str) -> list[tuple[str, Path]]:
     for package in _engine_packages() if unit == "slipbench" else [unit]:
         folders, single = _locations(package)
         if single is not None:
-            return [(f"{package}/{single.name}", single)]
+            return local_files(single, unit)
         for root in folders:
-            for path in sorted(root.rglob("*")):
-                relative = path.relative_to(root)
-                if (
-                    path.name.endswith(_CODE_SUFFIXES)
-                    and path.is_file()
-                    and not any(
-                        p.startswith(".") or p == "__pycache__" for p in relative.parts[:-1]
-                    )
-                ):
-                    files.setdefault(
-                        ".".join([package, *relative.parts[:-1]]) + f"/{path.name}", path
-                    )
+            for label, path in _files_under(root, _CODE_SUFFIXES):
+                folder, _, name = label.rpartition("/")
+                dotted = ".".join([package, *folder.split("/")]) if folder else package
+                files.setdefault(f"{dotted}/{name}", path)
     return list(files.items())
+
+
+def _files_under(root: Path, suffixes: tuple[str, ...] | None) -> list[tuple[str, Path]]:
+    """(path relative to ``root``, path) of the files under ``root`` (those ending in one of
+    ``suffixes``, or all), outside hidden folders and ``__pycache__``."""
+    out = []
+    for path in sorted(root.rglob("*")):
+        relative = path.relative_to(root)
+        if (
+            (suffixes is None or path.name.endswith(suffixes))
+            and path.is_file()
+            and not any(p.startswith(".") or p == "__pycache__" for p in relative.parts[:-1])
+        ):
+            out.append((relative.as_posix(), path))
+    return out
+
+
+def local_files(file: Path, unit: str = "") -> list[tuple[str, Path]]:
+    """(label, path) of a module that is in no package and of the code beside it that it runs:
+    the modules (``helper.py``) and packages (``sub/``, every code file under it) of its
+    folder that it imports, found by reading the import statements of each file taken
+    (``import helper``, ``from sub.mod import f``, inside functions too), so the closure is
+    the same in every process whatever has been imported so far. A name counts where it is
+    (or, not yet imported, would be) loaded from inside the folder and no other installed
+    distribution provides it; the standard library and slipbench never do. Labels are paths
+    relative to the folder, so the same files elsewhere hash alike. A module loaded in another
+    way (``importlib`` by path, ``exec``) is not seen: declare it in ``data_files``."""
+    root = file.parent
+    own = set(_distributions().get(unit, []))
+    taken: dict[str, Path] = {file.name: file}
+    queue = [file]
+    while queue:
+        current = queue.pop()
+        for name in sorted(_imported_names(current)):
+            found = _local_module(name, root, own)
+            if found is None:
+                continue
+            where = found.resolve().relative_to(root.resolve()).as_posix()
+            if found.is_dir():
+                more = [(f"{where}/{label}", p) for label, p in _files_under(found, _CODE_SUFFIXES)]
+            else:
+                more = [(where, found)]
+            for label, path in more:
+                if label not in taken:
+                    taken[label] = path
+                    if path.suffix == ".py":
+                        queue.append(path)
+    return sorted(taken.items())
+
+
+def _imported_names(path: Path) -> set[str]:
+    """The top-level names a Python file imports absolutely (relative imports stay in their
+    package, which is hashed whole)."""
+    try:
+        tree = ast.parse(path.read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return set()  # its bytes are still hashed; a file that does not parse imports nothing
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+def _local_module(name: str, root: Path, own: set[str]) -> Path | None:
+    """The file or package folder inside ``root`` that ``import name`` loads, or None."""
+    if name in sys.stdlib_module_names or name in ("slipbench", "__main__"):
+        return None
+    if set(_distributions().get(name, [])) - own:
+        return None  # an installed library (numpy, torch), not the plugin's own code
+    loaded = sys.modules.get(name)
+    if loaded is not None:
+        paths = getattr(loaded, "__path__", None)
+        file = getattr(loaded, "__file__", None)
+        where = Path(list(paths)[0]) if paths else Path(file) if file else None
+        if where is not None and where.name == "__init__.py":
+            where = where.parent
+    else:
+        candidates = [root / name, root / f"{name}.py"] + [
+            root / f"{name}{suffix}" for suffix in importlib.machinery.EXTENSION_SUFFIXES
+        ]
+        where = next((c for c in candidates if c.exists()), None)
+    if where is None or not where.exists():
+        return None
+    try:
+        where.resolve().relative_to(root.resolve())
+    except ValueError:
+        return None  # loaded from elsewhere on sys.path
+    return where
+
+
+@cache
+def _distributions() -> dict[str, list[str]]:
+    return dict(packages_distributions())
 
 
 def _locations(package: str) -> tuple[list[Path], Path | None]:

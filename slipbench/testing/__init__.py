@@ -259,8 +259,13 @@ def check_protocol_cells(protocol: BaseProtocol, dataset: Dataset | None = None)
 
 def check_protocol_holdouts(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
     """Holdout cells never train on what they test: where a cell tests on ``column == value``
-    and also filters its training windows on that column, no training recording has that value."""
+    and also filters its training windows on that column, no training recording has that value;
+    and a "without" cell (``"without"`` in the layout's ``pair`` column) trains on no recording
+    of the value it holds out (its ``holdout``, else what it tests on), so one that forgets its
+    filter entirely (trains on everything, the held-out material too) fails; without a pair
+    column, two cells of one ``holdout`` may not train and test alike."""
     cells, recordings = _cells(protocol, dataset or toy_dataset())
+    _check_without_cells(protocol, cells, recordings)
     for cell in cells:
         train_columns = {c for c, _, _ in cell.train.where}
         trained = recordings[cell.train.mask(recordings)]
@@ -271,6 +276,52 @@ def check_protocol_holdouts(protocol: BaseProtocol, dataset: Dataset | None = No
                     f"cell {cell.name} tests on {column} == {value!r} and trains on "
                     f"{len(leaked)} recordings with that value (e.g. {leaked['recording_id'].iloc[0]})"
                 )
+
+
+def _check_without_cells(
+    protocol: BaseProtocol, cells: list[Cell], recordings: pd.DataFrame
+) -> None:
+    pair = _layout(protocol).pair
+    for cell in cells:
+        if pair and cell.key.get(pair) == "without":
+            held = cell.holdout or next(
+                ((c, v) for c, op, v in cell.test.where if op == "=="), None
+            )
+            assert held is not None, (
+                f"cell {cell.name} is a 'without' cell ({pair} = 'without') but holds nothing "
+                "out: give it holdout=(column, value), as holdout_cells does"
+            )
+            column, value = held
+            assert column in recordings, (
+                f"cell {cell.name} holds out {column} == {value!r}, which is no recording column"
+            )
+            trained = recordings[cell.train.mask(recordings)]
+            leaked = trained[trained[column].eq(value)]
+            assert leaked.empty, (
+                f"cell {cell.name} is the 'without' cell of {column} == {value!r} but trains on "
+                f"{len(leaked)} recordings with that value (e.g. {leaked['recording_id'].iloc[0]}): "
+                f"its training part needs the filter ({column!r}, '!=', {value!r})"
+            )
+        elif cell.holdout is not None and not (pair and pair in cell.key):
+            # no pair column to say which is which: two cells of one holdout that test alike
+            # and train alike are one model twice, so the "without" one lost its filter
+            twin = next(
+                (
+                    c
+                    for c in cells
+                    if c is not cell
+                    and c.holdout == cell.holdout
+                    and c.test == cell.test
+                    and c.train == cell.train
+                    and c.window == cell.window
+                ),
+                None,
+            )
+            assert twin is None, (
+                f"cells {cell.name} and {twin.name} hold out {cell.holdout[0]} == "
+                f"{cell.holdout[1]!r} and train on the same windows: the 'without' one needs the "
+                f"filter ({cell.holdout[0]!r}, '!=', {cell.holdout[1]!r}) on its training part"
+            )
 
 
 def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:

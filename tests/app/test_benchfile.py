@@ -166,3 +166,33 @@ def test_cli_exit_code_for_a_bad_file(tmp_path, cli):
     assert code == 2 and "line 2" in err and "keep" in err
     code, _, err = cli(["run", str(tmp_path / "absent.toml")])
     assert code == 2 and "no such benchmark file" in err
+
+
+def test_run_seed_overrides_the_files_seed(tmp_path, unit, cli):
+    bench = write(
+        tmp_path,
+        """\
+        [benchmark]
+        out = "res"
+        plots = false
+
+        [dataset]
+        path = "{data}"
+
+        [run]
+        seed = 3
+
+        [detectors.holweg]
+
+        [protocols.window-size]
+        windows = [50]
+        """,
+        data=unit,
+    )
+    code, _, err = cli(["run", bench, "--quiet", "--seed", "7"])
+    assert code == 0, err
+    rows = pd.read_parquet(tmp_path / "res" / "results.parquet")
+    assert set(rows["seed"]) == {7}
+    assert json.loads((tmp_path / "res" / "benchmark.json").read_text())["seed"] == 7
+    code, _, err = cli(["run", bench, "--quiet", "--seed", "-1"])
+    assert code == 2 and "--seed" in err

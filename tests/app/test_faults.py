@@ -187,6 +187,28 @@ def test_a_changed_plugin_is_rerun_not_served_from_the_cache(plugins, one_unit, 
     assert not set(new["accuracy"].round(6)) & set(first["accuracy"].round(6))
 
 
+@pytest.mark.slow
+def test_a_changed_helper_module_of_a_plugin_is_rerun(one_unit, tmp_path):
+    """The issue's case: a folder plugin imports a helper beside it; the helper changes, the
+    plugin file does not; the cells are computed anew with the new numbers."""
+    folder = tmp_path / "p"
+    folder.mkdir()
+    source = toys.source(toys.Energy).replace("> self.cut_", "> SIGN * self.cut_")
+    (folder / "energy.py").write_text(source + "\nfrom faults_helper import SIGN\n")
+    (folder / "faults_helper.py").write_text("SIGN = 1\n")
+    args = ["evaluate", "--detector", "energy", "--protocol", "window-size"]
+    args += ["--dataset", str(one_unit), "--plugins", str(folder), "--out", str(tmp_path / "out")]
+    args += ["--quiet", "--protocol-param", "windows=[25]"]
+    assert _slipbench(args, tmp_path) == 0
+    first = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    (folder / "faults_helper.py").write_text("SIGN = -1\n")
+    assert _slipbench(args, tmp_path) == 0
+    rows = pd.read_parquet(tmp_path / "out" / "results.parquet")
+    new = rows[~rows["key"].isin(first["key"])]
+    assert len(new) == len(first) > 0
+    assert not set(new["accuracy"].round(6)) & set(first["accuracy"].round(6))
+
+
 def test_report_refuses_the_same_results_twice(tmp_path, one_unit, cli):
     out = tmp_path / "out"
     assert (

@@ -44,3 +44,28 @@ def test_an_empty_list_is_refused():
 
     with pytest.raises(UsageError, match="no detector named"):
         select_plugins(registry.detectors, [" , "], [])
+
+
+def test_all_names_each_plugin_it_selects_and_where_it_comes_from(tmp_path):
+    """What 'all' means depends on what is installed: one line per selected plugin says which
+    and where from (built in, a package and version, or a plugin file); a named one says nothing."""
+    import toys
+
+    import slipbench
+    from slipbench.app.selection import add_plugin_folders, select_plugins
+    from slipbench.engine import registry
+
+    (tmp_path / "protocols").mkdir()
+    (tmp_path / "detectors").mkdir()
+    (tmp_path / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
+    add_plugin_folders((str(tmp_path),))
+    lines: list[str] = []
+    chosen = select_plugins(registry.protocols, ("all",), [], lines.append)
+    assert len(lines) == len(chosen) and set(chosen) >= {"window-size", "two-cells"}
+    built_in = f"all: protocol 'window-size' from built in (slipbench {slipbench.__version__})"
+    assert built_in in lines
+    plugin_file = tmp_path / "protocols" / "two_cells.py"
+    assert f"all: protocol 'two-cells' from plugin file {plugin_file}" in lines
+    lines.clear()
+    select_plugins(registry.protocols, ("window-size",), [], lines.append)
+    assert lines == []

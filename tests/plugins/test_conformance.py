@@ -3,12 +3,15 @@ catching broken detectors and protocols."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from slipbench.base import BaseDetector
 from slipbench.engine.registry import detectors, protocols
 from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs
+from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.testing import check_detector, check_protocol, parametrize_with_checks
 
 
@@ -131,10 +134,40 @@ class _Unlaid(_Leaky):
             )
 
 
+class _Unfiltered(MaterialHoldout):
+    """The most common holdout bug: its "without" cells forget their filter entirely and train
+    on every material, the held-out one too."""
+
+    def cells(self, recordings):
+        for cell in super().cells(recordings):
+            yield dataclasses.replace(cell, train=Part(cell.train.sensors, "train"))
+
+
+class _UnfilteredUnpaired(MaterialHoldout):
+    """The same bug in a protocol whose layout names no pair column: its two cells per
+    material differ in an undeclared "model" column and train alike."""
+
+    layout = Layout("unpaired", ("sensor_type", "sensor_instance"), "material")
+
+    def cells(self, recordings):
+        for cell in super().cells(recordings):
+            key = {k: v for k, v in cell.key.items() if k != "training"}
+            yield dataclasses.replace(
+                cell,
+                key={**key, "model": cell.key["training"]},
+                train=Part(cell.train.sensors, "train"),
+            )
+
+
 @pytest.mark.parametrize(
     "protocol, words",
     [
         (_Leaky(), "trains on .* recordings with that value"),
+        (
+            _Unfiltered(),
+            "is the 'without' cell of material == .* but trains on .* its training part needs the filter",
+        ),
+        (_UnfilteredUnpaired(), "train on the same windows: the 'without' one needs the filter"),
         (_Unlaid(), "lacks the layout's columns \\['window'\\]"),
     ],
 )

@@ -159,7 +159,7 @@ def test_list_shows_parameters_and_status(tmp_path, cli):
     assert code == 0
     assert "holweg" in text and "band=None" in text and "keep=0.8  (a float in [0.0, 1.0])" in text
     # where each comes from: the installing package and its version, or the plugin file
-    assert f"from slipbench {slipbench.__version__}" in text
+    assert f"from built in (slipbench {slipbench.__version__})" in text
     assert f"from plugin file {tmp_path / 'needs_dep.py'}" in text
     code, text, _ = cli(["list", "--plugins", str(tmp_path), "--json"])
     found = {e["name"]: e for e in json.loads(text)["detectors"]}

@@ -31,7 +31,7 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
         for e in entries:
             state = e["status"] + (f" ({e['detail']})" if e["detail"] else "")
             click.echo(f"  {e['name']:<18} {state if e['status'] != 'ok' else e['description']}")
-            click.echo(f"      from {e['package'] or e['origin']}")
+            click.echo(f"      from {e['from']}")
             for name, p in e["parameters"].items():
                 click.echo(
                     f"      {name}={p['default']!r}"

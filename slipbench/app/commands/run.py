@@ -7,23 +7,36 @@ from pathlib import Path
 
 import click
 
-from slipbench.app.options import force_option, jobs_option, out_option, quiet_option
+from slipbench.app.options import (
+    force_option,
+    jobs_option,
+    out_option,
+    quiet_option,
+    seed_option,
+)
 
 
 @click.command("run")
 @click.argument("bench_file", type=click.Path(path_type=Path))
 @out_option("Results folder [default: the file's benchmark.out].")
 @jobs_option("Local worker processes [default: the file's run.jobs].")
+@seed_option(
+    "Seed of balancing, splitting and training (and of the simulated data unless [dataset] "
+    "gives its own) [default: the file's run.seed].",
+    default=None,
+)
 @force_option()
 @quiet_option()
-def run_command(bench_file, out, jobs, force, quiet) -> None:
+def run_command(bench_file, out, jobs, seed, force, quiet) -> None:
     """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
     options, split, seeds; write its results, its reports and a copy of the file."""
     from slipbench.app.benchfile import load_benchmark, run_benchmark
     from slipbench.store.results import cells_failed
 
     bench = load_benchmark(bench_file)
-    rows, paths = run_benchmark(bench, out, jobs, force, progress=not quiet, echo=click.echo)
+    rows, paths = run_benchmark(
+        bench, out, jobs, force, progress=not quiet, echo=click.echo, seed=seed
+    )
     folder = out or bench.out
     counts = rows["status"].value_counts()
     click.echo(
