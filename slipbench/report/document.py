@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import base64
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -94,6 +95,11 @@ def flatten(blocks: list) -> list:
     return out
 
 
+def _anchor(heading: str) -> str:
+    """A Markdown heading's anchor as GitHub and most renderers make it."""
+    return re.sub(r"[^\w\- ]", "", heading.lower()).replace(" ", "-")
+
+
 def split_appendix(
     blocks: list, appendix: str, fmt: str = "md", summary_path: str = ""
 ) -> tuple[list, list]:
@@ -103,14 +109,18 @@ def split_appendix(
     (the summary's path as the appendix links it; "" where the summary has no file)."""
     summary: list = []
     sections: dict[str, list] = {}
-    where = f"[{appendix}]({appendix})" if fmt == "md" else appendix
     for block in blocks:
         if not isinstance(block, Detail):
             summary.append(block)
             continue
         if block.section not in sections:
+            where = (
+                f"[{appendix}, {block.section}]({appendix}#{_anchor(block.section)})"
+                if fmt == "md"
+                else f"{appendix}, section {block.section}"
+            )
             summary.append(
-                Text(f"Each detector's own tables and figures of {block.section}: see {where}.")
+                Text(f"Each detector's own tables and figures of this section: {where}.")
             )
         sections.setdefault(block.section, []).extend(block.blocks)
     back = "the summary" + (

@@ -47,7 +47,8 @@ def test_summary_leaves_each_detectors_tables_to_the_appendix():
     side = [t for t in kept if "every detector side by side" in t.caption]
     assert {"window-size", "material-holdout"} <= {t.subject.split()[1].rstrip(",") for t in side}
     text, rest = render(summary, "md"), render(appendix, "md")
-    assert "[appendix.md](appendix.md)" in text
+    assert "[appendix.md, window-size](appendix.md#window-size)" in text
+    assert "(appendix.md#at-window-50-baseline-and-tptn-rates)" in text
     assert "### window-size: holweg (paper split)" in rest
     assert "### window-size: holweg" not in text
     # the split loses nothing: the whole report holds what the two files hold
@@ -63,8 +64,11 @@ def test_report_command_writes_summary_and_appendix(tmp_path, cli):
     )
     assert code == 0, err
     summary, appendix = out.read_text(), extra.read_text()
-    assert "(appendix.md)" in summary and "Detector lstm, protocol sampling-rate" in appendix
-    assert "Detector lstm, protocol" not in summary
+    assert (
+        "(appendix.md#sampling-rate)" in summary
+        and "Detector lstm, protocol sampling-rate" in appendix
+    )
+    assert "Detector lstm, protocol" not in summary and "[README.md](README.md)" in appendix
     whole = tmp_path / "whole.md"
     assert cli(["report", str(results), "--paper", "--out", str(whole)])[0] == 0
     assert "Detector lstm, protocol sampling-rate" in whole.read_text()  # default: everything

@@ -91,7 +91,9 @@ def report(
             param_hint="--appendix",
         )
     if appendix is not None and out is not None and appendix.resolve() == out.resolve():
-        raise click.BadParameter("the appendix needs a file of its own, not --out's", "--appendix")
+        raise click.BadParameter(
+            "the appendix needs a file of its own, not --out's", param_hint="--appendix"
+        )
     add_plugin_folders(plugins)
     rows = check_unique_keys(
         pd.concat([read_results(p) for p in results], ignore_index=True),
