@@ -70,7 +70,10 @@ def label(column: str, value: Any) -> str:
         return SENSOR_NAMES.get(value, str(value))
     if column in ("sensor_instance", "train_instance", "test_instance", "material"):
         text = str(value)
-        return text if text.isupper() else text.capitalize()
+        # the paper's own fingers and materials read capitalized, as in its tables; a lab's
+        # names ("ff", "hd") as the dataset spells them
+        known = value in ORDERS.get(column, ()) or text in INSTANCE_ORDER
+        return text.capitalize() if known and not text.isupper() else text
     if column == "speed_mm_s":
         return f"{float(value):g} mm/s"
     if isinstance(value, float):

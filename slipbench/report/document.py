@@ -14,13 +14,16 @@ Every report has the same outline:
    with ``paper``, the published table once and, for the paper's model, ours minus published;
 5. the paper's extra tables at window 50 (baseline, TP/TN rates).
 
-``leaderboard_only`` stops after 2.
+``leaderboard_only`` stops after 2. Each detector's own blocks (what fitting chose for it, its
+tables and figures of a protocol, its TP/TN rates) are :class:`Detail`: inline in the whole
+report, or moved to an appendix by :func:`split_appendix` so that the summary stays short.
 """
 
 from __future__ import annotations
 
 import base64
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -74,6 +77,70 @@ class Heading:
 @dataclass
 class Text:
     text: str
+
+
+@dataclass
+class Detail:
+    """One detector's blocks of a section (its tables and figures): inline in a whole report,
+    moved to the appendix where the report is split (:func:`split_appendix`)."""
+
+    section: str
+    blocks: list
+
+
+def flatten(blocks: list) -> list:
+    """The blocks with every :class:`Detail` inline: the whole report."""
+    out: list = []
+    for block in blocks:
+        out += block.blocks if isinstance(block, Detail) else [block]
+    return out
+
+
+def _anchor(heading: str) -> str:
+    """A Markdown heading's anchor as GitHub and most renderers make it."""
+    return re.sub(r"[^\w\- ]", "", heading.lower()).replace(" ", "-")
+
+
+def split_appendix(
+    blocks: list, appendix: str, fmt: str = "md", summary_path: str = ""
+) -> tuple[list, list]:
+    """(summary, appendix): the report without its :class:`Detail` blocks, each section that
+    had some pointing to ``appendix`` (the appendix's path as the summary links it), and the
+    appendix: those blocks under their sections' headings, pointing back to ``summary_path``
+    (the summary's path as the appendix links it; "" where the summary has no file)."""
+    summary: list = []
+    sections: dict[str, list] = {}
+    for block in blocks:
+        if not isinstance(block, Detail):
+            summary.append(block)
+            continue
+        if block.section not in sections:
+            where = (
+                f"[{appendix}, {block.section}]({appendix}#{_anchor(block.section)})"
+                if fmt == "md"
+                else f"{appendix}, section {block.section}"
+            )
+            summary.append(
+                Text(f"Each detector's own tables and figures of this section: {where}.")
+            )
+        sections.setdefault(block.section, []).extend(block.blocks)
+    back = "the summary" + (
+        f" ([{summary_path}]({summary_path}))"
+        if summary_path and fmt == "md"
+        else f" ({summary_path})"
+        if summary_path
+        else ""
+    )
+    rest: list = [
+        Heading("slipbench report: appendix", 1),
+        Text(
+            f"Each detector's own tables and figures, section by section, as {back} leaves them "
+            "out: the summary says what data and settings stand behind them."
+        ),
+    ]
+    for section, parts in sections.items():
+        rest += [Heading(section, 2), *parts]
+    return summary, rest
 
 
 def _which(which: dict) -> str:
@@ -292,16 +359,17 @@ def _protocol_blocks(
             drows = srows[srows["detector"] == detector]
             if drows.empty:
                 continue
-            blocks.append(Heading(f"{protocol}: {detector} ({split} split)", 3))
-            blocks += [
+            detail: list = [Heading(f"{protocol}: {detector} ({split} split)", 3)]
+            detail += [
                 t
                 for _, t in protocol_tables(
                     drows, layout, protocol, detector, metric, intervals, paper, split, predictions
                 )
             ]
-            blocks += [
+            detail += [
                 f for f in figures.get(protocol, []) if f.detector == detector and f.split == split
             ]
+            blocks.append(Detail(protocol, detail))
     return blocks
 
 
@@ -377,7 +445,11 @@ def build_report(
             ]
     fitted = fitted_tables(cells)
     if fitted:
-        blocks += [Heading("What fitting chose", 2), *fitted]
+        # each detector's choices are detail; the warnings about them stay in the summary
+        own = [t for t in fitted if t.label.startswith("tab:fitted-")]
+        blocks += [Heading("What fitting chose", 2)]
+        blocks += [Detail("What fitting chose", own)] if own else []
+        blocks += [t for t in fitted if not t.label.startswith("tab:fitted-")]
     for protocol in order:
         layout, note = found[protocol]
         blocks += _protocol_blocks(
@@ -394,17 +466,19 @@ def build_report(
             joint = joint_means(
                 one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions
             )
-        extra = [baseline_table(one, intervals, paper, joint)]
-        extra += [
+        baseline = baseline_table(one, intervals, paper, joint)
+        rates = [
             rates_table(one, d, intervals, paper, joint)
             for d in rank(one["detector"].unique(), DETECTOR_ORDER)
         ]
-        extra = [t for t in extra if t is not None]
-        if extra:
+        rates = [t for t in rates if t is not None]
+        if baseline is not None or rates:
             title = "At window 50: baseline and TP/TN rates" + (
                 f", {splits[0][0]} split" if len(splits) > 1 else ""
             )
-            blocks += [Heading(title, 2), *extra]
+            blocks.append(Heading(title, 2))
+            blocks += [baseline] if baseline is not None else []
+            blocks += [Detail(title, rates)] if rates else []
     return blocks
 
 
@@ -416,7 +490,7 @@ def write_figures(blocks: list, folder: str | os.PathLike) -> dict[str, list[Pat
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     out = {}
-    for block in blocks:
+    for block in flatten(blocks):
         if isinstance(block, FigureSpec):
             fig = block.draw()
             if fig is not None:
@@ -456,6 +530,7 @@ def render(
     """
     from slipbench.report.plots import FigureSpec
 
+    blocks = flatten(blocks)
     files = files or {}
     base = Path(link_from) if link_from is not None else Path.cwd()
     if fmt == "html":
@@ -490,8 +565,10 @@ def render(
                     (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
                 )
                 sections += 1
-            else:
-                out.append(rf"\subsection*{{{escape(block.text)}}}")
+            else:  # a heading at a page's foot goes to the next page, with its first table
+                out.append(
+                    rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
+                )
         elif isinstance(block, Text):
             out.append(
                 block.text
@@ -501,7 +578,7 @@ def render(
                 else f"% {block.text}"
             )
         elif isinstance(block, Table):
-            out.append(to_markdown(block) if fmt == "md" else to_latex(block))
+            out.append(to_markdown(block) if fmt == "md" else to_latex(block, page=standalone))
         elif isinstance(block, FigureSpec) and block.stem in files:
             paths = {p.suffix: p for p in files[block.stem]}
             if fmt == "md" and ".png" in paths:
@@ -512,9 +589,11 @@ def render(
                 out.append(
                     "\n".join(
                         [
-                            r"\begin{figure}[!htbp]",
+                            r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
                             r"\centering",
-                            rf"\includegraphics[width=\linewidth]{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
+                            # a tall figure shrinks to the page rather than run off it
+                            r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
+                            rf"{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
                             rf"\caption{{{escape(block.caption)}}}",
                             r"\end{figure}",
                         ]
@@ -589,6 +668,7 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
 
 
 __all__ = [
+    "Detail",
     "Heading",
     "Text",
     "build_report",
@@ -599,6 +679,7 @@ __all__ = [
     "published_table",
     "render",
     "render_report",
+    "split_appendix",
     "split_parts",
     "write_figures",
 ]

@@ -8,9 +8,10 @@ declares (``Layout.figure``), never chosen by a protocol's name:
 - "with-without": per detector, heatmaps with and without explicit training (``Layout.pair``)
   and their difference;
 - "matrix": per detector, the last row key by the column key, one panel per sensor type;
-- "tradeoff": median delay against false alarms per minute over a threshold sweep (a streaming
-  cell's ``tradeoff`` column), one curve per detector and unit, one panel per sensor type, the
-  detector's own threshold as a dot and the operating point as a cross; every detector together;
+- "tradeoff": detection rate against false alarms per minute (log axis) over a threshold sweep
+  (a streaming cell's ``tradeoff`` column, drawn as its monotone upper envelope), one panel per
+  detector, one curve per unit coloured by sensor type, the detector's own threshold as a dot
+  and the operating point as a cross;
 - and the leaderboard's critical-difference diagram.
 
 Every figure is drawn for a single column of print (3.5 in wide, 7 pt text), with one legend
@@ -379,63 +380,107 @@ def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
     return fig
 
 
+def envelope(curve: pd.DataFrame) -> pd.DataFrame:
+    """The upper envelope of a threshold sweep: per false-alarm rate, the highest detection rate
+    any threshold reaches at that rate or fewer, so the curve rises monotonically (a sweep's
+    raw points saw-tooth where a lower threshold trades detections between scenarios).
+    Columns ``false_alarms_per_min`` (ascending, distinct) and ``detection_rate``."""
+    points = curve.dropna(subset=["false_alarms_per_min", "detection_rate"])
+    points = points.sort_values(["false_alarms_per_min", "detection_rate"])
+    best = points.groupby("false_alarms_per_min", sort=True)["detection_rate"].max().cummax()
+    return best.reset_index()
+
+
+def _floor(rates: list[float]) -> tuple[float, float]:
+    """(floor, decade): where a log axis draws 0 false alarms per minute (a third of the
+    decade below the smallest rate above 0) and that decade (its first tick after 0)."""
+    positive = [r for r in rates if r > 0]
+    decade = 10 ** np.floor(np.log10(min(positive))) if positive else 0.1
+    return float(decade / 3), float(decade)
+
+
 @_styled
 def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
-    """Median delay (ms) against false alarms per minute, from the streaming rows' sweeps: one
-    panel per sensor type, a colour per detector, a line style per unit; each row's own
-    threshold a dot, its operating point a cross. None when no row holds a sweep."""
+    """Detection rate (%) against false alarms per minute (log axis), from the streaming rows'
+    sweeps: one panel per detector, one curve per unit (the sweep's upper envelope, monotone),
+    a colour per sensor type; each row's own threshold a dot, its operating point a cross.
+    Zero false alarms are drawn at the axis's left edge (its tick reads 0). None when no row
+    holds a sweep."""
     rows = rows[rows["status"] == "ok"] if "status" in rows else rows
     if "tradeoff" not in rows or rows["tradeoff"].dropna().empty:
         return None
     rows = rows[rows["tradeoff"].notna()]
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
-    fig = _figure(1.2 + 1.9 * len(sensors))
-    axes = fig.subplots(len(sensors), 1, squeeze=False)[:, 0]
-    for ax, sensor in zip(axes, sensors):
-        part = rows[rows["sensor_type"] == sensor]
-        units = ordered(part["sensor_instance"].unique(), "sensor_instance")
-        for d, detector in enumerate(detectors):
-            for u, unit in enumerate(units):
-                for _, row in part[
-                    (part["detector"] == detector) & (part["sensor_instance"] == unit)
-                ].iterrows():
-                    curve = pd.DataFrame(json.loads(row["tradeoff"])).dropna(
-                        subset=["median_delay_ms", "false_alarms_per_min"]
-                    )
-                    curve = curve.sort_values(["false_alarms_per_min", "median_delay_ms"])
+    curves = {i: envelope(pd.DataFrame(json.loads(r["tradeoff"]))) for i, r in rows.iterrows()}
+    rates = [float(x) for c in curves.values() for x in c["false_alarms_per_min"]]
+    rates += [float(x) for x in rows["false_alarms_per_min"].dropna()]
+    if "op_false_alarms_per_min" in rows:
+        rates += [float(x) for x in rows["op_false_alarms_per_min"].dropna()]
+    floor, decade = _floor(rates)
+    ncols = 1 if len(detectors) < 3 else 2
+    nrows = -(-len(detectors) // ncols)
+    fig = _figure(0.95 + 1.25 * nrows)
+    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
+    for ax in axes.flat[len(detectors) :]:
+        ax.set_visible(False)
+    for ax, detector in zip(axes.flat, detectors):
+        part = rows[rows["detector"] == detector]
+        for i, row in part.iterrows():
+            color = f"C{sensors.index(row['sensor_type'])}"
+            curve = curves[i]
+            ax.plot(
+                np.maximum(curve["false_alarms_per_min"], floor),
+                100 * curve["detection_rate"],
+                "-",
+                color=color,
+                lw=0.8,
+                alpha=0.8,
+                drawstyle="steps-post",  # the envelope holds its rate until the next point
+            )
+            for prefix, marker in (("", "o"), ("op_", "x")):
+                x, y = row.get(f"{prefix}false_alarms_per_min"), row.get(f"{prefix}detection_rate")
+                if pd.notna(x) and pd.notna(y):
                     ax.plot(
-                        curve["false_alarms_per_min"],
-                        curve["median_delay_ms"],
-                        ("-", "--", ":", "-.")[u % 4],
-                        color=f"C{d}",
-                        lw=1,
-                        label=f"{detector}, {label('sensor_instance', unit)}",
+                        max(float(x), floor),
+                        100 * float(y),
+                        marker,
+                        color=color,
+                        ms=3.5,
+                        mfc="none",
                     )
-                    ax.plot(
-                        row["false_alarms_per_min"],
-                        row["median_delay_ms"],
-                        "o",
-                        color=f"C{d}",
-                        ms=4,
-                    )
-                    if pd.notna(row.get("op_median_delay_ms", np.nan)):
-                        ax.plot(
-                            row["op_false_alarms_per_min"],
-                            row["op_median_delay_ms"],
-                            "x",
-                            color=f"C{d}",
-                            ms=5,
-                        )
-        ax.set_xscale("symlog", linthresh=1.0)  # 0 false alarms is a result worth seeing
-        ax.set_xlabel("false alarms per minute")
-        ax.set_ylabel("median delay (ms)")
-        ax.set_title(label("sensor_type", sensor))
+        ax.set_xscale("log")
+        ax.set_title(detector, loc="left", pad=2)
+        ax.set_ylim(-3, 103)
         ax.grid(alpha=0.3)
-    handles, names = axes[0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="outside lower center", ncols=2, fontsize=5.5)  # once per figure
+    for ax in axes[:, 0]:
+        ax.set_ylabel("detection rate (%)")
+    for ax in axes[-1, :]:
+        ax.set_xlabel("false alarms per minute")
+    for ax in axes.flat[len(detectors) - ncols : len(detectors)]:
+        ax.xaxis.set_tick_params(labelbottom=True)  # the last row's panel above an empty slot
+        ax.set_xlabel("false alarms per minute")
+    _zero_tick(axes.flat[0], floor, decade)
+    from matplotlib.lines import Line2D
+
+    keys = [Line2D([], [], color=f"C{i}", lw=1) for i in range(len(sensors))]
+    keys += [Line2D([], [], ls="", marker=m, color="0.3", mfc="none", ms=3.5) for m in "ox"]
+    names = [label("sensor_type", s) for s in sensors] + ["threshold 0.5", "operating point"]
+    fig.legend(keys, names, loc="outside lower center", ncols=min(len(names), 3), frameon=False)
     fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
+
+
+def _zero_tick(ax, floor: float, decade: float) -> None:
+    """The shared log axis: 0 at ``floor``, then every decade from ``decade`` up."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter
+
+    top = max(ax.get_xlim()[1], decade * 10)
+    ax.set_xlim(floor / 1.5, top)
+    ax.xaxis.set_minor_locator(FixedLocator([]))
+    ticks = [floor] + [decade * 10**k for k in range(int(np.ceil(np.log10(top / decade))) + 1)]
+    ax.xaxis.set_major_locator(FixedLocator(ticks))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: "0" if v <= floor else f"{v:g}"))
 
 
 @_styled
@@ -518,7 +563,7 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figur
             ref,
         )
     if layout.figure == "tradeoff":
-        return tradeoff(part, f"Delay against false alarms: {title}")
+        return tradeoff(part, f"Detection rate against false alarms: {title}")
     if layout.figure == "with-without":
         return _heatmaps(
             part, layout, f"Accuracy per {layout.title.lower() or layout.column}: {title}"
@@ -587,9 +632,10 @@ def figure_specs(
                     specs.append(
                         FigureSpec(
                             f"{protocol}-detectors{tail}",
-                            f"{protocol}, every detector ({split} split{named}): median delay "
-                            "against false alarms per minute over the threshold sweep; dot: threshold 0.5, cross: the "
-                            "operating point chosen on the training trials.",
+                            f"{protocol}, every detector ({split} split{named}): detection rate "
+                            "against false alarms per minute over the threshold sweep (its upper envelope), one "
+                            "panel per detector, one curve per unit; dot: threshold 0.5, cross: the operating "
+                            "point chosen on the training trials.",
                             protocol,
                             partial(
                                 tradeoff, part, f"{protocol}, every detector ({split} split{named})"

@@ -82,6 +82,59 @@ def dataset_source(path: str) -> str:
     return f"the dataset at {path} ({state})"
 
 
+NO_UNIT = {"", "na", "nan", "none", "null"}  # how a missing unit may be spelled in a dataset
+
+
+def sensor_units(path: str) -> str:
+    """The sensors of the dataset at ``path`` as it spells them: each sensor type with its
+    instances and its channels' units ("unitless" where the dataset gives none); "" where the
+    dataset is not readable here."""
+    if not path:
+        return ""
+    try:
+        table = pq.read_table(
+            Path(path) / "recordings.parquet",
+            columns=["sensor_type", "sensor_instance", "units"],
+            page_checksum_verification=True,
+        ).to_pydict()
+    except (OSError, pa.ArrowException, KeyError):
+        return ""
+    sensors: dict[str, tuple[dict, dict]] = {}  # type -> (instances, units), in first-seen order
+    for kind, instance, units in zip(
+        table["sensor_type"], table["sensor_instance"], table["units"]
+    ):
+        instances, found = sensors.setdefault(str(kind), ({}, {}))
+        instances[str(instance)] = None
+        for unit in units or [None]:
+            text = "" if unit is None else str(unit).strip()
+            found["unitless" if text.lower() in NO_UNIT else text] = None
+    return "; ".join(
+        f"{kind} ({', '.join(instances)}): {', '.join(found)}"
+        for kind, (instances, found) in sensors.items()
+    )
+
+
+def _described(rows: pd.DataFrame, describe) -> list[str]:
+    """``describe(path)`` once per dataset of ``rows`` (by fingerprint, so that one dataset
+    reached by two paths, as two results folders may name it, reads once), each text once."""
+    if "dataset_path" not in rows:
+        return []
+    paths = rows[["dataset_path"]].assign(
+        fp=rows["dataset_fingerprint"] if "dataset_fingerprint" in rows else rows["dataset_path"]
+    )
+    paths = paths.dropna(subset=["dataset_path"]).astype(str)
+    texts: dict[str, None] = {}
+    for _, group in sorted(paths.groupby("fp", sort=False), key=lambda g: str(g[0])):
+        candidates = sorted(group["dataset_path"].unique())
+        # the first path that reads, else the first: a folder moved since the run still names one
+        described = [describe(p) for p in candidates]
+        readable = [t for p, t in zip(candidates, described) if t and Path(p).exists()]
+        text = (readable or described)[0]
+        if text:
+            texts[text] = None
+    return list(texts)
+
+
 def _data_lines(rows: pd.DataFrame) -> list[tuple[str, str]]:
     """The header's lines on the data: its source and fingerprint; for rows trained on one
     dataset and tested on another, both datasets (source, path, fingerprint) and how the test
@@ -97,8 +150,12 @@ def _data_lines(rows: pd.DataFrame) -> list[tuple[str, str]]:
         lines += [
             (
                 "Data",
-                "; ".join(dataset_source(p) for p in _values(within, "dataset_path"))
-                or "unknown (the rows do not say)",
+                "; ".join(_described(within, dataset_source)) or "unknown (the rows do not say)",
+            ),
+            *(
+                [("Sensors (units)", " | ".join(sensors))]
+                if (sensors := _described(within, sensor_units))
+                else []
             ),
             (
                 "Dataset fingerprint",

@@ -19,6 +19,10 @@ LATEX_TABLE_SIZE = (
     r"\footnotesize"  # with intervals on a second line, the paper's tables fit the text width
 )
 LATEX_COLUMN_SEP = "3pt"
+# a standalone page: tables taller than this many lines of \footnotesize break across pages
+# (longtable); a page of the article class holds about 50 with the caption and a heading
+LONG_TABLE_LINES = 40
+CHARS_PER_LINE = 95  # \footnotesize characters on one \linewidth of the article class
 
 
 def to_markdown(table: Table) -> str:
@@ -85,9 +89,32 @@ def _two_lines(text: str, limit: int = 44) -> str:
     return _stacked([escape(text[:middle]), escape(text[middle + 1 :])])
 
 
-def to_latex(table: Table) -> str:
+def latex_lines(table: Table) -> int:
+    """About how many lines of text ``table`` takes when set: per row, its tallest cell (stacked
+    lines, or a wrapped paragraph's lines), plus the caption, header and notes."""
+
+    def height(i: int, text: str) -> int:
+        if i in table.wrap:
+            return max(1, -(-len(text) // max(1, int(table.wrap[i] * CHARS_PER_LINE))))
+        return latex_cell(text).count(r"\\") + 1
+
+    body = sum(
+        max(height(j, t) for j, t in enumerate([*labels, *cells]))
+        for labels, cells in zip(table.rows, table.cells)
+    )
+    notes = sum(-(-len(n) // CHARS_PER_LINE) for n in table.notes)
+    return body + 4 + (1 if table.group else 0) + notes
+
+
+def to_latex(table: Table, page: bool = False) -> str:
     """A LaTeX ``table`` float in the paper's style (vertical rules, sensor name on the first row
     of its group, ``\\cline`` between fingers). Uses only the LaTeX kernel: no packages.
+
+    ``page``: for :func:`standalone_latex`'s document, where nothing may be larger than the
+    page and a section's heading stays with its tables: the float is placed here (``[H]``,
+    package float), a table wider than the text is scaled to its width (``\\resizebox``) and
+    one taller than :data:`LONG_TABLE_LINES` lines breaks across pages (longtable, its header
+    repeated).
 
     Wide tables fit the text width: the float is set in ``\\footnotesize`` with narrower column
     gaps, intervals go on a second line in ``\\scriptsize``, long column labels on two lines,
@@ -108,26 +135,18 @@ def to_latex(table: Table) -> str:
         )
 
     caption = f"{table.caption} {table.subject}".strip()
-    lines = [
-        r"\begin{table}[!htbp]",
-        rf"\caption{{{escape(caption)}}}",
-        r"\centering",
-        LATEX_TABLE_SIZE,
-        rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}",
-        rf"\begin{{tabular}}{{{spec}}}",
-        r"\hline",
-    ]
+    head: list[str] = []
     heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
     if table.group:
-        lines.append(
+        head.append(
             rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_two_lines(table.group)}}}\\"
         )
-        lines.append(rf"\cline{{{first}-{n_rows + n_cols}}}")
+        head.append(rf"\cline{{{first}-{n_rows + n_cols}}}")
         heads = " & " * n_rows
     else:
         heads += " & "
     latex_cols = table.latex_columns or [escape(c) for c in table.columns]
-    lines.append(
+    head.append(
         heads
         + " & ".join(
             wrapped(n_rows + j, c) if n_rows + j in table.wrap else _latex_header(c)
@@ -135,7 +154,8 @@ def to_latex(table: Table) -> str:
         )
         + r"\\"
     )
-    lines.append(r"\hline")
+    head.append(r"\hline")
+    lines: list[str] = []
     previous: tuple[str, ...] | None = None
     for i, (labels, cells) in enumerate(zip(table.rows, table.cells)):
         shown = list(labels)
@@ -156,23 +176,78 @@ def to_latex(table: Table) -> str:
             else r"\hline"
         )
         previous = labels
-    lines.append(r"\end{tabular}")
-    if table.label:
-        lines.append(rf"\label{{{table.label}}}")
-    for note in table.notes:
-        lines.append(rf"\par {escape(note)}")
-    lines.append(r"\end{table}")
-    return "\n".join(lines)
+    label_ = [rf"\label{{{table.label}}}"] if table.label else []
+    notes = [rf"\par {escape(note)}" for note in table.notes]
+    size = [LATEX_TABLE_SIZE, rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}"]
+    if page and latex_lines(table) > LONG_TABLE_LINES:
+        columns = n_rows + n_cols
+        return "\n".join(
+            [
+                r"\begingroup",
+                *size,
+                rf"\begin{{longtable}}{{{spec}}}",
+                rf"\caption{{{escape(caption)}}}{''.join(label_)}\\",
+                r"\hline",
+                *head,
+                r"\endfirsthead",
+                rf"\multicolumn{{{columns}}}{{l}}{{\emph{{Table \thetable{{}}, continued}}}}\\",
+                r"\hline",
+                *head,
+                r"\endhead",
+                rf"\multicolumn{{{columns}}}{{r}}{{\emph{{continued on the next page}}}}\\",
+                r"\endfoot",
+                r"\endlastfoot",
+                *lines,
+                r"\end{longtable}",
+                *notes,
+                r"\par\endgroup",
+            ]
+        )
+    tabular = [rf"\begin{{tabular}}{{{spec}}}", r"\hline", *head, *lines, r"\end{tabular}"]
+    if page:  # scaled to the text's width where wider: nothing larger than the page
+        tabular = [
+            r"\sbox{\slipbox}{%",
+            *tabular,
+            r"}%",
+            r"\ifdim\wd\slipbox>\linewidth\resizebox{\linewidth}{!}{\usebox{\slipbox}}"
+            r"\else\usebox{\slipbox}\fi",
+        ]
+    return "\n".join(
+        [
+            r"\begin{table}[H]" if page else r"\begin{table}[!htbp]",
+            rf"\caption{{{escape(caption)}}}",
+            r"\centering",
+            *size,
+            *tabular,
+            *label_,
+            *notes,
+            r"\end{table}",
+        ]
+    )
 
 
 def standalone_latex(body: str, graphics: bool = False) -> str:
-    """Wrap table floats in a minimal document that compiles with the LaTeX kernel alone (and
-    ``graphicx``, part of every LaTeX installation, where ``graphics`` includes figures)."""
+    """Wrap tables (:func:`to_latex` with ``page``) in a minimal document that compiles with the
+    packages of every LaTeX installation: graphicx (scaled tables, figures), float (tables
+    placed under their headings) and longtable (tall tables across pages); and ``\\slipneed``,
+    which keeps a heading off a page's foot. ``graphics`` is kept for callers; graphicx is
+    always loaded."""
+    del graphics
     return "\n".join(
         [
             r"\documentclass{article}",
             r"\usepackage[utf8]{inputenc}",
-            *([r"\usepackage{graphicx}"] if graphics else []),
+            r"\usepackage{graphicx}",
+            r"\usepackage{float}",
+            r"\usepackage{longtable}",
+            r"\newsavebox{\slipbox}",
+            # \slipneed{len}: a page break here unless len is left on the page (needspace's
+            # definition, without the package: a heading never ends a page its table leaves)
+            r"\makeatletter",
+            r"\newcommand{\slipneed}[1]{\par\penalty-100\begingroup\setlength{\dimen@}{#1}"
+            r"\dimen@ii\pagegoal\advance\dimen@ii-\pagetotal\ifdim\dimen@>\dimen@ii"
+            r"\ifdim\dimen@ii>\z@\vfil\fi\penalty-\@M\fi\endgroup}",
+            r"\makeatother",
             r"\begin{document}",
             body,
             r"\end{document}",

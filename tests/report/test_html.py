@@ -15,7 +15,7 @@ import pytest
 from goldens import check_golden
 from resultgen import all_rows
 
-from slipbench.report.document import build_report, render
+from slipbench.report.document import build_report, flatten, render
 from slipbench.report.plots import FigureSpec
 from slipbench.report.tables import Table
 
@@ -103,7 +103,7 @@ class Outline(HTMLParser):
 
 
 def _page(tmp_path: Path) -> tuple[str, list]:
-    blocks = build_report(all_rows(), intervals=True, paper=True, with_figures=True)
+    blocks = flatten(build_report(all_rows(), intervals=True, paper=True, with_figures=True))
     return render(blocks, "html"), blocks
 
 
