@@ -63,7 +63,8 @@ def test_page_covers_every_hook_a_plugin_uses():
 
 def test_signatures_show_keyword_only_and_defaults():
     assert apidoc.signature("slipbench.base:BaseDetector.fit", base.BaseDetector.fit) == (
-        "BaseDetector.fit(x: Any, y: Any, *, sampling_rate: float = 1000.0, seed: int = 0)"
+        "BaseDetector.fit(x: Any, y: Any, *, sampling_rate: float = 1000.0, seed: int = 0,"
+        " groups: Any = None)"
         " -> BaseDetector"
     )
     assert apidoc.signature("slipbench.spectra:best_threshold", spectra.best_threshold) == (
