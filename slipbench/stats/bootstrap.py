@@ -422,20 +422,35 @@ def seeded_interval(
     if not used.any() or design.lone()[used].any():
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
     w = resample_weights(design, seed, n_resamples)
+    twice: list[float] = []  # per side of several seeds: the seed-by-cluster variance
     with np.errstate(invalid="ignore", divide="ignore"):
         boot = np.zeros(n_resamples)
         for k, (sign, f) in enumerate(zip(signs, per_seed(w))):
             v = seed_weights(f.shape[1], seed, k, n_resamples)
             boot += sign * (f * v).sum(axis=1) / v.sum(axis=1)
+            if f.shape[1] > 1:
+                dev = f - f.mean(axis=1, keepdims=True)
+                dev = dev[np.isfinite(dev).all(axis=1)]
+                twice.append(float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1))
     boot = boot[np.isfinite(boot)]
     se = float(boot.std(ddof=1))
+    if twice:
+        # seeds and clusters are crossed: a seed's own error on a cluster shows both in the
+        # spread of the seeds and in the clusters' resamples; count it once, not twice (the
+        # "pigeonhole" bootstrap of crossed designs overstates the variance by this term)
+        se = float(np.sqrt(max(se**2 - sum(twice), 0.0)))
     alpha = 1 - level
     unit = bounds == (0.0, 1.0)
     if method == "satterthwaite":
         infl = sum(
             k * np.asarray(g)[0].mean(axis=0) for k, g in zip(signs, per_seed_influence(one))
         )
-        extra = [(float(f.var(ddof=1)) / len(f), len(f) - 1.0) for f in at_one if len(f) > 1]
+        # each side's seed variance of its mean, net of the seed-by-cluster part
+        spread = [float(f.var(ddof=1)) / len(f) for f in at_one if len(f) > 1]
+        extra = [
+            (max(0.0, v - t), n - 1.0)
+            for v, t, n in zip(spread, twice, (len(f) for f in at_one if len(f) > 1))
+        ]
         df = satterthwaite_df(design, np.asarray(infl), sizes, used, extra)
     else:
         df = float(design.df(used))
