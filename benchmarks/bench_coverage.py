@@ -142,12 +142,13 @@ def dataset(
     return sides[0], sides[1]
 
 
-def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, int]:
-    """Hits of every interval over ``n`` replications of one (scenario, m), chunk ``c``."""
+def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, float]:
+    """Hits of every interval over ``n`` replications of one (scenario, m), chunk ``c``, and
+    their summed widths (``w_<name>``)."""
     scenario, m, c, n, seed, method = task
     rng = np.random.default_rng([seed, SCENARIOS.index(scenario), m, c])
     true = truth(scenario)
-    hits = dict.fromkeys(true, 0)
+    hits: dict[str, float] = dict.fromkeys([*true, *(f"w_{k}" for k in true)], 0.0)
     for r in range(n):
         base, cand = dataset(rng, m, scenario)
         f = over_seeds(base, seed=r, method=method)
@@ -155,6 +156,7 @@ def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, int]:
         for name, value in true.items():
             src = d if name.startswith("d_") else f
             hits[name] += bool(src[f"{name}_lo"] <= value <= src[f"{name}_hi"])
+            hits[f"w_{name}"] += src[f"{name}_hi"] - src[f"{name}_lo"]
     return hits
 
 
@@ -166,7 +168,8 @@ def study(
     seed: int = 0,
     method: str = "satterthwaite",
 ) -> pd.DataFrame:
-    """Coverage of every figure's interval and of every change: one row per (scenario, m)."""
+    """Coverage of every figure's interval and of every change, and (``w_<name>``) the mean
+    width of each: one row per (scenario, m)."""
     tasks = [
         (s, m, c, min(CHUNK, reps - c * CHUNK), seed, method)
         for s in scenarios
@@ -182,16 +185,20 @@ def study(
     for s in scenarios:
         for m in sizes:
             mine = [h for t, h in zip(tasks, results) if t[:2] == (s, m)]
-            total = {k: sum(h[k] for h in mine) for k in NAMES}
+            total = {k: sum(h[k] for h in mine) for k in (*NAMES, *(f"w_{n}" for n in NAMES))}
             rows.append(
-                {"scenario": s, "m": m, "reps": reps, **{k: total[k] / reps for k in NAMES}}
+                {"scenario": s, "m": m, "reps": reps, **{k: v / reps for k, v in total.items()}}
             )
     return pd.DataFrame(rows)
 
 
-def markdown(table: pd.DataFrame) -> str:
-    """The coverage table in Markdown, figures abbreviated."""
-    shown = table.rename(
+def markdown(table: pd.DataFrame, widths: bool = False) -> str:
+    """The coverage table in Markdown, figures abbreviated; with ``widths``, the mean widths
+    too (columns ``w ...``)."""
+    keep = ["scenario", "m", "reps", *NAMES, *((f"w_{n}" for n in NAMES) if widths else ())]
+    short = {**SHORT, **{f"d_{k}": f"d {v}" for k, v in SHORT.items()}}
+    shown = table[keep].rename(columns={f"w_{k}": f"w {v}" for k, v in short.items()})
+    shown = shown.rename(
         columns={**SHORT, **{f"d_{k}": f"d {v}" for k, v in SHORT.items()}, "m": "trials/class"}
     )
     return str(shown.to_markdown(index=False, floatfmt=".3f"))
@@ -210,6 +217,7 @@ def main(argv: Sequence[str] | None = None) -> pd.DataFrame:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--method", default="satterthwaite", help="interval method (bootstrap.METHODS)")
     ap.add_argument("--out", type=Path, help="write the Markdown table here too")
+    ap.add_argument("--widths", action="store_true", help="show the mean widths too")
     a = ap.parse_args(argv)
     start = time.perf_counter()
     table = study(
@@ -222,7 +230,7 @@ def main(argv: Sequence[str] | None = None) -> pd.DataFrame:
     )
     text = (
         f"{a.reps} replications per row, method {a.method}, seed {a.seed}, "
-        f"{time.perf_counter() - start:.0f} s\n\n{markdown(table)}\n"
+        f"{time.perf_counter() - start:.0f} s\n\n{markdown(table, a.widths)}\n"
     )
     print(text, flush=True)
     if a.out:

@@ -135,7 +135,7 @@ from slipbench.seeding import rng_for
 
 LEVEL = 0.95
 N_RESAMPLES = 999
-METHODS = ("satterthwaite", "t", "percentile")
+METHODS = ("satterthwaite", "t", "percentile", "studentized")
 
 
 @dataclass(frozen=True)
@@ -370,10 +370,12 @@ def interval(
         The clusters the figure draws on.
     sizes : ndarray of shape (n_clusters,)
         Windows per cluster that the figure draws on.
-    method : {"satterthwaite", "t", "percentile"}
+    method : {"satterthwaite", "t", "percentile", "studentized"}
         ``satterthwaite`` (default; see the module docstring); ``t``: estimate ± t quantile
         (df clusters - strata) × bootstrap standard error; ``percentile``. The last two are
-        kept as the references the coverage study compares against.
+        kept as the references the coverage study compares against. ``studentized``: the
+        union of the ``satterthwaite`` interval and a bootstrap-t interval
+        (:func:`_studentized_bounds`); a study option, see ``docs/coverage.md``.
     bounds : (low, high)
         The range the figure can take: (0, 1) for figures, (-1, 1) for changes.
     """
@@ -457,7 +459,8 @@ def seeded_interval(
         se = float(np.sqrt(max(se**2 - sum(twice), 0.0)))
     alpha = 1 - level
     unit = bounds == (0.0, 1.0)
-    if method == "satterthwaite":
+    logit_t = method in ("satterthwaite", "studentized")  # studentized: the union with it
+    if logit_t:
         infl = sum(
             k * np.asarray(g)[0].mean(axis=0) for k, g in zip(signs, per_seed_influence(one))
         )
@@ -481,9 +484,124 @@ def seeded_interval(
         lo, hi = np.quantile(boot, [alpha / 2, 1 - alpha / 2])
     else:
         q = student_t.ppf(1 - alpha / 2, df)
-        if method == "satterthwaite" and unit and 0 < est < 1:
+        if logit_t and unit and 0 < est < 1:
             z, s = np.log(est / (1 - est)), se / (est * (1 - est))
             lo, hi = 1 / (1 + np.exp(-(z - q * s))), 1 / (1 + np.exp(-(z + q * s)))
         else:
             lo, hi = est - q * se, est + q * se
-    return Interval(est, float(max(lo, bounds[0])), float(min(hi, bounds[1])), se, df, True)
+    lo, hi = float(max(lo, bounds[0])), float(min(hi, bounds[1]))
+    if method == "studentized" and se > 0:
+        blo, bhi = _studentized_bounds(
+            per_seed, per_seed_influence, signs, design, used, est, seed, level, n_resamples, unit
+        )
+        # the union: the t-interval where the sample is symmetric, wider only on a side where
+        # the resampled pivots say its skew needs it
+        lo, hi = min(lo, max(blo, bounds[0])), max(hi, min(bhi, bounds[1]))
+    return Interval(est, lo, hi, se, df, True)
+
+
+def classic_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
+    """Cluster weights of the textbook stratified bootstrap (``n_h`` of ``n_h`` drawn, stream
+    ``bootstrap-t``): a resample is a sample of the same size, so its linearized standard error
+    (:func:`linearized_variance`) is built like the test set's own, as a studentized pivot needs.
+
+    Returns
+    -------
+    ndarray of shape (n_resamples, n_clusters)
+    """
+    rng = rng_for(seed, "bootstrap-t")
+    w = np.ones((n_resamples, design.n_clusters))
+    for h, n_h in enumerate(design.size):
+        if n_h > 1:
+            members = np.flatnonzero(design.stratum == h)
+            w[:, members] = rng.multinomial(n_h, np.full(n_h, 1 / n_h), size=n_resamples)
+    return w
+
+
+def linearized_variance(
+    design: Design, influence: np.ndarray, used: np.ndarray, weights: np.ndarray | None = None
+) -> np.ndarray:
+    """``sum_h n_h / (n_h - 1) sum_i w_i (r_i - rbar_h)^2`` per row: the linearized variance of
+    a figure from its influences ``r`` (n, n_clusters) at cluster weights ``w`` (frequency
+    weights summing to ``n_h`` per stratum; ones for the test set itself).
+
+    Returns
+    -------
+    ndarray of shape (n,)
+    """
+    w = np.ones_like(influence) if weights is None else weights
+    out = np.zeros(influence.shape[0])
+    for h, n_h in enumerate(design.size):
+        m = (design.stratum == h) & used
+        if n_h < 2 or not m.any():
+            continue
+        r, wm = influence[:, m], w[:, m]
+        centre = (wm * r).sum(axis=1, keepdims=True) / wm.sum(axis=1, keepdims=True)
+        out += n_h / (n_h - 1) * (wm * (r - centre) ** 2).sum(axis=1)
+    return out
+
+
+def _studentized_bounds(
+    per_seed: PerSeed,
+    per_seed_influence: PerSeed,
+    signs: Sequence[float],
+    design: Design,
+    used: np.ndarray,
+    est: float,
+    seed: int,
+    level: float,
+    n_resamples: int,
+    unit: bool,
+) -> tuple[float, float]:
+    """Bootstrap-t bounds (method ``studentized``): pivots ``(theta* - est) / se*`` over textbook
+    cluster resamples (and, per side of several seeds, resampled seeds), ``se*`` the resample's
+    linearized standard error plus its seeds' variance of the mean; the test set's own standard
+    error is built the same way. Figures in [0, 1] take the pivot on the logit scale. A resample
+    with no spread (every drawn cluster alike) has no pivot to speak of: it counts as infinitely
+    far on its side, so it widens that side rather than vanishing or dividing by zero."""
+    one = np.ones((1, design.n_clusters))
+    w = classic_weights(design, seed, n_resamples)
+    theta, infl, seed_var = np.zeros(n_resamples), np.zeros_like(w), np.zeros(n_resamples)
+    infl_one, seed_var_one = np.zeros_like(one), 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sides = zip(
+            signs, per_seed(w), per_seed_influence(w), per_seed(one), per_seed_influence(one)
+        )
+        for k, (sign, f, g, f1, g1) in enumerate(sides):
+            n_seeds = f.shape[1]
+            v = np.ones((n_resamples, 1))
+            if n_seeds > 1:
+                rng = rng_for(seed, "bootstrap-t-seeds", k)
+                v = rng.multinomial(
+                    n_seeds, np.full(n_seeds, 1 / n_seeds), size=n_resamples
+                ).astype(float)
+                mean = (f * v).sum(axis=1) / n_seeds
+                seed_var += (v * (f - mean[:, None]) ** 2).sum(axis=1) / (n_seeds - 1) / n_seeds
+                seed_var_one += float(np.asarray(f1)[0].var(ddof=1)) / n_seeds
+            theta += sign * (f * v).sum(axis=1) / n_seeds
+            infl += sign * (g * v[:, :, None]).sum(axis=1) / n_seeds
+            infl_one += sign * np.asarray(g1).mean(axis=1)
+        se_star = np.sqrt(linearized_variance(design, infl, used, w) + seed_var)
+        se_one = float(np.sqrt(linearized_variance(design, infl_one, used)[0] + seed_var_one))
+    ok = np.isfinite(theta) & np.isfinite(se_star)
+    theta, se_star = theta[ok], se_star[ok]
+    if not ok.any() or not se_one > 0:
+        return est, est
+    logit = unit and 0 < est < 1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if logit:
+            th = np.clip(theta, 1e-9, 1 - 1e-9)  # a resample at the bound: far, not infinite
+            d = np.log(th / (1 - th)) - np.log(est / (1 - est))
+            s, s_one = se_star / (th * (1 - th)), se_one / (est * (1 - est))
+        else:
+            d, s, s_one = theta - est, se_star, se_one
+        pivot = np.where(s > 0, d / np.where(s > 0, s, 1.0), np.sign(d) * 1e12)
+    alpha = 1 - level
+    q_lo, q_hi = np.quantile(pivot, [alpha / 2, 1 - alpha / 2])
+    if logit:
+        z = np.log(est / (1 - est))
+        q_lo, q_hi = np.clip([q_lo, q_hi], -700 / max(s_one, 1e-300), 700 / max(s_one, 1e-300))
+        return float(1 / (1 + np.exp(-(z - q_hi * s_one)))), float(
+            1 / (1 + np.exp(-(z - q_lo * s_one)))
+        )
+    return est - q_hi * s_one, est - q_lo * s_one
