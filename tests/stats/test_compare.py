@@ -21,7 +21,7 @@ from test_coverage import TAUS, dataset
 from slipbench.app.cli import main
 from slipbench.errors import DataError
 from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, to_json, to_markdown
-from slipbench.stats.compare import compare, family_level, verdict
+from slipbench.stats.compare import CELL_ALPHA, compare, family_level, verdict
 from slipbench.stats.metrics import classification_figures, paired_comparison
 from slipbench.store.results import check_unique_keys
 
@@ -58,16 +58,13 @@ def runs(small_path, tmp_path_factory):
 
 
 def test_self_compare_reports_no_change(runs, cli):
+    """An identical candidate: a comment of a few lines, not a table of +0.0 [+0.0, +0.0]."""
     code, out, _ = cli(["compare", str(runs / "base"), str(runs / "base" / "results.parquet")])
     assert code == 0
-    assert (
-        "**No regression**" in out
-        and "▼ regressed: 0" in out
-        and "= no significant change: 2" in out
-    )
-    rows = [line for line in out.splitlines() if line.endswith("= no significant change |")]
-    assert len(rows) == 2  # both cells, each once, exactly unchanged in accuracy, TP and TN rate
-    assert all("+0.0 [+0.0, +0.0]" in row and "+0.0 / +0.0" in row for row in rows)
+    assert "**Nothing changed.**" in out and "all 2 paired cells are identical" in out
+    assert len(out.splitlines()) <= 8 and "+0.0 [+0.0, +0.0]" not in out
+    doc = json.loads(to_json(compare(runs / "base", runs / "base")))
+    assert doc["counts"]["identical"] == 2 and doc["pooled"] == [] and doc["exit_code"] == 0
 
 
 def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
@@ -76,7 +73,8 @@ def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
         ["compare", str(runs / "base"), str(runs / "degraded"), "--out", str(comment)]
     )
     assert code == 1
-    assert "**2 cells regressed**" in out
+    assert "**Regressed**" in out and "2 cells (cell level, Bonferroni)" in out
+    assert "two-cells, holweg on average" in out and "(pooled, Holm)" in out
     for finger in ("index", "middle"):
         assert f"Nano17 {finger.capitalize()} window 50" in out
     assert "paired" in out and comment.read_text() == out
@@ -181,7 +179,7 @@ def test_a_cell_the_candidate_no_longer_finishes_is_a_regression(tmp_path, statu
     result = compare(tmp_path / "base", tmp_path / "cand")
     assert list(result.regressions["cell"]) == [base.loc[3, "cell"]] and result.exit_code == 1
     # the family counts the cells both sides finished
-    assert result.level == pytest.approx(1 - 0.05 / (len(base) - 1))
+    assert result.level == pytest.approx(1 - 0.025 / (len(base) - 1))
 
 
 def test_verdict_rules():
@@ -204,6 +202,7 @@ def test_verdict_rules():
     assert v(np.nan, np.nan, statuses=("ok", "failed")) == "regressed"
     assert v(np.nan, np.nan, statuses=("failed", "ok")) == "improved"
     assert family_level(280) == pytest.approx(1 - 0.05 / 280)
+    assert family_level(280, CELL_ALPHA) == pytest.approx(1 - 0.025 / 280)
 
 
 @pytest.mark.slow
