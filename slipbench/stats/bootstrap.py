@@ -249,7 +249,11 @@ def resample_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) 
 
 
 def satterthwaite_df(
-    design: Design, influence: np.ndarray, sizes: np.ndarray, used: np.ndarray
+    design: Design,
+    influence: np.ndarray,
+    sizes: np.ndarray,
+    used: np.ndarray,
+    extra: Sequence[tuple[float, float]] = (),
 ) -> float:
     """Effective degrees of freedom of a figure's variance.
 
@@ -260,12 +264,15 @@ def satterthwaite_df(
     sizes : ndarray of shape (n_clusters,)
         Windows per cluster that the figure draws on.
     used : ndarray of shape (n_clusters,), bool
+    extra : sequence of (variance, df)
+        Further independent variance components, e.g. the seed-to-seed variance of a side's
+        mean over ``S`` seeds with ``S - 1`` degrees of freedom (:func:`seeded_interval`).
 
     Returns
     -------
     float
-        Welch-Satterthwaite over strata, ``(sum V_h)^2 / sum V_h^2 / df_h``, with ``V_h`` the
-        stratum's linearized variance and ``df_h`` the smaller of
+        Welch-Satterthwaite over strata and ``extra``, ``(sum V_h)^2 / sum V_h^2 / df_h``, with
+        ``V_h`` the stratum's linearized variance and ``df_h`` the smaller of
         ``(n_h - 1) / n_h (sum s^2)^2 / sum s^4`` (the design: unequal cluster sizes) and
         ``3 (n_h - 1) / n_h (sum r^2)^2 / sum r^4`` (the data: ``r`` the clusters' centred
         influences, a plug-in Satterthwaite with normal kurtosis per cluster; it falls when a
@@ -282,7 +289,27 @@ def satterthwaite_df(
         if (r**4).sum() > 0:  # a few clusters carrying the variance: fewer still
             df_h = min(df_h, 3 * (n_h - 1) / n_h * (r**2).sum() ** 2 / (r**4).sum())
         num, den = num + v, den + v**2 / df_h
+    for v, df_k in extra:
+        if v > 0:
+            num, den = num + v, den + v**2 / df_k
     return float(max(1.0, num**2 / den)) if den > 0 else float(design.df(used))
+
+
+def seed_weights(n_seeds: int, seed: int, side: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
+    """Seed weights of Rao-Wu resamples of one side's seeds (stream ``bootstrap-seeds``):
+    ``S - 1`` of ``S`` drawn with replacement, each weighted ``S / (S - 1)``; one seed keeps
+    weight 1, so a single seed leaves the cluster bootstrap exactly as it is.
+
+    Returns
+    -------
+    ndarray of shape (n_resamples, n_seeds)
+    """
+    if n_seeds < 2:
+        return np.ones((n_resamples, max(n_seeds, 1)))
+    rng = rng_for(seed, "bootstrap-seeds", side)
+    return rng.multinomial(n_seeds - 1, np.full(n_seeds, 1 / n_seeds), size=n_resamples) * (
+        n_seeds / (n_seeds - 1)
+    )
 
 
 @dataclass(frozen=True)
@@ -296,6 +323,10 @@ class Interval:
     se: float
     df: float
     estimable: bool
+
+
+#: per side, the figure of each seed under cluster weights (n, n_clusters): arrays (n, S_side)
+PerSeed = Callable[[np.ndarray], Sequence[np.ndarray]]
 
 
 def interval(
@@ -330,23 +361,82 @@ def interval(
     bounds : (low, high)
         The range the figure can take: (0, 1) for figures, (-1, 1) for changes.
     """
+    return seeded_interval(
+        lambda w: [statistic(w)[:, None]],
+        lambda w: [influence(w)[:, None, :]],
+        (1.0,),
+        design,
+        used,
+        sizes,
+        seed,
+        level,
+        n_resamples,
+        method,
+        bounds,
+    )
+
+
+def seeded_interval(
+    per_seed: PerSeed,
+    per_seed_influence: PerSeed,
+    signs: Sequence[float],
+    design: Design,
+    used: np.ndarray,
+    sizes: np.ndarray,
+    seed: int,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+    bounds: tuple[float, float] = (0.0, 1.0),
+) -> Interval:
+    """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` by a two-level
+    bootstrap: each resample draws clusters once for every seed of every side (stratified
+    Rao-Wu, :func:`resample_weights`) and, independently per side, the side's seeds (Rao-Wu,
+    :func:`seed_weights`); the figure is the seed-weighted mean. So retraining noise (seed to
+    seed) and test-set noise (cluster to cluster) are both inside the interval.
+
+    Parameters
+    ----------
+    per_seed : callable
+        Maps cluster weights (n, n_clusters) to a sequence, one per side, of arrays (n, S_k):
+        each seed's figure.
+    per_seed_influence : callable
+        The same for the derivatives by each cluster weight: arrays (n, S_k, n_clusters).
+    signs : sequence of float
+        Per side, its sign in the figure: ``(1,)`` for a mean, ``(-1, 1)`` for candidate - base.
+
+    Degrees of freedom: the strata's components (:func:`satterthwaite_df`) and, per side with
+    ``S_k > 1`` seeds, the variance of its seed mean, ``var(seed figures) / S_k``, with
+    ``S_k - 1`` degrees of freedom, combined by Welch-Satterthwaite: three seeds leave at most
+    two degrees of freedom to a seed-dominated variance. With one seed per side this is
+    exactly the one-level interval of :func:`interval`.
+    """
     if method not in METHODS:
         raise ValueError(f"unknown interval method {method!r}; choose one of: {', '.join(METHODS)}")
     one = np.ones((1, design.n_clusters))
     with np.errstate(invalid="ignore", divide="ignore"):  # a figure the test set lacks is NaN
-        est = float(statistic(one)[0])
+        at_one = [np.asarray(f)[0] for f in per_seed(one)]
+        est = float(sum(k * f.mean() for k, f in zip(signs, at_one)))
     if not np.isfinite(est):
         return Interval(est, np.nan, np.nan, np.nan, np.nan, False)
     if not used.any() or design.lone()[used].any():
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
+    w = resample_weights(design, seed, n_resamples)
     with np.errstate(invalid="ignore", divide="ignore"):
-        boot = statistic(resample_weights(design, seed, n_resamples))
+        boot = np.zeros(n_resamples)
+        for k, (sign, f) in enumerate(zip(signs, per_seed(w))):
+            v = seed_weights(f.shape[1], seed, k, n_resamples)
+            boot += sign * (f * v).sum(axis=1) / v.sum(axis=1)
     boot = boot[np.isfinite(boot)]
     se = float(boot.std(ddof=1))
     alpha = 1 - level
     unit = bounds == (0.0, 1.0)
     if method == "satterthwaite":
-        df = satterthwaite_df(design, influence(one)[0], sizes, used)
+        infl = sum(
+            k * np.asarray(g)[0].mean(axis=0) for k, g in zip(signs, per_seed_influence(one))
+        )
+        extra = [(float(f.var(ddof=1)) / len(f), len(f) - 1.0) for f in at_one if len(f) > 1]
+        df = satterthwaite_df(design, np.asarray(infl), sizes, used, extra)
     else:
         df = float(design.df(used))
     if se == 0 and unit:  # no spread: the clusters as the sample, the worst case

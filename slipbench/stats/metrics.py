@@ -20,7 +20,7 @@ from functools import partial
 import numpy as np
 from statsmodels.stats.proportion import proportion_confint
 
-from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design
+from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design, seeded_interval
 from slipbench.vocabulary import LOW_N
 
 FIGURES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
@@ -417,13 +417,122 @@ def pool_seeds(
     """One cell run under several seeds (``--repeats``): one figure and one interval.
 
     The seeds' test sets differ (each seed balances and splits anew) but draw on the same
-    recordings, so they are bootstrapped jointly: each resample draws recordings once and
-    averages the seeds' figures on it. The result is an interval for the seed-averaged figure;
-    the mean of the seeds' bounds is not one (it ignores that the seeds share recordings and
-    that averaging narrows the seed-to-seed part). ``parts`` holds one Predictions per seed, with
-    recording ids as ``groups``; returns what :func:`mean_over_test_sets` returns.
+    recordings, and each seed trains anew: the interval is :func:`over_seeds`' two-level
+    bootstrap (recordings drawn once for all seeds, seeds drawn too), so both test-set and
+    retraining noise are inside it. ``parts`` holds one Predictions per seed, with recording ids
+    as ``groups``; returns what :func:`over_seeds` returns without a candidate.
     """
-    return mean_over_test_sets(parts, seed, level, n_resamples, method)
+    return over_seeds(parts, None, seed, level, n_resamples, method)
+
+
+def over_seeds(
+    base: Sequence[Predictions],
+    cand: Sequence[Predictions] | None = None,
+    seed: int = 0,
+    level: float = LEVEL,
+    n_resamples: int = N_RESAMPLES,
+    method: str = "satterthwaite",
+    figures: Sequence[str] = FIGURES,
+) -> dict:
+    """A cell run under several seeds per side: the seed-averaged figure (``cand`` None) or its
+    change, mean(cand) - mean(base), with a two-level bootstrap over trials and seeds.
+
+    Clusters (``groups``: trial or recording ids) are shared across every part of both sides:
+    each resample draws clusters once for all of them (stratified by class, Rao-Wu) and, per
+    side, draws its seeds (Rao-Wu), then takes the seed-weighted mean of the per-seed figures
+    (:func:`slipbench.stats.bootstrap.seeded_interval`). The two sides' windows need not
+    coincide. With one seed per side the result equals :func:`mean_over_test_sets` (``cand``
+    None) or :func:`paired_comparison` on the same windows.
+
+    Parameters
+    ----------
+    base, cand : sequence of Predictions
+        One per seed of each side.
+    figures : sequence of str
+        The figures to give (``accuracy`` always comes first: it gives ``df``).
+
+    Returns
+    -------
+    dict
+        Without ``cand``: each figure with ``_lo``/``_hi``/``_se``, ``df``, ``ci_note``,
+        ``n_test_sets``; with ``cand``: ``d_<figure>`` with ``_lo``/``_hi``/``_se``, ``df`` and
+        ``estimable`` (of the accuracy). Both: ``n_test_clusters_slip``/``_nonslip`` (over the
+        union of all parts), ``low_n`` (fewer than ``LOW_N`` clusters of a class),
+        ``n_seeds_base`` and ``n_seeds_cand`` (0 without a candidate).
+    """
+    sides = [list(base)] + ([list(cand)] if cand is not None else [])
+    if not all(sides):
+        raise ValueError("over_seeds needs at least one Predictions per side")
+    unknown = set(figures) - set(FIGURES)
+    if unknown:
+        raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
+    parts = [p for side in sides for p in side]
+    has_strata = [p.strata is not None for p in parts]
+    if any(has_strata) and not all(has_strata):
+        raise ValueError("give balancing strata for every test set or for none")
+    design, codes = make_design(
+        [p.y_true for p in parts],
+        [p.groups for p in parts],
+        [p.strata for p in parts if p.strata is not None] if all(has_strata) else None,
+    )
+    flat = []
+    for p, c in zip(parts, codes):
+        y = np.asarray(p.y_true, bool)
+        correct = (y == np.asarray(p.y_pred, bool)).astype(float)
+        flat.append(_totals(y, correct, c, design.n_clusters, p.scores))
+    per_side = [flat[: len(sides[0])], flat[len(sides[0]) :]][: len(sides)]
+    signs = (1.0,) if cand is None else (-1.0, 1.0)
+    prefix = "" if cand is None else "d_"
+    out: dict = {} if cand is not None else {"n_test_sets": len(parts)}
+    unestimable = []
+    for name in ("accuracy", *(f for f in figures if f != "accuracy")):
+        iv = seeded_interval(
+            partial(_per_seed, _figure, per_side, name),
+            partial(_per_seed, _influence, per_side, name),
+            signs,
+            design,
+            np.logical_or.reduce([_used(t, name) for t in flat]),
+            np.sum([_sizes(t, name) for t in flat], axis=0),
+            seed,
+            level,
+            n_resamples,
+            method,
+            bounds=(0.0, 1.0) if cand is None else (-1.0, 1.0),
+        )
+        key = f"{prefix}{name}"
+        out[key], out[f"{key}_lo"], out[f"{key}_hi"], out[f"{key}_se"] = (
+            iv.estimate,
+            iv.lo,
+            iv.hi,
+            iv.se,
+        )
+        if name == "accuracy":
+            out["df"] = iv.df
+            if cand is not None:
+                out["estimable"] = iv.estimable
+        if np.isfinite(iv.estimate) and not iv.estimable:
+            unestimable.append(name)
+    if cand is None:
+        out["ci_note"] = (
+            ""
+            if not unestimable
+            else (
+                f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures "
+                "how its clusters vary; the interval given is the figure's whole range"
+            )
+        )
+    return (
+        out
+        | _class_counts(parts)
+        | {"n_seeds_base": len(sides[0]), "n_seeds_cand": len(sides[1]) if cand is not None else 0}
+    )
+
+
+def _per_seed(
+    of: _PerSet, per_side: Sequence[Sequence[_Totals]], name: str, w: np.ndarray
+) -> list[np.ndarray]:
+    """``of`` for each seed of each side: per side an array (n, S_side, ...)."""
+    return [np.stack([of(t, name, w) for t in side], axis=1) for side in per_side]
 
 
 # ----------------------------------------------------------------------------- paired comparison

@@ -16,6 +16,7 @@ from slipbench.stats.metrics import (
     cluster_counts,
     is_low_n,
     mean_over_test_sets,
+    over_seeds,
     paired_comparison,
     pool_seeds,
     wilson_ci,
@@ -216,6 +217,65 @@ def test_pooled_seeds_of_the_same_windows_give_the_single_interval():
         assert (pooled[name], pooled[f"{name}_lo"], pooled[f"{name}_hi"]) == pytest.approx(
             (one[name], one[f"{name}_lo"], one[f"{name}_hi"])
         ), name
+
+
+def _reseeded(rng, y, groups, score, sd):
+    """The same windows scored by a retrained model: a per-seed effect on its performance."""
+    s = score + np.where(y, 1, -1) * rng.normal(0, sd) + rng.normal(0, 0.3, len(score))
+    return Predictions(y, s > 0, groups, s)
+
+
+def test_over_seeds_with_one_seed_per_side_is_the_one_level_interval():
+    rng = np.random.default_rng(11)
+    y, pred, groups, score = correlated_test_set(rng, 12)
+    cand = _reseeded(rng, y, groups, score, 0.5)
+    base = Predictions(y, pred, groups, score)
+    single = over_seeds([base], seed=3)
+    ref = mean_over_test_sets([base], seed=3)
+    assert {k: single[k] for k in ref} == ref
+    assert single["n_seeds_base"] == 1 and single["n_seeds_cand"] == 0
+    pair = over_seeds([base], [cand], seed=3)
+    ref = paired_comparison(
+        y, pred, cand.y_pred, groups, seed=3, base_scores=score, cand_scores=cand.scores
+    )
+    assert {k: pair[k] for k in ref} == ref
+    assert pair["n_seeds_cand"] == 1 and pair["low_n"] is False
+
+
+def test_over_seeds_puts_retraining_noise_inside_the_interval():
+    """Seeds that disagree widen the interval and cost degrees of freedom; the windows of the
+    two sides need not coincide (each seed splits anew)."""
+    rng = np.random.default_rng(12)
+    y, pred, groups, score = correlated_test_set(rng, 15)
+    quiet = [_reseeded(rng, y, groups, score, 0.0) for _ in range(3)]
+    noisy = [_reseeded(rng, y, groups, score, 1.0) for _ in range(3)]
+    a, b = over_seeds(quiet, seed=0), over_seeds(noisy, seed=0)
+    assert a["n_seeds_base"] == 3 and a["n_test_sets"] == 3
+    for name in FIGURES:
+        assert b[f"{name}_se"] > a[f"{name}_se"], name
+    assert b["df"] < 0.8 * a["df"]  # the seed component rests on 2 degrees of freedom
+    half = over_seeds(noisy, [p for p in quiet], seed=0)  # the same windows here; now cut them
+    keep = groups % 2 == 0
+    cut = [
+        Predictions(p.y_true[keep], p.y_pred[keep], p.groups[keep], p.scores[keep]) for p in quiet
+    ]
+    other = over_seeds(noisy, cut, seed=0)
+    assert other["n_test_clusters_slip"] == half["n_test_clusters_slip"] == 15
+    assert other["d_accuracy_lo"] < other["d_accuracy"] < other["d_accuracy_hi"]
+    mean = np.mean([(p.y_pred == p.y_true).mean() for p in noisy])
+    assert b["accuracy"] == pytest.approx(mean)
+
+
+def test_over_seeds_flags_low_n_and_refuses_bad_input():
+    rng = np.random.default_rng(13)
+    y, pred, groups, score = correlated_test_set(rng, LOW_N - 1)
+    parts = [_reseeded(rng, y, groups, score, 0.3) for _ in range(2)]
+    assert over_seeds(parts, parts, seed=0)["low_n"] is True
+    assert over_seeds(parts, seed=0)["low_n"] is True
+    with pytest.raises(ValueError, match="at least one"):
+        over_seeds(parts, [], seed=0)
+    with pytest.raises(ValueError, match="unknown figures"):
+        over_seeds(parts, figures=("f1",))
 
 
 def test_mixed_strata_inputs_are_refused():
