@@ -60,7 +60,7 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import DataError, UsageError
-from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, paired_comparison
+from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
 from slipbench.stats.pooled import CellSides, pooled_change
 from slipbench.store.results import (
     check_unique_keys,
@@ -264,8 +264,6 @@ def _over_seeds(
 ) -> dict:
     """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
     side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`)."""
-    from slipbench.stats.metrics import over_seeds  # type: ignore[attr-defined]
-
     b, c = _sides(base, cand)
     out: dict[str, Any] = over_seeds(b, c, seed=seed, level=level, figures=FIGURES)
     out["method"] = f"over seeds and trials ({len(b)} → {len(c)} seeds)"
@@ -658,7 +656,7 @@ def _pooled_tests(
             res = pooled_change(parts, seed, level)
             line |= {
                 "method": "joint cluster bootstrap over the trials the cells share"
-                + (" + seeds" if res["se_seeds"] > 0 else ""),
+                + (" and each cell's seeds" if res["seeds"] else ""),
                 "low_n": res["low_n"],
             }
         else:  # rows only: the cells' errors taken as moving together (the widest case)

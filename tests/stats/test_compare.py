@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 
 import numpy as np
@@ -95,10 +96,10 @@ def test_cells_on_one_side_are_listed(tmp_path, cli):
         (tmp_path / name).mkdir()
         rows.to_parquet(tmp_path / name / "results.parquet")
     code, out, _ = cli(["compare", str(tmp_path / "base"), str(tmp_path / "cand")])
-    assert code == 0  # no predictions: unpaired, and nothing changed
+    assert code == 0  # no predictions, the same keys and figures: identical, nothing changed
     assert "**Cells only in BASE** (8)" in out and "**Cells only in CANDIDATE** (8)" in out
     assert "- window-size, holweg: 8 cells" in out and "Nano17 Index window 5, split paper" in out
-    assert "window 400" in out and "unpaired" in out
+    assert "window 400" in out and "≡ identical: 40" in out
 
 
 def test_unpaired_regression_without_predictions(tmp_path):
@@ -172,7 +173,7 @@ def test_repeated_keys_are_refused(tmp_path, cli):
 @pytest.mark.parametrize("status", ["failed", "timeout", "skipped"])
 def test_a_cell_the_candidate_no_longer_finishes_is_a_regression(tmp_path, status):
     base = fake_rows("window-size")
-    cand = base.copy()
+    cand = base.assign(accuracy=base["accuracy"] + 0.001)  # changed, so in the family
     cand.loc[3, ["status", "reason"]] = [status, "whatever happened"]
     _write(tmp_path / "base", base)
     _write(tmp_path / "cand", cand)
@@ -322,6 +323,7 @@ def test_a_whole_paper_comparison_fits_a_pull_request_comment(whole_paper):
         line
         for line in text.splitlines()
         if line.endswith(("▼ regressed |", "= no significant change |"))
+        and not re.search(r"\| \d+ \(\d+\) +\|", line)  # a pooled test's line
     ]
     assert len(rows) == 12 + MAX_ROWS  # every regressed cell, then --max-rows others, each once
     assert len(set(rows)) == len(rows)
@@ -340,7 +342,8 @@ def test_a_comment_with_every_cell_regressed_is_cut_and_says_so(tmp_path):
     assert len(result.regressions) == 1400  # all but the 5 cells both sides skipped
     text = to_markdown(result, max_rows=10_000)
     assert len(text) < COMMENT_LIMIT
-    listed = text.count("▼ regressed |")
+    listed = text.count("▼ regressed |") - len(result.pooled_regressions)  # cells, not pooled lines
+    assert len(result.pooled_regressions) == 25  # every protocol of every detector, pooled
     assert 100 < listed < 1400 and f"… and {1400 - listed} more regressed cells" in text
     assert "### Other cells" not in text  # regressed cells come first, whatever --max-rows says
 
