@@ -179,9 +179,9 @@ def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
 
 
 def _pairing(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
-    on = ["protocol", "cell", "split", "seed"]
+    on = ["protocol", "cell", "split"]  # not the seed: a side may hold several per cell
     for side, rows in (("BASE", base), ("CANDIDATE", cand)):
-        missing = set(on) - set(rows.columns)
+        missing = {*on, "seed"} - set(rows.columns)
         if missing:
             raise DataError(f"{side}: results lack the columns {', '.join(sorted(missing))}")
     b, c = set(base["detector"]), set(cand["detector"])
