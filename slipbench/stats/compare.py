@@ -1,10 +1,20 @@
-"""Two result sets -> per-cell changes with paired intervals and a CI verdict.
+"""Two result sets -> per-cell changes with paired intervals, pooled tests per protocol and
+detector, and a CI verdict.
 
-Cells are paired on (protocol, cell key, split, seed), and on the detector as well when both
-sides hold the same detectors (comparing one detector's two versions); when each side holds a
-single detector, they are compared with each other (comparing two detectors). Two result sets
-from different datasets (``dataset_fingerprint``) are refused before anything is compared, and
-so is a side that holds a row twice (the same key).
+Cells are paired on (protocol, cell key, split), and on the detector as well when both sides
+hold the same detectors (comparing one detector's two versions); when each side holds a single
+detector, they are compared with each other (comparing two detectors). Not on the seed: a side
+may hold several seeds of a cell (``evaluate --repeats``), and the sides' seeds may differ. Two
+result sets from different datasets (``dataset_fingerprint``) are refused before anything is
+compared, and so is a side that holds a row twice (the same key, or the same cell and seed).
+
+Seeds. A cell with one seed per side, the same on both, is compared window by window (below).
+A cell with several seeds on a side, or different seeds, gets the two-level bootstrap over seeds
+and trials of :func:`slipbench.stats.metrics.over_seeds` (its change: mean over the candidate's
+seeds minus mean over the base's), so retraining noise is inside its interval. With one seed
+per side it is not, and :func:`repeats_note` says so: a side needs ``MIN_SEEDS`` (2) seeds for
+a seed-to-seed spread to exist; ``RECOMMENDED_REPEATS`` (3) is what the null study
+(``benchmarks/bench_compare_null.py``) runs and what CI should.
 
 The change of every figure (candidate - base) gets an interval. Where both sides stored their
 test predictions (``predictions/<key>.parquet``), the windows are joined on (recording_id,
@@ -18,17 +28,23 @@ wide: on simulated cells (``tests/stats/test_compare.py``) it was wider in 39 of
 times) and found 0 of the 7 regressions the paired path found. Keep predictions to compare with
 power.
 
-Verdicts. Every interval is simultaneous over ALL the cells the run compares: with ``m`` cells
-compared (both sides finished), each is a t-interval at level ``1 - 0.05 / m`` (Bonferroni), so
-the chance that any cell of the run is wrongly called regressed or improved is at most 5 %.
-Measured (``tests/stats/test_compare.py``, ``SLIPBENCH_NULL_RUNS=100``): 100 simulated comparisons
-of two equally good detectors that differ at random per recording, 280 cells each of 10-40
-recordings per class, margin 0: no run called any cell regressed, where per-cell 95 %
-intervals called one in all 100 runs. A cell *regressed*
-when its accuracy interval lies entirely below ``-margin`` (upper bound < -margin), or when
-the candidate failed, timed out or skipped a cell the base finished; *improved* when it lies
-entirely above ``+margin``; *within margin* when it lies inside ``[-margin, +margin]``
-(margin > 0); otherwise *no significant change*. McNemar's test over windows is gone: it
+Verdicts. The family of tests holds the chance of any wrong "regressed" or "improved" in a
+run at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA`` (2.5 %) for the pooled tests,
+one per protocol and detector (:mod:`slipbench.stats.pooled`: the mean accuracy change over the
+cells, one joint cluster bootstrap over the trials they share; Holm over the pooled tests, their
+intervals Bonferroni), and ``CELL_ALPHA`` (2.5 %) for the cells: each cell's interval is a
+t-interval at level ``1 - CELL_ALPHA / m``, ``m`` the cells both sides finished that changed and
+are not low-n (cells with identical predictions, or rows of the same key and figures, leave the
+family: they are "identical"). Before the pooled level existed, every cell was at
+``1 - 0.05 / m``: 100 simulated comparisons of two equally good detectors that differ at random
+per recording, 280 cells each of 10-40 recordings per class, margin 0, called no cell regressed,
+where per-cell 95 % intervals called one in all 100 runs (``tests/stats/test_compare.py``). A
+cell *regressed* when its accuracy interval lies entirely below ``-margin`` (upper bound <
+-margin), or when the candidate failed, timed out or skipped a cell the base finished;
+*improved* when it lies entirely above ``+margin``; *within margin* when it lies inside
+``[-margin, +margin]`` (margin > 0); *inconclusive* when the cell is low-n (its intervals
+undercover) or its interval, deciding nothing, is wider than ``max_width`` points (``MAX_WIDTH``,
+40); otherwise *no significant change*. McNemar's test over windows is gone: it
 treats correlated windows as independent (issue 11 measured 17-23 % false rejections per cell).
 
 Streaming cells (rows without ``accuracy``, with the streaming figures of
