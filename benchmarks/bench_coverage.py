@@ -1,0 +1,234 @@
+"""Coverage of slipbench's 95 % intervals in three scenarios, by simulation against a closed-form
+truth: the study behind ``docs/coverage.md`` and the docstring of :mod:`slipbench.stats.bootstrap`.
+
+A simulated test set holds ``m`` slip and ``m`` non-slip trials with window counts 10-200 (slip)
+and 5-100 (non-slip), uniform. A window's latent score is ``mu_class + u_trial + a_trial + e``:
+``u ~ N(0, TAU^2)`` is the trial's effect shared by every detector (intra-trial correlation of
+hits about 0.3), ``a ~ N(0, 0.5^2)`` the detector's own per-trial effect, ``e ~ N(0, 1)`` window
+noise of which half is shared by two detectors on the same window. A window is called slip when
+its score exceeds 0 (the candidate: ``SHIFT``, fewer slip calls). Population TP rate 0.80, TN
+rate 0.92.
+
+- ``normal``: as above.
+- ``heavy``: a share ``FAIL_SHARE`` (10 %) of trials fails wholesale: its class mean moves
+  ``FAIL_SHIFT`` latent SDs to the wrong side, so nearly every window of it is wrong, for both
+  detectors (a bad trial).
+- ``seeds``: each side is trained under ``SEEDS`` (3) seeds; a seed shifts the model's
+  performance by ``b ~ N(0, SEED_SD^2)`` latent units (towards the right class for both
+  classes) and draws its own per-trial effects and window noise. The target is the figure's
+  expectation over seeds and trials; the interval is :func:`slipbench.stats.metrics.over_seeds`.
+
+Every target has a closed form (normal integrals), so coverage is counted against the truth.
+``d_<figure>``: the change candidate - base (paired on the same trials). Replications are
+split into chunks run by ``--jobs`` processes; results depend on ``--seed`` only.
+
+    nice python benchmarks/bench_coverage.py --reps 1000 --jobs 2 --out coverage.md
+    nice python benchmarks/bench_coverage.py --reps 200 --scenario heavy --sizes 10
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import multiprocessing
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.stats import norm
+
+from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
+
+SCENARIOS = ("normal", "heavy", "seeds")
+SIZES = (5, 10, 20, 40)
+TAU, TAU_DETECTOR, SHARED_NOISE = 1.0, 0.5, 0.5
+TP, TN = 0.80, 0.92
+SLIP_WINDOWS, NONSLIP_WINDOWS = (10, 200), (5, 100)
+SHIFT = 0.3  # the candidate's threshold, latent units
+FAIL_SHARE, FAIL_SHIFT = 0.10, 4.0  # heavy: failing trials, their shift in latent SDs
+SEEDS, SEED_SD = 3, 0.3  # seeds: per side, and the SD of a seed's effect (latent units)
+CHUNK = 50
+NAMES = (*FIGURES, *(f"d_{f}" for f in FIGURES))
+SHORT = {
+    "accuracy": "acc",
+    "tp_rate": "TP",
+    "tn_rate": "TN",
+    "balanced_accuracy": "BA",
+    "auroc": "AUROC",
+}
+
+
+def _sd() -> float:
+    return float(np.sqrt(1 + TAU**2 + TAU_DETECTOR**2))
+
+
+def _mixture(scenario: str) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """Per class, (latent mean, probability) of a trial's component."""
+    sd = _sd()
+    mu1, mu0 = norm.ppf(TP) * sd, -norm.ppf(TN) * sd
+    if scenario != "heavy":
+        return [(mu1, 1.0)], [(mu0, 1.0)]
+    ok = 1 - FAIL_SHARE
+    return (
+        [(mu1, ok), (mu1 - FAIL_SHIFT * sd, FAIL_SHARE)],
+        [(mu0, ok), (mu0 + FAIL_SHIFT * sd, FAIL_SHARE)],
+    )
+
+
+def truth(scenario: str) -> dict[str, float]:
+    """Population figures of the base detector and the changes (candidate - base), averaged
+    over seeds where seeds are a factor."""
+    sd = _sd()
+    b = SEED_SD if scenario == "seeds" else 0.0
+    slip, nonslip = _mixture(scenario)
+    n1, n0 = np.mean(SLIP_WINDOWS), np.mean(NONSLIP_WINDOWS)
+
+    def figures(threshold: float) -> dict[str, float]:
+        rate_sd = np.sqrt(sd**2 + b**2)
+        tp = sum(p * norm.cdf((mu - threshold) / rate_sd) for mu, p in slip)
+        tn = sum(p * norm.cdf((threshold - mu) / rate_sd) for mu, p in nonslip)
+        pair_sd = np.sqrt(2 * sd**2 + 4 * b**2)
+        auroc = sum(
+            p * q * norm.cdf((a - c) / pair_sd)
+            for (a, p), (c, q) in itertools.product(slip, nonslip)
+        )
+        return {
+            "accuracy": (n1 * tp + n0 * tn) / (n1 + n0),
+            "tp_rate": tp,
+            "tn_rate": tn,
+            "balanced_accuracy": (tp + tn) / 2,
+            "auroc": auroc,
+        }
+
+    base, cand = figures(0.0), figures(SHIFT)
+    return base | {f"d_{k}": cand[k] - base[k] for k in base}
+
+
+def dataset(
+    rng: np.random.Generator, m: int, scenario: str
+) -> tuple[list[Predictions], list[Predictions]]:
+    """One simulated test set: the base and candidate sides, one Predictions per seed."""
+    sd = _sd()
+    sizes = np.concatenate(
+        [
+            rng.integers(SLIP_WINDOWS[0], SLIP_WINDOWS[1] + 1, m),
+            rng.integers(NONSLIP_WINDOWS[0], NONSLIP_WINDOWS[1] + 1, m),
+        ]
+    )
+    groups = np.repeat(np.arange(2 * m), sizes)
+    y = groups < m
+    sign = np.where(y, 1.0, -1.0)
+    mean = np.where(y, norm.ppf(TP), -norm.ppf(TN)) * sd
+    if scenario == "heavy":
+        fails = (rng.random(2 * m) < FAIL_SHARE)[groups]
+        mean = mean - fails * sign * FAIL_SHIFT * sd
+    trial = mean + rng.normal(0, TAU, 2 * m)[groups]
+    n_seeds = SEEDS if scenario == "seeds" else 1
+    sides: list[list[Predictions]] = [[], []]
+    for _ in range(n_seeds):
+        effect = rng.normal(0, SEED_SD, 2) if scenario == "seeds" else np.zeros(2)
+        shared = rng.normal(0, np.sqrt(SHARED_NOISE), len(y))
+        for k, threshold in enumerate((0.0, SHIFT)):
+            score = (
+                trial
+                + sign * effect[k]
+                + rng.normal(0, TAU_DETECTOR, 2 * m)[groups]
+                + shared
+                + rng.normal(0, np.sqrt(1 - SHARED_NOISE), len(y))
+            )
+            sides[k].append(Predictions(y, score > threshold, groups, score))
+    return sides[0], sides[1]
+
+
+def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, int]:
+    """Hits of every interval over ``n`` replications of one (scenario, m), chunk ``c``."""
+    scenario, m, c, n, seed, method = task
+    rng = np.random.default_rng([seed, SCENARIOS.index(scenario), m, c])
+    true = truth(scenario)
+    hits = dict.fromkeys(true, 0)
+    for r in range(n):
+        base, cand = dataset(rng, m, scenario)
+        f = over_seeds(base, seed=r, method=method)
+        d = over_seeds(base, cand, seed=r, method=method)
+        for name, value in true.items():
+            src = d if name.startswith("d_") else f
+            hits[name] += bool(src[f"{name}_lo"] <= value <= src[f"{name}_hi"])
+    return hits
+
+
+def study(
+    reps: int,
+    scenarios: Sequence[str] = SCENARIOS,
+    sizes: Sequence[int] = SIZES,
+    jobs: int = 1,
+    seed: int = 0,
+    method: str = "satterthwaite",
+) -> pd.DataFrame:
+    """Coverage of every figure's interval and of every change: one row per (scenario, m)."""
+    tasks = [
+        (s, m, c, min(CHUNK, reps - c * CHUNK), seed, method)
+        for s in scenarios
+        for m in sizes
+        for c in range(-(-reps // CHUNK))
+    ]
+    if jobs > 1:
+        with multiprocessing.Pool(jobs) as pool:
+            results = pool.map(_chunk, tasks, chunksize=1)
+    else:
+        results = [_chunk(t) for t in tasks]
+    rows = []
+    for s in scenarios:
+        for m in sizes:
+            mine = [h for t, h in zip(tasks, results) if t[:2] == (s, m)]
+            total = {k: sum(h[k] for h in mine) for k in NAMES}
+            rows.append(
+                {"scenario": s, "m": m, "reps": reps, **{k: total[k] / reps for k in NAMES}}
+            )
+    return pd.DataFrame(rows)
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The coverage table in Markdown, figures abbreviated."""
+    shown = table.rename(
+        columns={**SHORT, **{f"d_{k}": f"d {v}" for k, v in SHORT.items()}, "m": "trials/class"}
+    )
+    return str(shown.to_markdown(index=False, floatfmt=".3f"))
+
+
+def main(argv: Sequence[str] | None = None) -> pd.DataFrame:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--reps", type=int, default=1000, help="replications per scenario and size")
+    ap.add_argument(
+        "--scenario", action="append", choices=SCENARIOS, help="repeatable; all by default"
+    )
+    ap.add_argument(
+        "--sizes", default=",".join(map(str, SIZES)), help="trials per class, comma list"
+    )
+    ap.add_argument("--jobs", type=int, default=2, help="processes")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--method", default="satterthwaite", help="interval method (bootstrap.METHODS)")
+    ap.add_argument("--out", type=Path, help="write the Markdown table here too")
+    a = ap.parse_args(argv)
+    start = time.perf_counter()
+    table = study(
+        a.reps,
+        a.scenario or SCENARIOS,
+        [int(s) for s in a.sizes.split(",")],
+        a.jobs,
+        a.seed,
+        a.method,
+    )
+    text = (
+        f"{a.reps} replications per row, method {a.method}, seed {a.seed}, "
+        f"{time.perf_counter() - start:.0f} s\n\n{markdown(table)}\n"
+    )
+    print(text, flush=True)
+    if a.out:
+        a.out.write_text(text)
+    return table
+
+
+if __name__ == "__main__":
+    main()
