@@ -71,23 +71,27 @@ def pooled_change(
         correct = (np.asarray(p.y_true, bool) == np.asarray(p.y_pred, bool)).astype(float)
         hits.append(np.bincount(c[m], weights=correct[m], minlength=design.n_clusters))
         size.append(np.bincount(c[m], minlength=design.n_clusters).astype(float))
-    # one "side" of the two-level bootstrap per cell and side: its seeds are drawn on their own
+    # one "side" of the two-level bootstrap per cell and side: its seeds are drawn on their
+    # own. Each side's figures come scaled by 1 / cells and the signs stay +-1, so every
+    # variance term seeded_interval forms from a side's figures (the seed-by-cluster
+    # correction, the seed spread) is on the scale of the mean
     slices, signs, k = [], [], 0
     for cell in cells:
         for side, sign in ((cell.base, -1.0), (cell.cand, 1.0)):
             slices.append(slice(k, k + len(side)))
-            signs.append(sign / len(cells))
+            signs.append(sign)
             k += len(side)
     H, S = np.array(hits), np.array(size)
+    share = 1.0 / len(cells)
 
     def per_seed(w: np.ndarray) -> list[np.ndarray]:
-        r = (w @ H.T) / (w @ S.T)  # (n, parts)
+        r = share * (w @ H.T) / (w @ S.T)  # (n, parts)
         return [r[:, sl] for sl in slices]
 
     def per_seed_influence(w: np.ndarray) -> list[np.ndarray]:
         denom = w @ S.T
         r = (w @ H.T) / denom
-        infl = (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]  # (n, parts, clusters)
+        infl = share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]
         return [infl[:, sl] for sl in slices]
 
     iv = seeded_interval(

@@ -144,3 +144,15 @@ def test_json_is_in_points_with_cells_as_objects_and_validates(tmp_path):
     assert doc["pooled"][0]["mean_d"] == pytest.approx(doc["summary"][0]["mean_change"], abs=1e-3)
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate({**doc, "cells": [json.dumps(cell)]}, schema)  # a cell as a string
+
+
+def test_a_pooled_change_over_many_cells_of_several_seeds_keeps_its_width():
+    """Each cell's figures enter the two-level bootstrap scaled by 1 / cells (signs +-1): the
+    seed-by-cluster correction of seeded_interval is then on the mean's scale. With the scale
+    in the signs instead, it was 48 times too large and zeroed the interval of a null."""
+    rng = np.random.default_rng(8)
+    cells = [
+        CellSides(_preds(rng) + _preds(rng)[:1], _preds(rng) + _preds(rng)[:1]) for _ in range(8)
+    ]
+    res = pooled_change(cells, seed=1, level=0.975)
+    assert res["seeds"] and res["lo"] < res["d"] < res["hi"] and res["hi"] - res["lo"] > 0.02
