@@ -118,3 +118,81 @@ def whole_paper_pair(root) -> tuple:
     base.to_parquet(paths[0])
     cand.to_parquet(paths[1])
     return paths
+
+
+def predictions_pair(
+    root,
+    n_cells: int = 12,
+    trials: int = 24,
+    windows: int = 8,
+    base_seeds=(0,),
+    cand_seeds=(0,),
+    flip: float = 0.0,
+    unchanged_cells: int = 0,
+    low_n_cells: int = 0,
+) -> tuple:
+    """BASE and CANDIDATE result folders of ``n_cells`` window-size cells with predictions, all
+    testing the same ``trials`` trials (half slip, half non-slip; the ``low_n_cells`` last cells
+    only 4 of each class). A seed's predictions depend on the cell, the trial and the seed only,
+    so the two sides agree where their seeds do; the candidate then predicts every window of
+    a share ``flip`` of the trials (drawn per cell) wrongly (a spread-out drop), except in the first
+    ``unchanged_cells`` cells, which stay identical."""
+    import numpy as np
+
+    from slipbench.stats.metrics import classification_figures
+
+    trial_ids = np.array([f"t{i:03d}" for i in range(trials)])
+    slip = np.arange(trials) % 2 == 0
+    hard = np.random.default_rng(99).normal(0, 1, trials)  # shared trial difficulty
+    folders = []
+    for side, seeds in (("base", base_seeds), ("cand", cand_seeds)):
+        folder = root / side
+        (folder / "predictions").mkdir(parents=True)
+        rows = []
+        for c in range(n_cells):
+            keep = np.ones(trials, bool)
+            if c >= n_cells - low_n_cells:
+                keep = np.isin(np.arange(trials), np.arange(8))
+            cell = {"sensor_type": "Nano17", "sensor_instance": "index", "window": 5 * (c + 1)}
+            text = json.dumps(cell, sort_keys=True)
+            # the trials the candidate fails in this cell: drawn per cell
+            order = np.argsort(np.random.default_rng(1000 + c).random(trials))
+            flipped = np.isin(np.arange(trials), order[: round(flip * trials)])
+            for s in seeds:
+                rng = np.random.default_rng(zlib.crc32(f"{c}|{s}".encode()))
+                t = np.repeat(np.flatnonzero(keep), windows)
+                p = 1 / (1 + np.exp(-(1.2 + hard[t] + rng.normal(0, 0.3))))
+                correct = rng.random(len(t)) < p
+                if side == "cand" and c >= unchanged_cells:
+                    correct = np.where(flipped[t], False, correct)
+                y = slip[t]
+                pred = np.where(correct, y, ~y)
+                score = np.where(pred, 0.8, 0.2)
+                key = f"{side}-{c:03d}-{s}"
+                pd.DataFrame(
+                    {
+                        "recording_id": trial_ids[t],
+                        "window_index": np.tile(np.arange(windows), keep.sum()),
+                        "y_true": y.astype(np.int8),
+                        "score": score,
+                        "trial": trial_ids[t],
+                    }
+                ).to_parquet(folder / "predictions" / f"{key}.parquet")
+                rows.append(
+                    {
+                        "key": key,
+                        "protocol": "window-size",
+                        "detector": "holweg",
+                        "split": "grouped",
+                        "seed": s,
+                        **cell,
+                        "cell": text,
+                        "status": "ok",
+                        "reason": "",
+                        "dataset_fingerprint": "f00d",
+                        **classification_figures(y, pred, trial_ids[t], seed=c, scores=score),
+                    }
+                )
+        pd.DataFrame(rows).to_parquet(folder / "results.parquet")
+        folders.append(folder)
+    return tuple(folders)

@@ -16,12 +16,32 @@ import pandas as pd
 
 from slipbench.errors import UsageError
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.stats.compare import ALPHA, VERDICTS, Comparison, primary_change, summary
+from slipbench.stats.compare import (
+    ALPHA,
+    CELL_ALPHA,
+    POOLED_ALPHA,
+    VERDICTS,
+    Comparison,
+    primary_change,
+    repeats_note,
+    summary,
+)
 from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
-    zip(VERDICTS, ("▼ regressed", "▲ improved", "≈ within margin", "= no significant change"))
+    zip(
+        VERDICTS,
+        (
+            "▼ regressed",
+            "▲ improved",
+            "≈ within margin",
+            "= no significant change",
+            "? inconclusive",
+            "≡ identical",
+        ),
+    )
 )
+SCHEMA_VERSION = 2  # of the JSON: 2 gives every figure in points and cells as objects
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
 
@@ -125,7 +145,8 @@ def _row(r: dict, cmp: Comparison) -> dict:
         line["Δ TP / TN rate"] = (
             f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
         )
-    line[""] = MARKS[r["verdict"]]
+    why = r.get("inconclusive_reason") or ""
+    line[""] = MARKS[r["verdict"]] + (f" ({why})" if why else "")
     return line
 
 
@@ -156,6 +177,8 @@ def _summary_table(cmp: Comparison) -> str:
                 "cells": s["cells"],
                 "▼": s["regressed"],
                 "▲": s["improved"],
+                "?": s["inconclusive"],
+                "≡": s["identical"],
                 "mean Δ": "—" if pd.isna(s["mean_change"]) else f"{s['mean_change']:+.1f}",
                 "worst cell": f"{s['worst_cell']}: {s['worst_change']:+.1f}{bounds}"
                 if s["worst_cell"]
@@ -167,7 +190,7 @@ def _summary_table(cmp: Comparison) -> str:
 
 def _others(cmp: Comparison) -> pd.DataFrame:
     """The cells that did not regress, improved ones first, then by the size of their change."""
-    rest = cmp.cells[cmp.cells["verdict"] != "regressed"]
+    rest = cmp.cells[~cmp.cells["verdict"].isin(["regressed", "identical"])]
     size = -np.abs([primary_change(r) for r in rest.to_dict("records")])
     order = np.lexsort((np.nan_to_num(size, nan=0.0), (rest["verdict"] != "improved").to_numpy()))
     return rest.iloc[order]
@@ -198,25 +221,35 @@ def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
         raise UsageError(f"--max-rows must be >= 0, got {max_rows}")
     cmp = in_paper_order(cmp)
     cells = cmp.cells
+    if cmp.unchanged:
+        return _unchanged(cmp)
     counts = cells["verdict"].value_counts()
-    n_reg = int(counts.get("regressed", 0))
     head = [
         "## slipbench compare",
         "",
-        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired; margin {cmp.margin:g} points.",
+        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired "
+        f"(seeds {_seeds_text(cmp)}); margin {cmp.margin:g} points.",
         "",
-        f"**{n_reg} cell{'s' * (n_reg != 1)} regressed** beyond the margin."
-        if n_reg
-        else "**No regression** beyond the margin.",
+        _verdict_line(cmp),
         "",
         ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS),
     ]
-    parts = [
-        "\n".join(head),
+    parts = ["\n".join(head)]
+    if not cmp.pooled.empty:
+        parts.append(
+            "### Pooled per protocol and detector\n\n"
+            + _pooled_table(cmp)
+            + f"\n\n_mean Δ: accuracy points, candidate − base, over the classification cells both sides "
+            f"finished (identical cells count 0), with a {100 * cmp.pooled_level:.4g} % interval from one "
+            "joint cluster bootstrap over the trials the cells share; p: Holm-adjusted over the "
+            f"{len(cmp.pooled)} pooled tests, flagged at {100 * POOLED_ALPHA:g} %._"
+        )
+    parts.append(
         "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
         "cell: accuracy points (streaming cells: detection rate), candidate − base, over the cells both sides "
-        "finished; ▼ regressed, ▲ improved._",
-    ]
+        "finished; the worst cell is the lowest change among cells that decided something; ▼ regressed, "
+        "▲ improved, ? inconclusive, ≡ identical._"
+    )
     notes = _notes(cmp)
     for title, rows in (
         ("Cells only in BASE", cmp.only_base),
@@ -258,6 +291,58 @@ def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     return "\n\n".join(parts + notes) + "\n"
 
 
+def _seeds_text(cmp: Comparison) -> str:
+    b, c = cmp.min_seeds_base, cmp.min_seeds_candidate
+    return f"{b} per cell on each side" if b == c else f"BASE {b}, CANDIDATE {c} per cell at least"
+
+
+def _verdict_line(cmp: Comparison) -> str:
+    """What regressed at which level of the family, and what the intervals leave out."""
+    flagged = []
+    if not cmp.pooled.empty:
+        for r in cmp.pooled_regressions.to_dict("records"):
+            flagged.append(
+                f"{r['protocol']}, {r['detector']} on average {100 * r['mean_d']:+.1f} "
+                f"[{100 * r['mean_lo']:+.1f}, {100 * r['mean_hi']:+.1f}] points (pooled, Holm)"
+            )
+    n_reg = len(cmp.regressions)
+    if n_reg:
+        flagged.append(f"{n_reg} cell{'s' * (n_reg != 1)} (cell level, Bonferroni)")
+    line = (
+        f"**Regressed** beyond the margin: {'; '.join(flagged)}."
+        if flagged
+        else "**No regression** beyond the margin, pooled or in a cell."
+    )
+    note = repeats_note(cmp)
+    return line + (f"\n\n⚠ Note: {note}." if note else "")
+
+
+def _unchanged(cmp: Comparison) -> str:
+    """The comment of a comparison in which nothing changed: a few lines."""
+    return (
+        "## slipbench compare\n\n"
+        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`: all {len(cmp.cells)} paired cells are "
+        "identical (the same result keys or the same predictions), and no cell is on one side only.\n\n"
+        "**Nothing changed.**\n" + "".join(f"\n_{n}_\n" for n in cmp.notes)
+    )
+
+
+def _pooled_table(cmp: Comparison) -> str:
+    lines = []
+    for r in cmp.pooled.to_dict("records"):
+        lines.append(
+            {
+                "protocol": r["protocol"],
+                "detector": r["detector"],
+                "cells (changed)": f"{r['cells']} ({r['changed_cells']})",
+                "mean Δ [CI]": f"{100 * r['mean_d']:+.1f} [{100 * r['mean_lo']:+.1f}, {100 * r['mean_hi']:+.1f}]",
+                "p (Holm)": f"{r['p_holm']:.3g}",
+                "": MARKS[r["verdict"]],
+            }
+        )
+    return _table(lines)
+
+
 def _fit(rows: list[dict], budget: int) -> tuple[str, int]:
     """The table of the first rows that fits in ``budget`` characters, and how many it holds."""
     n = len(rows)
@@ -270,13 +355,27 @@ def _notes(cmp: Comparison) -> list[str]:
     cells = cmp.cells
     n = int(((cells["base_status"] == "ok") & (cells["candidate_status"] == "ok")).sum())
     methods = cells["method"].str.replace(r", \d+ shared windows", "", regex=True).value_counts()
+    n_family = int(
+        (
+            (cells["base_status"] == "ok")
+            & (cells["candidate_status"] == "ok")
+            & (cells["verdict"] != "identical")
+            & ~cells["low_n"].astype(bool)
+        ).sum()
+    )
     notes = [
+        f"_The family: the chance that anything in this comparison is wrongly called regressed or improved is at "
+        f"most {100 * ALPHA:g} %, split between the pooled tests ({100 * POOLED_ALPHA:g} %, Holm over the "
+        f"protocols and detectors) and the cells ({100 * CELL_ALPHA:g} %, Bonferroni over the {n_family} cells "
+        f"that changed and are not low-n, of {n} both sides finished). Cells with identical predictions on both "
+        "sides leave the family._",
         f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval "
         f"({'; '.join(f'{m}: {k} cells' for m, k in methods.items())}; a paired cluster bootstrap over the shared "
-        f"test windows where both sides kept predictions), at a level that holds for all {n} cells compared at once "
-        f"(Bonferroni), so the chance that any cell is wrongly called regressed is at most {100 * ALPHA:g} %. A cell "
-        f"regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, or when the candidate did "
-        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}._"
+        f"test windows where both sides kept predictions; over seeds and trials where a side ran several seeds). "
+        f"A cell regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, or when the candidate did "
+        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}. "
+        f"A cell is inconclusive when it is low-n (fewer than 10 test trials of a class: its intervals undercover) "
+        f"or its interval, deciding nothing, is wider than {cmp.max_width:g} points._",
     ]
     if cells["stream"].any():
         notes.append(
@@ -308,29 +407,70 @@ def _compute_summary(cells: pd.DataFrame) -> str:
     )
 
 
+# cells' columns that hold rates as fractions; the JSON gives them in percentage points
+_RATE_NAMES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc", "detection_rate")
+
+
+def _in_points(frame: pd.DataFrame) -> pd.DataFrame:
+    out = frame.copy()
+    for col in out.columns:
+        name = col.removeprefix("d_").removeprefix("base_").removeprefix("candidate_")
+        for suffix in ("_lo", "_hi", "_se"):
+            name = name.removesuffix(suffix)
+        if name in _RATE_NAMES or col in ("mean_d", "mean_lo", "mean_hi", "mean_se"):
+            out[col] = 100 * pd.to_numeric(out[col], errors="coerce")
+    return out
+
+
 def to_json(cmp: Comparison) -> str:
-    """Every compared cell with its changes and verdict, the summary and the one-sided cells,
-    for bots."""
+    """Every compared cell with its changes and verdict, the pooled tests, the summary and the
+    one-sided cells, for bots (``compare.schema.json`` describes it). Rates and their changes
+    in percentage points throughout; delays in ms, false alarms per minute; levels and
+    p-values as probabilities."""
 
     def records(frame: pd.DataFrame) -> list[dict]:
-        return json.loads(frame.to_json(orient="records", double_precision=6))
+        out = json.loads(frame.to_json(orient="records", double_precision=6))
+        for r in out:
+            if isinstance(r.get("cell"), str):
+                try:
+                    r["cell"] = json.loads(r["cell"])
+                except json.JSONDecodeError:
+                    r["cell"] = {"cell": r["cell"]}
+        return out
 
     cmp = in_paper_order(cmp)
     cells = cmp.cells.assign(label=[_label(r, cmp) for r in cmp.cells.to_dict("records")])
     doc = {
+        "schema_version": SCHEMA_VERSION,
+        "units": {
+            "rates": "percentage points (0-100), changes candidate - base",
+            "delays": "ms",
+            "false_alarms": "per minute",
+            "levels": "probability",
+        },
         "base": cmp.base,
         "candidate": cmp.candidate,
         "margin": cmp.margin,
         "delay_margin_ms": cmp.delay_margin_ms,
         "alarm_margin": cmp.alarm_margin,
+        "max_width": cmp.max_width,
         "level": cmp.level,
+        "pooled_level": cmp.pooled_level,
+        "family": {
+            "alpha": ALPHA,
+            "pooled": {"alpha": POOLED_ALPHA, "method": "Holm over protocols x detectors"},
+            "cells": {"alpha": CELL_ALPHA, "method": "Bonferroni over changed, not low-n cells"},
+        },
+        "seeds": {"base": cmp.min_seeds_base, "candidate": cmp.min_seeds_candidate},
+        "retraining_noise_covered": cmp.retraining_covered,
         "exit_code": cmp.exit_code,
         "verdict": "regressed" if cmp.exit_code else "no regression",
         "counts": {v: int((cmp.cells["verdict"] == v).sum()) for v in VERDICTS},
+        "pooled": records(_in_points(cmp.pooled)),
         "summary": records(summary_rows(cmp)),
-        "cells": records(cells),
+        "cells": records(_in_points(cells)),
         "only_base": records(cmp.only_base),
         "only_candidate": records(cmp.only_candidate),
-        "notes": cmp.notes,
+        "notes": [*cmp.notes, *([repeats_note(cmp)] if repeats_note(cmp) else [])],
     }
     return json.dumps(doc, indent=1, allow_nan=False, default=str) + "\n"

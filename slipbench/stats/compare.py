@@ -1,10 +1,20 @@
-"""Two result sets -> per-cell changes with paired intervals and a CI verdict.
+"""Two result sets -> per-cell changes with paired intervals, pooled tests per protocol and
+detector, and a CI verdict.
 
-Cells are paired on (protocol, cell key, split, seed), and on the detector as well when both
-sides hold the same detectors (comparing one detector's two versions); when each side holds a
-single detector, they are compared with each other (comparing two detectors). Two result sets
-from different datasets (``dataset_fingerprint``) are refused before anything is compared, and
-so is a side that holds a row twice (the same key).
+Cells are paired on (protocol, cell key, split), and on the detector as well when both sides
+hold the same detectors (comparing one detector's two versions); when each side holds a single
+detector, they are compared with each other (comparing two detectors). Not on the seed: a side
+may hold several seeds of a cell (``evaluate --repeats``), and the sides' seeds may differ. Two
+result sets from different datasets (``dataset_fingerprint``) are refused before anything is
+compared, and so is a side that holds a row twice (the same key, or the same cell and seed).
+
+Seeds. A cell with one seed per side, the same on both, is compared window by window (below).
+A cell with several seeds on a side, or different seeds, gets the two-level bootstrap over seeds
+and trials of :func:`slipbench.stats.metrics.over_seeds` (its change: mean over the candidate's
+seeds minus mean over the base's), so retraining noise is inside its interval. With one seed
+per side it is not, and :func:`repeats_note` says so: a side needs ``MIN_SEEDS`` (2) seeds for
+a seed-to-seed spread to exist; ``RECOMMENDED_REPEATS`` (3) is what the null study
+(``benchmarks/bench_compare_null.py``) runs and what CI should.
 
 The change of every figure (candidate - base) gets an interval. Where both sides stored their
 test predictions (``predictions/<key>.parquet``), the windows are joined on (recording_id,
@@ -18,17 +28,23 @@ wide: on simulated cells (``tests/stats/test_compare.py``) it was wider in 39 of
 times) and found 0 of the 7 regressions the paired path found. Keep predictions to compare with
 power.
 
-Verdicts. Every interval is simultaneous over ALL the cells the run compares: with ``m`` cells
-compared (both sides finished), each is a t-interval at level ``1 - 0.05 / m`` (Bonferroni), so
-the chance that any cell of the run is wrongly called regressed or improved is at most 5 %.
-Measured (``tests/stats/test_compare.py``, ``SLIPBENCH_NULL_RUNS=100``): 100 simulated comparisons
-of two equally good detectors that differ at random per recording, 280 cells each of 10-40
-recordings per class, margin 0: no run called any cell regressed, where per-cell 95 %
-intervals called one in all 100 runs. A cell *regressed*
-when its accuracy interval lies entirely below ``-margin`` (upper bound < -margin), or when
-the candidate failed, timed out or skipped a cell the base finished; *improved* when it lies
-entirely above ``+margin``; *within margin* when it lies inside ``[-margin, +margin]``
-(margin > 0); otherwise *no significant change*. McNemar's test over windows is gone: it
+Verdicts. The family of tests holds the chance of any wrong "regressed" or "improved" in a
+run at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA`` (2.5 %) for the pooled tests,
+one per protocol and detector (:mod:`slipbench.stats.pooled`: the mean accuracy change over the
+cells, one joint cluster bootstrap over the trials they share; Holm over the pooled tests, their
+intervals Bonferroni), and ``CELL_ALPHA`` (2.5 %) for the cells: each cell's interval is a
+t-interval at level ``1 - CELL_ALPHA / m``, ``m`` the cells both sides finished that changed and
+are not low-n (cells with identical predictions, or rows of the same key and figures, leave the
+family: they are "identical"). Before the pooled level existed, every cell was at
+``1 - 0.05 / m``: 100 simulated comparisons of two equally good detectors that differ at random
+per recording, 280 cells each of 10-40 recordings per class, margin 0, called no cell regressed,
+where per-cell 95 % intervals called one in all 100 runs (``tests/stats/test_compare.py``). A
+cell *regressed* when its accuracy interval lies entirely below ``-margin`` (upper bound <
+-margin), or when the candidate failed, timed out or skipped a cell the base finished;
+*improved* when it lies entirely above ``+margin``; *within margin* when it lies inside
+``[-margin, +margin]`` (margin > 0); *inconclusive* when the cell is low-n (its intervals
+undercover) or its interval, deciding nothing, is wider than ``max_width`` points (``MAX_WIDTH``,
+40); otherwise *no significant change*. McNemar's test over windows is gone: it
 treats correlated windows as independent (issue 11 measured 17-23 % false rejections per cell).
 
 Streaming cells (rows without ``accuracy``, with the streaming figures of
@@ -58,7 +74,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -67,17 +82,38 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import DataError, UsageError
-from slipbench.stats.metrics import FIGURES, LEVEL, paired_comparison
+from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
+from slipbench.stats.pooled import CellSides, pooled_change
 from slipbench.store.results import (
     check_unique_keys,
     read_predictions,
     read_results,
     results_folder,
 )
+from slipbench.vocabulary import LOW_N
 
 ALPHA = 1 - LEVEL
+# The family: the chance that a run calls anything regressed or improved wrongly is held at
+# ALPHA, split evenly between the pooled tests (Holm over protocols x detectors) and the cells
+# (Bonferroni over the cells compared); by the union bound the two levels together hold ALPHA.
+POOLED_ALPHA = ALPHA / 2
+CELL_ALPHA = ALPHA / 2
+# a cell whose change interval is wider than this (accuracy points, streams: detection rate)
+# cannot tell a real change from none: "inconclusive", never "no significant change"
+MAX_WIDTH = 40.0
+# seeds per side from which retraining noise enters the intervals (two measure its spread
+# at all, with one degree of freedom; three is what the null study runs and what CI should)
+MIN_SEEDS = 2
+RECOMMENDED_REPEATS = 3
 # the verdicts a cell can get, in the order counts of them are given
-VERDICTS = ("regressed", "improved", "within margin", "no significant change")
+VERDICTS = (
+    "regressed",
+    "improved",
+    "within margin",
+    "no significant change",
+    "inconclusive",
+    "identical",
+)
 
 
 @dataclass
@@ -93,20 +129,49 @@ class Comparison:
     candidate: str
     margin: float  # percentage points
     notes: list[str] = field(default_factory=list)
-    level: float = LEVEL  # the simultaneous level of every interval: 1 - 0.05 / cells compared
+    level: float = LEVEL  # the simultaneous level of every cell's interval
     delay_margin_ms: float = 0.0  # streaming cells: ms of median delay a cell may add
     alarm_margin: float = 0.0  # streaming cells: false alarms per minute a cell may add
     # both sides' result rows as read: what the writers lay the protocols out from
     rows: pd.DataFrame | None = None
+    # one row per protocol and detector: the mean change over its cells, its joint interval
+    # (at ``pooled_level``), Holm-adjusted p-value and verdict
+    pooled: pd.DataFrame = field(default_factory=pd.DataFrame)
+    pooled_level: float = LEVEL
+    max_width: float = MAX_WIDTH
+    # seeds per cell on each side: the fewest over the compared cells (1: retraining noise of
+    # that side is not in the intervals)
+    min_seeds_base: int = 1
+    min_seeds_candidate: int = 1
 
     @property
     def regressions(self) -> pd.DataFrame:
         return self.cells[self.cells["verdict"] == "regressed"]
 
     @property
+    def pooled_regressions(self) -> pd.DataFrame:
+        if self.pooled.empty:
+            return self.pooled
+        return self.pooled[self.pooled["verdict"] == "regressed"]
+
+    @property
     def exit_code(self) -> int:
-        """0 when nothing regressed beyond the margin, 1 when something did."""
-        return int(len(self.regressions) > 0)
+        """0 when nothing regressed beyond the margin (no cell, no protocol's pooled change),
+        1 when something did."""
+        return int(len(self.regressions) > 0 or len(self.pooled_regressions) > 0)
+
+    @property
+    def unchanged(self) -> bool:
+        """Every paired cell identical on both sides and no cell on one side only."""
+        return bool(
+            (self.cells["verdict"] == "identical").all()
+            and self.only_base.empty
+            and self.only_candidate.empty
+        )
+
+    @property
+    def retraining_covered(self) -> bool:
+        return min(self.min_seeds_base, self.min_seeds_candidate) >= MIN_SEEDS
 
 
 def family_level(n_cells: int, alpha: float = ALPHA) -> float:
@@ -136,9 +201,9 @@ def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
 
 
 def _pairing(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
-    on = ["protocol", "cell", "split", "seed"]
+    on = ["protocol", "cell", "split"]  # not the seed: a side may hold several per cell
     for side, rows in (("BASE", base), ("CANDIDATE", cand)):
-        missing = set(on) - set(rows.columns)
+        missing = {*on, "seed"} - set(rows.columns)
         if missing:
             raise DataError(f"{side}: results lack the columns {', '.join(sorted(missing))}")
     b, c = set(base["detector"]), set(cand["detector"])
@@ -164,9 +229,10 @@ def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
     return rows
 
 
-def _paired(base_row, cand_row, folders: tuple[Path, Path], seed: int, level: float) -> dict | None:
+def _paired(
+    base: pd.DataFrame | None, cand: pd.DataFrame | None, seed: int, level: float
+) -> dict | None:
     """Paired figures from the two cells' predictions, or None when they cannot be joined."""
-    base, cand = (read_predictions(f, r["key"]) for f, r in zip(folders, (base_row, cand_row)))
     if base is None or cand is None:
         return None
     joined = base.merge(cand, on=["recording_id", "window_index"], suffixes=("_b", "_c"))
@@ -188,30 +254,82 @@ def _paired(base_row, cand_row, folders: tuple[Path, Path], seed: int, level: fl
     return out
 
 
-def _unpaired(base_row: dict, cand_row: dict, level: float) -> dict:
-    """Change judged from the two rows: their bootstrap standard errors combined as independent.
+def _same_predictions(base: pd.DataFrame | None, cand: pd.DataFrame | None) -> bool:
+    """Both sides scored the same windows alike (the same model run twice, a self-compare)."""
+    if base is None or cand is None or len(base) != len(cand):
+        return False
+    on = ["recording_id", "window_index"]
+    b, c = (f.sort_values(on).reset_index(drop=True) for f in (base, cand))
+    return bool(
+        (b[on].to_numpy() == c[on].to_numpy()).all()
+        and (b["y_true"].to_numpy() == c["y_true"].to_numpy()).all()
+        and np.array_equal(b["score"].to_numpy(), c["score"].to_numpy())
+    )
+
+
+def _as_predictions(frame: pd.DataFrame, by_trial: bool) -> Predictions:
+    score = frame["score"].to_numpy()
+    groups = frame["trial" if by_trial else "recording_id"].astype(str).to_numpy()
+    return Predictions(frame["y_true"].to_numpy().astype(bool), score >= 0.5, groups, score)
+
+
+def _sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list, list]:
+    """Each seed's predictions as Predictions, clustered by trial where every file holds one."""
+    by_trial = all("trial" in f for f in (*base, *cand))
+    return [_as_predictions(f, by_trial) for f in base], [
+        _as_predictions(f, by_trial) for f in cand
+    ]
+
+
+def _over_seeds(
+    base: list[pd.DataFrame], cand: list[pd.DataFrame], seed: int, level: float
+) -> dict:
+    """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
+    side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`)."""
+    b, c = _sides(base, cand)
+    out: dict[str, Any] = over_seeds(b, c, seed=seed, level=level, figures=FIGURES)
+    out["method"] = f"over seeds and trials ({len(b)} → {len(c)} seeds)"
+    return out
+
+
+def _unpaired(base_rows: list[dict], cand_rows: list[dict], level: float) -> dict:
+    """Change judged from the rows: their bootstrap standard errors combined as independent.
 
     Rows written before standard errors were stored give theirs as the 95 % half-width over
-    1.96, with normal quantiles (method says so)."""
+    1.96, with normal quantiles (method says so). A side of several seeds gives the mean over
+    its seeds, with the mean of their standard errors (as if their test noise moved together:
+    the seeds draw on the same trials) plus the between-seed variance over the number of seeds
+    (retraining noise)."""
     out: dict = {"method": "unpaired"}
-    dfs: list[Any] = [r.get("df") for r in (base_row, cand_row)]  # numbers or None
+    if len(base_rows) > 1 or len(cand_rows) > 1:
+        out["method"] = f"unpaired over seeds ({len(base_rows)} → {len(cand_rows)} seeds)"
+    dfs: list[Any] = [r.get("df") for r in (*base_rows, *cand_rows)]  # numbers or None
     df = (
         min(float(d) for d in dfs)
         if all(d is not None and np.isfinite(float(d)) for d in dfs)
         else np.inf
     )
     for name in FIGURES:
-        d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
-        ses = []
-        for r in (base_row, cand_row):
-            if f"{name}_se" in r:
-                ses.append(float(r[f"{name}_se"]))
-            else:
-                ses.append(
-                    (float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan)))
-                    / (2 * norm.ppf(1 - ALPHA / 2))
-                )
-                df, out["method"] = np.inf, "unpaired (standard errors from 95 % bounds)"
+        means, ses = [], []
+        for rows in (base_rows, cand_rows):
+            values = np.array([float(r.get(name, np.nan)) for r in rows])
+            side_se = []
+            for r in rows:
+                if f"{name}_se" in r:
+                    side_se.append(float(r[f"{name}_se"]))
+                else:
+                    side_se.append(
+                        (float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan)))
+                        / (2 * norm.ppf(1 - ALPHA / 2))
+                    )
+                    df, out["method"] = np.inf, "unpaired (standard errors from 95 % bounds)"
+            var = float(np.mean(side_se)) ** 2
+            if len(rows) > 1:
+                var += float(values.var(ddof=1)) / len(rows)
+                df = min(df, len(rows) - 1)
+            means.append(float(values.mean()))
+            ses.append(np.sqrt(var))
+        d = means[1] - means[0]
         se = float(np.hypot(ses[0], ses[1]))
         half = student_t.ppf(1 - (1 - level) / 2, df) * se
         lo, hi = (
@@ -338,6 +456,45 @@ def stream_verdict(r: dict, margin: float, delay_margin_ms: float, alarm_margin:
     return "within margin" if inside and max(margins.values()) > 0 else "no significant change"
 
 
+def _ok(row: dict) -> bool:
+    return row.get("status", "ok") == "ok"
+
+
+def _side_status(rows: list[dict]) -> str:
+    """A side's status of a cell: ok when every seed finished, else the first other status."""
+    return next((str(r.get("status")) for r in rows if not _ok(r)), "ok")
+
+
+def _flag(row: dict, column: str) -> bool:
+    value = row.get(column, False)
+    return bool(value) if pd.notna(value) else False
+
+
+def _same_figures(a: dict, b: dict) -> bool:
+    for name in (*FIGURES, *STREAM_FIGURES):
+        x, y = a.get(name, np.nan), b.get(name, np.nan)
+        if not (pd.isna(x) and pd.isna(y)) and x != y:
+            return False
+    return True
+
+
+def _seed_text(base: list[dict], cand: list[dict]) -> str:
+    b, c = (",".join(str(int(r["seed"])) for r in rows) for rows in (base, cand))
+    return b if b == c else f"{b} → {c}"
+
+
+def _holm(p: np.ndarray) -> np.ndarray:
+    """Holm's step-down adjusted p-values."""
+    n = len(p)
+    order = np.argsort(p, kind="stable")
+    adj = np.empty(n)
+    running = 0.0
+    for i, j in enumerate(order):
+        running = max(running, min(1.0, (n - i) * p[j]))
+        adj[j] = running
+    return adj
+
+
 def compare(
     base_path: str | os.PathLike,
     candidate_path: str | os.PathLike,
@@ -345,26 +502,29 @@ def compare(
     seed: int = 0,
     delay_margin_ms: float = 0.0,
     alarm_margin: float = 0.0,
+    max_width: float = MAX_WIDTH,
 ) -> Comparison:
-    """Compare CANDIDATE against BASE cell by cell.
+    """Compare CANDIDATE against BASE cell by cell, and per protocol and detector pooled.
 
     Parameters
     ----------
     base_path, candidate_path
         Results files or folders (as ``evaluate --out`` writes them).
     margin : float
-        Percentage points of accuracy (streaming cells: of detection rate) a cell may lose
-        without counting as a regression.
+        Percentage points of accuracy (streaming cells: of detection rate) a cell, or a
+        protocol's mean, may lose without counting as a regression.
     delay_margin_ms, alarm_margin : float
         Streaming cells: ms of median delay and false alarms per minute a cell may add.
     seed : int
         Seeds the paired bootstraps.
+    max_width : float
+        Accuracy points: a cell whose change interval is wider is inconclusive.
 
     Raises
     ------
     DataError
-        The sides come from different datasets, a side repeats a key or a cell, or they share
-        no cell.
+        The sides come from different datasets, a side repeats a key or a cell and seed, or
+        they share no cell.
     """
     if not margin >= 0:
         raise UsageError(f"--margin must be >= 0 percentage points, got {margin}")
@@ -372,6 +532,8 @@ def compare(
         raise UsageError(
             f"--delay-margin and --alarm-margin must be >= 0, got {delay_margin_ms} and {alarm_margin}"
         )
+    if not max_width > 0:
+        raise UsageError(f"--max-width must be > 0 percentage points, got {max_width}")
     base, cand = read_results(base_path), read_results(candidate_path)
     notes = check_same_dataset(base, cand)
     base, cand = (
@@ -379,59 +541,94 @@ def compare(
         check_unique_keys(cand, f"CANDIDATE {candidate_path}"),
     )
     on = _pairing(base, cand)
-    base, cand = _unique(base, on, "BASE"), _unique(cand, on, "CANDIDATE")
-    merged = base.merge(cand, on=on, how="outer", suffixes=("_b", "_c"), indicator=True)
+    base, cand = _unique(base, [*on, "seed"], "BASE"), _unique(cand, [*on, "seed"], "CANDIDATE")
     ident = ["protocol", "detector", "split", "seed", "cell"]
-    sides = []
-    for tag, suffix in (("left_only", "_b"), ("right_only", "_c")):
-        rows = merged[merged["_merge"] == tag]
-        sides.append(
-            (rows if "detector" in on else rows.assign(detector=rows[f"detector{suffix}"]))[ident]
-        )
-    only_base, only_cand = sides
-    both = merged[merged["_merge"] == "both"]
-    if both.empty:
+    # cells pair by everything but the seed: a side may hold several seeds of a cell
+    groups = [dict(iter(rows.groupby(on, sort=False, dropna=False))) for rows in (base, cand)]
+    shared = [k for k in groups[0] if k in groups[1]]
+    only_base, only_cand = (
+        pd.concat([g[k] for k in g if k not in other], ignore_index=True)[ident]
+        if any(k not in other for k in g)
+        else pd.DataFrame(columns=ident)
+        for g, other in ((groups[0], groups[1]), (groups[1], groups[0]))
+    )
+    if not shared:
         raise DataError(
             f"BASE {base_path} and CANDIDATE {candidate_path} share no cell "
-            f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))})"
+            f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))}; "
+            "cells pair across seeds, so the seeds are not the reason)"
         )
     folders = (results_folder(base_path), results_folder(candidate_path))
-    rows = both.to_dict("records")
-    pairs = [
-        tuple(
-            {k[:-2]: v for k, v in row.items() if k.endswith(sfx)} | {k: row[k] for k in on}
-            for sfx in ("_b", "_c")
+    plans = []
+    for k in shared:
+        b_rows, c_rows = (g[k].sort_values("seed").to_dict("records") for g in groups)
+        entry: dict[str, Any] = dict(zip(on, k if isinstance(k, tuple) else (k,)))
+        if "detector" not in on:
+            entry["detector"] = f"{b_rows[0]['detector']} → {c_rows[0]['detector']}"
+        entry["seed"] = _seed_text(b_rows, c_rows)
+        sb, sc = _side_status(b_rows), _side_status(c_rows)
+        entry["base_status"], entry["candidate_status"] = sb, sc
+        entry["n_seeds_base"], entry["n_seeds_cand"] = len(b_rows), len(c_rows)
+        for side, rows in (("base", b_rows), ("candidate", c_rows)):
+            entry[f"{side}_accuracy"] = float(
+                np.mean([float(r.get("accuracy", np.nan)) for r in rows])
+            )
+            for name in STREAM_FIGURES:
+                entry[f"{side}_{name}"] = float(np.mean([float(r.get(name, np.nan)) for r in rows]))
+        entry["stream"] = _is_stream(b_rows[0]) and _is_stream(c_rows[0])
+        both = sb == sc == "ok"
+        entry["low_n"] = both and any(_flag(r, "low_n") for r in (*b_rows, *c_rows))
+        # the same content keys with the same figures: the same result, read twice
+        same_keys = [r["key"] for r in b_rows] == [r["key"] for r in c_rows] and all(
+            _same_figures(x, y) for x, y in zip(b_rows, c_rows)
         )
-        for row in rows
-    ]
-    # every cell both sides finished is one member of the family the error rate is held over
+        preds: tuple[list, list] = ([], [])
+        if both and not entry["stream"] and not same_keys:
+            preds = tuple(  # type: ignore[assignment]
+                [read_predictions(f, r["key"]) for r in rows]
+                for f, rows in zip(folders, (b_rows, c_rows))
+            )
+        same_seeds = [r["seed"] for r in b_rows] == [r["seed"] for r in c_rows]
+        entry["identical"] = both and (
+            same_keys
+            or (
+                same_seeds
+                and all(_same_predictions(x, y) for x, y in zip(*preds))
+                and len(preds[0]) > 0
+            )
+        )
+        plans.append((entry, b_rows, c_rows, preds, same_seeds))
+    # the cell family: cells both sides finished that changed and can be decided
     level = family_level(
-        sum(b.get("status", "ok") == c.get("status", "ok") == "ok" for b, c in pairs)
+        sum(
+            e["base_status"] == e["candidate_status"] == "ok"
+            and not e["identical"]
+            and not e["low_n"]
+            for e, *_ in plans
+        ),
+        CELL_ALPHA,
     )
     out = []
-    for row, (b, c) in zip(rows, pairs):
-        sb, sc = b.get("status", "ok"), c.get("status", "ok")
-        entry = {k: row[k] for k in on}
-        entry["detector"] = (
-            row["detector"] if "detector" in on else f"{row['detector_b']} → {row['detector_c']}"
-        )
-        entry["base_accuracy"], entry["candidate_accuracy"] = (
-            b.get("accuracy", np.nan),
-            c.get("accuracy", np.nan),
-        )
-        entry["base_status"], entry["candidate_status"] = sb, sc
-        entry["stream"] = _is_stream(b) and _is_stream(c)
-        for name in STREAM_FIGURES:
-            entry[f"base_{name}"], entry[f"candidate_{name}"] = (
-                b.get(name, np.nan),
-                c.get(name, np.nan),
-            )
-        if sb == sc == "ok" and entry["stream"]:
-            entry |= _streamed(b, c, level)
-        elif sb == sc == "ok":
-            entry |= _paired(b, c, folders, seed, level) or _unpaired(b, c, level)
+    for entry, b_rows, c_rows, (pb, pc), same_seeds in plans:
+        if entry["base_status"] != "ok" or entry["candidate_status"] != "ok":
+            entry["method"] = f"status {entry['base_status']} → {entry['candidate_status']}"
+        elif entry["identical"]:
+            names = STREAM_FIGURES if entry["stream"] else FIGURES
+            for name in names:
+                known = pd.notna(b_rows[0].get(name, np.nan))
+                for bound in ("", "_lo", "_hi", "_se"):
+                    entry[f"d_{name}{bound}"] = 0.0 if known else np.nan
+            entry["method"] = "identical (same result keys or predictions)"
+        elif entry["stream"] and len(b_rows) == len(c_rows) == 1:
+            entry |= _streamed(b_rows[0], c_rows[0], level)
+        elif entry["stream"]:
+            entry["method"] = "streams over several seeds: not compared"
+        elif len(b_rows) == len(c_rows) == 1 and same_seeds:
+            entry |= _paired(pb[0], pc[0], seed, level) or _unpaired(b_rows, c_rows, level)
+        elif all(p is not None for p in (*pb, *pc)):
+            entry |= _over_seeds(pb, pc, seed, level)
         else:
-            entry["method"] = f"status {sb} → {sc}"
+            entry |= _unpaired(b_rows, c_rows, level)
         out.append(entry)
     cells = pd.DataFrame(out)
     for col in (
@@ -439,11 +636,23 @@ def compare(
     ):
         if col not in cells:
             cells[col] = np.nan
-    cells["verdict"] = [
-        stream_verdict(r, margin, delay_margin_ms, alarm_margin)
-        if r["stream"] and r["base_status"] == r["candidate_status"] == "ok"
-        else verdict(r, margin)
-        for r in cells.to_dict("records")
+    verdicts, reasons = [], []
+    for r in cells.to_dict("records"):
+        both = r["base_status"] == r["candidate_status"] == "ok"
+        v = (
+            stream_verdict(r, margin, delay_margin_ms, alarm_margin)
+            if r["stream"] and both
+            else verdict(r, margin)
+        )
+        v, why = _honest(r, v, both, max_width)
+        verdicts.append(v)
+        reasons.append(why)
+    cells["verdict"], cells["inconclusive_reason"] = verdicts, reasons
+    pooled, pooled_level = _pooled_tests(plans, cells, seed, margin, max_width)
+    compared = [
+        (e["n_seeds_base"], e["n_seeds_cand"])
+        for e in out
+        if e["base_status"] == e["candidate_status"] == "ok"
     ]
     return Comparison(
         cells,
@@ -457,7 +666,101 @@ def compare(
         delay_margin_ms,
         alarm_margin,
         pd.concat([base, cand], ignore_index=True),
+        pooled,
+        pooled_level,
+        max_width,
+        min((b for b, _ in compared), default=1),
+        min((c for _, c in compared), default=1),
     )
+
+
+def _honest(r: dict, v: str, both: bool, max_width: float) -> tuple[str, str]:
+    """A finished cell's verdict made honest: identical predictions say so; a low-n cell
+    (intervals that undercover) decides nothing; an interval wider than ``max_width`` points
+    that decides nothing is inconclusive, not "no significant change"."""
+    if not both:
+        return v, ""
+    if r["identical"]:
+        return "identical", ""
+    if r["method"] == "streams over several seeds: not compared":
+        return "inconclusive", "streaming cells over several seeds are not compared"
+    if r["low_n"]:
+        return "inconclusive", f"low n (fewer than {LOW_N} test trials of a class)"
+    width = primary_change(r, "_hi") - primary_change(r, "_lo")
+    if v in ("no significant change", "within margin") and not width <= max_width:
+        return "inconclusive", f"interval wider than {max_width:g} points"
+    return v, ""
+
+
+def _pooled_tests(
+    plans: list, cells: pd.DataFrame, seed: int, margin: float, max_width: float
+) -> tuple[pd.DataFrame, float]:
+    """Per protocol and detector: the mean accuracy change over the classification cells both
+    sides finished (identical ones count as 0), its interval at the Bonferroni level over the
+    pooled tests and its Holm-adjusted p-value, both of ``POOLED_ALPHA``."""
+    by_group: dict[tuple, list] = {}
+    for (entry, _, _, preds, _), r in zip(plans, cells.to_dict("records")):
+        if entry["base_status"] == entry["candidate_status"] == "ok" and not entry["stream"]:
+            by_group.setdefault((entry["protocol"], entry["detector"]), []).append((r, preds))
+    tested = {g: m for g, m in by_group.items() if any(not r["identical"] for r, _ in m)}
+    level = family_level(len(tested), POOLED_ALPHA)
+    lines = []
+    for (protocol, detector), members in tested.items():
+        changed = [(r, p) for r, p in members if not r["identical"]]
+        scale = len(changed) / len(members)  # identical cells add 0 to the mean
+        line: dict[str, Any] = {
+            "protocol": protocol,
+            "detector": detector,
+            "cells": len(members),
+            "changed_cells": len(changed),
+        }
+        preds = [p for _, p in changed]
+        if all(x is not None for b, c in preds for x in (*b, *c)):
+            parts = [CellSides(*_sides(b, c)) for b, c in preds]
+            res = pooled_change(parts, seed, level)
+            line |= {
+                "method": "joint cluster bootstrap over the trials the cells share"
+                + (" and each cell's seeds" if res["seeds"] else ""),
+                "low_n": res["low_n"],
+            }
+        else:  # rows only: the cells' errors taken as moving together (the widest case)
+            d = np.array([r["d_accuracy"] for r, _ in changed], float)
+            se = np.array([r["d_accuracy_se"] for r, _ in changed], float)
+            df = np.array([r.get("df", np.inf) for r, _ in changed], float)
+            res = {"d": float(d.mean()), "se": float(se.mean()), "df": float(np.nanmin(df))}
+            q = student_t.ppf(1 - (1 - level) / 2, res["df"])
+            res |= {"lo": res["d"] - q * res["se"], "hi": res["d"] + q * res["se"]}
+            line |= {
+                "method": "mean of the cells' standard errors (no predictions to pool)",
+                "low_n": all(r["low_n"] for r, _ in changed),
+            }
+        for name in ("d", "lo", "hi", "se"):
+            line[f"mean_{name}"] = scale * res[name]
+        line["df"] = res["df"]
+        lines.append(line)
+    pooled = pd.DataFrame(lines)
+    if pooled.empty:
+        return pooled, level
+    m = margin / 100
+    d, se, df = pooled["mean_d"], pooled["mean_se"], pooled["df"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p_reg = np.minimum(1.0, 2 * student_t.cdf((d + m) / se, df))
+        p_imp = np.minimum(1.0, 2 * student_t.sf((d - m) / se, df))
+    p = np.nan_to_num(np.minimum(p_reg, p_imp), nan=1.0)
+    pooled["p_holm"] = _holm(p)
+    verdicts = []
+    for r, worse in zip(pooled.to_dict("records"), p_reg <= p_imp):
+        width = 100 * (r["mean_hi"] - r["mean_lo"])
+        if r["p_holm"] <= POOLED_ALPHA and not r["low_n"]:
+            verdicts.append("regressed" if worse else "improved")
+        elif r["low_n"] or not width <= max_width:
+            verdicts.append("inconclusive")
+        elif margin > 0 and -m <= r["mean_lo"] and r["mean_hi"] <= m:
+            verdicts.append("within margin")
+        else:
+            verdicts.append("no significant change")
+    pooled["verdict"] = verdicts
+    return pooled, level
 
 
 def verdict(r: dict, margin: float) -> str:
@@ -494,16 +797,29 @@ def primary_change(r: dict, bound: str = "") -> float:
 
 
 def summary(cmp: Comparison) -> pd.DataFrame:
-    """Per protocol and detector (in the order of ``cmp.cells``): cells compared, regressed and
-    improved, the mean change of the summarising figure and the cell that changed most for the
-    worse (``worst_row``: its index in ``cmp.cells``, None when no cell has a change)."""
+    """Per protocol and detector (in the order of ``cmp.cells``): cells compared and their
+    verdicts, the mean change of the summarising figure (the pooled estimate where there is
+    one) and the cell that changed most for the worse among those that decided something
+    (``worst_row``: its index in ``cmp.cells``, None when none; inconclusive and identical
+    cells are never the worst)."""
+    pooled = (
+        {(r["protocol"], r["detector"]): r for r in cmp.pooled.to_dict("records")}
+        if not cmp.pooled.empty
+        else {}
+    )
     lines = []
     for (protocol, detector), part in cmp.cells.groupby(["protocol", "detector"], sort=False):
-        changes = [(primary_change(r), i, r) for i, r in zip(part.index, part.to_dict("records"))]
+        decided = part[~part["verdict"].isin(["inconclusive", "identical"])]
+        changes = [
+            (primary_change(r), i, r) for i, r in zip(decided.index, decided.to_dict("records"))
+        ]
         finite = [c for c in changes if np.isfinite(c[0])]
+        all_changes = [primary_change(r) for r in part.to_dict("records")]
+        all_finite = [c for c in all_changes if np.isfinite(c)]
         # the first of equal changes, as the cells are ordered
         worst = min(finite, key=lambda c: c[0]) if finite else None
         verdicts = part["verdict"].value_counts()
+        p = pooled.get((protocol, detector))
         lines.append(
             {
                 "protocol": protocol,
@@ -511,7 +827,11 @@ def summary(cmp: Comparison) -> pd.DataFrame:
                 "cells": len(part),
                 "regressed": int(verdicts.get("regressed", 0)),
                 "improved": int(verdicts.get("improved", 0)),
-                "mean_change": float(np.mean([d for d, _, _ in finite])) if finite else np.nan,
+                "inconclusive": int(verdicts.get("inconclusive", 0)),
+                "identical": int(verdicts.get("identical", 0)),
+                "mean_change": 100 * p["mean_d"]
+                if p is not None
+                else (float(np.mean(all_finite)) if all_finite else np.nan),
                 "worst_row": worst[1] if worst is not None else None,
                 **{
                     f"worst_{name}": primary_change(worst[2], bound)
@@ -522,3 +842,21 @@ def summary(cmp: Comparison) -> pd.DataFrame:
             }
         )
     return pd.DataFrame(lines)
+
+
+def repeats_note(cmp: Comparison) -> str:
+    """Empty when every compared cell ran at least ``MIN_SEEDS`` seeds per side; else what the
+    intervals leave out and how many repeats would cover it."""
+    if cmp.retraining_covered:
+        return ""
+    sides = [
+        name
+        for name, n in (("BASE", cmp.min_seeds_base), ("CANDIDATE", cmp.min_seeds_candidate))
+        if n < MIN_SEEDS
+    ]
+    return (
+        f"retraining noise is not covered: {' and '.join(sides)} ran one seed per cell, so the "
+        "intervals hold test-set noise only and a reseeded but equal detector can read as a change; "
+        f"run `evaluate --repeats {RECOMMENDED_REPEATS}` on both sides (at least {MIN_SEEDS} seeds "
+        "per side measure the spread between trainings)"
+    )

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 
 import numpy as np
@@ -21,7 +22,7 @@ from test_coverage import TAUS, dataset
 from slipbench.app.cli import main
 from slipbench.errors import DataError
 from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, to_json, to_markdown
-from slipbench.stats.compare import compare, family_level, verdict
+from slipbench.stats.compare import CELL_ALPHA, compare, family_level, verdict
 from slipbench.stats.metrics import classification_figures, paired_comparison
 from slipbench.store.results import check_unique_keys
 
@@ -58,16 +59,13 @@ def runs(small_path, tmp_path_factory):
 
 
 def test_self_compare_reports_no_change(runs, cli):
+    """An identical candidate: a comment of a few lines, not a table of +0.0 [+0.0, +0.0]."""
     code, out, _ = cli(["compare", str(runs / "base"), str(runs / "base" / "results.parquet")])
     assert code == 0
-    assert (
-        "**No regression**" in out
-        and "▼ regressed: 0" in out
-        and "= no significant change: 2" in out
-    )
-    rows = [line for line in out.splitlines() if line.endswith("= no significant change |")]
-    assert len(rows) == 2  # both cells, each once, exactly unchanged in accuracy, TP and TN rate
-    assert all("+0.0 [+0.0, +0.0]" in row and "+0.0 / +0.0" in row for row in rows)
+    assert "**Nothing changed.**" in out and "all 2 paired cells are identical" in out
+    assert len(out.splitlines()) <= 8 and "+0.0 [+0.0, +0.0]" not in out
+    doc = json.loads(to_json(compare(runs / "base", runs / "base")))
+    assert doc["counts"]["identical"] == 2 and doc["pooled"] == [] and doc["exit_code"] == 0
 
 
 def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
@@ -76,7 +74,8 @@ def test_degraded_detector_exits_1_and_names_the_cells(runs, cli, tmp_path):
         ["compare", str(runs / "base"), str(runs / "degraded"), "--out", str(comment)]
     )
     assert code == 1
-    assert "**2 cells regressed**" in out
+    assert "**Regressed**" in out and "2 cells (cell level, Bonferroni)" in out
+    assert "two-cells, holweg on average" in out and "(pooled, Holm)" in out
     for finger in ("index", "middle"):
         assert f"Nano17 {finger.capitalize()} window 50" in out
     assert "paired" in out and comment.read_text() == out
@@ -97,10 +96,10 @@ def test_cells_on_one_side_are_listed(tmp_path, cli):
         (tmp_path / name).mkdir()
         rows.to_parquet(tmp_path / name / "results.parquet")
     code, out, _ = cli(["compare", str(tmp_path / "base"), str(tmp_path / "cand")])
-    assert code == 0  # no predictions: unpaired, and nothing changed
+    assert code == 0  # no predictions, the same keys and figures: identical, nothing changed
     assert "**Cells only in BASE** (8)" in out and "**Cells only in CANDIDATE** (8)" in out
     assert "- window-size, holweg: 8 cells" in out and "Nano17 Index window 5, split paper" in out
-    assert "window 400" in out and "unpaired" in out
+    assert "window 400" in out and "≡ identical: 40" in out
 
 
 def test_unpaired_regression_without_predictions(tmp_path):
@@ -174,14 +173,14 @@ def test_repeated_keys_are_refused(tmp_path, cli):
 @pytest.mark.parametrize("status", ["failed", "timeout", "skipped"])
 def test_a_cell_the_candidate_no_longer_finishes_is_a_regression(tmp_path, status):
     base = fake_rows("window-size")
-    cand = base.copy()
+    cand = base.assign(accuracy=base["accuracy"] + 0.001)  # changed, so in the family
     cand.loc[3, ["status", "reason"]] = [status, "whatever happened"]
     _write(tmp_path / "base", base)
     _write(tmp_path / "cand", cand)
     result = compare(tmp_path / "base", tmp_path / "cand")
     assert list(result.regressions["cell"]) == [base.loc[3, "cell"]] and result.exit_code == 1
     # the family counts the cells both sides finished
-    assert result.level == pytest.approx(1 - 0.05 / (len(base) - 1))
+    assert result.level == pytest.approx(1 - 0.025 / (len(base) - 1))
 
 
 def test_verdict_rules():
@@ -204,6 +203,7 @@ def test_verdict_rules():
     assert v(np.nan, np.nan, statuses=("ok", "failed")) == "regressed"
     assert v(np.nan, np.nan, statuses=("failed", "ok")) == "improved"
     assert family_level(280) == pytest.approx(1 - 0.05 / 280)
+    assert family_level(280, CELL_ALPHA) == pytest.approx(1 - 0.025 / 280)
 
 
 @pytest.mark.slow
@@ -323,6 +323,7 @@ def test_a_whole_paper_comparison_fits_a_pull_request_comment(whole_paper):
         line
         for line in text.splitlines()
         if line.endswith(("▼ regressed |", "= no significant change |"))
+        and not re.search(r"\| \d+ \(\d+\) +\|", line)  # a pooled test's line
     ]
     assert len(rows) == 12 + MAX_ROWS  # every regressed cell, then --max-rows others, each once
     assert len(set(rows)) == len(rows)
@@ -341,7 +342,8 @@ def test_a_comment_with_every_cell_regressed_is_cut_and_says_so(tmp_path):
     assert len(result.regressions) == 1400  # all but the 5 cells both sides skipped
     text = to_markdown(result, max_rows=10_000)
     assert len(text) < COMMENT_LIMIT
-    listed = text.count("▼ regressed |")
+    listed = text.count("▼ regressed |") - len(result.pooled_regressions)  # cells, not pooled lines
+    assert len(result.pooled_regressions) == 25  # every protocol of every detector, pooled
     assert 100 < listed < 1400 and f"… and {1400 - listed} more regressed cells" in text
     assert "### Other cells" not in text  # regressed cells come first, whatever --max-rows says
 

@@ -217,12 +217,13 @@ def _worse(src, dst, **changes):
 def test_compare_flags_a_longer_delay_or_more_false_alarms(streamed, tmp_path):
     _, out = streamed
     same = compare(out, out)
-    assert (same.cells["verdict"] == "no significant change").all() and same.exit_code == 0
+    assert (same.cells["verdict"] == "identical").all() and same.exit_code == 0
     slower = compare(out, _worse(out, tmp_path / "slow.parquet", median_delay_ms=150.0))
     # a unit with few detected onsets has a wide delay interval: 150 ms need not be significant there
     verdicts = slower.cells["verdict"]
     assert (verdicts == "regressed").sum() >= len(verdicts) / 2 and slower.exit_code == 1
-    assert set(verdicts) <= {"regressed", "no significant change"}
+    # such a unit may also be inconclusive (low n, or a detection-rate interval over 40 points)
+    assert set(verdicts) <= {"regressed", "no significant change", "inconclusive"}
     assert "median delay" in to_markdown(slower)
     # beyond the margin only: 150 ms more within a 300 ms margin is no regression
     assert compare(out, tmp_path / "slow.parquet", delay_margin_ms=300.0).exit_code == 0

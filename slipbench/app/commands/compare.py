@@ -34,6 +34,12 @@ from slipbench.app.selection import add_plugin_folders
     help="Streaming cells: false alarms per minute a cell may add before it counts as a regression.",
 )
 @click.option(
+    "--max-width",
+    default=40.0,
+    show_default=True,
+    help="Accuracy points: a cell whose change interval is wider (and decides nothing) is inconclusive.",
+)
+@click.option(
     "--format",
     "fmt",
     type=click.Choice(["md", "json"]),
@@ -50,11 +56,15 @@ from slipbench.app.selection import add_plugin_folders
 @out_option("Also write the text to this file (a PR comment).")
 @plugins_option(LAYOUT_PLUGINS_HELP)
 def compare_command(
-    base, candidate, margin, delay_margin, alarm_margin, fmt, max_rows, out, plugins
+    base, candidate, margin, delay_margin, alarm_margin, max_width, fmt, max_rows, out, plugins
 ) -> None:
     """Compare CANDIDATE results with BASE cell by cell; exit 1 if a cell regressed.
 
-    Exit codes: 0 nothing regressed beyond --margin; 1 a cell regressed; 2 bad usage or data.
+    Cells pair across seeds (a side may hold several per cell, `evaluate --repeats`); each
+    protocol and detector also gets a pooled test of its mean change.
+
+    Exit codes: 0 nothing regressed beyond --margin; 1 a cell or a protocol's pooled change
+    regressed; 2 bad usage or data.
     """
     from slipbench.atomic import write_text_atomic
     from slipbench.report.compare import MAX_ROWS, to_json, to_markdown
@@ -62,7 +72,12 @@ def compare_command(
 
     add_plugin_folders(plugins)
     result = compare(
-        base, candidate, margin, delay_margin_ms=delay_margin, alarm_margin=alarm_margin
+        base,
+        candidate,
+        margin,
+        delay_margin_ms=delay_margin,
+        alarm_margin=alarm_margin,
+        max_width=max_width,
     )
     text = (
         to_json(result)

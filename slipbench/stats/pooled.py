@@ -1,0 +1,127 @@
+"""The mean change of a rate over many compared cells, with ONE joint cluster bootstrap.
+
+A change spread thinly over a protocol (every window of a tenth of the trials flipped in all
+window-size cells: -4.6 points on average) hides inside each cell's simultaneous interval, but
+not inside the interval of the mean over the cells. The cells of a protocol test the same
+trials (fingers recorded at once, windows cut from the same recordings), so their changes move
+together: the mean is bootstrapped once, every resample drawing each trial for all cells and
+both sides at once (clusters shared by test sets are one cluster, as in
+:func:`slipbench.stats.metrics.mean_over_test_sets`).
+
+Seeds (``--repeats``): a cell's change is the mean over the candidate's seeds minus the mean
+over the base's. The interval is the two-level bootstrap of
+:func:`slipbench.stats.bootstrap.seeded_interval`: trials drawn once for every test set, and
+each cell's seeds drawn anew on each side (every cell trains its own models), so retraining
+noise is inside it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from slipbench.stats.bootstrap import N_RESAMPLES, make_design, seeded_interval
+from slipbench.stats.metrics import Predictions, classes_low_n, cluster_counts
+
+RATE_MASKS = ("accuracy", "tp_rate", "tn_rate")
+
+
+@dataclass(frozen=True)
+class CellSides:
+    """One compared cell: one Predictions per seed on each side."""
+
+    base: Sequence[Predictions]
+    cand: Sequence[Predictions]
+
+
+def _mask(p: Predictions, figure: str) -> np.ndarray:
+    y = np.asarray(p.y_true, bool)
+    return {"accuracy": np.ones(len(y), bool), "tp_rate": y, "tn_rate": ~y}[figure]
+
+
+def pooled_change(
+    cells: Sequence[CellSides],
+    seed: int,
+    level: float,
+    figure: str = "accuracy",
+    n_resamples: int = N_RESAMPLES,
+) -> dict:
+    """The mean over ``cells`` of (candidate - base) of ``figure`` (a rate, as a fraction),
+    with an interval at ``level`` from one joint stratified cluster bootstrap over the trials
+    and, where a side holds several, its seeds.
+
+    Returns
+    -------
+    dict
+        ``d``, ``lo``, ``hi``, ``se``, ``df``; ``seeds`` (a side held several seeds);
+        ``n_cells``; ``n_test_clusters_slip``/``_nonslip`` over the union of the
+        test sets and ``low_n``; ``estimable``.
+    """
+    if figure not in RATE_MASKS:
+        raise ValueError(f"pooled changes are of rates ({', '.join(RATE_MASKS)}), not {figure}")
+    if not cells:
+        raise ValueError("pooled_change needs at least one cell")
+    parts = [p for c in cells for p in (*c.base, *c.cand)]
+    design, codes = make_design([p.y_true for p in parts], [p.groups for p in parts])
+    hits, size = [], []
+    for p, c in zip(parts, codes):
+        m = _mask(p, figure)
+        correct = (np.asarray(p.y_true, bool) == np.asarray(p.y_pred, bool)).astype(float)
+        hits.append(np.bincount(c[m], weights=correct[m], minlength=design.n_clusters))
+        size.append(np.bincount(c[m], minlength=design.n_clusters).astype(float))
+    # one "side" of the two-level bootstrap per cell and side: its seeds are drawn on their
+    # own. Each side's figures come scaled by 1 / cells and the signs stay +-1, so every
+    # variance term seeded_interval forms from a side's figures (the seed-by-cluster
+    # correction, the seed spread) is on the scale of the mean
+    slices, signs, k = [], [], 0
+    for cell in cells:
+        for side, sign in ((cell.base, -1.0), (cell.cand, 1.0)):
+            slices.append(slice(k, k + len(side)))
+            signs.append(sign)
+            k += len(side)
+    H, S = np.array(hits), np.array(size)
+    share = 1.0 / len(cells)
+
+    def per_seed(w: np.ndarray) -> list[np.ndarray]:
+        r = share * (w @ H.T) / (w @ S.T)  # (n, parts)
+        return [r[:, sl] for sl in slices]
+
+    def per_seed_influence(w: np.ndarray) -> list[np.ndarray]:
+        denom = w @ S.T
+        r = (w @ H.T) / denom
+        infl = share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]
+        return [infl[:, sl] for sl in slices]
+
+    iv = seeded_interval(
+        per_seed,
+        per_seed_influence,
+        signs,
+        design,
+        S.sum(axis=0) > 0,
+        S.sum(axis=0),
+        seed,
+        level,
+        n_resamples,
+        bounds=(-1.0, 1.0),
+    )
+    out = {
+        "n_cells": len(cells),
+        "estimable": bool(iv.estimable),
+        "d": float(iv.estimate),
+        "lo": iv.lo,
+        "hi": iv.hi,
+        "se": iv.se,
+        "df": iv.df,
+        "seeds": any(len(c.base) > 1 or len(c.cand) > 1 for c in cells),
+    }
+    y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
+    g = np.concatenate([np.asarray(p.groups) for p in parts])
+    n_slip, n_nonslip = cluster_counts(y, g)
+    out |= {
+        "n_test_clusters_slip": n_slip,
+        "n_test_clusters_nonslip": n_nonslip,
+        "low_n": classes_low_n(n_slip, n_nonslip),
+    }
+    return out

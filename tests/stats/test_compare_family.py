@@ -1,0 +1,158 @@
+"""The family of tests `slipbench compare` runs: seeds as a factor, pooled tests per protocol,
+inconclusive and identical cells, and the JSON's schema. Small synthetic result folders with
+predictions (tests/resultgen.py:predictions_pair)."""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+
+import numpy as np
+import pytest
+from resultgen import predictions_pair
+
+from slipbench.report.compare import SCHEMA_VERSION, to_json, to_markdown
+from slipbench.stats.compare import CELL_ALPHA, compare, summary
+from slipbench.stats.metrics import Predictions, over_seeds, paired_comparison
+from slipbench.stats.pooled import CellSides, pooled_change
+
+
+def _preds(rng, n=20):
+    y = np.repeat(np.arange(2 * n) % 2 == 0, 6)
+    g = np.repeat(np.arange(2 * n), 6).astype(str)
+    return [Predictions(y, np.where(rng.random(len(y)) < 0.8, y, ~y), g) for _ in range(2)]
+
+
+def test_a_pooled_change_of_one_cell_is_the_cells_change():
+    rng = np.random.default_rng(3)
+    (b, c), (b2, c2) = _preds(rng), _preds(rng)
+    one = pooled_change([CellSides([b], [c])], seed=4, level=0.99)
+    ref = paired_comparison(
+        b.y_true, b.y_pred, c.y_pred, b.groups, 4, level=0.99, figures=("accuracy",)
+    )
+    assert one["d"] == pytest.approx(ref["d_accuracy"])
+    assert (one["lo"], one["hi"]) == pytest.approx((ref["d_accuracy_lo"], ref["d_accuracy_hi"]))
+    two = pooled_change([CellSides([b, b2], [c, c2])], seed=4, level=0.99)
+    ref = over_seeds([b, b2], [c, c2], seed=4, level=0.99, figures=("accuracy",))
+    assert two["seeds"] and (two["lo"], two["hi"]) == pytest.approx(
+        (ref["d_accuracy_lo"], ref["d_accuracy_hi"])
+    )
+    # two cells: the mean of their changes
+    both = pooled_change([CellSides([b], [c]), CellSides([b2], [c2])], seed=4, level=0.99)
+    assert both["d"] == pytest.approx(
+        np.mean(
+            [
+                np.mean(x.y_pred == x.y_true) - np.mean(w.y_pred == w.y_true)
+                for w, x in ((b, c), (b2, c2))
+            ]
+        )
+    )
+
+
+def test_a_drop_spread_over_a_protocol_is_flagged_by_the_pooled_test(tmp_path):
+    """Every window of 10 % of the trials flipped in all cells: no cell can tell, the mean can."""
+    base, cand = predictions_pair(tmp_path, n_cells=12, trials=40, flip=0.1)
+    cmp = compare(base, cand)
+    assert (cmp.cells["verdict"] != "regressed").all()  # too small for any one cell
+    (pooled,) = cmp.pooled.to_dict("records")
+    assert pooled["verdict"] == "regressed" and pooled["mean_hi"] < 0 and cmp.exit_code == 1
+    assert pooled["method"].startswith("joint cluster bootstrap")
+    text = to_markdown(cmp)
+    assert "**Regressed** beyond the margin: window-size, holweg on average" in text
+    assert "(pooled, Holm)" in text and "cell level" not in text.split("\n\n")[2]
+
+
+def test_an_equal_candidate_is_not_flagged(tmp_path):
+    base, cand = predictions_pair(
+        tmp_path, n_cells=12, trials=40, cand_seeds=(0,), flip=0.0, unchanged_cells=0
+    )
+    cmp = compare(base, cand)
+    assert cmp.unchanged and cmp.exit_code == 0 and cmp.pooled.empty
+    assert len(to_markdown(cmp).splitlines()) <= 8
+
+
+def test_another_seed_is_compared_and_the_note_says_what_is_not_covered(tmp_path):
+    base, cand = predictions_pair(tmp_path, n_cells=4, cand_seeds=(1,))
+    cmp = compare(base, cand)
+    assert len(cmp.cells) == 4 and set(cmp.cells["seed"]) == {"0 → 1"}
+    assert cmp.cells["method"].str.startswith("over seeds and trials (1 → 1 seeds)").all()
+    assert not cmp.retraining_covered
+    text = to_markdown(cmp)
+    assert "retraining noise is not covered" in text and "--repeats 3" in text
+    assert "retraining noise is not covered" in " ".join(json.loads(to_json(cmp))["notes"])
+
+
+def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
+    base, cand = predictions_pair(tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(3, 4, 5))
+    cmp = compare(base, cand)
+    assert cmp.retraining_covered and (cmp.min_seeds_base, cmp.min_seeds_candidate) == (3, 3)
+    assert cmp.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
+    assert "retraining noise" not in to_markdown(cmp)
+    assert "each cell's seeds" in cmp.pooled["method"].iloc[0]
+    # the seeds' spread widens the interval against one seed per side
+    one = compare(*predictions_pair(tmp_path / "one", n_cells=3, cand_seeds=(3,)))
+    width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
+    assert width(cmp) > width(one)
+
+
+def test_low_n_cells_are_inconclusive_and_never_the_worst(tmp_path):
+    base, cand = predictions_pair(tmp_path, n_cells=5, trials=30, flip=0.3, low_n_cells=2)
+    cmp = compare(base, cand)
+    low = cmp.cells[cmp.cells["low_n"]]
+    assert len(low) == 2 and (low["verdict"] == "inconclusive").all()
+    assert low["inconclusive_reason"].str.startswith("low n").all()
+    (line,) = summary(cmp).to_dict("records")
+    assert line["inconclusive"] == 2 and line["worst_row"] not in set(low.index)
+    # the cell family holds the 3 cells that changed and are not low-n
+    assert cmp.level == pytest.approx(1 - CELL_ALPHA / 3)
+    assert "? inconclusive (low n" in to_markdown(cmp)
+
+
+def test_a_wide_interval_is_inconclusive(tmp_path):
+    base, cand = predictions_pair(tmp_path, n_cells=2, trials=24, flip=0.1)
+    cmp = compare(base, cand, max_width=1)
+    assert (cmp.cells["verdict"] == "inconclusive").all()
+    assert cmp.cells["inconclusive_reason"].str.contains("wider than 1 points").all()
+
+
+def test_identical_cells_leave_the_family(tmp_path):
+    base, cand = predictions_pair(tmp_path, n_cells=6, flip=0.2, unchanged_cells=4)
+    cmp = compare(base, cand)
+    assert (cmp.cells["verdict"] == "identical").sum() == 4
+    assert cmp.level == pytest.approx(1 - CELL_ALPHA / 2)
+    (pooled,) = cmp.pooled.to_dict("records")
+    assert (pooled["cells"], pooled["changed_cells"]) == (6, 2)
+    assert "≡ identical" not in to_markdown(cmp).split("### Other cells")[-1]
+
+
+def test_json_is_in_points_with_cells_as_objects_and_validates(tmp_path):
+    jsonschema = pytest.importorskip("jsonschema")
+    base, cand = predictions_pair(tmp_path, n_cells=4, flip=0.2, low_n_cells=1)
+    cmp = compare(base, cand)
+    doc = json.loads(to_json(cmp))
+    schema = json.loads(
+        resources.files("slipbench.report").joinpath("compare.schema.json").read_text()
+    )
+    jsonschema.validate(doc, schema)
+    assert (
+        doc["schema_version"] == SCHEMA_VERSION == schema["properties"]["schema_version"]["const"]
+    )
+    cell = doc["cells"][0]
+    assert isinstance(cell["cell"], dict) and cell["cell"]["sensor_type"] == "Nano17"
+    assert cell["d_accuracy"] == pytest.approx(100 * cmp.cells["d_accuracy"].iloc[0], abs=1e-3)
+    assert 1 < cell["base_accuracy"] <= 100  # points, as the summary
+    assert doc["pooled"][0]["mean_d"] == pytest.approx(doc["summary"][0]["mean_change"], abs=1e-3)
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({**doc, "cells": [json.dumps(cell)]}, schema)  # a cell as a string
+
+
+def test_a_pooled_change_over_many_cells_of_several_seeds_keeps_its_width():
+    """Each cell's figures enter the two-level bootstrap scaled by 1 / cells (signs +-1): the
+    seed-by-cluster correction of seeded_interval is then on the mean's scale. With the scale
+    in the signs instead, it was 48 times too large and zeroed the interval of a null."""
+    rng = np.random.default_rng(8)
+    cells = [
+        CellSides(_preds(rng) + _preds(rng)[:1], _preds(rng) + _preds(rng)[:1]) for _ in range(8)
+    ]
+    res = pooled_change(cells, seed=1, level=0.975)
+    assert res["seeds"] and res["lo"] < res["d"] < res["hi"] and res["hi"] - res["lo"] > 0.02
