@@ -421,7 +421,8 @@ def seeded_interval(
     per_seed_influence : callable
         The same for the derivatives by each cluster weight: arrays (n, S_k, n_clusters).
     signs : sequence of float
-        Per side, its sign in the figure: ``(1,)`` for a mean, ``(-1, 1)`` for candidate - base.
+        Per side, its weight in the figure: ``(1,)`` for a mean, ``(-1, 1)`` for candidate -
+        base; any other weight scales that side's figure and its variance components alike.
 
     Degrees of freedom: the strata's components (:func:`satterthwaite_df`) and, per side with
     ``S_k > 1`` seeds, the variance of its seed mean, ``var(seed figures) / S_k``, with
@@ -449,7 +450,8 @@ def seeded_interval(
             if f.shape[1] > 1:
                 dev = f - f.mean(axis=1, keepdims=True)
                 dev = dev[np.isfinite(dev).all(axis=1)]
-                twice.append(float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1))
+                # a side weighted by `sign` contributes sign^2 times its variance
+                twice.append(sign**2 * float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1))
     boot = boot[np.isfinite(boot)]
     se = float(boot.std(ddof=1))
     if twice:
@@ -465,7 +467,7 @@ def seeded_interval(
             k * np.asarray(g)[0].mean(axis=0) for k, g in zip(signs, per_seed_influence(one))
         )
         # each side's seed variance of its mean, net of the seed-by-cluster part
-        spread = [float(f.var(ddof=1)) / len(f) for f in at_one if len(f) > 1]
+        spread = [k**2 * float(f.var(ddof=1)) / len(f) for k, f in zip(signs, at_one) if len(f) > 1]
         extra = [
             (max(0.0, v - t), n - 1.0)
             for v, t, n in zip(spread, twice, (len(f) for f in at_one if len(f) > 1))

@@ -20,7 +20,14 @@ from functools import partial
 import numpy as np
 from statsmodels.stats.proportion import proportion_confint
 
-from slipbench.stats.bootstrap import LEVEL, N_RESAMPLES, interval, make_design, seeded_interval
+from slipbench.stats.bootstrap import (
+    LEVEL,
+    N_RESAMPLES,
+    Design,
+    interval,
+    make_design,
+    seeded_interval,
+)
 from slipbench.vocabulary import LOW_N
 
 FIGURES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
@@ -220,10 +227,8 @@ def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
     }
 
 
-def _joint_figures(
-    parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str
-) -> dict:
-    """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
+def _joint_design(parts: Sequence[Predictions]) -> tuple[Design, list[_Totals]]:
+    """The joint design of test sets whose clusters may be shared, and each set's totals on it."""
     has_strata = [p.strata is not None for p in parts]
     if any(has_strata) and not all(has_strata):
         raise ValueError("give balancing strata for every test set or for none")
@@ -235,11 +240,16 @@ def _joint_figures(
     totals = []
     for p, c in zip(parts, codes):
         y = np.asarray(p.y_true, bool)
-        totals.append(
-            _totals(
-                y, (y == np.asarray(p.y_pred, bool)).astype(float), c, design.n_clusters, p.scores
-            )
-        )
+        correct = (y == np.asarray(p.y_pred, bool)).astype(float)
+        totals.append(_totals(y, correct, c, design.n_clusters, p.scores))
+    return design, totals
+
+
+def _joint_figures(
+    parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str
+) -> dict:
+    """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
+    design, totals = _joint_design(parts)
     out: dict = {}
     unestimable = []
     for name in FIGURES:
@@ -476,19 +486,7 @@ def over_seeds(
     if unknown:
         raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
     parts = [p for side in sides for p in side]
-    has_strata = [p.strata is not None for p in parts]
-    if any(has_strata) and not all(has_strata):
-        raise ValueError("give balancing strata for every test set or for none")
-    design, codes = make_design(
-        [p.y_true for p in parts],
-        [p.groups for p in parts],
-        [p.strata for p in parts if p.strata is not None] if all(has_strata) else None,
-    )
-    flat = []
-    for p, c in zip(parts, codes):
-        y = np.asarray(p.y_true, bool)
-        correct = (y == np.asarray(p.y_pred, bool)).astype(float)
-        flat.append(_totals(y, correct, c, design.n_clusters, p.scores))
+    design, flat = _joint_design(parts)
     per_side = [flat[: len(sides[0])], flat[len(sides[0]) :]][: len(sides)]
     signs = (1.0,) if cand is None else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"

@@ -359,3 +359,29 @@ def test_the_did_not_learn_criterion_against_a_null_and_planted_learning():
         assert 0.96 <= flagged(n, 0.5) <= 0.99
     assert flagged(84, 0.7) <= 0.08
     assert flagged(84, 0.8) == 0.0
+
+
+def test_seeded_interval_scales_with_its_signs():
+    """A side weighted by c has c times the figure and c times the standard error: the
+    seed-by-cluster correction scales with c squared, as the variance it corrects does."""
+    from slipbench.stats.bootstrap import make_design, seeded_interval
+
+    rng = np.random.default_rng(3)
+    n_clusters, n_seeds = 24, 3
+    y = np.repeat([True, False], n_clusters // 2)
+    design, _ = make_design([y], [np.arange(n_clusters)])
+    figs = rng.uniform(0.6, 0.9, (n_seeds, n_clusters))  # each seed's figure per cluster
+
+    def per_seed(w):
+        return [(w @ figs.T) / w.sum(axis=1, keepdims=True)]
+
+    def influence(w):
+        return [
+            np.broadcast_to(figs[None] - per_seed(w)[0][..., None], (len(w), n_seeds, n_clusters))
+        ]
+
+    used, sizes = np.ones(n_clusters, bool), np.ones(n_clusters)
+    one = seeded_interval(per_seed, influence, (1.0,), design, used, sizes, 0, bounds=(-1, 1))
+    half = seeded_interval(per_seed, influence, (0.5,), design, used, sizes, 0, bounds=(-1, 1))
+    assert half.estimate == pytest.approx(one.estimate / 2)
+    assert half.se == pytest.approx(one.se / 2, rel=1e-9) and half.se > 0
