@@ -64,22 +64,20 @@ def torch_targets(detector_class: type, length: int, seconds: float, seed: int =
     torch.set_num_threads(1)
     try:
         train_windows = (n - n_val) * EPOCHS
+
+        def ours_fit() -> None:
+            detector_class(max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu").fit(
+                x, y, seed=seed
+            )
+
         figures = [
             (
                 f"train windows/s ({EPOCHS} epochs, batch {detector.batch_size})",
-                rate(
-                    lambda: detector_class(
-                        max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu"
-                    ).fit(x, y, seed=seed),
-                    train_windows,
-                    seconds,
-                ),
-                rate(plain_fit(), train_windows, seconds),
+                *_best_of(ours_fit, plain_fit(), train_windows, seconds),
             ),
             (
                 "batched inference windows/s",
-                rate(lambda: fitted.predict_proba(x), n, seconds),
-                rate(plain_infer, n, seconds),
+                *_best_of(lambda: fitted.predict_proba(x), plain_infer, n, seconds),
             ),
         ]
     finally:
@@ -88,3 +86,15 @@ def torch_targets(detector_class: type, length: int, seconds: float, seed: int =
     table["ratio vs plain loop"] = table["slipbench"] / table["plain torch loop"]
     table["target"] = 0.9
     return table
+
+
+def _best_of(
+    ours: Callable[[], object], plain: Callable[[], object], units: float, seconds: float
+) -> tuple[float, float]:
+    """Each side's best rate over three turns taken alternately: another process holding the
+    core slows whichever side runs at that moment, and alternating spreads that over both."""
+    best = [0.0, 0.0]
+    for _ in range(3):
+        for i, call in enumerate((ours, plain)):
+            best[i] = max(best[i], rate(call, units, seconds / 3))
+    return best[0], best[1]
