@@ -105,6 +105,10 @@ def download(card: Card, base: str, folder: Path) -> None:
         path=folder, base_url=base, registry={f.path: f"sha256:{f.sha256}" for f in card.files}
     )
     stop = threading.Event()
+    # pooch makes a file's folder when it finds it missing: two threads finding it missing at
+    # once race (FileExistsError), so every folder is made before any download starts
+    for f in card.files:
+        (folder / f.path).parent.mkdir(parents=True, exist_ok=True)
 
     def one(f: CardFile) -> BaseException | None:
         for attempt in range(1 + RETRIES):
