@@ -323,7 +323,26 @@ def _unchanged(cmp: Comparison) -> str:
         "## slipbench compare\n\n"
         f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`: all {len(cmp.cells)} paired cells are "
         "identical (the same result keys or the same predictions), and no cell is on one side only.\n\n"
-        "**Nothing changed.**\n" + "".join(f"\n_{n}_\n" for n in cmp.notes)
+        "**Nothing changed.**\n"
+        + _unchanged_compute(cmp)
+        + "".join(f"\n_{n}_\n" for n in cmp.notes)
+    )
+
+
+def _unchanged_compute(cmp: Comparison) -> str:
+    """Streams identical on both sides may still run slower on the candidate's machine: its
+    compute check is said even when nothing else changed."""
+    streams = cmp.cells[cmp.cells["stream"]] if "stream" in cmp.cells else cmp.cells.iloc[:0]
+    if streams.empty:
+        return ""
+    summary = _compute_summary(streams)
+    over = (
+        "compute_check" in streams
+        and (streams["compute_check"] == "over the real-time budget").any()
+    )
+    return (
+        f"\n{'⚠ ' if over else ''}Streaming: the compute time per hop is each machine's own and "
+        f"never makes a verdict: {summary}\n"
     )
 
 

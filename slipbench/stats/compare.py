@@ -619,6 +619,9 @@ def compare(
                 for bound in ("", "_lo", "_hi", "_se"):
                     entry[f"d_{name}{bound}"] = 0.0 if known else np.nan
             entry["method"] = "identical (same result keys or predictions)"
+            if entry["stream"] and len(b_rows) == len(c_rows) == 1:
+                # the same stream on another machine: its compute time is still its own check
+                entry |= compute_check(b_rows[0], c_rows[0])
         elif entry["stream"] and len(b_rows) == len(c_rows) == 1:
             entry |= _streamed(b_rows[0], c_rows[0], level)
         elif entry["stream"]:

@@ -4,21 +4,12 @@ replications against a looser band (slow). The full study's table is in docs/cov
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from benchmod import load
 from sklearn.metrics import roc_auc_score
 
-_spec = importlib.util.spec_from_file_location(
-    "bench_coverage", Path(__file__).parents[2] / "benchmarks" / "bench_coverage.py"
-)
-assert _spec and _spec.loader
-bench = importlib.util.module_from_spec(_spec)
-sys.modules["bench_coverage"] = bench  # its workers' tasks pickle by module name
-_spec.loader.exec_module(bench)
+bench = load("bench_coverage")
 
 
 @pytest.mark.parametrize("scenario", ["normal", "heavy"])

@@ -4,22 +4,13 @@ at low replications (slow). The study's table is in docs/coverage.md."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
+from benchmod import load
 
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
-_spec = importlib.util.spec_from_file_location(
-    "bench_coverage", Path(__file__).parents[2] / "benchmarks" / "bench_coverage.py"
-)
-assert _spec is not None and _spec.loader is not None
-bench = importlib.util.module_from_spec(_spec)
-sys.modules["bench_coverage"] = bench
-_spec.loader.exec_module(bench)
+bench = load("bench_coverage")
 
 
 def _bounds(result: dict, name: str) -> tuple[float, float, float]:
