@@ -24,6 +24,7 @@ from slipbench.stats.bootstrap import (
     LEVEL,
     N_RESAMPLES,
     Design,
+    Interval,
     interval,
     make_design,
     seeded_interval,
@@ -227,6 +228,16 @@ def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
     }
 
 
+def _put(out: dict, key: str, iv: Interval) -> None:
+    """An interval's estimate, bounds and standard error as ``key``, ``key_lo/_hi/_se``."""
+    out[key], out[f"{key}_lo"], out[f"{key}_hi"], out[f"{key}_se"] = (
+        iv.estimate,
+        iv.lo,
+        iv.hi,
+        iv.se,
+    )
+
+
 def _joint_design(parts: Sequence[Predictions]) -> tuple[Design, list[_Totals]]:
     """The joint design of test sets whose clusters may be shared, and each set's totals on it."""
     has_strata = [p.strata is not None for p in parts]
@@ -264,12 +275,7 @@ def _joint_figures(
             n_resamples,
             method,
         )
-        out[name], out[f"{name}_lo"], out[f"{name}_hi"], out[f"{name}_se"] = (
-            iv.estimate,
-            iv.lo,
-            iv.hi,
-            iv.se,
-        )
+        _put(out, name, iv)
         if name == "accuracy":
             out["df"] = iv.df
         if np.isfinite(iv.estimate) and not iv.estimable:
@@ -507,12 +513,7 @@ def over_seeds(
             bounds=(0.0, 1.0) if cand is None else (-1.0, 1.0),
         )
         key = f"{prefix}{name}"
-        out[key], out[f"{key}_lo"], out[f"{key}_hi"], out[f"{key}_se"] = (
-            iv.estimate,
-            iv.lo,
-            iv.hi,
-            iv.se,
-        )
+        _put(out, key, iv)
         if name == "accuracy":
             out["df"] = iv.df
             if cand is not None:
@@ -606,12 +607,7 @@ def paired_comparison(
             method,
             bounds=(-1.0, 1.0),
         )
-        out[f"d_{name}"], out[f"d_{name}_lo"], out[f"d_{name}_hi"], out[f"d_{name}_se"] = (
-            iv.estimate,
-            iv.lo,
-            iv.hi,
-            iv.se,
-        )
+        _put(out, f"d_{name}", iv)
         if name == "accuracy":
             out["df"], out["estimable"] = iv.df, iv.estimable
     out["n_test_clusters_slip"], out["n_test_clusters_nonslip"] = cluster_counts(y_true, groups)
