@@ -21,6 +21,9 @@ MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")  # in the pa
 SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)  # mm/s, average speeds of slip
 FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)  # mm/s, arm speeds of free-space motion
 
+# what a detector reads: the paper's univariate signal s, or the raw channels it reduces
+INPUTS = ("univariate", "channels")
+
 # ----------------------------------------------------------------------------- thresholds
 MIN_WINDOW = 5  # samples: the shortest window a detector is given
 LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover

@@ -9,10 +9,13 @@ hint; named on its own it is refused before any work (exit 3, with the hint)."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from slipbench.engine import registry
+from slipbench.engine.plan import inputs_of
 from slipbench.engine.registry import Plugin
 from slipbench.errors import PluginError, UsageError
+from slipbench.vocabulary import INPUTS
 
 
 def add_plugin_folders(folders: tuple[str, ...]) -> None:
@@ -122,3 +125,19 @@ def with_options(plugins: dict, options: dict, kind: str) -> dict:
         for plugin in takers:
             plugin.set_params(**{name: value})
     return plugins
+
+
+def readable(name: str, detector: Any, asked: str, echo: Callable[[str], None]) -> list[str]:
+    """The inputs (``univariate``, ``channels``) a detector runs with when ``asked`` for one of
+    them or ``both``: those it declares; a detector that reads none of them is left out with a
+    line to ``echo`` (a run of it would be refused)."""
+    takes = inputs_of(type(detector))
+    wanted = list(INPUTS) if asked == "both" else [asked]
+    chosen = [kind for kind in wanted if kind in takes]
+    left = [kind for kind in wanted if kind not in takes]
+    if left:
+        echo(
+            f"detector {name!r} reads the {' and '.join(takes)} input only: "
+            + ("left out" if not chosen else f"no run with the {' and '.join(left)} input")
+        )
+    return chosen

@@ -3,7 +3,7 @@ balancing and splitting. Pure numpy (plus scikit-learn's splitters)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -50,6 +50,25 @@ def robust_scale(s: np.ndarray) -> tuple[float, float]:
     if scale <= 0:
         scale = MEAN_AD_TO_SD * float(dev.mean())
     return centre, scale if scale > 0 else 1.0
+
+
+def channel_scales(x: np.ndarray) -> np.ndarray:
+    """(n_channels, 2) float64: the :func:`robust_scale` centre and scale of each channel of
+    windows ``x`` (n_windows, window, n_channels), over all their readings: the training
+    side's statistics, by which :func:`standardized` scales every window and stream of a task.
+    Robust for the reason the signal's scale is: slip's bursts must not set a channel's unit."""
+    return np.array([robust_scale(x[..., c]) for c in range(x.shape[-1])], dtype=np.float64)
+
+
+def standardized(x: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """``x`` (..., n_channels) centred and scaled per channel by ``scales``
+    (:func:`channel_scales`), float32; each channel computed in float64 (an electrode resting
+    at thousands of counts would lose its small changes in float32 before the centre is
+    removed), one at a time so that memory holds one channel in float64, not the windows."""
+    out = np.empty(np.shape(x), np.float32)
+    for c, (centre, scale) in enumerate(scales):
+        out[..., c] = (np.asarray(x[..., c], dtype=np.float64) - centre) / scale
+    return out
 
 
 def has_sample_labels(dataset: Dataset) -> np.ndarray:
@@ -114,6 +133,10 @@ class Signals:
         labels (at least one sample labelled); None: all of them. Labelling by samples
         (``majority``, ``any``, ``last``) leaves out every window of the other recordings, so
         that no window is silently labelled by its scenario under their name.
+    channels : per recording, its raw readings a_0 ... a_n (n_r + 1, n_channels): the
+        dataset's arrays, no copy; None for signals made without them. Sample t of the signal
+        spans readings t and t + 1, so reading t + 1 stands under it: the windows of the
+        ``channels`` input (:meth:`channel_values`) are cut from ``channels[r][1:]``.
     """
 
     buffer: np.ndarray
@@ -121,6 +144,7 @@ class Signals:
     recordings: pd.DataFrame
     labels: np.ndarray | None = None
     labelled: np.ndarray | None = None
+    channels: list[np.ndarray] | None = None
 
     @classmethod
     def from_dataset(cls, dataset: Dataset, baseline: int = 0) -> Signals:
@@ -141,6 +165,7 @@ class Signals:
             dataset.recordings.reset_index(drop=True),
             np.concatenate(labels).astype(np.int8),
             has_sample_labels(dataset),
+            [dataset.samples[r] for r in ids],
         )
 
     def antialiased(self, factor: int, order: int = 4) -> Signals:
@@ -168,7 +193,7 @@ class Signals:
         for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
             sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
             out[lo:hi] = signal.sosfilt(sos, self.buffer[lo:hi].astype(np.float64))
-        return Signals(out, self.offsets, self.recordings, self.labels, self.labelled)
+        return replace(self, buffer=out)
 
     def normalized(self, groups: np.ndarray, reference: np.ndarray) -> tuple[Signals, np.ndarray]:
         """The signal centred and scaled per group: (s - centre) / scale, with the
@@ -202,7 +227,7 @@ class Signals:
                 out[o[r] : o[r + 1]] = (
                     self.buffer[o[r] : o[r + 1]].astype(np.float64) - centre
                 ) / scale
-        return Signals(out, self.offsets, self.recordings, self.labels), stats
+        return replace(self, buffer=out), stats
 
     def windows(
         self,
@@ -275,6 +300,50 @@ class Signals:
         starts = self.offsets[windows.recording] + windows.index.astype(np.int64) * window
         return np.lib.stride_tricks.sliding_window_view(self.buffer, window)[starts]
 
+    def channel_values(
+        self, windows: Windows, window: int, channels: list[np.ndarray] | None = None
+    ) -> np.ndarray:
+        """The raw channels of windows given by position: (n_windows, window, n_channels)
+        float32, the readings under the samples of s that :meth:`values` cuts. ``channels``:
+        other per-recording channels to cut from (the low-passed ones of
+        :meth:`antialiased_channels`); by default :attr:`channels`.
+
+        UsageError where the windows' recordings differ in their number of channels (the
+        planner skips such cells first, saying which units differ).
+        """
+        source = self.channels if channels is None else channels
+        if source is None:
+            raise UsageError("these signals were made without their channels")
+        rows = np.unique(windows.recording)
+        counts = {int(source[r].shape[1]) for r in rows}
+        if len(counts) > 1:
+            raise UsageError(
+                f"windows of recordings with {sorted(counts)} channels cannot form one array"
+            )
+        out = np.empty((len(windows), window, counts.pop() if counts else 0), np.float32)
+        starts = windows.index.astype(np.int64) * window
+        for r in rows:
+            mine = np.flatnonzero(windows.recording == r)
+            out[mine] = np.lib.stride_tricks.sliding_window_view(source[r][1:], window, axis=0)[
+                starts[mine]
+            ].transpose(0, 2, 1)
+        return out
+
+    def antialiased_channels(self, factor: int, order: int = 4) -> list[np.ndarray]:
+        """Each recording's channels through the low-pass of :meth:`antialiased` (the same
+        filter, at rest on the recording's first reading), float32, for a sensor ``factor``
+        times slower; :meth:`Windows.downsample` then takes its readings."""
+        if self.channels is None:
+            raise UsageError("these signals were made without their channels")
+        rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
+        out = []
+        for r, a in enumerate(self.channels):
+            sos = signal.butter(order, 0.8 * rates[r] / (2 * factor), fs=rates[r], output="sos")
+            a = np.asarray(a, dtype=np.float64)
+            zi = signal.sosfilt_zi(sos)[:, :, None] * a[:1]  # at rest on the first reading
+            out.append(signal.sosfilt(sos, a, axis=0, zi=zi)[0].astype(np.float32))
+        return out
+
 
 @dataclass
 class Windows:
@@ -282,7 +351,8 @@ class Windows:
 
     Attributes
     ----------
-    x : (n_windows, window_length) float32, or None for windows known by position only.
+    x : (n_windows, window_length) float32 of the univariate signal, or (n_windows,
+        window_length, n_channels) of the raw channels; None for windows known by position only.
     recording : (n_windows,) row of each window's recording in ``recordings``.
     index : (n_windows,) position of the window inside its recording.
     recordings : the dataset's metadata.
@@ -346,9 +416,12 @@ class Windows:
         - ``"lag"``: the block's sum, ||a_{p+(j+1)k}|| - ||a_{p+jk}||: the lag-one difference of
           the slower sensor, which never reaches outside the window.
 
+        Windows of raw channels keep the readings each difference ends on (see below).
+
         Returns
         -------
-        Windows with x of shape (n_windows, n // factor) float32.
+        Windows with x of shape (n_windows, n // factor) float32 (with channels,
+        (n_windows, n // factor, n_channels)).
         """
         if self.x is None:
             raise UsageError("windows known by position only have no samples to downsample")
@@ -357,7 +430,13 @@ class Windows:
             raise UsageError(
                 f"windows of {self.x.shape[1]} samples downsampled by {factor} leave no sample"
             )
-        if decimation == "plain":
+        if self.x.ndim == 3 and decimation in ("plain", "lag"):
+            # raw channels: the readings themselves. Row i holds a_{p+1+i}; "plain" keeps
+            # a_{p+jk+1} (row jk), "lag" a_{p+(j+1)k} (row (j+1)k - 1), the readings each
+            # decimation's difference ends on.
+            first = 0 if decimation == "plain" else factor - 1
+            x = self.x[:, first : m * factor : factor]
+        elif decimation == "plain":
             x = self.x[:, : m * factor : factor]
         elif decimation == "lag":
             # float64 accumulation: the sum adds no rounding to that of the float32 samples

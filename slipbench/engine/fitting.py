@@ -51,7 +51,8 @@ class PeakMemory:
 
 @dataclass
 class TestSet:
-    """What one cell is tested on: windows (n, length), labels (n,), the cluster of each window
+    """What one cell is tested on: windows (n, length) (channels: (n, length, n_channels)),
+    labels (n,), the cluster of each window
     (n,): the unit its bootstrap resamples (a trial), and its balancing stratum (n,)."""
 
     x: np.ndarray
@@ -255,7 +256,8 @@ def _trained(
         train_s = time.perf_counter() - t0
     cost = {
         "train_s": train_s,
-        "train_us_per_sample": train_s / train_x.size * 1e6,
+        # per sample of time: a window of channels is as many samples as one of the signal
+        "train_us_per_sample": train_s / (train_x.shape[0] * train_x.shape[1]) * 1e6,
         "peak_mem_mb": mem.mb,
     }
     if model_path is not None:

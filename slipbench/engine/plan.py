@@ -35,6 +35,14 @@ from slipbench.protocol import BaseProtocol, Cell, Part, no_cell
 from slipbench.seeding import STREAM_SCHEME, rng_for
 from slipbench.store.keys import canonical, cell_key, code_identity
 from slipbench.stream.metrics import DELAY_CLOCK, onsets
+from slipbench.vocabulary import INPUTS
+
+
+def inputs_of(detector: type) -> tuple[str, ...]:
+    """The inputs a detector class declares (``BaseDetector.inputs``; the univariate signal
+    where it declares none)."""
+    return tuple(getattr(detector, "inputs", ("univariate",)))
+
 
 # a recordings column the runner adds: True where the dataset gives the recording per-sample
 # slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
@@ -56,6 +64,9 @@ class Run:
     is looked up in the registry, an object's id is the name its class is registered under.
     ``labels``: one of :data:`slipbench.data.signals.LABELLINGS`. ``normalize``: one of
     :data:`slipbench.data.signals.NORMALIZATIONS` (see :meth:`CellData.normalization`).
+    ``input``: one of :data:`slipbench.vocabulary.INPUTS`, what the detector reads: windows of
+    the univariate signal, or of the raw channels, each standardized by its training windows'
+    statistics (the detector must declare it in ``inputs``).
     """
 
     detector: BaseDetector
@@ -64,6 +75,7 @@ class Run:
     seed: int = 0
     labels: str = "scenario"
     normalize: str = "none"
+    input: str = "univariate"
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
 
@@ -75,8 +87,10 @@ class Run:
         seed: int = 0,
         labels: str = "scenario",
         normalize: str = "none",
+        input: str = "univariate",
     ) -> None:
         self.split, self.seed, self.labels, self.normalize = split, seed, labels, normalize
+        self.input = input
         if isinstance(detector, str):
             self.detector_name, self.detector = detector, detectors.get(detector)()
         else:
@@ -95,6 +109,14 @@ class Run:
             raise UsageError(
                 f"unknown normalization {self.normalize!r}; choose one of: {', '.join(NORMALIZATIONS)}"
             )
+        if self.input not in INPUTS:
+            raise UsageError(f"unknown input {self.input!r}; choose one of: {', '.join(INPUTS)}")
+        if self.input == "channels" and self.normalize != "none":
+            raise UsageError(
+                f"--normalize {self.normalize} scales the univariate signal; the channels input "
+                "standardizes each channel by its training windows' statistics instead: use "
+                "--normalize none with --input channels"
+            )
         if (
             isinstance(self.seed, bool)
             or not isinstance(self.seed, int)
@@ -103,9 +125,16 @@ class Run:
             raise UsageError(f"seed must be an int in [0, 2**32 - 1], got {self.seed!r}")
 
     def validate(self) -> None:
-        """Every detector parameter and protocol option, before any work starts."""
+        """Every detector parameter and protocol option, and the input the detector reads,
+        before any work starts."""
         self.detector.validate_params()
         self.protocol.validate_params()
+        takes = inputs_of(type(self.detector))
+        if self.input not in takes:
+            raise UsageError(
+                f"detector {self.detector_name!r} reads the {' or '.join(takes)} input, not "
+                f"{self.input}"
+            )
 
     def cells(self, recordings: pd.DataFrame) -> list[Cell]:
         """The protocol's cells; a protocol that raises is a plugin fault naming it."""
@@ -191,6 +220,7 @@ class CellData:
             self.signals, self.scales = signals.normalized(*self.normalization(normalize))
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
+        self._antialiased_channels: dict[int, list[np.ndarray]] = {}
         rec = signals.recordings
         self._rows = {
             k: np.flatnonzero((rec["sensor_type"] == k[0]) & (rec["sensor_instance"] == k[1]))
@@ -335,31 +365,30 @@ class CellData:
         chosen = _concat([self.sides(s, window)[side] for s in part.sensors])
         return chosen.take(np.flatnonzero(part.mask(self.signals.recordings)[chosen.recording]))
 
-    def values(self, windows: Windows, cell: Cell) -> Windows:
+    def values(self, windows: Windows, cell: Cell, input: str = "univariate") -> Windows:
         """``windows`` with their samples, as a sensor ``cell.downsample`` times slower gives
         them: low-passed first if ``cell.antialias``, then decimated as ``cell.decimation`` says.
-        At the full rate there is nothing to filter or decimate."""
-        if cell.downsample == 1:
-            return Windows(
-                self.signals.values(windows, cell.window),
-                windows.recording,
-                windows.index,
-                windows.recordings,
-                windows.labels,
-            )
-        signals = self.signals
-        if cell.antialias:
-            if cell.downsample not in self._antialiased:
-                self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
-            signals = self._antialiased[cell.downsample]
-        out = Windows(
-            signals.values(windows, cell.window),
-            windows.recording,
-            windows.index,
-            windows.recordings,
-            windows.labels,
-        )
-        return out.downsample(cell.downsample, cell.decimation)
+        At the full rate there is nothing to filter or decimate. ``input``: the univariate
+        signal, or the raw ``channels`` (:meth:`Signals.channel_values`; not standardized)."""
+        filtered = cell.downsample > 1 and cell.antialias
+        if input == "channels":
+            source = None
+            if filtered:
+                if cell.downsample not in self._antialiased_channels:
+                    self._antialiased_channels[cell.downsample] = self.signals.antialiased_channels(
+                        cell.downsample
+                    )
+                source = self._antialiased_channels[cell.downsample]
+            x = self.signals.channel_values(windows, cell.window, source)
+        else:
+            signals = self.signals
+            if filtered:
+                if cell.downsample not in self._antialiased:
+                    self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
+                signals = self._antialiased[cell.downsample]
+            x = signals.values(windows, cell.window)
+        out = Windows(x, windows.recording, windows.index, windows.recordings, windows.labels)
+        return out if cell.downsample == 1 else out.downsample(cell.downsample, cell.decimation)
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
         """The rate (Hz) of a part's windows; UsageError naming recordings when it pools rates."""
@@ -453,8 +482,10 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
         "streams": STREAM_SCHEME,
         "labels": run.labels,
         "code": code,
-        # absent when "none", so the keys of runs without it stay those of earlier versions
+        # absent when "none" / "univariate", so the keys of runs without them stay those of
+        # earlier versions
         **({"normalize": run.normalize} if run.normalize != "none" else {}),
+        **({"input": run.input} if run.input != "univariate" else {}),
     }
     # at the full rate every decimation gives the same windows: one model serves them all
     sampling = (
@@ -528,6 +559,10 @@ def make_plan(
                 pc.skip = str(exc)
             if pc.skip:
                 continue
+            if run.input == "channels":
+                pc.skip = _channel_count(signals, train.recording, test.recording)
+                if pc.skip:
+                    continue
             for windows, role in ((train, "train"), (test, "test")):
                 missing = _missing_classes(windows.y)
                 if missing and not (role == "test" and run.split == "datasets" and len(windows)):
@@ -536,6 +571,20 @@ def make_plan(
             if not pc.skip:
                 tasks.setdefault(model, Task(model)).cells.append(pc)
     return Plan(planned, list(tasks.values()), data)
+
+
+def _channel_count(signals: Signals, *rows: np.ndarray) -> str:
+    """Why a cell cannot read the channels input: its recordings (``rows``, on both sides)
+    differ in their number of channels (channels are matched by position); "" if they agree."""
+    rec = signals.recordings.iloc[np.unique(np.concatenate(rows))]
+    counts = rec.groupby("n_channels", sort=True)
+    if counts.ngroups < 2:
+        return ""
+    shown = "; ".join(
+        f"{int(n)} in {', '.join(sorted(set(g['sensor_type'] + ' ' + g['sensor_instance'])))}"
+        for n, g in counts
+    )
+    return f"the channels input needs one channel count per cell; its recordings have {shown}"
 
 
 def _data(
@@ -587,6 +636,10 @@ def _plan_stream(
         return
     pc.streams = {side.side: cells_data.streamed(side) for side in (cell.train, cell.test)}
     test = pc.streams["test"]
+    if run.input == "channels":
+        pc.skip = _channel_count(signals, pc.train.recording, test, pc.streams["train"])
+        if pc.skip:
+            return
     if not len(test):
         labelled = (
             LABELLED in signals.recordings

@@ -266,6 +266,8 @@ class Registry(Generic[Plugin]):
         if name in self._loaded:
             cls = self._loaded[name]
             out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
+            if hasattr(cls, "inputs"):  # a detector: what it reads (evaluate --input)
+                out["inputs"] = list(cls.inputs)
             constraints = cls._parameter_constraints
             out["parameters"] = {
                 p: {

@@ -20,7 +20,7 @@ import pandas as pd
 
 from slipbench import __version__
 from slipbench.data.format import Dataset
-from slipbench.data.signals import Signals
+from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.executors import execute, workers_for
 from slipbench.engine.fitting import TestSet
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
@@ -65,6 +65,7 @@ def _row(
         "seed": run.seed,
         "labels": run.labels,
         "normalize": run.normalize,
+        "input": run.input,
         **cell.key,
         "window": cell.window,
         "downsample": cell.downsample,
@@ -192,15 +193,24 @@ def evaluate(
 def _payload(
     plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler: str | None
 ) -> tuple:
-    """The arguments of ``fit_and_test`` for a task: samples are cut here, one task at a time."""
+    """The arguments of ``fit_and_test`` for a task: samples are cut here, one task at a time.
+    Channels are standardized by the training windows' statistics, the test side's too."""
     first = task.first
-    data = plan.data_of(first)
-    train = data.values(first.windows("train"), first.cell)
+    data, kind = plan.data_of(first), first.run.input
+    train = data.values(first.windows("train"), first.cell, kind)
+    x = train.x
+    assert x is not None  # values() cuts the samples
+    scales = None
+    if kind == "channels":
+        scales = channel_scales(x)
+        x = standardized(x, scales)
     trials = data.signals.recordings["trial"].to_numpy()  # the bootstrap resamples whole trials
     tests = [
-        _stream_test(plan.data_of(pc).signals, pc)
+        _stream_test(plan.data_of(pc).signals, pc, scales)
         if pc.streams is not None
-        else _window_test(plan.data_of(pc).values(pc.windows("test"), pc.cell), trials)
+        else _window_test(
+            plan.data_of(pc).values(pc.windows("test"), pc.cell, kind), trials, scales
+        )
         for pc in task.cells
     ]
     model_path = None
@@ -212,7 +222,7 @@ def _payload(
         first.run.detector,
         first.run.seed,
         first.sampling_rate,
-        train.x,
+        x,
         train.y,
         tests,
         None if model_path is None else str(model_path),
@@ -242,20 +252,28 @@ def _scales(plan: Plan, pc: PlannedCell) -> dict[str, float]:
     }
 
 
-def _window_test(windows, trials: np.ndarray) -> TestSet:
-    return TestSet(windows.x, windows.y, trials[windows.recording], windows.strata())
+def _window_test(windows, trials: np.ndarray, scales: np.ndarray | None) -> TestSet:
+    x = windows.x if scales is None else standardized(windows.x, scales)
+    return TestSet(x, windows.y, trials[windows.recording], windows.strata())
 
 
-def _stream_test(signals: Signals, pc: PlannedCell) -> StreamTest:
-    """A streaming cell's recordings, whole, as plain data."""
+def _stream_test(signals: Signals, pc: PlannedCell, scales: np.ndarray | None = None) -> StreamTest:
+    """A streaming cell's recordings, whole, as plain data: the univariate signal, or with
+    ``scales`` (the training windows' :func:`channel_scales`) the standardized channels."""
     rec, o, labels = signals.recordings, signals.offsets, signals.sample_labels()
     rates = rec["sampling_rate_hz"].to_numpy(dtype=float)
     streams, stream = pc.streams, pc.cell.stream
     assert streams is not None and stream is not None  # planned as a streaming cell
 
+    def signal(r: int) -> np.ndarray:
+        if scales is None:
+            return signals.buffer[o[r] : o[r + 1]]
+        assert signals.channels is not None  # Signals.from_dataset keeps them
+        return standardized(signals.channels[r][1:], scales)
+
     def recordings(rows: np.ndarray) -> Recordings:
         return Recordings(
-            [signals.buffer[o[r] : o[r + 1]] for r in rows],
+            [signal(r) for r in rows],
             [labels[o[r] : o[r + 1]] for r in rows],
             [str(t) for t in rec["trial"].to_numpy()[rows]],
             [str(s) for s in rec["scenario"].to_numpy()[rows]],

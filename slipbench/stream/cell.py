@@ -38,8 +38,9 @@ CURVE = ("threshold", "detection_rate", "median_delay_ms", "false_alarms_per_min
 
 @dataclass
 class Recordings:
-    """Whole recordings to stream: per recording, its signal (n_r,) float32 and labels (n_r,)
-    int8 (1 slip, 0 no slip, -1 unlabelled), its trial, scenario, id and sampling rate (Hz)."""
+    """Whole recordings to stream: per recording, its signal (n_r,) float32 (or its
+    standardized channels, (n_r, n_channels)) and labels (n_r,) int8 (1 slip, 0 no slip, -1
+    unlabelled), its trial, scenario, id and sampling rate (Hz)."""
 
     signals: list[np.ndarray]
     labels: list[np.ndarray]

@@ -22,7 +22,7 @@ from slipbench.app.options import (
     seed_option,
     split_option,
 )
-from slipbench.app.selection import add_plugin_folders, select_plugins, with_options
+from slipbench.app.selection import add_plugin_folders, readable, select_plugins, with_options
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
 
@@ -71,6 +71,15 @@ from slipbench.errors import PluginError, UsageError
     "sensor unit (median and 1.4826 x MAD of the unit's training-side signal; across datasets, each "
     "dataset's unit by its own).",
 )
+@click.option(
+    "--input",
+    "input_kind",
+    type=click.Choice(["univariate", "channels", "both"]),
+    default="univariate",
+    show_default=True,
+    help="What detectors read: the paper's univariate signal, the raw channels (standardized by "
+    "the training windows), or both (one run each; detectors that read one of them run it alone).",
+)
 @seed_option("Seed of balancing, splitting and training (and of the simulated data).")
 @click.option(
     "--repeats",
@@ -111,6 +120,7 @@ def evaluate(
     split,
     labels,
     normalize,
+    input_kind,
     seed,
     repeats,
     params,
@@ -152,11 +162,14 @@ def evaluate(
         "protocol",
     )
     runs = [
-        Run(d, p, split, seed + r, labels, normalize)
-        for d in detectors.values()
+        Run(d, p, split, seed + r, labels, normalize, kind)
+        for name, d in detectors.items()
+        for kind in readable(name, d, input_kind, note)
         for p in protocols.values()
         for r in range(repeats)
     ]
+    if not runs:
+        raise UsageError(f"no detector chosen reads the {input_kind} input (see `slipbench list`)")
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
     if train_path:

@@ -32,6 +32,8 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
             state = e["status"] + (f" ({e['detail']})" if e["detail"] else "")
             click.echo(f"  {e['name']:<18} {state if e['status'] != 'ok' else e['description']}")
             click.echo(f"      from {e['from']}")
+            if "inputs" in e:
+                click.echo(f"      reads {' and '.join(e['inputs'])} (--input)")
             for name, p in e["parameters"].items():
                 click.echo(
                     f"      {name}={p['default']!r}"
