@@ -19,6 +19,7 @@
     [run]
     split = "grouped"              # paper | grouped
     labels = "scenario"            # scenario | majority | any | last
+    input = "univariate"           # univariate | channels | both (what detectors read)
     seed = 0
     repeats = 3                    # seeds seed, seed+1, seed+2
     jobs = 2
@@ -48,6 +49,7 @@ import json
 import re
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
+from itertools import product
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +81,7 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
     "run": {
         "split": (str, "paper or grouped"),
         "labels": (str, "scenario, majority, any or last"),
+        "input": (str, "univariate, channels or both"),
         "seed": (int, "an int in [0, 2**32 - 1]"),
         "repeats": (int, "an int >= 1"),
         "jobs": (int, "an int >= 0"),
@@ -111,6 +114,7 @@ class Benchmark:
     sensor_map: list[str] = field(default_factory=list)
     split: str = "paper"
     labels: str = "scenario"
+    input: str = "univariate"
     seed: int = 0
     repeats: int = 1
     jobs: int = 1
@@ -301,6 +305,12 @@ def load_benchmark(path: str | Path) -> Benchmark:
         "run",
         "labels",
     )
+    check(
+        r.get("input", "univariate") in ("univariate", "channels", "both"),
+        "input must be univariate, channels or both",
+        "run",
+        "input",
+    )
     check(0 <= r.get("seed", 0) < 2**32, "seed must be in [0, 2**32 - 1]", "run", "seed")
     check(r.get("repeats", 1) >= 1, "repeats must be >= 1", "run", "repeats")
     check(r.get("jobs", 1) >= 0, "jobs must be >= 0", "run", "jobs")
@@ -334,6 +344,7 @@ def load_benchmark(path: str | Path) -> Benchmark:
         sensor_map=list(d.get("sensor_map", [])),
         split="datasets" if "train" in d else r.get("split", "paper"),
         labels=r.get("labels", "scenario"),
+        input=r.get("input", "univariate"),
         seed=r.get("seed", 0),
         repeats=r.get("repeats", 1),
         jobs=r.get("jobs", 1),
@@ -350,7 +361,7 @@ def plan_runs(bench: Benchmark, echo=print) -> list:
     names the file, line and table); plugin folders are registered first. A plugin whose
     optional dependency is not installed here is skipped with a line to ``echo`` (one file
     serves machines with and without it); a kind left with none is refused (exit 3)."""
-    from slipbench.app.selection import available
+    from slipbench.app.selection import available, readable
     from slipbench.engine import registry
     from slipbench.engine.runner import Run
 
@@ -395,9 +406,9 @@ def plan_runs(bench: Benchmark, echo=print) -> list:
     detectors, protocols = chosen["detector"], chosen["protocol"]
     runs = []
     for dn, det in detectors.items():
-        for pn, pro in protocols.items():
+        for kind, (pn, pro) in product(readable(dn, det, bench.input, echo), protocols.items()):
             for r in range(bench.repeats):
-                run = Run(det, pro, bench.split, bench.seed + r, bench.labels)
+                run = Run(det, pro, bench.split, bench.seed + r, bench.labels, input=kind)
                 try:
                     run.validate()
                 except SlipbenchError as exc:
@@ -406,6 +417,14 @@ def plan_runs(bench: Benchmark, echo=print) -> list:
                         table, key = f"protocols.{pn}", _param_in(str(exc), bench.protocols[pn])
                     raise _fail(bench.path, bench.text, str(exc), table, key) from None
                 runs.append(run)
+    if not runs:
+        raise _fail(
+            bench.path,
+            bench.text,
+            f"no detector it declares reads the {bench.input} input (see `slipbench list`)",
+            "run",
+            "input",
+        )
     return runs
 
 

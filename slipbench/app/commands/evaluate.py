@@ -194,8 +194,8 @@ def evaluate(
         cell_timeout=cell_timeout,
         progress=not quiet,
     )
-    for (dn, pn), group in rows.groupby(["detector", "protocol"], sort=False):
-        click.echo(f"\n## {dn} x {pn}\n")
+    for (dn, kind, pn), group in rows.groupby(["detector", "input", "protocol"], sort=False):
+        click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
         click.echo(protocol_table(group, protocols[pn].layout, intervals=intervals))
     counts = rows["status"].value_counts()
     click.echo(
