@@ -1,7 +1,8 @@
 """A temporal convolutional network (after Bai, Kolter & Koltun, "An Empirical Evaluation of
 Generic Convolutional and Recurrent Networks for Sequence Modeling", 2018): stacked causal
 dilated 1-D convolutions with residual connections, dilation doubling per block so the receptive
-field covers the window, the last time step's features to one logit. On PyTorch, through
+field covers the window, the last time step's features to one logit. It reads the univariate
+signal (one input channel) or the raw channels (one input channel each). On PyTorch, through
 :class:`slipbench.torch.TorchDetector` (training, early stopping, saving, streaming)."""
 
 from __future__ import annotations
@@ -17,7 +18,9 @@ class TCN(TorchDetector):
     blocks with dilations 1, 2, 4, ... (receptive field ``1 + 2 (kernel_size - 1)(2^blocks - 1)``
     samples: 61 by default); the training parameters are TorchDetector's, with batches of 256
     at a learning rate of 3e-3 (a window-size cell of the default dataset in well under a minute
-    on one core, where batches of 64 took four times as long per epoch)."""
+    on one core, where batches of 64 took four times as long per epoch). Reads both inputs
+    (TorchDetector's ``inputs``): the first block takes one input channel per channel of the
+    windows (``channels`` is the blocks' width, not the input's)."""
 
     _parameter_constraints = {
         **TorchDetector.TRAINING_CONSTRAINTS,
@@ -49,11 +52,11 @@ class TCN(TorchDetector):
         self.blocks = blocks
         self.dropout = dropout
 
-    def build(self, window_length: int) -> Any:
-        return _network(self.channels, self.kernel_size, self.blocks, self.dropout)
+    def build(self, window_length: int, n_channels: int) -> Any:
+        return _network(n_channels, self.channels, self.kernel_size, self.blocks, self.dropout)
 
 
-def _network(channels: int, kernel_size: int, blocks: int, dropout: float) -> Any:
+def _network(n_inputs: int, channels: int, kernel_size: int, blocks: int, dropout: float) -> Any:
     from torch import nn
 
     class Block(nn.Module):
@@ -81,12 +84,12 @@ def _network(channels: int, kernel_size: int, blocks: int, dropout: float) -> An
         def __init__(self):
             super().__init__()
             self.blocks = nn.Sequential(
-                *(Block(1 if i == 0 else channels, 2**i) for i in range(blocks))
+                *(Block(n_inputs if i == 0 else channels, 2**i) for i in range(blocks))
             )
             self.head = nn.Linear(channels, 1)
 
-        def forward(self, x):  # (batch, window) -> (batch,)
-            features = self.blocks(x[:, None, :])
+        def forward(self, x):  # (batch, n_inputs, window) -> (batch,)
+            features = self.blocks(x)
             return self.head(features[:, :, -1])[:, 0]
 
     return Network()

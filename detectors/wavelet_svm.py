@@ -2,7 +2,9 @@
 e.g., Fernandez et al., "Micro-vibration-based slip detection in tactile force sensors", Sensors
 2014): a discrete wavelet decomposition of each window (PyWavelets), per level the log energy,
 log standard deviation, log mean and log largest absolute coefficient, standardized, into an SVM
-with balanced class weights.
+with balanced class weights. On windows of channels the same features are computed for each
+channel and concatenated (channel by channel), so the SVM sees every channel's spectrum; the RBF
+width scales with the number of features, as on the univariate signal.
 
 Speed: the RBF kernel is approximated with a Nystroem map (``n_components`` landmarks drawn from
 the training windows, scikit-learn) and a linear SVM is trained on it, so training is linear in
@@ -31,7 +33,10 @@ def wavelet_and_level(length: int, wavelet: str, level: int) -> tuple[str, int]:
 
 
 class WaveletSVM(BaseDetector):
-    """DWT statistics into an RBF SVM (Nystroem approximation)."""
+    """DWT statistics into an RBF SVM (Nystroem approximation), of the univariate signal or of
+    each channel."""
+
+    inputs = ("univariate", "channels")
 
     _parameter_constraints = {
         "wavelet": Options(tuple(pywt.wavelist(kind="discrete"))),
@@ -47,12 +52,15 @@ class WaveletSVM(BaseDetector):
         self.n_components = n_components
 
     def _features(self, x: np.ndarray) -> np.ndarray:
+        """Standardized log statistics per level: (n, features), or for windows of channels
+        (n, window, C) each channel's features one after another, (n, C * features)."""
         coeffs = pywt.wavedec(x, self.wavelet_, level=self.level_, axis=1, mode="symmetric")
         feats = []
-        for c in coeffs:
+        for c in coeffs:  # (n, length) or (n, length, C)
             a = np.abs(c)
             feats += [np.mean(c**2, axis=1), np.std(c, axis=1), a.mean(axis=1), a.max(axis=1)]
-        return (np.log(np.stack(feats, axis=1) + 1e-12) - self.mean_) / self.std_
+        stats = np.stack(feats, axis=-1)  # (n, features) or (n, C, features)
+        return (np.log(stats.reshape(len(x), -1) + 1e-12) - self.mean_) / self.std_
 
     def _fit(self, x, y, seed):
         self.wavelet_, self.level_ = wavelet_and_level(x.shape[1], self.wavelet, self.level)

@@ -31,6 +31,14 @@ from slipbench.vocabulary import MIN_WINDOW
 
 DETECTOR_GROUP = "slipbench.detectors"  # the entry-point group of detector plugins
 
+# What a detector may read (its ``inputs``): windows of the paper's univariate signal s, or of the
+# raw channels the engine standardized; and the shape of each kind's windows.
+INPUT_SHAPES = {
+    "univariate": "(n_windows, window_length)",
+    "channels": "(n_windows, window_length, n_channels)",
+}
+_KIND_OF_NDIM = {2: "univariate", 3: "channels"}
+
 
 class NotFittedError(UsageError):
     """predict was called before fit."""
@@ -47,7 +55,7 @@ def plugin_id(cls: type) -> str:
 
 
 class BaseDetector(Parameterized):
-    """A binary slip detector on windows of a univariate signal.
+    """A binary slip detector on windows of the univariate signal or of the raw channels.
 
     Subclasses define ``__init__`` with keyword hyperparameters only, declare their
     constraints in ``_parameter_constraints`` (parameter -> Interval/Options/...), and implement
@@ -60,6 +68,14 @@ class BaseDetector(Parameterized):
     a clone by :mod:`slipbench.testing`; ``data_files``, files (or folders) the plugin reads,
     relative to the folder of the module that declares them, which are part of its code
     identity (cache keys); and the classmethod :meth:`benchmark`.
+
+    ``inputs`` says which windows the detector reads: ``("univariate",)`` (the default), windows
+    (n_windows, window_length) of the paper's signal s_t = ||a_t|| - ||a_{t-1}||;
+    ``("channels",)``, windows (n_windows, window_length, n_channels) of the raw channels, each
+    standardized by the engine with the training side's statistics; or both,
+    ``("univariate", "channels")``, which the engine may run either way (``--input``). The base
+    class refuses windows of a kind the detector does not declare, so ``_fit`` and
+    ``_predict_proba`` see only declared kinds.
     """
 
     name: ClassVar[str] = ""  # set by the registry on each class it loads: the plugin's id
@@ -67,25 +83,29 @@ class BaseDetector(Parameterized):
     install_hint: ClassVar[str | None] = None  # e.g. "pip install 'slipbench[minirocket]'"
     check_params: ClassVar[dict[str, Any]] = {}  # fast settings for the conformance checks
     data_files: ClassVar[tuple[str, ...]] = ()  # e.g. ("weights.json",): hashed into cache keys
+    inputs: ClassVar[tuple[str, ...]] = ("univariate",)  # or ("univariate", "channels"), ...
 
     # -- input checks
-    @staticmethod
-    def _check_x(x: Any) -> np.ndarray:
+    def _check_x(self, x: Any) -> np.ndarray:
+        """``x`` as C-contiguous float32 windows of a kind this detector declares in
+        :attr:`inputs`, or a UsageError naming the shape and the declared inputs."""
         x = np.asarray(x, dtype=np.float32)
-        if x.ndim != 2:
-            raise UsageError(
-                f"windows must be a 2-D array (n_windows, window_length), got shape {x.shape}"
-            )
+        kind = _KIND_OF_NDIM.get(x.ndim)
+        if kind not in self.inputs:
+            raise UsageError(_undeclared(type(self), x.shape))
         if x.shape[0] == 0:
             raise UsageError("no windows given")
         if x.shape[1] < MIN_WINDOW:
             raise UsageError(f"windows must have at least {MIN_WINDOW} samples, got {x.shape[1]}")
+        if x.ndim == 3 and x.shape[2] == 0:
+            raise UsageError(f"windows of channels need at least one channel, got shape {x.shape}")
         bad = ~np.isfinite(x)
         if bad.any():
-            row, col = np.argwhere(bad)[0]
-            raise UsageError(
-                f"windows contain NaN or infinity (first at window {row}, sample {col})"
+            at = np.argwhere(bad)[0]
+            where = f"window {at[0]}, sample {at[1]}" + (
+                f", channel {at[2]}" if x.ndim == 3 else ""
             )
+            raise UsageError(f"windows contain NaN or infinity (first at {where})")
         return np.ascontiguousarray(x)
 
     def _check_fitted(self) -> None:
@@ -104,7 +124,12 @@ class BaseDetector(Parameterized):
         seed: int = 0,
         groups: Any = None,
     ) -> BaseDetector:
-        """Fit on windows ``x`` (n_windows, window_length) and labels ``y`` (1 = slip).
+        """Fit on windows ``x`` and labels ``y`` (n_windows,) (1 = slip).
+
+        ``x`` is (n_windows, window_length) univariate windows, or (n_windows, window_length,
+        n_channels) windows of channels for a detector whose :attr:`inputs` declare
+        ``"channels"``; ``window_length_`` and ``n_channels_`` (0 for univariate windows) record
+        which, and ``predict_proba`` takes only that kind and channel count.
 
         ``sampling_rate`` (Hz) lets spectral detectors speak in hertz; ``seed`` drives every
         random choice the detector makes; ``groups`` (n_windows,), optional, is the trial of
@@ -126,6 +151,7 @@ class BaseDetector(Parameterized):
             raise UsageError(f"sampling_rate must be a positive number of Hz, got {sampling_rate}")
         self.sampling_rate_ = float(sampling_rate)
         self.window_length_ = x.shape[1]
+        self.n_channels_ = x.shape[2] if x.ndim == 3 else 0
         trials = None if groups is None else np.asarray(groups)
         if trials is not None and trials.shape != (x.shape[0],):
             raise UsageError(f"groups must have shape ({x.shape[0]},), got {trials.shape}")
@@ -134,9 +160,13 @@ class BaseDetector(Parameterized):
         return self
 
     def predict_proba(self, x: Any) -> np.ndarray:
-        """Probability of slip per window, shape (n_windows,)."""
+        """Probability of slip per window, shape (n_windows,), for windows of the kind, length
+        and channel count the detector was fitted on."""
         self._check_fitted()
         x = self._check_x(x)
+        channels = getattr(self, "n_channels_", 0)  # set by fit; absent in files of older versions
+        if (x.shape[2] if x.ndim == 3 else 0) != channels:
+            raise UsageError(f"fitted on {_kind_words(channels)}, got windows of shape {x.shape}")
         if x.shape[1] != self.window_length_:
             raise UsageError(
                 f"fitted on windows of {self.window_length_} samples, got {x.shape[1]}"
@@ -180,7 +210,8 @@ class BaseDetector(Parameterized):
         """A causal stream through this fitted detector (see :mod:`slipbench.base`).
 
         ``stream = detector.streamer(hop)``; ``scores, decisions = stream.push(samples)`` takes any
-        number of new samples of the univariate signal and gives one score and one 0/1 decision
+        number of new samples of the univariate signal (of every channel, (k, n_channels_), for
+        a detector fitted on channels) and gives one score and one 0/1 decision
         (score >= ``threshold``) per completed hop: scores at samples ``window - 1``,
         ``window - 1 + hop``, ..., each seeing only the last ``window_length_`` samples. ``hop``
         is in samples, 1 <= hop <= ``window_length_``.
@@ -269,18 +300,43 @@ class BaseDetector(Parameterized):
     # -- what plugins implement
     def _fit(self, x: np.ndarray, y: np.ndarray, seed: int) -> None:
         """The plugin's training, called by :meth:`fit` after every check: ``x`` (n_windows,
-        window_length) finite float32, ``y`` (n_windows,) int8 0/1 holding both classes,
+        window_length) finite float32, or (n_windows, window_length, n_channels) where the
+        detector declares ``"channels"``, ``y`` (n_windows,) int8 0/1 holding both classes,
         ``seed`` an int for every random choice (drawn from the run's stream ``detector``).
-        Store what it learns in attributes ending in ``_``; ``sampling_rate_`` (Hz) and
-        ``window_length_`` are already set. Returns nothing."""
+        Store what it learns in attributes ending in ``_``; ``sampling_rate_`` (Hz),
+        ``window_length_`` and ``n_channels_`` are already set. Returns nothing."""
         raise NotImplementedError
 
     def _predict_proba(self, x: np.ndarray) -> np.ndarray:
         """The plugin's scoring, called by :meth:`predict_proba` (and the default streamer)
-        after every check: ``x`` (n_windows, ``window_length_``) finite float32. Returns
+        after every check: ``x`` (n_windows, ``window_length_``) finite float32, or (n_windows,
+        ``window_length_``, ``n_channels_``) for a detector fitted on channels. Returns
         (n_windows,) probabilities of slip; a wrong shape, a non-finite value or one outside
         [0, 1] fails the cell with a DetectorOutputError naming the detector."""
         raise NotImplementedError
+
+
+def _undeclared(cls: type[BaseDetector], shape: tuple[int, ...]) -> str:
+    """Why windows of ``shape`` are refused: the shapes ``cls`` declares, and what would take them."""
+    words = {"univariate": "univariate windows", "channels": "windows of channels"}
+    takes = " or ".join(f"{words[k]} {INPUT_SHAPES[k]}" for k in cls.inputs if k in words)
+    kind = _KIND_OF_NDIM.get(len(shape))
+    hint = f"; {words[kind]} need a detector that declares {kind!r} in its inputs" if kind else ""
+    return (
+        f"detector {plugin_id(cls)!r} takes {takes or 'no known input'} (inputs: "
+        f"{', '.join(cls.inputs)}), got an array of shape {shape}{hint}"
+    )
+
+
+def _kind_words(n_channels: int) -> str:
+    """The windows a detector was fitted on, in words: its ``n_channels_`` (0: univariate)."""
+    if not n_channels:
+        return f"univariate windows {INPUT_SHAPES['univariate']}"
+    return f"windows of {_channels(n_channels)} (n_windows, window_length, {n_channels})"
+
+
+def _channels(n: int) -> str:
+    return f"{n} channel{'' if n == 1 else 's'}"
 
 
 def _saved_class(target: str, path: Any) -> type:
@@ -335,8 +391,9 @@ def clone(detector: BaseDetector) -> BaseDetector:
 # ----------------------------------------------------------------------------- live scoring
 # Causal scoring of a live signal: :class:`Streamer` and its batch twin :func:`stream_scores`.
 #
-# A robot's control loop feeds a fitted detector the univariate signal s_t as it arrives and gets
-# one score and one 0/1 decision per hop, each from the last ``window`` samples only. Scores fall on
+# A robot's control loop feeds a fitted detector the univariate signal s_t (or, for a detector
+# fitted on channels, every channel's sample) as it arrives and gets one score and one 0/1
+# decision per hop, each from the last ``window`` samples only. Scores fall on
 # the samples ``window - 1, window - 1 + hop, window - 1 + 2 hop, ...`` (indices counted from the
 # first sample pushed): the score at sample e is the detector's probability for the window
 # ``s[e - window + 1 : e + 1]``, what ``predict_proba`` gives that window (to float32 rounding
@@ -383,6 +440,8 @@ class Streamer:
     Attributes
     ----------
     window : int, samples per window (the detector's ``window_length_``).
+    n_channels : int, channels per sample (the detector's ``n_channels_``); 0 for a stream of
+        the univariate signal.
     hop : int, samples between two scores, 1 <= hop <= window.
     threshold : float in [0, 1]; a decision is 1 where score >= threshold (``predict`` uses 0.5).
         May be set at any time.
@@ -393,6 +452,7 @@ class Streamer:
     def __init__(self, detector: BaseDetector, hop: int, threshold: float = 0.5):
         self.detector = detector
         self.window = int(detector.window_length_)
+        self.n_channels = int(getattr(detector, "n_channels_", 0))
         self.hop = check_hop(hop, self.window)
         self.threshold = threshold
         self.reset()
@@ -411,10 +471,12 @@ class Streamer:
         """Forget every sample: the next one pushed is sample 0 of a new stream."""
         self.n_samples = 0
         self.n_scores = 0
-        self._tail = np.empty(0, np.float32)  # the samples later windows still need
+        # the samples later windows still need: (m,), or (m, n_channels)
+        self._tail = np.empty((0, self.n_channels) if self.n_channels else 0, np.float32)
 
     def push(self, samples: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Feed new samples of the signal (a number or a 1-D array, any length, even 0).
+        """Feed new samples of the signal (a number or a 1-D array, any length, even 0); in a
+        stream of channels, an array (k, n_channels) or one sample (n_channels,).
 
         Returns
         -------
@@ -422,25 +484,30 @@ class Streamer:
         decisions : (n,) int8, 1 where score >= threshold.
 
         Raises UsageError for samples that are not finite numbers, naming the first bad one by
-        its index in the stream; the stream is then left as it was. A detector that returns
-        scores that are not probabilities raises DetectorOutputError, and the stream starts anew.
+        its index in the stream (and its channel); the stream is then left as it was. A
+        detector that returns scores that are not probabilities raises DetectorOutputError, and
+        the stream starts anew.
         """
-        try:
-            x = np.asarray(samples, dtype=np.float32)
-        except (TypeError, ValueError) as exc:
-            raise UsageError(f"samples must be numbers: {exc}") from None
-        if x.ndim != 1:
-            if x.ndim > 1:
+        if self.n_channels:
+            x = self._channel_samples(samples)
+        else:  # the univariate path, a control loop's: as few numpy calls as can be
+            try:
+                x = np.asarray(samples, dtype=np.float32)
+            except (TypeError, ValueError) as exc:
+                raise UsageError(f"samples must be numbers: {exc}") from None
+            if x.ndim != 1:
+                if x.ndim > 1:
+                    raise UsageError(
+                        "samples must be a number or a 1-D array of the univariate signal (the "
+                        f"detector was fitted on univariate windows), got shape {x.shape}"
+                    )
+                x = x.reshape(1)
+            x = np.ascontiguousarray(x)
+            if not _all_finite(x):
+                i = int(np.argmin(np.isfinite(x)))
                 raise UsageError(
-                    f"samples must be a number or a 1-D array of the univariate signal, got shape {x.shape}"
+                    f"sample {self.n_samples + i} of the stream is {x[i]} (NaN or infinity)"
                 )
-            x = x.reshape(1)
-        x = np.ascontiguousarray(x)
-        if not _all_finite(x):
-            i = int(np.argmin(np.isfinite(x)))
-            raise UsageError(
-                f"sample {self.n_samples + i} of the stream is {x[i]} (NaN or infinity)"
-            )
         last = self.n_samples + len(x) - 1  # the stream index of the last new sample
         end = self.window - 1 + self.n_scores * self.hop  # where the next score falls
         n = (last - end) // self.hop + 1 if last >= end else 0
@@ -461,8 +528,34 @@ class Streamer:
         self.n_scores += n
         return scores, decisions
 
+    def _channel_samples(self, samples: Any) -> np.ndarray:
+        """``samples`` of a stream of channels as a checked, C-contiguous (k, n_channels) float32
+        array, or a UsageError naming the shape, or the first non-finite sample and channel."""
+        c = self.n_channels
+        try:
+            x = np.asarray(samples, dtype=np.float32)
+        except (TypeError, ValueError) as exc:
+            raise UsageError(f"samples must be numbers: {exc}") from None
+        if x.shape in ((c,), (0,)):  # one sample, or none
+            x = x.reshape(-1, c)
+        elif x.ndim != 2 or x.shape[1] != c:
+            raise UsageError(
+                f"samples must be an array (k, {c}) or one sample ({c},): the detector was fitted "
+                f"on {_channels(c)}, got shape {x.shape}"
+            )
+        x = np.ascontiguousarray(x)
+        bad = ~np.isfinite(x)
+        if bad.any():
+            i, j = np.argwhere(bad)[0]
+            raise UsageError(
+                f"sample {self.n_samples + i} of the stream, channel {j}, is {x[i, j]} "
+                "(NaN or infinity)"
+            )
+        return x
+
     def _push(self, x: np.ndarray, n: int) -> np.ndarray:
-        """Scores of the ``n`` (maybe 0) windows that the checked float32 samples ``x`` complete.
+        """Scores of the ``n`` (maybe 0) windows that the checked float32 samples ``x`` (k,) or
+        (k, n_channels) complete.
 
         The default: the windows cut from the kept tail and ``x``, scored by the detector's
         ``_predict_proba`` (input already checked), up to MAX_BATCH windows per call. An override
@@ -477,8 +570,8 @@ class Streamer:
             # (as_strided: sliding_window_view's checks cost more than scoring one window)
             views = np.lib.stride_tricks.as_strided(
                 data[start:],
-                (n, self.window),
-                (self.hop * data.itemsize, data.itemsize),
+                (n, self.window, *data.shape[1:]),  # (n, window) or (n, window, n_channels)
+                (self.hop * data.strides[0], *data.strides),
                 writeable=False,
             )
             scores = np.concatenate(
@@ -521,7 +614,8 @@ def stream_scores(detector: BaseDetector, signal: Any, hop: int) -> tuple[np.nda
     Parameters
     ----------
     detector : a fitted detector.
-    signal : (n_samples,) the univariate signal of one recording.
+    signal : (n_samples,) the univariate signal of one recording, or (n_samples, n_channels)
+        its channels for a detector fitted on channels.
     hop : samples between scores, 1 <= hop <= window.
 
     Returns
@@ -535,7 +629,12 @@ def stream_scores(detector: BaseDetector, signal: Any, hop: int) -> tuple[np.nda
     """
     stream = detector.streamer(hop)
     signal = np.asarray(signal)
-    if signal.ndim == 1 and len(signal) < stream.window:
+    if stream.n_channels and signal.ndim != 2:  # a 1-D signal of n_channels would be one sample
+        raise UsageError(
+            f"the detector was fitted on {_channels(stream.n_channels)}: the signal must be "
+            f"(n_samples, {stream.n_channels}), got shape {signal.shape}"
+        )
+    if signal.ndim >= 1 and len(signal) < stream.window:
         raise UsageError(
             f"the signal has {len(signal)} samples, fewer than the window ({stream.window} samples)"
         )
@@ -592,7 +691,8 @@ def push_costs(stream: Streamer, pieces: list[np.ndarray]) -> tuple[float, float
 
 def hop_latency(detector: BaseDetector, signal: Any, hop: int) -> float:
     """The detector's compute time per hop, in ms: the median wall time of the pushes that
-    complete a score when ``signal`` is fed one hop at a time, as a control loop would
-    (:func:`push_costs`). The streaming protocol adds it to every delay."""
+    complete a score when ``signal`` ((n_samples,), or (n_samples, n_channels) for a detector
+    fitted on channels) is fed one hop at a time, as a control loop would (:func:`push_costs`).
+    The streaming protocol reports it against the hop period."""
     x = np.asarray(signal, np.float32)
     return push_costs(detector.streamer(hop), [x[i : i + hop] for i in range(0, len(x), hop)])[1]

@@ -191,16 +191,16 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 "        super().__init__(batch_size, learning_rate, max_epochs, patience,\n"
                 "                         validation_fraction, device)\n"
                 "        self.filters = filters\n\n"
-                "    def build(self, window_length):\n"
+                "    def build(self, window_length, n_channels):\n"
                 "        return nn.Sequential(\n"
-                "            nn.Unflatten(1, (1, window_length)), nn.Conv1d(1, self.filters, 5, padding=2),\n"
-                "            nn.ReLU(), nn.AdaptiveAvgPool1d(1), nn.Flatten(), nn.Linear(self.filters, 1))\n\n"
+                "            nn.Conv1d(n_channels, self.filters, 5, padding=2), nn.ReLU(),\n"
+                "            nn.AdaptiveAvgPool1d(1), nn.Flatten(), nn.Linear(self.filters, 1))\n\n"
                 "cnn = TinyCNN(max_epochs=2).fit(x, y, seed=0, groups=np.arange(100) // 10)\n"
                 'assert cnn.fitted_choices()["validation_by"] == "trial"\n',
             ),
             Entry(
                 "slipbench.torch.detector:TorchDetector.build",
-                "net = TinyCNN().build(50)  # windows (batch, 50) -> one logit each\n",
+                "net = TinyCNN().build(50, 1)  # windows (batch, 1, 50) -> one logit each\n",
             ),
         ],
     ),

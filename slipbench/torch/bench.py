@@ -28,12 +28,13 @@ def torch_targets(detector_class: type, length: int, seconds: float, seed: int =
     y = (np.arange(n) % 2).astype(np.int8)
     detector = detector_class(max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu")
     n_val = int(round(detector.validation_fraction * n))
-    xt, yt = torch.from_numpy(x), torch.from_numpy(y.astype(np.float32))
+    # the network's layout (batch, channels, window), one channel
+    xt, yt = torch.from_numpy(x[:, None, :]), torch.from_numpy(y.astype(np.float32))
 
     def plain_fit() -> Callable[[], object]:
         def run() -> None:
             torch.manual_seed(seed)
-            net = detector.build(length)
+            net = detector.build(length, 1)
             opt = torch.optim.Adam(net.parameters(), lr=detector.learning_rate)
             loss_fn = torch.nn.BCEWithLogitsLoss()
             train, val = xt[n_val:], xt[:n_val]

@@ -3,7 +3,10 @@ made a slipbench detector.
 
 What a plugin writes is the module (``build``) and its own parameters; this class owns the rest:
 
-- *input*: windows standardized with the training side's mean and standard deviation;
+- *input*: univariate windows (n, window) or windows of channels (n, window, channels),
+  standardized with the training side's mean and standard deviation (each channel's own), given
+  to the network in torch's ``Conv1d`` layout (batch, channels, window), one channel for
+  univariate windows;
 - *training*: Adam on the binary cross-entropy of the logits, mini-batches of ``batch_size``,
   a validation part of whole trials (``validation_fraction`` of the training windows, every
   class on both sides; by window only where the windows come without their trials, and then
@@ -34,21 +37,31 @@ from slipbench.seeding import rng_for, seed_int
 INSTALL_HINT = "pip install 'slipbench[torch]'"
 #: windows scored at once by predict_proba (bounded memory, whatever the batch size)
 SCORE_BATCH = 4096
+#: windows scored on one CPU thread at most: a stream's push scores one or a few, where torch's
+#: thread pool costs more than it gives, and on a busy machine its threads wait for one another
+#: (3 windows of tcn's check network: 122 ms on 2 threads of 2 busy cores, 1.6 ms on one)
+FEW_WINDOWS = 16
 
 
 class TorchDetector(BaseDetector):
     """A detector around the ``torch.nn.Module`` that :meth:`build` returns.
 
-    Subclasses implement ``build(window_length) -> torch.nn.Module``, a module that takes a
-    float32 tensor of windows (batch, window_length) and returns one logit per window, shape
-    (batch,) or (batch, 1); they declare their own parameters in ``__init__`` beside the
-    training ones (pass those on to ``super().__init__``) and in ``_parameter_constraints``
-    (extend :attr:`TRAINING_CONSTRAINTS`).
+    Subclasses implement ``build(window_length, n_channels) -> torch.nn.Module``, a module that
+    takes a float32 tensor of windows (batch, n_channels, window_length) and returns one logit
+    per window, shape (batch,) or (batch, 1); they declare their own parameters in ``__init__``
+    beside the training ones (pass those on to ``super().__init__``) and in
+    ``_parameter_constraints`` (extend :attr:`TRAINING_CONSTRAINTS`).
+
+    Every TorchDetector reads both inputs (:attr:`inputs`): univariate windows reach the network
+    as one channel (``n_channels`` 1), windows of channels (n, window, C) as C channels, so one
+    ``build`` serves both. A network that makes sense on the univariate signal only declares
+    ``inputs = ("univariate",)``.
     """
 
     requires: ClassVar[tuple[str, ...]] = ("torch",)
     install_hint: ClassVar[str | None] = INSTALL_HINT
     check_params: ClassVar[dict[str, Any]] = {"max_epochs": 3, "patience": 1}
+    inputs: ClassVar[tuple[str, ...]] = ("univariate", "channels")
     TRAINING_CONSTRAINTS: ClassVar[dict[str, Any]] = {
         "batch_size": Interval(int, 1, 1 << 16),
         "learning_rate": Interval(float, 1e-7, 1.0),
@@ -86,9 +99,12 @@ class TorchDetector(BaseDetector):
 
         return torch_targets(cls, length, seconds, seed)
 
-    def build(self, window_length: int) -> Any:
-        """The network: windows (batch, window_length) -> logits (batch,)."""
-        raise NotImplementedError(f"{type(self).__name__} must implement build(window_length)")
+    def build(self, window_length: int, n_channels: int) -> Any:
+        """The network: windows (batch, n_channels, window_length) -> logits (batch,);
+        ``n_channels`` is 1 for univariate windows."""
+        raise NotImplementedError(
+            f"{type(self).__name__} must implement build(window_length, n_channels)"
+        )
 
     # -- what the base class calls
     def validate_params(self) -> None:
@@ -111,7 +127,11 @@ class TorchDetector(BaseDetector):
     ) -> None:
         import torch
 
-        self.mean_, self.std_ = float(x.mean()), float(max(x.std(), 1e-12))
+        if x.ndim == 3:  # each channel its own scale
+            self.mean_ = x.mean(axis=(0, 1), dtype=np.float64)
+            self.std_ = np.maximum(x.std(axis=(0, 1), dtype=np.float64), 1e-12)
+        else:
+            self.mean_, self.std_ = float(x.mean()), float(max(x.std(), 1e-12))
         train, val, self.validation_by_ = _validation_split(
             y, groups, self.validation_fraction, rng_for(seed, "torch-validation")
         )
@@ -141,7 +161,7 @@ class TorchDetector(BaseDetector):
         import torch
 
         device = self._device()
-        model = self._module(x.shape[1]).to(device)
+        model = self._module().to(device)
         xt = torch.from_numpy(self._standardized(x)).to(device)
         yt = torch.from_numpy(y.astype(np.float32)).to(device)
         vt = torch.from_numpy(val).to(device)
@@ -174,10 +194,18 @@ class TorchDetector(BaseDetector):
         net, device = self._network(), self._device()
         xs = self._standardized(x)
         out = []
-        with torch.no_grad():
-            for start in range(0, len(xs), SCORE_BATCH):
-                batch = torch.from_numpy(xs[start : start + SCORE_BATCH]).to(device)
-                out.append(torch.sigmoid(_logits(net, batch)).double().cpu().numpy())
+        threads = torch.get_num_threads()
+        few = len(xs) <= FEW_WINDOWS and device.type == "cpu" and threads > 1
+        if few:
+            torch.set_num_threads(1)
+        try:
+            with torch.no_grad():
+                for start in range(0, len(xs), SCORE_BATCH):
+                    batch = torch.from_numpy(xs[start : start + SCORE_BATCH]).to(device)
+                    out.append(torch.sigmoid(_logits(net, batch)).double().cpu().numpy())
+        finally:
+            if few:
+                torch.set_num_threads(threads)
         return np.concatenate(out)
 
     def fitted_choices(self) -> dict[str, Any]:
@@ -196,12 +224,15 @@ class TorchDetector(BaseDetector):
         return torch.device("cpu")
 
     def _standardized(self, x: np.ndarray) -> np.ndarray:
-        return ((x - self.mean_) / self.std_).astype(np.float32)
+        """Windows standardized, in the network's layout (n, channels, window)."""
+        z = ((x - self.mean_) / self.std_).astype(np.float32)
+        return z[:, None, :] if z.ndim == 2 else np.ascontiguousarray(z.transpose(0, 2, 1))
 
-    def _module(self, window_length: int) -> Any:
+    def _module(self) -> Any:
+        """A new network for the fitted window length and channels, checked to be a Module."""
         import torch
 
-        net = self.build(window_length)
+        net = self.build(self.window_length_, max(1, self.n_channels_))
         if not isinstance(net, torch.nn.Module):
             raise UsageError(
                 f"{type(self).__name__}.build returned a {type(net).__name__}, not a torch.nn.Module"
@@ -214,7 +245,7 @@ class TorchDetector(BaseDetector):
 
         if getattr(self, "_net", None) is None:
             with torch.random.fork_rng(devices=[]):  # its initial weights are overwritten
-                net = self._module(self.window_length_)
+                net = self._module()
             names = list(self.state_names_)
             state = {
                 n: torch.from_numpy(np.asarray(self.__dict__[f"state_{i}_"]))

@@ -54,3 +54,72 @@ def test_a_minimal_plugin_gets_the_contract_for_free():
     det = Mean(offset=0.1).fit(x, np.r_[np.zeros(5), np.ones(5)].astype(int))
     assert det.predict(x).tolist() == [0] * 5 + [1] * 5
     assert det.sampling_rate_ == 1000.0 and det.window_length_ == 6
+
+
+class _Loudness(BaseDetector):
+    """Mean absolute value over a window (and its channels) against a training median."""
+
+    inputs = ("univariate", "channels")
+
+    def _fit(self, x, y, seed):
+        self.cut_ = float(np.median(np.abs(x).reshape(len(x), -1).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).reshape(len(x), -1).mean(axis=1) > self.cut_).astype(float)
+
+
+class _ChannelsOnly(_Loudness):
+    inputs = ("channels",)
+
+
+def test_a_univariate_detector_refuses_windows_of_channels_naming_shape_and_inputs():
+    x = np.random.default_rng(0).normal(size=(20, 10, 3)).astype(np.float32)
+    y = np.r_[np.zeros(10), np.ones(10)].astype(int)
+    with pytest.raises(
+        UsageError,
+        match=r"detector 'holweg' takes univariate windows \(n_windows, window_length\) "
+        r"\(inputs: univariate\), got an array of shape \(20, 10, 3\); windows of channels "
+        r"need a detector that declares 'channels' in its inputs",
+    ):
+        Holweg().fit(x, y)
+    fitted = Holweg().fit(x[:, :, 0], y)
+    assert fitted.n_channels_ == 0
+    with pytest.raises(UsageError, match=r"shape \(20, 10, 3\)"):
+        fitted.predict_proba(x)
+    with pytest.raises(
+        UsageError, match=r"takes windows of channels .* got an array of shape \(20, 10\)"
+    ):
+        _ChannelsOnly().fit(x[:, :, 0], y)
+    with pytest.raises(UsageError, match=r"shape \(20,\)"):
+        _Loudness().fit(x[:, 0, 0], y)
+
+
+def test_windows_of_channels_fit_predict_save_and_load(tmp_path):
+    rng = np.random.default_rng(0)
+    x = (
+        rng.normal(size=(20, 10, 3)).astype(np.float32)
+        * np.r_[np.ones(10), 3 * np.ones(10)][:, None, None]
+    )
+    y = np.r_[np.zeros(10), np.ones(10)].astype(int)
+    det = _Loudness().fit(x, y)
+    assert det.n_channels_ == 3 and det.window_length_ == 10
+    assert det.predict(x).tolist() == y.tolist()
+    with pytest.raises(
+        UsageError, match=r"fitted on windows of 3 channels .* got windows of shape \(20, 10, 2\)"
+    ):
+        det.predict_proba(x[:, :, :2])
+    with pytest.raises(
+        UsageError, match=r"fitted on windows of 3 channels .* got windows of shape \(20, 10\)"
+    ):
+        det.predict_proba(x[:, :, 0])
+    with pytest.raises(UsageError, match="fitted on univariate windows"):
+        _Loudness().fit(x[:, :, 0], y).predict_proba(x)
+    bad = x.copy()
+    bad[4, 2, 1] = np.inf
+    with pytest.raises(UsageError, match="window 4, sample 2, channel 1"):
+        _Loudness().fit(bad, y)
+    with pytest.raises(UsageError, match="at least one channel"):
+        _Loudness().fit(x[:, :, :0], y)
+    det.save(tmp_path / "d.npz")
+    again = _Loudness.load(tmp_path / "d.npz")
+    assert again.n_channels_ == 3 and np.array_equal(again.predict_proba(x), det.predict_proba(x))

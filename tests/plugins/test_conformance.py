@@ -56,12 +56,50 @@ class _Unsaveable(_Renamer):
         self.cut_, self.model_ = 0.0, object()
 
 
+class _ChannelBlind(_Renamer):
+    """Declares channels but scores each channel, not each window."""
+
+    inputs = ("univariate", "channels")
+
+    def __init__(self, factor=1.0):
+        self.factor = factor
+
+
+class _UnknownInput(_ChannelBlind):
+    inputs = ("univariate", "taxels")
+
+
+class _FirstChannel(_ChannelBlind):
+    """Declares channels only and reads a window's first channel."""
+
+    inputs = ("channels",)
+
+    def _predict_proba(self, x):
+        return super()._predict_proba(x[:, :, 0])
+
+
+class _OwnStreamer(_FirstChannel):
+    """Brings a stream that scores univariate windows: wrong on channels."""
+
+    def _streamer(self, hop, threshold):
+        from slipbench.base import Streamer
+
+        class Flat(Streamer):
+            def _push(self, x, n):
+                return np.full(n, 0.5)
+
+        return Flat(self, hop, threshold)
+
+
 @pytest.mark.parametrize(
     "cls, words",
     [
         (_Nondeterministic, "same scores"),
         (_Renamer, "clone must keep"),
         (_Unsaveable, "cannot save"),
+        (_ChannelBlind, r"scores of shape \(37, 3\) for 37 windows"),
+        (_UnknownInput, "inputs must be a tuple of distinct kinds"),
+        (_OwnStreamer, "stream vs predict_proba"),
     ],
 )
 def test_suite_catches_broken_detectors(cls, words):
@@ -85,6 +123,27 @@ class _NoInit(BaseDetector):
 
     def _predict_proba(self, x):
         return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+def test_checks_run_on_each_declared_input_and_a_univariate_one_is_checked_for_refusing_channels():
+    from slipbench.testing import detector_checks
+
+    names = [name for name, _ in detector_checks(_ChannelBlind())]
+    assert "check_fit_predict" in names and "check_fit_predict-channels" in names
+    assert "check_streaming" in names and "check_streaming-channels" in names
+    only = [name for name, _ in detector_checks(_FirstChannel())]
+    assert "check_fit_predict-channels" in only and "check_fit_predict" not in only
+    assert not any(n.endswith("-channels") for n, _ in detector_checks(_NoInit()))
+    check_detector(_FirstChannel())  # a channels-only detector passes on channels alone
+
+    class Lenient(_NoInit):
+        """Claims univariate only but lets windows of channels through."""
+
+        def _check_x(self, x):
+            return np.asarray(x, np.float32)
+
+    with pytest.raises(AssertionError, match="fit on 'channels' windows, which the detector"):
+        check_detector(Lenient())
 
 
 def test_suite_catches_a_detector_that_ignores_its_input():

@@ -13,7 +13,7 @@ from slipbench.detectors.wavelet_svm import wavelet_and_level
 from slipbench.engine.registry import Registry, detectors, protocols
 from slipbench.engine.runner import Run, evaluate
 from slipbench.store.results import ResultsStore
-from slipbench.testing import check_detector, toy_windows
+from slipbench.testing import check_detector, toy_channel_windows, toy_windows
 
 
 @pytest.mark.parametrize(
@@ -42,6 +42,23 @@ def test_bandpass_separates_a_burst_in_its_band():
 )
 def test_wavelet_and_level_adapt_to_short_windows(length, wavelet, level):
     assert wavelet_and_level(length, "db4", 4) == (wavelet, level)
+
+
+def test_wavelet_svm_concatenates_each_channels_features_and_learns_from_channels():
+    from slipbench.detectors.wavelet_svm import WaveletSVM
+
+    x, y = toy_channel_windows(400, 50, channels=4)  # slip: a burst in channel 0 only
+    det = WaveletSVM(n_components=100).fit(x[:200], y[:200], seed=0)
+    assert det.n_channels_ == 4 and det.mean_.shape == (4 * 4 * (det.level_ + 1),)
+    assert (det.predict(x[200:]) == y[200:]).mean() > 0.9
+    det.mean_, det.std_ = 0.0, 1.0  # the raw log statistics
+    each = det._features(x[:10])
+    for c in range(4):  # channel c's block: the univariate features of channel c
+        np.testing.assert_allclose(
+            each[:, c * 4 * (det.level_ + 1) : (c + 1) * 4 * (det.level_ + 1)],
+            det._features(np.ascontiguousarray(x[:10, :, c])),
+            rtol=1e-5,
+        )
 
 
 def test_minirocket_pads_short_windows():

@@ -19,7 +19,7 @@ from slipbench.base import (
 from slipbench.engine.registry import detectors
 from slipbench.errors import UsageError
 from slipbench.stream import metrics as S
-from slipbench.testing import toy_windows
+from slipbench.testing import toy_channel_windows, toy_windows
 
 
 class Energy(BaseDetector):
@@ -56,25 +56,8 @@ def _pushed(stream, signal, seed):
 
 
 # ----------------------------------------------------------------------------- the streaming API
-@pytest.mark.parametrize("name", detectors.names())
-def test_every_detector_streams_the_scores_of_predict_proba(name):
-    status = detectors.status(name)
-    if status.state != "ok":  # an optional dependency not installed here (minirocket: aeon)
-        pytest.skip(f"{status.state}: {status.detail}")
-    cls = detectors.get(name)
-    detector = cls(**cls.check_params)
-    x, y = toy_windows(200, 30)
-    detector.fit(x, y, sampling_rate=1000.0, seed=0)
-    signal = _signal(1500)
-    for hop in (1, 7, 30):
-        ends, scores = stream_scores(detector, signal, hop)
-        assert np.array_equal(ends, np.arange(29, 1500, hop))
-        np.testing.assert_allclose(scores, _reference(detector, signal, ends), rtol=0, atol=1e-6)
-        # pieces change the batches predict_proba sees: wavelet-svm's float32 features score a
-        # window 2.6e-6 apart alone and in a batch
-        np.testing.assert_allclose(
-            _pushed(detector.streamer(hop), signal, hop), scores, rtol=0, atol=1e-5
-        )
+# every registered detector streams predict_proba's scores on each input it declares: the
+# conformance suite's check_streaming (tests/plugins/test_conformance.py)
 
 
 @settings(max_examples=40, deadline=None)
@@ -154,6 +137,68 @@ def test_bad_arguments_and_samples_are_refused_by_name():
     assert stream.n_samples == 30  # the refused pushes changed nothing
     with pytest.raises(UsageError, match="4 samples, fewer than the window \\(20"):
         stream_scores(detector, np.ones(4), 5)
+
+
+class ChannelEnergy(Energy):
+    """Energy over every channel of a window."""
+
+    inputs = ("univariate", "channels")
+
+    def _fit(self, x, y, seed):
+        self.cut_ = float(np.median(np.abs(x).reshape(len(x), -1).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return 1.0 / (1.0 + np.exp(-(np.abs(x).reshape(len(x), -1).mean(axis=1) - self.cut_)))
+
+
+def test_a_stream_of_channels_takes_samples_of_every_channel():
+    x, y = toy_channel_windows(100, 20, channels=3)
+    detector = ChannelEnergy().fit(x, y)
+    signal = toy_channel_windows(20, 20, channels=3, seed=1)[0].reshape(400, 3)
+    ends, scores = stream_scores(detector, signal, 5)
+    windows = sliding_window_view(signal, 20, axis=0)[ends - 19].transpose(0, 2, 1)
+    np.testing.assert_array_equal(scores, detector.predict_proba(windows))
+    stream = detector.streamer(5)
+    assert stream.n_channels == 3
+    one_by_one = np.concatenate([stream.push(sample)[0] for sample in signal])  # (3,) each
+    np.testing.assert_array_equal(one_by_one, scores)
+    stream.reset()
+    pieces = np.split(signal, [0, 7, 7, 19, 150, 151])  # (k, 3), k = 0 included
+    np.testing.assert_array_equal(np.concatenate([stream.push(p)[0] for p in pieces]), scores)
+    assert stream.n_samples == 400 and stream.push([])[0].shape == (0,)
+
+
+def test_a_stream_of_channels_refuses_other_shapes_and_names_the_bad_channel():
+    x, y = toy_channel_windows(100, 20, channels=3)
+    detector = ChannelEnergy().fit(x, y)
+    stream = detector.streamer(5)
+    stream.push(np.ones((30, 3)))
+    for wrong in (np.ones(4), np.ones((2, 4)), np.ones((2, 3, 1)), 1.0):
+        with pytest.raises(UsageError, match=r"array \(k, 3\) or one sample \(3,\).* 3 channels"):
+            stream.push(wrong)
+    bad = np.ones((10, 3))
+    bad[4, 2] = np.nan
+    with pytest.raises(UsageError, match="sample 34 of the stream, channel 2, is nan"):
+        stream.push(bad)
+    assert stream.n_samples == 30  # the refused pushes changed nothing
+    with pytest.raises(
+        UsageError,
+        match=r"fitted on 3 channels: the signal must be \(n_samples, 3\), got shape \(300,\)",
+    ):
+        stream_scores(detector, np.ones(300), 5)
+    with pytest.raises(UsageError, match="4 samples, fewer than the window"):
+        stream_scores(detector, np.ones((4, 3)), 5)
+    univariate = ChannelEnergy().fit(x[:, :, 0], y).streamer(5)
+    with pytest.raises(UsageError, match="1-D array of the univariate signal"):
+        univariate.push(np.ones((4, 3)))
+
+
+def test_hop_latency_of_a_stream_of_channels():
+    from slipbench.base import hop_latency
+
+    x, y = toy_channel_windows(100, 20, channels=3)
+    detector = ChannelEnergy().fit(x, y)
+    assert hop_latency(detector, np.ones((400, 3), np.float32), 5) > 0
 
 
 def test_a_detector_with_bad_scores_fails_the_stream_and_it_starts_anew():

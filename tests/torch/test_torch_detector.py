@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from slipbench.params import Interval
-from slipbench.testing import parametrize_with_checks, toy_windows
+from slipbench.testing import parametrize_with_checks, toy_channel_windows, toy_windows
 from slipbench.torch import TorchDetector
 
 torch = pytest.importorskip("torch")
@@ -26,12 +26,11 @@ class TinyCNN(TorchDetector):
         )
         self.filters = filters
 
-    def build(self, window_length):
+    def build(self, window_length, n_channels):  # windows (batch, n_channels, window_length)
         from torch import nn
 
         return nn.Sequential(
-            nn.Unflatten(1, (1, window_length)),  # (batch, window) -> (batch, 1, window)
-            nn.Conv1d(1, self.filters, 5, padding=2),
+            nn.Conv1d(n_channels, self.filters, 5, padding=2),
             nn.ReLU(),
             nn.AdaptiveAvgPool1d(1),
             nn.Flatten(),
@@ -83,7 +82,7 @@ def test_validation_by_window_is_said_when_trials_cannot_give_both_classes():
 
 def test_a_build_that_is_not_a_module_is_refused():
     class Broken(TinyCNN):
-        def build(self, window_length):
+        def build(self, window_length, n_channels):
             return lambda x: x.sum(1)
 
     from slipbench.errors import UsageError
@@ -91,3 +90,31 @@ def test_a_build_that_is_not_a_module_is_refused():
     x, y = toy_windows(n=40, length=20, seed=0)
     with pytest.raises(UsageError, match="not a torch.nn.Module"):
         Broken().fit(x, y)
+
+
+def test_windows_of_channels_reach_the_network_as_its_input_channels():
+    built = []
+
+    class Seen(TinyCNN):
+        def build(self, window_length, n_channels):
+            built.append((window_length, n_channels))
+            return super().build(window_length, n_channels)
+
+    x, y = toy_channel_windows(n=200, length=40, channels=5, seed=1)  # slip: channel 0's burst
+    det = Seen(max_epochs=15).fit(x, y, seed=3, groups=np.arange(200) // 8)
+    assert built[0] == (40, 5) and det.n_channels_ == 5
+    assert det.mean_.shape == det.std_.shape == (5,)  # each channel its own scale
+    assert (det.predict(x) == y).mean() > 0.9
+    Seen(max_epochs=1).fit(x[:, :, 0], y, seed=0)
+    assert built[-1] == (40, 1)  # univariate windows: one channel
+
+
+def test_a_network_for_the_univariate_signal_only_refuses_channels():
+    class Univariate(TinyCNN):
+        inputs = ("univariate",)
+
+    x, y = toy_channel_windows(n=40, length=20)
+    from slipbench.errors import UsageError
+
+    with pytest.raises(UsageError, match="takes univariate windows"):
+        Univariate().fit(x, y)
