@@ -9,10 +9,9 @@ hint; named on its own it is refused before any work (exit 3, with the hint)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
+from slipbench.base import BaseDetector
 from slipbench.engine import registry
-from slipbench.engine.plan import inputs_of
 from slipbench.engine.registry import Plugin
 from slipbench.errors import PluginError, UsageError
 from slipbench.vocabulary import INPUTS
@@ -127,11 +126,13 @@ def with_options(plugins: dict, options: dict, kind: str) -> dict:
     return plugins
 
 
-def readable(name: str, detector: Any, asked: str, echo: Callable[[str], None]) -> list[str]:
+def readable(
+    name: str, detector: BaseDetector, asked: str, echo: Callable[[str], None]
+) -> list[str]:
     """The inputs (``univariate``, ``channels``) a detector runs with when ``asked`` for one of
     them or ``both``: those it declares; a detector that reads none of them is left out with a
     line to ``echo`` (a run of it would be refused)."""
-    takes = inputs_of(type(detector))
+    takes = type(detector).inputs
     wanted = list(INPUTS) if asked == "both" else [asked]
     chosen = [kind for kind in wanted if kind in takes]
     left = [kind for kind in wanted if kind not in takes]

@@ -37,13 +37,6 @@ from slipbench.store.keys import canonical, cell_key, code_identity
 from slipbench.stream.metrics import DELAY_CLOCK, onsets
 from slipbench.vocabulary import INPUTS
 
-
-def inputs_of(detector: type) -> tuple[str, ...]:
-    """The inputs a detector class declares (``BaseDetector.inputs``; the univariate signal
-    where it declares none)."""
-    return tuple(getattr(detector, "inputs", ("univariate",)))
-
-
 # a recordings column the runner adds: True where the dataset gives the recording per-sample
 # slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
 LABELLED = "has_slip_labels"
@@ -129,7 +122,7 @@ class Run:
         before any work starts."""
         self.detector.validate_params()
         self.protocol.validate_params()
-        takes = inputs_of(type(self.detector))
+        takes = type(self.detector).inputs
         if self.input not in takes:
             raise UsageError(
                 f"detector {self.detector_name!r} reads the {' or '.join(takes)} input, not "
