@@ -196,3 +196,94 @@ def predictions_pair(
         pd.DataFrame(rows).to_parquet(folder / "results.parquet")
         folders.append(folder)
     return tuple(folders)
+
+
+def inputs_folder(
+    root,
+    boost: dict[str, float] | None = None,
+    seeds=(0,),
+    trials: int = 24,
+    windows: int = 6,
+    legacy: bool = True,
+    predictions: bool = True,
+    model_noise: float = 0.3,
+    replicate: int = 0,
+) -> tuple:
+    """A results folder of one detector ("tcn") run with ``--input both`` on window-size cells
+    of the sensors of ``boost`` (two at least), with predictions unless not ``predictions``;
+    returns (folder, rows).
+
+    Both inputs test the same windows of the same ``trials`` trials per sensor (half slip), and a
+    trial's difficulty is shared by every cell and input. A window is classified correctly with
+    probability sigmoid(0.8 + difficulty + a draw of N(0, ``model_noise``) per trained model (its
+    retraining noise) + ``boost[sensor]`` for channels): with the default boost the channels are
+    truly better on Nano17 (+1.5 on the logit) and truly equal on the BioTac SP. ``replicate``
+    draws the trials and predictions anew. ``legacy``: the univariate rows lack the ``input``
+    column, as rows of earlier versions do. Beside the paired cells: a channels cell of the first
+    sensor (index, window 200) without a univariate twin, and the same cell of the second sensor
+    with its channels run skipped."""
+    import numpy as np
+
+    from slipbench.stats.metrics import classification_figures
+
+    boost = {"Nano17": 1.5, "BioTacSP": 0.0} if boost is None else boost
+    first, second = list(boost)[:2]
+    lone = (first, "index", 200)  # a channels cell without its univariate twin
+    skipped = (second, "index", 200)  # a cell whose channels run was skipped
+    folder = root / "results"
+    (folder / "predictions").mkdir(parents=True)
+    rows = []
+    slip = np.arange(trials) % 2 == 0
+    for si, sensor in enumerate(boost):
+        trial_ids = np.array([f"{sensor}-t{i:03d}" for i in range(trials)])
+        hard = np.random.default_rng((7 + si, replicate)).normal(0, 1, trials)
+        for finger in ("index", "middle"):
+            for window in (25, 50, 100, 200):
+                cell = {"sensor_type": sensor, "sensor_instance": finger, "window": window}
+                for kind in ("univariate", "channels"):
+                    if kind == "univariate" and (sensor, finger, window) == lone:
+                        continue
+                    key_cell = {**cell, **({"input": "channels"} if kind == "channels" else {})}
+                    for s in seeds:
+                        key = f"{kind}-{sensor}-{finger}-{window}-{s}"
+                        row = {
+                            "key": key,
+                            "protocol": "window-size",
+                            "detector": "tcn",
+                            "detector_params": "{}",
+                            "split": "grouped",
+                            "seed": s,
+                            **cell,
+                            "cell": json.dumps(key_cell, sort_keys=True),
+                            "status": "ok",
+                            "reason": "",
+                            "dataset_fingerprint": "f00d",
+                            **({"input": kind} if kind == "channels" or not legacy else {}),
+                        }
+                        if kind == "channels" and (sensor, finger, window) == skipped:
+                            row |= {"status": "skipped", "reason": "units differ in channels"}
+                            rows.append(row)
+                            continue
+                        rng = np.random.default_rng(zlib.crc32(f"{key}|{replicate}".encode()))
+                        t = np.repeat(np.arange(trials), windows)
+                        logit = 0.8 + hard[t] + rng.normal(0, model_noise)
+                        logit += boost[sensor] if kind == "channels" else 0.0
+                        correct = rng.random(len(t)) < 1 / (1 + np.exp(-logit))
+                        y = slip[t]
+                        pred = np.where(correct, y, ~y)
+                        score = np.where(pred, 0.8, 0.2)
+                        if predictions:
+                            pd.DataFrame(
+                                {
+                                    "recording_id": trial_ids[t],
+                                    "window_index": np.tile(np.arange(windows), trials),
+                                    "y_true": y.astype(np.int8),
+                                    "score": score,
+                                    "trial": trial_ids[t],
+                                }
+                            ).to_parquet(folder / "predictions" / f"{key}.parquet")
+                        row |= classification_figures(y, pred, trial_ids[t], seed=s, scores=score)
+                        rows.append(row)
+    frame = pd.DataFrame(rows)
+    frame.to_parquet(folder / "results.parquet")
+    return folder, frame

@@ -12,7 +12,9 @@ Every report has the same outline:
 4. per protocol, in the paper's order: every detector side by side (with the figure that
    overlays them), then each detector's tables in the protocol's own layout and its figure;
    with ``paper``, the published table once and, for the paper's model, ours minus published;
-5. the paper's extra tables at window 50 (baseline, TP/TN rates).
+5. the paper's extra tables at window 50 (baseline, TP/TN rates);
+6. where a detector ran with both inputs, what the reduction keeps: its channels cells against
+   their univariate twins (:mod:`slipbench.report.reduction`).
 
 ``leaderboard_only`` stops after 2. Each detector's own blocks (what fitting chose for it, its
 tables and figures of a protocol, its TP/TN rates) are :class:`Detail`: inline in the whole
@@ -25,13 +27,13 @@ import base64
 import os
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
+from slipbench.report.blocks import Detail, Heading, Text
 from slipbench.report.leaderboard import leaderboard_tables
 from slipbench.report.outline import (
     layouts,
@@ -43,6 +45,7 @@ from slipbench.report.outline import (
 )
 from slipbench.report.paper import paper_frame
 from slipbench.report.provenance import fitted_tables, header_tables
+from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import standalone_latex, to_latex, to_markdown
 from slipbench.report.tables import (
     Table,
@@ -66,26 +69,6 @@ PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 )
 FORMATS = ("md", "latex", "html")
-
-
-@dataclass
-class Heading:
-    text: str
-    level: int = 2
-
-
-@dataclass
-class Text:
-    text: str
-
-
-@dataclass
-class Detail:
-    """One detector's blocks of a section (its tables and figures): inline in a whole report,
-    moved to the appendix where the report is split (:func:`split_appendix`)."""
-
-    section: str
-    blocks: list
 
 
 def flatten(blocks: list) -> list:
@@ -479,7 +462,7 @@ def build_report(
             blocks.append(Heading(title, 2))
             blocks += [baseline] if baseline is not None else []
             blocks += [Detail(title, rates)] if rates else []
-    return blocks
+    return blocks + reduction_blocks(cells, predictions, with_figures)
 
 
 # ----------------------------------------------------------------------------- rendering

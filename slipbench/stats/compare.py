@@ -83,7 +83,7 @@ from scipy.stats import t as student_t
 
 from slipbench.errors import DataError, UsageError
 from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
-from slipbench.stats.pooled import CellSides, pooled_change
+from slipbench.stats.pooled import CellSides, pooled_change, pooled_from_rows
 from slipbench.store.results import (
     check_unique_keys,
     read_predictions,
@@ -229,7 +229,7 @@ def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
     return rows
 
 
-def _paired(
+def paired_cell(
     base: pd.DataFrame | None, cand: pd.DataFrame | None, seed: int, level: float
 ) -> dict | None:
     """Paired figures from the two cells' predictions, or None when they cannot be joined."""
@@ -273,7 +273,7 @@ def _as_predictions(frame: pd.DataFrame, by_trial: bool) -> Predictions:
     return Predictions(frame["y_true"].to_numpy().astype(bool), score >= 0.5, groups, score)
 
 
-def _sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list, list]:
+def seed_sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list, list]:
     """Each seed's predictions as Predictions, clustered by trial where every file holds one."""
     by_trial = all("trial" in f for f in (*base, *cand))
     return [_as_predictions(f, by_trial) for f in base], [
@@ -281,18 +281,18 @@ def _sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list, li
     ]
 
 
-def _over_seeds(
+def cell_over_seeds(
     base: list[pd.DataFrame], cand: list[pd.DataFrame], seed: int, level: float
 ) -> dict:
     """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
     side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`)."""
-    b, c = _sides(base, cand)
+    b, c = seed_sides(base, cand)
     out: dict[str, Any] = over_seeds(b, c, seed=seed, level=level, figures=FIGURES)
     out["method"] = f"over seeds and trials ({len(b)} → {len(c)} seeds)"
     return out
 
 
-def _unpaired(base_rows: list[dict], cand_rows: list[dict], level: float) -> dict:
+def unpaired_cell(base_rows: list[dict], cand_rows: list[dict], level: float) -> dict:
     """Change judged from the rows: their bootstrap standard errors combined as independent.
 
     Rows written before standard errors were stored give theirs as the 95 % half-width over
@@ -627,11 +627,11 @@ def compare(
         elif entry["stream"]:
             entry["method"] = "streams over several seeds: not compared"
         elif len(b_rows) == len(c_rows) == 1 and same_seeds:
-            entry |= _paired(pb[0], pc[0], seed, level) or _unpaired(b_rows, c_rows, level)
+            entry |= paired_cell(pb[0], pc[0], seed, level) or unpaired_cell(b_rows, c_rows, level)
         elif all(p is not None for p in (*pb, *pc)):
-            entry |= _over_seeds(pb, pc, seed, level)
+            entry |= cell_over_seeds(pb, pc, seed, level)
         else:
-            entry |= _unpaired(b_rows, c_rows, level)
+            entry |= unpaired_cell(b_rows, c_rows, level)
         out.append(entry)
     cells = pd.DataFrame(out)
     for col in (
@@ -719,7 +719,7 @@ def _pooled_tests(
         }
         preds = [p for _, p in changed]
         if all(x is not None for b, c in preds for x in (*b, *c)):
-            parts = [CellSides(*_sides(b, c)) for b, c in preds]
+            parts = [CellSides(*seed_sides(b, c)) for b, c in preds]
             res = pooled_change(parts, seed, level)
             line |= {
                 "method": "joint cluster bootstrap over the trials the cells share"
@@ -727,12 +727,12 @@ def _pooled_tests(
                 "low_n": res["low_n"],
             }
         else:  # rows only: the cells' errors taken as moving together (the widest case)
-            d = np.array([r["d_accuracy"] for r, _ in changed], float)
-            se = np.array([r["d_accuracy_se"] for r, _ in changed], float)
-            df = np.array([r.get("df", np.inf) for r, _ in changed], float)
-            res = {"d": float(d.mean()), "se": float(se.mean()), "df": float(np.nanmin(df))}
-            q = student_t.ppf(1 - (1 - level) / 2, res["df"])
-            res |= {"lo": res["d"] - q * res["se"], "hi": res["d"] + q * res["se"]}
+            res = pooled_from_rows(
+                [r["d_accuracy"] for r, _ in changed],
+                [r["d_accuracy_se"] for r, _ in changed],
+                [r.get("df", np.inf) for r, _ in changed],
+                level,
+            )
             line |= {
                 "method": "mean of the cells' standard errors (no predictions to pool)",
                 "low_n": all(r["low_n"] for r, _ in changed),

@@ -13,6 +13,9 @@ over the base's. The interval is the two-level bootstrap of
 :func:`slipbench.stats.bootstrap.seeded_interval`: trials drawn once for every test set, and
 each cell's seeds drawn anew on each side (every cell trains its own models), so retraining
 noise is inside it.
+
+Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
+cells' rows, taking their errors as moving together (the widest case).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import t as student_t
 
 from slipbench.stats.bootstrap import N_RESAMPLES, make_design, seeded_interval
 from slipbench.stats.metrics import Predictions, classes_low_n, cluster_counts
@@ -125,3 +129,24 @@ def pooled_change(
         "low_n": classes_low_n(n_slip, n_nonslip),
     }
     return out
+
+
+def pooled_from_rows(
+    d: Sequence[float], se: Sequence[float], df: Sequence[float], level: float
+) -> dict:
+    """The mean of cells' changes where no predictions are at hand to pool: the interval takes
+    the cells' errors as moving together (the mean of their standard errors, the widest case),
+    with the fewest degrees of freedom among them.
+
+    Returns
+    -------
+    dict
+        ``d``, ``lo``, ``hi``, ``se``, ``df``.
+    """
+    out = {
+        "d": float(np.mean(d)),
+        "se": float(np.mean(se)),
+        "df": float(np.nanmin(np.asarray(df, float))),
+    }
+    q = student_t.ppf(1 - (1 - level) / 2, out["df"])
+    return out | {"lo": out["d"] - q * out["se"], "hi": out["d"] + q * out["se"]}
