@@ -356,6 +356,17 @@ def _protocol_blocks(
     return blocks
 
 
+def entrant_per_input(rows: pd.DataFrame) -> pd.DataFrame:
+    """``rows`` with the detector of each channels row named ``DETECTOR (channels)``: the two
+    inputs of one detector are two entrants, never two seeds of one cell."""
+    if "input" not in rows or not rows["input"].eq("channels").any():
+        return rows
+    out = rows.copy()
+    channels = out["input"].eq("channels")
+    out.loc[channels, "detector"] = out.loc[channels, "detector"].astype(str) + " (channels)"
+    return out
+
+
 def build_report(
     rows: pd.DataFrame,
     metric: str = "accuracy",
@@ -371,7 +382,11 @@ def build_report(
     ``with_figures``, :class:`~slipbench.report.plots.FigureSpec`), in the module's outline.
     ``benchmark``: the benchmark file the rows come from, named in the header.
     ``predictions``: results folders holding the cells' test predictions; with ``intervals``,
-    means over fingers and over seeds get one joint bootstrap over the trials they share."""
+    means over fingers and over seeds get one joint bootstrap over the trials they share.
+    A detector run on the raw channels competes as its own entrant, ``tcn (channels)``, in
+    every table, leaderboard and finding; the last section pairs it with its univariate twin."""
+    both = rows[~stand_ins(rows)]
+    rows = entrant_per_input(rows)
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = splits_of(rows)
@@ -462,7 +477,7 @@ def build_report(
             blocks.append(Heading(title, 2))
             blocks += [baseline] if baseline is not None else []
             blocks += [Detail(title, rates)] if rates else []
-    return blocks + reduction_blocks(cells, predictions, with_figures)
+    return blocks + reduction_blocks(both, predictions, with_figures)
 
 
 # ----------------------------------------------------------------------------- rendering

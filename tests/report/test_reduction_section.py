@@ -99,3 +99,19 @@ def test_no_section_without_both_inputs():
     blocks = build_report(all_rows(), with_figures=True)
     assert not any(isinstance(b, Heading) and b.text == TITLE for b in blocks)
     assert not any(isinstance(b, FigureSpec) and b.stem == "reduction" for b in blocks)
+
+
+def test_the_two_inputs_are_two_entrants_never_two_seeds(report):
+    """Outside this section, tcn on channels competes as its own entrant: the leaderboard and
+    the tables name it, and no mean over seeds mixes the two inputs of a cell."""
+    _, blocks = report
+    text = render(blocks, "md")
+    before = text[: text.index(f"## {TITLE}")]
+    board = before[before.index("## Leaderboard") :]
+    assert "tcn (channels)" in board and re.search(r"\btcn\b(?! \(channels\))", board)
+
+
+def test_one_seed_of_both_inputs_is_not_averaged_as_two_seeds(tmp_path):
+    folder, rows = inputs_folder(tmp_path, seeds=(0,))
+    text = render(build_report(rows, predictions=[folder]), "md")
+    assert "across seeds" not in text[: text.index(f"## {TITLE}")]
