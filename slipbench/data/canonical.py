@@ -22,6 +22,7 @@ from slipbench.data.schema import (
     RECORDINGS_FILE,
     SCENARIOS,
     STRING_COLUMNS,
+    UNIVARIATE_CHANNELS,
 )
 
 
@@ -107,6 +108,13 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
                 "units",
             )
     cols["trial"] = [rid if t is None else t for rid, t in zip(ids, cols["trial"])]
+    univariate = UNIVARIATE_CHANNELS.name
+    cols[univariate] = _univariate_channels(
+        list(frame[univariate]) if univariate in frame.columns else [None] * n,
+        ids,
+        cols["channels"],
+        where,
+    )
     out = pd.DataFrame({**cols, "speed_mm_s": speed, "sampling_rate_hz": rate})
     out["n_channels"] = n_ch
     for name in frame.columns:  # a caller's own columns ride along (the format ignores them)
@@ -152,6 +160,32 @@ def _strings(value: Any, rid: str, where, name: str) -> tuple[str, ...]:
                 name,
             )
     return items
+
+
+def _univariate_channels(
+    values: list, ids: list, channels: list[tuple[str, ...]], where
+) -> list[tuple[str, ...]]:
+    """Each recording's ``univariate_channels`` in canonical form: the channels it names, in the
+    order of ``channels``; () where it names none (null or empty) or every channel, which both
+    mean all of them, so that the same signal s gives the same fingerprint."""
+    name = UNIVARIATE_CHANNELS.name
+    out = []
+    for rid, value, chans in zip(ids, values, channels):
+        named = () if is_null(value) else _strings(value, rid, where, name)
+        unknown = [c for c in named if c not in chans]
+        if unknown:
+            raise data_error(
+                where,
+                f"names {some_names(unknown)}, not among the recording's channels ({some_names(chans, 6)})",
+                rid,
+                name,
+            )
+        twice = sorted({c for c in named if named.count(c) > 1})
+        if twice:
+            raise data_error(where, f"names {some_names(twice)} more than once", rid, name)
+        kept = tuple(c for c in chans if c in named)
+        out.append(() if len(kept) == len(chans) else kept)
+    return out
 
 
 def _unit_rates(rec: pd.DataFrame, where) -> np.ndarray:
@@ -269,6 +303,13 @@ def _check_onset(labels: np.ndarray | None, rid: str, where) -> None:
             rid,
             "slip",
         )
+
+
+def names_univariate_channels(recordings: pd.DataFrame) -> bool:
+    """Whether a canonical recordings table names univariate channels for any recording: only
+    then is the column hashed and written, so that a dataset without it keeps its fingerprint."""
+    name = UNIVARIATE_CHANNELS.name
+    return name in recordings.columns and any(len(v) for v in recordings[name])
 
 
 def plain_value(v: Any) -> Any:

@@ -10,8 +10,8 @@ from collections.abc import Mapping
 import numpy as np
 import pandas as pd
 
-from slipbench.data.canonical import plain_value
-from slipbench.data.schema import FORMAT_COLUMNS, FORMAT_VERSION
+from slipbench.data.canonical import names_univariate_channels, plain_value
+from slipbench.data.schema import FORMAT_COLUMNS, FORMAT_VERSION, UNIVARIATE_CHANNELS
 
 
 def content_fingerprint(
@@ -21,7 +21,8 @@ def content_fingerprint(
 ) -> str:
     """BLAKE2b (16 hex digits) of a canonical dataset's content.
 
-    Hashes the format's columns of every recording (sorted by ``recording_id``) as JSON, then
+    Hashes the format's columns of every recording (sorted by ``recording_id``) as JSON (with
+    ``univariate_channels`` where a recording names any: without, a dataset hashes as before), then
     each recording's shape, its samples as little-endian float64 and its labels as int8 (-1 where
     a recording has none). Independent of storage: float32 values hash as their exact float64.
     """
@@ -52,12 +53,15 @@ def recordings_digest(recordings: pd.DataFrame) -> str:
 
 
 def _metadata_json(recordings: pd.DataFrame) -> bytes:
+    columns = FORMAT_COLUMNS + (
+        (UNIVARIATE_CHANNELS.name,) if names_univariate_channels(recordings) else ()
+    )
     meta = [
         [plain_value(v) for v in row]
-        for row in recordings[list(FORMAT_COLUMNS)].itertuples(index=False, name=None)
+        for row in recordings[list(columns)].itertuples(index=False, name=None)
     ]
     return json.dumps(
-        {"format": FORMAT_VERSION, "columns": FORMAT_COLUMNS, "rows": meta},
+        {"format": FORMAT_VERSION, "columns": columns, "rows": meta},
         ensure_ascii=False,
         allow_nan=False,
         separators=(",", ":"),

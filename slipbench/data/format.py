@@ -29,7 +29,8 @@ class Dataset:
     ----------
     recordings : DataFrame, one row per recording, sorted by ``recording_id``: the columns of
         :data:`~slipbench.data.schema.RECORDINGS_SCHEMA` (``trial`` always present: a recording
-        without one is its own trial), ``channels``/``units`` as tuples, ``n_channels``,
+        without one is its own trial), ``channels``/``units`` as tuples,
+        ``univariate_channels`` (a tuple in the order of ``channels``; () for all), ``n_channels``,
         ``n_samples`` and ``unit_rate_hz`` (the median rate of the recording's unit, see
         :data:`~slipbench.data.schema.RATE_TOLERANCE`).
     samples : dict recording_id -> array of shape (n_samples, n_channels); float32 where the

@@ -149,6 +149,13 @@ RECORDING_TYPES = {
     "source": (_nullable(_is_string), "a string"),
     "trial": (_nullable(_is_string), "a string"),
     "n_samples": (_nullable(pa.types.is_integer), "an integer"),
+    # empty lists alone are written as a list of nulls by pyarrow's type inference
+    "univariate_channels": (
+        _nullable(
+            lambda t: _is_list(t) and (_is_string(t.value_type) or pa.types.is_null(t.value_type))
+        ),
+        "a list of strings",
+    ),
 }
 
 

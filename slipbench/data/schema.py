@@ -5,7 +5,7 @@ A dataset is a folder holding two Parquet files (see ``datasets.md``):
 ``recordings.parquet``
     one row per recording: ``recording_id``, ``sensor_type``, ``sensor_instance``,
     ``scenario`` (one of :data:`SCENARIOS`), ``material``, ``speed_mm_s``, ``sampling_rate_hz``,
-    ``channels``, ``units``, ``source`` and optionally ``trial``.
+    ``channels``, ``units``, ``source`` and optionally ``trial`` and ``univariate_channels``.
 ``samples.parquet``
     one row per sample: ``recording_id``, ``sample_index`` (0, 1, ... per recording, rows in any
     order), ``values`` (one number per channel) and optionally ``slip`` (bool; null = unlabelled).
@@ -59,9 +59,14 @@ RECORDINGS_SCHEMA = pa.schema(
 )
 FORMAT_COLUMNS = tuple(RECORDINGS_SCHEMA.names)
 # Columns that may be absent from the file: a recording is then its own trial; its length is
-# then not checked (written by write_dataset, it catches rows lost at a recording's end).
-OPTIONAL = {"trial", "n_samples"}
+# then not checked (written by write_dataset, it catches rows lost at a recording's end); the
+# univariate signal then uses all its channels.
+OPTIONAL = {"trial", "n_samples", "univariate_channels"}
 N_SAMPLES = pa.field("n_samples", pa.int64())
+# The channels the paper's reduction s_t = ||a_t|| - ||a_{t-1}|| uses (a BioTac SP's pac, beside
+# its electrodes); absent, null or empty: all of them. Outside FORMAT_COLUMNS so that a dataset
+# without it keeps its fingerprint; the fingerprint hashes it where a recording names any.
+UNIVARIATE_CHANNELS = pa.field("univariate_channels", pa.list_(pa.string()))
 # Columns that may hold nulls: free-space has no material, pressing has no speed.
 NULLABLE = {"material", "speed_mm_s", "source", "trial"}
 STRING_COLUMNS = (

@@ -11,6 +11,7 @@ from scipy import signal
 from sklearn.model_selection import train_test_split
 
 from slipbench.data.format import Dataset
+from slipbench.data.schema import UNIVARIATE_CHANNELS
 from slipbench.errors import UsageError
 from slipbench.seeding import rng_for, seed_int
 
@@ -116,6 +117,15 @@ def univariate(a: np.ndarray, baseline: int = 0) -> np.ndarray:
     return np.diff(np.linalg.norm(a, axis=1)).astype(np.float32)
 
 
+def _univariate_samples(
+    a: np.ndarray, channels: tuple[str, ...], named: tuple[str, ...]
+) -> np.ndarray:
+    """The columns of ``a`` that the reduction uses: those ``named`` (canonical: () is all)."""
+    if not named:
+        return a
+    return a[:, [i for i, c in enumerate(channels) if c in named]]
+
+
 @dataclass
 class Signals:
     """The univariate signal of every recording, concatenated, with its per-sample labels.
@@ -148,9 +158,14 @@ class Signals:
 
     @classmethod
     def from_dataset(cls, dataset: Dataset, baseline: int = 0) -> Signals:
-        """``baseline``: see :func:`univariate`."""
-        ids = dataset.recordings["recording_id"]
-        parts = [univariate(dataset.samples[r], baseline) for r in ids]
+        """s of every recording, from the channels its ``univariate_channels`` names (all where
+        it names none). ``baseline``: see :func:`univariate`."""
+        rec = dataset.recordings
+        ids = rec["recording_id"]
+        parts = [
+            univariate(_univariate_samples(dataset.samples[r], channels, named), baseline)
+            for r, channels, named in zip(ids, rec["channels"], rec[UNIVARIATE_CHANNELS.name])
+        ]
         offsets = np.r_[0, np.cumsum([len(p) for p in parts])].astype(np.int64)
         by_scenario = {"slip": 1, "press": 0, "free-space": 0}
         labels = [

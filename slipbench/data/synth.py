@@ -3,9 +3,10 @@
 Three sensor types (Nano17, OptoForce20, BioTac SP) on the fingers of a hand, five materials,
 slip at four average speeds, pressing (palpation) on each material, free-space motion at three
 speeds, and continuous onset trials (``hold-slip``: contact held, then slip, sometimes a drop)
-for streaming detection. Every effect is a field of :class:`Physics`, :class:`Sensor` or
-:class:`Material` and is described, with where its value comes from, in ``datasets.md``. The
-model is physical and is *not* fitted to the paper's accuracies.
+for streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that
+the paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
+:class:`ElectrodeArray` or :class:`Material` and is described, with where its value comes from,
+in ``datasets.md``. The model is physical and is *not* fitted to the paper's accuracies.
 
 Variability is layered as in a real campaign: each unit differs from its nominal type (gain,
 noise, the finger's share of the contact force, mass, finger stiffness, skin, mount); each
@@ -32,7 +33,74 @@ from slipbench.seeding import rng_for
 from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SLIP_SPEEDS
 
 UNLABELLED = -1  # per-sample label of samples whose slip state is undefined (after a drop)
-MODEL_VERSION = 2  # bump when the simulation changes, so cached datasets are regenerated
+MODEL_VERSION = 3  # bump when the simulation changes, so cached datasets are regenerated
+
+
+@dataclass(frozen=True)
+class ElectrodeArray:
+    """Impedance electrodes on a fingertip's rigid core, under fluid and skin (BioTac SP).
+
+    The skin presses the contact's load into the fluid: where the fluid gap over an electrode
+    thins, its impedance changes. An electrode's change is the contact force pressed onto its
+    face (the force along the face's normal, which tilts where the core curves over the tip and
+    the flanks), weighted by the contact's pressure spread by skin and fluid (a Gaussian of the
+    Hertz contact radius and ``spread_mm``) around where the contact sits. The tangential force
+    also drags the skin, and the pressure with it, over the core (``skin_mm_per_n``). Both
+    press the electrodes on the side the shear points to further and relieve those on the
+    other side. Positions are (along the finger towards its tip, across) in mm; a face's tilts
+    are towards +x and +y, in degrees.
+    """
+
+    names: tuple[str, ...]
+    positions_mm: tuple[tuple[float, float], ...]
+    tilts_deg: tuple[tuple[float, float], ...]
+    counts_per_n: float  # change under the contact's centre per newton of normal force
+    spread_mm: float  # how far skin and fluid spread a point load (sd)
+    skin_mm_per_n: float  # the skin's tangential shift over the core per newton of shear
+    centre_mm: tuple[float, float]  # where the hand's pose puts the contact, nominally
+    rest_counts: tuple[float, float]  # resting offsets: mean and electrode-to-electrode sd
+    full_scale: int  # the ADC's largest count (12 bits)
+    noise_counts: float  # white noise sd, before rounding to whole counts
+    band_hz: float  # each electrode is read 100 times a second: its band ends at 50 Hz
+    gain_sd: float  # electrode-to-electrode sensitivity (log-normal sd)
+    unit_centre_sd_mm: float  # the unit's mean contact position (the hand's pose)
+    centre_sd_mm: float  # one recording's contact position (the finger rolling)
+    drift_counts: float  # one recording's shift of every resting offset (temperature)
+
+    @property
+    def normals(self) -> np.ndarray:
+        """(n_electrodes, 3) unit normals of the electrodes' faces: (along, across, normal)."""
+        tan = np.tan(np.radians(np.asarray(self.tilts_deg)))
+        faces = np.column_stack([tan, np.ones(len(tan))])
+        return faces / np.linalg.norm(faces, axis=1, keepdims=True)
+
+
+def _grid(rows: tuple[float, ...], columns: tuple[float, ...]) -> tuple[tuple[float, float], ...]:
+    """Every (row, column) pair of a rows x columns layout, row by row."""
+    return tuple((x, y) for x in rows for y in columns)
+
+
+# 6 rows along the pad, 4 columns across it: flat under the pad, curving over the tip (the last
+# two rows) and down the flanks (the outer columns)
+_ROWS_MM, _ROW_TILTS = (-14.0, -10.0, -6.0, -2.0, 2.0, 6.0), (0.0, 0.0, 0.0, 0.0, 20.0, 45.0)
+_COLUMNS_MM, _COLUMN_TILTS = (-6.0, -2.0, 2.0, 6.0), (-50.0, -10.0, 10.0, 50.0)
+BIOTAC_SP_ELECTRODES = ElectrodeArray(
+    names=tuple(f"e{k}" for k in range(1, 25)),
+    positions_mm=_grid(_ROWS_MM, _COLUMNS_MM),
+    tilts_deg=_grid(_ROW_TILTS, _COLUMN_TILTS),
+    counts_per_n=150.0,
+    spread_mm=2.5,
+    skin_mm_per_n=1.0,
+    centre_mm=(-4.0, 0.0),
+    rest_counts=(3450.0, 250.0),
+    full_scale=4095,
+    noise_counts=2.0,
+    band_hz=50.0,
+    gain_sd=0.2,
+    unit_centre_sd_mm=2.0,
+    centre_sd_mm=1.0,
+    drift_counts=5.0,
+)
 
 
 @dataclass(frozen=True)
@@ -52,7 +120,19 @@ class Sensor:
     tip_loss: float  # its loss factor (tan delta)
     mass_g: float  # sensor and fingertip, moving with the contact
     gain_sd: float  # unit-to-unit spread of sensitivity (log-normal sd)
-    highpass_hz: float | None = None  # BioTac SP: only the high-pass pressure channel is used
+    highpass_hz: float | None = None  # BioTac SP: the pressure channel (pac) is high-passed
+    electrodes: ElectrodeArray | None = None  # recorded beside the channels above
+
+    @property
+    def recorded_channels(self) -> tuple[str, ...]:
+        """Every channel a recording holds: the force channels, then any electrodes."""
+        return self.channels + (self.electrodes.names if self.electrodes else ())
+
+    @property
+    def univariate_channels(self) -> tuple[str, ...]:
+        """The channels the paper's signal s uses: the force channels where the sensor has
+        electrodes besides (the BioTac SP's pac), else all (written as none: ())."""
+        return self.channels if self.electrodes else ()
 
 
 SENSORS: dict[str, Sensor] = {
@@ -101,6 +181,7 @@ SENSORS: dict[str, Sensor] = {
         30.0,
         0.25,
         10.0,
+        BIOTAC_SP_ELECTRODES,
     ),
 }
 
@@ -233,6 +314,31 @@ class Unit:
     skin_cutoff_hz: float | None
     idle_coupling: float
     mixing: np.ndarray  # (n_channels, 3): force -> channels
+    electrodes: ElectrodeUnit | None = None
+
+
+@dataclass(frozen=True)
+class ElectrodeUnit:
+    """How one unit's electrodes differ from their nominal array."""
+
+    rest: np.ndarray  # (n_electrodes,) resting counts
+    gain: np.ndarray  # (n_electrodes,) sensitivity factors
+    centre_mm: np.ndarray  # (2,) where this unit's contact sits
+
+
+def _electrode_unit(
+    seed: int, sensor_type: str, instance: str, array: ElectrodeArray, p: Physics
+) -> ElectrodeUnit:
+    """Draw a unit's electrodes from their own stream (the unit's other draws stay as they were)."""
+    rng = rng_for(seed, "electrode-unit", sensor_type, instance)
+    n, k = len(array.names), p.unit_spread
+    mean, sd = array.rest_counts
+    rest = np.clip(rng.normal(mean, sd * k, n), 0.5 * mean, 0.95 * array.full_scale)
+    return ElectrodeUnit(
+        rest=np.round(rest),
+        gain=_spread(rng, array.gain_sd * k, n),
+        centre_mm=np.array(array.centre_mm) + rng.normal(0, array.unit_centre_sd_mm * k, 2),
+    )
 
 
 def make_unit(seed: int, sensor_type: str, instance: str, physics: Physics) -> Unit:
@@ -262,7 +368,14 @@ def make_unit(seed: int, sensor_type: str, instance: str, physics: Physics) -> U
         # ||mixing @ f|| ~ ||f|| and the noise floor keeps its meaning in newtons
         q, _ = np.linalg.qr(rng.normal(size=(n, 3)))
         mixing = q * _spread(rng, 0.05 * k, 3)
-    return Unit(gain, noise, force_share, coupling, mass, finger, modulus, cutoff, idle, mixing)
+    electrodes = (
+        None
+        if s.electrodes is None
+        else _electrode_unit(seed, sensor_type, instance, s.electrodes, p)
+    )
+    return Unit(
+        gain, noise, force_share, coupling, mass, finger, modulus, cutoff, idle, mixing, electrodes
+    )
 
 
 @dataclass(frozen=True)
@@ -590,10 +703,19 @@ def _unit_vector(rng: np.random.Generator) -> np.ndarray:
 
 
 def _sense(
-    forces: np.ndarray, sensor: Sensor, unit: Unit, sig: Signature, fs: float, rng, p: Physics
+    forces: np.ndarray,
+    sensor: Sensor,
+    unit: Unit,
+    sig: Signature,
+    fs: float,
+    rng,
+    p: Physics,
+    electrode_rng: np.random.Generator | None = None,
 ) -> np.ndarray:
     """What the sensor reports: idle vibration, skin filtering, mixing, high-pass, noise, gain;
-    (n, channels) float32."""
+    then, for a sensor with electrodes, their counts from the same forces (drawing from
+    ``electrode_rng`` only, so that the other channels are those of a sensor without them);
+    (n, recorded channels) float32."""
     n = forces.shape[1]
     idle = (
         unit.idle_coupling
@@ -609,7 +731,55 @@ def _sense(
             signal.butter(2, sensor.highpass_hz, "highpass", fs=fs, output="sos"), out, axis=1
         )
     out = out + rng.normal(0, sensor.noise_floor_n * unit.noise, out.shape)
-    return (out.T * unit.gain * sig.drift * sensor.units_per_newton).astype(np.float32)
+    channels = (out.T * unit.gain * sig.drift * sensor.units_per_newton).astype(np.float32)
+    if sensor.electrodes is None:
+        return channels
+    if electrode_rng is None:
+        raise ValueError("a sensor with electrodes needs their random stream")
+    return np.hstack([channels, electrode_counts(forces, sensor, unit, fs, electrode_rng, p)])
+
+
+def electrode_counts(
+    forces: np.ndarray, sensor: Sensor, unit: Unit, fs: float, rng: np.random.Generator, p: Physics
+) -> np.ndarray:
+    """What a unit's electrodes read while the contact applies ``forces``.
+
+    Parameters
+    ----------
+    forces : (3, n) the force at the skin, in N: shear along the finger (the slide), shear
+        across it, normal load (see :class:`ElectrodeArray` for the model).
+    sensor, unit : a sensor type with electrodes and one unit of it (:func:`make_unit`).
+    fs : sampling rate (Hz), for the electrodes' band.
+    rng : the recording's electrode stream: its contact position, resting drift and noise.
+    p : the physics whose ``signature_spread`` scales the recording's draws.
+
+    Returns
+    -------
+    (n, n_electrodes) float32 whole counts in [0, ``full_scale``].
+    """
+    array, own = sensor.electrodes, unit.electrodes
+    if array is None or own is None:
+        raise ValueError("electrode_counts needs a sensor type with electrodes and a unit of it")
+    k = p.signature_spread
+    centre = own.centre_mm + rng.normal(0, array.centre_sd_mm * k, 2)
+    drift = rng.normal(0, array.drift_counts * k)
+    normal = forces[2]
+    # the contact's pressure: a Gaussian of half the Hertz radius, spread by skin and fluid,
+    # scaled so that counts_per_n is the change under the centre at 1 N
+    hertz_mm = 1e3 * (0.75 * sensor.tip_radius_mm * 1e-3 / unit.tip_modulus_pa) ** (1 / 3)
+    width2 = (hertz_mm * np.cbrt(np.maximum(normal, 0.0)) / 2) ** 2 + array.spread_mm**2
+    width2_1n = (hertz_mm / 2) ** 2 + array.spread_mm**2
+    # squared distance of each electrode from the contact's centre, moved with the skin:
+    # |r - s|^2 = |r|^2 - 2 r.s + |s|^2, without an (electrodes, 2, n) array
+    rel = np.asarray(array.positions_mm) - centre  # (electrodes, 2)
+    shift = array.skin_mm_per_n * forces[:2]  # (2, n)
+    dist2 = (rel**2).sum(axis=1)[:, None] - 2 * rel @ shift + (shift**2).sum(axis=0)
+    onto_faces = array.normals @ forces  # (electrodes, n): the force pressed onto each face
+    load = onto_faces * (width2_1n / width2) * np.exp(-dist2 / (2 * width2))
+    pressed = _lowpass(array.counts_per_n * own.gain[:, None] * load, array.band_hz, fs, axis=1)
+    counts = own.rest[:, None] + drift - pressed  # a thinner fluid gap: fewer counts
+    counts += array.noise_counts * unit.noise * rng.standard_normal(counts.shape, np.float32)
+    return np.clip(np.round(counts), 0, array.full_scale).T.astype(np.float32)
 
 
 def _count(seconds: float, nominal_s: float) -> int:
@@ -677,8 +847,9 @@ def generate(
 
     Returns
     -------
-    recordings : metadata DataFrame in the dataset format, plus a ``trial`` column: recordings
-        of the units of one sensor type made at the same time share a trial id.
+    recordings : metadata DataFrame in the dataset format, with a ``trial`` column (recordings
+        of the units of one sensor type made at the same time share a trial id) and
+        ``univariate_channels`` (``("pac",)`` for the BioTac SP, empty for the others).
     samples : recording_id -> float32 (n_samples, n_channels).
     labels : recording_id -> int8 (n_samples,): 1 while the contact slides, 0 otherwise,
         ``UNLABELLED`` (-1) after the contact is lost in a ``hold-slip`` trial.
@@ -717,7 +888,8 @@ def generate(
                     rid = "-".join(
                         (sensor_type, inst, scenario, material or "none", speed_name, token)
                     )
-                    samples[rid] = _sense(forces, sensor, unit, sig, fs, rng, p)
+                    electrode_rng = rng_for(seed, "electrodes", sensor_type, inst, *key[1:])
+                    samples[rid] = _sense(forces, sensor, unit, sig, fs, rng, p, electrode_rng)
                     labels[rid] = label
                     rows.append(
                         dict(
@@ -728,8 +900,9 @@ def generate(
                             material=material,
                             speed_mm_s=speed,
                             sampling_rate_hz=fs,
-                            channels=sensor.channels,
-                            units=(sensor.unit,) * len(sensor.channels),
+                            channels=sensor.recorded_channels,
+                            units=(sensor.unit,) * len(sensor.recorded_channels),
+                            univariate_channels=sensor.univariate_channels,
                             source=f"slipbench.synth v{MODEL_VERSION} seed={seed} scale={scale:g}",
                             trial=trial_id,
                         )

@@ -15,7 +15,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench.data.canonical import canonical_dataset, plain_value
+from slipbench.data.canonical import canonical_dataset, names_univariate_channels, plain_value
 from slipbench.data.fingerprint import content_fingerprint, recordings_digest
 from slipbench.data.messages import data_error
 from slipbench.data.schema import (
@@ -29,6 +29,7 @@ from slipbench.data.schema import (
     RECORDINGS_FILE,
     RECORDINGS_SCHEMA,
     SAMPLES_FILE,
+    UNIVARIATE_CHANNELS,
     VERSION_KEY,
 )
 from slipbench.errors import DataError
@@ -49,7 +50,7 @@ def write_dataset(
     Parameters
     ----------
     recordings : one row per recording with the columns of ``RECORDINGS_SCHEMA``; ``trial`` is
-        written when the frame has it.
+        written when the frame has it, ``univariate_channels`` when a recording names any.
     samples : recording_id -> array of shape (n_samples, n_channels). Stored as int64 when every
         array holds integers (raw counts stay exact), float32 when every array is float32, else
         float64.
@@ -96,6 +97,8 @@ def write_dataset(
         if "trial" in recordings.columns
         else RECORDINGS_SCHEMA.remove(RECORDINGS_SCHEMA.get_field_index("trial"))
     )
+    if names_univariate_channels(rec):
+        schema = schema.append(UNIVARIATE_CHANNELS)
     schema = schema.append(N_SAMPLES)
     table = {f.name: pa.array([plain_value(v) for v in rec[f.name]], f.type) for f in schema}
     rec_table = pa.table(table, schema=schema).replace_schema_metadata(

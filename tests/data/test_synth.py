@@ -40,10 +40,16 @@ def sim():
     return rec.assign(n=[len(samples[r]) for r in rec["recording_id"]]), samples, labels
 
 
+def _signal(samples: dict, rid: str) -> np.ndarray:
+    """The univariate signal of a simulated recording: of its force channels (a BioTac SP's
+    pac), not its electrodes (what its ``univariate_channels`` says)."""
+    return univariate(samples[rid][:, : len(SENSORS[rid.split("-")[0]].channels)])
+
+
 def _spectrum(samples: dict, ids: list[str], fs: float) -> tuple[np.ndarray, np.ndarray]:
     """Mean amplitude spectrum of half-second stretches of the univariate signal (2 Hz bins)."""
     n = int(fs) // 2
-    signals = [univariate(samples[r]) for r in ids]
+    signals = [_signal(samples, r) for r in ids]
     pieces = [s[: n * (len(s) // n)].reshape(-1, n) for s in signals if len(s) >= n]
     freqs, amp = amplitude_spectrum(np.concatenate(pieces), fs)
     return freqs, amp.mean(axis=0)
@@ -53,7 +59,7 @@ def _window_level(samples: dict, ids, window: int = 50) -> np.ndarray:
     """log RMS of the univariate signal in non-overlapping windows of the given recordings."""
     out = []
     for r in ids:
-        s = univariate(samples[r])
+        s = _signal(samples, r)
         s = s[: window * (len(s) // window)].reshape(-1, window)
         out.append(np.log(np.sqrt((s.astype(np.float64) ** 2).mean(axis=1)) + 1e-12))
     return np.concatenate(out)
@@ -101,12 +107,19 @@ def test_channels_units_and_rates(sim):
     for sensor, model in SENSORS.items():
         mine = rec[rec["sensor_type"] == sensor]
         assert set(mine["sensor_instance"]) == set(model.instances)
+        width = len(model.recorded_channels)
         assert all(
-            samples[r].shape[1] == len(model.channels) and samples[r].dtype == np.float32
+            samples[r].shape[1] == width and samples[r].dtype == np.float32
             for r in mine["recording_id"]
         )
         assert (mine["sampling_rate_hz"] == model.rate_hz).all()
-        assert all(len(u) == len(model.channels) for u in mine["units"])
+        assert all(len(u) == width for u in mine["units"])
+    # the BioTac SP records 24 electrodes beside the pac channel the paper's s uses
+    biotac = rec[rec["sensor_type"] == "BioTacSP"].iloc[0]
+    assert biotac["channels"] == ("pac", *(f"e{k}" for k in range(1, 25)))
+    assert biotac["univariate_channels"] == ("pac",)
+    others = rec[rec["sensor_type"] != "BioTacSP"]["univariate_channels"]
+    assert all(c == () for c in others)
 
 
 def test_fingers_recorded_together_share_a_trial_and_nothing_else_does(sim):
