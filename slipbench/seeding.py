@@ -6,7 +6,8 @@ resamples were once the same stream) and adding a draw to one consumer moves no 
 is ``SeedSequence(seed, spawn_key=(crc32(stream), crc32(key[0]), ...))``: independent of every
 other stream by construction, the same on every platform and NumPy version.
 
-The streams in use: ``unit``, ``trial``, ``rec``, ``signature``, ``surface`` (the simulation),
+The streams in use: ``unit``, ``trial``, ``rec``, ``signature``, ``surface``, ``electrode-unit``,
+``electrodes`` (the simulation),
 ``balance`` (which windows a cell keeps), ``sides`` and ``split`` (trials and windows to train
 or test), ``detector`` (what a detector's ``fit`` receives as its seed), ``bootstrap``,
 ``stream-bootstrap``, ``leaderboard``, ``spectral``, ``toy`` (the test kit's data),
