@@ -97,6 +97,7 @@ def _stands_on(cmp: InputComparison) -> str:
     )
     fewest = int(cells[["n_seeds_univariate", "n_seeds_channels"]].min().min())
     methods = cells["method"].str.replace(r" \(.*", "", regex=True).value_counts()
+    how = "; ".join(f"{m}: {_count(n, 'cell')}" for m, n in methods.items())
     text = (
         f"Each detector run with both inputs ({', '.join(detectors)}), the raw channels against the "
         "paper's univariate signal s_t = ||a_t|| - ||a_{t-1}|| on the same cells, windows, splits and "
@@ -108,7 +109,7 @@ def _stands_on(cmp: InputComparison) -> str:
         f"{_spread(cells['n_test_trials_slip'])} with slip and "
         f"{_spread(cells['n_test_trials_nonslip'])} without. "
         f"Figures are accuracy (%) and changes {CHANGE} in points. A cell's interval is its own "
-        f"{_level(cmp.level)} interval ({'; '.join(f'{m}: {n}' for m, n in methods.items())}). "
+        f"{_level(cmp.level)} interval ({how}). "
         "Per detector, protocol and sensor type, the mean change over the cells is bootstrapped once, "
         "jointly over the trials the cells share (and each cell's seeds); "
         + (
