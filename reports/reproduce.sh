@@ -4,6 +4,7 @@
 #   reports/reproduce.sh                        # every built-in detector, every protocol, both splits
 #   DETECTORS="holweg lstm" reports/reproduce.sh   # a subset
 #   SCALE=0.02 RESULTS=build/small REPORTS=build/small-reports reports/reproduce.sh
+#   REDUCTION_ONLY=1 reports/reproduce.sh          # only reports/reduction/: univariate vs channels
 #
 # The LSTM trains at the paper's settings (max_epochs=100 per learning-rate stage, early stopping
 # after 10 epochs without progress); the other detectors at their defaults; the sampling rate with
@@ -21,7 +22,7 @@ JOBS=${JOBS:-2}
 DETECTORS=${DETECTORS:-holweg bandpass wavelet-svm minirocket lstm}
 PROTOCOLS="window-size sampling-rate material-holdout speed-holdout cross-instance streaming"
 for split in grouped paper; do
-  [ -n "${REPORT_ONLY:-}" ] && break
+  [ -n "${REPORT_ONLY:-}${REDUCTION_ONLY:-}" ] && break
   for detector in $DETECTORS; do
     params=()
     if [ "$detector" = lstm ]; then params=(--param max_epochs=100); fi
@@ -34,6 +35,7 @@ for split in grouped paper; do
     done
   done
 done
+if [ -z "${REDUCTION_ONLY:-}" ]; then
 rm -rf "$REPORTS/figures" "$REPORTS/appendix.md"
 mkdir -p "$REPORTS"
 # written inside $REPORTS so that its figure links are relative to README.md and appendix.md
@@ -92,3 +94,21 @@ TEXT
 } > "$REPORTS/README.md.tmp"
 mv "$REPORTS/README.md.tmp" "$REPORTS/README.md"
 echo "wrote $REPORTS/README.md, $REPORTS/appendix.md, $REPORTS/tables.tex, $REPORTS/figures/ and $RESULTS/report.html" >&2
+fi
+# What the reduction keeps (issue 22): the detectors that read the raw channels, each on both
+# inputs, on the window sizes of the default dataset (grouped split, three seeds so that
+# retraining noise is inside the paired intervals); its own report in $REPORTS/reduction/.
+# REDUCTION=0 leaves it out; REDUCTION_ONLY=1 runs it alone.
+if [ "${REDUCTION:-1}" != 0 ]; then
+  reduction="${RESULTS}-reduction"
+  if [ -z "${REPORT_ONLY:-}" ]; then
+    slipbench evaluate --detector "${INPUT_DETECTORS:-tcn,wavelet-svm}" --protocol window-size \
+      --input both --split grouped --repeats 3 --scale "${REDUCTION_SCALE:-0.05}" --jobs "$JOBS" \
+      --out "$reduction" --quiet > /dev/null
+  fi
+  rm -rf "$REPORTS/reduction"
+  mkdir -p "$REPORTS/reduction"
+  slipbench report "$reduction" --intervals --plots "$REPORTS/reduction/figures" \
+    --out "$REPORTS/reduction/README.md" --appendix "$REPORTS/reduction/appendix.md" > /dev/null
+  echo "wrote $REPORTS/reduction/" >&2
+fi

@@ -58,6 +58,8 @@ def reproduced(tmp_path_factory):
     root = tmp_path_factory.mktemp("reproduce")
     env = _env(
         DETECTORS="holweg",
+        INPUT_DETECTORS="wavelet-svm",
+        REDUCTION_SCALE=SCALE,
         SCALE=SCALE,
         JOBS="1",
         RESULTS=str(root / "results"),
@@ -148,6 +150,9 @@ def test_the_script_writes_every_part(reproduced):
         and (reproduced / "results" / "report.html").is_file()
     )
     assert not list(reports.glob(".*")), "temporary files left behind"
+    reduction = (reports / "reduction" / "README.md").read_text()
+    assert "## What the reduction keeps: univariate vs channels" in reduction
+    assert "wavelet-svm (channels)" in reduction and "seeds 0, 1, 2 (3 per cell)" in reduction
 
 
 def test_the_committed_reports_were_made_with_the_scripts_settings():
