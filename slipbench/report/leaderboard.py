@@ -10,6 +10,14 @@ from slipbench.report.tables import Table
 from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard
 from slipbench.vocabulary import METRIC_NAMES
 
+# the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
+_SEEDS_INTERVAL = (
+    "[95 % interval over blocks and seeds (up to {n} seeds per block): the variance over the ranked "
+    "blocks of their figures plus that over the seeds of the seeds' means, a seed being one split and "
+    "one detector seed for every block, so retraining noise that every block shares is inside it; "
+    "each part with its own t quantile (Banerjee), which errs wide.]"
+)
+
 
 def _p(p: float) -> str:
     return "< 0.001" if p < 0.001 else f"{p:.3f}"
@@ -107,10 +115,15 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
             mean_cells,
             "tab:leaderboard-means",
             notes=[
-                "[95 % interval: percentile bootstrap over the ranked blocks, each block's figure fixed: how "
-                "the mean depends on which conditions make up the benchmark, not the test noise within a "
-                "cell, which the per-cell intervals show.] Blocks won: blocks where the detector ranked first "
-                "(a tie counts for each)." + (" " + "; ".join(fewer) + "." if fewer else "")
+                (
+                    _SEEDS_INTERVAL.format(n=board.n_seeds)
+                    if board.n_seeds > 1
+                    else "[95 % interval: percentile bootstrap over the ranked blocks, each block's figure "
+                    "fixed: how the mean depends on which conditions make up the benchmark, not the test "
+                    "noise within a cell, which the per-cell intervals show.]"
+                )
+                + " Blocks won: blocks where the detector ranked first (a tie counts for each)."
+                + (" " + "; ".join(fewer) + "." if fewer else "")
             ],
         )
     )
@@ -183,10 +196,18 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
         "tab:leaderboard-pairs",
         notes=[
             "A − B: the mean over the ranked blocks of A's figure minus B's (each the mean over its seeds); "
-            "[95 % interval: percentile bootstrap over blocks, each block's figure fixed, every pair on the "
-            "same draws; not adjusted]. p: the bootstrap's two-sided p-value of no difference; p (Holm): "
-            f"Holm-adjusted over the {len(pairs)} {'pair' if len(pairs) == 1 else 'pairs'}; a pair differs where "
-            f"p (Holm) < {ALPHA:g}. Like the ranks, the interval covers which conditions make up the "
-            "benchmark, not the test noise within a block."
+            + (
+                _SEEDS_INTERVAL.format(n=board.n_seeds)[:-2]
+                + "; paired seed by seed where both ran the same seeds; not adjusted]. p: the p-value "
+                "of no difference at which the interval reaches 0"
+                if board.n_seeds > 1
+                else "[95 % interval: percentile bootstrap over blocks, each block's figure fixed, every "
+                "pair on the same draws; not adjusted]. p: the bootstrap's two-sided p-value of no difference"
+            )
+            + f"; p (Holm): Holm-adjusted over the {len(pairs)} {'pair' if len(pairs) == 1 else 'pairs'}; a "
+            f"pair differs where p (Holm) < {ALPHA:g}. Like the ranks, the interval covers which conditions "
+            "make up the benchmark"
+            + (" and the seeds" if board.n_seeds > 1 else "")
+            + ", not the test noise within a block."
         ],
     )

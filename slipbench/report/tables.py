@@ -22,7 +22,7 @@ import pandas as pd
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
 from slipbench.stats.joint import JOINT_NOTE
-from slipbench.stats.metrics import classes_low_n, stream_low_n
+from slipbench.stats.metrics import FIGURES, classes_low_n, seeds_from_rows, stream_low_n
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
@@ -45,16 +45,19 @@ STREAM_LOW_NOTE = (
 )
 
 
-# What a table's intervals are. With repeats and no predictions at hand, the seeds' bounds are
-# averaged, which is not an interval of the pooled result; with predictions, the seeds are
-# bootstrapped jointly (slipbench.stats.joint)
-INTERVAL_NOTE = (
-    "[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, the mean "
-    "of the seeds' bounds, not an interval of the pooled result]."
+# What a table's intervals are. A figure run under several seeds (--repeats) is their mean; its
+# interval is the two-level bootstrap over test trials and seeds where the seeds' predictions are
+# at hand (slipbench.stats.joint), else an interval from the seeds' rows, both with retraining
+# noise inside (slipbench.stats.metrics.seeds_from_rows)
+INTERVAL_NOTE = "[95 % interval: cluster bootstrap over test trials, stratified by class.]"
+POOLED_TEXT = (
+    "its interval a two-level bootstrap over test trials and seeds (each resample draws the test "
+    "trials once for every seed, and draws the seeds), so retraining noise is inside it"
 )
-POOLED_NOTE = (
-    "[95 % interval: cluster bootstrap over test trials, stratified by class; with repeats, one "
-    "bootstrap of the mean over seeds, each resample drawing a trial for every seed at once]."
+ROWS_TEXT = (
+    "its interval from the seeds' rows (their mean standard error and the spread of their figures "
+    "over seeds, a t-interval with Satterthwaite degrees of freedom: retraining noise inside, "
+    "erring wide; keep predictions for the two-level bootstrap)"
 )
 ROW_HEADERS = {
     "sensor_type": "Sensor",
@@ -233,28 +236,51 @@ def low_n(rows: pd.DataFrame) -> pd.Series:
     return pd.Series(out, index=rows.index)
 
 
+def _seed_interval(ok: pd.DataFrame, metric: str) -> tuple[float, float]:
+    """The interval of the mean over the seeds ``ok`` (finished rows of one cell) of ``metric``:
+    the row's own with one seed, else :func:`~slipbench.stats.metrics.seeds_from_rows` from the
+    rows' standard errors (``<metric>_se``, else their 95 % bounds over 2 x 1.96)."""
+    lo_col, hi_col, se_col = f"{metric}_lo", f"{metric}_hi", f"{metric}_se"
+    if lo_col not in ok or hi_col not in ok or not len(ok):
+        return np.nan, np.nan
+    lo, hi = ok[lo_col].astype(float).to_numpy(), ok[hi_col].astype(float).to_numpy()
+    if len(ok) == 1:
+        return float(lo[0]), float(hi[0])
+    from_bounds = (hi - lo) / (2 * 1.959964)
+    se = ok[se_col].astype(float).to_numpy() if se_col in ok else from_bounds
+    se = np.where(np.isnan(se), from_bounds, se)
+    fraction = metric.removeprefix("op_") in (*FIGURES, "detection_rate")
+    _, lo_, hi_ = seeds_from_rows(
+        ok[metric].astype(float).to_numpy(),
+        se,
+        bounds=(0.0, 1.0) if fraction else (-np.inf, np.inf),
+    )
+    return lo_, hi_
+
+
 def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
     """One line per combination of ``keys``: the mean of ``metric`` over seeds (``--repeats``),
-    its standard deviation across seeds, the number of seeds, the mean interval bounds, a
-    status ("ok", or the status of the cell when no seed finished) and ``low_n`` (a finished
-    seed rests on few test trials)."""
+    its standard deviation across seeds, the number of seeds, its interval (the row's; over
+    several seeds, :func:`_seed_interval`, with retraining noise inside), a status ("ok", or the
+    status of the cell when no seed finished) and ``low_n`` (a finished seed rests on few test
+    trials)."""
     keys = list(dict.fromkeys(keys))  # a key named twice (a layout by detector) groups once
     if metric not in rows.columns:
         rows = rows.assign(**{metric: np.nan})
     rows = rows.assign(_low=low_n(rows))
-    lo_col, hi_col = f"{metric}_lo", f"{metric}_hi"
     out = []
     for values, group in rows.groupby(keys, sort=False, dropna=False):
         ok = group[group["status"] == "ok"] if "status" in group else group
         vals = ok[metric].astype(float)
+        lo, hi = _seed_interval(ok, metric)
         out.append(
             {
                 **dict(zip(keys, values if isinstance(values, tuple) else (values,))),
                 "mean": vals.mean() if len(vals) else np.nan,
                 "sd": vals.std(ddof=1) if len(vals) > 1 else np.nan,
                 "n": len(vals),
-                "lo": ok[lo_col].astype(float).mean() if lo_col in ok and len(ok) else np.nan,
-                "hi": ok[hi_col].astype(float).mean() if hi_col in ok and len(ok) else np.nan,
+                "lo": lo,
+                "hi": hi,
                 "status": "ok" if len(ok) else str(group["status"].iloc[0]),
                 "low_n": bool(ok["_low"].any()),
             }
@@ -272,18 +298,10 @@ def figure_text(
     intervals: bool = False,
     low: bool = False,
 ) -> str:
-    """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals; 'NA' if absent;
-    ``LOW_MARK`` appended where the cell rests on few test trials (``low``)."""
-    if status != "ok":
-        return status
-    if pd.isna(mean):
-        return "NA"
-    text = f"{100 * mean:.1f}"
-    if n > 1 and not pd.isna(sd):
-        text += f" ± {100 * sd:.1f}"
-    if intervals and not (pd.isna(lo) or pd.isna(hi)):
-        text += f" [{100 * lo:.1f}, {100 * hi:.1f}]"
-    return text + (LOW_MARK if low else "")
+    """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals (over seeds the
+    interval holds their spread, so no ± beside it); 'NA' if absent; ``LOW_MARK`` appended where
+    the cell rests on few test trials (``low``)."""
+    return metric_text("", mean, sd, n, lo, hi, status, intervals, low)
 
 
 def _key_columns(rows: pd.DataFrame) -> list[str]:
@@ -457,11 +475,9 @@ def build_table(
     group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
     if values == "difference":
         group = f"Ours - paper (points) {layout.group}".strip()
-    if (summary["n"] > 1).any() and values == "ours":
-        notes.append("Mean ± standard deviation across seeds.")
-    if intervals and values == "ours":
-        notes.append(_seeds_note({k for k, r in by_key.items() if r["n"] > 1}, pooled))
     if values == "ours":
+        repeated = {k: int(r["n"]) for k, r in by_key.items() if r["n"] > 1}
+        notes += _seeds_notes(repeated, pooled, intervals, rows, keys)
         notes += _one_class_note(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
@@ -485,19 +501,57 @@ def _one_class_note(rows: pd.DataFrame) -> list[str]:
     ]
 
 
-def _seeds_note(repeated: set[tuple], pooled: dict[tuple, dict]) -> str:
-    """What the intervals of figures run under several seeds are: pooled where ``pooled`` has
-    them, the mean of the seeds' bounds elsewhere (the note says how many of each)."""
-    missing = repeated - set(pooled)
-    if not repeated or not pooled or missing == repeated:
-        return INTERVAL_NOTE
-    if not missing:
-        return POOLED_NOTE
-    return (
-        f"{POOLED_NOTE[:-2]}, for {len(repeated) - len(missing)} of the {len(repeated)} figures run under several "
-        f"seeds; for the {len(missing)} whose predictions are missing or unreadable, the mean of the seeds' bounds, "
-        "not an interval of the pooled result]."
+def _range(values: Iterable[float]) -> str:
+    """``3`` or ``2-3``: the range of whole numbers."""
+    v = sorted({int(x) for x in values})
+    return f"{v[0]}" if v[0] == v[-1] else f"{v[0]}-{v[-1]}"
+
+
+def _trials_text(counts: pd.DataFrame) -> str:
+    """ "10-20 slip and 12-30 non-slip test trials" from ``n_test_clusters_slip``/``_nonslip``
+    columns, or "" where they are not known."""
+    cols = ["n_test_clusters_slip", "n_test_clusters_nonslip"]
+    if not set(cols) <= set(counts) or counts[cols].isna().all().any():
+        return ""
+    slip, nonslip = (pd.to_numeric(counts[c], errors="coerce").dropna() for c in cols)
+    return f"{_range(slip)} slip and {_range(nonslip)} non-slip test trials"
+
+
+def _seeds_notes(
+    repeated: dict[tuple, int],
+    pooled: dict[tuple, dict],
+    intervals: bool,
+    rows: pd.DataFrame,
+    keys: list[str],
+) -> list[str]:
+    """What a table says of its figures run under several seeds (``repeated``: key -> seeds):
+    without intervals, that they are means ± standard deviations; with intervals, what each
+    interval is: the two-level bootstrap where ``pooled`` has the figure, the interval from the
+    seeds' rows elsewhere (the note counts each kind), with the seeds and test trials behind them."""
+    if not intervals:
+        return ["Mean ± standard deviation across seeds."] if repeated else []
+    if not repeated:
+        return [INTERVAL_NOTE]
+    at_hand = [k for k in repeated if k in pooled]
+    rest = [k for k in repeated if k not in pooled]
+    if at_hand:
+        trials = _trials_text(pd.DataFrame([pooled[k] for k in at_hand]))
+    else:
+        ok = rows[rows["status"].eq("ok")] if "status" in rows else rows
+        mine = ok[[tuple(v) in repeated for v in ok[keys].itertuples(index=False)]]
+        trials = _trials_text(mine) and f"{_trials_text(mine)} per seed"
+    head = (
+        "[95 % interval: cluster bootstrap over test trials, stratified by class; a figure run under "
+        f"{_range(repeated.values())} seeds{f' ({trials})' if trials else ''} is their mean, "
     )
+    if not rest:
+        return [f"{head}{POOLED_TEXT}.]"]
+    if not at_hand:
+        return [f"{head}{ROWS_TEXT}.]"]
+    return [
+        f"{head}{POOLED_TEXT}; for the {len(rest)} of the {len(repeated)} such figures whose "
+        f"predictions are missing or unreadable, {ROWS_TEXT}.]"
+    ]
 
 
 def _averaged(
@@ -534,24 +588,43 @@ def _averaged(
     return out
 
 
-def _interval_note(joint: dict | None, intervals: bool, shown: Sequence[tuple]) -> list[str]:
+def _interval_note(
+    joint: dict | None, intervals: bool, shown: Sequence[tuple], seeds: bool = False
+) -> list[str]:
     """What the intervals of the ``shown`` averages (``(detector, sensor_type)`` keys) are: the
-    joint bootstrap where ``joint`` has the group, the combined half-widths elsewhere."""
+    joint bootstrap where ``joint`` has the group, the combined half-widths elsewhere; with
+    ``seeds`` (the rows hold several seeds of a cell), how the seeds enter each."""
     if not intervals:
         return []
     independent = (
         "the fingers' half-widths combined as independent, which understates it where they share "
         "trials; keep predictions for a joint bootstrap"
     )
+    joint_text = JOINT_NOTE
+    if seeds:
+        joint_text += (
+            "; over several seeds, each seed's mean over fingers averaged over the seeds, the seeds "
+            "drawn too, so retraining noise is inside it"
+        )
+        independent += "; each finger's interval over its seeds from the seeds' rows"
     fallback = [k for k in shown if k not in (joint or {})]
     if joint and not fallback:
-        return [f"[95 % interval: {JOINT_NOTE}.]"]
+        return [f"[95 % interval: {joint_text}.]"]
     if not joint or len(fallback) == len(shown):
         return [f"[95 % interval: {independent}.]"]
     which = ", ".join(f"{label('sensor_type', s)} ({d})" for d, s in fallback)
     return [
-        f"[95 % interval: {JOINT_NOTE}; for {which}, whose predictions are missing or unreadable, {independent}.]"
+        f"[95 % interval: {joint_text}; for {which}, whose predictions are missing or unreadable, "
+        f"{independent}.]"
     ]
+
+
+def _repeated(rows: pd.DataFrame) -> bool:
+    """Some cell of ``rows`` ran under several seeds."""
+    if "seed" not in rows or "cell" not in rows:
+        return False
+    by = [c for c in ("protocol", "detector", "cell") if c in rows]
+    return bool((rows.groupby(by)["seed"].nunique() > 1).any())
 
 
 def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
@@ -595,7 +668,7 @@ def baseline_table(
             cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
     notes = [
         "Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
-        *_interval_note(joint, intervals, shown),
+        *_interval_note(joint, intervals, shown, _repeated(rows)),
     ]
     if paper:
         notes.append(
@@ -649,7 +722,7 @@ def rates_table(
         f"tab:rates-{detector}",
         notes=[
             "TP: slip detected while slipping; TN: non-slip passed while not slipping.",
-            *_interval_note(joint, intervals, [(detector, *k) for k in avg]),
+            *_interval_note(joint, intervals, [(detector, *k) for k in avg], _repeated(rows)),
         ],
     )
 
@@ -676,17 +749,19 @@ def metric_text(
     low: bool = False,
 ) -> str:
     """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
-    ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals; 'NA' if absent;
-    ``LOW_MARK`` appended where the cell rests on few test trials or onsets (``low``)."""
+    ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals (over seeds, the
+    interval holds their spread, so no ± beside it); 'NA' if absent; ``LOW_MARK`` appended
+    where the cell rests on few test trials or onsets (``low``)."""
     if status != "ok":
         return status
     if pd.isna(mean):
         return "NA"
     _, scale, digits = METRIC_COLUMNS.get(metric, (metric, 100.0, 1))
     text = f"{scale * mean:.{digits}f}"
-    if n > 1 and not pd.isna(sd):
+    shown = intervals and not (pd.isna(lo) or pd.isna(hi))
+    if n > 1 and not pd.isna(sd) and not shown:
         text += f" ± {scale * sd:.{digits}f}"
-    if intervals and not (pd.isna(lo) or pd.isna(hi)):
+    if shown:
         text += f" [{scale * lo:.{digits}f}, {scale * hi:.{digits}f}]"
     return text + (LOW_MARK if low else "")
 
@@ -731,11 +806,8 @@ def metrics_table(
     else:
         row_labels = [tuple(label(k, v) for k, v in zip(keys, rk)) for rk in row_keys]
         headers = [ROW_HEADERS.get(k, k) for k in keys]
-    notes = []
-    if any((pd.DataFrame(per[m].values())["n"] > 1).any() for m in metrics if per[m]):
-        notes.append("Mean ± standard deviation across seeds.")
-    if intervals:
-        notes.append(INTERVAL_NOTE)
+    repeated = {rk: int(r["n"]) for m in metrics for rk, r in per[m].items() if r["n"] > 1}
+    notes = _seeds_notes(repeated, {}, intervals, rows, keys)
     if any(LOW_MARK in c for line in cells for c in line):
         notes.append(STREAM_LOW_NOTE)
     columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]

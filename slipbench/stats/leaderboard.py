@@ -32,6 +32,32 @@ Their 95 % interval is a percentile bootstrap over cells (cells resampled, each 
 fixed): it shows how the mean depends on which conditions make up the benchmark, not the test
 noise within a cell, which the per-cell intervals show.
 
+Seeds (``--repeats``). A block's figure is the mean over its seeds. Where some block holds
+several seeds of an entrant, the seed is a factor of the design for the pairwise intervals and
+the means' intervals too, and it is *crossed* with the blocks, not nested in them: a seed is one
+split of the trials (streams ``sides``, ``split``) and one detector seed (stream ``detector``)
+for every cell of a run, so its luck (a hard trial drawn into the test set, a lucky
+initialisation) can reach every block at once and then does not average out over blocks.
+Resampling blocks alone, or seeds within each block (a nested two-stage bootstrap), misses that
+shared part. So blocks are resampled and, with one draw for every block, so are the seeds: the
+variance is the sum of the two resamplings' variances (in closed form,
+:func:`crossed_interval`), and the interval Banerjee's, each component with its own t quantile.
+
+Measured (``benchmarks/bench_leaderboard_seeds.py``, 1,000 simulated boards per setting, two
+equal detectors, 30 or 300 blocks, 2, 3 or 5 seeds; seed luck per block only, shared by the
+blocks, both, or with the two detectors on different seeds; table in ``docs/coverage.md``): the
+pairwise interval excludes 0 on 0.2-4.9 % of boards with 3 or 5 seeds (2 seeds: 0.5-5.9 %),
+where the percentile bootstrap over blocks does on 4-92 % (30-92 % wherever seed luck reaches
+every block); the means' intervals cover 0.94-0.99 (blocks alone 0.29-0.84). Its width is 1.3-2.1
+times that of an interval that knew the true spread with 3-5 seeds, 4-5 times with 2. Not
+taken (exploratory, 2,000-3,000 boards per setting): subtracting the seed-by-block noise the
+sum counts twice, with Welch-Satterthwaite degrees of freedom (an unbiased variance), excluded 0
+on up to 11.5 % of boards with 3 seeds and 17 % with 2: the seed component has two degrees of
+freedom, and a plug-in for them runs liberal; the sum with Welch-Satterthwaite degrees of
+freedom, up to 7 % with 3 seeds; :func:`slipbench.stats.bootstrap.seeded_interval` with the
+blocks as its clusters, 5.5-7.2 % with 3 seeds (600-1,500 boards). Without repeats the
+percentile bootstrap over blocks stands as it was.
+
 This module computes; the tables that show the leaderboard are the report wing's.
 """
 
@@ -42,7 +68,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from scipy.optimize import brentq
 from scipy.stats import bootstrap, friedmanchisquare, rankdata, wilcoxon
+from scipy.stats import t as student_t
 from statsmodels.stats.multitest import multipletests
 
 from slipbench.seeding import rng_for
@@ -99,6 +127,8 @@ class Leaderboard:
         with a value: balanced accuracy and AUROC do not exist on a one-class test set).
     entrants : entrant -> the detector and parameters it stands for.
     pairs : :func:`pairwise` over the ranked blocks of ``ALL``.
+    n_seeds : the most seeds an entrant ran in a ranked block; above 1, the pairs' and the
+        means' intervals count seeds as a factor too (:func:`crossed_interval`).
     """
 
     metric: str
@@ -106,6 +136,7 @@ class Leaderboard:
     means: pd.DataFrame
     entrants: dict[str, str] = field(default_factory=dict)
     pairs: pd.DataFrame = field(default_factory=lambda: pairwise(pd.DataFrame(), []))
+    n_seeds: int = 1
 
     @property
     def order(self) -> list[str]:
@@ -189,6 +220,12 @@ def block_signature(rows: pd.DataFrame) -> pd.Series:
     return pd.Series(list(out.values()), index=index, dtype=object)
 
 
+def _signatures(index: pd.Index, signature: pd.Series) -> list[tuple]:
+    """Each cell's signature; a cell the signature does not know (no rows of it): its own."""
+    sig = signature.reindex(index)
+    return [s if isinstance(s, tuple) else ("cell", *i) for i, s in zip(index, sig)]
+
+
 def merge_blocks(table: pd.DataFrame, signature: pd.Series) -> tuple[pd.DataFrame, int]:
     """``table`` (cells x entrants) with duplicate cells merged: one line per block, at its first
     cell, each entrant's figure the mean over the block's cells that hold one (the same model
@@ -196,13 +233,9 @@ def merge_blocks(table: pd.DataFrame, signature: pd.Series) -> tuple[pd.DataFram
     cells were merged into a block another cell already stood for."""
     if table.empty:
         return table, 0
-    sig = signature.reindex(table.index)
-    # a cell the signature does not know (no rows of it): its own block
-    sig = pd.Series(
-        [s if isinstance(s, tuple) else ("cell", *i) for i, s in zip(table.index, sig)],
-        index=table.index,
+    codes = pd.Series(
+        pd.factorize(pd.Series(_signatures(table.index, signature)))[0], index=table.index
     )
-    codes = pd.Series(pd.factorize(sig)[0], index=table.index)
     first = ~codes.duplicated()
     merged = table.groupby(codes.to_numpy(), sort=False).mean()
     merged.index = table.index[first.to_numpy()]
@@ -213,40 +246,206 @@ def merge_blocks(table: pd.DataFrame, signature: pd.Series) -> tuple[pd.DataFram
     return merged, max(n_dup, 0)
 
 
-def pairwise(blocks: pd.DataFrame, order: list[str], seed: int = 0) -> pd.DataFrame:
+def seed_values(
+    rows: pd.DataFrame, metric: str, blocks: pd.Index, signature: pd.Series
+) -> dict[str, np.ndarray]:
+    """Per entrant, its figure in each block of ``blocks`` (the index :func:`merge_blocks` gives)
+    under each seed: an array (n_blocks, n_seeds) over the seeds the rows hold (sorted), NaN
+    where the entrant has no finished row of the block under that seed; a block of duplicate
+    cells takes their mean per seed, as :func:`merge_blocks` does over seeds' means."""
+    ident = [c for c in CELL_IDENTITY if c in rows]
+    ok = rows[rows["status"] == "ok"] if "status" in rows else rows
+    who = entrants(rows)
+    seeds = ok["seed"] if "seed" in ok else pd.Series(0, index=ok.index)
+    levels = sorted(seeds.dropna().unique())
+    position = {sig: i for i, sig in enumerate(_signatures(blocks, signature))}
+    cells = (
+        pd.MultiIndex.from_frame(ok[ident])
+        if len(ok)
+        else pd.MultiIndex.from_tuples([], names=ident)
+    )
+    block = [position.get(sig, -1) for sig in _signatures(cells, signature)]
+    frame = pd.DataFrame(
+        {
+            "block": block,
+            "seed": seeds.map({s: i for i, s in enumerate(levels)}).to_numpy(),
+            "entrant": who.loc[ok.index].to_numpy(),
+            "value": (
+                pd.to_numeric(ok[metric], errors="coerce").to_numpy(dtype=float)
+                if metric in ok
+                else np.full(len(ok), np.nan)
+            ),
+        }
+    )
+    frame = frame[(frame["block"] >= 0) & frame["value"].notna()]
+    out = {}
+    for e in who.unique():
+        values = np.full((len(blocks), max(len(levels), 1)), np.nan)
+        mine = frame[frame["entrant"] == e].groupby(["block", "seed"])["value"].mean()
+        if len(mine):
+            b, k = (mine.index.get_level_values(i).to_numpy(dtype=int) for i in (0, 1))
+            values[b, k] = mine.to_numpy()
+        out[e] = values
+    return out
+
+
+@dataclass(frozen=True)
+class Crossed:
+    """A figure over blocks and seeds, its variance components and its interval
+    (:func:`crossed_interval`).
+
+    Attributes
+    ----------
+    estimate : the figure (mean over blocks of the seeds' mean, or a difference of two).
+    parts : (variance, degrees of freedom) per component: the blocks' first, then each side's
+        seeds (sides of one seed have none).
+    """
+
+    estimate: float
+    parts: tuple[tuple[float, float], ...]
+
+    def half_width(self, level: float = LEVEL) -> float:
+        """Banerjee's half-width, ``sqrt(sum_i t_i^2 V_i)`` with ``t_i`` the ``level`` quantile of
+        t at the component's degrees of freedom: never narrower than the interval of the
+        component with the fewest degrees of freedom alone, whatever the true ratio of the
+        components (Banerjee 1961), where Welch-Satterthwaite's plug-in degrees of freedom run
+        liberal with a component of 1-4."""
+        q = [student_t.ppf(0.5 + level / 2, df) for _, df in self.parts]
+        return float(np.sqrt(sum(qi**2 * v for qi, (v, _) in zip(q, self.parts))))
+
+    def p_value(self) -> float:
+        """The two-sided p-value of no difference: the largest ``1 - level`` at which the
+        interval still holds 0 (1 where the figure is 0; 0 where it is not and nothing varies)."""
+        if self.estimate == 0:
+            return 1.0
+        if not any(v > 0 for v, _ in self.parts):
+            return 0.0
+
+        def reach(alpha: float) -> float:
+            return self.half_width(1 - alpha) - abs(self.estimate)
+
+        if reach(1 - 1e-12) > 0:
+            return 1.0
+        if reach(1e-15) < 0:
+            return 0.0
+        return float(brentq(reach, 1e-15, 1 - 1e-12))
+
+
+def _filled(values: np.ndarray) -> np.ndarray:
+    """A side's (n_blocks, n_seeds) figures over the seeds it ran (columns it never ran left
+    out), a block's missing seed filled with the block's mean over its other seeds: the block's
+    figure stays as it is, and the gap adds no seed-to-seed spread."""
+    values = values[:, np.isfinite(values).any(axis=0)]
+    mean = np.nanmean(values, axis=1, keepdims=True)
+    return np.where(np.isfinite(values), values, mean)
+
+
+def crossed_interval(sides: list[np.ndarray], signs: tuple[float, ...]) -> Crossed:
+    """``sum_k signs[k] * (mean over blocks of side k's mean over its seeds)`` with the variance
+    components of the crossed bootstrap of blocks and seeds (module docstring), in closed form.
+
+    The blocks' component is the variance over blocks of the block's figure (its signed sum of
+    the sides' seed means) over the number of blocks, ``B - 1`` degrees of freedom: what
+    resampling blocks gives. Each side's seed component is the variance over its seeds of the
+    seed's mean over blocks over the number of seeds, ``S_k - 1`` degrees of freedom: what
+    resampling the seeds, one draw for every block, gives. Their sum is the "pigeonhole"
+    variance of crossed designs (Owen 2007): it counts the seed-by-block noise twice, so it errs
+    wide (subtracting it once leaves a difference of mean squares whose plug-in degrees of
+    freedom undercovered: ``benchmarks/bench_leaderboard_seeds.py``). The interval is
+    Banerjee's (:meth:`Crossed.half_width`).
+
+    Parameters
+    ----------
+    sides : list of ndarray of shape (n_blocks, n_seeds_k)
+        Per side, each block's figure under each seed (NaN: not run; :func:`_filled`). Pass one
+        side of differences, seed by seed, where both entrants ran the same seeds.
+    signs : per side, its weight: ``(1,)`` for a mean or paired differences, ``(1, -1)`` for A - B.
+    """
+    filled = [_filled(x) for x in sides]
+    per_block = sum(k * x.mean(axis=1) for k, x in zip(signs, filled))
+    n_blocks = len(per_block)
+    parts = [(float(np.var(per_block, ddof=1)) / n_blocks, n_blocks - 1.0)]
+    for k, x in zip(signs, filled):
+        if x.shape[1] > 1:
+            parts.append(
+                (k**2 * float(np.var(x.mean(axis=0), ddof=1)) / x.shape[1], x.shape[1] - 1.0)
+            )
+    return Crossed(float(np.mean(per_block)), tuple(parts))
+
+
+def pairwise(
+    blocks: pd.DataFrame,
+    order: list[str],
+    seed: int = 0,
+    seeds: dict[str, np.ndarray] | None = None,
+) -> pd.DataFrame:
     """Every pair (a ranked above b): the mean of a - b over the complete ``blocks``, its
-    percentile bootstrap interval over blocks (each block's figure fixed; every pair on the same
-    draws), the bootstrap p-value of no difference, and that p Holm-adjusted over the pairs.
-    Columns: a, b, diff, lo, hi, p, p_holm, differ (p_holm < ALPHA)."""
+    interval, the p-value of no difference, and that p Holm-adjusted over the pairs.
+
+    Without ``seeds`` (or where no block holds several seeds of an entrant): a percentile
+    bootstrap over blocks (each block's figure fixed; every pair on the same draws) and its
+    two-sided bootstrap p-value. With ``seeds`` (:func:`seed_values` over ``blocks``' index) and
+    repeats: :func:`crossed_interval` over blocks and seeds, paired seed by seed where the two
+    ran the same seeds in every block, and its p-value (:meth:`Crossed.p_value`).
+
+    Columns: a, b, diff, lo, hi, p, p_holm, differ (p_holm < ALPHA).
+    """
     columns = ["a", "b", "diff", "lo", "hi", "p", "p_holm", "differ"]
     complete = blocks[order].dropna() if len(order) else blocks.iloc[:0]
     n = len(complete)
     if n == 0 or len(order) < 2:
         return pd.DataFrame(columns=columns)
+    at = blocks.index.get_indexer(complete.index)
+    per_seed = {e: seeds[e][at] for e in order} if seeds is not None else {}
+    repeated = any((np.isfinite(v).sum(axis=1) > 1).any() for v in per_seed.values())
     draws = rng_for(seed, "leaderboard-pairs").integers(0, n, (N_RESAMPLES, n))
     out = []
     for i, a in enumerate(order):
         for b in order[i + 1 :]:
             d = complete[a].to_numpy(dtype=float) - complete[b].to_numpy(dtype=float)
-            boot = d[draws].mean(axis=1)
-            q = (1 - LEVEL) / 2
-            lo, hi = np.quantile(boot, [q, 1 - q]) if n > 1 else (np.nan, np.nan)
-            if np.all(d == 0):
-                p = 1.0
-            elif n < 2:
-                p = np.nan
-            else:  # two-sided: how often a resample lands on zero or beyond it
-                below = (np.sum(boot <= 0) + 1) / (N_RESAMPLES + 1)
-                above = (np.sum(boot >= 0) + 1) / (N_RESAMPLES + 1)
-                p = min(1.0, 2 * min(below, above))
+            if repeated:
+                lo, hi, p = _seeded_pair(per_seed[a], per_seed[b])
+            else:
+                lo, hi, p = _percentile_pair(d, draws)
             out.append({"a": a, "b": b, "diff": float(d.mean()), "lo": lo, "hi": hi, "p": p})
     pairs = pd.DataFrame(out, columns=columns[:6])
     finite = pairs["p"].notna()
     pairs["p_holm"] = np.nan
-    if finite.any():
+    if finite.sum() == 1:  # Holm leaves a single p as it is
+        pairs.loc[finite, "p_holm"] = pairs.loc[finite, "p"]
+    elif finite.any():
         pairs.loc[finite, "p_holm"] = multipletests(pairs.loc[finite, "p"], method="holm")[1]
     pairs["differ"] = pairs["p_holm"] < ALPHA
     return pairs
+
+
+def _percentile_pair(d: np.ndarray, draws: np.ndarray) -> tuple[float, float, float]:
+    """Percentile interval of the mean of the blocks' differences ``d`` and its bootstrap p."""
+    n = len(d)
+    boot = d[draws].mean(axis=1)
+    q = (1 - LEVEL) / 2
+    lo, hi = np.quantile(boot, [q, 1 - q]) if n > 1 else (np.nan, np.nan)
+    if np.all(d == 0):
+        return lo, hi, 1.0
+    if n < 2:
+        return lo, hi, np.nan
+    # two-sided: how often a resample lands on zero or beyond it
+    below = (np.sum(boot <= 0) + 1) / (N_RESAMPLES + 1)
+    above = (np.sum(boot >= 0) + 1) / (N_RESAMPLES + 1)
+    return float(lo), float(hi), min(1.0, 2 * min(below, above))
+
+
+def _seeded_pair(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
+    """:func:`crossed_interval` of A - B over the blocks' figures per seed ``a``, ``b`` (paired
+    seed by seed where both ran the same seeds of every block) and its p-value."""
+    if len(a) < 2:
+        return np.nan, np.nan, np.nan
+    if np.array_equal(np.isfinite(a), np.isfinite(b)):
+        iv = crossed_interval([a - b], (1.0,))
+    else:
+        iv = crossed_interval([a, b], (1.0, -1.0))
+    half = iv.half_width()
+    return iv.estimate - half, iv.estimate + half, iv.p_value()
 
 
 def _holm_pairs(scores: pd.DataFrame, order: list[str]) -> pd.DataFrame:
@@ -309,8 +508,19 @@ def rank_scope(scores: pd.DataFrame, name: str) -> Scope:
     )
 
 
-def _mean_interval(values: np.ndarray, seed: int = 0) -> tuple[float, float, float]:
-    """The mean of the finite values and its percentile bootstrap interval over them."""
+def _mean_interval(
+    values: np.ndarray, per_seed: np.ndarray | None = None, seed: int = 0
+) -> tuple[float, float, float]:
+    """The mean of the finite values (blocks' figures) and its percentile bootstrap interval
+    over them; with ``per_seed`` (the blocks' figures per seed, (n_blocks, n_seeds)) holding
+    several seeds of a block, :func:`crossed_interval` over blocks and seeds (clipped to
+    [0, 1])."""
+    if per_seed is not None and (np.isfinite(per_seed).sum(axis=1) > 1).any():
+        kept = np.isfinite(values)
+        if kept.sum() >= 2:
+            iv = crossed_interval([per_seed[kept]], (1.0,))
+            half = iv.half_width()
+            return iv.estimate, max(iv.estimate - half, 0.0), min(iv.estimate + half, 1.0)
     values = values[np.isfinite(values)]
     if len(values) < 2:
         return (float(values[0]) if len(values) else np.nan), np.nan, np.nan
@@ -364,17 +574,22 @@ def leaderboard(
             scopes.append(scope(part, protocol)[0])
     ranked = blocks.dropna().index
     means = pd.DataFrame(index=pd.Index(overall.ranks.index, name=None))
+    n_seeds = 1
     for m in MEAN_METRICS:
         values = (
             merge_blocks(cell_table(rows, m), signature)[0].reindex(ranked)
             if m != metric
             else blocks.reindex(ranked)
         )
+        seeds = seed_values(rows, m, ranked, signature)
         for e in means.index:
             x = values[e].to_numpy(dtype=float)
-            means.loc[e, [m, f"{m}_lo", f"{m}_hi"]] = _mean_interval(x)
+            means.loc[e, [m, f"{m}_lo", f"{m}_hi"]] = _mean_interval(x, seeds[e])
             means.loc[e, f"{m}_cells"] = int(np.isfinite(x).sum())
-    return Leaderboard(metric, scopes, means, names, pairwise(blocks, list(overall.ranks.index)))
+            n_seeds = max(n_seeds, int(np.isfinite(seeds[e]).sum(axis=1).max(initial=1)))
+    order = list(overall.ranks.index)
+    pairs = pairwise(blocks, order, seeds=seed_values(rows, metric, blocks.index, signature))
+    return Leaderboard(metric, scopes, means, names, pairs, n_seeds)
 
 
 def _params_text(rows: pd.DataFrame) -> str:

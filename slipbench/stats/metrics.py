@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+from scipy.stats import t as student_t
 from statsmodels.stats.proportion import proportion_confint
 
 from slipbench.stats.bootstrap import (
@@ -433,7 +434,7 @@ def mean_over_test_sets(
 
 
 def pool_seeds(
-    parts: Sequence[Predictions],
+    parts: Sequence[Predictions | Sequence[Predictions]],
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
@@ -444,15 +445,55 @@ def pool_seeds(
     The seeds' test sets differ (each seed balances and splits anew) but draw on the same
     recordings, and each seed trains anew: the interval is :func:`over_seeds`' two-level
     bootstrap (recordings drawn once for all seeds, seeds drawn too), so both test-set and
-    retraining noise are inside it. ``parts`` holds one Predictions per seed, with recording ids
-    as ``groups``; returns what :func:`over_seeds` returns without a candidate.
+    retraining noise are inside it. ``parts`` holds one entry per seed, with recording or trial
+    ids as ``groups``: a Predictions, or several (the fingers of one sensor under that seed),
+    whose figures are averaged within the seed. Returns what :func:`over_seeds` returns without
+    a candidate.
     """
     return over_seeds(parts, None, seed, level, n_resamples, method)
 
 
+def seeds_from_rows(
+    values: np.ndarray,
+    ses: np.ndarray,
+    level: float = LEVEL,
+    bounds: tuple[float, float] = (-np.inf, np.inf),
+) -> tuple[float, float, float]:
+    """The mean over seeds of one cell's figure and its interval from the seeds' rows alone, for
+    cells whose predictions are not at hand (:func:`pool_seeds` needs them).
+
+    The variance of the mean is the seeds' mean standard error squared (their test sets draw on
+    the same recordings, so their test noise is taken to move together) plus the spread of the
+    seeds' figures over the number of seeds (retraining noise; it holds the part of the test
+    noise that differs between seeds once more, which errs wide); a t-interval with the
+    Welch-Satterthwaite degrees of freedom of the two, ``S - 1`` for the spread and, the rows
+    not saying, a normal test component. Clipped to ``bounds``.
+
+    Parameters
+    ----------
+    values, ses : ndarray of shape (n_seeds,)
+        Each seed's figure and its standard error (NaN where unknown: the interval is then NaN).
+
+    Returns
+    -------
+    (mean, lo, hi)
+    """
+    values, ses = np.asarray(values, float), np.asarray(ses, float)
+    mean = float(values.mean()) if len(values) else np.nan
+    if len(values) < 2 or not (np.isfinite(values).all() and np.isfinite(ses).all()):
+        return mean, np.nan, np.nan
+    test, spread = float(ses.mean()) ** 2, float(values.var(ddof=1)) / len(values)
+    var = test + spread
+    if var == 0:
+        return mean, mean, mean
+    df = var**2 / (spread**2 / (len(values) - 1)) if spread > 0 else np.inf
+    half = float(student_t.ppf(0.5 + level / 2, df)) * np.sqrt(var)
+    return mean, max(mean - half, bounds[0]), min(mean + half, bounds[1])
+
+
 def over_seeds(
-    base: Sequence[Predictions],
-    cand: Sequence[Predictions] | None = None,
+    base: Sequence[Predictions | Sequence[Predictions]],
+    cand: Sequence[Predictions | Sequence[Predictions]] | None = None,
     seed: int = 0,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
@@ -471,8 +512,9 @@ def over_seeds(
 
     Parameters
     ----------
-    base, cand : sequence of Predictions
-        One per seed of each side.
+    base, cand : sequence of Predictions, or of sequences of Predictions
+        One entry per seed of each side: that seed's test set, or its test sets (the fingers of
+        a sensor), whose figures the seed's figure averages.
     figures : sequence of str
         The figures to give (``accuracy`` always comes first: it gives ``df``).
 
@@ -485,15 +527,19 @@ def over_seeds(
         union of all parts), ``low_n`` (fewer than ``LOW_N`` clusters of a class),
         ``n_seeds_base`` and ``n_seeds_cand`` (0 without a candidate).
     """
-    sides = [list(base)] + ([list(cand)] if cand is not None else [])
-    if not all(sides):
-        raise ValueError("over_seeds needs at least one Predictions per side")
+    sides = [
+        [[p] if isinstance(p, Predictions) else list(p) for p in side]
+        for side in ([base] if cand is None else [base, cand])
+    ]
+    if not all(sides) or not all(sets for side in sides for sets in side):
+        raise ValueError("over_seeds needs at least one Predictions per side and seed")
     unknown = set(figures) - set(FIGURES)
     if unknown:
         raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
-    parts = [p for side in sides for p in side]
+    parts = [p for side in sides for sets in side for p in sets]
     design, flat = _joint_design(parts)
-    per_side = [flat[: len(sides[0])], flat[len(sides[0]) :]][: len(sides)]
+    it = iter(flat)  # each seed's totals, in the order of its parts
+    per_side = [[[next(it) for _ in sets] for sets in side] for side in sides]
     signs = (1.0,) if cand is None else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"
     out: dict = {} if cand is not None else {"n_test_sets": len(parts)}
@@ -537,10 +583,11 @@ def over_seeds(
 
 
 def _per_seed(
-    of: _PerSet, per_side: Sequence[Sequence[_Totals]], name: str, w: np.ndarray
+    of: _PerSet, per_side: Sequence[Sequence[Sequence[_Totals]]], name: str, w: np.ndarray
 ) -> list[np.ndarray]:
-    """``of`` for each seed of each side: per side an array (n, S_side, ...)."""
-    return [np.stack([of(t, name, w) for t in side], axis=1) for side in per_side]
+    """``of`` for each seed of each side, averaged over the seed's test sets: per side an array
+    (n, S_side, ...)."""
+    return [np.stack([_pooled(of, sets, name, w) for sets in side], axis=1) for side in per_side]
 
 
 # ----------------------------------------------------------------------------- paired comparison

@@ -93,8 +93,8 @@ def test_the_report_says_which_interval_an_average_has(run):
 
 @pytest.mark.slow
 def test_seeds_pool_into_one_interval(small, tmp_path):
-    """Two seeds of one cell: the table shows one interval of their mean, bootstrapped jointly,
-    not the mean of the two seeds' bounds, and says so."""
+    """Two seeds of one cell: the table shows one interval of their mean, the two-level
+    bootstrap over trials and seeds, not the one from the seeds' rows, and says so."""
     from slipbench.report.document import protocol_tables
 
     store = ResultsStore(tmp_path)
@@ -117,13 +117,13 @@ def test_seeds_pool_into_one_interval(small, tmp_path):
     assert f"[{100 * one['accuracy_lo']:.1f}, {100 * one['accuracy_hi']:.1f}]" in " ".join(
         c for line in table.cells for c in line
     )
-    assert any("one bootstrap of the mean over seeds" in n for n in table.notes)
-    assert any("the mean of the seeds' bounds" in n for n in averaged.notes)
+    assert any("two-level bootstrap over test trials and seeds" in n for n in table.notes)
+    assert any("its interval from the seeds' rows" in n for n in averaged.notes)
 
 
 @pytest.mark.slow
 def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
-    """A figure whose seeds' predictions are gone keeps the mean of the seeds' bounds, and the
+    """A figure whose seeds' predictions are gone gets its interval from the seeds' rows, and the
     note counts the figures of each kind instead of calling every interval pooled."""
     from slipbench.report.document import protocol_tables
 
@@ -142,8 +142,9 @@ def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
     )
     figures = rows[["sensor_type", "sensor_instance"]].drop_duplicates()
     pooled = len(figures) - len(gone)
+    assert pooled > 0
     assert any(
-        f"for {pooled} of the {len(figures)} figures run under several seeds; for the {len(gone)} whose "
-        "predictions are missing or unreadable, the mean of the seeds' bounds" in n
+        f"for the {len(gone)} of the {len(figures)} such figures whose predictions are missing or "
+        "unreadable, its interval from the seeds' rows" in n
         for n in table.notes
     )

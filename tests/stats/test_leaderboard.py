@@ -194,3 +194,114 @@ def test_pairwise_holm_over_the_pairs():
     for r in pairs.itertuples():
         d = blocks[r.a] - blocks[r.b]
         assert r.diff == pytest.approx(d.mean()) and r.lo < r.diff < r.hi
+
+
+# ----------------------------------------------------------------------------- seeds as a factor
+def seeded_rows(
+    shifts: dict[str, list[float]], seeds: dict[str, tuple] | None = None
+) -> pd.DataFrame:
+    """Window-size rows of detectors run under several seeds: a cell's figure is its level (the
+    same for every detector) plus the detector's shift under that seed, shared by every cell (one
+    split and one initialisation per run), plus a little noise of its own."""
+    base = fake_rows("window-size", "holweg")
+    rng = np.random.default_rng(5)
+    parts = []
+    for det, shift in shifts.items():
+        for s, seed in zip(shift, (seeds or {}).get(det, range(len(shift)))):
+            rows = base.assign(detector=det, seed=seed)
+            rows["key"] = rows["key"] + f"-{det}-{seed}"
+            rows["accuracy"] = base["accuracy"] + s + rng.normal(0, 0.005, len(rows))
+            parts.append(rows)
+    return pd.concat(parts, ignore_index=True)
+
+
+def _closed_form(sides: list[np.ndarray], signs: tuple[float, ...]) -> tuple[float, float]:
+    """Banerjee's interval over blocks and seeds, written out (no missing seeds)."""
+    from scipy.stats import t
+
+    per_block = sum(k * x.mean(axis=1) for k, x in zip(signs, sides))
+    n = len(per_block)
+    half2 = t.ppf(0.975, n - 1) ** 2 * per_block.var(ddof=1) / n
+    for x in sides:
+        s = x.shape[1]
+        half2 += t.ppf(0.975, s - 1) ** 2 * x.mean(axis=0).var(ddof=1) / s
+    return per_block.mean() - np.sqrt(half2), per_block.mean() + np.sqrt(half2)
+
+
+def _matrix(rows: pd.DataFrame, det: str) -> np.ndarray:
+    mine = rows[rows["detector"] == det]
+    return mine.pivot_table(index="cell", columns="seed", values="accuracy").to_numpy()
+
+
+def test_pairwise_with_repeats_counts_the_seeds():
+    """Two equal detectors whose seeds move every cell alike: the blocks alone call them
+    different, the interval over blocks and seeds does not, and both are what they say."""
+    rows = seeded_rows({"a": [0.03, -0.02, 0.01], "b": [-0.01, 0.02, -0.03]})
+    board = leaderboard(rows)
+    assert board.n_seeds == 3
+    (pair,) = board.pairs.itertuples(index=False)
+    a, b = _matrix(rows, "a"), _matrix(rows, "b")
+    lo, hi = _closed_form([a - b], (1.0,))  # the same seeds: paired seed by seed
+    assert (pair.lo, pair.hi) == pytest.approx((lo, hi))
+    assert pair.diff == pytest.approx((a - b).mean())
+    assert pair.lo < 0 < pair.hi and pair.p > 0.05 and not pair.differ
+    from slipbench.stats.leaderboard import pairwise
+
+    blocks = cell_table(rows, "accuracy")
+    plain = pairwise(blocks, list(board.pairs[["a", "b"]].iloc[0])).iloc[0]
+    assert plain.differ and plain.hi - plain.lo < (hi - lo) / 5  # blocks alone: a false alarm
+    lo_a, hi_a = _closed_form([a], (1.0,))
+    assert tuple(board.means.loc["a", ["accuracy_lo", "accuracy_hi"]]) == pytest.approx(
+        (lo_a, hi_a)
+    )
+    text = render_report(rows, "md", leaderboard_only=True)
+    assert "95 % interval over blocks and seeds (up to 3 seeds per block)" in text
+    assert "paired seed by seed where both ran the same seeds" in text
+
+
+def test_pairwise_p_value_and_interval_agree():
+    from slipbench.stats.leaderboard import crossed_interval
+
+    rng = np.random.default_rng(2)
+    for shift in (0.0, 0.004, 0.01, 0.03):
+        d = shift + rng.normal(0, 0.01, (1, 3)) + rng.normal(0, 0.02, (40, 3))
+        iv = crossed_interval([d], (1.0,))
+        half = iv.half_width()
+        outside = not iv.estimate - half <= 0 <= iv.estimate + half
+        assert (iv.p_value() < 0.05) == outside
+        assert iv.half_width(1 - iv.p_value()) == pytest.approx(abs(iv.estimate), rel=1e-6)
+
+
+def test_entrants_of_other_seeds_and_a_lost_seed():
+    """A ran seeds 0-2, B seeds 3-5: each side's seeds vary on their own (two seed parts); a
+    block where A lost a seed keeps A's mean over the other two."""
+    rows = seeded_rows(
+        {"a": [0.03, -0.02, 0.01], "b": [-0.01, 0.02, -0.03]}, seeds={"b": (3, 4, 5)}
+    )
+    board = leaderboard(rows)
+    (pair,) = board.pairs.itertuples(index=False)
+    a, b = _matrix(rows, "a"), _matrix(rows, "b")
+    assert (pair.lo, pair.hi) == pytest.approx(_closed_form([a, b], (1.0, -1.0)))
+    lost = rows.index[(rows["detector"] == "a") & (rows["seed"] == 2)][0]
+    rows.loc[lost, ["status", "accuracy"]] = ["failed", np.nan]
+    board = leaderboard(rows)
+    assert board.scope(ALL).n_cells == 48
+    (pair,) = board.pairs.itertuples(index=False)
+    assert pair.diff == pytest.approx(
+        (cell_table(rows, "accuracy")["a"] - cell_table(rows, "accuracy")["b"]).mean()
+    )
+    assert pair.lo < pair.diff < pair.hi
+
+
+@pytest.mark.slow  # 2 x 200 boards: about 30 s
+def test_equal_detectors_with_seed_noise_rarely_differ():
+    """benchmarks/bench_leaderboard_seeds.py at 200 boards per setting (the full study, 1,000,
+    is in docs/coverage.md): the interval over blocks and seeds excludes 0 for at most 8 % of
+    boards of two equal detectors (two standard errors above 5 %), where the blocks alone
+    exclude it for more than 20 %."""
+    from benchmod import load
+
+    table = load("bench_leaderboard_seeds").study(200, ["shared", "both"], [30], [3], seed=1)
+    assert (table["alarm seeded"] <= 0.08).all(), table
+    assert (table["alarm blocks"] > 0.2).all(), table
+    assert (table["mean seeded"] >= 0.9).all(), table
