@@ -135,7 +135,7 @@ from slipbench.seeding import rng_for
 
 LEVEL = 0.95
 N_RESAMPLES = 999
-METHODS = ("satterthwaite", "t", "percentile", "studentized")
+METHODS = ("satterthwaite", "t", "percentile", "studentized", "mover")
 
 
 @dataclass(frozen=True)
@@ -442,16 +442,21 @@ def seeded_interval(
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
     w = resample_weights(design, seed, n_resamples)
     twice: list[float] = []  # per side of several seeds: the seed-by-cluster variance
+    sides: list[tuple[np.ndarray, float]] = []  # per side: its replicates, its seed-by-cluster part
     with np.errstate(invalid="ignore", divide="ignore"):
         boot = np.zeros(n_resamples)
         for k, (sign, f) in enumerate(zip(signs, per_seed(w))):
             v = seed_weights(f.shape[1], seed, k, n_resamples)
-            boot += sign * (f * v).sum(axis=1) / v.sum(axis=1)
+            side = (f * v).sum(axis=1) / v.sum(axis=1)
+            boot += sign * side
+            part = 0.0
             if f.shape[1] > 1:
                 dev = f - f.mean(axis=1, keepdims=True)
                 dev = dev[np.isfinite(dev).all(axis=1)]
+                part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
                 # a side weighted by `sign` contributes sign^2 times its variance
-                twice.append(sign**2 * float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1))
+                twice.append(sign**2 * part)
+            sides.append((side, part))
     boot = boot[np.isfinite(boot)]
     se = float(boot.std(ddof=1))
     if twice:
@@ -461,11 +466,11 @@ def seeded_interval(
         se = float(np.sqrt(max(se**2 - sum(twice), 0.0)))
     alpha = 1 - level
     unit = bounds == (0.0, 1.0)
-    logit_t = method in ("satterthwaite", "studentized")  # studentized: the union with it
+    logit_t = method in ("satterthwaite", "studentized", "mover")  # studentized: the union with it
+    extra: list[tuple[float, float]] = []
     if logit_t:
-        infl = sum(
-            k * np.asarray(g)[0].mean(axis=0) for k, g in zip(signs, per_seed_influence(one))
-        )
+        side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
+        infl = sum(k * g for k, g in zip(signs, side_infl))
         # each side's seed variance of its mean, net of the seed-by-cluster part
         spread = [k**2 * float(f.var(ddof=1)) / len(f) for k, f in zip(signs, at_one) if len(f) > 1]
         extra = [
@@ -484,6 +489,21 @@ def seeded_interval(
         lo = hi = est
     elif method == "percentile":
         lo, hi = np.quantile(boot, [alpha / 2, 1 - alpha / 2])
+    elif method == "mover" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
+        lo, hi = _logit_bounds(est, sides[0][0], sum(twice), se, df, level, sizes[used].sum())
+    elif method == "mover" and bounds == (-1.0, 1.0) and tuple(signs) == (-1.0, 1.0):
+        # a change of two figures in [0, 1]; the level (their mean) has its own df
+        level_df = satterthwaite_df(
+            design, sum(side_infl) / 2, sizes, used, [(v / 4, d) for v, d in extra]
+        )
+        lo, hi = _mover_bounds(
+            est,
+            [float(f.mean()) for f in at_one],
+            sides,
+            (df, level_df),
+            level,
+            sizes[used].sum(),
+        )
     else:
         q = student_t.ppf(1 - alpha / 2, df)
         if logit_t and unit and 0 < est < 1:
@@ -500,6 +520,96 @@ def seeded_interval(
         # the resampled pivots say its skew needs it
         lo, hi = min(lo, max(blo, bounds[0])), max(hi, min(bhi, bounds[1]))
     return Interval(est, lo, hi, se, df, True)
+
+
+def _smoothed_logit(p: np.ndarray | float, n: float) -> np.ndarray:
+    """The empirical logit of a figure over ``n`` windows, ``(p n + 1/2) / (n + 1)``: finite at
+    0 and 1, where a replicate of nothing but perfect clusters would otherwise lie."""
+    q = (np.asarray(p, float) * n + 0.5) / (n + 1)
+    return np.log(q / (1 - q))
+
+
+def _logit_sd(reps: np.ndarray, est: float, n: float, twice: float = 0.0) -> float:
+    """Standard error on the logit scale from Rao-Wu replicates of a figure in [0, 1]: the larger
+    of their delta-method SD (linear in the replicates) and the SD of their logits, net of the
+    seed-by-cluster variance ``twice`` (on the figure's scale) counted once too often."""
+    slope = 1 / (est * (1 - est)) if 0 < est < 1 else 4.0 * (n + 1)
+    var = max(float(np.var(reps * slope, ddof=1)), float(np.var(_smoothed_logit(reps, n), ddof=1)))
+    return float(np.sqrt(max(var - twice * slope**2, 0.0)))
+
+
+def _logit_bounds(
+    est: float, reps: np.ndarray, twice: float, se: float, df: float, level: float, n: float
+) -> tuple[float, float]:
+    """Method ``mover``, a figure in (0, 1): the logit t-interval whose standard error is
+    :func:`_logit_sd`. A rate near its bound whose clusters happen to be good shows a small
+    spread; its replicates' logits still reach as far as its worst clusters take them."""
+    reps = reps[np.isfinite(reps)]
+    z = float(np.log(est / (1 - est)))
+    s = max(se / (est * (1 - est)), _logit_sd(reps, est, n, twice))
+    q = student_t.ppf(1 - (1 - level) / 2, df)
+    return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
+
+
+def _mover_bounds(
+    est: float,
+    means: Sequence[float],
+    sides: Sequence[tuple[np.ndarray, float]],
+    dfs: tuple[float, float],
+    level: float,
+    n: float,
+) -> tuple[float, float]:
+    """Method ``mover``, a change candidate - base of figures in [0, 1]: MOVER (Zou and Donner,
+    Stat. Med. 27, 2008) over the change's two nearly independent parts on the logit scale,
+    the contrast ``delta = logit(cand) - logit(base)`` and the level ``lambda`` (their mean):
+    the change is ``f(lambda, delta) = expit(lambda + delta / 2) - expit(lambda - delta / 2)``.
+
+    Each part gets a logit t-interval (standard error :func:`_logit_sd` of its replicates; the
+    contrast with the change's degrees of freedom ``dfs[0]``, the level with its own ``dfs[1]``),
+    mapped to the change's scale with the other part held at its estimate; the two arms on each
+    side combine as MOVER does, with the correlation of the parts' replicates. A level near a
+    bound shrinks a change and its spread together; the level's interval says how far it may be
+    off, and so how much larger the change may be. Combining the two sides' own intervals
+    instead (MOVER on base and candidate) overcovers: their replicates correlate near 1."""
+    (rb, tb), (rc, tc) = sides
+    ok = np.isfinite(rb) & np.isfinite(rc)
+    rb, rc = rb[ok], rc[ok]
+    lb, lc = _smoothed_logit(np.array(means), n)
+    lam, dlt = (lb + lc) / 2, lc - lb
+    zb, zc = _smoothed_logit(rb, n), _smoothed_logit(rc, n)
+
+    def net(rep: np.ndarray, lin: np.ndarray, seed_part: float) -> float:
+        var = max(float(np.var(rep, ddof=1)), float(np.var(lin, ddof=1)))
+        return float(np.sqrt(max(var - seed_part, 0.0)))
+
+    # the linearization of each side's logit, and the seed-by-cluster parts on the logit scale
+    slope = [1 / max(p * (1 - p), 1 / (4.0 * (n + 1))) for p in means]
+    gb, gc = (rb - means[0]) * slope[0], (rc - means[1]) * slope[1]
+    parts = tb * slope[0] ** 2 + tc * slope[1] ** 2
+    s_dlt = net(zc - zb, gc - gb, parts)
+    s_lam = net((zc + zb) / 2, (gc + gb) / 2, parts / 4)
+    rho = float(np.corrcoef(zc + zb, zc - zb)[0, 1]) if s_dlt > 0 and s_lam > 0 else 0.0
+    rho = rho if np.isfinite(rho) else 0.0
+
+    def f(lam_: np.ndarray | float, dlt_: np.ndarray | float) -> np.ndarray:
+        return 1 / (1 + np.exp(-(lam_ + dlt_ / 2))) - 1 / (1 + np.exp(-(lam_ - dlt_ / 2)))
+
+    alpha = 1 - level
+    q_dlt, q_lam = (student_t.ppf(1 - alpha / 2, d) for d in dfs)
+    at = float(f(lam, dlt))
+    up_c = float(f(lam, dlt + q_dlt * s_dlt)) - at  # f rises with the contrast
+    down_c = at - float(f(lam, dlt - q_dlt * s_dlt))
+    # f(., delta) is unimodal in the level, peaking at lambda = 0: its extremes over the
+    # level's interval lie at an end or at 0
+    ends = [lam - q_lam * s_lam, lam + q_lam * s_lam]
+    grid = np.array([*ends, *([0.0] if ends[0] < 0 < ends[1] else [])])
+    moved = f(grid, dlt) - at
+    up_l, down_l = max(float(moved.max()), 0.0), max(float(-moved.min()), 0.0)
+    # the parts' arms move the change together when the change rises with the level
+    r = rho * float(np.sign(f(lam + 1e-6, dlt) - f(lam - 1e-6, dlt)))
+    hi = est + np.sqrt(max(up_c**2 + up_l**2 + 2 * r * up_c * up_l, 0.0))
+    lo = est - np.sqrt(max(down_c**2 + down_l**2 + 2 * r * down_c * down_l, 0.0))
+    return float(lo), float(hi)
 
 
 def classic_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:

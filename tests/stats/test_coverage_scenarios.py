@@ -12,7 +12,7 @@ from sklearn.metrics import roc_auc_score
 bench = load("bench_coverage")
 
 
-@pytest.mark.parametrize("scenario", ["normal", "heavy"])
+@pytest.mark.parametrize("scenario", ["normal", "heavy", "ranks"])
 def test_the_simulation_matches_its_truth(scenario):
     """A large simulated test set lands on the closed-form figures the study counts against
     (heavy: the failing trials pull every figure down)."""
@@ -48,19 +48,23 @@ def test_the_benchmark_writes_its_table(tmp_path):
 # The study at 60 replications per setting, m = 10 and 20, pooled per scenario (120 test sets;
 # two standard errors of a coverage near 0.93 are about 0.05): the band 0.90-0.995, widened where
 # docs/coverage.md measures a shortfall (TN rate, AUROC and the change in TN rate: 0.89-0.92 at
-# 1,000 replications) or a conservative excess (the change in AUROC: 0.98-1.00).
+# 1,000 replications) or a conservative excess (the change in AUROC where its truth is 0:
+# 0.98-1.00); in the ``ranks`` scenario (the change in AUROC away from 0) the changes in TN rate
+# and AUROC fall short, 0.85-0.89 at 1,000 replications.
 BANDS = {name: (0.90, 0.995) for name in bench.NAMES}
 BANDS |= {k: (0.84, 0.995) for k in ("tn_rate", "auroc", "d_tn_rate")} | {"d_auroc": (0.95, 1.0)}
+RANKS_BANDS = BANDS | {"d_tn_rate": (0.78, 0.95), "d_auroc": (0.78, 0.95)}
 
 
 @pytest.mark.slow
 def test_every_figure_covers_in_every_scenario():
     table = bench.study(60, sizes=(10, 20), jobs=2)
     pooled = table.groupby("scenario")[list(bench.NAMES)].mean()
+    bands = {s: RANKS_BANDS if s == "ranks" else BANDS for s in bench.SCENARIOS}
     outside = {
         (s, k): round(v, 3)
         for s, row in pooled.iterrows()
         for k, v in row.items()
-        if not BANDS[k][0] <= v <= BANDS[k][1]
+        if not bands[s][k][0] <= v <= bands[s][k][1]
     }
     assert not outside, outside
