@@ -75,13 +75,13 @@ Pooled over m >= 10 and both correlation levels (without / with strata): accurac
 balanced accuracy 0.961 / 0.963, all within the 93-97 % target; the change in AUROC overcovers
 (0.984 / 0.983), but only because its truth in this model is 0 (the two detectors rank alike:
 its estimate and its standard error rise together, so its studentized spread is narrower than
-t's); where a candidate ranks better it falls short (``ranks`` below). Single settings fall short under strong
-correlation: the TN rate and its change at 10 recordings (0.87-0.90) and the TN rate and AUROC
-at 20-40 (0.92-0.93), where a few recordings fail badly and most pass perfectly; a sample that
-happens to hold none of the failing recordings shows no spread, and no interval built from the
-recordings at hand can know of them. With few recordings per balancing stratum the intervals
-widen (few degrees of freedom) and overcover. Below 10 clusters per class cells are flagged
-``low_n`` (:func:`slipbench.stats.metrics.is_low_n`).
+t's); where a candidate ranks better it falls short (``ranks`` below). Single settings fall
+short under strong correlation: the TN rate and its change at 10 recordings (0.87-0.90) and the
+TN rate and AUROC at 20-40 (0.92-0.93), where a few recordings fail badly and most pass
+perfectly; a sample that happens to hold none of the failing recordings shows no spread, and no
+interval built from the recordings at hand can know of them. With few recordings per balancing
+stratum the intervals widen (few degrees of freedom) and overcover. Below 10 clusters per class
+cells are flagged ``low_n`` (:func:`slipbench.stats.metrics.is_low_n`).
 
 How the method was chosen: exploratory runs, 300 test sets per setting, coverage at m = 10
 (tau 0.5 / 1.5) of accuracy, TN rate, AUROC and the change in TN rate:
@@ -120,10 +120,11 @@ those test sets hold no failing trial at all, and no interval from the sample ca
 truth then), the change in TN rate 0.915-0.975. The change in AUROC overcovers, 0.96-1.00
 (0.98-1.00 at 10-20 trials), as do the changes with 3 seeds at 10 trials (0.975-0.979). A
 skewness correction of the t-interval (each side widened to the bootstrap's own tail) did not
-help (300 replications); the default stays. A fourth scenario, ``ranks`` (a candidate that ranks
-better, so the change in AUROC is +0.036, not 0), shows the default short for the changes in AUROC
-and TN rate (0.84-0.88 at 10-20 trials per class, 0.90-0.92 at 40). ``method="mover"`` fixes those but overcovers
-the changes with failing trials; ``docs/coverage.md`` gives the screening and the choice.
+help (300 replications); the default stays. A fourth scenario, ``ranks`` (a candidate that
+ranks better, so the change in AUROC is +0.036, not 0), shows the default short for the changes
+in AUROC and TN rate (0.84-0.88 at 10-20 trials per class, 0.90-0.92 at 40). ``method="mover"``
+fixes those but overcovers the changes with failing trials; ``docs/coverage.md`` gives the
+screening and the choice.
 """
 
 from __future__ import annotations
