@@ -384,8 +384,9 @@ def interval(
         figure in (0, 1) takes the logit t-interval with the larger of the delta-method and the
         replicates' own logit standard error (:func:`_logit_bounds`); a change candidate - base
         of two seeded sides (:func:`seeded_interval` with signs (-1, 1)) takes MOVER over its
-        level and contrast (:func:`_mover_bounds`); anything else, as ``satterthwaite``. A study
-        option, see ``docs/coverage.md``.
+        level and contrast (:func:`_mover_bounds`); anything else (a change built as one
+        statistic, as :func:`slipbench.stats.metrics.paired_comparison` does), as
+        ``satterthwaite``. A study option, see ``docs/coverage.md``.
     bounds : (low, high)
         The range the figure can take: (0, 1) for figures, (-1, 1) for changes.
     """
