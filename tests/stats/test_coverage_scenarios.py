@@ -49,11 +49,15 @@ def test_the_benchmark_writes_its_table(tmp_path):
 # two standard errors of a coverage near 0.93 are about 0.05): the band 0.90-0.995, widened where
 # docs/coverage.md measures a shortfall (TN rate, AUROC and the change in TN rate: 0.89-0.92 at
 # 1,000 replications) or a conservative excess (the change in AUROC where its truth is 0:
-# 0.98-1.00); in the ``ranks`` scenario (the change in AUROC away from 0) the changes in TN rate
-# and AUROC fall short, 0.84-0.88 at 1,000 replications.
+# 0.98-1.00). In the ``ranks`` scenario the base detector is normal's, so only its changes are
+# checked: those in TN rate and AUROC (the latter away from 0 here) fall short, 0.84-0.88 at
+# 1,000 replications.
 BANDS = {name: (0.90, 0.995) for name in bench.NAMES}
 BANDS |= {k: (0.84, 0.995) for k in ("tn_rate", "auroc", "d_tn_rate")} | {"d_auroc": (0.95, 1.0)}
-RANKS_BANDS = BANDS | {"d_tn_rate": (0.78, 0.95), "d_auroc": (0.78, 0.95)}
+RANKS_BANDS = {k: v for k, v in BANDS.items() if k.startswith("d_")} | {
+    "d_tn_rate": (0.78, 0.95),
+    "d_auroc": (0.78, 0.95),
+}
 
 
 @pytest.mark.slow
@@ -65,6 +69,6 @@ def test_every_figure_covers_in_every_scenario():
         (s, k): round(v, 3)
         for s, row in pooled.iterrows()
         for k, v in row.items()
-        if not bands[s][k][0] <= v <= bands[s][k][1]
+        if k in bands[s] and not bands[s][k][0] <= v <= bands[s][k][1]
     }
     assert not outside, outside
