@@ -1,5 +1,5 @@
-"""The coverage study of ``benchmarks/bench_coverage.py`` (normal, heavy-tailed, seeds
-and ranks scenarios): its simulation against its closed-form truth (fast), and the study itself at few
+"""The coverage study of ``benchmarks/bench_coverage.py`` (normal, heavy-tailed, seeds and ranks
+scenarios): its simulation against its closed-form truth (fast), and the study itself at few
 replications against a looser band (slow). The full study's table is in docs/coverage.md."""
 
 from __future__ import annotations
