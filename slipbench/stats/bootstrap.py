@@ -120,11 +120,11 @@ those test sets hold no failing trial at all, and no interval from the sample ca
 truth then), the change in TN rate 0.915-0.975. The change in AUROC, whose truth in these
 three is 0, overcovers, 0.96-1.00 (0.98-1.00 at 10-20 trials), as do the changes with 3 seeds
 at 10 trials (0.975-0.979). A skewness correction of the t-interval (each side widened to the
-bootstrap's own tail) did not help (300 replications); the default stays. A fourth scenario, ``ranks`` (a candidate that
-ranks better, so the change in AUROC is +0.036, not 0), shows the default short for the changes
-in AUROC and TN rate (0.84-0.88 at 10-20 trials per class, 0.90-0.92 at 40). ``method="mover"``
-fixes those but overcovers the changes with failing trials; ``docs/coverage.md`` gives the
-screening and the choice.
+bootstrap's own tail) did not help (300 replications); the default stays. A fourth scenario,
+``ranks`` (a candidate that ranks better, so the change in AUROC is +0.036, not 0), shows the
+default short for the changes in AUROC and TN rate (0.84-0.88 at 10-20 trials per class,
+0.90-0.92 at 40). ``method="mover"`` fixes those (0.936-0.949) but overcovers the changes with
+failing trials (0.975-1.000); ``docs/coverage.md`` gives the screening and the choice.
 """
 
 from __future__ import annotations
