@@ -17,6 +17,11 @@ rate 0.92.
   performance by ``b ~ N(0, SEED_SD^2)`` latent units (towards the right class for both
   classes) and draws its own per-trial effects and window noise. The target is the figure's
   expectation over seeds and trials; the interval is :func:`slipbench.stats.metrics.over_seeds`.
+- ``ranks``: as ``normal``, but the candidate also pulls each class's mean ``RANK_SHIFT`` (0.5)
+  latent units further from the other's, so it ranks better: every change, the AUROC's
+  included (+0.036), is away from 0. Elsewhere the two detectors rank alike and the change in
+  AUROC is exactly 0, where a t-interval overcovers (its estimate and standard error rise
+  together).
 
 Every target has a closed form (normal integrals), so coverage is counted against the truth.
 ``d_<figure>``: the change candidate - base (paired on the same trials). Replications are
@@ -41,7 +46,7 @@ from scipy.stats import norm
 
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
-SCENARIOS = ("normal", "heavy", "seeds")
+SCENARIOS = ("normal", "heavy", "seeds", "ranks")
 SIZES = (5, 10, 20, 40)
 TAU, TAU_DETECTOR, SHARED_NOISE = 1.0, 0.5, 0.5
 TP, TN = 0.80, 0.92
@@ -49,6 +54,7 @@ SLIP_WINDOWS, NONSLIP_WINDOWS = (10, 200), (5, 100)
 SHIFT = 0.3  # the candidate's threshold, latent units
 FAIL_SHARE, FAIL_SHIFT = 0.10, 4.0  # heavy: failing trials, their shift in latent SDs
 SEEDS, SEED_SD = 3, 0.3  # seeds: per side, and the SD of a seed's effect (latent units)
+RANK_SHIFT = 0.5  # ranks: the candidate pulls each class mean this far apart (latent units)
 CHUNK = 50
 NAMES = (*FIGURES, *(f"d_{f}" for f in FIGURES))
 SHORT = {
@@ -85,13 +91,13 @@ def truth(scenario: str) -> dict[str, float]:
     slip, nonslip = _mixture(scenario)
     n1, n0 = np.mean(SLIP_WINDOWS), np.mean(NONSLIP_WINDOWS)
 
-    def figures(threshold: float) -> dict[str, float]:
+    def figures(threshold: float, sep: float) -> dict[str, float]:
         rate_sd = np.sqrt(sd**2 + b**2)
-        tp = sum(p * norm.cdf((mu - threshold) / rate_sd) for mu, p in slip)
-        tn = sum(p * norm.cdf((threshold - mu) / rate_sd) for mu, p in nonslip)
+        tp = sum(p * norm.cdf((mu + sep - threshold) / rate_sd) for mu, p in slip)
+        tn = sum(p * norm.cdf((threshold - mu + sep) / rate_sd) for mu, p in nonslip)
         pair_sd = np.sqrt(2 * sd**2 + 4 * b**2)
         auroc = sum(
-            p * q * norm.cdf((a - c) / pair_sd)
+            p * q * norm.cdf((a - c + 2 * sep) / pair_sd)
             for (a, p), (c, q) in itertools.product(slip, nonslip)
         )
         return {
@@ -102,7 +108,7 @@ def truth(scenario: str) -> dict[str, float]:
             "auroc": auroc,
         }
 
-    base, cand = figures(0.0), figures(SHIFT)
+    base, cand = figures(0.0, 0.0), figures(SHIFT, RANK_SHIFT if scenario == "ranks" else 0.0)
     return base | {f"d_{k}": cand[k] - base[k] for k in base}
 
 
@@ -131,9 +137,10 @@ def dataset(
         effect = rng.normal(0, SEED_SD, 2) if scenario == "seeds" else np.zeros(2)
         shared = rng.normal(0, np.sqrt(SHARED_NOISE), len(y))
         for k, threshold in enumerate((0.0, SHIFT)):
+            sep = RANK_SHIFT if scenario == "ranks" and k == 1 else 0.0
             score = (
                 trial
-                + sign * effect[k]
+                + sign * (effect[k] + sep)
                 + rng.normal(0, TAU_DETECTOR, 2 * m)[groups]
                 + shared
                 + rng.normal(0, np.sqrt(1 - SHARED_NOISE), len(y))

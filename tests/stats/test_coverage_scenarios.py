@@ -1,4 +1,4 @@
-"""The coverage study of ``benchmarks/bench_coverage.py`` (normal, heavy-tailed and seeds
+"""The coverage study of ``benchmarks/bench_coverage.py`` (normal, heavy-tailed, seeds and ranks
 scenarios): its simulation against its closed-form truth (fast), and the study itself at few
 replications against a looser band (slow). The full study's table is in docs/coverage.md."""
 
@@ -12,7 +12,7 @@ from sklearn.metrics import roc_auc_score
 bench = load("bench_coverage")
 
 
-@pytest.mark.parametrize("scenario", ["normal", "heavy"])
+@pytest.mark.parametrize("scenario", ["normal", "heavy", "ranks"])
 def test_the_simulation_matches_its_truth(scenario):
     """A large simulated test set lands on the closed-form figures the study counts against
     (heavy: the failing trials pull every figure down)."""
@@ -48,19 +48,27 @@ def test_the_benchmark_writes_its_table(tmp_path):
 # The study at 60 replications per setting, m = 10 and 20, pooled per scenario (120 test sets;
 # two standard errors of a coverage near 0.93 are about 0.05): the band 0.90-0.995, widened where
 # docs/coverage.md measures a shortfall (TN rate, AUROC and the change in TN rate: 0.89-0.92 at
-# 1,000 replications) or a conservative excess (the change in AUROC: 0.98-1.00).
+# 1,000 replications) or a conservative excess (the change in AUROC where its truth is 0:
+# 0.98-1.00). In the ``ranks`` scenario the base detector is normal's, so only its changes are
+# checked: those in TN rate and AUROC (the latter away from 0 here) fall short, 0.84-0.88 at
+# 1,000 replications.
 BANDS = {name: (0.90, 0.995) for name in bench.NAMES}
 BANDS |= {k: (0.84, 0.995) for k in ("tn_rate", "auroc", "d_tn_rate")} | {"d_auroc": (0.95, 1.0)}
+RANKS_BANDS = {k: v for k, v in BANDS.items() if k.startswith("d_")} | {
+    "d_tn_rate": (0.78, 0.95),
+    "d_auroc": (0.78, 0.95),
+}
 
 
 @pytest.mark.slow
 def test_every_figure_covers_in_every_scenario():
     table = bench.study(60, sizes=(10, 20), jobs=2)
     pooled = table.groupby("scenario")[list(bench.NAMES)].mean()
+    bands = {s: RANKS_BANDS if s == "ranks" else BANDS for s in bench.SCENARIOS}
     outside = {
         (s, k): round(v, 3)
         for s, row in pooled.iterrows()
         for k, v in row.items()
-        if not BANDS[k][0] <= v <= BANDS[k][1]
+        if k in bands[s] and not bands[s][k][0] <= v <= bands[s][k][1]
     }
     assert not outside, outside
