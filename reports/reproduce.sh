@@ -103,7 +103,7 @@ if [ "${REDUCTION:-1}" != 0 ]; then
   reduction="${RESULTS}-reduction"
   if [ -z "${REPORT_ONLY:-}" ]; then
     slipbench evaluate --detector "${INPUT_DETECTORS:-tcn,wavelet-svm}" --protocol window-size \
-      --input both --split grouped --repeats 3 --scale "${REDUCTION_SCALE:-0.05}" --jobs "$JOBS" \
+      --input both --split grouped --repeats "${REDUCTION_REPEATS:-3}" --scale "${REDUCTION_SCALE:-0.05}" --jobs "$JOBS" \
       --out "$reduction" --quiet > /dev/null
   fi
   rm -rf "$REPORTS/reduction"
