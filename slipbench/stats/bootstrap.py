@@ -567,9 +567,10 @@ def _logit_sd(reps: np.ndarray, est: float, n: float, twice: float = 0.0) -> flo
 def _logit_bounds(
     est: float, reps: np.ndarray, twice: float, se: float, df: float, level: float, n: float
 ) -> tuple[float, float]:
-    """Method ``mover``, a figure in (0, 1): the logit t-interval whose standard error is
-    :func:`_logit_sd`. A rate near its bound whose clusters happen to be good shows a small
-    spread; its replicates' logits still reach as far as its worst clusters take them."""
+    """Methods ``mover`` and ``replicate-logit``, a figure in (0, 1): the logit t-interval whose
+    standard error is :func:`_logit_sd`. A rate near its bound whose clusters happen to be good
+    shows a small spread; its replicates' logits still reach as far as its worst clusters take
+    them."""
     reps = reps[np.isfinite(reps)]
     z = float(np.log(est / (1 - est)))
     s = max(se / (est * (1 - est)), _logit_sd(reps, est, n, twice))
