@@ -1,6 +1,7 @@
 """The ``mover`` interval method (logit t with the replicates' own logit spread for figures;
-MOVER over the level and the contrast of a change): its mechanics. Its coverage is measured in
-docs/coverage.md (``benchmarks/bench_coverage.py --method mover``)."""
+MOVER over the level and the contrast of a change) and ``replicate-logit`` (its figures of one
+seed, else the default): their mechanics. Their coverage is measured in docs/coverage.md
+(``benchmarks/bench_coverage.py --method mover``, ``--method replicate-logit``)."""
 
 from __future__ import annotations
 
@@ -78,3 +79,18 @@ def test_it_is_deterministic_given_the_seed():
     assert over_seeds(base, cand, seed=5, method="mover") == over_seeds(
         base, cand, seed=5, method="mover"
     )
+
+
+@pytest.mark.parametrize("scenario", ["normal", "seeds"])
+def test_replicate_logit_is_movers_figures_of_one_seed_and_else_the_default(scenario):
+    base, cand = bench.dataset(np.random.default_rng(6), 10, scenario)
+    default = over_seeds(base, seed=2), over_seeds(base, cand, seed=2)
+    mover = over_seeds(base, seed=2, method="mover")
+    got = (
+        over_seeds(base, seed=2, method="replicate-logit"),
+        over_seeds(base, cand, seed=2, method="replicate-logit"),
+    )
+    assert got[1] == default[1]  # changes: the default's
+    assert got[0] == (mover if scenario == "normal" else default[0])
+    if scenario == "normal":
+        assert got[0] != default[0]
