@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import textwrap
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -101,6 +102,12 @@ def _styled(draw: Callable[_P, _R]) -> Callable[_P, _R]:
 
     inner.__doc__ = draw.__doc__
     return inner
+
+
+def file_stem(name: str) -> str:
+    """``name`` as a file name a Markdown link takes as it is: runs of anything but letters,
+    digits and dots become one hyphen (``tcn (channels)-grouped`` -> ``tcn-channels-grouped``)."""
+    return re.sub(r"[^A-Za-z0-9.]+", "-", name).strip("-")
 
 
 def save(fig: Figure, folder: Path, stem: str) -> list[Path]:
@@ -682,7 +689,7 @@ def figure_specs(
             stem += "".join(f"-{v}" for v in which.values()) if named else ""
             specs.append(
                 FigureSpec(
-                    stem,
+                    file_stem(stem),
                     f"{protocol}, {detector} ({split} split{named}).",
                     protocol,
                     partial(figure, rows_, layout, f"{detector} ({split} split{named})", paper),

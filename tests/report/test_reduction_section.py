@@ -115,3 +115,11 @@ def test_one_seed_of_both_inputs_is_not_averaged_as_two_seeds(tmp_path):
     folder, rows = inputs_folder(tmp_path, seeds=(0,))
     text = render(build_report(rows, predictions=[folder]), "md")
     assert "across seeds" not in text[: text.index(f"## {TITLE}")]
+
+
+def test_figure_files_of_a_channels_entrant_have_link_safe_names():
+    """A Markdown link stops at a space: figure files of ``tcn (channels)`` must have none."""
+    from slipbench.report.plots import file_stem
+
+    assert file_stem("window-size-tcn (channels)-grouped") == "window-size-tcn-channels-grouped"
+    assert file_stem("sampling-rate-holweg-lag-True") == "sampling-rate-holweg-lag-True"

@@ -172,7 +172,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
     text = (tmp_path / "report.md").read_text()
     assert "Published (Van Wyk & Falco, their LSTM)" in text and "holweg (paper)" in text
     assert "Ours minus published" not in text  # holweg is not the paper's model
-    assert "| Data | simulated (slipbench.synth model v2, scale 0.02, seed 1;" in re.sub(
+    assert "| Data | simulated (slipbench.synth model v3, scale 0.02, seed 1;" in re.sub(
         r" +", " ", text
     )
     assert "Smallest test set" in text
