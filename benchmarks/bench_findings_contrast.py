@@ -51,6 +51,7 @@ import pandas as pd
 from scipy.stats import norm
 
 from slipbench.report.findings import UNIT, _cells, _unit_contrast
+from slipbench.report.tables import summarize
 from slipbench.stats.contrast import Estimate
 from slipbench.stats.metrics import classification_figures
 
@@ -153,16 +154,14 @@ def contrasts(table: pd.DataFrame) -> dict[str, Estimate]:
         ignore_index=True,
     )
     both = _cells(table[table["window"] == 50], [*UNIT, "_who"])
+    index50 = lstm[(lstm["sensor_instance"] == "index") & (lstm["window"] == 50)]
+    one = summarize(index50, [*UNIT, "window"])
     return {
         "rise": _unit_contrast(cells, "window", [200], [5]),
         "levels": _unit_contrast(cells, "window", [200], [50]),
         "gap": _unit_contrast(rates, "_r", ["tp"], ["tn"]),
         "lead": _unit_contrast(both, "_who", ["lstm"], ["holweg"]),
-        "cell": Estimate(
-            *cells.query("sensor_instance == 'index' and window == 50")[["mean", "lo", "hi"]].iloc[
-                0
-            ]
-        ).scaled(100),
+        "cell": Estimate(*one[["mean", "lo", "hi"]].iloc[0]).scaled(100),
     }
 
 
@@ -200,9 +199,8 @@ def study(
         total = {k: sum(h[k] for h in mine) / reps for k in mine[0]}
         line: dict = {"scenario": s, "trials/class": m, "reps": reps}
         for name in CONTRASTS:
-            sd = np.sqrt(
-                max(total[f"sq {name}"] - total[f"sum {name}"] ** 2, 0) * reps / (reps - 1)
-            )
+            spread = max(total[f"sq {name}"] - total[f"sum {name}"] ** 2, 0.0)
+            sd = np.sqrt(spread * reps / (reps - 1)) if reps > 1 else np.nan
             line[name] = total[f"hit {name}"]
             line[f"w {name}"] = total[f"w {name}"]
             line[f"w/ideal {name}"] = total[f"w {name}"] / (2 * 1.96 * sd) if sd > 0 else np.nan

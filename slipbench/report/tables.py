@@ -55,9 +55,9 @@ POOLED_TEXT = (
     "trials once for every seed, and draws the seeds), so retraining noise is inside it"
 )
 ROWS_TEXT = (
-    "its interval from the seeds' rows (their mean standard error and the spread of their figures "
-    "over seeds, a t-interval with Satterthwaite degrees of freedom: retraining noise inside, "
-    "erring wide; keep predictions for the two-level bootstrap)"
+    "its interval from the seeds' rows (their mean standard error at the normal quantile and the "
+    "spread of their figures over seeds at t's, combined as Banerjee's: retraining noise inside; "
+    "keep predictions for the two-level bootstrap)"
 )
 ROW_HEADERS = {
     "sensor_type": "Sensor",
@@ -246,7 +246,7 @@ def _seed_interval(ok: pd.DataFrame, metric: str) -> tuple[float, float]:
     lo, hi = ok[lo_col].astype(float).to_numpy(), ok[hi_col].astype(float).to_numpy()
     if len(ok) == 1:
         return float(lo[0]), float(hi[0])
-    from_bounds = (hi - lo) / (2 * 1.959964)
+    from_bounds = (hi - lo) / (2 * 1.959964)  # a 95 % interval's half-width over z
     se = ok[se_col].astype(float).to_numpy() if se_col in ok else from_bounds
     se = np.where(np.isnan(se), from_bounds, se)
     fraction = metric.removeprefix("op_") in (*FIGURES, "detection_rate")
@@ -538,8 +538,10 @@ def _seeds_notes(
         trials = _trials_text(pd.DataFrame([pooled[k] for k in at_hand]))
     else:
         ok = rows[rows["status"].eq("ok")] if "status" in rows else rows
-        mine = ok[[tuple(v) in repeated for v in ok[keys].itertuples(index=False)]]
-        trials = _trials_text(mine) and f"{_trials_text(mine)} per seed"
+        per_seed = _trials_text(
+            ok[[tuple(v) in repeated for v in ok[keys].itertuples(index=False)]]
+        )
+        trials = per_seed and f"{per_seed} per seed"
     head = (
         "[95 % interval: cluster bootstrap over test trials, stratified by class; a figure run under "
         f"{_range(repeated.values())} seeds{f' ({trials})' if trials else ''} is their mean, "
