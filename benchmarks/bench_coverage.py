@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 
+from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
 SCENARIOS = ("normal", "heavy", "seeds", "ranks")
@@ -173,7 +174,7 @@ def study(
     sizes: Sequence[int] = SIZES,
     jobs: int = 1,
     seed: int = 0,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
 ) -> pd.DataFrame:
     """Coverage of every figure's interval and of every change, and (``w_<name>``) the mean
     width of each: one row per (scenario, m)."""
@@ -222,7 +223,7 @@ def main(argv: Sequence[str] | None = None) -> pd.DataFrame:
     )
     ap.add_argument("--jobs", type=int, default=2, help="processes")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--method", default="satterthwaite", help="interval method (bootstrap.METHODS)")
+    ap.add_argument("--method", default=DEFAULT_METHOD, help="interval method (bootstrap.METHODS)")
     ap.add_argument("--out", type=Path, help="write the Markdown table here too")
     ap.add_argument("--widths", action="store_true", help="show the mean widths too")
     a = ap.parse_args(argv)

@@ -144,6 +144,8 @@ from slipbench.seeding import rng_for
 LEVEL = 0.95
 N_RESAMPLES = 999
 METHODS = ("satterthwaite", "t", "percentile", "studentized", "mover", "replicate-logit")
+#: the interval every figure and change takes unless told otherwise (``docs/coverage.md``)
+DEFAULT_METHOD = "replicate-logit"
 
 
 @dataclass(frozen=True)
@@ -362,7 +364,7 @@ def interval(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
     bounds: tuple[float, float] = (0.0, 1.0),
 ) -> Interval:
     """Interval of a figure by the stratified cluster bootstrap.
@@ -378,8 +380,12 @@ def interval(
         The clusters the figure draws on.
     sizes : ndarray of shape (n_clusters,)
         Windows per cluster that the figure draws on.
-    method : {"satterthwaite", "t", "percentile", "studentized"}
-        ``satterthwaite`` (default; see the module docstring); ``t``: estimate ± t quantile
+    method : {"replicate-logit", "satterthwaite", "t", "percentile", "studentized", "mover"}
+        ``replicate-logit`` (the default, :data:`DEFAULT_METHOD`): ``satterthwaite``, except
+        that a figure in (0, 1) takes as its logit standard error the larger of the delta
+        method's and the SD of its clusters' replicates' logits (:func:`_logit_bounds`; over
+        several seeds, the replicates of the seeds' plain mean). ``satterthwaite``: the module
+        docstring's three steps. ``t``: estimate ± t quantile
         (df clusters - strata) × bootstrap standard error; ``percentile``. The last two are
         kept as the references the coverage study compares against. ``studentized``: the
         union of the ``satterthwaite`` interval and a bootstrap-t interval
@@ -389,8 +395,8 @@ def interval(
         of two seeded sides (:func:`seeded_interval` with signs (-1, 1)) takes MOVER over its
         level and contrast (:func:`_mover_bounds`); anything else (a change built as one
         statistic, as :func:`slipbench.stats.metrics.paired_comparison` does), as
-        ``satterthwaite``. ``replicate-logit``: ``mover``'s figures of one seed, everything
-        else as ``satterthwaite``. Study options, see ``docs/coverage.md``.
+        ``satterthwaite``. Every method but the default is a study option, see
+        ``docs/coverage.md``.
     bounds : (low, high)
         The range the figure can take: (0, 1) for figures, (-1, 1) for changes.
     """
@@ -419,7 +425,7 @@ def seeded_interval(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
     bounds: tuple[float, float] = (0.0, 1.0),
 ) -> Interval:
     """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` by a two-level
@@ -461,6 +467,8 @@ def seeded_interval(
     with np.errstate(invalid="ignore", divide="ignore"):
         boot = np.zeros(n_resamples)
         for k, (sign, f) in enumerate(zip(signs, per_seed(w))):
+            if k == 0:
+                cluster_mean = f.mean(axis=1)
             v = seed_weights(f.shape[1], seed, k, n_resamples)
             side = (f * v).sum(axis=1) / v.sum(axis=1)
             boot += sign * side
@@ -507,16 +515,12 @@ def seeded_interval(
         lo, hi = np.quantile(boot, [alpha / 2, 1 - alpha / 2])
     elif method == "mover" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
         lo, hi = _logit_bounds(est, sides[0][0], sum(twice), se, df, level, sizes[used].sum())
-    elif (
-        method == "replicate-logit"
-        and unit
-        and tuple(signs) == (1.0,)
-        and len(at_one[0]) == 1
-        and 0 < est < 1
-    ):
-        # one seed only: with several, the seeds' draws spread the replicates' logits too,
-        # and the default's figures already cover there
-        lo, hi = _logit_bounds(est, sides[0][0], 0.0, se, df, level, sizes[used].sum())
+    elif method == "replicate-logit" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
+        # the clusters' replicates of the seeds' plain mean: seed draws left out, so several
+        # seeds' logit spread is the test sets' alone and identical seeds give one seed's
+        # interval (the smoothing takes one seed's windows)
+        n = sizes[used].sum() / len(at_one[0])
+        lo, hi = _logit_bounds(est, cluster_mean, 0.0, se, df, level, n)
     elif method == "mover" and bounds == (-1.0, 1.0) and tuple(signs) == (-1.0, 1.0):
         # a change of two figures in [0, 1]; the level (their mean) has its own df
         level_df = satterthwaite_df(

@@ -22,6 +22,7 @@ from scipy.stats import t as student_t
 from statsmodels.stats.proportion import proportion_confint
 
 from slipbench.stats.bootstrap import (
+    DEFAULT_METHOD,
     LEVEL,
     N_RESAMPLES,
     Design,
@@ -302,7 +303,7 @@ def classification_figures(
     strata: np.ndarray | None = None,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
 
@@ -406,7 +407,7 @@ def mean_over_test_sets(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """The mean of each figure over several test sets, with ONE joint bootstrap.
 
@@ -438,7 +439,7 @@ def pool_seeds(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """One cell run under several seeds (``--repeats``): one figure and one interval.
 
@@ -498,7 +499,7 @@ def over_seeds(
     seed: int = 0,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
 ) -> dict:
     """A cell run under several seeds per side: the seed-averaged figure (``cand`` None) or its
@@ -603,7 +604,7 @@ def paired_comparison(
     base_scores: np.ndarray | None = None,
     cand_scores: np.ndarray | None = None,
     strata: np.ndarray | None = None,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
 ) -> dict[str, float | int | bool]:
     """Two detectors' predictions on the same test windows: the change (candidate - base) of
