@@ -103,3 +103,36 @@ def test_replicate_logit_is_the_default_with_the_replicates_logit_spread_for_fig
         assert got[0][name] == old[0][name]
         assert got[0][f"{name}_lo"] <= old[0][f"{name}_lo"] + 1e-12, name
         assert got[0][f"{name}_hi"] >= old[0][f"{name}_hi"] - 1e-12, name
+
+
+def _two_sides(kind: str, seed: int) -> tuple[list[Predictions], list[Predictions]]:
+    """30 + 30 trials. ``odds``: the candidate divides every non-slip trial's odds of a false
+    alarm by 6 (a constant change on the logit scale); ``shift``: every tenth trial fails both
+    sides alike, elsewhere the candidate halves a small error rate (steady on the rate's scale)."""
+    rng = np.random.default_rng(seed)
+    sizes = rng.integers(20, 80, 60)
+    groups = np.repeat(np.arange(60), sizes)
+    y = groups < 30
+    if kind == "odds":
+        p = rng.uniform(0.02, 0.6, 60)
+        q = p / 6 / (1 - p + p / 6)
+    else:
+        bad = np.arange(60) % 10 == 0
+        p, q = np.where(bad, 0.9, 0.08), np.where(bad, 0.9, 0.04)
+    u = rng.random(len(y))
+    base, cand = y | (u < p[groups]), y | (u < q[groups])
+    return [Predictions(y, base, groups)], [Predictions(y, cand, groups)]
+
+
+@pytest.mark.parametrize(("kind", "like"), [("odds", "mover"), ("shift", "satterthwaite")])
+def test_scale_choice_takes_the_scale_on_which_the_change_is_steady(kind, like):
+    """``scale-choice``: MOVER on the logit scale where the candidate changes the odds alike on
+    every trial, the rate's own scale where failing trials move both sides alike."""
+    for seed in range(3):
+        sides = _two_sides(kind, seed)
+        got = over_seeds(*sides, seed=1, method="scale-choice", figures=("tn_rate",))
+        ref = over_seeds(*sides, seed=1, method=like, figures=("tn_rate",))
+        assert (got["d_tn_rate_lo"], got["d_tn_rate_hi"]) == (
+            ref["d_tn_rate_lo"],
+            ref["d_tn_rate_hi"],
+        ), (kind, seed)
