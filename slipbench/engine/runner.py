@@ -25,6 +25,7 @@ from slipbench.engine.executors import execute, workers_for
 from slipbench.engine.fitting import TestSet
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
+from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.store.keys import canonical
 from slipbench.store.results import ResultsStore
 from slipbench.stream.cell import Recordings, StreamTest
@@ -34,6 +35,8 @@ def environment() -> dict[str, str]:
     torch = sys.modules.get("torch")
     return {
         "slipbench_version": __version__,
+        # the intervals' method: stored cells keep theirs when the default changes
+        "interval_method": DEFAULT_METHOD,
         "python_version": platform.python_version(),
         "numpy_version": np.__version__,
         "torch_version": getattr(torch, "__version__", ""),

@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
+from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.vocabulary import cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
@@ -219,6 +220,19 @@ def _values(rows: pd.DataFrame, column: str) -> list:
     return sorted(rows[column].dropna().unique(), key=str) if column in rows else []
 
 
+def _intervals(rows: pd.DataFrame) -> str:
+    """How the cells' 95 % intervals were computed: the method the rows record (rows written
+    before it was recorded took ``satterthwaite``), and, with several seeds per cell, that the
+    tables' two-level intervals are computed here with today's default."""
+    stored = _values(rows, "interval_method")
+    if "interval_method" not in rows or rows["interval_method"].isna().any():
+        stored = sorted({*stored, "satterthwaite (not recorded in older rows)"})
+    text = f"95 %, cluster bootstrap over test trials; method {', '.join(map(str, stored))}"
+    if len(_values(rows, "seed")) > 1:
+        text += f"; over seeds, computed for this report with {DEFAULT_METHOD}"
+    return text
+
+
 def _where(row: pd.Series) -> str:
     return (
         f"{row['protocol']}, {row['detector']}, {cell_label(row['cell'])}"
@@ -273,6 +287,7 @@ def header_tables(
             f"{int(low.sum())} finished cells" + (" (marked in every table)" if low.any() else ""),
         ),
         ("Metric", metric),
+        ("Intervals", _intervals(rows)),
         ("slipbench", ", ".join(map(str, _values(rows, "slipbench_version"))) or "unknown"),
     ]
     if benchmark:
