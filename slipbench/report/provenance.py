@@ -18,7 +18,6 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
-from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.vocabulary import cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
@@ -222,14 +221,13 @@ def _values(rows: pd.DataFrame, column: str) -> list:
 
 def _intervals(rows: pd.DataFrame) -> str:
     """How the cells' 95 % intervals were computed: the method the rows record (rows written
-    before it was recorded took ``satterthwaite``), and, with several seeds per cell, that the
-    tables' two-level intervals are computed here with today's default."""
+    before it was recorded took ``satterthwaite``), and how several seeds of a cell combine."""
     stored = _values(rows, "interval_method")
     if "interval_method" not in rows or rows["interval_method"].isna().any():
         stored = sorted({*stored, "satterthwaite (not recorded in older rows)"})
     text = f"95 %, cluster bootstrap over test trials; method {', '.join(map(str, stored))}"
     if len(_values(rows, "seed")) > 1:
-        text += f"; over seeds, computed for this report with {DEFAULT_METHOD}"
+        text += "; a cell over several seeds combines its seeds' rows (Banerjee's interval)"
     return text
 
 
