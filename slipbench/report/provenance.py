@@ -18,6 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
+from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.vocabulary import cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
@@ -220,15 +221,17 @@ def _values(rows: pd.DataFrame, column: str) -> list:
 
 
 def _intervals(rows: pd.DataFrame) -> str:
-    """How the cells' 95 % intervals were computed: the method the rows record (rows written
-    before it was recorded took ``satterthwaite``), and how several seeds of a cell combine."""
+    """How the 95 % intervals were computed: each cell's with the method its row records (rows
+    written before it was recorded took ``satterthwaite``); a mean over fingers or seeds, here,
+    with today's default from the stored predictions (:mod:`slipbench.stats.joint`)."""
     stored = _values(rows, "interval_method")
     if "interval_method" not in rows or rows["interval_method"].isna().any():
         stored = sorted({*stored, "satterthwaite (not recorded in older rows)"})
-    text = f"95 %, cluster bootstrap over test trials; method {', '.join(map(str, stored))}"
-    if len(_values(rows, "seed")) > 1:
-        text += "; a cell over several seeds combines its seeds' rows (Banerjee's interval)"
-    return text
+    return (
+        f"95 %, cluster bootstrap over test trials; a cell's: method {', '.join(map(str, stored))}; "
+        f"a mean over fingers or seeds: bootstrapped for this report with {DEFAULT_METHOD} "
+        "from the stored predictions (without them, combined from the rows, as its note says)"
+    )
 
 
 def _where(row: pd.Series) -> str:
