@@ -37,8 +37,9 @@ import argparse
 import itertools
 import multiprocessing
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -168,6 +169,14 @@ def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, float]:
     return hits
 
 
+def run_tasks(work: Callable[[Any], Any], tasks: list, jobs: int) -> list:
+    """``work`` over ``tasks`` in order, by ``jobs`` processes (one task at a time each)."""
+    if jobs > 1:
+        with multiprocessing.Pool(jobs) as pool:
+            return pool.map(work, tasks, chunksize=1)
+    return [work(t) for t in tasks]
+
+
 def study(
     reps: int,
     scenarios: Sequence[str] = SCENARIOS,
@@ -184,11 +193,7 @@ def study(
         for m in sizes
         for c in range(-(-reps // CHUNK))
     ]
-    if jobs > 1:
-        with multiprocessing.Pool(jobs) as pool:
-            results = pool.map(_chunk, tasks, chunksize=1)
-    else:
-        results = [_chunk(t) for t in tasks]
+    results = run_tasks(_chunk, tasks, jobs)
     rows = []
     for s in scenarios:
         for m in sizes:

@@ -21,13 +21,12 @@ figure as far off as heavy's (the price of such an interval, paid on clean data)
 from __future__ import annotations
 
 import argparse
-import multiprocessing
 import time
 from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
-from bench_coverage import FAIL_SHARE, NAMES, SCENARIOS, SHORT, dataset, truth
+from bench_coverage import CHUNK, FAIL_SHARE, NAMES, SCENARIOS, SHORT, dataset, run_tasks, truth
 
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import over_seeds
@@ -59,17 +58,12 @@ def study(
 ) -> pd.DataFrame:
     """One row per (trials per class, figure): ``P(clean)``, ``c``, the bound on heavy's
     coverage and the ``c`` that 93 % would need."""
-    chunk = 50
     tasks = [
-        (m, c, min(chunk, reps - c * chunk), seed, method)
+        (m, c, min(CHUNK, reps - c * CHUNK), seed, method)
         for m in sizes
-        for c in range(-(-reps // chunk))
+        for c in range(-(-reps // CHUNK))
     ]
-    if jobs > 1:
-        with multiprocessing.Pool(jobs) as pool:
-            results = pool.map(_chunk, tasks, chunksize=1)
-    else:
-        results = [_chunk(t) for t in tasks]
+    results = run_tasks(_chunk, tasks, jobs)
     rows = []
     for m in sizes:
         mine = [h for t, h in zip(tasks, results) if t[0] == m]
