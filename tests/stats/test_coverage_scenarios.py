@@ -72,3 +72,21 @@ def test_every_figure_covers_in_every_scenario():
         if k in bands[s] and not bands[s][k][0] <= v <= bands[s][k][1]
     }
     assert not outside, outside
+
+
+def test_the_limit_study_counts_against_heavy_and_bounds_it(monkeypatch):
+    """``bench_coverage_limit``: without failing trials the heavy scenario is the normal one (its
+    premise), clean test sets are as likely as the formula says, and the bound is the formula's."""
+    limit = load("bench_coverage_limit")
+    with monkeypatch.context() as m:
+        m.setattr(bench, "FAIL_SHARE", 0.0)
+        assert bench.truth("heavy") == pytest.approx(bench.truth("normal"))
+    table = limit.study(reps=4, sizes=[5])
+    assert list(table["figure"]) == list(bench.NAMES)
+    one_class = table["figure"].isin(["tp_rate", "tn_rate", "d_tp_rate", "d_tn_rate"])
+    assert np.allclose(table.loc[one_class, "P(clean)"], 0.9**5)
+    assert np.allclose(table.loc[~one_class, "P(clean)"], 0.9**10)
+    c = table["c: normal holds heavy's truth"]
+    assert ((c >= 0) & (c <= 1)).all()
+    assert np.allclose(table["heavy coverage at most"], 1 - table["P(clean)"] * (1 - c))
+    assert np.allclose(table["c needed for 0.93"], np.maximum(0, 1 - 0.07 / table["P(clean)"]))
