@@ -71,18 +71,18 @@ this reproduction shows what the paper found: "yes" only where the 95 % interval
 supports it (each row states its rule). Where it does not, these are the reasons the
 simulation's design gives (see `datasets.md`), not measured facts about the sensors:
 
-- *Levelling off beyond window 50.* The simulated detectors lose 3.7-4.9 points from window 50
+- *Levelling off beyond window 50.* The simulated detectors lose 1.9-3.8 points from window 50
   to 200 (the LSTM; a window of 200 leaves a quarter of the training windows of window 50): a fall, which
   the rule does not count as levelling off.
 - *BioTac SP's collapse at 212.5 Hz and below.* The simulated BioTac SP's contact rings at about
   25 Hz and its slip separates from pressing in every band below 50 Hz (`datasets.md`), so
-  212.5 Hz keeps most of the contrast: a drop of 8.3 points, not the paper's 21.5.
+  212.5 Hz keeps most of the contrast: a drop of 8.0 points, not the paper's 21.5.
 - *The material pattern.* Holding a material out costs the simulated detectors a point or so;
   neoprene, the softest, loses most, as in the paper, but its lead over the next material lies
   well inside the intervals.
 - *The LSTM ahead of Holweg by 10-20 points.* Simulated slip is, above all, more vibration energy
   in a band, which Holweg's threshold measures (its band and threshold fitted on the training
-  side), so the threshold detector comes within 5.5 points.
+  side), so the threshold detector comes within 5.0 points.
 - *TP and TN rates in balance.* Simulated pressing rings a hard tip's contact mode like slip, and
   the 0.5 threshold is not calibrated per sensor, so TP - TN at window 50 swings by several
   points with the draw of windows and seeds.
