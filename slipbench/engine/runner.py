@@ -9,6 +9,7 @@ results store, atomically, in the parent process alone.
 from __future__ import annotations
 
 import contextlib
+import importlib.metadata
 import json
 import platform
 import sys
@@ -31,6 +32,13 @@ from slipbench.store.results import ResultsStore
 from slipbench.stream.cell import Recordings, StreamTest
 
 
+def _version_of(distribution: str) -> str:
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return ""
+
+
 def environment() -> dict[str, str]:
     torch = sys.modules.get("torch")
     return {
@@ -39,6 +47,9 @@ def environment() -> dict[str, str]:
         "interval_method": DEFAULT_METHOD,
         "python_version": platform.python_version(),
         "numpy_version": np.__version__,
+        # the LSTM's kernels are compiled with fastmath: another numba (LLVM) trains them to
+        # other weights, several points apart at long windows
+        "numba_version": _version_of("numba"),
         "torch_version": getattr(torch, "__version__", ""),
         "platform": platform.platform(),
     }
