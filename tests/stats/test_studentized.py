@@ -1,4 +1,4 @@
-"""The ``studentized`` interval method (bootstrap-t united with the default interval): its
+"""The ``studentized`` interval method (bootstrap-t united with the ``satterthwaite`` interval): its
 mechanics (fast) and its coverage in the three scenarios of ``benchmarks/bench_coverage.py``
 at low replications (slow). The study's table is in docs/coverage.md."""
 
@@ -21,7 +21,7 @@ def _bounds(result: dict, name: str) -> tuple[float, float, float]:
 def test_bounds_are_finite_hold_the_estimate_and_the_default_interval(scenario):
     base, cand = bench.dataset(np.random.default_rng(3), 10, scenario)
     for cand_side, prefix, lo_bound in ((None, "", 0.0), (cand, "d_", -1.0)):
-        old = over_seeds(base, cand_side, seed=1)
+        old = over_seeds(base, cand_side, seed=1, method="satterthwaite")
         new = over_seeds(base, cand_side, seed=1, method="studentized")
         for f in FIGURES:
             est, lo, hi = _bounds(new, prefix + f)
@@ -46,7 +46,8 @@ def test_a_skewed_rate_widens_its_low_side_only():
     pred[(groups == 13) & (rng.random(len(y)) < 0.2)] = True
     pred[y & (rng.random(len(y)) < 0.2)] = False
     p = [Predictions(y, pred, groups, pred + rng.normal(0, 0.5, len(y)))]
-    old, new = over_seeds(p, seed=2), over_seeds(p, seed=2, method="studentized")
+    old = over_seeds(p, seed=2, method="satterthwaite")
+    new = over_seeds(p, seed=2, method="studentized")
     assert new["tn_rate_lo"] < old["tn_rate_lo"] - 0.01
     assert new["tn_rate_hi"] == pytest.approx(old["tn_rate_hi"])
 
@@ -59,7 +60,9 @@ def test_equals_the_default_where_there_is_no_spread_or_no_estimate():
     perfect = [Predictions(y, y.copy(), groups, y + 0.1 * groups)]
     one_class = [Predictions(groups < 7, np.ones(40, bool), groups, np.arange(40.0))]
     for parts in (perfect, one_class):
-        assert over_seeds(parts, seed=0, method="studentized") == over_seeds(parts, seed=0)
+        assert over_seeds(parts, seed=0, method="studentized") == over_seeds(
+            parts, seed=0, method="satterthwaite"
+        )
 
 
 def test_it_is_deterministic_given_the_seed():
