@@ -485,9 +485,8 @@ def seeded_interval(
     sides: list[tuple[np.ndarray, float]] = []  # per side: its replicates, its seed-by-cluster part
     with np.errstate(invalid="ignore", divide="ignore"):
         boot = np.zeros(n_resamples)
-        for k, (sign, f) in enumerate(zip(signs, per_seed(w))):
-            if k == 0:
-                cluster_mean = f.mean(axis=1)
+        figures = per_seed(w)
+        for k, (sign, f) in enumerate(zip(signs, figures)):
             v = seed_weights(f.shape[1], seed, k, n_resamples)
             side = (f * v).sum(axis=1) / v.sum(axis=1)
             boot += sign * side
@@ -508,8 +507,9 @@ def seeded_interval(
         se = float(np.sqrt(max(se**2 - sum(twice), 0.0)))
     alpha = 1 - level
     unit = bounds == (0.0, 1.0)
-    # studentized: the union with the logit t; mover and replicate-logit: a variant of it
-    logit_t = method in ("satterthwaite", "studentized", "mover", "replicate-logit", "scale-choice")
+    seed_windows = sizes[used].sum() / len(at_one[0])  # one seed's: the logits' smoothing
+    # every method but the two references builds on the logit t (studentized: a union with it)
+    logit_t = method not in ("t", "percentile")
     extra: list[tuple[float, float]] = []
     if logit_t:
         side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
@@ -543,12 +543,12 @@ def seeded_interval(
         # the clusters' replicates of the seeds' plain mean: seed draws left out, so several
         # seeds' logit spread is the test sets' alone and identical seeds give one seed's
         # interval (the smoothing takes one seed's windows)
-        n = sizes[used].sum() / len(at_one[0])
-        lo, hi = _logit_bounds(est, cluster_mean, 0.0, se, df, level, n)
+        cluster_mean = np.asarray(figures[0]).mean(axis=1)
+        lo, hi = _logit_bounds(est, cluster_mean, 0.0, se, df, level, seed_windows)
     elif (
         (
             method == "mover"
-            or (method == "scale-choice" and _logit_is_steadier(sides, at_one, sizes[used].sum()))
+            or (method == "scale-choice" and _logit_is_steadier(sides, seed_windows))
         )
         and bounds == (-1.0, 1.0)
         and tuple(signs) == (-1.0, 1.0)
@@ -613,9 +613,7 @@ def _logit_bounds(
     return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
 
 
-def _logit_is_steadier(
-    sides: Sequence[tuple[np.ndarray, float]], at_one: Sequence[np.ndarray], n: float
-) -> bool:
+def _logit_is_steadier(sides: Sequence[tuple[np.ndarray, float]], n: float) -> bool:
     """Method ``scale-choice``: whether a change of two rates is steadier on the logit scale than
     on its own, judged by the replicates: on the scale where the contrast moves less with the
     level (|correlation| of their replicates), the contrast is what the two sides share. A
@@ -624,8 +622,7 @@ def _logit_is_steadier(
     (rb, _), (rc, _) = sides
     ok = np.isfinite(rb) & np.isfinite(rc)
     rb, rc = rb[ok], rc[ok]
-    size = n / max(len(at_one[0]), 1)
-    zb, zc = _smoothed_logit(rb, size), _smoothed_logit(rc, size)
+    zb, zc = _smoothed_logit(rb, n), _smoothed_logit(rc, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         own = abs(float(np.corrcoef(rc - rb, rc + rb)[0, 1]))
         logit = abs(float(np.corrcoef(zc - zb, zc + zb)[0, 1]))
