@@ -481,45 +481,51 @@ def seeded_interval(
     if not used.any() or design.lone()[used].any():
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
     w = resample_weights(design, seed, n_resamples)
-    twice: list[float] = []  # per side of several seeds: the seed-by-cluster variance
-    sides: list[tuple[np.ndarray, float]] = []  # per side: its replicates, its seed-by-cluster part
+    interaction: list[float] = []  # per side of several seeds: seed-by-cluster variance
+    # per side: its two-level replicates, and the seed-by-cluster variance they hold beyond the
+    # one count an interval keeps (they hold it three times: see `se` below)
+    sides: list[tuple[np.ndarray, float]] = []
     with np.errstate(invalid="ignore", divide="ignore"):
-        boot = np.zeros(n_resamples)
+        boot = np.zeros(n_resamples)  # clusters and seeds drawn: the two-level replicates
+        cluster = np.zeros(n_resamples)  # clusters drawn: replicates of the seeds' plain means
         figures = per_seed(w)
         for k, (sign, f) in enumerate(zip(signs, figures)):
             v = seed_weights(f.shape[1], seed, k, n_resamples)
             side = (f * v).sum(axis=1) / v.sum(axis=1)
             boot += sign * side
+            cluster += sign * f.mean(axis=1)
             part = 0.0
             if f.shape[1] > 1:
                 dev = f - f.mean(axis=1, keepdims=True)
                 dev = dev[np.isfinite(dev).all(axis=1)]
                 part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
                 # a side weighted by `sign` contributes sign^2 times its variance
-                twice.append(sign**2 * part)
-            sides.append((side, part))
+                interaction.append(sign**2 * part)
+            sides.append((side, 2 * part))
     boot = boot[np.isfinite(boot)]
-    se = float(boot.std(ddof=1))
-    if twice:
-        # seeds and clusters are crossed: a seed's own error on a cluster shows both in the
-        # spread of the seeds and in the clusters' resamples; count it once, not twice (the
-        # "pigeonhole" bootstrap of crossed designs overstates the variance by this term)
-        se = float(np.sqrt(max(se**2 - sum(twice), 0.0)))
+    # the sides' seed variances of their means, net of their seed-by-cluster parts (a seed's own
+    # error on a cluster shows in the seeds' spread and again in the clusters' replicates of
+    # their mean; counted once, by the clusters). Satterthwaite for a difference: the net is as
+    # uncertain as the spreads it is taken from, so its degrees of freedom are the spreads',
+    # sum v^2 / (S - 1), against the net's square; a large subtraction leaves fewer
+    seeded = [
+        (k**2 * float(f.var(ddof=1)) / len(f), t, len(f) - 1.0)
+        for k, f, t in zip(signs, (f for f in at_one if len(f) > 1), interaction)
+    ]
+    net = max(0.0, sum(v - t for v, t, _ in seeded))
+    extra = [(net, net**2 / sum(v**2 / d for v, _, d in seeded))] if net > 0 else []
+    # the clusters' variance of the seeds' plain means plus the seeds' own: the two-level
+    # replicates' variance holds the seed-by-cluster term three times (seed spread, clusters,
+    # and the clusters' spread of the drawn seeds' mean), which no single subtraction undoes
+    se = float(np.sqrt(np.var(cluster[np.isfinite(cluster)], ddof=1) + net))
     alpha = 1 - level
     unit = bounds == (0.0, 1.0)
     seed_windows = sizes[used].sum() / len(at_one[0])  # one seed's: the logits' smoothing
     # every method but the two references builds on the logit t (studentized: a union with it)
     logit_t = method not in ("t", "percentile")
-    extra: list[tuple[float, float]] = []
     if logit_t:
         side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
         infl = sum(k * g for k, g in zip(signs, side_infl))
-        # each side's seed variance of its mean, net of the seed-by-cluster part
-        spread = [k**2 * float(f.var(ddof=1)) / len(f) for k, f in zip(signs, at_one) if len(f) > 1]
-        extra = [
-            (max(0.0, v - t), n - 1.0)
-            for v, t, n in zip(spread, twice, (len(f) for f in at_one if len(f) > 1))
-        ]
         df = satterthwaite_df(design, np.asarray(infl), sizes, used, extra)
     else:
         df = float(design.df(used))
@@ -533,7 +539,7 @@ def seeded_interval(
     elif method == "percentile":
         lo, hi = np.quantile(boot, [alpha / 2, 1 - alpha / 2])
     elif method == "mover" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
-        lo, hi = _logit_bounds(est, sides[0][0], sum(twice), se, df, level, sizes[used].sum())
+        lo, hi = _logit_bounds(est, *sides[0], se, df, level, sizes[used].sum())
     elif (
         method in ("replicate-logit", "scale-choice")
         and unit
@@ -543,8 +549,7 @@ def seeded_interval(
         # the clusters' replicates of the seeds' plain mean: seed draws left out, so several
         # seeds' logit spread is the test sets' alone and identical seeds give one seed's
         # interval (the smoothing takes one seed's windows)
-        cluster_mean = np.asarray(figures[0]).mean(axis=1)
-        lo, hi = _logit_bounds(est, cluster_mean, 0.0, se, df, level, seed_windows)
+        lo, hi = _logit_bounds(est, cluster, 0.0, se, df, level, seed_windows)
     elif (
         (
             method == "mover"
@@ -590,17 +595,17 @@ def _smoothed_logit(p: np.ndarray | float, n: float) -> np.ndarray:
     return np.log(q / (1 - q))
 
 
-def _logit_sd(reps: np.ndarray, est: float, n: float, twice: float = 0.0) -> float:
+def _logit_sd(reps: np.ndarray, est: float, n: float, excess: float = 0.0) -> float:
     """Standard error on the logit scale from Rao-Wu replicates of a figure in [0, 1]: the larger
     of their delta-method SD (linear in the replicates) and the SD of their logits, net of the
-    seed-by-cluster variance ``twice`` (on the figure's scale) counted once too often."""
+    seed-by-cluster variance ``excess`` (on the figure's scale) they hold beyond one count."""
     slope = 1 / (est * (1 - est)) if 0 < est < 1 else 4.0 * (n + 1)
     var = max(float(np.var(reps * slope, ddof=1)), float(np.var(_smoothed_logit(reps, n), ddof=1)))
-    return float(np.sqrt(max(var - twice * slope**2, 0.0)))
+    return float(np.sqrt(max(var - excess * slope**2, 0.0)))
 
 
 def _logit_bounds(
-    est: float, reps: np.ndarray, twice: float, se: float, df: float, level: float, n: float
+    est: float, reps: np.ndarray, excess: float, se: float, df: float, level: float, n: float
 ) -> tuple[float, float]:
     """Methods ``mover`` and ``replicate-logit``, a figure in (0, 1): the logit t-interval whose
     standard error is :func:`_logit_sd`. A rate near its bound whose clusters happen to be good
@@ -608,7 +613,7 @@ def _logit_bounds(
     them."""
     reps = reps[np.isfinite(reps)]
     z = float(np.log(est / (1 - est)))
-    s = max(se / (est * (1 - est)), _logit_sd(reps, est, n, twice))
+    s = max(se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
     q = student_t.ppf(1 - (1 - level) / 2, df)
     return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
 
@@ -660,7 +665,7 @@ def _mover_bounds(
         var = max(float(np.var(rep, ddof=1)), float(np.var(lin, ddof=1)))
         return float(np.sqrt(max(var - seed_part, 0.0)))
 
-    # the linearization of each side's logit, and the seed-by-cluster parts on the logit scale
+    # the linearization of each side's logit, and the seed-by-cluster excess on the logit scale
     slope = [1 / max(p * (1 - p), 1 / (4.0 * (n + 1))) for p in means]
     gb, gc = (rb - means[0]) * slope[0], (rc - means[1]) * slope[1]
     parts = tb * slope[0] ** 2 + tc * slope[1] ** 2

@@ -385,3 +385,39 @@ def test_seeded_interval_scales_with_its_signs():
     half = seeded_interval(per_seed, influence, (0.5,), design, used, sizes, 0, bounds=(-1, 1))
     assert half.estimate == pytest.approx(one.estimate / 2)
     assert half.se == pytest.approx(one.se / 2, rel=1e-9) and half.se > 0
+
+
+def test_two_level_variance_counts_the_seed_by_cluster_term_once():
+    """Crossed seeds and clusters: a change of two sides of three seeds each, every seed with its
+    own error on every cluster (SD 1) and a small effect of its own (SD 0.3). The standard
+    error's square averages 1.1 times the change's variance over 800 designs; drawing seeds and
+    clusters together and subtracting the interaction once (the two-level replicates hold it
+    three times) gave 1.42. The rest is the seed variance's positive part."""
+    from slipbench.stats.bootstrap import Design, seeded_interval
+
+    n, n_seeds = 20, 3
+    design = Design(np.arange(n), np.repeat([0, 1], n // 2), np.array([n // 2, n // 2]))
+    used, sizes = np.ones(n, bool), np.ones(n)
+    rng = np.random.default_rng(0)
+    est, var = [], []
+    for r in range(800):
+        shared = rng.normal(0, 1.0, n)
+        x = [
+            rng.normal(0, 0.3, (n_seeds, 1)) + shared + rng.normal(0, 1.0, (n_seeds, n))
+            for _side in range(2)
+        ]
+
+        def per_seed(w, x=x):
+            return [(w @ s.T) / w.sum(axis=1, keepdims=True) for s in x]
+
+        def influence(w, x=x):
+            total = w.sum(axis=1)[:, None, None]
+            return [(s[None] - f[..., None]) / total for s, f in zip(x, per_seed(w))]
+
+        iv = seeded_interval(
+            per_seed, influence, (-1.0, 1.0), design, used, sizes, r, bounds=(-np.inf, np.inf)
+        )
+        est.append(iv.estimate)
+        var.append(iv.se**2)
+    ratio = np.mean(var) / np.var(est, ddof=1)
+    assert 0.9 < ratio < 1.25, ratio
