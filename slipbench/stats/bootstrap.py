@@ -124,9 +124,9 @@ heavy-tailed scenarios), the AUROC 0.929-0.966 except 0.885 with failing trials 
 those test sets hold no failing trial at all, and no interval from the sample can reach the
 truth then), the change in TN rate 0.915-0.975. The change in AUROC, whose truth in these
 three is 0, overcovers, 0.96-1.00 (0.98-1.00 at 10-20 trials); the changes with 3 seeds at 10
-trials covered 0.975-0.979 while the seed-by-cluster variance was counted three times, 0.953-0.970
-since it is counted once (figures 0.935-0.972). A skewness correction of the t-interval (each side widened to the
-bootstrap's own tail) did not help (300 replications); the default stays. A fourth scenario,
+trials covered 0.975-0.979 while the seed-by-cluster variance was counted three times,
+0.953-0.970 since it is counted once (figures 0.935-0.972). A skewness correction of the
+t-interval (each side widened to the bootstrap's own tail) did not help (300 replications); the default stays. A fourth scenario,
 ``ranks`` (a candidate that ranks better, so the change in AUROC is +0.036, not 0), shows the
 default short for the changes in AUROC and TN rate (0.84-0.88 at 10-20 trials per class,
 0.90-0.92 at 40). ``method="mover"`` fixes those (0.936-0.949) but overcovers the changes with
@@ -487,7 +487,9 @@ def seeded_interval(
     if not used.any() or design.lone()[used].any():
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
     w = resample_weights(design, seed, n_resamples)
-    interaction: list[float] = []  # per side of several seeds: seed-by-cluster variance
+    # per side of several seeds, its seed variance of its mean, the seed-by-cluster part of it
+    # and the seeds' degrees of freedom, each scaled by the side's sign squared
+    seeded: list[tuple[float, float, float]] = []
     # per side: its two-level replicates, and the seed-by-cluster variance they hold beyond the
     # one count an interval keeps (they hold it three times: see `se` below)
     sides: list[tuple[np.ndarray, float]] = []
@@ -505,8 +507,9 @@ def seeded_interval(
                 dev = f - f.mean(axis=1, keepdims=True)
                 dev = dev[np.isfinite(dev).all(axis=1)]
                 part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
+                spread = float(at_one[k].var(ddof=1)) / f.shape[1]
                 # a side weighted by `sign` contributes sign^2 times its variance
-                interaction.append(sign**2 * part)
+                seeded.append((sign**2 * spread, sign**2 * part, f.shape[1] - 1.0))
             sides.append((side, 2 * part))
     boot = boot[np.isfinite(boot)]
     # the sides' seed variances of their means, net of their seed-by-cluster parts (a seed's own
@@ -514,10 +517,6 @@ def seeded_interval(
     # their mean; counted once, by the clusters). Satterthwaite for a difference: the net is as
     # uncertain as the spreads it is taken from, so its degrees of freedom are the spreads',
     # sum v^2 / (S - 1), against the net's square; a large subtraction leaves fewer
-    seeded = [
-        (k**2 * float(f.var(ddof=1)) / len(f), t, len(f) - 1.0)
-        for k, f, t in zip(signs, (f for f in at_one if len(f) > 1), interaction)
-    ]
     net = max(0.0, sum(v - t for v, t, _ in seeded))
     extra = [(net, net**2 / sum(v**2 / d for v, _, d in seeded))] if net > 0 else []
     # the clusters' variance of the seeds' plain means plus the seeds' own: the two-level
