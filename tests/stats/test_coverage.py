@@ -30,6 +30,7 @@ import pandas as pd
 import pytest
 from scipy.stats import norm
 
+from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import FIGURES, classification_figures, paired_comparison
 
 N_DATASETS = int(os.environ.get("SLIPBENCH_COVERAGE_DATASETS", "40"))
@@ -112,7 +113,7 @@ def study(
     n_datasets: int,
     sizes=SIZES,
     taus=TAUS,
-    method: str = "satterthwaite",
+    method: str = DEFAULT_METHOD,
     stratified: bool = False,
     seed: int = 0,
 ) -> pd.DataFrame:
@@ -197,7 +198,7 @@ def test_the_study_tells_a_bad_interval():
 
 if __name__ == "__main__":
     n = int(sys.argv[1]) if len(sys.argv) > 1 else N_DATASETS
-    method = sys.argv[2] if len(sys.argv) > 2 else "satterthwaite"
+    method = sys.argv[2] if len(sys.argv) > 2 else DEFAULT_METHOD
     for stratified in (False, True):
         table = study(n, method=method, stratified=stratified)
         print(f"stratified={stratified}, {n} datasets per setting, method {method}")
