@@ -11,9 +11,11 @@ compared, and so is a side that holds a row twice (the same key, or the same cel
 Seeds. A cell with one seed per side, the same on both, is compared window by window (below).
 A cell with several seeds on a side, or different seeds, gets the two-level bootstrap over seeds
 and trials of :func:`slipbench.stats.metrics.over_seeds` (its change: mean over the candidate's
-seeds minus mean over the base's), so retraining noise is inside its interval. With one seed
-per side it is not, and :func:`repeats_note` says so: a side needs ``MIN_SEEDS`` (2) seeds for
-a seed-to-seed spread to exist; ``RECOMMENDED_REPEATS`` (3) is what the null study
+seeds minus mean over the base's), so retraining noise is inside its interval; where both sides
+ran the same seeds, seed k of each shares its split and the seeds pair (``paired=True``: the
+seeds' differences are drawn, so the split's luck cancels). With one seed per side it is not,
+and :func:`repeats_note` says so: a side needs ``MIN_SEEDS`` (2) seeds for a seed-to-seed
+spread to exist; ``RECOMMENDED_REPEATS`` (3) is what the null study
 (``benchmarks/bench_compare_null.py``) runs and what CI should.
 
 The change of every figure (candidate - base) gets an interval. Where both sides stored their
@@ -282,13 +284,19 @@ def seed_sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list
 
 
 def cell_over_seeds(
-    base: list[pd.DataFrame], cand: list[pd.DataFrame], seed: int, level: float
+    base: list[pd.DataFrame],
+    cand: list[pd.DataFrame],
+    seed: int,
+    level: float,
+    paired: bool = False,
 ) -> dict:
     """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
-    side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`)."""
+    side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`); ``paired``
+    where both sides ran the same seeds, which then pair seed by seed."""
     b, c = seed_sides(base, cand)
-    out: dict[str, Any] = over_seeds(b, c, seed=seed, level=level, figures=FIGURES)
-    out["method"] = f"over seeds and trials ({len(b)} → {len(c)} seeds)"
+    out: dict[str, Any] = over_seeds(b, c, seed=seed, level=level, figures=FIGURES, paired=paired)
+    how = "paired seed by seed" if paired else f"{len(b)} → {len(c)} seeds"
+    out["method"] = f"over seeds and trials ({how})"
     return out
 
 
@@ -629,7 +637,7 @@ def compare(
         elif len(b_rows) == len(c_rows) == 1 and same_seeds:
             entry |= paired_cell(pb[0], pc[0], seed, level) or unpaired_cell(b_rows, c_rows, level)
         elif all(p is not None for p in (*pb, *pc)):
-            entry |= cell_over_seeds(pb, pc, seed, level)
+            entry |= cell_over_seeds(pb, pc, seed, level, paired=same_seeds)
         else:
             entry |= unpaired_cell(b_rows, c_rows, level)
         out.append(entry)
@@ -702,9 +710,11 @@ def _pooled_tests(
     sides finished (identical ones count as 0), its interval at the Bonferroni level over the
     pooled tests and its Holm-adjusted p-value, both of ``POOLED_ALPHA``."""
     by_group: dict[tuple, list] = {}
-    for (entry, _, _, preds, _), r in zip(plans, cells.to_dict("records")):
+    for (entry, _, _, preds, same_seeds), r in zip(plans, cells.to_dict("records")):
         if entry["base_status"] == entry["candidate_status"] == "ok" and not entry["stream"]:
-            by_group.setdefault((entry["protocol"], entry["detector"]), []).append((r, preds))
+            by_group.setdefault((entry["protocol"], entry["detector"]), []).append(
+                (r, (*preds, same_seeds))
+            )
     tested = {g: m for g, m in by_group.items() if any(not r["identical"] for r, _ in m)}
     level = family_level(len(tested), POOLED_ALPHA)
     lines = []
@@ -718,12 +728,17 @@ def _pooled_tests(
             "changed_cells": len(changed),
         }
         preds = [p for _, p in changed]
-        if all(x is not None for b, c in preds for x in (*b, *c)):
-            parts = [CellSides(*seed_sides(b, c)) for b, c in preds]
+        if all(x is not None for b, c, _ in preds for x in (*b, *c)):
+            parts = [CellSides(*seed_sides(b, c), paired=same) for b, c, same in preds]
             res = pooled_change(parts, seed, level)
             line |= {
                 "method": "joint cluster bootstrap over the trials the cells share"
-                + (" and each cell's seeds" if res["seeds"] else ""),
+                + (" and each cell's seeds" if res["seeds"] else "")
+                + (
+                    " (paired seed by seed)"
+                    if res["seeds"] and all(p.paired for p in parts)
+                    else ""
+                ),
                 "low_n": res["low_n"],
             }
         else:  # rows only: the cells' errors taken as moving together (the widest case)

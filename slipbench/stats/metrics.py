@@ -501,6 +501,7 @@ def over_seeds(
     n_resamples: int = N_RESAMPLES,
     method: str = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
+    paired: bool = False,
 ) -> dict:
     """A cell run under several seeds per side: the seed-averaged figure (``cand`` None) or its
     change, mean(cand) - mean(base), with a two-level bootstrap over trials and seeds.
@@ -519,6 +520,11 @@ def over_seeds(
         a sensor), whose figures the seed's figure averages.
     figures : sequence of str
         The figures to give (``accuracy`` always comes first: it gives ``df``).
+    paired : bool
+        The two sides ran the same seeds, in the same order (seed ``k`` of each side shares its
+        split): the change is bootstrapped as the seeds' paired differences, one side of
+        ``S`` seeds, so the luck a seed gives both sides cancels and the seed variance rests on
+        ``S - 1`` degrees of freedom. Without it, each side's seeds are drawn on their own.
 
     Returns
     -------
@@ -542,14 +548,17 @@ def over_seeds(
     design, flat = _joint_design(parts)
     it = iter(flat)  # each seed's totals, in the order of its parts
     per_side = [[[next(it) for _ in sets] for sets in side] for side in sides]
-    signs = (1.0,) if cand is None else (-1.0, 1.0)
+    if paired and (cand is None or len(sides[0]) != len(sides[1])):
+        raise ValueError("paired seeds need a candidate with as many seeds as the base")
+    of_seeds = _paired_seeds if paired else _per_seed
+    signs = (1.0,) if cand is None or paired else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"
     out: dict = {} if cand is not None else {"n_test_sets": len(parts)}
     unestimable = []
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
         iv = seeded_interval(
-            partial(_per_seed, _figure, per_side, name),
-            partial(_per_seed, _influence, per_side, name),
+            partial(of_seeds, _figure, per_side, name),
+            partial(of_seeds, _influence, per_side, name),
             signs,
             design,
             np.logical_or.reduce([_used(t, name) for t in flat]),
@@ -590,6 +599,14 @@ def _per_seed(
     """``of`` for each seed of each side, averaged over the seed's test sets: per side an array
     (n, S_side, ...)."""
     return [np.stack([_pooled(of, sets, name, w) for sets in side], axis=1) for side in per_side]
+
+
+def _paired_seeds(
+    of: _PerSet, per_side: Sequence[Sequence[Sequence[_Totals]]], name: str, w: np.ndarray
+) -> list[np.ndarray]:
+    """``of`` of candidate - base seed by seed: one side of the seeds' paired differences."""
+    base, cand = _per_seed(of, per_side, name, w)
+    return [cand - base]
 
 
 # ----------------------------------------------------------------------------- paired comparison

@@ -12,7 +12,8 @@ Seeds (``--repeats``): a cell's change is the mean over the candidate's seeds mi
 over the base's. The interval is the two-level bootstrap of
 :func:`slipbench.stats.bootstrap.seeded_interval`: trials drawn once for every test set, and
 each cell's seeds drawn anew on each side (every cell trains its own models), so retraining
-noise is inside it.
+noise is inside it; where both sides of a cell ran the same seeds, they pair seed by seed (the
+cell's seed differences are drawn), so the luck a seed's split gives both sides cancels.
 
 Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
 cells' rows, taking their errors as moving together (the widest case).
@@ -34,10 +35,12 @@ RATE_MASKS = ("accuracy", "tp_rate", "tn_rate")
 
 @dataclass(frozen=True)
 class CellSides:
-    """One compared cell: one Predictions per seed on each side."""
+    """One compared cell: one Predictions per seed on each side; ``paired`` where both sides
+    ran the same seeds in the same order, so that they pair seed by seed."""
 
     base: Sequence[Predictions]
     cand: Sequence[Predictions]
+    paired: bool = False
 
 
 def _mask(p: Predictions, figure: str) -> np.ndarray:
@@ -76,27 +79,37 @@ def pooled_change(
         hits.append(np.bincount(c[m], weights=correct[m], minlength=design.n_clusters))
         size.append(np.bincount(c[m], minlength=design.n_clusters).astype(float))
     # one "side" of the two-level bootstrap per cell and side: its seeds are drawn on their
-    # own. Each side's figures come scaled by 1 / cells and the signs stay +-1, so every
-    # variance term seeded_interval forms from a side's figures (the seed-by-cluster
-    # correction, the seed spread) is on the scale of the mean
-    slices, signs, k = [], [], 0
+    # own; a paired cell is one side of its seeds' differences, candidate - base. Each side's
+    # figures come scaled by 1 / cells and the signs stay +-1, so every variance term
+    # seeded_interval forms from a side's figures (the seed-by-cluster correction, the seed
+    # spread) is on the scale of the mean
+    sides: list[tuple[slice, slice | None]] = []  # per side: its columns, those it is paired with
+    signs: list[float] = []
+    k = 0
     for cell in cells:
-        for side, sign in ((cell.base, -1.0), (cell.cand, 1.0)):
-            slices.append(slice(k, k + len(side)))
-            signs.append(sign)
-            k += len(side)
+        if cell.paired and len(cell.base) != len(cell.cand):
+            raise ValueError("a paired cell needs as many seeds on each side")
+        base = slice(k, k + len(cell.base))
+        cand = slice(base.stop, base.stop + len(cell.cand))
+        k = cand.stop
+        if cell.paired:
+            sides.append((cand, base))
+            signs.append(1.0)
+        else:
+            sides += [(base, None), (cand, None)]
+            signs += [-1.0, 1.0]
     H, S = np.array(hits), np.array(size)
     share = 1.0 / len(cells)
 
     def per_seed(w: np.ndarray) -> list[np.ndarray]:
         r = share * (w @ H.T) / (w @ S.T)  # (n, parts)
-        return [r[:, sl] for sl in slices]
+        return [r[:, sl] - (r[:, minus] if minus is not None else 0.0) for sl, minus in sides]
 
     def per_seed_influence(w: np.ndarray) -> list[np.ndarray]:
         denom = w @ S.T
         r = (w @ H.T) / denom
         infl = share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]
-        return [infl[:, sl] for sl in slices]
+        return [infl[:, sl] - (infl[:, minus] if minus is not None else 0.0) for sl, minus in sides]
 
     iv = seeded_interval(
         per_seed,

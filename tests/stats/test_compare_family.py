@@ -95,6 +95,30 @@ def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
     assert width(cmp) > width(one)
 
 
+def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
+    """Both sides ran seeds 0, 1, 2 (the same splits): the cells and the pooled test pair the
+    seeds, so the seeds' luck, which both sides share, cancels; other seeds stay unpaired."""
+    same = compare(
+        *predictions_pair(
+            tmp_path / "same", 3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+        )
+    )
+    other = compare(
+        *predictions_pair(
+            tmp_path / "other", 3, base_seeds=(0, 1, 2), cand_seeds=(3, 4, 5), flip=0.1
+        )
+    )
+    assert same.cells["method"].str.startswith("over seeds and trials (paired seed by seed)").all()
+    assert same.pooled["method"].iloc[0].endswith("and each cell's seeds (paired seed by seed)")
+    assert other.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
+    # here the seeds' luck is small next to the flipped trials: paired, their spread still
+    # drops out of the cells' and the pooled intervals (tests/stats/test_metrics.py: strong luck)
+    width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
+    assert width(same) < width(other)
+    pooled = lambda c: (c.pooled["mean_hi"] - c.pooled["mean_lo"]).iloc[0]  # noqa: E731
+    assert pooled(same) < pooled(other)
+
+
 def test_low_n_cells_are_inconclusive_and_never_the_worst(tmp_path):
     base, cand = predictions_pair(tmp_path, n_cells=5, trials=30, flip=0.3, low_n_cells=2)
     cmp = compare(base, cand)

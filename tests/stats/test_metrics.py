@@ -266,6 +266,27 @@ def test_over_seeds_puts_retraining_noise_inside_the_interval():
     assert b["accuracy"] == pytest.approx(mean)
 
 
+def test_paired_seeds_cancel_the_luck_both_sides_share():
+    """Seed k of each side shares a strong effect (its split): paired seed by seed, the change
+    keeps its estimate and loses that effect from its interval; unequal seed counts cannot pair."""
+    rng = np.random.default_rng(21)
+    y, pred, groups, score = correlated_test_set(rng, 15)
+    sign = np.where(y, 1.0, -1.0)
+    luck = [sign * rng.normal(0, 1.0) for _ in range(3)]
+    base = [_reseeded(np.random.default_rng(k), y, groups, score + luck[k], 0.1) for k in range(3)]
+    cand = [
+        _reseeded(np.random.default_rng(10 + k), y, groups, score + luck[k] + 0.3 * sign, 0.1)
+        for k in range(3)
+    ]
+    apart, paired = over_seeds(base, cand, seed=0), over_seeds(base, cand, seed=0, paired=True)
+    for name in FIGURES:
+        assert paired[f"d_{name}"] == pytest.approx(apart[f"d_{name}"]), name
+    width = lambda d: d["d_accuracy_hi"] - d["d_accuracy_lo"]  # noqa: E731
+    assert width(paired) < 0.5 * width(apart)
+    with pytest.raises(ValueError, match="as many seeds"):
+        over_seeds(base, cand[:2], seed=0, paired=True)
+
+
 def test_over_seeds_flags_low_n_and_refuses_bad_input():
     rng = np.random.default_rng(13)
     y, pred, groups, score = correlated_test_set(rng, LOW_N - 1)
