@@ -550,6 +550,8 @@ def over_seeds(
     per_side = [[[next(it) for _ in sets] for sets in side] for side in sides]
     if paired and (cand is None or len(sides[0]) != len(sides[1])):
         raise ValueError("paired seeds need a candidate with as many seeds as the base")
+    if paired and method in ("mover", "scale-choice"):  # they split a change into its two sides
+        raise ValueError(f"method {method!r} needs the two sides apart, not paired seeds")
     of_seeds = _paired_seeds if paired else _per_seed
     signs = (1.0,) if cand is None or paired else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"

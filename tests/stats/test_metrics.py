@@ -285,6 +285,8 @@ def test_paired_seeds_cancel_the_luck_both_sides_share():
     assert width(paired) < 0.5 * width(apart)
     with pytest.raises(ValueError, match="as many seeds"):
         over_seeds(base, cand[:2], seed=0, paired=True)
+    with pytest.raises(ValueError, match="two sides apart"):
+        over_seeds(base, cand, seed=0, paired=True, method="mover")
 
 
 def test_over_seeds_flags_low_n_and_refuses_bad_input():
