@@ -10,7 +10,13 @@ machine) reuses seeds across comparisons, which leaves the expected share of exi
 but makes the count vary more. Counted: comparisons that exit 1 (target: at most 5 %), and with one seed per
 side (the first seed of each side) for reference.
 
+With ``--same-seeds`` both sides of a comparison run the same seeds (so the same splits), as a CI
+comparing a branch with main does, and ``compare`` pairs them seed by seed: the base is
+``HalfEnergy``, the candidate ``HalfEnergySalted`` (the same detector drawing its training half
+from another stream of each seed), evaluated under seeds ``0 .. repeats x comparisons - 1``.
+
     nice python benchmarks/bench_compare_null.py [--comparisons 20] [--repeats 3] [--pool N] [--work DIR]
+    nice python benchmarks/bench_compare_null.py --same-seeds [--work DIR]
 """
 
 from __future__ import annotations
@@ -37,6 +43,9 @@ def main() -> None:
         "--pool", type=int, default=0, help="seeds evaluated (default: 2 x repeats x comparisons)"
     )
     ap.add_argument("--work", type=Path, default=None, help="keep the runs here (reused)")
+    ap.add_argument(
+        "--same-seeds", action="store_true", help="both sides run the same seeds (paired)"
+    )
     args = ap.parse_args()
     root = args.work or Path(tempfile.mkdtemp(prefix="compare-null-"))
     root.mkdir(parents=True, exist_ok=True)
@@ -48,9 +57,31 @@ def main() -> None:
     pool = root / f"pool-{n_seeds}"
     if not (pool / "results.parquet").exists():
         cs.evaluate(data, plugins, pool, 0, n_seeds, "--jobs", str(args.jobs))
+    salted = root / f"salted-{args.repeats * args.comparisons}"
+    if args.same_seeds and not (salted / "results.parquet").exists():
+        cs.evaluate(
+            data, plugins, salted, 0, args.repeats * args.comparisons, "--jobs", str(args.jobs),
+            detector="half-energy-salted",
+        )  # fmt: skip
     t1 = time.perf_counter()
     fails = {"repeats": 0, "one seed": 0}
     for i in range(args.comparisons):
+        if args.same_seeds:
+            b = c = list(range(args.repeats * i, args.repeats * (i + 1)))
+            run = root / f"same{args.repeats}-{i:02d}"
+            if not run.exists():
+                cs.side(pool, run / "base", b)
+                cs.side(salted, run / "cand", c)
+                cs.side(pool, run / "base1", b[:1])
+                cs.side(salted, run / "cand1", c[:1])
+            code, line = cs.compare_exit(run / "base", run / "cand", seed=i)
+            code1, _ = cs.compare_exit(run / "base1", run / "cand1", seed=i)
+            fails["repeats"] += code
+            fails["one seed"] += code1
+            print(
+                f"{i:2d} seeds {b} both: exit {code} ({line}); one seed: exit {code1}", flush=True
+            )
+            continue
         if n_seeds >= 2 * args.repeats * args.comparisons:
             seeds = list(range(2 * args.repeats * i, 2 * args.repeats * (i + 1)))
         else:  # distinct seeds drawn from the pool, the same draw in every run of the study

@@ -2,7 +2,9 @@
 
 ``HalfEnergy`` fits a mean-absolute-signal threshold on a random half of its training windows
 (the half drawn from the fit's seed): two seeds give two detectors that are equally good in
-expectation but differ cell by cell, as retrained models do.
+expectation but differ cell by cell, as retrained models do. ``HalfEnergySalted`` draws its half
+from another stream of the same seed: under the same seeds (so the same splits) it is an equally
+good rewrite of ``HalfEnergy``, as a refactored detector compared with main is.
 """
 
 from __future__ import annotations
@@ -34,10 +36,23 @@ PLUGIN = textwrap.dedent(
             return 1 / (1 + np.exp(-10 * (np.abs(x).mean(axis=1) - self.cut_) / self.scale_))
     '''
 )
+SALTED = textwrap.dedent(  # a plugin file of its own: one detector per file, named by it
+    '''
+    from half_energy import HalfEnergy
+
+
+    class HalfEnergySalted(HalfEnergy):
+        """HalfEnergy with its half drawn from another stream of the same seed."""
+
+        def _fit(self, x, y, seed):
+            return super()._fit(x, y, [seed, 1])
+    '''
+)
 
 
 def setup(root: Path, scale: float = 0.02) -> tuple[Path, Path]:
-    """The simulated dataset at ``scale`` and a plugin folder holding HalfEnergy."""
+    """The simulated dataset at ``scale`` and a plugin folder holding HalfEnergy and its salted
+    twin."""
     from slipbench.data.synth import synthesize
 
     data = root / "data"
@@ -46,14 +61,24 @@ def setup(root: Path, scale: float = 0.02) -> tuple[Path, Path]:
     plugins = root / "plugins" / "detectors"
     plugins.mkdir(parents=True, exist_ok=True)
     (plugins / "half_energy.py").write_text(PLUGIN)
+    (plugins / "half_energy_salted.py").write_text(SALTED)
     return data, root / "plugins"
 
 
-def evaluate(data: Path, plugins: Path, out: Path, seed: int, repeats: int, *extra: str) -> None:
-    """``slipbench evaluate`` of half-energy on window-size, grouped split."""
+def evaluate(
+    data: Path,
+    plugins: Path,
+    out: Path,
+    seed: int,
+    repeats: int,
+    *extra: str,
+    detector: str = "half-energy",
+) -> None:
+    """``slipbench evaluate`` of ``detector`` (a plugin of this module) on window-size, grouped
+    split."""
     subprocess.run(
         [
-            sys.executable, "-m", "slipbench", "evaluate", "--detector", "half-energy",
+            sys.executable, "-m", "slipbench", "evaluate", "--detector", detector,
             "--protocol", "window-size", "--split", "grouped", "--dataset", str(data),
             "--plugins", str(plugins), "--seed", str(seed), "--repeats", str(repeats),
             "--out", str(out), "--quiet", *extra,
