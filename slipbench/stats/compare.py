@@ -710,10 +710,11 @@ def _pooled_tests(
     sides finished (identical ones count as 0), its interval at the Bonferroni level over the
     pooled tests and its Holm-adjusted p-value, both of ``POOLED_ALPHA``."""
     by_group: dict[tuple, list] = {}
-    for (entry, _, _, preds, same_seeds), r in zip(plans, cells.to_dict("records")):
+    for (entry, b_rows, c_rows, preds, _), r in zip(plans, cells.to_dict("records")):
         if entry["base_status"] == entry["candidate_status"] == "ok" and not entry["stream"]:
+            seeds = ([x["seed"] for x in b_rows], [x["seed"] for x in c_rows])
             by_group.setdefault((entry["protocol"], entry["detector"]), []).append(
-                (r, (*preds, same_seeds))
+                (r, (*preds, *seeds))
             )
     tested = {g: m for g, m in by_group.items() if any(not r["identical"] for r, _ in m)}
     level = family_level(len(tested), POOLED_ALPHA)
@@ -728,17 +729,12 @@ def _pooled_tests(
             "changed_cells": len(changed),
         }
         preds = [p for _, p in changed]
-        if all(x is not None for b, c, _ in preds for x in (*b, *c)):
-            parts = [CellSides(*seed_sides(b, c), paired=same) for b, c, same in preds]
+        if all(x is not None for b, c, *_ in preds for x in (*b, *c)):
+            parts = [CellSides(*seed_sides(b, c), sb, sc) for b, c, sb, sc in preds]
             res = pooled_change(parts, seed, level)
             line |= {
                 "method": "joint cluster bootstrap over the trials the cells share"
-                + (" and each cell's seeds" if res["seeds"] else "")
-                + (
-                    " (paired seed by seed)"
-                    if res["seeds"] and all(p.paired for p in parts)
-                    else ""
-                ),
+                + (f" and {res['seed_design']}" if res["seeds"] else ""),
                 "low_n": res["low_n"],
             }
         else:  # rows only: the cells' errors taken as moving together (the widest case)

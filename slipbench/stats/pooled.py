@@ -10,10 +10,12 @@ both sides at once (clusters shared by test sets are one cluster, as in
 
 Seeds (``--repeats``): a cell's change is the mean over the candidate's seeds minus the mean
 over the base's. The interval is the two-level bootstrap of
-:func:`slipbench.stats.bootstrap.seeded_interval`: trials drawn once for every test set, and
-each cell's seeds drawn anew on each side (every cell trains its own models), so retraining
-noise is inside it; where both sides of a cell ran the same seeds, they pair seed by seed (the
-cell's seed differences are drawn), so the luck a seed's split gives both sides cancels.
+:func:`slipbench.stats.bootstrap.seeded_interval`, trials drawn once for every test set. Where
+every cell ran the same seeds on each side (one ``evaluate --repeats`` per side), a seed is one
+split and one set of draws for every cell, so its luck moves all cells at once: the seeds are
+crossed with the cells, a seed's figure is the mean over the cells, and where both sides ran the
+same seeds they pair seed by seed (the split's luck cancels). Where the cells ran different
+seeds, each cell's seeds are drawn on their own, and the method says so.
 
 Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
 cells' rows, taking their errors as moving together (the widest case).
@@ -35,12 +37,29 @@ RATE_MASKS = ("accuracy", "tp_rate", "tn_rate")
 
 @dataclass(frozen=True)
 class CellSides:
-    """One compared cell: one Predictions per seed on each side; ``paired`` where both sides
-    ran the same seeds in the same order, so that they pair seed by seed."""
+    """One compared cell: one Predictions per seed on each side, and the seeds they ran
+    (``base_seeds``, ``cand_seeds``, in the same order; empty where unknown)."""
 
     base: Sequence[Predictions]
     cand: Sequence[Predictions]
-    paired: bool = False
+    base_seeds: Sequence[int] = ()
+    cand_seeds: Sequence[int] = ()
+
+    @property
+    def paired(self) -> bool:
+        """Both sides ran the same seeds, which then pair seed by seed."""
+        return len(self.base_seeds) > 0 and list(self.base_seeds) == list(self.cand_seeds)
+
+
+def crossed(cells: Sequence[CellSides]) -> bool:
+    """Every cell ran the same seeds on each side: a seed's luck (its split, its models' draws)
+    reaches every cell at once, so the seeds are crossed with the cells."""
+    first = cells[0]
+    return len(first.base_seeds) > 0 and all(
+        list(c.base_seeds) == list(first.base_seeds)
+        and list(c.cand_seeds) == list(first.cand_seeds)
+        for c in cells
+    )
 
 
 def _mask(p: Predictions, figure: str) -> np.ndarray:
@@ -62,7 +81,8 @@ def pooled_change(
     Returns
     -------
     dict
-        ``d``, ``lo``, ``hi``, ``se``, ``df``; ``seeds`` (a side held several seeds);
+        ``d``, ``lo``, ``hi``, ``se``, ``df``; ``seeds`` (a side held several seeds) and
+        ``seed_design`` (how they were drawn, in words);
         ``n_cells``; ``n_test_clusters_slip``/``_nonslip`` over the union of the
         test sets and ``low_n``; ``estimable``.
     """
@@ -78,38 +98,47 @@ def pooled_change(
         correct = (np.asarray(p.y_true, bool) == np.asarray(p.y_pred, bool)).astype(float)
         hits.append(np.bincount(c[m], weights=correct[m], minlength=design.n_clusters))
         size.append(np.bincount(c[m], minlength=design.n_clusters).astype(float))
-    # one "side" of the two-level bootstrap per cell and side: its seeds are drawn on their
-    # own; a paired cell is one side of its seeds' differences, candidate - base. Each side's
-    # figures come scaled by 1 / cells and the signs stay +-1, so every variance term
-    # seeded_interval forms from a side's figures (the seed-by-cluster correction, the seed
-    # spread) is on the scale of the mean
-    sides: list[tuple[slice, slice | None]] = []  # per side: its columns, those it is paired with
-    signs: list[float] = []
-    k = 0
+    # the columns of each cell's seeds in the parts, per side: (cells, seeds) where crossed
+    index, k = [], 0
     for cell in cells:
-        if cell.paired and len(cell.base) != len(cell.cand):
-            raise ValueError("a paired cell needs as many seeds on each side")
-        base = slice(k, k + len(cell.base))
-        cand = slice(base.stop, base.stop + len(cell.cand))
-        k = cand.stop
-        if cell.paired:
-            sides.append((cand, base))
-            signs.append(1.0)
+        nb, nc = len(cell.base), len(cell.cand)
+        index.append((np.arange(k, k + nb), np.arange(k + nb, k + nb + nc)))
+        k += nb + nc
+    # the sides of the two-level bootstrap, each (sign, columns summed over cells per seed,
+    # columns subtracted). Crossed seeds: one side per run side, its seed's figure the mean over
+    # the cells (so one seed's luck moves every cell at once), or one side of the seeds' paired
+    # differences; otherwise one side per cell and run side (each cell's seeds drawn on their
+    # own), or per paired cell. Each side's figures come scaled by 1 / cells and the signs stay
+    # +-1, so every variance term seeded_interval forms (the seed-by-cluster correction, the
+    # seed spread) is on the scale of the mean
+    Side = tuple[float, np.ndarray, np.ndarray | None]
+    sides: list[Side] = []
+    if crossed(cells):
+        base_cols = np.stack([b for b, _ in index])  # (cells, seeds)
+        cand_cols = np.stack([c for _, c in index])
+        if cells[0].paired:
+            sides = [(1.0, cand_cols, base_cols)]
         else:
-            sides += [(base, None), (cand, None)]
-            signs += [-1.0, 1.0]
+            sides = [(-1.0, base_cols, None), (1.0, cand_cols, None)]
+    else:
+        for cell, (b, c) in zip(cells, index):
+            if cell.paired:
+                sides.append((1.0, c[None], b[None]))
+            else:
+                sides += [(-1.0, b[None], None), (1.0, c[None], None)]
+    signs = [sign for sign, _, _ in sides]
     H, S = np.array(hits), np.array(size)
     share = 1.0 / len(cells)
 
     def per_seed(w: np.ndarray) -> list[np.ndarray]:
         r = share * (w @ H.T) / (w @ S.T)  # (n, parts)
-        return [r[:, sl] - (r[:, minus] if minus is not None else 0.0) for sl, minus in sides]
+        return [_over_cells(r, cols, minus) for _, cols, minus in sides]
 
     def per_seed_influence(w: np.ndarray) -> list[np.ndarray]:
         denom = w @ S.T
         r = (w @ H.T) / denom
         infl = share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]
-        return [infl[:, sl] - (infl[:, minus] if minus is not None else 0.0) for sl, minus in sides]
+        return [_over_cells(infl, cols, minus) for _, cols, minus in sides]
 
     iv = seeded_interval(
         per_seed,
@@ -132,6 +161,12 @@ def pooled_change(
         "se": iv.se,
         "df": iv.df,
         "seeds": any(len(c.base) > 1 or len(c.cand) > 1 for c in cells),
+        "seed_design": (
+            "the seeds, crossed with the cells"
+            + (", paired seed by seed" if cells[0].paired else "")
+            if crossed(cells)
+            else "each cell's seeds, drawn on their own (the cells ran different seeds)"
+        ),
     }
     y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
     g = np.concatenate([np.asarray(p.groups) for p in parts])
@@ -142,6 +177,13 @@ def pooled_change(
         "low_n": classes_low_n(n_slip, n_nonslip),
     }
     return out
+
+
+def _over_cells(a: np.ndarray, cols: np.ndarray, minus: np.ndarray | None) -> np.ndarray:
+    """Per seed, the sum over cells of ``a``'s columns ``cols`` (cells, seeds), less those of
+    ``minus``: ``a`` (n, parts, ...) -> (n, seeds, ...)."""
+    out = a[:, cols].sum(axis=1)
+    return out if minus is None else out - a[:, minus].sum(axis=1)
 
 
 def pooled_from_rows(

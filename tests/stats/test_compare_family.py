@@ -88,7 +88,7 @@ def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
     assert cmp.retraining_covered and (cmp.min_seeds_base, cmp.min_seeds_candidate) == (3, 3)
     assert cmp.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
     assert "retraining noise" not in to_markdown(cmp)
-    assert "each cell's seeds" in cmp.pooled["method"].iloc[0]
+    assert cmp.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
     # the seeds' spread widens the interval against one seed per side
     one = compare(*predictions_pair(tmp_path / "one", n_cells=3, cand_seeds=(3,)))
     width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
@@ -109,7 +109,7 @@ def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
         )
     )
     assert same.cells["method"].str.startswith("over seeds and trials (paired seed by seed)").all()
-    assert same.pooled["method"].iloc[0].endswith("and each cell's seeds (paired seed by seed)")
+    assert same.pooled["method"].iloc[0].endswith("crossed with the cells, paired seed by seed")
     assert other.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
     # here the seeds' luck is small next to the flipped trials: paired, their spread still
     # drops out of the cells' and the pooled intervals (tests/stats/test_metrics.py: strong luck)
@@ -169,6 +169,31 @@ def test_json_is_in_points_with_cells_as_objects_and_validates(tmp_path):
     assert doc["pooled"][0]["mean_d"] == pytest.approx(doc["summary"][0]["mean_change"], abs=1e-3)
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate({**doc, "cells": [json.dumps(cell)]}, schema)  # a cell as a string
+
+
+def test_a_seeds_luck_that_reaches_every_cell_stays_in_the_pooled_interval():
+    """Each candidate seed moves every cell alike (one split, one set of draws per seed): with
+    the seeds known to be crossed with the cells, the pooled interval keeps that luck whole;
+    drawn cell by cell, it averages away over the cells."""
+    rng = np.random.default_rng(5)
+    luck = [0.25, -0.2, 0.0]  # per candidate seed: the share of windows it turns right / wrong
+
+    def moved(p, k):
+        flip = rng.random(len(p.y_true)) < abs(luck[k])
+        right = np.where(flip, p.y_true if luck[k] > 0 else ~p.y_true, p.y_pred)
+        return Predictions(p.y_true, right, p.groups)
+
+    cells = []
+    for _ in range(8):
+        base = _preds(rng) + _preds(rng)[:1]
+        cells.append((base, [moved(p, k) for k, p in enumerate(base)]))
+    known = [CellSides(b, c, (0, 1, 2), (3, 4, 5)) for b, c in cells]
+    unknown = [CellSides(b, c) for b, c in cells]
+    a, b = pooled_change(known, seed=1, level=0.95), pooled_change(unknown, seed=1, level=0.95)
+    assert a["d"] == pytest.approx(b["d"])
+    assert a["seed_design"] == "the seeds, crossed with the cells"
+    assert b["seed_design"].startswith("each cell's seeds, drawn on their own")
+    assert a["hi"] - a["lo"] > 2 * (b["hi"] - b["lo"])
 
 
 def test_a_pooled_change_over_many_cells_of_several_seeds_keeps_its_width():
