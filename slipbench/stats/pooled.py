@@ -13,9 +13,10 @@ over the base's. The interval is the two-level bootstrap of
 :func:`slipbench.stats.bootstrap.seeded_interval`, trials drawn once for every test set. Where
 every cell ran the same seeds on each side (one ``evaluate --repeats`` per side), a seed is one
 split and one set of draws for every cell, so its luck moves all cells at once: the seeds are
-crossed with the cells, a seed's figure is the mean over the cells, and where both sides ran the
-same seeds they pair seed by seed (the split's luck cancels). Where the cells ran different
-seeds, each cell's seeds are drawn on their own, and the method says so.
+crossed with the cells and a seed's figure is the mean over the cells. The two sides' seeds are
+drawn apart even where they are the same (the cells pair them; a pooled mean paired on three
+seeds raised too many false alarms). Where the cells ran different seeds, each cell's seeds are
+drawn on their own, and the method says so.
 
 Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
 cells' rows, taking their errors as moving together (the widest case).
@@ -44,11 +45,6 @@ class CellSides:
     cand: Sequence[Predictions]
     base_seeds: Sequence[int] = ()
     cand_seeds: Sequence[int] = ()
-
-    @property
-    def paired(self) -> bool:
-        """Both sides ran the same seeds, which then pair seed by seed."""
-        return len(self.base_seeds) > 0 and list(self.base_seeds) == list(self.cand_seeds)
 
 
 def crossed(cells: Sequence[CellSides]) -> bool:
@@ -104,41 +100,34 @@ def pooled_change(
         nb, nc = len(cell.base), len(cell.cand)
         index.append((np.arange(k, k + nb), np.arange(k + nb, k + nb + nc)))
         k += nb + nc
-    # the sides of the two-level bootstrap, each (sign, columns summed over cells per seed,
-    # columns subtracted). Crossed seeds: one side per run side, its seed's figure the mean over
-    # the cells (so one seed's luck moves every cell at once), or one side of the seeds' paired
-    # differences; otherwise one side per cell and run side (each cell's seeds drawn on their
-    # own), or per paired cell. Each side's figures come scaled by 1 / cells and the signs stay
-    # +-1, so every variance term seeded_interval forms (the seed-by-cluster correction, the
-    # seed spread) is on the scale of the mean
-    Side = tuple[float, np.ndarray, np.ndarray | None]
-    sides: list[Side] = []
+    # the sides of the two-level bootstrap, each (sign, columns summed over cells per seed).
+    # Crossed seeds: one side per run side, its seed's figure the mean over the cells (one
+    # seed's luck moves every cell at once); otherwise one side per cell and run side (each
+    # cell's seeds drawn on their own). The seeds of the two sides are drawn apart even where
+    # they are the same: paired, the mean's seed spread rests on S - 1 = 2 degrees of freedom
+    # and a small draw of it raised 2 false alarms in 20 null comparisons (docs/coverage.md).
+    # Each side's figures come scaled by 1 / cells and the signs stay +-1, so every variance
+    # term seeded_interval forms (the seed-by-cluster correction, the seed spread) is on the
+    # scale of the mean
+    sides: list[tuple[float, np.ndarray]] = []
     if crossed(cells):
-        base_cols = np.stack([b for b, _ in index])  # (cells, seeds)
-        cand_cols = np.stack([c for _, c in index])
-        if cells[0].paired:
-            sides = [(1.0, cand_cols, base_cols)]
-        else:
-            sides = [(-1.0, base_cols, None), (1.0, cand_cols, None)]
+        sides = [(-1.0, np.stack([b for b, _ in index])), (1.0, np.stack([c for _, c in index]))]
     else:
-        for cell, (b, c) in zip(cells, index):
-            if cell.paired:
-                sides.append((1.0, c[None], b[None]))
-            else:
-                sides += [(-1.0, b[None], None), (1.0, c[None], None)]
-    signs = [sign for sign, _, _ in sides]
+        for b, c in index:
+            sides += [(-1.0, b[None]), (1.0, c[None])]
+    signs = [sign for sign, _ in sides]
     H, S = np.array(hits), np.array(size)
     share = 1.0 / len(cells)
 
     def per_seed(w: np.ndarray) -> list[np.ndarray]:
         r = share * (w @ H.T) / (w @ S.T)  # (n, parts)
-        return [_over_cells(r, cols, minus) for _, cols, minus in sides]
+        return [r[:, cols].sum(axis=1) for _, cols in sides]
 
     def per_seed_influence(w: np.ndarray) -> list[np.ndarray]:
         denom = w @ S.T
         r = (w @ H.T) / denom
         infl = share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]
-        return [_over_cells(infl, cols, minus) for _, cols, minus in sides]
+        return [infl[:, cols].sum(axis=1) for _, cols in sides]
 
     iv = seeded_interval(
         per_seed,
@@ -163,7 +152,6 @@ def pooled_change(
         "seeds": any(len(c.base) > 1 or len(c.cand) > 1 for c in cells),
         "seed_design": (
             "the seeds, crossed with the cells"
-            + (", paired seed by seed" if cells[0].paired else "")
             if crossed(cells)
             else "each cell's seeds, drawn on their own (the cells ran different seeds)"
         ),
@@ -177,13 +165,6 @@ def pooled_change(
         "low_n": classes_low_n(n_slip, n_nonslip),
     }
     return out
-
-
-def _over_cells(a: np.ndarray, cols: np.ndarray, minus: np.ndarray | None) -> np.ndarray:
-    """Per seed, the sum over cells of ``a``'s columns ``cols`` (cells, seeds), less those of
-    ``minus``: ``a`` (n, parts, ...) -> (n, seeds, ...)."""
-    out = a[:, cols].sum(axis=1)
-    return out if minus is None else out - a[:, minus].sum(axis=1)
 
 
 def pooled_from_rows(
