@@ -66,35 +66,24 @@ def main() -> None:
     t1 = time.perf_counter()
     fails = {"repeats": 0, "one seed": 0}
     for i in range(args.comparisons):
-        if args.same_seeds:
+        if args.same_seeds:  # the same seeds on both sides: the base against its salted twin
             b = c = list(range(args.repeats * i, args.repeats * (i + 1)))
-            run = root / f"same{args.repeats}-{i:02d}"
-            if not run.exists():
-                cs.side(pool, run / "base", b)
-                cs.side(salted, run / "cand", c)
-                cs.side(pool, run / "base1", b[:1])
-                cs.side(salted, run / "cand1", c[:1])
-            code, line = cs.compare_exit(run / "base", run / "cand", seed=i)
-            code1, _ = cs.compare_exit(run / "base1", run / "cand1", seed=i)
-            fails["repeats"] += code
-            fails["one seed"] += code1
-            print(
-                f"{i:2d} seeds {b} both: exit {code} ({line}); one seed: exit {code1}", flush=True
-            )
-            continue
-        if n_seeds >= 2 * args.repeats * args.comparisons:
-            seeds = list(range(2 * args.repeats * i, 2 * args.repeats * (i + 1)))
-        else:  # distinct seeds drawn from the pool, the same draw in every run of the study
-            seeds = [
-                int(s) for s in np.random.default_rng(i).permutation(n_seeds)[: 2 * args.repeats]
-            ]
-        b, c = seeds[: args.repeats], seeds[args.repeats :]
-        run = root / f"cmp{n_seeds}-{i:02d}"
+            cand_pool, run = salted, root / f"same{args.repeats}-{i:02d}"
+        else:
+            if n_seeds >= 2 * args.repeats * args.comparisons:
+                seeds = list(range(2 * args.repeats * i, 2 * args.repeats * (i + 1)))
+            else:  # distinct seeds drawn from the pool, the same draw in every run of the study
+                seeds = [
+                    int(s)
+                    for s in np.random.default_rng(i).permutation(n_seeds)[: 2 * args.repeats]
+                ]
+            b, c = seeds[: args.repeats], seeds[args.repeats :]
+            cand_pool, run = pool, root / f"cmp{n_seeds}-{i:02d}"
         if not run.exists():
             cs.side(pool, run / "base", b)
-            cs.side(pool, run / "cand", c)
+            cs.side(cand_pool, run / "cand", c)
             cs.side(pool, run / "base1", b[:1])
-            cs.side(pool, run / "cand1", c[:1])
+            cs.side(cand_pool, run / "cand1", c[:1])
         code, line = cs.compare_exit(run / "base", run / "cand", seed=i)
         code1, _ = cs.compare_exit(run / "base1", run / "cand1", seed=i)
         fails["repeats"] += code
