@@ -14,8 +14,8 @@ over the base's. The interval is the two-level bootstrap of
 every cell ran the same seeds on each side (one ``evaluate --repeats`` per side), a seed is one
 split and one set of draws for every cell, so its luck moves all cells at once: the seeds are
 crossed with the cells and a seed's figure is the mean over the cells. The two sides' seeds are
-drawn apart even where they are the same (the cells pair them; a pooled mean paired on three
-seeds raised too many false alarms). Where the cells ran different seeds, each cell's seeds are
+drawn apart even where they are the same (the cells pair them; the pooled test paired was
+measured only before the final seed terms, see ``docs/coverage.md``). Where the cells ran different seeds, each cell's seeds are
 drawn on their own, and the method says so.
 
 Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
@@ -104,8 +104,8 @@ def pooled_change(
     # Crossed seeds: one side per run side, its seed's figure the mean over the cells (one
     # seed's luck moves every cell at once); otherwise one side per cell and run side (each
     # cell's seeds drawn on their own). The seeds of the two sides are drawn apart even where
-    # they are the same: paired, the mean's seed spread rests on S - 1 = 2 degrees of freedom
-    # and a small draw of it raised 2 false alarms in 20 null comparisons (docs/coverage.md).
+    # they are the same: the null study of paired seeds that passes (0 of 20) measured this
+    # form; paired, it was measured only before a cut net kept its uncertainty (docs/coverage.md)
     # Each side's figures come scaled by 1 / cells and the signs stay +-1, so every variance
     # term seeded_interval forms (the seed-by-cluster correction, the seed spread) is on the
     # scale of the mean
