@@ -17,10 +17,9 @@ def _isolated_cache(tmp_path_factory):
     mp.undo()
 
 
-@pytest.fixture(autouse=True)
-def _fresh_registries():
-    """Plugin folders a test registers (``--plugins`` runs in-process here) are forgotten after
-    it, as they are when a user's command ends: no test sees another's plugins."""
+def _registries_restored():
+    """Plugin folders registered meanwhile (``--plugins`` runs in-process here) are forgotten
+    afterwards, as they are when a user's command ends."""
     from slipbench.engine import registry
 
     for r in (registry.detectors, registry.protocols):
@@ -31,6 +30,12 @@ def _fresh_registries():
     yield
     for r, sources, loaded in saved:
         r._sources, r._loaded = sources, loaded
+
+
+# no test sees another's plugins: per test, and per module for the module-scoped fixtures that
+# run in-process with --plugins (set up before any function-scoped fixture can save the state)
+_fresh_registries = pytest.fixture(autouse=True)(_registries_restored)
+_fresh_module_registries = pytest.fixture(autouse=True, scope="module")(_registries_restored)
 
 
 @pytest.fixture
