@@ -13,10 +13,12 @@ over the base's. The interval is the two-level bootstrap of
 :func:`slipbench.stats.bootstrap.seeded_interval`, trials drawn once for every test set. Where
 every cell ran the same seeds on each side (one ``evaluate --repeats`` per side), a seed is one
 split and one set of draws for every cell, so its luck moves all cells at once: the seeds are
-crossed with the cells and a seed's figure is the mean over the cells. The two sides' seeds are
-drawn apart even where they are the same (the cells pair them; the pooled test paired was
-measured only before the final seed terms, see ``docs/coverage.md``). Where the cells ran different seeds, each cell's seeds are
-drawn on their own, and the method says so.
+crossed with the cells and a seed's figure is the mean over the cells. Where both sides ran the
+same seeds (a branch against main), seed k of each side made the same split, so the pooled test
+pairs them seed by seed, as the cells do, and the split's luck cancels (null study of
+``benchmarks/bench_compare_null.py --same-seeds``: 0 of 20 exit 1; power: the pooled test flags
+10 of 10 and 10 of 10, where drawn apart it flagged 1 and 0). Where the cells ran different
+seeds, each cell's seeds are drawn on their own, and the method says so.
 
 Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
 cells' rows, taking their errors as moving together (the widest case).
@@ -56,6 +58,13 @@ def crossed(cells: Sequence[CellSides]) -> bool:
         and list(c.cand_seeds) == list(first.cand_seeds)
         for c in cells
     )
+
+
+def paired(cells: Sequence[CellSides]) -> bool:
+    """Crossed, and both sides ran the same seeds, several: seed k of each side made the same
+    split. (One seed per side gives the same interval either way.)"""
+    seeds = list(cells[0].base_seeds)
+    return len(seeds) > 1 and crossed(cells) and list(cells[0].cand_seeds) == seeds
 
 
 def _mask(p: Predictions, figure: str) -> np.ndarray:
@@ -100,34 +109,42 @@ def pooled_change(
         nb, nc = len(cell.base), len(cell.cand)
         index.append((np.arange(k, k + nb), np.arange(k + nb, k + nb + nc)))
         k += nb + nc
-    # the sides of the two-level bootstrap, each (sign, columns summed over cells per seed).
-    # Crossed seeds: one side per run side, its seed's figure the mean over the cells (one
-    # seed's luck moves every cell at once); otherwise one side per cell and run side (each
-    # cell's seeds drawn on their own). The seeds of the two sides are drawn apart even where
-    # they are the same: the null study of paired seeds that passes (0 of 20) measured this
-    # form; paired, it was measured only before a cut net kept its uncertainty (docs/coverage.md)
-    # Each side's figures come scaled by 1 / cells and the signs stay +-1, so every variance
-    # term seeded_interval forms (the seed-by-cluster correction, the seed spread) is on the
-    # scale of the mean
-    sides: list[tuple[float, np.ndarray]] = []
-    if crossed(cells):
-        sides = [(-1.0, np.stack([b for b, _ in index])), (1.0, np.stack([c for _, c in index]))]
+    # the sides of the two-level bootstrap, each (sign, columns added, columns taken away),
+    # summed over the cells per seed. Crossed seeds: a seed's figure is the mean over the cells
+    # (one seed's luck moves every cell at once); where both sides ran the same seeds, one side
+    # of the seeds' paired differences (seed k of each side made the same split), else one side
+    # per run side. Otherwise one side per cell and run side (each cell's seeds drawn on their
+    # own). Each side's figures come scaled by 1 / cells and the signs stay +-1, so every
+    # variance term seeded_interval forms is on the scale of the mean
+    sides: list[tuple[float, np.ndarray, np.ndarray | None]] = []
+    if paired(cells):
+        sides = [(1.0, np.stack([c for _, c in index]), np.stack([b for b, _ in index]))]
+    elif crossed(cells):
+        sides = [
+            (-1.0, np.stack([b for b, _ in index]), None),
+            (1.0, np.stack([c for _, c in index]), None),
+        ]
     else:
         for b, c in index:
-            sides += [(-1.0, b[None]), (1.0, c[None])]
-    signs = [sign for sign, _ in sides]
+            sides += [(-1.0, b[None], None), (1.0, c[None], None)]
+    signs = [sign for sign, _, _ in sides]
     H, S = np.array(hits), np.array(size)
     share = 1.0 / len(cells)
 
+    def gather(x: np.ndarray) -> list[np.ndarray]:
+        # x (n, parts, ...) -> per side (n, seeds, ...): added minus taken away, over the cells
+        return [
+            x[:, add].sum(axis=1) - (0 if away is None else x[:, away].sum(axis=1))
+            for _, add, away in sides
+        ]
+
     def per_seed(w: np.ndarray) -> list[np.ndarray]:
-        r = share * (w @ H.T) / (w @ S.T)  # (n, parts)
-        return [r[:, cols].sum(axis=1) for _, cols in sides]
+        return gather(share * (w @ H.T) / (w @ S.T))
 
     def per_seed_influence(w: np.ndarray) -> list[np.ndarray]:
         denom = w @ S.T
         r = (w @ H.T) / denom
-        infl = share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None]
-        return [infl[:, cols].sum(axis=1) for _, cols in sides]
+        return gather(share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None])
 
     iv = seeded_interval(
         per_seed,
@@ -151,7 +168,9 @@ def pooled_change(
         "df": iv.df,
         "seeds": any(len(c.base) > 1 or len(c.cand) > 1 for c in cells),
         "seed_design": (
-            "the seeds, crossed with the cells"
+            "the seeds, crossed with the cells and paired seed by seed"
+            if paired(cells)
+            else "the seeds, crossed with the cells"
             if crossed(cells)
             else "each cell's seeds, drawn on their own (the cells ran different seeds)"
         ),

@@ -98,7 +98,7 @@ def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
 def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
     """Both sides ran seeds 0, 1, 2 (the same splits): the cells pair the seeds, so the seeds'
     luck, which both sides share, cancels; other seeds stay unpaired. The pooled test crosses
-    the seeds with the cells and draws the sides' seeds apart."""
+    the seeds with the cells and pairs them too."""
     same = compare(
         *predictions_pair(
             tmp_path / "same", 3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
@@ -110,7 +110,8 @@ def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
         )
     )
     assert same.cells["method"].str.startswith("over seeds and trials (paired seed by seed)").all()
-    assert same.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
+    assert same.pooled["method"].iloc[0].endswith("crossed with the cells and paired seed by seed")
+    assert other.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
     assert other.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
     # here the seeds' luck is small next to the flipped trials: paired, their spread still
     # drops out of the cells' intervals (tests/stats/test_metrics.py: strong luck)
@@ -205,3 +206,38 @@ def test_a_pooled_change_over_many_cells_of_several_seeds_keeps_its_width():
     ]
     res = pooled_change(cells, seed=1, level=0.975)
     assert res["seeds"] and res["lo"] < res["d"] < res["hi"] and res["hi"] - res["lo"] > 0.02
+
+
+def test_the_same_seeds_pair_in_the_pooled_test_and_their_shared_luck_cancels():
+    """Both sides ran seeds 0, 1, 2 in every cell: seed k's split moves both sides' figures
+    alike, so the pooled test pairs the seeds (one cell: exactly the cell's paired interval) and
+    that luck cancels; drawn apart, it widens the interval."""
+    rng = np.random.default_rng(11)
+    luck = [0.3, -0.25, 0.05]  # per seed, shared by both sides
+
+    def moved(p, k):
+        flip = rng.random(len(p.y_true)) < abs(luck[k])
+        right = np.where(flip, p.y_true if luck[k] > 0 else ~p.y_true, p.y_pred)
+        return Predictions(p.y_true, right, p.groups)
+
+    cells = []
+    for _ in range(6):
+        base = _preds(rng) + _preds(rng)[:1]
+        cand = [
+            Predictions(
+                p.y_true, np.where(rng.random(len(p.y_true)) < 0.05, ~p.y_pred, p.y_pred), p.groups
+            )
+            for p in base
+        ]
+        cells.append(
+            ([moved(p, k) for k, p in enumerate(base)], [moved(p, k) for k, p in enumerate(cand)])
+        )
+    same = [CellSides(b, c, (0, 1, 2), (0, 1, 2)) for b, c in cells]
+    apart = [CellSides(b, c, (0, 1, 2), (3, 4, 5)) for b, c in cells]
+    a, b = pooled_change(same, seed=2, level=0.95), pooled_change(apart, seed=2, level=0.95)
+    assert a["d"] == pytest.approx(b["d"])
+    assert a["seed_design"] == "the seeds, crossed with the cells and paired seed by seed"
+    assert a["hi"] - a["lo"] < 0.5 * (b["hi"] - b["lo"])
+    one = pooled_change(same[:1], seed=2, level=0.95)
+    ref = over_seeds(*cells[0], seed=2, level=0.95, figures=("accuracy",), paired=True)
+    assert (one["lo"], one["hi"]) == pytest.approx((ref["d_accuracy_lo"], ref["d_accuracy_hi"]))
