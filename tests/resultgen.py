@@ -208,6 +208,7 @@ def inputs_folder(
     predictions: bool = True,
     model_noise: float = 0.3,
     replicate: int = 0,
+    split_noise: float = 0.0,
 ) -> tuple:
     """A results folder of one detector ("tcn") run with ``--input both`` on window-size cells
     of the sensors of ``boost`` (two at least), with predictions unless not ``predictions``;
@@ -216,8 +217,11 @@ def inputs_folder(
     Both inputs test the same windows of the same ``trials`` trials per sensor (half slip), and a
     trial's difficulty is shared by every cell and input. A window is classified correctly with
     probability sigmoid(0.8 + difficulty + a draw of N(0, ``model_noise``) per trained model (its
-    retraining noise) + ``boost[sensor]`` for channels): with the default boost the channels are
-    truly better on Nano17 (+1.5 on the logit) and truly equal on the BioTac SP. ``replicate``
+    retraining noise) + ``boost[sensor]`` and a draw of N(0, ``split_noise``) per seed and sensor
+    for channels): with the default boost the channels are truly better on Nano17 (+1.5 on the
+    logit) and truly equal on the BioTac SP. The split's draw is the luck a seed's split gives one
+    input over the other in every cell of a sensor at once (the committed reproduction shows it:
+    benchmarks/bench_seed_by_cell.py). ``replicate``
     draws the trials and predictions anew. ``legacy``: the univariate rows lack the ``input``
     column, as rows of earlier versions do. Beside the paired cells: a channels cell of the first
     sensor (index, window 200) without a univariate twin, and the same cell of the second sensor
@@ -267,7 +271,8 @@ def inputs_folder(
                         rng = np.random.default_rng(zlib.crc32(f"{key}|{replicate}".encode()))
                         t = np.repeat(np.arange(trials), windows)
                         logit = 0.8 + hard[t] + rng.normal(0, model_noise)
-                        logit += boost[sensor] if kind == "channels" else 0.0
+                        split = np.random.default_rng((11 + si, s, replicate)).normal(0, 1)
+                        logit += boost[sensor] + split_noise * split if kind == "channels" else 0.0
                         correct = rng.random(len(t)) < 1 / (1 + np.exp(-logit))
                         y = slip[t]
                         pred = np.where(correct, y, ~y)

@@ -111,7 +111,8 @@ def _stands_on(cmp: InputComparison) -> str:
         f"Figures are accuracy (%) and changes {CHANGE} in points. A cell's interval is its own "
         f"{_level(cmp.level)} interval ({how}). "
         "Per detector, protocol and sensor type, the mean change over the cells is bootstrapped once, "
-        "jointly over the trials the cells share (and each cell's seeds); "
+        "jointly over the trials the cells share (and the seeds, paired where both inputs ran the same "
+        "ones); "
         + (
             f"these {len(cmp.pooled)} pooled intervals hold together at {_level(1 - ALPHA)} "
             f"({_level(cmp.pooled_level)} each, Bonferroni), and they alone are read: "
