@@ -23,6 +23,13 @@ def _preds(rng, n=20):
     return [Predictions(y, np.where(rng.random(len(y)) < 0.8, y, ~y), g) for _ in range(2)]
 
 
+def _lucky(rng, p, luck):
+    """``p`` with a share ``|luck|`` of its windows turned right (luck > 0) or wrong (< 0)."""
+    flip = rng.random(len(p.y_true)) < abs(luck)
+    right = np.where(flip, p.y_true if luck > 0 else ~p.y_true, p.y_pred)
+    return Predictions(p.y_true, right, p.groups)
+
+
 def test_a_pooled_change_of_one_cell_is_the_cells_change():
     rng = np.random.default_rng(3)
     (b, c), (b2, c2) = _preds(rng), _preds(rng)
@@ -177,16 +184,10 @@ def test_a_seeds_luck_that_reaches_every_cell_stays_in_the_pooled_interval():
     drawn cell by cell, it averages away over the cells."""
     rng = np.random.default_rng(5)
     luck = [0.25, -0.2, 0.0]  # per candidate seed: the share of windows it turns right / wrong
-
-    def moved(p, k):
-        flip = rng.random(len(p.y_true)) < abs(luck[k])
-        right = np.where(flip, p.y_true if luck[k] > 0 else ~p.y_true, p.y_pred)
-        return Predictions(p.y_true, right, p.groups)
-
     cells = []
     for _ in range(8):
         base = _preds(rng) + _preds(rng)[:1]
-        cells.append((base, [moved(p, k) for k, p in enumerate(base)]))
+        cells.append((base, [_lucky(rng, p, luck[k]) for k, p in enumerate(base)]))
     known = [CellSides(b, c, (0, 1, 2), (3, 4, 5)) for b, c in cells]
     unknown = [CellSides(b, c) for b, c in cells]
     a, b = pooled_change(known, seed=1, level=0.95), pooled_change(unknown, seed=1, level=0.95)
@@ -214,24 +215,12 @@ def test_the_same_seeds_pair_in_the_pooled_test_and_their_shared_luck_cancels():
     that luck cancels; drawn apart, it widens the interval."""
     rng = np.random.default_rng(11)
     luck = [0.3, -0.25, 0.05]  # per seed, shared by both sides
-
-    def moved(p, k):
-        flip = rng.random(len(p.y_true)) < abs(luck[k])
-        right = np.where(flip, p.y_true if luck[k] > 0 else ~p.y_true, p.y_pred)
-        return Predictions(p.y_true, right, p.groups)
-
     cells = []
     for _ in range(6):
         base = _preds(rng) + _preds(rng)[:1]
-        cand = [
-            Predictions(
-                p.y_true, np.where(rng.random(len(p.y_true)) < 0.05, ~p.y_pred, p.y_pred), p.groups
-            )
-            for p in base
-        ]
-        cells.append(
-            ([moved(p, k) for k, p in enumerate(base)], [moved(p, k) for k, p in enumerate(cand)])
-        )
+        cand = [_lucky(rng, p, -0.05) for p in base]  # a slightly worse candidate
+        sides = [[_lucky(rng, p, luck[k]) for k, p in enumerate(side)] for side in (base, cand)]
+        cells.append(tuple(sides))
     same = [CellSides(b, c, (0, 1, 2), (0, 1, 2)) for b, c in cells]
     apart = [CellSides(b, c, (0, 1, 2), (3, 4, 5)) for b, c in cells]
     a, b = pooled_change(same, seed=2, level=0.95), pooled_change(apart, seed=2, level=0.95)
