@@ -17,8 +17,10 @@ crossed with the cells and a seed's figure is the mean over the cells. Where bot
 same seeds (a branch against main), seed k of each side made the same split, so the pooled test
 pairs them seed by seed, as the cells do, and the split's luck cancels (null study of
 ``benchmarks/bench_compare_null.py --same-seeds``: 0 of 20 exit 1; power: the pooled test flags
-10 of 10 and 10 of 10, where drawn apart it flagged 1 and 0). Where the cells ran different
-seeds, each cell's seeds are drawn on their own, and the method says so.
+10 of 10 and 10 of 10, where drawn apart it flagged 1 and 0). Where a cell lacks a seed the
+others ran (skipped under that split), the pooled test keeps to the seeds every cell ran, if two
+or more: :func:`on_common_seeds`. Where the cells ran different seeds, each cell's seeds are
+drawn on their own, and the method says so.
 
 Where some cell has no stored predictions, :func:`pooled_from_rows` gives the mean from the
 cells' rows, taking their errors as moving together (the widest case).
@@ -67,6 +69,30 @@ def paired(cells: Sequence[CellSides]) -> bool:
     return len(seeds) > 1 and crossed(cells) and list(cells[0].cand_seeds) == seeds
 
 
+def on_common_seeds(cells: Sequence[CellSides]) -> Sequence[CellSides]:
+    """``cells`` kept to the seeds every cell ran, per side, where that leaves each side 2 seeds
+    or more (1 where some cell ran one): a cell skipped under one seed would otherwise leave the
+    pooled test drawing each cell's seeds on its own, though a seed's split moves every cell
+    (``benchmarks/bench_seed_by_cell.py``). Else ``cells`` as they are."""
+    if crossed(cells) or not all(c.base_seeds and c.cand_seeds for c in cells):
+        return cells
+    kept = []
+    for side in ("base_seeds", "cand_seeds"):
+        common = [s for s in getattr(cells[0], side) if all(s in getattr(c, side) for c in cells)]
+        ran = min(len(getattr(c, side)) for c in cells)
+        if len(common) < min(ran, 2):
+            return cells
+        kept.append(common)
+
+    def keep(preds: Sequence[Predictions], seeds: Sequence[int], common: list) -> list:
+        return [preds[list(seeds).index(s)] for s in common]
+
+    return [
+        CellSides(keep(c.base, c.base_seeds, kept[0]), keep(c.cand, c.cand_seeds, kept[1]), *kept)
+        for c in cells
+    ]
+
+
 def _mask(p: Predictions, figure: str) -> np.ndarray:
     y = np.asarray(p.y_true, bool)
     return {"accuracy": np.ones(len(y), bool), "tp_rate": y, "tn_rate": ~y}[figure]
@@ -95,6 +121,8 @@ def pooled_change(
         raise ValueError(f"pooled changes are of rates ({', '.join(RATE_MASKS)}), not {figure}")
     if not cells:
         raise ValueError("pooled_change needs at least one cell")
+    ran = cells
+    cells = on_common_seeds(cells)
     parts = [p for c in cells for p in (*c.base, *c.cand)]
     design, codes = make_design([p.y_true for p in parts], [p.groups for p in parts])
     hits, size = [], []
@@ -167,13 +195,7 @@ def pooled_change(
         "se": iv.se,
         "df": iv.df,
         "seeds": any(len(c.base) > 1 or len(c.cand) > 1 for c in cells),
-        "seed_design": (
-            "the seeds, crossed with the cells and paired seed by seed"
-            if paired(cells)
-            else "the seeds, crossed with the cells"
-            if crossed(cells)
-            else "each cell's seeds, drawn on their own (the cells ran different seeds)"
-        ),
+        "seed_design": _seed_design(ran, cells),
     }
     y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
     g = np.concatenate([np.asarray(p.groups) for p in parts])
@@ -184,6 +206,18 @@ def pooled_change(
         "low_n": classes_low_n(n_slip, n_nonslip),
     }
     return out
+
+
+def _seed_design(ran: Sequence[CellSides], cells: Sequence[CellSides]) -> str:
+    """How ``pooled_change`` drew the seeds of ``cells`` (``ran``: before they were kept to the
+    seeds every cell ran), in words."""
+    if not crossed(cells):
+        return "each cell's seeds, drawn on their own (the cells ran different seeds)"
+    how = "crossed with the cells" + (" and paired seed by seed" if paired(cells) else "")
+    if cells is ran:
+        return f"the seeds, {how}"
+    seeds = sorted({*cells[0].base_seeds, *cells[0].cand_seeds})
+    return f"the seeds every cell ran ({', '.join(map(str, seeds))}), {how}"
 
 
 def pooled_from_rows(

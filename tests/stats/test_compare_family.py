@@ -230,3 +230,26 @@ def test_the_same_seeds_pair_in_the_pooled_test_and_their_shared_luck_cancels():
     one = pooled_change(same[:1], seed=2, level=0.95)
     ref = over_seeds(*cells[0], seed=2, level=0.95, figures=("accuracy",), paired=True)
     assert (one["lo"], one["hi"]) == pytest.approx((ref["d_accuracy_lo"], ref["d_accuracy_hi"]))
+
+
+def test_a_cell_skipped_under_one_seed_keeps_the_seeds_crossed_on_those_every_cell_ran():
+    """One cell lacks seed 1 on both sides (skipped under that split): the pooled test keeps to
+    seeds 0 and 2, which every cell ran, crossed and paired, so a split's luck that reaches every
+    cell stays whole; drawn cell by cell it averaged away."""
+    rng = np.random.default_rng(13)
+    luck = [0.3, -0.25, 0.05]  # per seed: the split's luck, one input over the other
+    cells = []
+    for i in range(6):
+        seeds = (0, 2) if i == 0 else (0, 1, 2)
+        base = _preds(rng) + _preds(rng)[:1]
+        cand = [_lucky(rng, base[k], luck[s]) for k, s in enumerate(seeds)]
+        cells.append(CellSides(base[: len(seeds)], cand, seeds, seeds))
+    kept = pooled_change(cells, seed=3, level=0.95)
+    assert kept["seed_design"] == (
+        "the seeds every cell ran (0, 2), crossed with the cells and paired seed by seed"
+    )
+    apart = pooled_change([CellSides(c.base, c.cand) for c in cells], seed=3, level=0.95)
+    assert kept["hi"] - kept["lo"] > 2 * (apart["hi"] - apart["lo"])
+    # not enough seeds in common: each cell's own
+    few = [CellSides(c.base[:1], c.cand[:1], (i,), (i,)) for i, c in enumerate(cells)]
+    assert pooled_change(few, seed=3, level=0.95)["seed_design"].startswith("each cell's seeds")
