@@ -170,7 +170,7 @@ METHODS = (
     "scale-choice",
 )
 #: the interval every figure and change takes unless told otherwise (``docs/coverage.md``)
-DEFAULT_METHOD = "replicate-logit"
+DEFAULT_METHOD = "scale-choice"
 
 
 @dataclass(frozen=True)
@@ -571,12 +571,13 @@ def seeded_interval(
         # interval (the smoothing takes one seed's windows)
         lo, hi = _logit_bounds(est, cluster, 0.0, se, df, level, seed_windows)
     elif (
-        (
+        # a change of two sides apart (a paired or pooled one takes the t below)
+        bounds == (-1.0, 1.0)
+        and tuple(signs) == (-1.0, 1.0)
+        and (
             method == "mover"
             or (method == "scale-choice" and _logit_is_steadier(sides, seed_windows))
         )
-        and bounds == (-1.0, 1.0)
-        and tuple(signs) == (-1.0, 1.0)
     ):
         # a change of two figures in [0, 1]; the level (their mean) has its own df
         level_df = satterthwaite_df(

@@ -191,9 +191,11 @@ def _pooled(of: _PerSet, totals: Sequence[_Totals], name: str, w: np.ndarray) ->
     return np.mean([of(t, name, w) for t in totals], axis=0)
 
 
-def _change(of: _PerSet, sides: Sequence[_Totals], name: str, w: np.ndarray) -> np.ndarray:
-    """``of`` of the candidate (``sides[1]``) minus that of the base."""
-    return of(sides[1], name, w) - of(sides[0], name, w)
+def _each_side(
+    of: _PerSet, sides: Sequence[_Totals], name: str, w: np.ndarray
+) -> list[np.ndarray]:
+    """``of`` of each side as one seed of it, shape (n, 1, ...): the two sides of a change."""
+    return [np.expand_dims(of(t, name, w), 1) for t in sides]
 
 
 def _sizes(t: _Totals, name: str) -> np.ndarray:
@@ -550,7 +552,7 @@ def over_seeds(
     per_side = [[[next(it) for _ in sets] for sets in side] for side in sides]
     if paired and (cand is None or len(sides[0]) != len(sides[1])):
         raise ValueError("paired seeds need a candidate with as many seeds as the base")
-    if paired and method in ("mover", "scale-choice"):  # they split a change into its two sides
+    if paired and method == "mover":  # it splits a change into its two sides
         raise ValueError(f"method {method!r} needs the two sides apart, not paired seeds")
     of_seeds = _paired_seeds if paired else _per_seed
     signs = (1.0,) if cand is None or paired else (-1.0, 1.0)
@@ -663,12 +665,14 @@ def paired_comparison(
     if unknown:
         raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
-        iv = interval(
-            partial(_change, _figure, sides, name),
-            partial(_change, _influence, sides, name),
+        # the two sides apart (signs -1, +1), one seed each: as over_seeds takes a change
+        iv = seeded_interval(
+            partial(_each_side, _figure, sides, name),
+            partial(_each_side, _influence, sides, name),
+            (-1.0, 1.0),
             design,
             _used(sides[0], name),
-            _sizes(sides[0], name),
+            np.sum([_sizes(t, name) for t in sides], axis=0),  # both sides' windows, as there
             seed,
             level,
             n_resamples,

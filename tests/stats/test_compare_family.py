@@ -14,7 +14,7 @@ from resultgen import predictions_pair
 from slipbench.report.compare import SCHEMA_VERSION, to_json, to_markdown
 from slipbench.stats.compare import CELL_ALPHA, compare, summary
 from slipbench.stats.metrics import Predictions, over_seeds, paired_comparison
-from slipbench.stats.pooled import CellSides, pooled_change
+from slipbench.stats.pooled import POOLED_METHOD, CellSides, pooled_change
 
 
 def _preds(rng, n=20):
@@ -35,12 +35,21 @@ def test_a_pooled_change_of_one_cell_is_the_cells_change():
     (b, c), (b2, c2) = _preds(rng), _preds(rng)
     one = pooled_change([CellSides([b], [c])], seed=4, level=0.99)
     ref = paired_comparison(
-        b.y_true, b.y_pred, c.y_pred, b.groups, 4, level=0.99, figures=("accuracy",)
+        b.y_true,
+        b.y_pred,
+        c.y_pred,
+        b.groups,
+        4,
+        level=0.99,
+        method=POOLED_METHOD,
+        figures=("accuracy",),
     )
     assert one["d"] == pytest.approx(ref["d_accuracy"])
     assert (one["lo"], one["hi"]) == pytest.approx((ref["d_accuracy_lo"], ref["d_accuracy_hi"]))
     two = pooled_change([CellSides([b, b2], [c, c2])], seed=4, level=0.99)
-    ref = over_seeds([b, b2], [c, c2], seed=4, level=0.99, figures=("accuracy",))
+    ref = over_seeds(
+        [b, b2], [c, c2], seed=4, level=0.99, method=POOLED_METHOD, figures=("accuracy",)
+    )
     assert two["seeds"] and (two["lo"], two["hi"]) == pytest.approx(
         (ref["d_accuracy_lo"], ref["d_accuracy_hi"])
     )
