@@ -191,9 +191,7 @@ def _pooled(of: _PerSet, totals: Sequence[_Totals], name: str, w: np.ndarray) ->
     return np.mean([of(t, name, w) for t in totals], axis=0)
 
 
-def _each_side(
-    of: _PerSet, sides: Sequence[_Totals], name: str, w: np.ndarray
-) -> list[np.ndarray]:
+def _each_side(of: _PerSet, sides: Sequence[_Totals], name: str, w: np.ndarray) -> list[np.ndarray]:
     """``of`` of each side as one seed of it, shape (n, 1, ...): the two sides of a change."""
     return [np.expand_dims(of(t, name, w), 1) for t in sides]
 

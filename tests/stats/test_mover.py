@@ -97,7 +97,9 @@ def test_scale_choice_is_the_default_with_replicate_logit_figures(scenario):
         over_seeds(base, cand, seed=2, method="scale-choice"),
     )
     assert got[0] == over_seeds(base, seed=2, method="replicate-logit")
+    # several seeds per side: the seed terms of satterthwaite (MOVER failed a null study there)
     assert got[1] in (old[1], over_seeds(base, cand, seed=2, method="mover"))
+    assert scenario != "seeds" or got[1] == old[1]
     if scenario == "normal":
         assert got[0] == over_seeds(base, seed=2, method="mover")
     assert got[0] != old[0]
