@@ -283,6 +283,18 @@ def seed_sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list
     ]
 
 
+def cell_sides(
+    base: list[pd.DataFrame], cand: list[pd.DataFrame], base_rows: list, cand_rows: list
+) -> CellSides:
+    """A compared cell as the pooled tests take it: each seed's predictions per side and the
+    seeds their rows ran, in the same order."""
+    return CellSides(
+        *seed_sides(base, cand),
+        [r.get("seed") for r in base_rows],
+        [r.get("seed") for r in cand_rows],
+    )
+
+
 def cell_over_seeds(
     base: list[pd.DataFrame],
     cand: list[pd.DataFrame],
@@ -712,9 +724,8 @@ def _pooled_tests(
     by_group: dict[tuple, list] = {}
     for (entry, b_rows, c_rows, preds, _), r in zip(plans, cells.to_dict("records")):
         if entry["base_status"] == entry["candidate_status"] == "ok" and not entry["stream"]:
-            seeds = ([x["seed"] for x in b_rows], [x["seed"] for x in c_rows])
             by_group.setdefault((entry["protocol"], entry["detector"]), []).append(
-                (r, (*preds, *seeds))
+                (r, (*preds, b_rows, c_rows))
             )
     tested = {g: m for g, m in by_group.items() if any(not r["identical"] for r, _ in m)}
     level = family_level(len(tested), POOLED_ALPHA)
@@ -730,7 +741,7 @@ def _pooled_tests(
         }
         preds = [p for _, p in changed]
         if all(x is not None for b, c, *_ in preds for x in (*b, *c)):
-            parts = [CellSides(*seed_sides(b, c), sb, sc) for b, c, sb, sc in preds]
+            parts = [cell_sides(*p) for p in preds]
             res = pooled_change(parts, seed, level)
             line |= {
                 "method": "joint cluster bootstrap over the trials the cells share"

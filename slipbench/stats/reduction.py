@@ -22,8 +22,8 @@ the mean change over the cells is bootstrapped once, jointly over the trials the
 (:func:`slipbench.stats.pooled.pooled_change`), the seeds crossed with the cells and paired as
 compare's pooled tests take them: a seed's split moves every cell at once. In the committed
 reproduction it does (the change's seed x cell layout: the seed's F 12.7-59.8, p < 0.001, in 11
-of 18 detector, sensor and rate groups, p < 0.05 in 14; ``benchmarks/bench_seed_by_cell.py``), so drawing each
-cell's seeds on its own held it too narrowly. Those pooled intervals are simultaneous over every
+of 18 detector, sensor and rate groups, p < 0.05 in 14; ``benchmarks/bench_seed_by_cell.py``),
+so drawing each cell's seeds on its own held it too narrowly. Those pooled intervals are simultaneous over every
 pooled change of the comparison (Bonferroni at ``ALPHA``), and they alone are read: channels
 *better* where the interval lies above 0, *worse* below, *no difference resolved* where it holds 0,
 *inconclusive* where the test trials are few or the interval is wider than
@@ -56,18 +56,18 @@ from slipbench.stats.compare import (
     ALPHA,
     MAX_WIDTH,
     cell_over_seeds,
+    cell_sides,
     family_level,
     paired_cell,
-    seed_sides,
     unpaired_cell,
 )
 from slipbench.stats.metrics import LEVEL
-from slipbench.stats.pooled import CellSides, pooled_change, pooled_from_rows
+from slipbench.stats.pooled import pooled_change, pooled_from_rows
 from slipbench.store.results import read_predictions
 
 UNIVARIATE, CHANNELS = "univariate", "channels"
-#: a paired cell's predictions and seeds: (univariate, channels, their seeds in the same order)
-Sides = tuple[list, list, list, list]
+#: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
+Sides = tuple[list, list, list[dict], list[dict]]
 #: the rates compared, per cell and pooled
 RATES = ("accuracy", "tp_rate", "tn_rate")
 #: what a channels cell and its univariate twin share, where the rows hold the column (the seed
@@ -227,8 +227,8 @@ def _identity(row: dict) -> dict:
 def _compare_cell(
     uni: list[dict], ch: list[dict], folders: Sequence[Path], seed: int
 ) -> tuple[dict, Sides | None]:
-    """One paired cell's figures and change, and its predictions and seeds per side (None where
-    a side lacks predictions)."""
+    """One paired cell's figures and change, and its predictions and rows per side (None where a
+    side lacks predictions)."""
     entry = _identity(ch[0]) | {
         "seeds": _seeds(uni + ch),
         "n_seeds_univariate": len(uni),
@@ -250,8 +250,7 @@ def _compare_cell(
         note = " (the twins' test windows do not join)" if result is None else ""
     elif have:
         result = cell_over_seeds(pu, pc, seed, LEVEL, paired=same_seeds)
-    seeds = ([r.get("seed") for r in uni], [r.get("seed") for r in ch])
-    preds = (pu, pc, *seeds) if result is not None else None
+    preds = (pu, pc, uni, ch) if result is not None else None
     if result is None:
         result = unpaired_cell(uni, ch, LEVEL)
         result["method"] += note
@@ -289,7 +288,7 @@ def _pool(members: list[tuple[dict, Sides | None]], seed: int, level: float) -> 
             line[f"{side}_{name}"] = float(np.mean([e[f"{side}_{name}"] for e in cells]))
     preds = [p for _, p in members]
     joint = all(p is not None for p in preds)
-    parts = [CellSides(*seed_sides(*p[:2]), *p[2:]) for p in preds if p is not None]
+    parts = [cell_sides(*p) for p in preds if p is not None]
     line["method"] = (
         "joint cluster bootstrap over the trials the cells share"
         if joint
