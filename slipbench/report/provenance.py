@@ -18,7 +18,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
-from slipbench.stats.bootstrap import DEFAULT_METHOD
+from slipbench.stats.bootstrap import DEFAULT_METHOD, FIGURES_AS
 from slipbench.vocabulary import cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
@@ -223,14 +223,24 @@ def _values(rows: pd.DataFrame, column: str) -> list:
 def _intervals(rows: pd.DataFrame) -> str:
     """How the 95 % intervals were computed: each cell's with the method its row records (rows
     written before it was recorded took ``satterthwaite``); a mean over fingers or seeds, here,
-    with today's default from the stored predictions (:mod:`slipbench.stats.joint`)."""
-    stored = _values(rows, "interval_method")
+    with today's default from the stored predictions (:mod:`slipbench.stats.joint`). Every
+    interval here is a figure's, so a method whose changes alone differ names the figures' one."""
+    stored = [_as_figure(str(m)) for m in _values(rows, "interval_method")]
     if "interval_method" not in rows or rows["interval_method"].isna().any():
         stored = sorted({*stored, "satterthwaite (not recorded in older rows)"})
     return (
-        f"95 %, cluster bootstrap over test trials; a cell's: method {', '.join(map(str, stored))}; "
-        f"a mean over fingers or seeds: bootstrapped for this report with {DEFAULT_METHOD} "
-        "from the stored predictions (without them, combined from the rows, as its note says)"
+        f"95 %, cluster bootstrap over test trials; a cell's: method {', '.join(stored)}; "
+        f"a mean over fingers or seeds: bootstrapped for this report with "
+        f"{_as_figure(DEFAULT_METHOD)} from the stored predictions (without them, combined from "
+        "the rows, as its note says)"
+    )
+
+
+def _as_figure(method: str) -> str:
+    """``scale-choice (a figure's interval: replicate-logit)``; a method whose figures are its own
+    as it is."""
+    return (
+        f"{method} (a figure's interval: {FIGURES_AS[method]})" if method in FIGURES_AS else method
     )
 
 

@@ -182,6 +182,8 @@ METHODS = (
 )
 #: the interval every figure and change takes unless told otherwise (``docs/coverage.md``)
 DEFAULT_METHOD = "scale-choice"
+#: a method that differs from another only in its changes: the method whose figures it takes
+FIGURES_AS = {"scale-choice": "replicate-logit"}
 
 
 @dataclass(frozen=True)
