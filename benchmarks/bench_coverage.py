@@ -1,4 +1,4 @@
-"""Coverage of slipbench's 95 % intervals in five scenarios, by simulation against a closed-form
+"""Coverage of slipbench's 95 % intervals in six scenarios, by simulation against a closed-form
 truth: the study behind ``docs/coverage.md`` and the docstring of :mod:`slipbench.stats.bootstrap`.
 
 A simulated test set holds ``m`` slip and ``m`` non-slip trials with window counts 10-200 (slip)
@@ -20,6 +20,10 @@ rate 0.92.
 - ``paired``: as ``seeds``, but a seed's effect is shared by both sides (the luck of the split a
   seed makes, which both sides train and test on), and the change pairs the sides seed by seed
   (``over_seeds(..., paired=True)``, what ``compare`` does where both sides ran the same seeds).
+- ``half-shared``: as ``paired``, but half a seed's effect (in variance) is shared by both sides
+  and half is each side's own: a seed-by-side interaction, as where a change of code trains
+  differently under the same split. Its paired changes carry a seed variance that ``paired``'s
+  lack, so the two bracket what the seed terms of a paired change must cover.
 - ``ranks``: as ``normal``, but the candidate also pulls each class's mean ``RANK_SHIFT`` (0.5)
   latent units further from the other's, so it ranks better: every change, the AUROC's
   included (+0.036), is away from 0. Elsewhere the two detectors rank alike and the change in
@@ -51,7 +55,16 @@ from scipy.stats import norm
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
-SCENARIOS = ("normal", "heavy", "seeds", "ranks", "paired")  # appended: each keeps its draws
+SCENARIOS = (
+    "normal",
+    "heavy",
+    "seeds",
+    "ranks",
+    "paired",
+    "half-shared",
+)  # appended: each keeps its draws
+SEEDED = ("seeds", "paired", "half-shared")
+PAIRED = ("paired", "half-shared")  # the change pairs the sides seed by seed
 SIZES = (5, 10, 20, 40)
 TAU, TAU_DETECTOR, SHARED_NOISE = 1.0, 0.5, 0.5
 TP, TN = 0.80, 0.92
@@ -92,7 +105,7 @@ def truth(scenario: str) -> dict[str, float]:
     """Population figures of the base detector and the changes (candidate - base), averaged
     over seeds where seeds are a factor."""
     sd = _sd()
-    b = SEED_SD if scenario in ("seeds", "paired") else 0.0
+    b = SEED_SD if scenario in SEEDED else 0.0
     slip, nonslip = _mixture(scenario)
     n1, n0 = np.mean(SLIP_WINDOWS), np.mean(NONSLIP_WINDOWS)
 
@@ -136,7 +149,7 @@ def dataset(
         fails = (rng.random(2 * m) < FAIL_SHARE)[groups]
         mean = mean - fails * sign * FAIL_SHIFT * sd
     trial = mean + rng.normal(0, TAU, 2 * m)[groups]
-    n_seeds = SEEDS if scenario in ("seeds", "paired") else 1
+    n_seeds = SEEDS if scenario in SEEDED else 1
     sides: list[list[Predictions]] = [[], []]
     for _ in range(n_seeds):
         effect = np.zeros(2)
@@ -144,6 +157,8 @@ def dataset(
             effect = rng.normal(0, SEED_SD, 2)
         elif scenario == "paired":
             effect = np.full(2, rng.normal(0, SEED_SD))
+        elif scenario == "half-shared":  # half the variance shared, half each side's own
+            effect = np.sqrt(0.5) * (rng.normal(0, SEED_SD) + rng.normal(0, SEED_SD, 2))
         shared = rng.normal(0, np.sqrt(SHARED_NOISE), len(y))
         for k, threshold in enumerate((0.0, SHIFT)):
             sep = RANK_SHIFT if scenario == "ranks" and k == 1 else 0.0
@@ -168,7 +183,7 @@ def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, float]:
     for r in range(n):
         base, cand = dataset(rng, m, scenario)
         f = over_seeds(base, seed=r, method=method)
-        d = over_seeds(base, cand, seed=r, method=method, paired=scenario == "paired")
+        d = over_seeds(base, cand, seed=r, method=method, paired=scenario in PAIRED)
         for name, value in true.items():
             src = d if name.startswith("d_") else f
             hits[name] += bool(src[f"{name}_lo"] <= value <= src[f"{name}_hi"])
