@@ -55,14 +55,8 @@ from scipy.stats import norm
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
-SCENARIOS = (
-    "normal",
-    "heavy",
-    "seeds",
-    "ranks",
-    "paired",
-    "half-shared",
-)  # appended: each keeps its draws
+# appended, never reordered: a scenario's index seeds its draws
+SCENARIOS = ("normal", "heavy", "seeds", "ranks", "paired", "half-shared")
 SEEDED = ("seeds", "paired", "half-shared")
 PAIRED = ("paired", "half-shared")  # the change pairs the sides seed by seed
 SIZES = (5, 10, 20, 40)

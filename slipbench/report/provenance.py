@@ -237,8 +237,8 @@ def _intervals(rows: pd.DataFrame) -> str:
 
 
 def _as_figure(method: str) -> str:
-    """``scale-choice (a figure's interval: replicate-logit)``; a method whose figures are its own
-    as it is."""
+    """A method's name, with the method whose interval its figures take where that differs:
+    ``scale-choice (a figure's interval: replicate-logit)``."""
     return (
         f"{method} (a figure's interval: {FIGURES_AS[method]})" if method in FIGURES_AS else method
     )
