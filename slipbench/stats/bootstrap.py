@@ -578,7 +578,7 @@ def seeded_interval(
     elif method == "mover" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
         lo, hi = _logit_bounds(est, *sides[0], se, df, level, sizes[used].sum())
     elif (
-        method in ("replicate-logit", "scale-choice")
+        FIGURES_AS.get(method, method) == "replicate-logit"
         and unit
         and tuple(signs) == (1.0,)
         and 0 < est < 1

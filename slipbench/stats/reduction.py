@@ -23,12 +23,12 @@ the mean change over the cells is bootstrapped once, jointly over the trials the
 compare's pooled tests take them: a seed's split moves every cell at once. In the committed
 reproduction it does (the change's seed x cell layout: the seed's F 12.7-59.8, p < 0.001, in 11
 of 18 detector, sensor and rate groups, p < 0.05 in 14; ``benchmarks/bench_seed_by_cell.py``),
-so drawing each cell's seeds on its own held it too narrowly. Those pooled intervals are simultaneous over every
-pooled change of the comparison (Bonferroni at ``ALPHA``), and they alone are read: channels
-*better* where the interval lies above 0, *worse* below, *no difference resolved* where it holds 0,
-*inconclusive* where the test trials are few or the interval is wider than
-:data:`~slipbench.stats.compare.MAX_WIDTH` points. Measured on simulated results with both
-inputs equal, retraining noise and a split's luck shared by a sensor's cells
+so drawing each cell's seeds on its own held it too narrowly. Those pooled intervals are
+simultaneous over every pooled change of the comparison (Bonferroni at ``ALPHA``), and they
+alone are read: channels *better* where the interval lies above 0, *worse* below, *no difference
+resolved* where it holds 0, *inconclusive* where the test trials are few or the interval is
+wider than :data:`~slipbench.stats.compare.MAX_WIDTH` points. Measured on simulated results
+with both inputs equal, retraining noise and a split's luck shared by a sensor's cells
 (``tests/stats/test_reduction.py``, 20 replications x 2 sensor types, each reading at 97.5 %):
 with three seeds per cell, 1 of 40 readings called a difference (9 inconclusive: three splits
 pin a split's luck down loosely); with one seed, 10 of 40, since the intervals then hold the
@@ -288,7 +288,7 @@ def _pool(members: list[tuple[dict, Sides | None]], seed: int, level: float) -> 
             line[f"{side}_{name}"] = float(np.mean([e[f"{side}_{name}"] for e in cells]))
     preds = [p for _, p in members]
     joint = all(p is not None for p in preds)
-    parts = [cell_sides(*p) for p in preds if p is not None]
+    parts = [cell_sides(*p) for p in preds if p is not None] if joint else []
     line["method"] = (
         "joint cluster bootstrap over the trials the cells share"
         if joint
