@@ -119,6 +119,7 @@ class LSTM(BaseDetector):
         params = kernels.init_params(self.hidden_size, rng)
         epoch = _torch_epoch if cuda else _numba_epoch
         best, best_loss, self.history_ = [p.copy() for p in params], np.inf, []
+        total_epochs = sum(e for _, e in stages)  # the caps: early stopping may end sooner
         for lr, max_epochs in stages:
             params = [p.copy() for p in best]
             velocity = [np.zeros_like(p) for p in params]
@@ -129,6 +130,7 @@ class LSTM(BaseDetector):
                 p = np.clip(kernels.predict_proba(xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
                 loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
                 self.history_.append((lr, loss))
+                self.report_progress(len(self.history_), total_epochs, loss=loss)
                 if loss < best_loss - 1e-6:
                     best, best_loss, stale = [q.copy() for q in params], loss, 0
                 else:

@@ -18,7 +18,8 @@ import os
 import re
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from importlib.metadata import entry_points
 from typing import Any, ClassVar
 
@@ -42,6 +43,24 @@ _KIND_OF_NDIM = {2: "univariate", 3: "channels"}
 
 class NotFittedError(UsageError):
     """predict was called before fit."""
+
+
+# Where a fit's progress goes (BaseDetector.report_progress): set by whoever runs the fit, for
+# example the engine, which shows it beside its bar; None when nobody listens.
+ProgressSink = Callable[[dict[str, Any]], None]
+_progress_sink: ProgressSink | None = None
+
+
+@contextmanager
+def listening(sink: ProgressSink | None) -> Iterator[None]:
+    """Send every :meth:`BaseDetector.report_progress` made in this process inside the block to
+    ``sink`` (one dict per report: ``detector``, ``step``, ``total``, ``unit`` and the figures)."""
+    global _progress_sink
+    previous, _progress_sink = _progress_sink, sink
+    try:
+        yield
+    finally:
+        _progress_sink = previous
 
 
 # ----------------------------------------------------------------------------- detectors
@@ -200,6 +219,24 @@ class BaseDetector(Parameterized):
                 f"(from {scores.min():g} to {scores.max():g}); predict_proba gives probabilities"
             )
         return scores
+
+    def report_progress(
+        self, step: int, total: int | None = None, *, unit: str = "epoch", **figures: float
+    ) -> None:
+        """Say how far a long ``_fit`` has come, e.g. ``self.report_progress(epoch, max_epochs,
+        loss=validation_loss)`` after each epoch; ``slipbench evaluate`` shows the latest report
+        beside its bar. Costs a function call when nobody listens (:func:`listening`)."""
+        sink = _progress_sink
+        if sink is not None:
+            sink(
+                {
+                    "detector": plugin_id(type(self)),
+                    "step": int(step),
+                    "total": None if total is None else int(total),
+                    "unit": unit,
+                    **{k: float(v) for k, v in figures.items()},
+                }
+            )
 
     def predict(self, x: Any) -> np.ndarray:
         """1 where the detector calls slip, shape (n_windows,)."""

@@ -180,6 +180,7 @@ class TorchDetector(BaseDetector):
             model.eval()
             with torch.no_grad():
                 loss = float(loss_fn(_logits(model, xt[vt]), yt[vt]))
+            self.report_progress(epochs, self.max_epochs, loss=loss)
             if loss < best_loss - 1e-6:
                 best_loss, best_state, stale = loss, _state(model), 0
             else:

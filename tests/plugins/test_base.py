@@ -123,3 +123,21 @@ def test_windows_of_channels_fit_predict_save_and_load(tmp_path):
     det.save(tmp_path / "d.npz")
     again = _Loudness.load(tmp_path / "d.npz")
     assert again.n_channels_ == 3 and np.array_equal(again.predict_proba(x), det.predict_proba(x))
+
+
+def test_a_fit_reports_its_epochs_to_whoever_listens():
+    """The LSTM says how far its fit has come after each epoch; nobody listening costs nothing."""
+    from slipbench.base import listening
+    from slipbench.detectors.lstm import LSTM
+
+    rng = np.random.default_rng(0)
+    y = np.repeat([0, 1], 40)
+    x = (rng.normal(0, 1, (80, 10)) * (1 + y[:, None])).astype(np.float32)
+    heard: list[dict] = []
+    with listening(heard.append):
+        LSTM(max_epochs=(2, 1), learning_rates=(0.01, 0.001), hidden_size=4).fit(x, y)
+    assert [r["step"] for r in heard] == [1, 2, 3]
+    assert {r["total"] for r in heard} == {3} and {r["unit"] for r in heard} == {"epoch"}
+    assert {r["detector"] for r in heard} == {"lstm"} and all(r["loss"] > 0 for r in heard)
+    LSTM(max_epochs=1, hidden_size=4).fit(x, y)  # outside the block: nothing heard
+    assert len(heard) == 3
