@@ -10,6 +10,7 @@ import ast
 import inspect
 import os
 import signal
+import sys
 import time
 from pathlib import Path
 
@@ -139,6 +140,84 @@ class Doomed(BaseDetector):
 
     def _predict_proba(self, x):
         return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+class ExitsInFit(Energy):
+    """Calls sys.exit(0) in fit, as a script's habit would."""
+
+    def _fit(self, x, y, seed):
+        sys.exit(0)
+
+
+class ExitsInPredict(Energy):
+    """Calls sys.exit(3) when it scores windows (a stream too)."""
+
+    def _predict_proba(self, x):
+        sys.exit(3)
+
+
+class ExitsInStream(Energy):
+    """Calls sys.exit(0) when a stream through it starts."""
+
+    def streamer(self, hop, threshold=0.5):
+        sys.exit(0)
+
+
+class VanishesInFit(Energy):
+    """Ends its process with os._exit(0) in fit: no exception, no cleanup, exit code 0."""
+
+    def _fit(self, x, y, seed):
+        os._exit(0)
+
+
+class VanishesInTest(Energy):
+    """Ends its process with os._exit(0) once fitted, when it scores windows."""
+
+    def _predict_proba(self, x):
+        os._exit(0)
+
+
+class Trainer(Energy):
+    """Trains for ``epochs`` epochs of ``seconds`` each on windows of ``long_window`` samples
+    (one epoch on any other), reporting each epoch and a loss: a long fit to interrupt."""
+
+    def __init__(self, quantile=0.5, epochs=3, seconds=0.2, long_window=0):
+        self.quantile, self.epochs, self.seconds, self.long_window = (
+            quantile,
+            epochs,
+            seconds,
+            long_window,
+        )
+
+    def _fit(self, x, y, seed):
+        epochs = self.epochs if x.shape[1] == self.long_window or not self.long_window else 1
+        for epoch in range(1, epochs + 1):
+            deadline = time.monotonic() + self.seconds
+            while time.monotonic() < deadline:  # in short sleeps, as a training loop runs
+                time.sleep(0.01)
+            self.report_progress(epoch, epochs, loss=1 / epoch)
+        super()._fit(x, y, seed)
+
+
+class ThreadProbe(Energy):
+    """Records the threads numba, the BLAS and OpenMP libraries and torch (where imported)
+    allow while it fits, in its fitted choices."""
+
+    def _fit(self, x, y, seed):
+        import numba
+        from threadpoolctl import threadpool_info
+
+        super()._fit(x, y, seed)
+        self.seen_ = {
+            "numba": numba.get_num_threads(),
+            "pools": sorted({p["num_threads"] for p in threadpool_info()}),
+            "omp_env": os.environ.get("OMP_NUM_THREADS", ""),
+        }
+        if "torch" in sys.modules:
+            self.seen_["torch"] = sys.modules["torch"].get_num_threads()
+
+    def fitted_choices(self):
+        return {"threads": self.seen_}
 
 
 class TwoCells(BaseProtocol):

@@ -4,9 +4,13 @@
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import traceback
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import click
 
@@ -24,7 +28,8 @@ EXIT_BUG = 70  # sysexits' EX_SOFTWARE: an internal error, reported with its tra
 EXIT_CODES = """Exit codes: 0 every cell ok or skipped; 1 compare found a regression; 2 bad usage or
 bad data; 3 a plugin failed to load (failed cells listed too) or one named is unavailable; 4 the run finished but cells failed or timed out (listed);
 5 an environment fault (disk full, read-only folder, permission); 70 a bug in slipbench (with
-its traceback); 130 interrupted."""
+its traceback); 129, 130, 143 interrupted by SIGHUP, Ctrl-C (SIGINT), SIGTERM (128 + the
+signal's number)."""
 
 
 @click.group(epilog=EXIT_CODES)
@@ -46,7 +51,40 @@ for command in (
     cli.add_command(command)
 
 
-INTERRUPTED = "interrupted; finished cells are kept, run the same command again to resume"
+INTERRUPTED = "interrupted{}; finished cells are kept, run the same command again to resume"
+EXIT_SIGINT = 128 + signal.SIGINT  # what a shell reports for a process a signal ended
+# what CI cancellation, `timeout`, `kill` and a closed terminal send: stop as Ctrl-C does
+STOPPING = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+
+
+class Interrupted(BaseException):
+    """A run stopped by SIGTERM or SIGHUP. Not an Exception, like KeyboardInterrupt: only the
+    code that stops workers and keeps finished cells (``except BaseException``) sees it."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+@contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise Interrupted in the main thread while the block runs; a second
+    one while the run stops is ignored. The previous handlers come back after."""
+    if threading.current_thread() is not threading.main_thread():
+        yield  # only the main thread may set handlers (a test or a caller's thread)
+        return
+
+    def interrupt(signum, frame) -> None:
+        for other in STOPPING:
+            signal.signal(other, signal.SIG_IGN)
+        raise Interrupted(signum)
+
+    previous = {signum: signal.signal(signum, interrupt) for signum in STOPPING}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -64,13 +102,17 @@ def main(argv: list[str] | None = None) -> None:
 
 def _main(argv: list[str] | None) -> None:
     try:
-        cli.main(args=argv, prog_name="slipbench", standalone_mode=False)
+        with _signals_interrupt():
+            cli.main(args=argv, prog_name="slipbench", standalone_mode=False)
     except click.exceptions.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
     except (click.exceptions.Abort, KeyboardInterrupt):  # click turns Ctrl-C into Abort
-        click.echo(INTERRUPTED, err=True)
-        sys.exit(130)
+        click.echo(INTERRUPTED.format(""), err=True)
+        sys.exit(EXIT_SIGINT)
+    except Interrupted as exc:
+        click.echo(INTERRUPTED.format(f" by {exc}"), err=True)
+        sys.exit(128 + exc.signum)
     except SlipbenchError as exc:
         click.echo(f"error: {exc}", err=True)
         sys.exit(exc.exit_code)

@@ -1,109 +1,238 @@
 """Where models are fitted: in local worker processes, on a dask cluster, or (``jobs=0``, for
 debugging) in this process.
 
-Each executor takes tasks and a function that turns a task into the arguments of
-:func:`slipbench.engine.fitting.fit_and_test`, and yields every task with its results as they finish.
-A worker that overruns the time limit, or dies (the out-of-memory killer, a crash in native
-code), fails its task's cells with the reason; the run goes on in a fresh worker.
+:class:`Executor` takes tasks and a function that turns a task into its
+:class:`~slipbench.engine.fitting.Job`, and yields every task with its results as they finish.
+A worker that overruns the time limit, or ends (the out-of-memory killer, a crash in native
+code, a plugin's ``os._exit``, with any exit code), fails its task's cells with the reason and
+the phase (fit or test); the run goes on in a fresh worker. Every executor sets the threads a
+model may use (:mod:`slipbench.engine.threads`) and passes on the progress models report. An
+interrupted run (Ctrl-C, SIGTERM) stops its workers at once: the cells in flight are cancelled
+and run again on resume.
 """
 
 from __future__ import annotations
 
 import ast
-import os
+import pickle
 import sys
+import time
 import types
-from collections.abc import Callable, Iterator
+import uuid
+from collections.abc import Callable, Generator, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+from contextlib import suppress
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Generic, TypeVar
 
-from slipbench.engine.fitting import Result, fit_and_test
-from slipbench.errors import UsageError
+import psutil
+
+from slipbench.base import listening
+from slipbench.engine import threads, workers
+from slipbench.engine.fitting import Job, Result, fit_and_test
+from slipbench.errors import EnvironmentFault, UsageError
 
 T = TypeVar("T")
-Payload = Callable[[T], tuple]
+Payload = Callable[[T], Job]
+Report = Callable[[dict], None]  # what shows a model's progress report
+Finished = Generator[tuple[T, list[Result]], None, None]
+
+TICK = 0.1  # seconds between looks at the workers (and the progress they report)
+# pebble fails a task itself when its worker ends with any code but 0, within its 0.1 s poll;
+# a task still open this long after its worker vanished lost a worker that exited with 0
+GRACE = 1.0
+STOP = 1.0  # seconds an interrupted worker has to end on SIGTERM before it is killed
 
 
-def serial(tasks: list[T], payload: Payload) -> Iterator[tuple[T, list[Result]]]:
-    for task in tasks:
-        yield task, fit_and_test(*payload(task))
-
-
-def _worker_init(jobs: int, plugin_files: dict[str, str]) -> None:
-    # share the machine's cores between the workers instead of oversubscribing them
-    threads = max(1, (os.cpu_count() or 1) // jobs)
-    os.environ["OMP_NUM_THREADS"] = str(threads)
-    torch = sys.modules.get("torch")
-    if torch is not None:
-        torch.set_num_threads(threads)
-    from slipbench.engine.registry import import_plugin_file
-
-    for path in plugin_files.values():  # the folder plugins the parent loaded, under the same names
-        try:
-            import_plugin_file(path)
-        except Exception:  # noqa: BLE001 - its cells fail with the error when it is used
-            pass
+def serial(tasks: list[T], payload: Payload, on_report: Report | None) -> Finished:
+    sink = workers.throttled(on_report) if on_report else None
+    with threads.limited(threads.share(1)):  # restored for the caller when the run ends
+        for task in tasks:
+            job = payload(task)
+            with listening(sink):
+                results = fit_and_test(job)
+            yield task, results
 
 
 def _failed(n: int, status: str, reason: str) -> list[Result]:
     return [({"status": status, "reason": reason}, None)] * n
 
 
+def _exited(code: int | None, phase: str) -> str:
+    if code is not None and code < 0:
+        return (
+            f"the worker process was killed by signal {-code} (exit code {code}; e.g. the "
+            f"out-of-memory killer) in {phase}"
+        )
+    return f"the worker process exited with code {code} in {phase}"
+
+
+@dataclass
+class _Flight(Generic[T]):
+    """A task sent to the pool: the worker running it, since when and in which phase, as the
+    worker said."""
+
+    task: T
+    future: Future
+    pid: int | None = None
+    started: float = 0.0
+    phase: str = "fit"
+    gone_at: float | None = None  # when its worker was first seen gone
+
+    def outcome(self, now: float, timeout: float | None) -> list[Result] | None:
+        """Its results where it is over: done, its worker gone (pebble says why where the
+        exit code is not 0, within its 0.1 s poll; past GRACE it exited with 0), or past the
+        time limit (its worker is stopped); None while it runs."""
+        n = len(self.task.cells)  # type: ignore[attr-defined]
+        if self.future.done():
+            return self._results(n)
+        if self.pid is None:  # queued, or not yet said it started
+            return None
+        if self.gone_at is None and not _alive(self.pid):
+            self.gone_at = now
+        if self.gone_at is not None:
+            return (
+                _failed(n, "failed", _exited(0, self.phase)) if now > self.gone_at + GRACE else None
+            )
+        if timeout and now > self.started + timeout:
+            _stop({self.pid})  # pebble starts another worker
+            return _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s")
+        return None
+
+    def _results(self, n: int) -> list[Result]:
+        from pebble import ProcessExpired
+
+        try:
+            return self.future.result()
+        except EnvironmentFault:
+            raise  # the machine's fault: the run stops, exit 5
+        except ProcessExpired as exc:
+            return _failed(n, "failed", _exited(exc.exitcode, self.phase))
+        # what the worker sent back instead of results (a KeyboardInterrupt or SystemExit of
+        # plugin code too: the user's Ctrl-C reaches this process, not the worker)
+        except BaseException as exc:  # noqa: BLE001
+            return _failed(n, "failed", f"the worker could not run this model: {exc!r}")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+def _stop(pids: set[int]) -> None:
+    """End the workers and every process they started: SIGTERM, then SIGKILL after STOP s
+    (a worker deep in native code does not see SIGTERM until it returns)."""
+    procs = []
+    for pid in pids:
+        with suppress(psutil.Error):
+            proc = psutil.Process(pid)
+            procs += [proc, *proc.children(recursive=True)]
+    for proc in procs:
+        with suppress(psutil.Error):
+            proc.terminate()
+    _, alive = psutil.wait_procs(procs, timeout=STOP)
+    for proc in alive:
+        with suppress(psutil.Error):
+            proc.kill()
+    psutil.wait_procs(alive, timeout=STOP)
+
+
+class _Pool(Generic[T]):
+    """pebble's ProcessPool, watched: which worker runs which task (told over a pipe), and
+    every worker that vanishes. pebble kills a worker past its time limit and replaces one
+    that died, but waits forever on a task whose worker exited with code 0, and on Ctrl-C
+    waits for the tasks in flight."""
+
+    def __init__(self, jobs: int, timeout: float | None, on_report: Report | None) -> None:
+        import multiprocessing
+
+        from pebble import ProcessPool
+
+        from slipbench.engine.registry import PLUGIN_FILES
+
+        # a fresh server process, not a fork of this one: a process that already ran OpenMP
+        # threads (numba's parallel kernels) cannot fork safely
+        context = multiprocessing.get_context("forkserver")
+        self.reader, writer = context.Pipe(duplex=False)
+        self.pool = ProcessPool(
+            max_workers=jobs,
+            initializer=workers.start,
+            initargs=(threads.share(jobs), dict(PLUGIN_FILES), writer, on_report is not None),
+            context=context,
+        )
+        self.writer, self.timeout, self.on_report = writer, timeout, on_report
+        self.flights: dict[int, _Flight] = {}
+        self.pids: set[int] = set()
+
+    def send(self, number: int, task: T, job: Job) -> None:
+        # pickled here, so that no plugin code runs in pebble's own reading of the task
+        blob = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
+        # the time limit is kept here, from the worker's word that it started: pebble's would
+        # race with a worker that exited with 0 (see _Flight.outcome)
+        future = self.pool.schedule(workers.run, args=(number, blob))
+        self.flights[number] = _Flight(task, future)
+
+    def finished(self) -> Iterator[tuple[T, list[Result]]]:
+        """Tasks over since the last call (waits up to TICK for one)."""
+        wait([f.future for f in self.flights.values()], TICK, FIRST_COMPLETED)
+        self._read()
+        now = time.monotonic()
+        for number, flight in list(self.flights.items()):
+            results = flight.outcome(now, self.timeout)
+            if results is not None:
+                del self.flights[number]
+                yield flight.task, results
+
+    def _read(self) -> None:
+        report = None
+        for message in workers.received(self.reader):
+            kind, *rest = message
+            if kind == "hello":
+                self.pids.add(rest[0])
+            elif kind == "start" and rest[0] in self.flights:
+                flight = self.flights[rest[0]]
+                flight.pid, flight.started = rest[1], time.monotonic()
+            elif kind == "phase" and rest[0] in self.flights:
+                self.flights[rest[0]].phase = rest[1]
+            elif kind == "report":
+                report = rest[0]
+        if report is not None and self.on_report is not None:
+            self.on_report(report)  # the latest only: a few redraws a second
+
+    def close(self, interrupted: bool) -> None:
+        """Stop the pool; ``interrupted``: its workers first, without waiting for their tasks."""
+        self.pool.stop()
+        if interrupted:
+            self._read()  # workers that started meanwhile
+            _stop(self.pids)
+        self.pool.join()
+        self.reader.close()
+        self.writer.close()
+
+
 def process_pool(
-    tasks: list[T], payload: Payload, jobs: int, timeout: float | None
-) -> Iterator[tuple[T, list[Result]]]:
-    """Local worker processes; at most two tasks per worker in flight, so their windows are not
-    all in memory at once. pebble, unlike concurrent.futures, kills a worker past its time limit
-    and replaces a worker that died.
-
-    Workers start from a fresh server process ("forkserver"), not a fork of this one: a process
-    that already ran OpenMP threads (numba's parallel kernels) cannot fork safely."""
-    import multiprocessing
-    from concurrent.futures import TimeoutError as FutureTimeout
-
-    from pebble import ProcessExpired, ProcessPool
-
-    from slipbench.engine.registry import PLUGIN_FILES
-
-    context = multiprocessing.get_context("forkserver")
-    with ProcessPool(
-        max_workers=jobs,
-        initializer=_worker_init,
-        initargs=(jobs, dict(PLUGIN_FILES)),
-        context=context,
-    ) as pool:
-        pending: list[Any] = []
-        queue = iter(tasks)
+    tasks: list[T], payload: Payload, jobs: int, timeout: float | None, on_report: Report | None
+) -> Finished:
+    """Local worker processes; at most two tasks per worker in flight, so their windows are
+    not all in memory at once."""
+    pool: _Pool[T] = _Pool(jobs, timeout, on_report)
+    queue = iter(enumerate(tasks))
+    interrupted = True
+    try:
         while True:
-            for task in queue:
-                pending.append(
-                    (pool.schedule(fit_and_test, args=payload(task), timeout=timeout), task)
-                )
-                if len(pending) >= 2 * jobs:
+            for number, task in queue:
+                pool.send(number, task, payload(task))
+                if len(pool.flights) >= 2 * jobs:
                     break
-            if not pending:
+            if not pool.flights:
+                interrupted = False
                 return
-            future, task = pending.pop(0)
-            n = len(task.cells)
-            try:
-                yield task, future.result()
-            except FutureTimeout:
-                yield (
-                    task,
-                    _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s"),
-                )
-            except ProcessExpired as exc:
-                killed = exc.exitcode is not None and exc.exitcode < 0
-                yield (
-                    task,
-                    _failed(
-                        n,
-                        "failed",
-                        f"the worker process died (exit code {exc.exitcode}"
-                        + (": killed by a signal, e.g. the out-of-memory killer" if killed else "")
-                        + ") while fitting or testing this model",
-                    ),
-                )
+            yield from pool.finished()
+    finally:
+        pool.close(interrupted)
 
 
 def dask_client(address: str):
@@ -119,17 +248,64 @@ def dask_client(address: str):
         raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
 
 
-def dask(tasks: list[T], payload: Payload, address: str) -> Iterator[tuple[T, list[Result]]]:
-    """A dask.distributed cluster; results arrive as they complete."""
+def dask(tasks: list[T], payload: Payload, address: str, on_report: Report | None) -> Finished:
+    """A dask.distributed cluster; results arrive as they complete. Progress comes as worker
+    events on a topic of this run (a message through the scheduler, a few a second per task)."""
     from distributed import as_completed
 
     client = dask_client(address)
+    topic = f"slipbench-progress-{uuid.uuid4().hex}" if on_report else ""
+    if on_report:  # called in the client's event loop: throttled once more for all tasks
+        show = workers.throttled(on_report)
+        client.subscribe_topic(topic, lambda event: show(event[1]))
+    futures: dict[Any, T] = {}
     try:
-        futures = {client.submit(fit_and_test, *payload(t), pure=False): t for t in tasks}
+        per_host = _threads_per_host(client)
+        for t in tasks:
+            futures[client.submit(_on_dask, payload(t), per_host, topic, pure=False)] = t
         for future in as_completed(futures):
-            yield futures[future], future.result()
+            task = futures.pop(future)
+            yield task, _dask_results(future, len(task.cells))  # type: ignore[attr-defined]
     finally:
+        # what is still in flight (an interrupted run) is cancelled, not left to the cluster;
+        # a task already running ends in its thread, its result dropped
+        if futures:
+            client.cancel(list(futures), force=True)
         client.close()
+
+
+def _threads_per_host(client) -> dict[str, int]:
+    """The threads of the cluster's workers on each machine, which share its cores."""
+    per_host: dict[str, int] = {}
+    for worker in client.scheduler_info(n_workers=-1)["workers"].values():
+        per_host[worker["host"]] = per_host.get(worker["host"], 0) + worker["nthreads"]
+    return per_host
+
+
+def _on_dask(job: Job, per_host: dict[str, int], topic: str) -> list[Result]:
+    """A task on a dask worker: its model gets the share of the machine's cores that the run's
+    worker threads on it leave, set and not restored (every task of the run on this worker sets
+    the same, and restoring would race between the worker's threads)."""
+    from distributed import get_worker
+    from distributed.comm import get_address_host
+
+    worker = get_worker()
+    at_once = per_host.get(get_address_host(worker.address), worker.state.nthreads)
+    threads.set_threads(threads.share(at_once))
+    sink = workers.throttled(lambda r: worker.log_event(topic, r)) if topic else None
+    with listening(sink):
+        return fit_and_test(job)
+
+
+def _dask_results(future, n: int) -> list[Result]:
+    try:
+        return future.result()
+    except EnvironmentFault:
+        raise
+    # a worker lost three times (KilledWorker), or what a task raised outside the plugin's
+    # code: its cells fail, the run goes on
+    except (Exception, SystemExit) as exc:  # noqa: BLE001
+        return _failed(n, "failed", f"the dask task failed: {exc!r}")
 
 
 def unguarded_script() -> str:
@@ -186,19 +362,23 @@ def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
     )
 
 
-def execute(
-    tasks: list[T],
-    payload: Payload,
-    jobs: int = 1,
-    scheduler: str | None = None,
-    timeout: float | None = None,
-) -> Iterator[tuple[T, list[Result]]]:
-    """Run tasks on the executor the options ask for: ``jobs`` worker processes, or in this
-    process for ``jobs=0`` (no protection against a crash, no time limit)."""
-    if scheduler:
-        return dask(tasks, payload, scheduler)
-    if jobs == 0:
-        if timeout:
-            raise UsageError("a time limit needs worker processes: use --jobs 1 or more")
-        return serial(tasks, payload)
-    return process_pool(tasks, payload, jobs, timeout)
+@dataclass(frozen=True)
+class Executor:
+    """Where tasks run: ``jobs`` local worker processes (0: in this process, with no
+    protection against a crash and no time limit), or the dask scheduler at ``scheduler``;
+    ``timeout``: seconds one task may take in a local worker."""
+
+    jobs: int = 1
+    scheduler: str | None = None
+    timeout: float | None = None
+
+    def run(self, tasks: list[T], payload: Payload, on_report: Report | None = None) -> Finished:
+        """Every task with its results, as they finish; ``on_report`` shows the progress a model
+        reports (None: nobody listens, and workers send none)."""
+        if self.scheduler:
+            return dask(tasks, payload, self.scheduler, on_report)
+        if self.jobs == 0:
+            if self.timeout:
+                raise UsageError("a time limit needs worker processes: use --jobs 1 or more")
+            return serial(tasks, payload, on_report)
+        return process_pool(tasks, payload, self.jobs, self.timeout, on_report)

@@ -11,6 +11,7 @@ import json
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -64,19 +65,10 @@ class TestSet:
 Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields and its test scores
 
 
-def fit_and_test(
-    detector: BaseDetector,
-    seed: int,
-    sampling_rate: float,
-    train_x: np.ndarray,
-    train_y: np.ndarray,
-    tests: list[TestSet | StreamTest],
-    model_path: str | None = None,
-    name: str = "",
-    train_groups: np.ndarray | None = None,
-) -> list[Result]:
-    """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
-    stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
+@dataclass
+class Job:
+    """One model's work, as plain data (it crosses to worker processes): fit ``detector`` on
+    ``train_x`` and ``train_y``, then test it on each of ``tests``.
 
     With ``model_path``, a model an earlier run saved there for the same training windows is
     loaded instead of refitted (its training cost is reported as measured then), and a newly
@@ -84,15 +76,40 @@ def fit_and_test(
     the class afresh, without the id the registry stamped on it in the parent, and messages
     must name the id a user can pass (``minirocket``), not the class. ``train_groups`` is the
     trial of each training window (a detector may hold whole trials out for validation).
-    Returns, per test set,
-    its result fields and its scores.
     """
-    if name and not type(detector).__dict__.get("name"):
-        type(detector).name = name
+
+    detector: BaseDetector
+    seed: int
+    sampling_rate: float
+    train_x: np.ndarray
+    train_y: np.ndarray
+    tests: list[TestSet | StreamTest]
+    model_path: str | None = None
+    name: str = ""
+    train_groups: np.ndarray | None = None
+
+
+def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> list[Result]:
+    """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
+    stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
+    Returns, per test set, its result fields and its scores.
+
+    ``on_phase("test")`` is called when the model is trained and testing starts, so a worker
+    can say which phase a process that vanished was in. Whatever the plugin raises, or ends the
+    process with (``sys.exit``), fails the cells with the reason and the phase.
+    """
+    detector, seed, sampling_rate = job.detector, job.seed, job.sampling_rate
+    train_x, train_y, tests = job.train_x, job.train_y, job.tests
+    if job.name and not type(detector).__dict__.get("name"):
+        type(detector).name = job.name
+    phase = "fit"
     try:
         detector, cost = _trained(
-            detector, seed, sampling_rate, train_x, train_y, model_path, train_groups
+            detector, seed, sampling_rate, train_x, train_y, job.model_path, job.train_groups
         )
+        phase = "test"
+        if on_phase is not None:
+            on_phase(phase)
         learned, warning = _learned(train_y, detector.predict_proba(train_x))
         choices = _choices(detector, sampling_rate, [warning] if warning else [])
         out: list[Result] = []
@@ -152,17 +169,21 @@ def fit_and_test(
         return out
     except EnvironmentFault:
         raise  # a full disk is the machine's fault, not the detector's: the run stops, exit 5
-    except Exception as exc:  # noqa: BLE001 - whatever a plugin raises stays in its cells
-        detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-        return [
-            (
-                {
-                    "status": "failed",
-                    "reason": f"detector {plugin_id(type(detector))!r} raised: {detail}",
-                },
-                None,
-            )
-        ] * len(tests)
+    # whatever a plugin raises stays in its cells; sys.exit too, which would end a run
+    # that lost them with exit 0 (SystemExit is no Exception)
+    except (Exception, SystemExit) as exc:  # noqa: BLE001
+        reason = _raised(plugin_id(type(detector)), exc, phase)
+        return [({"status": "failed", "reason": reason}, None)] * len(tests)
+
+
+def _raised(who: str, exc: BaseException, phase: str) -> str:
+    if isinstance(exc, SystemExit):
+        return (
+            f"detector {who!r} raised SystemExit({exc.code!r}) in {phase}: plugin code must "
+            "not end the process"
+        )
+    detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+    return f"detector {who!r} raised: {detail} (in {phase})"
 
 
 def _one_class(y: np.ndarray) -> str:

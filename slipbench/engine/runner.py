@@ -13,6 +13,7 @@ import importlib.metadata
 import json
 import platform
 import sys
+from collections.abc import Callable
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -22,8 +23,8 @@ import pandas as pd
 from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals, channel_scales, standardized
-from slipbench.engine.executors import execute, workers_for
-from slipbench.engine.fitting import TestSet
+from slipbench.engine.executors import Executor, workers_for
+from slipbench.engine.fitting import Job, TestSet
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
 from slipbench.stats.bootstrap import DEFAULT_METHOD
@@ -187,13 +188,18 @@ def evaluate(
         if pc.key not in rows and pc.skip:
             record(pc, {"status": "skipped", "reason": pc.skip})
 
-    bar = _progress(len(plan.cells), len(rows), progress, _describe(runs))
+    cached = len(rows)
+    bar = _progress(len(plan.cells), cached, progress, _describe(runs))
     try:
         payload = lambda task: _payload(plan, task, store, force, scheduler)  # noqa: E731
-        for task, results in execute(plan.tasks, payload, jobs, scheduler, cell_timeout):
-            for pc, (fields, scores) in zip(task.cells, results):
-                record(pc, fields, scores)
-            bar.update(len(task.cells))
+        finished = Executor(jobs, scheduler, cell_timeout).run(
+            plan.tasks, payload, _shown(bar, cached) if progress else None
+        )
+        with contextlib.closing(finished):  # stopped at once when this loop is left early
+            for task, results in finished:
+                for pc, (fields, scores) in zip(task.cells, results, strict=True):
+                    record(pc, fields, scores)
+                bar.update(len(task.cells))
     except BaseException:
         bar.close()
         with contextlib.suppress(EnvironmentFault):  # the first fault is the one to report
@@ -206,8 +212,8 @@ def evaluate(
 
 def _payload(
     plan: Plan, task: Task, store: ResultsStore, force: bool, scheduler: str | None
-) -> tuple:
-    """The arguments of ``fit_and_test`` for a task: samples are cut here, one task at a time.
+) -> Job:
+    """A task's :class:`~slipbench.engine.fitting.Job`: samples are cut here, one task at a time.
     Channels are standardized by the training windows' statistics, the test side's too."""
     first = task.first
     data, kind = plan.data_of(first), first.run.input
@@ -232,7 +238,7 @@ def _payload(
         model_path = store.model_path(task.model_key)
         if force:
             Path(f"{model_path}.json").unlink(missing_ok=True)
-    return (
+    return Job(
         first.run.detector,
         first.run.seed,
         first.sampling_rate,
@@ -321,3 +327,23 @@ def _progress(total: int, done: int, enabled: bool, desc: str):
     )
     bar.set_postfix_str(f"{done} cached or skipped", refresh=False)
     return bar
+
+
+def _shown(bar, cached: int) -> Callable[[dict], None]:
+    """Show a model's latest progress report beside the bar (from any thread: tqdm locks)."""
+    before = f"{cached} cached or skipped; " if cached else ""
+
+    def show(report: dict) -> None:
+        bar.set_postfix_str(before + progress_line(report))
+
+    return show
+
+
+def progress_line(report: dict) -> str:
+    """``lstm: epoch 12/30, loss 0.41`` from a report of ``BaseDetector.report_progress``."""
+    step, total = report["step"], report["total"]
+    figures = {k: v for k, v in report.items() if k not in ("detector", "step", "total", "unit")}
+    return ", ".join(
+        [f"{report['detector']}: {report['unit']} {step}" + (f"/{total}" if total else "")]
+        + [f"{name} {value:.3g}" for name, value in figures.items()]
+    )

@@ -12,7 +12,7 @@ import pytest
 from toys import Energy
 
 import slipbench.base
-from slipbench.engine.fitting import fit_and_test
+from slipbench.engine.fitting import Job, fit_and_test
 from slipbench.stream.cell import Recordings, StreamTest, streamed_figures
 from slipbench.testing import toy_windows
 
@@ -85,7 +85,7 @@ def test_streaming_cells_are_low_n_by_the_trials_that_hold_onsets(
     test = StreamTest(
         _recordings(n_slip, n_press, onsets_each), _recordings(4, 4, seed=1), HOP, 200.0
     )
-    ((row, _),) = fit_and_test(Energy(), 0, RATE, x, y, [test])
+    ((row, _),) = fit_and_test(Job(Energy(), 0, RATE, x, y, [test]))
     assert row["status"] == "ok", row["reason"]
     assert row["n_onset_trials"] == n_slip and row["n_test_trials"] == n_slip + n_press
     assert row["low_n"] is low
