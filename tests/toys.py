@@ -200,8 +200,8 @@ class Trainer(Energy):
 
 
 class ThreadProbe(Energy):
-    """Records the threads numba, the BLAS and OpenMP libraries and torch (where imported)
-    allow while it fits, in its fitted choices."""
+    """Records the threads numba, the BLAS libraries and torch (where imported) allow while it
+    fits, and OMP_NUM_THREADS, in its fitted choices."""
 
     def _fit(self, x, y, seed):
         import numba
@@ -210,7 +210,9 @@ class ThreadProbe(Energy):
         super()._fit(x, y, seed)
         self.seen_ = {
             "numba": numba.get_num_threads(),
-            "pools": sorted({p["num_threads"] for p in threadpool_info()}),
+            "blas": sorted(
+                {p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"}
+            ),
             "omp_env": os.environ.get("OMP_NUM_THREADS", ""),
         }
         if "torch" in sys.modules:

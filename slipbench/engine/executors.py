@@ -116,10 +116,17 @@ class _Flight(Generic[T]):
 
 
 def _alive(pid: int) -> bool:
-    try:
-        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
-    except psutil.NoSuchProcess:
-        return False
+    with suppress(psutil.NoSuchProcess):
+        return _running(psutil.Process(pid))
+    return False
+
+
+def _running(proc: psutil.Process) -> bool:
+    # a zombie has ended: its parent (the fork server, or init where that is gone too) has
+    # only not reaped it yet, and in a container init may never do
+    with suppress(psutil.NoSuchProcess):
+        return proc.status() != psutil.STATUS_ZOMBIE
+    return False
 
 
 def _stop(pids: set[int]) -> None:
@@ -130,14 +137,13 @@ def _stop(pids: set[int]) -> None:
         with suppress(psutil.Error):
             proc = psutil.Process(pid)
             procs += [proc, *proc.children(recursive=True)]
-    for proc in procs:
-        with suppress(psutil.Error):
-            proc.terminate()
-    _, alive = psutil.wait_procs(procs, timeout=STOP)
-    for proc in alive:
-        with suppress(psutil.Error):
-            proc.kill()
-    psutil.wait_procs(alive, timeout=STOP)
+    for signal in ("terminate", "kill"):
+        for proc in procs:
+            with suppress(psutil.Error):
+                getattr(proc, signal)()
+        deadline = time.monotonic() + STOP
+        while (procs := [p for p in procs if _running(p)]) and time.monotonic() < deadline:
+            time.sleep(0.02)
 
 
 class _Pool(Generic[T]):
@@ -257,7 +263,10 @@ def dask(tasks: list[T], payload: Payload, address: str, on_report: Report | Non
     topic = f"slipbench-progress-{uuid.uuid4().hex}" if on_report else ""
     if on_report:  # called in the client's event loop: throttled once more for all tasks
         show = workers.throttled(on_report)
-        client.subscribe_topic(topic, lambda event: show(event[1]))
+        # an event is (time, message); the scheduler adds the worker's address to a message
+        client.subscribe_topic(
+            topic, lambda event: show({k: v for k, v in event[1].items() if k != "worker"})
+        )
     futures: dict[Any, T] = {}
     try:
         per_host = _threads_per_host(client)
@@ -291,7 +300,9 @@ def _on_dask(job: Job, per_host: dict[str, int], topic: str) -> list[Result]:
 
     worker = get_worker()
     at_once = per_host.get(get_address_host(worker.address), worker.state.nthreads)
-    threads.set_threads(threads.share(at_once))
+    n = threads.share(at_once)
+    threads.set_environment(n, numba=False)
+    threads.set_threads(n)
     sink = workers.throttled(lambda r: worker.log_event(topic, r)) if topic else None
     with listening(sink):
         return fit_and_test(job)

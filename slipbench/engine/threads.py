@@ -7,10 +7,12 @@ process (``jobs=0``, or a script's ``jobs=1`` run in its own process), which fit
 at a time; on a dask worker, the machine's cores over the threads of every worker of the run
 on that machine (workers keep their own ``nthreads``). The number is set in numba, in the
 OpenMP and BLAS libraries loaded (threadpoolctl) and in torch: a library left at its default
-starts a thread per core in every worker, and a batch-1 LSTM fit on 16 cores with 16 workers
-ran 29x slower so. A worker process also sets the environment (``OMP_NUM_THREADS``,
-``NUMBA_NUM_THREADS``, ...) before a model imports those libraries. A run in this process
-restores the caller's settings when it ends.
+starts a thread per core in every worker (a batch-1 LSTM fit on a 16-core machine ran 29x
+slower with numba's default threads than with one). A worker process also sets the
+environment for the libraries a model imports later (``OMP_NUM_THREADS``, ...; in a local
+worker ``NUMBA_NUM_THREADS`` too, before numba is imported: on a dask worker, not the run's
+own, numba's ceiling is left alone). A run in this process restores the caller's settings
+when it ends and leaves the environment alone.
 """
 
 from __future__ import annotations
@@ -20,13 +22,10 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-# read when a library starts: set in a worker process before a model imports it
-ENVIRONMENT = (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "NUMBA_NUM_THREADS",
-)
+# read when a library loads: set where a model may load one later
+LOADING = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+# numba's ceiling, read at its import; changed once its threads run, numba refuses to compile
+NUMBA = "NUMBA_NUM_THREADS"
 
 
 def cores() -> int:
@@ -76,8 +75,11 @@ def limited(n: int) -> Iterator[None]:
         restore()
 
 
-def set_environment(n: int) -> None:
-    """In a worker process: the variables libraries read when they start, for those a model
-    imports later (torch reads ``OMP_NUM_THREADS``, numba ``NUMBA_NUM_THREADS``)."""
-    for name in ENVIRONMENT:
+def set_environment(n: int, *, numba: bool) -> None:
+    """For libraries a model loads later, in a worker process: torch and OpenMP read
+    ``OMP_NUM_THREADS`` when they load; with ``numba``, numba reads ``NUMBA_NUM_THREADS`` at
+    its import (set only where it is not imported yet)."""
+    for name in LOADING:
         os.environ[name] = str(n)
+    if numba and "numba" not in sys.modules:
+        os.environ[NUMBA] = str(n)

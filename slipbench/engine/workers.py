@@ -86,7 +86,7 @@ def start(n_threads: int, plugin_files: dict[str, str], pipe: Connection, progre
     """The pool's initializer: threads first (before a model imports numba or torch), then the
     folder plugins the parent loaded, under the same names."""
     global _worker
-    threads.set_environment(n_threads)
+    threads.set_environment(n_threads, numba=True)
     os.set_blocking(pipe.fileno(), False)
     _worker = Worker(n_threads, pipe, progress)
     _worker.limit_threads()

@@ -4,7 +4,14 @@ test_runner.py; corrupt datasets: test_reader_properties.py.)"""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
+
 import pandas as pd
+import psutil
 import pytest
 import toys
 
@@ -14,6 +21,7 @@ CASES = {
     "big_scores": (toys.BigScores, "scores outside [0, 1]"),
     "short_scores": (toys.ShortScores, "scores of shape"),
     "usage_in_fit": (toys.UsageInFit, "UsageError: bad day"),
+    "exits_in_fit": (toys.ExitsInFit, "raised SystemExit(0) in fit"),  # exited 0, nothing written
 }
 
 
@@ -267,3 +275,96 @@ def test_messages_never_show_numpy_reprs(tmp_path):
     assert not re.search(
         r"np\.(float|int|str)", str(info.value)
     ) and "59.738499926 Hz in recording(s) 'r0'" in str(info.value)
+
+
+@pytest.fixture(scope="module")
+def trainer(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("trainer")
+    (folder / "trainer.py").write_text(toys.source(toys.Trainer))
+    return folder
+
+
+def _training(unit, trainer, out, *args: str) -> list[str]:
+    return [
+        *("evaluate", "--detector", "trainer", "--protocol", "window-size"),
+        *("--dataset", str(unit), "--plugins", str(trainer), "--out", str(out), *args),
+    ]
+
+
+@pytest.mark.parametrize("jobs", ["0", pytest.param("1", marks=pytest.mark.slow)])
+def test_the_bar_shows_the_progress_a_model_reports(unit, trainer, tmp_path, cli, jobs):
+    two_epochs = ["--param", "epochs=2", "--param", "seconds=0.26", "--jobs", jobs]
+    args = _training(unit, trainer, tmp_path / "o", "--protocol-param", "windows=[50]", *two_epochs)
+    code, _, err = cli(args)
+    assert code == 0, err
+    assert "trainer: epoch 1/2, loss 1" in err and "trainer: epoch 2/2, loss 0.5" in err
+    code, _, err = cli([*args, "--force", "--quiet"])
+    assert code == 0 and "epoch" not in err
+
+
+@pytest.mark.parametrize("signum, code", [(signal.SIGTERM, 143), (signal.SIGHUP, 129)])
+def test_sigterm_and_sighup_end_a_command_as_ctrl_c_does(monkeypatch, cli, signum, code):
+    from slipbench.engine import registry
+
+    def signalled(self):
+        os.kill(os.getpid(), signum)
+        time.sleep(5)  # the handler interrupts this at once
+
+    before = signal.getsignal(signum)
+    monkeypatch.setattr(registry.Registry, "names", signalled)
+    code_, _, err = cli(["list"])
+    assert code_ == code and f"interrupted by {signal.Signals(signum).name}; finished" in err
+    assert signal.getsignal(signum) == before  # the caller's handler is back
+
+
+# signal, sent to the whole process group (a terminal's Ctrl-C) or to the run alone (`timeout`,
+# `kill`, a supervisor), jobs, exit code
+STOPPING = [
+    pytest.param(signal.SIGTERM, False, "2", 143, id="SIGTERM-2-workers"),
+    pytest.param(signal.SIGTERM, True, "0", 143, id="SIGTERM-group-in-process"),
+    pytest.param(signal.SIGHUP, False, "1", 129, id="SIGHUP-1-worker"),
+    pytest.param(signal.SIGINT, True, "1", 130, id="Ctrl-C-1-worker"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("signum, group, jobs, code", STOPPING)
+def test_a_signal_stops_the_run_within_5_s_and_keeps_finished_cells(
+    unit, trainer, tmp_path, signum, group, jobs, code
+):
+    """Window 25 trains in one epoch, window 50 for an hour: the signal comes while it trains."""
+    out = tmp_path / "o"
+    args = _training(unit, trainer, out, "--protocol-param", "windows=[25,50]", "--jobs", jobs)
+    hour = ["--param", "long_window=50", "--param", "epochs=36000", "--param", "seconds=0.1"]
+    run = subprocess.Popen(
+        [sys.executable, "-m", "slipbench.app.cli", *args, *hour],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=tmp_path,
+        start_new_session=True,  # its own group: a signal to the group reaches no test process
+    )
+    deadline = time.monotonic() + 180
+    while time.monotonic() < deadline and not list(out.glob("cells/*.parquet")):
+        time.sleep(0.1)
+    time.sleep(1.0)  # window 50 is training
+    family = psutil.Process(run.pid).children(recursive=True)
+    assert run.poll() is None and (jobs == "0" or family), "the run should still be training"
+    sent = time.monotonic()
+    (os.killpg if group else os.kill)(run.pid, signum)
+    _, err = run.communicate(timeout=30)
+    took = time.monotonic() - sent
+    assert run.returncode == code and took < 5.0, (took, err)
+    assert "finished cells are kept" in err and "run the same command again" in err
+    _, alive = psutil.wait_procs(family, timeout=3)
+    assert not [p for p in alive if _running(p)], "a process of the run survived it"
+    rows = pd.read_parquet(out / "results.parquet")
+    # the cell in flight was cancelled, not recorded: the same command runs it again
+    assert list(rows["window"]) == [25] and list(rows["status"]) == ["ok"]
+
+
+def _running(proc: psutil.Process) -> bool:
+    try:
+        return proc.status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False

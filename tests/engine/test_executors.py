@@ -87,7 +87,7 @@ def _seen(rows) -> dict:
 def test_a_worker_sees_its_share_of_the_cores(index, tmp_path):
     seen = _seen(_rows(index, tmp_path, toys.ThreadProbe(), 2))
     share = threads.share(2)
-    assert seen["numba"] == share and seen["pools"] == [share]
+    assert seen["numba"] == share and seen["blas"] == [share]
     assert seen["omp_env"] == str(share)  # for libraries a model imports later
 
 
@@ -106,5 +106,35 @@ def test_an_in_process_fit_sees_the_limits_and_the_caller_keeps_its_own(index, t
         finally:
             numba.set_num_threads(before)
     assert seen["numba"] == min(cores, numba.config.NUMBA_NUM_THREADS)
-    assert seen["pools"] == [cores]
+    assert seen["blas"] == [cores]
     assert after == (min(mine, numba.config.NUMBA_NUM_THREADS), {mine})
+
+
+@pytest.mark.slow
+def test_on_dask_sys_exit_fails_cells_threads_are_the_share_and_progress_arrives(
+    index, tmp_path, capsys
+):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None
+    ) as cluster:
+
+        def on_dask(detector, progress=False):
+            return evaluate(
+                index,
+                Run(detector, WindowSize(windows=[50])),
+                ResultsStore(tmp_path / type(detector).__name__),
+                scheduler=cluster.scheduler_address,
+                progress=progress,
+            )
+
+        exited = on_dask(toys.ExitsInFit())
+        seen = _seen(on_dask(toys.ThreadProbe()))
+        capsys.readouterr()
+        trained = on_dask(toys.Trainer(epochs=3, seconds=0.3), progress=True)
+    assert (exited["status"] == "failed").all() and cells_failed(exited) is not None
+    assert exited["reason"].str.contains("raised SystemExit(0) in fit", regex=False).all()
+    share = threads.share(2)  # two worker threads on this machine
+    assert seen["blas"] == [share] and seen["omp_env"] == str(share)
+    assert (trained["status"] == "ok").all()
+    assert "trainer: epoch " in capsys.readouterr().err  # worker events reach the bar
