@@ -59,8 +59,8 @@ def _failed(n: int, status: str, reason: str) -> list[Result]:
     return [({"status": status, "reason": reason}, None)] * n
 
 
-def _exited(code: int | None, phase: str) -> str:
-    if code is not None and code < 0:
+def _exited(code: int, phase: str) -> str:
+    if code < 0:
         return (
             f"the worker process was killed by signal {-code} (exit code {code}; e.g. the "
             f"out-of-memory killer) in {phase}"

@@ -109,14 +109,14 @@ def test_channels_are_standardized_by_the_training_windows(tmp_path):
     signals = _signals(ds, [run])
     plan = make_plan(signals, [(run, run.cells(ds.recordings))], ds.fingerprint, set())
     task = plan.tasks[0]
-    args = _payload(plan, task, ResultsStore(tmp_path / "out"), False, None)
+    job = _payload(plan, task, ResultsStore(tmp_path / "out"), False, None)
     data = plan.data_of(task.first)
     raw_train = data.values(task.first.windows("train"), task.first.cell, "channels").x
     raw_test = data.values(task.first.windows("test"), task.first.cell, "channels").x
     scales = channel_scales(raw_train)
-    np.testing.assert_array_equal(args[3], standardized(raw_train, scales))
-    np.testing.assert_array_equal(args[5][0].x, standardized(raw_test, scales))
-    assert args[3].shape[2] == 2 and abs(float(np.median(args[3]))) < 0.5
+    np.testing.assert_array_equal(job.train_x, standardized(raw_train, scales))
+    np.testing.assert_array_equal(job.tests[0].x, standardized(raw_test, scales))
+    assert job.train_x.shape[2] == 2 and abs(float(np.median(job.train_x))) < 0.5
 
 
 def test_a_cell_pooling_channel_counts_is_skipped_saying_so(tmp_path):
