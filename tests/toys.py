@@ -182,12 +182,8 @@ class Trainer(Energy):
     (one epoch on any other), reporting each epoch and a loss: a long fit to interrupt."""
 
     def __init__(self, quantile=0.5, epochs=3, seconds=0.2, long_window=0):
-        self.quantile, self.epochs, self.seconds, self.long_window = (
-            quantile,
-            epochs,
-            seconds,
-            long_window,
-        )
+        super().__init__(quantile)
+        self.epochs, self.seconds, self.long_window = epochs, seconds, long_window
 
     def _fit(self, x, y, seed):
         epochs = self.epochs if x.shape[1] == self.long_window or not self.long_window else 1

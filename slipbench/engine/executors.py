@@ -75,7 +75,7 @@ class _Flight(Generic[T]):
 
     task: T
     future: Future
-    pid: int | None = None
+    worker: psutil.Process | None = None
     started: float = 0.0
     phase: str = "fit"
     gone_at: float | None = None  # when its worker was first seen gone
@@ -87,16 +87,17 @@ class _Flight(Generic[T]):
         n = len(self.task.cells)  # type: ignore[attr-defined]
         if self.future.done():
             return self._results(n)
-        if self.pid is None:  # queued, or not yet said it started
-            return None
-        if self.gone_at is None and not _alive(self.pid):
-            self.gone_at = now
+        if self.gone_at is None:
+            if self.worker is None:  # queued, or not yet said it started
+                return None
+            if not _running(self.worker):
+                self.gone_at = now
         if self.gone_at is not None:
             return (
                 _failed(n, "failed", _exited(0, self.phase)) if now > self.gone_at + GRACE else None
             )
-        if timeout and now > self.started + timeout:
-            _stop({self.pid})  # pebble starts another worker
+        if timeout and self.worker and now > self.started + timeout:
+            _stop([self.worker])  # pebble starts another worker
             return _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s")
         return None
 
@@ -115,32 +116,32 @@ class _Flight(Generic[T]):
             return _failed(n, "failed", f"the worker could not run this model: {exc!r}")
 
 
-def _alive(pid: int) -> bool:
-    with suppress(psutil.NoSuchProcess):
-        return _running(psutil.Process(pid))
-    return False
+def _process(pid: int) -> psutil.Process | None:
+    """The process, known by its start time too: a pid another process takes later is not it."""
+    with suppress(psutil.Error):
+        return psutil.Process(pid)
+    return None
 
 
 def _running(proc: psutil.Process) -> bool:
     # a zombie has ended: its parent (the fork server, or init where that is gone too) has
     # only not reaped it yet, and in a container init may never do
-    with suppress(psutil.NoSuchProcess):
-        return proc.status() != psutil.STATUS_ZOMBIE
+    with suppress(psutil.Error):
+        return proc.is_running() and proc.status() != psutil.STATUS_ZOMBIE
     return False
 
 
-def _stop(pids: set[int]) -> None:
+def _stop(workers: list[psutil.Process]) -> None:
     """End the workers and every process they started: SIGTERM, then SIGKILL after STOP s
     (a worker deep in native code does not see SIGTERM until it returns)."""
     procs = []
-    for pid in pids:
+    for worker in filter(_running, workers):
         with suppress(psutil.Error):
-            proc = psutil.Process(pid)
-            procs += [proc, *proc.children(recursive=True)]
-    for signal in ("terminate", "kill"):
+            procs += [worker, *worker.children(recursive=True)]
+    for method in ("terminate", "kill"):
         for proc in procs:
             with suppress(psutil.Error):
-                getattr(proc, signal)()
+                getattr(proc, method)()
         deadline = time.monotonic() + STOP
         while (procs := [p for p in procs if _running(p)]) and time.monotonic() < deadline:
             time.sleep(0.02)
@@ -171,7 +172,7 @@ class _Pool(Generic[T]):
         )
         self.writer, self.timeout, self.on_report = writer, timeout, on_report
         self.flights: dict[int, _Flight] = {}
-        self.pids: set[int] = set()
+        self.workers: list[psutil.Process] = []  # every worker that said it started
 
     def send(self, number: int, task: T, job: Job) -> None:
         # pickled here, so that no plugin code runs in pebble's own reading of the task
@@ -196,11 +197,13 @@ class _Pool(Generic[T]):
         report = None
         for message in workers.received(self.reader):
             kind, *rest = message
-            if kind == "hello":
-                self.pids.add(rest[0])
+            if kind == "hello" and (worker := _process(rest[0])):
+                self.workers.append(worker)
             elif kind == "start" and rest[0] in self.flights:
                 flight = self.flights[rest[0]]
-                flight.pid, flight.started = rest[1], time.monotonic()
+                flight.worker, flight.started = _process(rest[1]), time.monotonic()
+                if flight.worker is None:  # ended before this look
+                    flight.gone_at = flight.started
             elif kind == "phase" and rest[0] in self.flights:
                 self.flights[rest[0]].phase = rest[1]
             elif kind == "report":
@@ -213,7 +216,7 @@ class _Pool(Generic[T]):
         self.pool.stop()
         if interrupted:
             self._read()  # workers that started meanwhile
-            _stop(self.pids)
+            _stop(self.workers)
         self.pool.join()
         self.reader.close()
         self.writer.close()
