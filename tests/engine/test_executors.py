@@ -110,6 +110,28 @@ def test_an_in_process_fit_sees_the_limits_and_the_caller_keeps_its_own(index, t
     assert after == (min(mine, numba.config.NUMBA_NUM_THREADS), {mine})
 
 
+@pytest.mark.slow  # importing torch takes seconds
+def test_torch_threads_too_in_process_and_in_a_worker(index, tmp_path):
+    torch = pytest.importorskip("torch")
+    before = torch.get_num_threads()
+    torch.set_num_threads(max(1, threads.cores() - 1))
+    try:
+        assert _seen(_rows(index, tmp_path, toys.ThreadProbe(), 0))["torch"] == threads.cores()
+        assert torch.get_num_threads() == max(1, threads.cores() - 1)  # the caller's, again
+    finally:
+        torch.set_num_threads(before)
+    # a worker imports torch with the detector: the toy's plugin module imports it
+    folder = tmp_path / "plugins"
+    folder.mkdir()
+    (folder / "probe.py").write_text(toys.source(toys.ThreadProbe) + "\n\nimport torch\n")
+    from slipbench.base import BaseDetector
+    from slipbench.engine.registry import Registry
+
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    reg.add_folder(folder)
+    assert _seen(_rows(index, tmp_path, reg.get("probe")(), 2))["torch"] == threads.share(2)
+
+
 @pytest.mark.slow
 def test_on_dask_sys_exit_fails_cells_threads_are_the_share_and_progress_arrives(
     index, tmp_path, capsys
