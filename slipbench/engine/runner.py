@@ -152,6 +152,8 @@ def evaluate(
     scheduler : address of a dask.distributed scheduler; tasks run on its workers.
     cell_timeout : seconds one model may take to fit and test its cells in a local worker
         before they are reported with status "timeout".
+    progress : a bar of the cells done on stderr, with the latest progress a model in flight
+        reports (``lstm: epoch 12/30, loss 0.41``; :meth:`BaseDetector.report_progress`).
     """
     runs = [runs] if isinstance(runs, Run) else runs
     jobs = workers_for(jobs, scheduler, cell_timeout)  # before any work: a script may be refused
