@@ -92,7 +92,9 @@ def _records(path: Path) -> list[Record]:
         ]
     try:
         text = path.read_text(encoding="utf-8")
-        data = json.loads(text) if suffix == ".json" else tomllib.loads(text)
+        data = (
+            json.loads(text, object_pairs_hook=_once) if suffix == ".json" else tomllib.loads(text)
+        )
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except (ValueError, UnicodeDecodeError) as exc:  # JSON and TOML errors are ValueErrors
@@ -111,6 +113,17 @@ def _records(path: Path) -> list[Record]:
     if isinstance(data, list) and all(isinstance(r, dict) for r in data):
         return [(r, f"{path}: record #{i + 1}") for i, r in enumerate(data)]
     raise DataError(f"{path}: a metadata file holds an object (one record) or a list of objects")
+
+
+def _once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are all distinct (json keeps the last of a repeated key silently;
+    TOML refuses one itself)."""
+    seen: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in seen:
+            raise ValueError(f"key {key!r} is given twice in one object (which value holds?)")
+        seen[key] = value
+    return seen
 
 
 class MetadataReader:
