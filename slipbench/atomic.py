@@ -28,7 +28,7 @@ from typing import BinaryIO
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench.errors import DataError, EnvironmentFault, writing
+from slipbench.errors import DataError, EnvironmentFault, UsageError, environment_fault, writing
 
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
 
@@ -106,6 +106,30 @@ def unique_folder(parent: str | os.PathLike, prefix: str) -> Path:
         except FileExistsError:
             continue
     raise FileExistsError(errno.EEXIST, "no unused temporary folder name", os.fspath(parent))
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Raise EnvironmentFault (exit 5) naming ``path`` unless this process can write there: in
+    the folder ``path`` where it is one, else in the folder that would hold it (its nearest
+    existing ancestor, where a new folder would be made). Called before any work: it creates
+    and removes one hidden file, the only test that sees permissions, ACLs, read-only mounts and
+    root alike, and leaves nothing behind.
+    """
+    path = Path(path)
+    folder = next(p for p in (path, *path.parents) if p.exists())
+    if folder != path and not folder.is_dir():
+        raise UsageError(f"{path}: {folder} is a file, so no folder can be made there")
+    folder = folder if folder.is_dir() else folder.parent  # a file is replaced in its folder
+    try:
+        fd, probe = _unique_file(folder, "slipbench-probe")
+    except OSError as exc:
+        fault = environment_fault(exc, path)
+        where = "" if folder == path else f" (in {folder}, where it would be made)"
+        raise EnvironmentFault(
+            path, fault.cause, hint=f"found before any work{where}; nothing was written"
+        ) from None
+    os.close(fd)
+    probe.unlink()
 
 
 @contextmanager

@@ -45,6 +45,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 
 from slipbench.atomic import (
+    check_writable,
     folder_lock,
     make_folder,
     open_parquet,
@@ -140,6 +141,13 @@ class ResultsStore:
     def model_path(self, model_key: str) -> Path:
         """Where the fitted model of a model key is kept, so that later runs reuse it."""
         return make_folder(self.folder / "models") / f"{model_key}.npz"
+
+    def check_writable(self, unless_stored: bool = False) -> None:
+        """Raise EnvironmentFault (exit 5, naming the folder) unless cells can be written here;
+        creates nothing. With ``unless_stored``, a folder that holds cells passes: a rerun that
+        finds them all writes nothing, and the run checks again once it knows what it writes."""
+        if not (unless_stored and (self.folder / "cells").is_dir()):
+            check_writable(self.folder)
 
     def finished(self) -> dict[str, dict[str, Any]]:
         """Every stored cell row by key: results.parquet, plus cells stored since it was written.

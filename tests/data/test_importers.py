@@ -456,7 +456,7 @@ def test_mapping_problems_found_while_importing(tmp_path):
                 "recording": {**mapping["recording"], "recording_id": "{path}", "regex": "b/.*"},
             },
         )
-    with pytest.raises(UsageError, match=r"glob '/etc/\*': .*relative to SRC"):
+    with pytest.raises(UsageError, match=r"files = '/etc/\*': a glob selects files under SRC"):
         import_csv(src, tmp_path / "out", {**mapping, "files": "/etc/*"})
     with pytest.raises(DataError, match=r"no file matches files = \['\*\.txt'\]"):
         import_csv(src, tmp_path / "out", {**mapping, "files": "*.txt"})

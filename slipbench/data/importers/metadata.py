@@ -6,6 +6,7 @@ into ``session/info.json``."""
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,7 @@ from typing import Any
 import numpy as np
 import tomllib
 
+from slipbench.data.importers.paths import check_inside, check_relative
 from slipbench.data.importers.tables import line_of, read_csv
 from slipbench.errors import DataError, UsageError
 
@@ -129,8 +131,10 @@ def _once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 class MetadataReader:
     """Looks up each file's record in the mapping's metadata tables; reads each table once."""
 
-    def __init__(self, src: Path, where: str, imported: set[str]) -> None:
-        self.src, self.where, self.imported = src, where, imported
+    def __init__(
+        self, src: Path, where: str, imported: set[str], outside: Sequence[Path] | None = ()
+    ) -> None:
+        self.src, self.where, self.imported, self.outside = src, where, imported, outside
         self._cache: dict[Path, list[Record]] = {}
 
     def fields(self, entry: MetadataTable, rel: str, fill) -> dict[str, Any]:
@@ -141,6 +145,9 @@ class MetadataReader:
                 f"{self.where}: {entry.name}: the table {table_rel} is also selected as a recording by files; narrow files"
             )
         path = self.src / table_rel
+        named = f"{self.where}: {entry.name}.table = {entry.table!r} (for {rel})"
+        check_relative(table_rel, named, self.outside)
+        check_inside(path, self.src, named, self.outside)
         if path.suffix.lower() not in (".csv", ".json", ".toml"):
             raise UsageError(
                 f"{self.where}: {entry.name}.table: {table_rel} is not a .csv, .json or .toml file"
