@@ -26,18 +26,10 @@ from contextlib import contextmanager, suppress
 from pathlib import Path
 
 from slipbench.atomic import check_writable, folder_lock, make_folder, unique_folder
+from slipbench.data import download
 from slipbench.data.card import Card, CardFile, sha256_of, with_slash
 from slipbench.data.defaults import cache_dir
-from slipbench.data.download import (
-    MIN_RATE,
-    PARTIAL,
-    WAIT_S,
-    Cancelled,
-    Mismatch,
-    Stalled,
-    deadline,
-    download_file,
-)
+from slipbench.data.download import MIN_RATE, Cancelled, Mismatch, Stalled, deadline
 from slipbench.data.schema import CITATION_KEY, SOURCE_KEY
 from slipbench.errors import DataError, EnvironmentFault
 
@@ -182,7 +174,7 @@ def _download(card: Card, base: str, folder: Path, files: list[CardFile], min_ra
 def _one(url: str, f: CardFile, folder: Path, seconds: float, stop: threading.Event) -> None:
     for attempt in range(1 + RETRIES):
         try:
-            return download_file(url, f, folder, seconds, stop)
+            return download.download_file(url, f, folder, seconds, stop)
         except urllib.error.HTTPError:
             raise
         except (urllib.error.URLError, ConnectionError):  # a dropped connection: once more
@@ -202,18 +194,17 @@ def _explain(
     )
     if isinstance(exc, Mismatch):
         got = (
-            f"its SHA-256 is {exc.sha256}"
+            f"its SHA-256 is {exc.sha256}, but the card ({card.where}) says {f.sha256}"
             if exc.sha256
-            else f"it is longer than the card's {f.size} bytes"
+            else f"more than the {f.size} bytes the card ({card.where}) gives"
         )
         return DataError(
-            f"{f.path}: downloaded from {url}, {got}, but the card ({card.where}) says "
-            f"{f.sha256}: the file was changed at the source or damaged on the way; it was not "
-            "kept, and nothing was written"
+            f"{f.path}: downloaded from {url}, {got}: the file was changed at the source or "
+            "damaged on the way; it was not kept, and nothing was written"
         )
     if isinstance(exc, Stalled):
         said = (
-            f"no byte for {WAIT_S:g} s after {exc.received} of {f.size} bytes"
+            f"no byte for {download.WAIT_S:g} s after {exc.received} of {f.size} bytes"
             if exc.idle
             else f"{exc.received} of {f.size} bytes in {exc.seconds:.1f} s"
         )
@@ -221,9 +212,9 @@ def _explain(
             url,
             f"the server stalled: {said}",
             "download",
-            f"a file may take {WAIT_S:g} s plus its size at --min-rate ({min_rate / 1e3:g} kB/s), "
-            f"here {deadline(f.size, min_rate):.0f} s: on a slow link lower --min-rate, or pass "
-            f"--url with a mirror of {card.base_url}; {resume}",
+            f"a file may take {download.WAIT_S:g} s plus its size at --min-rate "
+            f"({min_rate / 1e3:g} kB/s), here {deadline(f.size, min_rate):.3g} s: on a slow "
+            f"link lower --min-rate, or pass --url with a mirror of {card.base_url}; {resume}",
         )
     if isinstance(exc, urllib.error.HTTPError):
         return EnvironmentFault(
@@ -251,7 +242,10 @@ def _remove_leftovers(card: Card, folder: Path) -> None:
     made them), so none belongs to a live fetch."""
     listed = {f.path for f in card.files}
     for path in folder.rglob(".*.tmp"):
-        if PARTIAL.fullmatch(path.name) and path.relative_to(folder).as_posix() not in listed:
+        if (
+            download.PARTIAL.fullmatch(path.name)
+            and path.relative_to(folder).as_posix() not in listed
+        ):
             with suppress(FileNotFoundError):
                 path.unlink()
     for staged in folder.parent.glob(f".{card.name}.staged-*"):

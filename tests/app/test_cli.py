@@ -170,6 +170,23 @@ def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
     )
 
 
+def test_an_environment_fault_that_lost_its_path_says_so(cli, monkeypatch):
+    """The last resort for a write that names no file: never `cannot write ?`."""
+    import errno
+
+    import slipbench.data.read
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(slipbench.data.read, "read_dataset", full)
+    code, _, err = cli(["dataset", "validate", "anything"])
+    assert code == 5 and err == (
+        "error: no space left on device (ENOSPC), in a write whose path slipbench lost on the "
+        "way (a bug in slipbench: please report it with the command)\n"
+    )
+
+
 def test_python_m_slipbench_is_the_slipbench_command(cli, tmp_path):
     """`python -m slipbench` runs the same main: the same help, the same errors and exit codes."""
 

@@ -290,7 +290,7 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
     (tmp_path / "plugins" / "protocols").mkdir(parents=True)
     (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
 
-    def evaluate(out: Path) -> subprocess.CompletedProcess:
+    def evaluate(out: Path, *more: str) -> subprocess.CompletedProcess:
         return subprocess.run(
             [
                 sys.executable,
@@ -308,6 +308,7 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
                 "--out",
                 str(out),
                 "--quiet",
+                *more,
             ],
             capture_output=True,
             text=True,
@@ -326,10 +327,13 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
             "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
         )
         assert new.returncode == 5, new.stderr
-        assert re.fullmatch(
-            rf"error: cannot (write|create the folder) {re.escape(str(empty))}/\S+: {re.escape(cause)}\n",
-            new.stderr,
-        ), new.stderr
+        assert new.stderr == (  # refused as --out was read, before the dataset
+            f"error: cannot write {empty}: {cause}; found before any work; nothing was written\n"
+        )
+        before = (out / RESULTS_FILE).stat().st_mtime_ns
+        more = evaluate(out, "--seed", "1")  # cells stored, but new ones due: refused by the run
+        assert more.returncode == 5 and more.stderr == new.stderr.replace(str(empty), str(out))
+        assert (out / RESULTS_FILE).stat().st_mtime_ns == before
 
 
 # ----------------------------------------------------------------------------- two writers, the lock
