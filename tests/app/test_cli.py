@@ -10,6 +10,7 @@ import sys
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+from fsfaults import read_only
 
 from slipbench.data.schema import SAMPLES_FILE
 
@@ -206,26 +207,10 @@ def test_python_m_slipbench_is_the_slipbench_command(cli, tmp_path):
 # ----------------------------------------------------------------------------- destinations
 @pytest.fixture
 def unwritable(tmp_path):
-    """A folder this process cannot write: its write permissions removed, or, as root (who
-    ignores them), a read-only tmpfs."""
-    folder = tmp_path / "ro"
-    folder.mkdir()
-    if os.geteuid() != 0:
-        folder.chmod(0o555)
+    """An empty folder this process cannot write."""
+    (tmp_path / "ro").mkdir()
+    with read_only(tmp_path / "ro") as folder:
         yield folder
-        folder.chmod(0o755)
-        return
-    done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(folder)],
-        capture_output=True,
-        text=True,
-    )
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a read-only folder here: {done.stderr.strip()}")
-    try:
-        yield folder
-    finally:
-        subprocess.run(["umount", "-l", str(folder)], check=True)
 
 
 # Each command with a destination in the unwritable folder RO (deep: none of its folders exists)

@@ -8,8 +8,6 @@ for the publisher, with tiny deadlines."""
 from __future__ import annotations
 
 import _thread
-import functools
-import http.server
 import os
 import re
 import signal
@@ -17,20 +15,16 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from publisher import serve
 
 from slipbench.data import download
 from slipbench.data.card import files_block, load_card
 from slipbench.data.fetch import card_cache, fetch
 from slipbench.data.read import read_dataset
 from slipbench.errors import DataError, EnvironmentFault
-
-#: the bytes a trickling server sends per beat, and the beat
-BEAT_S = 0.05
 
 
 def _publish(root: Path, n: int = 3) -> Path:
@@ -57,52 +51,6 @@ def _card(root: Path, published: Path, extra: str = "") -> Path:
     return card
 
 
-@contextmanager
-def serve(folder: Path, slow: dict[str, str] | None = None) -> Iterator[tuple[str, list[str]]]:
-    """Serve ``folder`` on 127.0.0.1; ``slow`` maps a path to how it misbehaves: "trickle" (one
-    byte per beat, forever), "silent" (four bytes, then nothing), "missing" (404)."""
-    requested: list[str] = []
-    slow = slow or {}
-    done = threading.Event()
-
-    class Handler(http.server.SimpleHTTPRequestHandler):
-        def do_GET(self):
-            requested.append(self.path)
-            how = slow.get(self.path.lstrip("/"))
-            if how is None:
-                return super().do_GET()
-            if how == "missing":
-                return self.send_error(404)
-            self.send_response(200)
-            self.send_header("Content-Length", "100000")
-            self.end_headers()
-            try:
-                self.wfile.write(b"t,g1")
-                self.wfile.flush()
-                while how == "trickle" and not done.wait(BEAT_S):
-                    self.wfile.write(b"0")
-                    self.wfile.flush()
-                done.wait()
-            except OSError:  # the client gave up
-                pass
-
-        def log_message(self, *args):
-            pass
-
-    server = http.server.ThreadingHTTPServer(
-        ("127.0.0.1", 0), functools.partial(Handler, directory=str(folder))
-    )
-    server.daemon_threads = True
-    thread = threading.Thread(target=server.serve_forever, args=(0.05,), daemon=True)
-    thread.start()
-    try:
-        yield f"http://127.0.0.1:{server.server_address[1]}/", requested
-    finally:
-        done.set()
-        server.shutdown()
-        server.server_close()
-
-
 def leftovers(cache: Path) -> list[Path]:
     """What a fetch may not leave: temporary files, staged folders."""
     return sorted(p for p in cache.rglob(".*") if p.name.endswith(".tmp") or ".staged-" in p.name)
@@ -120,7 +68,8 @@ def lab(tmp_path, monkeypatch):
 @pytest.mark.parametrize("how", ["trickle", "silent"])
 def test_a_stalled_server_meets_the_deadline_and_is_named(lab, tmp_path, how):
     card, published, cache = lab
-    with serve(published, {"foam/trial_1.csv": how}) as (url, _):
+    with serve(published, {"foam/trial_1.csv": how}) as (host, _):
+        url = f"{host}/"
         start = time.monotonic()
         with pytest.raises(EnvironmentFault) as err:
             fetch(card, tmp_path / "out", url, min_rate=1e9)
@@ -176,7 +125,7 @@ def test_a_damaged_cached_file_is_named_and_downloaded_again(lab, tmp_path):
         said: list[str] = []
         fetch(card, tmp_path / "second", url, said.append)
     assert said[0].endswith(
-        f"2 verified in {card_cache(card)}; downloading 1 from {url}: 1 in the cache failing "
+        f"2 verified in {card_cache(card)}; downloading 1 from {url}/: 1 in the cache failing "
         "their SHA-256 (foam/trial_0.csv), replaced"
     ), said
     assert requested.count("/foam/trial_0.csv") == 2 and len(requested) == 4

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -242,12 +243,16 @@ def test_a_missing_row_is_named(tmp_path_factory, data, pick):
     )
 
 
+def _one_file(tmp_path_factory, data, pick) -> tuple[Path, Path]:
+    """A written lab dataset, and one of its two files, drawn."""
+    path = write_dataset(tmp_path_factory.mktemp("names") / "ds", *data)
+    return path, path / pick.draw(st.sampled_from([RECORDINGS_FILE, SAMPLES_FILE]))
+
+
 @NAME_SETTINGS
 @given(lab_datasets(), st.data())
 def test_a_column_name_not_utf8_is_named_by_position(tmp_path_factory, data, pick):
-    rec, samples, labels = data
-    path = write_dataset(tmp_path_factory.mktemp("utf8") / "ds", rec, samples, labels)
-    file = path / pick.draw(st.sampled_from([RECORDINGS_FILE, SAMPLES_FILE]))
+    path, file = _one_file(tmp_path_factory, data, pick)
     names = pq.read_schema(file).names
     k = pick.draw(st.integers(0, len(names) - 1))
     file.write_bytes(name_not_utf8(file.read_bytes(), names[k]))
@@ -262,9 +267,7 @@ def test_a_column_name_not_utf8_is_named_by_position(tmp_path_factory, data, pic
 @NAME_SETTINGS
 @given(lab_datasets(), st.data())
 def test_a_column_name_given_twice_is_named_by_position(tmp_path_factory, data, pick):
-    rec, samples, labels = data
-    path = write_dataset(tmp_path_factory.mktemp("twice") / "ds", rec, samples, labels)
-    file = path / pick.draw(st.sampled_from([RECORDINGS_FILE, SAMPLES_FILE]))
+    path, file = _one_file(tmp_path_factory, data, pick)
     table = pq.read_table(file)
     keep, rename = pick.draw(
         st.lists(st.integers(0, table.num_columns - 1), min_size=2, max_size=2, unique=True)
