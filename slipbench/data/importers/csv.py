@@ -45,7 +45,8 @@ def import_csv(
     out : the new dataset folder (must not exist or be empty).
     config : the mapping: a TOML file, the same structure as a dict (see ``datasets.md``), or
         one :func:`load_mapping` read (to give it outside folders, or a card's name).
-    base : folder that relative paths in the mapping start from [default: the TOML file's].
+    base : folder that relative paths in the mapping start from [default: the TOML file's];
+        a mapping already read keeps its own.
     description : source and citation for the dataset's metadata (see ``write_dataset``).
 
     Every path the mapping leads to stays inside ``src`` (a segments table: inside ``base``)
