@@ -1,4 +1,5 @@
-"""Files that readers see whole or not at all, made with the user's umask, and a folder lock.
+"""Files that readers see whole or not at all, made with the user's umask, a folder lock, and
+Parquet files opened with their column names checked (:func:`open_parquet`).
 
 Every file is first written under a unique hidden temporary name in its own folder (created
 with ``O_EXCL``, so two processes never share one), flushed to disk, then renamed over the
@@ -27,7 +28,7 @@ from typing import BinaryIO
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench.errors import EnvironmentFault, writing
+from slipbench.errors import DataError, EnvironmentFault, UsageError, environment_fault, writing
 
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
 
@@ -107,6 +108,30 @@ def unique_folder(parent: str | os.PathLike, prefix: str) -> Path:
     raise FileExistsError(errno.EEXIST, "no unused temporary folder name", os.fspath(parent))
 
 
+def check_writable(path: str | os.PathLike) -> None:
+    """Raise EnvironmentFault (exit 5) naming ``path`` unless this process can write there: in
+    the folder ``path`` where it is one, else in the folder that would hold it (its nearest
+    existing ancestor, where a new folder would be made). Called before any work: it creates
+    and removes one hidden file, the only test that sees permissions, ACLs, read-only mounts and
+    root alike, and leaves nothing behind.
+    """
+    path = Path(path)
+    folder = next(p for p in (path, *path.parents) if p.exists())
+    if folder != path and not folder.is_dir():
+        raise UsageError(f"{path}: {folder} is a file, so no folder can be made there")
+    folder = folder if folder.is_dir() else folder.parent  # a file is replaced in its folder
+    try:
+        fd, probe = _unique_file(folder, "slipbench-probe")
+    except OSError as exc:
+        fault = environment_fault(exc, path)
+        where = "" if folder == path else f" (in {folder}, where it would be made)"
+        raise EnvironmentFault(
+            path, fault.cause, hint=f"found before any work{where}; nothing was written"
+        ) from None
+    os.close(fd)
+    probe.unlink()
+
+
 @contextmanager
 def folder_lock(folder: str | os.PathLike, timeout: float = 300.0) -> Iterator[None]:
     """Hold an exclusive lock on ``folder`` (``flock`` on its ``.lock`` file) while the block runs.
@@ -136,3 +161,62 @@ def folder_lock(folder: str | os.PathLike, timeout: float = 300.0) -> Iterator[N
         yield
     finally:
         os.close(fd)  # closing the descriptor releases the lock
+
+
+def open_parquet(
+    source: str | os.PathLike | pa.Buffer, where: str | os.PathLike | None = None, **options
+) -> pq.ParquetFile:
+    """``pq.ParquetFile(source, **options)`` whose column names are valid UTF-8, none twice.
+
+    pyarrow raises UnicodeDecodeError on a name a flipped bit made invalid, and reads one of two
+    columns of one name without a word (``to_pylist`` keeps the last): both are a DataError
+    naming ``where`` (the file; default ``source``) and the column's position. A file pyarrow
+    cannot open raises what pyarrow raises (ArrowException, OSError): the caller names it.
+    """
+    where = os.fspath(source if where is None else where)
+    try:
+        pf = pq.ParquetFile(source, **options)
+        names = pf.schema_arrow.names
+    except UnicodeDecodeError:
+        raise DataError(
+            f"{where}: {_undecodable(source)}: its name is not valid UTF-8 text (the file is "
+            "damaged, e.g. a flipped bit)"
+        ) from None
+    first: dict[str, int] = {}
+    for i, name in enumerate(names):
+        if name in first:
+            raise DataError(
+                f"{where}: columns {first[name] + 1} and {i + 1} of {len(names)} are both named "
+                f"{name!r}: which one to read is not known (a bad rewrite, or a damaged file)"
+            )
+        first[name] = i
+    return pf
+
+
+def _undecodable(source: str | os.PathLike | pa.Buffer) -> str:
+    """Which column has a name that is not UTF-8: 'column 2 of 12 (after 'id')'. Only for a
+    message: pyarrow's dataset fragment reads the schema without decoding every name at once."""
+    import pyarrow.dataset as pds
+    import pyarrow.fs as pfs
+
+    if isinstance(source, (str, os.PathLike)):
+        fragment = pds.ParquetFileFormat().make_fragment(
+            os.fspath(source), filesystem=pfs.LocalFileSystem()
+        )
+    else:
+        fragment = pds.ParquetFileFormat().make_fragment(source)
+    schema, previous = fragment.physical_schema, None
+    for i in range(len(schema)):
+        try:
+            name = schema.field(i).name
+        except UnicodeDecodeError:
+            after = f" (after {previous!r})" if previous is not None else ""
+            return f"column {i + 1} of {len(schema)}{after}"
+        previous = name
+    md = fragment.metadata  # a nested name (a list's element): its leaf column
+    for i in range(md.num_columns):
+        try:
+            str(md.schema.column(i).path)
+        except UnicodeDecodeError:
+            return f"leaf column {i + 1} of {md.num_columns} (a field nested in a column)"
+    return "a column"

@@ -56,7 +56,7 @@ from scipy.stats import ks_2samp
 
 from slipbench.data.format import Dataset
 from slipbench.data.signals import SPLITS, Signals, Windows, balance
-from slipbench.errors import UsageError
+from slipbench.errors import UsageError, writing
 from slipbench.seeding import rng_for
 from slipbench.spectra import amplitude_spectrum, grow_band
 
@@ -522,15 +522,16 @@ def write(result: SpectralResult, out: Path, name: str) -> list[Path]:
     paths = []
 
     def atomic(suffix: str, save) -> None:
-        fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{name}", suffix=suffix)
-        os.close(fd)
-        try:
-            save(tmp)
-            os.chmod(tmp, 0o644)  # mkstemp's 0600 would keep the report from other readers
-            os.replace(tmp, out / f"{name}{suffix}")
-        finally:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
+        with writing(out / f"{name}{suffix}"):  # a failed write names the file, not the temporary
+            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{name}", suffix=suffix)
+            os.close(fd)
+            try:
+                save(tmp)
+                os.chmod(tmp, 0o644)  # mkstemp's 0600 would keep the report from other readers
+                os.replace(tmp, out / f"{name}{suffix}")
+            finally:
+                if os.path.exists(tmp):
+                    os.unlink(tmp)
         paths.append(out / f"{name}{suffix}")
 
     # fixed metadata keeps the PDF and PNG byte-stable between runs

@@ -40,6 +40,28 @@ class Scale(click.ParamType):
         return scale
 
 
+class Destination(click.Path):
+    """A file or folder the command writes, refused while the options are read, before any work,
+    where this process cannot write there (exit 5 naming it; nothing is created). A results
+    folder that holds cells passes: a rerun that finds them all writes nothing, and the run
+    checks again once it knows what it must write."""
+
+    def __init__(self, results: bool = False, **kwargs) -> None:
+        super().__init__(path_type=Path, **kwargs)
+        self.results = results
+
+    def convert(self, value, param, ctx):
+        from slipbench.atomic import check_writable
+        from slipbench.store.results import ResultsStore
+
+        path = super().convert(value, param, ctx)
+        if self.results:
+            ResultsStore(path).check_writable(unless_stored=True)
+        else:
+            check_writable(path)
+        return path
+
+
 def parse_params(values: tuple[str, ...]) -> dict:
     """The NAME=VALUE items of a repeated option as a dict; a VALUE that is not JSON stays text."""
     params = {}
@@ -68,10 +90,12 @@ def plugins_option(help: str = PLUGINS_HELP):
     return click.option("--plugins", multiple=True, type=click.Path(), help=help)
 
 
-def out_option(help: str, default: str | None = None):
-    """``--out``: a folder or file; without a default it is optional and the command decides."""
+def out_option(help: str, default: str | None = None, results: bool = False):
+    """``--out``: a folder or file the command writes, checked before any work (see
+    :class:`Destination`; ``results``: a results folder); without a default it is optional and
+    the command decides."""
     given: dict[str, Any] = {} if default is None else {"default": default, "show_default": True}
-    return click.option("--out", type=click.Path(path_type=Path), help=help, **given)
+    return click.option("--out", type=Destination(results), help=help, **given)
 
 
 def seed_option(help: str | None = None, default: int | None = 0):

@@ -95,6 +95,10 @@ def load_card(source: str | Path, text: str | None = None) -> Card:
             )
     if "mapping" in raw and not isinstance(raw["mapping"], dict):
         raise UsageError(f"{where}: mapping must be a table ([mapping], as in datasets.md)")
+    if "mapping" in raw:  # before any download: a path leading out of the files is refused now
+        from slipbench.data.importers import load_mapping
+
+        load_mapping(raw["mapping"], None, None, f"{where}: [mapping]")
     return Card(
         name=raw["name"],
         title=raw["title"].strip(),

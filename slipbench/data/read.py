@@ -23,6 +23,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
+from slipbench.atomic import open_parquet
 from slipbench.data.canonical import canonical_recordings
 from slipbench.data.fingerprint import recordings_digest
 from slipbench.data.format import Dataset
@@ -70,7 +71,7 @@ def read_description(path: str | os.PathLike) -> dict[str, str]:
     :func:`read_dataset` to validate the folder."""
     file = Path(path) / RECORDINGS_FILE
     try:
-        meta = pq.read_schema(file).metadata or {}
+        meta = open_parquet(file).schema_arrow.metadata or {}
     except (pa.ArrowException, OSError) as exc:
         raise DataError(f"{file}: unreadable ({one_line(exc)})") from None
     return {
@@ -167,7 +168,7 @@ def _open_parquet(file: Path) -> pq.ParquetFile:
             f"{file}: missing (a slipbench dataset folder holds {RECORDINGS_FILE} and {SAMPLES_FILE})"
         )
     try:  # pages written with a CRC are checked as they are read; older files have none
-        pf = pq.ParquetFile(file, page_checksum_verification=True)
+        pf = open_parquet(file, page_checksum_verification=True)
         schema = pf.schema_arrow
     except (pa.ArrowException, OSError) as exc:
         raise DataError(f"{file}: not a readable Parquet file ({one_line(exc)})") from None

@@ -15,6 +15,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from slipbench.atomic import open_parquet
 from slipbench.data.canonical import canonical_dataset, names_univariate_channels, plain_value
 from slipbench.data.fingerprint import content_fingerprint, recordings_digest
 from slipbench.data.messages import data_error
@@ -32,7 +33,7 @@ from slipbench.data.schema import (
     UNIVARIATE_CHANNELS,
     VERSION_KEY,
 )
-from slipbench.errors import DataError
+from slipbench.errors import DataError, writing
 
 
 def write_dataset(
@@ -127,23 +128,47 @@ def write_dataset(
         columns["slip"] = pa.array(stacked == 1, mask=stacked < 0)
     samples_table = pa.table(columns).replace_schema_metadata(meta)
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    # pyarrow's OSErrors name no file: each step names what it writes (never the hidden folder)
+    with writing(path, "create the folder"):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
     try:
-        tmp.chmod(
-            0o777 & ~_umask()
-        )  # mkdtemp makes it 0700: a shared lab folder must stay readable
-        pq.write_table(rec_table, tmp / RECORDINGS_FILE, write_page_checksum=True)
-        pq.write_table(
-            samples_table, tmp / SAMPLES_FILE, row_group_size=1 << 20, write_page_checksum=True
-        )
-        if path.exists():
-            path.rmdir()
-        os.replace(tmp, path)
+        with writing(path, "create the folder"):
+            tmp.chmod(0o777 & ~_umask())  # mkdtemp's 0700 would hide a shared lab folder
+        with writing(path / RECORDINGS_FILE):
+            pq.write_table(rec_table, tmp / RECORDINGS_FILE, write_page_checksum=True)
+        with writing(path / SAMPLES_FILE):
+            pq.write_table(
+                samples_table, tmp / SAMPLES_FILE, row_group_size=1 << 20, write_page_checksum=True
+            )
+        with writing(path):
+            if path.exists():
+                path.rmdir()
+            os.replace(tmp, path)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return path
+
+
+def rewrite_dataset(src: str | os.PathLike, out: str | os.PathLike) -> Path:
+    """Write the dataset at ``src`` to the new folder ``out`` as :func:`write_dataset` writes:
+    page checksums and the stored fingerprint, which a file from another tool may lack.
+
+    The content is the same (so is the fingerprint), integers stay integers, and the source
+    and citation ``dataset fetch`` recorded are kept. ``src`` is read whole and validated first.
+    """
+    from slipbench.data.read import read_dataset, read_description
+
+    ds = read_dataset(src)
+    values = open_parquet(Path(src) / SAMPLES_FILE).schema_arrow.field("values").type
+    samples = (
+        {rid: a.astype(np.int64) for rid, a in ds.samples.items()}  # read as exact float64
+        if pa.types.is_integer(values.value_type)
+        else ds.samples
+    )
+    description = {k.encode(): v for k, v in read_description(src).items()}
+    return write_dataset(out, ds.recordings, samples, ds.slip_labels or None, description)
 
 
 def _umask() -> int:

@@ -168,6 +168,8 @@ def evaluate(
     plan = make_plan(signals, with_cells, fingerprint, done)
     env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
+    if len(rows) < len(plan.cells):  # cells to write: an unwritable folder fails before any fit
+        store.check_writable()
 
     def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
         row = _row(pc, {**fields, **_scales(plan, pc)}, fingerprint, path, env, run_id, origin)

@@ -40,6 +40,7 @@ from matplotlib.artist import Artist  # noqa: E402
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
+from slipbench.errors import writing  # noqa: E402
 from slipbench.protocol import Layout  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
@@ -116,7 +117,8 @@ def save(fig: Figure, folder: Path, stem: str) -> list[Path]:
     for ext in FORMATS:
         path = folder / f"{stem}.{ext}"
         # a fixed creation date keeps PDFs byte-identical across runs
-        fig.savefig(path, dpi=DPI, metadata={"CreationDate": None} if ext == "pdf" else None)
+        with writing(path):  # a full disk mid-write raises an OSError that names no file
+            fig.savefig(path, dpi=DPI, metadata={"CreationDate": None} if ext == "pdf" else None)
         paths.append(path)
     return paths
 

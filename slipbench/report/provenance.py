@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pyarrow as pa
-import pyarrow.parquet as pq
 
+from slipbench.atomic import open_parquet
+from slipbench.errors import DataError
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
 from slipbench.stats.bootstrap import DEFAULT_METHOD, FIGURES_AS
 from slipbench.vocabulary import cell_label, label
@@ -65,11 +66,13 @@ def dataset_source(path: str) -> str:
     if not path:
         return "a dataset built in memory (no path recorded)"
     try:
-        column = pq.read_table(
-            Path(path) / "recordings.parquet", columns=["source"], page_checksum_verification=True
-        ).column("source")
+        column = (
+            open_parquet(Path(path) / "recordings.parquet", page_checksum_verification=True)
+            .read(columns=["source"])
+            .column("source")
+        )
         sources = sorted({str(s) for s in column.to_pylist() if s is not None})
-    except (OSError, pa.ArrowException, KeyError):
+    except (OSError, pa.ArrowException, KeyError, DataError):
         sources = None
     if sources:
         simulated = [m for m in map(SYNTH_SOURCE.search, sources) if m]
@@ -93,12 +96,12 @@ def sensor_units(path: str) -> str:
     if not path:
         return ""
     try:
-        table = pq.read_table(
-            Path(path) / "recordings.parquet",
-            columns=["sensor_type", "sensor_instance", "units"],
-            page_checksum_verification=True,
-        ).to_pydict()
-    except (OSError, pa.ArrowException, KeyError):
+        table = (
+            open_parquet(Path(path) / "recordings.parquet", page_checksum_verification=True)
+            .read(columns=["sensor_type", "sensor_instance", "units"])
+            .to_pydict()
+        )
+    except (OSError, pa.ArrowException, KeyError, DataError):
         return ""
     sensors: dict[str, tuple[dict, dict]] = {}  # type -> (instances, units), in first-seen order
     for kind, instance, units in zip(

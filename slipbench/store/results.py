@@ -43,9 +43,15 @@ from typing import Any
 import pandas as pd
 import pyarrow as pa
 import pyarrow.compute as pc
-import pyarrow.parquet as pq
 
-from slipbench.atomic import folder_lock, make_folder, write_atomic, write_text_atomic
+from slipbench.atomic import (
+    check_writable,
+    folder_lock,
+    make_folder,
+    open_parquet,
+    write_atomic,
+    write_text_atomic,
+)
 from slipbench.errors import ENVIRONMENT_ERRNOS, CellsFailed, DataError, environment_fault
 from slipbench.store.keys import cell_key
 
@@ -135,6 +141,13 @@ class ResultsStore:
     def model_path(self, model_key: str) -> Path:
         """Where the fitted model of a model key is kept, so that later runs reuse it."""
         return make_folder(self.folder / "models") / f"{model_key}.npz"
+
+    def check_writable(self, unless_stored: bool = False) -> None:
+        """Raise EnvironmentFault (exit 5, naming the folder) unless cells can be written here;
+        creates nothing. With ``unless_stored``, a folder that holds cells passes: a rerun that
+        finds them all writes nothing, and the run checks again once it knows what it writes."""
+        if not (unless_stored and (self.folder / "cells").is_dir()):
+            check_writable(self.folder)
 
     def finished(self) -> dict[str, dict[str, Any]]:
         """Every stored cell row by key: results.parquet, plus cells stored since it was written.
@@ -248,7 +261,7 @@ class ResultsStore:
 
 def _read_table(path: Path) -> pa.Table:
     try:
-        return pq.ParquetFile(_whole(path)[0]).read()
+        return open_parquet(_whole(path)[0], path).read()
     except (OSError, pa.ArrowException) as exc:
         raise _read_error(exc, path, "not a readable results file") from None
 
@@ -277,7 +290,7 @@ def _read_cell(path: Path, key: str) -> tuple[dict[str, Any], list[int]]:
     """One cell's row and the version of the file it came from (both of one open file)."""
     try:
         data, version = _whole(path)
-        rows = pq.ParquetFile(data).read().to_pylist()  # half the cost of read_table for one row
+        rows = open_parquet(data, path).read().to_pylist()  # half read_table's cost for one row
     except (OSError, pa.ArrowException) as exc:
         raise _read_error(exc, path, "not a readable cell file") from None
     if len(rows) != 1 or rows[0].get("key") != key:
@@ -369,13 +382,14 @@ def read_predictions(folder: Path, key: str) -> pd.DataFrame | None:
     if not path.is_file():
         return None
     try:
-        names = set(pq.read_schema(path).names)
+        pf = open_parquet(path)
+        names = set(pf.schema_arrow.names)
         if missing := [c for c in PREDICTION_COLUMNS if c not in names]:
             raise DataError(
                 f"{path}: not a readable predictions file (it lacks the columns {', '.join(missing)})"
             )
         columns = [*PREDICTION_COLUMNS, *(["trial"] if "trial" in names else [])]
-        return pq.read_table(path, columns=columns).to_pandas()
+        return pf.read(columns=columns).to_pandas()
     except (OSError, pa.ArrowException) as exc:
         raise _read_error(exc, path, "not a readable predictions file") from None
 

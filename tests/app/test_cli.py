@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -9,6 +10,7 @@ import sys
 import pandas as pd
 import pyarrow.parquet as pq
 import pytest
+from fsfaults import read_only
 
 from slipbench.data.schema import SAMPLES_FILE
 
@@ -169,6 +171,23 @@ def test_a_bug_shows_its_traceback_and_says_so(cli, monkeypatch):
     )
 
 
+def test_an_environment_fault_that_lost_its_path_says_so(cli, monkeypatch):
+    """The last resort for a write that names no file: never `cannot write ?`."""
+    import errno
+
+    import slipbench.data.read
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(slipbench.data.read, "read_dataset", full)
+    code, _, err = cli(["dataset", "validate", "anything"])
+    assert code == 5 and err == (
+        "error: no space left on device (ENOSPC), in a write whose path slipbench lost on the "
+        "way (a bug in slipbench: please report it with the command)\n"
+    )
+
+
 def test_python_m_slipbench_is_the_slipbench_command(cli, tmp_path):
     """`python -m slipbench` runs the same main: the same help, the same errors and exit codes."""
 
@@ -183,3 +202,82 @@ def test_python_m_slipbench_is_the_slipbench_command(cli, tmp_path):
     assert shown.stdout == out and out.startswith("Usage: slipbench [OPTIONS] COMMAND")
     missing = module("dataset", "validate", str(tmp_path / "nowhere"))
     assert missing.returncode == 2 and "not a dataset folder" in missing.stderr
+
+
+# ----------------------------------------------------------------------------- destinations
+@pytest.fixture
+def unwritable(tmp_path):
+    """An empty folder this process cannot write."""
+    (tmp_path / "ro").mkdir()
+    with read_only(tmp_path / "ro") as folder:
+        yield folder
+
+
+# Each command with a destination in the unwritable folder RO (deep: none of its folders exists)
+# and inputs that do not exist: the destination is refused first, so no input was read.
+WRITERS = {
+    "evaluate": ["evaluate", "--detector", "holweg", "--protocol", "window-size"]
+    + ["--dataset", "{missing}", "--out", "{dest}"],
+    "report --out": ["report", "{missing}", "--out", "{dest}"],
+    "report --plots": ["report", "{missing}", "--plots", "{dest}"],
+    "report --appendix": ["report", "{missing}", "--appendix", "{dest}"],
+    "compare --out": ["compare", "{missing}", "{missing}", "--out", "{dest}"],
+    "dataset synth": ["dataset", "synth", "{dest}"],
+    "dataset import": ["dataset", "import", "csv", "{missing}", "{dest}", "--config", "{missing}"],
+    "dataset rewrite": ["dataset", "rewrite", "{missing}", "{dest}"],
+    "dataset fetch": ["dataset", "fetch", "biotacsp-dos", "--url", "http://127.0.0.1:9/"]
+    + ["--out", "{dest}"],
+    "spectral": ["spectral", "--sensor", "Nano17", "--dataset", "{missing}", "--out", "{dest}"],
+    "run": ["run", "{missing}", "--out", "{dest}"],
+}
+
+
+@pytest.mark.parametrize("command", sorted(WRITERS))
+def test_an_unwritable_destination_is_refused_before_any_work(command, unwritable, tmp_path, cli):
+    dest = unwritable / "new" / "deeper"
+    argv = [a.format(missing=tmp_path / "missing", dest=dest) for a in WRITERS[command]]
+    code, out, err = cli(argv)
+    cause = "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
+    assert code == 5, err
+    assert err == (
+        f"error: cannot write {dest}: {cause}; found before any work (in {unwritable}, where it "
+        "would be made); nothing was written\n"
+    )
+    assert not any(unwritable.iterdir()) and not (tmp_path / "missing").exists()
+
+
+def test_destinations_decided_late_are_checked_before_any_work(
+    unwritable, tmp_path, cli, monkeypatch
+):
+    """`run` without --out writes to the file's benchmark.out; `dataset fetch` without --out
+    to the card's name in the working folder."""
+    bench = tmp_path / "bench.toml"
+    bench.write_text(
+        f'[benchmark]\nout = "{unwritable}/res"\n[dataset]\npath = "{tmp_path / "missing"}"\n'
+        "[detectors.holweg]\n[protocols.window-size]\n"
+    )
+    code, _, err = cli(["run", str(bench)])
+    assert code == 5 and err.startswith(f"error: cannot write {unwritable}/res: "), err
+    monkeypatch.chdir(unwritable)
+    code, _, err = cli(["dataset", "fetch", "biotacsp-dos", "--url", "http://127.0.0.1:9/"])
+    assert code == 5 and err.startswith("error: cannot write biotacsp-dos: "), err
+
+
+def test_a_results_folder_that_holds_cells_is_checked_by_the_run(tmp_path):
+    """A read-only results folder passes the up-front check when it holds cells (a cached rerun
+    writes nothing); the run refuses it once it knows a cell must be written."""
+    from slipbench.errors import EnvironmentFault
+    from slipbench.store.results import ResultsStore
+
+    store = ResultsStore(tmp_path / "res")
+    (tmp_path / "res" / "cells").mkdir(parents=True)
+    store.check_writable(unless_stored=True)  # nothing probed: no write, no fault
+    (tmp_path / "res").chmod(0o555)
+    try:
+        if os.geteuid() != 0:
+            with pytest.raises(EnvironmentFault, match="found before any work"):
+                store.check_writable()
+        store.check_writable(unless_stored=True)
+    finally:
+        (tmp_path / "res").chmod(0o755)
+    assert sorted(p.name for p in (tmp_path / "res").iterdir()) == ["cells"]

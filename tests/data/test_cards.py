@@ -3,16 +3,12 @@ network in CI), checked against the card's SHA-256, cached, converted with the c
 
 from __future__ import annotations
 
-import functools
-import http.server
 import shutil
 import socket
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from publisher import serve
 
 from slipbench.data.card import builtin_cards, files_block, load_card, sha256_of
 from slipbench.data.read import read_dataset, read_description
@@ -20,31 +16,6 @@ from slipbench.data.read import read_dataset, read_description
 SOURCE = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "biotacsp-dos" / "csvs"
 needs_dos = pytest.mark.skipif(not SOURCE.is_dir(), reason=f"BioTacSP-DoS not found at {SOURCE}")
 DOS_FINGERPRINT = "aac611fa5f8ae950"  # `dataset import biotacsp-dos` of the published csvs
-
-
-@contextmanager
-def serve(folder: Path) -> Iterator[tuple[str, list[str]]]:
-    """Serve ``folder`` on 127.0.0.1 (a free port); yields its URL and the paths requested."""
-    requested: list[str] = []
-
-    class Handler(http.server.SimpleHTTPRequestHandler):
-        def do_GET(self):
-            requested.append(self.path)
-            super().do_GET()
-
-        def log_message(self, *args):  # keep the test output clean
-            pass
-
-    server = http.server.ThreadingHTTPServer(
-        ("127.0.0.1", 0), functools.partial(Handler, directory=str(folder))
-    )
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
-        yield f"http://127.0.0.1:{server.server_address[1]}", requested
-    finally:
-        server.shutdown()
-        server.server_close()
 
 
 @pytest.fixture

@@ -456,7 +456,7 @@ def test_mapping_problems_found_while_importing(tmp_path):
                 "recording": {**mapping["recording"], "recording_id": "{path}", "regex": "b/.*"},
             },
         )
-    with pytest.raises(UsageError, match=r"glob '/etc/\*': .*relative to SRC"):
+    with pytest.raises(UsageError, match=r"files = '/etc/\*': a glob selects files under SRC"):
         import_csv(src, tmp_path / "out", {**mapping, "files": "/etc/*"})
     with pytest.raises(DataError, match=r"no file matches files = \['\*\.txt'\]"):
         import_csv(src, tmp_path / "out", {**mapping, "files": "*.txt"})
@@ -742,3 +742,29 @@ def test_rate_and_speed_from_one_table_keyed_by_file_name(tmp_path):
         import_csv(src, tmp_path / "bad", {**BASE, "files": "**/*.csv", "metadata": [entry]})
     with pytest.raises(UsageError, match=r"\[\[metadata\]\] #1.fields: 'rate' is not a field"):
         load_mapping({**BASE, "metadata": [{"table": "x.csv", "fields": {"rate": "hz"}}]})
+
+
+def test_a_csv_name_not_utf8_and_a_json_key_twice_are_named(tmp_path):
+    """The importers' share of the column-name faults: a bit flip that leaves a header byte
+    that is not UTF-8 (named by line and column), and a metadata key given twice (json keeps
+    the last one without a word)."""
+    src = tmp_path / "src"
+    _sessions(src, {"monday": 120.0})
+    data = bytearray((src / "monday" / "trial_2.csv").read_bytes())
+    data[0] ^= 0x80  # 'p' -> 0xf0: the header's first name is no longer UTF-8
+    (src / "monday" / "trial_2.csv").write_bytes(bytes(data))
+    with pytest.raises(
+        DataError, match=r"trial_2.csv: line 1, column 1: byte 0 \(0xf0\) is not UTF-8 text"
+    ):
+        import_csv(src, tmp_path / "bad", {**BASE, "rate": {"hz": 120}})
+    (src / "monday" / "trial_2.csv").unlink()
+    (src / "monday" / "info.json").write_text('{"rate_hz": 120, "rate_hz": 12}')
+    mapping = {
+        **BASE,
+        "metadata": [{"table": "{parent}/info.json", "fields": {"sampling_rate_hz": "rate_hz"}}],
+    }
+    with pytest.raises(
+        DataError, match=r"info.json: not valid JSON \(key 'rate_hz' is given twice"
+    ):
+        import_csv(src, tmp_path / "bad", mapping)
+    assert not (tmp_path / "bad").exists()

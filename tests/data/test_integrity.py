@@ -7,7 +7,10 @@ stored fingerprint) still read, with the same fingerprint."""
 
 from __future__ import annotations
 
+import errno
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,15 +20,17 @@ import pyarrow.compute as pc
 import pyarrow.parquet as pq
 import pytest
 
-from slipbench.data.read import read_dataset
+from slipbench.data.integrity import page_checksums
+from slipbench.data.read import read_dataset, read_description
 from slipbench.data.schema import (
     FINGERPRINT_KEY,
     RECORDINGS_DIGEST_KEY,
     RECORDINGS_FILE,
     SAMPLES_FILE,
+    SOURCE_KEY,
 )
 from slipbench.data.write import write_dataset
-from slipbench.errors import DataError
+from slipbench.errors import DataError, EnvironmentFault
 
 
 @pytest.fixture(scope="module")
@@ -188,3 +193,104 @@ def test_datasets_written_before_still_read(written, tmp_path):
         pq.write_table(table.replace_schema_metadata(meta), old / name)
         assert FINGERPRINT_KEY not in pq.read_schema(old / name).metadata
     assert read_dataset(old).fingerprint == read_dataset(written).fingerprint
+
+
+# ----------------------------------------------------------------------------- what validate says
+def _from_another_tool(written: Path, to: Path, integers: bool = False) -> Path:
+    """The dataset as another tool writes it: no page checksums, no stored fingerprint; the
+    values as int64 where ``integers``; a source and citation in the metadata."""
+    to.mkdir()
+    for name in (RECORDINGS_FILE, SAMPLES_FILE):
+        table = pq.read_table(written / name)
+        if integers and name == SAMPLES_FILE:
+            values = table.column("values").combine_chunks()
+            ints = pa.LargeListArray.from_arrays(
+                values.offsets, pc.cast(pc.round(pc.multiply(values.values, 100)), pa.int64())
+            )
+            table = table.set_column(table.schema.get_field_index("values"), "values", ints)
+        meta = {b"slipbench.format_version": b"1"}
+        if name == RECORDINGS_FILE:
+            meta[SOURCE_KEY] = b"a lab's logger"
+        pq.write_table(table.replace_schema_metadata(meta), to / name)
+    return to
+
+
+def test_checksums_are_read_from_the_page_headers(written, tmp_path):
+    other = _from_another_tool(written, tmp_path / "other")
+    for name in (RECORDINGS_FILE, SAMPLES_FILE):
+        assert page_checksums(written / name) and not page_checksums(other / name)
+        pq.write_table(pq.read_table(other / name), other / name, write_page_checksum=True)
+        assert page_checksums(other / name)
+
+
+def test_validate_says_where_bit_rot_cannot_be_detected_and_rewrite_adds_the_guards(
+    written, tmp_path, cli
+):
+    other = _from_another_tool(written, tmp_path / "other", integers=True)
+    code, out, err = cli(["dataset", "validate", str(other)])
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0].startswith(f"{other}: valid slipbench dataset v1")
+    assert lines[1:] == [
+        f"warning: {other / name}: no page checksums and no stored fingerprint (written by "
+        "another tool, or by an older slipbench): a flipped bit in it cannot be detected"
+        for name in (RECORDINGS_FILE, SAMPLES_FILE)
+    ] + [f"`slipbench dataset rewrite {other} NEW_FOLDER` writes a copy with both"]
+    code, out, err = cli(["dataset", "rewrite", str(other), str(tmp_path / "new")])
+    assert code == 0 and out == f"wrote {tmp_path / 'new'}\n", err
+    code, out, err = cli(["dataset", "validate", str(tmp_path / "new")])
+    assert code == 0 and out.splitlines()[1] == (
+        f"{tmp_path / 'new'}: every page carries a checksum and the content its stored "
+        "fingerprint: a damaged file is refused"
+    )
+    assert read_dataset(tmp_path / "new").fingerprint == read_dataset(other).fingerprint
+    values = pq.read_schema(tmp_path / "new" / SAMPLES_FILE).field("values").type.value_type
+    assert values == pa.int64()  # raw counts stay integers
+    assert read_description(tmp_path / "new")["slipbench.source"] == "a lab's logger"
+
+
+def test_a_full_disk_names_the_file_being_written(written, tmp_path, monkeypatch):
+    """pyarrow's OSError names no file: write_dataset names the one it was writing, and leaves
+    no hidden folder behind."""
+    ds = read_dataset(written)
+    real = pq.write_table
+
+    def full(table, where, **kwargs):
+        if str(where).endswith(SAMPLES_FILE):
+            raise OSError(errno.ENOSPC, "Error writing bytes to file")
+        return real(table, where, **kwargs)
+
+    monkeypatch.setattr(pq, "write_table", full)
+    with pytest.raises(EnvironmentFault) as err:
+        write_dataset(tmp_path / "ds", ds.recordings, ds.samples, ds.slip_labels)
+    assert str(err.value) == (
+        f"cannot write {tmp_path / 'ds' / SAMPLES_FILE}: no space left on device (ENOSPC)"
+    )
+    assert list(tmp_path.iterdir()) == []
+
+
+FSIZE = """
+import resource, signal, sys
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # the kernel then fails the write with EFBIG
+resource.setrlimit(resource.RLIMIT_FSIZE, (50_000, resource.getrlimit(resource.RLIMIT_FSIZE)[1]))
+from slipbench.app.cli import main
+main(sys.argv[1:])
+"""
+
+
+@pytest.mark.slow
+def test_dataset_synth_on_a_full_disk_names_the_file(tmp_path):
+    """The issue's case, with a real kernel write failure (a file size limit, no root needed):
+    `cannot write ?` became the file's path."""
+    done = subprocess.run(
+        [sys.executable, "-c", FSIZE, "dataset", "synth", str(tmp_path / "ds"), "--scale", "0.001"],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 5, done.stderr
+    assert done.stderr == (
+        f"error: cannot write {tmp_path / 'ds' / SAMPLES_FILE}: file too large for this file "
+        "system or the process's file size limit (EFBIG)\n"
+    )
+    assert list(tmp_path.iterdir()) == []

@@ -30,16 +30,21 @@ the file (and the recording and column where there is one), never a traceback:
 19. samples of an unlisted recording            39. a null recording_id in samples.parquet
 20. a recording without samples                 40. a recording_id of another type (int)
                                                 41. rows lost at a recording's end (n_samples)
+                                                42. a column name that is not UTF-8 (a bit flip)
+                                                43. a column name given twice
 
 Property-based corruptions: a NaN at a random sample of a random recording is reported with that
 recording and sample_index; any one row removed is reported with its recording (a row lost at a
-recording's end shows against the `n_samples` that `write_dataset` records).
+recording's end shows against the `n_samples` that `write_dataset` records); any column name of
+either file made invalid UTF-8, or given to a second column, is reported with the file and the
+column's position.
 """
 
 from __future__ import annotations
 
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -48,15 +53,19 @@ import pyarrow.parquet as pq
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from parquetfaults import name_not_utf8, name_twice
 
 from slipbench.data.format import Dataset
 from slipbench.data.read import read_dataset
 from slipbench.data.schema import RATE_TOLERANCE, RECORDINGS_FILE, SAMPLES_FILE, VERSION_KEY
 from slipbench.data.write import write_dataset
+from slipbench.errors import DataError
 
 SETTINGS = settings(
     max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
 )
+#: the column-name faults fail at the footer, before any sample is read: fewer examples suffice
+NAME_SETTINGS = settings(SETTINGS, max_examples=10)
 RATES = (60.0, 100.0, 850.0, 1000.0, 2200.0)
 
 
@@ -232,6 +241,45 @@ def test_a_missing_row_is_named(tmp_path_factory, data, pick):
         and f"recording {rid!r}" in str(err.value)
         and SAMPLES_FILE in str(err.value)
     )
+
+
+def _one_file(tmp_path_factory, data, pick) -> tuple[Path, Path]:
+    """A written lab dataset, and one of its two files, drawn."""
+    path = write_dataset(tmp_path_factory.mktemp("names") / "ds", *data)
+    return path, path / pick.draw(st.sampled_from([RECORDINGS_FILE, SAMPLES_FILE]))
+
+
+@NAME_SETTINGS
+@given(lab_datasets(), st.data())
+def test_a_column_name_not_utf8_is_named_by_position(tmp_path_factory, data, pick):
+    path, file = _one_file(tmp_path_factory, data, pick)
+    names = pq.read_schema(file).names
+    k = pick.draw(st.integers(0, len(names) - 1))
+    file.write_bytes(name_not_utf8(file.read_bytes(), names[k]))
+    with pytest.raises(DataError) as err:
+        read_dataset(path)
+    after = f" (after {names[k - 1]!r})" if k else ""
+    assert str(err.value).startswith(
+        f"{file}: column {k + 1} of {len(names)}{after}: its name is not valid UTF-8"
+    ), err.value
+
+
+@NAME_SETTINGS
+@given(lab_datasets(), st.data())
+def test_a_column_name_given_twice_is_named_by_position(tmp_path_factory, data, pick):
+    path, file = _one_file(tmp_path_factory, data, pick)
+    table = pq.read_table(file)
+    keep, rename = pick.draw(
+        st.lists(st.integers(0, table.num_columns - 1), min_size=2, max_size=2, unique=True)
+    )
+    pq.write_table(name_twice(table, keep, rename), file)
+    with pytest.raises(DataError) as err:
+        read_dataset(path)
+    first, second = sorted((keep, rename))
+    assert str(err.value).startswith(
+        f"{file}: columns {first + 1} and {second + 1} of {table.num_columns} are both named "
+        f"{table.column_names[keep]!r}"
+    ), err.value
 
 
 # ----------------------------------------------------------------------------- corruptions
@@ -529,6 +577,13 @@ CORRUPTIONS = {
         "b",
         "sample_index",
     ),
+    "column name not UTF-8": (
+        lambda p: (p / R).write_bytes(name_not_utf8((p / R).read_bytes(), "scenario")),
+        R,
+        None,
+        None,
+    ),
+    "column name twice": (lambda p: _table(p, S, lambda t: name_twice(t, 1, 2)), S, None, None),
 }
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import errno
 import json
 import os
+import re
 import shutil
 import sys
 import threading
@@ -20,6 +21,7 @@ import pytest
 import toys
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from parquetfaults import name_not_utf8, name_twice
 
 from slipbench import errors
 from slipbench.base import BaseDetector
@@ -27,7 +29,13 @@ from slipbench.errors import CellsFailed, DataError, EnvironmentFault, environme
 from slipbench.protocol import Part
 from slipbench.store import keys
 from slipbench.store.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
-from slipbench.store.results import RESULTS_FILE, ResultsStore, cells_failed, read_results
+from slipbench.store.results import (
+    RESULTS_FILE,
+    ResultsStore,
+    cells_failed,
+    read_predictions,
+    read_results,
+)
 
 
 def row(i: int, **extra) -> dict:
@@ -178,8 +186,12 @@ def corrupt_results(folder: Path, data: bytes) -> None:
 
 
 def parquet_bytes(rows: list[dict]) -> bytes:
+    return table_bytes(pa.Table.from_pylist(rows))
+
+
+def table_bytes(table: pa.Table) -> bytes:
     sink = pa.BufferOutputStream()
-    pq.write_table(pa.Table.from_pylist(rows), sink)
+    pq.write_table(table, sink)
     return sink.getvalue().to_pybytes()
 
 
@@ -214,6 +226,24 @@ CORRUPTIONS = {
         ),
     ),
     "cell file that is a folder": lambda f: (f / "cells" / "k0000.parquet").mkdir(parents=True),
+    "results file with a column name not UTF-8": lambda f: corrupt_results(
+        f, name_not_utf8(parquet_bytes([row(0)]), "status")
+    ),
+    "results file naming a column twice": lambda f: corrupt_results(
+        f, table_bytes(name_twice(pa.Table.from_pylist([row(0)]), 5, 6))
+    ),
+    "cell file with a column name not UTF-8": lambda f: (
+        write_cell(f, "k0000", [row(0)]),
+        (f / "cells" / "k0000.parquet").write_bytes(
+            name_not_utf8((f / "cells" / "k0000.parquet").read_bytes(), "accuracy")
+        ),
+    ),
+    "cell file naming a column twice": lambda f: (
+        (f / "cells").mkdir(),
+        (f / "cells" / "k0000.parquet").write_bytes(
+            table_bytes(name_twice(pa.Table.from_pylist([row(0)]), 1, 4))
+        ),
+    ),
 }
 
 
@@ -226,6 +256,20 @@ def test_corrupt_results_are_refused_with_exit_2_naming_the_file(kind, tmp_path,
     assert str(tmp_path) in str(err.value)
     code, _, stderr = cli(["report", str(tmp_path)])
     assert code == 2 and "Traceback" not in stderr and str(tmp_path) in stderr
+
+
+@pytest.mark.parametrize("fault", ["not UTF-8", "twice"])
+def test_a_predictions_file_with_a_bad_column_name_is_refused_naming_it(fault, tmp_path):
+    stored(tmp_path, 1)
+    path = tmp_path / "predictions" / "k0000.parquet"
+    if fault == "twice":
+        path.write_bytes(table_bytes(name_twice(pq.read_table(path), 0, 1)))
+        message = "columns 1 and 2 of 2 are both named 'window_index'"
+    else:
+        path.write_bytes(name_not_utf8(path.read_bytes(), "score"))
+        message = "column 2 of 2 (after 'window_index'): its name is not valid UTF-8"
+    with pytest.raises(DataError, match=re.escape(f"{path}: {message}")):
+        read_predictions(tmp_path, "k0000")
 
 
 def test_model_path_makes_its_folder(tmp_path):

@@ -11,7 +11,6 @@ import signal
 import subprocess
 import sys
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +19,7 @@ import pyarrow.parquet as pq
 import pytest
 import storegen
 import toys
+from fsfaults import mounted, read_only
 from storegen import cell_predictions, cell_row
 
 from slipbench.atomic import folder_lock, unique_folder, write_text_atomic
@@ -175,21 +175,6 @@ def test_a_file_size_limit_is_an_environment_fault(tmp_path):
     assert 0 < len(check_intact(folder, size=lambda i: 1000 * (i + 1))) < 100
 
 
-@contextmanager
-def mounted(target: Path, *options: str, source: str = "tmpfs"):
-    """Mount (root only); skips the test where this machine does not allow it."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a filesystem needs root")
-    target.mkdir(parents=True, exist_ok=True)
-    done = subprocess.run(["mount", *options, source, str(target)], capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount here: {done.stderr.strip()}")
-    try:
-        yield target
-    finally:
-        subprocess.run(["umount", "-l", str(target)], check=True)
-
-
 def test_a_real_full_disk(tmp_path):
     with mounted(tmp_path / "small", "-t", "tmpfs", "-o", "size=1m") as folder:
         store = ResultsStore(folder / "out")
@@ -209,28 +194,6 @@ def test_a_real_full_disk(tmp_path):
 
 
 # ----------------------------------------------------------------------------- read-only
-@contextmanager
-def read_only(folder: Path):
-    """``folder`` seen read-only: a read-only bind mount as root (root ignores permissions),
-    else the folder's write permissions removed."""
-    if os.geteuid() != 0:
-        modes = {p: p.stat().st_mode for p in [folder, *folder.rglob("*")]}
-        for p, mode in modes.items():
-            p.chmod(mode & ~0o222)
-        try:
-            yield folder
-        finally:
-            for p, mode in modes.items():
-                p.chmod(mode)
-        return
-    view = folder.with_name(folder.name + "-ro")
-    with mounted(view, "--bind", source=str(folder)):
-        done = subprocess.run(
-            ["mount", "-o", "remount,bind,ro", str(view)], capture_output=True, text=True
-        )
-        if done.returncode != 0:
-            pytest.skip(f"cannot remount read-only: {done.stderr.strip()}")
-        yield view
 
 
 class Tiny(BaseDetector):
@@ -290,7 +253,7 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
     (tmp_path / "plugins" / "protocols").mkdir(parents=True)
     (tmp_path / "plugins" / "protocols" / "two_cells.py").write_text(toys.source(toys.TwoCells))
 
-    def evaluate(out: Path) -> subprocess.CompletedProcess:
+    def evaluate(out: Path, *more: str) -> subprocess.CompletedProcess:
         return subprocess.run(
             [
                 sys.executable,
@@ -308,6 +271,7 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
                 "--out",
                 str(out),
                 "--quiet",
+                *more,
             ],
             capture_output=True,
             text=True,
@@ -326,10 +290,13 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
             "read-only file system (EROFS)" if os.geteuid() == 0 else "permission denied (EACCES)"
         )
         assert new.returncode == 5, new.stderr
-        assert re.fullmatch(
-            rf"error: cannot (write|create the folder) {re.escape(str(empty))}/\S+: {re.escape(cause)}\n",
-            new.stderr,
-        ), new.stderr
+        assert new.stderr == (  # refused as --out was read, before the dataset
+            f"error: cannot write {empty}: {cause}; found before any work; nothing was written\n"
+        )
+        before = (out / RESULTS_FILE).stat().st_mtime_ns
+        more = evaluate(out, "--seed", "1")  # cells stored, but new ones due: refused by the run
+        assert more.returncode == 5 and more.stderr == new.stderr.replace(str(empty), str(out))
+        assert (out / RESULTS_FILE).stat().st_mtime_ns == before
 
 
 # ----------------------------------------------------------------------------- two writers, the lock

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from slipbench.app.options import (
+    Destination,
     labels_option,
     parse_params,
     plugins_option,
@@ -17,6 +18,7 @@ from slipbench.app.options import (
     split_option,
 )
 from slipbench.app.selection import add_plugin_folders, load_plugins, with_options
+from slipbench.data.download import MIN_RATE, WAIT_S
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
 from slipbench.protocol import BaseProtocol
@@ -28,7 +30,7 @@ def dataset() -> None:
 
 
 @dataset.command("synth")
-@click.argument("out", type=click.Path(path_type=Path))
+@click.argument("out", type=Destination())
 @scale_option("1.0 gives ~8 million samples per sensor instance.")
 @seed_option()
 def dataset_synth(out: Path, scale: float, seed: int) -> None:
@@ -42,7 +44,9 @@ def dataset_synth(out: Path, scale: float, seed: int) -> None:
 @dataset.command("validate")
 @click.argument("path", type=click.Path(path_type=Path))
 def dataset_validate(path: Path) -> None:
-    """Check that PATH follows the dataset format; name the first problem found."""
+    """Check that PATH follows the dataset format; name the first problem found, and say where
+    bit rot could not be detected (no page checksums, no stored fingerprint)."""
+    from slipbench.data.integrity import unguarded
     from slipbench.data.read import read_dataset
 
     ds = read_dataset(path)
@@ -52,6 +56,26 @@ def dataset_validate(path: Path) -> None:
         f"{path}: valid slipbench dataset v1, {len(ds.recordings)} recordings in {ds.recordings['trial'].nunique()} trials, "
         f"{n} samples ({labelled} labelled per sample), fingerprint {ds.fingerprint}"
     )
+    lines = unguarded(path)
+    click.echo(
+        "\n".join(f"warning: {line}" for line in lines[:-1]) + f"\n{lines[-1]}"
+        if lines
+        else f"{path}: every page carries a checksum and the content its stored fingerprint: "
+        "a damaged file is refused"
+    )
+
+
+@dataset.command("rewrite")
+@click.argument("src", type=click.Path(path_type=Path))
+@click.argument("out", type=Destination())
+def dataset_rewrite(src: Path, out: Path) -> None:
+    """Write dataset SRC again to the new folder OUT as slipbench writes datasets: with page
+    checksums and its content fingerprint stored, so that bit rot is detected. The content, and
+    so the fingerprint, stays the same."""
+    from slipbench.data.write import rewrite_dataset
+
+    rewrite_dataset(src, out)
+    click.echo(f"wrote {out}")
 
 
 @dataset.command("info")
@@ -135,25 +159,38 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
 @dataset.command("import")
 @click.argument("kind", type=click.Choice(["csv", "biotacsp-dos"]))
 @click.argument("src", type=click.Path(path_type=Path))
-@click.argument("out", type=click.Path(path_type=Path))
+@click.argument("out", type=Destination())
 @click.option(
     "--config",
     type=click.Path(path_type=Path),
     help="csv: the mapping file (TOML; see datasets.md).",
 )
-def dataset_import(kind: str, src: Path, out: Path, config: Path | None) -> None:
+@click.option(
+    "--read-outside",
+    "outside",
+    multiple=True,
+    type=click.Path(path_type=Path, exists=True, file_okay=False),
+    help="csv: a folder outside SRC and the mapping's folder that the mapping's paths may lead "
+    "into (metadata tables, a segments table, files linked from SRC); repeatable. Without it, "
+    "a path with '..', an absolute path or a link leading out is refused.",
+)
+def dataset_import(
+    kind: str, src: Path, out: Path, config: Path | None, outside: tuple[Path, ...]
+) -> None:
     """Convert CSV files (KIND csv, with --config) or a published dataset at SRC into a
     slipbench dataset folder OUT."""
-    from slipbench.data.importers import IMPORTERS, import_csv
+    from slipbench.data.importers import IMPORTERS, import_csv, load_mapping
 
     if kind == "csv":
         if config is None:
             raise UsageError(
                 "dataset import csv needs --config MAPPING.toml (see datasets.md, 'Bring your own recordings')"
             )
-        import_csv(src, out, config)
-    elif config is not None:
-        raise UsageError(f"dataset import {kind} takes no --config; its mapping is built in")
+        import_csv(src, out, load_mapping(config, None, outside))
+    elif config is not None or outside:
+        raise UsageError(
+            f"dataset import {kind} takes no --config or --read-outside; its mapping is built in"
+        )
     else:
         IMPORTERS[kind](src, out)
     click.echo(f"wrote {out}")
@@ -190,10 +227,18 @@ def dataset_cards() -> None:
 )
 @click.option(
     "--out",
-    type=click.Path(path_type=Path),
+    type=Destination(),
     help="The new dataset folder [default: NAME in the working folder].",
 )
-def dataset_fetch(name: str, url: str | None, out: Path | None) -> None:
+@click.option(
+    "--min-rate",
+    type=click.FloatRange(min=0, min_open=True),
+    default=MIN_RATE / 1e3,
+    show_default=True,
+    help=f"kB/s: each file must arrive within {WAIT_S:g} s plus its size at this rate, else the "
+    "fetch stops, saying the server stalled; lower it to wait longer on a slow link.",
+)
+def dataset_fetch(name: str, url: str | None, out: Path | None, min_rate: float) -> None:
     """Download the published dataset of card NAME (or of a card file NAME.toml), check every
     file's SHA-256, keep them in slipbench's cache, and convert them into a dataset folder."""
     from slipbench.data.card import find_card
@@ -201,7 +246,7 @@ def dataset_fetch(name: str, url: str | None, out: Path | None) -> None:
 
     card = find_card(name)
     out = Path(card.name) if out is None else out
-    fetch(card, out, url, echo=lambda line: click.echo(line, err=True))
+    fetch(card, out, url, lambda line: click.echo(line, err=True), min_rate * 1e3)
     click.echo(f"wrote {out}")
     click.echo(f"cite: {card.citation}")
     click.echo(f"license: {card.license}")

@@ -55,7 +55,7 @@ from slipbench.errors import PluginError, UsageError
     help="With --train-dataset: TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE] (repeatable).",
 )
 @scale_option("Scale of the simulated dataset when --dataset is not given.")
-@out_option("Results folder.", default="results")
+@out_option("Results folder.", default="results", results=True)
 @split_option(
     "paper: windows shuffled and halved; grouped: whole trials on one side, the same for every unit."
 )

@@ -9,6 +9,7 @@ import click
 
 from slipbench.app.options import (
     LAYOUT_PLUGINS_HELP,
+    Destination,
     intervals_option,
     out_option,
     plugins_option,
@@ -51,13 +52,13 @@ from slipbench.app.selection import add_plugin_folders
 @click.option(
     "--plots",
     "plots_dir",
-    type=click.Path(path_type=Path),
+    type=Destination(),
     help="Also write figures (PNG and PDF) here, linked from the report.",
 )
 @out_option("Write the report to this file instead of printing it.")
 @click.option(
     "--appendix",
-    type=click.Path(path_type=Path, dir_okay=False),
+    type=Destination(dir_okay=False),
     help="Markdown or LaTeX: write each detector's own tables and figures to this file; the "
     "report keeps the summary (what it stands on, leaderboard, findings, every detector side by "
     "side) and links it.",

@@ -31,9 +31,12 @@ def run_command(bench_file, out, jobs, seed, force, quiet) -> None:
     """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
     options, split, seeds; write its results, its reports and a copy of the file."""
     from slipbench.app.benchfile import load_benchmark, run_benchmark
+    from slipbench.atomic import check_writable
     from slipbench.store.results import cells_failed
 
     bench = load_benchmark(bench_file)
+    if out is None:  # --out was checked as it was read; a run always writes its record there
+        check_writable(bench.out)
     rows, paths = run_benchmark(
         bench, out, jobs, force, progress=not quiet, echo=click.echo, seed=seed
     )

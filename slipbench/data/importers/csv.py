@@ -24,6 +24,7 @@ from slipbench.data.importers.mapping import (
     load_mapping,
 )
 from slipbench.data.importers.metadata import MetadataReader
+from slipbench.data.importers.paths import check_inside
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.data.write import write_dataset
 from slipbench.errors import DataError, UsageError
@@ -32,7 +33,7 @@ from slipbench.errors import DataError, UsageError
 def import_csv(
     src: str | Path,
     out: str | Path,
-    config: str | Path | Mapping,
+    config: str | Path | Mapping | CsvMapping,
     base: Path | None = None,
     description: Mapping[bytes, str] | None = None,
 ) -> Path:
@@ -42,24 +43,34 @@ def import_csv(
     ----------
     src : folder holding the files; ``files`` globs and rule paths are relative to it.
     out : the new dataset folder (must not exist or be empty).
-    config : the mapping: a TOML file, or the same structure as a dict (see ``datasets.md``).
-    base : folder that relative paths in the mapping start from [default: the TOML file's].
+    config : the mapping: a TOML file, the same structure as a dict (see ``datasets.md``), or
+        one :func:`load_mapping` read (to give it outside folders, or a card's name).
+    base : folder that relative paths in the mapping start from [default: the TOML file's];
+        a mapping already read keeps its own.
     description : source and citation for the dataset's metadata (see ``write_dataset``).
+
+    Every path the mapping leads to stays inside ``src`` (a segments table: inside ``base``)
+    or a folder the mapping was given as outside, symbolic links followed
+    (:mod:`~slipbench.data.importers.paths`).
 
     Raises
     ------
-    UsageError : the mapping is wrong (its file and key named).
+    UsageError : the mapping is wrong, or one of its paths leads out (its file, key and value
+        named).
     DataError : a file is wrong (its path, line and column named), or the result breaks the format.
     """
     src = Path(src)
-    m = load_mapping(config, base)
+    m = config if isinstance(config, CsvMapping) else load_mapping(config, base)
     if not src.is_dir():
         raise DataError(f"{src}: not a folder")
-    files = sorted(set().union(*(_glob(src, g, m) for g in m.files)))
+    files = sorted(set().union(*(_glob(src, g, m, f"files = {g!r}") for g in m.files)))
     if not files:
         raise DataError(f"{src}: no file matches files = {list(m.files)}")
-    selected = [_glob(src, r.glob, m) if r.glob else set(files) for r in m.rules]
-    metadata = MetadataReader(src, m.where, set(files))
+    selected = [
+        _glob(src, r.glob, m, f"{r.name}.glob = {r.glob!r}") if r.glob else set(files)
+        for r in m.rules
+    ]
+    metadata = MetadataReader(src, m.where, set(files), m.outside)
     segments = segments_table(m)
     for name, parts in segments.items():
         if name not in files:
@@ -92,14 +103,18 @@ def import_csv(
     return write_dataset(out, pd.DataFrame(rows), samples, labels or None, description)
 
 
-def _glob(src: Path, pattern: str, m: CsvMapping) -> set[str]:
-    """Paths (relative to ``src``, with /) of the files a glob selects."""
+def _glob(src: Path, pattern: str, m: CsvMapping, key: str) -> set[str]:
+    """Paths (relative to ``src``, with /) of the files a glob selects, each checked to lie
+    inside ``src`` (or an outside folder the mapping was given) once links are followed."""
     try:
-        return {p.relative_to(src).as_posix() for p in src.glob(pattern) if p.is_file()}
+        found = [p for p in src.glob(pattern) if p.is_file()]
     except (ValueError, NotImplementedError) as exc:
         raise UsageError(
             f"{m.where}: glob {pattern!r}: {exc} (globs are relative to SRC)"
         ) from None
+    for path in found:
+        check_inside(path, src, f"{m.where}: {key}", m.outside)
+    return {p.relative_to(src).as_posix() for p in found}
 
 
 def _channel_names(frame: pd.DataFrame, group: dict[str, Any], path: Path) -> list[str]:

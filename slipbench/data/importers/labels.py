@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.data.importers.mapping import LABEL_CHOICES, CsvMapping
+from slipbench.data.importers.paths import check_inside
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.errors import DataError, UsageError
 
@@ -123,6 +124,7 @@ def segments_table(m: CsvMapping) -> dict[str, list[Segment]]:
     if not isinstance(name, str):
         return {}
     path = m.base / name
+    check_inside(path, m.base, f"{m.where}: [labels].segments = {name!r}", m.outside)
     if not path.is_file():
         raise UsageError(f"{m.where}: [labels].segments: {path} not found")
     csv = {"delimiter": ",", "comment": "#", "skip_rows": 0}

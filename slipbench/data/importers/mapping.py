@@ -6,7 +6,7 @@ templates filled from path parts and named regex groups, values mapped, numbers 
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -14,6 +14,7 @@ from typing import Any
 import tomllib
 
 from slipbench.data.importers.metadata import MetadataReader, MetadataTable, parse_metadata
+from slipbench.data.importers.paths import check_relative, escapes
 from slipbench.errors import DataError, UsageError
 
 FIELDS = (
@@ -64,6 +65,7 @@ LABEL_CHOICES = {
     "unlisted": ("unlabelled", "no-slip"),
 }
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+GLOBS_STAY = "a glob selects files under SRC: no '..', no absolute path"
 
 
 @dataclass(frozen=True)
@@ -91,6 +93,8 @@ class CsvMapping:
     labels: dict[str, Any]
     base: Path
     metadata: tuple[MetadataTable, ...] = ()
+    #: folders beyond SRC and ``base`` its paths may lead into; None: a card's, never
+    outside: tuple[Path, ...] | None = ()
 
 
 def _bad(where: str, what: str) -> UsageError:
@@ -126,6 +130,8 @@ def _rule(table: Any, where: str, section: str, selector: bool) -> Rule:
     glob = table.get("glob")
     if glob is not None and not isinstance(glob, str):
         raise _bad(where, f"{section}.glob must be a string")
+    if glob is not None and escapes(glob):
+        raise _bad(where, f"{section}.glob = {glob!r}: {GLOBS_STAY}")
     if selector and glob is None and "regex" not in table:
         raise _bad(where, f"{section} needs a glob or a regex saying which files it applies to")
     fields = {k: v for k, v in table.items() if k in FIELDS}
@@ -135,17 +141,26 @@ def _rule(table: Any, where: str, section: str, selector: bool) -> Rule:
     return Rule(section, glob, _regex(table.get("regex"), where, section), fields)
 
 
-def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvMapping:
+def load_mapping(
+    config: str | Path | Mapping,
+    base: Path | None = None,
+    outside: Sequence[Path] | None = (),
+    where: str | None = None,
+) -> CsvMapping:
     """Parse and check a mapping: a TOML file, or the same structure as a dict.
 
     ``base`` is the folder relative paths in the mapping (a segments table) start from: the
-    mapping file's folder, or the working folder for a dict.
+    mapping file's folder, or the working folder for a dict. ``outside``: folders beyond SRC
+    and ``base`` its paths may lead into (``dataset import csv --read-outside``); None for a
+    card's mapping, which never may (see :mod:`~slipbench.data.importers.paths`). ``where``
+    names the mapping in messages [default: its file, or "mapping"].
     """
     if isinstance(config, Mapping):
-        where, raw, base = "mapping", dict(config), Path(base or ".")
+        raw, base = dict(config), Path(base or ".")
+        where = where or "mapping"
     else:
         path = Path(config)
-        where = str(path)
+        where = where or str(path)
         try:
             raw = tomllib.loads(path.read_text(encoding="utf-8"))
         except OSError as exc:
@@ -153,7 +168,27 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise UsageError(f"{path}: not valid TOML ({exc})") from None
         base = Path(base) if base else path.parent
+    outside = None if outside is None else tuple(Path(f) for f in outside)
     _keys(raw, TOP_KEYS, where, "the mapping")
+    files, csv = _files(raw, where), _csv(raw, where)
+    recording = _rule(raw.get("recording", {}), where, "[recording]", selector=False)
+    rules = raw.get("rules", [])
+    if not isinstance(rules, list):
+        raise _bad(where, "rules must be an array of tables: [[rules]]")
+    rules = tuple(
+        _rule(r, where, f"[[rules]] #{i + 1}", selector=True) for i, r in enumerate(rules)
+    )
+    maps, channels, rate = _maps(raw, where), _channels(raw, where), _rate(raw, where)
+    labels = _labels(raw, where, outside)
+    metadata = parse_metadata(raw.get("metadata", []), where, FIELDS)
+    for entry in metadata:
+        check_relative(entry.table, f"{where}: {entry.name}.table = {entry.table!r}", outside)
+    return CsvMapping(
+        where, files, csv, recording, rules, maps, channels, rate, labels, base, metadata, outside
+    )
+
+
+def _files(raw: dict, where: str) -> tuple[str, ...]:
     files = raw.get("files", "**/*.csv")
     files = (files,) if isinstance(files, str) else files
     if (
@@ -164,6 +199,13 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
         raise _bad(
             where, 'files must be a glob or a list of globs relative to SRC, e.g. "**/*.csv"'
         )
+    for glob in files:
+        if escapes(glob):
+            raise _bad(where, f"files = {glob!r}: {GLOBS_STAY}")
+    return tuple(files)
+
+
+def _csv(raw: dict, where: str) -> dict[str, Any]:
     csv = {
         "delimiter": raw.get("delimiter", ","),
         "comment": raw.get("comment"),
@@ -181,39 +223,46 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
         or csv["skip_rows"] < 0
     ):
         raise _bad(where, f"skip_rows must be an int >= 0, got {csv['skip_rows']!r}")
-    recording = _rule(raw.get("recording", {}), where, "[recording]", selector=False)
-    rules = raw.get("rules", [])
-    if not isinstance(rules, list):
-        raise _bad(where, "rules must be an array of tables: [[rules]]")
-    rules = tuple(
-        _rule(r, where, f"[[rules]] #{i + 1}", selector=True) for i, r in enumerate(rules)
-    )
+    return csv
+
+
+def _maps(raw: dict, where: str) -> dict[str, dict[str, Any]]:
     maps = _keys(raw.get("map", {}), set(FIELDS), where, "[map]")
     for key, table in maps.items():
         if not isinstance(table, dict):
             raise _bad(where, f"[map.{key}] must be a table of old = new values")
+    return maps
+
+
+def _channels(raw: dict, where: str) -> tuple[dict[str, Any], ...]:
     channels = raw.get("channels")
     if channels is None:
         raise _bad(where, '[channels] is missing: give names = [...] or pattern = "..."')
-    channels = tuple(channels) if isinstance(channels, list) else (channels,)
-    for i, group in enumerate(channels):
-        section = "[channels]" if len(channels) == 1 else f"[[channels]] #{i + 1}"
-        _keys(group, CHANNEL_KEYS, where, section)
-        if ("names" in group) == ("pattern" in group):
-            raise _bad(where, f'{section} needs exactly one of names = [...] or pattern = "..."')
-        if "names" in group and (
-            not isinstance(group["names"], list)
-            or not group["names"]
-            or not all(isinstance(n, str) for n in group["names"])
-        ):
-            raise _bad(where, f"{section}.names must be a non-empty list of column names")
-        if "pattern" in group:
-            group = {**group, "pattern": _regex(group["pattern"], where, section)}
-        if len(channels) > 1 and "sensor_instance" not in group:
-            raise _bad(
-                where, f"{section} needs sensor_instance: several channel groups are several units"
-            )
-        channels = channels[:i] + (group,) + channels[i + 1 :]
+    groups = tuple(channels) if isinstance(channels, list) else (channels,)
+    return tuple(_channel_group(g, where, i, len(groups)) for i, g in enumerate(groups))
+
+
+def _channel_group(group: Any, where: str, i: int, n: int) -> dict[str, Any]:
+    section = "[channels]" if n == 1 else f"[[channels]] #{i + 1}"
+    _keys(group, CHANNEL_KEYS, where, section)
+    if ("names" in group) == ("pattern" in group):
+        raise _bad(where, f'{section} needs exactly one of names = [...] or pattern = "..."')
+    if "names" in group and (
+        not isinstance(group["names"], list)
+        or not group["names"]
+        or not all(isinstance(n, str) for n in group["names"])
+    ):
+        raise _bad(where, f"{section}.names must be a non-empty list of column names")
+    if n > 1 and "sensor_instance" not in group:
+        raise _bad(
+            where, f"{section} needs sensor_instance: several channel groups are several units"
+        )
+    if "pattern" in group:
+        return {**group, "pattern": _regex(group["pattern"], where, section)}
+    return group
+
+
+def _rate(raw: dict, where: str) -> dict[str, Any]:
     rate = _keys(raw.get("rate", {}), RATE_KEYS, where, "[rate]")
     if "hz" in rate and (
         isinstance(rate["hz"], bool)
@@ -226,6 +275,10 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
             where,
             f"[rate].time_unit must be one of {', '.join(TIME_UNITS)}, got {rate['time_unit']!r}",
         )
+    return rate
+
+
+def _labels(raw: dict, where: str, outside: tuple[Path, ...] | None) -> dict[str, Any]:
     labels = _keys(raw.get("labels", {}), LABEL_KEYS, where, "[labels]")
     if "column" in labels and "segments" in labels:
         raise _bad(where, "[labels] takes a column or segments, not both")
@@ -245,10 +298,10 @@ def load_mapping(config: str | Path | Mapping, base: Path | None = None) -> CsvM
             raise _bad(
                 where, f"[labels].{key} must be one of {', '.join(allowed)}, got {labels[key]!r}"
             )
-    metadata = parse_metadata(raw.get("metadata", []), where, FIELDS)
-    return CsvMapping(
-        where, tuple(files), csv, recording, rules, maps, channels, rate, labels, base, metadata
-    )
+    if isinstance(labels.get("segments"), str):
+        segments = labels["segments"]
+        check_relative(segments, f"{where}: [labels].segments = {segments!r}", outside)
+    return labels
 
 
 def file_fields(

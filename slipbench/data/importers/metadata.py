@@ -6,6 +6,7 @@ into ``session/info.json``."""
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -13,6 +14,7 @@ from typing import Any
 import numpy as np
 import tomllib
 
+from slipbench.data.importers.paths import check_inside, check_relative
 from slipbench.data.importers.tables import line_of, read_csv
 from slipbench.errors import DataError, UsageError
 
@@ -92,7 +94,9 @@ def _records(path: Path) -> list[Record]:
         ]
     try:
         text = path.read_text(encoding="utf-8")
-        data = json.loads(text) if suffix == ".json" else tomllib.loads(text)
+        data = (
+            json.loads(text, object_pairs_hook=_once) if suffix == ".json" else tomllib.loads(text)
+        )
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
     except (ValueError, UnicodeDecodeError) as exc:  # JSON and TOML errors are ValueErrors
@@ -113,11 +117,24 @@ def _records(path: Path) -> list[Record]:
     raise DataError(f"{path}: a metadata file holds an object (one record) or a list of objects")
 
 
+def _once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are all distinct (json keeps the last of a repeated key silently;
+    TOML refuses one itself)."""
+    seen: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in seen:
+            raise ValueError(f"key {key!r} is given twice in one object (which value holds?)")
+        seen[key] = value
+    return seen
+
+
 class MetadataReader:
     """Looks up each file's record in the mapping's metadata tables; reads each table once."""
 
-    def __init__(self, src: Path, where: str, imported: set[str]) -> None:
-        self.src, self.where, self.imported = src, where, imported
+    def __init__(
+        self, src: Path, where: str, imported: set[str], outside: Sequence[Path] | None = ()
+    ) -> None:
+        self.src, self.where, self.imported, self.outside = src, where, imported, outside
         self._cache: dict[Path, list[Record]] = {}
 
     def fields(self, entry: MetadataTable, rel: str, fill) -> dict[str, Any]:
@@ -128,6 +145,9 @@ class MetadataReader:
                 f"{self.where}: {entry.name}: the table {table_rel} is also selected as a recording by files; narrow files"
             )
         path = self.src / table_rel
+        named = f"{self.where}: {entry.name}.table = {entry.table!r} (for {rel})"
+        check_relative(table_rel, named, self.outside)
+        check_inside(path, self.src, named, self.outside)
         if path.suffix.lower() not in (".csv", ".json", ".toml"):
             raise UsageError(
                 f"{self.where}: {entry.name}.table: {table_rel} is not a .csv, .json or .toml file"

@@ -77,9 +77,10 @@ def _data_lines(path: Path, csv: dict[str, Any]) -> list[tuple[int, str]]:
     lines and comment lines left out, a comment at a line's end cut off (as :func:`line_of`
     counts them)."""
     try:
-        text = path.read_text(encoding="utf-8-sig")  # -sig: a byte-order mark is not a name
+        data = path.read_bytes()
+        text = data.decode("utf-8-sig")  # -sig: a byte-order mark is not a name
     except UnicodeDecodeError as exc:
-        raise DataError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+        raise DataError(f"{path}: {_not_utf8(data, exc, csv)}") from None
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from None
     comment = csv["comment"]
@@ -94,6 +95,17 @@ def _data_lines(path: Path, csv: dict[str, Any]) -> list[tuple[int, str]]:
             line = line.split(comment, 1)[0]
         out.append((number, line + "\n"))
     return out
+
+
+def _not_utf8(data: bytes, exc: UnicodeDecodeError, csv: dict[str, Any]) -> str:
+    """Where a byte that is not UTF-8 sits: line, and column as the delimiters count them."""
+    at = exc.start + len(data) - len(exc.object)  # the decoder saw no byte-order mark
+    line = data.count(b"\n", 0, at) + 1
+    column = data[data.rfind(b"\n", 0, at) + 1 : at].count(csv["delimiter"].encode())
+    return (
+        f"line {line}, column {column + 1}: byte {at} (0x{data[at]:02x}) is not UTF-8 text "
+        f"({exc.reason}): a damaged file, or one saved in another encoding (save it as UTF-8)"
+    )
 
 
 def _checked_width(path: Path, lines: list[tuple[int, str]], delimiter: str) -> tuple[int, int]:
