@@ -34,20 +34,23 @@ import pandas as pd
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
 from slipbench.report.blocks import Detail, Heading, Text
-from slipbench.report.leaderboard import leaderboard_tables
+from slipbench.report.leaderboard import leaderboard_tables, one_class_table
 from slipbench.report.outline import (
+    as_tested,
     layouts,
     no_cell_note,
     protocol_order,
     split_parts,
     splits_of,
     stand_ins,
+    which_text,
 )
 from slipbench.report.paper import paper_frame
-from slipbench.report.provenance import fitted_tables, header_tables
+from slipbench.report.provenance import fitted_tables, header_tables, tested_on_simulation
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import standalone_latex, to_latex, to_markdown
 from slipbench.report.tables import (
+    SIMULATED,
     Table,
     baseline_table,
     build_table,
@@ -62,6 +65,7 @@ from slipbench.report.tables import (
     split_table,
     table_keys,
 )
+from slipbench.stats.factors import named_entrants, setting_parts
 from slipbench.stats.leaderboard import leaderboard
 from slipbench.vocabulary import DETECTOR_ORDER
 
@@ -126,10 +130,6 @@ def split_appendix(
     return summary, rest
 
 
-def _which(which: dict) -> str:
-    return "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
-
-
 def protocol_tables(
     rows: pd.DataFrame,
     layout: Layout,
@@ -172,7 +172,7 @@ def protocol_tables(
             label_=f"tab:{tag}",
             pooled=_pooled(part, layout, predictions) if intervals else None,
         )
-        table.caption += _which(which)
+        table.caption += which_text(which)
         table.subject = named
         out.append((f"{detector}{suffix}", table))
         if layout.metrics and "stream_s" in part:
@@ -186,7 +186,7 @@ def protocol_tables(
             )
         compute = compute_table(part, layout, f"tab:{tag}-compute") if layout.metrics else None
         if compute is not None:
-            compute.caption += _which(which)
+            compute.caption += which_text(which)
             compute.subject = named
             out.append((f"{detector}{suffix}, compute per hop", compute))
         if ref is not None and len(ref) and metric == "accuracy":
@@ -194,7 +194,7 @@ def protocol_tables(
                 part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference"
             )
             dt.caption = (
-                f"Ours minus published, {detector} against the paper's LSTM.{_which(which)}"
+                f"Ours minus published, {detector} against the paper's LSTM.{which_text(which)}"
             )
             dt.subject = named
             out.append((f"{detector} - paper{suffix}", dt))
@@ -325,7 +325,7 @@ def _protocol_blocks(
                     label_=f"tab:{tag}",
                 )
                 if table is not None:
-                    table.caption += _which(which)
+                    table.caption += which_text(which)
                     table.subject = f"Protocol {protocol}, {split} split."
                     blocks.append(table)
         splits = [s for s, _ in splits_of(prows)]
@@ -356,17 +356,6 @@ def _protocol_blocks(
     return blocks
 
 
-def entrant_per_input(rows: pd.DataFrame) -> pd.DataFrame:
-    """``rows`` with the detector of each channels row named ``DETECTOR (channels)``: the two
-    inputs of one detector are two entrants, never two seeds of one cell."""
-    if "input" not in rows or not rows["input"].eq("channels").any():
-        return rows
-    out = rows.copy()
-    channels = out["input"].eq("channels")
-    out.loc[channels, "detector"] = out.loc[channels, "detector"].astype(str) + " (channels)"
-    return out
-
-
 def build_report(
     rows: pd.DataFrame,
     metric: str = "accuracy",
@@ -386,7 +375,7 @@ def build_report(
     A detector run on the raw channels competes as its own entrant, ``tcn (channels)``, in
     every table, leaderboard and finding; the last section pairs it with its univariate twin."""
     both = rows[~stand_ins(rows)]
-    rows = entrant_per_input(rows)
+    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: tested_on_simulation(rows)})
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = splits_of(rows)
@@ -427,20 +416,15 @@ def build_report(
             )
         )
     blocks += [*leaderboard_tables(board), *figures.get(None, [])]
+    lone = one_class_table(lead)
+    if lone is not None:
+        blocks += [Heading("Test sets of one class", 2), lone]
     if side is not None:
         blocks += [Heading("The splits side by side", 2), side]
     if leaderboard_only:
         return blocks
     if paper:
-        from slipbench.report.findings import findings_table, paper_findings_table
-
-        shown = paper_findings_table(lead, found)
-        findings = findings_table(lead, found, order)
-        if shown is not None or findings is not None:
-            blocks += [
-                Heading("The paper's findings, ours beside them", 2),
-                *(t for t in (shown, findings) if t is not None),
-            ]
+        blocks += _findings(lead, found, order)
     fitted = fitted_tables(cells)
     if fitted:
         # each detector's choices are detail; the warnings about them stay in the summary
@@ -455,29 +439,62 @@ def build_report(
         )
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in lead:
-        one = lead[lead["protocol"].isin(table_one)]
+        title = "At window 50: baseline and TP/TN rates" + (
+            f", {splits[0][0]} split" if len(splits) > 1 else ""
+        )
+        blocks += _window_50(
+            lead[lead["protocol"].isin(table_one)], title, intervals, paper, predictions
+        )
+    return blocks + reduction_blocks(both, predictions, with_figures)
+
+
+def _findings(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> list:
+    """How the paper's findings fare on ``rows``: one pair of tables per combination of the
+    settings that differ between them."""
+    from slipbench.report.findings import findings_table, paper_findings_table
+
+    tables = []
+    for which, part in setting_parts(rows):
+        for table in (paper_findings_table(part, found), findings_table(part, found, order)):
+            if table is not None:
+                table.caption += which_text(which)
+                table.label += "".join(f"-{v}" for v in which.values())
+                tables.append(table)
+    return [Heading("The paper's findings, ours beside them", 2), *tables] if tables else []
+
+
+def _window_50(
+    rows: pd.DataFrame,
+    title: str,
+    intervals: bool,
+    paper: bool,
+    predictions: Sequence[str | os.PathLike],
+) -> list:
+    """The baseline and the TP/TN rates at window 50 of the rows of protocols laid out as the
+    paper's Table I: one set per combination of the settings that differ between them."""
+    from slipbench.report.tables import BASELINE_WINDOW
+
+    blocks: list = []
+    for which, one in setting_parts(rows):
         joint = None
         if intervals and predictions:
-            from slipbench.report.tables import BASELINE_WINDOW
             from slipbench.stats.joint import joint_means
 
             joint = joint_means(
                 one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions
             )
-        baseline = baseline_table(one, intervals, paper, joint)
+        tables = [baseline_table(one, intervals, paper, joint)]
         rates = [
             rates_table(one, d, intervals, paper, joint)
             for d in rank(one["detector"].unique(), DETECTOR_ORDER)
         ]
+        for table in (t for t in [*tables, *rates] if t is not None):
+            table.caption += which_text(which)
+            table.label += "".join(f"-{v}" for v in which.values())
         rates = [t for t in rates if t is not None]
-        if baseline is not None or rates:
-            title = "At window 50: baseline and TP/TN rates" + (
-                f", {splits[0][0]} split" if len(splits) > 1 else ""
-            )
-            blocks.append(Heading(title, 2))
-            blocks += [baseline] if baseline is not None else []
-            blocks += [Detail(title, rates)] if rates else []
-    return blocks + reduction_blocks(both, predictions, with_figures)
+        blocks += [t for t in tables if t is not None]
+        blocks += [Detail(title, rates)] if rates else []
+    return [Heading(title, 2), *blocks] if blocks else []
 
 
 # ----------------------------------------------------------------------------- rendering
