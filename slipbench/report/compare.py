@@ -26,6 +26,7 @@ from slipbench.stats.compare import (
     repeats_note,
     summary,
 )
+from slipbench.stats.factors import SETTINGS, setting_text
 from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
@@ -100,11 +101,15 @@ def summary_rows(cmp: Comparison) -> pd.DataFrame:
 
 
 def _label(r: dict, cmp: Comparison) -> str:
-    """A cell's short label; the split and seed only where the comparison holds several."""
+    """A cell's short label; the split, seed and settings (labels, dataset, ...) only where the
+    comparison holds several."""
     text = cell_label(r["cell"])
     for column in ("split", "seed"):
         if cmp.cells[column].nunique() > 1:
             text += f", {column} {r[column]}"
+    for column in SETTINGS:
+        if column != "split" and column in cmp.cells and cmp.cells[column].nunique() > 1:
+            text += f", {setting_text(column, r[column])}"
     return text
 
 
@@ -200,8 +205,10 @@ def _side_lines(rows: pd.DataFrame, limit: int) -> list[str]:
     """Cells on one side only, counted per protocol and detector, the first ``limit`` named."""
     counts = rows.groupby(["protocol", "detector"], sort=False).size()
     lines = [f"- {p}, {d}: {n} cell{'s' * (n > 1)}" for (p, d), n in counts.items()]
+    apart = [c for c in SETTINGS if c != "split" and c in rows]
     named = [
         f"  - {r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, seed {r['seed']}"
+        + "".join(f", {setting_text(c, r[c])}" for c in apart)
         for r in rows.head(limit).to_dict("records")
     ]
     more = (

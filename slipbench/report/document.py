@@ -386,12 +386,11 @@ def build_report(
         1
     ]  # the leaderboard and the findings rank one split: the grouped one where present
     lead = lead[~stand_ins(lead)]
-    board = leaderboard(lead, metric, protocols=order)
     figures: dict[str | None, list] = {}
     if with_figures:
         from slipbench.report.plots import figure_specs
 
-        for spec in figure_specs(cells, paper, board, found):
+        for spec in figure_specs(cells, paper, None, found):
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [
         Heading("slipbench report", 1),
@@ -415,7 +414,7 @@ def build_report(
                 )
             )
         )
-    blocks += [*leaderboard_tables(board), *figures.get(None, [])]
+    blocks += _leaderboards(lead, metric, order, with_figures)
     lone = one_class_table(lead)
     if lone is not None:
         blocks += [Heading("Test sets of one class", 2), lone]
@@ -446,6 +445,25 @@ def build_report(
             lead[lead["protocol"].isin(table_one)], title, intervals, paper, predictions
         )
     return blocks + reduction_blocks(both, predictions, with_figures)
+
+
+def _leaderboards(rows: pd.DataFrame, metric: str, order: list[str], with_figures: bool) -> list:
+    """The leaderboard of ``rows`` (and its critical-difference diagram): one per combination
+    of the settings that differ between them, so that no mean or test pools two of them."""
+    blocks: list = []
+    for which, part in setting_parts(rows):
+        board = leaderboard(part, metric, protocols=order)
+        tables = leaderboard_tables(board)
+        for table in tables:
+            table.caption += which_text(which)
+            table.label += "".join(f"-{v}" for v in which.values())
+        blocks += tables
+        if with_figures:
+            from slipbench.report.plots import leaderboard_specs
+
+            tail = "".join(f"-{v}" for v in which.values())
+            blocks += leaderboard_specs(board, which_text(which), tail)
+    return blocks
 
 
 def _findings(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> list:

@@ -30,7 +30,7 @@ def as_tested(rows: pd.DataFrame) -> pd.DataFrame:
     ff)``), the training unit kept in :data:`~slipbench.report.tables.TRAINED_AS`."""
     if "sensor_map" not in rows or "sensor_instance" not in rows or rows["sensor_map"].isna().all():
         return rows
-    out = rows.copy()
+    out = rows.assign(**{TRAINED_AS: None})
     for text, part in rows[rows["sensor_map"].notna()].groupby("sensor_map", sort=False):
         try:
             tested: dict[str, list[str]] = {}

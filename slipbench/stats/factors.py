@@ -132,9 +132,14 @@ def differing_settings(rows: pd.DataFrame) -> list[str]:
     return out + [c for c in CELLS if c not in ("protocol", "cell") and _differ(rows, c, cell)]
 
 
+def setting_name(column: str) -> str:
+    """How a setting is named in text: ``protocol options`` for ``protocol_params``."""
+    return NAMES.get(column, column.replace("_", " "))
+
+
 def setting_text(column: str, value: Any) -> str:
     """``labels majority``, ``dataset aac611fa5f8a``: a setting and its value, short."""
-    name = NAMES.get(column, column.replace("_", " "))
+    name = setting_name(column)
     text = str(value)
     if column.endswith("fingerprint"):
         text = text[:12]
