@@ -33,7 +33,7 @@ import pandas as pd
 
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
-from slipbench.report.blocks import Detail, Heading, Text
+from slipbench.report.blocks import Detail, Heading, Link, Text
 from slipbench.report.leaderboard import leaderboard_tables, one_class_table
 from slipbench.report.outline import (
     as_tested,
@@ -48,7 +48,13 @@ from slipbench.report.outline import (
 from slipbench.report.paper import paper_frame
 from slipbench.report.provenance import fitted_tables, header_tables, tested_on_simulation
 from slipbench.report.reduction import reduction_blocks
-from slipbench.report.render import standalone_latex, to_latex, to_markdown
+from slipbench.report.render import (
+    md_target,
+    md_text,
+    standalone_latex,
+    to_latex,
+    to_markdown,
+)
 from slipbench.report.tables import (
     SIMULATED,
     Table,
@@ -102,27 +108,25 @@ def split_appendix(
             summary.append(block)
             continue
         if block.section not in sections:
-            where = (
-                f"[{appendix}, {block.section}]({appendix}#{_anchor(block.section)})"
-                if fmt == "md"
-                else f"{appendix}, section {block.section}"
-            )
             summary.append(
-                Text(f"Each detector's own tables and figures of this section: {where}.")
+                Text(
+                    "Each detector's own tables and figures of this section: ",
+                    Link(f"{appendix}, {block.section}", f"{appendix}#{_anchor(block.section)}")
+                    if fmt == "md"
+                    else Link(f"{appendix}, section {block.section}", ""),
+                    ".",
+                )
             )
         sections.setdefault(block.section, []).extend(block.blocks)
-    back = "the summary" + (
-        f" ([{summary_path}]({summary_path}))"
-        if summary_path and fmt == "md"
-        else f" ({summary_path})"
-        if summary_path
-        else ""
-    )
+    back = Link(summary_path, summary_path if fmt == "md" else "") if summary_path else None
     rest: list = [
         Heading("slipbench report: appendix", 1),
         Text(
-            f"Each detector's own tables and figures, section by section, as {back} leaves them "
-            "out: the summary says what data and settings stand behind them."
+            "Each detector's own tables and figures, section by section, as the summary"
+            + (" (" if back else ""),
+            back,
+            (")" if back else "")
+            + " leaves them out: the summary says what data and settings stand behind them.",
         ),
     ]
     for section, parts in sections.items():
@@ -587,57 +591,78 @@ def render(
     sections = 0
     for block in blocks:
         if isinstance(block, Heading):
-            if fmt == "md":
-                out.append("#" * block.level + " " + block.text)
-            elif not standalone:
-                out.append(f"% {block.text}")
-            elif block.level == 1:
-                out.append(rf"{{\LARGE\bfseries {escape(block.text)}\par}}")
-            elif block.level == 2:  # a section per page: its floats stay near its heading
-                out.append(
-                    (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
-                )
-                sections += 1
-            else:  # a heading at a page's foot goes to the next page, with its first table
-                out.append(
-                    rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
-                )
+            out.append(_heading(block, fmt, standalone, sections))
+            sections += block.level == 2
         elif isinstance(block, Text):
-            out.append(
-                block.text
-                if fmt == "md"
-                else escape(block.text)
-                if standalone
-                else f"% {block.text}"
-            )
+            out.append(_paragraph(block, fmt, standalone))
         elif isinstance(block, Table):
             out.append(to_markdown(block) if fmt == "md" else to_latex(block, page=standalone))
         elif isinstance(block, FigureSpec) and block.stem in files:
-            paths = {p.suffix: p for p in files[block.stem]}
-            if fmt == "md" and ".png" in paths:
-                out.append(
-                    f"![{block.caption}]({Path(os.path.relpath(paths['.png'], base)).as_posix()})\n\n_{block.caption}_"
-                )
-            elif fmt == "latex" and ".pdf" in paths:
-                out.append(
-                    "\n".join(
-                        [
-                            r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
-                            r"\centering",
-                            # a tall figure shrinks to the page rather than run off it
-                            r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
-                            rf"{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
-                            rf"\caption{{{escape(block.caption)}}}",
-                            r"\end{figure}",
-                        ]
-                    )
-                )
+            paths = {p.suffix: Path(os.path.relpath(p, base)).as_posix() for p in files[block.stem]}
+            out += _figure(block.caption, paths, fmt, standalone)
     text = "\n\n".join(out) + "\n"
     if fmt == "latex" and standalone:
         return standalone_latex(
             text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks)
         )
     return text
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.splitlines())
+
+
+def _heading(block: Heading, fmt: str, standalone: bool, sections: int) -> str:
+    """A heading: Markdown's, a LaTeX comment (tables only), or a LaTeX section; its text
+    escaped. ``sections``: level-2 headings before it (each after the first opens a page)."""
+    if fmt == "md":
+        return "#" * block.level + " " + md_text(block.text)
+    if not standalone:
+        return f"% {_one_line(block.text)}"
+    if block.level == 1:
+        return rf"{{\LARGE\bfseries {escape(block.text)}\par}}"
+    if block.level == 2:  # a section per page: its floats stay near its heading
+        return (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
+    # a heading at a page's foot goes to the next page, with its first table
+    return rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
+
+
+def _paragraph(block: Text, fmt: str, standalone: bool) -> str:
+    """A paragraph, its text escaped and its link (Markdown's own, else its label)."""
+    link = block.link
+    if fmt == "md":
+        shown = (
+            ""
+            if link is None
+            else f"[{md_text(link.label)}]({md_target(link.target)})"
+            if link.target
+            else md_text(link.label)
+        )
+        return md_text(block.text, paragraph=True) + shown + md_text(block.after)
+    text = block.text + ("" if link is None else link.label) + block.after
+    return escape(text) if standalone else f"% {_one_line(text)}"
+
+
+def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> list[str]:
+    """A drawn figure (``paths``: suffix -> path relative to the report): Markdown's image
+    with its caption under it, or a LaTeX float of its PDF."""
+    if fmt == "md" and ".png" in paths:
+        return [f"![{md_text(caption)}]({md_target(paths['.png'])})\n\n_{md_text(caption)}_"]
+    if fmt != "latex" or ".pdf" not in paths:
+        return []
+    return [
+        "\n".join(
+            [
+                r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
+                r"\centering",
+                # a tall figure shrinks to the page rather than run off it
+                r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
+                rf"{{{paths['.pdf']}}}",  # its stem is file_stem's: letters, digits, dots, hyphens
+                rf"\caption{{{escape(caption)}}}",
+                r"\end{figure}",
+            ]
+        )
+    ]
 
 
 def render_report(

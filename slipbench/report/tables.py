@@ -159,8 +159,11 @@ LATEX_CHARS = {
 
 def escape(text: str) -> str:
     """Plain text as LaTeX (kernel commands only), one character at a time so that no
-    replacement is escaped again."""
-    return "".join(LATEX_CHARS.get(c, c) for c in text)
+    replacement is escaped again; on one line (a blank line would end a cell's paragraph),
+    control characters as spaces."""
+    return "".join(
+        LATEX_CHARS.get(c, " " if c.isspace() or not c.isprintable() else c) for c in str(text)
+    )
 
 
 def _as_printed(percent: float) -> str:
