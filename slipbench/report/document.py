@@ -46,7 +46,7 @@ from slipbench.report.outline import (
     which_text,
 )
 from slipbench.report.paper import paper_frame
-from slipbench.report.provenance import fitted_tables, header_tables, tested_on_simulation
+from slipbench.report.provenance import fitted_tables, header_tables, on_simulation
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import (
     md_target,
@@ -379,7 +379,7 @@ def build_report(
     A detector run on the raw channels competes as its own entrant, ``tcn (channels)``, in
     every table, leaderboard and finding; the last section pairs it with its univariate twin."""
     both = rows[~stand_ins(rows)]
-    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: tested_on_simulation(rows)})
+    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = splits_of(rows)
@@ -419,7 +419,7 @@ def build_report(
             )
         )
     blocks += _leaderboards(lead, metric, order, with_figures)
-    lone = one_class_table(lead)
+    lone = one_class_table(cells)  # ranked in no split
     if lone is not None:
         blocks += [Heading("Test sets of one class", 2), lone]
     if side is not None:
@@ -712,7 +712,8 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     standing = stand_ins(rows)
     if standing.all():
         return no_cell_note(rows)
-    rows = rows[~standing]
+    rows = as_tested(rows[~standing])
+    rows = rows.assign(**{SIMULATED: on_simulation(rows)})
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
     why = fits(layout, rows)
     tables = protocol_tables(

@@ -195,10 +195,11 @@ def one_class_table(rows: pd.DataFrame) -> Table | None:
     if lone.empty:
         return None
     unit = [c for c in UNIT if c in lone]
-    constant = pd.to_numeric(lone.get("constant_slip_accuracy"), errors="coerce")
-    slip_only = constant.fillna(
-        pd.to_numeric(lone.get("test_slip_windows"), errors="coerce").gt(0).astype(float)
+    constant, slips = (
+        pd.to_numeric(lone[c], errors="coerce") if c in lone else pd.Series(np.nan, lone.index)
+        for c in ("constant_slip_accuracy", "test_slip_windows")
     )
+    slip_only = constant.fillna(slips.gt(0).astype(float))
     lone = lone.assign(
         _class=slip_only.map(lambda v: "slip" if v >= 0.5 else "non-slip"),
         _setting=setting_labels(lone),

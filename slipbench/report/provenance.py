@@ -100,7 +100,7 @@ def simulated(path: str) -> bool:
     return bool(sources) and all(SYNTH_SOURCE.search(s) for s in sources)
 
 
-def tested_on_simulation(rows: pd.DataFrame) -> pd.Series:
+def on_simulation(rows: pd.DataFrame) -> pd.Series:
     """(n_rows,) bool: rows whose test data is the simulation (the test dataset's path where
     the row trained on another, else the dataset's)."""
     path = pd.Series("", index=rows.index, dtype=object)

@@ -47,7 +47,7 @@ STREAM_LOW_NOTE = (
 
 
 #: a column the report sets on its rows: the test data is slipbench's simulation
-SIMULATED = "_tested_on_simulation"
+SIMULATED = "_on_simulation"
 #: a column the report sets on rows tested on another dataset's unit: the training unit's name
 TRAINED_AS = "_trained_as"
 SIMULATION_NOTE = (

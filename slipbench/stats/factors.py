@@ -222,7 +222,7 @@ def _params_apart(part: pd.DataFrame) -> dict[Any, str]:
     texts = part["detector_params"].fillna("{}")
     if texts.nunique() < 2:
         return {}
-    params = {t: json.loads(t) for t in texts.unique()}
+    params = {t: _parsed(t) for t in texts.unique()}
     apart = sorted(
         {
             k
@@ -233,6 +233,15 @@ def _params_apart(part: pd.DataFrame) -> dict[Any, str]:
     )
     named = {t: ", ".join(f"{k}={json.dumps(p.get(k))}" for k in apart) for t, p in params.items()}
     return {i: named[t] for i, t in texts.items()}
+
+
+def _parsed(text: str) -> dict[str, Any]:
+    """Parameters as their JSON says (a text that is not a JSON object: whole, as ``params``)."""
+    try:
+        found = json.loads(text)
+    except (TypeError, json.JSONDecodeError):
+        found = None
+    return found if isinstance(found, dict) else {"params": text}
 
 
 def one_class(rows: pd.DataFrame) -> pd.Series:
