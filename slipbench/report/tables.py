@@ -448,9 +448,7 @@ def build_table(
     row_keys = list(row_values.itertuples(index=False, name=None))
     columns = ordered(summary[layout.column].unique(), layout.column)
     by_key = {tuple(r[k] for k in keys): r for r in summary.to_dict("records")}
-    ref = {}
-    if paper is not None and len(paper) and metric in paper and set(keys) <= set(paper.columns):
-        ref = {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
+    ref = _published(paper, metric, keys)
 
     def one(key: tuple) -> str:
         r = by_key.get(key)
@@ -492,11 +490,17 @@ def build_table(
     if values == "ours":
         repeated = {k: int(r["n"]) for k, r in by_key.items() if r["n"] > 1}
         notes += _seeds_notes(repeated, pooled, intervals, rows, keys)
-    if values != "paper":
         notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
     return Table(caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+
+
+def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict[tuple, float]:
+    """The published figure of each key of a table, where the paper's table gives them."""
+    if paper is None or not len(paper) or metric not in paper or not set(keys) <= set(paper):
+        return {}
+    return {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
 
 
 def data_notes(rows: pd.DataFrame) -> list[str]:
