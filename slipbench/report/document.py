@@ -68,6 +68,7 @@ from slipbench.report.tables import (
     rank,
     rates_table,
     side_by_side,
+    simulation_note,
     split_table,
     table_keys,
 )
@@ -461,6 +462,7 @@ def _leaderboards(rows: pd.DataFrame, metric: str, order: list[str], with_figure
         for table in tables:
             table.caption += which_text(which)
             table.label += "".join(f"-{v}" for v in which.values())
+        tables[-1 if len(tables) == 1 else 1].notes += simulation_note(part)  # under the means
         blocks += tables
         if with_figures:
             from slipbench.report.plots import leaderboard_specs

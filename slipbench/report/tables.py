@@ -503,15 +503,21 @@ def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict
     return {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
 
 
+def simulation_note(rows: pd.DataFrame) -> list[str]:
+    """:data:`SIMULATION_NOTE` where ``rows`` hold channels cells the report marked as tested
+    on the simulation (:data:`SIMULATED`)."""
+    if SIMULATED not in rows or "input" not in rows:
+        return []
+    marked = rows[SIMULATED].fillna(False).astype(bool) & rows["input"].eq("channels")
+    return [SIMULATION_NOTE] if marked.any() else []
+
+
 def data_notes(rows: pd.DataFrame) -> list[str]:
     """What a table must say of the data behind its ``rows``: that channels cells on the
     simulation measure the simulation (rows the report marked :data:`SIMULATED`), and that rows
     tested on another dataset name the unit tested (:data:`TRAINED_AS`), and what a constant
     detector scores where cells test on one class only."""
-    notes = _one_class_note(rows)
-    if SIMULATED in rows and "input" in rows:
-        if (rows[SIMULATED].fillna(False).astype(bool) & rows["input"].eq("channels")).any():
-            notes.append(SIMULATION_NOTE)
+    notes = _one_class_note(rows) + simulation_note(rows)
     if TRAINED_AS in rows and rows[TRAINED_AS].notna().any():
         notes.append(
             "Trained on one dataset, tested on another: each row names the unit tested (the test "

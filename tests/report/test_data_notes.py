@@ -84,6 +84,11 @@ def test_channels_cells_on_the_simulation_carry_a_caution(tmp_path):
     ):
         part = rows[rows["dataset_path"].eq(path) & rows["input"].eq(input_)]
         assert (SIMULATION_NOTE in notes(part)) == cautioned, (path, input_)
+    # the leaderboard's mean figures say it too, the report marking the rows itself
+    channels = rows[rows["dataset_path"].eq(simulated) & rows["input"].eq("channels")]
+    board = build_report(channels.drop(columns=SIMULATED), leaderboard_only=True)
+    means = next(t for t in board if isinstance(t, Table) and t.label == "tab:leaderboard-means")
+    assert SIMULATION_NOTE in means.notes
 
 
 def test_one_class_cells_get_their_own_table_and_no_rank():

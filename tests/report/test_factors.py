@@ -131,6 +131,8 @@ def test_no_figure_pools_two_values_of_a_factor(factor, tmp_path):
     comment = compare_markdown(compare(base, cand), max_rows=1000)
     assert not _numbers(comment) & _pooled_texts(), f"{factor}: compare pools its two values"
     assert "21.3 → 22.3" in comment and "68.1 → 69.1" in comment
+    if factor in SETTINGS and factor != "split":  # the split is a pairing column already
+        assert "cells pair on them too" in comment
 
 
 @pytest.mark.parametrize("factor", ["normalize", "labels"])
