@@ -452,6 +452,17 @@ def build_report(
     return blocks + reduction_blocks(both, predictions, with_figures)
 
 
+def _tag(which: dict) -> str:
+    """A part's values (:func:`~slipbench.stats.factors.setting_parts`) for labels and stems."""
+    return "".join(f"-{v}" for v in which.values())
+
+
+def _name_part(table: Table, which: dict) -> None:
+    """A table of one part of the rows says which, in its caption and its label."""
+    table.caption += which_text(which)
+    table.label += _tag(which)
+
+
 def _leaderboards(rows: pd.DataFrame, metric: str, order: list[str], with_figures: bool) -> list:
     """The leaderboard of ``rows`` (and its critical-difference diagram): one per combination
     of the settings that differ between them, so that no mean or test pools two of them."""
@@ -460,15 +471,13 @@ def _leaderboards(rows: pd.DataFrame, metric: str, order: list[str], with_figure
         board = leaderboard(part, metric, protocols=order)
         tables = leaderboard_tables(board)
         for table in tables:
-            table.caption += which_text(which)
-            table.label += "".join(f"-{v}" for v in which.values())
+            _name_part(table, which)
         tables[-1 if len(tables) == 1 else 1].notes += simulation_note(part)  # under the means
         blocks += tables
         if with_figures:
             from slipbench.report.plots import leaderboard_specs
 
-            tail = "".join(f"-{v}" for v in which.values())
-            blocks += leaderboard_specs(board, which_text(which), tail)
+            blocks += leaderboard_specs(board, which_text(which), _tag(which))
     return blocks
 
 
@@ -481,8 +490,7 @@ def _findings(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: l
     for which, part in setting_parts(rows):
         for table in (paper_findings_table(part, found), findings_table(part, found, order)):
             if table is not None:
-                table.caption += which_text(which)
-                table.label += "".join(f"-{v}" for v in which.values())
+                _name_part(table, which)
                 tables.append(table)
     return [Heading("The paper's findings, ours beside them", 2), *tables] if tables else []
 
@@ -513,8 +521,7 @@ def _window_50(
             for d in rank(one["detector"].unique(), DETECTOR_ORDER)
         ]
         for table in (t for t in [*tables, *rates] if t is not None):
-            table.caption += which_text(which)
-            table.label += "".join(f"-{v}" for v in which.values())
+            _name_part(table, which)
         rates = [t for t in rates if t is not None]
         blocks += [t for t in tables if t is not None]
         blocks += [Detail(title, rates)] if rates else []
