@@ -6,7 +6,8 @@ Every report has the same outline:
 1. what it stands on (:mod:`slipbench.report.provenance`): data source, fingerprint, split, labels,
    seeds, detectors with parameters, cells, the smallest test set;
 2. the leaderboard (:mod:`slipbench.stats.leaderboard`, its tables
-   :mod:`slipbench.report.leaderboard`) and its critical-difference diagram;
+   :mod:`slipbench.report.leaderboard`) and its critical-difference diagram, one per setting
+   that differs (:mod:`slipbench.stats.factors`); the test sets of one class, which none ranks;
    with ``paper``, how the paper's findings fare (:mod:`slipbench.report.findings`);
 3. what fitting chose, and its warnings;
 4. per protocol, in the paper's order: every detector side by side (with the figure that
