@@ -13,8 +13,21 @@ class Heading:
 
 
 @dataclass
+class Link:
+    """A link a report makes itself (to its appendix, its summary): never one from the data."""
+
+    label: str
+    target: str  # a relative path, with an optional #anchor
+
+
+@dataclass
 class Text:
+    """A paragraph of plain text (every format escapes it), then an optional :class:`Link`
+    (a label alone where its target is empty), then ``after``; no space is added between."""
+
     text: str
+    link: Link | None = None
+    after: str = ""
 
 
 @dataclass

@@ -16,6 +16,7 @@ import pandas as pd
 
 from slipbench.errors import UsageError
 from slipbench.report.outline import layouts, protocol_order
+from slipbench.report.render import md_code, md_table, md_text
 from slipbench.stats.compare import (
     ALPHA,
     CELL_ALPHA,
@@ -26,6 +27,7 @@ from slipbench.stats.compare import (
     repeats_note,
     summary,
 )
+from slipbench.stats.factors import SETTINGS, setting_text
 from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
@@ -100,11 +102,15 @@ def summary_rows(cmp: Comparison) -> pd.DataFrame:
 
 
 def _label(r: dict, cmp: Comparison) -> str:
-    """A cell's short label; the split and seed only where the comparison holds several."""
+    """A cell's short label; the split, seed and settings (labels, dataset, ...) only where the
+    comparison holds several."""
     text = cell_label(r["cell"])
     for column in ("split", "seed"):
         if cmp.cells[column].nunique() > 1:
             text += f", {column} {r[column]}"
+    for column in SETTINGS:
+        if column != "split" and column in cmp.cells and cmp.cells[column].nunique() > 1:
+            text += f", {setting_text(column, r[column])}"
     return text
 
 
@@ -163,7 +169,9 @@ def _compute_text(r: dict) -> str:
 
 
 def _table(rows: list[dict]) -> str:
-    return pd.DataFrame(rows).to_markdown(index=False, disable_numparse=True)
+    """A pipe table of the rows (dicts of one set of keys), every text escaped."""
+    header = list(rows[0]) if rows else []
+    return md_table(header, [[str(r[k]) for k in header] for r in rows], align="left")
 
 
 def _summary_table(cmp: Comparison) -> str:
@@ -199,9 +207,16 @@ def _others(cmp: Comparison) -> pd.DataFrame:
 def _side_lines(rows: pd.DataFrame, limit: int) -> list[str]:
     """Cells on one side only, counted per protocol and detector, the first ``limit`` named."""
     counts = rows.groupby(["protocol", "detector"], sort=False).size()
-    lines = [f"- {p}, {d}: {n} cell{'s' * (n > 1)}" for (p, d), n in counts.items()]
+    lines = [
+        f"- {md_text(p)}, {md_text(d)}: {n} cell{'s' * (n > 1)}" for (p, d), n in counts.items()
+    ]
+    apart = [c for c in SETTINGS if c != "split" and c in rows]
     named = [
-        f"  - {r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, seed {r['seed']}"
+        "  - "
+        + md_text(
+            f"{r['protocol']}, {r['detector']}, {cell_label(r['cell'])}, split {r['split']}, "
+            f"seed {r['seed']}" + "".join(f", {setting_text(c, r[c])}" for c in apart)
+        )
         for r in rows.head(limit).to_dict("records")
     ]
     more = (
@@ -227,7 +242,7 @@ def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     head = [
         "## slipbench compare",
         "",
-        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`; {len(cells)} cells paired "
+        f"BASE {md_code(cmp.base)} → CANDIDATE {md_code(cmp.candidate)}; {len(cells)} cells paired "
         f"(seeds {_seeds_text(cmp)}); margin {cmp.margin:g} points.",
         "",
         _verdict_line(cmp),
@@ -302,7 +317,7 @@ def _verdict_line(cmp: Comparison) -> str:
     if not cmp.pooled.empty:
         for r in cmp.pooled_regressions.to_dict("records"):
             flagged.append(
-                f"{r['protocol']}, {r['detector']} on average {100 * r['mean_d']:+.1f} "
+                f"{md_text(r['protocol'])}, {md_text(r['detector'])} on average {100 * r['mean_d']:+.1f} "
                 f"[{100 * r['mean_lo']:+.1f}, {100 * r['mean_hi']:+.1f}] points (pooled, Holm)"
             )
     n_reg = len(cmp.regressions)
@@ -314,18 +329,18 @@ def _verdict_line(cmp: Comparison) -> str:
         else "**No regression** beyond the margin, pooled or in a cell."
     )
     note = repeats_note(cmp)
-    return line + (f"\n\n⚠ Note: {note}." if note else "")
+    return line + (f"\n\n⚠ Note: {md_text(note)}." if note else "")
 
 
 def _unchanged(cmp: Comparison) -> str:
     """The comment of a comparison in which nothing changed: a few lines."""
     return (
         "## slipbench compare\n\n"
-        f"BASE `{cmp.base}` → CANDIDATE `{cmp.candidate}`: all {len(cmp.cells)} paired cells are "
+        f"BASE {md_code(cmp.base)} → CANDIDATE {md_code(cmp.candidate)}: all {len(cmp.cells)} paired cells are "
         "identical (the same result keys or the same predictions), and no cell is on one side only.\n\n"
         "**Nothing changed.**\n"
         + _unchanged_compute(cmp)
-        + "".join(f"\n_{n}_\n" for n in cmp.notes)
+        + "".join(f"\n_{md_text(n)}_\n" for n in cmp.notes)
     )
 
 
@@ -407,7 +422,7 @@ def _notes(cmp: Comparison) -> list[str]:
             + _compute_summary(cells[cells["stream"]])
             + "_"
         )
-    return notes + [f"_{n}_" for n in cmp.notes]
+    return notes + [f"_{md_text(n)}_" for n in cmp.notes]
 
 
 def _compute_summary(cells: pd.DataFrame) -> str:
@@ -418,7 +433,7 @@ def _compute_summary(cells: pd.DataFrame) -> str:
         return "these rows hold none (written before it was measured apart)."
     over = int((check == "over the real-time budget").sum())
     machines = sorted(set(cells.get("candidate_processor", pd.Series(dtype=str)).dropna()) - {""})
-    on = f" (measured on {'; '.join(machines)})" if machines else ""
+    on = f" (measured on {md_text('; '.join(machines))})" if machines else ""
     return (
         f"{over} of {measured} candidate cells over the real-time budget, the hop period{on}."
         if over

@@ -6,7 +6,8 @@ Every report has the same outline:
 1. what it stands on (:mod:`slipbench.report.provenance`): data source, fingerprint, split, labels,
    seeds, detectors with parameters, cells, the smallest test set;
 2. the leaderboard (:mod:`slipbench.stats.leaderboard`, its tables
-   :mod:`slipbench.report.leaderboard`) and its critical-difference diagram;
+   :mod:`slipbench.report.leaderboard`) and its critical-difference diagram, one per setting
+   that differs (:mod:`slipbench.stats.factors`); the test sets of one class, which none ranks;
    with ``paper``, how the paper's findings fare (:mod:`slipbench.report.findings`);
 3. what fitting chose, and its warnings;
 4. per protocol, in the paper's order: every detector side by side (with the figure that
@@ -33,21 +34,30 @@ import pandas as pd
 
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
-from slipbench.report.blocks import Detail, Heading, Text
-from slipbench.report.leaderboard import leaderboard_tables
+from slipbench.report.blocks import Detail, Heading, Link, Text
+from slipbench.report.leaderboard import leaderboard_tables, one_class_table
 from slipbench.report.outline import (
+    as_tested,
     layouts,
     no_cell_note,
     protocol_order,
     split_parts,
     splits_of,
     stand_ins,
+    which_text,
 )
 from slipbench.report.paper import paper_frame
-from slipbench.report.provenance import fitted_tables, header_tables
+from slipbench.report.provenance import fitted_tables, header_tables, on_simulation
 from slipbench.report.reduction import reduction_blocks
-from slipbench.report.render import standalone_latex, to_latex, to_markdown
+from slipbench.report.render import (
+    md_target,
+    md_text,
+    standalone_latex,
+    to_latex,
+    to_markdown,
+)
 from slipbench.report.tables import (
+    SIMULATED,
     Table,
     baseline_table,
     build_table,
@@ -59,9 +69,11 @@ from slipbench.report.tables import (
     rank,
     rates_table,
     side_by_side,
+    simulation_note,
     split_table,
     table_keys,
 )
+from slipbench.stats.factors import named_entrants, setting_parts
 from slipbench.stats.leaderboard import leaderboard
 from slipbench.vocabulary import DETECTOR_ORDER
 
@@ -98,36 +110,30 @@ def split_appendix(
             summary.append(block)
             continue
         if block.section not in sections:
-            where = (
-                f"[{appendix}, {block.section}]({appendix}#{_anchor(block.section)})"
-                if fmt == "md"
-                else f"{appendix}, section {block.section}"
-            )
             summary.append(
-                Text(f"Each detector's own tables and figures of this section: {where}.")
+                Text(
+                    "Each detector's own tables and figures of this section: ",
+                    Link(f"{appendix}, {block.section}", f"{appendix}#{_anchor(block.section)}")
+                    if fmt == "md"
+                    else Link(f"{appendix}, section {block.section}", ""),
+                    ".",
+                )
             )
         sections.setdefault(block.section, []).extend(block.blocks)
-    back = "the summary" + (
-        f" ([{summary_path}]({summary_path}))"
-        if summary_path and fmt == "md"
-        else f" ({summary_path})"
-        if summary_path
-        else ""
-    )
+    back = Link(summary_path, summary_path if fmt == "md" else "") if summary_path else None
     rest: list = [
         Heading("slipbench report: appendix", 1),
         Text(
-            f"Each detector's own tables and figures, section by section, as {back} leaves them "
-            "out: the summary says what data and settings stand behind them."
+            "Each detector's own tables and figures, section by section, as the summary"
+            + (" (" if back else ""),
+            back,
+            (")" if back else "")
+            + " leaves them out: the summary says what data and settings stand behind them.",
         ),
     ]
     for section, parts in sections.items():
         rest += [Heading(section, 2), *parts]
     return summary, rest
-
-
-def _which(which: dict) -> str:
-    return "".join(f" {c.capitalize()}: {v}." for c, v in which.items())
 
 
 def protocol_tables(
@@ -172,7 +178,7 @@ def protocol_tables(
             label_=f"tab:{tag}",
             pooled=_pooled(part, layout, predictions) if intervals else None,
         )
-        table.caption += _which(which)
+        table.caption += which_text(which)
         table.subject = named
         out.append((f"{detector}{suffix}", table))
         if layout.metrics and "stream_s" in part:
@@ -186,7 +192,7 @@ def protocol_tables(
             )
         compute = compute_table(part, layout, f"tab:{tag}-compute") if layout.metrics else None
         if compute is not None:
-            compute.caption += _which(which)
+            compute.caption += which_text(which)
             compute.subject = named
             out.append((f"{detector}{suffix}, compute per hop", compute))
         if ref is not None and len(ref) and metric == "accuracy":
@@ -194,7 +200,7 @@ def protocol_tables(
                 part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference"
             )
             dt.caption = (
-                f"Ours minus published, {detector} against the paper's LSTM.{_which(which)}"
+                f"Ours minus published, {detector} against the paper's LSTM.{which_text(which)}"
             )
             dt.subject = named
             out.append((f"{detector} - paper{suffix}", dt))
@@ -325,7 +331,7 @@ def _protocol_blocks(
                     label_=f"tab:{tag}",
                 )
                 if table is not None:
-                    table.caption += _which(which)
+                    table.caption += which_text(which)
                     table.subject = f"Protocol {protocol}, {split} split."
                     blocks.append(table)
         splits = [s for s, _ in splits_of(prows)]
@@ -356,17 +362,6 @@ def _protocol_blocks(
     return blocks
 
 
-def entrant_per_input(rows: pd.DataFrame) -> pd.DataFrame:
-    """``rows`` with the detector of each channels row named ``DETECTOR (channels)``: the two
-    inputs of one detector are two entrants, never two seeds of one cell."""
-    if "input" not in rows or not rows["input"].eq("channels").any():
-        return rows
-    out = rows.copy()
-    channels = out["input"].eq("channels")
-    out.loc[channels, "detector"] = out.loc[channels, "detector"].astype(str) + " (channels)"
-    return out
-
-
 def build_report(
     rows: pd.DataFrame,
     metric: str = "accuracy",
@@ -386,7 +381,7 @@ def build_report(
     A detector run on the raw channels competes as its own entrant, ``tcn (channels)``, in
     every table, leaderboard and finding; the last section pairs it with its univariate twin."""
     both = rows[~stand_ins(rows)]
-    rows = entrant_per_input(rows)
+    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
     found = layouts(rows) if found is None else found
     order = protocol_order(found)
     splits = splits_of(rows)
@@ -397,12 +392,11 @@ def build_report(
         1
     ]  # the leaderboard and the findings rank one split: the grouped one where present
     lead = lead[~stand_ins(lead)]
-    board = leaderboard(lead, metric, protocols=order)
     figures: dict[str | None, list] = {}
     if with_figures:
         from slipbench.report.plots import figure_specs
 
-        for spec in figure_specs(cells, paper, board, found):
+        for spec in figure_specs(cells, paper, None, found):
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [
         Heading("slipbench report", 1),
@@ -426,21 +420,16 @@ def build_report(
                 )
             )
         )
-    blocks += [*leaderboard_tables(board), *figures.get(None, [])]
+    blocks += _leaderboards(lead, metric, order, with_figures)
+    lone = one_class_table(cells)  # ranked in no split
+    if lone is not None:
+        blocks += [Heading("Test sets of one class", 2), lone]
     if side is not None:
         blocks += [Heading("The splits side by side", 2), side]
     if leaderboard_only:
         return blocks
     if paper:
-        from slipbench.report.findings import findings_table, paper_findings_table
-
-        shown = paper_findings_table(lead, found)
-        findings = findings_table(lead, found, order)
-        if shown is not None or findings is not None:
-            blocks += [
-                Heading("The paper's findings, ours beside them", 2),
-                *(t for t in (shown, findings) if t is not None),
-            ]
+        blocks += _findings(lead, found, order)
     fitted = fitted_tables(cells)
     if fitted:
         # each detector's choices are detail; the warnings about them stay in the summary
@@ -455,29 +444,89 @@ def build_report(
         )
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in lead:
-        one = lead[lead["protocol"].isin(table_one)]
+        title = "At window 50: baseline and TP/TN rates" + (
+            f", {splits[0][0]} split" if len(splits) > 1 else ""
+        )
+        blocks += _window_50(
+            lead[lead["protocol"].isin(table_one)], title, intervals, paper, predictions
+        )
+    return blocks + reduction_blocks(both, predictions, with_figures)
+
+
+def _tag(which: dict) -> str:
+    """A part's values (:func:`~slipbench.stats.factors.setting_parts`) for labels and stems."""
+    return "".join(f"-{v}" for v in which.values())
+
+
+def _name_part(table: Table, which: dict) -> None:
+    """A table of one part of the rows says which, in its caption and its label."""
+    table.caption += which_text(which)
+    table.label += _tag(which)
+
+
+def _leaderboards(rows: pd.DataFrame, metric: str, order: list[str], with_figures: bool) -> list:
+    """The leaderboard of ``rows`` (and its critical-difference diagram): one per combination
+    of the settings that differ between them, so that no mean or test pools two of them."""
+    blocks: list = []
+    for which, part in setting_parts(rows):
+        board = leaderboard(part, metric, protocols=order)
+        tables = leaderboard_tables(board)
+        for table in tables:
+            _name_part(table, which)
+        tables[-1 if len(tables) == 1 else 1].notes += simulation_note(part)  # under the means
+        blocks += tables
+        if with_figures:
+            from slipbench.report.plots import leaderboard_specs
+
+            blocks += leaderboard_specs(board, which_text(which), _tag(which))
+    return blocks
+
+
+def _findings(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> list:
+    """How the paper's findings fare on ``rows``: one pair of tables per combination of the
+    settings that differ between them."""
+    from slipbench.report.findings import findings_table, paper_findings_table
+
+    tables = []
+    for which, part in setting_parts(rows):
+        for table in (paper_findings_table(part, found), findings_table(part, found, order)):
+            if table is not None:
+                _name_part(table, which)
+                tables.append(table)
+    return [Heading("The paper's findings, ours beside them", 2), *tables] if tables else []
+
+
+def _window_50(
+    rows: pd.DataFrame,
+    title: str,
+    intervals: bool,
+    paper: bool,
+    predictions: Sequence[str | os.PathLike],
+) -> list:
+    """The baseline and the TP/TN rates at window 50 of the rows of protocols laid out as the
+    paper's Table I: one set per combination of the settings that differ between them."""
+    from slipbench.report.tables import BASELINE_WINDOW
+
+    blocks: list = []
+    for which, one in setting_parts(rows):
         joint = None
         if intervals and predictions:
-            from slipbench.report.tables import BASELINE_WINDOW
             from slipbench.stats.joint import joint_means
 
             joint = joint_means(
                 one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions
             )
-        baseline = baseline_table(one, intervals, paper, joint)
+        tables = [baseline_table(one, intervals, paper, joint)]
         rates = [
             rates_table(one, d, intervals, paper, joint)
             for d in rank(one["detector"].unique(), DETECTOR_ORDER)
         ]
+        for table in (t for t in [*tables, *rates] if t is not None):
+            _name_part(table, which)
         rates = [t for t in rates if t is not None]
-        if baseline is not None or rates:
-            title = "At window 50: baseline and TP/TN rates" + (
-                f", {splits[0][0]} split" if len(splits) > 1 else ""
-            )
-            blocks.append(Heading(title, 2))
-            blocks += [baseline] if baseline is not None else []
-            blocks += [Detail(title, rates)] if rates else []
-    return blocks + reduction_blocks(both, predictions, with_figures)
+        blocks += [t for t in tables if t is not None]
+        blocks += [Detail(title, rates)] if rates else []
+    return [Heading(title, 2), *blocks] if blocks else []
 
 
 # ----------------------------------------------------------------------------- rendering
@@ -552,57 +601,78 @@ def render(
     sections = 0
     for block in blocks:
         if isinstance(block, Heading):
-            if fmt == "md":
-                out.append("#" * block.level + " " + block.text)
-            elif not standalone:
-                out.append(f"% {block.text}")
-            elif block.level == 1:
-                out.append(rf"{{\LARGE\bfseries {escape(block.text)}\par}}")
-            elif block.level == 2:  # a section per page: its floats stay near its heading
-                out.append(
-                    (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
-                )
-                sections += 1
-            else:  # a heading at a page's foot goes to the next page, with its first table
-                out.append(
-                    rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
-                )
+            out.append(_heading(block, fmt, standalone, sections))
+            sections += block.level == 2
         elif isinstance(block, Text):
-            out.append(
-                block.text
-                if fmt == "md"
-                else escape(block.text)
-                if standalone
-                else f"% {block.text}"
-            )
+            out.append(_paragraph(block, fmt, standalone))
         elif isinstance(block, Table):
             out.append(to_markdown(block) if fmt == "md" else to_latex(block, page=standalone))
         elif isinstance(block, FigureSpec) and block.stem in files:
-            paths = {p.suffix: p for p in files[block.stem]}
-            if fmt == "md" and ".png" in paths:
-                out.append(
-                    f"![{block.caption}]({Path(os.path.relpath(paths['.png'], base)).as_posix()})\n\n_{block.caption}_"
-                )
-            elif fmt == "latex" and ".pdf" in paths:
-                out.append(
-                    "\n".join(
-                        [
-                            r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
-                            r"\centering",
-                            # a tall figure shrinks to the page rather than run off it
-                            r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
-                            rf"{{{Path(os.path.relpath(paths['.pdf'], base)).as_posix()}}}",
-                            rf"\caption{{{escape(block.caption)}}}",
-                            r"\end{figure}",
-                        ]
-                    )
-                )
+            paths = {p.suffix: Path(os.path.relpath(p, base)).as_posix() for p in files[block.stem]}
+            out += _figure(block.caption, paths, fmt, standalone)
     text = "\n\n".join(out) + "\n"
     if fmt == "latex" and standalone:
         return standalone_latex(
             text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks)
         )
     return text
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.splitlines())
+
+
+def _heading(block: Heading, fmt: str, standalone: bool, sections: int) -> str:
+    """A heading: Markdown's, a LaTeX comment (tables only), or a LaTeX section; its text
+    escaped. ``sections``: level-2 headings before it (each after the first opens a page)."""
+    if fmt == "md":
+        return "#" * block.level + " " + md_text(block.text)
+    if not standalone:
+        return f"% {_one_line(block.text)}"
+    if block.level == 1:
+        return rf"{{\LARGE\bfseries {escape(block.text)}\par}}"
+    if block.level == 2:  # a section per page: its floats stay near its heading
+        return (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
+    # a heading at a page's foot goes to the next page, with its first table
+    return rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
+
+
+def _paragraph(block: Text, fmt: str, standalone: bool) -> str:
+    """A paragraph, its text escaped and its link (Markdown's own, else its label)."""
+    link = block.link
+    if fmt == "md":
+        shown = (
+            ""
+            if link is None
+            else f"[{md_text(link.label)}]({md_target(link.target)})"
+            if link.target
+            else md_text(link.label)
+        )
+        return md_text(block.text, paragraph=True) + shown + md_text(block.after)
+    text = block.text + ("" if link is None else link.label) + block.after
+    return escape(text) if standalone else f"% {_one_line(text)}"
+
+
+def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> list[str]:
+    """A drawn figure (``paths``: suffix -> path relative to the report): Markdown's image
+    with its caption under it, or a LaTeX float of its PDF."""
+    if fmt == "md" and ".png" in paths:
+        return [f"![{md_text(caption)}]({md_target(paths['.png'])})\n\n_{md_text(caption)}_"]
+    if fmt != "latex" or ".pdf" not in paths:
+        return []
+    return [
+        "\n".join(
+            [
+                r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
+                r"\centering",
+                # a tall figure shrinks to the page rather than run off it
+                r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
+                rf"{{{paths['.pdf']}}}",  # its stem is file_stem's: letters, digits, dots, hyphens
+                rf"\caption{{{escape(caption)}}}",
+                r"\end{figure}",
+            ]
+        )
+    ]
 
 
 def render_report(
@@ -652,7 +722,8 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     standing = stand_ins(rows)
     if standing.all():
         return no_cell_note(rows)
-    rows = rows[~standing]
+    rows = as_tested(rows[~standing])
+    rows = rows.assign(**{SIMULATED: on_simulation(rows)})
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
     why = fits(layout, rows)
     tables = protocol_tables(

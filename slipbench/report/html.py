@@ -7,7 +7,7 @@ import html
 import re
 from typing import Any
 
-from slipbench.report.render import to_html
+from slipbench.report.render import md_target, to_html
 
 CSS = """
 body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1b1b1b; margin: 0 auto;
@@ -58,7 +58,15 @@ def page(parts: list[tuple[str, Any]]) -> str:
             level = min(block.level, 6)
             body.append(f'<h{level} id="{anchor}">{esc(block.text)}</h{level}>')
         elif kind == "text":
-            body.append(f"<p>{esc(block.text)}</p>")
+            link = block.link
+            shown = (
+                ""
+                if link is None
+                else f'<a href="{esc(md_target(link.target))}">{esc(link.label)}</a>'
+                if link.target
+                else esc(link.label)
+            )
+            body.append(f"<p>{esc(block.text)}{shown}{esc(block.after)}</p>")
         elif kind == "table":
             body.append(to_html(block))
         elif kind == "figure":

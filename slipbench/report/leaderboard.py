@@ -5,10 +5,12 @@ tests per scope) with the figures' names and the notes that say how to read them
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
-from slipbench.report.tables import Table
+from slipbench.report.tables import Table, ordered_keys, rank, summarize
+from slipbench.stats.factors import one_class, setting_labels
 from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard
-from slipbench.vocabulary import METRIC_NAMES
+from slipbench.vocabulary import DETECTOR_ORDER, METRIC_NAMES, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
 _SEEDS_INTERVAL = (
@@ -48,6 +50,9 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
                 "tab:leaderboard",
                 notes=[
                     f"No cell was finished by every detector ({excluded} cells): nothing to rank."
+                    if excluded or not board.n_one_class
+                    else "No cell to rank.",
+                    *_one_class_note(board),
                 ],
             )
         ]
@@ -78,6 +83,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     ]
     if len(order) == 1:
         notes.append("One detector: nothing to rank it against.")
+    notes += _one_class_note(board)
     tables = [
         Table(
             f"Leaderboard: detectors ranked by {name.lower()}.",
@@ -164,6 +170,84 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         )
         tables.append(_pairs_table(board, name))
     return tables
+
+
+def _one_class_note(board: Leaderboard) -> list[str]:
+    n = board.n_one_class
+    if not n:
+        return []
+    return [
+        f"{n} finished {'cell tests' if n == 1 else 'cells test'} on one class only and {'is' if n == 1 else 'are'} "
+        'not ranked: there a detector that always says "slip" (or never does) scores 100 %; the table of '
+        "one-class test sets shows them beside it."
+    ]
+
+
+UNIT = ("sensor_type", "sensor_instance")
+
+
+def one_class_table(rows: pd.DataFrame) -> Table | None:
+    """The finished cells that test on one class only (:func:`slipbench.stats.factors.one_class`),
+    which no leaderboard ranks: per protocol, detector and unit, the rate they measure (the TP
+    rate of a slip-only set, the TN rate of a non-slip one; mean over the cells of each cell's
+    mean over seeds, with its range) beside what a constant "slip" detector scores there."""
+    lone = rows[one_class(rows)]
+    if lone.empty:
+        return None
+    unit = [c for c in UNIT if c in lone]
+    constant, slips = (
+        pd.to_numeric(lone[c], errors="coerce") if c in lone else pd.Series(np.nan, lone.index)
+        for c in ("constant_slip_accuracy", "test_slip_windows")
+    )
+    slip_only = constant.fillna(slips.gt(0).astype(float))
+    lone = lone.assign(
+        _class=slip_only.map(lambda v: "slip" if v >= 0.5 else "non-slip"),
+        _setting=setting_labels(lone),
+    )
+    detectors = rank(lone["detector"].unique(), DETECTOR_ORDER)
+    lone = lone.assign(_place=lone["detector"].map(detectors.index))
+    by = ["protocol", "_setting", "_place", "detector", *unit, "_class"]
+    per_cell = summarize(lone, [*by, "cell"] if "cell" in lone else by)
+    lines, cells = [], []
+    for key in ordered_keys(per_cell, by):
+        protocol, where, _, detector, *units, kind = key
+        mean = per_cell.loc[(per_cell[by] == pd.Series(key, index=by)).all(axis=1), "mean"]
+        spread = f" ({100 * mean.min():.1f}–{100 * mean.max():.1f})" if mean.nunique() > 1 else ""
+        lines.append(
+            (
+                protocol + (f" ({where})" if where else ""),
+                detector,
+                *(label(c, v) for c, v in zip(unit, units)),
+            )
+        )
+        cells.append(
+            [
+                kind,
+                str(len(mean)),
+                f"{'TP' if kind == 'slip' else 'TN'} rate {100 * mean.mean():.1f}{spread}",
+                "100.0" if kind == "slip" else "0.0",
+            ]
+        )
+    return Table(
+        "Test sets of one class: not ranked.",
+        ["Protocol", "Detector", *(("Sensor", "Finger")[: len(unit)])],
+        "",
+        [
+            "Class tested",
+            "Cells",
+            "Rate (%): mean (range) over cells",
+            'A constant "slip" detector (%)',
+        ],
+        lines,
+        cells,
+        "tab:one-class",
+        notes=[
+            "On a test set of one class, accuracy is that class's rate, and a detector that always "
+            'says "slip" scores 100 % on slip-only data (0 % on non-slip-only): the figures say how '
+            "often a detector calls that class, not whether it tells slip from non-slip, so no "
+            "leaderboard or test ranks them."
+        ],
+    )
 
 
 def _points(diff: float, lo: float, hi: float) -> str:

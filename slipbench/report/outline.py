@@ -11,8 +11,44 @@ import pandas as pd
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import NO_CELL, Layout
 from slipbench.report.paper import table_order
-from slipbench.report.tables import fits, generic_layout, rank
+from slipbench.report.tables import TRAINED_AS, fits, generic_layout, rank
+from slipbench.stats.factors import SETTINGS, differing_settings, factor_values, setting_text
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
+
+
+def _unit_of(name: str, sensor_type: str) -> tuple[str, str]:
+    """A sensor map's ``TYPE:INSTANCE`` as (type, instance); a name that does not split there
+    one way keeps the row's type and reads whole as the instance."""
+    kind, sep, instance = name.partition(":")
+    return (kind, instance) if sep and ":" not in instance else (sensor_type, name)
+
+
+def as_tested(rows: pd.DataFrame) -> pd.DataFrame:
+    """``rows`` with each row trained on one dataset and tested on another (its ``sensor_map``)
+    naming the unit it tested: ``sensor_type`` and ``sensor_instance`` those of the test
+    dataset's unit, the instance saying what it was tested as (``ff (trained as BioTacSP
+    ff)``), the training unit kept in :data:`~slipbench.report.tables.TRAINED_AS`."""
+    if "sensor_map" not in rows or "sensor_instance" not in rows or rows["sensor_map"].isna().all():
+        return rows
+    out = rows.assign(**{TRAINED_AS: None})
+    for text, part in rows[rows["sensor_map"].notna()].groupby("sensor_map", sort=False):
+        try:
+            tested: dict[str, list[str]] = {}
+            for test, train in json.loads(text).items():
+                tested.setdefault(str(train), []).append(str(test))
+        except (TypeError, AttributeError, json.JSONDecodeError):
+            continue  # a map this version cannot read: the rows keep the training unit's names
+        for i, kind, instance in part[["sensor_type", "sensor_instance"]].itertuples(name=None):
+            names = tested.get(f"{kind}:{instance}")
+            if pd.isna(instance) or not names:
+                continue
+            units = [_unit_of(n, str(kind)) for n in names]
+            kinds = list(dict.fromkeys(k for k, _ in units))
+            out.at[i, "sensor_type"] = kinds[0] if len(kinds) == 1 else " + ".join(kinds)
+            shown = " + ".join(u if len(kinds) == 1 else f"{k}:{u}" for k, u in units)
+            out.at[i, "sensor_instance"] = f"{shown} (trained as {kind} {instance})"
+            out.at[i, TRAINED_AS] = f"{kind}:{instance}"
+    return out
 
 
 def stand_ins(rows: pd.DataFrame) -> pd.Series:
@@ -120,17 +156,33 @@ def sections_of(
 
 def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataFrame]]:
     """The rows of each table: one part per combination of the layout's ``split`` columns
-    (those the rows hold), named by its values; the rows whole when there are none."""
+    (those the rows hold) and of the settings that differ between the rows
+    (:func:`slipbench.stats.factors.differing_settings`: labels, dataset, protocol options,
+    ...: no table averages two of them), named by its values; the rows whole when there are
+    none."""
     splits = [c for c in layout.splits if c in rows]
-    if not splits:
+    settings = [c for c in differing_settings(rows) if c not in splits]
+    if not splits and not settings:
         return [({}, rows)]
+    keys = pd.DataFrame(
+        {**{c: rows[c] for c in splits}, **{c: factor_values(rows, c) for c in settings}},
+        index=rows.index,
+    )
+    by = [*splits, *settings]
     parts = [
-        (dict(zip(splits, k if isinstance(k, tuple) else (k,))), part)
-        for k, part in rows.groupby(
-            splits if len(splits) > 1 else splits[0], sort=False, dropna=False
-        )
+        (dict(zip(by, k if isinstance(k, tuple) else (k,))), rows.loc[part.index])
+        for k, part in keys.groupby(by if len(by) > 1 else by[0], sort=False, dropna=False)
     ]
-    for c in reversed(splits):  # stable sorts, last column first: lexicographic order
+    for c in reversed(by):  # stable sorts, last column first: lexicographic order
         order = rank([w[c] for w, _ in parts], SPLIT_ORDER)
         parts.sort(key=lambda p: order.index(p[0][c]))
     return parts
+
+
+def which_text(which: dict) -> str:
+    """What a part of :func:`split_parts` is, for its caption: `` Decimation: lag.`` for a
+    layout's split, `` Labels majority.`` for a setting."""
+    return "".join(
+        f" {setting_text(c, v).capitalize()}." if c in SETTINGS else f" {c.capitalize()}: {v}."
+        for c, v in which.items()
+    )

@@ -593,6 +593,23 @@ def compare_figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) 
     )
 
 
+def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> list[FigureSpec]:
+    """The critical-difference diagram of ``board`` (two detectors or more, a ranked block);
+    ``named`` adds to its caption what the board is of, ``tail`` to its stem."""
+    if len(board.order) < 2 or not board.scopes[0].n_cells:
+        return []
+    return [
+        FigureSpec(
+            file_stem(f"leaderboard{tail}"),
+            "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
+            "(duplicate cells merged); a bar joins detectors that do not differ (Wilcoxon "
+            f"signed-rank, Holm).{named}",
+            None,
+            lambda: critical_difference(board),
+        )
+    ]
+
+
 def figure_specs(
     rows: pd.DataFrame,
     paper: bool = True,
@@ -608,18 +625,7 @@ def figure_specs(
     from slipbench.report.outline import layouts, protocol_order, sections_of, split_parts
 
     found = layouts(rows) if found is None else found
-    specs = []
-    if board is not None and len(board.order) >= 2 and board.scopes[0].n_cells:
-        specs.append(
-            FigureSpec(
-                "leaderboard",
-                "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
-                "(duplicate cells merged); a bar joins detectors that do not differ (Wilcoxon "
-                "signed-rank, Holm).",
-                None,
-                lambda: critical_difference(board),
-            )
-        )
+    specs = [] if board is None else leaderboard_specs(board)
     for protocol in protocol_order(found):
         layout = found[protocol][0]
         prows = rows[rows["protocol"] == protocol]

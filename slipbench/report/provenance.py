@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import re
 from collections import Counter
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -84,6 +85,33 @@ def dataset_source(path: str) -> str:
         return _simulated(folder) + " (from its folder's name; the dataset is not readable here)"
     state = "no source column" if sources == [] else "not readable here"
     return f"the dataset at {path} ({state})"
+
+
+@cache
+def simulated(path: str) -> bool:
+    """Whether the dataset at ``path`` is slipbench's simulation: every value of its ``source``
+    column is the simulator's, or, where it is not readable here, its folder's name is."""
+    if not path:
+        return False
+    try:
+        column = pq.read_table(
+            Path(path) / "recordings.parquet", columns=["source"], page_checksum_verification=True
+        ).column("source")
+        sources = {str(s) for s in column.to_pylist() if s is not None}
+    except (OSError, pa.ArrowException, KeyError):
+        return SYNTH_FOLDER.search(Path(path).name) is not None
+    return bool(sources) and all(SYNTH_SOURCE.search(s) for s in sources)
+
+
+def on_simulation(rows: pd.DataFrame) -> pd.Series:
+    """(n_rows,) bool: rows whose test data is the simulation (the test dataset's path where
+    the row trained on another, else the dataset's)."""
+    path = pd.Series("", index=rows.index, dtype=object)
+    for column in ("dataset_path", "test_dataset_path"):  # the test dataset's wins
+        if column in rows:
+            given = rows[column].notna() & rows[column].astype(str).ne("")
+            path[given] = rows.loc[given, column].astype(str)
+    return path.map(simulated).astype(bool)
 
 
 NO_UNIT = {"", "na", "nan", "none", "null"}  # how a missing unit may be spelled in a dataset

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html
 import re
+from urllib.parse import quote
 
 import pandas as pd
 
@@ -25,21 +26,63 @@ LONG_TABLE_LINES = 40
 CHARS_PER_LINE = 95  # \footnotesize characters on one \linewidth of the article class
 
 
-def to_markdown(table: Table) -> str:
-    """Markdown: caption in bold, one pipe table, notes in italics."""
-    header = [*table.row_headers, *table.columns]
-    frame = pd.DataFrame([[*r, *c] for r, c in zip(table.rows, table.cells)], columns=header)
-    body = frame.to_markdown(
-        index=False, stralign="left" if table.wrap else "right", disable_numparse=True
+# what Markdown reads as markup inside a line: code, emphasis, links, HTML, tables, entities
+MD_MARKUP = re.compile(r"([\\`*_\[\]<>|#~&])")
+# what it reads as markup at a line's start: lists, quotes, headings, rules, setext underlines
+MD_LINE_START = re.compile(r"^(\s*)([-+=>]|\d+(?=[.)]))")
+
+
+def md_text(text: object, paragraph: bool = False) -> str:
+    """Plain text as Markdown that shows it as it is, on one line: every character Markdown
+    reads as markup backslash-escaped (so a name holding ``|`` adds no table cell, and
+    ``<script>`` or ``[x](javascript:...)`` stays text), line breaks made spaces. A
+    ``paragraph`` starts a line: a list, quote or heading marker there is escaped too."""
+    escaped = MD_MARKUP.sub(r"\\\1", " ".join(str(text).splitlines()))
+    if not paragraph:
+        return escaped
+    return MD_LINE_START.sub(
+        lambda m: f"{m[1]}{m[2]}\\" if m[2][0].isdigit() else f"{m[1]}\\{m[2]}", escaped
     )
-    parts = [
-        f"**{table.caption}**"
-        + (f" {table.group}." if table.group else "")
-        + (f" {table.subject}" if table.subject else ""),
-        "",
-        body,
-    ]
-    parts += [""] + [f"_{n}_" for n in table.notes] if table.notes else []
+
+
+def md_code(text: object) -> str:
+    """Text as one Markdown code span, whatever backticks it holds (its fence is longer than
+    any run of them inside), on one line."""
+    one_line = " ".join(str(text).splitlines())
+    fence = "`" * (max((len(r) for r in re.findall(r"`+", one_line)), default=0) + 1)
+    pad = " " if one_line.startswith("`") or one_line.endswith("`") else ""
+    return f"{fence}{pad}{one_line}{pad}{fence}"
+
+
+def md_target(target: str) -> str:
+    """A link target the report makes (a relative path and anchor) as Markdown takes it:
+    percent-encoded, and never read as a scheme (``javascript:`` becomes ``./javascript:``)."""
+    if re.match(r"[A-Za-z][A-Za-z0-9+.-]*:", target):
+        target = "./" + target
+    return quote(target, safe="/#.-_~")
+
+
+def md_table(header: list[str], rows: list[list[str]], align: str = "right") -> str:
+    """A pipe table of plain texts: each escaped (:func:`md_text`), so every row keeps the
+    header's number of cells."""
+    frame = pd.DataFrame(
+        [[md_text(c) for c in row] for row in rows], columns=[md_text(h) for h in header]
+    )
+    return frame.to_markdown(index=False, stralign=align, disable_numparse=True)
+
+
+def to_markdown(table: Table) -> str:
+    """Markdown: caption in bold, one pipe table, notes in italics; every text escaped."""
+    body = md_table(
+        [*table.row_headers, *table.columns],
+        [[*r, *c] for r, c in zip(table.rows, table.cells)],
+        "left" if table.wrap else "right",
+    )
+    rest = (f" {table.group}." if table.group else "") + (
+        f" {table.subject}" if table.subject else ""
+    )
+    parts = [f"**{md_text(table.caption)}**{md_text(rest)}", "", body]
+    parts += [""] + [f"_{md_text(n)}_" for n in table.notes] if table.notes else []
     return "\n".join(parts)
 
 
@@ -176,7 +219,8 @@ def to_latex(table: Table, page: bool = False) -> str:
             else r"\hline"
         )
         previous = labels
-    label_ = [rf"\label{{{table.label}}}"] if table.label else []
+    # a label is a key LaTeX reads raw: names from the data keep letters, digits, ":._-"
+    label_ = [rf"\label{{{re.sub(r'[^A-Za-z0-9:._-]+', '-', table.label)}}}"] if table.label else []
     notes = [rf"\par {escape(note)}" for note in table.notes]
     size = [LATEX_TABLE_SIZE, rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}"]
     if page and latex_lines(table) > LONG_TABLE_LINES:

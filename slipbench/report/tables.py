@@ -21,6 +21,7 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
+from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import FIGURES, classes_low_n, seeds_from_rows, stream_low_n
 from slipbench.vocabulary import (
@@ -44,6 +45,16 @@ STREAM_LOW_NOTE = (
     "not to be trusted."
 )
 
+
+#: a column the report sets on its rows: the test data is slipbench's simulation
+SIMULATED = "_on_simulation"
+#: a column the report sets on rows tested on another dataset's unit: the training unit's name
+TRAINED_AS = "_trained_as"
+SIMULATION_NOTE = (
+    "Channels on simulated data: in the simulation, the force's direction alone separates slip "
+    "(tangential load) from pressing (a mostly normal load; datasets.md, the design's pressing and "
+    "sensing), so these channels figures measure the simulation, not what a sensor can tell."
+)
 
 # What a table's intervals are. A figure run under several seeds (--repeats) is their mean; its
 # interval is the two-level bootstrap over test trials and seeds where the seeds' predictions are
@@ -148,8 +159,11 @@ LATEX_CHARS = {
 
 def escape(text: str) -> str:
     """Plain text as LaTeX (kernel commands only), one character at a time so that no
-    replacement is escaped again."""
-    return "".join(LATEX_CHARS.get(c, c) for c in text)
+    replacement is escaped again; on one line (a blank line would end a cell's paragraph),
+    control characters as spaces."""
+    return "".join(
+        LATEX_CHARS.get(c, " " if c.isspace() or not c.isprintable() else c) for c in str(text)
+    )
 
 
 def _as_printed(percent: float) -> str:
@@ -434,9 +448,7 @@ def build_table(
     row_keys = list(row_values.itertuples(index=False, name=None))
     columns = ordered(summary[layout.column].unique(), layout.column)
     by_key = {tuple(r[k] for k in keys): r for r in summary.to_dict("records")}
-    ref = {}
-    if paper is not None and len(paper) and metric in paper and set(keys) <= set(paper.columns):
-        ref = {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
+    ref = _published(paper, metric, keys)
 
     def one(key: tuple) -> str:
         r = by_key.get(key)
@@ -478,10 +490,40 @@ def build_table(
     if values == "ours":
         repeated = {k: int(r["n"]) for k, r in by_key.items() if r["n"] > 1}
         notes += _seeds_notes(repeated, pooled, intervals, rows, keys)
-        notes += _one_class_note(rows)
+        notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
     return Table(caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+
+
+def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict[tuple, float]:
+    """The published figure of each key of a table, where the paper's table gives them."""
+    if paper is None or not len(paper) or metric not in paper or not set(keys) <= set(paper):
+        return {}
+    return {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
+
+
+def simulation_note(rows: pd.DataFrame) -> list[str]:
+    """:data:`SIMULATION_NOTE` where ``rows`` hold channels cells the report marked as tested
+    on the simulation (:data:`SIMULATED`)."""
+    if SIMULATED not in rows or "input" not in rows:
+        return []
+    marked = rows[SIMULATED].fillna(False).astype(bool) & rows["input"].eq("channels")
+    return [SIMULATION_NOTE] if marked.any() else []
+
+
+def data_notes(rows: pd.DataFrame) -> list[str]:
+    """What a table must say of the data behind its ``rows``: that channels cells on the
+    simulation measure the simulation (rows the report marked :data:`SIMULATED`), and that rows
+    tested on another dataset name the unit tested (:data:`TRAINED_AS`), and what a constant
+    detector scores where cells test on one class only."""
+    notes = _one_class_note(rows) + simulation_note(rows)
+    if TRAINED_AS in rows and rows[TRAINED_AS].notna().any():
+        notes.append(
+            "Trained on one dataset, tested on another: each row names the unit tested (the test "
+            "dataset's), and in parentheses the training dataset's unit it was tested as (the sensor map)."
+        )
+    return notes
 
 
 def _one_class_note(rows: pd.DataFrame) -> list[str]:
@@ -497,7 +539,8 @@ def _one_class_note(rows: pd.DataFrame) -> list[str]:
     return [
         f"{len(constant)} of {len(ok)} finished cells test on one class only: there a constant "
         f'"slip" detector scores {scores} (column constant_slip_accuracy), and a figure near it '
-        "says the detector calls that class, not that it tells slip from non-slip."
+        "says the detector calls that class, not that it tells slip from non-slip; no leaderboard "
+        "ranks them."
     ]
 
 
@@ -677,6 +720,7 @@ def baseline_table(
             "Paper: Holweg's threshold 71.4 / 80.9 / 76.4 % (thresholds 0.0015 N, 3.5 units, 25 units); "
             "LSTM: mean of Table I at window 50."
         )
+    notes += data_notes(rows)
     return Table(
         "The Holweg baseline beside the other detectors at window 50.",
         ["Sensor"],
@@ -725,6 +769,7 @@ def rates_table(
         notes=[
             "TP: slip detected while slipping; TN: non-slip passed while not slipping.",
             *_interval_note(joint, intervals, [(detector, *k) for k in avg], _repeated(rows)),
+            *data_notes(rows),
         ],
     )
 
@@ -788,7 +833,7 @@ def metrics_table(
         }
         for m in metrics
     }
-    row_keys = _row_keys(rows, keys)
+    row_keys = ordered_keys(rows, keys)
     cells = [
         [
             metric_text(
@@ -812,6 +857,7 @@ def metrics_table(
     notes = _seeds_notes(repeated, {}, intervals, rows, keys)
     if any(LOW_MARK in c for line in cells for c in line):
         notes.append(STREAM_LOW_NOTE)
+    notes += data_notes(rows)
     columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
     return Table(
         caption_of(layout.caption, rows),
@@ -825,7 +871,7 @@ def metrics_table(
     )
 
 
-def _row_keys(rows: pd.DataFrame, keys: list[str]) -> list[tuple]:
+def ordered_keys(rows: pd.DataFrame, keys: list[str]) -> list[tuple]:
     """The distinct values of ``keys`` in ``rows``, in the tables' order."""
     row_values = rows[keys].drop_duplicates()
     for col in reversed(keys):  # stable sorts, last key first: lexicographic order
@@ -853,7 +899,7 @@ def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table
             for k, g in ok.groupby(keys, sort=False, dropna=False)
         },
     )
-    order = _row_keys(ok, keys)
+    order = ordered_keys(ok, keys)
     for rk in order:
         g = groups[rk]
         met = g["realtime"].astype(bool) if "realtime" in g else pd.Series(dtype=bool)
@@ -938,6 +984,7 @@ def side_by_side(
         + (f" or up to {int(units.max())}" if units.max() != units.min() else "")
         + " (units a detector did not finish are left out)."
     )
+    notes += data_notes(rows)
     group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(
@@ -973,7 +1020,8 @@ def _metrics_side_by_side(
         cells,
         label_,
         notes=[f"Mean over units ({units}) of each unit's figure."]
-        + ([STREAM_LOW_NOTE] if any(LOW_MARK in c for line in cells for c in line) else []),
+        + ([STREAM_LOW_NOTE] if any(LOW_MARK in c for line in cells for c in line) else [])
+        + data_notes(rows),
     )
 
 
@@ -988,10 +1036,13 @@ def split_table(
     finished, per split, and each other split minus the first: the mean change and its range
     over cells. None where no cell has the figure on every split (streaming rows have no accuracy)."""
     first, others = splits[0], list(splits[1:])
-    keys = ["protocol", "detector", "cell", "seed"]
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
     if metric not in ok or ok[metric].isna().all():
         return None
+    # a setting that differs (labels, dataset, ...) names the protocol's line: never pooled
+    named = setting_labels(ok, exclude=("split",)).map(lambda t: f" ({t})" if t else "")
+    ok = ok.assign(protocol=ok["protocol"].astype(str) + named)
+    keys = ["protocol", "detector", "cell", "seed"]
     wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean")
     wide = (
         wide.dropna(subset=[s for s in splits if s in wide])
@@ -1012,7 +1063,7 @@ def split_table(
     by = sorted(
         range(len(lines)),
         key=lambda i: (
-            order.get(lines[i][0], len(order)),
+            order.get(lines[i][0].split(" (")[0], len(order)),
             lines[i][0],
             rank([d for _, d in lines], detectors).index(lines[i][1]),
         ),

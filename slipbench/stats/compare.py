@@ -84,6 +84,13 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import DataError, UsageError
+from slipbench.stats.factors import (
+    SETTINGS,
+    differing_settings,
+    factor_values,
+    named_entrants,
+    setting_name,
+)
 from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
 from slipbench.stats.pooled import CellSides, pooled_change, pooled_from_rows
 from slipbench.store.results import (
@@ -217,6 +224,36 @@ def _pairing(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
         f"cannot pair detectors: BASE holds {', '.join(sorted(b))}, CANDIDATE holds {', '.join(sorted(c))}; "
         "compare results of the same detectors, or of one detector on each side"
     )
+
+
+def _kept_apart(
+    base: pd.DataFrame, cand: pd.DataFrame
+) -> tuple[pd.DataFrame, pd.DataFrame, list[str], list[str]]:
+    """Both sides with each detector named as its entrant (parameters, input, normalization:
+    :func:`slipbench.stats.factors.entrant_names`), the settings that differ within a side (so
+    that cells pair on them too, never pooling two of their values as seeds of one cell), and a
+    note per setting the two sides differ in (each cell then compares one value with the other)."""
+    base, cand = named_entrants(base), named_entrants(cand)
+    apart = [c for c in SETTINGS if c in differing_settings(base) or c in differing_settings(cand)]
+    apart = [c for c in apart if c != "split"]  # cells pair on the split already
+    base, cand = (r.assign(**{c: factor_values(r, c) for c in apart}) for r in (base, cand))
+    notes = []
+    for c in SETTINGS:
+        if c in apart or c == "split" or not (c in base or c in cand):
+            continue
+        b, k = (sorted(set(factor_values(r, c)) - {""}) for r in (base, cand))
+        if b and k and b != k:
+            notes.append(
+                f"The sides differ in {setting_name(c)}: BASE {', '.join(b)}, CANDIDATE "
+                f"{', '.join(k)}; each cell compares one with the other."
+            )
+    if apart:
+        notes.append(
+            "A side holds rows that differ in "
+            + ", ".join(map(setting_name, apart))
+            + ": cells pair on them too, and no figure pools two of their values."
+        )
+    return base, cand, apart, notes
 
 
 def _unique(rows: pd.DataFrame, on: list[str], side: str) -> pd.DataFrame:
@@ -560,9 +597,11 @@ def compare(
         check_unique_keys(base, f"BASE {base_path}"),
         check_unique_keys(cand, f"CANDIDATE {candidate_path}"),
     )
-    on = _pairing(base, cand)
+    base, cand, apart, differ = _kept_apart(base, cand)
+    notes += differ
+    on = [*_pairing(base, cand), *apart]
     base, cand = _unique(base, [*on, "seed"], "BASE"), _unique(cand, [*on, "seed"], "CANDIDATE")
-    ident = ["protocol", "detector", "split", "seed", "cell"]
+    ident = ["protocol", "detector", "split", "seed", "cell", *apart]
     # cells pair by everything but the seed: a side may hold several seeds of a cell
     groups = [dict(iter(rows.groupby(on, sort=False, dropna=False))) for rows in (base, cand)]
     shared = [k for k in groups[0] if k in groups[1]]

@@ -63,7 +63,6 @@ This module computes; the tables that show the leaderboard are the report wing's
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -74,13 +73,15 @@ from scipy.stats import t as student_t
 from statsmodels.stats.multitest import multipletests
 
 from slipbench.seeding import rng_for
+from slipbench.stats.factors import SETTINGS, entrant_names, factor_values, one_class
 
 ALPHA = 0.05
 LEVEL = 0.95
 N_RESAMPLES = 2000
 ALL = "all"
-#: columns that, with the cell's key, name one cell across detectors
-CELL_IDENTITY = ("protocol", "split", "labels", "dataset_fingerprint", "cell")
+#: columns that, with the cell's key, name one cell across detectors: every setting of a run
+#: (data, split, labels, options, ...) is part of it, so no block pools two values of one
+CELL_IDENTITY = ("protocol", "cell", *SETTINGS)
 #: columns that, with the model key, name the windows a cell is scored on
 TEST_IDENTITY = ("test_sensors", "test_where", "test_stream")
 MEAN_METRICS = ("accuracy", "balanced_accuracy", "auroc")
@@ -129,6 +130,8 @@ class Leaderboard:
     pairs : :func:`pairwise` over the ranked blocks of ``ALL``.
     n_seeds : the most seeds an entrant ran in a ranked block; above 1, the pairs' and the
         means' intervals count seeds as a factor too (:func:`crossed_interval`).
+    n_one_class : finished rows left out because their test set holds one class (a constant
+        detector wins there: :func:`slipbench.stats.factors.one_class`).
     """
 
     metric: str
@@ -137,6 +140,7 @@ class Leaderboard:
     entrants: dict[str, str] = field(default_factory=dict)
     pairs: pd.DataFrame = field(default_factory=lambda: pairwise(pd.DataFrame(), []))
     n_seeds: int = 1
+    n_one_class: int = 0
 
     @property
     def order(self) -> list[str]:
@@ -148,48 +152,34 @@ class Leaderboard:
 
 
 def entrants(rows: pd.DataFrame) -> pd.Series:
-    """Who competes: the detector's id, or, where one detector ran with several parameter
-    sets, its id with the parameters that differ (``holweg (band=[39, 100])``)."""
-    if "detector_params" not in rows:
-        return rows["detector"].astype(str)
-    out = rows["detector"].astype(str).copy()
-    for det, part in rows.groupby("detector", sort=False):
-        texts = part["detector_params"].fillna("{}").unique()
-        if len(texts) < 2:
-            continue
-        params = {t: json.loads(t) for t in texts}
-        varying = sorted(
-            {
-                k
-                for p in params.values()
-                for k in p
-                if len({json.dumps(q.get(k)) for q in params.values()}) > 1
-            }
-        )
-        names = {
-            t: f"{det} ({', '.join(f'{k}={json.dumps(p.get(k))}' for k in varying)})"
-            for t, p in params.items()
-        }
-        out[part.index] = part["detector_params"].fillna("{}").map(names)
-    return out
+    """Who competes: the detector's id, named apart where its rows differ in what it is or reads
+    (:func:`slipbench.stats.factors.entrant_names`: ``holweg (band=[39, 100])``)."""
+    return entrant_names(rows)
+
+
+def _identity(rows: pd.DataFrame) -> pd.DataFrame:
+    """The cell identity of each row (:data:`CELL_IDENTITY`, the columns the rows hold), as
+    text: a setting a row lacks reads as its default, so older rows still meet newer ones."""
+    return pd.DataFrame(
+        {c: factor_values(rows, c) for c in CELL_IDENTITY if c in rows}, index=rows.index
+    )
 
 
 def cell_table(rows: pd.DataFrame, metric: str) -> pd.DataFrame:
     """(n_cells, n_entrants) figure per cell: the mean over seeds of the ok rows; NaN where an
     entrant has no finished row of the cell. Index: the cell identity columns the rows hold."""
-    ident = [c for c in CELL_IDENTITY if c in rows]
-    ok = rows[rows["status"] == "ok"] if "status" in rows else rows
-    ok = ok.assign(
-        _entrant=entrants(rows).loc[ok.index], _value=pd.to_numeric(ok.get(metric), errors="coerce")
-    )
-    every = rows.assign(_entrant=entrants(rows))[[*ident, "_entrant"]].drop_duplicates()
+    frame = _identity(rows)
+    ident = list(frame.columns)
+    frame["_entrant"] = entrants(rows)
+    ok = frame[rows["status"] == "ok"] if "status" in rows else frame
+    ok = ok.assign(_value=pd.to_numeric(rows.loc[ok.index].get(metric), errors="coerce"))
     table = (
         ok.groupby([*ident, "_entrant"], sort=False, dropna=False)["_value"]
         .mean()
         .unstack("_entrant")
     )
-    cells = every[ident].drop_duplicates().set_index(ident).index
-    return table.reindex(index=cells, columns=every["_entrant"].unique())
+    cells = frame[ident].drop_duplicates().set_index(ident).index
+    return table.reindex(index=cells, columns=frame["_entrant"].unique())
 
 
 def block_signature(rows: pd.DataFrame) -> pd.Series:
@@ -200,9 +190,10 @@ def block_signature(rows: pd.DataFrame) -> pd.Series:
     test part (sensors, filters, streaming or not): the same model on the same test windows.
     A cell some row of which lacks its model key (rows of an old version) is its own block.
     """
-    ident = [c for c in CELL_IDENTITY if c in rows]
     if rows.empty:
         return pd.Series(dtype=object)
+    identity = _identity(rows)
+    ident = list(identity.columns)
     cols = ["model_key", *TEST_IDENTITY]
     parts = pd.DataFrame(
         {c: rows[c].astype(str) if c in rows else pd.Series("", index=rows.index) for c in cols}
@@ -213,7 +204,7 @@ def block_signature(rows: pd.DataFrame) -> pd.Series:
     parts["_sig"] = parts[cols].agg("|".join, axis=1)
     parts["_known"] = known
     out = {}
-    for cell, group in parts.join(rows[ident]).groupby(ident, sort=False, dropna=False):
+    for cell, group in parts.join(identity).groupby(ident, sort=False, dropna=False):
         cell = cell if isinstance(cell, tuple) else (cell,)
         out[cell] = tuple(sorted(set(group["_sig"]))) if group["_known"].all() else ("cell", *cell)
     index = pd.MultiIndex.from_tuples(list(out), names=ident)
@@ -253,14 +244,15 @@ def seed_values(
     under each seed: an array (n_blocks, n_seeds) over the seeds the rows hold (sorted), NaN
     where the entrant has no finished row of the block under that seed; a block of duplicate
     cells takes their mean per seed, as :func:`merge_blocks` does over seeds' means."""
-    ident = [c for c in CELL_IDENTITY if c in rows]
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
+    identity = _identity(ok)
+    ident = list(identity.columns)
     who = entrants(rows)
     seeds = ok["seed"] if "seed" in ok else pd.Series(0, index=ok.index)
     levels = sorted(seeds.dropna().unique())
     position = {sig: i for i, sig in enumerate(_signatures(blocks, signature))}
     cells = (
-        pd.MultiIndex.from_frame(ok[ident])
+        pd.MultiIndex.from_frame(identity)
         if len(ok)
         else pd.MultiIndex.from_tuples([], names=ident)
     )
@@ -550,10 +542,13 @@ def leaderboard(
 
     Parameters
     ----------
-    rows : result rows as ``evaluate`` writes them (any statuses; only "ok" rows count).
+    rows : result rows as ``evaluate`` writes them (any statuses; only "ok" rows count, and of
+        them not those tested on one class, where always saying "slip" would win).
     metric : the figure ranked; higher is better.
     protocols : the per-protocol scopes, in order (default: as the rows first name them).
     """
+    lone = one_class(rows)
+    rows = rows[~lone]
     who = entrants(rows)
     names = {e: _params_text(rows.loc[who == e]) for e in who.unique()}
     protocols = list(dict.fromkeys(rows["protocol"])) if protocols is None else protocols
@@ -589,7 +584,7 @@ def leaderboard(
             n_seeds = max(n_seeds, int(np.isfinite(seeds[e]).sum(axis=1).max(initial=1)))
     order = list(overall.ranks.index)
     pairs = pairwise(blocks, order, seeds=seed_values(rows, metric, blocks.index, signature))
-    return Leaderboard(metric, scopes, means, names, pairs, n_seeds)
+    return Leaderboard(metric, scopes, means, names, pairs, n_seeds, int(lone.sum()))
 
 
 def _params_text(rows: pd.DataFrame) -> str:

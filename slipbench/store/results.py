@@ -31,12 +31,13 @@ What survives what:
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -53,7 +54,7 @@ from slipbench.atomic import (
     write_text_atomic,
 )
 from slipbench.errors import ENVIRONMENT_ERRNOS, CellsFailed, DataError, environment_fault
-from slipbench.store.keys import cell_key
+from slipbench.store.keys import canonical_json, cell_key
 
 __all__ = [
     "RESULTS_FILE",
@@ -72,6 +73,8 @@ RESULTS_FILE = "results.parquet"
 #: columns every results row has, whatever its status (metrics exist only for cells that ran)
 REQUIRED_COLUMNS = ("key", "protocol", "detector", "status")
 _MANIFEST = b"slipbench.cells"  # Parquet metadata of results.parquet: cell file versions it holds
+_DIGESTS = b"slipbench.rows"  # and a digest of each row it holds (:func:`row_digest`)
+MISMATCHES_NAMED = 3  # rows named in the message about a results file that does not match
 
 
 def _version(st: os.stat_result) -> list[int]:
@@ -89,6 +92,7 @@ class _Scan:
     ]  # rows of cell files that results.parquet lacks or says otherwise
     versions: dict[str, list[int]]  # the version of each cell file whose row is known
     unreadable: list[tuple[Path, str]]  # cell files that could not be read, and why
+    digests: dict[str, str] = field(default_factory=dict)  # results.parquet's, as it says
 
     @property
     def changed(self) -> bool:
@@ -117,6 +121,19 @@ class _Scan:
             if len(parts) > 1
             else (parts[0] if parts else pd.DataFrame())
         )
+
+    def row_digests(self) -> dict[str, str]:
+        """Each row's :func:`row_digest`: results.parquet's own where it holds them for every
+        row it keeps (no row is converted), the others computed."""
+        older = self._older()
+        out: dict[str, str] = {}
+        if older is not None:
+            keys = older["key"].to_pylist()
+            if all(k in self.digests for k in keys):
+                out = {k: self.digests[k] for k in keys}
+            else:  # a file of an older slipbench
+                out = {r["key"]: row_digest(r) for r in older.to_pylist()}
+        return out | {k: row_digest(r) for k, r in self.newer.items()}
 
     def combined(self, folder: Path) -> pa.Table:
         """Every row as one table (protocols have different cell columns: the union is taken)."""
@@ -188,8 +205,12 @@ class ResultsStore:
             scan = self._scan(known=unlocked)
             if scan.changed:
                 table = scan.combined(self.folder)
-                manifest = json.dumps(scan.versions, separators=(",", ":"), sort_keys=True)
-                write_atomic(table.replace_schema_metadata({_MANIFEST: manifest}), path)
+                manifest, digests = (
+                    json.dumps(d, separators=(",", ":"), sort_keys=True)
+                    for d in (scan.versions, scan.row_digests())
+                )
+                metadata = {_MANIFEST: manifest, _DIGESTS: digests}
+                write_atomic(table.replace_schema_metadata(metadata), path)
         return path
 
     def _scan(self, strict: bool = False, known: _Scan | None = None) -> _Scan:
@@ -229,7 +250,7 @@ class ResultsStore:
                 held = json.loads((table.schema.metadata or {}).get(_MANIFEST, b"{}"))
             except ValueError:
                 pass  # a results file from elsewhere: its rows are compared with the cells instead
-        scan = _Scan(table, {}, {}, [])
+        scan = _Scan(table, {}, {}, [], _written_digests(table))
         for entry in entries:
             key = entry.name[: -len(".parquet")]
             try:
@@ -257,6 +278,153 @@ class ResultsStore:
             ):
                 scan.newer[key] = row
         return scan
+
+
+def _plain(value: Any) -> Any:
+    """A row's value as :func:`~slipbench.store.keys.canonical` takes it (a value of another
+    kind, which slipbench never writes, by its text)."""
+    try:
+        canonical_json({"v": value})
+        return value
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def row_digest(row: dict[str, Any]) -> str:
+    """A digest of what a result row says: its non-null values, canonical, so that the row as
+    a cell file holds it and as results.parquet holds it (where a column of other protocols'
+    cells is null, or an int column was promoted to float) digest alike."""
+    plain = {str(k): _plain(v) for k, v in row.items() if v is not None}
+    return hashlib.sha256(canonical_json(plain).encode()).hexdigest()[:16]
+
+
+def _written_digests(table: pa.Table | None) -> dict[str, str]:
+    """The row digests a results file was written with ({} where it holds none)."""
+    text = ((table.schema.metadata or {}) if table is not None else {}).get(_DIGESTS)
+    try:
+        found = json.loads(text) if text else {}
+    except ValueError:
+        return {}
+    return found if isinstance(found, dict) else {}
+
+
+def _check_file(table: pa.Table, path: Path) -> None:
+    """Refuse a results file whose rows are not those slipbench wrote (rows deleted, added or
+    edited, columns swapped): by the row digests written in its metadata, else, beside a cells/
+    folder, by the cell files; warn where cells/ holds cells the file lacks (a run since).
+    A table written by other means, with neither, is read as it is.
+
+    Raises
+    ------
+    DataError
+        Naming what does not match: how many rows, and the first of them with their columns.
+    """
+    cells = path.parent / "cells"
+    digests = _written_digests(table)
+    if not digests and not cells.is_dir():
+        return
+    here = {str(r.get("key")): r for r in table.to_pylist()}
+    if digests:
+        changed = [k for k, r in here.items() if k in digests and digests[k] != row_digest(r)]
+        lost, added = sorted(set(digests) - set(here)), sorted(set(here) - set(digests))
+    else:  # written before rows had digests: its cell files are the reference
+        changed = [k for k, r in here.items() if _cell_differs(cells, k, r)]
+        lost, added = [], [k for k in here if not (cells / f"{k}.parquet").is_file()]
+    problems = [
+        f"{len(keys)} row(s) {what} (e.g. {', '.join(keys[:MISMATCHES_NAMED])})"
+        for keys, what in ((lost, "written to it are missing"), (added, "slipbench did not write"))
+        if keys
+    ]
+    if changed:
+        named = "; ".join(
+            f"row {k}: {_cell_says(cells, k, here[k])}" for k in changed[:MISMATCHES_NAMED]
+        )
+        problems.insert(0, f"{len(changed)} row(s) edited since they were written ({named})")
+    if problems:
+        fix = (
+            "give the folder instead (its cells/ hold each cell as it was computed)"
+            if cells.is_dir()
+            else "use the results folder it came from, or rerun"
+        )
+        raise DataError(
+            f"{path}: its rows are not what slipbench wrote: {'; '.join(problems)}; {fix}"
+        )
+    stale = _stale_cells(table, cells, here)
+    if stale:
+        warnings.warn(
+            f"{path}: {len(stale)} finished cell(s) of {cells} are not in this file as they are now "
+            f"(e.g. {stale[0]}: a run since it was written, or one stopped before it was rebuilt); "
+            "give the folder to read them",
+            stacklevel=3,
+        )
+
+
+def _stale_cells(table: pa.Table, cells: Path, here: dict[str, dict[str, Any]]) -> list[str]:
+    """The cells of ``cells`` a results file lacks, or holds otherwise than the cell file says
+    now (read where its metadata records another version of the file: a copied folder's cells
+    are read, not taken for changed)."""
+    try:
+        held = json.loads((table.schema.metadata or {}).get(_MANIFEST, b"{}"))
+    except ValueError:
+        held = {}
+    out = []
+    for key in _cell_keys(cells):
+        if key not in here:
+            out.append(key)
+            continue
+        try:
+            version = _version((cells / f"{key}.parquet").stat())
+        except FileNotFoundError:
+            continue
+        if held.get(key, version) != version and _cell_differs(cells, key, here[key]):
+            out.append(key)
+    return sorted(out)
+
+
+def _cell_keys(cells: Path) -> list[str]:
+    """The keys of the cell files in ``cells`` (none where there is no such folder)."""
+    try:
+        return [
+            e.name[: -len(".parquet")]
+            for e in os.scandir(cells)
+            if e.name.endswith(".parquet") and not e.name.startswith(".")
+        ]
+    except FileNotFoundError:
+        return []
+    except OSError as exc:
+        raise environment_fault(exc, cells, "read") from None
+
+
+def _cell_differs(cells: Path, key: str, row: dict[str, Any]) -> bool:
+    """Whether a results file's row says otherwise than its cell file (False where none is)."""
+    if not (cells / f"{key}.parquet").is_file():
+        return False
+    try:
+        cell, _ = _read_cell(cells / f"{key}.parquet", key)
+    except DataError:
+        return True
+    return not _same_row(cell, row)
+
+
+def _shown(value: Any) -> str:
+    return f"{value:.6g}" if isinstance(value, float) else repr(value)
+
+
+def _cell_says(cells: Path, key: str, row: dict[str, Any]) -> str:
+    """How a results file's row differs from its cell file (the columns, with both values), or
+    that it differs from what was written, where no readable cell file says more."""
+    try:
+        cell, _ = _read_cell(cells / f"{key}.parquet", key)
+    except DataError:
+        return "its content is not what was written"
+    columns = sorted(
+        {k for k, v in cell.items() if not _same(v, row.get(k))}
+        | {k for k, v in row.items() if k not in cell and v is not None}
+    )
+    shown = ", ".join(
+        f"{c} {_shown(row.get(c))} here, {_shown(cell.get(c))} in cells/" for c in columns[:4]
+    )
+    return shown + (f" and {len(columns) - 4} more columns" if len(columns) > 4 else "")
 
 
 def _read_table(path: Path) -> pa.Table:
@@ -353,7 +521,9 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
                 f"{path}: no results here (run `slipbench evaluate --out FOLDER` first)"
             )
     elif path.is_file():
-        rows = _read_table(path).to_pandas()
+        table = _read_table(path)
+        _check_file(table, path)
+        rows = table.to_pandas()
     else:
         raise DataError(
             f"{path}: no results file here (run `slipbench evaluate --out FOLDER` first)"

@@ -35,9 +35,9 @@ def test_the_section_reads_each_sensor_by_its_interval(report):
     biotac = re.search(r"On the Biotac SP, with tcn, (.*?)\.\n", text)
     assert nano and nano[1].startswith("the channels beat the univariate signal in window-size")
     assert biotac and biotac[1].startswith("no difference is resolved in window-size")
-    lo, hi = map(float, re.search(r"\[([-+\d.]+), ([-+\d.]+)\] points", nano[1]).groups())
+    lo, hi = map(float, re.search(r"\\\[([-+\d.]+), ([-+\d.]+)\\\] points", nano[1]).groups())
     assert 0 < lo < hi
-    lo, hi = map(float, re.search(r"\[([-+\d.]+), ([-+\d.]+)\] points", biotac[1]).groups())
+    lo, hi = map(float, re.search(r"\\\[([-+\d.]+), ([-+\d.]+)\\\] points", biotac[1]).groups())
     assert lo < 0 < hi
     # the data and settings it stands on
     assert "14 paired cells in 1 protocol and 2 sensor types, seeds 0, 1, 2 (3 per cell)" in text

@@ -441,7 +441,7 @@ def test_a_report_of_two_splits_leads_with_grouped_and_sets_paper_beside_it():
     side = text[text.index("**The grouped split beside the paper split") :]
     for detector in ("holweg", "lstm", "bandpass"):
         assert re.search(
-            rf"\|\s*window-size\s*\|\s*{detector}\s*\|\s*48\s*\|[^|]+\|[^|]+\|\s*\+5\.0 \[\+5\.0, \+5\.0\]",
+            rf"\|\s*window-size\s*\|\s*{detector}\s*\|\s*48\s*\|[^|]+\|[^|]+\|\s*\+5\.0 \\\[\+5\.0, \+5\.0\\\]",
             side,
         )
 

@@ -180,9 +180,9 @@ def test_tables_render_in_markdown_and_latex(streamed):
     line = next(
         x
         for x in md.splitlines()
-        if "Nano17" in x and "Index" in x and f"{100 * nano['detection_rate']:.1f} [" in x
+        if "Nano17" in x and "Index" in x and f"{100 * nano['detection_rate']:.1f} \\[" in x
     )
-    assert f"{100 * nano['detection_rate']:.1f} [{100 * nano['detection_rate_lo']:.1f}, " in line
+    assert f"{100 * nano['detection_rate']:.1f} \\[{100 * nano['detection_rate_lo']:.1f}, " in line
     assert (
         f"{nano['median_delay_ms']:.1f}" in line and f"{nano['false_alarms_per_min']:.2f}" in line
     )
