@@ -37,7 +37,7 @@ def on_files(files: Files, *, config: MkDocsConfig) -> Files:
 
 
 def command_help() -> str:
-    """Every command's ``--help``, as the installed slipbench prints it at a width of 100."""
+    """Every command's ``--help``, as the installed slipbench prints it, 80 columns wide."""
     import click
 
     from slipbench.app.cli import cli
@@ -46,7 +46,7 @@ def command_help() -> str:
 
     def add(command: click.Command, parent: click.Context | None, name: str) -> None:
         ctx = click.Context(
-            command, info_name=name, parent=parent, terminal_width=100, max_content_width=100
+            command, info_name=name, parent=parent, terminal_width=80, max_content_width=80
         )
         if isinstance(command, click.Group):
             for sub in command.list_commands(ctx):
