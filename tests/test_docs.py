@@ -1,7 +1,7 @@
-"""The README and the documentation site: a README read in five minutes that links the site, an
-example that is the shipped plugin, prose that never counts the tests, and the commit-msg hook
-that keeps subjects to 72 characters. `mkdocs build --strict` (.ci/run) checks every link,
-anchor, included file and page of the site itself."""
+"""The README and the documentation site: a README read in five minutes that links the site and
+what exists, an example that is the shipped plugin, prose that never counts the tests, and the
+commit-msg hook that keeps subjects to 72 characters. `mkdocs build --strict` (.ci/run) checks
+every link, anchor, included file and page of the site itself."""
 
 from __future__ import annotations
 
@@ -20,10 +20,21 @@ def test_readme_is_short_and_links_the_site():
     text = README.read_text()
     assert len(text.splitlines()) <= 250
     assert "](docs/index.md)" in text
-    for target in re.findall(
-        r"\]\(([^)#:]+)(?:#[^)]*)?\)", text
-    ):  # relative links, as GitHub shows them
-        assert (ROOT / target).exists(), f"README.md links a missing {target}"
+
+
+def github_anchor(heading: str) -> str:
+    return re.sub(r"\s", "-", re.sub(r"[^\w\s-]", "", heading.strip().lower()))
+
+
+@pytest.mark.parametrize("page", ["README.md", "datasets.md"])
+def test_root_pages_link_what_exists(page):
+    """Links of the pages GitHub shows at the root (the site checks its own): each file exists
+    and each anchor is a heading of it, as GitHub spells anchors."""
+    for target, anchor in re.findall(r"\]\(([^)#:]+)(?:#([^)]*))?\)", (ROOT / page).read_text()):
+        assert (ROOT / target).exists(), f"{page} links a missing {target}"
+        if anchor:
+            headings = re.findall(r"^#+ (.+)$", (ROOT / target).read_text(), re.M)
+            assert anchor in map(github_anchor, headings), f"{page}: {target}#{anchor}"
 
 
 def test_readme_example_is_the_shipped_plugin():
