@@ -17,9 +17,9 @@ in PyTorch): built-in plugins import nothing else of the package.
 Two wings on one level do not import each other, in either direction. Decided from the code:
 stats and stream share no import (stats reads stored rows, stream scores live pushes; both sit on
 data/store and the contract), nor do data and store (they meet only in the engine), nor report
-and analysis (two readers of engine output); a level whose wings call each other would be one
-wing in all but name. (app -> testing, app/bench.py timing on the kit's toy windows, breaks
-this today.) Every import counts for the layering, also one inside a function or under
+and analysis (two readers of engine output), nor app and testing (the commands and the
+plugins' conformance kit); a level whose wings call each other would be one wing in all but
+name. Every import counts for the layering, also one inside a function or under
 ``if TYPE_CHECKING:``; for the cycles only those that run (not ``TYPE_CHECKING`` ones).
 
 Each offence is listed as ``file:line module -> module``.

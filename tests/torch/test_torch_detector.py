@@ -12,22 +12,31 @@ from slipbench.torch import TorchDetector
 torch = pytest.importorskip("torch")
 
 
-# --- the README's example: a whole plugin in 25 lines -------------------------------------------
+# docs/guides/plugins.md shows this class: the documented plugin is the tested one
+# --8<-- [start:tinycnn]
 class TinyCNN(TorchDetector):
     """One convolution, global average pooling, one logit."""
 
     _parameter_constraints = {**TorchDetector.TRAINING_CONSTRAINTS, "filters": Interval(int, 1, 64)}
-    check_params = {"max_epochs": 2, "patience": 1}
+    check_params = {"max_epochs": 2, "patience": 1}  # fast conformance checks
 
-    def __init__(self, filters=8, batch_size=64, learning_rate=1e-2, max_epochs=20, patience=3,
-                 validation_fraction=0.2, device="auto"):  # fmt: skip
+    def __init__(
+        self,
+        filters=8,
+        batch_size=64,
+        learning_rate=1e-2,
+        max_epochs=20,
+        patience=3,
+        validation_fraction=0.2,
+        device="auto",
+    ):
         super().__init__(
             batch_size, learning_rate, max_epochs, patience, validation_fraction, device
         )
         self.filters = filters
 
-    def build(self, window_length, n_channels):  # windows (batch, n_channels, window_length)
-        from torch import nn
+    def build(self, window_length, n_channels):  # (batch, n_channels, window) -> (batch, 1)
+        from torch import nn  # imported where the model is built: the plugin loads without torch
 
         return nn.Sequential(
             nn.Conv1d(n_channels, self.filters, 5, padding=2),
@@ -38,7 +47,7 @@ class TinyCNN(TorchDetector):
         )
 
 
-# ------------------------------------------------------------------------------------------------
+# --8<-- [end:tinycnn]
 
 
 @parametrize_with_checks([TinyCNN()])

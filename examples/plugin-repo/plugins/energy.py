@@ -1,4 +1,5 @@
-"""The README's example detector: mean absolute signal above a training quantile."""
+"""The example detector of the README and the plugins guide: mean absolute signal above a
+training quantile."""
 
 import numpy as np
 

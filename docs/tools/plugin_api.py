@@ -1,5 +1,5 @@
 """The plugin API reference, ``docs/plugin-api.md``, written from the docstrings of what a
-plugin may use: ``python -m slipbench.testing.apidoc > docs/plugin-api.md``.
+plugin may use: ``python docs/tools/plugin_api.py > docs/plugin-api.md``.
 
 Signatures and text come from the code; each entry's example is kept here, in ``ENTRIES``, and
 the examples run in order as one script (``tests/testing/test_apidoc.py`` runs them and checks
@@ -94,6 +94,17 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 "\n"
                 "\n"
                 'assert "threshold" in ReportedEnergy().fit(x, y).fitted_choices()\n',
+            ),
+            Entry(
+                "slipbench.base:BaseDetector.report_progress",
+                "class PatientEnergy(Energy):\n"
+                "    def _fit(self, x, y, seed):\n"
+                "        for epoch in range(3):  # a long fit says how far it has come\n"
+                "            self.report_progress(epoch + 1, 3, loss=1.0 / (epoch + 1))\n"
+                "        super()._fit(x, y, seed)\n"
+                "\n"
+                "\n"
+                "PatientEnergy().fit(x, y)  # nobody listens here: each report costs one call\n",
             ),
             Entry(
                 "slipbench.base:BaseDetector.streamer",
@@ -289,7 +300,7 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
     (
         "Protocols",
         "A protocol turns the recordings' metadata (one row per recording, columns as in "
-        "[datasets.md](../datasets.md)) into cells; it never sees samples and never trains.",
+        "[Datasets](datasets.md#recordingsparquet-one-row-per-recording)) into cells; it never sees samples and never trains.",
         [
             Entry(
                 "slipbench.protocol:BaseProtocol",
@@ -557,10 +568,10 @@ def render() -> str:
         "",
         "Every class, function and hook a detector or protocol plugin may use, with its "
         "signature and an example. Generated from the docstrings by "
-        "`python -m slipbench.testing.apidoc > docs/plugin-api.md`; do not edit by hand "
+        "`python docs/tools/plugin_api.py > docs/plugin-api.md`; do not edit by hand "
         "(`tests/testing/test_apidoc.py` fails when the page and the code disagree, and runs "
         "the examples below in order, as one script). How to register a plugin and what the "
-        'built-ins do: the README\'s "Writing plugins".',
+        "built-ins do: [Writing plugins](guides/plugins.md).",
         "",
     ]
     for title, _, group in SECTIONS:
