@@ -98,8 +98,8 @@ def every_protocol(dataset: Dataset, store: Path, **options) -> pd.DataFrame:
             ok=("status", lambda s: int((s == "ok").sum())),
             skipped=("status", lambda s: int((s == "skipped").sum())),
             failed=("status", lambda s: int(s.isin(["failed", "timeout"]).sum())),
-            balanced_accuracy=("balanced_accuracy", lambda s: 100 * s.mean()),
-            detection_rate=("detection_rate", lambda s: 100 * s.mean()),
+            balanced_accuracy_pct=("balanced_accuracy", lambda s: 100 * s.mean()),
+            detection_rate_pct=("detection_rate", lambda s: 100 * s.mean()),
             why_skipped=("reason", lambda s: "; ".join(sorted(set(s.dropna()) - {""}))),
         )
         .reset_index()
@@ -140,13 +140,11 @@ def speed(windows: int, window: int, lstm_windows: int, repeats: int) -> pd.Data
     uni, multi = toy_windows(windows, window), toy_channel_windows(windows, window, channels=6)
     few = toy_windows(lstm_windows, window)
     me = reference_name()
+    cases = [("holweg", uni), ("bandpass", uni), (me, uni), (me, multi), ("lstm", few)]
     with threadpool_limits(1):
-        for name in ("holweg", me):  # warm-up: imports, first calls
-            cost(name, *toy_windows(200, window), 1)
-        table = pd.DataFrame(
-            [cost(n, *uni, repeats) for n in ("holweg", "bandpass", me)]
-            + [cost(me, *multi, repeats), cost("lstm", *few, 1)]
-        )
+        for name, (x, y) in cases:  # warm-up: imports, numba's compilation, first calls
+            cost(name, x[:200], y[:200], 1)
+        table = pd.DataFrame([cost(n, x, y, 1 if n == "lstm" else repeats) for n, (x, y) in cases])
     base = table.iloc[0]
     for figure in ("train_us_per_sample", "infer_us_per_window"):
         table[f"{figure} / holweg"] = table[figure] / base[figure]
@@ -154,7 +152,9 @@ def speed(windows: int, window: int, lstm_windows: int, repeats: int) -> pd.Data
 
 
 def _md(table: pd.DataFrame, digits: int = 3) -> str:
-    return table.to_markdown(index=False, floatfmt=f".{digits}g")
+    """Markdown, "-" where a figure does not apply (a streaming cell's accuracy)."""
+    shown = table.astype(object).where(table.notna(), None)
+    return shown.to_markdown(index=False, floatfmt=f".{digits}g", missingval="-")
 
 
 def accuracy_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -162,10 +162,11 @@ def accuracy_table(rows: pd.DataFrame) -> pd.DataFrame:
     reference's mean on the same input lies above it."""
     by = rows.groupby(["detector", "input"])["balanced_accuracy"]
     table = (by.agg(["mean", "std", "min", "max", "size"]) * [100, 100, 100, 100, 1]).reset_index()
+    table = table.rename(columns={"std": "SD", "size": "seeds"})
     me = table[table.detector == reference_name()].set_index("input")["mean"]
     table["reference - it"] = table["input"].map(me) - table["mean"]
     table = table.sort_values(["input", "mean"], ascending=[True, False])
-    return table.rename(columns={"size": "seeds"}).round(1)
+    return table.round(1)
 
 
 def provenance(args: argparse.Namespace, dos: Dataset, sim: Dataset, load: str) -> str:
