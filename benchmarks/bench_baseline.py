@@ -60,9 +60,12 @@ def reference_name() -> str:
     return next(n for n in detectors.names() if detectors.get(n).reference)
 
 
-def runnable() -> list[str]:
-    """The registered detectors that can run here (minirocket needs aeon)."""
-    return [n for n in detectors.names() if detectors.status(n).state == "ok"]
+def runnable() -> tuple[list[str], list[str]]:
+    """The registered detectors that can run here, and those that cannot, with why (minirocket
+    needs aeon)."""
+    status = {n: detectors.status(n) for n in detectors.names()}
+    absent = [f"{n} ({s.state}: {s.detail})" for n, s in status.items() if s.state != "ok"]
+    return [n for n, s in status.items() if s.state == "ok"], absent
 
 
 def runs_of(names: list[str], protocol: str, seeds: range, **options) -> list[Run]:
@@ -79,7 +82,7 @@ def runs_of(names: list[str], protocol: str, seeds: range, **options) -> list[Ru
 
 def dos_accuracy(dos: Dataset, work: Path, seeds: int) -> pd.DataFrame:
     """Balanced accuracy of every runnable detector and input at 500 ms, seed by seed."""
-    runs = runs_of(runnable(), "window-size", range(seeds), windows=[WINDOW], split="grouped")
+    runs = runs_of(runnable()[0], "window-size", range(seeds), windows=[WINDOW], split="grouped")
     return evaluate(dos, runs, ResultsStore(work / "dos-500ms"), jobs=1, progress=True)
 
 
@@ -205,6 +208,7 @@ recordings). "reference - it": how far `features` on the same input lies above t
 Issue 36's independent logistic regression on per-channel statistics reached
 {independent:.1f} % on channels (grouped 5-fold by recording, every window, no balancing: a
 different protocol, so a guide, not a twin); `features` on channels lies {gap:+.1f} points from it.
+Detectors that could not run here: {absent}.
 
 {accuracy}
 
@@ -260,6 +264,7 @@ def main() -> None:
         independent=100 * INDEPENDENT_CHANNELS,
         gap=float(mine["mean"].iloc[0]) - 100 * INDEPENDENT_CHANNELS,
         accuracy=_md(accuracy),
+        absent="; ".join(runnable()[1]) or "none",
         scale=args.scale,
         failed=int(simulation["failed"].sum() + on_dos["failed"].sum()) or "none",
         simulation=_md(simulation),
