@@ -231,8 +231,8 @@ DoS:
 Best of {repeats} fits and of at least 3 scorings on {windows:,} toy windows of {window}
 samples (the LSTM fitted once, on {lstm_windows:,}, at its defaults with early stopping), one
 thread, the detectors one after another on a shared machine: read ratios, not absolute times.
-Training: microseconds
-per window sample (`train_us_per_sample`); scoring: per window (`infer_us_per_window`).
+Training: microseconds per window sample (`train_us_per_sample`); scoring: per window
+(`infer_us_per_window`).
 
 {speed}
 """
