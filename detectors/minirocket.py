@@ -2,9 +2,12 @@
 transform for time series classification", KDD 2021), beyond the paper: random convolutional
 kernels' proportions of positive values, standardized, into a cross-validated ridge classifier.
 
-Uses aeon's implementation. Windows shorter than MiniRocket's minimum of 9 samples are padded
-with zeros at the start (the signal is a difference, so zero is "no change"); the scores are a
-logistic of the ridge decision function.
+Uses aeon's implementation, which is multivariate: on windows of channels each kernel sums the
+convolutions of a random subset of 1 to 9 channels (drawn with the seed), as in MiniRocket's
+multivariate variant. Windows shorter than MiniRocket's minimum of 9 samples are padded with
+zeros at the start (the signal is a difference, so zero is "no change"; channels are
+standardized by the engine, so zero is their training mean); the scores are a logistic of the
+ridge decision function.
 
 Default ``n_kernels=1000`` (the paper of MiniRocket uses 10,000): a default-dataset cell at
 window 5 holds 40,000 training windows, and 10,000 features for each took 11 GB and many minutes
@@ -28,14 +31,22 @@ MIN_LENGTH = 9
 
 
 def _pad(x: np.ndarray) -> np.ndarray:
-    if x.shape[1] >= MIN_LENGTH:
-        return x
-    return np.pad(x, ((0, 0), (MIN_LENGTH - x.shape[1], 0)))
+    """Series (..., length) zero-padded at the start to MiniRocket's minimum length."""
+    short = MIN_LENGTH - x.shape[-1]
+    return x if short <= 0 else np.pad(x, ((0, 0),) * (x.ndim - 1) + ((short, 0),))
+
+
+def _series(x: np.ndarray) -> np.ndarray:
+    """Windows (n, length) or (n, length, channels) as aeon's padded float32 series
+    (n, channels, length)."""
+    series = x[:, None, :] if x.ndim == 2 else np.moveaxis(x, 2, 1)
+    return np.ascontiguousarray(_pad(series), dtype=np.float32)
 
 
 class MiniRocketDetector(BaseDetector):
     """MiniRocket features and a ridge classifier; ``n_kernels`` features (rounded by MiniRocket)."""
 
+    inputs = ("univariate", "channels")
     check_params = {"n_kernels": 168}
     requires = ("aeon",)
     install_hint = "pip install 'slipbench[minirocket]'"
@@ -54,6 +65,7 @@ class MiniRocketDetector(BaseDetector):
         # aeon's own transform kernel; calling it directly keeps the fitted state plain arrays
         from aeon.transformations.collection.convolution_based._minirocket import (
             MiniRocket,
+            _static_transform_multi,
             _static_transform_uni,
         )
 
@@ -64,7 +76,11 @@ class MiniRocketDetector(BaseDetector):
             self.features_per_dilation_,
             self.biases_,
         )
-        features = _static_transform_uni(_pad(x).astype(np.float32), params, MiniRocket._indices)
+        series = _series(x)
+        if series.shape[1] == 1:  # aeon's own choice: its univariate kernel is the faster
+            features = _static_transform_uni(series[:, 0], params, MiniRocket._indices)
+        else:
+            features = _static_transform_multi(series, params, MiniRocket._indices)
         return (features - self.mean_) / self.std_
 
     def _fit(self, x, y, seed):
@@ -83,7 +99,7 @@ class MiniRocketDetector(BaseDetector):
         transform = MiniRocket(
             self.n_kernels, self.max_dilations_per_kernel, n_jobs=1, random_state=seed
         )
-        transform.fit(_pad(x)[:, None, :])
+        transform.fit(_series(x))
         (
             self.num_channels_,
             self.channel_indices_,

@@ -86,7 +86,9 @@ class BaseDetector(Parameterized):
     hyperparameters that make the conformance checks fast (few epochs, few kernels), applied to
     a clone by :mod:`slipbench.testing`; ``data_files``, files (or folders) the plugin reads,
     relative to the folder of the module that declares them, which are part of its code
-    identity (cache keys); and the classmethod :meth:`benchmark`.
+    identity (cache keys); ``reference``, True on the one detector that is the baseline every
+    table compares against (``slipbench list`` says which); and the classmethod
+    :meth:`benchmark`.
 
     ``inputs`` says which windows the detector reads: ``("univariate",)`` (the default), windows
     (n_windows, window_length) of the paper's signal s_t = ||a_t|| - ||a_{t-1}||;
@@ -103,6 +105,7 @@ class BaseDetector(Parameterized):
     check_params: ClassVar[dict[str, Any]] = {}  # fast settings for the conformance checks
     data_files: ClassVar[tuple[str, ...]] = ()  # e.g. ("weights.json",): hashed into cache keys
     inputs: ClassVar[tuple[str, ...]] = ("univariate",)  # or ("univariate", "channels"), ...
+    reference: ClassVar[bool] = False  # True on the baseline every table compares against
 
     # -- input checks
     def _check_x(self, x: Any) -> np.ndarray:

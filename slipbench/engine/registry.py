@@ -251,7 +251,8 @@ class Registry(Generic[Plugin]):
         return source.package or source.origin
 
     def describe(self, name: str) -> dict[str, Any]:
-        """Id, status, one-line description and parameters with defaults (``slipbench list``)."""
+        """Id, status, one-line description and parameters with defaults (``slipbench list``);
+        for a detector also its ``inputs`` and whether it is the ``reference``."""
         status = self.status(name)
         out: dict[str, Any] = {
             "name": name,
@@ -266,8 +267,9 @@ class Registry(Generic[Plugin]):
         if name in self._loaded:
             cls = self._loaded[name]
             out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
-            if hasattr(cls, "inputs"):  # a detector: what it reads (evaluate --input)
+            if issubclass(cls, BaseDetector):  # what it reads (evaluate --input), its mark
                 out["inputs"] = list(cls.inputs)
+                out["reference"] = bool(cls.reference)
             constraints = cls._parameter_constraints
             out["parameters"] = {
                 p: {

@@ -1,4 +1,4 @@
-"""Detector-specific behaviour (bandpass, wavelet-svm, minirocket), and a detector that raises
+"""Detector-specific behaviour (bandpass, wavelet-svm, minirocket on both inputs), and a detector that raises
 during a run."""
 
 from __future__ import annotations
@@ -68,6 +68,27 @@ def test_minirocket_pads_short_windows():
     padded = _pad(x)
     assert padded.shape == (3, 9) and (padded[:, :4] == 0).all() and (padded[:, 4:] == 1).all()
     assert _pad(np.ones((2, 12))).shape == (2, 12)
+
+
+def test_minirocket_series_put_channels_before_time():
+    from slipbench.detectors.minirocket import _series
+
+    x = np.arange(2 * 5 * 3, dtype=np.float64).reshape(2, 5, 3)  # (n, length, channels)
+    series = _series(x)
+    assert series.shape == (2, 3, 9) and series.dtype == np.float32
+    assert (series[:, :, :4] == 0).all() and (series[1, 2, 4:] == x[1, :, 2]).all()
+    assert _series(x[:, :, 0]).shape == (2, 1, 9)
+
+
+def test_minirocket_learns_a_burst_in_one_of_four_channels():
+    pytest.importorskip("aeon")
+    from slipbench.detectors.minirocket import MiniRocketDetector
+
+    x, y = toy_channel_windows(400, 50, channels=4)  # slip: a burst in channel 0 only
+    det = MiniRocketDetector(n_kernels=168).fit(x[:200], y[:200], seed=0)
+    assert det.n_channels_ == 4 and set(det.channel_indices_) <= {0, 1, 2, 3}
+    assert det.num_channels_.max() > 1  # kernels that sum several channels: the multivariate kind
+    assert (det.predict(x[200:]) == y[200:]).mean() > 0.9
 
 
 RAISES = toys.source(toys.Flaky)

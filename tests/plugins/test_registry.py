@@ -33,7 +33,7 @@ def test_plugin_folder_and_broken_plugin(tmp_path):
     ):
         reg.get("broken")
     with pytest.raises(
-        UsageError, match="unknown detector 'x'; available: .*broken, holweg, .*my-energy"
+        UsageError, match="unknown detector 'x'; available: .*broken, .*holweg, .*my-energy"
     ):
         reg.get("x")
 

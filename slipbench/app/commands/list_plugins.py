@@ -11,13 +11,16 @@ from slipbench.app.options import plugins_option
 from slipbench.app.selection import add_plugin_folders
 from slipbench.engine import registry
 
+REFERENCE = "the reference: the baseline every table will compare against"
+
 
 @click.command("list")
 @plugins_option()
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable: one object per plugin.")
 def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
     """The detectors and protocols that can be selected: status, description, where each comes
-    from (package and version, or plugin file), parameters."""
+    from (package and version, or plugin file), parameters, and which detector is the reference
+    baseline."""
     add_plugin_folders(plugins)
     found = {
         kind: [reg.describe(n) for n in reg.names()]
@@ -34,6 +37,8 @@ def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
             click.echo(f"      from {e['from']}")
             if "inputs" in e:
                 click.echo(f"      reads {' and '.join(e['inputs'])} (--input)")
+            if e.get("reference"):
+                click.echo(f"      {REFERENCE}")
             for name, p in e["parameters"].items():
                 click.echo(
                     f"      {name}={p['default']!r}"
