@@ -60,6 +60,16 @@ def _simulated(match: re.Match) -> str:
     )
 
 
+def _sources(path: str) -> list[str]:
+    """The distinct values of the ``source`` column of the dataset at ``path``, sorted."""
+    column = (
+        open_parquet(Path(path) / "recordings.parquet", page_checksum_verification=True)
+        .read(columns=["source"])
+        .column("source")
+    )
+    return sorted({str(s) for s in column.to_pylist() if s is not None})
+
+
 def dataset_source(path: str) -> str:
     """What the dataset at ``path`` is: simulated with its model, scale and seed, or the values
     of its ``source`` column; from its ``recordings.parquet`` where readable, else from the
@@ -67,12 +77,7 @@ def dataset_source(path: str) -> str:
     if not path:
         return "a dataset built in memory (no path recorded)"
     try:
-        column = (
-            open_parquet(Path(path) / "recordings.parquet", page_checksum_verification=True)
-            .read(columns=["source"])
-            .column("source")
-        )
-        sources = sorted({str(s) for s in column.to_pylist() if s is not None})
+        sources = _sources(path)
     except (OSError, pa.ArrowException, KeyError, DataError):
         sources = None
     if sources:
@@ -94,11 +99,8 @@ def simulated(path: str) -> bool:
     if not path:
         return False
     try:
-        column = pq.read_table(
-            Path(path) / "recordings.parquet", columns=["source"], page_checksum_verification=True
-        ).column("source")
-        sources = {str(s) for s in column.to_pylist() if s is not None}
-    except (OSError, pa.ArrowException, KeyError):
+        sources = _sources(path)
+    except (OSError, pa.ArrowException, KeyError, DataError):
         return SYNTH_FOLDER.search(Path(path).name) is not None
     return bool(sources) and all(SYNTH_SOURCE.search(s) for s in sources)
 
