@@ -36,11 +36,13 @@ from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
 from slipbench.report.blocks import Detail, Heading, Link, Text
 from slipbench.report.leaderboard import leaderboard_tables, one_class_table
+from slipbench.report.meta import meta_blocks
 from slipbench.report.outline import (
     as_tested,
     layouts,
     no_cell_note,
     protocol_order,
+    references,
     split_parts,
     splits_of,
     stand_ins,
@@ -57,10 +59,13 @@ from slipbench.report.render import (
     to_markdown,
 )
 from slipbench.report.tables import (
+    NO_BASELINE,
     SIMULATED,
     Table,
+    add_versus,
     baseline_table,
     build_table,
+    change_text,
     compute_table,
     escape,
     fits,
@@ -73,8 +78,9 @@ from slipbench.report.tables import (
     split_table,
     table_keys,
 )
-from slipbench.stats.factors import named_entrants, setting_parts
+from slipbench.stats.factors import ENTRANT_ID, named_entrants, setting_parts
 from slipbench.stats.leaderboard import leaderboard
+from slipbench.stats.pairs import paired_change
 from slipbench.vocabulary import DETECTOR_ORDER
 
 PAPER_DETECTOR = (
@@ -288,6 +294,31 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
     return table
 
 
+def _versus(
+    rows: pd.DataFrame,
+    table: Table,
+    reference: Sequence[str],
+    predictions: Sequence[str | os.PathLike],
+) -> None:
+    """``table`` (a line per detector of ``rows``) with its 'vs baseline' column where the
+    reference detector has rows among ``rows``."""
+    is_ref = (
+        rows[ENTRANT_ID].isin(reference) if ENTRANT_ID in rows else rows["detector"].isin(reference)
+    )
+    if not is_ref.any():
+        return
+    texts, methods = [], []
+    for (detector,) in table.rows:
+        mine = rows["detector"] == detector
+        if is_ref[mine].all():
+            texts.append("reference")
+            continue
+        change = paired_change(rows[is_ref], rows[mine], predictions)
+        texts.append(change_text(change))
+        methods += [change["method"]] if change["method"] else []
+    add_versus(table, texts, ", ".join(reference), methods)
+
+
 def _protocol_blocks(
     rows: pd.DataFrame,
     protocol: str,
@@ -298,6 +329,7 @@ def _protocol_blocks(
     paper: bool,
     figures: dict[str | None, list],  # section -> FigureSpecs
     predictions: Sequence[str | os.PathLike] = (),
+    reference: Sequence[str] = (),
 ) -> list:
     prows = rows[rows["protocol"] == protocol]
     blocks: list = [Heading(protocol, 2)]
@@ -333,6 +365,8 @@ def _protocol_blocks(
                 if table is not None:
                     table.caption += which_text(which)
                     table.subject = f"Protocol {protocol}, {split} split."
+                    if "detector" not in table_keys(part, layout):
+                        _versus(part, table, reference, predictions)
                     blocks.append(table)
         splits = [s for s, _ in splits_of(prows)]
         blocks += sorted(
@@ -430,6 +464,9 @@ def build_report(
         return blocks
     if paper:
         blocks += _findings(lead, found, order)
+    reference = references(cells)
+    if not reference:
+        blocks.append(Text(NO_BASELINE))
     fitted = fitted_tables(cells)
     if fitted:
         # each detector's choices are detail; the warnings about them stay in the summary
@@ -440,7 +477,7 @@ def build_report(
     for protocol in order:
         layout, note = found[protocol]
         blocks += _protocol_blocks(
-            rows, protocol, layout, note, metric, intervals, paper, figures, predictions
+            rows, protocol, layout, note, metric, intervals, paper, figures, predictions, reference
         )
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in lead:
@@ -450,6 +487,7 @@ def build_report(
         blocks += _window_50(
             lead[lead["protocol"].isin(table_one)], title, intervals, paper, predictions
         )
+    blocks += meta_blocks(cells, reference, predictions, with_figures)
     return blocks + reduction_blocks(both, predictions, with_figures)
 
 

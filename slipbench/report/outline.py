@@ -186,3 +186,20 @@ def which_text(which: dict) -> str:
         f" {setting_text(c, v).capitalize()}." if c in SETTINGS else f" {c.capitalize()}: {v}."
         for c, v in which.items()
     )
+
+
+def references(rows: pd.DataFrame) -> list[str]:
+    """The plugin ids of the rows' detectors that are registered as the reference (the
+    baseline every table compares against); a detector that cannot be loaded is none."""
+    from slipbench.engine.registry import detectors
+    from slipbench.stats.factors import ENTRANT_ID
+
+    ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows.get("detector", pd.Series(dtype=str))
+    out = []
+    for name in sorted(ids.dropna().astype(str).unique()):
+        try:
+            if getattr(detectors.get(name), "reference", False):
+                out.append(name)
+        except SlipbenchError:
+            continue
+    return out

@@ -25,7 +25,7 @@ import json
 import os
 import re
 import textwrap
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -45,6 +45,7 @@ from slipbench.protocol import Layout  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
+from slipbench.stats.meta import MetaAnalysis  # noqa: E402
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E402
 
 if TYPE_CHECKING:
@@ -726,3 +727,40 @@ def write_plots(
         if fig is not None:
             paths += save(fig, folder, spec.stem)
     return paths
+
+
+def _literal(name: str) -> str:
+    """A name as matplotlib prints it literally: a ``$`` would start mathtext."""
+    return name.replace("$", r"\$")
+
+
+def forest(metas: Sequence[MetaAnalysis]) -> Figure | None:
+    """A forest plot of :func:`slipbench.stats.meta.meta_analysis`' results: one panel per
+    detector pair, a line per dataset (dot and 95 % interval) and the pooled change (diamond
+    and interval), changes in accuracy points, a zero line. None when no pair has a change."""
+    metas = [m for m in metas if m.datasets["d"].notna().any()]
+    if not metas:
+        return None
+    with matplotlib.rc_context(STYLE):
+        sizes = [len(m.datasets) + 1 for m in metas]
+        fig = _figure(0.8 + sum(0.35 + 0.2 * n for n in sizes))
+        axes = fig.subplots(len(metas), 1, squeeze=False, sharex=True, height_ratios=sizes)[:, 0]
+        for ax, m in zip(axes, metas):
+            lines = m.datasets.to_dict("records")
+            for y, r in enumerate(lines):
+                if np.isfinite(r["lo"]) and np.isfinite(r["hi"]):
+                    ax.plot([100 * r["lo"], 100 * r["hi"]], [y, y], "-", color="0.3")
+                ax.plot(100 * r["d"], y, "o", color="0.3" if not r["reason"] else "0.7")
+            pooled = len(lines)
+            if np.isfinite(m.d):
+                ax.plot([100 * m.lo, 100 * m.hi], [pooled, pooled], "-", color="#2166ac", lw=1.6)
+                ax.plot(100 * m.d, pooled, "D", color="#2166ac", ms=5)
+            names = [_literal(str(r["dataset"])) for r in lines] + ["pooled"]
+            ax.set_yticks(range(len(names)), names)
+            ax.set_ylim(len(names) - 0.5, -0.5)
+            ax.axvline(0, color="black", lw=0.8)
+            ax.set_title(_literal(f"{m.cand} − {m.base}"), loc="left", pad=2)
+            ax.grid(axis="x", alpha=0.3)
+        axes[-1].set_xlabel("change in accuracy (points)")
+        fig.suptitle("One verdict across datasets")
+        return fig

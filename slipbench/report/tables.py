@@ -1085,3 +1085,39 @@ def split_table(
             "testing on trials it trained on."
         ],
     )
+
+
+# ----------------------------------------------------------------------------- the line to beat
+VERSUS = "vs baseline"
+NO_BASELINE = (
+    "No baseline ran: none of these detectors is the registered reference (`slipbench list` "
+    "marks it), so no table shows a 'vs baseline' column."
+)
+
+
+def change_text(change: dict) -> str:
+    """A change from :func:`slipbench.stats.pairs.paired_change` in accuracy points:
+    ``+3.2 [1.0, 5.4]``; why there is none where no cell is shared."""
+    if change["n_cells"] == 0:
+        return "no shared cell"
+    text = f"{100 * change['d']:+.1f}"
+    if np.isfinite(change["lo"]) and np.isfinite(change["hi"]):
+        text += f" [{100 * change['lo']:+.1f}, {100 * change['hi']:+.1f}]"
+    return text
+
+
+def add_versus(table: Table, texts: Sequence[str], reference: str, methods: Sequence[str]) -> None:
+    """``table`` (a line per detector) with a last column: each line's change from the
+    ``reference`` detector (``texts``, in the table's line order), and a note saying how."""
+    header = f"{VERSUS} ({reference})"
+    table.columns.append(header)
+    if table.latex_columns is not None:
+        table.latex_columns.append(escape(header))
+    for line, text in zip(table.cells, texts):
+        line.append(text)
+    how = "; ".join(sorted(set(methods)))
+    table.notes.append(
+        f"{header}: each detector's accuracy minus the reference's, in points, the mean over the "
+        "cells and seeds both finished (the same cells, input and split), with its 95 % interval "
+        f"(each line's alone, not simultaneous){': ' + how if how else ''}."
+    )

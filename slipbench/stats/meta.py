@@ -1,0 +1,125 @@
+"""One verdict across datasets: the change from one detector to another on each dataset
+(:func:`slipbench.stats.pairs.paired_change`, over the cells both ran there) pooled by a
+random-effects meta-analysis, as MOABB judges pipelines across datasets.
+
+The pooling is statsmodels' ``combine_effects`` with the Paule-Mandel estimator of the spread
+between datasets (``method_re="iterated"``): with the handful of datasets a lab holds it is less
+biased than DerSimonian-Laird's moment estimator, and both agree where the datasets agree. Each
+dataset's variance is its change's squared standard error; the pooled interval is normal
+(statsmodels' default). tau² is the variance of the true change between datasets (accuracy
+points squared), I² the share of the spread of the datasets' changes that it explains. With two
+or three datasets tau² is poorly pinned down: the report says how many datasets stand behind it.
+
+Rows tested on a dataset other than the one that trained them (transfer, a ``sensor_map``) are
+no dataset of their own and never enter. A dataset whose change has no standard error, or a
+zero one (the same predictions on both sides), would take every weight: it is listed with the
+reason and left out of the pooling.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from statsmodels.stats.meta_analysis import combine_effects
+
+from slipbench.stats.metrics import LEVEL
+from slipbench.stats.pairs import paired_change
+
+#: statsmodels' name for the Paule-Mandel estimator of tau²
+METHOD_RE = "iterated"
+METHOD_TEXT = "random effects, Paule-Mandel estimate of tau² (statsmodels combine_effects)"
+#: the columns of :attr:`MetaAnalysis.datasets`
+DATASET_COLUMNS = ["dataset", "n_cells", "d", "lo", "hi", "se", "method", "reason"]
+
+
+@dataclass
+class MetaAnalysis:
+    """One detector pair across datasets: changes are ``cand`` minus ``base`` accuracy,
+    fractions (0.03: 3 points)."""
+
+    base: str
+    cand: str
+    # one line per dataset holding both detectors: DATASET_COLUMNS; ``reason`` non-empty where
+    # the dataset is left out of the pooling
+    datasets: pd.DataFrame
+    d: float = np.nan
+    lo: float = np.nan
+    hi: float = np.nan
+    tau2: float = np.nan
+    i2: float = np.nan
+    pooled_over: int = 0
+    notes: list[str] = field(default_factory=list)
+
+
+def tested_apart(rows: pd.DataFrame) -> pd.Series:
+    """(n_rows,) bool: rows trained on one dataset and tested on another (a ``sensor_map``)."""
+    if "sensor_map" not in rows:
+        return pd.Series(False, index=rows.index, dtype=bool)
+    return rows["sensor_map"].notna() & rows["sensor_map"].astype(str).ne("")
+
+
+def pool(effects: Sequence[float], ses: Sequence[float], level: float = LEVEL) -> dict:
+    """The random-effects pooled change of ``effects`` with standard errors ``ses`` (two or
+    more, every one positive): ``d``, ``lo``, ``hi``, ``tau2``, ``i2``."""
+    res = combine_effects(
+        np.asarray(effects, float),
+        np.asarray(ses, float) ** 2,
+        method_re=METHOD_RE,
+        alpha=1 - level,
+    )
+    lo, hi = res.conf_int(alpha=1 - level)[1]
+    return {
+        "d": float(res.mean_effect_re),
+        "lo": float(lo),
+        "hi": float(hi),
+        "tau2": float(res.tau2),
+        "i2": float(res.i2),
+    }
+
+
+def meta_analysis(
+    per_dataset: dict[str, tuple[pd.DataFrame, pd.DataFrame]],
+    base: str,
+    cand: str,
+    folders: Sequence[str | os.PathLike] = (),
+    *,
+    seed: int = 0,
+    level: float = LEVEL,
+) -> MetaAnalysis:
+    """``per_dataset``: dataset name -> (base's rows, cand's rows) on it, transfer rows already
+    left out. Each dataset's change with its interval at ``level``, then the pooled change."""
+    lines = []
+    for name, (b, c) in per_dataset.items():
+        res = paired_change(b, c, folders, seed, level)
+        reason = ""
+        if res["n_cells"] == 0:
+            reason = "no cell that both detectors finished"
+        elif not np.isfinite(res["se"]):
+            reason = "no standard error in its rows"
+        elif res["se"] <= 0:
+            reason = "no spread (zero standard error: the two sides scored alike)"
+        lines.append(
+            {"dataset": name, **{k: res[k] for k in DATASET_COLUMNS[1:-1]}, "reason": reason}
+        )
+    frame = pd.DataFrame(lines, columns=DATASET_COLUMNS)
+    out = MetaAnalysis(base, cand, frame)
+    used = frame[frame["reason"] == ""]
+    out.pooled_over = len(used)
+    if len(used) < 2:
+        out.notes.append(
+            f"{len(used)} dataset with a change to pool: no pooled change (it needs two or more)."
+            if len(used) == 1
+            else "No dataset with a change to pool."
+        )
+        return out
+    res = pool(used["d"], used["se"], level)
+    out.d, out.lo, out.hi, out.tau2, out.i2 = (res[k] for k in ("d", "lo", "hi", "tau2", "i2"))
+    if len(used) < 4:
+        out.notes.append(
+            f"tau² rests on {len(used)} datasets: the spread between datasets is poorly pinned down."
+        )
+    return out
