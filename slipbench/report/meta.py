@@ -16,7 +16,7 @@ import pandas as pd
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.outline import splits_of
 from slipbench.report.tables import Table, rank
-from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, tested_apart
+from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, transferred
 from slipbench.vocabulary import DETECTOR_ORDER
 
 TITLE = "Across datasets"
@@ -54,7 +54,7 @@ def analyses(
     fewer than two datasets. Transfer rows never enter."""
     if "dataset_fingerprint" not in rows or "detector" not in rows:
         return []
-    rows = rows[~tested_apart(rows) & rows["dataset_fingerprint"].notna()]
+    rows = rows[~transferred(rows) & rows["dataset_fingerprint"].notna()]
     if rows.empty:
         return []
     rows = splits_of(rows)[0][1]

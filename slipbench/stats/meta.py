@@ -55,7 +55,7 @@ class MetaAnalysis:
     notes: list[str] = field(default_factory=list)
 
 
-def tested_apart(rows: pd.DataFrame) -> pd.Series:
+def transferred(rows: pd.DataFrame) -> pd.Series:
     """(n_rows,) bool: rows trained on one dataset and tested on another (a ``sensor_map``)."""
     if "sensor_map" not in rows:
         return pd.Series(False, index=rows.index, dtype=bool)
@@ -65,19 +65,22 @@ def tested_apart(rows: pd.DataFrame) -> pd.Series:
 def pool(effects: Sequence[float], ses: Sequence[float], level: float = LEVEL) -> dict:
     """The random-effects pooled change of ``effects`` with standard errors ``ses`` (two or
     more, every one positive): ``d``, ``lo``, ``hi``, ``tau2``, ``i2``."""
-    res = combine_effects(
-        np.asarray(effects, float),
-        np.asarray(ses, float) ** 2,
-        method_re=METHOD_RE,
-        alpha=1 - level,
-    )
+    with np.errstate(divide="ignore"):  # its I² divides by Q; computed below
+        res = combine_effects(
+            np.asarray(effects, float),
+            np.asarray(ses, float) ** 2,
+            method_re=METHOD_RE,
+            alpha=1 - level,
+        )
     lo, hi = res.conf_int(alpha=1 - level)[1]
+    # I² = max(0, (Q - df) / Q); statsmodels divides by Q, which is 0 where the effects agree
+    q, df = float(res.q), len(effects) - 1
     return {
         "d": float(res.mean_effect_re),
         "lo": float(lo),
         "hi": float(hi),
         "tau2": float(res.tau2),
-        "i2": float(res.i2),
+        "i2": max(0.0, (q - df) / q) if q > 0 else 0.0,
     }
 
 

@@ -1,0 +1,91 @@
+"""The random-effects verdict across datasets: known effects recovered, degenerate cases said."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from resultgen import fake_rows
+
+from slipbench.stats.meta import meta_analysis, pool, transferred
+from slipbench.stats.pairs import paired_change
+
+FIGURES = ("accuracy", "tp_rate", "tn_rate")
+
+
+def shifted(rows: pd.DataFrame, detector: str, shift: float) -> pd.DataFrame:
+    """``rows`` as another detector's, every figure and bound moved by ``shift``: its true change."""
+    out = rows.assign(detector=detector, key=rows["key"] + detector)
+    for name in FIGURES:
+        for col in (name, f"{name}_lo", f"{name}_hi"):
+            out[col] = rows[col] + shift
+    return out
+
+
+def dataset(fingerprint: str, shift: float) -> tuple[pd.DataFrame, pd.DataFrame]:
+    base = fake_rows("speed-holdout", "features").head(12).assign(dataset_fingerprint=fingerprint)
+    return base, shifted(base, "holweg", shift)
+
+
+def test_two_datasets_of_known_effects_are_recovered_within_their_intervals():
+    effects = {"sim": 0.06, "dos": 0.02}
+    m = meta_analysis({n: dataset(n, e) for n, e in effects.items()}, "features", "holweg")
+    for line in m.datasets.to_dict("records"):
+        truth = effects[line["dataset"]]
+        assert line["lo"] < truth < line["hi"]
+        assert abs(line["d"] - truth) < 1e-9
+        assert line["reason"] == ""
+    assert m.pooled_over == 2
+    assert m.lo < np.mean(list(effects.values())) < m.hi
+    assert min(effects.values()) < m.d < max(effects.values())
+    assert m.tau2 >= 0 and 0 <= m.i2 <= 1
+
+
+def test_pool_agrees_with_a_fixed_effect_where_datasets_agree():
+    res = pool([0.03, 0.03, 0.03], [0.01, 0.02, 0.01])
+    assert res["tau2"] == 0 and res["i2"] == 0
+    assert abs(res["d"] - 0.03) < 1e-12 and res["lo"] < 0.03 < res["hi"]
+
+
+def test_one_dataset_gives_its_change_and_no_pooled_one():
+    m = meta_analysis({"sim": dataset("sim", 0.04)}, "features", "holweg")
+    assert len(m.datasets) == 1 and np.isfinite(m.datasets["d"].iloc[0])
+    assert np.isnan(m.d) and m.pooled_over == 1
+    assert "no pooled change" in m.notes[0]
+
+
+def test_a_pair_missing_on_one_dataset_is_said_not_pooled():
+    base, _ = dataset("dos", 0.0)
+    per = {"sim": dataset("sim", 0.04), "dos": (base, base.iloc[:0]), "lab": dataset("lab", 0.01)}
+    m = meta_analysis(per, "features", "holweg")
+    dos = m.datasets.set_index("dataset").loc["dos"]
+    assert dos["n_cells"] == 0 and "no cell" in dos["reason"]
+    assert m.pooled_over == 2 and np.isfinite(m.d)
+
+
+def test_zero_variance_is_left_out_with_its_reason():
+    base, cand = dataset("sim", 0.0)
+    flat = cand.copy()
+    for name in FIGURES:  # no spread at all: bounds equal to the figure
+        flat[f"{name}_lo"] = flat[f"{name}_hi"] = flat[name]
+    base_flat = base.copy()
+    for name in FIGURES:
+        base_flat[f"{name}_lo"] = base_flat[f"{name}_hi"] = base_flat[name]
+    per = {"sim": (base_flat, flat), "dos": dataset("dos", 0.02), "lab": dataset("lab", 0.03)}
+    m = meta_analysis(per, "features", "holweg")
+    sim = m.datasets.set_index("dataset").loc["sim"]
+    assert "zero standard error" in sim["reason"]
+    assert m.pooled_over == 2 and np.isfinite(m.lo)
+
+
+def test_pairing_keeps_inputs_and_seeds_apart():
+    base = fake_rows("window-size", "features", seeds=(0, 1)).head(12)
+    cand = shifted(base, "tcn", 0.05)
+    both = pd.concat([base, base.assign(input="channels", accuracy=base["accuracy"] - 0.5)])
+    change = paired_change(both, cand)  # cand has univariate rows only: pairs with those
+    assert change["n_cells"] == base["cell"].nunique()
+    assert abs(change["d"] - 0.05) < 1e-9 and change["lo"] < 0.05 < change["hi"]
+
+
+def test_transfer_rows_are_marked_apart():
+    rows = fake_rows("window-size").head(3).assign(sensor_map=[None, '{"a": "b"}', ""])
+    assert transferred(rows).tolist() == [False, True, False]
