@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import os
-import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -25,12 +24,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.errors import DataError
 from slipbench.stats.compare import cell_sides, unpaired_cell
 from slipbench.stats.metrics import LEVEL
 from slipbench.stats.pooled import pooled_change, pooled_from_rows
-from slipbench.stats.reduction import inputs
-from slipbench.store.results import read_predictions
+from slipbench.stats.reduction import _find_predictions, _plain, inputs  # shared pairing helpers
 
 #: what two detectors' rows of one cell share (where the rows hold the column)
 CELL_COLUMNS = (
@@ -47,12 +44,6 @@ CELL_COLUMNS = (
     "dataset_fingerprint",
     "sensor_map",
 )
-
-
-def _plain(value: Any) -> Any:
-    if value is None or (np.ndim(value) == 0 and pd.isna(value)):
-        return None
-    return value.item() if isinstance(value, np.generic) else value
 
 
 def cell_of(row: dict) -> str:
@@ -76,20 +67,6 @@ def _by_cell(rows: pd.DataFrame) -> dict[str, list[dict]]:
     for seeds in out.values():
         seeds.sort(key=lambda r: float(_plain(r.get("seed")) or -1))
     return out
-
-
-def _predictions(folders: Sequence[Path], key: str) -> pd.DataFrame | None:
-    """A cell's stored predictions from the first folder holding them; a damaged file costs
-    the cell its window-by-window pairing, not the report."""
-    for folder in folders:
-        try:
-            found = read_predictions(folder, key)
-        except DataError as exc:
-            warnings.warn(f"{exc}; the cell is compared from its rows", stacklevel=3)
-            return None
-        if found is not None:
-            return found
-    return None
 
 
 def _once(rows: list[dict]) -> bool:
@@ -122,8 +99,8 @@ def paired_change(
     paths = [Path(f) for f in folders]
     preds = [
         (
-            [_predictions(paths, str(r["key"])) for r in b[k]],
-            [_predictions(paths, str(r["key"])) for r in c[k]],
+            [_find_predictions(paths, str(r["key"])) for r in b[k]],
+            [_find_predictions(paths, str(r["key"])) for r in c[k]],
         )
         for k in kept
     ]
