@@ -1,12 +1,14 @@
 """The embedded default dataset: a physical simulation of the paper's design of experiments.
 
 Three sensor types (Nano17, OptoForce20, BioTac SP) on the fingers of a hand, five materials,
-slip at four average speeds, pressing (palpation) on each material, free-space motion at three
-speeds, and continuous onset trials (``hold-slip``: contact held, then slip, sometimes a drop)
-for streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that
-the paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
+slip at four average speeds, pressing on each material (palpating it, lifting it, pushing it:
+shear without slip, up to the friction cone), free-space motion at three speeds, and
+continuous onset trials (``hold-slip``: contact held, then slip, sometimes a drop) for
+streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that the
+paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
 :class:`ElectrodeArray` or :class:`Material` and is described, with where its value comes from,
-in ``datasets.md``. The model is physical and is *not* fitted to the paper's accuracies.
+in ``datasets.md`` and ``docs/simulation.md`` (the contact's mechanics, model version 4). The
+model is physical and is *not* fitted to the paper's accuracies.
 
 Variability is layered as in a real campaign: each unit differs from its nominal type (gain,
 noise, the finger's share of the contact force, mass, finger stiffness, skin, mount); each
@@ -594,12 +596,10 @@ class Take:
     def mu_static(self) -> float:
         return self.p.static_friction_ratio * self.mu_kinetic
 
-    @property
-    def grip(self) -> float:
-        """A normal force of the trial's range, as this finger shares it in this recording."""
-        return (
-            self.trial_rng.uniform(*self.p.normal_force_n) * self.unit.force_share * self.sig.force
-        )
+    def draw_normal(self) -> float:
+        """Draw the trial's normal force from its range, as this finger shares it here."""
+        share = self.unit.force_share * self.sig.force
+        return self.trial_rng.uniform(*self.p.normal_force_n) * share
 
 
 def _edge_slips(take: Take, shear: np.ndarray, normal: np.ndarray, stuck: np.ndarray):
@@ -632,7 +632,7 @@ def _slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     speed = take.arm_speed * (1 - np.cos(phase))  # mm/s, its mean the cell's speed
     pulled = take.arm_speed * pass_s * (phase - np.sin(phase)) / (2 * np.pi)  # mm this leg
     direction = np.where(leg % 2 == 0, 1.0, -1.0)
-    normal0 = take.grip
+    normal0 = take.draw_normal()
     osc = take.trial_rng.uniform(*p.arm_oscillation_hz)
     normal = normal0 * (
         1 + p.arm_oscillation_depth * np.sin(2 * np.pi * osc * t + rng.uniform(0, 2 * np.pi))
@@ -704,7 +704,7 @@ def _hold_slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     n, fs, p, rng, m, trial_rng = take.n, take.fs, take.p, take.rng, take.surface, take.trial_rng
     t = np.arange(n) / fs
     hold = min(trial_rng.uniform(*p.hold_s), 0.3 * n / fs)
-    normal0 = take.grip
+    normal0 = take.draw_normal()
     drops = trial_rng.random() < p.drop_fraction
     drop_after = trial_rng.uniform(*p.drop_after_s)
     osc = trial_rng.uniform(*p.arm_oscillation_hz)
