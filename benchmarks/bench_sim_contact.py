@@ -3,8 +3,9 @@ SP's electrodes compare with real ones? The study behind ``docs/simulation.md``.
 
 Force sensors (Nano17, OptoForce20): per slip or pressing recording, the median of |f_t| / |f_n|
 over its loaded samples (|f_n| > ``LOADED_N``), the force recovered from the channels by the
-unit's calibration (the pseudo-inverse of its mix, as a lab's calibration matrix does); the
-AUROC of that one number for slip against pressing, per sensor type (units pooled) and per unit.
+unit's calibration (``synth.calibrated_forces``; the units' draws are the same in model
+versions 2-4, so an earlier model's dataset reads through them too); the AUROC of that one
+number for slip against pressing, per sensor type (units pooled) and per unit.
 
 Electrodes (BioTac SP; the simulated ones resampled from 850 to 100 Hz, the real rate), per
 recording, on its electrodes with their means removed:
@@ -23,8 +24,11 @@ All three are unchanged by reordering the electrodes, so the simulated grid and 
 SP's layout (not reproduced here) compare. Classes: slip against pressing (simulation; units
 apart, and their median), slip (six directions) against touch (BioTacSP-DoS).
 
+Detectors: with ``--results``, each detector and input's mean accuracy per sensor type in each
+results folder (``slipbench evaluate`` on each model's dataset), and the last minus the first.
+
     python benchmarks/bench_sim_contact.py --real DOS [--sim LABEL=DATASET ...] [--scale S]
-        [--seed N] [--out docs/simulation.md]
+        [--seed N] [--results LABEL=RESULTS ...] [--out docs/simulation.md]
 
 ``--real``: the folder ``slipbench dataset import biotacsp-dos`` writes. ``--sim``: a simulated
 dataset folder and its label (e.g. one written by an earlier model version); the current model
@@ -45,7 +49,14 @@ from sklearn.metrics import roc_auc_score
 
 from slipbench.data.format import Dataset
 from slipbench.data.read import read_dataset
-from slipbench.data.synth import MODEL_VERSION, SENSORS, Physics, generate, make_unit
+from slipbench.data.synth import (
+    MODEL_VERSION,
+    SENSORS,
+    Physics,
+    calibrated_forces,
+    generate,
+    make_unit,
+)
 
 LOADED_N = 0.05  # N: a sample carries load (8 x the Nano17's noise floor, 20 x the OptoForce20's)
 MARK = "<!-- bench_sim_contact -->"
@@ -64,11 +75,10 @@ def force_ratios(ds: Dataset) -> pd.DataFrame:
     rec = ds.recordings
     mine = rec[rec["sensor_type"].isin(FORCE_SENSORS) & rec["scenario"].isin(["slip", "press"])]
     for r in mine.itertuples():
-        sensor = SENSORS[r.sensor_type]
         unit = make_unit(seed, r.sensor_type, r.sensor_instance, Physics())
-        f = np.linalg.pinv(unit.mixing) @ ds.samples[r.recording_id].T / sensor.units_per_newton
+        f = calibrated_forces(ds.samples[r.recording_id], SENSORS[r.sensor_type], unit)
         tangential, normal = np.hypot(f[0], f[1]), np.abs(f[2])
-        loaded = normal > LOADED_N * unit.gain
+        loaded = normal > LOADED_N
         if loaded.sum() >= 10:
             ratio = float(np.median(tangential[loaded] / normal[loaded]))
             rows.append((r.sensor_type, r.sensor_instance, r.scenario, ratio))

@@ -271,6 +271,7 @@ class Physics:
     force_wobble_sd: float = 0.15  # the finger's rolling and twisting: its force in a recording
     drift_gain_sd: float = 0.05  # mounting and thermal drift of the sensitivity over a session
     roll_tilt_deg: float = 5.0  # the finger rolling about a millimetre on its rounded tip (deg)
+    heading_sd_deg: float = 15.0  # the shear's heading on the pad off the finger's axis (deg)
     # onset trials (hold, then slip, sometimes a drop)
     hold_s: tuple[float, float] = (0.5, 1.5)  # contact held still before the arm moves
     ramp_s: float = 0.3  # the arm accelerates to the trial's speed in this time
@@ -418,6 +419,7 @@ class Signature:
     drift: float  # mounting and thermal drift of the sensitivity
     friction: float  # factor on the material's friction: the trial's surface, the local spot
     roll: np.ndarray  # (3, 3) the finger rolling: the contact's normal tilts a little further
+    heading: float  # radians: where the shear points on the pad, off the finger's axis
 
 
 def _signature(rng: np.random.Generator, trial_rng: np.random.Generator, p: Physics) -> Signature:
@@ -435,6 +437,7 @@ def _signature(rng: np.random.Generator, trial_rng: np.random.Generator, p: Phys
             _spread(trial_rng, p.friction_trial_sd * k) * _spread(rng, p.friction_local_sd * k)
         ),
         roll=_tilt(rng, p.roll_tilt_deg * k),
+        heading=float(np.radians(rng.normal(0.0, p.heading_sd_deg * k))),
     )
 
 
@@ -596,6 +599,12 @@ class Take:
     def mu_static(self) -> float:
         return self.p.static_friction_ratio * self.mu_kinetic
 
+    def on_pad(self, along: np.ndarray, across: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """Forces (3, n) on the pad from the shear along the load's heading and across it, and
+        the normal load: the heading is the finger's axis turned by ``sig.heading``."""
+        c, s = np.cos(self.sig.heading), np.sin(self.sig.heading)
+        return np.stack([c * along - s * across, s * along + c * across, normal])
+
     def draw_normal(self) -> float:
         """Draw the trial's normal force from its range, as this finger shares it here."""
         share = self.unit.force_share * self.sig.force
@@ -653,7 +662,7 @@ def _slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     ringing = _resonate(impulses, f0, zeta, fs)
     vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
     across = 0.3 * vib * rng.choice([-1, 1])
-    contact = np.stack([direction * held + vib, across, normal + 0.5 * ringing])
+    contact = take.on_pad(direction * held + vib, across, normal + 0.5 * ringing)
     return contact * take.unit.coupling * take.sig.patch + _unit_vector(rng) * _drive(
         speed, fs, p
     ), sliding.astype(np.int8)
@@ -736,7 +745,7 @@ def _hold_slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     lost = onset + int(round(drop_after * fs)) if drops else n
     label[lost:] = UNLABELLED
     contact, release = _drop(take, lost, normal0)
-    forces = np.stack([held + vib, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
+    forces = take.on_pad(held + vib, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing)
     forces = forces * contact * take.unit.coupling * take.sig.patch
     spring_back = _resonate(release, *free_mode(take.unit, p), fs)
     return forces + _unit_vector(rng) * (_drive(speed, fs, p) + spring_back), label
@@ -833,7 +842,8 @@ def _press_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     n, fs, p, rng, m = take.n, take.fs, take.p, take.rng, take.surface
     shares = np.asarray(p.press_tasks) / sum(p.press_tasks)
     task = PRESS_TASKS[int(take.trial_rng.choice(len(PRESS_TASKS), p=shares))]
-    angle = take.trial_rng.uniform(0, 2 * np.pi)  # which way the shear points on the pad
+    # along the finger, as the arm drags it in slip: the plane it curls, presses and pushes in
+    sign = take.trial_rng.choice([-1.0, 1.0])
     loads = _palpate(take) if task == "palpate" else _carry(take, push=task == "push")
     normal = loads.normal
     impulses = np.zeros(n)
@@ -851,12 +861,8 @@ def _press_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     mean_load = float(normal[touching].mean()) if touching.any() else 0.0
     f0, zeta = contact_mode(take.sensor, take.unit, str(take.material), mean_load, p)
     ringing = _resonate(impulses, f0, zeta, fs)
-    forces = np.stack(
-        [
-            loads.shear * np.cos(angle) + 0.5 * ringing + crackle,
-            loads.shear * np.sin(angle) + 0.2 * ringing,
-            normal + ringing + crackle,
-        ]
+    forces = take.on_pad(
+        sign * loads.shear + 0.5 * ringing + crackle, 0.2 * ringing, normal + ringing + crackle
     )
     drive = _unit_vector(rng) * _drive(loads.speed, fs, p)
     return forces * take.unit.coupling * take.sig.patch + drive, np.zeros(n, np.int8)

@@ -32,9 +32,9 @@ SMALL = Design(materials=("PVC", "neoprene"), slip_speeds=(5.0, 75.0), free_spee
 # apart), a change of the simulation's draws or physics does. The electrodes (version 3) left
 # version 2's hashes as they were; version 4's contact mechanics changed every one by design.
 V4_DIGESTS = {
-    "Nano17": ("c4cc9b9b7cff7c82", "9a8dc41025d8ee0b"),
-    "OptoForce20": ("2ecf94289c0981f5", "048df9b5834ed811"),
-    "BioTacSP": ("d81e2d7e8d2c5f45", "708af90769e54f60"),
+    "Nano17": ("a83ba049c38b7122", "ac8d6ca9453ccc96"),
+    "OptoForce20": ("554edf2c4ba6ff0d", "d186370d9d205ef4"),
+    "BioTacSP": ("70437488961f18b9", "8ff796859ebc8ffe"),
 }
 
 
@@ -121,12 +121,12 @@ def test_shear_presses_the_side_it_points_to_and_relieves_the_other(sign):
 
 def test_slip_moves_the_pressure_centre_with_the_load_more_than_palpating():
     """Shear is kinetic friction x the load while sliding (0.5 on PVC, 0.45 on cardboard) and
-    under tan 15 degrees (0.27) x the load for a finger palpating within 15 degrees of the
-    surface's normal, in any direction, so as the load varies inside a recording, the
-    pattern's centroid along the slide moves more per newton in slip (measured: 1.9-6.5 x,
-    seeds 0-7). Resting counts from free space, as a lab zeroes a sensor; recordings that barely
-    touch (a light finger) are left out. (Lifting and pushing load the contact as slip does:
-    ``press_tasks`` leaves them out here.)"""
+    under tan 10 degrees (0.18) x the load for a finger palpating within 10 degrees of the
+    surface's normal, so as the load varies inside a recording, the pattern's centroid along
+    the slide moves more per newton in slip (measured: 1.5-5.5 x, seeds 0-7). Resting counts
+    from free space, as a lab zeroes a sensor; recordings that barely touch (a light finger)
+    are left out. (Lifting and pushing load the contact as slip does: ``press_tasks`` leaves
+    them out here.)"""
     design = with_physics(
         Design(
             sensors=("BioTacSP",),
@@ -137,7 +137,7 @@ def test_slip_moves_the_pressure_centre_with_the_load_more_than_palpating():
             long_free_s_per_speed=0.0,
         ),
         press_tasks=(1.0, 0.0, 0.0),
-        press_tilt_deg=(0.0, 15.0),
+        press_tilt_deg=(0.0, 10.0),
     )
     rec, samples, _ = generate(scale=0.05, seed=1, design=design)
     x = np.asarray(ELECTRODES.positions_mm)[:, 0]
