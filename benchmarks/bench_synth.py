@@ -19,7 +19,7 @@ import importlib.util, json, resource, sys, time
 path, scale = sys.argv[1], float(sys.argv[2])
 if path:
     spec = importlib.util.spec_from_file_location("old_synth", path)
-    synth = importlib.util.module_from_spec(spec)
+    synth = sys.modules["old_synth"] = importlib.util.module_from_spec(spec)  # for dataclasses
     spec.loader.exec_module(synth)
 else:
     import slipbench.data.synth as synth
@@ -35,8 +35,10 @@ print(json.dumps({"model": synth.MODEL_VERSION, "s": seconds, "MiB": peak, "valu
 def measure(path: str, scale: float) -> dict:
     """One generation in a fresh process: model version, seconds, peak MiB, values."""
     out = subprocess.run(
-        [sys.executable, "-c", CHILD, path, str(scale)], capture_output=True, text=True, check=True
+        [sys.executable, "-c", CHILD, path, str(scale)], capture_output=True, text=True
     )
+    if out.returncode:
+        raise SystemExit(f"generating with {path or 'this model'} failed:\n{out.stderr}")
     return json.loads(out.stdout)
 
 

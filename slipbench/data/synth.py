@@ -239,7 +239,7 @@ class Physics:
     finger_loss: float = 0.1  # loss factor of the finger's structure
     idle_hz: float = 200.0  # the arm's idling vibration
     idle_n: float = 0.008
-    press_force_n: tuple[float, float] = (0.2, 4.0)  # palpation force levels
+    press_force_n: tuple[float, float] = (0.2, 4.0)  # pressing force levels (palpation, grip)
     press_rate_hz: tuple[float, float] = (0.1, 4.0)  # palpation frequencies
     press_tilt_deg: tuple[float, float] = (0.0, 35.0)  # palpating finger's axis to the normal
     # loaded contact without slip: shares of the press tasks (PRESS_TASKS) among recordings
