@@ -57,6 +57,7 @@ from slipbench.data.synth import (
     generate,
     make_unit,
 )
+from slipbench.store.results import read_results
 
 LOADED_N = 0.05  # N: a sample carries load (8 x the Nano17's noise floor, 20 x the OptoForce20's)
 MARK = "<!-- bench_sim_contact -->"
@@ -185,27 +186,39 @@ def electrode_table(frames: dict[str, pd.DataFrame]) -> pd.DataFrame:
     return pd.DataFrame(out)
 
 
-def _run_of(folder: Path) -> str:
+CELL = ["detector", "input", "sensor_type", "sensor_instance", "window"]
+
+
+def _finished(folder: Path) -> pd.DataFrame:
+    rows = read_results(folder)
+    return rows[rows["status"] == "ok"]
+
+
+def _run_of(rows: pd.DataFrame) -> str:
     """What a results folder holds: protocols, split, seeds and the data's fingerprint."""
-    rows = pd.read_parquet(folder / "results.parquet")
     return "; ".join(
         f"{c} " + ", ".join(sorted(map(str, rows[c].unique())))
         for c in ("protocol", "split", "seed", "dataset_fingerprint")
     )
 
 
-def detector_table(results: dict[str, Path]) -> pd.DataFrame:
-    """Mean accuracy (%) of each detector and input per sensor type, finished cells, in each
-    results folder (one column per label), and the last minus the first."""
+def detector_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """Mean accuracy (%) of each detector and input per sensor type over the cells (unit,
+    window) that every results folder finished (one column per label), the last minus the
+    first, and the windows compared."""
+    cells = [set(map(tuple, r[CELL].to_numpy())) for r in results.values()]
+    common = set.intersection(*cells)
     means = {}
-    for label, folder in results.items():
-        rows = pd.read_parquet(folder / "results.parquet")
-        rows = rows[rows["status"] == "ok"]
-        by = rows.groupby(["detector", "input", "sensor_type"])["accuracy"]
-        means[label] = 100 * by.mean()
+    for label, rows in results.items():
+        rows = rows[[tuple(c) in common for c in rows[CELL].to_numpy()]]
+        means[label] = 100 * rows.groupby(CELL[:3])["accuracy"].mean()
+        windows = rows.groupby(CELL[:3])["window"].agg(
+            lambda w: ", ".join(map(str, sorted(set(w))))
+        )
     table = pd.DataFrame(means)
     first, last = table.columns[0], table.columns[-1]
     table[f"{last} - {first}"] = table[last] - table[first]
+    table["windows"] = windows
     return table.round(1).reset_index()
 
 
@@ -227,7 +240,7 @@ def report(args) -> str:
     frames = {k: electrode_rows(ds) for k, ds in sims.items()}
     frames["BioTacSP-DoS (real)"] = electrode_rows(read_dataset(args.real))
     electrodes = electrode_table(frames)
-    results = dict((k, Path(v)) for k, _, v in (r.partition("=") for r in args.results))
+    results = {k: _finished(Path(v)) for k, _, v in (r.partition("=") for r in args.results)}
     sources = "; ".join(
         f"{k}: {ds.recordings['source'].iloc[0]} ({ds.fingerprint})" for k, ds in sims.items()
     )
@@ -247,7 +260,7 @@ def report(args) -> str:
             [
                 "",
                 "**Built-in detectors, before and after** (accuracy %, mean over each sensor "
-                "type's units and windows; "
+                "type's units and the windows both sides finished; "
                 + "; ".join(f"{k}: {_run_of(v)}" for k, v in results.items())
                 + "):",
                 "",
