@@ -205,21 +205,20 @@ def _run_of(rows: pd.DataFrame) -> str:
 def detector_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
     """Mean accuracy (%) of each detector and input per sensor type over the cells (unit,
     window) that every results folder finished (one column per label), the last minus the
-    first, and the windows compared."""
+    first, and the units and windows compared."""
     cells = [set(map(tuple, r[CELL].to_numpy())) for r in results.values()]
     common = set.intersection(*cells)
     means = {}
     for label, rows in results.items():
         rows = rows[[tuple(c) in common for c in rows[CELL].to_numpy()]]
         means[label] = 100 * rows.groupby(CELL[:3])["accuracy"].mean()
-        windows = rows.groupby(CELL[:3])["window"].agg(
-            lambda w: ", ".join(map(str, sorted(set(w))))
-        )
-    table = pd.DataFrame(means)
+    by = rows.groupby(CELL[:3])
+    table = pd.DataFrame(means).round(1)
     first, last = table.columns[0], table.columns[-1]
-    table[f"{last} - {first}"] = table[last] - table[first]
-    table["windows"] = windows
-    return table.round(1).reset_index()
+    table[f"{last} - {first}"] = (table[last] - table[first]).round(1) + 0.0  # + 0.0: no "-0"
+    table["units"] = by["sensor_instance"].agg(lambda u: ", ".join(sorted(set(u))))
+    table["windows"] = by["window"].agg(lambda w: ", ".join(map(str, sorted(set(w)))))
+    return table.reset_index()
 
 
 def _datasets(args) -> dict[str, Dataset]:
