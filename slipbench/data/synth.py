@@ -1,12 +1,14 @@
 """The embedded default dataset: a physical simulation of the paper's design of experiments.
 
 Three sensor types (Nano17, OptoForce20, BioTac SP) on the fingers of a hand, five materials,
-slip at four average speeds, pressing (palpation) on each material, free-space motion at three
-speeds, and continuous onset trials (``hold-slip``: contact held, then slip, sometimes a drop)
-for streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that
-the paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
+slip at four average speeds, pressing on each material (palpating it, lifting it, pushing it:
+shear without slip, up to the friction cone), free-space motion at three speeds, and
+continuous onset trials (``hold-slip``: contact held, then slip, sometimes a drop) for
+streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that the
+paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
 :class:`ElectrodeArray` or :class:`Material` and is described, with where its value comes from,
-in ``datasets.md``. The model is physical and is *not* fitted to the paper's accuracies.
+in ``datasets.md`` and ``docs/simulation.md`` (the contact's mechanics, model version 4). The
+model is physical and is *not* fitted to the paper's accuracies.
 
 Variability is layered as in a real campaign: each unit differs from its nominal type (gain,
 noise, the finger's share of the contact force, mass, finger stiffness, skin, mount); each
@@ -22,18 +24,20 @@ order of generation.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from scipy import signal
 
+from slipbench.data.contact import annulus_travel, breakaway
 from slipbench.data.write import write_dataset
 from slipbench.seeding import rng_for
 from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SLIP_SPEEDS
 
 UNLABELLED = -1  # per-sample label of samples whose slip state is undefined (after a drop)
-MODEL_VERSION = 3  # bump when the simulation changes, so cached datasets are regenerated
+MODEL_VERSION = 4  # bump when the simulation changes, so cached datasets are regenerated
 
 
 @dataclass(frozen=True)
@@ -199,15 +203,19 @@ class Material:
     texture_gain: float
     fibre_noise_gain: float  # broadband rubbing noise (cardboard fibres)
     hardness: float  # impact transient when a finger lands on it while pressing
+    friction: float  # kinetic Coulomb coefficient of a fingertip's elastomer sliding on it
 
 
 MATERIAL_MODELS: dict[str, Material] = {
-    "aluminum": Material(77000.0, 0.001, 0.4, 1.0, None, 0.08, 0.10, 0.0, 1.0),
-    "PVC": Material(3600.0, 0.03, 0.5, 0.8, None, 0.25, 0.15, 0.0, 0.8),
-    "neoprene": Material(4.0, 0.20, 1.5, 0.35, 30.0, 1.00, 0.10, 0.0, 0.2),
-    "cardboard": Material(30.0, 0.08, 0.6, 0.6, None, 0.80, 0.30, 0.5, 0.5),
-    "plywood": Material(800.0, 0.03, 0.5, 0.8, None, 1.60, 0.60, 0.1, 0.7),
+    "aluminum": Material(77000.0, 0.001, 0.4, 1.0, None, 0.08, 0.10, 0.0, 1.0, 0.6),
+    "PVC": Material(3600.0, 0.03, 0.5, 0.8, None, 0.25, 0.15, 0.0, 0.8, 0.5),
+    "neoprene": Material(4.0, 0.20, 1.5, 0.35, 30.0, 1.00, 0.10, 0.0, 0.2, 0.9),
+    "cardboard": Material(30.0, 0.08, 0.6, 0.6, None, 0.80, 0.30, 0.5, 0.5, 0.45),
+    "plywood": Material(800.0, 0.03, 0.5, 0.8, None, 1.60, 0.60, 0.1, 0.7, 0.5),
 }
+
+#: what a finger does in a ``press`` recording, one task per trial (``Physics.press_tasks``)
+PRESS_TASKS = ("palpate", "lift", "push")
 
 
 @dataclass(frozen=True)
@@ -219,8 +227,9 @@ class Physics:
     normal_force_n: tuple[float, float] = (0.5, 2.0)  # range of per-trial contact force
     arm_oscillation_hz: tuple[float, float] = (1.0, 3.0)  # natural oscillation of the moving arm
     arm_oscillation_depth: float = 0.15  # relative normal-force modulation while dragging
-    friction: float = 0.6  # kinetic Coulomb coefficient: tangential / normal force while sliding
     static_friction_ratio: float = 1.25  # static / kinetic friction of a rubber contact
+    friction_trial_sd: float = 0.15  # the surface's friction in a trial (dust, humidity, wear)
+    friction_local_sd: float = 0.05  # the spot of surface one finger touches
     snap_n_per_n: float = 0.03  # snap force drop per newton of normal force at 25 mm/s
     snap_speed_exponent: float = 0.5  # snap size grows with local speed as (v / 25 mm/s)^k
     texture_n_per_n: float = 0.01  # texture force per newton of normal force
@@ -230,9 +239,15 @@ class Physics:
     finger_loss: float = 0.1  # loss factor of the finger's structure
     idle_hz: float = 200.0  # the arm's idling vibration
     idle_n: float = 0.008
-    press_force_n: tuple[float, float] = (0.2, 4.0)  # palpation force levels
+    press_force_n: tuple[float, float] = (0.2, 4.0)  # pressing force levels (palpation, grip)
     press_rate_hz: tuple[float, float] = (0.1, 4.0)  # palpation frequencies
-    press_shear_ratio: float = 0.2  # shear that a curling finger puts on the surface
+    press_tilt_deg: tuple[float, float] = (0.0, 35.0)  # palpating finger's axis to the normal
+    # loaded contact without slip: shares of the press tasks (PRESS_TASKS) among recordings
+    press_tasks: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    safety_margin: tuple[float, float] = (1.1, 1.7)  # grip over the least that holds the load
+    episode_s: tuple[float, float] = (1.0, 4.0)  # one lift or push, grasp to release
+    transport_speed_mm_s: tuple[float, float] = (25.0, 75.0)  # the arm carrying a lifted object
+    push_speed_mm_s: tuple[float, float] = (5.0, 25.0)  # the arm pushing an object along
     impact_n: float = 0.02  # impact transient at hardness 1 and a 1 Hz palpation
     crackle_n: float = 0.004  # fibres and grain crushing under load (cardboard, plywood)
     inertial_n: float = 0.004  # fingertip inertia under free-space arm motion at 25 mm/s
@@ -255,6 +270,8 @@ class Physics:
     patch_gain_sd: float = 0.15  # where the contact patch sits on the fingertip
     force_wobble_sd: float = 0.15  # the finger's rolling and twisting: its force in a recording
     drift_gain_sd: float = 0.05  # mounting and thermal drift of the sensitivity over a session
+    roll_tilt_deg: float = 5.0  # the finger rolling about a millimetre on its rounded tip (deg)
+    heading_sd_deg: float = 15.0  # the shear's heading on the pad off the finger's axis (deg)
     # onset trials (hold, then slip, sometimes a drop)
     hold_s: tuple[float, float] = (0.5, 1.5)  # contact held still before the arm moves
     ramp_s: float = 0.3  # the arm accelerates to the trial's speed in this time
@@ -262,8 +279,8 @@ class Physics:
     hold_fluctuation: float = 0.05  # slow grip-force fluctuation while holding
     grip_adjust_rate_hz: float = 0.5  # small pressing-like grip adjustments
     grip_adjust_depth: float = 0.10
-    precursor_onset: float = 0.6  # shear / static friction at which edge micro-slips begin
-    precursor_gain: float = 0.15  # their size relative to a full snap
+    precursor_gain: float = 0.15  # a micro-slip at the contact's edge, relative to a full snap
+    annulus_step: float = 0.05  # mean sweep of the slip annulus (area fraction) per micro-slip
     drop_fraction: float = 0.3  # share of onset trials that end in losing the contact
     drop_after_s: tuple[float, float] = (0.5, 1.5)  # slip time before the drop
     drop_fall_s: float = 0.03  # the contact force falls to zero in this time
@@ -378,6 +395,19 @@ def make_unit(seed: int, sensor_type: str, instance: str, physics: Physics) -> U
     )
 
 
+def _tilt(rng: np.random.Generator, sd_deg: float) -> np.ndarray:
+    """A rotation (3, 3) that tilts the contact's normal off the sensor's axis by a 2-D normal
+    draw of ``sd_deg`` per axis (a contact off the apex of a rounded tip), about an axis in
+    the tangent plane (Rodrigues' formula)."""
+    tx, ty = np.radians(rng.normal(0.0, sd_deg, 2))
+    angle = np.hypot(tx, ty)
+    if angle == 0.0:
+        return np.eye(3)
+    axis = np.array([-ty, tx, 0.0]) / angle
+    cross = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * cross + (1 - np.cos(angle)) * cross @ cross
+
+
 @dataclass(frozen=True)
 class Signature:
     """What makes one recording differ from another of the same unit and trial."""
@@ -387,6 +417,9 @@ class Signature:
     spacing: float  # local factor on the stick-slip critical distance
     snap: float  # local factor on the snap size
     drift: float  # mounting and thermal drift of the sensitivity
+    friction: float  # factor on the material's friction: the trial's surface, the local spot
+    roll: np.ndarray  # (3, 3) the finger rolling: the contact's normal tilts a little further
+    heading: float  # radians: where the shear points on the pad, off the finger's axis
 
 
 def _signature(rng: np.random.Generator, trial_rng: np.random.Generator, p: Physics) -> Signature:
@@ -400,6 +433,11 @@ def _signature(rng: np.random.Generator, trial_rng: np.random.Generator, p: Phys
         spacing=float(trial_spacing * local_spacing),
         snap=float(trial_snap * local_snap),
         drift=float(_spread(rng, p.drift_gain_sd * k)),
+        friction=float(
+            _spread(trial_rng, p.friction_trial_sd * k) * _spread(rng, p.friction_local_sd * k)
+        ),
+        roll=_tilt(rng, p.roll_tilt_deg * k),
+        heading=float(np.radians(rng.normal(0.0, p.heading_sd_deg * k))),
     )
 
 
@@ -439,11 +477,17 @@ def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.
     return signal.lfilter([np.sin(w)], [1.0, -2 * r * np.cos(w), r * r], impulses)
 
 
+@lru_cache(maxsize=256)
+def _butter(order: int, cutoff: float, fs: float, kind: str = "lowpass") -> np.ndarray:
+    """A Butterworth filter's sections; designed once per unit, material and rate (the design
+    took 40 % of the generation time when every recording redid it)."""
+    return signal.butter(order, cutoff, kind, fs=fs, output="sos")
+
+
 def _lowpass(x: np.ndarray, cutoff: float, fs: float, order: int = 2, axis: int = -1) -> np.ndarray:
     if cutoff >= 0.49 * fs:
         return x
-    sos = signal.butter(order, cutoff, fs=fs, output="sos")
-    return signal.sosfilt(sos, x, axis=axis)
+    return signal.sosfilt(_butter(order, cutoff, fs), x, axis=axis)
 
 
 def _events(distance_mm: np.ndarray, mean_spacing: float, rng: np.random.Generator) -> np.ndarray:
@@ -519,61 +563,120 @@ def _drive(speed: np.ndarray, fs: float, p: Physics) -> np.ndarray:
     return p.gear_n * (speed / 25.0) * np.sin(phase)
 
 
-def _slip_forces(n, fs, speed_avg, material, trial_rng, rng, sig, unit, sensor, p: Physics):
+@dataclass(frozen=True)
+class Take:
+    """What one simulated recording is made from: its length and rate, the cell (material,
+    speed), the unit and the recording's signature, its random streams and the physics."""
+
+    n: int
+    fs: float
+    material: str | None
+    speed: float | None
+    sensor: Sensor
+    unit: Unit
+    sig: Signature
+    trial_rng: np.random.Generator  # draws shared by the fingers recorded in the trial
+    rng: np.random.Generator  # the recording's own draws
+    p: Physics
+
+    @property
+    def surface(self) -> Material:
+        return MATERIAL_MODELS[str(self.material)]
+
+    @property
+    def arm_speed(self) -> float:
+        """The cell's speed (mm/s): of slip, onset trials and free-space motion."""
+        if self.speed is None:
+            raise ValueError("a scenario without a speed has no arm speed")
+        return self.speed
+
+    @property
+    def mu_kinetic(self) -> float:
+        """The surface's kinetic friction in this trial, on this spot."""
+        return self.surface.friction * self.sig.friction
+
+    @property
+    def mu_static(self) -> float:
+        return self.p.static_friction_ratio * self.mu_kinetic
+
+    def on_pad(self, along: np.ndarray, across: np.ndarray, normal: np.ndarray) -> np.ndarray:
+        """Forces (3, n) on the pad from the shear along the load's heading and across it, and
+        the normal load: the heading is the finger's axis turned by ``sig.heading``."""
+        c, s = np.cos(self.sig.heading), np.sin(self.sig.heading)
+        return np.stack([c * along - s * across, s * along + c * across, normal])
+
+    def draw_normal(self) -> float:
+        """Draw the trial's normal force from its range, as this finger shares it here."""
+        share = self.unit.force_share * self.sig.force
+        return self.trial_rng.uniform(*self.p.normal_force_n) * share
+
+
+def _edge_slips(take: Take, shear: np.ndarray, normal: np.ndarray, stuck: np.ndarray):
+    """Impulses (n,) of the micro-slips at the contact's edge while its slip annulus sweeps
+    (:func:`~slipbench.data.contact.annulus_travel`) where the contact still sticks as a whole
+    (``stuck``): one per ``annulus_step`` of the annulus's area, gamma-spread, each
+    ``precursor_gain`` of a full snap. Incipient slip, labelled 0."""
+    p, m = take.p, take.surface
+    swept = np.diff(annulus_travel(shear, normal, take.mu_static)) * stuck[1:]
+    travel = np.r_[0.0, np.cumsum(swept)]
+    impulses = np.zeros(len(shear))
+    if travel[-1] > 0:
+        idx = np.searchsorted(travel, _events(travel, p.annulus_step, take.rng))
+        size = p.precursor_gain * p.snap_n_per_n * m.snap_gain * take.sig.snap * normal[idx]
+        np.add.at(impulses, idx, size * take.rng.lognormal(0, 0.3, len(idx)))
+    return impulses
+
+
+def _slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     """Contact forces (3, n) of the finger dragged back and forth across a surface, and the
-    per-sample label (1 while the contact slides, 0 while it sticks at the path's ends)."""
-    m = MATERIAL_MODELS[material]
+    per-sample label: 1 while the contact slides; 0 while it sticks, from each reversal of the
+    arm (the finger bends through the friction cone, the slip annulus at its edge growing)
+    until it breaks away, and where the arm stands still at the path's ends."""
+    n, fs, p, rng, m = take.n, take.fs, take.p, take.rng, take.surface
     t = np.arange(n) / fs
-    pass_s = 2 * p.path_mm / (2 * speed_avg)  # one leg of the path, there or back
-    tt = t + trial_rng.uniform(0, pass_s)
-    speed = speed_avg * (1 - np.cos(2 * np.pi * tt / pass_s))  # mm/s, mean = speed_avg
-    direction = np.where((tt // pass_s) % 2 == 0, 1.0, -1.0)
-    normal0 = trial_rng.uniform(*p.normal_force_n) * unit.force_share * sig.force
-    osc = trial_rng.uniform(*p.arm_oscillation_hz)
+    pass_s = p.path_mm / take.arm_speed  # one leg of the path, there or back
+    tt = t + take.trial_rng.uniform(0, pass_s)
+    leg = (tt // pass_s).astype(int)
+    phase = 2 * np.pi * (tt / pass_s - leg)
+    speed = take.arm_speed * (1 - np.cos(phase))  # mm/s, its mean the cell's speed
+    pulled = take.arm_speed * pass_s * (phase - np.sin(phase)) / (2 * np.pi)  # mm this leg
+    direction = np.where(leg % 2 == 0, 1.0, -1.0)
+    normal0 = take.draw_normal()
+    osc = take.trial_rng.uniform(*p.arm_oscillation_hz)
     normal = normal0 * (
         1 + p.arm_oscillation_depth * np.sin(2 * np.pi * osc * t + rng.uniform(0, 2 * np.pi))
     )
-    sliding = speed > p.stick_speed_mm_s
+    # each leg the finger bends from the last leg's kinetic shear, reversed, until breakaway
+    loading = p.tangential_stiffness_n_mm * pulled - take.mu_kinetic * normal0
+    broke = breakaway(loading, take.mu_static * normal, leg)
+    sliding = broke & (speed > p.stick_speed_mm_s)
 
-    f0, zeta = contact_mode(sensor, unit, material, normal0, p)
-    impulses, saw, travel = _snaps(speed, sliding, normal, m, sig, fs, rng, p)
+    f0, zeta = contact_mode(take.sensor, take.unit, str(take.material), normal0, p)
+    impulses, saw, travel = _snaps(speed, sliding, normal, m, take.sig, fs, rng, p)
+    onsets = np.flatnonzero(np.diff(broke.astype(np.int8)) > 0) + 1
+    impulses[onsets] += (take.mu_static - take.mu_kinetic) * normal[onsets]  # static -> kinetic
+    held = np.where(broke, take.mu_kinetic * normal + saw, loading)
+    impulses += _edge_slips(take, held, normal, ~broke)
     if m.smear_hz:
         impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
     ringing = _resonate(impulses, f0, zeta, fs)
     vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
-    shear = direction * (p.friction * normal + saw) * sliding + vib
-    contact = (
-        unit.coupling
-        * sig.patch
-        * np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
-    )
-    return contact + _unit_vector(rng) * _drive(speed, fs, p), sliding.astype(np.int8)
+    across = 0.3 * vib * rng.choice([-1, 1])
+    contact = take.on_pad(direction * held + vib, across, normal + 0.5 * ringing)
+    return contact * take.unit.coupling * take.sig.patch + _unit_vector(rng) * _drive(
+        speed, fs, p
+    ), sliding.astype(np.int8)
 
 
-def _hold_slip_forces(n, fs, speed_target, material, trial_rng, rng, sig, unit, sensor, p: Physics):
-    """An onset trial: the contact is held, the arm starts to pull, the shear loads the finger
-    until it exceeds static friction (breakaway: slip onset, with a first large snap), then the
-    contact slides with stick-slip; in some trials the contact is then lost (a drop).
-
-    Returns forces (3, n) and the per-sample label: 0 before the onset, 1 from it, and
-    ``UNLABELLED`` from the moment the contact force starts to fall in a drop.
-    """
-    m = MATERIAL_MODELS[material]
-    t = np.arange(n) / fs
-    duration = n / fs
-    hold = min(trial_rng.uniform(*p.hold_s), 0.3 * duration)
-    normal0 = trial_rng.uniform(*p.normal_force_n) * unit.force_share * sig.force
-    drops = trial_rng.random() < p.drop_fraction
-    drop_after = trial_rng.uniform(*p.drop_after_s)
-    osc = trial_rng.uniform(*p.arm_oscillation_hz)
-
-    # grip: slow fluctuation plus small pressing-like adjustments (raised-cosine bumps)
+def _held_grip(take: Take, t: np.ndarray) -> np.ndarray:
+    """The relative grip (n,) of a held contact: a slow fluctuation plus small pressing-like
+    adjustments (raised-cosine bumps)."""
+    p, rng = take.p, take.rng
     grip = 1 + p.hold_fluctuation * np.sin(
         2 * np.pi * rng.uniform(0.3, 1.0) * t + rng.uniform(0, 2 * np.pi)
     )
-    for start in np.cumsum(
-        rng.exponential(1 / p.grip_adjust_rate_hz, int(duration * p.grip_adjust_rate_hz * 3) + 2)
-    ):
+    count = int(take.n / take.fs * p.grip_adjust_rate_hz * 3) + 2
+    for start in np.cumsum(rng.exponential(1 / p.grip_adjust_rate_hz, count)):
         width = rng.uniform(0.2, 0.6)
         inside = (t >= start) & (t < start + width)
         grip[inside] += (
@@ -581,76 +684,172 @@ def _hold_slip_forces(n, fs, speed_target, material, trial_rng, rng, sig, unit, 
             * rng.uniform(0.3, 1.0)
             * np.sin(np.pi * (t[inside] - start) / width) ** 2
         )
-    # the arm's speed rises smoothly to the target; its oscillation grows with it
-    moving = (1 - np.cos(np.pi * np.clip((t - hold) / p.ramp_s, 0, 1))) / 2
-    speed = speed_target * moving
-    normal = normal0 * grip * (1 + p.arm_oscillation_depth * moving * np.sin(2 * np.pi * osc * t))
+    return grip
 
-    # stick: the finger bends with the arm until the shear reaches static friction
-    arm_mm = np.cumsum(speed) / fs
-    static = p.friction * p.static_friction_ratio * normal
-    loading = p.tangential_stiffness_n_mm * arm_mm
-    broke = np.flatnonzero(loading >= static)
-    onset = int(broke[0]) if len(broke) else n
-    after = np.arange(n) >= onset
-    sliding = after & (speed > p.stick_speed_mm_s)
 
-    f0, zeta = contact_mode(sensor, unit, material, normal0, p)
-    impulses, saw, travel = _snaps(speed, sliding, normal, m, sig, fs, rng, p)
-    if onset < n:  # breakaway: the shear falls from static to kinetic friction at once
-        impulses[onset] += (p.static_friction_ratio - 1) * p.friction * normal[onset]
-    # incipient slip: micro-slips at the contact's edge once the shear nears static friction
-    edge = ~after & (loading >= p.precursor_onset * static)
-    if edge.any():
-        edge_travel = np.cumsum(np.where(edge, speed, 0.0)) / fs
-        pos = _events(edge_travel, m.critical_slip_mm * sig.spacing, rng)
-        idx = np.searchsorted(edge_travel, pos)
-        size = p.precursor_gain * p.snap_n_per_n * m.snap_gain * sig.snap * normal[idx]
-        np.add.at(impulses, idx, size * rng.lognormal(0, 0.3, len(idx)))
-    if m.smear_hz:
-        impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
-    ringing = _resonate(impulses, f0, zeta, fs)
-    vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
-    shear = np.where(after, p.friction * normal + saw, np.minimum(loading, static)) + vib
-
-    label = after.astype(np.int8)
-    contact = np.ones(n)
-    release = np.zeros(n)
-    lost = onset + int(round(drop_after * fs)) if drops else n
+def _drop(take: Take, lost: int, normal0: float) -> tuple[np.ndarray, np.ndarray]:
+    """Losing the contact at sample ``lost``: the contact's share of the forces (n,), falling
+    to zero in ``drop_fall_s``, and the finger's spring-back impulse (n,) once it is free."""
+    n, p = take.n, take.p
+    contact, release = np.ones(n), np.zeros(n)
     if lost < n:
-        fall = max(1, int(round(p.drop_fall_s * fs)))
+        fall = max(1, int(round(p.drop_fall_s * take.fs)))
         contact[lost:] = 0.0
         contact[lost : lost + fall] = (
             1 + np.cos(np.pi * np.arange(min(fall, n - lost)) / fall)
         ) / 2
         release[min(lost + fall, n - 1)] = p.release_n_per_n * normal0
-        label[lost:] = UNLABELLED
-    forces = (
-        np.stack([shear, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing])
-        * contact
-        * unit.coupling
-        * sig.patch
-    )
-    spring_back = _resonate(release, *free_mode(unit, p), fs)
+    return contact, release
+
+
+def _hold_slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
+    """An onset trial: the contact is held, the arm starts to pull, the shear loads the finger
+    until it exceeds static friction (breakaway: slip onset, with a first large snap), then the
+    contact slides with stick-slip; in some trials the contact is then lost (a drop).
+
+    Returns forces (3, n) and the per-sample label: 0 before the onset, 1 from it, and
+    ``UNLABELLED`` from the moment the contact force starts to fall in a drop.
+    """
+    n, fs, p, rng, m, trial_rng = take.n, take.fs, take.p, take.rng, take.surface, take.trial_rng
+    t = np.arange(n) / fs
+    hold = min(trial_rng.uniform(*p.hold_s), 0.3 * n / fs)
+    normal0 = take.draw_normal()
+    drops = trial_rng.random() < p.drop_fraction
+    drop_after = trial_rng.uniform(*p.drop_after_s)
+    osc = trial_rng.uniform(*p.arm_oscillation_hz)
+    grip = _held_grip(take, t)
+    # the arm's speed rises smoothly to the target; its oscillation grows with it
+    moving = (1 - np.cos(np.pi * np.clip((t - hold) / p.ramp_s, 0, 1))) / 2
+    speed = take.arm_speed * moving
+    normal = normal0 * grip * (1 + p.arm_oscillation_depth * moving * np.sin(2 * np.pi * osc * t))
+
+    # stick: the finger bends with the arm until the shear reaches static friction
+    loading = p.tangential_stiffness_n_mm * np.cumsum(speed) / fs
+    broke = np.flatnonzero(loading >= take.mu_static * normal)
+    onset = int(broke[0]) if len(broke) else n
+    after = np.arange(n) >= onset
+    sliding = after & (speed > p.stick_speed_mm_s)
+
+    f0, zeta = contact_mode(take.sensor, take.unit, str(take.material), normal0, p)
+    impulses, saw, travel = _snaps(speed, sliding, normal, m, take.sig, fs, rng, p)
+    if onset < n:  # breakaway: the shear falls from static to kinetic friction at once
+        impulses[onset] += (take.mu_static - take.mu_kinetic) * normal[onset]
+    held = np.where(after, take.mu_kinetic * normal + saw, loading)
+    impulses += _edge_slips(take, held, normal, ~after)
+    if m.smear_hz:
+        impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
+    ringing = _resonate(impulses, f0, zeta, fs)
+    vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
+
+    label = after.astype(np.int8)
+    lost = onset + int(round(drop_after * fs)) if drops else n
+    label[lost:] = UNLABELLED
+    contact, release = _drop(take, lost, normal0)
+    forces = take.on_pad(held + vib, 0.3 * vib * rng.choice([-1, 1]), normal + 0.5 * ringing)
+    forces = forces * contact * take.unit.coupling * take.sig.patch
+    spring_back = _resonate(release, *free_mode(take.unit, p), fs)
     return forces + _unit_vector(rng) * (_drive(speed, fs, p) + spring_back), label
 
 
-def _press_forces(n, fs, material, trial_rng, rng, sig, unit, sensor, p: Physics):
-    """A finger palpating a surface: load-unload cycles at random levels and rates."""
-    m = MATERIAL_MODELS[material]
+@dataclass(frozen=True)
+class Loads:
+    """What a press task puts on the contact, (n,) each: normal load and shear (N), the arm's
+    speed (mm/s); and each landing of the finger, (sample, rate in Hz: how brisk it is)."""
+
+    normal: np.ndarray
+    shear: np.ndarray
+    speed: np.ndarray
+    landings: list[tuple[int, float]]
+
+
+def _palpate(take: Take) -> Loads:
+    """Load-unload cycles at random levels and rates, the finger pressing along its own axis
+    tilted from the surface's normal: shear and load grow in proportion, inside the cone."""
+    n, fs, p, trial_rng = take.n, take.fs, take.p, take.trial_rng
+    tilt = np.tan(np.radians(trial_rng.uniform(*p.press_tilt_deg)))
+    ratio = min(tilt, take.mu_static / p.safety_margin[0])  # steeper, and it would slide
+    share = take.unit.force_share * take.sig.force
     normal = np.zeros(n)
-    impulses = np.zeros(n)
+    landings = []
     i = int(trial_rng.integers(0, max(1, int(0.2 * fs))))
     while i < n:
         rate = np.exp(trial_rng.uniform(*np.log(p.press_rate_hz)))
-        level = trial_rng.uniform(*p.press_force_n) * unit.force_share * sig.force
+        level = trial_rng.uniform(*p.press_force_n) * share
         length = max(4, int(fs / rate))
         contact = int(length * trial_rng.uniform(0.5, 0.9))
         seg = level * np.sin(np.pi * np.arange(contact) / contact) ** 2
         end = min(n, i + contact)
         normal[i:end] = seg[: end - i]
-        impulses[i] += p.impact_n * m.hardness * np.sqrt(rate) * rng.lognormal(0, 0.4)
+        landings.append((i, rate))
         i += length
+    return Loads(normal, ratio * normal, np.zeros(n), landings)
+
+
+def _knots(t: np.ndarray, at: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """A profile through the points (at, values), raised-cosine between two, flat outside."""
+    j = np.clip(np.searchsorted(at, t, side="right") - 1, 0, len(at) - 2)
+    u = np.clip((t - at[j]) / np.maximum(at[j + 1] - at[j], 1e-12), 0.0, 1.0)
+    return values[j] + (values[j + 1] - values[j]) * (1 - np.cos(np.pi * u)) / 2
+
+
+def _episode(take: Take, push: bool) -> tuple[np.ndarray, ...]:
+    """One grasp, load, carry, unload and release: normal load, shear and arm speed, each of
+    the episode's length (its phases those of a lift, Johansson & Westling 1984)."""
+    p, trial_rng = take.p, take.trial_rng
+    d = trial_rng.uniform(*p.episode_s)
+    grip = trial_rng.uniform(*p.press_force_n) * take.unit.force_share * take.sig.force
+    load = grip * take.mu_static / trial_rng.uniform(*p.safety_margin)
+    v = trial_rng.uniform(*(p.push_speed_mm_s if push else p.transport_speed_mm_s))
+    # pushing, the finger bends as the arm sets off, until the object breaks free of the table
+    rise = min(load / (p.tangential_stiffness_n_mm * v * d), 0.4) if push else 0.0
+    t = np.arange(int(d * take.fs)) / take.fs
+    at = d * np.array([0.0, 0.1, 0.25, 0.25 + rise, 0.75, 0.9, 1.0])
+    grips = _knots(t, at, grip * np.array([0.0, 0.3, 1.0, 1.0, 1.0, 0.3, 0.0]))
+    loads = _knots(t, at, load * np.array([0.0, 0.0, float(not push), 1.0, 1.0, 0.0, 0.0]))
+    if push:
+        return grips, loads, _knots(t, at, v * np.array([0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0]))
+    # lifted: the arm carries it up and back, its accelerations adding to the weight
+    u = np.clip((t - at[2]) / (at[4] - at[2]), 0.0, 1.0)
+    moving = v * (1 - np.cos(2 * np.pi * u))
+    return grips, loads * (1 + np.gradient(moving, t) / 1000.0 / 9.81), moving
+
+
+def _carry(take: Take, push: bool) -> Loads:
+    """Lifting against gravity or pushing along, episode after episode with no contact
+    between: the grip closes, then the load comes on, the shear staying a safety margin
+    inside the cone (lifting, load and grip rise together)."""
+    n, fs = take.n, take.fs
+    normal, shear, speed = np.zeros(n), np.zeros(n), np.zeros(n)
+    landings = []
+    i = -int(take.trial_rng.uniform(0, take.p.episode_s[1]) * fs)  # it may begin in one
+    while i < n:
+        episode = _episode(take, push)
+        size = len(episode[0])
+        lo, hi = max(i, 0), min(i + size, n)
+        if hi > lo:
+            normal[lo:hi], shear[lo:hi], speed[lo:hi] = (x[lo - i : hi - i] for x in episode)
+        if i >= 0:
+            landings.append((i, fs / size))
+        i += size + int(take.trial_rng.uniform(0.1, 0.5) * fs)
+    return Loads(normal, shear, speed, landings)
+
+
+def _press_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
+    """A finger loading a surface without slipping, one task per trial (``PRESS_TASKS``, in
+    the shares ``press_tasks``): palpating it, lifting it against gravity, pushing it along.
+    The shear stays inside the friction cone; where it outpaces the normal load, the slip
+    annulus at the contact's edge sweeps and micro-slips ring (incipient slip, labelled 0)."""
+    n, fs, p, rng, m = take.n, take.fs, take.p, take.rng, take.surface
+    shares = np.asarray(p.press_tasks) / sum(p.press_tasks)
+    task = PRESS_TASKS[int(take.trial_rng.choice(len(PRESS_TASKS), p=shares))]
+    # along the finger, as the arm drags it in slip: the plane it curls, presses and pushes in
+    sign = take.trial_rng.choice([-1.0, 1.0])
+    loads = _palpate(take) if task == "palpate" else _carry(take, push=task == "push")
+    normal = loads.normal
+    impulses = np.zeros(n)
+    for i, rate in loads.landings:
+        impulses[i] += p.impact_n * m.hardness * np.sqrt(rate) * rng.lognormal(0, 0.4)
+    impulses += _edge_slips(take, loads.shear, normal, np.ones(n, bool))
     loading = np.maximum(np.gradient(normal) * fs, 0)
     crackle = (
         p.crackle_n
@@ -659,29 +858,29 @@ def _press_forces(n, fs, material, trial_rng, rng, sig, unit, sensor, p: Physics
         * rng.standard_normal(n)
     )
     touching = normal > 0
-    f0, zeta = contact_mode(
-        sensor, unit, material, float(normal[touching].mean()) if touching.any() else 0.0, p
-    )
+    mean_load = float(normal[touching].mean()) if touching.any() else 0.0
+    f0, zeta = contact_mode(take.sensor, take.unit, str(take.material), mean_load, p)
     ringing = _resonate(impulses, f0, zeta, fs)
-    shear = p.press_shear_ratio * normal + 0.5 * ringing + crackle
-    forces = (
-        np.stack([shear, 0.2 * ringing, normal + ringing + crackle]) * unit.coupling * sig.patch
+    forces = take.on_pad(
+        sign * loads.shear + 0.5 * ringing + crackle, 0.2 * ringing, normal + ringing + crackle
     )
-    return forces, np.zeros(n, np.int8)
+    drive = _unit_vector(rng) * _drive(loads.speed, fs, p)
+    return forces * take.unit.coupling * take.sig.patch + drive, np.zeros(n, np.int8)
 
 
-def _free_space_forces(n, fs, speed_avg, trial_rng, rng, sig, unit, sensor, p: Physics):
+def _free_space_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     """No contact: fingertip inertia, drive vibration and start/stop jerks of the moving arm."""
+    n, fs, p, rng = take.n, take.fs, take.p, take.rng
     # motion segments between joint configurations; each starts and stops with a jerk
-    seg_s = trial_rng.uniform(1.0, 3.0, int(n / fs) + 2)
+    seg_s = take.trial_rng.uniform(1.0, 3.0, int(n / fs) + 2)
     bounds = np.cumsum(seg_s) * fs
     bounds = bounds[bounds < n].astype(int)
     phase = np.interp(
         np.arange(n), np.r_[0, bounds, n], np.r_[0, np.arange(1, len(bounds) + 1), len(bounds) + 1]
     )
-    speed = speed_avg * (1 - np.cos(2 * np.pi * phase))
+    speed = take.arm_speed * (1 - np.cos(2 * np.pi * phase))
     accel = np.gradient(speed) * fs / 1000.0  # m/s^2
-    rel = speed_avg / 25.0
+    rel = take.arm_speed / 25.0
     inertial = (
         p.inertial_n
         * accel[None, :]
@@ -691,9 +890,18 @@ def _free_space_forces(n, fs, speed_avg, trial_rng, rng, sig, unit, sensor, p: P
     )
     impulses = np.zeros(n)
     impulses[bounds] = p.jerk_n * rel * rng.lognormal(0, 0.5, len(bounds))
-    ringing = _resonate(impulses, *free_mode(unit, p), fs)
+    ringing = _resonate(impulses, *free_mode(take.unit, p), fs)
     forces = inertial + _unit_vector(rng) * (ringing + _drive(speed, fs, p))
     return forces, np.zeros(n, np.int8)
+
+
+#: each scenario's contact forces (3, n) and per-sample labels (n,)
+SCENARIO_FORCES = {
+    "slip": _slip_forces,
+    "hold-slip": _hold_slip_forces,
+    "press": _press_forces,
+    "free-space": _free_space_forces,
+}
 
 
 def _unit_vector(rng: np.random.Generator) -> np.ndarray:
@@ -703,20 +911,13 @@ def _unit_vector(rng: np.random.Generator) -> np.ndarray:
 
 
 def _sense(
-    forces: np.ndarray,
-    sensor: Sensor,
-    unit: Unit,
-    sig: Signature,
-    fs: float,
-    rng,
-    p: Physics,
-    electrode_rng: np.random.Generator | None = None,
+    forces: np.ndarray, take: Take, electrode_rng: np.random.Generator | None = None
 ) -> np.ndarray:
-    """What the sensor reports: idle vibration, skin filtering, mixing, high-pass, noise, gain;
-    then, for a sensor with electrodes, their counts from the same forces (drawing from
-    ``electrode_rng`` only, so that the other channels are those of a sensor without them);
-    (n, recorded channels) float32."""
-    n = forces.shape[1]
+    """What the sensor reports: idle vibration, skin filtering, the finger's roll, mixing,
+    high-pass, noise, gain; then, for a sensor with electrodes, their counts from the same
+    forces (drawing from ``electrode_rng`` only, so that the other channels are those of a
+    sensor without them); (n, recorded channels) float32."""
+    n, fs, p, rng, sensor, unit = take.n, take.fs, take.p, take.rng, take.sensor, take.unit
     idle = (
         unit.idle_coupling
         * p.idle_n
@@ -725,18 +926,24 @@ def _sense(
     forces = forces + idle * np.array([[0.5], [0.5], [1.0]])
     if unit.skin_cutoff_hz is not None:
         forces = _lowpass(forces, unit.skin_cutoff_hz, fs, axis=1)
-    out = unit.mixing @ forces  # (channels, n)
+    out = unit.mixing @ take.sig.roll @ forces  # (channels, n), in the sensor's frame
     if sensor.highpass_hz is not None:
-        out = signal.sosfilt(
-            signal.butter(2, sensor.highpass_hz, "highpass", fs=fs, output="sos"), out, axis=1
-        )
+        out = signal.sosfilt(_butter(2, sensor.highpass_hz, fs, "highpass"), out, axis=1)
     out = out + rng.normal(0, sensor.noise_floor_n * unit.noise, out.shape)
-    channels = (out.T * unit.gain * sig.drift * sensor.units_per_newton).astype(np.float32)
+    channels = (out.T * unit.gain * take.sig.drift * sensor.units_per_newton).astype(np.float32)
     if sensor.electrodes is None:
         return channels
     if electrode_rng is None:
         raise ValueError("a sensor with electrodes needs their random stream")
     return np.hstack([channels, electrode_counts(forces, sensor, unit, fs, electrode_rng, p)])
+
+
+def calibrated_forces(channels: np.ndarray, sensor: Sensor, unit: Unit) -> np.ndarray:
+    """The force (3, n) in N that a unit's force channels (n, channels) say, through its
+    calibration: the pseudo-inverse of its mix and its gain, as a lab's calibration matrix
+    does (in the sensor's frame; the filters, noise and a recording's drift stay in)."""
+    forces = np.linalg.pinv(unit.mixing) @ np.asarray(channels, np.float64).T
+    return forces / (unit.gain * sensor.units_per_newton)
 
 
 def electrode_counts(
@@ -869,27 +1076,20 @@ def generate(
                 key = (sensor_type, scenario, material, speed, token)
                 trial_id = "/".join((sensor_type, scenario, material or "none", speed_name, token))
                 for inst, unit in units.items():
-                    trial_rng = rng_for(seed, "trial", *key)
                     rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
                     sig = _signature(
                         rng_for(seed, "signature", sensor_type, inst, *key[1:]),
                         rng_for(seed, "surface", *key),
                         p,
                     )
-                    args = (trial_rng, rng, sig, unit, sensor, p)
-                    if scenario == "slip":
-                        forces, label = _slip_forces(n, fs, speed, material, *args)
-                    elif scenario == "hold-slip":
-                        forces, label = _hold_slip_forces(n, fs, speed, material, *args)
-                    elif scenario == "press":
-                        forces, label = _press_forces(n, fs, material, *args)
-                    else:
-                        forces, label = _free_space_forces(n, fs, speed, *args)
+                    trial_rng = rng_for(seed, "trial", *key)
+                    take = Take(n, fs, material, speed, sensor, unit, sig, trial_rng, rng, p)
+                    forces, label = SCENARIO_FORCES[scenario](take)
                     rid = "-".join(
                         (sensor_type, inst, scenario, material or "none", speed_name, token)
                     )
                     electrode_rng = rng_for(seed, "electrodes", sensor_type, inst, *key[1:])
-                    samples[rid] = _sense(forces, sensor, unit, sig, fs, rng, p, electrode_rng)
+                    samples[rid] = _sense(forces, take, electrode_rng)
                     labels[rid] = label
                     rows.append(
                         dict(

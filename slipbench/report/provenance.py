@@ -92,22 +92,34 @@ def dataset_source(path: str) -> str:
     return f"the dataset at {path} ({state})"
 
 
+# the first model version whose pressing carries shear inside the friction cone (docs/simulation.md)
+SHEAR_WITHOUT_SLIP = 4
+
+
+def _gives_slip_away(match: re.Match | None) -> bool:
+    version = match["version"] if match else ""
+    return version.isdigit() and int(version) < SHEAR_WITHOUT_SLIP
+
+
 @cache
 def simulated(path: str) -> bool:
-    """Whether the dataset at ``path`` is slipbench's simulation: every value of its ``source``
-    column is the simulator's, or, where it is not readable here, its folder's name is."""
+    """Whether the dataset at ``path`` is slipbench's simulation from a model before
+    :data:`SHEAR_WITHOUT_SLIP`, whose force direction alone separates slip from pressing: every
+    value of its ``source`` column says so, or, where it is not readable here, its folder's
+    name does."""
     if not path:
         return False
     try:
         sources = _sources(path)
     except (OSError, pa.ArrowException, KeyError, DataError):
-        return SYNTH_FOLDER.search(Path(path).name) is not None
-    return bool(sources) and all(SYNTH_SOURCE.search(s) for s in sources)
+        return _gives_slip_away(SYNTH_FOLDER.search(Path(path).name))
+    return bool(sources) and all(_gives_slip_away(SYNTH_SOURCE.search(s)) for s in sources)
 
 
 def on_simulation(rows: pd.DataFrame) -> pd.Series:
-    """(n_rows,) bool: rows whose test data is the simulation (the test dataset's path where
-    the row trained on another, else the dataset's)."""
+    """(n_rows,) bool: rows whose test data is a simulation whose force direction gives slip
+    away (:func:`simulated`; the test dataset's path where the row trained on another, else the
+    dataset's)."""
     path = pd.Series("", index=rows.index, dtype=object)
     for column in ("dataset_path", "test_dataset_path"):  # the test dataset's wins
         if column in rows:

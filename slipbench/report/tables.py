@@ -51,9 +51,9 @@ SIMULATED = "_on_simulation"
 #: a column the report sets on rows tested on another dataset's unit: the training unit's name
 TRAINED_AS = "_trained_as"
 SIMULATION_NOTE = (
-    "Channels on simulated data: in the simulation, the force's direction alone separates slip "
-    "(tangential load) from pressing (a mostly normal load; datasets.md, the design's pressing and "
-    "sensing), so these channels figures measure the simulation, not what a sensor can tell."
+    "Channels on simulated data of model version 3 or earlier: there, the force's direction alone "
+    "separates slip (tangential load) from pressing (a mostly normal load; docs/simulation.md), so "
+    "these channels figures measure the simulation, not what a sensor can tell."
 )
 
 # What a table's intervals are. A figure run under several seeds (--repeats) is their mean; its

@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from sklearn.metrics import roc_auc_score
 
 from slipbench.data.read import read_dataset
 from slipbench.data.signals import univariate
@@ -18,6 +19,7 @@ from slipbench.data.synth import (
     UNLABELLED,
     Design,
     Physics,
+    calibrated_forces,
     contact_mode,
     free_mode,
     generate,
@@ -145,15 +147,46 @@ def test_labels_follow_the_scenarios(sim):
         for r, n in zip(rec["recording_id"], rec["n"])
     )
     by = {s: list(g["recording_id"]) for s, g in rec.groupby("scenario")}
-    assert (
-        np.mean([labels[r].mean() for r in by["slip"]]) > 0.8
-    )  # the contact slides most of the time...
-    assert all(
-        set(np.unique(labels[r])) <= {0, 1} for r in by["slip"]
-    )  # (it sticks at the path's ends)
+    # the contact slides most of the time (it sticks from each reversal of the arm until the
+    # bent finger's shear breaks it away: about a fifth of a leg)...
+    assert np.mean([labels[r].mean() for r in by["slip"]]) > 0.7
+    assert all(set(np.unique(labels[r])) <= {0, 1} for r in by["slip"])
     assert not any(
         labels[r].any() for r in by["press"] + by["free-space"]
     )  # ...and never outside slip
+
+
+def _force_direction(rec: pd.DataFrame, samples: dict, seed: int) -> pd.DataFrame:
+    """Each slip or pressing recording of a force sensor: its median |f_t| / |f_n| over the
+    samples that carry load (|f_n| > 0.05 N), the force by the unit's calibration."""
+    rows = []
+    mine = rec[rec["sensor_type"].isin(["Nano17", "OptoForce20"])]
+    units = {
+        (s, i): make_unit(seed, s, i, Physics())
+        for s, i in mine[["sensor_type", "sensor_instance"]].drop_duplicates().to_numpy()
+    }
+    for r in mine[mine["scenario"].isin(["slip", "press"])].itertuples():
+        unit = units[r.sensor_type, r.sensor_instance]
+        f = calibrated_forces(samples[r.recording_id], SENSORS[r.sensor_type], unit)
+        loaded = np.abs(f[2]) > 0.05
+        if loaded.sum() >= 10:
+            ratio = np.median(np.hypot(f[0], f[1])[loaded] / np.abs(f[2])[loaded])
+            rows.append((r.sensor_type, r.sensor_instance, r.scenario == "slip", ratio))
+    return pd.DataFrame(rows, columns=["sensor", "unit", "slip", "ratio"])
+
+
+def test_force_direction_alone_does_not_give_slip_away(sim):
+    """Shear without slip (palpating at a tilt, lifting against gravity, pushing along, up to
+    the friction cone) and friction that differs by surface and trial: a recording's median
+    |f_t| / |f_n| no longer separates slip from pressing (model version 3, at 0.6 against 0.2
+    for every recording: AUROC 0.93-0.96; measured here: 0.71-0.76, a unit alone 0.67-0.78)."""
+    rec, samples, _ = sim
+    direction = _force_direction(rec, samples, seed=1)
+    for sensor, g in direction.groupby("sensor"):
+        assert g["slip"].sum() > 300 and (~g["slip"]).sum() > 100, sensor
+        assert roc_auc_score(g["slip"], g["ratio"]) <= 0.80, sensor
+        for unit, u in g.groupby("unit"):  # what a cell of one unit sees
+            assert roc_auc_score(u["slip"], u["ratio"]) <= 0.85, (sensor, unit)
 
 
 ONSETS_ONLY = Design(

@@ -16,6 +16,7 @@ from goldens import check_golden
 from resultgen import all_rows, fake_rows
 
 from slipbench.app.cli import main
+from slipbench.data.synth import MODEL_VERSION
 from slipbench.engine.registry import protocols
 from slipbench.report.document import protocol_table, render_report
 from slipbench.report.paper import paper_frame
@@ -172,8 +173,9 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
     text = (tmp_path / "report.md").read_text()
     assert "Published (Van Wyk & Falco, their LSTM)" in text and "holweg (paper)" in text
     assert "Ours minus published" not in text  # holweg is not the paper's model
-    assert "| Data | simulated (slipbench.synth model v3, scale 0.02, seed 1;" in re.sub(
-        r" +", " ", text
+    assert (
+        f"| Data | simulated (slipbench.synth model v{MODEL_VERSION}, scale 0.02, seed 1;"
+        in re.sub(r" +", " ", text)
     )
     assert "Smallest test set" in text
     assert {p.name for p in (tmp_path / "fig").iterdir()} == {

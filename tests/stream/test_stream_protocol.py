@@ -39,9 +39,12 @@ def test_every_unit_streams_its_test_trials_and_reports_the_figures(streamed, sm
     assert (rows["status"] == "ok").all(), rows[["status", "reason"]]
     for f in FIGURES:
         assert rows[f].notna().all()
-        assert (rows[f"{f}_lo"] <= rows[f] + 1e-9).all() and (
-            rows[f] <= rows[f"{f}_hi"] + 1e-9
-        ).all()
+        # an interval resamples two or more contributing trials: a unit that caught one onset
+        # has none for its delays (OptoForce20 middle here, 1 of 11 since model version 4)
+        spread = rows["n_detected"] >= 2 if "delay" in f else rows[f].notna()
+        assert rows.loc[~spread, [f"{f}_lo", f"{f}_hi"]].isna().all().all()
+        r = rows[spread]
+        assert (r[f"{f}_lo"] <= r[f] + 1e-9).all() and (r[f] <= r[f"{f}_hi"] + 1e-9).all()
     assert rows["detection_rate"].between(0, 1).all()
     # delays from the stream alone: whole samples at the unit's rate, never past the maximum;
     # the compute time per hop is its own column, checked against the hop period
@@ -75,8 +78,13 @@ def test_every_unit_streams_its_test_trials_and_reports_the_figures(streamed, sm
     ]
     assert curve["threshold"].is_monotonic_increasing and len(curve) > 10
     # the operating point was chosen on the training streams: on the test streams it is near,
-    # not necessarily within, the budget; the threshold is one of the training scores' range
-    assert rows["op_threshold"].between(0, 1).all() and (rows["op_note"] == "").all()
+    # not necessarily within, the budget; the threshold is one of the training scores' range.
+    # Where none keeps the budget, a note says so (BioTac SP middle here since model version 4:
+    # lifting and pushing move the arm and ring micro-slips without slip)
+    found = rows["op_threshold"].notna()
+    assert found.any() and rows.loc[found, "op_threshold"].between(0, 1).all()
+    assert (rows.loc[found, "op_note"] == "").all()
+    assert rows.loc[~found, "op_note"].str.startswith("no threshold keeps").all()
     assert (rows["threshold"] == 0.5).all()
 
 
