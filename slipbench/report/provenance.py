@@ -145,6 +145,8 @@ def sensor_units(path: str) -> str:
         )
     except (OSError, pa.ArrowException, KeyError, DataError):
         return ""
+    if not {"sensor_type", "sensor_instance", "units"} <= table.keys():  # read skips what lacks
+        return ""
     sensors: dict[str, tuple[dict, dict]] = {}  # type -> (instances, units), in first-seen order
     for kind, instance, units in zip(
         table["sensor_type"], table["sensor_instance"], table["units"]
