@@ -205,7 +205,7 @@ def _cuda_available() -> bool:
 
 
 def _numba_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
-    kernels.train_epoch(x, y, order, batch_size, lr, momentum, *params, *velocity)
+    kernels.train_epoch((x, y), order, (batch_size, lr, momentum), params, velocity)
 
 
 def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device="cuda") -> None:

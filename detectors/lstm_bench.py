@@ -41,7 +41,7 @@ def lstm_targets(
 
     def ours_epoch(bs: int) -> Callable[[], object]:
         return lambda: kernels.train_epoch(
-            x[:n_train], y, np.arange(n_train), bs, 1e-4, 0.125, *params, *velocity
+            (x[:n_train], y), np.arange(n_train), (bs, 1e-4, 0.125), params, velocity
         )
 
     def torch_epoch(bs: int, n: int) -> Callable[[], object]:
