@@ -107,14 +107,13 @@ class LSTM(BaseDetector):
     @classmethod
     def _fit_lockstep(cls, detectors, data):
         """Fit ``detectors`` (clones of this class), each on its own (x, y, seed), as ``_fit``
-        would: those that share hyperparameters and window length and run on the CPU train
-        together, MODELS at a time in the SIMD lanes (:mod:`lstm_lockstep`); the rest alone."""
+        would: those that share hyperparameters (the device among them) and window length train
+        together. On the CPU, MODELS at a time in the SIMD lanes (:mod:`lstm_lockstep`), each to
+        its weights alone bit for bit; on CUDA, all in batched torch operations
+        (:mod:`lstm_lockstep_torch`), to float32 tolerance of torch's LSTM alone."""
         groups: dict[tuple, list[int]] = {}
-        for i, (det, (x, y, seed, _)) in enumerate(zip(detectors, data)):
+        for i, (det, (x, _, _, _)) in enumerate(zip(detectors, data)):
             det.device_, det.device_reason_ = _device_choice(det.device, det.batch_size)
-            if det.device_ != "cpu":
-                det._fit(x, y, seed)
-                continue
             key = (repr(sorted(det.get_params().items())), x.shape[1])
             groups.setdefault(key, []).append(i)
         for members in groups.values():
@@ -274,9 +273,15 @@ class _Training:
 
 def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
     """Train models of one window length and hyperparameters together: an epoch of every model
-    still training is one :func:`lstm_lockstep.lockstep_epoch`; validation, early stopping and
-    stages run per model, as alone (:class:`_Training`)."""
+    still training is one lockstep epoch (on the device the models chose); validation, early
+    stopping and stages run per model, as alone (:class:`_Training`)."""
     from slipbench.detectors import lstm_lockstep as lockstep
+    from slipbench.detectors import lstm_lockstep_torch
+
+    if dets[0].device_ == "cuda":
+        epoch = lstm_lockstep_torch.lockstep_epoch
+    else:
+        epoch = lockstep.lockstep_epoch
 
     runs = [_Training(d, *args) for d, args in zip(dets, data)]
     xs = np.concatenate([r.xn for r in runs])
@@ -295,7 +300,7 @@ def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
                 order = r.order()
                 orders[i, : len(order)], counts[i], rates[i] = order + offsets[i], len(order), r.lr
         plan = (orders, counts, rates, batch_size, momentum)
-        lockstep.lockstep_epoch((xs, ys), plan, params, velocity)
+        epoch((xs, ys), plan, params, velocity)
         for i, r in enumerate(runs):
             if r.done:
                 continue

@@ -304,3 +304,27 @@ def test_fit_lockstep_fits_each_model_as_fit_does():
         assert (det.lo_, det.scale_, det.window_length_) == (alone.lo_, alone.scale_, 20)
     with pytest.raises(UsageError, match="only class"):
         LSTM.fit_lockstep([LSTM()], [FitJob(np.ones((10, 20)), np.zeros(10))])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("batch_size", [1, 5])
+def test_torch_lockstep_epoch_matches_the_numba_one(batch_size):
+    """The GPU path of lockstep training (torch, batched over the models) runs here on the CPU:
+    each model's weights agree with the numba lanes' to float32 tolerance."""
+    from slipbench.detectors import lstm_lockstep, lstm_lockstep_torch
+
+    rng = np.random.default_rng(1)
+    x, y = rng.normal(size=(120, 25)).astype(np.float32), (rng.random(120) < 0.5).astype(np.int8)
+    models = [fastlstm.init_params(H, np.random.default_rng(i)) for i in range(9)]
+    orders = [rng.permutation(120)[: 60 + 5 * i] for i in range(9)]
+    plan = _lockstep_plan(orders, [0.01 * (1 + i % 3) for i in range(9)], batch_size)
+    out = []
+    for epoch in (lstm_lockstep.lockstep_epoch, lstm_lockstep_torch.lockstep_epoch):
+        params = lstm_lockstep.pack(models)
+        velocity = np.zeros_like(params)
+        kwargs = {"device": "cpu"} if epoch is lstm_lockstep_torch.lockstep_epoch else {}
+        epoch((x, y), plan, params, velocity, **kwargs)
+        epoch((x, y), plan, params, velocity, **kwargs)  # velocity carried over
+        out.append(params)
+    assert np.abs(out[0] - lstm_lockstep.pack(models)).max() > 1e-3  # they trained
+    np.testing.assert_allclose(out[0], out[1], atol=2e-5)
