@@ -13,6 +13,7 @@ and each learning-rate stage starts from them with zero velocity; MATLAB's initi
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
 (``max_epochs=100`` is the paper's).
 CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
+Many models train together through ``LSTM.fit_lockstep`` (lstm_lockstep.py, lstm_lockstep_torch.py).
 Streaming (``streamer``): every window still open keeps its state from push to push, so a
 score is ready one step after its last sample (:class:`LSTMStreamer`).
 """
@@ -34,7 +35,8 @@ PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
 
 class LSTM(BaseDetector):
-    """The paper's LSTM; ``device`` "auto" uses a CUDA GPU when torch sees one."""
+    """The paper's LSTM; ``device`` "auto" trains on a CUDA GPU where torch sees one and the
+    batch is large enough for it to be faster (``CUDA_MIN_BATCH``), else on the CPU."""
 
     check_params = {"max_epochs": 2, "validation_fraction": 0.2}  # fast settings for check_detector
     lo_: float  # fitted normalization: (x - lo_) * scale_ - 1
