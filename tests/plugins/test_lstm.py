@@ -328,3 +328,30 @@ def test_torch_lockstep_epoch_matches_the_numba_one(batch_size):
         out.append(params)
     assert np.abs(out[0] - lstm_lockstep.pack(models)).max() > 1e-3  # they trained
     np.testing.assert_allclose(out[0], out[1], atol=2e-5)
+
+
+def test_fit_lockstep_runs_each_group_on_its_device(monkeypatch):
+    """Models whose device is CUDA go to the torch lockstep epoch (here on the CPU), the rest
+    to the numba lanes; a group never mixes devices."""
+    from slipbench.base import FitJob
+    from slipbench.detectors import lstm, lstm_lockstep, lstm_lockstep_torch
+
+    calls = []
+
+    def recorder(name):
+        def epoch(data, plan, params, velocity):
+            calls.append((name, int((plan[1] > 0).sum())))
+
+        return epoch
+
+    monkeypatch.setattr(lstm_lockstep, "lockstep_epoch", recorder("cpu"))
+    monkeypatch.setattr(lstm_lockstep_torch, "lockstep_epoch", recorder("cuda"))
+    real = lstm._device_choice
+    monkeypatch.setattr(
+        lstm, "_device_choice", lambda d, b: ("cuda", "test") if b >= 128 else real(d, b)
+    )
+    jobs = [FitJob(*toy_windows(60, 20, seed=i), seed=i) for i in range(3)]
+    dets = [LSTM(max_epochs=1), LSTM(max_epochs=1), LSTM(max_epochs=1, batch_size=128)]
+    LSTM.fit_lockstep(dets, jobs)
+    assert set(calls) == {("cpu", 2), ("cuda", 1)}  # one call per epoch of each group
+    assert [d.fitted_choices()["device"] for d in dets] == ["cpu", "cpu", "cuda"]
