@@ -13,6 +13,7 @@ and each learning-rate stage starts from them with zero velocity; MATLAB's initi
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
 (``max_epochs=100`` is the paper's).
 CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
+Many models train together through ``LSTM.fit_lockstep`` (lstm_lockstep.py, lstm_lockstep_torch.py).
 Streaming (``streamer``): every window still open keeps its state from push to push, so a
 score is ready one step after its last sample (:class:`LSTMStreamer`).
 """
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 import importlib.util
 import warnings
+from typing import Any
 
 import numpy as np
 
@@ -33,9 +35,13 @@ PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
 
 class LSTM(BaseDetector):
-    """The paper's LSTM; ``device`` "auto" uses a CUDA GPU when torch sees one."""
+    """The paper's LSTM; ``device`` "auto" trains on a CUDA GPU where torch sees one and the
+    batch is large enough for it to be faster (``CUDA_MIN_BATCH``), else on the CPU."""
 
     check_params = {"max_epochs": 2, "validation_fraction": 0.2}  # fast settings for check_detector
+    lo_: float  # fitted normalization: (x - lo_) * scale_ - 1
+    scale_: float
+    lockstep = True  # _fit_lockstep trains models of one window length and settings together
     _parameter_constraints = {
         "hidden_size": Interval(int, 1, 512),
         "batch_size": Interval(int, 1, None),
@@ -92,62 +98,42 @@ class LSTM(BaseDetector):
         return list(zip(rates, (int(e) for e in epochs)))
 
     def _fit(self, x, y, seed):
-        stages = self._stages()
-        rng = np.random.default_rng(seed)
-        lo, hi = np.percentile(x, [2.5, 97.5])
-        self.lo_, self.scale_ = (
-            float(lo),
-            float(2.0 / max(hi - lo, 1e-12)),
-        )  # [p2.5, p97.5] -> [-1, 1]
-        xn = ((x - self.lo_) * self.scale_ - 1.0).astype(np.float32)
-        val = np.concatenate(
-            [
-                rng.choice(
-                    np.flatnonzero(y == c),
-                    max(1, int(round(self.validation_fraction * (y == c).sum()))),
-                    replace=False,
-                )
-                for c in (0, 1)
-            ]
-        )
-        train = np.setdiff1d(np.arange(len(y)), val)
-        if len(train) == 0:
-            raise UsageError(
-                "LSTM: too few windows to keep a validation part; lower validation_fraction"
-            )
-        cuda = self.device == "cuda" or (self.device == "auto" and _cuda_available())
-        params = kernels.init_params(self.hidden_size, rng)
-        epoch = _torch_epoch if cuda else _numba_epoch
-        best, best_loss, self.history_ = [p.copy() for p in params], np.inf, []
-        total_epochs = sum(e for _, e in stages)  # the caps: early stopping may end sooner
-        for lr, max_epochs in stages:
-            params = [p.copy() for p in best]
-            velocity = [np.zeros_like(p) for p in params]
-            stale = 0
-            for _ in range(max_epochs):
-                order = train[rng.permutation(len(train))]
-                epoch(xn, y, order, self.batch_size, lr, self.momentum, params, velocity)
-                p = np.clip(kernels.predict_proba(xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
-                loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
-                self.history_.append((lr, loss))
-                self.report_progress(len(self.history_), total_epochs, loss=loss)
-                if loss < best_loss - 1e-6:
-                    best, best_loss, stale = [q.copy() for q in params], loss, 0
-                else:
-                    stale += 1
-                    if stale >= self.patience:
-                        break
-        self.w_, self.rt_, self.b_, self.wy_, self.by_ = best
-        self.validation_loss_ = best_loss
-        self.history_ = np.array(self.history_)
+        self.device_, self.device_reason_ = _device_choice(self.device, self.batch_size)
+        run = _Training(self, x, y, seed)
+        epoch = _torch_epoch if self.device_ == "cuda" else _numba_epoch
+        while not run.done:
+            epoch(run.xn, y, run.order(), self.batch_size, run.lr, self.momentum, *run.state)
+            run.end_epoch()
+        run.finish()
+
+    @classmethod
+    def _fit_lockstep(cls, detectors, data):
+        """Fit ``detectors`` (clones of this class), each on its own (x, y, seed), as ``_fit``
+        would: those that share hyperparameters (the device among them) and window length train
+        together. On the CPU, MODELS at a time in the SIMD lanes (:mod:`lstm_lockstep`), each to
+        its weights alone bit for bit; on CUDA, all in batched torch operations
+        (:mod:`lstm_lockstep_torch`), to float32 tolerance of torch's LSTM alone."""
+        groups: dict[tuple, list[int]] = {}
+        for i, (det, (x, _, _, _)) in enumerate(zip(detectors, data)):
+            det.device_, det.device_reason_ = _device_choice(det.device, det.batch_size)
+            key = (repr(sorted(det.get_params().items())), x.shape[1])
+            groups.setdefault(key, []).append(i)
+        for members in groups.values():
+            _train_in_lockstep([detectors[i] for i in members], [data[i][:3] for i in members])
 
     def _predict_proba(self, x):
         return kernels.predict_proba(x, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
 
     def fitted_choices(self):
         """Epochs run over all learning-rate stages (early stopping ends a stage before its cap),
-        and the lowest validation loss (cross-entropy; ln 2 = 0.693 is a coin's)."""
-        return {"epochs": int(len(self.history_)), "validation_loss": float(self.validation_loss_)}
+        the lowest validation loss (cross-entropy; ln 2 = 0.693 is a coin's), and the device
+        that trained the model and why (``device_reason``)."""
+        return {
+            "epochs": int(len(self.history_)),
+            "validation_loss": float(self.validation_loss_),
+            "device": self.device_,
+            "device_reason": self.device_reason_,
+        }
 
     @classmethod
     def benchmark(cls, length: int, seconds: float, seed: int = 0):
@@ -204,8 +190,135 @@ def _cuda_available() -> bool:
     return torch.cuda.is_available()
 
 
+# Issue 32, measured on an H100 against CPU cores: at batch 128 the GPU trained 2.46 M samples/s
+# against 1.84 M on 16 cores; at batch 1 (one kernel launch per update) 0.034 M against 1.75 M
+# on one core. "auto" takes the GPU only from this batch size on.
+CUDA_MIN_BATCH = 128
+
+
+def _device_choice(device: str, batch_size: int) -> tuple[str, str]:
+    """The device that trains, and why: "auto" never picks the device known to be slower."""
+    if device != "auto":
+        return device, "device set"
+    if not _cuda_available():
+        return "cpu", "no CUDA device"
+    if batch_size < CUDA_MIN_BATCH:
+        return "cpu", f"batch_size {batch_size} < {CUDA_MIN_BATCH}: the GPU is slower there"
+    return "cuda", f"batch_size {batch_size} >= {CUDA_MIN_BATCH}: the GPU is faster there"
+
+
+class _Training:
+    """One model's way through the learning-rate stages, an epoch at a time: the same steps
+    whether it trains alone (:meth:`LSTM._fit`) or in lockstep with others."""
+
+    def __init__(self, det: Any, x: np.ndarray, y: np.ndarray, seed: int):
+        self.det, self.y, self.stages = det, y, det._stages()
+        self.rng = rng = np.random.default_rng(seed)
+        lo, hi = np.percentile(x, [2.5, 97.5])
+        det.lo_, det.scale_ = float(lo), float(2.0 / max(hi - lo, 1e-12))  # -> [-1, 1]
+        self.xn = ((x - det.lo_) * det.scale_ - 1.0).astype(np.float32)
+        counts = [max(1, int(round(det.validation_fraction * (y == c).sum()))) for c in (0, 1)]
+        self.val = np.concatenate(
+            [rng.choice(np.flatnonzero(y == c), k, replace=False) for c, k in zip((0, 1), counts)]
+        )
+        self.train = np.setdiff1d(np.arange(len(y)), self.val)
+        if len(self.train) == 0:
+            raise UsageError(
+                "LSTM: too few windows to keep a validation part; lower validation_fraction"
+            )
+        self.best, self.best_loss = kernels.init_params(det.hidden_size, rng), np.inf
+        self.history: list[tuple[float, float]] = []
+        self.total_epochs = sum(e for _, e in self.stages)  # caps: early stopping may end sooner
+        self.stage = 0
+        self._start_stage()
+
+    def _start_stage(self) -> None:
+        """Each stage starts from the best weights so far, with zero velocity."""
+        params = [p.copy() for p in self.best]
+        self.state = (params, [np.zeros_like(p) for p in params])
+        self.stale = self.epochs_in_stage = 0
+
+    @property
+    def done(self) -> bool:
+        return self.stage >= len(self.stages)
+
+    @property
+    def lr(self) -> float:
+        return self.stages[self.stage][0]
+
+    def order(self) -> np.ndarray:
+        """The training windows in this epoch's order."""
+        return self.train[self.rng.permutation(len(self.train))]
+
+    def end_epoch(self) -> None:
+        """Validate the weights in :attr:`state`, keep the best, stop early or change stage."""
+        params, val, y = self.state[0], self.val, self.y
+        p = np.clip(kernels.predict_proba(self.xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
+        loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
+        self.history.append((self.lr, loss))
+        self.det.report_progress(len(self.history), self.total_epochs, loss=loss)
+        self.epochs_in_stage += 1
+        if loss < self.best_loss - 1e-6:
+            self.best, self.best_loss, self.stale = [q.copy() for q in params], loss, 0
+        else:
+            self.stale += 1
+        if self.stale >= self.det.patience or self.epochs_in_stage >= self.stages[self.stage][1]:
+            self.stage += 1
+            if not self.done:
+                self._start_stage()
+
+    def finish(self) -> None:
+        det = self.det
+        det.w_, det.rt_, det.b_, det.wy_, det.by_ = self.best
+        det.validation_loss_, det.history_ = self.best_loss, np.array(self.history)
+
+
+def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
+    """Train models of one window length and hyperparameters together: an epoch of every model
+    still training is one lockstep epoch (on the device the models chose); validation, early
+    stopping and stages run per model, as alone (:class:`_Training`)."""
+    from slipbench.detectors import lstm_lockstep as lockstep
+    from slipbench.detectors import lstm_lockstep_torch
+
+    if dets[0].device_ == "cuda":
+        epoch = lstm_lockstep_torch.lockstep_epoch
+    else:
+        epoch = lockstep.lockstep_epoch
+
+    runs = [_Training(d, *args) for d, args in zip(dets, data)]
+    xs = np.concatenate([r.xn for r in runs])
+    ys = np.concatenate([r.y for r in runs])
+    offsets = np.cumsum([0] + [len(r.y) for r in runs])[:-1]
+    lanes = -(-len(runs) // lockstep.MODELS) * lockstep.MODELS
+    longest = max(len(r.train) for r in runs)
+    params = lockstep.pack([r.state[0] for r in runs])
+    velocity = np.zeros_like(params)
+    batch_size, momentum = dets[0].batch_size, dets[0].momentum
+    while not all(r.done for r in runs):
+        orders, counts = np.zeros((lanes, longest), np.int64), np.zeros(lanes, np.int64)
+        rates = np.zeros(lanes, np.float32)
+        for i, r in enumerate(runs):
+            if not r.done:
+                order = r.order()
+                orders[i, : len(order)], counts[i], rates[i] = order + offsets[i], len(order), r.lr
+        plan = (orders, counts, rates, batch_size, momentum)
+        epoch((xs, ys), plan, params, velocity)
+        for i, r in enumerate(runs):
+            if r.done:
+                continue
+            hidden = r.det.hidden_size
+            r.state = (lockstep.unpack(params, i, hidden), lockstep.unpack(velocity, i, hidden))
+            stage = r.stage
+            r.end_epoch()
+            if r.stage != stage:  # a new stage restarts from the best weights, zero velocity
+                lockstep.put(params, i, r.state[0])
+                lockstep.put(velocity, i, r.state[1])
+    for r in runs:
+        r.finish()
+
+
 def _numba_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
-    kernels.train_epoch(x, y, order, batch_size, lr, momentum, *params, *velocity)
+    kernels.train_epoch((x, y), order, (batch_size, lr, momentum), params, velocity)
 
 
 def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device="cuda") -> None:

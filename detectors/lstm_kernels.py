@@ -59,7 +59,7 @@ MIN_BLOCK = 16  # fewer windows than this are scored one by one (a padded block 
 
 
 class _JitOptions(TypedDict):  # typed, so that numba's overloads accept **_jit
-    fastmath: bool
+    fastmath: bool | set[str]
     cache: bool
     nogil: bool
     error_model: Literal["python", "numpy"]
@@ -69,8 +69,8 @@ class _JitOptions(TypedDict):  # typed, so that numba's overloads accept **_jit
 _jit = _JitOptions(fastmath=True, cache=True, nogil=True, error_model="numpy")
 
 
-def _twice(f):
-    """``f`` compiled in parallel and serially. Each gets its own copy of the Python function:
+def _twice(f, options=_jit):
+    """``f`` compiled in parallel and serially (with numba ``options``). Each gets its own copy of the Python function:
     numba's on-disk cache names entries by the function's qualified name and keys them by
     signature only, not by the ``parallel`` flag, so two dispatchers of one function share an
     entry and whichever compiled first served both (the "parallel" kernels ran serially, or
@@ -81,7 +81,7 @@ def _twice(f):
             f.__code__, f.__globals__, f.__name__ + suffix, f.__defaults__, f.__closure__
         )
         g.__qualname__, g.__doc__ = f.__qualname__ + suffix, f.__doc__
-        out.append(nb.njit(parallel=parallel, **_jit)(g))
+        out.append(nb.njit(parallel=parallel, **options)(g))
     return out
 
 
@@ -119,10 +119,33 @@ def tanh(x):
     return out
 
 
-@nb.njit(inline="always", **_jit)
-def _forward(x, w, rt, b, acts, cs, tcs, hs):
-    """One sequence x (T,); fills acts (T, 4H) gate values, cs (T+1, H) cells (cs[0] = 0),
-    tcs (T, H) tanh of cells, hs (T+1, H) outputs (hs[0] = 0): the state resets per window."""
+# Training runs every float operation as written: no reordering ("reassoc"), no fused
+# multiply-adds ("contract"), no reciprocals for divisions ("arcp"). LLVM applies those where
+# the code around an operation lets it, so they would round a model's arithmetic differently in
+# lstm_lockstep.py (models in the SIMD lanes) than here; without them a model trained in
+# lockstep gets the weights it gets alone, bit for bit. Training is chaotic: rounding alone
+# moves a model's accuracy by points. The one reduction, dh = R da, is spelled out as P_DH
+# partial sums over the gate rows, vectorized over the units. This costs speed: an epoch at
+# batch 1 ran at 0.93 M samples/s against 1.29 M with the flags on (CPU time, best of 7 in one
+# run, window 50, the 2-core development machine).
+_TRAIN_MATH = {"nnan", "ninf", "nsz"}
+_train_jit = _JitOptions(**{**_jit, "fastmath": _TRAIN_MATH})
+P_DH = 4  # partial sums of dh, over the gate rows j = q mod P_DH (4H rows: no remainder)
+
+
+@nb.njit(inline="always", **_train_jit)
+def padded(H):
+    """H rounded up to whole AVX2 vectors of float32 (8)."""
+    return (H + 7) // 8 * 8
+
+
+@nb.njit(inline="always", **_train_jit)
+def _forward(x, model, state):
+    """One sequence x (T,) through ``model`` = (w, rt, b, wy, by); fills ``state`` = (acts
+    (T, 4H) gate values, cs (T+1, H) cells (cs[0] = 0), tcs (T, H) tanh of cells, hs (T+1, H)
+    outputs (hs[0] = 0)): the state resets per window."""
+    w, rt, b = model[0], model[1], model[2]
+    acts, cs, tcs, hs = state
     H = rt.shape[0]
     G = 4 * H
     for j in range(H):
@@ -155,20 +178,97 @@ def _logit_diff(h, wy, by):
     return z
 
 
-@nb.njit(inline="always", **_jit)
+@nb.njit(inline="always", **_train_jit)
+def _dh(da, rp, part, dh, HP):
+    """dh = R da as P_DH partial sums over the gate rows j = q mod 4, each in order of j and
+    vectorized over the units k, then (p0 + p1) + (p2 + p3). ``rp`` (4H, HP) is R (the
+    recurrent matrix untransposed) padded with zero columns to HP, a multiple of 8, so that
+    every row is whole vectors; ``part`` (4, HP) scratch."""
+    G = rp.shape[0]
+    p0, p1, p2, p3 = part[0], part[1], part[2], part[3]
+    da4, rp4 = da.reshape(G // P_DH, P_DH), rp.reshape(G // P_DH, P_DH, HP)  # constant q:
+    for jb in range(G // P_DH):  # no index checks
+        d, r = da4[jb], rp4[jb]
+        d0, d1, d2, d3 = d[0], d[1], d[2], d[3]
+        r0, r1, r2, r3 = r[0], r[1], r[2], r[3]
+        if jb == 0:
+            for k in range(HP):
+                p0[k] = r0[k] * d0
+                p1[k] = r1[k] * d1
+                p2[k] = r2[k] * d2
+                p3[k] = r3[k] * d3
+        else:
+            for k in range(HP):
+                p0[k] += r0[k] * d0
+                p1[k] += r1[k] * d1
+                p2[k] += r2[k] * d2
+                p3[k] += r3[k] * d3
+    for k in range(dh.shape[0]):
+        dh[k] = (p0[k] + p1[k]) + (p2[k] + p3[k])
+
+
+@nb.njit(inline="always", **_train_jit)
+def _backward(xs, dz, model, state, work):
+    """Back-propagation through one window after :func:`_forward`, ``dz`` the loss's
+    derivative by the logit difference. ``work`` = (grads, scratch, rp): the window's
+    gradients are added to ``grads`` = (gw, grt, gb, gwy, gby); ``scratch`` = (dh, dc, da,
+    part); ``rp`` is R padded (:func:`_dh`)."""
+    wy = model[3]
+    acts, cs, tcs, hs = state
+    (gw, grt, gb, gwy, gby), (dh, dc, da, part), rp, HP = work
+    T, H = tcs.shape
+    G = 4 * H
+    gby[0] -= dz
+    gby[1] += dz
+    for k in range(H):
+        gwy[0, k] -= dz * hs[T, k]
+        gwy[1, k] += dz * hs[T, k]
+        dh[k] = dz * (wy[1, k] - wy[0, k])
+        dc[k] = 0
+    for t in range(T - 1, -1, -1):
+        a = acts[t]
+        for j in range(H):
+            ig, fg, gg, og = a[j], a[H + j], a[2 * H + j], a[3 * H + j]
+            tc = tcs[t, j]
+            dcj = dc[j] + dh[j] * og * (_ONE - tc * tc)
+            da[j] = dcj * gg * ig * (_ONE - ig)
+            da[H + j] = dcj * cs[t, j] * fg * (_ONE - fg)
+            da[2 * H + j] = dcj * ig * (_ONE - gg * gg)
+            da[3 * H + j] = dh[j] * tc * og * (_ONE - og)
+            dc[j] = dcj * fg
+        xt = xs[t]
+        for j in range(G):
+            gw[j] += da[j] * xt
+            gb[j] += da[j]
+        for k in range(H):
+            hk = hs[t, k]
+            for j in range(G):
+                grt[k, j] += hk * da[j]
+        _dh(da, rp, part, dh, HP)
+
+
+@nb.njit(inline="always", **_train_jit)
 def _sgd(p, v, g, m, lr):
     for i in range(p.shape[0]):
         v[i] = m * v[i] - lr * g[i]
         p[i] += v[i]
 
 
-def _train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt, vb, vwy, vby):
+def _train_epoch(data, order, schedule, model, velocity):
     """One epoch of mini-batch SGD with momentum (v = m v - lr g; p += v) on the mean
-    cross-entropy over the windows ``x[order]``; parameters and velocities are updated in
-    place. Returns the mean loss."""
+    cross-entropy over the windows ``x[order]``, ``data`` = (x, y), ``schedule`` =
+    (batch_size, lr, momentum); ``model`` = (w, rt, b, wy, by) and ``velocity`` (the same
+    shapes) are updated in place. Returns the mean loss.
+
+    A batch is split into up to N_CHUNKS chunks (run in parallel in the parallel kernel),
+    whose gradients are summed in a fixed order: chunk 0, plus chunk 1, plus chunk 2, ...
+    """
+    x, y = data
+    batch_size, lr, momentum = schedule
+    rt = model[1]
     n, T = order.shape[0], x.shape[1]
     H = rt.shape[0]
-    G = 4 * H
+    G, HP = 4 * H, padded(H)
     # buffers for every chunk, allocated once per epoch: with small batches, allocation and
     # temporaries per update cost as much as the arithmetic
     gw, gb = np.zeros((N_CHUNKS, G), F32), np.zeros((N_CHUNKS, G), F32)
@@ -176,11 +276,10 @@ def _train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vr
     gwy, gby = np.zeros((N_CHUNKS, 2, H), F32), np.zeros((N_CHUNKS, 2), F32)
     acts_, tcs_ = np.empty((N_CHUNKS, T, G), F32), np.empty((N_CHUNKS, T, H), F32)
     cs_, hs_ = np.empty((N_CHUNKS, T + 1, H), F32), np.empty((N_CHUNKS, T + 1, H), F32)
-    dh_, dc_, da_ = (
-        np.empty((N_CHUNKS, H), F32),
-        np.empty((N_CHUNKS, H), F32),
-        np.empty((N_CHUNKS, G), F32),
-    )
+    dh_, dc_ = np.empty((N_CHUNKS, H), F32), np.empty((N_CHUNKS, H), F32)
+    da_, part_ = np.empty((N_CHUNKS, G), F32), np.empty((N_CHUNKS, P_DH, HP), F32)
+    rp = np.zeros((G, HP), F32)
+    rp[:, :H] = rt.T
     losses = np.zeros(N_CHUNKS)
     for start in range(0, n, batch_size):
         B = min(batch_size, n - start)
@@ -192,45 +291,19 @@ def _train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vr
         gby[:nc] = 0
         inv_b = F32(1.0 / B)
         for c in nb.prange(nc):
-            acts, cs, tcs, hs = acts_[c], cs_[c], tcs_[c], hs_[c]
-            dh, dc, da = dh_[c], dc_[c], da_[c]
+            state = (acts_[c], cs_[c], tcs_[c], hs_[c])
+            grads = (gw[c], grt[c], gb[c], gwy[c], gby[c])
+            scratch = (dh_[c], dc_[c], da_[c], part_[c])
             for s in range(start + c * B // nc, start + (c + 1) * B // nc):
                 i = order[s]
-                xs = x[i]
-                _forward(xs, w, rt, b, acts, cs, tcs, hs)
-                z = _logit_diff(hs[T], wy, by)
-                p = 1.0 / (1.0 + np.exp(-z))  # float64: one per sequence, exact loss
+                _forward(x[i], model, state)
+                p = _probability(state[3][T], model)
                 losses[c] += -np.log(max(p if y[i] == 1 else 1.0 - p, 1e-30))
                 dz = F32((p - y[i]) * inv_b)  # d loss / d logit1 = -d loss / d logit0
-                gby[c, 0] -= dz
-                gby[c, 1] += dz
-                for k in range(H):
-                    gwy[c, 0, k] -= dz * hs[T, k]
-                    gwy[c, 1, k] += dz * hs[T, k]
-                    dh[k] = dz * (wy[1, k] - wy[0, k])
-                    dc[k] = 0
-                for t in range(T - 1, -1, -1):
-                    a = acts[t]
-                    for j in range(H):
-                        ig, fg, gg, og = a[j], a[H + j], a[2 * H + j], a[3 * H + j]
-                        tc = tcs[t, j]
-                        dcj = dc[j] + dh[j] * og * (_ONE - tc * tc)
-                        da[j] = dcj * gg * ig * (_ONE - ig)
-                        da[H + j] = dcj * cs[t, j] * fg * (_ONE - fg)
-                        da[2 * H + j] = dcj * ig * (_ONE - gg * gg)
-                        da[3 * H + j] = dh[j] * tc * og * (_ONE - og)
-                        dc[j] = dcj * fg
-                    xt = xs[t]
-                    for j in range(G):
-                        gw[c, j] += da[j] * xt
-                        gb[c, j] += da[j]
-                    for k in range(H):
-                        hk = hs[t, k]
-                        acc = F32(0.0)
-                        for j in range(G):
-                            grt[c, k, j] += hk * da[j]
-                            acc += rt[k, j] * da[j]
-                        dh[k] = acc
+                if H == 20:  # the paper's size: HP a literal, the dh loop whole vectors
+                    _backward(x[i], dz, model, state, (grads, scratch, rp, 24))
+                else:
+                    _backward(x[i], dz, model, state, (grads, scratch, rp, HP))
         # reduce the chunks in a fixed order, so the result is the same on any thread count
         for c in range(1, nc):
             gw[0] += gw[c]
@@ -238,30 +311,43 @@ def _train_epoch(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vr
             gb[0] += gb[c]
             gwy[0] += gwy[c]
             gby[0] += gby[c]
-        m, l = F32(momentum), F32(lr)
-        _sgd(w, vw, gw[0], m, l)
-        _sgd(rt.ravel(), vrt.ravel(), grt[0].ravel(), m, l)
-        _sgd(b, vb, gb[0], m, l)
-        _sgd(wy.ravel(), vwy.ravel(), gwy[0].ravel(), m, l)
-        _sgd(by, vby, gby[0], m, l)
-    total = losses.sum()
-    return total / n
+        _update(model, velocity, (gw[0], grt[0], gb[0], gwy[0], gby[0]), F32(momentum), F32(lr))
+        rp[:, :H] = rt.T
+    return losses.sum() / n
+
+
+@nb.njit(inline="always", **_train_jit)
+def _probability(h, model):
+    """The slip probability from the last output h (H,), in float64: one per window."""
+    return 1.0 / (1.0 + np.exp(-_logit_diff(h, model[3], model[4])))
+
+
+@nb.njit(inline="always", **_train_jit)
+def _update(model, velocity, grads, m, lr):
+    """SGD with momentum on every parameter array of ``model`` by ``grads``."""
+    w, rt, b, wy, by = model
+    vw, vrt, vb, vwy, vby = velocity
+    gw, grt, gb, gwy, gby = grads
+    _sgd(w, vw, gw, m, lr)
+    _sgd(rt.ravel(), vrt.ravel(), grt.ravel(), m, lr)
+    _sgd(b, vb, gb, m, lr)
+    _sgd(wy.ravel(), vwy.ravel(), gwy.ravel(), m, lr)
+    _sgd(by, vby, gby, m, lr)
 
 
 # The same epoch compiled twice: in parallel over a batch's chunks, and serially for small
 # batches, where a parallel launch per update costs more than it saves (and stalls badly when
-# other processes hold the cores). Each is deterministic and independent of the thread count;
-# the two agree to float32 rounding, not bitwise (LLVM compiles the parallel loop body
-# separately), and which one runs depends only on the batch size.
-train_epoch_parallel, train_epoch_serial = _twice(_train_epoch)
+# other processes hold the cores). Each is deterministic and independent of the thread count,
+# and the two agree bit for bit (every operation in the order written); which one runs depends
+# only on the batch size.
+train_epoch_parallel, train_epoch_serial = _twice(_train_epoch, _train_jit)
+PARALLEL_BATCH = 256  # from this batch size on, an epoch's chunks run in parallel
 
 
-def train_epoch(
-    x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt, vb, vwy, vby
-) -> float:
-    """One epoch; see :func:`_train_epoch`. Batches under 256 windows run serially."""
-    kernel = train_epoch_parallel if batch_size >= 256 else train_epoch_serial
-    return kernel(x, y, order, batch_size, lr, momentum, w, rt, b, wy, by, vw, vrt, vb, vwy, vby)
+def train_epoch(data, order, schedule, model, velocity) -> float:
+    """One epoch (:func:`_train_epoch`); batches under PARALLEL_BATCH windows run serially."""
+    kernel = train_epoch_parallel if schedule[0] >= PARALLEL_BATCH else train_epoch_serial
+    return kernel(data, order, schedule, tuple(model), tuple(velocity))
 
 
 @nb.njit(inline="always", **_jit)

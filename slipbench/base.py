@@ -20,6 +20,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import Any, ClassVar
 
@@ -73,6 +74,18 @@ def plugin_id(cls: type) -> str:
     return re.sub(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", "-", cls.__name__).lower()
 
 
+@dataclass(frozen=True)
+class FitJob:
+    """One model's training data for :meth:`BaseDetector.fit_lockstep`: :meth:`BaseDetector.fit`'s
+    arguments."""
+
+    x: Any
+    y: Any
+    seed: int = 0
+    sampling_rate: float = 1000.0
+    groups: Any = None
+
+
 class BaseDetector(Parameterized):
     """A binary slip detector on windows of the univariate signal or of the raw channels.
 
@@ -87,8 +100,9 @@ class BaseDetector(Parameterized):
     a clone by :mod:`slipbench.testing`; ``data_files``, files (or folders) the plugin reads,
     relative to the folder of the module that declares them, which are part of its code
     identity (cache keys); ``reference``, True on the one detector that is the baseline every
-    table compares against (``slipbench list`` says which); and the classmethod
-    :meth:`benchmark`.
+    table compares against (``slipbench list`` says which); ``lockstep``, that
+    :meth:`fit_lockstep` trains many models together (the class implements
+    ``_fit_lockstep``); and the classmethod :meth:`benchmark`.
 
     ``inputs`` says which windows the detector reads: ``("univariate",)`` (the default), windows
     (n_windows, window_length) of the paper's signal s_t = ||a_t|| - ||a_{t-1}||;
@@ -106,6 +120,7 @@ class BaseDetector(Parameterized):
     data_files: ClassVar[tuple[str, ...]] = ()  # e.g. ("weights.json",): hashed into cache keys
     inputs: ClassVar[tuple[str, ...]] = ("univariate",)  # or ("univariate", "channels"), ...
     reference: ClassVar[bool] = False  # True on the baseline every table compares against
+    lockstep: ClassVar[bool] = False  # trains many models together: see fit_lockstep
 
     # -- input checks
     def _check_x(self, x: Any) -> np.ndarray:
@@ -158,6 +173,15 @@ class BaseDetector(Parameterized):
         each window (the engine always gives it), passed on to a ``_fit`` that takes a
         ``groups`` keyword, so that a held-out validation part can be whole trials.
         """
+        fit_args = self._checked_fit_args(x, y, sampling_rate, groups)
+        self._fit(*fit_args[:2], seed, **fit_args[2])
+        return self
+
+    def _checked_fit_args(
+        self, x: Any, y: Any, sampling_rate: float, groups: Any
+    ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        """:meth:`fit`'s checks; sets ``sampling_rate_``, ``window_length_`` and ``n_channels_``
+        and returns ``_fit``'s x, y and keywords (``groups`` where ``_fit`` takes it)."""
         self.validate_params()
         x = self._check_x(x)
         y = np.asarray(y)
@@ -178,8 +202,43 @@ class BaseDetector(Parameterized):
         if trials is not None and trials.shape != (x.shape[0],):
             raise UsageError(f"groups must have shape ({x.shape[0]},), got {trials.shape}")
         takes_groups = "groups" in inspect.signature(self._fit).parameters
-        self._fit(x, y.astype(np.int8), seed, **({"groups": trials} if takes_groups else {}))
-        return self
+        return x, y.astype(np.int8), ({"groups": trials} if takes_groups else {})
+
+    @classmethod
+    def fit_lockstep(cls, detectors: list[BaseDetector], jobs: list[FitJob]) -> list[BaseDetector]:
+        """Fit each of ``detectors`` (instances of this class, e.g. clones with their own
+        hyperparameters) on its own :class:`FitJob`, and return them fitted exactly as
+        ``detector.fit(job.x, job.y, sampling_rate=job.sampling_rate, seed=job.seed,
+        groups=job.groups)`` would: the same checks, the same fitted attributes, the same
+        weights (to float tolerance). The capability :attr:`lockstep` says whether the class
+        trains many models together (faster); without it they are fitted one after another.
+
+        A plugin declares ``lockstep = True`` and implements the classmethod
+        ``_fit_lockstep(detectors, data)``: ``data`` is, for each detector, ``_fit``'s
+        arguments (x, y, seed), checked, plus its keywords (``groups``) where ``_fit`` takes
+        them; it fits every detector as its ``_fit`` would, grouping those it can train
+        together itself (which share hyperparameters, window length, device)."""
+        if len(detectors) != len(jobs):
+            raise UsageError(f"{len(detectors)} detectors for {len(jobs)} fit jobs")
+        for det in detectors:
+            if type(det) is not cls:
+                raise UsageError(f"{cls.__name__}.fit_lockstep got a {type(det).__name__}")
+        args = [
+            d._checked_fit_args(j.x, j.y, j.sampling_rate, j.groups)
+            for d, j in zip(detectors, jobs)
+        ]
+        data = [(x, y, j.seed, kw) for (x, y, kw), j in zip(args, jobs)]
+        if cls.lockstep:
+            cls._fit_lockstep(detectors, data)
+        else:
+            for det, (x, y, seed, kw) in zip(detectors, data):
+                det._fit(x, y, seed, **kw)
+        return detectors
+
+    @classmethod
+    def _fit_lockstep(cls, detectors: list[BaseDetector], data: list[tuple]) -> None:
+        """What a class that declares :attr:`lockstep` implements (see :meth:`fit_lockstep`)."""
+        raise NotImplementedError
 
     def predict_proba(self, x: Any) -> np.ndarray:
         """Probability of slip per window, shape (n_windows,), for windows of the kind, length

@@ -79,6 +79,14 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 "assert detector.window_length_ == 50\n",
             ),
             Entry(
+                "slipbench.base:BaseDetector.fit_lockstep",
+                "from slipbench.base import FitJob\n"
+                "\n"
+                "jobs = [FitJob(x, y, seed=0), FitJob(x[::-1], y[::-1], seed=1)]\n"
+                "pair = Energy.fit_lockstep([Energy(quantile=0.6), Energy(quantile=0.9)], jobs)\n"
+                "assert pair[1].cut_ == Energy(quantile=0.9).fit(x[::-1], y[::-1], seed=1).cut_\n",
+            ),
+            Entry(
                 "slipbench.base:BaseDetector.predict_proba",
                 "scores = detector.predict_proba(x)  # (100,) in [0, 1]\n",
             ),

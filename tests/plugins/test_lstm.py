@@ -59,7 +59,7 @@ def test_gradients_and_scores_match_torch_autograd():
     new = [p.copy() for p in params]
     # one full batch, lr 1, no momentum: the update is minus the gradient
     mean_loss = fastlstm.train_epoch(
-        x, y, np.arange(48), 48, 1.0, 0.0, *new, *[np.zeros_like(p) for p in new]
+        (x, y), np.arange(48), (48, 1.0, 0.0), new, [np.zeros_like(p) for p in new]
     )
     assert mean_loss == pytest.approx(loss.item(), rel=1e-5)
     for before, after, grad in zip(params, new, expected):
@@ -88,13 +88,13 @@ def test_epochs_do_not_depend_on_the_thread_count():
         ):
             numba.set_num_threads(n_threads)
             p = _params()
-            kernel(x, y, order, 300, 0.01, 0.125, *p, *[np.zeros_like(a) for a in p])
+            kernel((x, y), order, (300, 0.01, 0.125), tuple(p), tuple(np.zeros_like(a) for a in p))
             runs.append(p)
     finally:
         numba.set_num_threads(threads)
     for a, b, c in zip(*runs):
         assert np.array_equal(a, b)  # bitwise, whatever the number of threads
-        np.testing.assert_allclose(a, c, atol=1e-6)  # serial kernel: float32 rounding apart
+        assert np.array_equal(a, c)  # and the serial kernel: every operation in the same order
 
 
 def test_parallel_and_serial_kernels_are_cached_apart():
@@ -175,7 +175,8 @@ def test_schedule_early_stopping_and_best_weights():
     # (the second stage starts from the best loss so far, so it has no first improvement)
     assert d.history_[:, 0].tolist() == [1e-9] * 4 + [1e-10] * 3
     # the epochs it ran are a fitted choice the result row records (column ``epochs``)
-    assert d.fitted_choices() == {"epochs": 7, "validation_loss": d.validation_loss_}
+    choices = d.fitted_choices()
+    assert (choices["epochs"], choices["validation_loss"]) == (7, d.validation_loss_)
     # a real schedule: rates in order, no stage past its cap, the kept weights are the best seen
     d = LSTM(batch_size=1, max_epochs=(6, 2), learning_rates=(0.05, 0.005), patience=10).fit(
         x, y, seed=0
@@ -206,3 +207,151 @@ def test_bad_schedules_are_refused():
     if not torch.cuda.is_available():
         with pytest.raises(UsageError, match="torch sees no CUDA device"):
             LSTM(device="cuda").validate_params()
+
+
+def test_auto_trains_batch_1_on_the_cpu_and_says_why(monkeypatch):
+    """At batch 1 the GPU is the slower device (one kernel launch per update): "auto" picks the
+    CPU even where torch sees a GPU, and the fitted choices say which device ran and why."""
+    from slipbench.detectors import lstm
+
+    monkeypatch.setattr(lstm, "_cuda_available", lambda: True)
+    assert lstm._device_choice("auto", 1) == ("cpu", "batch_size 1 < 128: the GPU is slower there")
+    assert lstm._device_choice("auto", 128)[0] == "cuda"
+    assert lstm._device_choice("cpu", 512) == ("cpu", "device set")
+    monkeypatch.setattr(lstm, "_cuda_available", lambda: False)
+    assert lstm._device_choice("auto", 512) == ("cpu", "no CUDA device")
+    x, y = toy_windows(60, 20)
+    choices = LSTM(max_epochs=1).fit(x, y, seed=0).fitted_choices()
+    assert (choices["device"], choices["device_reason"]) == ("cpu", "no CUDA device")
+
+
+def test_batch_1_fits_launch_no_threads_and_ignore_the_thread_count(monkeypatch):
+    """A batch-1 update is far too small to pay a parallel launch (29x slower with 16 threads,
+    issue 32): training never calls the parallel kernel, and the weights do not depend on
+    numba's thread count."""
+    import numba
+
+    def refuse(*args):
+        raise AssertionError("a parallel kernel ran at batch 1")
+
+    monkeypatch.setattr(fastlstm, "train_epoch_parallel", refuse)
+    x, y = toy_windows(120, 20)
+    threads, fits = numba.get_num_threads(), []
+    try:
+        for n in (1, threads):
+            numba.set_num_threads(n)
+            fits.append(LSTM(max_epochs=2).fit(x, y, seed=3))
+    finally:
+        numba.set_num_threads(threads)
+    for k in ("w_", "rt_", "b_", "wy_", "by_"):
+        assert np.array_equal(getattr(fits[0], k), getattr(fits[1], k))
+
+
+def _lockstep_plan(orders, rates, batch_size):
+    from slipbench.detectors import lstm_lockstep
+
+    lanes = -(-len(orders) // lstm_lockstep.MODELS) * lstm_lockstep.MODELS
+    plan = np.zeros((lanes, max(map(len, orders))), np.int64), np.zeros(lanes, np.int64)
+    lr = np.zeros(lanes, np.float32)
+    for i, o in enumerate(orders):
+        plan[0][i, : len(o)], plan[1][i], lr[i] = o, len(o), rates[i]
+    return (*plan, lr, batch_size, 0.125)
+
+
+@pytest.mark.slow  # compiles the lockstep kernels (minutes on a busy 2-core machine, then cached)
+@pytest.mark.parametrize("batch_size", [1, 5])
+def test_lockstep_epoch_gives_each_model_its_weights_alone(batch_size):
+    """Ten models in two blocks of lanes, each with its own windows, order, length of epoch and
+    learning rate (the lanes past the tenth empty): each gets, bit for bit, what one epoch of
+    the single-model kernel gives it."""
+    from slipbench.detectors import lstm_lockstep
+
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(size=(200, 30)).astype(np.float32), (rng.random(200) < 0.5).astype(np.int8)
+    models = [fastlstm.init_params(H, np.random.default_rng(i)) for i in range(10)]
+    orders = [rng.permutation(200)[: 150 + 3 * i] for i in range(10)]
+    rates = [0.01 * (1 + i % 3) for i in range(10)]
+    params = lstm_lockstep.pack(models)
+    velocity = np.zeros_like(params)
+    lstm_lockstep.lockstep_epoch(
+        (x, y), _lockstep_plan(orders, rates, batch_size), params, velocity
+    )
+    for i, (model, order) in enumerate(zip(models, orders)):
+        alone, v = [p.copy() for p in model], [np.zeros_like(p) for p in model]
+        fastlstm.train_epoch((x, y), order, (batch_size, rates[i], 0.125), alone, v)
+        for a, b in zip(alone, lstm_lockstep.unpack(params, i, H)):
+            assert np.array_equal(a, b)
+        for a, b in zip(v, lstm_lockstep.unpack(velocity, i, H)):
+            assert np.array_equal(a, b)
+
+
+@pytest.mark.slow
+def test_fit_lockstep_fits_each_model_as_fit_does():
+    """The detector contract's lockstep capability: models with their own data, seeds, early
+    stops and stages (one with other hyperparameters, which trains in its own group) come out
+    as ``fit`` makes them, weights bit for bit, history and fitted choices equal."""
+    from slipbench.base import FitJob
+
+    jobs = [FitJob(*toy_windows(90 + 10 * i, 20, seed=i), seed=i) for i in range(3)]
+    two = {"learning_rates": (0.05, 0.005), "max_epochs": (3, 2)}
+    settings = [two, two, {"max_epochs": 2, "patience": 1}]
+    together = LSTM.fit_lockstep([LSTM(**s) for s in settings], jobs)
+    for det, s, job in zip(together, settings, jobs):
+        alone = LSTM(**s).fit(job.x, job.y, seed=job.seed)
+        for k in ("w_", "rt_", "b_", "wy_", "by_", "history_"):
+            assert np.array_equal(getattr(det, k), getattr(alone, k))
+        assert det.fitted_choices() == alone.fitted_choices()
+        assert (det.lo_, det.scale_, det.window_length_) == (alone.lo_, alone.scale_, 20)
+    with pytest.raises(UsageError, match="only class"):
+        LSTM.fit_lockstep([LSTM()], [FitJob(np.ones((10, 20)), np.zeros(10))])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("batch_size", [1, 5])
+def test_torch_lockstep_epoch_matches_the_numba_one(batch_size):
+    """The GPU path of lockstep training (torch, batched over the models) runs here on the CPU:
+    each model's weights agree with the numba lanes' to float32 tolerance."""
+    from slipbench.detectors import lstm_lockstep, lstm_lockstep_torch
+
+    rng = np.random.default_rng(1)
+    x, y = rng.normal(size=(120, 25)).astype(np.float32), (rng.random(120) < 0.5).astype(np.int8)
+    models = [fastlstm.init_params(H, np.random.default_rng(i)) for i in range(9)]
+    orders = [rng.permutation(120)[: 60 + 5 * i] for i in range(9)]
+    plan = _lockstep_plan(orders, [0.01 * (1 + i % 3) for i in range(9)], batch_size)
+    out = []
+    for epoch in (lstm_lockstep.lockstep_epoch, lstm_lockstep_torch.lockstep_epoch):
+        params = lstm_lockstep.pack(models)
+        velocity = np.zeros_like(params)
+        kwargs = {"device": "cpu"} if epoch is lstm_lockstep_torch.lockstep_epoch else {}
+        epoch((x, y), plan, params, velocity, **kwargs)
+        epoch((x, y), plan, params, velocity, **kwargs)  # velocity carried over
+        out.append(params)
+    assert np.abs(out[0] - lstm_lockstep.pack(models)).max() > 1e-3  # they trained
+    np.testing.assert_allclose(out[0], out[1], atol=2e-5)
+
+
+def test_fit_lockstep_runs_each_group_on_its_device(monkeypatch):
+    """Models whose device is CUDA go to the torch lockstep epoch (here on the CPU), the rest
+    to the numba lanes; a group never mixes devices."""
+    from slipbench.base import FitJob
+    from slipbench.detectors import lstm, lstm_lockstep, lstm_lockstep_torch
+
+    calls = []
+
+    def recorder(name):
+        def epoch(data, plan, params, velocity):
+            calls.append((name, int((plan[1] > 0).sum())))
+
+        return epoch
+
+    monkeypatch.setattr(lstm_lockstep, "lockstep_epoch", recorder("cpu"))
+    monkeypatch.setattr(lstm_lockstep_torch, "lockstep_epoch", recorder("cuda"))
+    real = lstm._device_choice
+    monkeypatch.setattr(
+        lstm, "_device_choice", lambda d, b: ("cuda", "test") if b >= 128 else real(d, b)
+    )
+    jobs = [FitJob(*toy_windows(60, 20, seed=i), seed=i) for i in range(3)]
+    dets = [LSTM(max_epochs=1), LSTM(max_epochs=1), LSTM(max_epochs=1, batch_size=128)]
+    LSTM.fit_lockstep(dets, jobs)
+    assert set(calls) == {("cpu", 2), ("cuda", 1)}  # one call per epoch of each group
+    assert [d.fitted_choices()["device"] for d in dets] == ["cpu", "cpu", "cuda"]
