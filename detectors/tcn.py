@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from slipbench.params import Interval
+from slipbench.params import Interval, Options
 from slipbench.torch import TorchDetector
 
 
@@ -28,6 +28,8 @@ class TCN(TorchDetector):
         "kernel_size": Interval(int, 2, 16),
         "blocks": Interval(int, 1, 12),
         "dropout": Interval(float, 0.0, 0.9),
+        "pool": Options(("stats", "mean", "last")),
+        "center": Options((True, False)),
     }
     check_params = {"max_epochs": 2, "patience": 1, "channels": 4, "blocks": 2}
 
@@ -37,27 +39,45 @@ class TCN(TorchDetector):
         kernel_size=3,
         blocks=4,
         dropout=0.1,
+        pool="stats",
+        center=True,
         batch_size=256,
         learning_rate=3e-3,
         max_epochs=30,
         patience=5,
         validation_fraction=0.2,
         device="auto",
+        windows_per_epoch=None,
     ):
         super().__init__(
-            batch_size, learning_rate, max_epochs, patience, validation_fraction, device
+            batch_size,
+            learning_rate,
+            max_epochs,
+            patience,
+            validation_fraction,
+            device,
+            windows_per_epoch,
         )
         self.channels = channels
         self.kernel_size = kernel_size
         self.blocks = blocks
         self.dropout = dropout
+        self.pool = pool
+        self.center = center
 
     def build(self, window_length: int, n_channels: int) -> Any:
-        return _network(n_channels, self.channels, self.kernel_size, self.blocks, self.dropout)
+        shape = (self.channels, self.kernel_size, self.blocks)
+        return _network(n_channels, shape, self.dropout, self.pool, self.center)
 
 
-def _network(n_inputs: int, channels: int, kernel_size: int, blocks: int, dropout: float) -> Any:
+def _network(
+    n_inputs: int, shape: tuple[int, int, int], dropout: float, pool: str, center: bool
+) -> Any:
+    """``shape``: (channels, kernel_size, blocks)."""
+    import torch
     from torch import nn
+
+    channels, kernel_size, blocks = shape
 
     class Block(nn.Module):
         """Two causal dilated convolutions (left padding only) and a residual connection."""
@@ -86,10 +106,16 @@ def _network(n_inputs: int, channels: int, kernel_size: int, blocks: int, dropou
             self.blocks = nn.Sequential(
                 *(Block(n_inputs if i == 0 else channels, 2**i) for i in range(blocks))
             )
-            self.head = nn.Linear(channels, 1)
+            self.head = nn.Linear(2 * channels if pool == "stats" else channels, 1)
 
         def forward(self, x):  # (batch, n_inputs, window) -> (batch,)
-            features = self.blocks(x)
-            return self.head(features[:, :, -1])[:, 0]
+            features = self.blocks(x - x.mean(-1, keepdim=True) if center else x)
+            if pool == "last":
+                pooled = features[:, :, -1]
+            elif pool == "mean":
+                pooled = features.mean(-1)
+            else:
+                pooled = torch.cat([features.mean(-1), features.std(-1)], 1)
+            return self.head(pooled)[:, 0]
 
     return Network()
