@@ -35,10 +35,10 @@ class TCN(TorchDetector):
 
     def __init__(
         self,
-        channels=16,
+        channels=8,
         kernel_size=3,
-        blocks=4,
-        dropout=0.1,
+        blocks=3,
+        dropout=0.0,
         pool="stats",
         center=True,
         batch_size=256,
@@ -47,7 +47,7 @@ class TCN(TorchDetector):
         patience=5,
         validation_fraction=0.2,
         device="auto",
-        windows_per_epoch=None,
+        windows_per_epoch=1024,
     ):
         super().__init__(
             batch_size,

@@ -11,7 +11,8 @@ What a plugin writes is the module (``build``) and its own parameters; this clas
   epochs of ``windows_per_epoch`` windows drawn from successive shuffles of the training
   windows (a small training set is passed several times per epoch, a large one in parts, so
   an epoch costs the same whatever the set's size; None: one pass), a validation part of whole
-  trials (``validation_fraction`` of the training windows, every class on both sides; by
+  trials (``validation_fraction`` of the training windows, at most :data:`MAX_VALIDATION`,
+  every class on both sides; by
   window only where the windows come without their trials, and then ``fitted_choices`` says
   so), early stopping after ``patience`` epochs without a lower validation loss, the best
   epoch's weights kept, and its scores on the validation windows (``validation_y_``,
@@ -49,8 +50,12 @@ SCORE_BATCH = 4096
 #: thread pool costs more than it gives, and on a busy machine its threads wait for one another
 #: (3 windows of tcn's check network: 122 ms on 2 threads of 2 busy cores, 1.6 ms on one)
 FEW_WINDOWS = 16
+#: validation windows at most: each epoch scores them all, and beyond a few thousand they cost
+#: more than the epoch's training (40,000 windows of tcn at 5 samples: 8,000 at a fifth)
+#: while the best epoch and the "did not learn" interval hardly move; the rest train
+MAX_VALIDATION = 2048
 #: training windows per epoch by default: an epoch's cost bounded whatever the training set
-WINDOWS_PER_EPOCH = 8192
+WINDOWS_PER_EPOCH = 1024
 
 
 @dataclass(frozen=True)
@@ -156,8 +161,9 @@ class TorchDetector(BaseDetector):
             self.std_ = np.maximum(x.std(axis=(0, 1), dtype=np.float64), 1e-12)
         else:
             self.mean_, self.std_ = float(x.mean()), float(max(x.std(), 1e-12))
+        share = min(self.validation_fraction, MAX_VALIDATION / len(y))
         train, val, self.validation_by_ = _validation_split(
-            y, groups, self.validation_fraction, rng_for(seed, "torch-validation")
+            y, groups, share, rng_for(seed, "torch-validation")
         )
         self.device_, self.device_why_ = devices.choose(
             self.device, self._timing_key(), self._step_seconds
@@ -238,6 +244,7 @@ class TorchDetector(BaseDetector):
             "windows_per_epoch": self.windows_per_epoch,
             "validation_loss": float(self.validation_loss_),
             "validation_by": str(self.validation_by_),
+            "validation_windows": len(self.validation_y_),
             "device": str(self.device_),
             "device_why": str(self.device_why_),
         }
