@@ -168,3 +168,63 @@ def test_auto_takes_the_device_measured_faster_and_caches_it(fake_cuda):
     # asked for, not measured
     assert TinyCNN(max_epochs=1, device="cpu").fit(x, y).fitted_choices()["device_why"] == "asked"
     assert len(timed) == 4
+
+
+# --- epochs of a set size, the validation part, and what the engine judges there ----------------
+def test_draws_pass_every_window_once_before_any_twice():
+    from slipbench.torch.detector import _Draws
+
+    draws = _Draws(np.arange(10), np.random.default_rng(0))
+    taken = np.concatenate([draws.take(4) for _ in range(5)])
+    assert sorted(taken[:10]) == sorted(taken[10:]) == list(range(10))
+
+
+def test_an_epoch_trains_windows_per_epoch_windows_whatever_the_set(monkeypatch):
+    import slipbench.torch.detector as module
+
+    seen: list[int] = []
+
+    class Counted(TinyCNN):
+        def build(self, window_length, n_channels):
+            net = super().build(window_length, n_channels)
+            net.register_forward_hook(
+                lambda m, i, o: seen.append(len(i[0])) if m.training else None
+            )
+            return net
+
+    x, y = toy_windows(n=200, length=20, seed=0)
+    groups = np.arange(200) // 8
+    det = Counted(max_epochs=2, patience=5).fit(x, y, groups=groups)
+    assert (
+        sum(seen) == 2 * module.WINDOWS_PER_EPOCH == 2 * det.fitted_choices()["windows_per_epoch"]
+    )
+    seen.clear()
+    det.windows_per_epoch = None  # one pass: the README's plugin does not declare the parameter
+    det.fit(x, y, groups=groups)
+    assert sum(seen) == 2 * (200 - len(det.validation_y_))
+    monkeypatch.setattr(module, "MAX_VALIDATION", 10)  # whole trials of 8 until 10 are held
+    choices = Counted(max_epochs=1).fit(x, y, groups=groups).fitted_choices()
+    assert choices["validation_windows"] == 16 and choices["validation_by"] == "trial"
+
+
+@pytest.mark.slow  # four fits: 3 s on 2 busy cores
+def test_the_engine_says_a_network_at_chance_did_not_learn_and_not_one_that_learned():
+    from slipbench.engine.fitting import TestSet, fit_and_test
+
+    x, y = toy_windows(n=160, length=20, seed=2)
+    groups = np.arange(160) // 8
+    test = TestSet(x, y, groups)
+
+    def fitted(labels):
+        det = TinyCNN(max_epochs=3)
+        det.windows_per_epoch = 256
+        ((row, _),) = fit_and_test(det, 0, 1000.0, x, labels, [test], train_groups=groups)
+        return row
+
+    learned = fitted(y)
+    chance = fitted(np.random.default_rng(0).permutation(y))
+    assert learned["validation_balanced_accuracy_lo"] > 0.5
+    assert learned["train_balanced_accuracy_lo"] > 0.5
+    assert "did not learn" not in learned["warnings"]
+    assert chance["warnings"].startswith("did not learn: on its ")
+    assert chance["validation_balanced_accuracy_lo"] <= 0.5
