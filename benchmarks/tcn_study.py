@@ -24,7 +24,7 @@ import os
 import tempfile
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -40,30 +40,33 @@ BEFORE = dict(
     blocks=4,
     dropout=0.1,
     windows_per_epoch=None,
+    max_epochs=30,
+    patience=5,
+    batch_size=256,
+    learning_rate=3e-3,
 )
 #: the candidates: name -> tcn parameters (on top of tcn's current defaults)
 CANDIDATES: dict[str, dict[str, Any]] = {
     "before": BEFORE,
+    "1024 x 30, b256": {
+        "windows_per_epoch": 1024,
+        "max_epochs": 30,
+        "patience": 5,
+        "batch_size": 256,
+        "learning_rate": 3e-3,
+    },
     "now": {},
-    "no centering": {"center": False},
-    "pool last": {"pool": "last"},
-    "pool mean": {"pool": "mean"},
-    "width 16": {"channels": 16},
-    "2 blocks": {"blocks": 2},
-    "dropout 0.1": {"dropout": 0.1},
+    "lr 3e-3": {"learning_rate": 3e-3},
+    "batch 32": {"batch_size": 32},
     "512 windows/epoch": {"windows_per_epoch": 512},
-    "2048 windows/epoch": {"windows_per_epoch": 2048},
-    "one pass/epoch": {"windows_per_epoch": None},
+    "24 epochs": {"max_epochs": 24},
 }
 #: (dataset, unit, input, window in samples, folds)
 SETTINGS = [
     ("dos", "", "channels", 50, 5),
-    ("dos", "", "channels", 25, 5),
     ("dos", "", "univariate", 50, 5),
-    ("dos", "", "univariate", 25, 5),
     ("sim", "BioTacSP:index", "univariate", 50, 3),
     ("sim", "Nano17:index", "univariate", 50, 3),
-    ("sim", "OptoForce20:index", "univariate", 50, 3),
 ]
 FEATURES = ("mean", "std", "mean |diff|", "range", "last - first")
 
@@ -146,14 +149,28 @@ def _fold(job: tuple) -> list[dict[str, Any]]:
     return rows
 
 
-def study(dos: Path, candidates: Sequence[str], jobs: int) -> pd.DataFrame:
+def study(
+    dos: Path, candidates: Sequence[str], datasets: Sequence[str], jobs: int, rows_csv: Path | None
+) -> pd.DataFrame:
+    """Every fold of every setting; each fold's rows appended to ``rows_csv`` as it ends (a
+    stopped run keeps what it finished)."""
+    rows: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory() as tmp:
         from slipbench.data.importers import biotacsp_dos
 
         imported = biotacsp_dos(dos, Path(tmp) / "dos")
-        jobs_ = [(s, f, tuple(candidates), imported) for s in SETTINGS for f in range(s[4])]
+        jobs_ = [
+            (s, f, tuple(candidates), imported)
+            for s in SETTINGS
+            if s[0] in datasets
+            for f in range(s[4])
+        ]
         with ProcessPoolExecutor(jobs) as pool:
-            return pd.DataFrame([r for rows in pool.map(_fold, jobs_) for r in rows])
+            for done in as_completed([pool.submit(_fold, job) for job in jobs_]):
+                rows += done.result()
+                if rows_csv:
+                    pd.DataFrame(rows).to_csv(rows_csv, index=False)
+    return pd.DataFrame(rows)
 
 
 def tables(rows: pd.DataFrame) -> dict[str, pd.DataFrame]:
@@ -192,13 +209,21 @@ def markdown(rows: pd.DataFrame, header: str) -> str:
 def main(argv: Sequence[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--dos", type=Path, required=True, help="the BioTac SP DoS csvs folder")
+    ap.add_argument("--tables-of", type=Path, help="no fits: the tables of a --rows file")
     ap.add_argument("--candidate", action="append", choices=CANDIDATES, help="default: all")
+    ap.add_argument("--dataset", action="append", choices=("dos", "sim"), help="default: both")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", type=Path, help="write the Markdown here too")
     ap.add_argument("--rows", type=Path, help="write every fold's row here (CSV)")
     a = ap.parse_args(argv)
+    if a.tables_of:  # a stopped run's rows, or a finished one's again
+        rows = pd.read_csv(a.tables_of, dtype={"unit": str}).fillna({"unit": ""})
+        print(markdown(rows, f"tcn study: the rows of {a.tables_of.name}"))
+        return
     start = time.perf_counter()
-    rows = study(a.dos, a.candidate or list(CANDIDATES), a.jobs)
+    rows = study(
+        a.dos, a.candidate or list(CANDIDATES), a.dataset or ["dos", "sim"], a.jobs, a.rows
+    )
     load = os.getloadavg()[0]
     text = markdown(
         rows,
@@ -208,8 +233,6 @@ def main(argv: Sequence[str] | None = None) -> None:
     print(text, flush=True)
     if a.out:
         a.out.write_text(text)
-    if a.rows:
-        rows.to_csv(a.rows, index=False)
 
 
 if __name__ == "__main__":

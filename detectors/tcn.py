@@ -16,11 +16,15 @@ from slipbench.torch import TorchDetector
 class TCN(TorchDetector):
     """``channels`` features per block, ``kernel_size`` taps per convolution, ``blocks`` residual
     blocks with dilations 1, 2, 4, ... (receptive field ``1 + 2 (kernel_size - 1)(2^blocks - 1)``
-    samples: 61 by default); the training parameters are TorchDetector's, with batches of 256
-    at a learning rate of 3e-3 (a window-size cell of the default dataset in well under a minute
-    on one core, where batches of 64 took four times as long per epoch). Reads both inputs
-    (TorchDetector's ``inputs``): the first block takes one input channel per channel of the
-    windows (``channels`` is the blocks' width, not the input's)."""
+    samples: 29 by default); each window centered on its own mean when ``center`` (a level says
+    which recording, not whether it slips), the last block's features pooled over time by their
+    mean and spread (``pool="stats"``; ``"mean"``, or ``"last"``: the last step's). The training
+    parameters are TorchDetector's, with batches of 64 at a learning rate of 1e-2 and at most 12
+    epochs of 256 windows (patience 3): a cell's training is capped at 3,072 windows whatever its
+    set, chosen by ``benchmarks/tcn_study.py`` (``docs/tcn-study.md``) for learning where a
+    logistic regression on per-channel features does, at a cost that fits the whole paper on two
+    cores. Reads both inputs (TorchDetector's ``inputs``): the first block takes one input channel
+    per channel of the windows (``channels`` is the blocks' width, not the input's)."""
 
     _parameter_constraints = {
         **TorchDetector.TRAINING_CONSTRAINTS,
@@ -41,13 +45,13 @@ class TCN(TorchDetector):
         dropout=0.0,
         pool="stats",
         center=True,
-        batch_size=256,
-        learning_rate=3e-3,
-        max_epochs=30,
-        patience=5,
+        batch_size=64,
+        learning_rate=1e-2,
+        max_epochs=12,
+        patience=3,
         validation_fraction=0.2,
         device="auto",
-        windows_per_epoch=1024,
+        windows_per_epoch=256,
     ):
         super().__init__(
             batch_size,

@@ -50,10 +50,10 @@ SCORE_BATCH = 4096
 #: thread pool costs more than it gives, and on a busy machine its threads wait for one another
 #: (3 windows of tcn's check network: 122 ms on 2 threads of 2 busy cores, 1.6 ms on one)
 FEW_WINDOWS = 16
-#: validation windows at most: each epoch scores them all, and beyond a few thousand they cost
-#: more than the epoch's training (40,000 windows of tcn at 5 samples: 8,000 at a fifth)
-#: while the best epoch and the "did not learn" interval hardly move; the rest train
-MAX_VALIDATION = 2048
+#: validation windows at most: each epoch scores them all, and beyond a few hundred they cost
+#: more than an epoch's training (tcn: 256 windows per epoch; 40,000 windows at 5 samples give
+#: 8,000 at a fifth), while the "did not learn" interval is still +-0.04 at 512; the rest train
+MAX_VALIDATION = 512
 #: training windows per epoch by default: an epoch's cost bounded whatever the training set
 WINDOWS_PER_EPOCH = 1024
 
