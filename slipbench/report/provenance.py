@@ -500,7 +500,8 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
 def _warnings_table(ok: pd.DataFrame) -> list[Table]:
     """Warnings about fitting, one line per detector and kind of warning (the same text up to
     its numbers): its most frequent wording, the cells and the units it concerns. A model that
-    "did not learn" is one whose training windows' balanced accuracy cannot be told from chance
+    "did not learn" is one whose balanced accuracy on its training windows, or on the validation
+    windows it held out, cannot be told from chance
     (:func:`slipbench.stats.metrics.chance_interval`); a note says so where one is shown."""
     flagged = ok[ok["warnings"].fillna("") != ""]
     kinds: dict[tuple[str, str], list[tuple[str, dict]]] = {}
@@ -536,8 +537,9 @@ def _warnings_table(ok: pd.DataFrame) -> list[Table]:
     if any(kind.startswith("did not learn") for _, kind in kinds):
         notes.append(
             "Did not learn: the 95 % Wilson interval of the balanced accuracy the fitted model scores "
-            "on its own training windows (threshold 0.5, over 4 / (1/n_slip + 1/n_non-slip) windows) "
-            "reaches 0.5; its test figures then say nothing about generalizing."
+            "on its own training windows, or on the validation windows it held out from them (threshold "
+            "0.5, over 4 / (1/n_slip + 1/n_non-slip) windows), reaches 0.5; its test figures then say "
+            "nothing about generalizing."
         )
     return [
         Table(

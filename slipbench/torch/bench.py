@@ -17,9 +17,10 @@ EPOCHS = 3  # per timed fit: enough that set-up is a small part, few enough to r
 def torch_targets(detector_class: type, length: int, seconds: float, seed: int = 0) -> pd.DataFrame:
     """Training windows/s and batched inference windows/s of ``detector_class`` (its defaults,
     ``EPOCHS`` epochs, no early stop) against a plain loop over the network its ``build``
-    returns: Adam, binary cross-entropy, the same batch size, data and epochs, one validation
-    pass per epoch, on the CPU with one thread for both (a shared machine's other processes
-    make torch's thread pool wait)."""
+    returns: Adam, binary cross-entropy, the same batch size, data, epochs and windows per
+    epoch (its ``windows_per_epoch``, drawn from successive shuffles), one validation pass per
+    epoch, on the CPU with one thread for both (a shared machine's other processes make
+    torch's thread pool wait)."""
     import torch
 
     rng = np.random.default_rng(seed)
@@ -28,6 +29,7 @@ def torch_targets(detector_class: type, length: int, seconds: float, seed: int =
     y = (np.arange(n) % 2).astype(np.int8)
     detector = detector_class(max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu")
     n_val = int(round(detector.validation_fraction * n))
+    per_epoch = detector.windows_per_epoch or n - n_val
     # the network's layout (batch, channels, window), one channel
     xt, yt = torch.from_numpy(x[:, None, :]), torch.from_numpy(y.astype(np.float32))
 
@@ -38,10 +40,12 @@ def torch_targets(detector_class: type, length: int, seconds: float, seed: int =
             opt = torch.optim.Adam(net.parameters(), lr=detector.learning_rate)
             loss_fn = torch.nn.BCEWithLogitsLoss()
             train, val = xt[n_val:], xt[:n_val]
-            for _ in range(EPOCHS):
+            shuffles = -(-per_epoch * EPOCHS // len(train))
+            orders = torch.cat([torch.randperm(len(train)) for _ in range(shuffles)])
+            for epoch in range(EPOCHS):
                 net.train()
-                order = torch.randperm(len(train))
-                for s in range(0, len(train), detector.batch_size):
+                order = orders[epoch * per_epoch : (epoch + 1) * per_epoch]
+                for s in range(0, len(order), detector.batch_size):
                     b = order[s : s + detector.batch_size]
                     opt.zero_grad()
                     loss_fn(net(train[b]).reshape(-1), yt[n_val:][b]).backward()
@@ -64,7 +68,7 @@ def torch_targets(detector_class: type, length: int, seconds: float, seed: int =
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        train_windows = (n - n_val) * EPOCHS
+        train_windows = per_epoch * EPOCHS
 
         def ours_fit() -> None:
             detector_class(max_epochs=EPOCHS, patience=EPOCHS + 1, device="cpu").fit(

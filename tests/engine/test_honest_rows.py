@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 import toys
 
+from slipbench.base import BaseDetector
 from slipbench.data.read import read_dataset
 from slipbench.data.transfer import combine
 from slipbench.data.write import write_dataset
@@ -168,3 +169,53 @@ def test_a_detector_at_chance_on_its_training_windows_is_flagged(tmp_path):
     )
     text = render_report(rows.reset_index(), "md")
     assert "did not learn: on its own" in text and "Did not learn: the 95 % Wilson interval" in text
+
+
+class _HeldOut(BaseDetector):
+    """Holds a fifth of its windows out as a validation part (as TorchDetector does) and keeps
+    its scores there: ``validation_y_``, ``validation_scores_``."""
+
+    def _fit(self, x, y, seed):
+        held = np.random.default_rng(seed).random(len(y)) < 0.2
+        self._learn(x[~held], y[~held], seed)
+        self.validation_y_, self.validation_scores_ = y[held], self._predict_proba(x[held])
+
+
+class Memorizer(_HeldOut):
+    """Recalls the label of each window it trained on, flips a seeded coin on any other: well
+    above chance on its own training windows, at chance on the windows it held out."""
+
+    def _learn(self, x, y, seed):
+        self.seen_, self.seen_y_, self.seed_ = x, y, int(seed)
+
+    def _predict_proba(self, x):
+        recalled = {w.tobytes(): float(c) for w, c in zip(self.seen_, self.seen_y_)}
+        coin = np.random.default_rng([self.seed_, len(x)]).random(len(x))
+        return np.array([recalled.get(w.tobytes(), c) for w, c in zip(x, coin)])
+
+
+class HeldOutEnergy(_HeldOut):
+    """Mean absolute signal above its training windows' median: learns, and shows it on the
+    windows it held out."""
+
+    def _learn(self, x, y, seed):
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
+
+
+def test_a_model_at_chance_on_its_validation_part_did_not_learn(tmp_path):
+    """Fitting its own training windows is not learning: a detector that holds a validation
+    part out is judged there too, and a learner is not flagged by it."""
+    ds = _lab(tmp_path, "lab", labelled=True, trials=8, press=(600,) * 8)
+    runs = [Run(d, _window(50), "grouped", 0, "majority") for d in (Memorizer(), HeldOutEnergy())]
+    rows = evaluate(ds, runs, ResultsStore(tmp_path / "r"), progress=False).set_index("detector")
+    memo, energy = rows.loc["memorizer"], rows.loc["held-out-energy"]
+    assert memo["train_balanced_accuracy_lo"] > 0.5  # the training windows' rule passes it
+    assert memo["validation_balanced_accuracy_lo"] <= 0.5 <= memo["validation_balanced_accuracy_hi"]
+    assert memo["warnings"].startswith("did not learn: on its ")
+    assert "held-out validation windows" in memo["warnings"]
+    assert f"training windows score {memo['train_balanced_accuracy']:.2f}" in memo["warnings"]
+    assert energy["validation_balanced_accuracy_lo"] > 0.5
+    assert "did not learn" not in energy["warnings"]
