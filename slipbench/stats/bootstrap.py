@@ -160,7 +160,7 @@ holding no failing trial is distributed exactly as the normal scenario's, and
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -462,6 +462,186 @@ def interval(
     )
 
 
+@dataclass(frozen=True)
+class SeedPool:
+    """The seed variance a protocol's cells share: one seed's figure about its side's mean,
+    pooled over every cell side of two seeds or more, weighted by and carrying their degrees of
+    freedom (:func:`pool_seed_spreads`). Given to :func:`seeded_interval`, it stands for each
+    cell's own seed spread, so a cell's seed term rests on the protocol's degrees of freedom,
+    not its own two."""
+
+    variance: float
+    df: float
+
+
+def pool_seed_spreads(spreads: Iterable[tuple[float, int]]) -> SeedPool | None:
+    """The pooled seed variance of ``(variance over a side's seeds (ddof 1), seeds)`` pairs,
+    one per cell side; sides of one seed and NaN spreads carry nothing. None where none is left.
+    """
+    kept = [(float(v), n - 1) for v, n in spreads if n >= 2 and np.isfinite(v)]
+    df = sum(d for _, d in kept)
+    if df == 0:
+        return None
+    return SeedPool(sum(v * d for v, d in kept) / df, float(df))
+
+
+@dataclass(frozen=True)
+class _Replicates:
+    """What the resamples of :func:`seeded_interval` give.
+
+    Attributes
+    ----------
+    boot : two-level replicates (clusters and each side's seeds drawn).
+    cluster : replicates of the seeds' plain means (clusters drawn alone).
+    sides : per side, its two-level replicates and the seed-by-cluster variance they hold
+        beyond the one count an interval keeps.
+    seeded : per side of several seeds: its seed variance of its mean, the seed-by-cluster part
+        of it and the seeds' degrees of freedom, each scaled by the side's sign squared.
+    """
+
+    boot: np.ndarray
+    cluster: np.ndarray
+    sides: list[tuple[np.ndarray, float]]
+    seeded: list[tuple[float, float, float]]
+
+
+def _replicates(
+    figures: Sequence[np.ndarray],
+    at_one: Sequence[np.ndarray],
+    signs: Sequence[float],
+    seed: int,
+) -> _Replicates:
+    """The replicates of every side's figures ``figures`` (n_resamples, S_k) under cluster
+    resamples, and each side's seed terms (:class:`_Replicates`)."""
+    n_resamples = len(figures[0])
+    boot, cluster = np.zeros(n_resamples), np.zeros(n_resamples)
+    seeded: list[tuple[float, float, float]] = []
+    sides: list[tuple[np.ndarray, float]] = []
+    for k, (sign, f) in enumerate(zip(signs, figures)):
+        v = seed_weights(f.shape[1], seed, k, n_resamples)
+        side = (f * v).sum(axis=1) / v.sum(axis=1)
+        boot += sign * side
+        cluster += sign * f.mean(axis=1)
+        part = 0.0
+        if f.shape[1] > 1:
+            dev = f - f.mean(axis=1, keepdims=True)
+            dev = dev[np.isfinite(dev).all(axis=1)]
+            part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
+            spread = float(at_one[k].var(ddof=1)) / f.shape[1]
+            # a side weighted by `sign` contributes sign^2 times its variance
+            seeded.append((sign**2 * spread, sign**2 * part, f.shape[1] - 1.0))
+        sides.append((side, 2 * part))
+    return _Replicates(boot[np.isfinite(boot)], cluster, sides, seeded)
+
+
+def _seed_variance(
+    reps: _Replicates,
+    at_one: Sequence[np.ndarray],
+    signs: Sequence[float],
+    pool: SeedPool | None,
+) -> tuple[float, float]:
+    """The sides' seed variance of their means net of their seed-by-cluster parts (a seed's own
+    error on a cluster shows in the seeds' spread and again in the clusters' replicates of
+    their mean; counted once, by the clusters), and ``unsure``: the spreads' uncertainty,
+    ``sum v^2 / df`` (Satterthwaite for a difference: the net is as uncertain as the spreads it
+    is taken from). With ``pool``, every side's spread is the pool's over its seeds, one
+    estimate on the pool's degrees of freedom (a side of one seed included)."""
+    part = sum(t for _, t, _ in reps.seeded)
+    if pool is None:
+        spread = sum(v for v, _, _ in reps.seeded)
+        unsure = sum(v**2 / d for v, _, d in reps.seeded)
+    else:
+        spread = sum(k**2 * pool.variance / len(f) for k, f in zip(signs, at_one))
+        unsure = spread**2 / pool.df
+    return max(0.0, spread - part), unsure
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """One interval's ingredients, for the methods' bounds (:func:`_bounds`)."""
+
+    est: float
+    se: float
+    df: float
+    level: float
+    bounds: tuple[float, float]
+    signs: tuple[float, ...]
+    reps: _Replicates
+    seed_windows: float  # one seed's windows: the logits' smoothing
+    at_one: Sequence[np.ndarray]
+    level_df: Callable[[], float]  # the df of the two sides' mean (MOVER's level)
+    seed_var: float  # the net seed variance inside ``se``
+
+    @property
+    def unit(self) -> bool:
+        return self.bounds == (0.0, 1.0)
+
+    def logit_t(self) -> tuple[float, float]:
+        """The t-interval, on the logit scale for a figure in (0, 1)."""
+        q = student_t.ppf(1 - (1 - self.level) / 2, self.df)
+        est, se = self.est, self.se
+        if self.unit and 0 < est < 1:
+            z, s = np.log(est / (1 - est)), se / (est * (1 - est))
+            return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
+        return est - q * se, est + q * se
+
+    def plain_t(self) -> tuple[float, float]:
+        q = student_t.ppf(1 - (1 - self.level) / 2, self.df)
+        return self.est - q * self.se, self.est + q * self.se
+
+
+def _no_spread(fit: _Fit, n_used: int) -> tuple[float, float]:
+    """No spread: a figure takes the Clopper-Pearson interval with the clusters as the sample
+    (the worst case); a change stays a point."""
+    if not fit.unit:
+        return fit.est, fit.est
+    alpha, x = 1 - fit.level, fit.est * n_used
+    lo = beta_dist.ppf(alpha / 2, x, n_used - x + 1) if x > 0 else 0.0
+    hi = beta_dist.ppf(1 - alpha / 2, x + 1, n_used - x) if x < n_used else 1.0
+    return float(lo), float(hi)
+
+
+def _takes_mover(fit: _Fit, method: str) -> bool:
+    """A change of two sides apart takes MOVER: always under ``mover``; under ``scale-choice``
+    with one seed per side, where the replicates say the contrast is steadier on the logit
+    scale (with 3 seeds apart, MOVER over the two-level replicates raised 8 of 20 false alarms
+    in compare's null study, the seed terms below 0 of 20)."""
+    if fit.bounds != (-1.0, 1.0) or fit.signs != (-1.0, 1.0):
+        return False
+    if method == "mover":
+        return True
+    return (
+        method == "scale-choice"
+        and not fit.reps.seeded
+        and fit.seed_var == 0
+        and _logit_is_steadier(fit.reps.sides, fit.seed_windows)
+    )
+
+
+def _bounds(fit: _Fit, method: str) -> tuple[float, float]:
+    """The interval of ``method`` for a figure or change with spread (``fit.se > 0``)."""
+    one_side = fit.unit and fit.signs == (1.0,) and 0 < fit.est < 1
+    if method == "percentile":
+        q = (1 - fit.level) / 2
+        lo, hi = np.quantile(fit.reps.boot, [q, 1 - q])
+        return float(lo), float(hi)
+    if method == "t":
+        return fit.plain_t()
+    if method == "mover" and one_side:
+        reps, excess = fit.reps.sides[0]
+        return _logit_bounds(reps, excess, fit, fit.seed_windows * len(fit.at_one[0]))
+    if FIGURES_AS.get(method, method) == "replicate-logit" and one_side:
+        # the clusters' replicates of the seeds' plain mean: seed draws left out, so several
+        # seeds' logit spread is the test sets' alone and identical seeds give one seed's
+        # interval (the smoothing takes one seed's windows)
+        return _logit_bounds(fit.reps.cluster, 0.0, fit, fit.seed_windows)
+    if _takes_mover(fit, method):
+        means = [float(f.mean()) for f in fit.at_one]
+        n = fit.seed_windows * len(fit.at_one[0])
+        return _mover_bounds(fit.est, means, fit.reps.sides, (fit.df, fit.level_df()), fit.level, n)
+    return fit.logit_t()
+
+
 def seeded_interval(
     per_seed: PerSeed,
     per_seed_influence: PerSeed,
@@ -474,6 +654,8 @@ def seeded_interval(
     n_resamples: int = N_RESAMPLES,
     method: str = DEFAULT_METHOD,
     bounds: tuple[float, float] = (0.0, 1.0),
+    *,
+    seed_pool: SeedPool | None = None,
 ) -> Interval:
     """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
     seeds: its variance is the clusters' (each resample draws clusters once for every seed of
@@ -494,13 +676,16 @@ def seeded_interval(
     signs : sequence of float
         Per side, its weight in the figure: ``(1,)`` for a mean, ``(-1, 1)`` for candidate -
         base; any other weight scales that side's figure and its variance components alike.
+    seed_pool : SeedPool, optional
+        The seed variance the protocol's cells share (:func:`pool_seed_spreads`): it replaces
+        the sides' own seed spreads, with its degrees of freedom.
 
     Degrees of freedom: the strata's components (:func:`satterthwaite_df`) and the sides' net
     seed variance, whose degrees of freedom are those of a difference, ``net^2 / sum_k
     v_k^2 / (S_k - 1)`` (``v_k`` a side's seed variance of its mean), combined by
     Welch-Satterthwaite: three seeds leave at most two degrees of freedom to a seed-dominated
-    variance, fewer the more the net subtracts. With one seed per side this is exactly the
-    one-level interval of :func:`interval`.
+    variance, fewer the more the net subtracts; a pool leaves its own. With one seed per side
+    and no pool this is exactly the one-level interval of :func:`interval`.
     """
     if method not in METHODS:
         raise ValueError(f"unknown interval method {method!r}; choose one of: {', '.join(METHODS)}")
@@ -512,115 +697,52 @@ def seeded_interval(
         return Interval(est, np.nan, np.nan, np.nan, np.nan, False)
     if not used.any() or design.lone()[used].any():
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
-    w = resample_weights(design, seed, n_resamples)
-    # per side of several seeds, its seed variance of its mean, the seed-by-cluster part of it
-    # and the seeds' degrees of freedom, each scaled by the side's sign squared
-    seeded: list[tuple[float, float, float]] = []
-    # per side: its two-level replicates, and the seed-by-cluster variance they hold beyond the
-    # one count an interval keeps (they hold it three times: see `se` below)
-    sides: list[tuple[np.ndarray, float]] = []
     with np.errstate(invalid="ignore", divide="ignore"):
-        boot = np.zeros(n_resamples)  # clusters and seeds drawn: the two-level replicates
-        cluster = np.zeros(n_resamples)  # clusters drawn: replicates of the seeds' plain means
-        figures = per_seed(w)
-        for k, (sign, f) in enumerate(zip(signs, figures)):
-            v = seed_weights(f.shape[1], seed, k, n_resamples)
-            side = (f * v).sum(axis=1) / v.sum(axis=1)
-            boot += sign * side
-            cluster += sign * f.mean(axis=1)
-            part = 0.0
-            if f.shape[1] > 1:
-                dev = f - f.mean(axis=1, keepdims=True)
-                dev = dev[np.isfinite(dev).all(axis=1)]
-                part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
-                spread = float(at_one[k].var(ddof=1)) / f.shape[1]
-                # a side weighted by `sign` contributes sign^2 times its variance
-                seeded.append((sign**2 * spread, sign**2 * part, f.shape[1] - 1.0))
-            sides.append((side, 2 * part))
-    boot = boot[np.isfinite(boot)]
-    # the sides' seed variances of their means, net of their seed-by-cluster parts (a seed's own
-    # error on a cluster shows in the seeds' spread and again in the clusters' replicates of
-    # their mean; counted once, by the clusters). Satterthwaite for a difference: the net is as
-    # uncertain as the spreads it is taken from, so its degrees of freedom are the spreads',
-    # sum v^2 / (S - 1), against the net's square; a large subtraction leaves fewer
-    net = max(0.0, sum(v - t for v, t, _ in seeded))
-    unsure = sum(v**2 / d for v, _, d in seeded)
-    # the net's share of the denominator is the spreads' uncertainty, `unsure`, kept where the
-    # net is cut at 0 too: seeds that happen to agree do not earn the clusters' degrees of
-    # freedom (a null study of paired seeds raised 2 false alarms in 20 without it; the coverage
-    # study's paired changes with a seed-by-side interaction fall to 0.925 without it, and
-    # overcover, 0.97-1.00, where the interaction is 0: docs/coverage.md)
+        w = resample_weights(design, seed, n_resamples)
+        reps = _replicates(per_seed(w), at_one, signs, seed)
+    net, unsure = _seed_variance(reps, at_one, signs, seed_pool)
+    # `unsure` stays in the denominator where the net is cut at 0 too: seeds that happen to
+    # agree do not earn the clusters' degrees of freedom (docs/coverage.md)
     extra = [(net, np.inf)] if net > 0 else []
     # the clusters' variance of the seeds' plain means plus the seeds' own: the two-level
     # replicates' variance holds the seed-by-cluster term three times (seed spread, clusters,
     # and the clusters' spread of the drawn seeds' mean), which no single subtraction undoes
-    se = float(np.sqrt(np.var(cluster[np.isfinite(cluster)], ddof=1) + net))
-    alpha = 1 - level
-    unit = bounds == (0.0, 1.0)
-    seed_windows = sizes[used].sum() / len(at_one[0])  # one seed's: the logits' smoothing
-    # every method but the two references builds on the logit t (studentized: a union with it)
-    logit_t = method not in ("t", "percentile")
-    if logit_t:
-        side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
+    cluster = reps.cluster[np.isfinite(reps.cluster)]
+    se = float(np.sqrt(np.var(cluster, ddof=1) + net))
+    # every method but the two references builds on the logit t
+    side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
+    if method in ("t", "percentile"):
+        df = float(design.df(used))
+    else:
         infl = sum(k * g for k, g in zip(signs, side_infl))
         df = satterthwaite_df(design, np.asarray(infl), sizes, used, extra, unsure)
+
+    def level_df() -> float:  # the two sides' mean, MOVER's level
+        mean_infl = np.asarray(sum(side_infl)) / 2
+        quarter = [(v / 4, d) for v, d in extra]
+        return satterthwaite_df(design, mean_infl, sizes, used, quarter, unsure / 16)
+
+    fit = _Fit(
+        est, se, df, level, bounds, tuple(map(float, signs)), reps,
+        sizes[used].sum() / len(at_one[0]), at_one, level_df, net,
+    )  # fmt: skip
+    if se == 0:
+        lo, hi = _no_spread(fit, int(used.sum()))
     else:
-        df = float(design.df(used))
-    if se == 0 and unit:  # no spread: the clusters as the sample, the worst case
-        n = int(used.sum())
-        x = est * n
-        lo = beta_dist.ppf(alpha / 2, x, n - x + 1) if x > 0 else 0.0
-        hi = beta_dist.ppf(1 - alpha / 2, x + 1, n - x) if x < n else 1.0
-    elif se == 0:
-        lo = hi = est
-    elif method == "percentile":
-        lo, hi = np.quantile(boot, [alpha / 2, 1 - alpha / 2])
-    elif method == "mover" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
-        lo, hi = _logit_bounds(est, *sides[0], se, df, level, sizes[used].sum())
-    elif (
-        FIGURES_AS.get(method, method) == "replicate-logit"
-        and unit
-        and tuple(signs) == (1.0,)
-        and 0 < est < 1
-    ):
-        # the clusters' replicates of the seeds' plain mean: seed draws left out, so several
-        # seeds' logit spread is the test sets' alone and identical seeds give one seed's
-        # interval (the smoothing takes one seed's windows)
-        lo, hi = _logit_bounds(est, cluster, 0.0, se, df, level, seed_windows)
-    elif (
-        # a change of two sides apart (a paired or pooled one takes the t below)
-        bounds == (-1.0, 1.0)
-        and tuple(signs) == (-1.0, 1.0)
-        and (
-            method == "mover"
-            # one seed per side only: with 3 seeds apart, MOVER over the two-level replicates
-            # raised 8 of 20 false alarms in compare's null study, the seed terms below 0 of 20
-            or (method == "scale-choice" and not seeded and _logit_is_steadier(sides, seed_windows))
-        )
-    ):
-        # a change of two figures in [0, 1]; the level (their mean) has its own df
-        level_df = satterthwaite_df(
-            design, sum(side_infl) / 2, sizes, used, [(v / 4, d) for v, d in extra], unsure / 16
-        )
-        lo, hi = _mover_bounds(
-            est,
-            [float(f.mean()) for f in at_one],
-            sides,
-            (df, level_df),
-            level,
-            sizes[used].sum(),
-        )
-    else:
-        q = student_t.ppf(1 - alpha / 2, df)
-        if logit_t and unit and 0 < est < 1:
-            z, s = np.log(est / (1 - est)), se / (est * (1 - est))
-            lo, hi = 1 / (1 + np.exp(-(z - q * s))), 1 / (1 + np.exp(-(z + q * s)))
-        else:
-            lo, hi = est - q * se, est + q * se
+        lo, hi = _bounds(fit, method)
     lo, hi = float(max(lo, bounds[0])), float(min(hi, bounds[1]))
     if method == "studentized" and se > 0:
         blo, bhi = _studentized_bounds(
-            per_seed, per_seed_influence, signs, design, used, est, seed, level, n_resamples, unit
+            per_seed,
+            per_seed_influence,
+            signs,
+            design,
+            used,
+            est,
+            seed,
+            level,
+            n_resamples,
+            fit.unit,
         )
         # the union: the t-interval where the sample is symmetric, wider only on a side where
         # the resampled pivots say its skew needs it
@@ -644,17 +766,16 @@ def _logit_sd(reps: np.ndarray, est: float, n: float, excess: float = 0.0) -> fl
     return float(np.sqrt(max(var - excess * slope**2, 0.0)))
 
 
-def _logit_bounds(
-    est: float, reps: np.ndarray, excess: float, se: float, df: float, level: float, n: float
-) -> tuple[float, float]:
+def _logit_bounds(reps: np.ndarray, excess: float, fit: _Fit, n: float) -> tuple[float, float]:
     """Methods ``mover`` and ``replicate-logit``, a figure in (0, 1): the logit t-interval whose
-    standard error is :func:`_logit_sd`. A rate near its bound whose clusters happen to be good
-    shows a small spread; its replicates' logits still reach as far as its worst clusters take
-    them."""
+    standard error is the larger of ``fit``'s (delta method) and :func:`_logit_sd` of ``reps``
+    (net of ``excess``). A rate near its bound whose clusters happen to be good shows a small
+    spread; its replicates' logits still reach as far as its worst clusters take them."""
+    est = fit.est
     reps = reps[np.isfinite(reps)]
     z = float(np.log(est / (1 - est)))
-    s = max(se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
-    q = student_t.ppf(1 - (1 - level) / 2, df)
+    s = max(fit.se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
+    q = student_t.ppf(1 - (1 - fit.level) / 2, fit.df)
     return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
 
 
