@@ -27,6 +27,7 @@ from slipbench.stats.bootstrap import (
     N_RESAMPLES,
     Design,
     Interval,
+    IntervalMethod,
     SeedPool,
     interval,
     make_design,
@@ -260,7 +261,11 @@ def _joint_design(parts: Sequence[Predictions]) -> tuple[Design, list[_Totals]]:
 
 
 def _joint_figures(
-    parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str
+    parts: Sequence[Predictions],
+    seed: int,
+    level: float,
+    n_resamples: int,
+    method: str | IntervalMethod,
 ) -> dict:
     """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
     design, totals = _joint_design(parts)
@@ -304,7 +309,7 @@ def classification_figures(
     strata: np.ndarray | None = None,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
 
@@ -408,7 +413,7 @@ def mean_over_test_sets(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """The mean of each figure over several test sets, with ONE joint bootstrap.
 
@@ -440,7 +445,7 @@ def pool_seeds(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """One cell run under several seeds (``--repeats``): one figure and one interval.
 
@@ -500,7 +505,7 @@ def over_seeds(
     seed: int = 0,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
     paired: bool = False,
     *,
@@ -546,8 +551,6 @@ def over_seeds(
     flat = [t for side in per_side for sets in side for t in sets]
     if paired and (cand is None or len(sides[0]) != len(sides[1])):
         raise ValueError("paired seeds need a candidate with as many seeds as the base")
-    if paired and method == "mover":  # it splits a change into its two sides
-        raise ValueError(f"method {method!r} needs the two sides apart, not paired seeds")
     of_seeds = _paired_seeds if paired else _per_seed
     signs = (1.0,) if cand is None or paired else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"
@@ -661,7 +664,7 @@ def paired_comparison(
     base_scores: np.ndarray | None = None,
     cand_scores: np.ndarray | None = None,
     strata: np.ndarray | None = None,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
 ) -> dict[str, float | int | bool]:
     """Two detectors' predictions on the same test windows: the change (candidate - base) of
