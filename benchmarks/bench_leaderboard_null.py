@@ -7,13 +7,14 @@ over two protocols of ``BLOCKS`` blocks each. Entrant ``k``'s figure in block ``
 seed ``s`` is ``mu_b + c_k,s + e_k,b,s``: ``mu_b ~ N(0.80, 0.05^2)`` the block's difficulty,
 ``c_k,s ~ N(0, SD_RUN^2)`` the run's luck (its split and initialisation, in every block),
 ``e ~ N(0, SD_BLOCK^2)`` its luck in one block. Per board, every scope (all blocks, each
-protocol) is ranked by :func:`slipbench.stats.leaderboard.rank_scope` with the seeds; counted:
+protocol) is ranked by :func:`slipbench.stats.leaderboard.rank_scope` with the seeds, Holm over
+every scope's pairs (:func:`slipbench.stats.leaderboard.one_family`); counted:
 boards where some pair of some scope "differs" (target <= 5 %), boards where the groups split
 the entrants, and boards where a scope's groups contradict its pairs (a differing pair sharing a
 group, or neighbours in rank that do not differ kept apart). "Before": the Wilcoxon-Holm groups
 the leaderboard drew until issue 35 (scope "all"), on the same boards.
 
-    nice python benchmarks/bench_leaderboard_null.py --boards 150 --out benchmarks/results/leaderboard_null.md
+    nice python benchmarks/bench_leaderboard_null.py --boards 100 --out benchmarks/results/leaderboard_null.md
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from scipy.stats import wilcoxon
 from statsmodels.stats.multitest import multipletests
 
 from slipbench.seeding import rng_for
-from slipbench.stats.leaderboard import ALPHA, Scope, rank_scope
+from slipbench.stats.leaderboard import ALPHA, Scope, one_family, rank_scope
 
 ENTRANTS = ("a", "b", "c")
 BLOCKS = 24  # per protocol
@@ -78,6 +79,7 @@ def one(rep: int, n_seeds: int) -> dict:
         at = blocks.index.str.startswith(p + "-")
         part = {e: v[at] for e, v in seeds.items()}
         scopes.append(rank_scope(blocks[at], p, part))
+    one_family(scopes)
     return {
         "differ": any(s.pairs["differ"].any() for s in scopes),
         "split": any(s.groups != [list(s.ranks.index)] for s in scopes),

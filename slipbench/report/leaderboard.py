@@ -165,7 +165,7 @@ def _groups_table(scopes: list[Scope]) -> Table:
         notes=[
             "A group lists detectors, in rank order, no pair of which differs in the scope's pairwise "
             "tests (the intervals of the pairwise table, over the scope's blocks and seeds, Holm across "
-            "the scope's decided pairs); a detector in no group differs from every other. A pair is "
+            "every scope's decided pairs at once); a detector in no group differs from every other. A pair is "
             f"{_UNDECIDED}; it never differs. Blocks share recordings (window 50 of a unit appears in "
             "several protocols, with another model or test set), so they are not independent and the "
             "p-values are optimistic."
@@ -285,7 +285,7 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
                 _SEEDS_INTERVAL.format(n=board.n_seeds)[:-2]
                 + "; paired seed by seed where both ran the same seeds; not adjusted]. p: the p-value "
                 "of no difference at which the interval reaches 0"
-                f"; p (Holm): Holm-adjusted over the decided pairs; a pair differs where p (Holm) < {ALPHA:g}"
+                f"; p (Holm): Holm-adjusted over every scope's decided pairs; a pair differs where p (Holm) < {ALPHA:g}"
                 if board.n_seeds > 1
                 else "[95 % interval: percentile bootstrap over blocks, each block's figure fixed, every "
                 f"pair on the same draws; not adjusted]. A pair is {_UNDECIDED}"

@@ -13,7 +13,7 @@ are those of the intervals:
 4. one family of tests decides every pair, every group and the diagram's bars
    (:func:`pairwise`): each pair's mean difference over the scope's blocks with the interval the
    means take (over blocks and seeds, :func:`crossed_interval`) and its p-value, Holm-adjusted
-   within the scope; detectors no pair of which differs form a group, drawn as one bar. A pair
+   over every scope's pairs at once (:func:`one_family`); detectors no pair of which differs form a group, drawn as one bar. A pair
    of which an entrant ran one seed is *undecided*: nothing measures the retraining luck its
    one run had in every block, and blocks alone called equal detectors different on 5 of 10
    boards (issue 35). So ranks, groups, pairwise table and diagram never disagree.
@@ -471,6 +471,27 @@ def rank_scope(
     return Scope(name, len(complete), n_excluded, mean, wins, pairs, _groups(order, pairs))
 
 
+def one_family(scopes: list[Scope]) -> None:
+    """Holm across the decided pairs of every scope at once (in place): a leaderboard is one
+    family, so equal detectors differ in some scope on at most ``ALPHA`` of boards (Holm
+    within each scope let 3 scopes of 3 equal entrants differ on 12.7 % of boards,
+    ``benchmarks/bench_leaderboard_null.py``); groups follow the adjusted pairs."""
+    p = pd.concat([s.pairs["p"] for s in scopes], ignore_index=True)
+    holm = np.full(len(p), np.nan)
+    finite = p.notna().to_numpy()
+    if finite.sum() == 1:
+        holm[finite] = p[finite]
+    elif finite.any():
+        holm[finite] = multipletests(p[finite], method="holm")[1]
+    at = 0
+    for s in scopes:
+        n = len(s.pairs)
+        s.pairs["p_holm"] = holm[at : at + n]
+        s.pairs["differ"] = s.pairs["p_holm"] < ALPHA
+        s.groups = _groups(list(s.ranks.index), s.pairs)
+        at += n
+
+
 def _mean_interval(
     values: np.ndarray, per_seed: np.ndarray | None = None, seed: int = 0
 ) -> tuple[float, float, float]:
@@ -538,6 +559,7 @@ def leaderboard(
         part = table[table.index.get_level_values("protocol") == protocol]
         if len(part):
             scopes.append(scope(part, protocol)[0])
+    one_family(scopes)
     ranked = blocks.dropna().index
     means = pd.DataFrame(index=pd.Index(overall.ranks.index, name=None))
     n_seeds = 1

@@ -215,6 +215,10 @@ def test_groups_pairs_and_diagram_never_disagree():
         elif abs(order.index(r.a) - order.index(r.b)) == 1:
             assert (r.a, r.b) in together
     assert order[0] == "a" and overall.groups == [order[1:]]
+    # one family: Holm over the pairs of every scope at once
+    p = pd.concat([s.pairs["p"] for s in board.scopes], ignore_index=True)
+    holm = pd.concat([s.pairs["p_holm"] for s in board.scopes], ignore_index=True)
+    assert list(holm) == pytest.approx(list(multipletests(p, method="holm")[1]))
 
 
 # ----------------------------------------------------------------------------- seeds as a factor
