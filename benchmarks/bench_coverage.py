@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from scipy.stats import norm
+from studies.intervals import method as study_method
 
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
@@ -176,8 +177,8 @@ def _chunk(task: tuple[str, int, int, int, int, str]) -> dict[str, float]:
     hits: dict[str, float] = dict.fromkeys([*true, *(f"w_{k}" for k in true)], 0.0)
     for r in range(n):
         base, cand = dataset(rng, m, scenario)
-        f = over_seeds(base, seed=r, method=method)
-        d = over_seeds(base, cand, seed=r, method=method, paired=scenario in PAIRED)
+        f = over_seeds(base, seed=r, method=study_method(method))
+        d = over_seeds(base, cand, seed=r, method=study_method(method), paired=scenario in PAIRED)
         for name, value in true.items():
             src = d if name.startswith("d_") else f
             hits[name] += bool(src[f"{name}_lo"] <= value <= src[f"{name}_hi"])
@@ -244,7 +245,11 @@ def main(argv: Sequence[str] | None = None) -> pd.DataFrame:
     )
     ap.add_argument("--jobs", type=int, default=2, help="processes")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--method", default=DEFAULT_METHOD, help="interval method (bootstrap.METHODS)")
+    ap.add_argument(
+        "--method",
+        default=DEFAULT_METHOD,
+        help="interval method (bootstrap.METHODS or studies.intervals.STUDIES)",
+    )
     ap.add_argument("--out", type=Path, help="write the Markdown table here too")
     ap.add_argument("--widths", action="store_true", help="show the mean widths too")
     a = ap.parse_args(argv)

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 from bench_coverage import CHUNK, FAIL_SHARE, NAMES, SCENARIOS, SHORT, dataset, run_tasks, truth
+from studies.intervals import method as study_method
 
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import over_seeds
@@ -43,8 +44,8 @@ def _chunk(task: tuple[int, int, int, int, str]) -> dict[str, float]:
     hits = dict.fromkeys([*(f"own_{k}" for k in NAMES), *(f"heavy_{k}" for k in NAMES)], 0.0)
     for r in range(n):
         base, cand = dataset(rng, m, "normal")
-        f = over_seeds(base, seed=r, method=method)
-        d = over_seeds(base, cand, seed=r, method=method)
+        f = over_seeds(base, seed=r, method=study_method(method))
+        d = over_seeds(base, cand, seed=r, method=study_method(method))
         for name in NAMES:
             src = d if name.startswith("d_") else f
             lo, hi = src[f"{name}_lo"], src[f"{name}_hi"]
@@ -90,7 +91,11 @@ def main(argv: Sequence[str] | None = None) -> pd.DataFrame:
     ap.add_argument("--sizes", default="10,20,40", help="trials per class, comma list")
     ap.add_argument("--jobs", type=int, default=2, help="processes")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--method", default=DEFAULT_METHOD, help="interval method (bootstrap.METHODS)")
+    ap.add_argument(
+        "--method",
+        default=DEFAULT_METHOD,
+        help="interval method (bootstrap.METHODS or studies.intervals.STUDIES)",
+    )
     a = ap.parse_args(argv)
     start = time.perf_counter()
     table = study(a.reps, [int(s) for s in a.sizes.split(",")], a.jobs, a.seed, a.method)

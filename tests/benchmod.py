@@ -9,6 +9,10 @@ from pathlib import Path
 from types import ModuleType
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+if (
+    str(BENCHMARKS) not in sys.path
+):  # the studies' package (benchmarks/studies), as the scripts see it
+    sys.path.insert(0, str(BENCHMARKS))
 
 
 def load(name: str) -> ModuleType:

@@ -1,6 +1,7 @@
 """The leaderboard said: the tables of :func:`slipbench.stats.leaderboard.leaderboard` (mean
-ranks per scope; mean figures with intervals and cells won; the Friedman and Wilcoxon-Holm
-tests per scope) with the figures' names and the notes that say how to read them."""
+ranks per scope; mean figures with intervals and cells won; the groups per scope and the
+pairwise table, both from :func:`slipbench.stats.leaderboard.pairwise`) with the figures' names
+and the notes that say how to read them."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pandas as pd
 
 from slipbench.report.tables import Table, ordered_keys, rank, summarize
 from slipbench.stats.factors import one_class, setting_labels
-from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard
+from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard, Scope
 from slipbench.vocabulary import DETECTOR_ORDER, METRIC_NAMES, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
@@ -35,7 +36,7 @@ def _percent(mean: float, lo: float, hi: float) -> str:
 
 def leaderboard_tables(board: Leaderboard) -> list[Table]:
     """The leaderboard as tables: mean ranks per scope; mean figures with intervals and cells
-    won; the tests (Friedman, then Wilcoxon-Holm groups) per scope."""
+    won; the groups per scope; the pairs."""
     overall = board.scopes[0] if board.scopes else None
     if overall is None or overall.n_cells == 0:
         excluded = overall.n_excluded if overall else 0
@@ -134,42 +135,42 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         )
     )
     if len(order) >= 2:
-        test_cells = []
-        for s in scopes:
-            chi = "—" if s.friedman is None else f"{s.friedman[0]:.1f}"
-            p = "—" if s.friedman is None else _p(s.friedman[1])
-            groups = (
-                "; ".join("{" + ", ".join(g) + "}" for g in s.groups) or "none: every pair differs"
-            )
-            if len(order) == 2:  # no Friedman test: the one pair's own p-value
-                p2 = float(s.pairs["p"].iloc[0])
-                groups += f" (Wilcoxon p {'< 0.001' if p2 < 0.001 else f'= {p2:.3f}'})"
-            test_cells.append([str(s.n_cells), chi, p, groups])
-        tables.append(
-            Table(
-                "Do the detectors differ? Friedman test per scope, then pairwise Wilcoxon signed-rank tests.",
-                ["Scope"],
-                "",
-                ["Blocks", "Friedman χ²", "p", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
-                [("all" if s.name == ALL else s.name,) for s in scopes],
-                test_cells,
-                "tab:leaderboard-tests",
-                wrap={4: 0.4},
-                notes=[
-                    (
-                        f"Friedman's χ² has {len(order) - 1} degrees of freedom. "
-                        if len(order) >= 3
-                        else "Friedman's test needs three detectors or more. "
-                    )
-                    + "A group lists detectors, in rank order, no pair of which differs after Holm's correction "
-                    "across the scope's pairs; a detector in no group differs from every other. Blocks share "
-                    "recordings (window 50 of a unit appears in several protocols, with another model or test "
-                    "set), so they are not independent and these p-values are optimistic."
-                ],
-            )
-        )
+        tables.append(_groups_table(scopes))
         tables.append(_pairs_table(board, name))
     return tables
+
+
+_UNDECIDED = (
+    "undecided: an entrant ran one seed, so nothing measures the luck its one run had in every "
+    "block (run `evaluate --repeats 2` or more)"
+)
+
+
+def _groups_table(scopes: list[Scope]) -> Table:
+    """Per scope, the groups of detectors that do not differ, from the scope's pairs."""
+    cells = []
+    for s in scopes:
+        decided = int(s.pairs["decided"].sum())
+        groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups) or "none: every pair differs"
+        cells.append([str(s.n_cells), f"{decided} of {len(s.pairs)}", groups])
+    return Table(
+        "Do the detectors differ? Groups per scope, from the pairwise tests over blocks and seeds.",
+        ["Scope"],
+        "",
+        ["Blocks", "Pairs decided", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
+        [("all" if s.name == ALL else s.name,) for s in scopes],
+        cells,
+        "tab:leaderboard-tests",
+        wrap={3: 0.5},
+        notes=[
+            "A group lists detectors, in rank order, no pair of which differs in the scope's pairwise "
+            "tests (the intervals of the pairwise table, over the scope's blocks and seeds, Holm across "
+            "every scope's decided pairs at once); a detector in no group differs from every other. A pair is "
+            f"{_UNDECIDED}; it never differs. Blocks share recordings (window 50 of a unit appears in "
+            "several protocols, with another model or test set), so they are not independent and the "
+            "p-values are optimistic."
+        ],
+    )
 
 
 def _one_class_note(board: Leaderboard) -> list[str]:
@@ -266,7 +267,7 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
             _points(r.diff, r.lo, r.hi),
             "—" if not np.isfinite(r.p) else _p(r.p),
             "—" if not np.isfinite(r.p_holm) else _p(r.p_holm),
-            "yes" if r.differ else "no",
+            "yes" if r.differ else ("no" if r.decided else "undecided"),
         ]
         for r in pairs.itertuples(index=False)
     ]
@@ -284,13 +285,12 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
                 _SEEDS_INTERVAL.format(n=board.n_seeds)[:-2]
                 + "; paired seed by seed where both ran the same seeds; not adjusted]. p: the p-value "
                 "of no difference at which the interval reaches 0"
+                f"; p (Holm): Holm-adjusted over every scope's decided pairs; a pair differs where p (Holm) < {ALPHA:g}"
                 if board.n_seeds > 1
                 else "[95 % interval: percentile bootstrap over blocks, each block's figure fixed, every "
-                "pair on the same draws; not adjusted]. p: the bootstrap's two-sided p-value of no difference"
+                f"pair on the same draws; not adjusted]. A pair is {_UNDECIDED}"
             )
-            + f"; p (Holm): Holm-adjusted over the {len(pairs)} {'pair' if len(pairs) == 1 else 'pairs'}; a "
-            f"pair differs where p (Holm) < {ALPHA:g}. Like the ranks, the interval covers which conditions "
-            "make up the benchmark"
+            + ". Like the ranks, the interval covers which conditions make up the benchmark"
             + (" and the seeds" if board.n_seeds > 1 else "")
             + ", not the test noise within a block."
         ],

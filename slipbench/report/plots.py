@@ -497,7 +497,7 @@ def _zero_tick(ax, floor: float, decade: float) -> None:
 def critical_difference(board: Leaderboard) -> Figure:
     """The leaderboard's critical-difference diagram: per scope (every cell, then each
     protocol), the detectors at their mean rank on a rank axis (1 = best, on the left), and a
-    bar joining each group that does not differ (Wilcoxon-Holm).
+    bar joining each group that does not differ (the leaderboard's pairwise tests).
 
     Drawn here rather than with aeon's ``plot_critical_difference``: that recomputes its own
     tests (its "holm" is a fixed alpha / (k - 1), not Holm's step-down) and cannot take the
@@ -554,7 +554,7 @@ def critical_difference(board: Leaderboard) -> Figure:
         )
     fig.suptitle(
         f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)\n"
-        "a bar joins detectors that do not differ (Wilcoxon-Holm)"
+        "a bar joins detectors that do not differ (pairwise tests over blocks and seeds, Holm)"
     )
     return fig
 
@@ -603,8 +603,8 @@ def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> li
         FigureSpec(
             file_stem(f"leaderboard{tail}"),
             "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
-            "(duplicate cells merged); a bar joins detectors that do not differ (Wilcoxon "
-            f"signed-rank, Holm).{named}",
+            "(duplicate cells merged); a bar joins detectors that do not differ (the pairwise "
+            f"table's tests over blocks and seeds, Holm; undecided pairs never differ).{named}",
             None,
             lambda: critical_difference(board),
         )

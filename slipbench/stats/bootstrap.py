@@ -1,167 +1,22 @@
 """The stratified cluster bootstrap behind every interval of slipbench.
 
-Windows cut from one recording are correlated, so the unit of resampling is the cluster (a
-recording, or a trial that several units recorded at once), never the window; and a test set
-holds a fixed number of slip and non-slip clusters, so clusters are resampled within their class
-(and balancing stratum, when given). The interval is built in three steps, each chosen by
-measuring coverage (``tests/stats/test_coverage.py``):
-
-1. **Standard error**: Rao and Wu's rescaling bootstrap (J. Am. Stat. Assoc. 83, 1988): in a
-   stratum of ``n_h`` clusters draw ``n_h - 1`` with replacement and weight them
-   ``n_h / (n_h - 1)``. The textbook bootstrap (draw ``n_h``) shrinks the variance by
-   ``(n_h - 1) / n_h``, a quarter at four recordings per class.
-2. **Scale**: figures bounded by 0 and 1 (rates, balanced accuracy, AUROC) take a t-interval on
-   the logit scale mapped back, so the interval reaches further towards 0.5 than towards the
-   bound, as the skewed sampling distribution of a rate near 1 does. Its standard error is the
-   larger of the delta method's (``se / (p (1 - p))``) and the SD of the replicates' own
-   logits (method ``replicate-logit``, the default's figures): a rate near its bound whose
-   sample holds few poor clusters shows a small spread on its own scale, while its replicates'
-   logits still reach as far as its worst clusters take them. Changes (candidate - base) take
-   the t-interval on their own scale or, with one seed per side, where the replicates say the
-   contrast is steadier on the logit scale (a candidate that changes the odds alike at every
-   level), MOVER over the logit level and contrast (method ``scale-choice``, the default since
-   it lifted every short change of the study, below).
-3. **Degrees of freedom**: Welch-Satterthwaite (:func:`satterthwaite_df`). Within a stratum,
-   recordings of unequal length do not weigh alike: when within-recording correlation
-   dominates, a cluster's share of the variance grows with its window count squared, so the
-   variance rests on ``(sum s^2)^2 / sum s^4`` effective clusters (``s``: windows per cluster),
-   about 0.58 ``n_h`` for lengths spread 10-200; fewer still when a few clusters carry the
-   observed variance. Strata combine by their linearized variance contributions.
-
-A figure whose resamples show no spread (every recording perfect) gets the Clopper-Pearson
-interval with the clusters as the sample (the worst case: each recording one observation), not
-a zero-width one. A class with a single cluster leaves nothing to measure how its clusters
-vary: figures drawing on it are flagged ``estimable=False`` and get their whole range ([0, 1],
-or [-1, 1] for changes), never NaN.
-
-Measured coverage of 95 % intervals, 1,000 simulated test sets per setting, two classes of ``m``
-recordings each, window counts 10-200 (slip) and 5-100 (non-slip); ``tau`` is the per-recording
-random effect: 0.5 gives an intra-recording correlation of hits of 0.14-0.18, 1.5 of 0.41-0.47
-(cells of real BioTac SP and of simulated Holweg results measured 0.05-0.52). ``d``: the paired
-change between two detectors on the same windows (compare). Model: ``tests/stats/test_coverage.py``;
-measured with the default method (``scale-choice``; the figures are ``replicate-logit``'s),
-``python tests/stats/test_coverage.py 1000``, about 20 minutes beside other work. The earlier
-tables, measured with ``satterthwaite`` (then the default), had the TN rate at 0.889 (10
-recordings, tau 1.5) and 0.914-0.934 at 8-40, the AUROC at 0.917-0.928 at 4-10 (tau 1.5) and
-0.920 at 40 with strata.
-
-    ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
-      m  tau  acc    TP     TN     BA     AUROC  d acc  d TP   d TN   d BA   d AUROC
-    ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
-      4  0.5  .965   .981   .992   .970   .971   .971   .985   .982   .982   .997
-      6  0.5  .959   .969   .980   .957   .962   .977   .984   .972   .976   .992
-      8  0.5  .954   .957   .969   .954   .956   .961   .956   .967   .957   .981
-     10  0.5  .941   .948   .968   .954   .949   .968   .975   .965   .969   .981
-     20  0.5  .951   .950   .945   .953   .949   .966   .966   .955   .971   .978
-     40  0.5  .955   .956   .945   .954   .950   .959   .959   .960   .957   .956
-      4  1.5  .976   .977   .990   .977   .927   .975   .973   .839   .987   .999
-      6  1.5  .953   .970   .954   .956   .928   .964   .968   .888   .985   1.000
-      8  1.5  .958   .963   .944   .963   .940   .965   .958   .914   .977   .993
-     10  1.5  .961   .959   .925   .961   .945   .957   .962   .931   .964   .989
-     20  1.5  .957   .963   .951   .952   .955   .961   .959   .947   .969   .988
-     40  1.5  .956   .950   .943   .954   .951   .958   .954   .955   .957   .971
-    ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
-
-The same with two balancing strata per class of different rates, passed as ``strata``:
-
-    ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
-      m  tau  acc    TP     TN     BA     AUROC  d acc  d TP   d TN   d BA   d AUROC
-    ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
-      4  0.5  .979   .980   .983   .979   .988   .986   .979   .975   .987   .994
-      6  0.5  .978   .988   .982   .987   .980   .979   .986   .980   .983   .989
-      8  0.5  .967   .972   .974   .968   .957   .971   .974   .971   .966   .986
-     10  0.5  .968   .975   .958   .976   .970   .974   .982   .963   .977   .984
-     20  0.5  .951   .949   .954   .951   .948   .962   .957   .972   .962   .969
-     40  0.5  .961   .954   .943   .954   .951   .948   .948   .956   .948   .954
-      4  1.5  .983   .983   .996   .983   .981   .981   .967   .874   .990   .998
-      6  1.5  .967   .979   .988   .974   .961   .993   .986   .931   .988   .999
-      8  1.5  .968   .979   .966   .971   .951   .976   .971   .933   .985   .998
-     10  1.5  .972   .975   .962   .975   .960   .978   .973   .936   .984   .997
-     20  1.5  .945   .939   .949   .954   .956   .958   .953   .967   .967   .991
-     40  1.5  .949   .952   .941   .944   .931   .964   .964   .940   .957   .967
-    ===  ===  =====  =====  =====  =====  =====  =====  =====  =====  =====  =======
-
-Pooled over m >= 10 and both correlation levels (without / with strata): accuracy 0.954 /
-0.958, TP rate 0.954 / 0.957, TN rate 0.946 / 0.951, balanced accuracy 0.955 / 0.959, AUROC
-0.950 / 0.953; changes: accuracy 0.962 / 0.964, TP rate 0.962 / 0.963, TN rate 0.952 / 0.956,
-balanced accuracy 0.964 / 0.966, all within the 93-97 % target (under ``replicate-logit``,
-whose changes are ``satterthwaite``'s: 0.958 / 0.961, 0.954 / 0.958, 0.933 / 0.942, 0.961 /
-0.964); the change in AUROC overcovers (0.977 / 0.977; 0.985 / 0.983 before), but only because
-its truth in this model is 0 (the two detectors rank alike: its estimate and its standard error
-rise together, so its studentized spread is narrower than t's); where a candidate ranks better
-it falls short (``ranks`` below). Single settings fall short under strong correlation: the
-change in TN rate at 8 recordings and fewer (0.839-0.914 / 0.874-0.933; at 10 it was 0.870 /
-0.895 and is 0.931 / 0.936), the TN rate at 10 (0.925, without strata), where a few recordings
-fail badly and most pass perfectly; a sample that happens to hold none of the failing recordings shows no spread, and no
-interval built from the recordings at hand can know of them. With few recordings per balancing
-stratum the intervals widen (few degrees of freedom) and overcover. Below 10 clusters per class
-cells are flagged ``low_n`` (:func:`slipbench.stats.metrics.is_low_n`).
-
-How the method was chosen: exploratory runs, 300 test sets per setting, coverage at m = 10
-(tau 0.5 / 1.5) of accuracy, TN rate, AUROC and the change in TN rate:
-
-==============================================  =========  =========  =========  =========
-method                                          accuracy   TN rate    AUROC      d TN rate
-==============================================  =========  =========  =========  =========
-before: percentile, not stratified              .87 / .87  .82 / .71  .85 / .81  .86 / .74
-percentile, stratified, textbook bootstrap      .87 / .85  .81 / .71  .84 / .81  .87 / .74
-percentile, Rao-Wu                              .87 / .87  .83 / .72  .86 / .83  .88 / .75
-BCa, Rao-Wu (jackknife acceleration)            .90 / .90  .85 / .76  .89 / .90  .87 / .75
-studentized (linearized SE per resample) [1]    .92 / .96  .91 / .59  .93 / .97  .90 / .58
-t, df = clusters - strata                       .88 / .88  .85 / .72  .84 / .79  .93 / .85
-logit t (delta), df = clusters - strata         .91 / .92  .92 / .84  .91 / .91  .93 / .85
-logit t (SD of logit replicates) [2]            .92 / .94  .95 / .98  .92 / .95  .93 / .85
-Korn-Graubard (Clopper-Pearson, effective n)    .91 / .93  .91 / .83  .92 / .91  .93 / .85
-logit t (delta), Satterthwaite df: chosen       .93 / .94  .94 / .91  .92 / .94  .95 / .88
-==============================================  =========  =========  =========  =========
-
-[1] a resample of perfect recordings has no standard error, so its pivot is infinite and the
-interval is lost; [2] overcovers erratically (0.98-0.99 at four recordings): resamples near the
-bound blow up on the logit scale. The percentile and plain t intervals stay available
-(``method=``) as the references the study compares against.
-
-**Seeds and failing trials** (``benchmarks/bench_coverage.py``, table in ``docs/coverage.md``,
-1,000 replications per setting, trial effect SD 1.0, 5-40 trials per class). Several seeds of a
-cell or of each side of a change take :func:`seeded_interval`: the clusters' variance of the
-seeds' plain means (clusters drawn once for every seed of both sides) plus the sides' seed
-variance of their means net of the seed-by-cluster part, which the clusters already count; the
-net enters the Satterthwaite sum with the degrees of freedom of a difference. One seed per side
-gives exactly the one-level interval. At
-10-40 trials per class, accuracy, TP rate and balanced accuracy cover 0.939-0.970 in all three
-scenarios (normal; 10 % of trials failing wholesale; 3 seeds with a random effect on
-performance); the TN rate 0.895-0.953 (short near its bound: 0.90-0.92 in the normal and
-heavy-tailed scenarios), the AUROC 0.929-0.966 except 0.885 with failing trials at 10 (12 % of
-those test sets hold no failing trial at all, and no interval from the sample can reach the
-truth then), the change in TN rate 0.915-0.975. The change in AUROC, whose truth in these
-three is 0, overcovers, 0.96-1.00 (0.98-1.00 at 10-20 trials); the changes with 3 seeds at 10
-trials covered 0.975-0.979 while the seed-by-cluster variance was counted three times,
-0.953-0.970 once it was counted once, and 0.979-0.986 since a net cut at 0 keeps its
-spreads' uncertainty (over the band, the price of a null study of paired seeds at 0 of 20;
-figures 0.936-0.974). A skewness correction of the
-t-interval (each side widened to the bootstrap's own tail) did not help (300 replications); the default stays. A fourth scenario,
-``ranks`` (a candidate that ranks better, so the change in AUROC is +0.036, not 0), shows the
-default short for the changes in AUROC and TN rate (0.84-0.88 at 10-20 trials per class,
-0.90-0.92 at 40). ``method="mover"`` fixes those (0.936-0.949) but overcovers the changes with
-failing trials (0.975-1.000); ``method="replicate-logit"``, its figure part alone, lifts the TN
-rate and AUROC (normal TN 0.910-0.922 -> 0.926-0.945) and crosses 97 % in one cell (0.973);
-``docs/coverage.md`` gives the screening and the choice. ``replicate-logit`` is the default
-now (figures as good as ``satterthwaite``'s or better in every cell of the study within its
-noise; changes exactly ``satterthwaite``'s); the tables above were measured with
-``satterthwaite``. ``scale-choice`` is the default since (its figures ``replicate-logit``'s,
-its changes of several seeds per side ``satterthwaite``'s): over normal, heavy and ranks at
-10-40 trials per class, 1,000 replications, the changes short of 93 % went from 8 cells to 4
-(``ranks`` d TN 0.842-0.920 -> 0.904-0.936, d AUROC 0.844-0.904 -> 0.914-0.932; normal d TN at
-20 0.919 -> 0.939; heavy d TN at 10 0.915 -> 0.937), those over 97 % from 6 to 7, three of them
-up to 0.008 over. Where the study's heavy-tailed scenario stays short (the AUROC at 10 trials
-per class, the TN rate at 10-20), no interval built from the sample can reach 93 %: a test set
-holding no failing trial is distributed exactly as the normal scenario's, and
-``benchmarks/bench_coverage_limit.py`` measures how far that caps the coverage.
+Windows cut from one recording are correlated, so clusters (recordings, or trials several units
+recorded at once) are resampled, within their class and balancing stratum: Rao and Wu's
+rescaling bootstrap (J. Am. Stat. Assoc. 83, 1988). Figures in [0, 1] take a t-interval on the
+logit scale, its standard error at least the replicates' own logit spread; a change takes its
+own scale or, where its replicates say so, MOVER on the logit scale (Zou and Donner, Stat. Med.
+27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components. Several
+seeds add each side's seed variance net of the seed-by-cluster part (:func:`seeded_interval`),
+or a seed variance the protocol's cells share (:class:`SeedPool`). How each step was chosen and
+how well it covers: ``docs/coverage.md`` and ``docs/statistics.md``; the methods it was chosen
+against live in ``benchmarks/studies/intervals.py``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from scipy.stats import beta as beta_dist
@@ -171,15 +26,10 @@ from slipbench.seeding import rng_for
 
 LEVEL = 0.95
 N_RESAMPLES = 999
-METHODS = (
-    "satterthwaite",
-    "t",
-    "percentile",
-    "studentized",
-    "mover",
-    "replicate-logit",
-    "scale-choice",
-)
+#: the methods a command runs: ``scale-choice`` every figure and cell change, ``satterthwaite``
+#: the pooled changes (:mod:`slipbench.stats.pooled`); the study methods are in
+#: ``benchmarks/studies/intervals.py``
+METHODS = ("satterthwaite", "scale-choice")
 #: the interval every figure and change takes unless told otherwise (``docs/coverage.md``)
 DEFAULT_METHOD = "scale-choice"
 #: a method that differs from another only in its changes: the method whose figures it takes
@@ -407,7 +257,7 @@ def interval(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
     bounds: tuple[float, float] = (0.0, 1.0),
 ) -> Interval:
     """Interval of a figure by the stratified cluster bootstrap.
@@ -423,27 +273,13 @@ def interval(
         The clusters the figure draws on.
     sizes : ndarray of shape (n_clusters,)
         Windows per cluster that the figure draws on.
-    method : one of METHODS
-        ``scale-choice`` (the default, :data:`DEFAULT_METHOD`): figures as
-        ``replicate-logit``; a change of two sides apart, one seed each, takes ``mover``'s
-        interval where its replicates say the contrast is steadier on the logit scale than on
-        its own (:func:`_logit_is_steadier`); every other change (several seeds per side, or
-        given as one side: the seeds' paired differences) ``satterthwaite``'s.
-        ``replicate-logit``: ``satterthwaite``, except
-        that a figure in (0, 1) takes as its logit standard error the larger of the delta
-        method's and the SD of its clusters' replicates' logits (:func:`_logit_bounds`; over
-        several seeds, the replicates of the seeds' plain mean). ``satterthwaite``: the module
-        docstring's three steps. ``t``: estimate ± t quantile
-        (df clusters - strata) × bootstrap standard error; ``percentile``. The last two are
-        kept as the references the coverage study compares against. ``studentized``: the
-        union of the ``satterthwaite`` interval and a bootstrap-t interval
-        (:func:`_studentized_bounds`); a study option, see ``docs/coverage.md``. ``mover``: a
-        figure in (0, 1) takes the logit t-interval with the larger of the delta-method and the
-        replicates' own logit standard error (:func:`_logit_bounds`); a change candidate - base
-        of two seeded sides (:func:`seeded_interval` with signs (-1, 1)) takes MOVER over its
-        level and contrast (:func:`_mover_bounds`); anything else (a change given as one side),
-        as ``satterthwaite``. Every method but the default is a study option, see
-        ``docs/coverage.md``.
+    method : one of METHODS, or a study's IntervalMethod
+        ``scale-choice`` (the default, :data:`DEFAULT_METHOD`): a figure in (0, 1) takes the
+        logit t-interval whose standard error is at least its clusters' replicates' own logit
+        spread (:func:`replicate_logit_bounds`); a change of two sides apart, one seed each,
+        takes MOVER over its logit level and contrast where its replicates say the contrast is
+        steadier on the logit scale (:func:`_takes_mover`); anything else the t-interval with
+        Welch-Satterthwaite degrees of freedom, as ``satterthwaite`` does throughout.
     bounds : (low, high)
         The range the figure can take: (0, 1) for figures, (-1, 1) for changes.
     """
@@ -462,6 +298,222 @@ def interval(
     )
 
 
+@dataclass(frozen=True)
+class SeedPool:
+    """The seed variance a protocol's cells share: one seed's figure about its side's mean,
+    pooled over every cell side of two seeds or more, weighted by and carrying their degrees of
+    freedom (:func:`pool_seed_spreads`). Given to :func:`seeded_interval`, it stands for each
+    cell's own seed spread, so a cell's seed term rests on the protocol's degrees of freedom,
+    not its own two."""
+
+    variance: float
+    df: float
+
+
+def pool_seed_spreads(spreads: Iterable[tuple[float, int]]) -> SeedPool | None:
+    """The pooled seed variance of ``(variance over a side's seeds (ddof 1), seeds)`` pairs,
+    one per cell side; sides of one seed and NaN spreads carry nothing. None where none is left.
+    """
+    kept = [(float(v), n - 1) for v, n in spreads if n >= 2 and np.isfinite(v)]
+    df = sum(d for _, d in kept)
+    if df == 0:
+        return None
+    return SeedPool(sum(v * d for v, d in kept) / df, float(df))
+
+
+@dataclass(frozen=True)
+class _Replicates:
+    """What the resamples of :func:`seeded_interval` give.
+
+    Attributes
+    ----------
+    cluster : replicates of the seeds' plain means (clusters drawn alone).
+    sides : per side, its two-level replicates and the seed-by-cluster variance they hold
+        beyond the one count an interval keeps.
+    seeded : per side of several seeds: its seed variance of its mean, the seed-by-cluster part
+        of it and the seeds' degrees of freedom, each scaled by the side's sign squared.
+    """
+
+    cluster: np.ndarray
+    sides: list[tuple[np.ndarray, float]]
+    seeded: list[tuple[float, float, float]]
+
+
+def _replicates(
+    figures: Sequence[np.ndarray],
+    at_one: Sequence[np.ndarray],
+    signs: Sequence[float],
+    seed: int,
+) -> _Replicates:
+    """The replicates of every side's figures ``figures`` (n_resamples, S_k) under cluster
+    resamples, and each side's seed terms (:class:`_Replicates`)."""
+    n_resamples = len(figures[0])
+    cluster = np.zeros(n_resamples)
+    seeded: list[tuple[float, float, float]] = []
+    sides: list[tuple[np.ndarray, float]] = []
+    for k, (sign, f) in enumerate(zip(signs, figures)):
+        v = seed_weights(f.shape[1], seed, k, n_resamples)
+        side = (f * v).sum(axis=1) / v.sum(axis=1)
+        cluster += sign * f.mean(axis=1)
+        part = 0.0
+        if f.shape[1] > 1:
+            dev = f - f.mean(axis=1, keepdims=True)
+            dev = dev[np.isfinite(dev).all(axis=1)]
+            part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
+            spread = float(at_one[k].var(ddof=1)) / f.shape[1]
+            # a side weighted by `sign` contributes sign^2 times its variance
+            seeded.append((sign**2 * spread, sign**2 * part, f.shape[1] - 1.0))
+        sides.append((side, 2 * part))
+    return _Replicates(cluster, sides, seeded)
+
+
+def _seed_variance(
+    reps: _Replicates,
+    at_one: Sequence[np.ndarray],
+    signs: Sequence[float],
+    pool: SeedPool | None,
+) -> tuple[float, float]:
+    """The sides' seed variance of their means net of their seed-by-cluster parts (a seed's own
+    error on a cluster shows in the seeds' spread and again in the clusters' replicates of
+    their mean; counted once, by the clusters), and ``unsure``: the spreads' uncertainty,
+    ``sum v^2 / df`` (Satterthwaite for a difference: the net is as uncertain as the spreads it
+    is taken from). With ``pool``, every side's spread is the pool's over its seeds, one
+    estimate on the pool's degrees of freedom (a side of one seed included)."""
+    part = sum(t for _, t, _ in reps.seeded)
+    if pool is None:
+        spread = sum(v for v, _, _ in reps.seeded)
+        unsure = sum(v**2 / d for v, _, d in reps.seeded)
+    else:
+        spread = sum(k**2 * pool.variance / len(f) for k, f in zip(signs, at_one))
+        unsure = spread**2 / pool.df
+    return max(0.0, spread - part), unsure
+
+
+@dataclass(frozen=True)
+class Problem:
+    """What :func:`seeded_interval` is asked (its parameters, as one record)."""
+
+    per_seed: PerSeed
+    per_seed_influence: PerSeed
+    signs: tuple[float, ...]
+    design: Design
+    used: np.ndarray
+    sizes: np.ndarray
+    seed: int
+    level: float
+    n_resamples: int
+    bounds: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Fit:
+    """One interval's ingredients, from which a method draws its bounds (:func:`_bounds`; a
+    study's :class:`IntervalMethod`)."""
+
+    problem: Problem
+    est: float
+    se: float
+    df: float
+    reps: _Replicates
+    at_one: Sequence[np.ndarray]  # per side, each seed's figure on the test set itself
+    level_df: Callable[[], float]  # the df of the two sides' mean (MOVER's level)
+    seed_var: float  # the net seed variance inside ``se``
+
+    @property
+    def level(self) -> float:
+        return self.problem.level
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        return self.problem.bounds
+
+    @property
+    def signs(self) -> tuple[float, ...]:
+        return self.problem.signs
+
+    @property
+    def unit(self) -> bool:
+        return self.bounds == (0.0, 1.0)
+
+    @property
+    def one_side(self) -> bool:
+        """A figure in (0, 1) of one side (no change)."""
+        return self.unit and self.signs == (1.0,) and 0 < self.est < 1
+
+    @property
+    def seed_windows(self) -> float:
+        """One seed's windows: the logits' smoothing."""
+        p = self.problem
+        return float(p.sizes[p.used].sum()) / len(self.at_one[0])
+
+    def logit_t(self) -> tuple[float, float]:
+        """The t-interval, on the logit scale for a figure in (0, 1)."""
+        q = student_t.ppf(1 - (1 - self.level) / 2, self.df)
+        est, se = self.est, self.se
+        if self.unit and 0 < est < 1:
+            z, s = np.log(est / (1 - est)), se / (est * (1 - est))
+            return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
+        return est - q * se, est + q * se
+
+
+class IntervalMethod(Protocol):
+    """An interval method of a study (``benchmarks/studies/intervals.py``, ``docs/coverage.md``),
+    given to :func:`seeded_interval` in place of a name of :data:`METHODS`."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def plain_df(self) -> bool:
+        """Take clusters - strata degrees of freedom, not Welch-Satterthwaite's."""
+        ...
+
+    def bounds(self, fit: Fit) -> tuple[float, float]:
+        """The interval of a figure or change with spread (``fit.se > 0``), before clipping."""
+        ...
+
+
+def _no_spread(fit: Fit, n_used: int) -> tuple[float, float]:
+    """No spread: a figure takes the Clopper-Pearson interval with the clusters as the sample
+    (the worst case); a change stays a point."""
+    if not fit.unit:
+        return fit.est, fit.est
+    alpha, x = 1 - fit.level, fit.est * n_used
+    lo = beta_dist.ppf(alpha / 2, x, n_used - x + 1) if x > 0 else 0.0
+    hi = beta_dist.ppf(1 - alpha / 2, x + 1, n_used - x) if x < n_used else 1.0
+    return float(lo), float(hi)
+
+
+def _takes_mover(fit: Fit) -> bool:
+    """``scale-choice``: a change of two sides apart, one seed each, takes MOVER where the
+    replicates say the contrast is steadier on the logit scale (with 3 seeds apart, MOVER over
+    the two-level replicates raised 8 of 20 false alarms in compare's null study, the seed terms
+    below 0 of 20)."""
+    return (
+        fit.bounds == (-1.0, 1.0)
+        and fit.signs == (-1.0, 1.0)
+        and not fit.reps.seeded
+        and fit.seed_var == 0
+        and _logit_is_steadier(fit.reps.sides, fit.seed_windows)
+    )
+
+
+def replicate_logit_bounds(fit: Fit) -> tuple[float, float]:
+    """A figure in (0, 1) as ``scale-choice`` takes it: the logit t-interval over the clusters'
+    replicates of the seeds' plain mean (seed draws left out, so several seeds' logit spread is
+    the test sets' alone and identical seeds give one seed's interval)."""
+    return logit_bounds(fit.reps.cluster, 0.0, fit, fit.seed_windows)
+
+
+def _bounds(fit: Fit, method: str) -> tuple[float, float]:
+    """The interval of ``method`` (one of :data:`METHODS`) with spread (``fit.se > 0``)."""
+    if method == "scale-choice" and fit.one_side:
+        return replicate_logit_bounds(fit)
+    if method == "scale-choice" and _takes_mover(fit):
+        return mover_change_bounds(fit)
+    return fit.logit_t()
+
+
 def seeded_interval(
     per_seed: PerSeed,
     per_seed_influence: PerSeed,
@@ -472,8 +524,10 @@ def seeded_interval(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
     bounds: tuple[float, float] = (0.0, 1.0),
+    *,
+    seed_pool: SeedPool | None = None,
 ) -> Interval:
     """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
     seeds: its variance is the clusters' (each resample draws clusters once for every seed of
@@ -494,16 +548,23 @@ def seeded_interval(
     signs : sequence of float
         Per side, its weight in the figure: ``(1,)`` for a mean, ``(-1, 1)`` for candidate -
         base; any other weight scales that side's figure and its variance components alike.
+    seed_pool : SeedPool, optional
+        The seed variance the protocol's cells share (:func:`pool_seed_spreads`): it replaces
+        the sides' own seed spreads, with its degrees of freedom.
 
     Degrees of freedom: the strata's components (:func:`satterthwaite_df`) and the sides' net
     seed variance, whose degrees of freedom are those of a difference, ``net^2 / sum_k
     v_k^2 / (S_k - 1)`` (``v_k`` a side's seed variance of its mean), combined by
     Welch-Satterthwaite: three seeds leave at most two degrees of freedom to a seed-dominated
-    variance, fewer the more the net subtracts. With one seed per side this is exactly the
-    one-level interval of :func:`interval`.
+    variance, fewer the more the net subtracts; a pool leaves its own. With one seed per side
+    and no pool this is exactly the one-level interval of :func:`interval`.
     """
-    if method not in METHODS:
+    if isinstance(method, str) and method not in METHODS:
         raise ValueError(f"unknown interval method {method!r}; choose one of: {', '.join(METHODS)}")
+    problem = Problem(
+        per_seed, per_seed_influence, tuple(map(float, signs)), design, used, sizes,
+        seed, level, n_resamples, bounds,
+    )  # fmt: skip
     one = np.ones((1, design.n_clusters))
     with np.errstate(invalid="ignore", divide="ignore"):  # a figure the test set lacks is NaN
         at_one = [np.asarray(f)[0] for f in per_seed(one)]
@@ -512,119 +573,38 @@ def seeded_interval(
         return Interval(est, np.nan, np.nan, np.nan, np.nan, False)
     if not used.any() or design.lone()[used].any():
         return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
-    w = resample_weights(design, seed, n_resamples)
-    # per side of several seeds, its seed variance of its mean, the seed-by-cluster part of it
-    # and the seeds' degrees of freedom, each scaled by the side's sign squared
-    seeded: list[tuple[float, float, float]] = []
-    # per side: its two-level replicates, and the seed-by-cluster variance they hold beyond the
-    # one count an interval keeps (they hold it three times: see `se` below)
-    sides: list[tuple[np.ndarray, float]] = []
     with np.errstate(invalid="ignore", divide="ignore"):
-        boot = np.zeros(n_resamples)  # clusters and seeds drawn: the two-level replicates
-        cluster = np.zeros(n_resamples)  # clusters drawn: replicates of the seeds' plain means
-        figures = per_seed(w)
-        for k, (sign, f) in enumerate(zip(signs, figures)):
-            v = seed_weights(f.shape[1], seed, k, n_resamples)
-            side = (f * v).sum(axis=1) / v.sum(axis=1)
-            boot += sign * side
-            cluster += sign * f.mean(axis=1)
-            part = 0.0
-            if f.shape[1] > 1:
-                dev = f - f.mean(axis=1, keepdims=True)
-                dev = dev[np.isfinite(dev).all(axis=1)]
-                part = float(dev.var(axis=0, ddof=1).mean()) / (f.shape[1] - 1)
-                spread = float(at_one[k].var(ddof=1)) / f.shape[1]
-                # a side weighted by `sign` contributes sign^2 times its variance
-                seeded.append((sign**2 * spread, sign**2 * part, f.shape[1] - 1.0))
-            sides.append((side, 2 * part))
-    boot = boot[np.isfinite(boot)]
-    # the sides' seed variances of their means, net of their seed-by-cluster parts (a seed's own
-    # error on a cluster shows in the seeds' spread and again in the clusters' replicates of
-    # their mean; counted once, by the clusters). Satterthwaite for a difference: the net is as
-    # uncertain as the spreads it is taken from, so its degrees of freedom are the spreads',
-    # sum v^2 / (S - 1), against the net's square; a large subtraction leaves fewer
-    net = max(0.0, sum(v - t for v, t, _ in seeded))
-    unsure = sum(v**2 / d for v, _, d in seeded)
-    # the net's share of the denominator is the spreads' uncertainty, `unsure`, kept where the
-    # net is cut at 0 too: seeds that happen to agree do not earn the clusters' degrees of
-    # freedom (a null study of paired seeds raised 2 false alarms in 20 without it; the coverage
-    # study's paired changes with a seed-by-side interaction fall to 0.925 without it, and
-    # overcover, 0.97-1.00, where the interaction is 0: docs/coverage.md)
+        w = resample_weights(design, seed, n_resamples)
+        reps = _replicates(per_seed(w), at_one, signs, seed)
+    net, unsure = _seed_variance(reps, at_one, signs, seed_pool)
+    # `unsure` stays in the denominator where the net is cut at 0 too: seeds that happen to
+    # agree do not earn the clusters' degrees of freedom (docs/coverage.md)
     extra = [(net, np.inf)] if net > 0 else []
     # the clusters' variance of the seeds' plain means plus the seeds' own: the two-level
     # replicates' variance holds the seed-by-cluster term three times (seed spread, clusters,
     # and the clusters' spread of the drawn seeds' mean), which no single subtraction undoes
-    se = float(np.sqrt(np.var(cluster[np.isfinite(cluster)], ddof=1) + net))
-    alpha = 1 - level
-    unit = bounds == (0.0, 1.0)
-    seed_windows = sizes[used].sum() / len(at_one[0])  # one seed's: the logits' smoothing
-    # every method but the two references builds on the logit t (studentized: a union with it)
-    logit_t = method not in ("t", "percentile")
-    if logit_t:
-        side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
+    cluster = reps.cluster[np.isfinite(reps.cluster)]
+    se = float(np.sqrt(np.var(cluster, ddof=1) + net))
+    side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
+    if getattr(method, "plain_df", False):
+        df = float(design.df(used))
+    else:
         infl = sum(k * g for k, g in zip(signs, side_infl))
         df = satterthwaite_df(design, np.asarray(infl), sizes, used, extra, unsure)
+
+    def level_df() -> float:  # the two sides' mean, MOVER's level
+        mean_infl = np.asarray(sum(side_infl)) / 2
+        quarter = [(v / 4, d) for v, d in extra]
+        return satterthwaite_df(design, mean_infl, sizes, used, quarter, unsure / 16)
+
+    fit = Fit(problem, est, se, df, reps, at_one, level_df, net)
+    if se == 0:
+        lo, hi = _no_spread(fit, int(used.sum()))
+    elif isinstance(method, str):
+        lo, hi = _bounds(fit, method)
     else:
-        df = float(design.df(used))
-    if se == 0 and unit:  # no spread: the clusters as the sample, the worst case
-        n = int(used.sum())
-        x = est * n
-        lo = beta_dist.ppf(alpha / 2, x, n - x + 1) if x > 0 else 0.0
-        hi = beta_dist.ppf(1 - alpha / 2, x + 1, n - x) if x < n else 1.0
-    elif se == 0:
-        lo = hi = est
-    elif method == "percentile":
-        lo, hi = np.quantile(boot, [alpha / 2, 1 - alpha / 2])
-    elif method == "mover" and unit and tuple(signs) == (1.0,) and 0 < est < 1:
-        lo, hi = _logit_bounds(est, *sides[0], se, df, level, sizes[used].sum())
-    elif (
-        FIGURES_AS.get(method, method) == "replicate-logit"
-        and unit
-        and tuple(signs) == (1.0,)
-        and 0 < est < 1
-    ):
-        # the clusters' replicates of the seeds' plain mean: seed draws left out, so several
-        # seeds' logit spread is the test sets' alone and identical seeds give one seed's
-        # interval (the smoothing takes one seed's windows)
-        lo, hi = _logit_bounds(est, cluster, 0.0, se, df, level, seed_windows)
-    elif (
-        # a change of two sides apart (a paired or pooled one takes the t below)
-        bounds == (-1.0, 1.0)
-        and tuple(signs) == (-1.0, 1.0)
-        and (
-            method == "mover"
-            # one seed per side only: with 3 seeds apart, MOVER over the two-level replicates
-            # raised 8 of 20 false alarms in compare's null study, the seed terms below 0 of 20
-            or (method == "scale-choice" and not seeded and _logit_is_steadier(sides, seed_windows))
-        )
-    ):
-        # a change of two figures in [0, 1]; the level (their mean) has its own df
-        level_df = satterthwaite_df(
-            design, sum(side_infl) / 2, sizes, used, [(v / 4, d) for v, d in extra], unsure / 16
-        )
-        lo, hi = _mover_bounds(
-            est,
-            [float(f.mean()) for f in at_one],
-            sides,
-            (df, level_df),
-            level,
-            sizes[used].sum(),
-        )
-    else:
-        q = student_t.ppf(1 - alpha / 2, df)
-        if logit_t and unit and 0 < est < 1:
-            z, s = np.log(est / (1 - est)), se / (est * (1 - est))
-            lo, hi = 1 / (1 + np.exp(-(z - q * s))), 1 / (1 + np.exp(-(z + q * s)))
-        else:
-            lo, hi = est - q * se, est + q * se
+        lo, hi = method.bounds(fit)
     lo, hi = float(max(lo, bounds[0])), float(min(hi, bounds[1]))
-    if method == "studentized" and se > 0:
-        blo, bhi = _studentized_bounds(
-            per_seed, per_seed_influence, signs, design, used, est, seed, level, n_resamples, unit
-        )
-        # the union: the t-interval where the sample is symmetric, wider only on a side where
-        # the resampled pivots say its skew needs it
-        lo, hi = min(lo, max(blo, bounds[0])), max(hi, min(bhi, bounds[1]))
     return Interval(est, lo, hi, se, df, True)
 
 
@@ -644,17 +624,16 @@ def _logit_sd(reps: np.ndarray, est: float, n: float, excess: float = 0.0) -> fl
     return float(np.sqrt(max(var - excess * slope**2, 0.0)))
 
 
-def _logit_bounds(
-    est: float, reps: np.ndarray, excess: float, se: float, df: float, level: float, n: float
-) -> tuple[float, float]:
-    """Methods ``mover`` and ``replicate-logit``, a figure in (0, 1): the logit t-interval whose
-    standard error is :func:`_logit_sd`. A rate near its bound whose clusters happen to be good
-    shows a small spread; its replicates' logits still reach as far as its worst clusters take
-    them."""
+def logit_bounds(reps: np.ndarray, excess: float, fit: Fit, n: float) -> tuple[float, float]:
+    """A figure in (0, 1) as ``scale-choice`` (and the studies' ``mover``) takes it: the logit
+    t-interval whose standard error is the larger of ``fit``'s (delta method) and
+    :func:`_logit_sd` of ``reps`` (net of ``excess``). A rate near its bound whose clusters happen to be good shows a small
+    spread; its replicates' logits still reach as far as its worst clusters take them."""
+    est = fit.est
     reps = reps[np.isfinite(reps)]
     z = float(np.log(est / (1 - est)))
-    s = max(se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
-    q = student_t.ppf(1 - (1 - level) / 2, df)
+    s = max(fit.se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
+    q = student_t.ppf(1 - (1 - fit.level) / 2, fit.df)
     return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
 
 
@@ -674,27 +653,23 @@ def _logit_is_steadier(sides: Sequence[tuple[np.ndarray, float]], n: float) -> b
     return bool(np.isfinite(own) and np.isfinite(logit) and logit < own)
 
 
-def _mover_bounds(
-    est: float,
-    means: Sequence[float],
-    sides: Sequence[tuple[np.ndarray, float]],
-    dfs: tuple[float, float],
-    level: float,
-    n: float,
-) -> tuple[float, float]:
-    """Method ``mover``, a change candidate - base of figures in [0, 1]: MOVER (Zou and Donner,
+def mover_change_bounds(fit: Fit) -> tuple[float, float]:
+    """A change candidate - base of figures in [0, 1]: MOVER (Zou and Donner,
     Stat. Med. 27, 2008) over the change's two nearly independent parts on the logit scale,
     the contrast ``delta = logit(cand) - logit(base)`` and the level ``lambda`` (their mean):
     the change is ``f(lambda, delta) = expit(lambda + delta / 2) - expit(lambda - delta / 2)``.
 
     Each part gets a logit t-interval (standard error :func:`_logit_sd` of its replicates; the
-    contrast with the change's degrees of freedom ``dfs[0]``, the level with its own ``dfs[1]``),
+    contrast with the change's degrees of freedom, the level with its own, ``fit.level_df``),
     mapped to the change's scale with the other part held at its estimate; the two arms on each
     side combine as MOVER does, with the correlation of the parts' replicates. A level near a
     bound shrinks a change and its spread together; the level's interval says how far it may be
     off, and so how much larger the change may be. Combining the two sides' own intervals
     instead (MOVER on base and candidate) overcovers: their replicates correlate near 1."""
-    (rb, tb), (rc, tc) = sides
+    est, level, dfs = fit.est, fit.level, (fit.df, fit.level_df())
+    means = [float(f.mean()) for f in fit.at_one]
+    n = fit.seed_windows * len(fit.at_one[0])
+    (rb, tb), (rc, tc) = fit.reps.sides
     ok = np.isfinite(rb) & np.isfinite(rc)
     rb, rc = rb[ok], rc[ok]
     lb, lc = _smoothed_logit(np.array(means), n)
@@ -733,110 +708,3 @@ def _mover_bounds(
     hi = est + np.sqrt(max(up_c**2 + up_l**2 + 2 * r * up_c * up_l, 0.0))
     lo = est - np.sqrt(max(down_c**2 + down_l**2 + 2 * r * down_c * down_l, 0.0))
     return float(lo), float(hi)
-
-
-def classic_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
-    """Cluster weights of the textbook stratified bootstrap (``n_h`` of ``n_h`` drawn, stream
-    ``bootstrap-t``): a resample is a sample of the same size, so its linearized standard error
-    (:func:`linearized_variance`) is built like the test set's own, as a studentized pivot needs.
-
-    Returns
-    -------
-    ndarray of shape (n_resamples, n_clusters)
-    """
-    rng = rng_for(seed, "bootstrap-t")
-    w = np.ones((n_resamples, design.n_clusters))
-    for h, n_h in enumerate(design.size):
-        if n_h > 1:
-            members = np.flatnonzero(design.stratum == h)
-            w[:, members] = rng.multinomial(n_h, np.full(n_h, 1 / n_h), size=n_resamples)
-    return w
-
-
-def linearized_variance(
-    design: Design, influence: np.ndarray, used: np.ndarray, weights: np.ndarray | None = None
-) -> np.ndarray:
-    """``sum_h n_h / (n_h - 1) sum_i w_i (r_i - rbar_h)^2`` per row: the linearized variance of
-    a figure from its influences ``r`` (n, n_clusters) at cluster weights ``w`` (frequency
-    weights summing to ``n_h`` per stratum; ones for the test set itself).
-
-    Returns
-    -------
-    ndarray of shape (n,)
-    """
-    w = np.ones_like(influence) if weights is None else weights
-    out = np.zeros(influence.shape[0])
-    for h, n_h in enumerate(design.size):
-        m = (design.stratum == h) & used
-        if n_h < 2 or not m.any():
-            continue
-        r, wm = influence[:, m], w[:, m]
-        centre = (wm * r).sum(axis=1, keepdims=True) / wm.sum(axis=1, keepdims=True)
-        out += n_h / (n_h - 1) * (wm * (r - centre) ** 2).sum(axis=1)
-    return out
-
-
-def _studentized_bounds(
-    per_seed: PerSeed,
-    per_seed_influence: PerSeed,
-    signs: Sequence[float],
-    design: Design,
-    used: np.ndarray,
-    est: float,
-    seed: int,
-    level: float,
-    n_resamples: int,
-    unit: bool,
-) -> tuple[float, float]:
-    """Bootstrap-t bounds (method ``studentized``): pivots ``(theta* - est) / se*`` over textbook
-    cluster resamples (and, per side of several seeds, resampled seeds), ``se*`` the resample's
-    linearized standard error plus its seeds' variance of the mean; the test set's own standard
-    error is built the same way. Figures in [0, 1] take the pivot on the logit scale. A resample
-    with no spread (every drawn cluster alike) has no pivot to speak of: it counts as infinitely
-    far on its side, so it widens that side rather than vanishing or dividing by zero."""
-    one = np.ones((1, design.n_clusters))
-    w = classic_weights(design, seed, n_resamples)
-    theta, infl, seed_var = np.zeros(n_resamples), np.zeros_like(w), np.zeros(n_resamples)
-    infl_one, seed_var_one = np.zeros_like(one), 0.0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        sides = zip(
-            signs, per_seed(w), per_seed_influence(w), per_seed(one), per_seed_influence(one)
-        )
-        for k, (sign, f, g, f1, g1) in enumerate(sides):
-            n_seeds = f.shape[1]
-            v = np.ones((n_resamples, 1))
-            if n_seeds > 1:
-                rng = rng_for(seed, "bootstrap-t-seeds", k)
-                v = rng.multinomial(
-                    n_seeds, np.full(n_seeds, 1 / n_seeds), size=n_resamples
-                ).astype(float)
-                mean = (f * v).sum(axis=1) / n_seeds
-                seed_var += (v * (f - mean[:, None]) ** 2).sum(axis=1) / (n_seeds - 1) / n_seeds
-                seed_var_one += float(np.asarray(f1)[0].var(ddof=1)) / n_seeds
-            theta += sign * (f * v).sum(axis=1) / n_seeds
-            infl += sign * (g * v[:, :, None]).sum(axis=1) / n_seeds
-            infl_one += sign * np.asarray(g1).mean(axis=1)
-        se_star = np.sqrt(linearized_variance(design, infl, used, w) + seed_var)
-        se_one = float(np.sqrt(linearized_variance(design, infl_one, used)[0] + seed_var_one))
-    ok = np.isfinite(theta) & np.isfinite(se_star)
-    theta, se_star = theta[ok], se_star[ok]
-    if not ok.any() or not se_one > 0:
-        return est, est
-    logit = unit and 0 < est < 1
-    with np.errstate(invalid="ignore", divide="ignore"):
-        if logit:
-            th = np.clip(theta, 1e-9, 1 - 1e-9)  # a resample at the bound: far, not infinite
-            d = np.log(th / (1 - th)) - np.log(est / (1 - est))
-            s, s_one = se_star / (th * (1 - th)), se_one / (est * (1 - est))
-        else:
-            d, s, s_one = theta - est, se_star, se_one
-        pivot = np.where(s > 0, d / np.where(s > 0, s, 1.0), np.sign(d) * 1e12)
-    alpha = 1 - level
-    q_lo, q_hi = np.quantile(pivot, [alpha / 2, 1 - alpha / 2])
-    if logit:
-        z = np.log(est / (1 - est))
-        q_lo, q_hi = np.clip([q_lo, q_hi], -700 / max(s_one, 1e-300), 700 / max(s_one, 1e-300))
-        return float(1 / (1 + np.exp(-(z - q_hi * s_one)))), float(
-            1 / (1 + np.exp(-(z - q_lo * s_one)))
-        )
-    return est - q_hi * s_one, est - q_lo * s_one

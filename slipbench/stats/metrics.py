@@ -13,7 +13,7 @@ Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 
@@ -27,6 +27,8 @@ from slipbench.stats.bootstrap import (
     N_RESAMPLES,
     Design,
     Interval,
+    IntervalMethod,
+    SeedPool,
     interval,
     make_design,
     seeded_interval,
@@ -259,7 +261,11 @@ def _joint_design(parts: Sequence[Predictions]) -> tuple[Design, list[_Totals]]:
 
 
 def _joint_figures(
-    parts: Sequence[Predictions], seed: int, level: float, n_resamples: int, method: str
+    parts: Sequence[Predictions],
+    seed: int,
+    level: float,
+    n_resamples: int,
+    method: str | IntervalMethod,
 ) -> dict:
     """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
     design, totals = _joint_design(parts)
@@ -303,7 +309,7 @@ def classification_figures(
     strata: np.ndarray | None = None,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
 
@@ -407,7 +413,7 @@ def mean_over_test_sets(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """The mean of each figure over several test sets, with ONE joint bootstrap.
 
@@ -439,7 +445,7 @@ def pool_seeds(
     seed: int,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
 ) -> dict[str, float | int | bool | str]:
     """One cell run under several seeds (``--repeats``): one figure and one interval.
 
@@ -499,9 +505,11 @@ def over_seeds(
     seed: int = 0,
     level: float = LEVEL,
     n_resamples: int = N_RESAMPLES,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
     paired: bool = False,
+    *,
+    seed_pool: Mapping[str, SeedPool] | None = None,
 ) -> dict:
     """A cell run under several seeds per side: the seed-averaged figure (``cand`` None) or its
     change, mean(cand) - mean(base), with a two-level bootstrap over trials and seeds.
@@ -525,6 +533,10 @@ def over_seeds(
         split): the change is bootstrapped as the seeds' paired differences, one side of
         ``S`` seeds, so the luck a seed gives both sides cancels and the seed variance rests on
         ``S - 1`` degrees of freedom. Without it, each side's seeds are drawn on their own.
+    seed_pool : mapping of figure to SeedPool, optional
+        The seed variance of each figure pooled over the protocol's cells
+        (:func:`slipbench.stats.pooled.protocol_seed_pool`, built with the same ``paired``): it
+        stands for this cell's own seed spread, on the protocol's degrees of freedom.
 
     Returns
     -------
@@ -535,23 +547,10 @@ def over_seeds(
         union of all parts), ``low_n`` (fewer than ``LOW_N`` clusters of a class),
         ``n_seeds_base`` and ``n_seeds_cand`` (0 without a candidate).
     """
-    sides = [
-        [[p] if isinstance(p, Predictions) else list(p) for p in side]
-        for side in ([base] if cand is None else [base, cand])
-    ]
-    if not all(sides) or not all(sets for side in sides for sets in side):
-        raise ValueError("over_seeds needs at least one Predictions per side and seed")
-    unknown = set(figures) - set(FIGURES)
-    if unknown:
-        raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
-    parts = [p for side in sides for sets in side for p in sets]
-    design, flat = _joint_design(parts)
-    it = iter(flat)  # each seed's totals, in the order of its parts
-    per_side = [[[next(it) for _ in sets] for sets in side] for side in sides]
+    sides, parts, design, per_side = _seed_sides(base, cand, figures)
+    flat = [t for side in per_side for sets in side for t in sets]
     if paired and (cand is None or len(sides[0]) != len(sides[1])):
         raise ValueError("paired seeds need a candidate with as many seeds as the base")
-    if paired and method == "mover":  # it splits a change into its two sides
-        raise ValueError(f"method {method!r} needs the two sides apart, not paired seeds")
     of_seeds = _paired_seeds if paired else _per_seed
     signs = (1.0,) if cand is None or paired else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"
@@ -570,6 +569,7 @@ def over_seeds(
             n_resamples,
             method,
             bounds=(0.0, 1.0) if cand is None else (-1.0, 1.0),
+            seed_pool=None if seed_pool is None else seed_pool.get(name),
         )
         key = f"{prefix}{name}"
         _put(out, key, iv)
@@ -593,6 +593,47 @@ def over_seeds(
         | _class_counts(parts)
         | {"n_seeds_base": len(sides[0]), "n_seeds_cand": len(sides[1]) if cand is not None else 0}
     )
+
+
+_Side = Sequence[Predictions | Sequence[Predictions]]
+
+
+def _seed_sides(
+    base: _Side, cand: _Side | None, figures: Sequence[str]
+) -> tuple[list, list[Predictions], Design, list[list[list[_Totals]]]]:
+    """The sides of :func:`over_seeds` as lists (side, seed, test set), their parts, their joint
+    design and each seed's totals in the same nesting."""
+    sides = [
+        [[p] if isinstance(p, Predictions) else list(p) for p in side]
+        for side in ([base] if cand is None else [base, cand])
+    ]
+    if not all(sides) or not all(sets for side in sides for sets in side):
+        raise ValueError("over_seeds needs at least one Predictions per side and seed")
+    unknown = set(figures) - set(FIGURES)
+    if unknown:
+        raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
+    parts = [p for side in sides for sets in side for p in sets]
+    design, flat = _joint_design(parts)
+    it = iter(flat)  # each seed's totals, in the order of its parts
+    per_side = [[[next(it) for _ in sets] for sets in side] for side in sides]
+    return sides, parts, design, per_side
+
+
+def seed_spreads(
+    base: _Side, cand: _Side | None, figures: Sequence[str] = FIGURES, paired: bool = False
+) -> dict[str, list[tuple[float, int]]]:
+    """Per figure, each side's variance over its seeds (ddof 1) and its number of seeds, as
+    :func:`over_seeds` forms its sides (``paired``: one side of the seeds' differences): what
+    :func:`slipbench.stats.bootstrap.pool_seed_spreads` pools over a protocol's cells."""
+    _, _, design, per_side = _seed_sides(base, cand, figures)
+    of_seeds = _paired_seeds if paired else _per_seed
+    one = np.ones((1, design.n_clusters))
+    out = {}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for name in figures:
+            at_one = [np.asarray(f)[0] for f in of_seeds(_figure, per_side, name, one)]
+            out[name] = [(float(f.var(ddof=1)) if len(f) > 1 else np.nan, len(f)) for f in at_one]
+    return out
 
 
 def _per_seed(
@@ -623,7 +664,7 @@ def paired_comparison(
     base_scores: np.ndarray | None = None,
     cand_scores: np.ndarray | None = None,
     strata: np.ndarray | None = None,
-    method: str = DEFAULT_METHOD,
+    method: str | IntervalMethod = DEFAULT_METHOD,
     figures: Sequence[str] = FIGURES,
 ) -> dict[str, float | int | bool]:
     """Two detectors' predictions on the same test windows: the change (candidate - base) of

@@ -34,8 +34,20 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import t as student_t
 
-from slipbench.stats.bootstrap import N_RESAMPLES, make_design, seeded_interval
-from slipbench.stats.metrics import Predictions, classes_low_n, cluster_counts
+from slipbench.stats.bootstrap import (
+    N_RESAMPLES,
+    SeedPool,
+    make_design,
+    pool_seed_spreads,
+    seeded_interval,
+)
+from slipbench.stats.metrics import (
+    FIGURES,
+    Predictions,
+    classes_low_n,
+    cluster_counts,
+    seed_spreads,
+)
 
 RATE_MASKS = ("accuracy", "tp_rate", "tn_rate")
 #: the interval of a pooled change: the t-interval the null and power studies measured (a
@@ -95,6 +107,22 @@ def on_common_seeds(cells: Sequence[CellSides]) -> Sequence[CellSides]:
         CellSides(keep(c.base, c.base_seeds, kept[0]), keep(c.cand, c.cand_seeds, kept[1]), *kept)
         for c in cells
     ]
+
+
+def protocol_seed_pool(
+    cells: Sequence[CellSides], figures: Sequence[str] = FIGURES, paired: bool = False
+) -> dict[str, SeedPool]:
+    """Per figure, the seed variance ``cells`` (a protocol's compared cells) share: each cell
+    side's spread over its seeds, pooled with its degrees of freedom (``docs/statistics.md``);
+    figures no cell side of two seeds measures are left out. Give it to
+    :func:`slipbench.stats.metrics.over_seeds` (``seed_pool``, the same ``paired``) so that a
+    cell's seed term rests on the protocol's degrees of freedom, and more seeds narrow it."""
+    spreads: dict[str, list[tuple[float, int]]] = {name: [] for name in figures}
+    for c in cells:
+        for name, found in seed_spreads(c.base, c.cand, figures, paired).items():
+            spreads[name] += found
+    pools = {name: pool_seed_spreads(found) for name, found in spreads.items()}
+    return {name: pool for name, pool in pools.items() if pool is not None}
 
 
 def _mask(p: Predictions, figure: str) -> np.ndarray:

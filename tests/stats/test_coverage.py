@@ -25,10 +25,12 @@ import itertools
 import os
 import sys
 
+import benchmod  # noqa: F401  (puts the studies on the path)
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.stats import norm
+from studies.intervals import method as study_method
 
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.stats.metrics import FIGURES, classification_figures, paired_comparison
@@ -134,7 +136,7 @@ def study(
                     seed=d,
                     scores=data["base"],
                     strata=strata,
-                    method=method,
+                    method=study_method(method),
                 )
                 p = paired_comparison(
                     data["y"],
@@ -145,7 +147,7 @@ def study(
                     base_scores=data["base"],
                     cand_scores=data["cand"],
                     strata=strata,
-                    method=method,
+                    method=study_method(method),
                 )
                 for name, value in true.items():
                     src = p if name.startswith("d_") else f

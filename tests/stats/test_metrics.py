@@ -4,9 +4,11 @@ Coverage itself is measured in tests/stats/test_coverage.py."""
 
 from __future__ import annotations
 
+import benchmod  # noqa: F401  (puts the studies on the path)
 import numpy as np
 import pytest
 from sklearn.metrics import balanced_accuracy_score, roc_auc_score
+from studies.intervals import method as study
 
 from slipbench.stats.bootstrap import make_design, resample_weights
 from slipbench.stats.metrics import (
@@ -286,7 +288,7 @@ def test_paired_seeds_cancel_the_luck_both_sides_share():
     with pytest.raises(ValueError, match="as many seeds"):
         over_seeds(base, cand[:2], seed=0, paired=True)
     with pytest.raises(ValueError, match="two sides apart"):
-        over_seeds(base, cand, seed=0, paired=True, method="mover")
+        over_seeds(base, cand, seed=0, paired=True, method=study("mover"))
 
 
 def test_over_seeds_flags_low_n_and_refuses_bad_input():

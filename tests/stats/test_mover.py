@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from benchmod import load
+from studies.intervals import method as study
 
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
@@ -18,7 +19,7 @@ bench = load("bench_coverage")
 def test_bounds_are_finite_and_hold_the_estimate(scenario):
     base, cand = bench.dataset(np.random.default_rng(3), 10, scenario)
     for cand_side, prefix, lo_bound in ((None, "", 0.0), (cand, "d_", -1.0)):
-        got = over_seeds(base, cand_side, seed=1, method="mover")
+        got = over_seeds(base, cand_side, seed=1, method=study("mover"))
         old = over_seeds(base, cand_side, seed=1)
         for f in FIGURES:
             est, lo, hi = (got[f"{prefix}{f}{s}"] for s in ("", "_lo", "_hi"))
@@ -46,7 +47,10 @@ def test_a_rate_near_its_bound_reaches_further_towards_chance():
     replicates' logits spread more than the delta method says), its high side stays below 1."""
     y, base, _, groups = _near_the_bound(0)
     p = [Predictions(y, base, groups, base + 0.1 * np.random.default_rng(1).random(len(y)))]
-    old, new = over_seeds(p, seed=2, method="satterthwaite"), over_seeds(p, seed=2, method="mover")
+    old, new = (
+        over_seeds(p, seed=2, method="satterthwaite"),
+        over_seeds(p, seed=2, method=study("mover")),
+    )
     assert new["tn_rate_lo"] < old["tn_rate_lo"] - 0.005
     assert old["tn_rate_hi"] <= new["tn_rate_hi"] < 1.0
 
@@ -57,7 +61,7 @@ def test_a_change_near_the_bound_reaches_further_away_from_it():
     y, base, cand, groups = _near_the_bound(4)
     sides = [Predictions(y, base, groups)], [Predictions(y, cand, groups)]
     old = over_seeds(*sides, seed=3, figures=("tn_rate",), method="satterthwaite")
-    new = over_seeds(*sides, seed=3, figures=("tn_rate",), method="mover")
+    new = over_seeds(*sides, seed=3, figures=("tn_rate",), method=study("mover"))
     assert new["d_tn_rate"] == old["d_tn_rate"] > 0
     assert new["d_tn_rate_hi"] > old["d_tn_rate_hi"]
 
@@ -68,16 +72,16 @@ def test_identical_sides_give_a_change_of_zero_width_and_no_spread_the_default()
     rng = np.random.default_rng(0)
     pred = y ^ (rng.random(40) < 0.2)
     one = [Predictions(y, pred, groups)]
-    same = over_seeds(one, [Predictions(y, pred.copy(), groups)], seed=0, method="mover")
+    same = over_seeds(one, [Predictions(y, pred.copy(), groups)], seed=0, method=study("mover"))
     assert same["d_accuracy_lo"] == same["d_accuracy_hi"] == 0.0
     perfect = [Predictions(y, y.copy(), groups, y + 0.1 * groups)]
-    assert over_seeds(perfect, seed=0, method="mover") == over_seeds(perfect, seed=0)
+    assert over_seeds(perfect, seed=0, method=study("mover")) == over_seeds(perfect, seed=0)
 
 
 def test_it_is_deterministic_given_the_seed():
     base, cand = bench.dataset(np.random.default_rng(4), 10, "ranks")
-    assert over_seeds(base, cand, seed=5, method="mover") == over_seeds(
-        base, cand, seed=5, method="mover"
+    assert over_seeds(base, cand, seed=5, method=study("mover")) == over_seeds(
+        base, cand, seed=5, method=study("mover")
     )
 
 
@@ -96,12 +100,12 @@ def test_scale_choice_is_the_default_with_replicate_logit_figures(scenario):
         over_seeds(base, seed=2, method="scale-choice"),
         over_seeds(base, cand, seed=2, method="scale-choice"),
     )
-    assert got[0] == over_seeds(base, seed=2, method="replicate-logit")
+    assert got[0] == over_seeds(base, seed=2, method=study("replicate-logit"))
     # several seeds per side: the seed terms of satterthwaite (MOVER failed a null study there)
-    assert got[1] in (old[1], over_seeds(base, cand, seed=2, method="mover"))
+    assert got[1] in (old[1], over_seeds(base, cand, seed=2, method=study("mover")))
     assert scenario != "seeds" or got[1] == old[1]
     if scenario == "normal":
-        assert got[0] == over_seeds(base, seed=2, method="mover")
+        assert got[0] == over_seeds(base, seed=2, method=study("mover"))
     assert got[0] != old[0]
     for name in FIGURES:
         assert got[0][name] == old[0][name]
@@ -135,7 +139,7 @@ def test_scale_choice_takes_the_scale_on_which_the_change_is_steady(kind, like):
     for seed in range(3):
         sides = _two_sides(kind, seed)
         got = over_seeds(*sides, seed=1, method="scale-choice", figures=("tn_rate",))
-        ref = over_seeds(*sides, seed=1, method=like, figures=("tn_rate",))
+        ref = over_seeds(*sides, seed=1, method=study(like), figures=("tn_rate",))
         assert (got["d_tn_rate_lo"], got["d_tn_rate_hi"]) == (
             ref["d_tn_rate_lo"],
             ref["d_tn_rate_hi"],

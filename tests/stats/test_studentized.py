@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from benchmod import load
+from studies.intervals import method as study
 
 from slipbench.stats.metrics import FIGURES, Predictions, over_seeds
 
@@ -22,7 +23,7 @@ def test_bounds_are_finite_hold_the_estimate_and_the_default_interval(scenario):
     base, cand = bench.dataset(np.random.default_rng(3), 10, scenario)
     for cand_side, prefix, lo_bound in ((None, "", 0.0), (cand, "d_", -1.0)):
         old = over_seeds(base, cand_side, seed=1, method="satterthwaite")
-        new = over_seeds(base, cand_side, seed=1, method="studentized")
+        new = over_seeds(base, cand_side, seed=1, method=study("studentized"))
         for f in FIGURES:
             est, lo, hi = _bounds(new, prefix + f)
             _, old_lo, old_hi = _bounds(old, prefix + f)
@@ -47,7 +48,7 @@ def test_a_skewed_rate_widens_its_low_side_only():
     pred[y & (rng.random(len(y)) < 0.2)] = False
     p = [Predictions(y, pred, groups, pred + rng.normal(0, 0.5, len(y)))]
     old = over_seeds(p, seed=2, method="satterthwaite")
-    new = over_seeds(p, seed=2, method="studentized")
+    new = over_seeds(p, seed=2, method=study("studentized"))
     assert new["tn_rate_lo"] < old["tn_rate_lo"] - 0.01
     assert new["tn_rate_hi"] == pytest.approx(old["tn_rate_hi"])
 
@@ -60,15 +61,15 @@ def test_equals_the_default_where_there_is_no_spread_or_no_estimate():
     perfect = [Predictions(y, y.copy(), groups, y + 0.1 * groups)]
     one_class = [Predictions(groups < 7, np.ones(40, bool), groups, np.arange(40.0))]
     for parts in (perfect, one_class):
-        assert over_seeds(parts, seed=0, method="studentized") == over_seeds(
+        assert over_seeds(parts, seed=0, method=study("studentized")) == over_seeds(
             parts, seed=0, method="satterthwaite"
         )
 
 
 def test_it_is_deterministic_given_the_seed():
     base, _ = bench.dataset(np.random.default_rng(4), 10, "normal")
-    a = over_seeds(base, seed=5, method="studentized")
-    assert a == over_seeds(base, seed=5, method="studentized")
+    a = over_seeds(base, seed=5, method=study("studentized"))
+    assert a == over_seeds(base, seed=5, method=study("studentized"))
 
 
 @pytest.mark.slow
@@ -76,7 +77,9 @@ def test_studentized_covers_in_every_scenario_at_low_reps():
     """40 replications at 10 and 20 trials per class, pooled per scenario (80 test sets: two
     standard errors about 0.05); the band 0.88-1.0 (the change in AUROC overcovers, as the
     default does)."""
-    table = bench.study(40, ("normal", "heavy", "seeds"), sizes=(10, 20), method="studentized")
+    table = bench.study(
+        40, ("normal", "heavy", "seeds"), sizes=(10, 20), method=study("studentized")
+    )
     pooled = table.groupby("scenario")[list(bench.NAMES)].mean()
     outside = {
         (s, k): round(v, 3) for s, row in pooled.iterrows() for k, v in row.items() if v < 0.88
