@@ -1090,8 +1090,8 @@ def split_table(
 # ----------------------------------------------------------------------------- the line to beat
 VERSUS = "vs baseline"
 NO_BASELINE = (
-    "No baseline ran: none of these detectors is the registered reference (`slipbench list` "
-    "marks it), so no table shows a 'vs baseline' column."
+    "No baseline ran: none of these detectors is the registered reference (the one that "
+    "slipbench list marks), so no table shows a 'vs baseline' column."
 )
 
 
