@@ -27,6 +27,12 @@ from slipbench.stats.gate import DEFAULT_TOLERANCE
     + " [default: every figure, or the [gate] table of --bench].",
 )
 @click.option(
+    "--margin",
+    type=float,
+    help="Points: the tolerance of every rate figure (accuracy, TN and TP rate, detection rate) "
+    "that --figure or --bench does not set.",
+)
+@click.option(
     "--bench",
     type=click.Path(path_type=Path, dir_okay=False),
     help="A benchmark file whose [gate] table gives the figures and tolerances.",
@@ -60,7 +66,7 @@ from slipbench.stats.gate import DEFAULT_TOLERANCE
 )
 @plugins_option(LAYOUT_PLUGINS_HELP)
 def compare_command(
-    base, candidate, figures, bench, max_width, fmt, max_rows, out, json_out, plugins
+    base, candidate, figures, margin, bench, max_width, fmt, max_rows, out, json_out, plugins
 ) -> None:
     """Compare CANDIDATE results with BASE on the gate's figures; exit 1 if one regressed.
 
@@ -77,7 +83,7 @@ def compare_command(
     from slipbench.stats.compare import compare
 
     add_plugin_folders(plugins)
-    result = compare(base, candidate, _gate(figures, bench, max_width))
+    result = compare(base, candidate, _gate(figures, bench, margin, max_width))
     texts = {
         "json": to_json(result),
         "md": to_markdown(result, MAX_ROWS if max_rows is None else max_rows),
@@ -90,15 +96,18 @@ def compare_command(
     sys.exit(result.exit_code)
 
 
-def _gate(figures: tuple[str, ...], bench: Path | None, max_width: float):
-    """The gate from --figure options, else the benchmark file's [gate], else every figure."""
+def _gate(figures: tuple[str, ...], bench: Path | None, margin: float | None, max_width: float):
+    """The gate from --figure options, else the benchmark file's [gate], else every figure;
+    --margin sets every rate's tolerance that is not given as NAME=TOLERANCE."""
     from slipbench.app.benchfile import load_benchmark
-    from slipbench.stats.gate import Gate, parse_tolerances
+    from slipbench.stats.gate import Gate, parse_tolerances, unit
 
-    given = parse_tolerances(
-        f if "=" in f else f"{f}={DEFAULT_TOLERANCE.get(f, 1.0)}" for f in figures
-    )
-    if not given and bench is not None:
-        given = load_benchmark(bench).gate
-    tolerances = given or dict(DEFAULT_TOLERANCE)
-    return Gate(tolerances, max_width)
+    explicit = parse_tolerances(f for f in figures if "=" in f)
+    named = [f.partition("=")[0].strip() for f in figures]
+    if not named and bench is not None:
+        explicit = load_benchmark(bench).gate
+        named = list(explicit)
+    tolerances = {f: DEFAULT_TOLERANCE.get(f, 1.0) for f in named or DEFAULT_TOLERANCE}
+    if margin is not None:
+        tolerances |= {f: margin for f in tolerances if unit(f) == "points"}
+    return Gate(tolerances | explicit, max_width)
