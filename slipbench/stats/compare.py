@@ -30,24 +30,20 @@ wide: on simulated cells (``tests/stats/test_compare.py``) it was wider in 39 of
 times) and found 0 of the 7 regressions the paired path found. Keep predictions to compare with
 power.
 
-Verdicts. The family of tests holds the chance of any wrong "regressed" or "improved" in a
-run at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA`` (2.5 %) for the pooled tests,
-one per protocol and detector (:mod:`slipbench.stats.pooled`: the mean accuracy change over the
-cells, one joint cluster bootstrap over the trials they share; Holm over the pooled tests, their
-intervals Bonferroni), and ``CELL_ALPHA`` (2.5 %) for the cells: each cell's interval is a
-t-interval at level ``1 - CELL_ALPHA / m``, ``m`` the cells both sides finished that changed and
-are not low-n (cells with identical predictions, or rows of the same key and figures, leave the
-family: they are "identical"). Before the pooled level existed, every cell was at
-``1 - 0.05 / m``: 100 simulated comparisons of two equally good detectors that differ at random
-per recording, 280 cells each of 10-40 recordings per class, margin 0, called no cell regressed,
-where per-cell 95 % intervals called one in all 100 runs (``tests/stats/test_compare.py``). A
-cell *regressed* when its accuracy interval lies entirely below ``-margin`` (upper bound <
--margin), or when the candidate failed, timed out or skipped a cell the base finished;
-*improved* when it lies entirely above ``+margin``; *within margin* when it lies inside
-``[-margin, +margin]`` (margin > 0); *inconclusive* when the cell is low-n (its intervals
-undercover) or its interval, deciding nothing, is wider than ``max_width`` points (``MAX_WIDTH``,
-40); otherwise *no significant change*. McNemar's test over windows is gone: it
-treats correlated windows as independent (issue 11 measured 17-23 % false rejections per cell).
+Verdicts. The gate's figures and tolerances (:class:`slipbench.stats.gate.Gate`: accuracy, TN
+and TP rate of windowed cells; false alarms per minute, detection rate and median delay of
+streaming cells) are tested at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA``
+(2.5 %) for the pooled tests, one per protocol, detector and figure (:mod:`slipbench.stats.pooled`,
+Holm over them, their intervals Bonferroni), and ``CELL_ALPHA`` (2.5 %) for the cells: Holm over
+every figure of the cells both sides finished that changed and are not low-n, each a t-test of
+the change against its tolerance; the intervals shown are at ``1 - CELL_ALPHA / m``, ``m`` those
+tests. A cell *regressed* when a figure is worse than its tolerance, or when the candidate
+failed, timed out or skipped a cell the base finished; *improved* when one is better and none
+worse; *within margin* when every figure's interval lies inside plus or minus its tolerance;
+*inconclusive* when the cell is low-n (its intervals undercover) or its interval, deciding
+nothing, is wider than ``max_width`` points (``MAX_WIDTH``, 40); otherwise *no significant
+change*. A pooled test that flags nothing states its power and may be *undecided*
+(:mod:`slipbench.stats.gate`); :attr:`Comparison.state` turns all of it into the exit code.
 
 Streaming cells (rows without ``accuracy``, with the streaming figures of
 :mod:`slipbench.stream.cell`) are judged on their median delay, false alarms per minute and
@@ -63,10 +59,8 @@ change is unpaired: each row's 95 % bootstrap interval over trials gives its sta
 the two combined as independent, at the same simultaneous level as every
 other cell. Both sides stream the same test trials, so their errors are positively correlated and
 the independent combination overstates the spread of the change: the test is conservative (it
-misses small regressions; it does not invent them). A cell *regressed* when the median delay
-rises beyond ``delay_margin_ms`` (interval lower bound > margin), false alarms per minute beyond
-``alarm_margin``, or the detection rate falls beyond ``margin`` points; *improved* when one of
-them improves beyond its margin and none regresses.
+misses small regressions; it does not invent them). Each figure is judged against its
+tolerance in the gate, as every other cell's.
 
 This module decides; it writes no text. The pull-request comment and the JSON for bots are
 written from a :class:`Comparison` by the report wing.
