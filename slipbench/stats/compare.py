@@ -712,15 +712,14 @@ def _identical(entry: dict, b_rows: list[dict], c_rows: list[dict]) -> dict:
     return out
 
 
-def _tests(frame: pd.DataFrame, figure: str, gate: Gate) -> dict:
-    """Per row: the change of ``figure`` signed so that positive is worse, its standard error and
-    bounds, all in the figure's units, and the p-values of worse and better than tolerance."""
+def _tests(frame: pd.DataFrame, figure: str, gate: Gate) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the p-values of ``figure`` worse and better than its tolerance, from its
+    change and standard error in the figure's units and the row's degrees of freedom."""
     scale, sign, tol = SCALE[figure], WORSE[figure], gate.tolerances[figure]
     d = scale * pd.to_numeric(frame[f"d_{figure}"], errors="coerce").to_numpy(float)
     se = scale * pd.to_numeric(frame[f"d_{figure}_se"], errors="coerce").to_numpy(float)
     df = pd.to_numeric(frame["df"], errors="coerce").fillna(np.inf).to_numpy(float)
-    p_reg, p_imp = two_sided_p(sign * d, se, df, tol)
-    return {"worse": sign * d, "se": se, "p_reg": p_reg, "p_imp": p_imp, "tol": tol}
+    return two_sided_p(sign * d, se, df, tol)
 
 
 def _judge_cells(cells: pd.DataFrame, gate: Gate) -> pd.DataFrame:
@@ -734,12 +733,12 @@ def _judge_cells(cells: pd.DataFrame, gate: Gate) -> pd.DataFrame:
     for figure in (*gate.figures(False), *gate.figures(True)):
         if f"d_{figure}" not in cells:
             continue  # no cell of its kind
-        t = _tests(cells, figure, gate)
+        p_reg, p_imp = _tests(cells, figure, gate)
         of_kind = cells["stream"].to_numpy(bool) == (figure in STREAM_FIGURES)
         for i in np.flatnonzero(decidable & of_kind):
             keys.append((int(i), figure))
-            p.append(min(t["p_reg"][i], t["p_imp"][i]))
-            worse.append(t["p_reg"][i] <= t["p_imp"][i])
+            p.append(min(p_reg[i], p_imp[i]))
+            worse.append(p_reg[i] <= p_imp[i])
     adj = holm(np.array(p)) if p else np.array([])
     flagged: dict[int, dict[str, list[str]]] = {}
     for (row, figure), q, w in zip(keys, adj, worse):
