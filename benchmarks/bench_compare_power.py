@@ -67,10 +67,10 @@ def main() -> None:
             from slipbench.stats.compare import compare
 
             cmp = compare(base, out, seed=run)
-            hits["any"] += cmp.exit_code
+            hits["any"] += cmp.exit_code == 1
             hits["pooled"] += int(len(cmp.pooled_regressions) > 0)
             hits["cells"] += int(len(cmp.regressions) > 0)
-            drops.append(100 * float(cmp.pooled["mean_d"].iloc[0]))
+            drops.append(float(cmp.pooled.set_index("figure")["change"]["accuracy"]))
         print(
             f"{label} flipped, {args.repeats} seed(s) per side: exit 1 in {hits['any']} of {args.runs} "
             f"(pooled test {hits['pooled']}, a cell {hits['cells']}); mean change "

@@ -13,6 +13,9 @@ code  meaning                                                          raised as
 5     an environment fault: disk full, read-only folder, no permission EnvironmentFault
       (or a lock another process holds too long, a failing disk, no
       network or an HTTP error for a download)
+6     ``compare`` cannot decide: a figure regressed on one seed per    ``EXIT_UNDECIDED``
+      side, or a pooled test could not see a regression of its
+      tolerance (too few seeds or trials); it says how many would
 ====  ===============================================================  =======================
 """
 
@@ -29,6 +32,7 @@ EXIT_USAGE = 2
 EXIT_PLUGIN = 3
 EXIT_CELLS_FAILED = 4
 EXIT_ENVIRONMENT = 5
+EXIT_UNDECIDED = 6
 
 
 class SlipbenchError(Exception):

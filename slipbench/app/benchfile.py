@@ -26,6 +26,10 @@
     cell_timeout = 600             # seconds
     plugins = ["plugins"]          # plugin folders, relative to this file
 
+    [gate]                         # what `compare --bench` judges (default: every figure)
+    accuracy = 1.0                 # tolerance: a drop smaller than it is no regression
+    tn_rate = 1.0                  # points; false_alarms_per_min per minute, median_delay_ms ms
+
     [detectors.holweg]             # one table per detector: its parameters
     [detectors.lstm]
     max_epochs = 100
@@ -56,6 +60,7 @@ from typing import Any
 import tomllib
 
 from slipbench.errors import PluginError, SlipbenchError, UsageError
+from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
 
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
@@ -89,8 +94,12 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "scheduler": (str, "a dask scheduler address"),
         "plugins": (list, "a list of folders"),
     },
+    # the figures `compare --bench` judges, each with its tolerance
+    "gate": {
+        name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE
+    },
 }
-TABLES = ("benchmark", "dataset", "run", "detectors", "protocols")
+TABLES = ("benchmark", "dataset", "run", "gate", "detectors", "protocols")
 
 
 @dataclass
@@ -123,6 +132,7 @@ class Benchmark:
     plugins: list[Path] = field(default_factory=list)
     detectors: dict[str, dict[str, Any]] = field(default_factory=dict)
     protocols: dict[str, dict[str, Any]] = field(default_factory=dict)
+    gate: dict[str, float] = field(default_factory=dict)  # figure -> tolerance; empty: defaults
 
     @property
     def describe(self) -> str:
@@ -353,7 +363,16 @@ def load_benchmark(path: str | Path) -> Benchmark:
         plugins=[home / p for p in r.get("plugins", [])],
         detectors={k: dict(v) for k, v in data["detectors"].items()},
         protocols={k: dict(v) for k, v in data["protocols"].items()},
+        gate=_gate(path, text, data.get("gate", {})),
     )
+
+
+def _gate(path: Path, text: str, table: dict) -> dict[str, float]:
+    """The [gate] table: figure -> tolerance, each > 0."""
+    for name, value in table.items():
+        if not value > 0:
+            raise _fail(path, text, f"{name} must be a tolerance > 0, got {value!r}", "gate", name)
+    return {name: float(value) for name, value in table.items()}
 
 
 def plan_runs(bench: Benchmark, echo=print) -> list:

@@ -28,6 +28,7 @@ from slipbench.stats.compare import (
     summary,
 )
 from slipbench.stats.factors import SETTINGS, setting_text
+from slipbench.stats.gate import NAMES, Gate, unit
 from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
@@ -42,8 +43,8 @@ MARKS = dict(
             "≡ identical",
         ),
     )
-)
-SCHEMA_VERSION = 2  # of the JSON: 2 gives every figure in points and cells as objects
+) | {"undecided": "◇ undecided"}
+SCHEMA_VERSION = 3  # of the JSON: 3 gives the gate's figures, per-figure pooled tests, power
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
 
@@ -243,21 +244,23 @@ def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
         "## slipbench compare",
         "",
         f"BASE {md_code(cmp.base)} → CANDIDATE {md_code(cmp.candidate)}; {len(cells)} cells paired "
-        f"(seeds {_seeds_text(cmp)}); margin {cmp.margin:g} points.",
+        f"(seeds {_seeds_text(cmp)}); gate: {md_text(gate_text(cmp.gate))}.",
         "",
         _verdict_line(cmp),
         "",
-        ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in MARKS),
+        ", ".join(f"{MARKS[v]}: {int(counts.get(v, 0))}" for v in VERDICTS),
     ]
     parts = ["\n".join(head)]
     if not cmp.pooled.empty:
         parts.append(
             "### Pooled per protocol and detector\n\n"
             + _pooled_table(cmp)
-            + f"\n\n_mean Δ: accuracy points, candidate − base, over the classification cells both sides "
-            f"finished (identical cells count 0), with a {100 * cmp.pooled_level:.4g} % interval from one "
-            "joint cluster bootstrap over the trials the cells share; p: Holm-adjusted over the "
-            f"{len(cmp.pooled)} pooled tests, flagged at {100 * POOLED_ALPHA:g} %._"
+            + f"\n\n_mean Δ: candidate − base over the cells both sides finished (identical cells "
+            f"count 0), with a {100 * cmp.pooled_level:.4g} % interval (one joint cluster bootstrap over "
+            "the trials the cells share, where both sides kept predictions); p: Holm-adjusted over the "
+            f"{len(cmp.pooled)} pooled tests (protocols × detectors × figures), flagged at "
+            f"{100 * POOLED_ALPHA:g} %; sees: the drop flagged with 80 % power (tolerance + se × "
+            "(t(1 − α/2N, df) + t(0.8, df))); undecided where that is more than twice the tolerance._"
         )
     parts.append(
         "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
@@ -311,25 +314,69 @@ def _seeds_text(cmp: Comparison) -> str:
     return f"{b} per cell on each side" if b == c else f"BASE {b}, CANDIDATE {c} per cell at least"
 
 
-def _verdict_line(cmp: Comparison) -> str:
-    """What regressed at which level of the family, and what the intervals leave out."""
-    flagged = []
-    if not cmp.pooled.empty:
-        for r in cmp.pooled_regressions.to_dict("records"):
-            flagged.append(
-                f"{md_text(r['protocol'])}, {md_text(r['detector'])} on average {100 * r['mean_d']:+.1f} "
-                f"[{100 * r['mean_lo']:+.1f}, {100 * r['mean_hi']:+.1f}] points (pooled, Holm)"
-            )
-    n_reg = len(cmp.regressions)
-    if n_reg:
-        flagged.append(f"{n_reg} cell{'s' * (n_reg != 1)} (cell level, Bonferroni)")
-    line = (
-        f"**Regressed** beyond the margin: {'; '.join(flagged)}."
-        if flagged
-        else "**No regression** beyond the margin, pooled or in a cell."
+def gate_text(gate: Gate) -> str:
+    """The gate's figures and tolerances, in words."""
+    return ", ".join(f"{NAMES[f]} ±{t:g} {unit(f)}" for f, t in gate.tolerances.items())
+
+
+def _pooled_phrase(r: dict) -> str:
+    return (
+        f"{md_text(r['protocol'])}, {md_text(r['detector'])}: {NAMES[r['figure']]} "
+        f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {unit(r['figure'])}"
     )
+
+
+def _flagged(cmp: Comparison) -> list[str]:
+    """What regressed: each pooled figure, and the cells per figure."""
+    flagged = [
+        f"{_pooled_phrase(r)} (pooled, Holm)" for r in cmp.pooled_regressions.to_dict("records")
+    ]
+    failed = cmp.regressions["regressed_figures"] == ""
+    if failed.any():
+        flagged.append(f"{int(failed.sum())} cells the candidate no longer finishes")
+    figures = cmp.regressions.loc[~failed, "regressed_figures"].str.split(", ").explode()
+    for figure, n in figures.value_counts(sort=False).items():
+        flagged.append(f"{NAMES[str(figure)]} in {n} cell{'s' * (n != 1)} (cell level, Holm)")
+    return flagged
+
+
+def _verdict_line(cmp: Comparison) -> str:
+    """The state: what regressed where, what is undecided and what would decide it, or what
+    each "no regression" could have seen."""
+    state, flagged = cmp.state, _flagged(cmp)
+    if state == "regressed":
+        line = f"**Regressed** beyond the tolerance: {'; '.join(flagged)}."
+    elif state == "undecided":
+        line = (
+            "**Undecided** (exit 6): "
+            + "; ".join([*(f"{f}, on one seed per side" for f in flagged), *_undecided(cmp)])
+            + "."
+        )
+    else:
+        seen = [
+            f"{r['detectable']:.2g} {unit(r['figure'])} in {NAMES[r['figure']]} of "
+            f"{md_text(r['protocol'])}, {md_text(r['detector'])}"
+            for r in cmp.pooled.to_dict("records")
+        ]
+        line = "**No regression** larger than " + "; ".join(seen) + " (80 % power)."
     note = repeats_note(cmp)
     return line + (f"\n\n⚠ Note: {md_text(note)}." if note else "")
+
+
+def _undecided(cmp: Comparison, shown: int = 5) -> list[str]:
+    """Why pooled tests are undecided and what would decide them: one line for a reason every
+    one of them shares (one seed per side, low n), else the first ``shown`` of them."""
+    rows = cmp.undecided.to_dict("records")
+    reasons = {r["undecided_reason"] for r in rows}
+    if len(reasons) == 1 and "80 % power" not in next(iter(reasons), ""):
+        return [f"{len(rows)} pooled tests: {reasons.pop()}"] if rows else []
+    out = []
+    for r in rows[:shown]:
+        more = f"{r['seeds_needed']} seeds per side"
+        if r["trials_needed"]:
+            more += f" or {r['trials_needed']} test trials per class"
+        out.append(f"{_pooled_phrase(r)}: {r['undecided_reason']}; about {more} would decide it")
+    return out + ([f"and {len(rows) - shown} more pooled tests"] if len(rows) > shown else [])
 
 
 def _unchanged(cmp: Comparison) -> str:
@@ -364,14 +411,18 @@ def _unchanged_compute(cmp: Comparison) -> str:
 def _pooled_table(cmp: Comparison) -> str:
     lines = []
     for r in cmp.pooled.to_dict("records"):
+        u = unit(r["figure"])
         lines.append(
             {
                 "protocol": r["protocol"],
                 "detector": r["detector"],
+                "figure": NAMES[r["figure"]],
                 "cells (changed)": f"{r['cells']} ({r['changed_cells']})",
-                "mean Δ [CI]": f"{100 * r['mean_d']:+.1f} [{100 * r['mean_lo']:+.1f}, {100 * r['mean_hi']:+.1f}]",
+                "mean Δ [CI]": f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {u}",
                 "p (Holm)": f"{r['p_holm']:.3g}",
-                "": MARKS[r["verdict"]],
+                "sees": f"{r['detectable']:.2g} {u}" if np.isfinite(r["detectable"]) else "—",
+                "": MARKS[r["verdict"]]
+                + (f" ({r['undecided_reason']})" if r["undecided_reason"] else ""),
             }
         )
     return _table(lines)
@@ -400,23 +451,24 @@ def _notes(cmp: Comparison) -> list[str]:
     notes = [
         f"_The family: the chance that anything in this comparison is wrongly called regressed or improved is at "
         f"most {100 * ALPHA:g} %, split between the pooled tests ({100 * POOLED_ALPHA:g} %, Holm over the "
-        f"protocols and detectors) and the cells ({100 * CELL_ALPHA:g} %, Bonferroni over the {n_family} cells "
-        f"that changed and are not low-n, of {n} both sides finished). Cells with identical predictions on both "
+        f"protocols, detectors and figures) and the cells ({100 * CELL_ALPHA:g} %, Holm over the figures of the "
+        f"{n_family} cells that changed and are not low-n, of {n} both sides finished; intervals at the Bonferroni level). Cells with identical predictions on both "
         "sides leave the family._",
         f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval "
         f"({'; '.join(f'{m}: {k} cells' for m, k in methods.items())}; a paired cluster bootstrap over the shared "
         f"test windows where both sides kept predictions; over seeds and trials where a side ran several seeds). "
-        f"A cell regresses when its accuracy interval lies entirely below −{cmp.margin:g} points, or when the candidate did "
-        f"not finish a cell the base finished; it improves when the interval lies entirely above +{cmp.margin:g}. "
+        f"A cell regresses when a figure of the gate ({md_text(gate_text(cmp.gate))}) is worse than its "
+        "tolerance (Holm), or when the candidate did not finish a cell the base finished; it improves when one is "
+        "better and none worse. "
         f"A cell is inconclusive when it is low-n (fewer than 10 test trials of a class: its intervals undercover) "
-        f"or its interval, deciding nothing, is wider than {cmp.max_width:g} points._",
+        f"or its interval, deciding nothing, is wider than {cmp.gate.max_width:g} points._",
     ]
     if cells["stream"].any():
         notes.append(
             f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
             "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
-            f"A streaming cell regresses when its median delay rises beyond {cmp.delay_margin_ms:g} ms, its false "
-            f"alarms beyond {cmp.alarm_margin:g} per minute, or its detection rate falls beyond {cmp.margin:g} points. "
+            "A streaming cell is judged on false alarms per minute, detection rate and median delay as the gate "
+            "lists them. "
             "Delays are counted on the streams' samples, the same on every machine. The compute time per hop "
             "is each machine's own and never makes a verdict: "
             + _compute_summary(cells[cells["stream"]])
@@ -451,7 +503,7 @@ def _in_points(frame: pd.DataFrame) -> pd.DataFrame:
         name = col.removeprefix("d_").removeprefix("base_").removeprefix("candidate_")
         for suffix in ("_lo", "_hi", "_se"):
             name = name.removesuffix(suffix)
-        if name in _RATE_NAMES or col in ("mean_d", "mean_lo", "mean_hi", "mean_se"):
+        if name in _RATE_NAMES:
             out[col] = 100 * pd.to_numeric(out[col], errors="coerce")
     return out
 
@@ -484,23 +536,26 @@ def to_json(cmp: Comparison) -> str:
         },
         "base": cmp.base,
         "candidate": cmp.candidate,
-        "margin": cmp.margin,
-        "delay_margin_ms": cmp.delay_margin_ms,
-        "alarm_margin": cmp.alarm_margin,
-        "max_width": cmp.max_width,
+        "gate": {"tolerances": dict(cmp.gate.tolerances), "max_width": cmp.gate.max_width},
         "level": cmp.level,
         "pooled_level": cmp.pooled_level,
         "family": {
             "alpha": ALPHA,
-            "pooled": {"alpha": POOLED_ALPHA, "method": "Holm over protocols x detectors"},
-            "cells": {"alpha": CELL_ALPHA, "method": "Bonferroni over changed, not low-n cells"},
+            "pooled": {
+                "alpha": POOLED_ALPHA,
+                "method": "Holm over protocols x detectors x figures",
+            },
+            "cells": {
+                "alpha": CELL_ALPHA,
+                "method": "Holm over the figures of changed, not low-n cells",
+            },
         },
         "seeds": {"base": cmp.min_seeds_base, "candidate": cmp.min_seeds_candidate},
         "retraining_noise_covered": cmp.retraining_covered,
         "exit_code": cmp.exit_code,
-        "verdict": "regressed" if cmp.exit_code else "no regression",
+        "verdict": cmp.state,
         "counts": {v: int((cmp.cells["verdict"] == v).sum()) for v in VERDICTS},
-        "pooled": records(_in_points(cmp.pooled)),
+        "pooled": records(cmp.pooled),
         "summary": records(summary_rows(cmp)),
         "cells": records(_in_points(cells)),
         "only_base": records(cmp.only_base),

@@ -14,6 +14,8 @@ paper's reading.
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pandas as pd
 
@@ -178,11 +180,8 @@ def findings_table(
 
 # ----------------------------------------------------------------------------- does ours show it?
 PAPER_MODEL = "lstm"  # the detector behind the published tables
-#: "levels off": the change beyond window 50 is at most this many points (the paper's own
-#: changes are +2.4, +1.6 and -0.1) ...
-FLAT = 3.0
-#: ... and its interval lies within this band (points) around zero
-BAND = 5.0
+#: a finding's states: its interval shows the claim, excludes it, or neither
+SHOWN, CONTRADICTED, UNDECIDED = "shown", "contradicted", "undecided"
 #: "balance": TP - TN at most this many points (as shown, to 0.1) ...
 BALANCE = 5.0
 #: ... and its interval within this band (points)
@@ -259,17 +258,27 @@ def _by_sensor(values: dict) -> str:
     )
 
 
-def _verdict(flags: list[bool]) -> str:
-    return "—" if not flags else "yes" if all(flags) else "partly" if any(flags) else "no"
+def _state(shown: bool, contradicted: bool) -> str:
+    return SHOWN if shown else CONTRADICTED if contradicted else UNDECIDED
 
 
-def _judged(estimates: dict[str, Estimate], rule) -> list[bool]:
+def _verdict(states: list[str]) -> str:
+    """A finding over its sensors: the state they share, else how many are in each."""
+    if not states:
+        return "—"
+    if len(set(states)) == 1:
+        return states[0]
+    n = Counter(states)
+    return "partly: " + ", ".join(f"{n[s]} {s}" for s in (SHOWN, CONTRADICTED, UNDECIDED) if n[s])
+
+
+def _judged(estimates: dict[str, Estimate], rule) -> list[str]:
     """``rule`` applied to each estimate that has an interval (the others are not judged)."""
-    return [bool(rule(e)) for e in estimates.values() if e.judged]
+    return [rule(e) for e in estimates.values() if e.judged]
 
 
-def _rise(e: Estimate) -> bool:
-    return e.lo > 0
+def _rise(e: Estimate) -> str:
+    return _state(e.lo > 0, e.hi < 0)
 
 
 def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
@@ -279,14 +288,15 @@ def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]
     cells = _cells(ours, [*UNIT, "window"])
     sensors = list(dict.fromkeys(cells["sensor_type"]))
     rise = {s: _unit_contrast(cells, "window", [200], [5], [s]) for s in sensors}
-    early = {s: _unit_contrast(cells, "window", [50], [5], [s]) for s in sensors}
     late = {s: _unit_contrast(cells, "window", [200], [50], [s]) for s in sensors}
+    # (200 - 50) - (50 - 5): the rise beyond window 50 less the rise up to it
+    bend = {s: _unit_contrast(cells, "window", [200, 5], [50], [s]).scaled(2) for s in sensors}
     rise = {s: e for s, e in rise.items() if np.isfinite(e.value)}
     late = {s: e for s, e in late.items() if np.isfinite(e.value)}
     levels = [
-        early[s].lo > 0 and abs(e.value) <= FLAT and -BAND <= e.lo and 0 <= e.hi <= BAND
+        _state(bend[s].hi < 0 and e.hi >= 0, bend[s].lo > 0 or e.hi < 0)
         for s, e in late.items()
-        if e.judged and early[s].judged
+        if e.judged and bend[s].judged
     ]
     return [
         [
@@ -294,16 +304,16 @@ def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]
             _by_sensor(rise_p),
             _by_sensor(rise),
             _verdict(_judged(rise, _rise)),
-            "each sensor's rise has its 95 % interval above 0 ('partly': some sensors)",
+            "shown: each sensor's rise has its 95 % interval above 0; contradicted: below 0",
         ],
         [
             "… and levels off beyond window 50 (50 → 200, points)",
             _by_sensor(late_p),
             _by_sensor(late),
             _verdict(levels),
-            f"per sensor: a rise 5 → 50 with its interval above 0, then a change 50 → 200 of at most "
-            f"±{FLAT:g} points with its interval within ±{BAND:g} and not below 0 (a fall is not "
-            "levelling off; 'partly': some sensors)",
+            "per sensor, shown: the change 50 → 200 smaller than the rise 5 → 50 (the interval of "
+            "their difference below 0) and no fall (the 50 → 200 interval reaching 0); "
+            "contradicted: the difference's interval above 0, or the 50 → 200 interval below 0",
         ],
     ]
 
@@ -336,32 +346,29 @@ def _rate_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
     if np.isfinite(drop.value):
         b = per.loc["BioTacSP"].dropna()
         text = f"{b[b.index >= 425].mean():.1f} → {b[b.index <= 212.5].mean():.1f} ({_est(drop)})"
-    collapse = (
-        []
-        if not drop.judged
-        else [drop.hi < 0 and drop.value <= -10, drop.hi < 0]  # both: yes; one: partly
-    )
+    collapse = [] if not drop.judged else [_state(drop.hi < 0 and drop.value <= -10, drop.lo > -10)]
     return [
         [
             "Accuracy rises with the sampling rate (lowest → full rate, points)",
             _by_sensor(rise_p),
             _by_sensor(rise),
             _verdict(_judged(rise, _rise)),
-            "each sensor's rise has its 95 % interval above 0 ('partly': some sensors)",
+            "shown: each sensor's rise has its 95 % interval above 0; contradicted: below 0",
         ],
         [
             "BioTac SP collapses at 212.5 Hz and below (mean at ≥ 425 Hz → at ≤ 212.5 Hz, %)",
             text_p,
             text,
             _verdict(collapse),
-            "a drop of ≥ 10 points with its interval below 0 ('partly': a drop with its interval below "
-            "0, of less than 10 points)",
+            "shown: a drop of ≥ 10 points with its interval below 0; contradicted: the interval above "
+            "-10 (no drop of 10 points)",
         ],
     ]
 
 
 def _speed_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
-    texts, flags = [], []
+    texts: list[str] = []
+    flags: list[str] = []
     for what, values in (("paper", paper), ("ours", ours)):
         m = (
             _means(values[values["training"] == "without"], ["speed_mm_s"], what)
@@ -379,15 +386,15 @@ def _speed_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
             e = _unit_contrast(cells, "speed_mm_s", [5.0], [other])
             lowest = by.index[0] == 5.0
             if e.judged:
-                flags = [lowest and e.hi < 0, lowest]
+                flags = [_state(lowest and e.hi < 0, e.lo > 0)]
             texts[-1] += f"; 5 − {other:g} mm/s {_est(e)}"
     return [
         [
             "5 mm/s is the hardest speed (mean accuracy without that speed in training, %, lowest first)",
             *texts,
             _verdict(flags),
-            "5 mm/s lowest, below the next-lowest speed with the interval of the difference below 0 "
-            "('partly': lowest, the interval reaching 0)",
+            "shown: 5 mm/s lowest, below the next-lowest speed with the interval of the difference "
+            "below 0; contradicted: that interval above 0",
         ]
     ]
 
@@ -398,7 +405,7 @@ def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
         change, text = _pair(values, layout, what) if len(values) else (np.nan, "")
         worst[what] = text.split(" (")[0]
         texts.append(f"{change:+.1f}; most: {text}" if np.isfinite(change) else "—")
-    flags: list[bool] = []
+    flags: list[str] = []
     column = layout.column
     if worst["ours"] and len(ours):
         # each material's change without it, per unit: (without - with) of the material
@@ -420,15 +427,15 @@ def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
             ).scaled(2)  # the plus and minus sets each hold two levels: weights halved
             same = ours_worst == target
             if e.judged:
-                flags = [same and e.hi < 0, same]
+                flags = [_state(same and e.hi < 0, e.lo > 0)]
             texts[1] += f"; vs {label(column, runner_up)} {_est(e)}"
     return [
         [
             "Materials: the mean change without the material in training (points), and the material losing most",
             *texts,
             _verdict(flags),
-            "the paper's material loses most, its loss larger than the next material's with the "
-            "interval of the difference below 0 ('partly': loses most, the interval reaching 0)",
+            "shown: the paper's material loses most, its loss larger than the next material's with the "
+            "interval of the difference below 0; contradicted: that interval above 0",
         ]
     ]
 
@@ -448,14 +455,14 @@ def _transfer_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
                 weight=np.where(same, seeds / same.sum(), -seeds / (~same).sum()),
             )
             e = contrast(terms).scaled(100)
-    flags = [e.lo > 0 and e.value >= 2, e.lo > 0] if e.judged else []
+    flags = [_state(e.lo > 0 and e.value >= 2, e.hi < 0)] if e.judged else []
     return [
         [
             "Another unit of the same type tests worse (the unit trained on minus other units, points)",
             f"{penalty_p:+.1f}" if np.isfinite(penalty_p) else "—",
             _est(e),
             _verdict(flags),
-            "≥ 2 points with its interval above 0 ('partly': the interval above 0, under 2 points)",
+            "shown: ≥ 2 points with its interval above 0; contradicted: the interval below 0",
         ]
     ]
 
@@ -518,21 +525,14 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
                 for r in ("tp", "tn")
             )
             if gap.judged and tp_e.judged and tn_e.judged:
-                balanced.append(
-                    abs(round(gap.value, 1)) <= BALANCE
-                    and -BALANCE_BAND <= gap.lo
-                    and gap.hi <= BALANCE_BAND
-                    and tp_e.lo > 50
-                    and tn_e.lo > 50
-                )
+                balanced.append(_balance(gap, tp_e, tn_e))
     lead = (
-        "—"
-        if not lead_all.judged
-        else "yes"
-        if lead_all.lo > 0 and 10 <= lead_all.value <= 20
-        else "partly"
-        if lead_all.lo > 0
-        else "no"
+        _state(
+            lead_all.lo > 0 and 10 <= lead_all.value <= 20,
+            lead_all.hi < 10 or lead_all.lo > 20,
+        )
+        if lead_all.judged
+        else "—"
     )
     return [
         [
@@ -540,18 +540,31 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
             f"{_by_sensor(paper_lead)}; mean {np.mean(list(paper_lead.values())):+.1f}",
             f"{_by_sensor(ours_lead)}; mean {_est(lead_all)}" if ours_lead else "—",
             lead,
-            "the mean lead is 10 to 20 points with its interval above 0 ('partly': the interval above 0, "
-            "the lead outside 10 to 20)",
+            "shown: the mean lead is 10 to 20 points with its interval above 0; contradicted: the "
+            "interval outside 10 to 20",
         ],
         [
             "TP and TN rates balance at window 50 (TP − TN rate, points)",
             _by_sensor(paper_gap),
             _by_sensor(gaps),
             _verdict(balanced),
-            f"per sensor: TP − TN within ±{BALANCE:g} points with its interval within ±{BALANCE_BAND:g}, "
-            "and both rates' intervals above 50 % (a coin flip balances too; 'partly': some sensors)",
+            f"per sensor, shown: TP − TN within ±{BALANCE:g} points with its interval within "
+            f"±{BALANCE_BAND:g}, and both rates' intervals above 50 % (a coin flip balances too); "
+            f"contradicted: the gap's interval outside ±{BALANCE:g}, or a rate's below 50 %",
         ],
     ]
+
+
+def _balance(gap: Estimate, tp: Estimate, tn: Estimate) -> str:
+    """TP and TN rates balance: the gap small, both rates above a coin flip."""
+    shown = (
+        abs(round(gap.value, 1)) <= BALANCE
+        and -BALANCE_BAND <= gap.lo
+        and gap.hi <= BALANCE_BAND
+        and tp.lo > 50
+        and tn.lo > 50
+    )
+    return _state(shown, gap.lo > BALANCE or gap.hi < -BALANCE or tp.hi < 50 or tn.hi < 50)
 
 
 def _sensor_mean(rows: pd.DataFrame, sensor: str, values: str) -> float:

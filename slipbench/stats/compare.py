@@ -30,24 +30,20 @@ wide: on simulated cells (``tests/stats/test_compare.py``) it was wider in 39 of
 times) and found 0 of the 7 regressions the paired path found. Keep predictions to compare with
 power.
 
-Verdicts. The family of tests holds the chance of any wrong "regressed" or "improved" in a
-run at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA`` (2.5 %) for the pooled tests,
-one per protocol and detector (:mod:`slipbench.stats.pooled`: the mean accuracy change over the
-cells, one joint cluster bootstrap over the trials they share; Holm over the pooled tests, their
-intervals Bonferroni), and ``CELL_ALPHA`` (2.5 %) for the cells: each cell's interval is a
-t-interval at level ``1 - CELL_ALPHA / m``, ``m`` the cells both sides finished that changed and
-are not low-n (cells with identical predictions, or rows of the same key and figures, leave the
-family: they are "identical"). Before the pooled level existed, every cell was at
-``1 - 0.05 / m``: 100 simulated comparisons of two equally good detectors that differ at random
-per recording, 280 cells each of 10-40 recordings per class, margin 0, called no cell regressed,
-where per-cell 95 % intervals called one in all 100 runs (``tests/stats/test_compare.py``). A
-cell *regressed* when its accuracy interval lies entirely below ``-margin`` (upper bound <
--margin), or when the candidate failed, timed out or skipped a cell the base finished;
-*improved* when it lies entirely above ``+margin``; *within margin* when it lies inside
-``[-margin, +margin]`` (margin > 0); *inconclusive* when the cell is low-n (its intervals
-undercover) or its interval, deciding nothing, is wider than ``max_width`` points (``MAX_WIDTH``,
-40); otherwise *no significant change*. McNemar's test over windows is gone: it
-treats correlated windows as independent (issue 11 measured 17-23 % false rejections per cell).
+Verdicts. The gate's figures and tolerances (:class:`slipbench.stats.gate.Gate`: accuracy, TN
+and TP rate of windowed cells; false alarms per minute, detection rate and median delay of
+streaming cells) are tested at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA``
+(2.5 %) for the pooled tests, one per protocol, detector and figure (:mod:`slipbench.stats.pooled`,
+Holm over them, their intervals Bonferroni), and ``CELL_ALPHA`` (2.5 %) for the cells: Holm over
+every figure of the cells both sides finished that changed and are not low-n, each a t-test of
+the change against its tolerance; the intervals shown are at ``1 - CELL_ALPHA / m``, ``m`` those
+tests. A cell *regressed* when a figure is worse than its tolerance, or when the candidate
+failed, timed out or skipped a cell the base finished; *improved* when one is better and none
+worse; *within margin* when every figure's interval lies inside plus or minus its tolerance;
+*inconclusive* when the cell is low-n (its intervals undercover) or its interval, deciding
+nothing, is wider than ``max_width`` points (``MAX_WIDTH``, 40); otherwise *no significant
+change*. A pooled test that flags nothing states its power and may be *undecided*
+(:mod:`slipbench.stats.gate`); :attr:`Comparison.state` turns all of it into the exit code.
 
 Streaming cells (rows without ``accuracy``, with the streaming figures of
 :mod:`slipbench.stream.cell`) are judged on their median delay, false alarms per minute and
@@ -63,10 +59,8 @@ change is unpaired: each row's 95 % bootstrap interval over trials gives its sta
 the two combined as independent, at the same simultaneous level as every
 other cell. Both sides stream the same test trials, so their errors are positively correlated and
 the independent combination overstates the spread of the change: the test is conservative (it
-misses small regressions; it does not invent them). A cell *regressed* when the median delay
-rises beyond ``delay_margin_ms`` (interval lower bound > margin), false alarms per minute beyond
-``alarm_margin``, or the detection rate falls beyond ``margin`` points; *improved* when one of
-them improves beyond its margin and none regresses.
+misses small regressions; it does not invent them). Each figure is judged against its
+tolerance in the gate, as every other cell's.
 
 This module decides; it writes no text. The pull-request comment and the JSON for bots are
 written from a :class:`Comparison` by the report wing.
@@ -83,7 +77,7 @@ import pandas as pd
 from scipy.stats import norm
 from scipy.stats import t as student_t
 
-from slipbench.errors import DataError, UsageError
+from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED, DataError, UsageError
 from slipbench.stats.factors import (
     SETTINGS,
     differing_settings,
@@ -91,8 +85,18 @@ from slipbench.stats.factors import (
     named_entrants,
     setting_name,
 )
+from slipbench.stats.gate import (
+    SCALE,
+    WORSE,
+    Gate,
+    holm,
+    needed,
+    resolution,
+    two_sided_p,
+    unit,
+)
 from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
-from slipbench.stats.pooled import CellSides, pooled_change, pooled_from_rows
+from slipbench.stats.pooled import RATE_MASKS, CellSides, pooled_change, pooled_from_rows
 from slipbench.store.results import (
     check_unique_keys,
     read_predictions,
@@ -129,25 +133,23 @@ VERDICTS = (
 class Comparison:
     """The outcome of :func:`compare`."""
 
-    # one row per paired cell: changes, simultaneous intervals, verdict; in the order the
-    # pairing found them (the comment's writers put them in the paper's order)
+    # one row per paired cell: changes, simultaneous intervals, verdict and the figures that
+    # regressed; in the order the pairing found them (the writers put them in the paper's order)
     cells: pd.DataFrame
     only_base: pd.DataFrame  # cells in BASE only: protocol, detector, split, seed, cell
     only_candidate: pd.DataFrame
     base: str
     candidate: str
-    margin: float  # percentage points
+    gate: Gate = field(default_factory=Gate)
     notes: list[str] = field(default_factory=list)
     level: float = LEVEL  # the simultaneous level of every cell's interval
-    delay_margin_ms: float = 0.0  # streaming cells: ms of median delay a cell may add
-    alarm_margin: float = 0.0  # streaming cells: false alarms per minute a cell may add
     # both sides' result rows as read: what the writers lay the protocols out from
     rows: pd.DataFrame | None = None
-    # one row per protocol and detector: the mean change over its cells, its joint interval
-    # (at ``pooled_level``), Holm-adjusted p-value and verdict
+    # one row per protocol, detector and figure: the mean change over its cells in the
+    # figure's units, its joint interval (at ``pooled_level``), Holm-adjusted p-value, power
+    # (``resolution``, ``detectable``) and verdict
     pooled: pd.DataFrame = field(default_factory=pd.DataFrame)
     pooled_level: float = LEVEL
-    max_width: float = MAX_WIDTH
     # seeds per cell on each side: the fewest over the compared cells (1: retraining noise of
     # that side is not in the intervals)
     min_seeds_base: int = 1
@@ -164,10 +166,30 @@ class Comparison:
         return self.pooled[self.pooled["verdict"] == "regressed"]
 
     @property
+    def undecided(self) -> pd.DataFrame:
+        if self.pooled.empty:
+            return self.pooled
+        return self.pooled[self.pooled["verdict"] == "undecided"]
+
+    @property
+    def state(self) -> str:
+        """ "regressed": a cell the base finished failed on the candidate, or a figure regressed
+        with retraining noise inside the intervals; "undecided": a figure regressed on one seed
+        per side, or a pooled test cannot see a regression of its tolerance (too few seeds or
+        trials); else "no regression"."""
+        failed = self.regressions["method"].astype(str).str.startswith("status").any()
+        if failed or (
+            self.retraining_covered and (len(self.regressions) or len(self.pooled_regressions))
+        ):
+            return "regressed"
+        if len(self.regressions) or len(self.pooled_regressions) or len(self.undecided):
+            return "undecided"
+        return "no regression"
+
+    @property
     def exit_code(self) -> int:
-        """0 when nothing regressed beyond the margin (no cell, no protocol's pooled change),
-        1 when something did."""
-        return int(len(self.regressions) > 0 or len(self.pooled_regressions) > 0)
+        """0 no regression, 1 regressed, 6 undecided (:attr:`state`)."""
+        return {"regressed": EXIT_REGRESSION, "undecided": EXIT_UNDECIDED}.get(self.state, 0)
 
     @property
     def unchanged(self) -> bool:
@@ -484,35 +506,6 @@ def _resolution(row: dict) -> float:
     return hop / rate * 1000.0 / np.sqrt(12.0) if np.isfinite(hop) and rate > 0 else 0.0
 
 
-def stream_verdict(r: dict, margin: float, delay_margin_ms: float, alarm_margin: float) -> str:
-    """The verdict of a streaming cell that both sides finished, from its simultaneous
-    intervals: ``margin`` in points of detection rate, ``delay_margin_ms`` in ms of median
-    delay, ``alarm_margin`` in false alarms per minute. A figure without an interval (no
-    detected onset, no non-slip time) decides nothing."""
-    margins = {
-        "median_delay_ms": delay_margin_ms,
-        "false_alarms_per_min": alarm_margin,
-        "detection_rate": margin / 100,
-    }
-    worse = better = False
-    inside = True
-    for name, sign in STREAM_FIGURES.items():
-        lo, hi = r.get(f"d_{name}_lo", np.nan), r.get(f"d_{name}_hi", np.nan)
-        if pd.isna(lo) or pd.isna(hi):
-            inside = False
-            continue
-        lo, hi = (lo, hi) if sign > 0 else (-hi, -lo)  # now larger is worse for every figure
-        m = margins[name]
-        worse |= lo > m
-        better |= hi < -m
-        inside &= -m <= lo and hi <= m
-    if worse:
-        return "regressed"
-    if better:
-        return "improved"
-    return "within margin" if inside and max(margins.values()) > 0 else "no significant change"
-
-
 def _ok(row: dict) -> bool:
     return row.get("status", "ok") == "ok"
 
@@ -540,42 +533,23 @@ def _seed_text(base: list[dict], cand: list[dict]) -> str:
     return b if b == c else f"{b} → {c}"
 
 
-def _holm(p: np.ndarray) -> np.ndarray:
-    """Holm's step-down adjusted p-values."""
-    n = len(p)
-    order = np.argsort(p, kind="stable")
-    adj = np.empty(n)
-    running = 0.0
-    for i, j in enumerate(order):
-        running = max(running, min(1.0, (n - i) * p[j]))
-        adj[j] = running
-    return adj
-
-
 def compare(
     base_path: str | os.PathLike,
     candidate_path: str | os.PathLike,
-    margin: float = 0.0,
+    gate: Gate | None = None,
     seed: int = 0,
-    delay_margin_ms: float = 0.0,
-    alarm_margin: float = 0.0,
-    max_width: float = MAX_WIDTH,
 ) -> Comparison:
-    """Compare CANDIDATE against BASE cell by cell, and per protocol and detector pooled.
+    """Compare CANDIDATE against BASE cell by cell, and per protocol, detector and figure pooled.
 
     Parameters
     ----------
     base_path, candidate_path
         Results files or folders (as ``evaluate --out`` writes them).
-    margin : float
-        Percentage points of accuracy (streaming cells: of detection rate) a cell, or a
-        protocol's mean, may lose without counting as a regression.
-    delay_margin_ms, alarm_margin : float
-        Streaming cells: ms of median delay and false alarms per minute a cell may add.
+    gate : Gate
+        The figures judged and the tolerance of each (default: every figure,
+        ``slipbench.stats.gate.DEFAULT_TOLERANCE``).
     seed : int
         Seeds the paired bootstraps.
-    max_width : float
-        Accuracy points: a cell whose change interval is wider is inconclusive.
 
     Raises
     ------
@@ -583,14 +557,38 @@ def compare(
         The sides come from different datasets, a side repeats a key or a cell and seed, or
         they share no cell.
     """
-    if not margin >= 0:
-        raise UsageError(f"--margin must be >= 0 percentage points, got {margin}")
-    if not (delay_margin_ms >= 0 and alarm_margin >= 0):
-        raise UsageError(
-            f"--delay-margin and --alarm-margin must be >= 0, got {delay_margin_ms} and {alarm_margin}"
-        )
-    if not max_width > 0:
-        raise UsageError(f"--max-width must be > 0 percentage points, got {max_width}")
+    gate = gate or Gate()
+    base, cand, on, notes = _read_sides(base_path, candidate_path)
+    plans, only_base, only_cand = _plan_cells(base, cand, on, (base_path, candidate_path))
+    n_tests = sum(len(gate.figures(e["stream"])) for e, *_ in plans if _decidable(e))
+    level = family_level(n_tests, CELL_ALPHA)
+    cells = _judge_cells(pd.DataFrame([_changes(plan, seed, level) for plan in plans]), gate)
+    seeds = [(e["n_seeds_base"], e["n_seeds_cand"]) for e, *_ in plans if _finished(e)]
+    pooled, pooled_level = _pooled_tests(plans, cells, seed, gate)
+    cmp = Comparison(
+        cells,
+        only_base,
+        only_cand,
+        str(base_path),
+        str(candidate_path),
+        gate,
+        notes,
+        level,
+        pd.concat([base, cand], ignore_index=True),
+        pooled,
+        pooled_level,
+        min((b for b, _ in seeds), default=1),
+        min((c for _, c in seeds), default=1),
+    )
+    if not pooled.empty:
+        cmp.pooled = _pooled_verdicts(pooled, gate, cmp.retraining_covered)
+    return cmp
+
+
+def _read_sides(
+    base_path: str | os.PathLike, candidate_path: str | os.PathLike
+) -> tuple[pd.DataFrame, pd.DataFrame, list[str], list[str]]:
+    """Both sides read and checked, the columns cells pair on, and the notes so far."""
     base, cand = read_results(base_path), read_results(candidate_path)
     notes = check_same_dataset(base, cand)
     base, cand = (
@@ -598,10 +596,17 @@ def compare(
         check_unique_keys(cand, f"CANDIDATE {candidate_path}"),
     )
     base, cand, apart, differ = _kept_apart(base, cand)
-    notes += differ
     on = [*_pairing(base, cand), *apart]
     base, cand = _unique(base, [*on, "seed"], "BASE"), _unique(cand, [*on, "seed"], "CANDIDATE")
-    ident = ["protocol", "detector", "split", "seed", "cell", *apart]
+    return base, cand, on, notes + differ
+
+
+def _plan_cells(
+    base: pd.DataFrame, cand: pd.DataFrame, on: list[str], paths: tuple
+) -> tuple[list, pd.DataFrame, pd.DataFrame]:
+    """The cells both sides hold, each (entry, base rows, candidate rows, predictions, same
+    seeds), and the cells of one side only."""
+    ident = ["protocol", "detector", "split", "seed", "cell", *on[len(_pairing(base, cand)) :]]
     # cells pair by everything but the seed: a side may hold several seeds of a cell
     groups = [dict(iter(rows.groupby(on, sort=False, dropna=False))) for rows in (base, cand)]
     shared = [k for k in groups[0] if k in groups[1]]
@@ -613,240 +618,290 @@ def compare(
     )
     if not shared:
         raise DataError(
-            f"BASE {base_path} and CANDIDATE {candidate_path} share no cell "
+            f"BASE {paths[0]} and CANDIDATE {paths[1]} share no cell "
             f"(protocols {sorted(set(base['protocol']))} vs {sorted(set(cand['protocol']))}; "
             "cells pair across seeds, so the seeds are not the reason)"
         )
-    folders = (results_folder(base_path), results_folder(candidate_path))
-    plans = []
-    for k in shared:
-        b_rows, c_rows = (g[k].sort_values("seed").to_dict("records") for g in groups)
-        entry: dict[str, Any] = dict(zip(on, k if isinstance(k, tuple) else (k,)))
-        if "detector" not in on:
-            entry["detector"] = f"{b_rows[0]['detector']} → {c_rows[0]['detector']}"
-        entry["seed"] = _seed_text(b_rows, c_rows)
-        sb, sc = _side_status(b_rows), _side_status(c_rows)
-        entry["base_status"], entry["candidate_status"] = sb, sc
-        entry["n_seeds_base"], entry["n_seeds_cand"] = len(b_rows), len(c_rows)
-        for side, rows in (("base", b_rows), ("candidate", c_rows)):
-            entry[f"{side}_accuracy"] = float(
-                np.mean([float(r.get("accuracy", np.nan)) for r in rows])
-            )
-            for name in STREAM_FIGURES:
-                entry[f"{side}_{name}"] = float(np.mean([float(r.get(name, np.nan)) for r in rows]))
-        entry["stream"] = _is_stream(b_rows[0]) and _is_stream(c_rows[0])
-        both = sb == sc == "ok"
-        entry["low_n"] = both and any(_flag(r, "low_n") for r in (*b_rows, *c_rows))
-        # the same content keys with the same figures: the same result, read twice
-        same_keys = [r["key"] for r in b_rows] == [r["key"] for r in c_rows] and all(
-            _same_figures(x, y) for x, y in zip(b_rows, c_rows)
+    folders = tuple(results_folder(p) for p in paths)
+    plans = [
+        _plan(
+            dict(zip(on, k if isinstance(k, tuple) else (k,))),
+            [g[k].sort_values("seed").to_dict("records") for g in groups],
+            folders,
         )
-        preds: tuple[list, list] = ([], [])
-        if both and not entry["stream"] and not same_keys:
-            preds = tuple(  # type: ignore[assignment]
-                [read_predictions(f, r["key"]) for r in rows]
-                for f, rows in zip(folders, (b_rows, c_rows))
-            )
-        same_seeds = [r["seed"] for r in b_rows] == [r["seed"] for r in c_rows]
-        entry["identical"] = both and (
-            same_keys
-            or (
-                same_seeds
-                and all(_same_predictions(x, y) for x, y in zip(*preds))
-                and len(preds[0]) > 0
-            )
-        )
-        plans.append((entry, b_rows, c_rows, preds, same_seeds))
-    # the cell family: cells both sides finished that changed and can be decided
-    level = family_level(
-        sum(
-            e["base_status"] == e["candidate_status"] == "ok"
-            and not e["identical"]
-            and not e["low_n"]
-            for e, *_ in plans
-        ),
-        CELL_ALPHA,
+        for k in shared
+    ]
+    return plans, only_base, only_cand
+
+
+def _plan(entry: dict, sides: list[list[dict]], folders: tuple) -> tuple:
+    """One shared cell: its entry (statuses, seeds, both sides' figures, low n, identical) and
+    what its changes are computed from."""
+    b_rows, c_rows = sides
+    if "detector" not in entry:
+        entry["detector"] = f"{b_rows[0]['detector']} → {c_rows[0]['detector']}"
+    entry["seed"] = _seed_text(b_rows, c_rows)
+    sb, sc = _side_status(b_rows), _side_status(c_rows)
+    entry["base_status"], entry["candidate_status"] = sb, sc
+    entry["n_seeds_base"], entry["n_seeds_cand"] = len(b_rows), len(c_rows)
+    for side, rows in (("base", b_rows), ("candidate", c_rows)):
+        for name in ("accuracy", *STREAM_FIGURES):
+            entry[f"{side}_{name}"] = float(np.mean([float(r.get(name, np.nan)) for r in rows]))
+    entry["stream"] = _is_stream(b_rows[0]) and _is_stream(c_rows[0])
+    both = sb == sc == "ok"
+    entry["low_n"] = both and any(_flag(r, "low_n") for r in (*b_rows, *c_rows))
+    # the same content keys with the same figures: the same result, read twice
+    same_keys = [r["key"] for r in b_rows] == [r["key"] for r in c_rows] and all(
+        _same_figures(x, y) for x, y in zip(b_rows, c_rows)
     )
-    out = []
-    for entry, b_rows, c_rows, (pb, pc), same_seeds in plans:
-        if entry["base_status"] != "ok" or entry["candidate_status"] != "ok":
-            entry["method"] = f"status {entry['base_status']} → {entry['candidate_status']}"
-        elif entry["identical"]:
-            names = STREAM_FIGURES if entry["stream"] else FIGURES
-            for name in names:
-                known = pd.notna(b_rows[0].get(name, np.nan))
-                for bound in ("", "_lo", "_hi", "_se"):
-                    entry[f"d_{name}{bound}"] = 0.0 if known else np.nan
-            entry["method"] = "identical (same result keys or predictions)"
-            if entry["stream"] and len(b_rows) == len(c_rows) == 1:
-                # the same stream on another machine: its compute time is still its own check
-                entry |= compute_check(b_rows[0], c_rows[0])
-        elif entry["stream"] and len(b_rows) == len(c_rows) == 1:
-            entry |= _streamed(b_rows[0], c_rows[0], level)
-        elif entry["stream"]:
-            entry["method"] = "streams over several seeds: not compared"
-        elif len(b_rows) == len(c_rows) == 1 and same_seeds:
-            entry |= paired_cell(pb[0], pc[0], seed, level) or unpaired_cell(b_rows, c_rows, level)
-        elif all(p is not None for p in (*pb, *pc)):
-            entry |= cell_over_seeds(pb, pc, seed, level, paired=same_seeds)
-        else:
-            entry |= unpaired_cell(b_rows, c_rows, level)
-        out.append(entry)
-    cells = pd.DataFrame(out)
+    preds: tuple[list, list] = ([], [])
+    if both and not entry["stream"] and not same_keys:
+        preds = tuple(  # type: ignore[assignment]
+            [read_predictions(f, r["key"]) for r in rows]
+            for f, rows in zip(folders, (b_rows, c_rows))
+        )
+    same_seeds = [r["seed"] for r in b_rows] == [r["seed"] for r in c_rows]
+    same_preds = all(_same_predictions(x, y) for x, y in zip(*preds)) and len(preds[0]) > 0
+    entry["identical"] = both and (same_keys or (same_seeds and same_preds))
+    return entry, b_rows, c_rows, preds, same_seeds
+
+
+def _finished(e: dict) -> bool:
+    return e["base_status"] == e["candidate_status"] == "ok"
+
+
+def _decidable(e: dict) -> bool:
+    """A cell in the cell family: both sides finished it, it changed, it is not low-n."""
+    return _finished(e) and not e["identical"] and not e["low_n"]
+
+
+def _changes(plan: tuple, seed: int, level: float) -> dict:
+    """A planned cell's changes with intervals at ``level``, by the method its rows allow."""
+    entry, b_rows, c_rows, (pb, pc), same_seeds = plan
+    one_each = len(b_rows) == len(c_rows) == 1
+    if not _finished(entry):
+        entry["method"] = f"status {entry['base_status']} → {entry['candidate_status']}"
+    elif entry["identical"]:
+        entry |= _identical(entry, b_rows, c_rows)
+    elif entry["stream"] and one_each:
+        entry |= _streamed(b_rows[0], c_rows[0], level)
+    elif entry["stream"]:
+        entry["method"] = "streams over several seeds: not compared"
+    elif one_each and same_seeds:
+        entry |= paired_cell(pb[0], pc[0], seed, level) or unpaired_cell(b_rows, c_rows, level)
+    elif all(p is not None for p in (*pb, *pc)):
+        entry |= cell_over_seeds(pb, pc, seed, level, paired=same_seeds)
+    else:
+        entry |= unpaired_cell(b_rows, c_rows, level)
     for col in (
         f"d_{n}{s}" for n in (*FIGURES, *STREAM_FIGURES) for s in ("", "_lo", "_hi", "_se")
     ):
-        if col not in cells:
-            cells[col] = np.nan
-    verdicts, reasons = [], []
-    for r in cells.to_dict("records"):
-        both = r["base_status"] == r["candidate_status"] == "ok"
-        v = (
-            stream_verdict(r, margin, delay_margin_ms, alarm_margin)
-            if r["stream"] and both
-            else verdict(r, margin)
-        )
-        v, why = _honest(r, v, both, max_width)
-        verdicts.append(v)
-        reasons.append(why)
-    cells["verdict"], cells["inconclusive_reason"] = verdicts, reasons
-    pooled, pooled_level = _pooled_tests(plans, cells, seed, margin, max_width)
-    compared = [
-        (e["n_seeds_base"], e["n_seeds_cand"])
-        for e in out
-        if e["base_status"] == e["candidate_status"] == "ok"
+        entry.setdefault(col, np.nan)
+    return entry
+
+
+def _identical(entry: dict, b_rows: list[dict], c_rows: list[dict]) -> dict:
+    out: dict[str, Any] = {"method": "identical (same result keys or predictions)"}
+    for name in STREAM_FIGURES if entry["stream"] else FIGURES:
+        known = pd.notna(b_rows[0].get(name, np.nan))
+        for bound in ("", "_lo", "_hi", "_se"):
+            out[f"d_{name}{bound}"] = 0.0 if known else np.nan
+    if entry["stream"] and len(b_rows) == len(c_rows) == 1:
+        # the same stream on another machine: its compute time is still its own check
+        out |= compute_check(b_rows[0], c_rows[0])
+    return out
+
+
+def _tests(frame: pd.DataFrame, figure: str, gate: Gate) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the p-values of ``figure`` worse and better than its tolerance, from its
+    change and standard error in the figure's units and the row's degrees of freedom."""
+    scale, sign, tol = SCALE[figure], WORSE[figure], gate.tolerances[figure]
+    d = scale * pd.to_numeric(frame[f"d_{figure}"], errors="coerce").to_numpy(float)
+    se = scale * pd.to_numeric(frame[f"d_{figure}_se"], errors="coerce").to_numpy(float)
+    df = pd.to_numeric(frame["df"], errors="coerce").fillna(np.inf).to_numpy(float)
+    return two_sided_p(sign * d, se, df, tol)
+
+
+def _judge_cells(cells: pd.DataFrame, gate: Gate) -> pd.DataFrame:
+    """Each cell's verdict: Holm at ``CELL_ALPHA`` over every (cell, figure) test of the cells
+    that can decide; the figures that regressed are named."""
+    if "df" not in cells:
+        cells["df"] = np.inf
+    cells["df"] = np.where(cells["stream"].astype(bool), np.inf, cells["df"])
+    decidable = cells.apply(_decidable, axis=1).to_numpy(bool)
+    keys, p, worse = [], [], []
+    for figure in (*gate.figures(False), *gate.figures(True)):
+        if f"d_{figure}" not in cells:
+            continue  # no cell of its kind
+        p_reg, p_imp = _tests(cells, figure, gate)
+        of_kind = cells["stream"].to_numpy(bool) == (figure in STREAM_FIGURES)
+        for i in np.flatnonzero(decidable & of_kind):
+            keys.append((int(i), figure))
+            p.append(min(p_reg[i], p_imp[i]))
+            worse.append(p_reg[i] <= p_imp[i])
+    adj = holm(np.array(p)) if p else np.array([])
+    flagged: dict[int, dict[str, list[str]]] = {}
+    for (row, figure), q, w in zip(keys, adj, worse):
+        if q <= CELL_ALPHA:
+            flagged.setdefault(row, {"regressed": [], "improved": []})[
+                "regressed" if w else "improved"
+            ].append(figure)
+    verdicts = [
+        _cell_verdict(r, flagged.get(i, {}), gate) for i, r in enumerate(cells.to_dict("records"))
     ]
-    return Comparison(
-        cells,
-        only_base,
-        only_cand,
-        str(base_path),
-        str(candidate_path),
-        margin,
-        notes,
-        level,
-        delay_margin_ms,
-        alarm_margin,
-        pd.concat([base, cand], ignore_index=True),
-        pooled,
-        pooled_level,
-        max_width,
-        min((b for b, _ in compared), default=1),
-        min((c for _, c in compared), default=1),
-    )
+    cells["verdict"] = [v for v, _ in verdicts]
+    cells["inconclusive_reason"] = [why for _, why in verdicts]
+    cells["regressed_figures"] = [
+        ", ".join(flagged.get(i, {}).get("regressed", [])) for i in range(len(cells))
+    ]
+    return cells
 
 
-def _honest(r: dict, v: str, both: bool, max_width: float) -> tuple[str, str]:
-    """A finished cell's verdict made honest: identical predictions say so; a low-n cell
-    (intervals that undercover) decides nothing; an interval wider than ``max_width`` points
-    that decides nothing is inconclusive, not "no significant change"."""
-    if not both:
-        return v, ""
+def _cell_verdict(r: dict, flagged: dict, gate: Gate) -> tuple[str, str]:
+    """A cell's verdict and, where inconclusive, why."""
+    if not _finished(r):
+        if r["base_status"] == "ok":
+            return "regressed", ""  # the candidate no longer finishes a cell the base finished
+        return ("improved" if r["candidate_status"] == "ok" else "no significant change"), ""
     if r["identical"]:
         return "identical", ""
     if r["method"] == "streams over several seeds: not compared":
         return "inconclusive", "streaming cells over several seeds are not compared"
     if r["low_n"]:
         return "inconclusive", f"low n (fewer than {LOW_N} test trials of a class)"
+    if flagged.get("regressed"):
+        return "regressed", ""
+    if flagged.get("improved"):
+        return "improved", ""
     width = primary_change(r, "_hi") - primary_change(r, "_lo")
-    if v in ("no significant change", "within margin") and not width <= max_width:
-        return "inconclusive", f"interval wider than {max_width:g} points"
-    return v, ""
+    if not width <= gate.max_width:
+        return "inconclusive", f"interval wider than {gate.max_width:g} points"
+    return ("within margin" if _inside(r, gate) else "no significant change"), ""
+
+
+def _inside(r: dict, gate: Gate) -> bool:
+    """Every judged figure's interval inside plus or minus its tolerance."""
+    for figure in gate.figures(bool(r["stream"])):
+        lo, hi = r.get(f"d_{figure}_lo", np.nan), r.get(f"d_{figure}_hi", np.nan)
+        tol = gate.tolerances[figure] / SCALE[figure]
+        if not (-tol <= lo and hi <= tol):
+            return False
+    return True
+
+
+def _pooled_groups(plans: list, cells: pd.DataFrame) -> dict[tuple, list]:
+    """Per protocol and detector, the finished cells that are compared (not streams over
+    several seeds), each (row, (base preds, candidate preds, base rows, candidate rows))."""
+    groups: dict[tuple, list] = {}
+    for (entry, b_rows, c_rows, preds, _), r in zip(plans, cells.to_dict("records")):
+        if _finished(entry) and not str(r["method"]).startswith("streams over several"):
+            groups.setdefault((entry["protocol"], entry["detector"]), []).append(
+                (r, (*preds, b_rows, c_rows))
+            )
+    return {g: m for g, m in groups.items() if any(not r["identical"] for r, _ in m)}
 
 
 def _pooled_tests(
-    plans: list, cells: pd.DataFrame, seed: int, margin: float, max_width: float
+    plans: list, cells: pd.DataFrame, seed: int, gate: Gate
 ) -> tuple[pd.DataFrame, float]:
-    """Per protocol and detector: the mean accuracy change over the classification cells both
-    sides finished (identical ones count as 0), its interval at the Bonferroni level over the
-    pooled tests and its Holm-adjusted p-value, both of ``POOLED_ALPHA``."""
-    by_group: dict[tuple, list] = {}
-    for (entry, b_rows, c_rows, preds, _), r in zip(plans, cells.to_dict("records")):
-        if entry["base_status"] == entry["candidate_status"] == "ok" and not entry["stream"]:
-            by_group.setdefault((entry["protocol"], entry["detector"]), []).append(
-                (r, (*preds, b_rows, c_rows))
-            )
-    tested = {g: m for g, m in by_group.items() if any(not r["identical"] for r, _ in m)}
-    level = family_level(len(tested), POOLED_ALPHA)
-    lines = []
-    for (protocol, detector), members in tested.items():
-        changed = [(r, p) for r, p in members if not r["identical"]]
-        scale = len(changed) / len(members)  # identical cells add 0 to the mean
-        line: dict[str, Any] = {
-            "protocol": protocol,
-            "detector": detector,
-            "cells": len(members),
-            "changed_cells": len(changed),
-        }
-        preds = [p for _, p in changed]
-        if all(x is not None for b, c, *_ in preds for x in (*b, *c)):
-            parts = [cell_sides(*p) for p in preds]
-            res = pooled_change(parts, seed, level)
-            line |= {
-                "method": "joint cluster bootstrap over the trials the cells share"
-                + (f" and {res['seed_design']}" if res["seeds"] else ""),
-                "low_n": res["low_n"],
-            }
-        else:  # rows only: the cells' errors taken as moving together (the widest case)
-            res = pooled_from_rows(
-                [r["d_accuracy"] for r, _ in changed],
-                [r["d_accuracy_se"] for r, _ in changed],
-                [r.get("df", np.inf) for r, _ in changed],
+    """Per protocol, detector and judged figure: the mean change over the cells both sides
+    finished (identical ones count 0), with its interval at the Bonferroni level over the
+    pooled tests; verdicts come from :func:`_pooled_verdicts`."""
+    groups = _pooled_groups(plans, cells)
+    tests = [
+        (g, figure)
+        for g, members in groups.items()
+        for figure in gate.figures(bool(members[0][0]["stream"]))
+    ]
+    level = family_level(len(tests), POOLED_ALPHA)
+    lines = [_pooled_line(g, groups[g], figure, seed, level) for g, figure in tests]
+    return pd.DataFrame(lines), level
+
+
+def _pooled_line(group: tuple, members: list, figure: str, seed: int, level: float) -> dict:
+    """One pooled test: the mean change of ``figure`` over a protocol's cells, in its units."""
+    changed = [(r, p) for r, p in members if not r["identical"]]
+    share = len(changed) / len(members)  # identical cells add 0 to the mean
+    line: dict[str, Any] = {
+        "protocol": group[0],
+        "detector": group[1],
+        "figure": figure,
+        "cells": len(members),
+        "changed_cells": len(changed),
+        "seeds": min(min(len(p[2]), len(p[3])) for _, p in changed),
+        "trials": np.nan,
+    }
+    preds = [p for _, p in changed]
+    if figure in RATE_MASKS and all(x is not None for b, c, *_ in preds for x in (*b, *c)):
+        res = pooled_change([cell_sides(*p) for p in preds], seed, level, figure=figure)
+        line["method"] = "joint cluster bootstrap over the trials the cells share" + (
+            f" and {res['seed_design']}" if res["seeds"] else ""
+        )
+        line["low_n"] = res["low_n"]
+        line["trials"] = min(res["n_test_clusters_slip"], res["n_test_clusters_nonslip"])
+    else:  # rows only: the cells' errors taken as moving together (the widest case)
+        rows = [r for r, _ in changed if np.isfinite(r[f"d_{figure}"])]
+        res = (
+            pooled_from_rows(
+                [r[f"d_{figure}"] for r in rows],
+                [r[f"d_{figure}_se"] for r in rows],
+                [r.get("df", np.inf) for r in rows],
                 level,
             )
-            line |= {
-                "method": "mean of the cells' standard errors (no predictions to pool)",
-                "low_n": all(r["low_n"] for r, _ in changed),
-            }
-        for name in ("d", "lo", "hi", "se"):
-            line[f"mean_{name}"] = scale * res[name]
-        line["df"] = res["df"]
-        lines.append(line)
-    pooled = pd.DataFrame(lines)
-    if pooled.empty:
-        return pooled, level
-    m = margin / 100
-    d, se, df = pooled["mean_d"], pooled["mean_se"], pooled["df"]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        p_reg = np.minimum(1.0, 2 * student_t.cdf((d + m) / se, df))
-        p_imp = np.minimum(1.0, 2 * student_t.sf((d - m) / se, df))
-    p = np.nan_to_num(np.minimum(p_reg, p_imp), nan=1.0)
-    pooled["p_holm"] = _holm(p)
-    verdicts = []
-    for r, worse in zip(pooled.to_dict("records"), p_reg <= p_imp):
-        width = 100 * (r["mean_hi"] - r["mean_lo"])
-        if r["p_holm"] <= POOLED_ALPHA and not r["low_n"]:
-            verdicts.append("regressed" if worse else "improved")
-        elif r["low_n"] or not width <= max_width:
-            verdicts.append("inconclusive")
-        elif margin > 0 and -m <= r["mean_lo"] and r["mean_hi"] <= m:
-            verdicts.append("within margin")
-        else:
-            verdicts.append("no significant change")
-    pooled["verdict"] = verdicts
-    return pooled, level
+            if rows
+            else dict.fromkeys(("d", "lo", "hi", "se", "df"), np.nan)
+        )
+        line["method"] = "mean of the cells' standard errors (no predictions to pool)"
+        line["low_n"] = all(r["low_n"] for r, _ in changed)
+    for name in ("d", "lo", "hi", "se"):
+        line[f"change{'' if name == 'd' else '_' + name}"] = SCALE[figure] * share * res[name]
+    line["df"] = res["df"]
+    return line
 
 
-def verdict(r: dict, margin: float) -> str:
-    """The verdict of one compared cell from its statuses and its simultaneous accuracy
-    interval ``d_accuracy_lo``/``_hi`` (fractions); ``margin`` in percentage points."""
-    if r["base_status"] != r["candidate_status"]:
-        if r["base_status"] == "ok":
-            return "regressed"  # the candidate no longer finishes a cell the base finished
-        if r["candidate_status"] == "ok":
-            return "improved"
-        return "no significant change"
-    lo, hi = r.get("d_accuracy_lo", np.nan), r.get("d_accuracy_hi", np.nan)
-    if pd.isna(lo) or pd.isna(hi):
-        return "no significant change"
-    m = margin / 100
-    if hi < -m:
-        return "regressed"
-    if lo > m:
-        return "improved"
-    if margin > 0 and -m <= lo and hi <= m:
-        return "within margin"
-    return "no significant change"
+def _pooled_verdicts(pooled: pd.DataFrame, gate: Gate, retrained: bool) -> pd.DataFrame:
+    """Holm over the pooled tests at ``POOLED_ALPHA``; a test that flags nothing states its
+    power (``resolution``, ``detectable``) and is "undecided" where it cannot see a regression
+    of its tolerance, its data are low-n or a side ran one seed."""
+    pooled = pooled.copy()
+    sign = pooled["figure"].map(WORSE).to_numpy(float)
+    tol = pooled["figure"].map(gate.tolerances).to_numpy(float)
+    se, df = pooled["change_se"].to_numpy(float), pooled["df"].to_numpy(float)
+    p_reg, p_imp = two_sided_p(sign * pooled["change"].to_numpy(float), se, df, tol)
+    pooled["p_holm"] = holm(np.minimum(p_reg, p_imp))
+    pooled["tolerance"] = tol
+    pooled["resolution"] = [resolution(s, d, len(pooled), POOLED_ALPHA) for s, d in zip(se, df)]
+    pooled["detectable"] = tol + pooled["resolution"]
+    pooled["seeds_needed"] = [
+        needed(max(n, MIN_SEEDS), x, t) if n >= MIN_SEEDS else RECOMMENDED_REPEATS
+        for n, x, t in zip(pooled["seeds"], pooled["resolution"], tol)
+    ]
+    pooled["trials_needed"] = [
+        needed(n, x, t) for n, x, t in zip(pooled["trials"], pooled["resolution"], tol)
+    ]
+    judged = [
+        _pooled_verdict(r, flagged, retrained)
+        for r, flagged in zip(pooled.to_dict("records"), p_reg <= p_imp)
+    ]
+    pooled["verdict"] = [v for v, _ in judged]
+    pooled["undecided_reason"] = [why for _, why in judged]
+    return pooled
+
+
+def _pooled_verdict(r: dict, worse: bool, retrained: bool) -> tuple[str, str]:
+    if r["p_holm"] <= POOLED_ALPHA and not r["low_n"]:
+        return ("regressed" if worse else "improved"), ""
+    if r["low_n"]:
+        return "undecided", f"low n (fewer than {LOW_N} test trials of a class)"
+    if not retrained:
+        return "undecided", "one seed per side: retraining noise is not in the interval"
+    if not r["resolution"] <= r["tolerance"]:
+        return "undecided", (
+            f"it would flag a drop of {r['detectable']:.2g} {unit(r['figure'])} with 80 % power, "
+            f"more than twice its tolerance"
+        )
+    inside = -r["tolerance"] <= r["change_lo"] and r["change_hi"] <= r["tolerance"]
+    return ("within margin" if inside else "no significant change"), ""
 
 
 def _figure(r: dict) -> str:
@@ -866,11 +921,11 @@ def summary(cmp: Comparison) -> pd.DataFrame:
     one) and the cell that changed most for the worse among those that decided something
     (``worst_row``: its index in ``cmp.cells``, None when none; inconclusive and identical
     cells are never the worst)."""
-    pooled = (
-        {(r["protocol"], r["detector"]): r for r in cmp.pooled.to_dict("records")}
-        if not cmp.pooled.empty
-        else {}
-    )
+    pooled = {
+        (r["protocol"], r["detector"]): r
+        for r in cmp.pooled.to_dict("records")
+        if r["figure"] in ("accuracy", "detection_rate")
+    }
     lines = []
     for (protocol, detector), part in cmp.cells.groupby(["protocol", "detector"], sort=False):
         decided = part[~part["verdict"].isin(["inconclusive", "identical"])]
@@ -893,7 +948,7 @@ def summary(cmp: Comparison) -> pd.DataFrame:
                 "improved": int(verdicts.get("improved", 0)),
                 "inconclusive": int(verdicts.get("inconclusive", 0)),
                 "identical": int(verdicts.get("identical", 0)),
-                "mean_change": 100 * p["mean_d"]
+                "mean_change": p["change"]
                 if p is not None
                 else (float(np.mean(all_finite)) if all_finite else np.nan),
                 "worst_row": worst[1] if worst is not None else None,

@@ -1,5 +1,5 @@
 """A detector that flips a coin per window shows none of the paper's findings: over 20 seeds,
-every finding reads "yes" in at most 1 (the criteria judge contrasts by their intervals)."""
+every finding reads "shown" in at most 1 (the criteria judge contrasts by their intervals)."""
 
 from __future__ import annotations
 
@@ -46,6 +46,6 @@ def test_a_coin_flip_shows_no_finding():
         assert table is not None and len(table.rows) == 9
         for (finding,), (_, _, shown, _) in zip(table.rows, table.cells):
             judged[finding] += shown != "—"
-            yes[finding] += shown == "yes"
+            yes[finding] += shown == "shown"
     assert all(n == 20 for n in judged.values()), judged  # every finding is judged each time
     assert all(n <= 1 for n in yes.values()), yes

@@ -16,7 +16,8 @@ from slipbench.protocols.streaming import Streaming
 from slipbench.report.compare import to_markdown
 from slipbench.report.document import render_report
 from slipbench.report.plots import write_plots
-from slipbench.stats.compare import compare, stream_verdict
+from slipbench.stats.compare import compare
+from slipbench.stats.gate import Gate
 from slipbench.store.results import ResultsStore
 
 FIGURES = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
@@ -229,46 +230,18 @@ def test_compare_flags_a_longer_delay_or_more_false_alarms(streamed, tmp_path):
     slower = compare(out, _worse(out, tmp_path / "slow.parquet", median_delay_ms=150.0))
     # a unit with few detected onsets has a wide delay interval: 150 ms need not be significant there
     verdicts = slower.cells["verdict"]
-    assert (verdicts == "regressed").sum() >= len(verdicts) / 2 and slower.exit_code == 1
+    assert (verdicts == "regressed").sum() >= len(verdicts) / 2
+    assert slower.exit_code == 6  # one seed per side: undecided, never exit 1 on noise alone
     # such a unit may also be inconclusive (low n, or a detection-rate interval over 40 points)
     assert set(verdicts) <= {"regressed", "no significant change", "inconclusive"}
     assert "median delay" in to_markdown(slower)
-    # beyond the margin only: 150 ms more within a 300 ms margin is no regression
-    assert compare(out, tmp_path / "slow.parquet", delay_margin_ms=300.0).exit_code == 0
+    # beyond the tolerance only: 150 ms more within a 300 ms tolerance is no regression
+    wide = compare(out, tmp_path / "slow.parquet", Gate.of(median_delay_ms=300.0))
+    assert wide.regressions.empty and wide.pooled_regressions.empty
     noisy = compare(out, _worse(out, tmp_path / "noisy.parquet", false_alarms_per_min=1000.0))
     assert (noisy.cells["verdict"] == "regressed").all()
     better = compare(_worse(out, tmp_path / "base.parquet", false_alarms_per_min=1000.0), out)
-    assert (better.cells["verdict"] == "improved").all() and better.exit_code == 0
-
-
-def test_stream_verdict_rules():
-    def cell(**d):
-        return {f"d_{k}_{b}": v[i] for k, v in d.items() for i, b in enumerate(("lo", "hi"))}
-
-    assert stream_verdict(cell(median_delay_ms=(5, 20)), 0, 0, 0) == "regressed"
-    assert stream_verdict(cell(median_delay_ms=(5, 20)), 0, 10, 0) == "no significant change"
-    assert (
-        stream_verdict(cell(median_delay_ms=(-20, -5), false_alarms_per_min=(-1, 1)), 0, 0, 0)
-        == "improved"
-    )
-    assert (
-        stream_verdict(cell(median_delay_ms=(-20, -5), false_alarms_per_min=(0.5, 1)), 0, 0, 0)
-        == "regressed"
-    )
-    assert (
-        stream_verdict(cell(detection_rate=(-0.3, -0.1)), 5, 0, 0) == "regressed"
-    )  # 10 points lost, margin 5
-    assert (
-        stream_verdict(
-            cell(
-                median_delay_ms=(-2, 2), false_alarms_per_min=(-1, 1), detection_rate=(-0.01, 0.01)
-            ),
-            2,
-            5,
-            2,
-        )
-        == "within margin"
-    )
+    assert (better.cells["verdict"] == "improved").all() and better.exit_code != 1
 
 
 def test_a_recording_that_starts_in_slip_gives_no_onset():
@@ -336,7 +309,7 @@ def test_rows_with_machine_timed_delays_are_not_judged_on_delays(streamed, tmp_p
     _old(rows, 0.02).to_parquet(tmp_path / "base.parquet")
     _old(rows, 8.2).to_parquet(tmp_path / "cand.parquet")
     cmp = compare(tmp_path / "base.parquet", tmp_path / "cand.parquet")
-    assert cmp.exit_code == 0, cmp.cells[["verdict", "d_median_delay_ms_lo"]]
+    assert cmp.regressions.empty, cmp.cells[["verdict", "d_median_delay_ms_lo"]]
     assert cmp.cells["d_median_delay_ms_lo"].isna().all()
     assert cmp.cells["method"].str.contains("delays and detection rate not judged").all()
     assert (cmp.cells["compute_check"] == "").all()

@@ -1,5 +1,5 @@
-"""`slipbench compare`: candidate results against base results cell by cell, as a pull-request
-comment or JSON; the exit code says whether a cell regressed."""
+"""`slipbench compare`: candidate results against base results on the gate's figures, as a
+pull-request comment (Markdown) and JSON in one call; the exit code is the verdict."""
 
 from __future__ import annotations
 
@@ -10,34 +10,38 @@ import click
 
 from slipbench.app.options import LAYOUT_PLUGINS_HELP, out_option, plugins_option
 from slipbench.app.selection import add_plugin_folders
+from slipbench.stats.gate import DEFAULT_TOLERANCE
 
 
 @click.command("compare")
 @click.argument("base", type=click.Path(path_type=Path))
 @click.argument("candidate", type=click.Path(path_type=Path))
 @click.option(
+    "--figure",
+    "figures",
+    multiple=True,
+    metavar="NAME[=TOLERANCE]",
+    help="A figure the gate judges, with its tolerance (a drop smaller than it is no regression; "
+    "points of a rate, false alarms per minute, ms); repeat for several. Figures: "
+    + ", ".join(f"{k} (default {v:g})" for k, v in DEFAULT_TOLERANCE.items())
+    + " [default: every figure, or the [gate] table of --bench].",
+)
+@click.option(
     "--margin",
-    default=0.0,
-    show_default=True,
-    help="Accuracy points a cell may lose: it regressed when its simultaneous interval lies entirely below -margin.",
+    type=float,
+    help="Points: the tolerance of every rate figure (accuracy, TN and TP rate, detection rate) "
+    "that --figure or --bench does not set.",
 )
 @click.option(
-    "--delay-margin",
-    default=0.0,
-    show_default=True,
-    help="Streaming cells: ms of median delay a cell may add before it counts as a regression.",
-)
-@click.option(
-    "--alarm-margin",
-    default=0.0,
-    show_default=True,
-    help="Streaming cells: false alarms per minute a cell may add before it counts as a regression.",
+    "--bench",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="A benchmark file whose [gate] table gives the figures and tolerances.",
 )
 @click.option(
     "--max-width",
     default=40.0,
     show_default=True,
-    help="Accuracy points: a cell whose change interval is wider (and decides nothing) is inconclusive.",
+    help="Points: a cell whose change interval is wider (and decides nothing) is inconclusive.",
 )
 @click.option(
     "--format",
@@ -45,7 +49,7 @@ from slipbench.app.selection import add_plugin_folders
     type=click.Choice(["md", "json"]),
     default="md",
     show_default=True,
-    help="md: a pull-request comment (summary, regressed cells, at most --max-rows others); json: every cell, for bots.",
+    help="What is printed: md, a pull-request comment; json, every cell and test, for bots.",
 )
 @click.option(
     "--max-rows",
@@ -53,39 +57,57 @@ from slipbench.app.selection import add_plugin_folders
     help="Markdown: cells listed besides the regressed ones, improved first, then the largest changes "
     "[default: 60; a whole-paper comparison of five detectors is then about 18,000 characters].",
 )
-@out_option("Also write the text to this file (a PR comment).")
+@out_option("Also write the Markdown comment to this file.")
+@click.option(
+    "--json",
+    "json_out",
+    type=click.Path(path_type=Path, dir_okay=False),
+    help="Also write the JSON to this file (the same comparison: no second run).",
+)
 @plugins_option(LAYOUT_PLUGINS_HELP)
 def compare_command(
-    base, candidate, margin, delay_margin, alarm_margin, max_width, fmt, max_rows, out, plugins
+    base, candidate, figures, margin, bench, max_width, fmt, max_rows, out, json_out, plugins
 ) -> None:
-    """Compare CANDIDATE results with BASE cell by cell; exit 1 if a cell regressed.
+    """Compare CANDIDATE results with BASE on the gate's figures; exit 1 if one regressed.
 
-    Cells pair across seeds (a side may hold several per cell, `evaluate --repeats`); each
-    protocol and detector also gets a pooled test of its mean change.
+    Windowed cells are judged on accuracy, TN rate and TP rate; streaming cells on false alarms
+    per minute, detection rate and median delay; each protocol and detector also gets a pooled
+    test per figure, which states the smallest drop it would flag with 80 % power.
 
-    Exit codes: 0 nothing regressed beyond --margin; 1 a cell or a protocol's pooled change
-    regressed; 2 bad usage or data.
+    Exit codes: 0 no regression; 1 a figure regressed (in a cell or pooled), or a cell the base
+    finished failed; 6 undecided (one seed per side, too few trials, or noise larger than the
+    tolerance: the comment says how many seeds or trials would decide); 2 bad usage or data.
     """
     from slipbench.atomic import write_text_atomic
     from slipbench.report.compare import MAX_ROWS, to_json, to_markdown
     from slipbench.stats.compare import compare
 
     add_plugin_folders(plugins)
-    result = compare(
-        base,
-        candidate,
-        margin,
-        delay_margin_ms=delay_margin,
-        alarm_margin=alarm_margin,
-        max_width=max_width,
-    )
-    text = (
-        to_json(result)
-        if fmt == "json"
-        else to_markdown(result, MAX_ROWS if max_rows is None else max_rows)
-    )
-    click.echo(text, nl=False)
-    if out:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(out, text)
+    result = compare(base, candidate, _gate(figures, bench, margin, max_width))
+    texts = {
+        "json": to_json(result),
+        "md": to_markdown(result, MAX_ROWS if max_rows is None else max_rows),
+    }
+    click.echo(texts[fmt], nl=False)
+    for path, kind in ((out, "md"), (json_out, "json")):
+        if path:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_text_atomic(path, texts[kind])
     sys.exit(result.exit_code)
+
+
+def _gate(figures: tuple[str, ...], bench: Path | None, margin: float | None, max_width: float):
+    """The gate from --figure options, else the benchmark file's [gate], else every figure;
+    --margin sets every rate's tolerance that is not given as NAME=TOLERANCE."""
+    from slipbench.app.benchfile import load_benchmark
+    from slipbench.stats.gate import Gate, parse_tolerances, unit
+
+    explicit = parse_tolerances(f for f in figures if "=" in f)
+    named = [f.partition("=")[0].strip() for f in figures]
+    if not named and bench is not None:
+        explicit = load_benchmark(bench).gate
+        named = list(explicit)
+    tolerances = {f: DEFAULT_TOLERANCE.get(f, 1.0) for f in named or DEFAULT_TOLERANCE}
+    if margin is not None:
+        tolerances |= {f: margin for f in tolerances if unit(f) == "points"}
+    return Gate(tolerances | explicit, max_width)

@@ -1,0 +1,154 @@
+"""The CI gate's family of figures: which figures it reads, the tolerance of each, the Holm
+step-down that holds a level over them, and the power of every "no regression".
+
+Windowed cells are judged on accuracy, TN rate (false alarms) and TP rate (misses); streaming
+cells on false alarms per minute, detection rate and median delay. A figure *regressed* where
+its change is worse than its tolerance (in its own units: points of a rate, false alarms per
+minute, ms) at the family's level; higher is worse for false alarms per minute and delays.
+
+Power. A pooled test that flags nothing says how large a drop it would have flagged with
+``POWER`` (80 %): with ``se`` its standard error, ``df`` its degrees of freedom and ``N`` the
+pooled tests in the family, the resolution is ``X = se * (t(1 - alpha / (2 N), df) + t(POWER,
+df))`` (Holm's first, Bonferroni, step: conservative), and a drop of ``tolerance + X`` is
+flagged with 80 % power. Where ``X`` exceeds the tolerance, the noise is larger than what the
+gate is asked to hold: the test is *undecided*, and ``n * (X / tolerance) ** 2`` seeds (or test
+trials) would decide it, the standard error scaling as ``sqrt(n / n')``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.stats import t as student_t
+
+from slipbench.errors import UsageError
+
+WINDOWED = ("accuracy", "tn_rate", "tp_rate")
+STREAMING = ("false_alarms_per_min", "detection_rate", "median_delay_ms")
+#: +1 where a larger value is worse
+WORSE = {
+    "accuracy": -1,
+    "tn_rate": -1,
+    "tp_rate": -1,
+    "detection_rate": -1,
+    "false_alarms_per_min": 1,
+    "median_delay_ms": 1,
+}
+#: stored value -> the units a tolerance is given in (rates: fractions -> points)
+SCALE = {name: 100.0 for name in ("accuracy", "tn_rate", "tp_rate", "detection_rate")} | {
+    "false_alarms_per_min": 1.0,
+    "median_delay_ms": 1.0,
+}
+UNITS = {"false_alarms_per_min": "false alarms per minute", "median_delay_ms": "ms"}
+DEFAULT_TOLERANCE = {
+    "accuracy": 1.0,
+    "tn_rate": 1.0,
+    "tp_rate": 1.0,
+    "detection_rate": 1.0,
+    "false_alarms_per_min": 0.5,
+    "median_delay_ms": 10.0,
+}
+POWER = 0.8
+#: what a figure is called in a verdict
+NAMES = {
+    "accuracy": "accuracy",
+    "tn_rate": "TN rate (false alarms)",
+    "tp_rate": "TP rate (misses)",
+    "detection_rate": "detection rate",
+    "false_alarms_per_min": "false alarms per minute",
+    "median_delay_ms": "median delay",
+}
+
+
+def unit(figure: str) -> str:
+    return UNITS.get(figure, "points")
+
+
+@dataclass(frozen=True)
+class Gate:
+    """The figures the gate reads and the tolerance of each, in the figure's units; a cell or
+    pooled change whose interval is wider than ``max_width`` points decides nothing."""
+
+    tolerances: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_TOLERANCE))
+    max_width: float = 40.0
+
+    def __post_init__(self) -> None:
+        unknown = set(self.tolerances) - set(WORSE)
+        if unknown:
+            raise UsageError(
+                f"the gate reads {', '.join(WORSE)}; unknown figure {', '.join(sorted(unknown))}"
+            )
+        bad = {k: v for k, v in self.tolerances.items() if not (v > 0 and math.isfinite(v))}
+        if bad:
+            raise UsageError(
+                f"a tolerance must be > 0 (a gate that must see any drop never decides "
+                f"'no regression'): {', '.join(f'{k} = {v}' for k, v in bad.items())}"
+            )
+        if not self.max_width > 0:
+            raise UsageError(f"--max-width must be > 0 points, got {self.max_width}")
+
+    @classmethod
+    def of(cls, figures: Iterable[str] | None = None, **tolerance: float) -> Gate:
+        """The gate on ``figures`` (every figure where None), default tolerances overridden by
+        ``tolerance``; a tolerance names its figure into the family."""
+        names = list(WORSE if figures is None else figures) + list(tolerance)
+        return cls({n: float(tolerance.get(n, DEFAULT_TOLERANCE.get(n, 1.0))) for n in names})
+
+    def figures(self, stream: bool) -> tuple[str, ...]:
+        """The figures of a streaming or windowed cell the gate reads, in the family's order."""
+        return tuple(f for f in (STREAMING if stream else WINDOWED) if f in self.tolerances)
+
+
+def parse_tolerances(items: Iterable[str]) -> dict[str, float]:
+    """``figure=points`` options as a mapping; a clear UsageError otherwise."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            out[name.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--tolerance takes FIGURE=POINTS (e.g. tn_rate=2), got {item!r}")
+    return out
+
+
+def holm(p: np.ndarray) -> np.ndarray:
+    """Holm's step-down adjusted p-values."""
+    n = len(p)
+    order = np.argsort(p, kind="stable")
+    adj = np.empty(n)
+    running = 0.0
+    for i, j in enumerate(order):
+        running = max(running, min(1.0, (n - i) * p[j]))
+        adj[j] = running
+    return adj
+
+
+def two_sided_p(worse: np.ndarray, se: np.ndarray, df: np.ndarray, tol: Any) -> tuple:
+    """p-values of "worse than the tolerance" and "better than the tolerance" from changes
+    ``worse`` signed so that positive is worse, in the figure's units (NaN -> 1)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        p_reg = np.minimum(1.0, 2 * student_t.sf((worse - tol) / se, df))
+        p_imp = np.minimum(1.0, 2 * student_t.sf((-worse - tol) / se, df))
+    return np.nan_to_num(p_reg, nan=1.0), np.nan_to_num(p_imp, nan=1.0)
+
+
+def resolution(se: float, df: float, n_tests: int, alpha: float) -> float:
+    """The smallest change beyond the tolerance flagged with ``POWER``: ``se * (t(1 - alpha /
+    (2 n_tests), df) + t(POWER, df))`` (NaN without a finite standard error)."""
+    if not (np.isfinite(se) and df > 0):
+        return float("nan")
+    q = student_t.ppf(1 - alpha / (2 * max(1, n_tests)), df) + student_t.ppf(POWER, df)
+    return float(se * q)
+
+
+def needed(n: float, res: float, tol: float) -> int:
+    """How many seeds (or trials) of which ``n`` ran would bring ``res`` down to ``tol``."""
+    if not (np.isfinite(res) and n > 0):
+        return 0
+    return int(math.ceil(n * (res / tol) ** 2))
