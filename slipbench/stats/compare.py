@@ -78,6 +78,7 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED, DataError, UsageError
+from slipbench.stats.bootstrap import SeedPool
 from slipbench.stats.factors import (
     SETTINGS,
     differing_settings,
@@ -96,7 +97,13 @@ from slipbench.stats.gate import (
     unit,
 )
 from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
-from slipbench.stats.pooled import RATE_MASKS, CellSides, pooled_change, pooled_from_rows
+from slipbench.stats.pooled import (
+    RATE_MASKS,
+    CellSides,
+    pooled_change,
+    pooled_from_rows,
+    protocol_seed_pool,
+)
 from slipbench.store.results import (
     check_unique_keys,
     read_predictions,
@@ -360,12 +367,17 @@ def cell_over_seeds(
     seed: int,
     level: float,
     paired: bool = False,
+    *,
+    seed_pool: dict[str, SeedPool] | None = None,
 ) -> dict:
     """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
     side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`); ``paired``
-    where both sides ran the same seeds, which then pair seed by seed."""
+    where both sides ran the same seeds, which then pair seed by seed. ``seed_pool``: the seed
+    variance its protocol's cells share (:func:`seed_pools`)."""
     b, c = seed_sides(base, cand)
-    out: dict[str, Any] = over_seeds(b, c, seed=seed, level=level, figures=FIGURES, paired=paired)
+    out: dict[str, Any] = over_seeds(
+        b, c, seed=seed, level=level, figures=FIGURES, paired=paired, seed_pool=seed_pool
+    )
     how = "paired seed by seed" if paired else f"{len(b)} → {len(c)} seeds"
     out["method"] = f"over seeds and trials ({how})"
     return out
@@ -562,7 +574,11 @@ def compare(
     plans, only_base, only_cand = _plan_cells(base, cand, on, (base_path, candidate_path))
     n_tests = sum(len(gate.figures(e["stream"])) for e, *_ in plans if _decidable(e))
     level = family_level(n_tests, CELL_ALPHA)
-    cells = _judge_cells(pd.DataFrame([_changes(plan, seed, level) for plan in plans]), gate)
+    pools = seed_pools(plans)
+    cells = _judge_cells(
+        pd.DataFrame([_changes(plan, seed, level, pools.get(_pool_of(plan))) for plan in plans]),
+        gate,
+    )
     seeds = [(e["n_seeds_base"], e["n_seeds_cand"]) for e, *_ in plans if _finished(e)]
     pooled, pooled_level = _pooled_tests(plans, cells, seed, gate)
     cmp = Comparison(
@@ -675,7 +691,40 @@ def _decidable(e: dict) -> bool:
     return _finished(e) and not e["identical"] and not e["low_n"]
 
 
-def _changes(plan: tuple, seed: int, level: float) -> dict:
+def _over_seeds(plan: tuple) -> bool:
+    """A finished, changed windowed cell whose seeds' predictions are all at hand and that ran
+    more than one seed on a side or different seeds: it is judged over seeds and trials."""
+    entry, b_rows, c_rows, (pb, pc), same_seeds = plan
+    one_each = len(b_rows) == len(c_rows) == 1
+    return (
+        _finished(entry)
+        and not entry["identical"]
+        and not entry["stream"]
+        and not (one_each and same_seeds)
+        and all(p is not None for p in (*pb, *pc))
+        and len(pb) > 0
+    )
+
+
+def _pool_of(plan: tuple) -> tuple[str, str, bool]:
+    """The cells that share a seed pool: one protocol and detector, paired or not."""
+    return (str(plan[0].get("protocol")), str(plan[0].get("detector")), bool(plan[4]))
+
+
+def seed_pools(plans: list[tuple]) -> dict[tuple[str, str, bool], dict[str, SeedPool]]:
+    """Per protocol and detector, the seed variance its cells judged over seeds share
+    (:func:`slipbench.stats.pooled.protocol_seed_pool`), so that more seeds narrow each cell's
+    interval: the cell's own two or three seeds no longer carry its seed term alone."""
+    groups: dict[tuple[str, str, bool], list[CellSides]] = {}
+    for plan in filter(_over_seeds, plans):
+        _, b_rows, c_rows, (pb, pc), _ = plan
+        groups.setdefault(_pool_of(plan), []).append(cell_sides(pb, pc, b_rows, c_rows))
+    return {key: protocol_seed_pool(cells, FIGURES, paired=key[2]) for key, cells in groups.items()}
+
+
+def _changes(
+    plan: tuple, seed: int, level: float, seed_pool: dict[str, SeedPool] | None = None
+) -> dict:
     """A planned cell's changes with intervals at ``level``, by the method its rows allow."""
     entry, b_rows, c_rows, (pb, pc), same_seeds = plan
     one_each = len(b_rows) == len(c_rows) == 1
@@ -690,7 +739,7 @@ def _changes(plan: tuple, seed: int, level: float) -> dict:
     elif one_each and same_seeds:
         entry |= paired_cell(pb[0], pc[0], seed, level) or unpaired_cell(b_rows, c_rows, level)
     elif all(p is not None for p in (*pb, *pc)):
-        entry |= cell_over_seeds(pb, pc, seed, level, paired=same_seeds)
+        entry |= cell_over_seeds(pb, pc, seed, level, paired=same_seeds, seed_pool=seed_pool)
     else:
         entry |= unpaired_cell(b_rows, c_rows, level)
     for col in (

@@ -117,10 +117,11 @@ def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
     assert cmp.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
     assert "retraining noise" not in to_markdown(cmp)
     assert cmp.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
-    # the seeds' spread widens the interval against one seed per side
+    # the seed variance pooled over the protocol's cells (its degrees of freedom summed): three
+    # seeds a side narrow the cells against one seed per side, never widen them (issue 35)
     one = compare(*predictions_pair(tmp_path / "one", n_cells=3, cand_seeds=(3,)))
     width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
-    assert width(cmp) > width(one)
+    assert width(cmp) < width(one)
 
 
 def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
@@ -148,10 +149,11 @@ def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
     assert same.pooled["method"].iloc[0].endswith("crossed with the cells and paired seed by seed")
     assert other.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
     assert other.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
-    # here the seeds' luck is small next to the flipped trials: paired, their spread still
-    # drops out of the cells' intervals (tests/stats/test_metrics.py: strong luck)
+    # here the seeds' luck is small next to the flipped trials, so pairing has little to cancel:
+    # each design pools its own seed spread over the cells, and the paired one is no wider to
+    # speak of (strong luck, where pairing narrows: tests/stats/test_metrics.py)
     width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
-    assert width(same) < width(other)
+    assert width(same) < 1.1 * width(other)
 
 
 def test_low_n_cells_are_inconclusive_and_never_the_worst(tmp_path):
