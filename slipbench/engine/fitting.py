@@ -23,6 +23,8 @@ from slipbench.base import BaseDetector, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
+from slipbench.store.keys import file_digest, unkeyed
+from slipbench.store.reads import reading
 from slipbench.store.results import write_text_atomic
 from slipbench.stream.cell import StreamTest, streamed_figures
 
@@ -111,7 +113,8 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
         if on_phase is not None:
             on_phase(phase)
         learned, warning = _learned(train_y, detector.predict_proba(train_x))
-        choices = _choices(detector, sampling_rate, [warning] if warning else [])
+        notes = [warning] if warning else []
+        choices = _choices(detector, sampling_rate, notes + _read_warnings(cost))
         out: list[Result] = []
         for test in tests:
             if isinstance(test, StreamTest):
@@ -251,6 +254,31 @@ def _choices(
     return out
 
 
+def unkeyed_reads(cls: type, opened: set[str]) -> dict[str, str]:
+    """``{"unkeyed_reads": JSON {path: digest}}`` of the files a fit read that its code identity
+    does not hash (none: no field, so rows of plugins that read nothing keep their columns).
+    The key had to exist before the fit, so a later run compares the digests instead
+    (:func:`changed_reads`) and refits where one differs."""
+    paths = unkeyed(cls, opened)
+    if not paths:
+        return {}
+    return {"unkeyed_reads": json.dumps({str(p): file_digest(p) for p in paths}, sort_keys=True)}
+
+
+def changed_reads(row: dict[str, Any]) -> list[str]:
+    """The files of a stored row's ``unkeyed_reads`` whose content is no longer what it was."""
+    recorded = json.loads(row.get("unkeyed_reads") or "{}")
+    return [path for path, digest in recorded.items() if file_digest(Path(path)) != digest]
+
+
+def _read_warnings(cost: dict[str, Any]) -> list[str]:
+    return [
+        f"the fit read {path}, which is not part of the detector's code identity (declare it "
+        "in data_files): its content is checked when the cell is reused"
+        for path in json.loads(cost.get("unkeyed_reads") or "{}")
+    ]
+
+
 def _trained(
     detector: BaseDetector,
     seed: int,
@@ -265,7 +293,7 @@ def _trained(
     if model_path is not None and cost_path.is_file():
         return type(detector).load(model_path), json.loads(cost_path.read_text())
     detector = clone(detector)
-    with PeakMemory() as mem:
+    with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()
         detector.fit(
             train_x,
@@ -280,6 +308,7 @@ def _trained(
         # per sample of time: a window of channels is as many samples as one of the signal
         "train_us_per_sample": train_s / (train_x.shape[0] * train_x.shape[1]) * 1e6,
         "peak_mem_mb": mem.mb,
+        **unkeyed_reads(type(detector), opened),
     }
     if model_path is not None:
         try:

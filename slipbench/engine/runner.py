@@ -13,6 +13,7 @@ import importlib.metadata
 import json
 import platform
 import sys
+import warnings
 from collections.abc import Callable
 from datetime import datetime, timezone
 from pathlib import Path
@@ -24,7 +25,7 @@ from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, TestSet
+from slipbench.engine.fitting import Job, TestSet, changed_reads
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
 from slipbench.stats.bootstrap import DEFAULT_METHOD
@@ -162,7 +163,12 @@ def evaluate(
         check_labels(run.labels, dataset)
     with_cells = [(run, run.cells_or_stand_in(dataset.recordings)) for run in runs]
     stored = {} if force else store.finished()
-    done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}
+    refit = _changed_reads(stored)  # model keys whose fits read a file that has changed since
+    done = {
+        k
+        for k, r in stored.items()
+        if r.get("status") in ("ok", "skipped") and r.get("model_key") not in refit
+    }
     fingerprint, path, origin = dataset.fingerprint, str(dataset.path or ""), dataset.origin
     signals = _signals(dataset, runs)
     plan = make_plan(signals, with_cells, fingerprint, done)
@@ -171,7 +177,10 @@ def evaluate(
     if len(rows) < len(plan.cells):  # cells to write: an unwritable folder fails before any fit
         store.check_writable()
 
+    warned: set[tuple[str, str]] = set()
+
     def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
+        _warn_reads(pc.run.detector_name, fields, warned)
         row = _row(pc, {**fields, **_scales(plan, pc)}, fingerprint, path, env, run_id, origin)
         predictions = None
         if scores is not None:  # the scores of test windows (a streaming cell keeps none)
@@ -195,7 +204,9 @@ def evaluate(
     cached = len(rows)
     bar = _progress(len(plan.cells), cached, progress, _describe(runs))
     try:
-        payload = lambda task: _payload(plan, task, store, force, scheduler)  # noqa: E731
+        payload = lambda task: _payload(  # noqa: E731
+            plan, task, store, force or task.model_key in refit, scheduler
+        )
         finished = Executor(jobs, scheduler, cell_timeout).run(
             plan.tasks, payload, _shown(bar, cached) if progress else None
         )
@@ -212,6 +223,35 @@ def evaluate(
     bar.close()
     store.consolidate()
     return pd.DataFrame([rows[pc.key] for pc in plan.cells])
+
+
+def _changed_reads(stored: dict[str, dict]) -> set[str]:
+    """Model keys of stored cells whose fit read a file outside its code identity that has
+    changed since: they are fitted again (a warning names the file)."""
+    refit: set[str] = set()
+    for row in stored.values():
+        changed = changed_reads(row) if row.get("unkeyed_reads") else []
+        if changed and str(row.get("model_key")) not in refit:
+            refit.add(str(row.get("model_key")))
+            warnings.warn(
+                f"detector {row.get('detector')!r}: {', '.join(changed)} changed since its cells "
+                "were computed (a file its fit read, not part of its code identity): refitting",
+                stacklevel=2,
+            )
+    return refit
+
+
+def _warn_reads(detector: str, fields: dict, warned: set[tuple[str, str]]) -> None:
+    """Say once per detector and file that a fit read a file no cache key holds."""
+    for path in json.loads(fields.get("unkeyed_reads") or "{}"):
+        if (detector, path) not in warned:
+            warned.add((detector, path))
+            warnings.warn(
+                f"detector {detector!r} read {path} while fitting; it is not part of its code "
+                "identity (declare it in data_files): cached cells are reused only while its "
+                "content is unchanged",
+                stacklevel=2,
+            )
 
 
 def _payload(
