@@ -14,7 +14,7 @@ import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import psutil
@@ -64,7 +64,12 @@ class TestSet:
     strata: np.ndarray | None = None
 
 
-Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields and its test scores
+class Result(NamedTuple):
+    """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`) and the
+    scores of its test windows (None for a streaming or failed cell)."""
+
+    fields: dict[str, Any]
+    scores: np.ndarray | None = None
 
 
 @dataclass
@@ -106,9 +111,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
         type(detector).name = job.name
     phase = "fit"
     try:
-        detector, cost = _trained(
-            detector, seed, sampling_rate, train_x, train_y, job.model_path, job.train_groups
-        )
+        detector, cost = _trained(job)
         phase = "test"
         if on_phase is not None:
             on_phase(phase)
@@ -123,7 +126,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
                     streamed_figures(detector, seed, test),
                 )
                 out.append(
-                    (
+                    Result(
                         {
                             "status": "ok",
                             "reason": "",
@@ -149,7 +152,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
             infer_s = time.perf_counter() - t0
             y_pred = (scores >= 0.5).astype(np.int8)
             out.append(
-                (
+                Result(
                     {
                         "status": "ok",
                         "reason": _one_class(test.y),
@@ -176,7 +179,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
     # that lost them with exit 0 (SystemExit is no Exception)
     except (Exception, SystemExit) as exc:  # noqa: BLE001
         reason = _raised(plugin_id(type(detector)), exc, phase)
-        return [({"status": "failed", "reason": reason}, None)] * len(tests)
+        return [Result({"status": "failed", "reason": reason})] * len(tests)
 
 
 def _raised(who: str, exc: BaseException, phase: str) -> str:
@@ -279,16 +282,9 @@ def _read_warnings(cost: dict[str, Any]) -> list[str]:
     ]
 
 
-def _trained(
-    detector: BaseDetector,
-    seed: int,
-    sampling_rate: float,
-    train_x: np.ndarray,
-    train_y: np.ndarray,
-    model_path: str | None,
-    train_groups: np.ndarray | None = None,
-) -> tuple[BaseDetector, dict[str, Any]]:
+def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
     """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
+    detector, model_path, train_x = job.detector, job.model_path, job.train_x
     cost_path = Path(f"{model_path}.json")  # read and written only where there is a model_path
     if model_path is not None and cost_path.is_file():
         return type(detector).load(model_path), json.loads(cost_path.read_text())
@@ -297,10 +293,10 @@ def _trained(
         t0 = time.perf_counter()
         detector.fit(
             train_x,
-            train_y,
-            sampling_rate=sampling_rate,
-            seed=seed_int(seed, "detector"),
-            groups=train_groups,
+            job.train_y,
+            sampling_rate=job.sampling_rate,
+            seed=seed_int(job.seed, "detector"),
+            groups=job.train_groups,
         )
         train_s = time.perf_counter() - t0
     cost = {

@@ -15,6 +15,7 @@ import platform
 import sys
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from slipbench.engine.fitting import Job, TestSet, changed_reads
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
 from slipbench.stats.bootstrap import DEFAULT_METHOD
+from slipbench.store.columns import checked
 from slipbench.store.keys import canonical
 from slipbench.store.results import ResultsStore
 from slipbench.stream.cell import Recordings, StreamTest
@@ -57,51 +59,57 @@ def environment() -> dict[str, str]:
     }
 
 
-def _row(
-    pc: PlannedCell,
-    fields: dict,
-    fingerprint: str,
-    path: str,
-    env: dict,
-    run_id: str,
-    origin: dict | None = None,
-) -> dict:
-    """One result row. ``origin``: the datasets a combined dataset was built from (paths,
-    fingerprints, sensor map; see :func:`slipbench.data.transfer.combine`)."""
+@dataclass(frozen=True)
+class Stamp:
+    """What every row of one run records about where it comes from: the run's id, the dataset
+    (fingerprint, path and, for a combined dataset, ``origin``: the datasets it was built from,
+    see :func:`slipbench.data.transfer.combine`) and the environment."""
+
+    run_id: str
+    fingerprint: str
+    path: str
+    origin: dict
+    env: dict
+
+
+def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
+    """One result row, through the results schema (:mod:`slipbench.store.columns`)."""
     run, cell = pc.run, pc.cell
-    return {
-        "key": pc.key,
-        "model_key": pc.model_key,
-        "run_id": run_id,
-        "protocol": run.protocol_name,
-        "protocol_params": _json(run.protocol.get_params()),
-        "detector": run.detector_name,
-        "detector_params": _json(run.detector.get_params()),
-        "split": run.split,
-        "seed": run.seed,
-        "labels": run.labels,
-        "normalize": run.normalize,
-        "input": run.input,
-        **cell.key,
-        "window": cell.window,
-        "downsample": cell.downsample,
-        "decimation": cell.decimation,
-        "antialias": cell.antialias,
-        "cell": cell.name,
-        "train_sensors": _json(cell.train.sensors),
-        "train_where": _json(cell.train.where),
-        "test_sensors": _json(cell.test.sensors),
-        "test_where": _json(cell.test.where),
-        # with the model key, what the cell is scored on (the leaderboard merges cells alike)
-        "test_stream": _json(cell.stream) if cell.stream else "",
-        **window_counts(pc),
-        **fields,
-        "dataset_fingerprint": fingerprint,
-        "dataset_path": path,
-        **(origin or {}),
-        **env,
-        "finished_at": datetime.now(timezone.utc).isoformat(),
-    }
+    return checked(
+        {
+            "key": pc.key,
+            "model_key": pc.model_key,
+            "run_id": stamp.run_id,
+            "protocol": run.protocol_name,
+            "protocol_params": _json(run.protocol.get_params()),
+            "detector": run.detector_name,
+            "detector_params": _json(run.detector.get_params()),
+            "split": run.split,
+            "seed": run.seed,
+            "labels": run.labels,
+            "normalize": run.normalize,
+            "input": run.input,
+            **cell.key,
+            "window": cell.window,
+            "downsample": cell.downsample,
+            "decimation": cell.decimation,
+            "antialias": cell.antialias,
+            "cell": cell.name,
+            "train_sensors": _json(cell.train.sensors),
+            "train_where": _json(cell.train.where),
+            "test_sensors": _json(cell.test.sensors),
+            "test_where": _json(cell.test.where),
+            # with the model key, what the cell is scored on (the leaderboard merges cells alike)
+            "test_stream": _json(cell.stream) if cell.stream else "",
+            **window_counts(pc),
+            **fields,
+            "dataset_fingerprint": stamp.fingerprint,
+            "dataset_path": stamp.path,
+            **stamp.origin,
+            **stamp.env,
+            "finished_at": datetime.now(timezone.utc).isoformat(),
+        }
+    )
 
 
 def window_counts(pc: PlannedCell) -> dict[str, int]:
@@ -169,10 +177,11 @@ def evaluate(
         for k, r in stored.items()
         if r.get("status") in ("ok", "skipped") and r.get("model_key") not in refit
     }
-    fingerprint, path, origin = dataset.fingerprint, str(dataset.path or ""), dataset.origin
+    fingerprint = dataset.fingerprint
     signals = _signals(dataset, runs)
     plan = make_plan(signals, with_cells, fingerprint, done)
-    env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
+    run_id = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
+    stamp = Stamp(run_id, fingerprint, str(dataset.path or ""), dataset.origin or {}, environment())
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
     if len(rows) < len(plan.cells):  # cells to write: an unwritable folder fails before any fit
         store.check_writable()
@@ -181,7 +190,7 @@ def evaluate(
 
     def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
         _warn_reads(pc.run.detector_name, fields, warned)
-        row = _row(pc, {**fields, **_scales(plan, pc)}, fingerprint, path, env, run_id, origin)
+        row = _row(pc, {**fields, **_scales(plan, pc)}, stamp)
         predictions = None
         if scores is not None:  # the scores of test windows (a streaming cell keeps none)
             rec, test = signals.recordings, pc.windows("test")
@@ -212,8 +221,8 @@ def evaluate(
         )
         with contextlib.closing(finished):  # stopped at once when this loop is left early
             for task, results in finished:
-                for pc, (fields, scores) in zip(task.cells, results, strict=True):
-                    record(pc, fields, scores)
+                for pc, result in zip(task.cells, results, strict=True):
+                    record(pc, result.fields, result.scores)
                 bar.update(len(task.cells))
     except BaseException:
         bar.close()
