@@ -17,8 +17,8 @@ its `cell` column names). A row holds the columns of what its cell computed: a s
 
 ## Adding a figure
 
-One entry: a `Figure(name, unit, meaning)` in `WINDOW_FIGURES` (windowed cells) or
-`STREAM_FIGURES` (streaming cells) of `slipbench/store/columns.py`. Its interval columns
+One entry: a `Figure(name, unit, meaning)` in `WINDOWED_FIGURES` (windowed cells) or
+`STREAMED_FIGURES` (streaming cells) of `slipbench/store/columns.py`. Its interval columns
 (`_lo`, `_hi`, and `_se`, `_wilson_lo/_hi`, `op_` as the entry says) follow from it; the code
 that computes the figure returns those names, and this page is regenerated.
 """

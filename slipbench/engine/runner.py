@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -34,6 +35,9 @@ from slipbench.store.columns import checked
 from slipbench.store.keys import canonical
 from slipbench.store.results import ResultsStore
 from slipbench.stream.cell import Recordings, StreamTest
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 
 def _version_of(distribution: str) -> str:
@@ -138,23 +142,27 @@ def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
     return signals
 
 
+class Options(TypedDict, total=False):
+    """How :func:`evaluate` runs its cells (every key optional; see there)."""
+
+    force: bool
+    jobs: int
+    scheduler: str | None
+    cell_timeout: float | None
+    progress: bool
+
+
 def evaluate(
-    dataset: Dataset,
-    runs: Run | list[Run],
-    store: ResultsStore,
-    *,
-    force: bool = False,
-    jobs: int = 1,
-    scheduler: str | None = None,
-    cell_timeout: float | None = None,
-    progress: bool = True,
+    dataset: Dataset, runs: Run | list[Run], store: ResultsStore, **options: Unpack[Options]
 ) -> pd.DataFrame:
     """Run every cell of every run; finished cells already in ``store`` are reused unless
     ``force``. Returns the rows of these runs, in protocol order.
 
-    Parameters
-    ----------
-    jobs : local worker processes (0: in this process, for debugging: a crash there ends the run).
+    Options
+    -------
+    force : compute every cell again (default False).
+    jobs : local worker processes, 1 by default (0: in this process, for debugging: a crash
+        there ends the run).
         Called from a script without an ``if __name__ == "__main__":`` guard, ``jobs=1`` runs
         in this process (workers would import the script again) and more jobs or a
         ``cell_timeout`` are refused with a UsageError saying to add the guard.
@@ -164,8 +172,15 @@ def evaluate(
     progress : a bar of the cells done on stderr, with the latest progress a model in flight
         reports (``lstm: epoch 12/30, loss 0.41``; :meth:`BaseDetector.report_progress`).
     """
+    unknown = sorted(set(options) - set(Options.__annotations__))
+    if unknown:  # a misspelt option must not be ignored
+        raise TypeError(f"evaluate() got unknown options: {', '.join(unknown)}")
+    force, scheduler = options.get("force", False), options.get("scheduler")
+    cell_timeout, progress = options.get("cell_timeout"), options.get("progress", True)
     runs = [runs] if isinstance(runs, Run) else runs
-    jobs = workers_for(jobs, scheduler, cell_timeout)  # before any work: a script may be refused
+    jobs = workers_for(
+        options.get("jobs", 1), scheduler, cell_timeout
+    )  # before any work: a script may be refused
     for run in runs:
         run.validate()
         check_labels(run.labels, dataset)

@@ -3,8 +3,8 @@
 Rows are checked against it where they are made (:func:`checked`) and where the store writes
 them; ``docs/results-columns.md`` is written from it (``docs/tools/results_columns.py``). A
 protocol's cell-key columns (``sensor_type``, ``window``, ...) are its own: a row may hold the
-keys its ``cell`` column names. Adding a figure is one entry in :data:`WINDOW_FIGURES` or
-:data:`STREAM_FIGURES`; its interval columns follow from the entry.
+keys its ``cell`` column names. Adding a figure is one entry in :data:`WINDOWED_FIGURES` or
+:data:`STREAMED_FIGURES`; its interval columns follow from the entry.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ STR, INT, FLOAT, BOOL = "string", "int64", "float64", "bool"
 JSON = "JSON"
 
 #: a windowed cell's figures (cluster bootstrap over test trials)
-WINDOW_FIGURES = (
+WINDOWED_FIGURES = (
     Figure("accuracy", "fraction", "share of test windows classified right", se=True, wilson=True),
     Figure(
         "tp_rate",
@@ -90,7 +90,7 @@ WINDOW_FIGURES = (
 )
 #: a streaming cell's figures (bootstrap over test trials), at the detector's threshold and at
 #: the operating point
-STREAM_FIGURES = (
+STREAMED_FIGURES = (
     Figure("detection_rate", "fraction", "share of slip onsets detected in time", operating=True),
     Figure("median_delay_ms", "ms", "median delay from onset to detection", operating=True),
     Figure("p95_delay_ms", "ms", "95th percentile of the detection delay", operating=True),
@@ -229,9 +229,9 @@ GROUPS: dict[str, tuple[Column, ...]] = {
     "What was run": IDENTITY,
     "The cell": CELL,
     "Outcome and counts": OUTCOME,
-    "Figures of a windowed cell": tuple(c for f in WINDOW_FIGURES for c in f.columns()),
+    "Figures of a windowed cell": tuple(c for f in WINDOWED_FIGURES for c in f.columns()),
     "Streaming counts and checks": STREAM,
-    "Figures of a streaming cell": tuple(c for f in STREAM_FIGURES for c in f.columns()),
+    "Figures of a streaming cell": tuple(c for f in STREAMED_FIGURES for c in f.columns()),
     "Fit": FIT,
     "Provenance": PROVENANCE,
 }
