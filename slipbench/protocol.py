@@ -37,7 +37,7 @@ __all__ = [
 SIDES = ("train", "test")
 OPERATORS = ("==", "!=")
 DECIMATIONS = ("plain", "lag")
-FIGURES = ("curve", "with-without", "matrix", "tradeoff")
+FIGURE_KINDS = ("curve", "with-without", "matrix", "tradeoff")
 STREAM_KEYS = ("hop", "max_delay_ms")
 # The key of the stand-in cell a run records for a protocol that makes no cell on a dataset
 # (:func:`no_cell`); reports and checks find such rows by it.
@@ -259,8 +259,10 @@ class Layout:
         for name in ("caption", "column", "title", "group", "x_label"):
             if not isinstance(getattr(self, name), str):
                 raise ValueError(f"Layout.{name} must be a str, got {getattr(self, name)!r}")
-        if self.figure is not None and self.figure not in FIGURES:
-            raise ValueError(f"Layout.figure must be one of {FIGURES} or None, got {self.figure!r}")
+        if self.figure is not None and self.figure not in FIGURE_KINDS:
+            raise ValueError(
+                f"Layout.figure must be one of {FIGURE_KINDS} or None, got {self.figure!r}"
+            )
         if self.figure == "with-without" and not self.pair:
             raise ValueError("a 'with-without' figure needs Layout.pair")
         split = (self.split,) if isinstance(self.split, str) else self.split

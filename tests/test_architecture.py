@@ -9,7 +9,8 @@ The wings, top to bottom (a wing may import its own wing, any wing below it, and
     engine
     stats, stream
     data, store, torch
-    contract (the top-level modules: params, base, protocol, spectra, errors, seeding, atomic)
+    contract (the modules directly in slipbench/, at most 10: base, protocol, params, spectra,
+              errors, vocabulary, seeding, atomic)
 
 The plugin API is the contract and ``torch`` (TorchDetector, a base class for detectors written
 in PyTorch): built-in plugins import nothing else of the package.

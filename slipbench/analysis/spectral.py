@@ -47,8 +47,9 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -172,18 +173,23 @@ def most_significant_band(
     return float(freqs[lo]), float(freqs[hi])
 
 
+@dataclass(frozen=True)
+class Settings:
+    """The analysis's settings: ``n_boot`` sequences per class and round, ``repeats`` rounds
+    (KS tests per frequency), ``alpha`` the KS test's level, ``level``, ``keep`` and
+    ``merge_hz`` the band definitions (see the module docstring), ``seed`` for every draw."""
+
+    n_boot: int = 100
+    repeats: int = 200
+    alpha: float = 0.05
+    level: float = 0.95
+    keep: float = 0.8
+    merge_hz: float = 5.0
+    seed: int = 0
+
+
 def analyze_pools(
-    nonslip: np.ndarray,
-    slip: np.ndarray,
-    sampling_rate: float,
-    *,
-    n_boot: int = 100,
-    repeats: int = 200,
-    alpha: float = 0.05,
-    level: float = 0.95,
-    keep: float = 0.8,
-    merge_hz: float = 5.0,
-    seed: int = 0,
+    nonslip: np.ndarray, slip: np.ndarray, sampling_rate: float, **settings: Any
 ) -> SpectralResult:
     """The bootstrap spectral analysis of two pools of windows.
 
@@ -192,12 +198,9 @@ def analyze_pools(
     nonslip : (n_nonslip, segment) windows of the non-slip class.
     slip : (n_slip, segment) windows of the slip class (same ``segment``).
     sampling_rate : Hz; a sequence holds ``round(sampling_rate)`` samples (1 Hz bins).
-    n_boot : sequences per class and round.
-    repeats : rounds (KS tests per frequency).
-    alpha : the KS test's level.
-    level, keep, merge_hz : band definitions (see the module docstring).
-    seed : seeds every draw.
+    settings : those of :class:`Settings` (an unknown name is a TypeError).
     """
+    n_boot, repeats, alpha, level, keep, merge_hz, seed = astuple(Settings(**settings))
     _check(n_boot >= 2, f"n_boot must be an int >= 2, got {n_boot}")
     _check(repeats >= 1, f"repeats must be an int >= 1, got {repeats}")
     for name, value in (("alpha", alpha), ("level", level), ("keep", keep)):
@@ -282,14 +285,13 @@ def analyze_pools(
 
 def pools(
     dataset: Dataset,
-    sensor: str,
-    instance: str | None,
+    unit: tuple[str, str | None],
     segment: int | None,
     seed: int,
     split: str | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Balanced non-slip and slip windows of one sensor type (all its instances, each balanced
-    on its own) or of one instance.
+    on its own) or of one instance: ``unit`` is (sensor type, instance or None).
 
     With ``split`` ("paper" or "grouped"), only the training side of a run with that split and
     ``seed``: the balanced, split windows of ``segment`` samples that
@@ -302,6 +304,7 @@ def pools(
     slip : (n_slip, segment) float32.
     sampling_rate : Hz.
     """
+    sensor, instance = unit
     recs = dataset.recordings
     types = list(dict.fromkeys(recs["sensor_type"]))
     if sensor not in types:
@@ -329,7 +332,7 @@ def pools(
     )
     chosen = instances if instance is None else [instance]
     if split is not None:
-        return (*_training_side(dataset, sensor, chosen, int(segment), split, seed), rate)
+        return (*_training_side(dataset, sensor, chosen, int(segment), (split, seed)), rate)
 
     ids = set(recs["recording_id"])
     sig = Signals.from_dataset(
@@ -352,11 +355,13 @@ def pools(
 
 
 def _training_side(
-    dataset: Dataset, sensor: str, instances: list[str], window: int, split: str, seed: int
+    dataset: Dataset, sensor: str, instances: list[str], window: int, run: tuple[str, int]
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Non-slip and slip windows, (n, window) float32, of the training side of each instance:
+    """Non-slip and slip windows, (n, window) float32, of the training side of each instance
+    in a run of ``run`` (split, seed):
     the runner's own CellData, on the whole dataset as the runner builds it, so that the
     balancing and the split are the runner's whatever they depend on."""
+    split, seed = run
     from slipbench.engine.plan import (
         CellData,  # the planner pulls in the registry; only this path needs it
     )
@@ -406,14 +411,8 @@ def analyze(
     instance: str | None = None,
     *,
     segment: int | None = None,
-    n_boot: int = 100,
-    repeats: int = 200,
-    alpha: float = 0.05,
-    level: float = 0.95,
-    keep: float = 0.8,
-    merge_hz: float = 5.0,
-    seed: int = 0,
     split: str | None = None,
+    **settings: Any,
 ) -> SpectralResult:
     """The spectral analysis of one sensor type, or one of its instances, in ``dataset``.
 
@@ -423,19 +422,9 @@ def analyze(
     split and ``seed``, at window ``segment`` (see :func:`pools`). Other parameters as
     :func:`analyze_pools`.
     """
-    nonslip, slip, rate = pools(dataset, sensor, instance, segment, seed, split)
-    result = analyze_pools(
-        nonslip,
-        slip,
-        rate,
-        n_boot=n_boot,
-        repeats=repeats,
-        alpha=alpha,
-        level=level,
-        keep=keep,
-        merge_hz=merge_hz,
-        seed=seed,
-    )
+    seed = Settings(**settings).seed
+    nonslip, slip, rate = pools(dataset, (sensor, instance), segment, seed, split)
+    result = analyze_pools(nonslip, slip, rate, **settings)
     result.params = dict(
         sensor_type=sensor,
         sensor_instance=instance or "all",

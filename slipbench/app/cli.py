@@ -87,7 +87,7 @@ def _signals_interrupt() -> Iterator[None]:
             signal.signal(signum, handler)
 
 
-def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+def _one_line_warning(message, *_where: object, **_line: object) -> None:
     """A warning as one line for the human (``warning: ...``), without the source line."""
     click.echo(f"warning: {message}", err=True)
 

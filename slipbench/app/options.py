@@ -17,8 +17,8 @@ from slipbench.errors import UsageError
 
 MAX_SCALE = 10.0  # 80 M samples per unit: beyond this machine's memory for any protocol
 SEED = click.IntRange(0, 2**32 - 1)  # what numpy's SeedSequence and every seeded library accept
-SPLITS = ["paper", "grouped"]
-LABELS = ["scenario", "majority", "any", "last"]
+SPLIT_CHOICES = ["paper", "grouped"]
+LABELLING_CHOICES = ["scenario", "majority", "any", "last"]
 
 
 class Scale(click.ParamType):
@@ -115,13 +115,17 @@ def dataset_option(help: str):
 
 def split_option(help: str | None = None, default: str | None = "paper"):
     return click.option(
-        "--split", type=click.Choice(SPLITS), default=default, help=help, **_shown(default)
+        "--split", type=click.Choice(SPLIT_CHOICES), default=default, help=help, **_shown(default)
     )
 
 
 def labels_option(help: str | None = None):
     return click.option(
-        "--labels", type=click.Choice(LABELS), default="scenario", show_default=True, help=help
+        "--labels",
+        type=click.Choice(LABELLING_CHOICES),
+        default="scenario",
+        show_default=True,
+        help=help,
     )
 
 

@@ -28,6 +28,33 @@ from slipbench.data.schema import (
 
 def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame:
     """Validate a recordings table and bring it to the canonical form (see :class:`~slipbench.data.format.Dataset`)."""
+    cols = _present_columns(frame, where)
+    ids = cols["recording_id"]
+    _check_strings(cols, where)
+    _check_ids_and_scenarios(cols, where)
+    rate, speed = _rate_and_speed(cols, where)
+    n_ch = _channel_lists(cols, where)
+    cols["trial"] = [rid if t is None else t for rid, t in zip(ids, cols["trial"])]
+    univariate = UNIVARIATE_CHANNELS.name
+    cols[univariate] = _univariate_channels(
+        list(frame[univariate]) if univariate in frame.columns else [None] * len(ids),
+        ids,
+        cols["channels"],
+        where,
+    )
+    out = pd.DataFrame({**cols, "speed_mm_s": speed, "sampling_rate_hz": rate})
+    out["n_channels"] = n_ch
+    for name in frame.columns:  # a caller's own columns ride along (the format ignores them)
+        if name not in out.columns and name not in DERIVED_COLUMNS:
+            out[name] = frame[name].to_numpy()
+    out = out.iloc[np.argsort(np.array(ids, dtype=object), kind="stable")].reset_index(drop=True)
+    out["unit_rate_hz"] = _unit_rates(out, where)
+    return out
+
+
+def _present_columns(frame: pd.DataFrame, where: str | Path) -> dict[str, list]:
+    """The format's columns as lists, None where a value is missing; refuses a missing required
+    column, an empty table and a null where the format allows none."""
     missing = [c for c in FORMAT_COLUMNS if c not in frame.columns and c not in OPTIONAL]
     if missing:
         raise data_error(
@@ -51,6 +78,11 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
                 raise data_error(
                     where, "null value", None if name == "recording_id" else ids[i], name
                 )
+    return cols
+
+
+def _check_strings(cols: dict[str, list], where: str | Path) -> None:
+    ids = cols["recording_id"]
     for name in STRING_COLUMNS:
         for i, v in enumerate(cols[name]):
             if v is not None and not isinstance(v, str):
@@ -61,6 +93,10 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
                 raise data_error(
                     where, "empty string", None if name == "recording_id" else ids[i], name
                 )
+
+
+def _check_ids_and_scenarios(cols: dict[str, list], where: str | Path) -> None:
+    ids = cols["recording_id"]
     seen: set[str] = set()
     for rid in ids:
         if rid in seen:
@@ -74,6 +110,10 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
                 rid,
                 "scenario",
             )
+
+
+def _rate_and_speed(cols: dict[str, list], where: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    ids = cols["recording_id"]
     rate = _floats(cols["sampling_rate_hz"], ids, where, "sampling_rate_hz")
     bad = ~(np.isfinite(rate) & (rate > 0))
     if bad.any():
@@ -94,6 +134,12 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
             ids[i],
             "speed_mm_s",
         )
+    return rate, speed
+
+
+def _channel_lists(cols: dict[str, list], where: str | Path) -> np.ndarray:
+    """Channels and units as lists of strings, one unit per channel; the channel counts."""
+    ids = cols["recording_id"]
     for name in ("channels", "units"):
         cols[name] = [_strings(v, rid, where, name) for rid, v in zip(ids, cols[name])]
     n_ch = np.array([len(c) for c in cols["channels"]], dtype=np.int64)
@@ -107,22 +153,7 @@ def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame
                 rid,
                 "units",
             )
-    cols["trial"] = [rid if t is None else t for rid, t in zip(ids, cols["trial"])]
-    univariate = UNIVARIATE_CHANNELS.name
-    cols[univariate] = _univariate_channels(
-        list(frame[univariate]) if univariate in frame.columns else [None] * n,
-        ids,
-        cols["channels"],
-        where,
-    )
-    out = pd.DataFrame({**cols, "speed_mm_s": speed, "sampling_rate_hz": rate})
-    out["n_channels"] = n_ch
-    for name in frame.columns:  # a caller's own columns ride along (the format ignores them)
-        if name not in out.columns and name not in DERIVED_COLUMNS:
-            out[name] = frame[name].to_numpy()
-    out = out.iloc[np.argsort(np.array(ids, dtype=object), kind="stable")].reset_index(drop=True)
-    out["unit_rate_hz"] = _unit_rates(out, where)
-    return out
+    return n_ch
 
 
 def is_null(v: Any) -> bool:

@@ -15,7 +15,7 @@ from slipbench.errors import DataError, EnvironmentFault, environment_fault
 
 DEFAULT_SCALE = 0.05
 #: what to do when the cache cannot be written: the newcomer's first command simulates into it
-CACHE_HINT = (
+DEFAULT_DATASET_HINT = (
     "the simulated default dataset is cached there: set SLIPBENCH_CACHE (or, on Linux, "
     "XDG_CACHE_HOME) to a writable folder, or pass a dataset folder with --dataset"
 )
@@ -40,8 +40,10 @@ def default_dataset(
             if not path.is_dir():  # lost a race with another process: theirs is as good
                 raise
         except EnvironmentFault as exc:
-            raise EnvironmentFault(exc.path, exc.cause, exc.action, CACHE_HINT) from None
+            raise EnvironmentFault(exc.path, exc.cause, exc.action, DEFAULT_DATASET_HINT) from None
         except OSError as exc:  # raised before a file was opened, e.g. making the folder
             fault = environment_fault(exc, path)  # anything else is re-raised as it is
-            raise EnvironmentFault(fault.path, fault.cause, fault.action, CACHE_HINT) from None
+            raise EnvironmentFault(
+                fault.path, fault.cause, fault.action, DEFAULT_DATASET_HINT
+            ) from None
     return read_dataset(path)

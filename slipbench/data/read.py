@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -274,6 +276,28 @@ def _labels_of(
     return pc.fill_null(ints, -1).to_numpy().astype(np.int8)
 
 
+@dataclass
+class _Placement:
+    """Where the samples of ``file`` go: each recording's id (``ids``, ``index``), channel count,
+    rows (``counts``), first row and first element in ``flat``, which receives the values."""
+
+    file: Path
+    ids: np.ndarray
+    index: pd.Index
+    n_ch: np.ndarray
+    counts: np.ndarray
+    flat: np.ndarray
+    is_int: bool
+
+    @cached_property
+    def row_start(self) -> np.ndarray:
+        return np.r_[0, np.cumsum(self.counts)]
+
+    @cached_property
+    def elem_start(self) -> np.ndarray:
+        return np.r_[0, np.cumsum(self.counts * self.n_ch)]
+
+
 def _read_samples(
     file: Path, rec: pd.DataFrame, declared: Mapping[str, int]
 ) -> tuple[dict, dict, Mapping[bytes, bytes]]:
@@ -282,6 +306,58 @@ def _read_samples(
     recordings.parquet gives."""
     pf = _open_parquet(file)
     schema = pf.schema_arrow
+    has_slip = _check_sample_types(schema, file)
+    value_type = schema.field("values").type.value_type
+    dtype = np.float32 if value_type in (pa.float16(), pa.float32()) else np.float64
+    ids = rec["recording_id"].to_numpy(dtype=object)
+    index = pd.Index(ids)
+    n_ch = rec["n_channels"].to_numpy()
+    counts = _rows_per_recording(pf, file, ids, index, declared)
+    place = _Placement(
+        file, ids, index, n_ch, counts, np.empty(0, dtype), pa.types.is_integer(value_type)
+    )
+    row_start, elem_start = place.row_start, place.elem_start
+    place.flat = np.empty(int(elem_start[-1]), dtype)
+
+    # each row group's rows go where their recording and sample_index say
+    n_rows = pf.metadata.num_rows
+    filled = np.zeros(n_rows, bool)
+    labels = np.full(n_rows, -1, np.int8) if has_slip else None
+    for row0, table in _row_groups(
+        pf, ["recording_id", "sample_index", "values"] + (["slip"] if has_slip else [])
+    ):
+        if table.num_rows == 0:
+            continue
+        table = table.combine_chunks()
+        codes = _codes(table.column("recording_id").chunk(0), index, file, row0)
+        si = _sample_indices(table.column("sample_index").chunk(0), place, codes, row0)
+        dest = row_start[codes] + si
+        again = filled[dest] | _repeated(dest)
+        if again.any():
+            i = int(np.argmax(again))
+            raise data_error(
+                file,
+                f"sample_index {int(si[i])} appears more than once",
+                ids[codes[i]],
+                "sample_index",
+            )
+        filled[dest] = True
+        _place_values(table.column("values").chunk(0), place, codes, si, row0)
+        if labels is not None:  # the file has a slip column
+            labels[dest] = _labels_of(table.column("slip").chunk(0), file, ids, codes, si)
+
+    samples: dict[str, np.ndarray] = {}
+    slip: dict[str, np.ndarray] = {}
+    for k, rid in enumerate(ids):
+        block = place.flat[elem_start[k] : elem_start[k + 1]]
+        samples[rid] = block.reshape(int(counts[k]), int(n_ch[k]))
+        if labels is not None:
+            slip[rid] = labels[row_start[k] : row_start[k + 1]]
+    return samples, slip, schema.metadata or {}
+
+
+def _check_sample_types(schema: pa.Schema, file: Path) -> bool:
+    """Refuse columns of the wrong type; whether the file has a ``slip`` column."""
     _check_type(schema, file, "recording_id", _is_string, "a string")
     _check_type(schema, file, "sample_index", pa.types.is_integer, "an integer")
     _check_type(
@@ -300,16 +376,14 @@ def _read_samples(
             lambda t: pa.types.is_boolean(t) or pa.types.is_integer(t) or pa.types.is_null(t),
             "bool (null for unlabelled)",
         )
-    value_type = schema.field("values").type.value_type
-    is_int = pa.types.is_integer(value_type)
-    dtype = np.float32 if value_type in (pa.float16(), pa.float32()) else np.float64
-    ids = rec["recording_id"].to_numpy(dtype=object)
-    index = pd.Index(ids)
-    n_ch = rec["n_channels"].to_numpy()
+    return has_slip
 
-    # 1. rows per recording
-    n_rows = pf.metadata.num_rows
-    if n_rows == 0:
+
+def _rows_per_recording(
+    pf, file: Path, ids: np.ndarray, index: pd.Index, declared: Mapping[str, int]
+) -> np.ndarray:
+    """Rows of each recording, checked against what recordings.parquet declares."""
+    if pf.metadata.num_rows == 0:
         raise data_error(file, "no samples")
     counts = np.zeros(len(ids), np.int64)
     for row0, table in _row_groups(pf, ["recording_id"]):
@@ -333,68 +407,29 @@ def _read_samples(
         raise data_error(
             file, "a recording needs at least 2 samples", ids[np.argmax(counts < 2)], "sample_index"
         )
-    row_start = np.r_[0, np.cumsum(counts)]
-    elem_start = np.r_[0, np.cumsum(counts * n_ch)]
+    return counts
 
-    # 2. each row group's rows go where their recording and sample_index say
-    flat = np.empty(int(elem_start[-1]), dtype)
-    filled = np.zeros(n_rows, bool)
-    labels = np.full(n_rows, -1, np.int8) if has_slip else None
-    for row0, table in _row_groups(
-        pf, ["recording_id", "sample_index", "values"] + (["slip"] if has_slip else [])
-    ):
-        if table.num_rows == 0:
-            continue
-        table = table.combine_chunks()
-        codes = _codes(table.column("recording_id").chunk(0), index, file, row0)
-        si_arr = table.column("sample_index").chunk(0)
-        if si_arr.null_count:
-            i = _first_null(si_arr)
-            raise data_error(file, f"null value at row {row0 + i}", ids[codes[i]], "sample_index")
-        si = si_arr.to_numpy().astype(np.int64)
-        bad = (si < 0) | (si >= counts[codes])
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise data_error(
-                file,
-                f"sample_index {int(si[i])} (row {row0 + i}) is out of range: the recording has {int(counts[codes[i]])} "
-                f"rows, so its indices must be 0 to {int(counts[codes[i]]) - 1}, each once",
-                ids[codes[i]],
-                "sample_index",
-            )
-        dest = row_start[codes] + si
-        again = filled[dest] | _repeated(dest)
-        if again.any():
-            i = int(np.argmax(again))
-            raise data_error(
-                file,
-                f"sample_index {int(si[i])} appears more than once",
-                ids[codes[i]],
-                "sample_index",
-            )
-        filled[dest] = True
-        _place_values(
-            table.column("values").chunk(0),
+
+def _sample_indices(
+    si_arr: pa.Array, place: _Placement, codes: np.ndarray, row0: int
+) -> np.ndarray:
+    """A chunk's sample indices, refused where null or outside their recording's rows."""
+    file, ids, counts = place.file, place.ids, place.counts
+    if si_arr.null_count:
+        i = _first_null(si_arr)
+        raise data_error(file, f"null value at row {row0 + i}", ids[codes[i]], "sample_index")
+    si = si_arr.to_numpy().astype(np.int64)
+    bad = (si < 0) | (si >= counts[codes])
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise data_error(
             file,
-            ids,
-            codes,
-            si,
-            n_ch,
-            elem_start,
-            flat,
-            is_int,
-            row0,
+            f"sample_index {int(si[i])} (row {row0 + i}) is out of range: the recording has {int(counts[codes[i]])} "
+            f"rows, so its indices must be 0 to {int(counts[codes[i]]) - 1}, each once",
+            ids[codes[i]],
+            "sample_index",
         )
-        if labels is not None:  # the file has a slip column
-            labels[dest] = _labels_of(table.column("slip").chunk(0), file, ids, codes, si)
-
-    samples: dict[str, np.ndarray] = {}
-    slip: dict[str, np.ndarray] = {}
-    for k, rid in enumerate(ids):
-        samples[rid] = flat[elem_start[k] : elem_start[k + 1]].reshape(int(counts[k]), int(n_ch[k]))
-        if labels is not None:
-            slip[rid] = labels[row_start[k] : row_start[k + 1]]
-    return samples, slip, schema.metadata or {}
+    return si
 
 
 def _repeated(x: np.ndarray) -> np.ndarray:
@@ -411,9 +446,11 @@ def _repeated(x: np.ndarray) -> np.ndarray:
 
 
 def _place_values(
-    chunk: pa.Array, file: Path, ids, codes, si, n_ch, elem_start, flat, is_int: bool, row0: int
+    chunk: pa.Array, place: _Placement, codes: np.ndarray, si: np.ndarray, row0: int
 ) -> None:
     """Check one chunk of ``values`` (widths, nulls, finite, exact) and copy it into ``flat``."""
+    file, ids, n_ch, flat, is_int = place.file, place.ids, place.n_ch, place.flat, place.is_int
+    elem_start = place.elem_start
     if chunk.null_count:
         i = _first_null(chunk)
         raise data_error(

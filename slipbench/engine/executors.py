@@ -56,7 +56,7 @@ def serial(tasks: list[T], payload: Payload, on_report: Report | None) -> Finish
 
 
 def _failed(n: int, status: str, reason: str) -> list[Result]:
-    return [({"status": status, "reason": reason}, None)] * n
+    return [Result({"status": status, "reason": reason})] * n
 
 
 def _exited(code: int, phase: str) -> str:

@@ -14,7 +14,7 @@ import traceback
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import psutil
@@ -23,6 +23,8 @@ from slipbench.base import BaseDetector, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
+from slipbench.store.keys import file_digest, unkeyed
+from slipbench.store.reads import reading
 from slipbench.store.results import write_text_atomic
 from slipbench.stream.cell import StreamTest, streamed_figures
 
@@ -62,7 +64,12 @@ class TestSet:
     strata: np.ndarray | None = None
 
 
-Result = tuple[dict[str, Any], "np.ndarray | None"]  # a cell's result fields and its test scores
+class Result(NamedTuple):
+    """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`) and the
+    scores of its test windows (None for a streaming or failed cell)."""
+
+    fields: dict[str, Any]
+    scores: np.ndarray | None = None
 
 
 @dataclass
@@ -104,14 +111,13 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
         type(detector).name = job.name
     phase = "fit"
     try:
-        detector, cost = _trained(
-            detector, seed, sampling_rate, train_x, train_y, job.model_path, job.train_groups
-        )
+        detector, cost = _trained(job)
         phase = "test"
         if on_phase is not None:
             on_phase(phase)
         learned, warning = _learned(detector, train_y, detector.predict_proba(train_x))
-        choices = _choices(detector, sampling_rate, [warning] if warning else [])
+        notes = [warning] if warning else []
+        choices = _choices(detector, sampling_rate, notes + _read_warnings(cost))
         out: list[Result] = []
         for test in tests:
             if isinstance(test, StreamTest):
@@ -120,7 +126,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
                     streamed_figures(detector, seed, test),
                 )
                 out.append(
-                    (
+                    Result(
                         {
                             "status": "ok",
                             "reason": "",
@@ -146,7 +152,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
             infer_s = time.perf_counter() - t0
             y_pred = (scores >= 0.5).astype(np.int8)
             out.append(
-                (
+                Result(
                     {
                         "status": "ok",
                         "reason": _one_class(test.y),
@@ -173,7 +179,7 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
     # that lost them with exit 0 (SystemExit is no Exception)
     except (Exception, SystemExit) as exc:  # noqa: BLE001
         reason = _raised(plugin_id(type(detector)), exc, phase)
-        return [({"status": "failed", "reason": reason}, None)] * len(tests)
+        return [Result({"status": "failed", "reason": reason})] * len(tests)
 
 
 def _raised(who: str, exc: BaseException, phase: str) -> str:
@@ -284,28 +290,46 @@ def _choices(
     return out
 
 
-def _trained(
-    detector: BaseDetector,
-    seed: int,
-    sampling_rate: float,
-    train_x: np.ndarray,
-    train_y: np.ndarray,
-    model_path: str | None,
-    train_groups: np.ndarray | None = None,
-) -> tuple[BaseDetector, dict[str, Any]]:
+def unkeyed_reads(cls: type, opened: set[str]) -> dict[str, str]:
+    """``{"unkeyed_reads": JSON {path: digest}}`` of the files a fit read that its code identity
+    does not hash (none: no field, so rows of plugins that read nothing keep their columns).
+    The key had to exist before the fit, so a later run compares the digests instead
+    (:func:`changed_reads`) and refits where one differs."""
+    paths = unkeyed(cls, opened)
+    if not paths:
+        return {}
+    return {"unkeyed_reads": json.dumps({str(p): file_digest(p) for p in paths}, sort_keys=True)}
+
+
+def changed_reads(row: dict[str, Any]) -> list[str]:
+    """The files of a stored row's ``unkeyed_reads`` whose content is no longer what it was."""
+    recorded = json.loads(row.get("unkeyed_reads") or "{}")
+    return [path for path, digest in recorded.items() if file_digest(Path(path)) != digest]
+
+
+def _read_warnings(cost: dict[str, Any]) -> list[str]:
+    return [
+        f"the fit read {path}, which is not part of the detector's code identity (declare it "
+        "in data_files): its content is checked when the cell is reused"
+        for path in json.loads(cost.get("unkeyed_reads") or "{}")
+    ]
+
+
+def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
     """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
+    detector, model_path, train_x = job.detector, job.model_path, job.train_x
     cost_path = Path(f"{model_path}.json")  # read and written only where there is a model_path
     if model_path is not None and cost_path.is_file():
         return type(detector).load(model_path), json.loads(cost_path.read_text())
     detector = clone(detector)
-    with PeakMemory() as mem:
+    with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()
         detector.fit(
             train_x,
-            train_y,
-            sampling_rate=sampling_rate,
-            seed=seed_int(seed, "detector"),
-            groups=train_groups,
+            job.train_y,
+            sampling_rate=job.sampling_rate,
+            seed=seed_int(job.seed, "detector"),
+            groups=job.train_groups,
         )
         train_s = time.perf_counter() - t0
     cost = {
@@ -313,6 +337,7 @@ def _trained(
         # per sample of time: a window of channels is as many samples as one of the signal
         "train_us_per_sample": train_s / (train_x.shape[0] * train_x.shape[1]) * 1e6,
         "peak_mem_mb": mem.mb,
+        **unkeyed_reads(type(detector), opened),
     }
     if model_path is not None:
         try:

@@ -15,6 +15,7 @@ import hashlib
 import importlib.util
 import inspect
 import sys
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
@@ -25,7 +26,8 @@ from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
 from slipbench.params import param_defaults
 from slipbench.protocol import BaseProtocol, Layout
-from slipbench.store.keys import missing_data_files
+from slipbench.store.keys import missing_data_files, note_import
+from slipbench.store.reads import reading
 
 
 @dataclass(frozen=True)
@@ -65,6 +67,20 @@ def import_plugin_file(path: str | Path) -> object:
         raise
     PLUGIN_FILES[module_name] = str(path)
     return module
+
+
+def _note_reads(cls: type, opened: set[str], who: str) -> None:
+    """Files read while importing a plugin: those under its folder join its code identity;
+    any other (not slipbench's or a library's) is named in a warning, since no key sees it.
+    Built-ins belong to slipbench, whose identity is its code alone."""
+    if cls.__module__.split(".")[0] == "slipbench":
+        return
+    for path in note_import(cls.__module__, opened):
+        warnings.warn(
+            f"{who} read {path} while importing; it is outside the plugin's folder and not "
+            "part of its code identity: cached cells do not see a change to it",
+            stacklevel=2,
+        )
 
 
 @dataclass(frozen=True)
@@ -143,7 +159,8 @@ class Registry(Generic[Plugin]):
             raise UsageError(f"unknown {self.kind} {name!r}; available: {', '.join(self.names())}")
         source = self._sources[name]
         try:
-            obj = source.load()
+            with reading() as opened:
+                obj = source.load()
         except Exception as exc:  # a broken plugin must not take the others down
             raise PluginError(
                 f"{self.kind} {name!r} ({source.origin}) failed to import: {type(exc).__name__}: {exc}"
@@ -160,6 +177,7 @@ class Registry(Generic[Plugin]):
                 f"it is registered under: drop the attribute or register it as {declared!r}"
             )
         self._check_class(cls, name, source)
+        _note_reads(cls, opened, f"{self.kind} {name!r} ({source.origin})")
         cls.name = (
             name  # the one source of the id, set on the class itself: a subclass gets its own
         )

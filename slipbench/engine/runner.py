@@ -13,9 +13,12 @@ import importlib.metadata
 import json
 import platform
 import sys
+import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -24,13 +27,17 @@ from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, TestSet
+from slipbench.engine.fitting import Job, TestSet, changed_reads
 from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
 from slipbench.errors import EnvironmentFault
 from slipbench.stats.bootstrap import DEFAULT_METHOD
+from slipbench.store.columns import checked
 from slipbench.store.keys import canonical
 from slipbench.store.results import ResultsStore
 from slipbench.stream.cell import Recordings, StreamTest
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 
 def _version_of(distribution: str) -> str:
@@ -56,51 +63,57 @@ def environment() -> dict[str, str]:
     }
 
 
-def _row(
-    pc: PlannedCell,
-    fields: dict,
-    fingerprint: str,
-    path: str,
-    env: dict,
-    run_id: str,
-    origin: dict | None = None,
-) -> dict:
-    """One result row. ``origin``: the datasets a combined dataset was built from (paths,
-    fingerprints, sensor map; see :func:`slipbench.data.transfer.combine`)."""
+@dataclass(frozen=True)
+class Stamp:
+    """What every row of one run records about where it comes from: the run's id, the dataset
+    (fingerprint, path and, for a combined dataset, ``origin``: the datasets it was built from,
+    see :func:`slipbench.data.transfer.combine`) and the environment."""
+
+    run_id: str
+    fingerprint: str
+    path: str
+    origin: dict
+    env: dict
+
+
+def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
+    """One result row, through the results schema (:mod:`slipbench.store.columns`)."""
     run, cell = pc.run, pc.cell
-    return {
-        "key": pc.key,
-        "model_key": pc.model_key,
-        "run_id": run_id,
-        "protocol": run.protocol_name,
-        "protocol_params": _json(run.protocol.get_params()),
-        "detector": run.detector_name,
-        "detector_params": _json(run.detector.get_params()),
-        "split": run.split,
-        "seed": run.seed,
-        "labels": run.labels,
-        "normalize": run.normalize,
-        "input": run.input,
-        **cell.key,
-        "window": cell.window,
-        "downsample": cell.downsample,
-        "decimation": cell.decimation,
-        "antialias": cell.antialias,
-        "cell": cell.name,
-        "train_sensors": _json(cell.train.sensors),
-        "train_where": _json(cell.train.where),
-        "test_sensors": _json(cell.test.sensors),
-        "test_where": _json(cell.test.where),
-        # with the model key, what the cell is scored on (the leaderboard merges cells alike)
-        "test_stream": _json(cell.stream) if cell.stream else "",
-        **window_counts(pc),
-        **fields,
-        "dataset_fingerprint": fingerprint,
-        "dataset_path": path,
-        **(origin or {}),
-        **env,
-        "finished_at": datetime.now(timezone.utc).isoformat(),
-    }
+    return checked(
+        {
+            "key": pc.key,
+            "model_key": pc.model_key,
+            "run_id": stamp.run_id,
+            "protocol": run.protocol_name,
+            "protocol_params": _json(run.protocol.get_params()),
+            "detector": run.detector_name,
+            "detector_params": _json(run.detector.get_params()),
+            "split": run.split,
+            "seed": run.seed,
+            "labels": run.labels,
+            "normalize": run.normalize,
+            "input": run.input,
+            **cell.key,
+            "window": cell.window,
+            "downsample": cell.downsample,
+            "decimation": cell.decimation,
+            "antialias": cell.antialias,
+            "cell": cell.name,
+            "train_sensors": _json(cell.train.sensors),
+            "train_where": _json(cell.train.where),
+            "test_sensors": _json(cell.test.sensors),
+            "test_where": _json(cell.test.where),
+            # with the model key, what the cell is scored on (the leaderboard merges cells alike)
+            "test_stream": _json(cell.stream) if cell.stream else "",
+            **window_counts(pc),
+            **fields,
+            "dataset_fingerprint": stamp.fingerprint,
+            "dataset_path": stamp.path,
+            **stamp.origin,
+            **stamp.env,
+            "finished_at": datetime.now(timezone.utc).isoformat(),
+        }
+    )
 
 
 def window_counts(pc: PlannedCell) -> dict[str, int]:
@@ -129,23 +142,27 @@ def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
     return signals
 
 
+class Options(TypedDict, total=False):
+    """How :func:`evaluate` runs its cells (every key optional; see there)."""
+
+    force: bool
+    jobs: int
+    scheduler: str | None
+    cell_timeout: float | None
+    progress: bool
+
+
 def evaluate(
-    dataset: Dataset,
-    runs: Run | list[Run],
-    store: ResultsStore,
-    *,
-    force: bool = False,
-    jobs: int = 1,
-    scheduler: str | None = None,
-    cell_timeout: float | None = None,
-    progress: bool = True,
+    dataset: Dataset, runs: Run | list[Run], store: ResultsStore, **options: Unpack[Options]
 ) -> pd.DataFrame:
     """Run every cell of every run; finished cells already in ``store`` are reused unless
     ``force``. Returns the rows of these runs, in protocol order.
 
-    Parameters
-    ----------
-    jobs : local worker processes (0: in this process, for debugging: a crash there ends the run).
+    Options
+    -------
+    force : compute every cell again (default False).
+    jobs : local worker processes, 1 by default (0: in this process, for debugging: a crash
+        there ends the run).
         Called from a script without an ``if __name__ == "__main__":`` guard, ``jobs=1`` runs
         in this process (workers would import the script again) and more jobs or a
         ``cell_timeout`` are refused with a UsageError saying to add the guard.
@@ -155,24 +172,40 @@ def evaluate(
     progress : a bar of the cells done on stderr, with the latest progress a model in flight
         reports (``lstm: epoch 12/30, loss 0.41``; :meth:`BaseDetector.report_progress`).
     """
+    unknown = sorted(set(options) - set(Options.__annotations__))
+    if unknown:  # a misspelt option must not be ignored
+        raise TypeError(f"evaluate() got unknown options: {', '.join(unknown)}")
+    force, scheduler = options.get("force", False), options.get("scheduler")
+    cell_timeout, progress = options.get("cell_timeout"), options.get("progress", True)
     runs = [runs] if isinstance(runs, Run) else runs
-    jobs = workers_for(jobs, scheduler, cell_timeout)  # before any work: a script may be refused
+    jobs = workers_for(
+        options.get("jobs", 1), scheduler, cell_timeout
+    )  # before any work: a script may be refused
     for run in runs:
         run.validate()
         check_labels(run.labels, dataset)
     with_cells = [(run, run.cells_or_stand_in(dataset.recordings)) for run in runs]
     stored = {} if force else store.finished()
-    done = {k for k, r in stored.items() if r.get("status") in ("ok", "skipped")}
-    fingerprint, path, origin = dataset.fingerprint, str(dataset.path or ""), dataset.origin
+    refit = _changed_reads(stored)  # model keys whose fits read a file that has changed since
+    done = {
+        k
+        for k, r in stored.items()
+        if r.get("status") in ("ok", "skipped") and r.get("model_key") not in refit
+    }
+    fingerprint = dataset.fingerprint
     signals = _signals(dataset, runs)
     plan = make_plan(signals, with_cells, fingerprint, done)
-    env, run_id = environment(), datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
+    run_id = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
+    stamp = Stamp(run_id, fingerprint, str(dataset.path or ""), dataset.origin or {}, environment())
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
     if len(rows) < len(plan.cells):  # cells to write: an unwritable folder fails before any fit
         store.check_writable()
 
+    warned: set[tuple[str, str]] = set()
+
     def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
-        row = _row(pc, {**fields, **_scales(plan, pc)}, fingerprint, path, env, run_id, origin)
+        _warn_reads(pc.run.detector_name, fields, warned)
+        row = _row(pc, {**fields, **_scales(plan, pc)}, stamp)
         predictions = None
         if scores is not None:  # the scores of test windows (a streaming cell keeps none)
             rec, test = signals.recordings, pc.windows("test")
@@ -195,14 +228,16 @@ def evaluate(
     cached = len(rows)
     bar = _progress(len(plan.cells), cached, progress, _describe(runs))
     try:
-        payload = lambda task: _payload(plan, task, store, force, scheduler)  # noqa: E731
+        payload = lambda task: _payload(  # noqa: E731
+            plan, task, store, force or task.model_key in refit, scheduler
+        )
         finished = Executor(jobs, scheduler, cell_timeout).run(
             plan.tasks, payload, _shown(bar, cached) if progress else None
         )
         with contextlib.closing(finished):  # stopped at once when this loop is left early
             for task, results in finished:
-                for pc, (fields, scores) in zip(task.cells, results, strict=True):
-                    record(pc, fields, scores)
+                for pc, result in zip(task.cells, results, strict=True):
+                    record(pc, result.fields, result.scores)
                 bar.update(len(task.cells))
     except BaseException:
         bar.close()
@@ -212,6 +247,35 @@ def evaluate(
     bar.close()
     store.consolidate()
     return pd.DataFrame([rows[pc.key] for pc in plan.cells])
+
+
+def _changed_reads(stored: dict[str, dict]) -> set[str]:
+    """Model keys of stored cells whose fit read a file outside its code identity that has
+    changed since: they are fitted again (a warning names the file)."""
+    refit: set[str] = set()
+    for row in stored.values():
+        changed = changed_reads(row) if row.get("unkeyed_reads") else []
+        if changed and str(row.get("model_key")) not in refit:
+            refit.add(str(row.get("model_key")))
+            warnings.warn(
+                f"detector {row.get('detector')!r}: {', '.join(changed)} changed since its cells "
+                "were computed (a file its fit read, not part of its code identity): refitting",
+                stacklevel=2,
+            )
+    return refit
+
+
+def _warn_reads(detector: str, fields: dict, warned: set[tuple[str, str]]) -> None:
+    """Say once per detector and file that a fit read a file no cache key holds."""
+    for path in json.loads(fields.get("unkeyed_reads") or "{}"):
+        if (detector, path) not in warned:
+            warned.add((detector, path))
+            warnings.warn(
+                f"detector {detector!r} read {path} while fitting; it is not part of its code "
+                "identity (declare it in data_files): cached cells are reused only while its "
+                "content is unchanged",
+                stacklevel=2,
+            )
 
 
 def _payload(

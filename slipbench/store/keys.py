@@ -31,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from slipbench.store.reads import plugin_files
+
 #: Version of the key layout; bumping it changes every key (do so when the meaning of a field
 #: changes without its value changing).
 KEY_SCHEMA = 1
@@ -127,7 +129,8 @@ def code_identity(obj: type | types.ModuleType) -> str:
     package (a plugin file of a ``--plugins`` folder, a script) is hashed with the modules and
     packages beside it that it imports, followed through their own imports (see
     :func:`local_files`). A class's declared ``data_files`` (paths relative to the folder of the
-    module that declares them; a folder stands for every file under it) are hashed too.
+    module that declares them; a folder stands for every file under it) are hashed too, and so
+    are the files under the unit's folder that importing it read (:func:`note_import`).
     Returns
 
     - ``"src:<32 hex>"``: a SHA-256 of those files;
@@ -143,9 +146,72 @@ def code_identity(obj: type | types.ModuleType) -> str:
     name = obj.__name__ if isinstance(obj, types.ModuleType) else getattr(obj, "__module__", None)
     if not isinstance(name, str) or not (isinstance(obj, (type, types.ModuleType))):
         raise TypeError(f"code_identity takes a class or a module, got {obj!r}")
-    code = _unit_identity(_unit(name))
-    data = data_files(obj) if isinstance(obj, type) else ()
-    return _with_data(code, tuple((label, str(path)) for label, path in data)) if data else code
+    unit = _unit(name)
+    code = _unit_identity(unit)
+    data = data_files(obj) if isinstance(obj, type) else []
+    extra = tuple((label, str(path)) for label, path in data) + _READ_AT_IMPORT.get(unit, ())
+    return _with_data(code, extra) if extra else code
+
+
+#: unit -> (label, path) of the files under its folder that importing it read and that it
+#: does not hash as code (a helper loaded by path, a table read at import): part of its identity
+_READ_AT_IMPORT: dict[str, tuple[tuple[str, str], ...]] = {}
+
+
+def note_import(module: str, opened: set[str]) -> list[Path]:
+    """Make the files read while importing ``module`` (``opened``, from
+    :func:`slipbench.store.reads.reading`) that lie under its unit's folder part of its code
+    identity; return the others it read that no identity holds (outside its folder, not code of
+    slipbench), for a warning."""
+    unit = _unit(module)
+    home = _home(unit)
+    inside: list[Path] = []
+    outside: list[Path] = []
+    for path in unkeyed(unit, opened):
+        (inside if home is not None and path.is_relative_to(home) else outside).append(path)
+    if inside and home is not None:
+        labels = (f"read:{p.relative_to(home).as_posix()}" for p in inside)
+        _READ_AT_IMPORT[unit] = tuple(sorted(zip(labels, map(str, inside), strict=True)))
+    return outside
+
+
+def unkeyed(cls_or_unit: type | str, opened: set[str]) -> list[Path]:
+    """The files among ``opened`` that the code identity of a plugin class (or of a unit)
+    does not hash: not its code, declared data or files read at import, not slipbench's code,
+    not Python's or an installed library's (:func:`slipbench.store.reads.plugin_files`)."""
+    candidates = plugin_files(opened)
+    if not candidates:
+        return []  # the common case costs no hashing of file lists
+    if isinstance(cls_or_unit, type):
+        unit = _unit(cls_or_unit.__module__)
+        declared = {p.resolve() for _, p in data_files(cls_or_unit)}
+    else:
+        unit, declared = cls_or_unit, set()
+    known = declared | _covered(unit) | _covered("slipbench")
+    known |= {Path(p) for _, p in _READ_AT_IMPORT.get(unit, ())}
+    engine = _home("slipbench")  # slipbench's own files (cards, tables) are slipbench's identity
+    return [p for p in candidates if p not in known and not (engine and p.is_relative_to(engine))]
+
+
+def file_digest(path: Path) -> str:
+    """A 16-hex-digit SHA-256 of a file's bytes ("missing" where it cannot be read)."""
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+    except OSError:
+        return "missing"
+
+
+@cache
+def _covered(unit: str) -> frozenset[Path]:
+    return frozenset(p.resolve() for _, p in _source_files(unit))
+
+
+def _home(unit: str) -> Path | None:
+    """The folder that holds a unit: its package folder, or the folder of a plain module."""
+    folders, single = _locations(unit)
+    if single is not None:
+        return single.resolve().parent
+    return folders[0].resolve() if folders else None
 
 
 def data_files(cls: type) -> list[tuple[str, Path]]:
@@ -272,7 +338,8 @@ def local_files(file: Path, unit: str = "") -> list[tuple[str, Path]]:
     (or, not yet imported, would be) loaded from inside the folder and no other installed
     distribution provides it; the standard library and slipbench never do. Labels are paths
     relative to the folder, so the same files elsewhere hash alike. A module loaded in another
-    way (``importlib`` by path, ``exec``) is not seen: declare it in ``data_files``."""
+    way (``importlib`` by path, ``exec``) is not seen here; the registry adds the files read
+    while importing a plugin (:func:`note_import`)."""
     root = file.parent
     own = set(_distributions().get(unit, []))
     taken: dict[str, Path] = {file.name: file}

@@ -54,6 +54,7 @@ from slipbench.atomic import (
     write_text_atomic,
 )
 from slipbench.errors import ENVIRONMENT_ERRNOS, CellsFailed, DataError, environment_fault
+from slipbench.store.columns import checked
 from slipbench.store.keys import canonical_json, cell_key
 
 __all__ = [
@@ -182,7 +183,9 @@ class ResultsStore:
         return scan.rows()
 
     def put(self, row: dict[str, Any], predictions: pd.DataFrame | None = None) -> None:
-        """Store one finished cell; its predictions first, so a row never lacks them."""
+        """Store one finished cell (its columns those of :mod:`slipbench.store.columns`); its
+        predictions first, so a row never lacks them."""
+        checked(row)
         if predictions is not None:
             write_atomic(
                 pa.Table.from_pandas(predictions, preserve_index=False),

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -339,12 +340,21 @@ def _figures(streams: Streams, o: Outcome, recordings: np.ndarray) -> dict[str, 
     }
 
 
+class Draws(NamedTuple):
+    """How a bootstrap draws: its seed, its interval's level and its number of resamples."""
+
+    seed: int
+    level: float
+    n_resamples: int
+
+
 def _intervals(
-    streams: Streams, o: Outcome, recordings: np.ndarray, seed: int, level: float, n_resamples: int
+    streams: Streams, o: Outcome, recordings: np.ndarray, draws: Draws
 ) -> dict[str, float]:
     """Percentile bootstrap intervals over trials; every statistic resamples the trials that
     contribute to it (onsets for the detection rate, detected onsets for the delays, non-slip
     time for false alarms), and one seed draws them all. Fewer than two such trials: NaN."""
+    seed, level, n_resamples = draws
     rng = rng_for(seed, "stream-bootstrap")
     trial_codes, trial_of_rec = np.unique(streams.trial, return_inverse=True)
     n_trials = len(trial_codes)
@@ -436,7 +446,7 @@ def summarize(
         ),
         "n_nonslip_trials": len(np.unique(streams.trial[streams.quiet_minutes > 0])),
         **_figures(streams, o, everything),
-        **_intervals(streams, o, everything, seed, level, n_resamples),
+        **_intervals(streams, o, everything, Draws(seed, level, n_resamples)),
     }
 
 
@@ -454,7 +464,10 @@ def false_alarms_by_scenario(
     rows = []
     for scenario in np.unique(streams.scenario):
         mask = streams.scenario == scenario
-        fig, ci = _figures(streams, o, mask), _intervals(streams, o, mask, seed, level, n_resamples)
+        fig, ci = (
+            _figures(streams, o, mask),
+            _intervals(streams, o, mask, Draws(seed, level, n_resamples)),
+        )
         rows.append(
             {
                 "scenario": scenario,

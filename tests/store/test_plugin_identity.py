@@ -4,18 +4,22 @@ changes the cell key (the cell is computed anew); unchanged code keeps its key."
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
 import pytest
 import toys
+from datagen import subset
 
 from slipbench.base import BaseDetector
 from slipbench.engine import plan, registry
 from slipbench.engine.plan import Run
+from slipbench.engine.runner import evaluate
 from slipbench.errors import PluginError
 from slipbench.protocol import Cell, Part
 from slipbench.store import keys
+from slipbench.store.results import ResultsStore
 
 UNIT = (("OptoForce20", "index"),)
 CELL = Cell({"window": 25}, Part(UNIT, "train"), Part(UNIT, "test"), 25)
@@ -41,6 +45,8 @@ def _forget() -> None:
         del sys.modules[name]
     keys._unit_identity.cache_clear()
     keys._with_data.cache_clear()
+    keys._covered.cache_clear()
+    keys._READ_AT_IMPORT.clear()
 
 
 def cell_key(folder: Path, name: str = "energy") -> str:
@@ -166,3 +172,117 @@ def test_a_helper_installed_elsewhere_is_not_hashed_as_the_plugins(tmp_path, mon
 
     assert Path(idhelper.__file__).parent == elsewhere
     assert [label for label, _ in keys.local_files(folder / "energy.py")] == ["energy.py"]
+
+
+# loads a helper by path at import (no import statement shows it) and reads a table at import
+BY_PATH = ENERGY + (
+    "\nimport importlib.util as _u\n"
+    "_spec = _u.spec_from_file_location('idbypath', Path(__file__).parent / 'bypath.py')\n"
+    "_helper = _u.module_from_spec(_spec)\n"
+    "_spec.loader.exec_module(_helper)\n"
+    "_TABLE = (Path(__file__).parent / 'table.txt').read_text()\n"
+)
+
+
+def test_files_read_while_importing_join_the_identity(tmp_path):
+    """A helper loaded with importlib from a path, and a file read at import, are seen by the
+    audit hook: a change to either changes the key; another process sees the same files."""
+    folder = plugin(tmp_path, {"energy.py": BY_PATH, "bypath.py": "K = 1\n", "table.txt": "a\n"})
+    first = cell_key(folder)
+    assert cell_key(folder) == first
+    unit = next(u for u in keys._READ_AT_IMPORT if u.startswith("slipbench_plugin_energy"))
+    assert [label for label, _ in keys._READ_AT_IMPORT[unit]] == [
+        "read:bypath.py",
+        "read:table.txt",
+    ]
+    (folder / "bypath.py").write_text("K = 2\n")
+    second = cell_key(folder)
+    assert second != first
+    (folder / "table.txt").write_text("b\n")
+    assert cell_key(folder) not in (first, second)
+
+
+def test_a_file_read_at_import_outside_the_folder_warns(tmp_path):
+    (tmp_path / "far.txt").write_text("x\n")
+    text = ENERGY + "\n_FAR = (Path(__file__).parent.parent / 'far.txt').read_text()\n"
+    folder = plugin(tmp_path / "p", {"energy.py": text})
+    with pytest.warns(UserWarning, match=r"far\.txt while importing; it is outside"):
+        cell_key(folder)
+
+
+# reads an undeclared file beside it in fit: the key exists before the fit, so the row records
+# the file's digest and a later run refits where it changed
+READS_IN_FIT = ENERGY.replace(
+    "    def _fit(self, x, y, seed):\n",
+    "    def _fit(self, x, y, seed):\n"
+    "        self.shift_ = float((Path(__file__).parent / 'shift.txt').read_text())\n",
+)
+
+
+@pytest.fixture(scope="module")
+def index(small):
+    rec = small.recordings
+    return subset(small, rec["sensor_type"].eq("Nano17") & rec["sensor_instance"].eq("index"))
+
+
+def _evaluate(folder: Path, index, out: Path):
+    _forget()
+    reg = registry.Registry("detector", BaseDetector, "slipbench.no-such-group")
+    reg.add_folder(folder)
+    from slipbench.protocols.window_size import WindowSize
+
+    run = Run(reg.get("energy")(), WindowSize(windows=[50]))
+    return evaluate(index, run, ResultsStore(out), jobs=0, progress=False)
+
+
+def test_a_fit_that_reads_a_file_records_its_digest(tmp_path):
+    import numpy as np
+
+    from slipbench.engine.fitting import Job, TestSet, changed_reads, fit_and_test
+
+    folder = plugin(tmp_path / "p", {"energy.py": READS_IN_FIT, "shift.txt": "0.5\n"})
+    reg = registry.Registry("detector", BaseDetector, "slipbench.no-such-group")
+    reg.add_folder(folder)
+    x, y = np.linspace(0, 1, 200).reshape(20, 10), np.repeat([0, 1], 10)
+    test = TestSet(x, y, np.arange(20) // 2)
+    [(fields, _)] = fit_and_test(Job(reg.get("energy")(), 1, 1000.0, x, y, [test]))
+    assert fields["status"] == "ok", fields["reason"]
+    assert list(json.loads(fields["unkeyed_reads"])) == [str((folder / "shift.txt").resolve())]
+    assert changed_reads(fields) == []
+    (folder / "shift.txt").write_text("0.7\n")
+    assert changed_reads(fields) == [str((folder / "shift.txt").resolve())]
+
+
+@pytest.mark.slow  # three evaluations (~4 s on a loaded 2-core machine)
+def test_a_file_read_in_fit_warns_and_a_change_refits(tmp_path, index):
+    folder = plugin(tmp_path / "p", {"energy.py": READS_IN_FIT, "shift.txt": "0.5\n"})
+    with pytest.warns(UserWarning, match=r"shift\.txt while fitting; it is not part"):
+        rows = _evaluate(folder, index, tmp_path / "out")
+    ok = rows[rows["status"] == "ok"].iloc[0]
+    read = json.loads(ok["unkeyed_reads"])
+    assert list(read) == [str((folder / "shift.txt").resolve())]
+    assert "shift.txt, which is not part of the detector's code identity" in ok["warnings"]
+    first = rows.set_index("key")["finished_at"]
+
+    again = _evaluate(folder, index, tmp_path / "out").set_index("key")["finished_at"]
+    assert again.equals(first)  # unchanged: every cell reused
+
+    (folder / "shift.txt").write_text("0.7\n")
+    with pytest.warns(UserWarning, match=r"shift\.txt changed since its cells were computed"):
+        changed = _evaluate(folder, index, tmp_path / "out").set_index("key")["finished_at"]
+    assert list(changed.index) == list(first.index)  # same keys: the key never held the file
+    refitted = rows.set_index("key")["status"] == "ok"
+    assert (changed[refitted] != first[refitted]).all()
+
+
+def test_a_plugin_that_reads_nothing_records_nothing(tmp_path):
+    import numpy as np
+
+    from slipbench.engine.fitting import Job, TestSet, fit_and_test
+
+    folder = plugin(tmp_path / "p", {"energy.py": ENERGY})
+    reg = registry.Registry("detector", BaseDetector, "slipbench.no-such-group")
+    reg.add_folder(folder)
+    x, y = np.linspace(0, 1, 200).reshape(20, 10), np.repeat([0, 1], 10)
+    [(fields, _)] = fit_and_test(Job(reg.get("energy")(), 1, 1000.0, x, y, [TestSet(x, y, y)]))
+    assert fields["status"] == "ok" and "unkeyed_reads" not in fields

@@ -28,6 +28,7 @@ from slipbench.base import BaseDetector
 from slipbench.errors import CellsFailed, DataError, EnvironmentFault, environment_fault, writing
 from slipbench.protocol import Part
 from slipbench.store import keys
+from slipbench.store.columns import COLUMNS
 from slipbench.store.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
 from slipbench.store.results import (
     RESULTS_FILE,
@@ -39,6 +40,9 @@ from slipbench.store.results import (
 
 
 def row(i: int, **extra) -> dict:
+    """A cell row; extras the results schema does not declare are the protocol's own cell-key
+    columns, which its ``cell`` column names (as a real protocol's rows do)."""
+    own = {k: v for k, v in extra.items() if k not in COLUMNS}
     return {
         "key": f"k{i:04d}",
         "protocol": "window-size",
@@ -47,6 +51,7 @@ def row(i: int, **extra) -> dict:
         "reason": "",
         "window": 5 * (i + 1),
         "accuracy": 50 + i / 8,
+        "cell": json.dumps({"window": 5 * (i + 1), **own}, sort_keys=True),
         **extra,
     }
 

@@ -18,6 +18,7 @@ import pandas as pd
 from slipbench.data.importers.labels import labels_of_file, segments_table
 from slipbench.data.importers.mapping import (
     TIME_UNITS,
+    CsvFile,
     CsvMapping,
     default_id,
     file_fields,
@@ -88,8 +89,9 @@ def import_csv(
         fields = file_fields(m, rel, selected, metadata)
         frame = read_csv(path, m.csv, text_columns)
         rate, times = _rate(m, fields, frame, path)
-        file_labels = labels_of_file(m, fields, segments.get(rel, []), frame, rate, times, path)
-        for row, values in _recordings_of(m, rel, path, fields, frame, rate, file_labels):
+        file = CsvFile(path, rel, fields, frame, rate, times)
+        file_labels = labels_of_file(m, file, segments.get(rel, []))
+        for row, values in _recordings_of(m, file, file_labels):
             rid = row["recording_id"]
             if rid in origin:
                 raise UsageError(
@@ -173,15 +175,10 @@ def _rate(
 
 
 def _recordings_of(
-    m: CsvMapping,
-    rel: str,
-    path: Path,
-    fields: dict,
-    frame: pd.DataFrame,
-    rate: float,
-    labels: np.ndarray | None,
+    m: CsvMapping, file: CsvFile, labels: np.ndarray | None
 ) -> list[tuple[dict, np.ndarray]]:
     """(metadata row, samples) of each recording in one file: one per channel group."""
+    rel, path, fields, frame, rate = file.rel, file.path, file.fields, file.frame, file.rate
     file_id = str(fields.get("recording_id", default_id(rel)))
     out = []
     for group in m.channels:

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from slipbench.data.importers.mapping import LABEL_CHOICES, CsvMapping
+from slipbench.data.importers.mapping import LABEL_CHOICES, CsvFile, CsvMapping
 from slipbench.data.importers.paths import check_inside
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.errors import DataError, UsageError
@@ -17,16 +17,9 @@ from slipbench.errors import DataError, UsageError
 Segment = tuple[float, float | None, str, str | None]
 
 
-def labels_of_file(
-    m: CsvMapping,
-    fields: dict,
-    segments: list,
-    frame: pd.DataFrame,
-    rate: float,
-    times: np.ndarray | None,
-    path: Path,
-) -> np.ndarray | None:
+def labels_of_file(m: CsvMapping, file: CsvFile, segments: list) -> np.ndarray | None:
     """One file's per-sample labels (int8, -1 unlabelled), or None where it has none."""
+    fields, frame, path = file.fields, file.frame, file.path
     if "column" in m.labels:
         return _label_column(m, frame, path)
     segments = list(segments)
@@ -39,7 +32,7 @@ def labels_of_file(
                 None,
             )
         )
-    return _segment_labels(m, fields, segments, len(frame), rate, times, path)
+    return _segment_labels(m, file, segments)
 
 
 def _choice(m: CsvMapping, fields: dict, key: str, path: Path) -> str:
@@ -74,18 +67,11 @@ def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
     return labels.astype(np.int8)
 
 
-def _segment_labels(
-    m: CsvMapping,
-    fields: dict,
-    segments: list[Segment],
-    n: int,
-    rate: float,
-    times: np.ndarray | None,
-    path: Path,
-) -> np.ndarray | None:
+def _segment_labels(m: CsvMapping, file: CsvFile, segments: list[Segment]) -> np.ndarray | None:
     """Labels from (onset, offset, where, after) segments: 1 inside [onset, offset), 0 before;
     what follows a segment up to the next one (or the end) as its ``after`` says, else no slip
     between segments and the file's after_offset after the last."""
+    fields, n, rate, times, path = file.fields, len(file.frame), file.rate, file.times, file.path
     if not segments:
         return (
             None if _choice(m, fields, "unlisted", path) == "unlabelled" else np.zeros(n, np.int8)

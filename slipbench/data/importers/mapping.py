@@ -79,6 +79,20 @@ class Rule:
 
 
 @dataclass(frozen=True)
+class CsvFile:
+    """One CSV file being imported: its path (and the path relative to the mapping's root),
+    the fields its metadata and rules give it, its table, its sampling rate and, with a time
+    column, the time of each row (s)."""
+
+    path: Path
+    rel: str
+    fields: dict
+    frame: Any  # a pandas DataFrame (pandas stays out of the mapping's imports)
+    rate: float
+    times: Any = None  # np.ndarray | None
+
+
+@dataclass(frozen=True)
 class CsvMapping:
     """A parsed, checked mapping file."""
 

@@ -1,0 +1,72 @@
+"""The results schema: one declaration of every column, the page written from it, and a store
+that refuses rows it does not declare."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import results_columns  # docs/tools, on pytest's pythonpath
+
+from slipbench.store import columns
+from slipbench.store.results import ResultsStore
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_committed_page_is_what_the_generator_writes():
+    page = (ROOT / "docs" / "results-columns.md").read_text()
+    assert page == results_columns.page(), (
+        "docs/results-columns.md is stale: "
+        "python docs/tools/results_columns.py > docs/results-columns.md"
+    )
+
+
+def test_every_column_is_declared_once_with_a_known_type():
+    names = [c.name for group in columns.GROUPS.values() for c in group]
+    assert len(names) == len(set(names))
+    assert {c.type for c in columns.COLUMNS.values()} == {"string", "int64", "float64", "bool"}
+    assert all(c.meaning for c in columns.COLUMNS.values())
+
+
+def test_a_figure_is_one_entry_with_its_interval_columns():
+    figure = columns.Figure("f1", "fraction", "harmonic mean", se=True)
+    assert [c.name for c in figure.columns()] == ["f1", "f1_lo", "f1_hi", "f1_se"]
+    streamed = [c.name for c in columns.Figure("x", "ms", "a", operating=True).columns()]
+    assert streamed == ["x", "x_lo", "x_hi", "op_x", "op_x_lo", "op_x_hi"]
+
+
+ROW = {
+    "key": "k1",
+    "protocol": "window-size",
+    "detector": "holweg",
+    "status": "ok",
+    "cell": '{"window": 50, "material": "felt"}',
+    "material": "felt",  # a cell-key column of the protocol: its cell names it
+    "window": 50,
+    "accuracy": 0.75,
+    "low_n": False,
+    "epochs": None,
+}
+
+
+def test_the_store_writes_a_declared_row(tmp_path):
+    store = ResultsStore(tmp_path)
+    store.put(dict(ROW))
+    assert set(store.finished()) == {"k1"}
+
+
+@pytest.mark.parametrize(
+    "change, said",
+    [
+        ({"accuracy_typo": 0.5}, "accuracy_typo: not a declared results column"),
+        ({"window": "50"}, "window: '50' is not a int64"),
+        ({"low_n": 1}, "low_n: 1 is not a bool"),
+        ({"n_test": True}, "n_test: True is not a int64"),
+    ],
+)
+def test_the_store_refuses_what_the_schema_does_not_declare(tmp_path, change, said):
+    store = ResultsStore(tmp_path)
+    with pytest.raises(TypeError, match=said):
+        store.put({**ROW, **change})
+    assert not any(tmp_path.rglob("*.parquet"))  # nothing half-written
