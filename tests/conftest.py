@@ -2,10 +2,26 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from slipbench.data.read import read_dataset
 from slipbench.data.synth import synthesize
+
+
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own, which reads -n
+def pytest_cmdline_main(config: pytest.Config) -> None:
+    """A run that names no test (the whole suite or a tier, ``pytest -m "not slow"``) takes every
+    core, as ``-n auto``; one that names files or folders stays in one process, where starting
+    workers costs more than it saves. An explicit ``-n`` (``-n 0``) or ``-p no:xdist`` wins."""
+    if (
+        config.pluginmanager.has_plugin("xdist")
+        and config.option.numprocesses is None
+        and config.args_source == pytest.Config.ArgsSource.TESTPATHS
+        and "PYTEST_XDIST_WORKER" not in os.environ  # a worker runs the items it is sent
+    ):
+        config.option.numprocesses = "auto"
 
 
 @pytest.fixture(scope="session", autouse=True)
