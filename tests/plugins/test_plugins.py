@@ -98,7 +98,7 @@ def test_an_installed_plugin_package_runs_evaluate_report_and_compare(tmp_path, 
     done = _slipbench(
         ["compare", str(tmp_path / "base"), str(tmp_path / "candidate")], env, tmp_path
     )
-    assert done.returncode in (0, 1), done.stderr
+    assert done.returncode in (0, 1, 6), done.stderr  # a verdict: none, regressed, undecided
     assert "two-windows" in done.stdout and "energy" in done.stdout
     done = _slipbench(["list", "--json"], env, tmp_path)
     listed = {e["name"]: e for e in json.loads(done.stdout)["detectors"]}

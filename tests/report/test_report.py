@@ -171,7 +171,8 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
         raise SystemExit(0)
     assert (exit_.value.code or 0) == 0
     text = (tmp_path / "report.md").read_text()
-    assert "Published (Van Wyk & Falco, their LSTM)" in text and "holweg (paper)" in text
+    # Markdown escapes what a caption holds: "\&" renders as "&"
+    assert "Published (Van Wyk \\& Falco, their LSTM)" in text and "holweg (paper)" in text
     assert "Ours minus published" not in text  # holweg is not the paper's model
     assert (
         f"| Data | simulated (slipbench.synth model v{MODEL_VERSION}, scale 0.02, seed 1;"

@@ -78,7 +78,7 @@ def test_studentized_covers_in_every_scenario_at_low_reps():
     standard errors about 0.05); the band 0.88-1.0 (the change in AUROC overcovers, as the
     default does)."""
     table = bench.study(
-        40, ("normal", "heavy", "seeds"), sizes=(10, 20), method=study("studentized")
+        40, ("normal", "heavy", "seeds"), sizes=(10, 20), method="studentized"
     )
     pooled = table.groupby("scenario")[list(bench.NAMES)].mean()
     outside = {

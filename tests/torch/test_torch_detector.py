@@ -218,7 +218,7 @@ def test_an_epoch_trains_windows_per_epoch_windows_whatever_the_set(monkeypatch)
 
 @pytest.mark.slow  # four fits: 3 s on 2 busy cores
 def test_the_engine_says_a_network_at_chance_did_not_learn_and_not_one_that_learned():
-    from slipbench.engine.fitting import TestSet, fit_and_test
+    from slipbench.engine.fitting import Job, TestSet, fit_and_test
 
     x, y = toy_windows(n=160, length=20, seed=2)
     groups = np.arange(160) // 8
@@ -227,7 +227,7 @@ def test_the_engine_says_a_network_at_chance_did_not_learn_and_not_one_that_lear
     def fitted(labels):
         det = TinyCNN(max_epochs=3)
         det.windows_per_epoch = 256
-        ((row, _),) = fit_and_test(det, 0, 1000.0, x, labels, [test], train_groups=groups)
+        ((row, _),) = fit_and_test(Job(det, 0, 1000.0, x, labels, [test], train_groups=groups))
         return row
 
     learned = fitted(y)
