@@ -77,9 +77,7 @@ def test_studentized_covers_in_every_scenario_at_low_reps():
     """40 replications at 10 and 20 trials per class, pooled per scenario (80 test sets: two
     standard errors about 0.05); the band 0.88-1.0 (the change in AUROC overcovers, as the
     default does)."""
-    table = bench.study(
-        40, ("normal", "heavy", "seeds"), sizes=(10, 20), method="studentized"
-    )
+    table = bench.study(40, ("normal", "heavy", "seeds"), sizes=(10, 20), method="studentized")
     pooled = table.groupby("scenario")[list(bench.NAMES)].mean()
     outside = {
         (s, k): round(v, 3) for s, row in pooled.iterrows() for k, v in row.items() if v < 0.88
