@@ -27,7 +27,7 @@ import pandas as pd
 from slipbench.stats.compare import cell_sides, unpaired_cell
 from slipbench.stats.metrics import LEVEL
 from slipbench.stats.pooled import pooled_change, pooled_from_rows
-from slipbench.stats.reduction import _find_predictions, _plain, inputs  # shared pairing helpers
+from slipbench.stats.reduction import find_predictions, inputs, plain
 
 #: what two detectors' rows of one cell share (where the rows hold the column)
 CELL_COLUMNS = (
@@ -49,7 +49,7 @@ CELL_COLUMNS = (
 def cell_of(row: dict) -> str:
     """What a row shares with another detector's row of the same cell, as one text."""
     return json.dumps(
-        {c: _plain(row[c]) for c in CELL_COLUMNS if c in row}, sort_keys=True, default=str
+        {c: plain(row[c]) for c in CELL_COLUMNS if c in row}, sort_keys=True, default=str
     )
 
 
@@ -65,12 +65,12 @@ def _by_cell(rows: pd.DataFrame) -> dict[str, list[dict]]:
     for r in rows.to_dict("records"):
         out.setdefault(cell_of(r), []).append(r)
     for seeds in out.values():
-        seeds.sort(key=lambda r: float(_plain(r.get("seed")) or -1))
+        seeds.sort(key=lambda r: float(plain(r.get("seed")) or -1))
     return out
 
 
 def _once(rows: list[dict]) -> bool:
-    seeds = [_plain(r.get("seed")) for r in rows]
+    seeds = [plain(r.get("seed")) for r in rows]
     return len(set(seeds)) == len(seeds)
 
 
@@ -99,8 +99,8 @@ def paired_change(
     paths = [Path(f) for f in folders]
     preds = [
         (
-            [_find_predictions(paths, str(r["key"])) for r in b[k]],
-            [_find_predictions(paths, str(r["key"])) for r in c[k]],
+            [find_predictions(paths, str(r["key"])) for r in b[k]],
+            [find_predictions(paths, str(r["key"])) for r in c[k]],
         )
         for k in kept
     ]

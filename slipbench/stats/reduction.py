@@ -136,7 +136,7 @@ def _without_input(value: Any) -> Any:
     return json.dumps(parsed, sort_keys=True)
 
 
-def _plain(value: Any) -> Any:
+def plain(value: Any) -> Any:
     if value is None or (np.ndim(value) == 0 and pd.isna(value)):
         return None
     return value.item() if isinstance(value, np.generic) else value
@@ -145,7 +145,7 @@ def _plain(value: Any) -> Any:
 def twin_key(row: dict) -> str:
     """What a cell shares with its twin of the other input, as one text."""
     fields = {
-        c: _plain(_without_input(row[c]) if c in _WITHOUT_INPUT else row[c])
+        c: plain(_without_input(row[c]) if c in _WITHOUT_INPUT else row[c])
         for c in TWIN_COLUMNS
         if c in row
     }
@@ -154,7 +154,7 @@ def twin_key(row: dict) -> str:
 
 def _sensor(row: dict) -> str:
     value = row.get("sensor_type")
-    if _plain(value) is not None:
+    if plain(value) is not None:
         return str(value)
     try:
         return str(json.loads(row.get("cell") or "{}").get("sensor_type", ""))
@@ -163,7 +163,7 @@ def _sensor(row: dict) -> str:
 
 
 def _seed_order(row: dict) -> float:
-    seed = _plain(row.get("seed"))
+    seed = plain(row.get("seed"))
     return float(seed) if seed is not None else -1.0
 
 
@@ -173,7 +173,7 @@ def _seeds(rows: list[dict]) -> str:
     return ",".join(f"{s:g}" for s in seeds)
 
 
-def _find_predictions(folders: Sequence[Path], key: str) -> pd.DataFrame | None:
+def find_predictions(folders: Sequence[Path], key: str) -> pd.DataFrame | None:
     """A cell's stored predictions from the first folder that holds them; a damaged file costs
     the cell its window-by-window pairing, not the report."""
     for folder in folders:
@@ -192,7 +192,7 @@ def _status(rows: list[dict]) -> str:
     for r in rows:
         if r.get("status", "ok") != "ok":
             why = r.get("reason")
-            return f"{r.get('status')}" + (f" ({why})" if _plain(why) else "")
+            return f"{r.get('status')}" + (f" ({why})" if plain(why) else "")
     return "ok"
 
 
@@ -209,7 +209,7 @@ def _why_not(uni: list[dict], ch: list[dict]) -> str:
         seeds = [r.get("seed") for r in rows]
         if len(set(seeds)) < len(seeds):
             return f"{side}: a seed stored twice (two runs of one cell share the folder)"
-    if any(_plain(r.get("accuracy")) is None for r in (*uni, *ch)):
+    if any(plain(r.get("accuracy")) is None for r in (*uni, *ch)):
         return "no accuracy to pair (a streaming cell: its delays and alarms are not compared here)"
     return ""
 
@@ -236,12 +236,12 @@ def _compare_cell(
     }
     for side, rows in ((UNIVARIATE, uni), (CHANNELS, ch)):
         for name in RATES:
-            values = [_plain(r.get(name)) for r in rows]
+            values = [plain(r.get(name)) for r in rows]
             entry[f"{side}_{name}"] = (
                 float(np.mean([float(v) for v in values])) if None not in values else np.nan
             )
-    pu = [_find_predictions(folders, str(r["key"])) for r in uni]
-    pc = [_find_predictions(folders, str(r["key"])) for r in ch]
+    pu = [find_predictions(folders, str(r["key"])) for r in uni]
+    pc = [find_predictions(folders, str(r["key"])) for r in ch]
     have = all(p is not None for p in (*pu, *pc))
     same_seeds = [r.get("seed") for r in uni] == [r.get("seed") for r in ch]
     result, note = None, ""
@@ -255,8 +255,8 @@ def _compare_cell(
         result = unpaired_cell(uni, ch, LEVEL)
         result["method"] += note
     entry |= {k: v for k, v in result.items() if k.startswith("d_") or k in ("df", "method")}
-    slip = [_plain(r.get("n_test_clusters_slip")) for r in (*uni, *ch)]
-    nonslip = [_plain(r.get("n_test_clusters_nonslip")) for r in (*uni, *ch)]
+    slip = [plain(r.get("n_test_clusters_slip")) for r in (*uni, *ch)]
+    nonslip = [plain(r.get("n_test_clusters_nonslip")) for r in (*uni, *ch)]
     entry["n_test_trials_slip"] = result.get(
         "n_test_clusters_slip", max((v for v in slip if v is not None), default=np.nan)
     )
@@ -264,7 +264,7 @@ def _compare_cell(
         "n_test_clusters_nonslip", max((v for v in nonslip if v is not None), default=np.nan)
     )
     entry["low_n"] = bool(result.get("low_n", False)) or any(
-        bool(_plain(r.get("low_n"))) for r in (*uni, *ch)
+        bool(plain(r.get("low_n"))) for r in (*uni, *ch)
     )
     return entry, preds
 
