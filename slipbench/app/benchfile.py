@@ -453,6 +453,13 @@ def _param_in(message: str, params: dict) -> str | None:
     return m[1] if m and m[1] in params else None
 
 
+def with_overrides(bench: Benchmark, **overrides) -> Benchmark:
+    """``bench`` with the fields a command line gives (``out``, ``jobs``, ``seed``); a None
+    keeps the file's value. ``seed`` also seeds the simulated data unless ``[dataset]`` gives
+    its own."""
+    return dataclasses.replace(bench, **{k: v for k, v in overrides.items() if v is not None})
+
+
 def record(bench: Benchmark, out: Path) -> None:
     """Keep the file's text with the results: ``benchmark.toml`` (a copy) and ``benchmark.json``
     (its SHA-256, where it came from, when it ran)."""
@@ -476,23 +483,11 @@ def record(bench: Benchmark, out: Path) -> None:
     )
 
 
-def run_benchmark(
-    bench: Benchmark,
-    out: Path | None = None,
-    jobs: int | None = None,
-    force: bool = False,
-    progress: bool = True,
-    echo=print,
-    seed: int | None = None,
-):
-    """Run what ``bench`` declares and write its reports.
+def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, echo=print):
+    """Run what ``bench`` declares and write its reports into ``bench.out``.
 
-    Parameters
-    ----------
-    out, jobs : override the file's results folder and worker count (a CI job runs one file
-        into a base and a candidate folder).
-    seed : overrides the file's ``run.seed`` (and so the simulated data's, unless ``[dataset]``
-        gives a seed); recorded in ``benchmark.json``.
+    A command line's overrides (``--out``, ``--jobs``, ``--seed``) are applied to ``bench``
+    before (``with_overrides``); the seed is recorded in ``benchmark.json``.
 
     Returns
     -------
@@ -504,9 +499,7 @@ def run_benchmark(
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.store.results import ResultsStore
 
-    out = Path(out) if out is not None else bench.out
-    if seed is not None:
-        bench = dataclasses.replace(bench, seed=seed)
+    out = bench.out
     runs = plan_runs(
         bench, echo
     )  # every name and parameter before the dataset is read or simulated
@@ -530,7 +523,7 @@ def run_benchmark(
         runs,
         ResultsStore(out),
         force=force,
-        jobs=bench.jobs if jobs is None else jobs,
+        jobs=bench.jobs,
         scheduler=bench.scheduler,
         cell_timeout=bench.cell_timeout,
         progress=progress,

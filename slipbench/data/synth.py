@@ -499,20 +499,14 @@ def _events(distance_mm: np.ndarray, mean_spacing: float, rng: np.random.Generat
 
 
 def _snaps(
-    speed: np.ndarray,
-    sliding: np.ndarray,
-    normal: np.ndarray,
-    m: Material,
-    sig: Signature,
-    fs: float,
-    rng: np.random.Generator,
-    p: Physics,
+    take: Take, speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stick-slip of a sliding contact: snap impulses, the shear sawtooth between snaps, travel.
 
     Each time the travel since the last snap reaches a gamma-spread critical distance, the shear
     drops by a snap; between snaps it builds up again. Returns arrays of shape (n,).
     """
+    m, sig, fs, rng, p = take.surface, take.sig, take.fs, take.rng, take.p
     travel = np.cumsum(np.where(sliding, speed, 0.0)) / fs
     spacing = m.critical_slip_mm * sig.spacing
     rel = (np.maximum(speed, 1e-9) / 25.0) ** p.snap_speed_exponent
@@ -533,15 +527,10 @@ def _snaps(
 
 
 def _surface(
-    travel: np.ndarray,
-    speed: np.ndarray,
-    sliding: np.ndarray,
-    normal: np.ndarray,
-    m: Material,
-    rng: np.random.Generator,
-    p: Physics,
+    take: Take, travel: np.ndarray, speed: np.ndarray, sliding: np.ndarray, normal: np.ndarray
 ) -> np.ndarray:
     """Texture tone at speed / spatial period and fibrous rubbing noise of a sliding contact."""
+    m, rng, p = take.surface, take.rng, take.p
     texture = (
         p.texture_n_per_n
         * m.texture_gain
@@ -652,7 +641,7 @@ def _slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     sliding = broke & (speed > p.stick_speed_mm_s)
 
     f0, zeta = contact_mode(take.sensor, take.unit, str(take.material), normal0, p)
-    impulses, saw, travel = _snaps(speed, sliding, normal, m, take.sig, fs, rng, p)
+    impulses, saw, travel = _snaps(take, speed, sliding, normal)
     onsets = np.flatnonzero(np.diff(broke.astype(np.int8)) > 0) + 1
     impulses[onsets] += (take.mu_static - take.mu_kinetic) * normal[onsets]  # static -> kinetic
     held = np.where(broke, take.mu_kinetic * normal + saw, loading)
@@ -660,7 +649,7 @@ def _slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     if m.smear_hz:
         impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
     ringing = _resonate(impulses, f0, zeta, fs)
-    vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
+    vib = ringing + _surface(take, travel, speed, sliding, normal)
     across = 0.3 * vib * rng.choice([-1, 1])
     contact = take.on_pad(direction * held + vib, across, normal + 0.5 * ringing)
     return contact * take.unit.coupling * take.sig.patch + _unit_vector(rng) * _drive(
@@ -731,7 +720,7 @@ def _hold_slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     sliding = after & (speed > p.stick_speed_mm_s)
 
     f0, zeta = contact_mode(take.sensor, take.unit, str(take.material), normal0, p)
-    impulses, saw, travel = _snaps(speed, sliding, normal, m, take.sig, fs, rng, p)
+    impulses, saw, travel = _snaps(take, speed, sliding, normal)
     if onset < n:  # breakaway: the shear falls from static to kinetic friction at once
         impulses[onset] += (take.mu_static - take.mu_kinetic) * normal[onset]
     held = np.where(after, take.mu_kinetic * normal + saw, loading)
@@ -739,7 +728,7 @@ def _hold_slip_forces(take: Take) -> tuple[np.ndarray, np.ndarray]:
     if m.smear_hz:
         impulses = _lowpass(impulses, m.smear_hz, fs, order=1)
     ringing = _resonate(impulses, f0, zeta, fs)
-    vib = ringing + _surface(travel, speed, sliding, normal, m, rng, p)
+    vib = ringing + _surface(take, travel, speed, sliding, normal)
 
     label = after.astype(np.int8)
     lost = onset + int(round(drop_after * fs)) if drops else n
@@ -935,7 +924,7 @@ def _sense(
         return channels
     if electrode_rng is None:
         raise ValueError("a sensor with electrodes needs their random stream")
-    return np.hstack([channels, electrode_counts(forces, sensor, unit, fs, electrode_rng, p)])
+    return np.hstack([channels, electrode_counts(forces, take, electrode_rng)])
 
 
 def calibrated_forces(channels: np.ndarray, sensor: Sensor, unit: Unit) -> np.ndarray:
@@ -946,24 +935,23 @@ def calibrated_forces(channels: np.ndarray, sensor: Sensor, unit: Unit) -> np.nd
     return forces / (unit.gain * sensor.units_per_newton)
 
 
-def electrode_counts(
-    forces: np.ndarray, sensor: Sensor, unit: Unit, fs: float, rng: np.random.Generator, p: Physics
-) -> np.ndarray:
+def electrode_counts(forces: np.ndarray, take: Take, rng: np.random.Generator) -> np.ndarray:
     """What a unit's electrodes read while the contact applies ``forces``.
 
     Parameters
     ----------
     forces : (3, n) the force at the skin, in N: shear along the finger (the slide), shear
         across it, normal load (see :class:`ElectrodeArray` for the model).
-    sensor, unit : a sensor type with electrodes and one unit of it (:func:`make_unit`).
-    fs : sampling rate (Hz), for the electrodes' band.
+    take : the recording: its sensor type (with electrodes) and unit (:func:`make_unit`), its
+        sampling rate (for the electrodes' band) and the physics whose ``signature_spread``
+        scales the recording's draws (its own streams are not drawn from).
     rng : the recording's electrode stream: its contact position, resting drift and noise.
-    p : the physics whose ``signature_spread`` scales the recording's draws.
 
     Returns
     -------
     (n, n_electrodes) float32 whole counts in [0, ``full_scale``].
     """
+    sensor, unit, fs, p = take.sensor, take.unit, take.fs, take.p
     array, own = sensor.electrodes, unit.electrodes
     if array is None or own is None:
         raise ValueError("electrode_counts needs a sensor type with electrodes and a unit of it")

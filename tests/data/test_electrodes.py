@@ -15,6 +15,7 @@ from slipbench.data.synth import (
     SENSORS,
     Design,
     Physics,
+    Take,
     electrode_counts,
     generate,
     make_unit,
@@ -67,7 +68,9 @@ def _steady(forces: tuple[float, float, float], seed: int = 0, n: int = 850) -> 
     p = Physics(signature_spread=0.0)  # the contact where the unit puts it, no drift
     unit = make_unit(0, "BioTacSP", "index", p)
     f = np.tile(np.array(forces, float)[:, None], (1, n))
-    counts = electrode_counts(f, BIOTAC, unit, FS, np.random.default_rng(seed), p)
+    # electrode_counts reads the take's sensor, unit, rate and physics, none of its streams
+    take = Take(n, FS, None, None, BIOTAC, unit, sig=None, trial_rng=None, rng=None, p=p)
+    counts = electrode_counts(f, take, np.random.default_rng(seed))
     return counts[n // 2 :].mean(axis=0)
 
 

@@ -4,6 +4,7 @@ pull-request comment (Markdown) and JSON in one call; the exit code is the verdi
 from __future__ import annotations
 
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
@@ -11,6 +12,23 @@ import click
 from slipbench.app.options import LAYOUT_PLUGINS_HELP, out_option, plugins_option
 from slipbench.app.selection import add_plugin_folders
 from slipbench.stats.gate import DEFAULT_TOLERANCE
+
+
+@dataclass(frozen=True)
+class CompareOptions:
+    """What `slipbench compare` was given, one field per option."""
+
+    base: Path
+    candidate: Path
+    figures: tuple[str, ...]
+    margin: float | None
+    bench: Path | None
+    max_width: float
+    fmt: str
+    max_rows: int | None
+    out: Path | None
+    json_out: Path | None
+    plugins: tuple[str, ...]
 
 
 @click.command("compare")
@@ -65,9 +83,7 @@ from slipbench.stats.gate import DEFAULT_TOLERANCE
     help="Also write the JSON to this file (the same comparison: no second run).",
 )
 @plugins_option(LAYOUT_PLUGINS_HELP)
-def compare_command(
-    base, candidate, figures, margin, bench, max_width, fmt, max_rows, out, json_out, plugins
-) -> None:
+def compare_command(**options) -> None:
     """Compare CANDIDATE results with BASE on the gate's figures; exit 1 if one regressed.
 
     Windowed cells are judged on accuracy, TN rate and TP rate; streaming cells on false alarms
@@ -78,18 +94,19 @@ def compare_command(
     finished failed; 6 undecided (one seed per side, too few trials, or noise larger than the
     tolerance: the comment says how many seeds or trials would decide); 2 bad usage or data.
     """
+    o = CompareOptions(**options)
     from slipbench.atomic import write_text_atomic
     from slipbench.report.compare import MAX_ROWS, to_json, to_markdown
     from slipbench.stats.compare import compare
 
-    add_plugin_folders(plugins)
-    result = compare(base, candidate, _gate(figures, bench, margin, max_width))
+    add_plugin_folders(o.plugins)
+    result = compare(o.base, o.candidate, _gate(o.figures, o.bench, o.margin, o.max_width))
     texts = {
         "json": to_json(result),
-        "md": to_markdown(result, MAX_ROWS if max_rows is None else max_rows),
+        "md": to_markdown(result, MAX_ROWS if o.max_rows is None else o.max_rows),
     }
-    click.echo(texts[fmt], nl=False)
-    for path, kind in ((out, "md"), (json_out, "json")):
+    click.echo(texts[o.fmt], nl=False)
+    for path, kind in ((o.out, "md"), (o.json_out, "json")):
         if path:
             path.parent.mkdir(parents=True, exist_ok=True)
             write_text_atomic(path, texts[kind])

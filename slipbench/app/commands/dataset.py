@@ -3,6 +3,7 @@ datasets; each command parses its options and calls the data and engine wings.""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
@@ -96,6 +97,19 @@ def dataset_info(path: Path) -> None:
         click.echo(line)
 
 
+@dataclass(frozen=True)
+class CheckOptions:
+    """What `slipbench dataset check` was given, one field per option."""
+
+    path: Path
+    protocol_names: tuple[str, ...]
+    protocol_params: tuple[str, ...]
+    split: str
+    labels: str
+    seed: int
+    plugins: tuple[str, ...]
+
+
 @dataset.command("check")
 @click.argument("path", type=click.Path(path_type=Path))
 @click.option(
@@ -111,26 +125,27 @@ def dataset_info(path: Path) -> None:
 @labels_option()
 @seed_option()
 @plugins_option()
-def dataset_check(path, protocol_names, protocol_params, split, labels, seed, plugins) -> None:
+def dataset_check(**options) -> None:
     """What PATH can support: classes, recordings and trials per unit, windows per size, and
     which protocol cells would run, be skipped, or rest on too few test trials."""
+    o = CheckOptions(**options)
     from slipbench.data.read import read_dataset
     from slipbench.engine.check import check_dataset
     from slipbench.engine.runner import Run
     from slipbench.protocol import NO_CELL
     from slipbench.vocabulary import LOW_N
 
-    add_plugin_folders(plugins)
+    add_plugin_folders(o.plugins)
     broken: list[str] = []
     protocols: dict[str, BaseProtocol] = {}
-    for name in protocol_names:
+    for name in o.protocol_names:
         protocols |= load_plugins(registry.protocols, name, broken)
-    protocols = with_options(protocols, parse_params(protocol_params), "protocol")
-    runs = [Run("holweg", p, split, seed, labels) for p in protocols.values()]
+    protocols = with_options(protocols, parse_params(o.protocol_params), "protocol")
+    runs = [Run("holweg", p, o.split, o.seed, o.labels) for p in protocols.values()]
     for run in runs:
         run.validate()
-    result = check_dataset(read_dataset(path), runs)
-    click.echo(f"## {path}: classes per unit (labels: {labels}; windows of 50 samples)\n")
+    result = check_dataset(read_dataset(o.path), runs)
+    click.echo(f"## {o.path}: classes per unit (labels: {o.labels}; windows of 50 samples)\n")
     click.echo(result.units.to_markdown(index=False))
     click.echo(
         "\n## Windows the protocols use, per unit: slip and non-slip windows before balancing\n"
@@ -142,7 +157,7 @@ def dataset_check(path, protocol_names, protocol_params, split, labels, seed, pl
             continue
         counts = cells["verdict"].value_counts()
         click.echo(
-            f"\n## {name} ({split} split, seed {seed}): "
+            f"\n## {name} ({o.split} split, seed {o.seed}): "
             + ", ".join(f"{int(counts.get(v, 0))} {v}" for v in ("runs", "low n", "skipped"))
             + f" of {len(cells)} cells\n"
         )

@@ -3,6 +3,7 @@ on another), store the cells in a results folder and print each protocol's table
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
@@ -25,6 +26,34 @@ from slipbench.app.options import (
 from slipbench.app.selection import add_plugin_folders, readable, select_plugins, with_options
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
+
+
+@dataclass(frozen=True)
+class EvaluateOptions:
+    """What `slipbench evaluate` was given, one field per option."""
+
+    detector_name: tuple[str, ...]
+    protocol_name: tuple[str, ...]
+    dataset_path: Path | None
+    train_path: Path | None
+    sensor_map: tuple[str, ...]
+    scale: float
+    out: Path
+    split: str
+    labels: str
+    normalize: str
+    input_kind: str
+    seed: int
+    repeats: int
+    params: tuple[str, ...]
+    protocol_params: tuple[str, ...]
+    plugins: tuple[str, ...]
+    jobs: int
+    scheduler: str | None
+    cell_timeout: float | None
+    force: bool
+    intervals: bool
+    quiet: bool
 
 
 @click.command("evaluate")
@@ -109,31 +138,9 @@ from slipbench.errors import PluginError, UsageError
 @force_option()
 @intervals_option("Show 95 % intervals in the table.")
 @quiet_option()
-def evaluate(
-    detector_name,
-    protocol_name,
-    dataset_path,
-    train_path,
-    sensor_map,
-    scale,
-    out,
-    split,
-    labels,
-    normalize,
-    input_kind,
-    seed,
-    repeats,
-    params,
-    protocol_params,
-    plugins,
-    jobs,
-    scheduler,
-    cell_timeout,
-    force,
-    intervals,
-    quiet,
-) -> None:
+def evaluate(**options) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
+    o = EvaluateOptions(**options)
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
     from slipbench.engine.runner import Run
@@ -141,71 +148,73 @@ def evaluate(
     from slipbench.report.document import protocol_table
     from slipbench.store.results import ResultsStore, cells_failed
 
-    add_plugin_folders(plugins)
-    if train_path and not dataset_path:
+    add_plugin_folders(o.plugins)
+    if o.train_path and not o.dataset_path:
         raise UsageError("--train-dataset needs --dataset: the dataset to test on")
-    if sensor_map and not train_path:
+    if o.sensor_map and not o.train_path:
         raise UsageError(
             "--sensor-map matches a test dataset's sensors to a training dataset's: it needs --train-dataset"
         )
-    split = "datasets" if train_path else split
+    split = "datasets" if o.train_path else o.split
     broken: list[str] = []
     note = lambda line: click.echo(line, err=True)  # noqa: E731
     detectors = with_options(
-        select_plugins(registry.detectors, detector_name, broken, note),
-        parse_params(params),
+        select_plugins(registry.detectors, o.detector_name, broken, note),
+        parse_params(o.params),
         "detector",
     )
     protocols = with_options(
-        select_plugins(registry.protocols, protocol_name, broken, note),
-        parse_params(protocol_params),
+        select_plugins(registry.protocols, o.protocol_name, broken, note),
+        parse_params(o.protocol_params),
         "protocol",
     )
     runs = [
-        Run(d, p, split, seed + r, labels, normalize, kind)
+        Run(d, p, split, o.seed + r, o.labels, o.normalize, kind)
         for name, d in detectors.items()
-        for kind in readable(name, d, input_kind, note)
+        for kind in readable(name, d, o.input_kind, note)
         for p in protocols.values()
-        for r in range(repeats)
+        for r in range(o.repeats)
     ]
     if not runs:
-        raise UsageError(f"no detector chosen reads the {input_kind} input (see `slipbench list`)")
+        raise UsageError(
+            f"no detector chosen reads the {o.input_kind} input (see `slipbench list`)"
+        )
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
-    if train_path:
+    if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
         from slipbench.data.transfer import combine, parse_sensor_map
 
         ds = combine(
-            read_dataset(train_path), read_dataset(dataset_path), parse_sensor_map(sensor_map)
+            read_dataset(o.train_path), read_dataset(o.dataset_path), parse_sensor_map(o.sensor_map)
         )
     else:
         ds = (
-            read_dataset(dataset_path)
-            if dataset_path
-            else default_dataset(scale, seed, echo=click.echo)
+            read_dataset(o.dataset_path)
+            if o.dataset_path
+            else default_dataset(o.scale, o.seed, echo=click.echo)
         )
     rows = run_protocols(
         ds,
         runs,
-        ResultsStore(out),
-        force=force,
-        jobs=jobs,
-        scheduler=scheduler,
-        cell_timeout=cell_timeout,
-        progress=not quiet,
+        ResultsStore(o.out),
+        force=o.force,
+        jobs=o.jobs,
+        scheduler=o.scheduler,
+        cell_timeout=o.cell_timeout,
+        progress=not o.quiet,
     )
     for (dn, kind, pn), group in rows.groupby(["detector", "input", "protocol"], sort=False):
         click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
-        click.echo(protocol_table(group, protocols[pn].layout, intervals=intervals))
+        click.echo(protocol_table(group, protocols[pn].layout, intervals=o.intervals))
     counts = rows["status"].value_counts()
     click.echo(
         f"\n{len(rows)} cells: "
         + ", ".join(f"{int(counts.get(s, 0))} {s}" for s in ("ok", "skipped", "failed", "timeout"))
-        + f"; results in {out / 'results.parquet'}"
+        + f"; results in {o.out / 'results.parquet'}"
     )
     for reason in rows.loc[rows["status"] == "skipped", "reason"].unique():
         click.echo(f"skipped: {reason}", err=True)
-    failed = cells_failed(rows, str(out))
+    failed = cells_failed(rows, str(o.out))
     if broken:  # exit 3 outranks 4, so the cells that did not finish are listed with it
         raise PluginError(
             "; ".join(broken) + " (the other plugins ran)" + (f"\n{failed}" if failed else "")

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
@@ -15,6 +16,23 @@ from slipbench.app.options import (
     plugins_option,
 )
 from slipbench.app.selection import add_plugin_folders
+
+
+@dataclass(frozen=True)
+class ReportOptions:
+    """What `slipbench report` was given, one field per option."""
+
+    results: tuple[Path, ...]
+    fmt: str
+    metric: str
+    leaderboard_only: bool
+    intervals: bool
+    paper: bool
+    standalone: bool
+    plots_dir: Path | None
+    out: Path | None
+    appendix: Path | None
+    plugins: tuple[str, ...]
 
 
 @click.command("report")
@@ -64,21 +82,10 @@ from slipbench.app.selection import add_plugin_folders
     "side) and links it.",
 )
 @plugins_option(LAYOUT_PLUGINS_HELP)
-def report(
-    results,
-    fmt,
-    metric,
-    leaderboard_only,
-    intervals,
-    paper,
-    standalone,
-    plots_dir,
-    out,
-    appendix,
-    plugins,
-) -> None:
+def report(**options) -> None:
     """Render RESULTS (results files or --out folders): what they stand on, the leaderboard,
     then each protocol in its own layout (the paper's tables)."""
+    o = ReportOptions(**options)
     import os
 
     import pandas as pd
@@ -86,52 +93,56 @@ def report(
     from slipbench.report.document import build_report, render, split_appendix, write_figures
     from slipbench.store.results import check_unique_keys, read_results, results_folder
 
-    if appendix is not None and fmt == "html":
+    if o.appendix is not None and o.fmt == "html":
         raise click.BadParameter(
             "the HTML page keeps every table on one page; use --appendix with --format md or latex",
             param_hint="--appendix",
         )
-    if appendix is not None and out is not None and appendix.resolve() == out.resolve():
+    if o.appendix is not None and o.out is not None and o.appendix.resolve() == o.out.resolve():
         raise click.BadParameter(
             "the appendix needs a file of its own, not --out's", param_hint="--appendix"
         )
-    add_plugin_folders(plugins)
+    add_plugin_folders(o.plugins)
     rows = check_unique_keys(
-        pd.concat([read_results(p) for p in results], ignore_index=True),
-        " + ".join(map(str, results)),
+        pd.concat([read_results(p) for p in o.results], ignore_index=True),
+        " + ".join(map(str, o.results)),
     )
     blocks = build_report(
         rows,
-        metric,
-        intervals,
-        paper,
-        leaderboard_only,
-        with_figures=fmt == "html" or plots_dir is not None,
-        predictions=[results_folder(p) for p in results],
+        o.metric,
+        o.intervals,
+        o.paper,
+        o.leaderboard_only,
+        with_figures=o.fmt == "html" or o.plots_dir is not None,
+        predictions=[results_folder(p) for p in o.results],
     )
-    files = write_figures(blocks, plots_dir) if plots_dir else {}
-    home = out.parent if out else Path.cwd()
+    files = write_figures(blocks, o.plots_dir) if o.plots_dir else {}
+    home = o.out.parent if o.out else Path.cwd()
     rest = None
-    if appendix is not None:
-        link = Path(os.path.relpath(appendix.absolute(), home.absolute())).as_posix()
+    if o.appendix is not None:
+        link = Path(os.path.relpath(o.appendix.absolute(), home.absolute())).as_posix()
         back = (
-            Path(os.path.relpath(out.absolute(), appendix.parent.absolute())).as_posix()
-            if out
+            Path(os.path.relpath(o.out.absolute(), o.appendix.parent.absolute())).as_posix()
+            if o.out
             else ""
         )
-        blocks, rest = split_appendix(blocks, link, fmt, back)
-    text = render(blocks, fmt, standalone, files, link_from=out.parent if out else None)
+        blocks, rest = split_appendix(blocks, link, o.fmt, back)
+    text = render(blocks, o.fmt, o.standalone, files, link_from=o.out.parent if o.out else None)
     from slipbench.atomic import write_text_atomic
 
-    if rest is not None:  # the appendix first: a report never links a file not yet written
-        appendix.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(appendix, render(rest, fmt, standalone, files, link_from=appendix.parent))
-        click.echo(f"wrote {appendix}", err=not out)
-    if out:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_text_atomic(out, text)
-        click.echo(f"wrote {out}")
+    if (
+        rest is not None and o.appendix is not None
+    ):  # the appendix first: a report never links a file not yet written
+        o.appendix.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(
+            o.appendix, render(rest, o.fmt, o.standalone, files, link_from=o.appendix.parent)
+        )
+        click.echo(f"wrote {o.appendix}", err=not o.out)
+    if o.out:
+        o.out.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(o.out, text)
+        click.echo(f"wrote {o.out}")
     else:
         click.echo(text, nl=False)
     for path in (p for paths in files.values() for p in paths):
-        click.echo(f"wrote {path}", err=not out)
+        click.echo(f"wrote {path}", err=not o.out)

@@ -3,6 +3,7 @@ reports and a copy of the file."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import click
@@ -16,6 +17,18 @@ from slipbench.app.options import (
 )
 
 
+@dataclass(frozen=True)
+class RunOptions:
+    """What `slipbench run` was given, one field per option."""
+
+    bench_file: Path
+    out: Path | None
+    jobs: int | None
+    seed: int | None
+    force: bool
+    quiet: bool
+
+
 @click.command("run")
 @click.argument("bench_file", type=click.Path(path_type=Path))
 @out_option("Results folder [default: the file's benchmark.out].")
@@ -27,20 +40,20 @@ from slipbench.app.options import (
 )
 @force_option()
 @quiet_option()
-def run_command(bench_file, out, jobs, seed, force, quiet) -> None:
+def run_command(**options) -> None:
     """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
     options, split, seeds; write its results, its reports and a copy of the file."""
-    from slipbench.app.benchfile import load_benchmark, run_benchmark
+    o = RunOptions(**options)
+    from slipbench.app.benchfile import load_benchmark, run_benchmark, with_overrides
     from slipbench.atomic import check_writable
     from slipbench.store.results import cells_failed
 
-    bench = load_benchmark(bench_file)
-    if out is None:  # --out was checked as it was read; a run always writes its record there
+    bench = load_benchmark(o.bench_file)
+    if o.out is None:  # --out was checked as it was read; a run always writes its record there
         check_writable(bench.out)
-    rows, paths = run_benchmark(
-        bench, out, jobs, force, progress=not quiet, echo=click.echo, seed=seed
-    )
-    folder = out or bench.out
+    bench = with_overrides(bench, out=o.out, jobs=o.jobs, seed=o.seed)
+    rows, paths = run_benchmark(bench, o.force, progress=not o.quiet, echo=click.echo)
+    folder = bench.out
     counts = rows["status"].value_counts()
     click.echo(
         f"{len(rows)} cells: "

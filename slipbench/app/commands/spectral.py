@@ -4,6 +4,9 @@ for each sensor named, written as figure, table and bands, with the band in the 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from pathlib import Path
+
 import click
 
 from slipbench.app.options import (
@@ -14,6 +17,26 @@ from slipbench.app.options import (
     split_option,
 )
 from slipbench.errors import UsageError
+
+
+@dataclass(frozen=True)
+class SpectralOptions:
+    """What `slipbench spectral` was given, one field per option."""
+
+    sensors: tuple[str, ...]
+    instance: str | None
+    dataset_path: Path | None
+    scale: float
+    out: Path
+    seed: int
+    train_only: bool
+    split: str | None
+    boot: int
+    repeats: int
+    segment: int | None
+    alpha: float
+    level: float
+    keep: float
 
 
 @click.command("spectral")
@@ -64,67 +87,55 @@ from slipbench.errors import UsageError
     show_default=True,
     help="Most significant band: bins whose mean KS statistic is >= keep x the peak's.",
 )
-def spectral_cmd(
-    sensors,
-    instance,
-    dataset_path,
-    scale,
-    out,
-    seed,
-    train_only,
-    split,
-    boot,
-    repeats,
-    segment,
-    alpha,
-    level,
-    keep,
-) -> None:
+def spectral_cmd(**options) -> None:
     """Which frequencies separate slip from non-slip (the paper's section IV): figure, table, bands."""
+    o = SpectralOptions(**options)
     import time
 
     from slipbench.analysis import spectral
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
 
-    if split is not None and not train_only:
+    if o.split is not None and not o.train_only:
         raise UsageError(
             "--split names the run whose training side --train-only analyses; add --train-only"
         )
-    split = (split or "paper") if train_only else None
+    split = (o.split or "paper") if o.train_only else None
     ds = (
-        read_dataset(dataset_path)
-        if dataset_path
-        else default_dataset(scale, seed, echo=click.echo)
+        read_dataset(o.dataset_path)
+        if o.dataset_path
+        else default_dataset(o.scale, o.seed, echo=click.echo)
     )
     results, seconds = [], []
-    for sensor in sensors:  # every analysis before any file, so a bad name leaves no partial output
+    for (
+        sensor
+    ) in o.sensors:  # every analysis before any file, so a bad name leaves no partial output
         start = time.perf_counter()
         results.append(
             spectral.analyze(
                 ds,
                 sensor,
-                instance,
-                segment=segment,
-                n_boot=boot,
-                repeats=repeats,
-                alpha=alpha,
-                level=level,
-                keep=keep,
-                seed=seed,
+                o.instance,
+                segment=o.segment,
+                n_boot=o.boot,
+                repeats=o.repeats,
+                alpha=o.alpha,
+                level=o.level,
+                keep=o.keep,
+                seed=o.seed,
                 split=split,
             )
         )
         seconds.append(time.perf_counter() - start)
-    for sensor, result, took in zip(sensors, results, seconds):
-        name = spectral.stem(sensor, instance)
-        spectral.write(result, out, name)
+    for sensor, result, took in zip(o.sensors, results, seconds):
+        name = spectral.stem(sensor, o.instance)
+        spectral.write(result, o.out, name)
         bands = ", ".join(f"{lo:g}-{hi:g}" for lo, hi in result.bands) or "none"
-        click.echo(f"{name}: significant (>= {level:g}) bands, Hz: {bands}")
+        click.echo(f"{name}: significant (>= {o.level:g}) bands, Hz: {bands}")
         if result.best_band:
             click.echo(
                 f"{name}: most significant band {result.best_band[0]:g}-{result.best_band[1]:g} Hz; "
                 f"use it with --param {spectral.band_param(result.best_band)}"
             )
         click.echo(f"{name}: {spectral.provenance(result)}")
-        click.echo(f"{name}: analysed in {took:.1f} s; wrote {out / name}.png, .pdf, .csv, .json")
+        click.echo(f"{name}: analysed in {took:.1f} s; wrote {o.out / name}.png, .pdf, .csv, .json")
