@@ -530,9 +530,9 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     )
     blocks = build_report(
         rows,
-        bench.metric,
-        bench.intervals,
-        bench.paper,
+        metric=bench.metric,
+        intervals=bench.intervals,
+        paper=bench.paper,
         with_figures=bench.plots,
         benchmark=bench.describe,
         predictions=[out],

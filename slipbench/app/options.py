@@ -4,9 +4,8 @@ seed) and the parser of repeated NAME=VALUE options, so an option reads, validat
 the same in every command that takes it. The help text stays each command's: the same option
 means a different folder or file to ``evaluate`` and to ``report``.
 
-A command takes its options as ``**options`` and builds one frozen dataclass of them at once
-(``o = EvaluateOptions(**options)``, declared beside the command): the body reads ``o.seed``,
-the signature stays short however many options the command grows, and mypy checks the types."""
+A command takes ``**options`` and builds one frozen dataclass of them, declared beside it
+(``o = EvaluateOptions(**options)``; the pattern: docs/contributing.md)."""
 
 from __future__ import annotations
 

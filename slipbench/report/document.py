@@ -25,9 +25,11 @@ report, or moved to an appendix by :func:`split_appendix` so that the summary st
 from __future__ import annotations
 
 import base64
+import dataclasses
 import os
 import re
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
@@ -62,6 +64,7 @@ from slipbench.report.tables import (
     NO_BASELINE,
     SIMULATED,
     Table,
+    TableValues,
     add_versus,
     baseline_table,
     build_table,
@@ -87,6 +90,39 @@ PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 )
 FORMATS = ("md", "latex", "html")
+
+
+@dataclass(frozen=True)
+class ReportOptions:
+    """What a report shows. ``metric``: the figure the tables show and the leaderboard ranks;
+    ``intervals``: 95 % intervals; ``paper``: the published tables, differences and findings;
+    ``leaderboard_only``: the header and the leaderboard only; ``with_figures``: the
+    :class:`~slipbench.report.plots.FigureSpec` blocks; ``benchmark``: the benchmark file the
+    rows come from, named in the header; ``predictions``: results folders holding the cells'
+    test predictions (intervals pooled over seeds and fingers by one joint bootstrap).
+
+    Report functions take these as keywords (``build_report(rows, intervals=True)``) and build
+    one object of them, as a command does of its options."""
+
+    metric: str = "accuracy"
+    intervals: bool = False
+    paper: bool = False
+    leaderboard_only: bool = False
+    with_figures: bool = False
+    benchmark: str = ""
+    predictions: Sequence[str | os.PathLike] = ()
+
+
+@dataclass(frozen=True)
+class Page:
+    """How :func:`render_report` lays the report out: a LaTeX document that compiles
+    (``standalone``), the folder figures are drawn into and linked from Markdown and LaTeX
+    (``plots_dir``; HTML embeds its figures either way), and the folder links are relative to
+    (``link_from``: the report's own; default the working directory)."""
+
+    standalone: bool = False
+    plots_dir: str | os.PathLike | None = None
+    link_from: str | os.PathLike | None = None
 
 
 def flatten(blocks: list) -> list:
@@ -143,24 +179,19 @@ def split_appendix(
 
 
 def protocol_tables(
-    rows: pd.DataFrame,
-    layout: Layout,
-    protocol: str,
-    detector: str,
-    metric: str = "accuracy",
-    intervals: bool = False,
-    paper: bool = False,
-    split: str = "",
-    predictions: Sequence[str | os.PathLike] = (),
+    rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, split: str = "", **options
 ) -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
-    decimation), captions naming the detector and protocol. With ``paper``, the paper's model
-    (PAPER_DETECTOR) gets ours minus published after each; the published table itself is
-    :func:`published_table`, shown once per protocol. With ``intervals``, figures run under
-    several seeds get one interval pooled over the seeds from their ``predictions`` folders."""
+    decimation), captions naming the detector and protocol. ``options``: :class:`ReportOptions`.
+    With ``paper``, the paper's model (PAPER_DETECTOR) gets ours minus published after each; the
+    published table itself is :func:`published_table`, shown once per protocol. With
+    ``intervals``, figures run under several seeds get one interval pooled over the seeds from
+    their ``predictions`` folders."""
+    o = ReportOptions(**options)
+    metric, intervals, predictions = o.metric, o.intervals, o.predictions
     ref = (
         paper_frame(layout.paper_table)
-        if paper and layout.paper_table and detector == PAPER_DETECTOR
+        if o.paper and layout.paper_table and detector == PAPER_DETECTOR
         else None
     )
     named = (
@@ -181,9 +212,9 @@ def protocol_tables(
             layout,
             metric,
             intervals,
-            label_=f"tab:{tag}",
-            pooled=_pooled(part, layout, predictions) if intervals else None,
+            TableValues(pooled=_pooled(part, layout, predictions) if intervals else None),
         )
+        table.label = f"tab:{tag}"
         table.caption += which_text(which)
         table.subject = named
         out.append((f"{detector}{suffix}", table))
@@ -202,9 +233,8 @@ def protocol_tables(
             compute.subject = named
             out.append((f"{detector}{suffix}, compute per hop", compute))
         if ref is not None and len(ref) and metric == "accuracy":
-            dt = build_table(
-                part, layout, metric, values="difference", paper=ref, label_=f"tab:{tag}-difference"
-            )
+            dt = build_table(part, layout, metric, shown=TableValues("difference", ref))
+            dt.label = f"tab:{tag}-difference"
             dt.caption = (
                 f"Ours minus published, {detector} against the paper's LSTM.{which_text(which)}"
             )
@@ -263,14 +293,10 @@ def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_
         else pd.Series(dtype=float)
     )
     per_min = f"{budget.iloc[0]:g}" if len(budget) else "1"
-    table = metrics_table(
-        rows,
-        layout,
-        layout.metrics,
-        intervals,
-        label_,
-        prefix="op_",
-        group=f"At {per_min} false alarm per minute (threshold chosen on the training trials' streams)",
+    table = metrics_table(rows, layout, layout.metrics, intervals, prefix="op_")
+    table.label = label_
+    table.group = (
+        f"At {per_min} false alarm per minute (threshold chosen on the training trials' streams)"
     )
     notes = rows["op_note"].dropna() if "op_note" in rows else pd.Series(dtype=str)
     for note in sorted(set(notes) - {""}):
@@ -285,7 +311,8 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
     if ref is None or not len(ref):
         return None
     part = split_parts(rows, layout)[0][1]
-    table = build_table(part, layout, values="paper", paper=ref, label_=f"tab:{protocol}-paper")
+    table = build_table(part, layout, shown=TableValues("paper", ref))
+    table.label = f"tab:{protocol}-paper"
     table.caption = (
         f"Published (Van Wyk & Falco, their LSTM): {table.caption[0].lower()}{table.caption[1:]}"
     )
@@ -319,18 +346,24 @@ def _versus(
     add_versus(table, texts, ", ".join(reference), methods)
 
 
+@dataclass(frozen=True)
+class _Shared:
+    """What every protocol's section draws on: the figures by section (FigureSpecs) and the
+    reference detectors the others are set against."""
+
+    figures: dict[str | None, list]
+    reference: Sequence[str] = ()
+
+
 def _protocol_blocks(
     rows: pd.DataFrame,
     protocol: str,
-    layout: Layout,
-    note: str,
-    metric: str,
-    intervals: bool,
-    paper: bool,
-    figures: dict[str | None, list],  # section -> FigureSpecs
-    predictions: Sequence[str | os.PathLike] = (),
-    reference: Sequence[str] = (),
+    found: tuple[Layout, str],  # the protocol's layout and its note
+    o: ReportOptions,
+    shared: _Shared,
 ) -> list:
+    (layout, note), metric, predictions = found, o.metric, o.predictions
+    figures, reference = shared.figures, shared.reference
     prows = rows[rows["protocol"] == protocol]
     blocks: list = [Heading(protocol, 2)]
     standing = stand_ins(prows)
@@ -373,7 +406,7 @@ def _protocol_blocks(
             (f for f in figures.get(protocol, []) if f.detector is None),
             key=lambda f: splits.index(f.split) if f.split in splits else len(splits),
         )
-    if paper:
+    if o.paper:
         published = published_table(prows, layout, protocol)
         if published is not None:
             blocks += [Heading(f"{protocol}: published", 3), published]
@@ -386,7 +419,7 @@ def _protocol_blocks(
             detail += [
                 t
                 for _, t in protocol_tables(
-                    drows, layout, protocol, detector, metric, intervals, paper, split, predictions
+                    drows, layout, protocol, detector, split, **dataclasses.asdict(o)
                 )
             ]
             detail += [
@@ -397,23 +430,18 @@ def _protocol_blocks(
 
 
 def build_report(
-    rows: pd.DataFrame,
-    metric: str = "accuracy",
-    intervals: bool = False,
-    paper: bool = False,
-    leaderboard_only: bool = False,
-    found: dict[str, tuple[Layout, str]] | None = None,
-    with_figures: bool = False,
-    benchmark: str = "",
-    predictions: Sequence[str | os.PathLike] = (),
+    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]] | None = None, **options
 ) -> list:
     """The report as blocks (:class:`Heading`, :class:`Text`, tables, and, with
     ``with_figures``, :class:`~slipbench.report.plots.FigureSpec`), in the module's outline.
-    ``benchmark``: the benchmark file the rows come from, named in the header.
-    ``predictions``: results folders holding the cells' test predictions; with ``intervals``,
-    means over fingers and over seeds get one joint bootstrap over the trials they share.
+    ``found``: each protocol's layout and fallback note (default: :func:`layouts`);
+    ``options``: :class:`ReportOptions`. With ``intervals`` and ``predictions``, means over
+    fingers and over seeds get one joint bootstrap over the trials they share.
     A detector run on the raw channels competes as its own entrant, ``tcn (channels)``, in
     every table, leaderboard and finding; the last section pairs it with its univariate twin."""
+    o = ReportOptions(**options)
+    metric, intervals, paper, with_figures = o.metric, o.intervals, o.paper, o.with_figures
+    predictions = o.predictions
     both = rows[~stand_ins(rows)]
     rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
     found = layouts(rows) if found is None else found
@@ -435,7 +463,7 @@ def build_report(
     blocks: list = [
         Heading("slipbench report", 1),
         Heading("What this report stands on", 2),
-        *header_tables(rows, metric, order, benchmark),
+        *header_tables(rows, metric, order, o.benchmark),
         Heading("Leaderboard", 2),
     ]
     side = (
@@ -460,7 +488,7 @@ def build_report(
         blocks += [Heading("Test sets of one class", 2), lone]
     if side is not None:
         blocks += [Heading("The splits side by side", 2), side]
-    if leaderboard_only:
+    if o.leaderboard_only:
         return blocks
     if paper:
         blocks += _findings(lead, found, order)
@@ -475,10 +503,7 @@ def build_report(
         blocks += [Detail("What fitting chose", own)] if own else []
         blocks += [t for t in fitted if not t.label.startswith("tab:fitted-")]
     for protocol in order:
-        layout, note = found[protocol]
-        blocks += _protocol_blocks(
-            rows, protocol, layout, note, metric, intervals, paper, figures, predictions, reference
-        )
+        blocks += _protocol_blocks(rows, protocol, found[protocol], o, _Shared(figures, reference))
     table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
     if table_one and "window" in lead:
         title = "At window 50: baseline and TP/TN rates" + (
@@ -716,40 +741,21 @@ def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> 
 def render_report(
     rows: pd.DataFrame,
     fmt: str = "md",
-    metric: str = "accuracy",
-    intervals: bool = False,
-    paper: bool = False,
-    standalone: bool = False,
     found: dict[str, tuple[Layout, str]] | None = None,
-    *,
-    leaderboard_only: bool = False,
-    plots_dir: str | os.PathLike | None = None,
-    link_from: str | os.PathLike | None = None,
+    **options,
 ) -> str:
     """Every table the rows allow, in the paper's order, after the report's header and the
-    leaderboard, as one Markdown, LaTeX or HTML text.
-
-    Parameters
-    ----------
-    found : each protocol's layout and fallback note (default: :func:`layouts`).
-    leaderboard_only : the header and the leaderboard only.
-    plots_dir : draw the figures here (PNG and PDF) and link them from Markdown and LaTeX.
-        HTML embeds its figures whether or not they are written.
-    link_from : the folder figure links are relative to (the report's own; default: cwd).
-    """
+    leaderboard, as one Markdown, LaTeX or HTML text. ``found``: as :func:`build_report`;
+    ``options``: :class:`ReportOptions` and :class:`Page` (how the text is laid out)."""
     if fmt not in FORMATS:
         raise SlipbenchError(f"unknown report format {fmt!r}; one of {', '.join(FORMATS)}")
-    blocks = build_report(
-        rows,
-        metric,
-        intervals,
-        paper,
-        leaderboard_only,
-        found,
-        with_figures=fmt == "html" or plots_dir is not None,
+    page = Page(
+        **{f.name: options.pop(f.name) for f in dataclasses.fields(Page) if f.name in options}
     )
-    files = write_figures(blocks, plots_dir) if plots_dir is not None else {}
-    return render(blocks, fmt, standalone, files, link_from)
+    with_figures = fmt == "html" or page.plots_dir is not None
+    blocks = build_report(rows, found, **options, with_figures=with_figures)
+    files = write_figures(blocks, page.plots_dir) if page.plots_dir is not None else {}
+    return render(blocks, fmt, page.standalone, files, page.link_from)
 
 
 def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
@@ -764,19 +770,16 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     rows = rows.assign(**{SIMULATED: on_simulation(rows)})
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
     why = fits(layout, rows)
-    tables = protocol_tables(
-        rows,
-        generic_layout(rows, protocol) if why else layout,
-        protocol,
-        detector,
-        intervals=intervals,
-    )
+    shown = generic_layout(rows, protocol) if why else layout
+    tables = protocol_tables(rows, shown, protocol, detector, intervals=intervals)
     return "\n\n".join(to_markdown(t) for _, t in tables)
 
 
 __all__ = [
     "Detail",
     "Heading",
+    "Page",
+    "ReportOptions",
     "Text",
     "build_report",
     "layouts",

@@ -276,18 +276,17 @@ def _matrix(
     grid: np.ndarray,
     ylabels: list[str] | None,
     xlabels: list[str],
-    limits=None,
-    cmap: str = "viridis",
-    diff: bool = False,
-    fmt: str = "{:.1f}",
+    limits: tuple[float, float] | None = None,
 ):
-    """An annotated heatmap; text black or white by the colour under it."""
-    if diff:
+    """An annotated heatmap; text black or white by the colour under it. Without ``limits``, a
+    difference: a diverging map around 0, figures signed."""
+    fmt = "{:.1f}" if limits else "{:+.1f}"
+    if limits is None:
         top = max(1.0, float(np.nanmax(np.abs(grid)))) if np.isfinite(grid).any() else 1.0
         norm = TwoSlopeNorm(0.0, -top, top)
         im = ax.imshow(grid, cmap="RdBu", norm=norm, aspect="auto")
     else:
-        im = ax.imshow(grid, cmap=cmap, vmin=limits[0], vmax=limits[1], aspect="auto")
+        im = ax.imshow(grid, cmap="viridis", vmin=limits[0], vmax=limits[1], aspect="auto")
     ax.set_xticks(
         range(len(xlabels)),
         xlabels,
@@ -348,9 +347,7 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
             pad=2,
         )
         fig.colorbar(im, ax=ax, label="accuracy (%)", fraction=0.05, pad=0.02)
-    im = _matrix(
-        axes[2], grids["with"] - grids["without"], names, xlabels, diff=True, fmt="{:+.1f}"
-    )
+    im = _matrix(axes[2], grids["with"] - grids["without"], names, xlabels)
     axes[2].set_title("with minus without", loc="left", pad=2)
     fig.colorbar(im, ax=axes[2], label="difference (points)", fraction=0.05, pad=0.02)
     axes[2].set_xlabel(layout.x_label or AXIS_LABELS.get(column, (layout.title or column).lower()))

@@ -302,20 +302,30 @@ def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> 
     return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status", "low_n"])
 
 
-def figure_text(
-    mean: float,
-    sd: float = np.nan,
-    n: int = 1,
-    lo: float = np.nan,
-    hi: float = np.nan,
-    status: str = "ok",
-    intervals: bool = False,
-    low: bool = False,
-) -> str:
+@dataclass(frozen=True)
+class CellFigure:
+    """One figure of a cell as a table shows it: its mean over seeds, their sd and count, its
+    interval, the cell's status, and whether it rests on few test trials or onsets (``low``)."""
+
+    mean: float
+    sd: float = np.nan
+    n: int = 1
+    lo: float = np.nan
+    hi: float = np.nan
+    status: str = "ok"
+    low: bool = False
+
+    @classmethod
+    def of(cls, r: dict) -> CellFigure:
+        """From a record of :func:`summarize`."""
+        return cls(r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], bool(r["low_n"]))
+
+
+def figure_text(figure: CellFigure, intervals: bool = False) -> str:
     """``88.0``; ``88.0 ± 0.4`` over seeds; ``88.0 [86.9, 89.1]`` with intervals (over seeds the
     interval holds their spread, so no ± beside it); 'NA' if absent; ``LOW_MARK`` appended where
-    the cell rests on few test trials (``low``)."""
-    return metric_text("", mean, sd, n, lo, hi, status, intervals, low)
+    the cell rests on few test trials."""
+    return metric_text("", figure, intervals)
 
 
 def _key_columns(rows: pd.DataFrame) -> list[str]:
@@ -415,29 +425,34 @@ def table_keys(rows: pd.DataFrame, layout: Layout) -> list[str]:
     return [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
 
 
+@dataclass(frozen=True)
+class TableValues:
+    """What a table's cells hold. ``kind``: "ours" (the results), "paper" (the published numbers
+    from ``paper``), or "difference" (ours minus paper, in percentage points). ``pooled`` (keyed
+    by the values of :func:`table_keys`, from :func:`slipbench.stats.joint.joint_means`): the
+    interval of a figure run under several seeds, one bootstrap over the recordings the seeds
+    share, in place of the mean of the seeds' bounds."""
+
+    kind: str = "ours"
+    paper: pd.DataFrame | None = None
+    pooled: dict[tuple, dict] | None = None
+
+
 def build_table(
     rows: pd.DataFrame,
     layout: Layout,
     metric: str = "accuracy",
     intervals: bool = False,
-    values: str = "ours",
-    paper: pd.DataFrame | None = None,
-    label_: str = "",
-    pooled: dict[tuple, dict] | None = None,
+    shown: TableValues = TableValues(),
 ) -> Table:
-    """One table of one detector's rows in ``layout``.
-
-    ``values``: "ours" (the results), "paper" (the published numbers from ``paper``), or
-    "difference" (ours minus paper, in percentage points). A layout with ``metrics`` gives
-    :func:`metrics_table` (``metric`` and ``values`` do not apply). ``pooled`` (keyed by the
-    values of :func:`table_keys`, from :func:`slipbench.stats.joint.joint_means`): the interval of a
-    figure run under several seeds, one bootstrap over the recordings the seeds share, in place
-    of the mean of the seeds' bounds.
-    """
+    """One table of one detector's rows in ``layout``, its cells ``shown`` (:class:`TableValues`;
+    its label is the caller's to set). A layout with ``metrics`` gives :func:`metrics_table`
+    (``metric`` and ``shown.kind`` do not apply)."""
     if layout.metrics:
-        return metrics_table(rows, layout, layout.metrics, intervals, label_)
+        return metrics_table(rows, layout, layout.metrics, intervals)
+    values, paper = shown.kind, shown.paper
     keys = table_keys(rows, layout)
-    pooled = pooled or {}
+    pooled = shown.pooled or {}
     summary = summarize(rows, keys, metric)
     row_values = summary[list(layout.rows)].drop_duplicates()
     for col in reversed(layout.rows):  # stable sorts, last key first: lexicographic order
@@ -463,7 +478,7 @@ def build_table(
         lo, hi = r["lo"], r["hi"]
         if r["n"] > 1 and key in pooled:
             lo, hi = pooled[key][f"{metric}_lo"], pooled[key][f"{metric}_hi"]
-        return figure_text(r["mean"], r["sd"], r["n"], lo, hi, r["status"], intervals, r["low_n"])
+        return figure_text(CellFigure.of({**r, "lo": lo, "hi": hi}), intervals)
 
     cells = []
     for rk in row_keys:
@@ -493,7 +508,7 @@ def build_table(
         notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
-    return Table(caption, headers, group, plain, row_labels, cells, label_, latex, notes)
+    return Table(caption, headers, group, plain, row_labels, cells, "", latex, notes)
 
 
 def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict[tuple, float]:
@@ -628,7 +643,7 @@ def _averaged(
                 mean = g["mean"].mean()
                 lo, hi = mean - half, mean + half
             out.setdefault(key, []).append(
-                figure_text(mean, lo=lo, hi=hi, intervals=intervals, low=bool(g["low_n"].any()))
+                figure_text(CellFigure(mean, lo=lo, hi=hi, low=bool(g["low_n"].any())), intervals)
             )
     return out
 
@@ -784,33 +799,24 @@ METRIC_COLUMNS: dict[str, tuple[str, float, int]] = {
 }
 
 
-def metric_text(
-    metric: str,
-    mean: float,
-    sd: float = np.nan,
-    n: int = 1,
-    lo: float = np.nan,
-    hi: float = np.nan,
-    status: str = "ok",
-    intervals: bool = False,
-    low: bool = False,
-) -> str:
+def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str:
     """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
     ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals (over seeds, the
     interval holds their spread, so no ± beside it); 'NA' if absent; ``LOW_MARK`` appended
     where the cell rests on few test trials or onsets (``low``)."""
-    if status != "ok":
-        return status
+    mean, sd, lo, hi = figure.mean, figure.sd, figure.lo, figure.hi
+    if figure.status != "ok":
+        return figure.status
     if pd.isna(mean):
         return "NA"
     _, scale, digits = METRIC_COLUMNS.get(metric, (metric, 100.0, 1))
     text = f"{scale * mean:.{digits}f}"
     shown = intervals and not (pd.isna(lo) or pd.isna(hi))
-    if n > 1 and not pd.isna(sd) and not shown:
+    if figure.n > 1 and not pd.isna(sd) and not shown:
         text += f" ± {scale * sd:.{digits}f}"
     if shown:
         text += f" [{scale * lo:.{digits}f}, {scale * hi:.{digits}f}]"
-    return text + (LOW_MARK if low else "")
+    return text + (LOW_MARK if figure.low else "")
 
 
 def metrics_table(
@@ -818,13 +824,12 @@ def metrics_table(
     layout: Layout,
     metrics: Sequence[str],
     intervals: bool = False,
-    label_: str = "",
-    group: str = "",
     prefix: str = "",
 ) -> Table:
     """One detector's rows in ``layout``, one value column per metric of ``metrics`` (result
     columns ``prefix + metric``, e.g. "op_" for the streaming operating point), each averaged
-    over seeds as :func:`summarize` does."""
+    over seeds as :func:`summarize` does; its label (and another group header) are the
+    caller's to set."""
     keys = [k for k in layout.rows if k in rows]
     per = {
         m: {
@@ -835,16 +840,7 @@ def metrics_table(
     }
     row_keys = ordered_keys(rows, keys)
     cells = [
-        [
-            metric_text(
-                m,
-                **{k: per[m][rk][k] for k in ("mean", "sd", "n", "lo", "hi", "status")},
-                intervals=intervals,
-                low=bool(per[m][rk]["low_n"]),
-            )
-            for m in metrics
-        ]
-        for rk in row_keys
+        [metric_text(m, CellFigure.of(per[m][rk]), intervals) for m in metrics] for rk in row_keys
     ]
     row_labels: list[tuple[str, ...]]
     if layout.merge_rows:
@@ -862,11 +858,11 @@ def metrics_table(
     return Table(
         caption_of(layout.caption, rows),
         headers,
-        group or layout.group,
+        layout.group,
         columns,
         row_labels,
         cells,
-        label_,
+        "",
         notes=notes,
     )
 
@@ -951,7 +947,8 @@ def side_by_side(
         return _metrics_side_by_side(rows, layout, detectors, label_)
     keys = [k for k in (*layout.rows, layout.column, layout.pair) if k and k in rows]
     if "detector" in keys:  # a layout by detector (from cell keys) sets them side by side itself
-        table = build_table(rows, layout, metric, label_=label_)
+        table = build_table(rows, layout, metric)
+        table.label = label_
         table.caption = f"{layout.title or 'Protocol'}: every detector side by side."
         return table
     per = summarize(rows, ["detector", *keys], metric)
@@ -967,7 +964,7 @@ def side_by_side(
 
     def one(key: tuple) -> str:
         r = found.get(key)
-        return "NA" if r is None else figure_text(r["mean"], low=bool(r["low"]))
+        return "NA" if r is None else figure_text(CellFigure(r["mean"], low=bool(r["low"])))
 
     cells = [
         [
@@ -1005,7 +1002,7 @@ def _metrics_side_by_side(
             per = summarize(rows[rows["detector"] == d], keys, m)
             per = per[per["status"] == "ok"]
             line.append(
-                metric_text(m, per["mean"].mean(), low=bool(per["low_n"].any()))
+                metric_text(m, CellFigure(per["mean"].mean(), low=bool(per["low_n"].any())))
                 if len(per)
                 else "NA"
             )

@@ -163,10 +163,8 @@ def resample_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) 
 
 
 def satterthwaite_df(
-    design: Design,
+    clusters: Clusters,
     influence: np.ndarray,
-    sizes: np.ndarray,
-    used: np.ndarray,
     extra: Sequence[tuple[float, float]] = (),
     unsure: float = 0.0,
 ) -> float:
@@ -174,11 +172,9 @@ def satterthwaite_df(
 
     Parameters
     ----------
+    clusters : the design and the clusters the figure draws on (:class:`Clusters`).
     influence : ndarray of shape (n_clusters,)
         Derivative of the figure by each cluster's weight (its linearization).
-    sizes : ndarray of shape (n_clusters,)
-        Windows per cluster that the figure draws on.
-    used : ndarray of shape (n_clusters,), bool
     extra : sequence of (variance, df)
         Further independent variance components, e.g. the seed-to-seed variance of a side's
         mean over ``S`` seeds with ``S - 1`` degrees of freedom (:func:`seeded_interval`).
@@ -196,6 +192,7 @@ def satterthwaite_df(
         influences, a plug-in Satterthwaite with normal kurtosis per cluster; it falls when a
         few clusters carry the variance).
     """
+    design, used, sizes = clusters.design, clusters.used, clusters.sizes
     num = den = 0.0
     for h, n_h in enumerate(design.size):
         m = (design.stratum == h) & used
@@ -248,16 +245,50 @@ class Interval:
 PerSeed = Callable[[np.ndarray], Sequence[np.ndarray]]
 
 
+@dataclass(frozen=True)
+class IntervalSpec:
+    """How an interval is drawn: the seed of its resamples, its level, how many resamples, and
+    the method (one of METHODS, or a study's :class:`IntervalMethod`).
+
+    The functions that compute figures take these as keywords beside their data
+    (``classification_figures(y, pred, groups, seed, level=0.9)``) and build one of them, as a
+    command does of its options (:mod:`slipbench.app.options`)."""
+
+    seed: int = 0
+    level: float = LEVEL
+    n_resamples: int = N_RESAMPLES
+    method: str | IntervalMethod = DEFAULT_METHOD
+
+
+@dataclass(frozen=True)
+class Clusters:
+    """The clusters a figure draws on: the design (strata, clusters), which clusters it uses
+    (bool, shape (n_clusters,)) and its windows per cluster (shape (n_clusters,))."""
+
+    design: Design
+    used: np.ndarray
+    sizes: np.ndarray
+
+
+@dataclass(frozen=True)
+class SeededFigure:
+    """A figure over seeds (:func:`seeded_interval`): per side, each seed's figure under cluster
+    weights and its derivatives by each cluster weight (:data:`PerSeed`; arrays (n, S_k) and
+    (n, S_k, n_clusters)); each side's weight in the figure (``signs``: ``(1,)`` for a mean,
+    ``(-1, 1)`` for candidate - base); and the range it can take (``bounds``: (0, 1) for
+    figures, (-1, 1) for changes)."""
+
+    per_seed: PerSeed
+    per_seed_influence: PerSeed
+    signs: Sequence[float] = (1.0,)
+    bounds: tuple[float, float] = (0.0, 1.0)
+
+
 def interval(
     statistic: Callable[[np.ndarray], np.ndarray],
     influence: Callable[[np.ndarray], np.ndarray],
-    design: Design,
-    used: np.ndarray,
-    sizes: np.ndarray,
-    seed: int,
-    level: float = LEVEL,
-    n_resamples: int = N_RESAMPLES,
-    method: str | IntervalMethod = DEFAULT_METHOD,
+    clusters: Clusters,
+    spec: IntervalSpec,
     bounds: tuple[float, float] = (0.0, 1.0),
 ) -> Interval:
     """Interval of a figure by the stratified cluster bootstrap.
@@ -269,11 +300,8 @@ def interval(
         weights of ones give the estimate.
     influence : callable
         Maps weights (n, n_clusters) to the figure's derivative by each weight, same shape.
-    used : ndarray of shape (n_clusters,), bool
-        The clusters the figure draws on.
-    sizes : ndarray of shape (n_clusters,)
-        Windows per cluster that the figure draws on.
-    method : one of METHODS, or a study's IntervalMethod
+    clusters : the design, the clusters the figure draws on and its windows per cluster.
+    spec.method : one of METHODS, or a study's IntervalMethod
         ``scale-choice`` (the default, :data:`DEFAULT_METHOD`): a figure in (0, 1) takes the
         logit t-interval whose standard error is at least its clusters' replicates' own logit
         spread (:func:`replicate_logit_bounds`); a change of two sides apart, one seed each,
@@ -283,19 +311,10 @@ def interval(
     bounds : (low, high)
         The range the figure can take: (0, 1) for figures, (-1, 1) for changes.
     """
-    return seeded_interval(
-        lambda w: [statistic(w)[:, None]],
-        lambda w: [influence(w)[:, None, :]],
-        (1.0,),
-        design,
-        used,
-        sizes,
-        seed,
-        level,
-        n_resamples,
-        method,
-        bounds,
+    figure = SeededFigure(
+        lambda w: [statistic(w)[:, None]], lambda w: [influence(w)[:, None, :]], (1.0,), bounds
     )
+    return seeded_interval(figure, clusters, spec)
 
 
 @dataclass(frozen=True)
@@ -515,18 +534,9 @@ def _bounds(fit: Fit, method: str) -> tuple[float, float]:
 
 
 def seeded_interval(
-    per_seed: PerSeed,
-    per_seed_influence: PerSeed,
-    signs: Sequence[float],
-    design: Design,
-    used: np.ndarray,
-    sizes: np.ndarray,
-    seed: int,
-    level: float = LEVEL,
-    n_resamples: int = N_RESAMPLES,
-    method: str | IntervalMethod = DEFAULT_METHOD,
-    bounds: tuple[float, float] = (0.0, 1.0),
-    *,
+    figure: SeededFigure,
+    clusters: Clusters,
+    spec: IntervalSpec,
     seed_pool: SeedPool | None = None,
 ) -> Interval:
     """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
@@ -540,14 +550,14 @@ def seeded_interval(
 
     Parameters
     ----------
-    per_seed : callable
-        Maps cluster weights (n, n_clusters) to a sequence, one per side, of arrays (n, S_k):
-        each seed's figure.
-    per_seed_influence : callable
-        The same for the derivatives by each cluster weight: arrays (n, S_k, n_clusters).
-    signs : sequence of float
-        Per side, its weight in the figure: ``(1,)`` for a mean, ``(-1, 1)`` for candidate -
-        base; any other weight scales that side's figure and its variance components alike.
+    figure : :class:`SeededFigure`
+        ``per_seed`` maps cluster weights (n, n_clusters) to a sequence, one per side, of
+        arrays (n, S_k): each seed's figure; ``per_seed_influence`` the same for the
+        derivatives by each cluster weight: arrays (n, S_k, n_clusters). ``signs``: per side,
+        its weight in the figure; any other weight than 1 scales that side's figure and its
+        variance components alike.
+    clusters, spec : the clusters the figure draws on (:class:`Clusters`), how the interval
+        is drawn (:class:`IntervalSpec`).
     seed_pool : SeedPool, optional
         The seed variance the protocol's cells share (:func:`pool_seed_spreads`): it replaces
         the sides' own seed spreads, with its degrees of freedom.
@@ -559,6 +569,10 @@ def seeded_interval(
     variance, fewer the more the net subtracts; a pool leaves its own. With one seed per side
     and no pool this is exactly the one-level interval of :func:`interval`.
     """
+    per_seed, per_seed_influence, signs = figure.per_seed, figure.per_seed_influence, figure.signs
+    design, used, sizes = clusters.design, clusters.used, clusters.sizes
+    seed, level, n_resamples, method = spec.seed, spec.level, spec.n_resamples, spec.method
+    bounds = figure.bounds
     if isinstance(method, str) and method not in METHODS:
         raise ValueError(f"unknown interval method {method!r}; choose one of: {', '.join(METHODS)}")
     problem = Problem(
@@ -590,12 +604,12 @@ def seeded_interval(
         df = float(design.df(used))
     else:
         infl = sum(k * g for k, g in zip(signs, side_infl))
-        df = satterthwaite_df(design, np.asarray(infl), sizes, used, extra, unsure)
+        df = satterthwaite_df(clusters, np.asarray(infl), extra, unsure)
 
     def level_df() -> float:  # the two sides' mean, MOVER's level
         mean_infl = np.asarray(sum(side_infl)) / 2
         quarter = [(v / 4, d) for v, d in extra]
-        return satterthwaite_df(design, mean_infl, sizes, used, quarter, unsure / 16)
+        return satterthwaite_df(clusters, mean_infl, quarter, unsure / 16)
 
     fit = Fit(problem, est, se, df, reps, at_one, level_df, net)
     if se == 0:

@@ -78,7 +78,7 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED, DataError, UsageError
-from slipbench.stats.bootstrap import SeedPool
+from slipbench.stats.bootstrap import IntervalSpec, SeedPool
 from slipbench.stats.factors import (
     SETTINGS,
     differing_settings,
@@ -364,10 +364,8 @@ def cell_sides(
 def cell_over_seeds(
     base: list[pd.DataFrame],
     cand: list[pd.DataFrame],
-    seed: int,
-    level: float,
+    spec: IntervalSpec,
     paired: bool = False,
-    *,
     seed_pool: dict[str, SeedPool] | None = None,
 ) -> dict:
     """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
@@ -376,7 +374,15 @@ def cell_over_seeds(
     variance its protocol's cells share (:func:`seed_pools`)."""
     b, c = seed_sides(base, cand)
     out: dict[str, Any] = over_seeds(
-        b, c, seed=seed, level=level, figures=FIGURES, paired=paired, seed_pool=seed_pool
+        b,
+        c,
+        spec.seed,
+        level=spec.level,
+        n_resamples=spec.n_resamples,
+        method=spec.method,
+        figures=FIGURES,
+        paired=paired,
+        seed_pool=seed_pool,
     )
     how = "paired seed by seed" if paired else f"{len(b)} → {len(c)} seeds"
     out["method"] = f"over seeds and trials ({how})"
@@ -739,7 +745,7 @@ def _changes(
     elif one_each and same_seeds:
         entry |= paired_cell(pb[0], pc[0], seed, level) or unpaired_cell(b_rows, c_rows, level)
     elif all(p is not None for p in (*pb, *pc)):
-        entry |= cell_over_seeds(pb, pc, seed, level, paired=same_seeds, seed_pool=seed_pool)
+        entry |= cell_over_seeds(pb, pc, IntervalSpec(seed, level), same_seeds, seed_pool)
     else:
         entry |= unpaired_cell(b_rows, c_rows, level)
     for col in (

@@ -25,9 +25,12 @@ from slipbench.stats.bootstrap import (
     DEFAULT_METHOD,
     LEVEL,
     N_RESAMPLES,
+    Clusters,
     Design,
     Interval,
     IntervalMethod,
+    IntervalSpec,
+    SeededFigure,
     SeedPool,
     interval,
     make_design,
@@ -222,6 +225,27 @@ class Predictions:
     strata: np.ndarray | None = None
 
 
+@dataclass(frozen=True)
+class SeedOptions:
+    """What :func:`over_seeds` takes besides its sides and the interval: the ``figures``, whether
+    the sides' seeds pair (``paired``) and the protocol's ``seed_pool`` per figure."""
+
+    figures: Sequence[str] = FIGURES
+    paired: bool = False
+    seed_pool: Mapping[str, SeedPool] | None = None
+
+
+@dataclass(frozen=True)
+class PairOptions:
+    """What :func:`paired_comparison` takes besides its windows and the interval: each side's
+    scores (the AUROC's change), the windows' balancing ``strata`` and the ``figures``."""
+
+    base_scores: np.ndarray | None = None
+    cand_scores: np.ndarray | None = None
+    strata: np.ndarray | None = None
+    figures: Sequence[str] = FIGURES
+
+
 def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
     y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
     n_slip, n_nonslip = cluster_counts(y, np.concatenate([np.asarray(p.groups) for p in parts]))
@@ -260,28 +284,29 @@ def _joint_design(parts: Sequence[Predictions]) -> tuple[Design, list[_Totals]]:
     return design, totals
 
 
-def _joint_figures(
-    parts: Sequence[Predictions],
-    seed: int,
-    level: float,
-    n_resamples: int,
-    method: str | IntervalMethod,
-) -> dict:
+def interval_spec(seed: int, options: dict) -> IntervalSpec:
+    """The :class:`IntervalSpec` of ``seed`` and the keywords of ``options`` that name one of
+    its fields (``level``, ``n_resamples``, ``method``), taken out of ``options``."""
+    named = ("level", "n_resamples", "method")
+    return IntervalSpec(seed, **{k: options.pop(k) for k in named if k in options})
+
+
+def _joint_figures(parts: Sequence[Predictions], spec: IntervalSpec) -> dict:
     """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
     design, totals = _joint_design(parts)
     out: dict = {}
     unestimable = []
     for name in FIGURES:
-        iv = interval(
-            partial(_pooled, _figure, totals, name),
-            partial(_pooled, _influence, totals, name),
+        clusters = Clusters(
             design,
             np.logical_or.reduce([_used(t, name) for t in totals]),
             np.sum([_sizes(t, name) for t in totals], axis=0),
-            seed,
-            level,
-            n_resamples,
-            method,
+        )
+        iv = interval(
+            partial(_pooled, _figure, totals, name),
+            partial(_pooled, _influence, totals, name),
+            clusters,
+            spec,
         )
         _put(out, name, iv)
         if name == "accuracy":
@@ -301,15 +326,7 @@ def _joint_figures(
 
 # ----------------------------------------------------------------------------- one cell
 def classification_figures(
-    y_true: np.ndarray,
-    y_pred: np.ndarray,
-    groups: np.ndarray,
-    seed: int,
-    scores: np.ndarray | None = None,
-    strata: np.ndarray | None = None,
-    level: float = LEVEL,
-    n_resamples: int = N_RESAMPLES,
-    method: str | IntervalMethod = DEFAULT_METHOD,
+    y_true: np.ndarray, y_pred: np.ndarray, groups: np.ndarray, seed: int, **options
 ) -> dict[str, float | int | bool | str]:
     """Every figure of one cell, each with an interval from the stratified cluster bootstrap.
 
@@ -327,7 +344,8 @@ def classification_figures(
         Balancing stratum of each window (``Windows.strata()``): clusters are resampled within
         class and stratum.
     level, n_resamples, method
-        Interval level, bootstrap resamples, interval method (:func:`slipbench.stats.bootstrap.interval`).
+        Interval level, bootstrap resamples, interval method
+        (:class:`~slipbench.stats.bootstrap.IntervalSpec`).
 
     Returns
     -------
@@ -341,6 +359,7 @@ def classification_figures(
         without an estimate (no slip window for a TP rate; no scores for the AUROC) is NaN with
         NaN bounds.
     """
+    spec = interval_spec(seed, options)
     y_true = np.asarray(y_true).astype(bool)
     y_pred = np.asarray(y_pred).astype(bool)
     out: dict = {
@@ -349,13 +368,7 @@ def classification_figures(
         "fp": int((~y_true & y_pred).sum()),
         "fn": int((y_true & ~y_pred).sum()),
     }
-    out |= _joint_figures(
-        [Predictions(y_true, y_pred, np.asarray(groups), scores, strata)],
-        seed,
-        level,
-        n_resamples,
-        method,
-    )
+    out |= _joint_figures([Predictions(y_true, y_pred, np.asarray(groups), **options)], spec)
     correct = y_true == y_pred
     for name, mask in (
         ("accuracy", np.ones(len(y_true), bool)),
@@ -437,7 +450,8 @@ def mean_over_test_sets(
     """
     if not parts:
         raise ValueError("mean_over_test_sets needs at least one test set")
-    return {"n_test_sets": len(parts)} | _joint_figures(parts, seed, level, n_resamples, method)
+    spec = IntervalSpec(seed, level, n_resamples, method)
+    return {"n_test_sets": len(parts)} | _joint_figures(parts, spec)
 
 
 def pool_seeds(
@@ -457,7 +471,7 @@ def pool_seeds(
     whose figures are averaged within the seed. Returns what :func:`over_seeds` returns without
     a candidate.
     """
-    return over_seeds(parts, None, seed, level, n_resamples, method)
+    return over_seeds(parts, None, seed, level=level, n_resamples=n_resamples, method=method)
 
 
 def seeds_from_rows(
@@ -503,13 +517,7 @@ def over_seeds(
     base: Sequence[Predictions | Sequence[Predictions]],
     cand: Sequence[Predictions | Sequence[Predictions]] | None = None,
     seed: int = 0,
-    level: float = LEVEL,
-    n_resamples: int = N_RESAMPLES,
-    method: str | IntervalMethod = DEFAULT_METHOD,
-    figures: Sequence[str] = FIGURES,
-    paired: bool = False,
-    *,
-    seed_pool: Mapping[str, SeedPool] | None = None,
+    **options,
 ) -> dict:
     """A cell run under several seeds per side: the seed-averaged figure (``cand`` None) or its
     change, mean(cand) - mean(base), with a two-level bootstrap over trials and seeds.
@@ -547,6 +555,9 @@ def over_seeds(
         union of all parts), ``low_n`` (fewer than ``LOW_N`` clusters of a class),
         ``n_seeds_base`` and ``n_seeds_cand`` (0 without a candidate).
     """
+    spec = interval_spec(seed, options)
+    o = SeedOptions(**options)
+    figures, paired, seed_pool = o.figures, o.paired, o.seed_pool
     sides, parts, design, per_side = _seed_sides(base, cand, figures)
     flat = [t for side in per_side for sets in side for t in sets]
     if paired and (cand is None or len(sides[0]) != len(sides[1])):
@@ -557,20 +568,19 @@ def over_seeds(
     out: dict = {} if cand is not None else {"n_test_sets": len(parts)}
     unestimable = []
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
-        iv = seeded_interval(
+        figure = SeededFigure(
             partial(of_seeds, _figure, per_side, name),
             partial(of_seeds, _influence, per_side, name),
             signs,
+            (0.0, 1.0) if cand is None else (-1.0, 1.0),
+        )
+        clusters = Clusters(
             design,
             np.logical_or.reduce([_used(t, name) for t in flat]),
             np.sum([_sizes(t, name) for t in flat], axis=0),
-            seed,
-            level,
-            n_resamples,
-            method,
-            bounds=(0.0, 1.0) if cand is None else (-1.0, 1.0),
-            seed_pool=None if seed_pool is None else seed_pool.get(name),
         )
+        pool = None if seed_pool is None else seed_pool.get(name)
+        iv = seeded_interval(figure, clusters, spec, pool)
         key = f"{prefix}{name}"
         _put(out, key, iv)
         if name == "accuracy":
@@ -659,13 +669,7 @@ def paired_comparison(
     cand_pred: np.ndarray,
     groups: np.ndarray,
     seed: int,
-    level: float = LEVEL,
-    n_resamples: int = N_RESAMPLES,
-    base_scores: np.ndarray | None = None,
-    cand_scores: np.ndarray | None = None,
-    strata: np.ndarray | None = None,
-    method: str | IntervalMethod = DEFAULT_METHOD,
-    figures: Sequence[str] = FIGURES,
+    **options,
 ) -> dict[str, float | int | bool]:
     """Two detectors' predictions on the same test windows: the change (candidate - base) of
     every figure with a paired interval from the stratified cluster bootstrap.
@@ -692,6 +696,9 @@ def paired_comparison(
         lacks the figure); ``df`` and ``estimable`` of the accuracy's change (not estimable when
         a class holds one cluster: the interval is then [-1, 1]); ``n_test_clusters_slip``/``_nonslip``.
     """
+    spec = interval_spec(seed, options)
+    o = PairOptions(**options)
+    base_scores, cand_scores, strata, figures = o.base_scores, o.cand_scores, o.strata, o.figures
     y_true = np.asarray(y_true, bool)
     groups = np.asarray(groups)
     design, (codes,) = make_design([y_true], [groups], None if strata is None else [strata])
@@ -705,19 +712,17 @@ def paired_comparison(
         raise ValueError(f"unknown figures {sorted(unknown)}; choose from {', '.join(FIGURES)}")
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
         # the two sides apart (signs -1, +1), one seed each: as over_seeds takes a change
-        iv = seeded_interval(
+        figure = SeededFigure(
             partial(_each_side, _figure, sides, name),
             partial(_each_side, _influence, sides, name),
             (-1.0, 1.0),
-            design,
-            _used(sides[0], name),
-            np.sum([_sizes(t, name) for t in sides], axis=0),  # both sides' windows, as there
-            seed,
-            level,
-            n_resamples,
-            method,
-            bounds=(-1.0, 1.0),
+            (-1.0, 1.0),
         )
+        # both sides' windows, as there
+        clusters = Clusters(
+            design, _used(sides[0], name), np.sum([_sizes(t, name) for t in sides], axis=0)
+        )
+        iv = seeded_interval(figure, clusters, spec)
         _put(out, f"d_{name}", iv)
         if name == "accuracy":
             out["df"], out["estimable"] = iv.df, iv.estimable

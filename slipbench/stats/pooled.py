@@ -36,6 +36,9 @@ from scipy.stats import t as student_t
 
 from slipbench.stats.bootstrap import (
     N_RESAMPLES,
+    Clusters,
+    IntervalSpec,
+    SeededFigure,
     SeedPool,
     make_design,
     pool_seed_spreads,
@@ -207,17 +210,9 @@ def pooled_change(
         return gather(share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None])
 
     iv = seeded_interval(
-        per_seed,
-        per_seed_influence,
-        signs,
-        design,
-        S.sum(axis=0) > 0,
-        S.sum(axis=0),
-        seed,
-        level,
-        n_resamples,
-        method=POOLED_METHOD,
-        bounds=(-1.0, 1.0),
+        SeededFigure(per_seed, per_seed_influence, signs, (-1.0, 1.0)),
+        Clusters(design, S.sum(axis=0) > 0, S.sum(axis=0)),
+        IntervalSpec(seed, level, n_resamples, POOLED_METHOD),
     )
     out = {
         "n_cells": len(cells),

@@ -52,6 +52,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.errors import DataError
+from slipbench.stats.bootstrap import IntervalSpec
 from slipbench.stats.compare import (
     ALPHA,
     MAX_WIDTH,
@@ -249,7 +250,7 @@ def _compare_cell(
         result = paired_cell(pu[0], pc[0], seed, LEVEL)
         note = " (the twins' test windows do not join)" if result is None else ""
     elif have:
-        result = cell_over_seeds(pu, pc, seed, LEVEL, paired=same_seeds)
+        result = cell_over_seeds(pu, pc, IntervalSpec(seed, LEVEL), paired=same_seeds)
     preds = (pu, pc, uni, ch) if result is not None else None
     if result is None:
         result = unpaired_cell(uni, ch, LEVEL)

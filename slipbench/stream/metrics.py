@@ -132,17 +132,24 @@ class Streams:
     max_delay_ms: float
 
 
+@dataclass(frozen=True)
+class Recorded:
+    """What :func:`collect` takes besides the scores and labels: the window, the recordings'
+    rates, trials, scenarios and ids, and the longest delay that still detects an onset."""
+
+    window: int
+    sampling_rate: float | Sequence[float]
+    trials: Sequence[str]
+    scenarios: Sequence[str]
+    recording_ids: Sequence[str] | None = None
+    max_delay_ms: float = MAX_DELAY_MS
+
+
 def collect(
     ends: Sequence[np.ndarray],
     scores: Sequence[np.ndarray],
     labels: Sequence[np.ndarray],
-    *,
-    window: int,
-    sampling_rate: float | Sequence[float],
-    trials: Sequence[str],
-    scenarios: Sequence[str],
-    recording_ids: Sequence[str] | None = None,
-    max_delay_ms: float = MAX_DELAY_MS,
+    **options,
 ) -> Streams:
     """Gather the scored test recordings of one cell.
 
@@ -158,7 +165,17 @@ def collect(
         false alarms.
     recording_ids : per recording, for the onset table (default: their positions).
     max_delay_ms : an alarm later than this after the onset misses it.
+
+    All but the first three are keywords (:class:`Recorded`).
     """
+    rec = Recorded(**options)
+    window, sampling_rate, trials, scenarios = (
+        rec.window,
+        rec.sampling_rate,
+        rec.trials,
+        rec.scenarios,
+    )
+    recording_ids, max_delay_ms = rec.recording_ids, rec.max_delay_ms
     n_rec = len(labels)
     rates = np.broadcast_to(np.asarray(sampling_rate, float), (n_rec,))
     for name, seq in (

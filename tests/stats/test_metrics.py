@@ -389,7 +389,13 @@ def test_the_did_not_learn_criterion_against_a_null_and_planted_learning():
 def test_seeded_interval_scales_with_its_signs():
     """A side weighted by c has c times the figure and c times the standard error: the
     seed-by-cluster correction scales with c squared, as the variance it corrects does."""
-    from slipbench.stats.bootstrap import make_design, seeded_interval
+    from slipbench.stats.bootstrap import (
+        Clusters,
+        IntervalSpec,
+        SeededFigure,
+        make_design,
+        seeded_interval,
+    )
 
     rng = np.random.default_rng(3)
     n_clusters, n_seeds = 24, 3
@@ -406,8 +412,9 @@ def test_seeded_interval_scales_with_its_signs():
         ]
 
     used, sizes = np.ones(n_clusters, bool), np.ones(n_clusters)
-    one = seeded_interval(per_seed, influence, (1.0,), design, used, sizes, 0, bounds=(-1, 1))
-    half = seeded_interval(per_seed, influence, (0.5,), design, used, sizes, 0, bounds=(-1, 1))
+    clusters, spec = Clusters(design, used, sizes), IntervalSpec(0)
+    one = seeded_interval(SeededFigure(per_seed, influence, (1.0,), (-1, 1)), clusters, spec)
+    half = seeded_interval(SeededFigure(per_seed, influence, (0.5,), (-1, 1)), clusters, spec)
     assert half.estimate == pytest.approx(one.estimate / 2)
     assert half.se == pytest.approx(one.se / 2, rel=1e-9) and half.se > 0
 
@@ -418,7 +425,13 @@ def test_two_level_variance_counts_the_seed_by_cluster_term_once():
     error's square averages 1.1 times the change's variance over 800 designs; drawing seeds and
     clusters together and subtracting the interaction once (the two-level replicates hold it
     three times) gave 1.42. The rest is the seed variance's positive part."""
-    from slipbench.stats.bootstrap import Design, seeded_interval
+    from slipbench.stats.bootstrap import (
+        Clusters,
+        Design,
+        IntervalSpec,
+        SeededFigure,
+        seeded_interval,
+    )
 
     n, n_seeds = 20, 3
     design = Design(np.arange(n), np.repeat([0, 1], n // 2), np.array([n // 2, n // 2]))
@@ -440,7 +453,9 @@ def test_two_level_variance_counts_the_seed_by_cluster_term_once():
             return [(s[None] - f[..., None]) / total for s, f in zip(x, per_seed(w))]
 
         iv = seeded_interval(
-            per_seed, influence, (-1.0, 1.0), design, used, sizes, r, bounds=(-np.inf, np.inf)
+            SeededFigure(per_seed, influence, (-1.0, 1.0), (-np.inf, np.inf)),
+            Clusters(design, used, sizes),
+            IntervalSpec(r),
         )
         est.append(iv.estimate)
         var.append(iv.se**2)

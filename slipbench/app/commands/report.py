@@ -109,10 +109,10 @@ def report(**options) -> None:
     )
     blocks = build_report(
         rows,
-        o.metric,
-        o.intervals,
-        o.paper,
-        o.leaderboard_only,
+        metric=o.metric,
+        intervals=o.intervals,
+        paper=o.paper,
+        leaderboard_only=o.leaderboard_only,
         with_figures=o.fmt == "html" or o.plots_dir is not None,
         predictions=[results_folder(p) for p in o.results],
     )
