@@ -1,4 +1,4 @@
-"""Interval methods that no command runs: the references and candidates the coverage study
+"""IntervalEstimate methods that no command runs: the references and candidates the coverage study
 (``docs/coverage.md``, ``benchmarks/bench_coverage.py``) measured slipbench's default against.
 
 Each is an :class:`slipbench.stats.bootstrap.IntervalMethod`, given to the product's functions
@@ -19,7 +19,7 @@ from slipbench.seeding import rng_for
 from slipbench.stats.bootstrap import (
     METHODS,
     N_RESAMPLES,
-    Design,
+    ClusterDesign,
     Fit,
     IntervalMethod,
     logit_bounds,
@@ -108,7 +108,7 @@ def method(name: str) -> str | IntervalMethod:
     return STUDIES[name]
 
 
-def classic_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
+def classic_weights(design: ClusterDesign, seed: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
     """Cluster weights of the textbook stratified bootstrap (``n_h`` of ``n_h`` drawn, stream
     ``bootstrap-t``): a resample is a sample of the same size, so its linearized standard error
     (:func:`linearized_variance`) is built like the test set's own, as a studentized pivot needs.
@@ -127,7 +127,10 @@ def classic_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) -
 
 
 def linearized_variance(
-    design: Design, influence: np.ndarray, used: np.ndarray, weights: np.ndarray | None = None
+    design: ClusterDesign,
+    influence: np.ndarray,
+    used: np.ndarray,
+    weights: np.ndarray | None = None,
 ) -> np.ndarray:
     """``sum_h n_h / (n_h - 1) sum_i w_i (r_i - rbar_h)^2`` per row: the linearized variance of
     a figure from its influences ``r`` (n, n_clusters) at cluster weights ``w`` (frequency

@@ -17,7 +17,7 @@ import click
 from slipbench.app.commands.bench import bench
 from slipbench.app.commands.compare import compare_command
 from slipbench.app.commands.dataset import dataset
-from slipbench.app.commands.evaluate import evaluate
+from slipbench.app.commands.evaluate import evaluate_command
 from slipbench.app.commands.list_plugins import list_plugins
 from slipbench.app.commands.report import report
 from slipbench.app.commands.run import run_command
@@ -41,7 +41,7 @@ def cli() -> None:
 for command in (
     dataset,
     list_plugins,
-    evaluate,
+    evaluate_command,
     bench,
     spectral_cmd,
     report,

@@ -5,7 +5,7 @@ the same in every command that takes it. The help text stays each command's: the
 means a different folder or file to ``evaluate`` and to ``report``.
 
 A command takes ``**options`` and builds one frozen dataclass of them, declared beside it
-(``o = EvaluateOptions(**options)``; the pattern: docs/contributing.md)."""
+(``o = EvaluateArgs(**options)``; the pattern: docs/contributing.md)."""
 
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ from slipbench.vocabulary import DATASET_SIDE
 SIDE_COLUMN = DATASET_SIDE
 
 
-Unit = tuple[str, str]  # (sensor_type, sensor_instance)
+UnitKey = tuple[str, str]  # (sensor_type, sensor_instance)
 MAP_SYNTAX = "TEST_TYPE[:INSTANCE]=TRAIN_TYPE[:INSTANCE]"
 
 
@@ -56,9 +56,9 @@ def _names(units) -> str:
 
 def resolve_sensor_map(
     sensor_map: dict[tuple[str, str | None], tuple[str, str | None]],
-    test_units: list[Unit],
-    train_units: list[Unit],
-) -> dict[Unit, Unit]:
+    test_units: list[UnitKey],
+    train_units: list[UnitKey],
+) -> dict[UnitKey, UnitKey]:
     """Each test unit a map entry names -> the training unit it is tested as.
 
     An entry naming an instance (``Taxels:left=...``) wins over one naming only the type
@@ -68,7 +68,7 @@ def resolve_sensor_map(
     name the entry is refused, since picking one would be a guess. UsageError naming the entry
     when a side names a sensor its dataset lacks.
     """
-    out: dict[Unit, Unit] = {}
+    out: dict[UnitKey, UnitKey] = {}
     for (src_type, src_inst), (dst_type, dst_inst) in sorted(
         sensor_map.items(), key=lambda kv: kv[0][1] is None
     ):
@@ -100,14 +100,14 @@ def resolve_sensor_map(
     return out
 
 
-def _rate(recordings: pd.DataFrame, unit: Unit) -> float:
+def _rate(recordings: pd.DataFrame, unit: UnitKey) -> float:
     rows = recordings[
         (recordings["sensor_type"] == unit[0]) & (recordings["sensor_instance"] == unit[1])
     ]
     return float(np.median(rows["sampling_rate_hz"].to_numpy(dtype=float)))
 
 
-def _same_rates(matched: dict[Unit, Unit], train: pd.DataFrame, test: pd.DataFrame) -> None:
+def _same_rates(matched: dict[UnitKey, UnitKey], train: pd.DataFrame, test: pd.DataFrame) -> None:
     """UsageError naming a test unit whose rate is not its training unit's: a window of n
     samples would span another time and band, and one unit cannot hold two rates."""
     for unit, as_ in matched.items():

@@ -51,7 +51,7 @@ from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E40
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType
 
-FORMATS = ("png", "pdf")
+IMAGE_FORMATS = ("png", "pdf")
 WIDTH = 3.5  # inches: one column of a two-column paper
 TITLE_CHARS = 60  # a title wraps to the figure's width at its font size
 DPI = 200
@@ -115,7 +115,7 @@ def file_stem(name: str) -> str:
 def save(fig: Figure, folder: Path, stem: str) -> list[Path]:
     """``fig`` as ``stem.png`` and ``stem.pdf`` in ``folder``."""
     paths = []
-    for ext in FORMATS:
+    for ext in IMAGE_FORMATS:
         path = folder / f"{stem}.{ext}"
         # a fixed creation date keeps PDFs byte-identical across runs
         with writing(path):  # a full disk mid-write raises an OSError that names no file

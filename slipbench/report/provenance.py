@@ -28,19 +28,19 @@ SYNTH_SOURCE = re.compile(
     r"slipbench\.synth v(?P<version>\S+) seed=(?P<seed>\d+) scale=(?P<scale>[0-9.e+-]+)"
 )
 SYNTH_FOLDER = re.compile(r"synth-v(?P<version>\w+)-scale(?P<scale>[0-9.e+-]+)-seed(?P<seed>\d+)$")
-SPLITS = {
+SPLIT_TEXTS = {
     "paper": "paper: the balanced windows shuffled and halved (windows of one recording on both sides, which "
     "flatters every detector)",
     "grouped": "grouped: whole trials on one side, the same for every unit",
     "datasets": "datasets: trained on one dataset, tested on another",
 }
-LABELS = {
+LABEL_TEXTS = {
     "scenario": "scenario: a window's class is its recording's scenario (the paper)",
     "majority": "majority: at least half the window's samples slip",
     "any": "any: a sample of the window slips",
     "last": "last: the window's last sample slips",
 }
-NORMALIZATIONS = {
+NORMALIZATION_TEXTS = {
     "none": "none: the signal as measured (the paper)",
     "recording": "recording: each recording's signal minus its median, over 1.4826 x its median absolute "
     "deviation (its own statistics, the test side's too; this also evens out the amplitude that tells "
@@ -329,14 +329,14 @@ def header_tables(
             [
                 (
                     "Normalization",
-                    "; ".join(NORMALIZATIONS.get(s, s) for s in _values(rows, "normalize")),
+                    "; ".join(NORMALIZATION_TEXTS.get(s, s) for s in _values(rows, "normalize")),
                 )
             ]
             if _values(rows, "normalize")
             else []
         ),
-        ("Split", "; ".join(SPLITS.get(s, s) for s in _values(rows, "split")) or "unknown"),
-        ("Labels", "; ".join(LABELS.get(s, s) for s in _values(rows, "labels")) or "unknown"),
+        ("Split", "; ".join(SPLIT_TEXTS.get(s, s) for s in _values(rows, "split")) or "unknown"),
+        ("Labels", "; ".join(LABEL_TEXTS.get(s, s) for s in _values(rows, "labels")) or "unknown"),
         ("Seeds", ", ".join(str(int(s)) for s in _values(rows, "seed")) or "unknown"),
         ("Cells", _counts(rows)),
         ("Smallest test set", _smallest(rows)),

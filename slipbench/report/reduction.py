@@ -22,7 +22,7 @@ from slipbench.stats.compare import ALPHA, MAX_WIDTH, MIN_SEEDS, RECOMMENDED_REP
 from slipbench.stats.reduction import READINGS, InputComparison, compare_inputs, has_both_inputs
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, cell_label, label
 
-TITLE = "What the reduction keeps: univariate vs channels"
+REDUCTION_TITLE = "What the reduction keeps: univariate vs channels"
 CHANGE = "channels − univariate"
 
 
@@ -345,7 +345,7 @@ def reduction_blocks(
     if not has_both_inputs(rows):
         return []
     cmp = compare_inputs(rows, predictions, seed)
-    blocks: list = [Heading(TITLE, 2)]
+    blocks: list = [Heading(REDUCTION_TITLE, 2)]
     if cmp.cells.empty:
         blocks.append(
             Text("No channels cell could be paired with a univariate twin: nothing to compare.")
@@ -371,13 +371,13 @@ def reduction_blocks(
                     "sensor type; per detector and protocol the mean over its cells (marker) with "
                     f"its simultaneous {_level(cmp.pooled_level)} interval (bar), each cell's own "
                     "change a grey dot.",
-                    TITLE,
+                    REDUCTION_TITLE,
                     partial(input_changes, pooled, cmp.cells),
                 )
             )
         for detector in rank(cmp.cells["detector"].unique(), DETECTOR_ORDER):
-            blocks.append(Detail(TITLE, [_cells_table(cmp, detector, protocols)]))
+            blocks.append(Detail(REDUCTION_TITLE, [_cells_table(cmp, detector, protocols)]))
     if not cmp.unpaired.empty:
         summary, listing = _unpaired_tables(cmp)
-        blocks += [summary, Detail(TITLE, [listing])]
+        blocks += [summary, Detail(REDUCTION_TITLE, [listing])]
     return blocks

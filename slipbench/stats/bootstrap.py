@@ -37,7 +37,7 @@ FIGURES_AS = {"scale-choice": "replicate-logit"}
 
 
 @dataclass(frozen=True)
-class Design:
+class ClusterDesign:
     """The clusters of one or more test sets and the strata they are resampled within.
 
     Attributes
@@ -74,7 +74,7 @@ def make_design(
     y_true: Sequence[np.ndarray],
     groups: Sequence[np.ndarray],
     strata: Sequence[np.ndarray] | None = None,
-) -> tuple[Design, list[np.ndarray]]:
+) -> tuple[ClusterDesign, list[np.ndarray]]:
     """The joint design of one or more test sets whose clusters may be shared.
 
     A cluster is a group value; the same value in two test sets is the same cluster (fingers
@@ -98,7 +98,7 @@ def make_design(
 
     Returns
     -------
-    design : Design
+    design : ClusterDesign
     codes : list of ndarray of shape (n_windows_i,)
         Per test set, each window's cluster index into the design.
     """
@@ -139,10 +139,12 @@ def make_design(
         if len(lone) == 1:  # still alone: into the largest stratum of its class
             key[in_kind & (key == pooled)] = names[sizes > 1][np.argmax(sizes[sizes > 1])]
     _, stratum = np.unique(key, return_inverse=True)
-    return Design(labels, stratum, np.bincount(stratum)), codes
+    return ClusterDesign(labels, stratum, np.bincount(stratum)), codes
 
 
-def resample_weights(design: Design, seed: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
+def resample_weights(
+    design: ClusterDesign, seed: int, n_resamples: int = N_RESAMPLES
+) -> np.ndarray:
     """Cluster weights of stratified Rao-Wu bootstrap resamples: in a stratum of ``n_h``
     clusters, ``n_h - 1`` drawn with replacement, each weighted ``n_h / (n_h - 1)``; a lone
     cluster keeps weight 1.
@@ -229,7 +231,7 @@ def seed_weights(n_seeds: int, seed: int, side: int, n_resamples: int = N_RESAMP
 
 
 @dataclass(frozen=True)
-class Interval:
+class IntervalEstimate:
     """A figure, its interval, its bootstrap standard error, the interval's degrees of freedom,
     and whether the design lets its spread be estimated at all."""
 
@@ -265,7 +267,7 @@ class Clusters:
     """The clusters a figure draws on: the design (strata, clusters), which clusters it uses
     (bool, shape (n_clusters,)) and its windows per cluster (shape (n_clusters,))."""
 
-    design: Design
+    design: ClusterDesign
     used: np.ndarray
     sizes: np.ndarray
 
@@ -290,8 +292,8 @@ def interval(
     clusters: Clusters,
     spec: IntervalSpec,
     bounds: tuple[float, float] = (0.0, 1.0),
-) -> Interval:
-    """Interval of a figure by the stratified cluster bootstrap.
+) -> IntervalEstimate:
+    """IntervalEstimate of a figure by the stratified cluster bootstrap.
 
     Parameters
     ----------
@@ -415,7 +417,7 @@ class Problem:
     per_seed: PerSeed
     per_seed_influence: PerSeed
     signs: tuple[float, ...]
-    design: Design
+    design: ClusterDesign
     used: np.ndarray
     sizes: np.ndarray
     seed: int
@@ -538,8 +540,8 @@ def seeded_interval(
     clusters: Clusters,
     spec: IntervalSpec,
     seed_pool: SeedPool | None = None,
-) -> Interval:
-    """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
+) -> IntervalEstimate:
+    """IntervalEstimate of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
     seeds: its variance is the clusters' (each resample draws clusters once for every seed of
     every side, stratified Rao-Wu, :func:`resample_weights`; the seeds' plain mean under each)
     plus each side's seed variance of its mean, ``var(seed figures) / S_k``, net of the
@@ -584,9 +586,9 @@ def seeded_interval(
         at_one = [np.asarray(f)[0] for f in per_seed(one)]
         est = float(sum(k * f.mean() for k, f in zip(signs, at_one)))
     if not np.isfinite(est):
-        return Interval(est, np.nan, np.nan, np.nan, np.nan, False)
+        return IntervalEstimate(est, np.nan, np.nan, np.nan, np.nan, False)
     if not used.any() or design.lone()[used].any():
-        return Interval(est, bounds[0], bounds[1], np.nan, np.nan, False)
+        return IntervalEstimate(est, bounds[0], bounds[1], np.nan, np.nan, False)
     with np.errstate(invalid="ignore", divide="ignore"):
         w = resample_weights(design, seed, n_resamples)
         reps = _replicates(per_seed(w), at_one, signs, seed)
@@ -619,7 +621,7 @@ def seeded_interval(
     else:
         lo, hi = method.bounds(fit)
     lo, hi = float(max(lo, bounds[0])), float(min(hi, bounds[1]))
-    return Interval(est, lo, hi, se, df, True)
+    return IntervalEstimate(est, lo, hi, se, df, True)
 
 
 def _smoothed_logit(p: np.ndarray | float, n: float) -> np.ndarray:

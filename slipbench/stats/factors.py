@@ -72,7 +72,7 @@ ENTRANT_ID = "detector_id"
 #: what a row lacking a column meant when it was written (runs without the option)
 DEFAULTS = {"normalize": "none", "input": "univariate"}
 #: a setting's name in captions
-NAMES = {
+SETTING_NAMES = {
     "dataset_fingerprint": "dataset",
     "train_dataset_fingerprint": "trained on dataset",
     "test_dataset_fingerprint": "tested on dataset",
@@ -134,7 +134,7 @@ def differing_settings(rows: pd.DataFrame) -> list[str]:
 
 def setting_name(column: str) -> str:
     """How a setting is named in text: ``protocol options`` for ``protocol_params``."""
-    return NAMES.get(column, column.replace("_", " "))
+    return SETTING_NAMES.get(column, column.replace("_", " "))
 
 
 def setting_text(column: str, value: Any) -> str:

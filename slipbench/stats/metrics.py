@@ -25,9 +25,9 @@ from slipbench.stats.bootstrap import (
     DEFAULT_METHOD,
     LEVEL,
     N_RESAMPLES,
+    ClusterDesign,
     Clusters,
-    Design,
-    Interval,
+    IntervalEstimate,
     IntervalMethod,
     IntervalSpec,
     SeededFigure,
@@ -256,7 +256,7 @@ def _class_counts(parts: Sequence[Predictions]) -> dict[str, int | bool]:
     }
 
 
-def _put(out: dict, key: str, iv: Interval) -> None:
+def _put(out: dict, key: str, iv: IntervalEstimate) -> None:
     """An interval's estimate, bounds and standard error as ``key``, ``key_lo/_hi/_se``."""
     out[key], out[f"{key}_lo"], out[f"{key}_hi"], out[f"{key}_se"] = (
         iv.estimate,
@@ -266,7 +266,7 @@ def _put(out: dict, key: str, iv: Interval) -> None:
     )
 
 
-def _joint_design(parts: Sequence[Predictions]) -> tuple[Design, list[_Totals]]:
+def _joint_design(parts: Sequence[Predictions]) -> tuple[ClusterDesign, list[_Totals]]:
     """The joint design of test sets whose clusters may be shared, and each set's totals on it."""
     has_strata = [p.strata is not None for p in parts]
     if any(has_strata) and not all(has_strata):
@@ -344,7 +344,7 @@ def classification_figures(
         Balancing stratum of each window (``Windows.strata()``): clusters are resampled within
         class and stratum.
     level, n_resamples, method
-        Interval level, bootstrap resamples, interval method
+        IntervalEstimate level, bootstrap resamples, interval method
         (:class:`~slipbench.stats.bootstrap.IntervalSpec`).
 
     Returns
@@ -610,7 +610,7 @@ _Side = Sequence[Predictions | Sequence[Predictions]]
 
 def _seed_sides(
     base: _Side, cand: _Side | None, figures: Sequence[str]
-) -> tuple[list, list[Predictions], Design, list[list[list[_Totals]]]]:
+) -> tuple[list, list[Predictions], ClusterDesign, list[list[list[_Totals]]]]:
     """The sides of :func:`over_seeds` as lists (side, seed, test set), their parts, their joint
     design and each seed's totals in the same nesting."""
     sides = [
@@ -683,7 +683,7 @@ def paired_comparison(
     y_true, base_pred, cand_pred, groups : ndarray of shape (n_windows,)
         Labels, the two hard predictions, and each window's cluster.
     level : float
-        Interval level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
+        IntervalEstimate level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
     base_scores, cand_scores : ndarray of shape (n_windows,), optional
         Slip probabilities: give the change in AUROC.
     figures : sequence of str

@@ -62,7 +62,7 @@ from slipbench.stats.compare import (
     paired_cell,
     unpaired_cell,
 )
-from slipbench.stats.metrics import LEVEL
+from slipbench.stats.metrics import LEVEL, RATES
 from slipbench.stats.pooled import pooled_change, pooled_from_rows
 from slipbench.store.results import read_predictions
 
@@ -70,7 +70,6 @@ UNIVARIATE, CHANNELS = "univariate", "channels"
 #: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
 Sides = tuple[list, list, list[dict], list[dict]]
 #: the rates compared, per cell and pooled
-RATES = ("accuracy", "tp_rate", "tn_rate")
 #: what a channels cell and its univariate twin share, where the rows hold the column (the seed
 #: pairs apart, as compare pairs it)
 TWIN_COLUMNS = (

@@ -11,7 +11,7 @@ from resultgen import all_rows, inputs_folder
 
 from slipbench.report.document import Heading, build_report, render, split_appendix, write_figures
 from slipbench.report.plots import FigureSpec
-from slipbench.report.reduction import TITLE
+from slipbench.report.reduction import REDUCTION_TITLE
 from slipbench.report.tables import Table
 
 
@@ -25,7 +25,7 @@ def report(tmp_path_factory):
 
 
 def _section(text: str) -> str:
-    return text[text.index(f"## {TITLE}") :]
+    return text[text.index(f"## {REDUCTION_TITLE}") :]
 
 
 def test_the_section_reads_each_sensor_by_its_interval(report):
@@ -64,7 +64,7 @@ def test_per_cell_tables_go_to_the_appendix(report):
     # the pooled tables, readings and the count of unpaired cells stay in the summary
     assert "Nano17: channels − univariate, mean over each protocol's cells." in short
     assert "On the Nano17, with tcn" in short and "Not compared: cells" in short
-    assert f"(appendix.md#{TITLE.lower().replace(':', '').replace(' ', '-')})" in short
+    assert f"(appendix.md#{REDUCTION_TITLE.lower().replace(':', '').replace(' ', '-')})" in short
     cells = [b for b in blocks if isinstance(b, Table) and b.label.startswith("tab:reduction-")]
     assert {t.label for t in cells} >= {"tab:reduction-Nano17", "tab:reduction-BioTacSP"}
 
@@ -92,12 +92,12 @@ def test_every_format_renders_the_section(report):
     assert r"\section*{What the reduction keeps: univariate vs channels}" in latex
     assert "\\label{tab:reduction-Nano17}" in latex and "−" not in latex
     page = render(blocks, "html")
-    assert f">{TITLE}</h2>" in page and 'id="fig-reduction"' in page
+    assert f">{REDUCTION_TITLE}</h2>" in page and 'id="fig-reduction"' in page
 
 
 def test_no_section_without_both_inputs():
     blocks = build_report(all_rows(), with_figures=True)
-    assert not any(isinstance(b, Heading) and b.text == TITLE for b in blocks)
+    assert not any(isinstance(b, Heading) and b.text == REDUCTION_TITLE for b in blocks)
     assert not any(isinstance(b, FigureSpec) and b.stem == "reduction" for b in blocks)
 
 
@@ -106,7 +106,7 @@ def test_the_two_inputs_are_two_entrants_never_two_seeds(report):
     the tables name it, and no mean over seeds mixes the two inputs of a cell."""
     _, blocks = report
     text = render(blocks, "md")
-    before = text[: text.index(f"## {TITLE}")]
+    before = text[: text.index(f"## {REDUCTION_TITLE}")]
     board = before[before.index("## Leaderboard") :]
     assert "tcn (channels)" in board and re.search(r"\btcn\b(?! \(channels\))", board)
 
@@ -114,7 +114,7 @@ def test_the_two_inputs_are_two_entrants_never_two_seeds(report):
 def test_one_seed_of_both_inputs_is_not_averaged_as_two_seeds(tmp_path):
     folder, rows = inputs_folder(tmp_path, seeds=(0,))
     text = render(build_report(rows, predictions=[folder]), "md")
-    assert "across seeds" not in text[: text.index(f"## {TITLE}")]
+    assert "across seeds" not in text[: text.index(f"## {REDUCTION_TITLE}")]
 
 
 def test_figure_files_of_a_channels_entrant_have_link_safe_names():

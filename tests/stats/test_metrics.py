@@ -426,15 +426,15 @@ def test_two_level_variance_counts_the_seed_by_cluster_term_once():
     clusters together and subtracting the interaction once (the two-level replicates hold it
     three times) gave 1.42. The rest is the seed variance's positive part."""
     from slipbench.stats.bootstrap import (
+        ClusterDesign,
         Clusters,
-        Design,
         IntervalSpec,
         SeededFigure,
         seeded_interval,
     )
 
     n, n_seeds = 20, 3
-    design = Design(np.arange(n), np.repeat([0, 1], n // 2), np.array([n // 2, n // 2]))
+    design = ClusterDesign(np.arange(n), np.repeat([0, 1], n // 2), np.array([n // 2, n // 2]))
     used, sizes = np.ones(n, bool), np.ones(n)
     rng = np.random.default_rng(0)
     est, var = [], []

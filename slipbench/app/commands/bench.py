@@ -15,7 +15,7 @@ from slipbench.vocabulary import MIN_WINDOW
 
 
 @dataclass(frozen=True)
-class BenchOptions:
+class BenchArgs:
     """What `slipbench bench` was given, one field per option."""
 
     names: tuple[str, ...]
@@ -47,7 +47,7 @@ class BenchOptions:
 def bench(**options) -> None:
     """Train µs/sample, inference µs/window and peak memory per detector; each detector's own
     figures (the LSTM's against stock torch.nn.LSTM) as ratios timed in the same run."""
-    o = BenchOptions(**options)
+    o = BenchArgs(**options)
     from slipbench.app.bench import detector_benchmarks, detector_costs
 
     add_plugin_folders(o.plugins)

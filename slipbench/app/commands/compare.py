@@ -15,7 +15,7 @@ from slipbench.stats.gate import DEFAULT_TOLERANCE
 
 
 @dataclass(frozen=True)
-class CompareOptions:
+class CompareArgs:
     """What `slipbench compare` was given, one field per option."""
 
     base: Path
@@ -94,7 +94,7 @@ def compare_command(**options) -> None:
     finished failed; 6 undecided (one seed per side, too few trials, or noise larger than the
     tolerance: the comment says how many seeds or trials would decide); 2 bad usage or data.
     """
-    o = CompareOptions(**options)
+    o = CompareArgs(**options)
     from slipbench.atomic import write_text_atomic
     from slipbench.report.compare import MAX_ROWS, to_json, to_markdown
     from slipbench.stats.compare import compare

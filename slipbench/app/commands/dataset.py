@@ -98,7 +98,7 @@ def dataset_info(path: Path) -> None:
 
 
 @dataclass(frozen=True)
-class CheckOptions:
+class CheckArgs:
     """What `slipbench dataset check` was given, one field per option."""
 
     path: Path
@@ -128,7 +128,7 @@ class CheckOptions:
 def dataset_check(**options) -> None:
     """What PATH can support: classes, recordings and trials per unit, windows per size, and
     which protocol cells would run, be skipped, or rest on too few test trials."""
-    o = CheckOptions(**options)
+    o = CheckArgs(**options)
     from slipbench.data.read import read_dataset
     from slipbench.engine.check import check_dataset
     from slipbench.engine.runner import Run

@@ -29,7 +29,7 @@ from slipbench.errors import PluginError, UsageError
 
 
 @dataclass(frozen=True)
-class EvaluateOptions:
+class EvaluateArgs:
     """What `slipbench evaluate` was given, one field per option."""
 
     detector_name: tuple[str, ...]
@@ -138,9 +138,9 @@ class EvaluateOptions:
 @force_option()
 @intervals_option("Show 95 % intervals in the table.")
 @quiet_option()
-def evaluate(**options) -> None:
+def evaluate_command(**options) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
-    o = EvaluateOptions(**options)
+    o = EvaluateArgs(**options)
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
     from slipbench.engine.runner import Run

@@ -19,7 +19,7 @@ from slipbench.app.selection import add_plugin_folders
 
 
 @dataclass(frozen=True)
-class ReportOptions:
+class ReportArgs:
     """What `slipbench report` was given, one field per option."""
 
     results: tuple[Path, ...]
@@ -85,7 +85,7 @@ class ReportOptions:
 def report(**options) -> None:
     """Render RESULTS (results files or --out folders): what they stand on, the leaderboard,
     then each protocol in its own layout (the paper's tables)."""
-    o = ReportOptions(**options)
+    o = ReportArgs(**options)
     import os
 
     import pandas as pd

@@ -18,7 +18,7 @@ from slipbench.app.options import (
 
 
 @dataclass(frozen=True)
-class RunOptions:
+class RunArgs:
     """What `slipbench run` was given, one field per option."""
 
     bench_file: Path
@@ -43,7 +43,7 @@ class RunOptions:
 def run_command(**options) -> None:
     """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
     options, split, seeds; write its results, its reports and a copy of the file."""
-    o = RunOptions(**options)
+    o = RunArgs(**options)
     from slipbench.app.benchfile import load_benchmark, run_benchmark, with_overrides
     from slipbench.atomic import check_writable
     from slipbench.store.results import cells_failed

@@ -20,7 +20,7 @@ from slipbench.errors import UsageError
 
 
 @dataclass(frozen=True)
-class SpectralOptions:
+class SpectralArgs:
     """What `slipbench spectral` was given, one field per option."""
 
     sensors: tuple[str, ...]
@@ -89,7 +89,7 @@ class SpectralOptions:
 )
 def spectral_cmd(**options) -> None:
     """Which frequencies separate slip from non-slip (the paper's section IV): figure, table, bands."""
-    o = SpectralOptions(**options)
+    o = SpectralArgs(**options)
     import time
 
     from slipbench.analysis import spectral
