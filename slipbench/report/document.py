@@ -34,7 +34,6 @@ from pathlib import Path
 
 import pandas as pd
 
-from slipbench.errors import SlipbenchError
 from slipbench.protocol import Layout
 from slipbench.report.blocks import Detail, Heading, Link, Text
 from slipbench.report.leaderboard import leaderboard_tables, one_class_table
@@ -89,7 +88,6 @@ from slipbench.vocabulary import DETECTOR_ORDER
 PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 )
-FORMATS = ("md", "latex", "html")
 
 
 @dataclass(frozen=True)
@@ -111,18 +109,6 @@ class ReportOptions:
     with_figures: bool = False
     benchmark: str = ""
     predictions: Sequence[str | os.PathLike] = ()
-
-
-@dataclass(frozen=True)
-class Page:
-    """How :func:`render_report` lays the report out: a LaTeX document that compiles
-    (``standalone``), the folder figures are drawn into and linked from Markdown and LaTeX
-    (``plots_dir``; HTML embeds its figures either way), and the folder links are relative to
-    (``link_from``: the report's own; default the working directory)."""
-
-    standalone: bool = False
-    plots_dir: str | os.PathLike | None = None
-    link_from: str | os.PathLike | None = None
 
 
 def flatten(blocks: list) -> list:
@@ -738,26 +724,6 @@ def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> 
     ]
 
 
-def render_report(
-    rows: pd.DataFrame,
-    fmt: str = "md",
-    found: dict[str, tuple[Layout, str]] | None = None,
-    **options,
-) -> str:
-    """Every table the rows allow, in the paper's order, after the report's header and the
-    leaderboard, as one Markdown, LaTeX or HTML text. ``found``: as :func:`build_report`;
-    ``options``: :class:`ReportOptions` and :class:`Page` (how the text is laid out)."""
-    if fmt not in FORMATS:
-        raise SlipbenchError(f"unknown report format {fmt!r}; one of {', '.join(FORMATS)}")
-    page = Page(
-        **{f.name: options.pop(f.name) for f in dataclasses.fields(Page) if f.name in options}
-    )
-    with_figures = fmt == "html" or page.plots_dir is not None
-    blocks = build_report(rows, found, **options, with_figures=with_figures)
-    files = write_figures(blocks, page.plots_dir) if page.plots_dir is not None else {}
-    return render(blocks, fmt, page.standalone, files, page.link_from)
-
-
 def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
     """The Markdown table(s) of one protocol's rows for one detector (what ``evaluate`` prints)."""
     rows = pd.DataFrame(rows)
@@ -778,7 +744,6 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
 __all__ = [
     "Detail",
     "Heading",
-    "Page",
     "ReportOptions",
     "Text",
     "build_report",
@@ -788,7 +753,6 @@ __all__ = [
     "protocol_tables",
     "published_table",
     "render",
-    "render_report",
     "split_appendix",
     "split_parts",
     "write_figures",

@@ -22,7 +22,6 @@ where a figure holds lower values, to 100 %: the scale shows the true range, not
 from __future__ import annotations
 
 import json
-import os
 import re
 import textwrap
 from collections.abc import Callable, Sequence
@@ -704,26 +703,6 @@ def figure_specs(
                 )
             )
     return specs
-
-
-def write_plots(
-    rows: pd.DataFrame,
-    folder: str | os.PathLike,
-    paper: bool = True,
-    board: Leaderboard | None = None,
-) -> list[Path]:
-    """Every figure the rows allow (see :func:`figure_specs`) as PNG and PDF in ``folder``.
-
-    ``paper`` overlays the published LSTM accuracies on curves whose layout names a paper table.
-    """
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    paths: list[Path] = []
-    for spec in figure_specs(rows, paper, board):
-        fig = spec.draw()
-        if fig is not None:
-            paths += save(fig, folder, spec.stem)
-    return paths
 
 
 def _literal(name: str) -> str:

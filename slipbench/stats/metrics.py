@@ -85,17 +85,6 @@ def stream_low_n(n_trials: float, n_onsets: float, n_nonslip_trials: float = np.
     return not all(n >= LOW_N for n in counts)  # NaN counts are low too
 
 
-def is_low_n(y_true: np.ndarray, groups: np.ndarray) -> bool:
-    """True when the test set holds fewer than ``LOW_N`` clusters of a class it holds
-    (:func:`classes_low_n`).
-
-    Below 10 clusters per class the measured coverage of the intervals falls short of the
-    nominal 95 % (see :mod:`slipbench.stats.bootstrap`), and a figure rests on a handful of recordings:
-    tables flag such cells.
-    """
-    return classes_low_n(*cluster_counts(y_true, groups))
-
-
 # ----------------------------------------------------------------------------- per-cluster totals
 @dataclass(frozen=True)
 class _Totals:

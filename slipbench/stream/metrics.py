@@ -75,12 +75,6 @@ def onsets(labels: np.ndarray) -> np.ndarray:
     return np.r_[0, starts] if len(labels) and labels[0] == 1 else starts.astype(np.int64)
 
 
-def alarms(decisions: np.ndarray) -> np.ndarray:
-    """Alarms: (m,) int64 indices of the decisions that start a run of positive decisions."""
-    d = np.asarray(decisions).astype(bool)
-    return np.flatnonzero(d & ~np.r_[False, d[:-1]])
-
-
 def nonslip(labels: np.ndarray, window: int) -> np.ndarray:
     """(n_samples,) bool: samples labelled 0 whose window (the sample and the ``window - 1``
     before it) holds no sample labelled 1."""
@@ -311,25 +305,6 @@ def outcome(streams: Streams, threshold: float) -> Outcome:
         np.int64
     )
     return Outcome(float(threshold), status, sample.astype(np.int64), delay, false_alarms)
-
-
-def onset_table(streams: Streams, threshold: float) -> pd.DataFrame:
-    """One row per onset at ``threshold``: recording, trial, scenario, onset (sample), at_start,
-    status, alarm (sample, -1 none), delay_ms."""
-    o = outcome(streams, threshold)
-    r = streams.onset_recording
-    return pd.DataFrame(
-        {
-            "recording": streams.recording_id[r],
-            "trial": streams.trial[r],
-            "scenario": streams.scenario[r],
-            "onset": streams.onset_sample,
-            "at_start": streams.onset_at_start,
-            "status": o.status,
-            "alarm": o.alarm,
-            "delay_ms": o.delay_ms,
-        }
-    )
 
 
 # ----------------------------------------------------------------------------- summaries

@@ -228,7 +228,7 @@ def test_report_gives_one_table_per_variant(tmp_path):
         )
         assert table.cells[0][0] == f"{100 * nano_index_32:.1f}"
     # and one figure per table; a run of one variant keeps its plain name
-    from slipbench.report.plots import write_plots
+    from rendering import write_plots
 
     both = pd.concat(frames, ignore_index=True).assign(protocol_params="{}")
     names = sorted(p.name for p in write_plots(both, tmp_path / "all", paper=False))

@@ -147,7 +147,7 @@ def test_a_test_set_with_few_non_slip_windows_keeps_both_classes(tmp_path):
 
 # ----------------------------------------------------------------------------- did it learn
 def test_a_detector_at_chance_on_its_training_windows_is_flagged(tmp_path):
-    from slipbench.report.document import render_report
+    from rendering import render_report
 
     ds = _lab(tmp_path, "lab", labelled=True, trials=8, press=(600,) * 8)
     runs = [Run(d, _window(50), "grouped", 0, "majority") for d in (toys.Constant(), toys.Coin())]

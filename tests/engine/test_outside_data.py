@@ -12,12 +12,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 from datagen import subset
+from rendering import render_report
 
 from slipbench.data.read import read_dataset
 from slipbench.data.write import write_dataset
 from slipbench.engine.registry import detectors, protocols
 from slipbench.engine.runner import Run, evaluate
-from slipbench.report.document import render_report
 from slipbench.store.results import ResultsStore
 
 FAST = {

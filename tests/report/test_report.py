@@ -13,12 +13,13 @@ import numpy as np
 import pandas as pd
 import pytest
 from goldens import check_golden
+from rendering import render_report
 from resultgen import all_rows, fake_rows
 
 from slipbench.app.cli import main
 from slipbench.data.synth import MODEL_VERSION
 from slipbench.engine.registry import protocols
-from slipbench.report.document import protocol_table, render_report
+from slipbench.report.document import protocol_table
 from slipbench.report.paper import paper_frame
 from slipbench.report.tables import LOW_NOTE
 
@@ -191,7 +192,7 @@ def test_report_command_on_real_results(small_path, tmp_path, capsys):
 
 @pytest.mark.slow
 def test_plots_for_every_protocol(tmp_path):
-    from slipbench.report.plots import write_plots
+    from rendering import write_plots
 
     paths = write_plots(all_rows(), tmp_path)
     stems = {p.stem for p in paths}

@@ -9,10 +9,11 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from rendering import render_report
 from resultgen import fake_rows
 
 from slipbench.protocol import NO_CELL, Layout
-from slipbench.report.document import protocol_table, render_report
+from slipbench.report.document import protocol_table
 from slipbench.report.tables import (
     LOW_MARK,
     LOW_NOTE,

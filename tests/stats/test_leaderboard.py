@@ -9,10 +9,10 @@ import pytest
 from goldens import check_golden
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rendering import render_report
 from resultgen import fake_rows
 from statsmodels.stats.multitest import multipletests
 
-from slipbench.report.document import render_report
 from slipbench.stats.leaderboard import ALL, cell_table, entrants, leaderboard, rank_scope
 
 

@@ -14,9 +14,9 @@ from slipbench.stats.bootstrap import make_design, resample_weights
 from slipbench.stats.metrics import (
     FIGURES,
     Predictions,
+    classes_low_n,
     classification_figures,
     cluster_counts,
-    is_low_n,
     mean_over_test_sets,
     over_seeds,
     paired_comparison,
@@ -164,8 +164,10 @@ def test_low_n():
     y = np.repeat([1, 0], 50)
     groups = np.concatenate([np.arange(50) % 12, 100 + np.arange(50) % 9])
     assert cluster_counts(y, groups) == (12, 9)
-    assert is_low_n(y, groups) and LOW_N == 10
-    assert not is_low_n(y, np.concatenate([np.arange(50) % 12, 100 + np.arange(50) % 10]))
+    assert classes_low_n(*cluster_counts(y, groups)) and LOW_N == 10
+    assert not classes_low_n(
+        *cluster_counts(y, np.concatenate([np.arange(50) % 12, 100 + np.arange(50) % 10]))
+    )
     f = classification_figures(y, y, groups, seed=0)
     assert (f["n_test_clusters_slip"], f["n_test_clusters_nonslip"], f["low_n"]) == (12, 9, True)
 

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+from rendering import render_report, write_plots
 
 from slipbench.data.format import Dataset
 from slipbench.engine.plan import Run, make_plan
@@ -14,8 +15,6 @@ from slipbench.engine.runner import _signals, evaluate
 from slipbench.errors import UsageError
 from slipbench.protocols.streaming import Streaming
 from slipbench.report.compare import to_markdown
-from slipbench.report.document import render_report
-from slipbench.report.plots import write_plots
 from slipbench.stats.compare import compare
 from slipbench.stats.gate import Gate
 from slipbench.store.results import ResultsStore
