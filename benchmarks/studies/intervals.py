@@ -1,4 +1,4 @@
-"""IntervalEstimate methods that no command runs: the references and candidates the coverage study
+"""Interval methods that no command runs: the references and candidates the coverage study
 (``docs/coverage.md``, ``benchmarks/bench_coverage.py``) measured slipbench's default against.
 
 Each is an :class:`slipbench.stats.bootstrap.IntervalMethod`, given to the product's functions

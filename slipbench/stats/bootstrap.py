@@ -293,7 +293,7 @@ def interval(
     spec: IntervalSpec,
     bounds: tuple[float, float] = (0.0, 1.0),
 ) -> IntervalEstimate:
-    """IntervalEstimate of a figure by the stratified cluster bootstrap.
+    """Interval of a figure by the stratified cluster bootstrap.
 
     Parameters
     ----------
@@ -541,7 +541,7 @@ def seeded_interval(
     spec: IntervalSpec,
     seed_pool: SeedPool | None = None,
 ) -> IntervalEstimate:
-    """IntervalEstimate of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
+    """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
     seeds: its variance is the clusters' (each resample draws clusters once for every seed of
     every side, stratified Rao-Wu, :func:`resample_weights`; the seeds' plain mean under each)
     plus each side's seed variance of its mean, ``var(seed figures) / S_k``, net of the

@@ -333,7 +333,7 @@ def classification_figures(
         Balancing stratum of each window (``Windows.strata()``): clusters are resampled within
         class and stratum.
     level, n_resamples, method
-        IntervalEstimate level, bootstrap resamples, interval method
+        Interval level, bootstrap resamples, interval method
         (:class:`~slipbench.stats.bootstrap.IntervalSpec`).
 
     Returns
@@ -672,7 +672,7 @@ def paired_comparison(
     y_true, base_pred, cand_pred, groups : ndarray of shape (n_windows,)
         Labels, the two hard predictions, and each window's cluster.
     level : float
-        IntervalEstimate level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
+        Interval level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
     base_scores, cand_scores : ndarray of shape (n_windows,), optional
         Slip probabilities: give the change in AUROC.
     figures : sequence of str
