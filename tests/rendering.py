@@ -12,20 +12,14 @@ from slipbench.report.document import build_report, render, write_figures
 from slipbench.report.plots import figure_specs, save
 
 
-def render_report(
-    rows: pd.DataFrame,
-    fmt: str = "md",
-    found=None,
-    *,
-    standalone: bool = False,
-    plots_dir: str | os.PathLike | None = None,
-    link_from: str | os.PathLike | None = None,
-    **options,
-) -> str:
-    """Every table the rows allow as one Markdown, LaTeX or HTML text; ``options`` as
-    :class:`~slipbench.report.document.ReportOptions`. ``plots_dir``: the figures are drawn
-    there and linked (HTML embeds them either way); ``link_from``: the folder links are
-    relative to."""
+def render_report(rows: pd.DataFrame, fmt: str = "md", found=None, **options) -> str:
+    """Every table the rows allow as one Markdown, LaTeX or HTML text. ``options``: those of
+    :class:`~slipbench.report.document.ReportOptions`, and how the text is laid out:
+    ``standalone`` (a LaTeX document that compiles), ``plots_dir`` (the figures are drawn there
+    and linked; HTML embeds them either way), ``link_from`` (the folder links are relative to)."""
+    standalone = options.pop("standalone", False)
+    plots_dir = options.pop("plots_dir", None)
+    link_from = options.pop("link_from", None)
     with_figures = fmt == "html" or plots_dir is not None
     blocks = build_report(rows, found, **options, with_figures=with_figures)
     files = write_figures(blocks, plots_dir) if plots_dir is not None else {}

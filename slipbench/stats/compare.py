@@ -49,7 +49,7 @@ Streaming cells (rows without ``accuracy``, with the streaming figures of
 :mod:`slipbench.stream.cell`) are judged on their median delay, false alarms per minute and
 detection rate at the detector's own threshold: figures counted on the streams' samples, the
 same on every machine. The compute time per hop is this machine's; it is a separate check
-(:func:`compute_check`: is the candidate within the real-time budget, the hop period) that is
+(:func:`compare_compute`: is the candidate within the real-time budget, the hop period) that is
 reported and never makes a verdict. Rows written before delays left out the compute time (they
 hold ``compute_ms`` and no ``compute_ms_per_hop``) have machine-dependent delays and detection
 rates (the compute time shortened the horizon): those two are not judged on them, only false
@@ -457,10 +457,10 @@ def machine_timed(row: dict) -> bool:
     )
 
 
-def compute_check(base_row: dict, cand_row: dict) -> dict:
+def compare_compute(base_row: dict, cand_row: dict) -> dict:
     """The compute time per hop of both sides and the candidate's against its real-time budget
     (the hop period): reported beside the verdict, never part of it, since it is each
-    machine's own figure. ``compute_check`` is "over the real-time budget", "within the
+    machine's own figure. Its ``compute_check`` is "over the real-time budget", "within the
     real-time budget" or "" (not measured: rows from before the check)."""
     c_ms, budget = (
         float(cand_row.get("compute_ms_per_hop", np.nan)),
@@ -486,7 +486,7 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
     """Unpaired changes of the streaming figures (candidate - base) with intervals at
     ``level``: standard errors from each row's 95 % bootstrap bounds, combined as independent.
     The delays and the detection rate of a :func:`machine_timed` row are not judged (no
-    interval). The compute check (:func:`compute_check`) rides along."""
+    interval). The compute check (:func:`compare_compute`) rides along."""
     out: dict = {"method": "unpaired streams (standard errors from 95 % bounds over trials)"}
     stale = [side for side, r in (("BASE", base_row), ("CANDIDATE", cand_row)) if machine_timed(r)]
     if stale:
@@ -494,7 +494,7 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
             f"; delays and detection rate not judged: {' and '.join(stale)} holds delays with "
             "its machine's compute time (rows from before delays were counted on the stream)"
         )
-    out |= compute_check(base_row, cand_row)
+    out |= compare_compute(base_row, cand_row)
     z = norm.ppf(1 - (1 - level) / 2)
     for name in STREAM_FIGURES:
         d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
@@ -763,7 +763,7 @@ def _identical(entry: dict, b_rows: list[dict], c_rows: list[dict]) -> dict:
             out[f"d_{name}{bound}"] = 0.0 if known else np.nan
     if entry["stream"] and len(b_rows) == len(c_rows) == 1:
         # the same stream on another machine: its compute time is still its own check
-        out |= compute_check(b_rows[0], c_rows[0])
+        out |= compare_compute(b_rows[0], c_rows[0])
     return out
 
 

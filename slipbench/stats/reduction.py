@@ -315,7 +315,7 @@ def _pool(members: list[tuple[dict, Sides | None]], seed: int, level: float) -> 
     return line
 
 
-def reading(line: dict, max_width: float = MAX_WIDTH) -> str:
+def change_reading(line: dict, max_width: float = MAX_WIDTH) -> str:
     """What a pooled accuracy change says, read by its interval (one of ``READINGS``)."""
     lo, hi = 100 * line["d_accuracy_lo"], 100 * line["d_accuracy_hi"]
     if line["low_n"] or not np.isfinite(lo) or not np.isfinite(hi) or hi - lo > max_width:
@@ -383,7 +383,7 @@ def compare_inputs(
     for (detector, split, protocol, sensor), members in by_group.items():
         line = {"detector": detector, "split": split, "protocol": protocol, "sensor_type": sensor}
         line |= _pool(members, seed, pooled_level)
-        line["reading"] = reading(line, max_width)
+        line["reading"] = change_reading(line, max_width)
         lines.append(line)
     identity = ["detector", "protocol", "split", "sensor_type", "cell", "inputs", "seeds", "reason"]
     return InputComparison(
