@@ -228,7 +228,7 @@ def _side_lines(rows: pd.DataFrame, limit: int) -> list[str]:
     return lines + named + more
 
 
-def to_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
+def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     """A pull-request comment: the verdict and a summary per protocol and detector, then the
     regressed cells, then at most ``max_rows`` others (improved first, then the largest
     changes); each cell once. Held under ``COMMENT_LIMIT`` characters: past it the regressed

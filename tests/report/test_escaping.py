@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from markdown_it import MarkdownIt
 from resultgen import fake_rows
 
-from slipbench.report.compare import to_markdown as compare_markdown
+from slipbench.report.compare import comment_markdown
 from slipbench.report.document import build_report, render
 from slipbench.report.tables import LATEX_CHARS, escape
 from slipbench.stats.compare import compare
@@ -199,7 +199,7 @@ def check_every_format(names: list[str], tmp_path) -> None:
     base, cand = tmp_path / "base.parquet", tmp_path / "cand.parquet"
     rows.to_parquet(base)
     rows.assign(accuracy=rows["accuracy"] - 0.2, key=rows["key"] + "c").to_parquet(cand)
-    check_markdown(compare_markdown(compare(base, cand), max_rows=100))
+    check_markdown(comment_markdown(compare(base, cand), max_rows=100))
 
 
 def test_hostile_names_through_every_format(tmp_path):

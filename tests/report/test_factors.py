@@ -13,7 +13,7 @@ from resultgen import fake_rows
 from slipbench.engine import plan
 from slipbench.engine.plan import Run, keys
 from slipbench.protocol import Cell, Part
-from slipbench.report.compare import to_markdown as compare_markdown
+from slipbench.report.compare import comment_markdown
 from slipbench.report.document import ReportOptions, _protocol_blocks, _Shared, build_report, render
 from slipbench.report.outline import layouts
 from slipbench.report.plots import FigureSpec
@@ -128,7 +128,7 @@ def test_no_figure_pools_two_values_of_a_factor(factor, tmp_path):
     rows.to_parquet(base)
     moved = rows.assign(accuracy=rows["accuracy"] + 0.01, key=rows["key"] + "-c")
     moved.to_parquet(cand)
-    comment = compare_markdown(compare(base, cand), max_rows=1000)
+    comment = comment_markdown(compare(base, cand), max_rows=1000)
     assert not _numbers(comment) & _pooled_texts(), f"{factor}: compare pools its two values"
     assert "21.3 → 22.3" in comment and "68.1 → 69.1" in comment
     if factor in SETTINGS and factor != "split":  # the split is a pairing column already

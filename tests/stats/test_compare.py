@@ -21,7 +21,7 @@ from test_coverage import TAUS, dataset
 
 from slipbench.app.cli import main
 from slipbench.errors import EXIT_UNDECIDED, DataError
-from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, to_json, to_markdown
+from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, comment_markdown, to_json
 from slipbench.stats.compare import CELL_ALPHA, compare, family_level
 from slipbench.stats.gate import Gate
 from slipbench.stats.metrics import classification_figures, paired_comparison
@@ -307,12 +307,12 @@ def whole_paper(tmp_path_factory):
 @pytest.mark.slow  # a whole paper's pooled bootstraps: a minute or more on 2 cores
 def test_compare_summary_golden(whole_paper):
     """The verdict, the summary per protocol and detector, the 12 regressed cells, 60 others."""
-    check_golden("compare.md", to_markdown(whole_paper))
+    check_golden("compare.md", comment_markdown(whole_paper))
 
 
 @pytest.mark.slow  # a whole paper's pooled bootstraps: a minute or more on 2 cores
 def test_a_whole_paper_comparison_fits_a_pull_request_comment(whole_paper):
-    text = to_markdown(whole_paper)
+    text = comment_markdown(whole_paper)
     assert len(text) < 60_000
     rows = [
         line
@@ -324,7 +324,7 @@ def test_a_whole_paper_comparison_fits_a_pull_request_comment(whole_paper):
     assert len(set(rows)) == len(rows)
     assert f"_{1405 - 12 - MAX_ROWS} other cells not shown" in text
     assert "<details>" not in text
-    assert len(to_markdown(whole_paper, max_rows=0)) < len(text)
+    assert len(comment_markdown(whole_paper, max_rows=0)) < len(text)
 
 
 @pytest.mark.slow  # a whole paper's pooled bootstraps: a minute or more on 2 cores
@@ -336,7 +336,7 @@ def test_a_comment_with_every_cell_regressed_is_cut_and_says_so(tmp_path):
     worse.to_parquet(cand)
     result = compare(base, cand, Gate.of(["accuracy"]))  # one figure: a third of the bootstraps
     assert len(result.regressions) == 1400  # all but the 5 cells both sides skipped
-    text = to_markdown(result, max_rows=10_000)
+    text = comment_markdown(result, max_rows=10_000)
     assert len(text) < COMMENT_LIMIT
     listed = text.count("▼ regressed |") - len(result.pooled_regressions)  # cells, not pooled lines
     assert len(result.pooled_regressions) == 25  # every protocol of every detector, pooled

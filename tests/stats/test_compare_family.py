@@ -12,7 +12,7 @@ import pytest
 from resultgen import predictions_pair
 
 from slipbench.errors import EXIT_UNDECIDED
-from slipbench.report.compare import SCHEMA_VERSION, to_json, to_markdown
+from slipbench.report.compare import SCHEMA_VERSION, comment_markdown, to_json
 from slipbench.stats.compare import CELL_ALPHA, compare, summary
 from slipbench.stats.gate import Gate
 from slipbench.stats.metrics import Predictions, over_seeds, paired_comparison
@@ -83,7 +83,7 @@ def test_a_drop_spread_over_a_protocol_is_flagged_by_the_pooled_test(tmp_path):
     assert pooled["method"].startswith("joint cluster bootstrap")
     # one seed per side: retraining noise is not in the interval, so noise alone could do it
     assert cmp.state == "undecided" and cmp.exit_code == EXIT_UNDECIDED == 6
-    text = to_markdown(cmp)
+    text = comment_markdown(cmp)
     assert "**Undecided** (exit 6): window-size, holweg: accuracy" in text
     assert (
         "(pooled, Holm), on one seed per side" in text and "cell level" not in text.split("\n\n")[2]
@@ -96,7 +96,7 @@ def test_an_equal_candidate_is_not_flagged(tmp_path):
     )
     cmp = compare(base, cand)
     assert cmp.unchanged and cmp.exit_code == 0 and cmp.pooled.empty
-    assert len(to_markdown(cmp).splitlines()) <= 8
+    assert len(comment_markdown(cmp).splitlines()) <= 8
 
 
 def test_another_seed_is_compared_and_the_note_says_what_is_not_covered(tmp_path):
@@ -105,7 +105,7 @@ def test_another_seed_is_compared_and_the_note_says_what_is_not_covered(tmp_path
     assert len(cmp.cells) == 4 and set(cmp.cells["seed"]) == {"0 → 1"}
     assert cmp.cells["method"].str.startswith("over seeds and trials (1 → 1 seeds)").all()
     assert not cmp.retraining_covered
-    text = to_markdown(cmp)
+    text = comment_markdown(cmp)
     assert "retraining noise is not covered" in text and "--repeats 3" in text
     assert "retraining noise is not covered" in " ".join(json.loads(to_json(cmp))["notes"])
 
@@ -115,7 +115,7 @@ def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
     cmp = compare(base, cand)
     assert cmp.retraining_covered and (cmp.min_seeds_base, cmp.min_seeds_candidate) == (3, 3)
     assert cmp.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
-    assert "retraining noise" not in to_markdown(cmp)
+    assert "retraining noise" not in comment_markdown(cmp)
     assert cmp.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
     # the seed variance pooled over the protocol's cells (its degrees of freedom summed): three
     # seeds a side narrow the cells against one seed per side, never widen them (issue 35)
@@ -145,7 +145,7 @@ def test_the_same_seeds_on_both_sides_pair_seed_by_seed(tmp_path):
     acc = _pooled(same)
     assert acc["detectable"] > 2 * acc["tolerance"] and acc["seeds_needed"] > 3
     assert "points with 80 % power" in acc["undecided_reason"]
-    assert f"about {acc['seeds_needed']} seeds per side" in to_markdown(same)
+    assert f"about {acc['seeds_needed']} seeds per side" in comment_markdown(same)
     assert same.pooled["method"].iloc[0].endswith("crossed with the cells and paired seed by seed")
     assert other.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
     assert other.cells["method"].str.startswith("over seeds and trials (3 → 3 seeds)").all()
@@ -166,7 +166,7 @@ def test_low_n_cells_are_inconclusive_and_never_the_worst(tmp_path):
     assert line["inconclusive"] == 2 and line["worst_row"] not in set(low.index)
     # the cell family holds the 3 cells that changed and are not low-n
     assert cmp.level == pytest.approx(1 - CELL_ALPHA / 3)
-    assert "? inconclusive (low n" in to_markdown(cmp)
+    assert "? inconclusive (low n" in comment_markdown(cmp)
 
 
 def test_a_wide_interval_is_inconclusive(tmp_path):
@@ -183,7 +183,7 @@ def test_identical_cells_leave_the_family(tmp_path):
     assert cmp.level == pytest.approx(1 - CELL_ALPHA / (2 * 3))  # 2 cells, 3 figures each
     pooled = _pooled(cmp)
     assert (pooled["cells"], pooled["changed_cells"]) == (6, 2)
-    assert "≡ identical" not in to_markdown(cmp).split("### Other cells")[-1]
+    assert "≡ identical" not in comment_markdown(cmp).split("### Other cells")[-1]
 
 
 def test_json_is_in_points_with_cells_as_objects_and_validates(tmp_path):

@@ -14,7 +14,7 @@ from slipbench.engine.plan import Run, make_plan
 from slipbench.engine.runner import _signals, evaluate
 from slipbench.errors import UsageError
 from slipbench.protocols.streaming import Streaming
-from slipbench.report.compare import to_markdown
+from slipbench.report.compare import comment_markdown
 from slipbench.stats.compare import compare
 from slipbench.stats.gate import Gate
 from slipbench.store.results import ResultsStore
@@ -233,7 +233,7 @@ def test_compare_flags_a_longer_delay_or_more_false_alarms(streamed, tmp_path):
     assert slower.exit_code == 6  # one seed per side: undecided, never exit 1 on noise alone
     # such a unit may also be inconclusive (low n, or a detection-rate interval over 40 points)
     assert set(verdicts) <= {"regressed", "no significant change", "inconclusive"}
-    assert "median delay" in to_markdown(slower)
+    assert "median delay" in comment_markdown(slower)
     # beyond the tolerance only: 150 ms more within a 300 ms tolerance is no regression
     wide = compare(out, tmp_path / "slow.parquet", Gate.of(median_delay_ms=300.0))
     assert wide.regressions.empty and wide.pooled_regressions.empty
@@ -279,13 +279,13 @@ def test_a_slower_machine_alone_never_regresses_and_is_reported(streamed, tmp_pa
     # the figures are the same on both sides (the delays hold no machine time): nothing changed
     assert cmp.exit_code == 0 and (cmp.cells["verdict"] == "identical").all()
     assert (cmp.cells["compute_check"] == "over the real-time budget").all()
-    from slipbench.report.compare import to_json, to_markdown
+    from slipbench.report.compare import comment_markdown, to_json
 
-    md = to_markdown(cmp)
+    md = comment_markdown(cmp)
     assert "over the real-time budget" in md and "never makes a verdict" in md
     assert f"{len(slow)} of {len(slow)} candidate cells over the real-time budget" in md
     assert '"compute_check": "over the real-time budget"' in to_json(cmp)
-    same = to_markdown(compare(out, out))
+    same = comment_markdown(compare(out, out))
     assert "⚠" not in same and f"all {len(slow)} candidate cells within" in same
 
 

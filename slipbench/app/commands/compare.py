@@ -96,14 +96,14 @@ def compare_command(**options) -> None:
     """
     o = CompareArgs(**options)
     from slipbench.atomic import write_text_atomic
-    from slipbench.report.compare import MAX_ROWS, to_json, to_markdown
+    from slipbench.report.compare import MAX_ROWS, comment_markdown, to_json
     from slipbench.stats.compare import compare
 
     add_plugin_folders(o.plugins)
     result = compare(o.base, o.candidate, _gate(o.figures, o.bench, o.margin, o.max_width))
     texts = {
         "json": to_json(result),
-        "md": to_markdown(result, MAX_ROWS if o.max_rows is None else o.max_rows),
+        "md": comment_markdown(result, MAX_ROWS if o.max_rows is None else o.max_rows),
     }
     click.echo(texts[o.fmt], nl=False)
     for path, kind in ((o.out, "md"), (o.json_out, "json")):
