@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 from resultgen import fake_rows
 
+from slipbench.seeding import rng_for
 from slipbench.stats.meta import meta_analysis, pool, transferred
 from slipbench.stats.pairs import paired_change
 
@@ -35,9 +36,38 @@ def test_two_datasets_of_known_effects_are_recovered_within_their_intervals():
         assert abs(line["d"] - truth) < 1e-9
         assert line["reason"] == ""
     assert m.pooled_over == 2
-    assert m.lo < np.mean(list(effects.values())) < m.hi
-    assert min(effects.values()) < m.d < max(effects.values())
-    assert m.tau2 >= 0 and 0 <= m.i2 <= 1
+    # both datasets have one standard error v^0.5 (the same rows moved), so the weights are
+    # equal and Paule-Mandel solves (y1 - y2)^2 / (2 (v + tau2)) = 1: the pooled change is the
+    # mean of the true ones and tau2 their variance (ddof 1) less the sampling variance
+    v = float(m.datasets["se"].iloc[0]) ** 2
+    assert np.allclose(m.datasets["se"], v**0.5)
+    truths = np.array(list(effects.values()))
+    assert abs(m.d - truths.mean()) < 1e-9
+    assert 0 < v < truths.var(ddof=1)  # else the known spread would not show at all
+    assert abs(m.tau2 - (truths.var(ddof=1) - v)) < 1e-9
+    assert abs(m.i2 - m.tau2 / (m.tau2 + v)) < 1e-6
+    half = 1.959964 * np.sqrt((v + m.tau2) / 2)
+    assert abs(m.lo - (m.d - half)) < 1e-6 and abs(m.hi - (m.d + half)) < 1e-6
+
+
+def test_known_effects_under_cell_noise_are_recovered_within_their_intervals():
+    """Each cell's change is its dataset's true one plus noise (SD 1 point): every dataset's
+    interval and the pooled one hold the truth, and where both datasets share one true change
+    tau2 comes out 0."""
+    for effects, spread in (
+        ({"sim": 0.06, "dos": 0.02}, True),
+        ({"sim": 0.03, "dos": 0.03}, False),
+    ):
+        per = {}
+        for name, effect in effects.items():
+            base, cand = dataset(name, effect)
+            noise = rng_for(0, "test-meta", name).normal(0, 0.01, len(cand))
+            per[name] = (base, cand.assign(accuracy=cand["accuracy"] + noise))
+        m = meta_analysis(per, "features", "holweg")
+        for line in m.datasets.to_dict("records"):
+            assert line["lo"] < effects[line["dataset"]] < line["hi"]
+        assert m.lo < np.mean(list(effects.values())) < m.hi
+        assert (m.tau2 > 0) == spread and (m.i2 > 0) == spread
 
 
 def test_pool_agrees_with_a_fixed_effect_where_datasets_agree():
