@@ -92,7 +92,9 @@ def provenance(args: argparse.Namespace, datasets: dict[str, Dataset], load: str
     commit = subprocess.run(
         ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False
     ).stdout.strip()
-    prints = ", ".join(f"{n} {d.fingerprint}" for n, d in datasets.items())
+    prints = ", ".join(
+        f"{Path(str(d.path)).name} ({n}) {d.fingerprint}" for n, d in datasets.items()
+    )
     return (
         f"Written by `benchmarks/bench_across_datasets.py` (its docstring gives every setting); "
         f"do not edit by hand. slipbench {slipbench.__version__} (commit {commit or 'unknown'}), "
