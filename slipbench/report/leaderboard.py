@@ -13,7 +13,7 @@ import pandas as pd
 
 from slipbench.report.outline import references
 from slipbench.report.tables import (
-    NO_BASELINE,
+    VERSUS,
     Table,
     add_versus,
     change_text,
@@ -151,6 +151,12 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         tables.append(_groups_table(scopes))
         tables.append(_pairs_table(board, name))
     return tables
+
+
+NO_BASELINE = (
+    "No baseline ran on these cells: none of these detectors is the registered reference (the "
+    f"one that slipbench list marks), so no '{VERSUS}' column."
+)
 
 
 def versus_baseline(

@@ -1089,10 +1089,6 @@ def split_table(
 
 # ----------------------------------------------------------------------------- the line to beat
 VERSUS = "vs baseline"
-NO_BASELINE = (
-    "No baseline ran: none of these detectors is the registered reference (the one that "
-    "slipbench list marks), so no table shows a 'vs baseline' column."
-)
 
 
 def change_text(change: dict) -> str:

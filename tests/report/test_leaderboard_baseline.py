@@ -9,8 +9,7 @@ import pandas as pd
 from resultgen import fake_rows, predictions_pair
 
 from slipbench.report.document import build_report, render
-from slipbench.report.leaderboard import leaderboard_tables, versus_baseline
-from slipbench.report.tables import NO_BASELINE
+from slipbench.report.leaderboard import NO_BASELINE, leaderboard_tables, versus_baseline
 from slipbench.stats.factors import named_entrants
 from slipbench.stats.leaderboard import leaderboard
 from slipbench.stats.pairs import paired_change
