@@ -164,8 +164,8 @@ def versus_baseline(
 ) -> None:
     """The leaderboard ``tables`` (:func:`leaderboard_tables` of ``rows``) with the line to beat:
     the means table's 'vs baseline' column (:func:`versus_column`) over the cells the
-    leaderboard may rank (none tested on one class); where no reference ran, the report's one
-    line saying so, under the ranks. ``predictions``: the results folders holding the cells'
+    leaderboard may rank (none tested on one class); where no reference ran, one line saying
+    so, under the ranks. ``predictions``: the results folders holding the cells'
     test predictions."""
     rows = rows[~one_class(rows)]
     reference = references(rows)
