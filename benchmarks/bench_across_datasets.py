@@ -10,8 +10,9 @@ Setting: protocol window-size with ``windows=["500ms"]`` (500 samples at the sim
 1000 Hz, 425 at its BioTac SP's 850 Hz, 50 at DoS's 100 Hz), ``--split grouped``, univariate
 input, seeds 0 to ``--seeds`` - 1, detectors ``--detectors``. The simulation: the default
 dataset at ``--scale``, seed 0. DoS: ``slipbench dataset import biotacsp-dos`` of ``--dos``
-into ``--work`` (read in place, never copied into the repository). Cells already in
-``--work`` are reused (their keys hold code, data, parameters and seed): a rerun resumes.
+into ``--work`` (read in place, never copied into the repository). Each dataset's results go
+to a folder of ``--work`` named by slipbench's code identity: a rerun of the same code resumes
+there, a changed one starts afresh.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from slipbench.data.read import read_dataset
 from slipbench.engine.plan import Run
 from slipbench.engine.registry import protocols
 from slipbench.engine.runner import evaluate
+from slipbench.store.keys import code_identity
 from slipbench.store.results import ResultsStore
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,7 +62,8 @@ def run_both(datasets: dict[str, Dataset], work: Path, runs: list[Run]) -> dict[
     """Each dataset's cells into its own results folder under ``work``; the folders."""
     folders = {}
     for name, dataset in datasets.items():
-        folders[name] = work / name
+        # a folder per code version: cells of two versions in one folder would pair twice
+        folders[name] = work / f"{name}-{code_identity(slipbench)[:12]}"
         rows = evaluate(dataset, runs, ResultsStore(folders[name]), jobs=1, progress=True)
         bad = rows[rows["status"] != "ok"]
         for r in bad.to_dict("records"):  # said, never hidden: the report counts them too

@@ -189,7 +189,7 @@ def versus_column(
     is_ref = ids.isin(reference)
     if not is_ref.any():
         return
-    texts, methods = [], []
+    texts, methods, twice = [], [], 0
     for (entrant,) in table.rows:
         mine = rows["detector"] == entrant
         if is_ref[mine].all():
@@ -198,7 +198,14 @@ def versus_column(
         change = paired_change(rows[is_ref], rows[mine], predictions)
         texts.append(change_text(change))
         methods += [change["method"]] if change["method"] else []
+        twice += change["n_skipped"]
     add_versus(table, texts, ", ".join(reference), methods)
+    if twice:  # never dropped unsaid
+        table.notes.append(
+            f"{VERSUS}: {twice} shared {'cell was' if twice == 1 else 'cells were'} left out, a "
+            "seed stored twice on a side (two runs of one cell in one folder, e.g. before and "
+            "after a code change): rerun into a fresh folder."
+        )
 
 
 _UNDECIDED = (

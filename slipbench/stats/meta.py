@@ -100,7 +100,11 @@ def meta_analysis(
         res = paired_change(b, c, folders, seed, level)
         reason = ""
         if res["n_cells"] == 0:
-            reason = "no cell that both detectors finished"
+            reason = (
+                f"each of its {res['n_skipped']} shared cells holds a seed stored twice"
+                if res["n_skipped"]
+                else "no cell that both detectors finished"
+            )
         elif not np.isfinite(res["se"]):
             reason = "no standard error in its rows"
         elif res["se"] <= 0:

@@ -70,6 +70,21 @@ def test_change_from_rows_per_entrant_and_one_class_cells_left_out():
     assert any("vs baseline (features): each detector's" in n for n in tables[1].notes)
 
 
+def test_cells_with_a_seed_stored_twice_are_left_out_and_said():
+    ref = fake_rows("window-size", "features").head(6)
+    holweg = fake_rows("window-size", "holweg", shift=0.03).head(6)
+    again = ref.head(2).assign(key=ref["key"].head(2) + "-rerun")  # a second run of two cells
+    rows = named_entrants(pd.concat([ref, again, holweg], ignore_index=True))
+    tables = board_tables(rows)
+    change = paired_change(pd.concat([ref, again]), holweg)
+    assert change["n_cells"] == 4 and change["n_skipped"] == 2
+    assert_is(column(tables[1])["holweg"], change)
+    assert any(n.startswith("vs baseline: 2 shared cells were left out") for n in tables[1].notes)
+    every = [ref, ref.assign(key=ref["key"] + "-rerun"), holweg]
+    every = named_entrants(pd.concat(every, ignore_index=True))
+    assert column(board_tables(every)[1])["holweg"] == "a seed stored twice"
+
+
 def test_without_the_reference_no_column_and_one_line_why():
     rows = pd.concat(
         [fake_rows("window-size", d).head(12) for d in ("lstm", "holweg")], ignore_index=True

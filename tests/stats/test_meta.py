@@ -92,6 +92,14 @@ def test_a_pair_missing_on_one_dataset_is_said_not_pooled():
     assert m.pooled_over == 2 and np.isfinite(m.d)
 
 
+def test_a_dataset_of_cells_stored_twice_says_so():
+    base, cand = dataset("dos", 0.02)
+    twice = pd.concat([base, base.assign(key=base["key"] + "-rerun")])
+    per = {"sim": dataset("sim", 0.04), "dos": (twice, cand)}
+    dos = meta_analysis(per, "features", "holweg").datasets.set_index("dataset").loc["dos"]
+    assert dos["reason"] == f"each of its {len(base)} shared cells holds a seed stored twice"
+
+
 def test_zero_variance_is_left_out_with_its_reason():
     base, cand = dataset("sim", 0.0)
     flat = cand.copy()
