@@ -1,7 +1,7 @@
 """The across-datasets report on real data (issue 36): a few fast detectors on the simulation
 and on the BioTac SP DoS recordings at one shared protocol setting, then ``slipbench report A B``
-of the two results folders. Writes the report's leaderboard means (with "vs baseline") and its
-"Across datasets" section to ``docs/across-datasets/summary.txt`` and the forest plot to
+of the two results folders. Writes the report's "Leaderboard" (with "vs baseline") and
+"Across datasets" sections to ``docs/across-datasets/summary.txt`` and the forest plot to
 ``docs/across-datasets/forest.png``; ``docs/across-datasets.md`` embeds both.
 
     nice python benchmarks/bench_across_datasets.py --dos PATH/biotacsp-dos/csvs
@@ -130,6 +130,8 @@ def main() -> None:
     }
     folders = run_both(datasets, args.work, runs_of(args.detectors, args.seeds))
     text, figures = report(folders, args.work)
+    if not (figures / "meta.png").is_file():  # fewer than two datasets share a pair
+        raise SystemExit(f"the report drew no forest plot; {args.work / 'report.md'} says why")
     args.docs.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(figures / "meta.png", args.docs / "forest.png")
     summary = f"{provenance(args, datasets, load)}\n\n{sections(text, SECTIONS)}"

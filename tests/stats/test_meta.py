@@ -98,6 +98,10 @@ def test_a_dataset_of_cells_stored_twice_says_so():
     per = {"sim": dataset("sim", 0.04), "dos": (twice, cand)}
     dos = meta_analysis(per, "features", "holweg").datasets.set_index("dataset").loc["dos"]
     assert dos["reason"] == f"each of its {len(base)} shared cells holds a seed stored twice"
+    partly = pd.concat([base, base.head(3).assign(key=base["key"].head(3) + "-rerun")])
+    m = meta_analysis({"sim": dataset("sim", 0.04), "dos": (partly, cand)}, "features", "holweg")
+    assert m.datasets.set_index("dataset").loc["dos", "n_cells"] == len(base) - 3
+    assert "dos: 3 shared cells left out, a seed stored twice." in m.notes
 
 
 def test_zero_variance_is_left_out_with_its_reason():
