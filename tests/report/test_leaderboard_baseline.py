@@ -55,10 +55,13 @@ def test_change_from_rows_per_entrant_and_one_class_cells_left_out():
     ref = fake_rows("window-size", "features").head(12)
     holweg = fake_rows("window-size", "holweg", shift=0.03).head(12)
     lstm = fake_rows("window-size", "lstm").head(12)
-    # a one-class test set the leaderboard does not rank: the change leaves it out too
-    lone = holweg.head(1).assign(cell='{"one": 1}', key="lone", accuracy=1.0)
-    lone["constant_slip_accuracy"] = 1.0
+    # a one-class test set both ran, which the leaderboard does not rank: the change leaves it
+    # out too (with it, holweg's change would rise by 0.8 / 13, about 6 points)
+    lone = pd.concat([ref.head(1), holweg.head(1)]).assign(cell='{"one": 1}', key=["l0", "l1"])
+    lone = lone.assign(accuracy=[0.2, 1.0], constant_slip_accuracy=1.0)
     rows = named_entrants(pd.concat([ref, holweg, lstm, lone], ignore_index=True))
+    both = [rows[rows["detector"] == d] for d in ("features", "holweg")]
+    assert paired_change(*both)["n_cells"] == len(ref) + 1  # unfiltered, the pairing takes it
     tables = board_tables(rows)
     texts = column(tables[1])
     assert texts["features"] == "reference"
