@@ -36,7 +36,12 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.blocks import Detail, Heading, Link, Text
-from slipbench.report.leaderboard import leaderboard_tables, one_class_table
+from slipbench.report.leaderboard import (
+    leaderboard_tables,
+    one_class_table,
+    versus_baseline,
+    versus_column,
+)
 from slipbench.report.meta import meta_blocks
 from slipbench.report.outline import (
     as_tested,
@@ -60,14 +65,11 @@ from slipbench.report.render import (
     to_markdown,
 )
 from slipbench.report.tables import (
-    NO_BASELINE,
     SIMULATED,
     Table,
     TableValues,
-    add_versus,
     baseline_table,
     build_table,
-    change_text,
     compute_table,
     escape,
     fits,
@@ -80,9 +82,8 @@ from slipbench.report.tables import (
     split_table,
     table_keys,
 )
-from slipbench.stats.factors import ENTRANT_ID, named_entrants, setting_parts
+from slipbench.stats.factors import named_entrants, setting_parts
 from slipbench.stats.leaderboard import leaderboard
-from slipbench.stats.pairs import paired_change
 from slipbench.vocabulary import DETECTOR_ORDER
 
 PAPER_DETECTOR = (
@@ -307,31 +308,6 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
     return table
 
 
-def _versus(
-    rows: pd.DataFrame,
-    table: Table,
-    reference: Sequence[str],
-    predictions: Sequence[str | os.PathLike],
-) -> None:
-    """``table`` (a line per detector of ``rows``) with its 'vs baseline' column where the
-    reference detector has rows among ``rows``."""
-    is_ref = (
-        rows[ENTRANT_ID].isin(reference) if ENTRANT_ID in rows else rows["detector"].isin(reference)
-    )
-    if not is_ref.any():
-        return
-    texts, methods = [], []
-    for (detector,) in table.rows:
-        mine = rows["detector"] == detector
-        if is_ref[mine].all():
-            texts.append("reference")
-            continue
-        change = paired_change(rows[is_ref], rows[mine], predictions)
-        texts.append(change_text(change))
-        methods += [change["method"]] if change["method"] else []
-    add_versus(table, texts, ", ".join(reference), methods)
-
-
 @dataclass(frozen=True)
 class _Shared:
     """What every protocol's section draws on: the figures by section (FigureSpecs) and the
@@ -385,7 +361,7 @@ def _protocol_blocks(
                     table.caption += which_text(which)
                     table.subject = f"Protocol {protocol}, {split} split."
                     if "detector" not in table_keys(part, layout):
-                        _versus(part, table, reference, predictions)
+                        versus_column(table, part, reference, predictions)
                     blocks.append(table)
         splits = [s for s, _ in splits_of(prows)]
         blocks += sorted(
@@ -468,7 +444,7 @@ def build_report(
                 )
             )
         )
-    blocks += _leaderboards(lead, metric, order, with_figures)
+    blocks += _leaderboards(lead, metric, order, with_figures, predictions)
     lone = one_class_table(cells)  # ranked in no split
     if lone is not None:
         blocks += [Heading("Test sets of one class", 2), lone]
@@ -479,8 +455,6 @@ def build_report(
     if paper:
         blocks += _findings(lead, found, order)
     reference = references(cells)
-    if not reference:
-        blocks.append(Text(NO_BASELINE))
     fitted = fitted_tables(cells)
     if fitted:
         # each detector's choices are detail; the warnings about them stay in the summary
@@ -513,13 +487,21 @@ def _name_part(table: Table, which: dict) -> None:
     table.label += _tag(which)
 
 
-def _leaderboards(rows: pd.DataFrame, metric: str, order: list[str], with_figures: bool) -> list:
-    """The leaderboard of ``rows`` (and its critical-difference diagram): one per combination
-    of the settings that differ between them, so that no mean or test pools two of them."""
+def _leaderboards(
+    rows: pd.DataFrame,
+    metric: str,
+    order: list[str],
+    with_figures: bool,
+    predictions: Sequence[str | os.PathLike],
+) -> list:
+    """The leaderboard of ``rows`` (and its critical-difference diagram), with the line to beat:
+    one per combination of the settings that differ between them, so that no mean or test
+    pools two of them."""
     blocks: list = []
     for which, part in setting_parts(rows):
         board = leaderboard(part, metric, protocols=order)
         tables = leaderboard_tables(board)
+        versus_baseline(tables, part, predictions)
         for table in tables:
             _name_part(table, which)
         tables[-1 if len(tables) == 1 else 1].notes += simulation_note(part)  # under the means

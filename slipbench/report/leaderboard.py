@@ -1,16 +1,29 @@
 """The leaderboard said: the tables of :func:`slipbench.stats.leaderboard.leaderboard` (mean
 ranks per scope; mean figures with intervals and cells won; the groups per scope and the
 pairwise table, both from :func:`slipbench.stats.leaderboard.pairwise`) with the figures' names
-and the notes that say how to read them."""
+and the notes that say how to read them; the line to beat (:func:`versus_baseline`)."""
 
 from __future__ import annotations
+
+import os
+from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
 
-from slipbench.report.tables import Table, ordered_keys, rank, summarize
-from slipbench.stats.factors import one_class, setting_labels
+from slipbench.report.outline import references
+from slipbench.report.tables import (
+    VERSUS,
+    Table,
+    add_versus,
+    change_text,
+    ordered_keys,
+    rank,
+    summarize,
+)
+from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
 from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard, Scope
+from slipbench.stats.pairs import paired_change
 from slipbench.vocabulary import DETECTOR_ORDER, METRIC_NAMES, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
@@ -138,6 +151,61 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         tables.append(_groups_table(scopes))
         tables.append(_pairs_table(board, name))
     return tables
+
+
+NO_BASELINE = (
+    "No baseline ran on these cells: none of these detectors is the registered reference (the "
+    f"one that slipbench list marks), so no '{VERSUS}' column."
+)
+
+
+def versus_baseline(
+    tables: list[Table], rows: pd.DataFrame, predictions: Sequence[str | os.PathLike] = ()
+) -> None:
+    """The leaderboard ``tables`` (:func:`leaderboard_tables` of ``rows``) with the line to beat:
+    the means table's 'vs baseline' column (:func:`versus_column`) over the cells the
+    leaderboard may rank (none tested on one class); where no reference ran, one line saying
+    so, under the ranks. ``predictions``: the results folders holding the cells'
+    test predictions."""
+    rows = rows[~one_class(rows)]
+    reference = references(rows)
+    if not reference:
+        tables[0].notes.append(NO_BASELINE)
+    elif len(tables) > 1:  # else nothing ranked: no means table
+        versus_column(tables[1], rows, reference, predictions)
+
+
+def versus_column(
+    table: Table,
+    rows: pd.DataFrame,
+    reference: Sequence[str],
+    predictions: Sequence[str | os.PathLike] = (),
+) -> None:
+    """``table`` (a line per entrant of ``rows``) with its 'vs baseline' column: each line's
+    paired change in accuracy from the ``reference`` detectors' rows
+    (:func:`slipbench.stats.pairs.paired_change`), the reference's own lines marked; nothing
+    where the reference has no rows among ``rows``."""
+    ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
+    is_ref = ids.isin(reference)
+    if not is_ref.any():
+        return
+    texts, methods, twice = [], [], 0
+    for (entrant,) in table.rows:
+        mine = rows["detector"] == entrant
+        if is_ref[mine].all():
+            texts.append("reference")
+            continue
+        change = paired_change(rows[is_ref], rows[mine], predictions)
+        texts.append(change_text(change))
+        methods += [change["method"]] if change["method"] else []
+        twice += change["n_skipped"]
+    add_versus(table, texts, ", ".join(reference), methods)
+    if twice:  # never dropped unsaid
+        table.notes.append(
+            f"{VERSUS}: {twice} shared {'cell was' if twice == 1 else 'cells were'} left out, a "
+            "seed stored twice on a side (two runs of one cell in one folder, e.g. before and "
+            "after a code change): rerun into a fresh folder."
+        )
 
 
 _UNDECIDED = (

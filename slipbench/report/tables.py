@@ -1086,17 +1086,13 @@ def split_table(
 
 # ----------------------------------------------------------------------------- the line to beat
 VERSUS = "vs baseline"
-NO_BASELINE = (
-    "No baseline ran: none of these detectors is the registered reference (the one that "
-    "slipbench list marks), so no table shows a 'vs baseline' column."
-)
 
 
 def change_text(change: dict) -> str:
     """A change from :func:`slipbench.stats.pairs.paired_change` in accuracy points:
     ``+3.2 [1.0, 5.4]``; why there is none where no cell is shared."""
-    if change["n_cells"] == 0:
-        return "no shared cell"
+    if change["n_cells"] == 0:  # shared cells all left out: a seed stored twice (pairs.py)
+        return "a seed stored twice" if change.get("n_skipped") else "no shared cell"
     text = f"{100 * change['d']:+.1f}"
     if np.isfinite(change["lo"]) and np.isfinite(change["hi"]):
         text += f" [{100 * change['lo']:+.1f}, {100 * change['hi']:+.1f}]"

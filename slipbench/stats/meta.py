@@ -95,12 +95,18 @@ def meta_analysis(
 ) -> MetaAnalysis:
     """``per_dataset``: dataset name -> (base's rows, cand's rows) on it, transfer rows already
     left out. Each dataset's change with its interval at ``level``, then the pooled change."""
-    lines = []
+    lines, notes = [], []
     for name, (b, c) in per_dataset.items():
         res = paired_change(b, c, folders, seed, level)
+        if res["n_cells"] and res["n_skipped"]:  # never dropped unsaid
+            notes.append(f"{name}: {res['n_skipped']} shared cells left out, a seed stored twice.")
         reason = ""
         if res["n_cells"] == 0:
-            reason = "no cell that both detectors finished"
+            reason = (
+                f"each of its {res['n_skipped']} shared cells holds a seed stored twice"
+                if res["n_skipped"]
+                else "no cell that both detectors finished"
+            )
         elif not np.isfinite(res["se"]):
             reason = "no standard error in its rows"
         elif res["se"] <= 0:
@@ -109,7 +115,7 @@ def meta_analysis(
             {"dataset": name, **{k: res[k] for k in DATASET_COLUMNS[1:-1]}, "reason": reason}
         )
     frame = pd.DataFrame(lines, columns=DATASET_COLUMNS)
-    out = MetaAnalysis(base, cand, frame)
+    out = MetaAnalysis(base, cand, frame, notes=notes)
     used = frame[frame["reason"] == ""]
     out.pooled_over = len(used)
     if len(used) < 2:

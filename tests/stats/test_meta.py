@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 from resultgen import fake_rows
 
+from slipbench.seeding import rng_for
 from slipbench.stats.meta import meta_analysis, pool, transferred
 from slipbench.stats.pairs import paired_change
 
@@ -35,9 +36,38 @@ def test_two_datasets_of_known_effects_are_recovered_within_their_intervals():
         assert abs(line["d"] - truth) < 1e-9
         assert line["reason"] == ""
     assert m.pooled_over == 2
-    assert m.lo < np.mean(list(effects.values())) < m.hi
-    assert min(effects.values()) < m.d < max(effects.values())
-    assert m.tau2 >= 0 and 0 <= m.i2 <= 1
+    # both datasets have one standard error v^0.5 (the same rows moved), so the weights are
+    # equal and Paule-Mandel solves (y1 - y2)^2 / (2 (v + tau2)) = 1: the pooled change is the
+    # mean of the true ones and tau2 their variance (ddof 1) less the sampling variance
+    v = float(m.datasets["se"].iloc[0]) ** 2
+    assert np.allclose(m.datasets["se"], v**0.5)
+    truths = np.array(list(effects.values()))
+    assert abs(m.d - truths.mean()) < 1e-9
+    assert 0 < v < truths.var(ddof=1)  # else the known spread would not show at all
+    assert abs(m.tau2 - (truths.var(ddof=1) - v)) < 1e-9
+    assert abs(m.i2 - m.tau2 / (m.tau2 + v)) < 1e-6
+    half = 1.959964 * np.sqrt((v + m.tau2) / 2)
+    assert abs(m.lo - (m.d - half)) < 1e-6 and abs(m.hi - (m.d + half)) < 1e-6
+
+
+def test_known_effects_under_cell_noise_are_recovered_within_their_intervals():
+    """Each cell's change is its dataset's true one plus noise (SD 1 point): every dataset's
+    interval and the pooled one hold the truth, and where both datasets share one true change
+    tau2 comes out 0."""
+    for effects, spread in (
+        ({"sim": 0.06, "dos": 0.02}, True),
+        ({"sim": 0.03, "dos": 0.03}, False),
+    ):
+        per = {}
+        for name, effect in effects.items():
+            base, cand = dataset(name, effect)
+            noise = rng_for(0, "test-meta", name).normal(0, 0.01, len(cand))
+            per[name] = (base, cand.assign(accuracy=cand["accuracy"] + noise))
+        m = meta_analysis(per, "features", "holweg")
+        for line in m.datasets.to_dict("records"):
+            assert line["lo"] < effects[line["dataset"]] < line["hi"]
+        assert m.lo < np.mean(list(effects.values())) < m.hi
+        assert (m.tau2 > 0) == spread and (m.i2 > 0) == spread
 
 
 def test_pool_agrees_with_a_fixed_effect_where_datasets_agree():
@@ -60,6 +90,18 @@ def test_a_pair_missing_on_one_dataset_is_said_not_pooled():
     dos = m.datasets.set_index("dataset").loc["dos"]
     assert dos["n_cells"] == 0 and "no cell" in dos["reason"]
     assert m.pooled_over == 2 and np.isfinite(m.d)
+
+
+def test_a_dataset_of_cells_stored_twice_says_so():
+    base, cand = dataset("dos", 0.02)
+    twice = pd.concat([base, base.assign(key=base["key"] + "-rerun")])
+    per = {"sim": dataset("sim", 0.04), "dos": (twice, cand)}
+    dos = meta_analysis(per, "features", "holweg").datasets.set_index("dataset").loc["dos"]
+    assert dos["reason"] == f"each of its {len(base)} shared cells holds a seed stored twice"
+    partly = pd.concat([base, base.head(3).assign(key=base["key"].head(3) + "-rerun")])
+    m = meta_analysis({"sim": dataset("sim", 0.04), "dos": (partly, cand)}, "features", "holweg")
+    assert m.datasets.set_index("dataset").loc["dos", "n_cells"] == len(base) - 3
+    assert "dos: 3 shared cells left out, a seed stored twice." in m.notes
 
 
 def test_zero_variance_is_left_out_with_its_reason():
