@@ -221,6 +221,12 @@ def render(results: dict) -> str:
         lines += [f"## {section}", "", "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
         lines += ["| " + " | ".join(_cell(r.get(k, "")) for k in keys) + " |" for r in rows]
         lines.append("")
+    lines += [
+        "## lockstep in the engine",
+        "",
+        '--8<-- "benchmarks/results/lockstep_engine.md"',
+        "",
+    ]
     return "\n".join(lines)
 
 
