@@ -73,7 +73,7 @@ class Run:
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (a run's settings, passed by position by its callers in app/)
         self,
         detector: BaseDetector | str,
         protocol: BaseProtocol | str,
