@@ -1,8 +1,9 @@
 """The engine's lockstep batches against one model per task: `slipbench evaluate --detector
 lstm --protocol window-size` (default scale, --jobs 2), run back to back with
 ``SLIPBENCH_LOCKSTEP=1`` and ``=0`` into fresh results folders, after a warm-up that builds the
-default dataset and numba's caches. Wall and CPU seconds (this process's children, workers
-included, as their parents reap them), the load average around each run, and whether the two
+default dataset and numba's caches. Wall seconds, CPU seconds of the command's own process
+(RUSAGE_CHILDREN: the pool's workers, children of the fork server, are not in it), the load
+average around each run, and whether the two
 runs' figures agree, cell by cell. Writes a Markdown table that docs/performance.md includes.
 
     python benchmarks/bench_lockstep_engine.py [--jobs 2] [--out benchmarks/results/lockstep_engine.md]
@@ -68,7 +69,7 @@ def main() -> None:
         f"(`SLIPBENCH_LOCKSTEP=0`), back to back on {os.cpu_count()} CPUs. Figures of every "
         f"cell identical in the two runs: {'yes' if same else 'NO'}.",
         "",
-        "| run | wall s | CPU s | load (1 min) before, after |",
+        "| run | wall s | CPU s, main process only | load (1 min) before, after |",
         "|---|---|---|---|",
     ]
     for name, m in (("lockstep batches", on), ("one model per task", off)):
@@ -76,7 +77,8 @@ def main() -> None:
         lines.append(f"| {name} | {m['wall']:.0f} | {m['cpu']:.0f} | {load} |")
     lines += [
         "",
-        f"Speed-up: wall {off['wall'] / on['wall']:.2f}x, CPU {off['cpu'] / on['cpu']:.2f}x.",
+        f"Speed-up: wall {off['wall'] / on['wall']:.2f}x (CPU of the main process "
+        f"{off['cpu'] / on['cpu']:.2f}x; the workers' CPU is not measured).",
     ]
     args.out.write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
