@@ -221,6 +221,22 @@ def render(results: dict) -> str:
         lines += [f"## {section}", "", "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
         lines += ["| " + " | ".join(_cell(r.get(k, "")) for k in keys) + " |" for r in rows]
         lines.append("")
+    lines += [
+        "## lockstep in the engine",
+        "",
+        '--8<-- "benchmarks/results/lockstep_engine.md"',
+        "",
+        "## What a run will cost",
+        "",
+        "`evaluate` and `run` with several detectors or protocols print, before the first cell,",
+        "per detector the cells cached (and skipped) and the cells and models to run, and an",
+        "estimate: models x the median seconds of a fit + cells x the median seconds of a test,",
+        "both from that detector's rows already in the results folder (any run, any scale), or",
+        '"no estimate yet" for a detector never measured there; the total divides the work by',
+        "`--jobs`. A model trained in a lockstep batch counts the batch's time divided among its",
+        "models, so a store of such rows estimates a run with batches. `--quiet` leaves it out.",
+        "",
+    ]
     return "\n".join(lines)
 
 

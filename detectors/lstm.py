@@ -53,7 +53,7 @@ class LSTM(BaseDetector):
         "max_epochs": Sequence(Interval(int, 1, 100_000)),
     }
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (hyperparameters: get_params reads one keyword each)
         self,
         hidden_size=20,
         batch_size=1,
@@ -102,7 +102,7 @@ class LSTM(BaseDetector):
         run = _Training(self, x, y, seed)
         epoch = _torch_epoch if self.device_ == "cuda" else _numba_epoch
         while not run.done:
-            epoch(run.xn, y, run.order(), self.batch_size, run.lr, self.momentum, *run.state)
+            epoch((run.xn, y), run.order(), (self.batch_size, run.lr, self.momentum), run.state)
             run.end_epoch()
         run.finish()
 
@@ -122,7 +122,7 @@ class LSTM(BaseDetector):
             _train_in_lockstep([detectors[i] for i in members], [data[i][:3] for i in members])
 
     def _predict_proba(self, x):
-        return kernels.predict_proba(x, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS))
+        return kernels.predict_proba(x, self._net())
 
     def fitted_choices(self):
         """Epochs run over all learning-rate stages (early stopping ends a stage before its cap),
@@ -155,9 +155,10 @@ class LSTM(BaseDetector):
 
     def predict_window(self, window: np.ndarray) -> float:
         """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
-        return kernels.predict_window(
-            window, self.lo_, self.scale_, *(getattr(self, k) for k in PARAMS)
-        )
+        return kernels.predict_window(window, self._net())
+
+    def _net(self) -> tuple:
+        return kernels.network(self.lo_, self.scale_, (getattr(self, k) for k in PARAMS))
 
 
 class LSTMStreamer(Streamer):
@@ -168,12 +169,13 @@ class LSTMStreamer(Streamer):
     def reset(self):
         super().reset()
         det = self.detector
-        self._args = (float(det.lo_), float(det.scale_), *(getattr(det, k) for k in PARAMS))
+        self._net = det._net()
         self._state = np.zeros((-(-self.window // self.hop), 2, det.rt_.shape[0]), np.float32)
 
     def _push(self, x, n):
         out = np.empty(n)
-        kernels.stream_push(x, self.n_samples, self.window, self.hop, *self._args, self._state, out)
+        clock = (self.n_samples, self.window, self.hop)
+        kernels.stream_push(x, clock, self._net, (self._state, out))
         return out
 
 
@@ -253,7 +255,8 @@ class _Training:
     def end_epoch(self) -> None:
         """Validate the weights in :attr:`state`, keep the best, stop early or change stage."""
         params, val, y = self.state[0], self.val, self.y
-        p = np.clip(kernels.predict_proba(self.xn[val], -1.0, 1.0, *params), 1e-12, 1 - 1e-12)
+        net = kernels.network(-1.0, 1.0, params)
+        p = np.clip(kernels.predict_proba(self.xn[val], net), 1e-12, 1 - 1e-12)
         loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
         self.history.append((self.lr, loss))
         self.det.report_progress(len(self.history), self.total_epochs, loss=loss)
@@ -317,14 +320,18 @@ def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
         r.finish()
 
 
-def _numba_epoch(x, y, order, batch_size, lr, momentum, params, velocity) -> None:
-    kernels.train_epoch((x, y), order, (batch_size, lr, momentum), params, velocity)
+def _numba_epoch(data, order, schedule, state) -> None:
+    """One epoch of SGD on ``data`` = (x, y) in ``order``, ``schedule`` = (batch size, learning
+    rate, momentum), ``state`` = (params, velocity) updated in place."""
+    kernels.train_epoch(data, order, schedule, *state)
 
 
-def _torch_epoch(x, y, order, batch_size, lr, momentum, params, velocity, device="cuda") -> None:
-    """The same epoch on a GPU: torch's LSTM with its second bias fixed at 0 (one bias per gate,
-    as in the paper) and the same momentum update; arrays go back to numpy after the epoch."""
+def _torch_epoch(data, order, schedule, state, device="cuda") -> None:
+    """:func:`_numba_epoch` on a GPU: torch's LSTM with its second bias fixed at 0 (one bias per
+    gate, as in the paper) and the same momentum update; arrays go back to numpy after the epoch."""
     import torch
+
+    (x, y), (batch_size, lr, momentum), (params, velocity) = data, schedule, state
 
     dev = torch.device(device)
     to_torch = [

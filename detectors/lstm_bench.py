@@ -96,7 +96,11 @@ def lstm_targets(
         ),
         (
             "batched inference samples/s",
-            rate(lambda: kernels.predict_proba(x, -1.0, 1.0, *params), x.size, seconds),
+            rate(
+                lambda: kernels.predict_proba(x, kernels.network(-1.0, 1.0, params)),
+                x.size,
+                seconds,
+            ),
             rate(lambda: torch_infer(xt), x.size, seconds),
             20e6,
         ),

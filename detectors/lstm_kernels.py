@@ -351,11 +351,13 @@ def train_epoch(data, order, schedule, model, velocity) -> float:
 
 
 @nb.njit(inline="always", **_jit)
-def _step(xt, w, rt, b, h, c, a, H):
-    """One step on the normalized input ``xt``: the state h, c (H,) advanced in place; ``a``
-    (4H,) scratch. The recurrent product keeps one accumulator per gate row (row outer, k
+def _step(xt, model, state, H):
+    """One step on the normalized input ``xt`` through ``model`` = (w, rt, b, wy, by):
+    ``state`` = (h, c, a), h and c (H,) advanced in place, ``a`` (4H,) scratch. The recurrent product keeps one accumulator per gate row (row outer, k
     inner): with H a literal, LLVM unrolls k and vectorizes across rows, and a window of 50
     samples took 5.3 µs against 8.1 µs with k outer (CPU time, development machine)."""
+    w, rt, b = model[0], model[1], model[2]
+    h, c, a = state
     for j in range(4 * H):
         acc = b[j] + w[j] * xt
         for k in range(H):
@@ -369,31 +371,37 @@ def _step(xt, w, rt, b, h, c, a, H):
 
 
 @nb.njit(inline="always", **_jit)
-def _run(x, lo, scale, w, rt, b, wy, by, h, c, a, H):
-    """Forward through one window, keeping only the state (no storage for backward); inputs
-    are normalized on the fly as (x - lo) * scale - 1. Returns the slip probability. Callers
-    pass H as the literal 20 for the paper's size (see :func:`_step`)."""
+def _run(x, net, state, H):
+    """Forward through one window, keeping only ``state`` (h, c, a: no storage for backward);
+    ``net`` = ((lo, scale), model): inputs are normalized on the fly as (x - lo) * scale - 1.
+    Returns the slip probability. Callers pass H as the literal 20 for the paper's size (see
+    :func:`_step`)."""
+    (lo, scale), model = net
+    h, c = state[0], state[1]
     h[:] = 0
     c[:] = 0
     for t in range(x.shape[0]):
-        _step(F32((x[t] - lo) * scale - 1.0), w, rt, b, h, c, a, H)
-    return 1.0 / (1.0 + np.exp(-_logit_diff(h, wy, by)))
+        _step(F32((x[t] - lo) * scale - 1.0), model, state, H)
+    return 1.0 / (1.0 + np.exp(-_logit_diff(h, model[3], model[4])))
 
 
-def _predict_proba_each(x, lo, scale, w, rt, b, wy, by):
+def _predict_proba_each(x, net):
     """Probability of slip per raw window of x (n, T), float64, window by window (the
-    single-window path); chunks run in parallel."""
+    single-window path); chunks run in parallel. ``net`` = ((lo, scale), (w, rt, b, wy, by))."""
     n = x.shape[0]
+    # a parallel loop takes arrays and scalars, not tuples: the net is rebuilt inside it
+    (lo, scale), (w, rt, b, wy, by) = net
     H = rt.shape[0]
     out = np.empty(n)
     nc = min(n, 64)
     for c in nb.prange(nc):
-        h, cell, a = np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32)
+        state = (np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32))
+        inner = ((lo, scale), (w, rt, b, wy, by))
         for s in range(c * n // nc, (c + 1) * n // nc):
             if H == 20:  # the paper's size, as a literal (see _step)
-                out[s] = _run(x[s], lo, scale, w, rt, b, wy, by, h, cell, a, 20)
+                out[s] = _run(x[s], inner, state, 20)
             else:
-                out[s] = _run(x[s], lo, scale, w, rt, b, wy, by, h, cell, a, H)
+                out[s] = _run(x[s], inner, state, H)
     return out
 
 
@@ -401,15 +409,18 @@ predict_proba_each_parallel, predict_proba_each_serial = _twice(_predict_proba_e
 
 
 @nb.njit(inline="always", **_jit)
-def _run_block(x, s0, m, lo, scale, w, rt, b, wy, by, H, st, out):
+def _run_block(x, block, net, H):
     """Forward through the m <= LANES windows x[s0 : s0 + m] at once, window s0 + l in lane l
     (lanes past m run on zeros and are dropped); writes their slip probabilities to out.
+    ``block`` = (s0, m, st, out); ``net`` = ((lo, scale), (w, rt, b, wy, by)).
 
     The same arithmetic as :func:`_run`, laid out (row, lane) with the lane innermost so that
     LLVM vectorizes every loop across windows: ``st`` (T + 6H, LANES) holds the normalized
     inputs (T rows), h and c (H rows each) and the gates (4H rows). The recurrent product keeps
     each gate row's accumulator in registers across k when H is a compile-time constant (the
     caller passes the literal 20, the paper's size, so that LLVM unrolls the k loop first)."""
+    s0, m, st, out = block
+    (lo, scale), (w, rt, b, wy, by) = net
     G = 4 * H
     T = x.shape[1]
     xb, h, c, a = st[:T], st[T : T + H], st[T + H : T + 2 * H], st[T + 2 * H : T + 6 * H]
@@ -450,46 +461,56 @@ def _run_block(x, s0, m, lo, scale, w, rt, b, wy, by, H, st, out):
         out[s0 + l] = 1.0 / (1.0 + np.exp(-z))
 
 
-def _predict_proba_blocks(x, lo, scale, w, rt, b, wy, by):
+def _predict_proba_blocks(x, net):
     """Probability of slip per raw window of x (n, T), float64, LANES windows at a time;
     blocks run in parallel. Each window's result depends only on that window."""
     n, T = x.shape
+    (lo, scale), (w, rt, b, wy, by) = net  # rebuilt inside the parallel loop: see above
     H = rt.shape[0]
     out = np.empty(n)
     for i in nb.prange((n + LANES - 1) // LANES):
         st = np.empty((T + 6 * H, LANES), F32)
         s0 = i * LANES
         m = min(LANES, n - s0)
+        inner = ((lo, scale), (w, rt, b, wy, by))
         if H == 20:  # the paper's size, as a literal: see _run_block
-            _run_block(x, s0, m, lo, scale, w, rt, b, wy, by, 20, st, out)
+            _run_block(x, (s0, m, st, out), inner, 20)
         else:
-            _run_block(x, s0, m, lo, scale, w, rt, b, wy, by, H, st, out)
+            _run_block(x, (s0, m, st, out), inner, H)
     return out
 
 
 predict_proba_blocks_parallel, predict_proba_blocks_serial = _twice(_predict_proba_blocks)
 
 
-def predict_proba(x, lo, scale, w, rt, b, wy, by) -> np.ndarray:
-    """Slip probability per raw window of x (n, T), float64. From MIN_BLOCK windows on, blocks
+def predict_proba(x, net) -> np.ndarray:
+    """Slip probability per raw window of x (n, T), float64, of ``net`` = ((lo, scale), (w, rt,
+    b, wy, by)) (:func:`network`). From MIN_BLOCK windows on, blocks
     of LANES windows (:func:`_predict_proba_blocks`); fewer go window by window, as
     :func:`predict_window` does. Under 256 windows a parallel launch costs more than it saves."""
     n = x.shape[0]
     if n < MIN_BLOCK:
-        return predict_proba_each_serial(x, lo, scale, w, rt, b, wy, by)
+        return predict_proba_each_serial(x, net)
     kernel = predict_proba_blocks_parallel if n >= 256 else predict_proba_blocks_serial
-    return kernel(x, lo, scale, w, rt, b, wy, by)
+    return kernel(x, net)
 
 
 @nb.njit(**_jit)
-def predict_window(window, lo, scale, w, rt, b, wy, by):
+def predict_window(window, net):
     """Probability of slip for one raw window, single-threaded. Measured 5.3 µs of CPU time for
     50 samples (H = 20) on the development machine."""
-    H = rt.shape[0]
-    h, c, a = np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32)
+    H = net[1][1].shape[0]
+    state = (np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32))
     if H == 20:  # the paper's size, as a literal (see _step)
-        return _run(window, lo, scale, w, rt, b, wy, by, h, c, a, 20)
-    return _run(window, lo, scale, w, rt, b, wy, by, h, c, a, H)
+        return _run(window, net, state, 20)
+    return _run(window, net, state, H)
+
+
+def network(lo, scale, params) -> tuple:
+    """The ``net`` the inference kernels take: ((lo, scale), (w, rt, b, wy, by)), the
+    normalization as floats and the five weight arrays as one tuple (numba passes both as
+    values: the kernels' speed is that of separate arguments)."""
+    return (float(lo), float(scale)), tuple(params)
 
 
 def init_params(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
@@ -518,9 +539,13 @@ def init_params(hidden: int, rng: np.random.Generator) -> list[np.ndarray]:
 
 
 @nb.njit(inline="always", **_jit)
-def _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, H):
+def _stream(x, clock, net, buffers, H):
+    t0, window, hop = clock
+    state, out = buffers
+    (lo, scale), model = net
     slots = state.shape[0]
     h, c, a = np.empty(H, F32), np.empty(H, F32), np.empty(4 * H, F32)
+    scratch = (h, c, a)
     last = t0 + x.shape[0] - 1
     n = 0
     # the windows open during this push: those starting at m * hop, t0 - window < m * hop <= last
@@ -534,9 +559,9 @@ def _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, H):
             h[:] = saved[0]
             c[:] = saved[1]
         for t in range(max(start, t0), min(end, last) + 1):
-            _step(F32((x[t - t0] - lo) * scale - 1.0), w, rt, b, h, c, a, H)
+            _step(F32((x[t - t0] - lo) * scale - 1.0), model, scratch, H)
         if end <= last:
-            out[n] = 1.0 / (1.0 + np.exp(-_logit_diff(h, wy, by)))
+            out[n] = 1.0 / (1.0 + np.exp(-_logit_diff(h, model[3], model[4])))
             n += 1
         else:
             saved[0] = h
@@ -545,17 +570,17 @@ def _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, H):
 
 
 @nb.njit(**_jit)
-def stream_push(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out):
-    """Advance a stream by the raw samples ``x`` (float32), the first being sample ``t0`` of the
-    stream; writes the slip probability of every window completed (those ending at
+def stream_push(x, clock, net, buffers):
+    """Advance a stream of ``net`` (:func:`network`) by the raw samples ``x`` (float32), the first
+    being sample ``t0`` of the stream, ``clock`` = (t0, window, hop); writes the slip probability of every window completed (those ending at
     ``window - 1 + k hop``) to ``out`` in order and returns how many. Each window takes the
     steps of :func:`predict_window` (equal to float32 rounding) in the same order whatever the
     pushes, so how the samples are cut into pushes does not change a bit of any score.
 
-    ``state`` (ceil(window / hop), 2, H) float32: h and c of the open windows (window m in row
-    m mod its length); zeros, or anything, for a new stream. Single-threaded: this is the
-    control loop's path."""
-    H = rt.shape[0]
+    ``buffers`` = (state, out): ``state`` (ceil(window / hop), 2, H) float32, h and c of the open
+    windows (window m in row m mod its length), zeros, or anything, for a new stream.
+    Single-threaded: this is the control loop's path."""
+    H = net[1][1].shape[0]
     if H == 20:  # the paper's size, as a literal (see _step)
-        return _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, 20)
-    return _stream(x, t0, window, hop, lo, scale, w, rt, b, wy, by, state, out, H)
+        return _stream(x, clock, net, buffers, 20)
+    return _stream(x, clock, net, buffers, H)

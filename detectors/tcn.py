@@ -37,7 +37,7 @@ class TCN(TorchDetector):
     }
     check_params = {"max_epochs": 2, "patience": 1, "channels": 4, "blocks": 2}
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (hyperparameters: get_params reads one keyword each)
         self,
         channels=8,
         kernel_size=3,

@@ -235,6 +235,14 @@ class BaseDetector(Parameterized):
                 det._fit(x, y, seed, **kw)
         return detectors
 
+    def lockstep_key(self, window_length: int) -> str:
+        """What models of a :attr:`lockstep` class must share to train together: by default
+        their hyperparameters and window length (samples). The engine sends cells whose
+        detectors (of one class) give one key, on one input, to a worker as one task that fits
+        them through :meth:`fit_lockstep`; a class whose training shares more (a device, a
+        sampling rate) adds it here."""
+        return repr((sorted(self.get_params().items()), int(window_length)))
+
     @classmethod
     def _fit_lockstep(cls, detectors: list[BaseDetector], data: list[tuple]) -> None:
         """What a class that declares :attr:`lockstep` implements (see :meth:`fit_lockstep`)."""

@@ -87,6 +87,11 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 "assert pair[1].cut_ == Energy(quantile=0.9).fit(x[::-1], y[::-1], seed=1).cut_\n",
             ),
             Entry(
+                "slipbench.base:BaseDetector.lockstep_key",
+                "assert Energy(quantile=0.6).lockstep_key(50) != Energy(quantile=0.9).lockstep_key(50)\n"
+                "assert Energy().lockstep_key(50) == Energy().lockstep_key(50)\n",
+            ),
+            Entry(
                 "slipbench.base:BaseDetector.predict_proba",
                 "scores = detector.predict_proba(x)  # (100,) in [0, 1]\n",
             ),

@@ -2,7 +2,8 @@
 debugging) in this process.
 
 :class:`Executor` takes tasks and a function that turns a task into its
-:class:`~slipbench.engine.fitting.Job`, and yields every task with its results as they finish.
+:class:`~slipbench.engine.fitting.Job` (or a :class:`~slipbench.engine.fitting.Lockstep` of
+Jobs trained together), and yields every task with its results as they finish.
 A worker that overruns the time limit, or ends (the out-of-memory killer, a crash in native
 code, a plugin's ``os._exit``, with any exit code), fails its task's cells with the reason and
 the phase (fit or test); the run goes on in a fresh worker. Every executor sets the threads a
@@ -30,11 +31,11 @@ import psutil
 
 from slipbench.base import listening
 from slipbench.engine import threads, workers
-from slipbench.engine.fitting import Job, Result, fit_and_test
+from slipbench.engine.fitting import Job, Lockstep, Result, perform
 from slipbench.errors import EnvironmentFault, UsageError
 
 T = TypeVar("T")
-Payload = Callable[[T], Job]
+Payload = Callable[[T], Job | Lockstep]
 Report = Callable[[dict], None]  # what shows a model's progress report
 Finished = Generator[tuple[T, list[Result]], None, None]
 
@@ -51,7 +52,7 @@ def serial(tasks: list[T], payload: Payload, on_report: Report | None) -> Finish
         for task in tasks:
             job = payload(task)
             with listening(sink):
-                results = fit_and_test(job)
+                results = perform(job)
             yield task, results
 
 
@@ -96,9 +97,13 @@ class _Flight(Generic[T]):
             return (
                 _failed(n, "failed", _exited(0, self.phase)) if now > self.gone_at + GRACE else None
             )
-        if timeout and self.worker and now > self.started + timeout:
+        models = getattr(self.task, "models", 1)
+        if timeout and self.worker and now > self.started + timeout * models:
             _stop([self.worker])  # pebble starts another worker
-            return _failed(n, "timeout", f"the model did not fit and test within {timeout:g} s")
+            what = "the model" if models == 1 else f"the {models} models trained together"
+            return _failed(
+                n, "timeout", f"{what} did not fit and test within {timeout * models:g} s"
+            )
         return None
 
     def _results(self, n: int) -> list[Result]:
@@ -174,7 +179,7 @@ class _Pool(Generic[T]):
         self.flights: dict[int, _Flight] = {}
         self.workers: list[psutil.Process] = []  # every worker that said it started
 
-    def send(self, number: int, task: T, job: Job) -> None:
+    def send(self, number: int, task: T, job: Job | Lockstep) -> None:
         # pickled here, so that no plugin code runs in pebble's own reading of the task
         blob = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
         # the time limit is kept here, from the worker's word that it started: pebble's would
@@ -294,7 +299,7 @@ def _threads_per_host(client) -> dict[str, int]:
     return per_host
 
 
-def _on_dask(job: Job, per_host: dict[str, int], topic: str) -> list[Result]:
+def _on_dask(job: Job | Lockstep, per_host: dict[str, int], topic: str) -> list[Result]:
     """A task on a dask worker: its model gets the share of the machine's cores that the run's
     worker threads on it leave, set and not restored (every task of the run on this worker sets
     the same, and restoring would race between the worker's threads)."""
@@ -308,7 +313,7 @@ def _on_dask(job: Job, per_host: dict[str, int], topic: str) -> list[Result]:
     threads.set_threads(n)
     sink = workers.throttled(lambda r: worker.log_event(topic, r)) if topic else None
     with listening(sink):
-        return fit_and_test(job)
+        return perform(job)
 
 
 def _dask_results(future, n: int) -> list[Result]:

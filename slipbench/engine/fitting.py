@@ -19,7 +19,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import psutil
 
-from slipbench.base import BaseDetector, clone, plugin_id
+from slipbench.base import BaseDetector, FitJob, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
@@ -96,6 +96,23 @@ class Job:
     train_groups: np.ndarray | None = None
 
 
+@dataclass
+class Lockstep:
+    """Models of one :attr:`~slipbench.base.BaseDetector.lockstep` class that one task trains
+    together (:meth:`~slipbench.base.BaseDetector.fit_lockstep`), each then tested as
+    :func:`fit_and_test` tests it alone; its results are those of ``jobs`` in order."""
+
+    jobs: list[Job]
+
+
+def perform(work: Job | Lockstep, on_phase: Callable[[str], None] | None = None) -> list[Result]:
+    """A task's results: :func:`fit_and_test` of a Job, :func:`fit_and_test_together` of a
+    Lockstep."""
+    if isinstance(work, Lockstep):
+        return fit_and_test_together(work.jobs, on_phase)
+    return fit_and_test(work, on_phase)
+
+
 def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> list[Result]:
     """Fit one model, test it on each test set: classify its windows (:class:`TestSet`), or
     stream its recordings (:class:`~slipbench.stream.cell.StreamTest`, no scores returned).
@@ -105,81 +122,113 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
     can say which phase a process that vanished was in. Whatever the plugin raises, or ends the
     process with (``sys.exit``), fails the cells with the reason and the phase.
     """
-    detector, seed, sampling_rate = job.detector, job.seed, job.sampling_rate
-    train_x, train_y, tests = job.train_x, job.train_y, job.tests
-    if job.name and not type(detector).__dict__.get("name"):
-        type(detector).name = job.name
-    phase = "fit"
+    _stamp_name(job)
     try:
         detector, cost = _trained(job)
-        phase = "test"
-        if on_phase is not None:
-            on_phase(phase)
-        learned, warning = _learned(detector, train_y, detector.predict_proba(train_x))
-        notes = [warning] if warning else []
-        choices = _choices(detector, sampling_rate, notes + _read_warnings(cost))
-        out: list[Result] = []
-        for test in tests:
-            if isinstance(test, StreamTest):
-                trials, streamed = (
-                    len(set(test.test.trials)),
-                    streamed_figures(detector, seed, test),
-                )
-                out.append(
-                    Result(
-                        {
-                            "status": "ok",
-                            "reason": "",
-                            "n_train": len(train_x),
-                            "sampling_rate_hz": sampling_rate,
-                            "n_test_trials": trials,
-                            **streamed,
-                            "low_n": stream_low_n(
-                                streamed["n_onset_trials"],
-                                streamed["n_onsets"],
-                                streamed["n_nonslip_trials"],
-                            ),
-                            **cost,
-                            **learned,
-                            **choices,
-                        },
-                        None,
-                    )
-                )
-                continue
-            t0 = time.perf_counter()
-            scores = detector.predict_proba(test.x)
-            infer_s = time.perf_counter() - t0
-            y_pred = (scores >= 0.5).astype(np.int8)
-            out.append(
-                Result(
-                    {
-                        "status": "ok",
-                        "reason": _one_class(test.y),
-                        "n_train": len(train_x),
-                        "n_test": len(test.x),
-                        "n_test_trials": int(len(np.unique(test.groups))),
-                        "sampling_rate_hz": sampling_rate,
-                        **classification_figures(
-                            test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
-                        ),
-                        **cost,
-                        **_constant(test.y),
-                        "infer_us_per_window": infer_s / len(test.x) * 1e6,
-                        **learned,
-                        **choices,
-                    },
-                    scores,
-                )
-            )
-        return out
+    except EnvironmentFault:
+        raise
+    except (Exception, SystemExit) as exc:  # noqa: BLE001
+        return _failed_cells(job, exc, "fit")
+    if on_phase is not None:
+        on_phase("test")
+    return _tested(job, detector, cost)
+
+
+def fit_and_test_together(
+    jobs: list[Job], on_phase: Callable[[str], None] | None = None
+) -> list[Result]:
+    """:func:`fit_and_test` of each job, the models fitted together where the class trains in
+    lockstep: the results of the jobs, in order. A model saved by an earlier run is loaded; a
+    member that cannot train (one class, bad windows) fails alone with its reason."""
+    for job in jobs:
+        _stamp_name(job)
+    trained = _trained_together(jobs)
+    if on_phase is not None:
+        on_phase("test")
+    out: list[Result] = []
+    for job, got in zip(jobs, trained, strict=True):
+        if isinstance(got, BaseException):
+            out += _failed_cells(job, got, "fit")
+        else:
+            out += _tested(job, *got)
+    return out
+
+
+def _stamp_name(job: Job) -> None:
+    if job.name and not type(job.detector).__dict__.get("name"):
+        type(job.detector).name = job.name
+
+
+def _failed_cells(job: Job, exc: BaseException, phase: str) -> list[Result]:
+    reason = _raised(plugin_id(type(job.detector)), exc, phase)
+    return [Result({"status": "failed", "reason": reason})] * len(job.tests)
+
+
+def _tested(
+    job: Job, detector: BaseDetector, cost: dict[str, Any], notes: list[str] | None = None
+) -> list[Result]:
+    """A fitted model's results on each of the job's test sets; what the plugin raises (or
+    ends the process with) in testing fails them with the reason."""
+    try:
+        learned, warning = _learned(detector, job.train_y, detector.predict_proba(job.train_x))
+        choices = _choices(
+            detector,
+            job.sampling_rate,
+            (notes or []) + ([warning] if warning else []) + _read_warnings(cost),
+        )
+        common = {"n_train": len(job.train_x), "sampling_rate_hz": job.sampling_rate}
+        return [
+            _streamed(detector, job.seed, test, common | cost | learned | choices)
+            if isinstance(test, StreamTest)
+            else _classified(detector, job.seed, test, common | cost | learned | choices)
+            for test in job.tests
+        ]
     except EnvironmentFault:
         raise  # a full disk is the machine's fault, not the detector's: the run stops, exit 5
     # whatever a plugin raises stays in its cells; sys.exit too, which would end a run
     # that lost them with exit 0 (SystemExit is no Exception)
     except (Exception, SystemExit) as exc:  # noqa: BLE001
-        reason = _raised(plugin_id(type(detector)), exc, phase)
-        return [Result({"status": "failed", "reason": reason})] * len(tests)
+        return _failed_cells(job, exc, "test")
+
+
+def _streamed(detector: BaseDetector, seed: int, test: StreamTest, fields: dict) -> Result:
+    streamed = streamed_figures(detector, seed, test)
+    low_n = stream_low_n(
+        streamed["n_onset_trials"], streamed["n_onsets"], streamed["n_nonslip_trials"]
+    )
+    return Result(
+        {
+            "status": "ok",
+            "reason": "",
+            "n_test_trials": len(set(test.test.trials)),
+            **streamed,
+            "low_n": low_n,
+            **fields,
+        },
+        None,
+    )
+
+
+def _classified(detector: BaseDetector, seed: int, test: TestSet, fields: dict) -> Result:
+    t0 = time.perf_counter()
+    scores = detector.predict_proba(test.x)
+    infer_s = time.perf_counter() - t0
+    y_pred = (scores >= 0.5).astype(np.int8)
+    return Result(
+        {
+            "status": "ok",
+            "reason": _one_class(test.y),
+            "n_test": len(test.x),
+            "n_test_trials": int(len(np.unique(test.groups))),
+            **classification_figures(
+                test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
+            ),
+            **fields,
+            **_constant(test.y),
+            "infer_us_per_window": infer_s / len(test.x) * 1e6,
+        },
+        scores,
+    )
 
 
 def _raised(who: str, exc: BaseException, phase: str) -> str:
@@ -315,34 +364,121 @@ def _read_warnings(cost: dict[str, Any]) -> list[str]:
     ]
 
 
+def _saved(job: Job) -> tuple[BaseDetector, dict[str, Any]] | None:
+    """The model an earlier run saved at ``model_path`` for these windows, with its cost."""
+    if job.model_path is None or not Path(f"{job.model_path}.json").is_file():
+        return None
+    return type(job.detector).load(job.model_path), json.loads(
+        Path(f"{job.model_path}.json").read_text()
+    )
+
+
+def _kept(job: Job, detector: BaseDetector, cost: dict[str, Any]) -> None:
+    """Save a newly fitted model at ``model_path`` (where there is one), its cost last: the
+    cost file marks the model complete."""
+    if job.model_path is None:
+        return
+    try:
+        detector.save(job.model_path)
+    except UsageError:
+        return  # state that cannot be saved safely: reuse it in this run only
+    write_text_atomic(Path(f"{job.model_path}.json"), json.dumps(cost))
+
+
+def _cost(job: Job, train_s: float, peak_mb: float, opened: set[str]) -> dict[str, Any]:
+    x = job.train_x
+    return {
+        "train_s": train_s,
+        # per sample of time: a window of channels is as many samples as one of the signal
+        "train_us_per_sample": train_s / (x.shape[0] * x.shape[1]) * 1e6,
+        "peak_mem_mb": peak_mb,
+        **unkeyed_reads(type(job.detector), opened),
+    }
+
+
 def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
     """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
-    detector, model_path, train_x = job.detector, job.model_path, job.train_x
-    cost_path = Path(f"{model_path}.json")  # read and written only where there is a model_path
-    if model_path is not None and cost_path.is_file():
-        return type(detector).load(model_path), json.loads(cost_path.read_text())
-    detector = clone(detector)
+    saved = _saved(job)
+    if saved is not None:
+        return saved
+    detector = clone(job.detector)
     with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()
         detector.fit(
-            train_x,
+            job.train_x,
             job.train_y,
             sampling_rate=job.sampling_rate,
             seed=seed_int(job.seed, "detector"),
             groups=job.train_groups,
         )
         train_s = time.perf_counter() - t0
-    cost = {
-        "train_s": train_s,
-        # per sample of time: a window of channels is as many samples as one of the signal
-        "train_us_per_sample": train_s / (train_x.shape[0] * train_x.shape[1]) * 1e6,
-        "peak_mem_mb": mem.mb,
-        **unkeyed_reads(type(detector), opened),
-    }
-    if model_path is not None:
-        try:
-            detector.save(model_path)
-        except UsageError:
-            return detector, cost  # state that cannot be saved safely: reuse it in this run only
-        write_text_atomic(cost_path, json.dumps(cost))  # written last: it marks the model complete
+    cost = _cost(job, train_s, mem.mb, opened)
+    _kept(job, detector, cost)
     return detector, cost
+
+
+Trained = tuple[BaseDetector, dict[str, Any]] | tuple[BaseDetector, dict[str, Any], list[str]]
+
+
+def _trained_together(jobs: list[Job]) -> list[Trained | BaseException]:
+    """Per job, its fitted detector and cost (and notes), or what it raised: saved models are
+    loaded, the others fitted together through ``fit_lockstep``. A member that fails fit's
+    checks is left out with its reason; should the lockstep fit itself raise, each model is
+    fitted alone instead, so that the error lands on the member that caused it, and its rows
+    say so."""
+    out: list[Trained | BaseException | None] = [None] * len(jobs)
+    fresh: list[tuple[int, BaseDetector]] = []
+    for i, job in enumerate(jobs):
+        try:
+            out[i] = _saved(job)
+            if out[i] is None:
+                detector = clone(job.detector)
+                detector._checked_fit_args(
+                    job.train_x, job.train_y, job.sampling_rate, job.train_groups
+                )
+                fresh.append((i, detector))
+        except EnvironmentFault:
+            raise
+        except (Exception, SystemExit) as exc:  # noqa: BLE001
+            out[i] = exc
+    try:
+        for i, got in _fitted_together([jobs[i] for i, _ in fresh], [d for _, d in fresh]):
+            out[fresh[i][0]] = got
+    except EnvironmentFault:
+        raise
+    except (Exception, SystemExit) as exc:  # noqa: BLE001
+        note = f"fitted alone: training {len(fresh)} models in lockstep raised {exc!r}"
+        for i, _ in fresh:
+            out[i] = _alone(jobs[i], note)
+    assert all(got is not None for got in out)
+    return out  # type: ignore[return-value]
+
+
+def _fitted_together(jobs: list[Job], detectors: list[BaseDetector]) -> list[tuple[int, Trained]]:
+    """Fit ``detectors`` on ``jobs`` in one ``fit_lockstep``; each model's training time is the
+    group's divided among its models (they train at once), its peak memory the group's."""
+    if not jobs:
+        return []
+    fit_jobs = [
+        FitJob(j.train_x, j.train_y, seed_int(j.seed, "detector"), j.sampling_rate, j.train_groups)
+        for j in jobs
+    ]
+    with PeakMemory() as mem, reading() as opened:
+        t0 = time.perf_counter()
+        type(detectors[0]).fit_lockstep(detectors, fit_jobs)
+        train_s = (time.perf_counter() - t0) / len(jobs)
+    out: list[tuple[int, Trained]] = []
+    for i, (job, detector) in enumerate(zip(jobs, detectors, strict=True)):
+        cost = _cost(job, train_s, mem.mb, opened)
+        _kept(job, detector, cost)
+        out.append((i, (detector, cost)))
+    return out
+
+
+def _alone(job: Job, note: str) -> Trained | BaseException:
+    try:
+        return (*_trained(job), [note])
+    except EnvironmentFault:
+        raise
+    except (Exception, SystemExit) as exc:  # noqa: BLE001
+        return exc

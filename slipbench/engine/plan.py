@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -72,7 +73,7 @@ class Run:
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (a run's settings, passed by position by its callers in app/)
         self,
         detector: BaseDetector | str,
         protocol: BaseProtocol | str,
@@ -434,6 +435,60 @@ class Task:
         """The cell that defines the model: every cell of a task shares its training windows,
         detector, split and seed (they share the model key)."""
         return self.cells[0]
+
+    @property
+    def models(self) -> int:
+        return 1
+
+
+@dataclass
+class Batch:
+    """Models of one lockstep class and key (:meth:`BaseDetector.lockstep_key`) that one worker
+    trains together: its cells are those of its tasks, in order."""
+
+    tasks: list[Task]
+
+    @property
+    def cells(self) -> list[PlannedCell]:
+        return [pc for task in self.tasks for pc in task.cells]
+
+    @property
+    def models(self) -> int:
+        return len(self.tasks)
+
+
+LOCKSTEP_MAX = 16  # models per batch: two of the LSTM's 8-lane blocks; the bar moves between
+
+
+def _lockstep_key(task: Task) -> tuple | None:
+    """Which models may train together: one class, input, rate and window (None: alone)."""
+    pc = task.first
+    detector, cell = pc.run.detector, pc.cell
+    if not type(detector).lockstep:
+        return None
+    window = detector.lockstep_key(cell.window)
+    return (pc.run.detector_name, pc.run.input, cell.downsample, cell.decimation, window)
+
+
+def batched(tasks: list[Task], workers: int, cap: int = LOCKSTEP_MAX) -> list[Task | Batch]:
+    """``tasks`` with those of one lockstep key cut into batches, in plan order: each key gets
+    batches in proportion to its share of the models, so that ``workers`` stay busy, of at
+    most ``cap`` models; a batch of one is its task."""
+    groups: dict[Any, list[Task]] = {}
+    for n, task in enumerate(tasks):
+        groups.setdefault(_lockstep_key(task) or n, []).append(task)
+    lockstep = sum(len(g) for k, g in groups.items() if isinstance(k, tuple))
+    out: list[Task | Batch] = []
+    for key, group in groups.items():
+        if not isinstance(key, tuple):
+            out += group
+            continue
+        share = -(-max(workers, 1) * len(group) // lockstep)
+        parts = min(len(group), max(share, -(-len(group) // cap)))
+        for part in np.array_split(np.arange(len(group)), parts):
+            members = [group[i] for i in part]
+            out.append(members[0] if len(members) == 1 else Batch(members))
+    return out
 
 
 @dataclass

@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import importlib.metadata
 import json
+import os
 import platform
 import sys
 import warnings
@@ -26,9 +27,20 @@ import pandas as pd
 from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals, channel_scales, standardized
+from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, TestSet, changed_reads
-from slipbench.engine.plan import LABELLED, Plan, PlannedCell, Run, Task, check_labels, make_plan
+from slipbench.engine.fitting import Job, Lockstep, TestSet, changed_reads
+from slipbench.engine.plan import (
+    LABELLED,
+    Batch,
+    Plan,
+    PlannedCell,
+    Run,
+    Task,
+    batched,
+    check_labels,
+    make_plan,
+)
 from slipbench.errors import EnvironmentFault
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.store.columns import checked
@@ -150,6 +162,7 @@ class Options(TypedDict, total=False):
     scheduler: str | None
     cell_timeout: float | None
     progress: bool
+    lockstep: bool
 
 
 def evaluate(
@@ -171,6 +184,10 @@ def evaluate(
         before they are reported with status "timeout".
     progress : a bar of the cells done on stderr, with the latest progress a model in flight
         reports (``lstm: epoch 12/30, loss 0.41``; :meth:`BaseDetector.report_progress`).
+    lockstep : train the models of a lockstep class (:attr:`BaseDetector.lockstep`) that share
+        its :meth:`~BaseDetector.lockstep_key` together, a batch per task (default True, or
+        False where the environment variable ``SLIPBENCH_LOCKSTEP`` is ``0``); the rows are
+        those of models trained one at a time.
     """
     unknown = sorted(set(options) - set(Options.__annotations__))
     if unknown:  # a misspelt option must not be ignored
@@ -195,6 +212,9 @@ def evaluate(
     fingerprint = dataset.fingerprint
     signals = _signals(dataset, runs)
     plan = make_plan(signals, with_cells, fingerprint, done)
+    tasks: list[Task | Batch] = list(plan.tasks)
+    if options.get("lockstep", os.environ.get("SLIPBENCH_LOCKSTEP", "1") != "0"):
+        tasks = batched(plan.tasks, max(jobs, 1))
     run_id = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
     stamp = Stamp(run_id, fingerprint, str(dataset.path or ""), dataset.origin or {}, environment())
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
@@ -226,13 +246,16 @@ def evaluate(
             record(pc, {"status": "skipped", "reason": pc.skip})
 
     cached = len(rows)
+    if progress and len(with_cells) > 1:  # several detectors or protocols: say what it costs
+        for line in describe(costs(plan, done, stored), jobs):
+            print(line, file=sys.stderr)
     bar = _progress(len(plan.cells), cached, progress, _describe(runs))
     try:
-        payload = lambda task: _payload(  # noqa: E731
-            plan, task, store, force or task.model_key in refit, scheduler
-        )
+        if force:
+            refit = {pc.model_key for pc in plan.cells}
+        payload = lambda task: _work(plan, task, store, refit, scheduler)  # noqa: E731
         finished = Executor(jobs, scheduler, cell_timeout).run(
-            plan.tasks, payload, _shown(bar, cached) if progress else None
+            tasks, payload, _shown(bar, cached) if progress else None
         )
         with contextlib.closing(finished):  # stopped at once when this loop is left early
             for task, results in finished:
@@ -276,6 +299,18 @@ def _warn_reads(detector: str, fields: dict, warned: set[tuple[str, str]]) -> No
                 "content is unchanged",
                 stacklevel=2,
             )
+
+
+def _work(
+    plan: Plan, task: Task | Batch, store: ResultsStore, refit: set[str], scheduler: str | None
+) -> Job | Lockstep:
+    """A task's work: its Job, or a batch's Lockstep of its tasks' Jobs. Models of ``refit``
+    are fitted again, not loaded."""
+    if isinstance(task, Batch):
+        return Lockstep(
+            [_payload(plan, t, store, t.model_key in refit, scheduler) for t in task.tasks]
+        )
+    return _payload(plan, task, store, task.model_key in refit, scheduler)
 
 
 def _payload(

@@ -23,7 +23,7 @@ from typing import Any
 
 from slipbench.base import listening
 from slipbench.engine import threads
-from slipbench.engine.fitting import Result, fit_and_test
+from slipbench.engine.fitting import Result, perform
 
 REPORTS_PER_SECOND = 4
 ATOMIC = 4000  # bytes: a pipe write up to PIPE_BUF (4096 on Linux) is never torn between workers
@@ -113,7 +113,7 @@ def run(task: int, job: bytes) -> list[Result]:
     worker.limit_threads()
     sink = throttled(lambda r: worker.send(("report", r))) if worker.progress else None
     with listening(sink):
-        return fit_and_test(loaded, lambda phase: worker.send(("phase", task, phase), must=True))
+        return perform(loaded, lambda phase: worker.send(("phase", task, phase), must=True))
 
 
 def received(pipe: Connection) -> list[tuple[Any, ...]]:

@@ -70,7 +70,7 @@ def analyses(
             if {base, cand} <= set(part["detector"])
         }
         if per:
-            out.append(meta_analysis(per, base, cand, folders, seed=seed))
+            out.append(meta_analysis(per, (base, cand), folders, seed=seed))
     return out
 
 

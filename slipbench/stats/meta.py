@@ -86,15 +86,14 @@ def pool(effects: Sequence[float], ses: Sequence[float], level: float = LEVEL) -
 
 def meta_analysis(
     per_dataset: dict[str, tuple[pd.DataFrame, pd.DataFrame]],
-    base: str,
-    cand: str,
+    pair: tuple[str, str],
     folders: Sequence[str | os.PathLike] = (),
     *,
     seed: int = 0,
     level: float = LEVEL,
 ) -> MetaAnalysis:
     """``per_dataset``: dataset name -> (base's rows, cand's rows) on it, transfer rows already
-    left out. Each dataset's change with its interval at ``level``, then the pooled change."""
+    left out; ``pair``: the base and candidate detectors' names. Each dataset's change with its interval at ``level``, then the pooled change."""
     lines, notes = [], []
     for name, (b, c) in per_dataset.items():
         res = paired_change(b, c, folders, seed, level)
@@ -115,7 +114,7 @@ def meta_analysis(
             {"dataset": name, **{k: res[k] for k in DATASET_COLUMNS[1:-1]}, "reason": reason}
         )
     frame = pd.DataFrame(lines, columns=DATASET_COLUMNS)
-    out = MetaAnalysis(base, cand, frame, notes=notes)
+    out = MetaAnalysis(*pair, frame, notes=notes)
     used = frame[frame["reason"] == ""]
     out.pooled_over = len(used)
     if len(used) < 2:

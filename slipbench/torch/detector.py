@@ -99,7 +99,7 @@ class TorchDetector(BaseDetector):
     }
     _parameter_constraints = TRAINING_CONSTRAINTS
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (hyperparameters: get_params reads one keyword each; subclasses pass them on by position)
         self,
         batch_size=64,
         learning_rate=1e-3,

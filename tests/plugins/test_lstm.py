@@ -67,8 +67,12 @@ def test_gradients_and_scores_match_torch_autograd():
             before - after, grad.numpy(), atol=1e-5 * np.abs(grad.numpy()).max()
         )
     p_torch = torch.softmax(logits, 1)[:, 1].detach().numpy()
-    np.testing.assert_allclose(fastlstm.predict_proba(x, -1.0, 1.0, *params), p_torch, atol=1e-6)
-    assert fastlstm.predict_window(x[5], -1.0, 1.0, *params) == pytest.approx(p_torch[5], abs=1e-6)
+    np.testing.assert_allclose(
+        fastlstm.predict_proba(x, fastlstm.network(-1.0, 1.0, params)), p_torch, atol=1e-6
+    )
+    assert fastlstm.predict_window(x[5], fastlstm.network(-1.0, 1.0, params)) == pytest.approx(
+        p_torch[5], abs=1e-6
+    )
 
 
 @pytest.mark.slow
@@ -118,13 +122,15 @@ def test_batched_inference_matches_window_by_window_and_torch(hidden):
         rng.normal(0, 0.3, s).astype(np.float32)
         for s in ((4 * hidden,), (hidden, 4 * hidden), (4 * hidden,), (2, hidden), (2,))
     ]
-    each = fastlstm.predict_proba_each_serial(x, 0.5, 1.5, *params)
+    each = fastlstm.predict_proba_each_serial(x, fastlstm.network(0.5, 1.5, params))
     for kernel in (fastlstm.predict_proba_blocks_serial, fastlstm.predict_proba_blocks_parallel):
-        blocks = kernel(x, 0.5, 1.5, *params)
+        blocks = kernel(x, fastlstm.network(0.5, 1.5, params))
         np.testing.assert_allclose(blocks, each, atol=1e-6)
-        assert np.array_equal(blocks, kernel(x, 0.5, 1.5, *params))
+        assert np.array_equal(blocks, kernel(x, fastlstm.network(0.5, 1.5, params)))
         # a window's score does not depend on its block or its neighbours
-        np.testing.assert_allclose(kernel(x[7:40], 0.5, 1.5, *params), blocks[7:40], atol=1e-6)
+        np.testing.assert_allclose(
+            kernel(x[7:40], fastlstm.network(0.5, 1.5, params)), blocks[7:40], atol=1e-6
+        )
     lstm = torch.nn.LSTM(1, hidden, batch_first=True)
     w, rt, b, wy, by = params
     with torch.no_grad():
@@ -135,8 +141,10 @@ def test_batched_inference_matches_window_by_window_and_torch(hidden):
         lstm.bias_ih_l0.copy_(torch.tensor(b)), lstm.bias_hh_l0.zero_()
         h = lstm(torch.tensor((x - 0.5) * 1.5 - 1.0)[:, :, None])[0][:, -1]
         p_torch = torch.softmax(h @ torch.tensor(wy).T + torch.tensor(by), 1)[:, 1].numpy()
-    np.testing.assert_allclose(fastlstm.predict_proba(x, 0.5, 1.5, *params), p_torch, atol=1e-6)
-    assert fastlstm.predict_proba(x[:3], 0.5, 1.5, *params) == pytest.approx(
+    np.testing.assert_allclose(
+        fastlstm.predict_proba(x, fastlstm.network(0.5, 1.5, params)), p_torch, atol=1e-6
+    )
+    assert fastlstm.predict_proba(x[:3], fastlstm.network(0.5, 1.5, params)) == pytest.approx(
         each[:3], abs=0
     )  # few: one by one
 
@@ -153,8 +161,8 @@ def test_gpu_epoch_matches_cpu_epoch():
     for epoch, kw in ((_numba_epoch, {}), (_torch_epoch, {"device": "cpu"})):
         p = _params(3)
         v = [np.zeros_like(a) for a in p]
-        epoch(x, y.astype(np.int8), order, 8, 0.05, 0.125, p, v, **kw)
-        epoch(x, y.astype(np.int8), order, 8, 0.05, 0.125, p, v, **kw)  # velocity carried over
+        epoch((x, y.astype(np.int8)), order, (8, 0.05, 0.125), (p, v), **kw)
+        epoch((x, y.astype(np.int8)), order, (8, 0.05, 0.125), (p, v), **kw)  # velocity kept
         out.append(p)
     for a, b in zip(*out):
         np.testing.assert_allclose(a, b, atol=1e-5)

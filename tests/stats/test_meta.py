@@ -29,7 +29,7 @@ def dataset(fingerprint: str, shift: float) -> tuple[pd.DataFrame, pd.DataFrame]
 
 def test_two_datasets_of_known_effects_are_recovered_within_their_intervals():
     effects = {"sim": 0.06, "dos": 0.02}
-    m = meta_analysis({n: dataset(n, e) for n, e in effects.items()}, "features", "holweg")
+    m = meta_analysis({n: dataset(n, e) for n, e in effects.items()}, ("features", "holweg"))
     for line in m.datasets.to_dict("records"):
         truth = effects[line["dataset"]]
         assert line["lo"] < truth < line["hi"]
@@ -63,7 +63,7 @@ def test_known_effects_under_cell_noise_are_recovered_within_their_intervals():
             base, cand = dataset(name, effect)
             noise = rng_for(0, "test-meta", name).normal(0, 0.01, len(cand))
             per[name] = (base, cand.assign(accuracy=cand["accuracy"] + noise))
-        m = meta_analysis(per, "features", "holweg")
+        m = meta_analysis(per, ("features", "holweg"))
         for line in m.datasets.to_dict("records"):
             assert line["lo"] < effects[line["dataset"]] < line["hi"]
         assert m.lo < np.mean(list(effects.values())) < m.hi
@@ -77,7 +77,7 @@ def test_pool_agrees_with_a_fixed_effect_where_datasets_agree():
 
 
 def test_one_dataset_gives_its_change_and_no_pooled_one():
-    m = meta_analysis({"sim": dataset("sim", 0.04)}, "features", "holweg")
+    m = meta_analysis({"sim": dataset("sim", 0.04)}, ("features", "holweg"))
     assert len(m.datasets) == 1 and np.isfinite(m.datasets["d"].iloc[0])
     assert np.isnan(m.d) and m.pooled_over == 1
     assert "no pooled change" in m.notes[0]
@@ -86,7 +86,7 @@ def test_one_dataset_gives_its_change_and_no_pooled_one():
 def test_a_pair_missing_on_one_dataset_is_said_not_pooled():
     base, _ = dataset("dos", 0.0)
     per = {"sim": dataset("sim", 0.04), "dos": (base, base.iloc[:0]), "lab": dataset("lab", 0.01)}
-    m = meta_analysis(per, "features", "holweg")
+    m = meta_analysis(per, ("features", "holweg"))
     dos = m.datasets.set_index("dataset").loc["dos"]
     assert dos["n_cells"] == 0 and "no cell" in dos["reason"]
     assert m.pooled_over == 2 and np.isfinite(m.d)
@@ -96,10 +96,10 @@ def test_a_dataset_of_cells_stored_twice_says_so():
     base, cand = dataset("dos", 0.02)
     twice = pd.concat([base, base.assign(key=base["key"] + "-rerun")])
     per = {"sim": dataset("sim", 0.04), "dos": (twice, cand)}
-    dos = meta_analysis(per, "features", "holweg").datasets.set_index("dataset").loc["dos"]
+    dos = meta_analysis(per, ("features", "holweg")).datasets.set_index("dataset").loc["dos"]
     assert dos["reason"] == f"each of its {len(base)} shared cells holds a seed stored twice"
     partly = pd.concat([base, base.head(3).assign(key=base["key"].head(3) + "-rerun")])
-    m = meta_analysis({"sim": dataset("sim", 0.04), "dos": (partly, cand)}, "features", "holweg")
+    m = meta_analysis({"sim": dataset("sim", 0.04), "dos": (partly, cand)}, ("features", "holweg"))
     assert m.datasets.set_index("dataset").loc["dos", "n_cells"] == len(base) - 3
     assert "dos: 3 shared cells left out, a seed stored twice." in m.notes
 
@@ -113,7 +113,7 @@ def test_zero_variance_is_left_out_with_its_reason():
     for name in FIGURES:
         base_flat[f"{name}_lo"] = base_flat[f"{name}_hi"] = base_flat[name]
     per = {"sim": (base_flat, flat), "dos": dataset("dos", 0.02), "lab": dataset("lab", 0.03)}
-    m = meta_analysis(per, "features", "holweg")
+    m = meta_analysis(per, ("features", "holweg"))
     sim = m.datasets.set_index("dataset").loc["sim"]
     assert "zero standard error" in sim["reason"]
     assert m.pooled_over == 2 and np.isfinite(m.lo)
