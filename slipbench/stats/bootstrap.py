@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+import pandas as pd
 from scipy.stats import beta as beta_dist
 from scipy.stats import t as student_t
 
@@ -104,9 +105,7 @@ def make_design(
     """
     if len(y_true) != len(groups) or (strata is not None and len(strata) != len(groups)):
         raise ValueError("y_true, groups and strata must hold one array per test set")
-    labels, codes_all = np.unique(
-        np.concatenate([np.asarray(g) for g in groups]), return_inverse=True
-    )
+    labels, codes_all = sorted_codes(np.concatenate([np.asarray(g) for g in groups]))
     bounds = np.cumsum([0, *(len(g) for g in groups)])
     codes = [codes_all[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
     y = np.concatenate([np.asarray(v, bool) for v in y_true])
@@ -121,9 +120,7 @@ def make_design(
     if strata is None:
         sub = np.full(n, "", dtype=object)
     else:
-        s_labels, s_codes = np.unique(
-            np.concatenate([np.asarray(s, str) for s in strata]), return_inverse=True
-        )
+        s_labels, s_codes = sorted_codes(np.concatenate([np.asarray(s, str) for s in strata]))
         counts = np.zeros((n, len(s_labels)))
         np.add.at(counts, (codes_all, s_codes), 1)
         sub = s_labels[counts.argmax(axis=1)].astype(object)
@@ -142,17 +139,40 @@ def make_design(
     return ClusterDesign(labels, stratum, np.bincount(stratum)), codes
 
 
+def sorted_codes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(values, return_inverse=True)`` by hashing: sorting a pooled test's millions of
+    trial names took a third of ``compare`` (``benchmarks/bench_cell_figures.py``)."""
+    codes, labels = pd.factorize(values, sort=True, use_na_sentinel=False)
+    return np.asarray(labels), codes
+
+
 def resample_weights(
     design: ClusterDesign, seed: int, n_resamples: int = N_RESAMPLES
 ) -> np.ndarray:
     """Cluster weights of stratified Rao-Wu bootstrap resamples: in a stratum of ``n_h``
     clusters, ``n_h - 1`` drawn with replacement, each weighted ``n_h / (n_h - 1)``; a lone
-    cluster keeps weight 1.
+    cluster keeps weight 1. Read-only: the last few are kept, because every figure of a cell
+    draws the same resamples and the draw was half of a cell's statistics
+    (``benchmarks/bench_cell_figures.py``).
 
     Returns
     -------
     ndarray of shape (n_resamples, n_clusters)
     """
+    key = (seed, n_resamples, design.stratum.tobytes(), design.size.tobytes())
+    if key not in _WEIGHTS:
+        while len(_WEIGHTS) >= _KEPT_WEIGHTS:
+            del _WEIGHTS[next(iter(_WEIGHTS))]
+        _WEIGHTS[key] = _draw_weights(design, seed, n_resamples)
+        _WEIGHTS[key].flags.writeable = False
+    return _WEIGHTS[key]
+
+
+_KEPT_WEIGHTS = 8
+_WEIGHTS: dict[tuple, np.ndarray] = {}
+
+
+def _draw_weights(design: ClusterDesign, seed: int, n_resamples: int) -> np.ndarray:
     rng = rng_for(seed, "bootstrap")
     w = np.ones((n_resamples, design.n_clusters))
     for h, n_h in enumerate(design.size):

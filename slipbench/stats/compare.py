@@ -93,6 +93,7 @@ from slipbench.stats.gate import (
     holm,
     needed,
     resolution,
+    scaled_resolution,
     two_sided_p,
     unit,
 )
@@ -925,14 +926,21 @@ def _pooled_verdicts(pooled: pd.DataFrame, gate: Gate, retrained: bool) -> pd.Da
     p_reg, p_imp = two_sided_p(sign * pooled["change"].to_numpy(float), se, df, tol)
     pooled["p_holm"] = holm(np.minimum(p_reg, p_imp))
     pooled["tolerance"] = tol
-    pooled["resolution"] = [resolution(s, d, len(pooled), POOLED_ALPHA) for s, d in zip(se, df)]
+
+    def resolve(s: float, d: float) -> float:
+        return resolution(s, d, len(pooled), POOLED_ALPHA)
+
+    pooled["resolution"] = [resolve(s, d) for s, d in zip(se, df)]
     pooled["detectable"] = tol + pooled["resolution"]
     pooled["seeds_needed"] = [
-        needed(max(n, MIN_SEEDS), x, t) if n >= MIN_SEEDS else RECOMMENDED_REPEATS
-        for n, x, t in zip(pooled["seeds"], pooled["resolution"], tol)
+        needed(n, t, scaled_resolution(n, s, d, True, resolve))
+        if n >= MIN_SEEDS
+        else RECOMMENDED_REPEATS
+        for n, s, d, t in zip(pooled["seeds"], se, df, tol)
     ]
     pooled["trials_needed"] = [
-        needed(n, x, t) for n, x, t in zip(pooled["trials"], pooled["resolution"], tol)
+        needed(n, t, scaled_resolution(n, s, d, False, resolve))
+        for n, s, d, t in zip(pooled["trials"], se, df, tol)
     ]
     judged = [
         _pooled_verdict(r, flagged, retrained)

@@ -18,7 +18,7 @@ trials) would decide it, the standard error scaling as ``sqrt(n / n')``.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -53,6 +53,8 @@ DEFAULT_TOLERANCE = {
     "median_delay_ms": 10.0,
 }
 POWER = 0.8
+#: the most seeds or trials :func:`needed` counts to
+MAX_NEEDED = 100_000
 #: what a figure is called in a verdict
 NAMES = {
     "accuracy": "accuracy",
@@ -147,8 +149,35 @@ def resolution(se: float, df: float, n_tests: int, alpha: float) -> float:
     return float(se * q)
 
 
-def needed(n: float, res: float, tol: float) -> int:
-    """How many seeds (or trials) of which ``n`` ran would bring ``res`` down to ``tol``."""
-    if not (np.isfinite(res) and n > 0):
+def needed(n: float, tol: float, resolution_at: Callable[[float], float]) -> int:
+    """The fewest seeds (or trials) at which ``resolution_at`` (the resolution with that many,
+    :func:`scaled_resolution`) is at most ``tol``, of which ``n`` ran; 0 where nothing finite
+    measures it, and ``MAX_NEEDED`` where even that many would not do."""
+    if not (n > 0 and np.isfinite(resolution_at(n))):
         return 0
-    return int(math.ceil(n * (res / tol) ** 2))
+    lo, hi = 0.0, float(n)
+    while resolution_at(hi) > tol:  # doubling, then bisection: more runs never see less
+        if hi >= MAX_NEEDED:
+            return MAX_NEEDED
+        lo, hi = hi, min(2 * hi, MAX_NEEDED)
+    while hi - lo > 1:
+        mid = math.floor((lo + hi) / 2)
+        lo, hi = (lo, mid) if resolution_at(mid) <= tol else (mid, hi)
+    return int(math.ceil(hi))
+
+
+def scaled_resolution(
+    n: float, se: float, df: float, seeds: bool, resolve: Callable[[float, float], float]
+) -> Callable[[float], float]:
+    """``resolve`` (the resolution of a standard error and its degrees of freedom,
+    :func:`resolution`) with ``m`` instead of the ``n`` seeds (``seeds``) or test trials that
+    ran: the standard error falls as ``sqrt(n / m)`` and the degrees of freedom grow in
+    proportion, ``(m - 1) / (n - 1)`` of seeds, ``m / n`` of trials. Counting the degrees of
+    freedom matters where few seeds carry the noise: three seeds leave two, and holding them
+    fixed asked for hundreds of seeds where tens decide."""
+
+    def at(m: float) -> float:
+        grow = (m - 1) / (n - 1) if seeds and n > 1 else m / n
+        return resolve(se * math.sqrt(n / m), df * grow)
+
+    return at

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
+import pandas as pd
 from scipy.stats import t as student_t
 from statsmodels.stats.proportion import proportion_confint
 
@@ -56,7 +57,7 @@ def cluster_counts(y_true: np.ndarray, groups: np.ndarray) -> tuple[int, int]:
     """
     y_true = np.asarray(y_true, bool)
     groups = np.asarray(groups)
-    return len(np.unique(groups[y_true])), len(np.unique(groups[~y_true]))
+    return len(pd.unique(groups[y_true])), len(pd.unique(groups[~y_true]))
 
 
 def classes_low_n(n_slip: int, n_nonslip: int) -> bool:
@@ -122,15 +123,32 @@ def _pair_counts(
     y: np.ndarray, scores: np.ndarray, codes: np.ndarray, pos: np.ndarray, neg: np.ndarray
 ) -> np.ndarray:
     """``A[i, j]``: pairs (slip window of cluster pos[i], non-slip window of cluster neg[j])
-    ranked correctly, ties counting one half. Shape (len(pos), len(neg))."""
+    ranked correctly, ties counting one half. Shape (len(pos), len(neg)).
+
+    Two searches of every slip score among all non-slip scores, then per non-slip cluster the
+    windows of it below each slip score read from running counts (a block of clusters at a time,
+    to bound memory): one search per cluster took a third of a cell's statistics. Every sum is
+    of halves, exact in float64, so the order of summing does not matter."""
     s_pos, c_pos = scores[y], np.searchsorted(pos, codes[y])
+    order = np.argsort(scores[~y], kind="stable")
+    ns, nc = scores[~y][order], np.searchsorted(neg, codes[~y][order])
+    left, right = np.searchsorted(ns, s_pos, "left"), np.searchsorted(ns, s_pos, "right")
+    by_cluster = np.argsort(c_pos, kind="stable")  # every slip cluster holds a slip window
+    starts = np.searchsorted(c_pos[by_cluster], np.arange(len(pos)))
+    left, right = left[by_cluster], right[by_cluster]
     out = np.zeros((len(pos), len(neg)))
-    for j, d in enumerate(neg):
-        ns = np.sort(scores[~y & (codes == d)])
-        below = np.searchsorted(ns, s_pos, "left")
-        ties = np.searchsorted(ns, s_pos, "right") - below
-        out[:, j] = np.bincount(c_pos, weights=below + 0.5 * ties, minlength=len(pos))
+    block = max(1, _PAIR_BLOCK // (len(ns) + 1))
+    for first in range(0, len(neg), block):
+        upto = min(first + block, len(neg))
+        member = (nc[:, None] == np.arange(first, upto)[None]).astype(np.int32)
+        running = np.concatenate([np.zeros((1, upto - first), np.int32), member.cumsum(axis=0)])
+        twice = running[left] + running[right]  # below counted twice, ties once
+        out[:, first:upto] = 0.5 * np.add.reduceat(twice, starts, axis=0, dtype=np.int64)
     return out
+
+
+#: entries of the running counts held at once by :func:`_pair_counts` (about 32 MB of int32)
+_PAIR_BLOCK = 8_000_000
 
 
 def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:

@@ -81,16 +81,25 @@ def reading() -> Iterator[set[str]]:
 
 def plugin_files(opened: set[str]) -> list[Path]:
     """The files among ``opened`` that may be a plugin's own: not Python's or an installed
-    library's, not a bytecode cache, not a device or process file; resolved and sorted."""
+    library's, not a bytecode cache or a distribution's metadata (entry points read by the
+    registry, an editable install's ``*.egg-info`` beside its code), not a device or process
+    file; resolved and sorted."""
     roots = _library_roots()
     out = set()
     for name in opened:
         path = Path(name).resolve()
-        if "__pycache__" in path.parts or not path.is_file():
+        if _not_plugin_data(path) or not path.is_file():
             continue
         if not any(path.is_relative_to(root) for root in roots):
             out.add(path)
     return sorted(out)
+
+
+def _not_plugin_data(path: Path) -> bool:
+    return any(
+        part == "__pycache__" or part.endswith((".egg-info", ".dist-info"))
+        for part in path.parts[:-1]
+    )
 
 
 @cache

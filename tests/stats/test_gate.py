@@ -10,7 +10,16 @@ from scipy.stats import norm
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED, UsageError
 from slipbench.stats.compare import POOLED_ALPHA, Comparison, _pooled_verdicts
-from slipbench.stats.gate import Gate, holm, parse_tolerances, resolution, two_sided_p
+from slipbench.stats.gate import (
+    MAX_NEEDED,
+    Gate,
+    holm,
+    needed,
+    parse_tolerances,
+    resolution,
+    scaled_resolution,
+    two_sided_p,
+)
 
 
 def test_holm_matches_statsmodels():
@@ -61,9 +70,21 @@ def test_a_precise_test_says_no_regression_and_what_it_would_have_seen():
 def test_noise_wider_than_the_tolerance_is_undecided_and_says_what_would_decide():
     r = _verdict(change_se=1.0, change_lo=-4, change_hi=4)
     assert r["verdict"] == "undecided" and "80 % power" in r["undecided_reason"]
-    # the standard error scales as sqrt(n / n'): n' = n (resolution / tolerance)^2
-    assert r["seeds_needed"] == int(np.ceil(3 * r["resolution"] ** 2))
-    assert r["trials_needed"] == int(np.ceil(40 * r["resolution"] ** 2))
+    # the fewest that decide: the standard error falls as sqrt(n / m), the df grow with m
+    for n, seeds in ((3, True), (40, False)):
+        m = r["seeds_needed" if seeds else "trials_needed"]
+        at = scaled_resolution(n, 1.0, 30.0, seeds, lambda s, d: resolution(s, d, 1, POOLED_ALPHA))
+        assert at(m) <= 1.0 < at(m - 1)
+
+
+def test_few_seeds_ask_for_what_their_degrees_of_freedom_allow():
+    """Three seeds leave two degrees of freedom: the seeds that decide count the df that more
+    seeds bring, not hundreds from holding t(0.999, 2) fixed."""
+    r = _verdict(change_se=1.1, df=2.0, change_lo=-20, change_hi=20)
+    fixed_df = int(np.ceil(3 * (r["resolution"] / 1.0) ** 2))
+    assert r["verdict"] == "undecided" and fixed_df > 150
+    assert 10 < r["seeds_needed"] < fixed_df / 4
+    assert needed(3, 1.0, lambda m: 50.0) == MAX_NEEDED
 
 
 def test_low_n_and_one_seed_per_side_are_undecided_even_when_flagged():

@@ -463,3 +463,51 @@ def test_two_level_variance_counts_the_seed_by_cluster_term_once():
         var.append(iv.se**2)
     ratio = np.mean(var) / np.var(est, ddof=1)
     assert 0.9 < ratio < 1.25, ratio
+
+
+def test_pair_counts_equal_counting_every_pair_across_blocks(monkeypatch):
+    """The running-count pair matrix equals a brute-force count, ties one half, whether the
+    non-slip clusters fit one block or take several."""
+    from slipbench.stats import metrics
+
+    rng = np.random.default_rng(3)
+    codes = rng.integers(0, 12, 400)
+    y = rng.random(400) < 0.5
+    scores = np.round(rng.random(400), 1)  # many ties
+    pos, neg = np.unique(codes[y]), np.unique(codes[~y])
+    brute = np.array(
+        [
+            [
+                sum(
+                    (a > b) + 0.5 * (a == b)
+                    for a in scores[y & (codes == i)]
+                    for b in scores[~y & (codes == j)]
+                )
+                for j in neg
+            ]
+            for i in pos
+        ]
+    )
+    assert np.array_equal(metrics._pair_counts(y, scores, codes, pos, neg), brute)
+    monkeypatch.setattr(metrics, "_PAIR_BLOCK", 500)  # a few clusters per block
+    assert np.array_equal(metrics._pair_counts(y, scores, codes, pos, neg), brute)
+
+
+def test_sorted_codes_are_numpys_unique():
+    from slipbench.stats.bootstrap import sorted_codes
+
+    for values in (
+        np.array(["t-10", "t-2", "T", "t-2", "é"], dtype=object),
+        np.array(["b", "a", "b"]),
+        np.array([5, -1, 5, 3]),
+    ):
+        labels, codes = sorted_codes(values)
+        want_labels, want_codes = np.unique(values, return_inverse=True)
+        assert labels.tolist() == want_labels.tolist() and codes.tolist() == want_codes.tolist()
+
+
+def test_resample_weights_are_kept_read_only_and_redrawn_per_seed():
+    design, _ = make_design([np.array([0, 1] * 10)], [np.arange(20)])
+    w = resample_weights(design, seed=4, n_resamples=50)
+    assert resample_weights(design, seed=4, n_resamples=50) is w and not w.flags.writeable
+    assert not np.array_equal(resample_weights(design, seed=5, n_resamples=50), w)

@@ -286,3 +286,16 @@ def test_a_plugin_that_reads_nothing_records_nothing(tmp_path):
     x, y = np.linspace(0, 1, 200).reshape(20, 10), np.repeat([0, 1], 10)
     [(fields, _)] = fit_and_test(Job(reg.get("energy")(), 1, 1000.0, x, y, [TestSet(x, y, y)]))
     assert fields["status"] == "ok" and "unkeyed_reads" not in fields
+
+
+def test_distribution_metadata_is_no_plugins_data(tmp_path):
+    """Entry points read through importlib.metadata (an editable install's egg-info beside the
+    code, a dist-info) are no file a fit depends on: no warning, no digest."""
+    from slipbench.store.reads import plugin_files
+
+    files = []
+    for folder in ("slipbench.egg-info", "pkg-1.0.dist-info", "plugins"):
+        (tmp_path / folder).mkdir()
+        files.append(tmp_path / folder / "entry_points.txt")
+        files[-1].write_text("[slipbench.detectors]\n")
+    assert plugin_files({str(f) for f in files}) == [files[2].resolve()]
