@@ -13,15 +13,7 @@ COMBINED = "combined"
 class CrossInstance(BaseProtocol):
     """Train on one unit (or all combined), test on every unit of its type (the paper's Table V)."""
 
-    layout = Layout(
-        "Classification trained and tested on data from one or all fingers of a single sensor type.",
-        ("sensor_type", "train_instance"),
-        "test_instance",
-        title="Cross-instance transfer",
-        merge_rows=True,
-        figure="matrix",
-        paper_table="cross-instance",
-    )
+    layout = Layout(rows=("sensor_type", "train_instance"), column="test_instance")
     _parameter_constraints = {"window": WindowLength()}
 
     def __init__(self, window=50):

@@ -13,16 +13,7 @@ from slipbench.vocabulary import MATERIALS
 class MaterialHoldout(HoldoutProtocol):
     """Each material with and without explicit training (the paper's Table III)."""
 
-    layout = Layout(
-        "Slip state classification with and without (*) explicit training of indicated materials across sensors.",
-        ("sensor_type", "sensor_instance"),
-        "material",
-        title="Material",
-        group="with Material",
-        pair="training",
-        figure="with-without",
-        paper_table="material-holdout",
-    )
+    layout = Layout(rows=("sensor_type", "sensor_instance"), column="material", pair="training")
     holdout_column = "material"
 
     def levels(self, recordings):

@@ -44,19 +44,9 @@ class SamplingRate(BaseProtocol):
     """Accuracy against sampling rate, windows of 200 full-rate samples downsampled (Table II)."""
 
     layout = Layout(
-        "Slip state classification at various sampling rates (Hz) across sensors and fingers, window {window} "
-        "downsampled. Superscripts indicate the sensor type for the selected sampling rate.",
-        ("sensor_type", "sensor_instance"),
-        "downsample",
-        title="Sampling rate",
-        group="at Sampling Rate",
+        rows=("sensor_type", "sensor_instance"),
+        column="downsample",
         split=("decimation", "antialias"),
-        column_label="rate_hz",
-        figure="curve",
-        x="rate_hz",
-        x_label="sampling rate (Hz)",
-        log_base=2,
-        paper_table="sampling-rate",
     )
     _parameter_constraints = {
         "decimation": Options(("plain", "lag", "both")),

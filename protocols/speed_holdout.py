@@ -30,16 +30,7 @@ def _speeds(recordings) -> list[float]:
 class SpeedHoldout(HoldoutProtocol):
     """Each slip speed with and without explicit training (the paper's Table IV)."""
 
-    layout = Layout(
-        "Slip state classification with and without (*) explicit training of indicated speeds across sensors.",
-        ("sensor_type", "sensor_instance"),
-        "speed_mm_s",
-        title="Slip speed",
-        group="at Speed",
-        pair="training",
-        figure="with-without",
-        paper_table="speed-holdout",
-    )
+    layout = Layout(rows=("sensor_type", "sensor_instance"), column="speed_mm_s", pair="training")
     holdout_column = "speed_mm_s"
     test_column = "speed_group"  # pressing has no speed: columns() assigns it one
 

@@ -26,17 +26,7 @@ from slipbench.protocol import (
 from slipbench.vocabulary import MAX_DELAY_MS
 
 METRICS = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
-LAYOUT = Layout(
-    "Slip onsets detected, their delays and false alarms while streaming test recordings, per sensor unit.",
-    ("sensor_type", "sensor_instance"),
-    "window",
-    title="Streaming",
-    group="At the detector's own threshold (0.5)",
-    figure="tradeoff",
-    metrics=METRICS,
-    x="false_alarms_per_min",
-    x_label="false alarms per minute",
-)
+LAYOUT = Layout(rows=("sensor_type", "sensor_instance"), column="window", metrics=METRICS)
 
 
 class Streaming(BaseProtocol):

@@ -9,32 +9,8 @@ from slipbench.params import Sequence, WindowLength
 from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, window_cells
 
 WINDOWS = (5, 10, 25, 50, 100, 200)
-CAPTION = (
-    "Slip state classification at various window sizes across three types of sensors and fingers."
-)
-IN_SAMPLES = Layout(
-    CAPTION,
-    ("sensor_type", "sensor_instance"),
-    "window",
-    title="Window size",
-    group="at Window Size",
-    note_column="window_ms",
-    figure="curve",
-    x_label="window (samples)",
-    log_base=10,
-    paper_table="window-size",
-)
-IN_MS = Layout(
-    CAPTION,
-    ("sensor_type", "sensor_instance"),
-    "window_ms",
-    title="Window size",
-    group="at Window Size (ms)",
-    note_column="window",
-    figure="curve",
-    x_label="window (ms)",
-    log_base=10,
-)
+IN_SAMPLES = Layout(rows=("sensor_type", "sensor_instance"), column="window")
+IN_MS = Layout(rows=("sensor_type", "sensor_instance"), column="window_ms")
 
 
 class WindowSize(BaseProtocol):

@@ -204,6 +204,11 @@ class Cell:
 class Layout:
     """How a protocol's cells make its table and its figure.
 
+    ``rows``, ``column``, ``pair``, ``split`` and ``metrics`` say what the cells are; the other
+    fields say how they look, and are a plugin's defaults: the report keeps the built-in
+    protocols' presentation itself (:mod:`slipbench.report.presentation`), and a layout without
+    a caption is captioned "Protocol {id}.".
+
     Attributes
     ----------
     caption : the table's caption. A result column named in braces ("window {window}") is
@@ -230,9 +235,9 @@ class Layout:
         rate, delays and false alarms). Empty: the usual table of one metric.
     """
 
-    caption: str
-    rows: tuple[str, ...]
-    column: str
+    caption: str = ""
+    rows: tuple[str, ...] = ()
+    column: str = ""
     title: str = ""
     group: str = ""
     pair: str | None = None
@@ -259,6 +264,8 @@ class Layout:
         for name in ("caption", "column", "title", "group", "x_label"):
             if not isinstance(getattr(self, name), str):
                 raise ValueError(f"Layout.{name} must be a str, got {getattr(self, name)!r}")
+        if not self.column:
+            raise ValueError("Layout.column must name the cell-key column of the value columns")
         if self.figure is not None and self.figure not in FIGURE_KINDS:
             raise ValueError(
                 f"Layout.figure must be one of {FIGURE_KINDS} or None, got {self.figure!r}"

@@ -55,6 +55,7 @@ from slipbench.report.outline import (
     which_text,
 )
 from slipbench.report.paper import paper_frame
+from slipbench.report.presentation import presented
 from slipbench.report.provenance import fitted_tables, header_tables, on_simulation
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import (
@@ -707,7 +708,8 @@ def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> 
 
 
 def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
-    """The Markdown table(s) of one protocol's rows for one detector (what ``evaluate`` prints)."""
+    """The Markdown table(s) of one protocol's rows for one detector (what ``evaluate`` prints),
+    ``layout`` shown as :func:`~slipbench.report.presentation.presented` says."""
     rows = pd.DataFrame(rows)
     if rows.empty:
         return "(no cells)"
@@ -717,6 +719,7 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     rows = as_tested(rows[~standing])
     rows = rows.assign(**{SIMULATED: on_simulation(rows)})
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
+    layout = presented(protocol, layout)
     why = fits(layout, rows)
     shown = generic_layout(rows, protocol) if why else layout
     tables = protocol_tables(rows, shown, protocol, detector, intervals=intervals)

@@ -11,6 +11,7 @@ import pandas as pd
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import NO_CELL, Layout
 from slipbench.report.paper import table_order
+from slipbench.report.presentation import presented
 from slipbench.report.tables import TRAINED_AS, fits, generic_layout, rank
 from slipbench.stats.factors import SETTINGS, differing_settings, factor_values, setting_text
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
@@ -78,7 +79,7 @@ def no_cell_note(rows: pd.DataFrame, datasets: int = 1) -> str:
 
 def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
     """Each protocol's layout, from its class in the registry (built-in, entry point or plugin
-    folder) made with the options its rows ran with, and a note when it fell back to a layout
+    folder) made with the options its rows ran with and shown as :func:`presented` says, and a note when it fell back to a layout
     from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows).
     Stand-in rows (:func:`stand_ins`) are not laid out: a protocol with nothing else keeps its
     own layout, for its place in the report."""
@@ -93,7 +94,8 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
             cls = protocols.get(name)
             given = every["protocol_params"].iloc[0] if "protocol_params" in every else None
             params = json.loads(given) if isinstance(given, str) else {}  # absent: the defaults
-            layout = cls(**params).layout
+            declared = cls(**params).layout
+            layout = presented(name, declared) if isinstance(declared, Layout) else declared
             why = (
                 "it declares no layout"
                 if layout is None

@@ -162,13 +162,15 @@ def _check_without_cells(
 
 
 def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
-    """The layout renders: fake results for every cell make a Markdown and a LaTeX table, and
-    the figure the layout declares."""
+    """The layout renders, as the report shows it: fake results for every cell make a Markdown
+    and a LaTeX table, and the figure the layout declares."""
+    from slipbench.engine.registry import protocols
     from slipbench.report.document import protocol_tables
     from slipbench.report.plots import figure
+    from slipbench.report.presentation import presented
     from slipbench.report.render import to_latex, to_markdown
 
-    layout = _layout(protocol)
+    layout = presented(protocols.id_of(type(protocol)), _layout(protocol))
     cells, _ = _cells(protocol, dataset or toy_dataset())
     rng = rng_for(0, "toy", "rows")
     rows = pd.DataFrame(

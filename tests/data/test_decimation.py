@@ -19,6 +19,7 @@ from slipbench.errors import UsageError
 from slipbench.protocol import Cell, Part
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.report.document import protocol_tables
+from slipbench.report.presentation import presented
 
 
 def one_recording(a: np.ndarray, rate: float = 1000.0) -> Signals:
@@ -204,7 +205,10 @@ def test_report_gives_one_table_per_variant(tmp_path):
         )
         frames.append(part.assign(cell=part["cell"] + f"{decimation}{antialias}"))
     tables = protocol_tables(
-        pd.concat(frames, ignore_index=True), SamplingRate.layout, "sampling-rate", "lstm"
+        pd.concat(frames, ignore_index=True),
+        presented("sampling-rate", SamplingRate.layout),
+        "sampling-rate",
+        "lstm",
     )
     names = [name for name, _ in tables]
     assert names == [

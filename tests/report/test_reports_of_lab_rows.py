@@ -14,6 +14,7 @@ from resultgen import fake_rows
 
 from slipbench.protocol import NO_CELL, Layout
 from slipbench.report.document import protocol_table
+from slipbench.report.presentation import presented
 from slipbench.report.tables import (
     LOW_MARK,
     LOW_NOTE,
@@ -124,7 +125,9 @@ def _stream_rows(trials: int, onsets: int) -> pd.DataFrame:
 
 
 def test_streaming_cells_on_few_trials_or_onsets_are_marked():
-    from slipbench.protocols.streaming import LAYOUT
+    from slipbench.protocols.streaming import LAYOUT as DECLARED
+
+    LAYOUT = presented("streaming", DECLARED)
 
     assert low_n(_stream_rows(3, 40)).all() and low_n(_stream_rows(40, 3)).all()
     assert not low_n(_stream_rows(40, 40)).any()
