@@ -57,3 +57,10 @@ def test_a_layout_names_its_value_column():
         Layout("caption", ("a",))
     with pytest.raises(ValueError, match="Layout.rows must be"):
         Layout(column="b")
+
+
+def test_presentation_is_layout_less_what_the_cells_are():
+    layout = {f.name: f.default for f in dataclasses.fields(Layout)}
+    assert {f.name: f.default for f in dataclasses.fields(Presentation)} == {
+        k: v for k, v in layout.items() if k not in ("rows", "column", "pair", "split", "metrics")
+    }
