@@ -11,7 +11,7 @@ import pandas as pd
 from slipbench.errors import SlipbenchError
 from slipbench.protocol import NO_CELL, Layout
 from slipbench.report.paper import table_order
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import lineage, presented
 from slipbench.report.tables import TRAINED_AS, fits, generic_layout, rank
 from slipbench.stats.factors import SETTINGS, differing_settings, factor_values, setting_text
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
@@ -95,7 +95,11 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
             given = every["protocol_params"].iloc[0] if "protocol_params" in every else None
             params = json.loads(given) if isinstance(given, str) else {}  # absent: the defaults
             declared = cls(**params).layout
-            layout = presented(name, declared) if isinstance(declared, Layout) else declared
+            layout = (
+                presented(lineage(name, cls), declared)
+                if isinstance(declared, Layout)
+                else declared
+            )
             why = (
                 "it declares no layout"
                 if layout is None

@@ -6,6 +6,7 @@ here. A plugin protocol keeps the presentation keywords its ``Layout`` passes, a
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from slipbench.protocol import Layout
@@ -99,16 +100,29 @@ PRESENTATIONS: dict[tuple[str, str], Presentation] = {
 }
 
 
-def presented(protocol: str, layout: Layout) -> Layout:
-    """``layout`` as the report shows it: with the presentation of ``protocol`` (its id) where
-    this module has one for the layout's column, else with the presentation the layout passes
-    (a plugin's), its caption "Protocol {id}." where it gives none."""
-    shown = PRESENTATIONS.get((protocol, layout.column))
+def presented(protocol: str | Sequence[str], layout: Layout) -> Layout:
+    """``layout`` as the report shows it: with the presentation of ``protocol`` (its id, or the
+    ids of its class and the classes it derives from, nearest first, so that a plugin's
+    subclass of a built-in protocol looks like it) where this module has one for the layout's
+    column, else with the presentation the layout passes (a plugin's), its caption "Protocol
+    {id}." where it gives none."""
+    ids = [protocol] if isinstance(protocol, str) else list(protocol)
+    shown = next(
+        (PRESENTATIONS[i, layout.column] for i in ids if (i, layout.column) in PRESENTATIONS), None
+    )
     if shown is not None:
         return dataclasses.replace(layout, **dataclasses.asdict(shown))
-    return (
-        layout if layout.caption else dataclasses.replace(layout, caption=f"Protocol {protocol}.")
-    )
+    return layout if layout.caption else dataclasses.replace(layout, caption=f"Protocol {ids[0]}.")
 
 
-__all__ = ["PRESENTATIONS", "Presentation", "presented"]
+def lineage(name: str, cls: type) -> list[str]:
+    """``name`` and the registry ids of the protocol classes ``cls`` derives from, nearest
+    first: what :func:`presented` looks a presentation up by."""
+    from slipbench.engine.registry import protocols
+    from slipbench.protocol import BaseProtocol
+
+    bases = [c for c in cls.__mro__[1:] if issubclass(c, BaseProtocol) and c is not BaseProtocol]
+    return [name, *(protocols.id_of(c) for c in bases)]
+
+
+__all__ = ["PRESENTATIONS", "Presentation", "lineage", "presented"]

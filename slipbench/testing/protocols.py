@@ -167,10 +167,10 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     from slipbench.engine.registry import protocols
     from slipbench.report.document import protocol_tables
     from slipbench.report.plots import figure
-    from slipbench.report.presentation import presented
+    from slipbench.report.presentation import lineage, presented
     from slipbench.report.render import to_latex, to_markdown
 
-    layout = presented(protocols.id_of(type(protocol)), _layout(protocol))
+    layout = presented(lineage(protocols.id_of(type(protocol)), type(protocol)), _layout(protocol))
     cells, _ = _cells(protocol, dataset or toy_dataset())
     rng = rng_for(0, "toy", "rows")
     rows = pd.DataFrame(

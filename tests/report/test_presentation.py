@@ -9,7 +9,7 @@ import pytest
 from slipbench.engine.registry import protocols
 from slipbench.protocol import Layout
 from slipbench.protocols.window_size import WindowSize
-from slipbench.report.presentation import PRESENTATIONS, Presentation, presented
+from slipbench.report.presentation import PRESENTATIONS, Presentation, lineage, presented
 
 SHOWN = [f.name for f in dataclasses.fields(Presentation)]
 
@@ -64,3 +64,16 @@ def test_presentation_is_layout_less_what_the_cells_are():
     assert {f.name: f.default for f in dataclasses.fields(Presentation)} == {
         k: v for k, v in layout.items() if k not in ("rows", "column", "pair", "split", "metrics")
     }
+
+
+def test_a_subclass_of_a_built_in_protocol_looks_like_it():
+    from slipbench.engine.registry import protocols
+
+    cls = protocols.get("material-holdout")
+
+    class MyHoldout(cls):  # a lab's variant, registered under its own id
+        pass
+
+    layout = MyHoldout().layout
+    shown = presented(lineage("my-holdout", MyHoldout), layout)
+    assert shown == presented("material-holdout", layout) and shown.caption
