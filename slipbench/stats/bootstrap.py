@@ -140,8 +140,8 @@ def make_design(
 
 
 def sorted_codes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(values, return_inverse=True)`` by hashing: sorting a pooled test's millions of
-    trial names took a third of ``compare`` (``benchmarks/bench_cell_figures.py``)."""
+    """``np.unique(values, return_inverse=True)`` by hashing: a pooled test's design holds a
+    trial name per window of every cell and seed, and sorting them led ``compare``'s profile."""
     codes, labels = pd.factorize(values, sort=True, use_na_sentinel=False)
     return np.asarray(labels), codes
 
@@ -151,9 +151,9 @@ def resample_weights(
 ) -> np.ndarray:
     """Cluster weights of stratified Rao-Wu bootstrap resamples: in a stratum of ``n_h``
     clusters, ``n_h - 1`` drawn with replacement, each weighted ``n_h / (n_h - 1)``; a lone
-    cluster keeps weight 1. Read-only: the last few are kept, because every figure of a cell
-    draws the same resamples and the draw was half of a cell's statistics
-    (``benchmarks/bench_cell_figures.py``).
+    cluster keeps weight 1. Read-only: the last two are kept, because every figure of a cell
+    draws the same resamples, and drawing them for each figure dominated a cell's statistics
+    (``benchmarks/bench_cell_figures.py``); two, so a pooled test's large design is not held.
 
     Returns
     -------
@@ -168,7 +168,7 @@ def resample_weights(
     return _WEIGHTS[key]
 
 
-_KEPT_WEIGHTS = 8
+_KEPT_WEIGHTS = 2
 _WEIGHTS: dict[tuple, np.ndarray] = {}
 
 

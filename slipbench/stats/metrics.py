@@ -137,7 +137,7 @@ def _pair_counts(
     starts = np.searchsorted(c_pos[by_cluster], np.arange(len(pos)))
     left, right = left[by_cluster], right[by_cluster]
     out = np.zeros((len(pos), len(neg)))
-    block = max(1, _PAIR_BLOCK // (len(ns) + 1))
+    block = max(1, _PAIR_BLOCK // (max(len(ns), len(s_pos)) + 1))  # bounds both gathers
     for first in range(0, len(neg), block):
         upto = min(first + block, len(neg))
         member = (nc[:, None] == np.arange(first, upto)[None]).astype(np.int32)
