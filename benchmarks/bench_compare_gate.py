@@ -20,6 +20,8 @@ change of accuracy and TN rate (what the damage did).
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
 import sys
 import tempfile
 import time
@@ -103,12 +105,26 @@ def pools(root: Path, sizes: dict[str, int]) -> dict[str, Path]:
         detector, first = POOLS[label]
         out[label] = root / f"pool-{label}-{n}"
         if not (out[label] / "results.parquet").exists():
+            _grow_from_smaller(root, label, n)
             t0 = time.perf_counter()
             cs.evaluate(
                 data, plugins, out[label], first, n, *PROTOCOLS, "--jobs", "2", detector=detector
             )
             print(f"# pool {label}: {n} seeds in {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return out
+
+
+def _grow_from_smaller(root: Path, label: str, n: int) -> None:
+    """Start a pool of ``n`` seeds from the largest smaller pool of ``label`` in ``root``, its
+    files hard-linked (comparisons link into the smaller one): evaluate finds its cells cached
+    and runs only the seeds it lacks."""
+    smaller = [
+        (int(p.name.rsplit("-", 1)[1]), p)
+        for p in root.glob(f"pool-{label}-*")
+        if (p / "results.parquet").exists() and int(p.name.rsplit("-", 1)[1]) < n
+    ]
+    if smaller:
+        shutil.copytree(max(smaller)[1], root / f"pool-{label}-{n}", copy_function=os.link)
 
 
 def run_design(root: Path, pool: dict[str, Path], design: str, n: int) -> str:

@@ -21,12 +21,16 @@ from typing import Protocol
 import numpy as np
 import pandas as pd
 from scipy.stats import beta as beta_dist
+from scipy.stats import f as f_dist
 from scipy.stats import t as student_t
 
 from slipbench.seeding import rng_for
 
 LEVEL = 0.95
 N_RESAMPLES = 999
+#: a cell side keeps its own seed spread where it exceeds the protocol's pooled one by more
+#: than this quantile of their F ratio (:func:`_noisier`)
+NOISIER_QUANTILE = 0.9
 #: the methods a command runs: ``scale-choice`` every figure and cell change, ``satterthwaite``
 #: the pooled changes (:mod:`slipbench.stats.pooled`); the study methods are in
 #: ``benchmarks/studies/intervals.py``
@@ -344,8 +348,8 @@ class SeedPool:
     """The seed variance a protocol's cells share: one seed's figure about its side's mean,
     pooled over every cell side of two seeds or more, weighted by and carrying their degrees of
     freedom (:func:`pool_seed_spreads`). Given to :func:`seeded_interval`, it stands for each
-    cell's own seed spread, so a cell's seed term rests on the protocol's degrees of freedom,
-    not its own two."""
+    cell's own seed spread where that is smaller, so a cell's seed term rests on the protocol's
+    degrees of freedom, not its own two."""
 
     variance: float
     df: float
@@ -418,16 +422,34 @@ def _seed_variance(
     error on a cluster shows in the seeds' spread and again in the clusters' replicates of
     their mean; counted once, by the clusters), and ``unsure``: the spreads' uncertainty,
     ``sum v^2 / df`` (Satterthwaite for a difference: the net is as uncertain as the spreads it
-    is taken from). With ``pool``, every side's spread is the pool's over its seeds, one
-    estimate on the pool's degrees of freedom (a side of one seed included)."""
+    is taken from). With ``pool``, a side's spread is the pool's over its seeds, on the pool's
+    degrees of freedom (a side of one seed included), unless the side's own spread is larger
+    than the pool's beyond chance (:func:`_noisier`): a cell that retraining moves more than the
+    protocol's others keeps its own spread on its own degrees of freedom."""
     part = sum(t for _, t, _ in reps.seeded)
     if pool is None:
         spread = sum(v for v, _, _ in reps.seeded)
-        unsure = sum(v**2 / d for v, _, d in reps.seeded)
-    else:
-        spread = sum(k**2 * pool.variance / len(f) for k, f in zip(signs, at_one))
-        unsure = spread**2 / pool.df
-    return max(0.0, spread - part), unsure
+        return max(0.0, spread - part), sum(v**2 / d for v, _, d in reps.seeded)
+    pooled, own, unsure = 0.0, 0.0, 0.0
+    for k, f in zip(signs, at_one):
+        share = k**2 * pool.variance / len(f)
+        mine = k**2 * float(np.var(f, ddof=1)) / len(f) if len(f) > 1 else 0.0
+        if _noisier(mine, share, len(f) - 1, pool.df):
+            own += mine
+            unsure += mine**2 / (len(f) - 1)
+        else:
+            pooled += share
+    # the pooled shares are one estimate: their uncertainty adds before it is squared
+    return max(0.0, pooled + own - part), unsure + pooled**2 / pool.df
+
+
+def _noisier(own: float, pooled: float, df: float, pool_df: float) -> bool:
+    """Whether a side's own seed variance ``own`` (on ``df``) exceeds the protocol's ``pooled``
+    (on ``pool_df``) beyond chance: their ratio above the F distribution's
+    :data:`NOISIER_QUANTILE` (``benchmarks/bench_seed_pool.py``)."""
+    if df < 1 or not own > pooled:
+        return False
+    return bool(own > pooled * f_dist.ppf(NOISIER_QUANTILE, df, pool_df))
 
 
 @dataclass(frozen=True)

@@ -551,7 +551,8 @@ def over_seeds(
     seed_pool : mapping of figure to SeedPool, optional
         The seed variance of each figure pooled over the protocol's cells
         (:func:`slipbench.stats.pooled.protocol_seed_pool`, built with the same ``paired``): it
-        stands for this cell's own seed spread, on the protocol's degrees of freedom.
+        stands for this cell's own seed spread, on the protocol's degrees of freedom, where the
+        cell's own is not larger.
 
     Returns
     -------

@@ -84,3 +84,24 @@ def test_a_pool_of_no_seed_variance_leaves_one_seed_per_side_as_it_was():
     plain = over_seeds(c.base, c.cand, 0, **kw)
     pooled = over_seeds(c.base, c.cand, 0, seed_pool={"accuracy": SeedPool(0.0, 10.0)}, **kw)
     assert pooled == plain
+
+
+def test_a_cell_retraining_moves_more_than_the_pool_keeps_its_own_spread():
+    """A transfer cell whose seeds scatter by tens of points is not judged on the calm cells'
+    pooled spread: its side's own spread, on its own degrees of freedom, stands."""
+    cells = _cells(6, 3)
+    rng = np.random.default_rng(7)
+    noisy = CellSides(
+        [_seed(rng, luck) for luck in (-2.0, 0.0, 2.0)],
+        [_seed(rng, luck) for luck in (2.0, -2.0, 0.0)],
+        [0, 1, 2],
+        [3, 4, 5],
+    )
+    pool = protocol_seed_pool(cells, ("accuracy",))
+    kw = {"figures": ("accuracy",), "n_resamples": 199}
+    own = over_seeds(noisy.base, noisy.cand, 0, **kw)
+    pooled = over_seeds(noisy.base, noisy.cand, 0, seed_pool=pool, **kw)
+    assert pooled["df"] < 10 < pool["accuracy"].df
+    assert pooled["d_accuracy_se"] == pytest.approx(own["d_accuracy_se"], rel=0.05)
+    calm = over_seeds(cells[0].base, cells[0].cand, 0, seed_pool=pool, **kw)
+    assert calm["df"] > 10  # the calm cells keep the pool
