@@ -89,9 +89,12 @@ def cost_section(rows: pd.DataFrame, jobs: int) -> str:
     ]
     if scale:
         overhead = total * jobs / models["seconds"].sum()
+        detectors = per.index.get_level_values("detector").nunique()
+        splits = " and ".join(per.index.unique(level="split")) + " split"
+        splits += "s" if " and " in splits else ""
         cluster = makespan(list(models["seconds"] * overhead / scale), WORKERS)
         text += [
-            f"At scale {scale:g} the whole run (every detector, every protocol, both splits) took "
+            f"At scale {scale:g} the whole run ({detectors} detectors, every protocol, {splits}) took "
             f"{total / 60:.0f} min. Extrapolated linearly in the data's size (see `reports/cost.py`; an upper bound for the "
             "LSTM, which stops early after fewer epochs on more data): the "
             f"largest scale that fits in 2 hours on this machine is about {scale * BUDGET_S / total:.2f}; scale "
