@@ -30,7 +30,7 @@ LEVEL = 0.95
 N_RESAMPLES = 999
 #: a cell side keeps its own seed spread where it exceeds the protocol's pooled one by more
 #: than this quantile of their F ratio (:func:`_noisier`)
-NOISIER_QUANTILE = 0.99
+NOISIER_QUANTILE = 0.9
 #: the methods a command runs: ``scale-choice`` every figure and cell change, ``satterthwaite``
 #: the pooled changes (:mod:`slipbench.stats.pooled`); the study methods are in
 #: ``benchmarks/studies/intervals.py``

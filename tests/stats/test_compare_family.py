@@ -118,9 +118,10 @@ def test_repeats_on_both_sides_cover_retraining_noise(tmp_path):
     assert "retraining noise" not in comment_markdown(cmp)
     assert cmp.pooled["method"].iloc[0].endswith("and the seeds, crossed with the cells")
     # the seed variance pooled over the protocol's cells (its degrees of freedom summed): three
-    # seeds a side narrow the cells against one seed per side, never widen them (issue 35)
+    # seeds a side narrow the typical cell against one seed per side (issue 35); a cell whose
+    # own seeds scatter beyond chance keeps its own spread, and is wider
     one = compare(*predictions_pair(tmp_path / "one", n_cells=3, cand_seeds=(3,)))
-    width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
+    width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).median()  # noqa: E731
     assert width(cmp) < width(one)
 
 
