@@ -117,6 +117,7 @@ def test_bad_parameters_are_named(small):
         analyze(small, "Nano17", segment=5000)
 
 
+@pytest.mark.slow
 def test_command_writes_figure_table_and_band(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
     argv = [
@@ -163,6 +164,7 @@ def test_command_writes_figure_table_and_band(small_path, tmp_path, cli):
     detectors.get("holweg")().set_params(band=band)
 
 
+@pytest.mark.slow
 def test_unknown_sensor_or_instance_exits_2_and_writes_nothing(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
     code, _, err = cli(
@@ -233,6 +235,7 @@ def _keep_only(ds, windows: list, window: int, seed: int):
     return Dataset(ds.recordings, samples, ds.slip_labels)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("split", ["paper", "grouped"])
 def test_train_only_never_reads_a_test_window(small, split):
     """Poison every reading outside the runner's training windows (its test windows among them):
@@ -272,6 +275,7 @@ def test_train_only_never_reads_a_test_window(small, split):
     )
 
 
+@pytest.mark.slow
 def test_train_only_from_the_command_line(small_path, tmp_path, cli):
     out = tmp_path / "spectral"
     base = [

@@ -168,6 +168,7 @@ def test_cli_exit_code_for_a_bad_file(tmp_path, cli):
     assert code == 2 and "no such benchmark file" in err
 
 
+@pytest.mark.slow
 def test_run_seed_overrides_the_files_seed(tmp_path, unit, cli):
     bench = write(
         tmp_path,

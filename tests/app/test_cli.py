@@ -15,6 +15,7 @@ from fsfaults import read_only
 from slipbench.data.schema import SAMPLES_FILE
 
 
+@pytest.mark.slow
 def test_dataset_commands(tmp_path, cli):
     path = tmp_path / "ds"
     code, out, _ = cli(["dataset", "synth", str(path), "--scale", "0.01", "--seed", "3"])
@@ -117,6 +118,7 @@ def test_usage_errors_exit_2_without_traceback(argv, message, small_path, tmp_pa
     assert not (tmp_path / "res" / "results.parquet").exists()
 
 
+@pytest.mark.slow
 def test_window_longer_than_every_recording(tmp_path, cli):
     from slipbench.data.synth import Design, synthesize
 
@@ -188,6 +190,7 @@ def test_an_environment_fault_that_lost_its_path_says_so(cli, monkeypatch):
     )
 
 
+@pytest.mark.slow
 def test_python_m_slipbench_is_the_slipbench_command(cli, tmp_path):
     """`python -m slipbench` runs the same main: the same help, the same errors and exit codes."""
 

@@ -53,6 +53,7 @@ def one_unit(small_path, tmp_path_factory):
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stem", list(CASES))
 def test_a_detector_that_returns_garbage_fails_its_cells_with_the_reason(
     stem, plugins, one_unit, tmp_path, cli
@@ -217,6 +218,7 @@ def test_a_changed_helper_module_of_a_plugin_is_rerun(one_unit, tmp_path):
     assert not set(new["accuracy"].round(6)) & set(first["accuracy"].round(6))
 
 
+@pytest.mark.slow
 def test_report_refuses_the_same_results_twice(tmp_path, one_unit, cli):
     out = tmp_path / "out"
     assert (

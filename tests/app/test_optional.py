@@ -68,6 +68,7 @@ def test_bench_skips_an_unavailable_detector(monkeypatch, cli):
     assert "timing holweg" in err and "holweg" in text and "minirocket" not in text
 
 
+@pytest.mark.slow
 def test_a_benchmark_file_skips_an_unavailable_detector(unit, tmp_path, cli):
     bench = tmp_path / "bench.toml"
     bench.write_text(
@@ -92,6 +93,7 @@ def test_a_benchmark_file_skips_an_unavailable_detector(unit, tmp_path, cli):
     assert code == 3 and "every detector it declares is unavailable here" in err
 
 
+@pytest.mark.slow
 def test_exit_3_lists_the_cells_that_failed(monkeypatch, unit, tmp_path, cli):
     folder = tmp_path / "plugins"
     folder.mkdir()

@@ -11,6 +11,7 @@ from slipbench.errors import UsageError
 FAST = ["--protocol-param", "windows=[50]", "--quiet"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "options",
     [
@@ -29,6 +30,7 @@ def test_every_named_detector_runs(unit, tmp_path, cli, options):
     assert len(rows) == 2  # one window-size cell of one unit, per detector
 
 
+@pytest.mark.slow
 def test_repeated_protocols_run_each(unit, tmp_path, cli):
     out = tmp_path / "out"
     argv = ["evaluate", "--detector", "holweg", "--protocol", "window-size,cross-instance"]

@@ -195,6 +195,7 @@ def test_cell_data_cuts_the_same_windows_for_every_variant(nano):
     np.testing.assert_array_equal(data.values(positions, cells[("lag", True, 1)]).x, x)
 
 
+@pytest.mark.slow
 def test_report_gives_one_table_per_variant(tmp_path):
     rows = fake_rows("sampling-rate")
     variants = [("plain", False), ("lag", False), ("plain", True), ("lag", True)]

@@ -177,6 +177,7 @@ def _flavours(table: pa.Table, rng: np.random.Generator) -> pa.Table:
     return out
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(lab_datasets(), st.integers(0, 2**32 - 1), st.integers(1, 50))
 def test_any_row_order_and_flavour_reads_the_same(tmp_path_factory, data, seed, row_group):
@@ -608,6 +609,7 @@ def test_at_least_fifteen_kinds():
     assert len(CORRUPTIONS) >= 15
 
 
+@pytest.mark.slow
 def test_validate_in_a_separate_process_prints_no_traceback(tmp_path):
     """The installed command, not the in-process one: stderr holds one line, exit code 2."""
     import subprocess

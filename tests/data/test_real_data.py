@@ -49,6 +49,7 @@ def test_import_keeps_every_recording(dos):
     assert info(dos)["samples"].sum() == sum(len(s) for s in dos.samples.values())
 
 
+@pytest.mark.slow
 def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
     """docs/datasets.md's biotacsp-dos.toml through `dataset import csv` is `dataset import biotacsp-dos`."""
     import re
@@ -73,6 +74,7 @@ def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
     assert "306 recordings in 306 trials" in out
 
 
+@pytest.mark.slow
 def test_holweg_on_real_slip_data_beats_chance(dos, tmp_path):
     """Balanced slip against touch on a real BioTac SP, grouped split: every recording on one side."""
     rows = evaluate(

@@ -67,6 +67,7 @@ def _window_level(samples: dict, ids, window: int = 50) -> np.ndarray:
     return np.concatenate(out)
 
 
+@pytest.mark.slow
 def test_same_seed_same_data_and_the_scale_sets_the_size(sim):
     rec, samples, _ = sim
     design = Design(sensors=("BioTacSP",))
@@ -483,6 +484,7 @@ def test_scale_must_be_positive():
         generate(scale=0.0)
 
 
+@pytest.mark.slow
 def test_written_dataset_keeps_trials_onsets_and_unlabelled_samples(tmp_path):
     """The format carries what the simulation writes: trial ids, hold-slip and unlabelled samples."""
     design = Design(sensors=("BioTacSP",), materials=("PVC",), slip_speeds=(25.0,))

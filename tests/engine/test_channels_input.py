@@ -64,6 +64,7 @@ def _runs(protocol, kinds=("univariate", "channels"), split="grouped"):
     ]
 
 
+@pytest.mark.slow
 def test_channels_see_what_the_reduction_throws_away(tmp_path):
     from slipbench.protocols.window_size import WindowSize
 
@@ -119,6 +120,7 @@ def test_channels_are_standardized_by_the_training_windows(tmp_path):
     assert job.train_x.shape[2] == 2 and abs(float(np.median(job.train_x))) < 0.5
 
 
+@pytest.mark.slow
 def test_a_cell_pooling_channel_counts_is_skipped_saying_so(tmp_path):
     from slipbench.protocols.cross_instance import CrossInstance
 
@@ -142,6 +144,7 @@ def test_what_cannot_run_is_refused_before_any_work():
         Run("wavelet-svm", "window-size", input="taxels")
 
 
+@pytest.mark.slow
 def test_evaluate_both_runs_each_input_a_detector_reads(tmp_path, cli):
     path = turning(tmp_path).path
     code, out, err = cli(
@@ -169,6 +172,7 @@ def test_evaluate_both_runs_each_input_a_detector_reads(tmp_path, cli):
     assert code == 2 and "no detector chosen reads the channels input" in err
 
 
+@pytest.mark.slow
 def test_streams_of_channels_time_the_turning_onsets(tmp_path):
     """Streaming reads the standardized channels too: contact held still, then turning, with
     per-sample labels; the channels detector finds the onsets the reduction hides."""

@@ -78,6 +78,7 @@ def test_labelling_by_samples_is_refused_before_any_work_without_labels(tmp_path
     assert len(check_dataset(read_dataset(path), [Run("holweg", "window-size")]).cells)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("labelled_side", ["train", "test"])
 def test_across_datasets_the_side_without_labels_is_skipped_with_the_reason(
     tmp_path, labelled_side
@@ -124,6 +125,7 @@ def test_sample_labels_never_fall_back_to_the_scenario(tmp_path):
 
 
 # ----------------------------------------------------------------------------- balancing
+@pytest.mark.slow
 def test_a_test_set_with_few_non_slip_windows_keeps_both_classes(tmp_path):
     """Trained on one dataset, tested on another whose 20 slip strata face 8 pressing windows:
     the equal share of slip (8 // 20) used to be 0, leaving a non-slip-only test set."""
@@ -146,6 +148,7 @@ def test_a_test_set_with_few_non_slip_windows_keeps_both_classes(tmp_path):
 
 
 # ----------------------------------------------------------------------------- did it learn
+@pytest.mark.slow
 def test_a_detector_at_chance_on_its_training_windows_is_flagged(tmp_path):
     from rendering import render_report
 
@@ -205,6 +208,7 @@ class HeldOutEnergy(_HeldOut):
         return (np.abs(x).mean(axis=1) > self.cut_).astype(float)
 
 
+@pytest.mark.slow
 def test_a_model_at_chance_on_its_validation_part_did_not_learn(tmp_path):
     """Fitting its own training windows is not learning: a detector that holds a validation
     part out is judged there too, and a learner is not flagged by it."""

@@ -174,6 +174,7 @@ def test_every_protocol_and_detector_runs_or_skips_with_a_reason(
         assert all(p in text for p in set(rows["protocol"])), fmt
 
 
+@pytest.mark.slow
 def test_one_class_data_is_tested_with_a_model_trained_elsewhere(tmp_path, cli):
     train, test = vibration(tmp_path, ("slip", "press"), seed=3), vibration(tmp_path, ("slip",))
     code, out, err = cli(
@@ -216,6 +217,7 @@ def test_one_class_data_is_tested_with_a_model_trained_elsewhere(tmp_path, cli):
     assert code == 2 and "--sensor-map" in err
 
 
+@pytest.mark.slow
 def test_a_band_at_0_hz_is_recorded_and_flagged(tmp_path):
     rows = evaluate(
         hundred_hz(tmp_path),

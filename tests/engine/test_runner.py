@@ -41,6 +41,7 @@ def _figures(rows: pd.DataFrame) -> pd.DataFrame:
     ].sort_index()
 
 
+@pytest.mark.slow
 def test_models_are_shared_between_protocols(index, tmp_path):
     runs = [Run(Holweg(), WindowSize()), Run(Holweg(), MaterialHoldout())]
     rows = evaluate(index, runs, ResultsStore(tmp_path), progress=False)
@@ -140,6 +141,7 @@ def test_time_limit_reports_timeout(index, tmp_path, monkeypatch):
     assert rows["reason"].str.contains("within 0.5 s").all()
 
 
+@pytest.mark.slow
 def test_missing_class_is_skipped_with_its_reason(small, tmp_path):
     rec = small.recordings
     no_neoprene_press = subset(

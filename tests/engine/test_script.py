@@ -35,6 +35,7 @@ def run_script(tmp_path, body: str) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_a_script_without_a_guard_runs_in_this_process(unit, tmp_path):
     done = run_script(tmp_path, CALL.format(data=str(unit), out=str(tmp_path / "o"), extra=""))
     assert done.returncode == 0, done.stderr
@@ -42,6 +43,7 @@ def test_a_script_without_a_guard_runs_in_this_process(unit, tmp_path):
     assert "Traceback" not in done.stderr and "workers expired" not in done.stderr
 
 
+@pytest.mark.slow
 def test_a_script_without_a_guard_asking_for_workers_is_refused_in_one_line(unit, tmp_path):
     call = CALL.format(data=str(unit), out=str(tmp_path / "o"), extra=", jobs=2")
     done = run_script(tmp_path, call)

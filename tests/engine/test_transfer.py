@@ -122,6 +122,7 @@ def test_a_map_that_cannot_be_followed_says_which_entry_and_why(item, message):
     assert message in str(err.value)
 
 
+@pytest.mark.slow
 def test_cli_type_only_map_runs_and_rows_and_report_name_both_datasets(tmp_path, cli):
     a = lab(tmp_path, "big", ("BioTacSP", "index"), 1000.0)
     b = lab(tmp_path, "small", ("BioTac", "ff"), 1.0, seed=1)
@@ -159,6 +160,7 @@ def test_cli_type_only_map_runs_and_rows_and_report_name_both_datasets(tmp_path,
 # ----------------------------------------------------------------------------- holdouts
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "protocol, column",
     [(MaterialHoldout(), "material"), (SpeedHoldout(), "speed_mm_s")],
@@ -183,6 +185,7 @@ def test_holdout_across_datasets_skips_pairs_that_are_one_model(tmp_path, protoc
     assert both["model_key"].nunique() == 2
 
 
+@pytest.mark.slow
 def test_holdout_within_one_dataset_runs_every_pair(tmp_path):
     a = lab(tmp_path, "a", ("BioTacSP", "ff"), 1.0, ("foam", "wood"), (10.0,), n=4)
     rows = evaluate(
@@ -237,6 +240,7 @@ def test_unit_statistics_come_from_the_training_side(tmp_path):
     assert CellData(signals, "datasets", 0).signals is signals
 
 
+@pytest.mark.slow
 def test_normalizing_by_unit_lets_a_threshold_cross_scales(tmp_path):
     a = lab(tmp_path, "big", ("BioTacSP", "ff"), 1000.0, n=4)
     b = lab(tmp_path, "small", ("BioTacSP", "ff"), 1.0, n=4, seed=1)
@@ -257,6 +261,7 @@ def test_normalizing_by_unit_lets_a_threshold_cross_scales(tmp_path):
     assert unit["accuracy"].iloc[0] > 0.9
 
 
+@pytest.mark.slow
 def test_streaming_cells_stream_the_normalized_signal(tmp_path):
     a = lab(tmp_path, "big", ("BioTacSP", "ff"), 1000.0, labelled=True)
     b = lab(tmp_path, "small", ("BioTacSP", "ff"), 1.0, labelled=True, seed=1)
@@ -283,6 +288,7 @@ def test_unknown_normalization_is_refused(tmp_path, cli):
 # ----------------------------------------------------------------------------- one class
 
 
+@pytest.mark.slow
 def test_a_one_class_test_set_shows_what_a_constant_slip_detector_scores(tmp_path):
     a = lab(tmp_path, "a", ("BioTacSP", "ff"), 1.0)
     b = lab(tmp_path, "b", ("BioTacSP", "ff"), 1.0, classes=("slip",), seed=1)

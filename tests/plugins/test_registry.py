@@ -53,6 +53,7 @@ def test_missing_plugin_folder():
         add_plugin_folder("/nonexistent/plugins")
 
 
+@pytest.mark.slow
 def test_entry_point_plugin_from_an_installed_distribution(tmp_path):
     """Build and install a real distribution exposing `slipbench.detectors` into a target folder."""
     src = tmp_path / "src"

@@ -202,6 +202,7 @@ def check_every_format(names: list[str], tmp_path) -> None:
     check_markdown(comment_markdown(compare(base, cand), max_rows=100))
 
 
+@pytest.mark.slow
 def test_hostile_names_through_every_format(tmp_path):
     check_every_format(HOSTILE, tmp_path)
 

@@ -35,6 +35,7 @@ def test_three_seeds_give_a_row_per_cell_and_seed():
     assert set(rows["seed"]) == {0, 1, 2}
 
 
+@pytest.mark.slow
 def test_the_findings_say_when_retraining_noise_is_outside_their_intervals():
     from resultgen import fake_rows
 

@@ -155,6 +155,7 @@ def test_report_command_writes_html(tmp_path, cli):
     assert len(outline.images) == 1  # the critical-difference diagram
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed")
 def test_page_opens_in_headless_chromium(tmp_path):
     text, _ = _page(tmp_path)

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pandas as pd
+import pytest
 from resultgen import all_rows, fake_rows
 
 from slipbench.report.document import (
@@ -32,6 +33,7 @@ def _own(table: Table) -> bool:
     return table.subject.startswith("Detector ") or "averaged across fingers (" in table.caption
 
 
+@pytest.mark.slow
 def test_summary_leaves_each_detectors_tables_to_the_appendix():
     blocks = build_report(_rows(), intervals=True, paper=True)
     summary, appendix = split_appendix(blocks, "appendix.md")
@@ -55,6 +57,7 @@ def test_summary_leaves_each_detectors_tables_to_the_appendix():
     assert len(render(blocks, "md")) < len(text) + len(rest)
 
 
+@pytest.mark.slow
 def test_report_command_writes_summary_and_appendix(tmp_path, cli):
     results = tmp_path / "results.parquet"
     _rows().to_parquet(results)

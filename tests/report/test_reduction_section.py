@@ -69,6 +69,7 @@ def test_per_cell_tables_go_to_the_appendix(report):
     assert {t.label for t in cells} >= {"tab:reduction-Nano17", "tab:reduction-BioTacSP"}
 
 
+@pytest.mark.slow
 def test_the_figure_shows_each_sensor_with_a_zero_line(report, tmp_path):
     _, blocks = report
     (spec,) = [b for b in blocks if isinstance(b, FigureSpec) and b.stem == "reduction"]
@@ -95,6 +96,7 @@ def test_every_format_renders_the_section(report):
     assert f">{REDUCTION_TITLE}</h2>" in page and 'id="fig-reduction"' in page
 
 
+@pytest.mark.slow
 def test_no_section_without_both_inputs():
     blocks = build_report(all_rows(), with_figures=True)
     assert not any(isinstance(b, Heading) and b.text == REDUCTION_TITLE for b in blocks)

@@ -24,6 +24,7 @@ from slipbench.report.paper import paper_frame
 from slipbench.report.tables import LOW_NOTE
 
 
+@pytest.mark.slow
 def test_markdown_layout_of_every_table():
     check_golden("report.md", render_report(all_rows(), "md", paper=True, intervals=True))
 
@@ -32,6 +33,7 @@ def test_latex_layout_of_every_table():
     check_golden("report.tex", render_report(all_rows(), "latex", standalone=True))
 
 
+@pytest.mark.slow
 def test_latex_structure():
     text = render_report(all_rows(), "latex", paper=True, intervals=True, standalone=True)
     assert (

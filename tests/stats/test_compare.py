@@ -274,6 +274,7 @@ def _simulated_results(root, n_cells: int, shift: float) -> None:
         pd.DataFrame(rows).to_parquet(root / name / "results.parquet")
 
 
+@pytest.mark.slow
 def test_the_unpaired_fallback_is_no_more_liberal_than_the_paired_path(tmp_path):
     _simulated_results(tmp_path, 40, shift=0.6)
     paired = compare(tmp_path / "base", tmp_path / "cand").cells

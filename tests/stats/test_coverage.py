@@ -187,6 +187,7 @@ def test_intervals_cover_at_10_or_more_recordings_per_class():
     _check(table)
 
 
+@pytest.mark.slow
 def test_intervals_cover_with_balancing_strata():
     _check(study(N_DATASETS, sizes=SIZES if N_DATASETS >= FULL else (10, 20), stratified=True))
 

@@ -421,6 +421,7 @@ def test_seeded_interval_scales_with_its_signs():
     assert half.se == pytest.approx(one.se / 2, rel=1e-9) and half.se > 0
 
 
+@pytest.mark.slow
 def test_two_level_variance_counts_the_seed_by_cluster_term_once():
     """Crossed seeds and clusters: a change of two sides of three seeds each, every seed with its
     own error on every cluster (SD 1) and a small effect of its own (SD 0.3). The standard

@@ -300,6 +300,7 @@ def test_a_cached_rerun_works_on_a_read_only_folder_and_a_new_one_exits_5(small_
 
 
 # ----------------------------------------------------------------------------- two writers, the lock
+@pytest.mark.slow
 def test_two_writers_on_one_folder_lose_no_row(tmp_path):
     folder, n = tmp_path / "out", 60
     procs = [writer(folder, n, every=1, prefix=p) for p in ("a", "b")]

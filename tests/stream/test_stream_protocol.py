@@ -222,6 +222,7 @@ def _worse(src, dst, **changes):
     return dst
 
 
+@pytest.mark.slow
 def test_compare_flags_a_longer_delay_or_more_false_alarms(streamed, tmp_path):
     _, out = streamed
     same = compare(out, out)
@@ -301,6 +302,7 @@ def _old(rows: pd.DataFrame, compute_ms: float) -> pd.DataFrame:
     return old
 
 
+@pytest.mark.slow
 def test_rows_with_machine_timed_delays_are_not_judged_on_delays(streamed, tmp_path):
     """The issue's case: a slower machine added 8.2 ms to every delay of the old rows."""
     _, out = streamed

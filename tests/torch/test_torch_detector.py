@@ -68,6 +68,7 @@ def test_learns_saves_without_pickle_and_reloads_the_same_scores(tmp_path):
     )
 
 
+@pytest.mark.slow
 def test_same_seed_same_model_and_the_callers_rng_untouched():
     x, y = toy_windows(n=80, length=20, seed=0)
     torch.manual_seed(123)
@@ -101,6 +102,7 @@ def test_a_build_that_is_not_a_module_is_refused():
         Broken().fit(x, y)
 
 
+@pytest.mark.slow
 def test_windows_of_channels_reach_the_network_as_its_input_channels():
     built = []
 
@@ -156,6 +158,7 @@ def test_auto_is_the_cpu_at_no_cost_without_cuda(monkeypatch):
     assert (choices["device"], choices["device_why"]) == ("cpu", "auto: no CUDA device")
 
 
+@pytest.mark.slow
 def test_auto_takes_the_device_measured_faster_and_caches_it(fake_cuda):
     from slipbench.torch import device
 
@@ -188,6 +191,7 @@ def test_draws_pass_every_window_once_before_any_twice():
     assert sorted(taken[:10]) == sorted(taken[10:]) == list(range(10))
 
 
+@pytest.mark.slow
 def test_an_epoch_trains_windows_per_epoch_windows_whatever_the_set(monkeypatch):
     import slipbench.torch.detector as module
 
