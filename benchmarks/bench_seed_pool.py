@@ -7,19 +7,20 @@ and two equal detectors (a null: the same model, seeds drawn apart). A window is
 probability ``expit(a_t + c + u_k,s + e_k,s,t)``: ``a_t ~ N(1.4, 1)`` the trial's difficulty,
 ``c`` the cell's (window sizes: -0.3 to +0.3), ``u_k,s ~ N(0, SD_SEED^2)`` the retraining luck of
 side ``k``'s seed ``s``, shared by the cells (one split, one initialisation per run), and
-``e ~ N(0, SD_BY_TRIAL^2)`` the seed's luck on one trial. In the "one noisy cell" scenario the
-last cell is also moved by a luck of its own, ``N(0, (NOISY * SD_SEED)^2)`` per seed (a
-cross-instance cell that retraining moves more than the rest). Each cell's change in accuracy
-takes its simultaneous interval (Bonferroni over the cells, as ``compare`` does) from
+``e ~ N(0, SD_BY_TRIAL^2)`` the seed's luck on one trial. In the "one noisy cell" scenario the last
+cell is also moved by a luck of its own, ``N(0, (NOISY * SD_SEED)^2)`` per seed (a cross-instance
+cell that retraining moves more than the rest). Each cell's change in accuracy takes its
+simultaneous interval (Bonferroni over the cells, as ``compare`` does) from
 :func:`slipbench.stats.metrics.over_seeds`: with each cell's own seeds, with the seed variance
 pooled over the protocol's cells (:func:`slipbench.stats.pooled.protocol_seed_pool`) standing for
-every cell's (``pool only``, the rule before issue 35's noisy cell, kept here to compare), and
-with the pool never below the cell's own spread (the rule slipbench uses). Counted per design:
-the median degrees of freedom, standard error and width (points), the mean width (a few
-very wide cells show there), and the share of protocols
-where some cell's interval excludes 0 (a false alarm; target <= 5 %).
+every cell's (``pool only``, the rule before issue 35's noisy cell, kept here to compare), and with
+the pool standing for a side's spread unless the side's own exceeds it beyond the F ratio's
+quantile ``q`` (slipbench's rule, at its ``NOISIER_QUANTILE``). Counted per design: the median
+degrees of freedom, standard error and width (points), the mean width (a few very wide cells show
+there), and the share of protocols where some cell's interval excludes 0 (a false alarm; target <=
+5 %).
 
-    nice python benchmarks/bench_seed_pool.py --reps 40 --out benchmarks/results/seed_pool.md
+    nice python benchmarks/bench_seed_pool.py --reps 100 --out benchmarks/results/seed_pool.md
 """
 
 from __future__ import annotations

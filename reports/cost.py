@@ -90,8 +90,8 @@ def cost_section(rows: pd.DataFrame, jobs: int) -> str:
     if scale:
         overhead = total * jobs / models["seconds"].sum()
         detectors = per.index.get_level_values("detector").nunique()
-        splits = " and ".join(per.index.unique(level="split")) + " split"
-        splits += "s" if " and " in splits else ""
+        names = list(per.index.unique(level="split"))
+        splits = " and ".join(names) + (" splits" if len(names) > 1 else " split")
         cluster = makespan(list(models["seconds"] * overhead / scale), WORKERS)
         text += [
             f"At scale {scale:g} the whole run ({detectors} detectors, every protocol, {splits}) took "
