@@ -3,7 +3,7 @@ lockstep against one after another, and the whole paper (``evaluate --detector a
 all``) under a time cap; writes the results as JSON and renders docs/performance.md from them.
 
     python benchmarks/gpu_check.py --out gpu_check.json            # measure (under 8 min)
-    python benchmarks/gpu_check.py --render gpu_check.json docs/performance.md
+    python benchmarks/gpu_check.py --render A.json B.json docs/performance.md  # a section each
 
 Devices this machine lacks are reported absent, not failed. Every speed is wall-clock, best of
 the repeats, on windows of random data; what else ran on the machine is not known to the script:
@@ -48,13 +48,22 @@ def _seconds(call: Callable[[], object], repeats: int = 2) -> float:
 
 
 def _devices() -> dict[str, str]:
-    """Each device and whether it is here ("present") or why not."""
+    """Each device and whether it is here ("present") or why not; "auto" (the default, which
+    chooses) is always present, so that every row can set it against "cpu"."""
     try:
         import torch
     except ImportError:
-        return {"cpu": "present", "cuda": "absent: torch is not installed"}
+        return {"cpu": "present", "cuda": "absent: torch is not installed", "auto": "present"}
     cuda = "present" if torch.cuda.is_available() else "absent: torch sees no CUDA device"
-    return {"cpu": "present", "cuda": cuda}
+    return {"cpu": "present", "cuda": cuda, "auto": "present"}
+
+
+def _gpu_name(devices: dict[str, str]) -> str:
+    if devices["cuda"] != "present":
+        return ""
+    import torch
+
+    return str(torch.cuda.get_device_name())
 
 
 def lstm_rows(scale: float, devices: dict[str, str]) -> list[dict]:
@@ -88,7 +97,8 @@ def _lstm_fit(cls: type, data: tuple, device: str, batch: int, threads: int) -> 
     finally:
         numba.set_num_threads(default)
     samples = len(x) * (1 - det.validation_fraction) * x.shape[1] * 2
-    return {**row, "windows": len(x), "seconds": seconds, "M samples/s": samples / seconds / 1e6}
+    row = {**row, "windows": len(x), "seconds": seconds, "M samples/s": samples / seconds / 1e6}
+    return {**row, "ran on": det.device_, "why": det.device_reason_}
 
 
 def tcn_rows(scale: float, devices: dict[str, str]) -> list[dict]:
@@ -96,7 +106,7 @@ def tcn_rows(scale: float, devices: dict[str, str]) -> list[dict]:
     x, y = _data(int(20000 * scale), 200, 0.3)
     rows = []
     for device, here in devices.items():
-        n = len(x) if device == "cuda" else len(x) // 5
+        n = len(x) if device != "cpu" else len(x) // 5
         rows.append(_tcn_fit(device, x[:n], y[:n]) if here == "present" else {"device": here})
         rows[-1] = {"model": "tcn", "setting": "fit 3 epochs", **rows[-1]}
     return rows
@@ -115,7 +125,13 @@ def _tcn_fit(device: str, x: np.ndarray, y: np.ndarray) -> dict:
         "seconds": fit,
         "train windows/s": n * 3 / fit,
         "infer windows/s": n / infer,
+        "ran on": det.device_,
+        "why": det.device_why_,
     }
+
+
+#: models trained together on a GPU: a batch-1 step is launch-bound, so throughput grows with them
+LOCKSTEP_MODELS = (32, 512, 4096, 16384)
 
 
 def lockstep_rows(devices: dict[str, str]) -> list[dict]:
@@ -136,7 +152,7 @@ def lockstep_rows(devices: dict[str, str]) -> list[dict]:
                 "speed-up": fig["slipbench"] / fig["reference"],
             }
         )
-    for n_models in (32, 512):
+    for n_models in LOCKSTEP_MODELS:
         row = {"model": f"lstm, {n_models} models in lockstep", "setting": "batch 1"}
         if devices["cuda"] != "present":
             rows.append({**row, "device": devices["cuda"]})
@@ -168,43 +184,43 @@ def paper_row(seconds: float, jobs: int) -> dict:
         command = ["--detector", "all", "--protocol", "all", "--jobs", str(jobs), "--out", out]
         start = time.perf_counter()
         try:
-            done = subprocess.run(
+            done = subprocess.run(  # run outside the checkout: its slipbench/ lacks detectors/
                 [sys.executable, "-m", "slipbench", "evaluate", *command],
                 capture_output=True,
                 timeout=seconds,
+                cwd=out,
             )
             rc = done.returncode
         except subprocess.TimeoutExpired:
             rc = None
-        cells = _rows_written(Path(out))
-    return {
-        **row,
-        "device": "auto",
-        "rc": rc,
-        "seconds": time.perf_counter() - start,
-        "cells": cells,
-    }
+        seconds_run = time.perf_counter() - start
+        cells = _cells_written(Path(out))
+    return {**row, "device": "auto", "rc": rc, "seconds": seconds_run, "cells": cells}
 
 
-def _rows_written(out: Path) -> int:
+def _cells_written(out: Path) -> str:
+    """Cells per detector, their median training seconds and the devices that trained them."""
     import pandas as pd
 
-    files = list(out.rglob("*.parquet"))
-    return int(sum(len(pd.read_parquet(f)) for f in files if "result" in f.name))
+    files = [f for f in out.rglob("*.parquet") if "result" in f.name]
+    if not files:
+        return "0"
+    rows = pd.concat([pd.read_parquet(f) for f in files], ignore_index=True)
+    ran = rows["fitted"].astype(str).str.extract(r'"device": "(\w+)"')[0].fillna("cpu")
+    parts = [
+        f"{name} {len(g)} ({g['train_s'].median():.2g} s, {'/'.join(sorted(set(ran[g.index])))})"
+        for name, g in rows.groupby("detector")
+    ]
+    return f"{len(rows)}: " + ", ".join(parts)
 
 
-def render(results: dict) -> str:
-    """docs/performance.md from a gpu_check JSON file."""
+def render(runs: list[dict]) -> str:
+    """docs/performance.md from gpu_check JSON files, one section each."""
     lines = [
         "# Performance",
         "",
-        "Generated by `python benchmarks/gpu_check.py --render RESULTS docs/performance.md` from",
-        f"`{results['file']}`, written by `{results['command']}`; do not edit by hand. "
-        f"Load average (1, 5, 15 min) at start {_loads(results['load average at start'])}, at "
-        f"end {_loads(results['load average at end'])}. Machine: {results['machine']}; "
-        f"{results['cpus']} CPUs; numba threads {results['numba threads']}; devices: "
-        + ", ".join(f"{k} {v}" for k, v in results["devices"].items())
-        + ".",
+        "Generated by `python benchmarks/gpu_check.py --render RESULTS... docs/performance.md`",
+        "from the committed runs below; do not edit by hand.",
         "",
         "On a lent GPU machine (no package index): carry the project as wheels, as",
         "`shared/gpu/run.sh` does, then in one call run `python benchmarks/gpu_check.py --out",
@@ -212,23 +228,28 @@ def render(results: dict) -> str:
         "the JSON under `benchmarks/results/` and render this page from it. Rows whose device",
         "reads `absent` were not measured; `lstm` batch 1 on the CPU runs with numba's default",
         "threads and with one: the two should match (batch-1 training launches no threads);",
-        "threads 0 is numba's default.",
+        "threads 0 is numba's default. `auto` rows say where the default trained (`ran on`) and",
+        "why; their figures compare with the row of that device at the same windows.",
         "",
     ]
-    for section in ("lstm", "lockstep", "tcn", "paper"):
-        rows = results[section]
-        keys = list(dict.fromkeys(k for r in rows for k in r))
-        lines += [f"## {section}", "", "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
-        lines += ["| " + " | ".join(_cell(r.get(k, "")) for k in keys) + " |" for r in rows]
-        lines.append("")
+    for results in runs:
+        lines += _run_section(results)
     lines += [
         "## lockstep in the engine",
         "",
         '--8<-- "benchmarks/results/lockstep_engine.md"',
         "",
+        "## Many models in lockstep on a GPU",
+        "",
+        '--8<-- "benchmarks/results/lockstep_h200.md"',
+        "",
         "## The whole paper on two cores",
         "",
         '--8<-- "benchmarks/results/whole_paper_2cores.md"',
+        "",
+        "## The whole paper on a 16-core GPU machine",
+        "",
+        '--8<-- "benchmarks/results/whole_paper_h200.md"',
         "",
         "## What a run will cost",
         "",
@@ -242,6 +263,28 @@ def render(results: dict) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def _run_section(results: dict) -> list[str]:
+    lines = [
+        f"## `{results['file']}`",
+        "",
+        f"Written by `{results['command']}`. Load average (1, 5, 15 min) at start "
+        f"{_loads(results['load average at start'])}, at end "
+        f"{_loads(results['load average at end'])}. Machine: {results['machine']}; "
+        f"{results['cpus']} CPUs; numba threads {results['numba threads']}; devices: "
+        + ", ".join(f"{k} {v}" for k, v in results["devices"].items())
+        + (f"; GPU {results['gpu']}" if results.get("gpu") else "")
+        + ".",
+        "",
+    ]
+    for section in ("lstm", "lockstep", "tcn", "paper"):
+        rows = results[section]
+        keys = list(dict.fromkeys(k for r in rows for k in r))
+        lines += [f"### {section}", "", "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+        lines += ["| " + " | ".join(_cell(r.get(k, "")) for k in keys) + " |" for r in rows]
+        lines.append("")
+    return lines
 
 
 def _loads(loads: list[float]) -> str:
@@ -258,11 +301,12 @@ def main() -> None:
     parser.add_argument("--scale", type=float, default=1.0, help="windows per figure, relative")
     parser.add_argument("--paper-seconds", type=float, default=240.0, help="cap on the paper run")
     parser.add_argument("--jobs", type=int, default=16)
-    parser.add_argument("--render", nargs=2, type=Path, metavar=("RESULTS", "DOC"))
+    parser.add_argument("--render", nargs="+", type=Path, metavar="RESULTS... DOC")
     args = parser.parse_args()
     if args.render:
-        results = json.loads(args.render[0].read_text())
-        args.render[1].write_text(render({**results, "file": args.render[0].name}) + "\n")
+        *files, doc = args.render
+        runs = [{**json.loads(f.read_text()), "file": f.name} for f in files]
+        doc.write_text(render(runs) + "\n")
         return
     devices = _devices()
     results = {
@@ -272,6 +316,7 @@ def main() -> None:
         "cpus": len(os.sched_getaffinity(0)),
         "numba threads": numba.get_num_threads(),
         "devices": devices,
+        "gpu": _gpu_name(devices),
     }
     for name, rows in (
         ("lstm", lambda: lstm_rows(args.scale, devices)),
