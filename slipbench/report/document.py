@@ -99,7 +99,9 @@ class ReportOptions:
     ``leaderboard_only``: the header and the leaderboard only; ``with_figures``: the
     :class:`~slipbench.report.plots.FigureSpec` blocks; ``benchmark``: the benchmark file the
     rows come from, named in the header; ``predictions``: results folders holding the cells'
-    test predictions (intervals pooled over seeds and fingers by one joint bootstrap).
+    test predictions (intervals pooled over seeds and fingers by one joint bootstrap);
+    ``superseded``: rows left out because their cell and seed was run again later, named in the
+    header (:func:`slipbench.store.results.latest_runs`).
 
     Report functions take these as keywords (``build_report(rows, intervals=True)``) and build
     one object of them, as a command does of its options."""
@@ -111,6 +113,7 @@ class ReportOptions:
     with_figures: bool = False
     benchmark: str = ""
     predictions: Sequence[str | os.PathLike] = ()
+    superseded: int = 0
 
 
 def flatten(blocks: list) -> list:
@@ -426,7 +429,7 @@ def build_report(
     blocks: list = [
         Heading("slipbench report", 1),
         Heading("What this report stands on", 2),
-        *header_tables(rows, metric, order, o.benchmark),
+        *header_tables(rows, metric, order, o.benchmark, o.superseded),
         Heading("Leaderboard", 2),
     ]
     side = (

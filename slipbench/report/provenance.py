@@ -318,10 +318,11 @@ def header_tables(
     metric: str = "accuracy",
     protocols: list[str] | None = None,
     benchmark: str = "",
+    superseded: int = 0,
 ) -> list[Table]:
     """The report's opening tables: the run (data, split, labels, seeds, cells, smallest test
-    set), the detectors with their parameters, and the protocols (in the order ``protocols``,
-    default as the rows first name them) with their options."""
+    set, ``superseded`` rows left out), the detectors with their parameters, and the protocols
+    (in the order ``protocols``, default as the rows first name them) with their options."""
     low = low_n(rows) & rows["status"].eq("ok")
     run = [
         *_data_lines(rows),
@@ -339,6 +340,18 @@ def header_tables(
         ("Labels", "; ".join(LABEL_TEXTS.get(s, s) for s in _values(rows, "labels")) or "unknown"),
         ("Seeds", ", ".join(str(int(s)) for s in _values(rows, "seed")) or "unknown"),
         ("Cells", _counts(rows)),
+        *(
+            [
+                (
+                    "Cells run again",
+                    f"{superseded} earlier {'row' if superseded == 1 else 'rows'} of a cell and "
+                    "seed run again later (other code into the same folder) left out: the latest "
+                    "run of each is reported",
+                )
+            ]
+            if superseded
+            else []
+        ),
         ("Smallest test set", _smallest(rows)),
         (
             f"Few test trials ({LOW_MARK})",

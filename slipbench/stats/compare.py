@@ -6,7 +6,9 @@ hold the same detectors (comparing one detector's two versions); when each side 
 detector, they are compared with each other (comparing two detectors). Not on the seed: a side
 may hold several seeds of a cell (``evaluate --repeats``), and the sides' seeds may differ. Two
 result sets from different datasets (``dataset_fingerprint``) are refused before anything is
-compared, and so is a side that holds a row twice (the same key, or the same cell and seed).
+compared, and so is a side that holds a row twice (the same key, or the same cell and seed
+under other settings); a cell and seed run again later with other code counts once, the latest
+run (:func:`slipbench.store.results.latest_runs`), and the notes say how many were left out.
 
 Seeds. A cell with one seed per side, the same on both, is compared window by window (below).
 A cell with several seeds on a side, or different seeds, gets the two-level bootstrap over seeds
@@ -107,6 +109,7 @@ from slipbench.stats.pooled import (
 )
 from slipbench.store.results import (
     check_unique_keys,
+    latest_runs,
     read_predictions,
     read_results,
     results_folder,
@@ -618,6 +621,13 @@ def _read_sides(
         check_unique_keys(base, f"BASE {base_path}"),
         check_unique_keys(cand, f"CANDIDATE {candidate_path}"),
     )
+    (base, b_again), (cand, c_again) = latest_runs(base), latest_runs(cand)
+    notes += [
+        f"{side} holds {n} earlier {'row' if n == 1 else 'rows'} of a cell and seed run again "
+        "later (other code into the same folder): left out, the latest run of each compared."
+        for side, n in (("BASE", b_again), ("CANDIDATE", c_again))
+        if n
+    ]
     base, cand, apart, differ = _kept_apart(base, cand)
     on = [*_pairing(base, cand), *apart]
     base, cand = _unique(base, [*on, "seed"], "BASE"), _unique(cand, [*on, "seed"], "CANDIDATE")

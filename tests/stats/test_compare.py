@@ -25,7 +25,7 @@ from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, comment_markdown, 
 from slipbench.stats.compare import CELL_ALPHA, compare, family_level
 from slipbench.stats.gate import Gate
 from slipbench.stats.metrics import classification_figures, paired_comparison
-from slipbench.store.results import check_unique_keys
+from slipbench.store.results import check_unique_keys, latest_runs
 
 NULL_RUNS = int(
     os.environ.get("SLIPBENCH_NULL_RUNS", "20")
@@ -178,6 +178,27 @@ def test_repeated_keys_are_refused(tmp_path, cli):
     with pytest.raises(DataError, match="RESULTS: 64 keys appear more than once"):
         check_unique_keys(pd.concat([rows, rows]), "RESULTS")  # `report A A`
     assert check_unique_keys(rows, "RESULTS") is rows
+
+
+def test_a_cell_run_again_with_other_code_counts_once_the_latest(tmp_path, cli):
+    """A folder that kept cells of older code beside their rerun (the key differs, nothing else):
+    compare and report take the latest run of each and say how many they left out; an older
+    row of another seed is a result of its own."""
+    rows = fake_rows("speed-holdout").assign(finished_at="2026-11-01T10:00:00+00:00")
+    older = rows.iloc[:5].assign(
+        key=lambda f: f["key"] + "-old", finished_at="2026-10-01T10:00:00+00:00", accuracy=0.123
+    )
+    other_seed = older.iloc[:1].assign(key="other-seed", seed=1)
+    _write(tmp_path / "kept", pd.concat([older, rows, other_seed]))
+    _write(tmp_path / "clean", pd.concat([rows, other_seed]))
+    assert latest_runs(pd.concat([older, rows, other_seed]))[1] == 5
+    code, out, _ = cli(["compare", str(tmp_path / "clean"), str(tmp_path / "kept")])
+    assert code == 0 and "all 64 paired cells are identical" in out  # the clean side's rows
+    assert "CANDIDATE holds 5 earlier rows of a cell and seed run again later" in out
+    code, out, _ = cli(["report", str(tmp_path / "kept")])
+    assert code == 0 and "12.3" not in out
+    assert re.search(r"Cells run again +\| 5 earlier rows of a cell and seed run again later", out)
+    assert re.search(r"\| Cells +\| 65: 65 ok", out)
 
 
 @pytest.mark.parametrize("status", ["failed", "timeout", "skipped"])

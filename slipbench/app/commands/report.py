@@ -91,7 +91,12 @@ def report(**options) -> None:
     import pandas as pd
 
     from slipbench.report.document import build_report, render, split_appendix, write_figures
-    from slipbench.store.results import check_unique_keys, read_results, results_folder
+    from slipbench.store.results import (
+        check_unique_keys,
+        latest_runs,
+        read_results,
+        results_folder,
+    )
 
     if o.appendix is not None and o.fmt == "html":
         raise click.BadParameter(
@@ -103,12 +108,15 @@ def report(**options) -> None:
             "the appendix needs a file of its own, not --out's", param_hint="--appendix"
         )
     add_plugin_folders(o.plugins)
-    rows = check_unique_keys(
-        pd.concat([read_results(p) for p in o.results], ignore_index=True),
-        " + ".join(map(str, o.results)),
+    rows, superseded = latest_runs(
+        check_unique_keys(
+            pd.concat([read_results(p) for p in o.results], ignore_index=True),
+            " + ".join(map(str, o.results)),
+        )
     )
     blocks = build_report(
         rows,
+        superseded=superseded,
         metric=o.metric,
         intervals=o.intervals,
         paper=o.paper,
