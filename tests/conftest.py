@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 
 import pytest
 
@@ -31,6 +32,16 @@ def _isolated_cache(tmp_path_factory):
     mp.setenv("SLIPBENCH_CACHE", str(tmp_path_factory.mktemp("cache")))
     yield
     mp.undo()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _ctrl_c_handled():
+    """Python's Ctrl-C handler, as an interactive shell gives it: a suite started in the
+    background of a script (``pytest &``) inherits SIGINT ignored, and the tests of Ctrl-C (an
+    interrupt in this process, a signal to a child, which inherits the ignoring) would time out."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
 
 
 def _registries_restored():
