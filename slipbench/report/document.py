@@ -101,7 +101,7 @@ class ReportOptions:
     rows come from, named in the header; ``predictions``: results folders holding the cells'
     test predictions (intervals pooled over seeds and fingers by one joint bootstrap);
     ``superseded``: rows left out because their cell and seed was run again later, named in the
-    header (:func:`slipbench.store.results.latest_runs`).
+    header (:func:`slipbench.stats.factors.latest_runs`).
 
     Report functions take these as keywords (``build_report(rows, intervals=True)``) and build
     one object of them, as a command does of its options."""

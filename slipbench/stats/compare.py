@@ -8,7 +8,7 @@ may hold several seeds of a cell (``evaluate --repeats``), and the sides' seeds 
 result sets from different datasets (``dataset_fingerprint``) are refused before anything is
 compared, and so is a side that holds a row twice (the same key, or the same cell and seed
 under other settings); a cell and seed run again later with other code counts once, the latest
-run (:func:`slipbench.store.results.latest_runs`), and the notes say how many were left out.
+run (:func:`slipbench.stats.factors.latest_runs`), and the notes say how many were left out.
 
 Seeds. A cell with one seed per side, the same on both, is compared window by window (below).
 A cell with several seeds on a side, or different seeds, gets the two-level bootstrap over seeds
@@ -85,6 +85,7 @@ from slipbench.stats.factors import (
     SETTINGS,
     differing_settings,
     factor_values,
+    latest_runs,
     named_entrants,
     setting_name,
 )
@@ -109,7 +110,6 @@ from slipbench.stats.pooled import (
 )
 from slipbench.store.results import (
     check_unique_keys,
-    latest_runs,
     read_predictions,
     read_results,
     results_folder,

@@ -25,6 +25,7 @@ import json
 from collections.abc import Iterable
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 SEED, ENTRANT, SETTING, CELL, UNRECORDED = "seed", "entrant", "setting", "cell", "unrecorded"
@@ -110,6 +111,21 @@ def factor_values(rows: pd.DataFrame, column: str) -> pd.Series:
         return str(v)
 
     return col.map(text).astype(object)
+
+
+def latest_runs(rows: pd.DataFrame) -> tuple[pd.DataFrame, int]:
+    """The rows without those of a cell and seed that was run again later (by ``finished_at``),
+    and how many were left out. Rows alike in every recorded key field and setting differ in
+    what rows do not record, the code: a folder that kept an older run beside its rerun must not
+    count both, or average them, as two results."""
+    if "finished_at" not in rows or "seed" not in rows:
+        return rows, 0
+    recorded = [*_columns(SEED), *ENTRANTS, *SETTINGS, *CELLS]
+    same = pd.DataFrame({c: factor_values(rows, c).to_numpy() for c in recorded if c in rows})
+    order = np.argsort(rows["finished_at"].fillna("").astype(str).to_numpy(), kind="stable")
+    earlier = np.zeros(len(rows), bool)
+    earlier[order] = same.iloc[order].duplicated(keep="last").to_numpy()
+    return rows[~earlier], int(earlier.sum())
 
 
 def _differ(rows: pd.DataFrame, column: str, within: list[pd.Series]) -> bool:

@@ -587,38 +587,6 @@ def check_unique_keys(rows: pd.DataFrame, source: str) -> pd.DataFrame:
     return rows
 
 
-#: what a row's key hashes besides the code that computed it: two rows alike in all of these are
-#: one cell and seed computed twice (the code changed between two runs into one folder)
-RUN_AGAIN = (
-    "dataset_fingerprint",
-    "train_dataset_fingerprint",
-    "test_dataset_fingerprint",
-    "protocol",
-    "protocol_params",
-    "detector",
-    "detector_params",
-    "split",
-    "seed",
-    "labels",
-    "normalize",
-    "input",
-    "cell",
-)
-
-
-def latest_runs(rows: pd.DataFrame) -> tuple[pd.DataFrame, int]:
-    """The rows without those of a cell and seed that was run again later (by ``finished_at``),
-    and how many were left out: a folder that kept cells of an older code version beside their
-    rerun must not count both, or average them, as two results."""
-    on = [c for c in RUN_AGAIN if c in rows]
-    if "finished_at" not in rows or "seed" not in on:
-        return rows, 0
-    by_position = rows.set_axis(pd.RangeIndex(len(rows)))  # a concatenation repeats labels
-    newest_last = by_position.sort_values("finished_at", kind="stable", na_position="first")
-    earlier = newest_last.duplicated(on, keep="last").sort_index().to_numpy()
-    return rows[~earlier], int(earlier.sum())
-
-
 def cells_failed(rows: pd.DataFrame, where: str = "") -> CellsFailed | None:
     """The CellsFailed error (exit 4) for rows whose status is neither ok nor skipped, or None.
 

@@ -23,9 +23,10 @@ from slipbench.app.cli import main
 from slipbench.errors import EXIT_UNDECIDED, DataError
 from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, comment_markdown, to_json
 from slipbench.stats.compare import CELL_ALPHA, compare, family_level
+from slipbench.stats.factors import latest_runs
 from slipbench.stats.gate import Gate
 from slipbench.stats.metrics import classification_figures, paired_comparison
-from slipbench.store.results import check_unique_keys, latest_runs
+from slipbench.store.results import check_unique_keys
 
 NULL_RUNS = int(
     os.environ.get("SLIPBENCH_NULL_RUNS", "20")

@@ -91,12 +91,8 @@ def report(**options) -> None:
     import pandas as pd
 
     from slipbench.report.document import build_report, render, split_appendix, write_figures
-    from slipbench.store.results import (
-        check_unique_keys,
-        latest_runs,
-        read_results,
-        results_folder,
-    )
+    from slipbench.stats.factors import latest_runs
+    from slipbench.store.results import check_unique_keys, read_results, results_folder
 
     if o.appendix is not None and o.fmt == "html":
         raise click.BadParameter(
