@@ -58,6 +58,10 @@ def _devices() -> dict[str, str]:
     return {"cpu": "present", "cuda": cuda, "auto": "present"}
 
 
+def _named(arg: str, out: Path | None) -> str:
+    return out.name if out is not None and arg == str(out) else arg
+
+
 def _gpu_name(devices: dict[str, str]) -> str:
     if devices["cuda"] != "present":
         return ""
@@ -310,7 +314,10 @@ def main() -> None:
         return
     devices = _devices()
     results = {
-        "command": " ".join(["python benchmarks/gpu_check.py", *sys.argv[1:]]),
+        # the output named by its file alone: a machine's own folders stay out of the record
+        "command": " ".join(
+            ["python benchmarks/gpu_check.py", *(_named(a, args.out) for a in sys.argv[1:])]
+        ),
         "load average at start": os.getloadavg(),
         "machine": platform.processor() or platform.machine(),
         "cpus": len(os.sched_getaffinity(0)),
