@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from slipbench.data.synth import MODEL_VERSION
 from slipbench.store.results import read_results
 
 pytestmark = pytest.mark.slow  # reproduce.sh runs every protocol at a small scale: minutes
@@ -161,12 +162,16 @@ def test_the_script_writes_every_part(reproduced):
 
 def test_the_committed_reports_were_made_with_the_scripts_settings():
     """reports/README.md states the scale the script defaults to, both splits, every built-in
-    detector, and the LSTM at max_epochs=100."""
+    detector, and the LSTM at max_epochs=100; it and reports/reduction/ were made from the
+    simulation's current model (a new model version means regenerating them)."""
     script = SCRIPT.read_text()
     scale = re.search(r"SCALE=\$\{SCALE:-([\d.]+)\}", script)[1]
     detectors = re.search(r"DETECTORS=\$\{DETECTORS:-([^}]+)\}", script)[1].split()
     readme = (ROOT / "reports" / "README.md").read_text()
     assert f"scale {scale}," in readme
+    model = f"slipbench.synth model v{MODEL_VERSION},"
+    assert model in readme
+    assert model in (ROOT / "reports" / "reduction" / "README.md").read_text()
     assert (
         "grouped: whole trials on one side" in readme
         and "paper: the balanced windows shuffled" in readme
