@@ -27,9 +27,14 @@ def pytest_cmdline_main(config: pytest.Config) -> None:
 
 @pytest.fixture(scope="session", autouse=True)
 def _isolated_cache(tmp_path_factory):
-    """Keep the default-dataset cache of the tests away from the user's."""
+    """Keep the default-dataset cache of the tests away from the user's, one for the whole run:
+    pytest-xdist's workers share it (a dataset simulated by two at once is kept once, as
+    ``default_dataset`` does for any two processes) rather than each simulating its own."""
+    base = tmp_path_factory.getbasetemp()
+    cache = (base.parent if "PYTEST_XDIST_WORKER" in os.environ else base) / "cache"
+    cache.mkdir(exist_ok=True)
     mp = pytest.MonkeyPatch()
-    mp.setenv("SLIPBENCH_CACHE", str(tmp_path_factory.mktemp("cache")))
+    mp.setenv("SLIPBENCH_CACHE", str(cache))
     yield
     mp.undo()
 

@@ -4,14 +4,11 @@ dataset, and the check that a call is refused with a clear message."""
 from __future__ import annotations
 
 import functools
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
 from slipbench.base import INPUT_SHAPES
 from slipbench.data.format import Dataset
-from slipbench.data.read import read_dataset
 from slipbench.data.toy import toy_windows
 from slipbench.seeding import rng_for
 
@@ -61,9 +58,9 @@ def assert_refused(kind: type[Exception], words: str, call, what: str) -> None:
 
 @functools.cache
 def toy_dataset() -> Dataset:
-    """A small simulated dataset (every sensor, material and speed; about 0.6 M samples), made
-    once per process: what protocol checks plan their cells on."""
-    from slipbench.data.synth import synthesize
+    """A small simulated dataset (every sensor, material and speed; about 0.6 M samples), read
+    once per process: what protocol checks plan their cells on. It is the default dataset at
+    scale 0.01, simulated once into slipbench's cache, not into a temporary folder per process."""
+    from slipbench.data.defaults import default_dataset
 
-    folder = Path(tempfile.mkdtemp(prefix="slipbench-check-"))
-    return read_dataset(synthesize(folder / "toy", scale=0.01, seed=0))
+    return default_dataset(scale=0.01, seed=0)
