@@ -142,18 +142,24 @@ LOCKSTEP_MODELS = (32, 512, 4096, 16384)
 
 
 def lockstep_rows(devices: dict[str, str]) -> list[dict]:
-    """32 LSTM models in lockstep against the same models one after another (same run)."""
+    """32 LSTM models in lockstep (on numba's default threads, then on one: the speed-up per
+    core) against the same models one after another on one core (same run)."""
     from slipbench.detectors.lstm_bench import lockstep_figures
 
     x, y = _data(250, 50)
-    rows = []
-    for batch in (1, 128):
-        fig = lockstep_figures(x, y, batch, seconds=5.0).iloc[0]
+    rows, default = [], numba.get_num_threads()
+    for batch, threads in ((1, default), (128, default), (1, 1)):
+        numba.set_num_threads(threads)
+        try:
+            fig = lockstep_figures(x, y, batch, seconds=5.0).iloc[0]
+        finally:
+            numba.set_num_threads(default)
         rows.append(
             {
                 "model": "lstm, 32 models in lockstep",
                 "setting": f"batch {batch}",
                 "device": "cpu",
+                "threads": threads,
                 "M samples/s": fig["slipbench"] / 1e6,
                 "one after another, M samples/s": fig["reference"] / 1e6,
                 "speed-up": fig["slipbench"] / fig["reference"],
