@@ -5,6 +5,7 @@ every link, anchor, included file and page of the site itself."""
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -68,3 +69,20 @@ def test_commit_msg_hook_keeps_subjects_to_72_characters(tmp_path, subject, refu
     )
     # called as pre-commit calls it: the options, the pattern, the file
     assert bool(pygrep.main([*hook["args"], hook["entry"], str(message)])) == refused
+
+
+def test_performance_page_is_what_the_gpu_check_renders():
+    """docs/performance.md is rendered from the committed runs it names, never edited by hand."""
+    import benchmod  # tests/, on pytest's pythonpath
+
+    gpu_check = benchmod.load("gpu_check")
+    page = (ROOT / "docs" / "performance.md").read_text()
+    results = ROOT / "benchmarks" / "results"
+    files = [results / name for name in re.findall(r"^## `(gpu_check-[\w-]+\.json)`$", page, re.M)]
+    assert files, "docs/performance.md names no gpu_check run"
+    runs = [{**json.loads(f.read_text()), "file": f.name} for f in files]
+    assert page == gpu_check.render(runs) + "\n", (
+        "docs/performance.md is stale: python benchmarks/gpu_check.py --render "
+        + " ".join(f"benchmarks/results/{f.name}" for f in files)
+        + " docs/performance.md"
+    )
