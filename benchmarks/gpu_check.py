@@ -227,8 +227,9 @@ def _cells_written(out: Path) -> str:
     return f"{len(rows)}: " + ", ".join(parts)
 
 
-def render(runs: list[dict]) -> str:
+def render(files: list[Path]) -> str:
     """docs/performance.md from gpu_check JSON files, one section each."""
+    runs = [{**json.loads(f.read_text()), "file": f.name} for f in files]
     lines = [
         "# Performance",
         "",
@@ -323,8 +324,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.render:
         *files, doc = args.render
-        runs = [{**json.loads(f.read_text()), "file": f.name} for f in files]
-        doc.write_text(render(runs) + "\n")
+        doc.write_text(render(files) + "\n")
         return
     devices = _devices()
     results = {
