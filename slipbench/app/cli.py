@@ -18,6 +18,7 @@ from slipbench.app.commands.bench import bench
 from slipbench.app.commands.compare import compare_command
 from slipbench.app.commands.dataset import dataset
 from slipbench.app.commands.evaluate import evaluate_command
+from slipbench.app.commands.history import history
 from slipbench.app.commands.list_plugins import list_plugins
 from slipbench.app.commands.report import report
 from slipbench.app.commands.run import run_command
@@ -47,6 +48,7 @@ for command in (
     report,
     run_command,
     compare_command,
+    history,
 ):
     cli.add_command(command)
 

@@ -506,15 +506,26 @@ class Plan:
         return self.data[how, run.seed, run.labels, run.normalize]
 
 
+def _code(run: Run) -> dict[str, str]:
+    return {
+        "slipbench": code_identity(sys.modules["slipbench"]),
+        "detector": code_identity(type(run.detector)),
+    }
+
+
+def run_code_identity(run: Run) -> str:
+    """The identity of the code a run's cells ran: slipbench's, the detector's and the
+    protocol's source, as their cell keys hold it. Rows that share it (and the detector's
+    parameters) differ only in their seed: the history takes them as replicates."""
+    return cell_key({**_code(run), "protocol": code_identity(type(run.protocol))})
+
+
 def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
     """Content addresses of a cell's result and of the model it tests (equal model keys train
     on the same windows). Both hold the identity of the code that runs: slipbench's and the
     detector's (and the cell key the protocol's), so a changed plugin or engine never returns
     results cached by the old code."""
-    code = {
-        "slipbench": code_identity(sys.modules["slipbench"]),
-        "detector": code_identity(type(run.detector)),
-    }
+    code = _code(run)
     try:
         params = canonical(run.detector.get_params())
     except TypeError as exc:

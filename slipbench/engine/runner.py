@@ -40,6 +40,7 @@ from slipbench.engine.plan import (
     batched,
     check_labels,
     make_plan,
+    run_code_identity,
 )
 from slipbench.errors import EnvironmentFault
 from slipbench.stats.bootstrap import DEFAULT_METHOD
@@ -105,6 +106,7 @@ def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
             "labels": run.labels,
             "normalize": run.normalize,
             "input": run.input,
+            "code_identity": run_code_identity(run),
             **cell.key,
             "window": cell.window,
             "downsample": cell.downsample,

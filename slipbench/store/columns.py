@@ -112,6 +112,13 @@ IDENTITY = (
     Column("labels", STR, "", "how windows were labelled (scenario or samples)"),
     Column("normalize", STR, "", "how recordings were scaled before windowing"),
     Column("input", STR, "", "univariate signal or channels"),
+    Column(
+        "code_identity",
+        STR,
+        "",
+        "digest of the code that computed the cell: slipbench's, the detector's and the "
+        "protocol's source",
+    ),
 )
 CELL = (
     Column("sensor_type", STR, "", "cell key: the sensor type of the unit"),

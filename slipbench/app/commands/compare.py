@@ -100,7 +100,7 @@ def compare_command(**options) -> None:
     from slipbench.stats.compare import compare
 
     add_plugin_folders(o.plugins)
-    result = compare(o.base, o.candidate, _gate(o.figures, o.bench, o.margin, o.max_width))
+    result = compare(o.base, o.candidate, gate_from(o.figures, o.bench, o.margin, o.max_width))
     texts = {
         "json": to_json(result),
         "md": comment_markdown(result, MAX_ROWS if o.max_rows is None else o.max_rows),
@@ -113,7 +113,7 @@ def compare_command(**options) -> None:
     sys.exit(result.exit_code)
 
 
-def _gate(figures: tuple[str, ...], bench: Path | None, margin: float | None, max_width: float):
+def gate_from(figures: tuple[str, ...], bench: Path | None, margin: float | None, max_width: float):
     """The gate from --figure options, else the benchmark file's [gate], else every figure;
     --margin sets every rate's tolerance that is not given as NAME=TOLERANCE."""
     from slipbench.app.benchfile import load_benchmark

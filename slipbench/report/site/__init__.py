@@ -1,0 +1,287 @@
+"""A static results site that opens from ``file://`` with nothing from the network.
+
+Pages: ``index.html`` (a filterable, sortable leaderboard of the latest run and the confirmed
+steps, newest first), ``compare.html`` (any two detectors side by side, cell by cell),
+``series.html`` (each judged series over commits, its confirmed steps marked, its segments'
+means drawn) and, given a results folder, ``report.html`` (the run's report, as ``slipbench
+report --format html`` writes it). Plots are plotly's; its JavaScript is written once, in
+``assets/plotly.js``, which every page loads by a relative path.
+
+plotly.min.js is 4.8 MB, the whole 5 MB a site of a long history may take; it is kept gzipped
+and base64-encoded in ``assets/plotly.js`` (2.0 MB) and inflated in the page by the browser's
+own ``DecompressionStream``. A history's points are many more than a page can hold (10,000 runs
+x 900 series); each series shows its last ``POINT_BUDGET / series`` runs (at least
+``MIN_POINTS``), and its segments' means over the whole history.
+"""
+
+from __future__ import annotations
+
+import base64
+import gzip
+import json
+import os
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from slipbench.atomic import make_folder, write_text_atomic
+from slipbench.stats.gate import NAMES, SCALE, WINDOWED, unit
+from slipbench.stats.steps import Steps
+
+#: the points every series page holds together (values and standard errors)
+POINT_BUDGET = 150_000
+MIN_POINTS = 30
+PAGES = {
+    "index.html": "Leaderboard",
+    "compare.html": "Side by side",
+    "series.html": "Series",
+    "report.html": "Report",
+}
+
+
+def _script_data(data: dict) -> str:
+    """JSON a <script> element holds safely: no "</" that could end it early."""
+    return json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+
+
+def _page(name: str, about: str, body: str, data: dict, pages: list[str]) -> str:
+    links = "".join(
+        f'<a href="{p}"{" class=here" if p == name else ""}>{PAGES[p]}</a>' for p in pages
+    )
+    import html
+
+    return f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="slipbench">
+<title>slipbench · {PAGES[name]}</title>
+<link rel="stylesheet" href="assets/site.css">
+</head>
+<body>
+<nav class="site">{links}</nav>
+<h1>{PAGES[name]}</h1>
+<p class="note">{html.escape(about)}</p>
+{body}
+<script>window.SITE = {_script_data(data)};</script>
+<script src="assets/plotly.js"></script>
+<script src="assets/site.js"></script>
+</body>
+</html>
+"""
+
+
+def plotly_loader() -> str:
+    """``assets/plotly.js``: plotly's own JavaScript, gzipped in the file and inflated by the
+    browser (module docstring), resolving ``window.plotlyReady`` to ``Plotly``."""
+    from plotly.offline import get_plotlyjs
+
+    packed = base64.b64encode(gzip.compress(get_plotlyjs().encode(), 9, mtime=0)).decode()
+    return (
+        "// plotly.js, gzipped and base64-encoded (slipbench.report.site)\n"
+        f'window.plotlyReady = (async () => {{\n  const packed = "{packed}";\n'
+        "  const bytes = Uint8Array.from(atob(packed), (c) => c.charCodeAt(0));\n"
+        "  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream('gzip'));\n"
+        "  (0, eval)(await new Response(stream).text());\n"
+        "  return window.Plotly;\n})();\n"
+    )
+
+
+def _round(x: Any, digits: int = 2) -> float | None:
+    return round(float(x), digits) if x is not None and np.isfinite(float(x)) else None
+
+
+def leaderboard(rows: pd.DataFrame) -> dict:
+    """Per protocol and detector of finished cells: cells, and the mean over cells and seeds of
+    accuracy, TN rate and TP rate in points."""
+    ok = rows[rows["status"] == "ok"]
+    lines = []
+    for (protocol, detector), part in ok.groupby(["protocol", "detector"], sort=True):
+        means = [
+            _round(100 * pd.to_numeric(part[f], errors="coerce").mean())
+            for f in WINDOWED
+            if f in part
+        ]
+        lines.append([protocol, detector, int(part["cell"].nunique()), *means])
+    columns = ["protocol", "detector", "cells", *(f"{NAMES[f]} (%)" for f in WINDOWED)]
+    return {"columns": columns, "rows": lines}
+
+
+def _cells(rows: pd.DataFrame) -> dict:
+    """Each finished cell's figures (mean over its seeds, in points) per detector."""
+    ok = rows[rows["status"] == "ok"]
+    figures = [f for f in WINDOWED if f in ok]
+    cells = []
+    for (protocol, cell, detector), part in ok.groupby(["protocol", "cell", "detector"], sort=True):
+        cells.append(
+            [protocol, cell, detector]
+            + [_round(100 * pd.to_numeric(part[f], errors="coerce").mean()) for f in figures]
+        )
+    return {
+        "figures": figures,
+        "detectors": sorted(ok["detector"].astype(str).unique()),
+        "cells": cells,
+    }
+
+
+def _step_rows(found: Steps) -> dict:
+    confirmed = found.confirmed.sort_values("run", ascending=False)
+    columns = ["commit", "date", "verdict", "figure", "series", "change (interval)", "what changed"]
+    rows = [
+        [
+            r["commit"],
+            r["date"],
+            r["verdict"],
+            NAMES[r["figure"]],
+            r["series_label"],
+            f"{r['change']:+.2f} [{r['change_lo']:+.2f}, {r['change_hi']:+.2f}] {unit(r['figure'])}",
+            r["what_changed"],
+        ]
+        for r in confirmed.to_dict("records")
+    ]
+    ids = [f"{r['figure']}-{r['series']}" for r in confirmed.to_dict("records")]
+    return {
+        "columns": columns,
+        "rows": rows,
+        "link": {"column": 4, "href": "series.html#", "ids": ids},
+        "none": f"No confirmed step in {len(found.runs)} runs and {found.series} series.",
+    }
+
+
+def _segments(pts: pd.DataFrame, runs: list[int]) -> list[list]:
+    """Each stretch between confirmed steps: its first and last run and its weighted mean."""
+    edges = [pts["run"].min(), *sorted(runs), pts["run"].max() + 1]
+    out = []
+    for lo, hi in zip(edges, edges[1:]):
+        part = pts[(pts["run"] >= lo) & (pts["run"] < hi)]
+        if part.empty:
+            continue
+        w = 1 / np.maximum(part["se"].to_numpy(float), 1e-9) ** 2
+        mean = float(np.sum(w * part["value"].to_numpy(float)) / np.sum(w))
+        out.append([int(part["run"].min()), int(part["run"].max()), _round(mean)])
+    return out
+
+
+def _series(found: Steps) -> dict:
+    """Every judged series: its last points, segments and confirmed steps (values in the
+    figure's units, points for rates)."""
+    pts = found.points.copy()
+    pts["id"] = pts["figure"] + "-" + pts["series"]
+    scale = pts["figure"].map(SCALE).to_numpy(float)
+    pts["value"], pts["se"] = pts["value"] * scale, pts["se"] * scale
+    groups = dict(iter(pts.groupby("id", sort=False)))
+    keep = max(MIN_POINTS, POINT_BUDGET // max(1, len(groups)))
+    steps = {
+        k: g
+        for k, g in found.confirmed.assign(id=lambda s: s["figure"] + "-" + s["series"]).groupby(
+            "id"
+        )
+    }
+    out = []
+    for sid, part in groups.items():
+        part = part.sort_values("run")
+        mine = steps.get(sid, pd.DataFrame(columns=["run", "verdict", "change"]))
+        shown = part.tail(keep)
+        figure, kind = part["figure"].iloc[0], part["kind"].iloc[0]
+        out.append(
+            {
+                "id": sid,
+                "label": part["series_label"].iloc[0],
+                "figure": NAMES[figure],
+                "unit": unit(figure),
+                "about": (
+                    f"{NAMES[figure]} of {'the mean over the cells of ' if kind == 'pooled' else ''}"
+                    f"{part['series_label'].iloc[0]}: {len(part)} runs, the last {len(shown)} shown "
+                    "with 95 % intervals; lines: each stretch's weighted mean between confirmed steps."
+                ),
+                "points": [
+                    [int(r), _round(v), _round(s, 3)]
+                    for r, v, s in zip(shown["run"], shown["value"], shown["se"])
+                ],
+                "segments": _segments(part, list(mine["run"])),
+                "steps": [
+                    {
+                        "run": int(r["run"]),
+                        "verdict": r["verdict"],
+                        "change": f"{r['change']:+.2f} {unit(figure)}",
+                    }
+                    for r in mine.to_dict("records")
+                ],
+            }
+        )
+    out.sort(key=lambda s: (-len(s["steps"]), s["figure"], s["label"]))
+    runs = [[c, d] for c, d in zip(found.runs["commit"], found.runs["date"])]
+    return {"series": out, "runs": runs}
+
+
+BODIES = {
+    "index.html": '<div class="controls"><label>Filter <input id="filter" type="search" '
+    'placeholder="protocol, detector, commit"></label></div>\n<div id="leaderboard"></div>\n'
+    '<div id="overview" class="plot"></div>\n<h2>Confirmed steps, newest first</h2>\n'
+    '<div id="steps"></div>',
+    "compare.html": '<div class="controls"><label>Left <select id="left"></select></label>'
+    '<label>Right <select id="right"></select></label><label>Figure <select id="figure">'
+    '</select></label></div>\n<p class="note" id="shared"></p>\n'
+    '<div id="difference" class="plot"></div>\n<div id="pairs"></div>',
+    "series.html": '<div class="controls"><label>Filter <input id="filter" type="search" '
+    'placeholder="detector, cell, figure"></label><label>Series <select id="series"></select>'
+    '</label></div>\n<p class="note" id="about"></p>\n<div id="plot" class="plot"></div>',
+}
+
+
+def write_site(
+    out: str | os.PathLike,
+    latest: pd.DataFrame,
+    found: Steps | None = None,
+    report: str | None = None,
+    about: str = "",
+) -> list[Path]:
+    """Write the site's pages into ``out``; returns the files written.
+
+    Parameters
+    ----------
+    latest : the result rows of the run the leaderboard and side by side pages show.
+    found : a history's steps (:func:`slipbench.stats.steps.find_steps`): the series page and
+        the steps on the index; None for one results folder.
+    report : the run's report as one HTML page (``report.html``), where there is one.
+    about : what the pages stand on, said under each title.
+    """
+    out = make_folder(out)
+    pages = [
+        "index.html",
+        "compare.html",
+        *(["series.html"] if found else []),
+        *(["report.html"] if report else []),
+    ]
+    none = {"columns": [], "rows": [], "none": "No history given: no steps."}
+    data = {
+        "index.html": {
+            "page": "index",
+            "leaderboard": leaderboard(latest),
+            "steps": _step_rows(found) if found else none,
+        },
+        "compare.html": {"page": "compare", **_cells(latest)},
+        **({"series.html": {"page": "series", **_series(found)}} if found else {}),
+    }
+    assets = make_folder(out / "assets")
+    written = []
+    for name, text in (
+        ("plotly.js", plotly_loader()),
+        *(
+            (n, files("slipbench.report.site").joinpath(n).read_text())
+            for n in ("site.js", "site.css")
+        ),
+    ):
+        write_text_atomic(assets / name, text)
+        written.append(assets / name)
+    for name, page_data in data.items():
+        write_text_atomic(out / name, _page(name, about, BODIES[name], page_data, pages))
+        written.append(out / name)
+    if report:
+        write_text_atomic(out / "report.html", report)
+        written.append(out / "report.html")
+    return written

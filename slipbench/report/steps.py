@@ -1,0 +1,87 @@
+"""The steps of a history as text (a list of confirmed steps, newest first, with what stands
+behind them) and as JSON (every proposal, for bots)."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pandas as pd
+
+from slipbench.stats.gate import NAMES, WINDOWED, unit
+from slipbench.stats.steps import Steps
+
+SHOWN = ("commit", "date", "verdict", "figure", "series_label", "change", "runs", "what_changed")
+
+
+def _header(found: Steps, where: str | os.PathLike) -> str:
+    runs = found.runs
+    first, last = runs.iloc[0], runs.iloc[-1]
+    tolerances = ", ".join(
+        f"{NAMES[f]} {found.gate.tolerances[f]:g} {unit(f)}"
+        for f in WINDOWED
+        if f in found.gate.tolerances
+    )
+    counts = found.steps["verdict"].value_counts()
+    return (
+        f"History {where}: {len(runs)} runs, {first['commit']} ({first['date']}) to "
+        f"{last['commit']} ({last['date']}); {found.series} series judged (each cell and each "
+        f"protocol's mean over its cells); tolerances: {tolerances}.\n"
+        f"{len(found.steps)} steps proposed (ruptures, each point weighted by its interval), "
+        f"{int(counts.get('regressed', 0))} regressed and {int(counts.get('improved', 0))} "
+        f"improved beyond the tolerance (Holm over the proposals at 5 %; each segment's runs "
+        f"as seeds), {int(counts.get('inconclusive', 0))} inconclusive (low n); intervals at "
+        f"{100 * found.level:.4g} %.\n"
+    )
+
+
+def _change(r: dict) -> str:
+    return f"{r['change']:+.2f} [{r['change_lo']:+.2f}, {r['change_hi']:+.2f}] {unit(r['figure'])}"
+
+
+def steps_text(found: Steps, where: str | os.PathLike) -> str:
+    """The confirmed steps, newest first, after what stands behind them."""
+    out = _header(found, where)
+    confirmed = found.confirmed.sort_values(["run", "series_label"], ascending=[False, True])
+    if confirmed.empty:
+        return out + "\nNo confirmed step.\n"
+    table = pd.DataFrame(
+        {
+            "commit": confirmed["commit"],
+            "date": confirmed["date"],
+            "verdict": confirmed["verdict"],
+            "figure": confirmed["figure"].map(NAMES),
+            "series": confirmed["series_label"],
+            "change [interval]": [_change(r) for r in confirmed.to_dict("records")],
+            "runs": [
+                f"{b} → {a}" for b, a in zip(confirmed["runs_before"], confirmed["runs_after"])
+            ],
+            "what changed": confirmed["what_changed"],
+        }
+    )
+    return out + "\n" + table.to_markdown(index=False) + "\n"
+
+
+def _plain(value):
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (np.floating, float)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, np.bool_):
+        return bool(value)
+    return value
+
+
+def steps_json(found: Steps) -> str:
+    """Every proposal with its change, interval, p-value and verdict, and the history's runs."""
+    doc = {
+        "runs": len(found.runs),
+        "first": found.runs.iloc[0][["commit", "date"]].to_dict(),
+        "last": found.runs.iloc[-1][["commit", "date"]].to_dict(),
+        "series": found.series,
+        "level": found.level,
+        "tolerances": dict(found.gate.tolerances),
+        "steps": [{k: _plain(v) for k, v in r.items()} for r in found.steps.to_dict("records")],
+    }
+    return json.dumps(doc, indent=2) + "\n"

@@ -1,0 +1,227 @@
+"""What a series of the history is, its points over runs, and its seed spread.
+
+A *series* is one figure of one cell of one detector (its entrant: the id, and the parameters,
+input or normalization that tell two of a run's entrants apart,
+:func:`slipbench.stats.factors.entrant_names`) under one protocol with its options, split and
+labels: the cell key without the code identity and the seed. The code, the detector's
+parameters where a run holds one set of them, the dataset where a run holds one, and the seed
+are what a commit changes; they are recorded on every row (``code_identity``,
+``detector_params``, ``dataset_fingerprint``, ``seed``), and a step at a commit names which of
+them changed. Where one run holds rows that differ in one of those (two datasets, two slipbench
+versions), they join the identity and name the series apart.
+
+A *pooled series* is the mean of a figure over the cells of one protocol and detector, as the
+gate's pooled tests read it: a change spread thinly over a protocol shows in it before any
+cell's own series. Its identity holds the cells it is over, so that a run missing a cell is a
+point of another series, never a mean over other cells.
+
+The seed spread (:func:`seed_spread`) is what the gate's noise model takes from the history:
+the spread of a series' figure between results of one code identity, which differ in their seed
+alone, pooled with its degrees of freedom.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from scipy.stats import norm
+
+from slipbench.stats.bootstrap import SeedPool, pool_seed_spreads
+from slipbench.stats.factors import CELLS, factor_values, named_entrants
+from slipbench.stats.metrics import LEVEL
+from slipbench.store.history import COLUMNS, FIGURES, RUN_COLUMNS
+from slipbench.store.results import row_digest
+
+#: the settings (beyond the entrant and the cell's columns) that name a series
+SETTINGS = ("split", "labels", "protocol_params", "sensor_map")
+#: recorded on every row, a series' identity only where one run holds several of them
+APART = (
+    "dataset_fingerprint",
+    "train_dataset_fingerprint",
+    "test_dataset_fingerprint",
+    "interval_method",
+    "slipbench_version",
+)
+IDENTITY = ("detector", *SETTINGS, *CELLS)
+POOLED = "all cells"  # the cell of a pooled series, as labels show it
+
+
+def _digest(fields: object) -> str:
+    return hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
+    """One run's result rows as a history keeps them (the columns of
+    :data:`slipbench.store.history.COLUMNS` but the run's): the detector
+    named as its entrant (its plugin id in ``detector_id``), each figure's standard error
+    (``<figure>_se``: a windowed figure's own, a streaming figure's from its 95 % bounds), and
+    the row's ``series`` (a 16-hex digest of its identity) and ``series_label``.
+
+    Raises
+    ------
+    ValueError
+        Two rows of the run fall in one series under one seed: the rows do not say what tells
+        them apart.
+    """
+    named = named_entrants(rows)
+    apart = [c for c in APART if c in named and factor_values(named, c).nunique() > 1]
+    columns = [c for c in (*IDENTITY, *apart) if c in named]
+    identity = pd.DataFrame({c: factor_values(named, c) for c in columns}, index=named.index)
+    out = pd.DataFrame(index=named.index)
+    for c in COLUMNS:
+        if c not in RUN_COLUMNS:
+            out[c] = named[c] if c in named else None
+    for figure in FIGURES:
+        out[f"{figure}_se"] = _standard_error(named, figure)
+    out["row_digest"] = [row_digest(r) for r in rows.to_dict("records")]
+    out["series"] = [_digest(r) for r in identity.to_dict("records")]
+    out["series_label"] = [_label(r) for r in identity.to_dict("records")]
+    twice = out.duplicated(["series", "seed"], keep=False)
+    if twice.any():
+        raise ValueError(
+            f"{int(twice.sum())} rows fall in one series under one seed (e.g. "
+            f"{out.loc[twice, 'series_label'].iloc[0]}): the run holds results its columns "
+            "do not tell apart"
+        )
+    return out.reset_index(drop=True)
+
+
+def _standard_error(rows: pd.DataFrame, figure: str) -> pd.Series:
+    """A figure's standard error: its own column, else its 95 % bounds' half-width / z."""
+    if f"{figure}_se" in rows:
+        return pd.to_numeric(rows[f"{figure}_se"], errors="coerce")
+    if f"{figure}_lo" not in rows or f"{figure}_hi" not in rows:
+        return pd.Series(np.nan, index=rows.index)
+    hi, lo = (pd.to_numeric(rows[f"{figure}{b}"], errors="coerce") for b in ("_hi", "_lo"))
+    return (hi - lo) / (2 * norm.ppf(1 - (1 - LEVEL) / 2))
+
+
+def _label(identity: dict) -> str:
+    """``window-size · holweg · {"sensor_type": ...} · grouped``: how pages and steps name it."""
+    parts = [identity.get("protocol", ""), identity.get("detector", ""), identity.get("cell", "")]
+    parts += [identity[c] for c in ("split", "labels") if identity.get(c)]
+    parts += [f"{c} {identity[c][:12]}" for c in APART if identity.get(c)]
+    return " · ".join(p for p in parts if p)
+
+
+def pooled_rows(points: pd.DataFrame, figure: str) -> pd.DataFrame:
+    """Per run, protocol and entrant, the mean of ``figure`` over the cells (one point per
+    cell and run, :func:`points`), as the points of a pooled series: its standard error the
+    mean of the cells' (their errors taken as moving together, the widest case, as
+    :func:`slipbench.stats.pooled.pooled_from_rows` takes them), its degrees of freedom the
+    fewest. The series' identity holds the cells it is over."""
+    if points.empty:
+        return points
+    group = ["run", "pool"]
+    cells = points.groupby(group, sort=False)["series"].agg(lambda s: _digest(sorted(s)))
+    results = points.groupby(group, sort=False)["results"].agg(np.bitwise_xor.reduce)
+    out = points.groupby(group, sort=False).agg(
+        value=("value", "mean"),
+        se=("se", "mean"),
+        df=("df", "min"),
+        low_n=("low_n", "any"),
+        pool_label=("pool_label", "first"),
+    )
+    out["series"] = [_digest({"pool": p, "cells": c}) for (_, p), c in cells.items()]
+    out["series_label"] = out["pool_label"] + f" · {POOLED}"
+    out["results"] = results.to_numpy()
+    out["n"] = 1
+    return out.reset_index().drop(columns=["pool", "pool_label"])
+
+
+def points(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
+    """(series, run) points of ``figure``: each run's mean over its finished seeds, with the
+    standard error compare gives a side of several seeds (the mean of the seeds' standard
+    errors plus their spread over the number of seeds), the fewest degrees of freedom, and
+    ``pool``: the protocol, its options, split and entrant the cell belongs to.
+
+    ``frame`` holds history rows with a ``run`` column (the run's position, oldest first).
+    """
+    ok = frame[(frame["status"] == "ok") & frame[figure].notna()]
+    pool_cols = ["protocol", "protocol_params", "split", "labels", "detector"]
+    pool = pd.DataFrame({c: factor_values(ok, c) for c in pool_cols}, index=ok.index)
+    work = pd.DataFrame(
+        {
+            "series": ok["series"].to_numpy(),
+            "run": ok["run"].to_numpy(),
+            "value": pd.to_numeric(ok[figure], errors="coerce").to_numpy(float),
+            "se": pd.to_numeric(ok[f"{figure}_se"], errors="coerce").to_numpy(float),
+            "df": pd.to_numeric(ok["df"], errors="coerce").fillna(np.inf).to_numpy(float),
+            "low_n": ok["low_n"].fillna(False).astype(bool).to_numpy(),
+            "pool": pool.agg("|".join, axis=1).map(lambda t: _digest({"pool": t})).to_numpy(),
+            "pool_label": (pool["protocol"] + " · " + pool["detector"]).to_numpy(),
+            "series_label": ok["series_label"].to_numpy(),
+            "results": pd.util.hash_pandas_object(ok["key"], index=False).to_numpy(),
+        }
+    )
+    g = work.groupby(["series", "run"], sort=False)
+    out = g.agg(
+        value=("value", "mean"),
+        spread=("value", "var"),
+        se=("se", "mean"),
+        n=("value", "size"),
+        df=("df", "min"),
+        low_n=("low_n", "any"),
+        pool=("pool", "first"),
+        pool_label=("pool_label", "first"),
+        series_label=("series_label", "first"),
+        results=("results", np.bitwise_xor.reduce),
+    ).reset_index()
+    several = out["n"] > 1
+    out.loc[several, "se"] = np.sqrt(
+        out.loc[several, "se"] ** 2 + out.loc[several, "spread"] / out.loc[several, "n"]
+    )
+    out.loc[several, "df"] = np.minimum(out.loc[several, "df"], out.loc[several, "n"] - 1)
+    return out.drop(columns="spread")
+
+
+def seed_spread(
+    frame: pd.DataFrame, figure: str, identities: Sequence[str] | None = None
+) -> pd.DataFrame:
+    """The seed spread of every series of ``figure`` in a history: its variance between
+    results of one code identity (and one parameter set), which differ in their seed alone,
+    pooled over the identities with their degrees of freedom (seeds - 1 each;
+    :func:`slipbench.stats.bootstrap.pool_seed_spreads`). A result kept by several runs (same
+    code, same seed: the same cell key) counts once.
+
+    Parameters
+    ----------
+    frame : history rows (:func:`slipbench.store.history.read_history`).
+    figure : a windowed or streaming figure the history keeps (``accuracy``, ``tn_rate``, ...).
+    identities : only results of these code identities (the base's, for the gate); every
+        identity where None.
+
+    Returns
+    -------
+    DataFrame
+        One row per series that some identity ran under two seeds or more: ``series``,
+        ``series_label``, ``variance`` (in the figure's stored units: a fraction for rates),
+        ``df`` and ``identities`` (how many identities contributed).
+    """
+    ok = frame[(frame["status"] == "ok") & frame[figure].notna()].drop_duplicates("key")
+    if identities is not None:
+        ok = ok[ok["code_identity"].isin(list(identities))]
+    ok = ok[ok["code_identity"].fillna("") != ""]  # rows from before it was recorded
+    lines = []
+    for series, part in ok.groupby("series", sort=False):
+        spreads = [
+            (float(np.var(pd.to_numeric(g[figure]).to_numpy(float), ddof=1)), len(g))
+            for _, g in part.groupby(["code_identity", "detector_params"], dropna=False)
+            if len(g) > 1
+        ]
+        pool: SeedPool | None = pool_seed_spreads(spreads)
+        if pool is not None:
+            lines.append(
+                {
+                    "series": series,
+                    "series_label": part["series_label"].iloc[0],
+                    "variance": pool.variance,
+                    "df": pool.df,
+                    "identities": len(spreads),
+                }
+            )
+    return pd.DataFrame(lines, columns=["series", "series_label", "variance", "df", "identities"])
