@@ -30,8 +30,8 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
         f"protocol's mean over its cells); tolerances: {tolerances}.\n"
         f"{len(found.steps)} steps proposed (ruptures, each point weighted by its interval), "
         f"{int(counts.get('regressed', 0))} regressed and {int(counts.get('improved', 0))} "
-        f"improved beyond the tolerance (Holm over the proposals at 5 %; each segment's runs "
-        f"as seeds), {int(counts.get('inconclusive', 0))} inconclusive (low n); intervals at "
+        f"improved beyond the tolerance (Bonferroni over the proposals at 5 %; each segment's "
+        f"runs as seeds), {int(counts.get('inconclusive', 0))} inconclusive (low n); intervals at "
         f"{100 * found.level:.4g} %.\n"
     )
 

@@ -108,57 +108,78 @@ def _label(identity: dict) -> str:
     return " · ".join(p for p in parts if p)
 
 
-def pooled_rows(points: pd.DataFrame, figure: str) -> pd.DataFrame:
-    """Per run, protocol and entrant, the mean of ``figure`` over the cells (one point per
-    cell and run, :func:`points`), as the points of a pooled series: its standard error the
-    mean of the cells' (their errors taken as moving together, the widest case, as
-    :func:`slipbench.stats.pooled.pooled_from_rows` takes them), its degrees of freedom the
-    fewest. The series' identity holds the cells it is over."""
-    if points.empty:
-        return points
-    group = ["run", "pool"]
-    cells = points.groupby(group, sort=False)["series"].agg(lambda s: _digest(sorted(s)))
-    results = points.groupby(group, sort=False)["results"].agg(np.bitwise_xor.reduce)
-    out = points.groupby(group, sort=False).agg(
-        value=("value", "mean"),
-        se=("se", "mean"),
-        df=("df", "min"),
-        low_n=("low_n", "any"),
-        pool_label=("pool_label", "first"),
-    )
-    out["series"] = [_digest({"pool": p, "cells": c}) for (_, p), c in cells.items()]
-    out["series_label"] = out["pool_label"] + f" · {POOLED}"
-    out["results"] = results.to_numpy()
-    out["n"] = 1
-    return out.reset_index().drop(columns=["pool", "pool_label"])
+def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
+    """The finished results of ``figure`` in a history, each a row of its series (``kind``
+    "cell"), and per run, seed, protocol and entrant the mean over its cells (``kind``
+    "pooled"): its standard error the mean of the cells' (their errors taken as moving
+    together, the widest case, as :func:`slipbench.stats.pooled.pooled_from_rows` takes them),
+    its degrees of freedom the fewest. A pooled series' identity holds the cells it is over.
 
-
-def points(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
-    """(series, run) points of ``figure``: each run's mean over its finished seeds, with the
-    standard error compare gives a side of several seeds (the mean of the seeds' standard
-    errors plus their spread over the number of seeds), the fewest degrees of freedom, and
-    ``pool``: the protocol, its options, split and entrant the cell belongs to.
-
-    ``frame`` holds history rows with a ``run`` column (the run's position, oldest first).
+    Returns
+    -------
+    DataFrame
+        ``series``, ``series_label``, ``kind``, ``run``, ``seed``, ``result`` (a digest of the
+        result keys behind the row: the same results kept by a later run give the same one),
+        ``value``, ``se``, ``df``, ``low_n``, in the figure's stored units.
     """
     ok = frame[(frame["status"] == "ok") & frame[figure].notna()]
-    pool_cols = ["protocol", "protocol_params", "split", "labels", "detector"]
-    pool = pd.DataFrame({c: factor_values(ok, c) for c in pool_cols}, index=ok.index)
-    work = pd.DataFrame(
+    pool = pd.DataFrame(
+        {
+            c: factor_values(ok, c)
+            for c in ("protocol", "protocol_params", "split", "labels", "detector")
+        },
+        index=ok.index,
+    )
+    cells = pd.DataFrame(
         {
             "series": ok["series"].to_numpy(),
+            "series_label": ok["series_label"].to_numpy(),
+            "kind": "cell",
             "run": ok["run"].to_numpy(),
+            "seed": ok["seed"].to_numpy(),
+            "result": pd.util.hash_pandas_object(ok["key"], index=False).to_numpy(),
             "value": pd.to_numeric(ok[figure], errors="coerce").to_numpy(float),
             "se": pd.to_numeric(ok[f"{figure}_se"], errors="coerce").to_numpy(float),
             "df": pd.to_numeric(ok["df"], errors="coerce").fillna(np.inf).to_numpy(float),
             "low_n": ok["low_n"].fillna(False).astype(bool).to_numpy(),
-            "pool": pool.agg("|".join, axis=1).map(lambda t: _digest({"pool": t})).to_numpy(),
+            "pool": pool.agg("|".join, axis=1).to_numpy(),
             "pool_label": (pool["protocol"] + " · " + pool["detector"]).to_numpy(),
-            "series_label": ok["series_label"].to_numpy(),
-            "results": pd.util.hash_pandas_object(ok["key"], index=False).to_numpy(),
         }
     )
-    g = work.groupby(["series", "run"], sort=False)
+    group = cells.groupby(["run", "seed", "pool"], sort=False)
+    pooled = group.agg(
+        value=("value", "mean"),
+        se=("se", "mean"),
+        df=("df", "min"),
+        low_n=("low_n", "any"),
+        result=("result", np.bitwise_xor.reduce),
+        pool_label=("pool_label", "first"),
+    )
+    over = group["series"].agg(lambda s: _digest(sorted(s)))
+    pooled["series"] = [_digest({"pool": p, "cells": c}) for (_, _, p), c in over.items()]
+    pooled["series_label"] = pooled["pool_label"] + f" · {POOLED}"
+    pooled["kind"] = "pooled"
+    pooled = pooled.reset_index()
+    columns = [
+        "series",
+        "series_label",
+        "kind",
+        "run",
+        "seed",
+        "result",
+        "value",
+        "se",
+        "df",
+        "low_n",
+    ]
+    return pd.concat([cells[columns], pooled[columns]], ignore_index=True)
+
+
+def points(rows: pd.DataFrame) -> pd.DataFrame:
+    """(series, run) points of :func:`figure_rows`: each run's mean over its seeds, with the
+    standard error compare gives a side of several seeds (the mean of the seeds' standard
+    errors plus their spread over the number of seeds) and the fewest degrees of freedom."""
+    g = rows.groupby(["series", "run"], sort=False)
     out = g.agg(
         value=("value", "mean"),
         spread=("value", "var"),
@@ -166,10 +187,8 @@ def points(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
         n=("value", "size"),
         df=("df", "min"),
         low_n=("low_n", "any"),
-        pool=("pool", "first"),
-        pool_label=("pool_label", "first"),
+        kind=("kind", "first"),
         series_label=("series_label", "first"),
-        results=("results", np.bitwise_xor.reduce),
     ).reset_index()
     several = out["n"] > 1
     out.loc[several, "se"] = np.sqrt(

@@ -14,11 +14,12 @@ segment before and of the segment after (up to the neighbouring proposals) are i
 each segment's results its seeds (a result a later run kept, with the same code and seed,
 counts once), and :func:`step_change` (the one place this module calls the comparison
 machinery) gives the change with its standard error and degrees of freedom. It is tested
-against the figure's tolerance in the gate (:mod:`slipbench.stats.gate`) and Holm holds the
-family of every proposal in the history at ``ALPHA`` (5 %), as compare holds its cells. A step
-is *regressed* or *improved* where its change is beyond the tolerance at that level, else *not
-confirmed*; proposals in low-n cells (fewer than ``LOW_N`` test trials of a class) are
-*inconclusive*. Intervals are shown at the family's Bonferroni level.
+against the figure's tolerance in the gate (:mod:`slipbench.stats.gate`); Bonferroni holds
+the family of every proposal in the history at ``ALPHA`` (5 %), and each interval is shown at
+that level, so that an interval beyond the tolerance and a confirmed step are one statement.
+A step is *regressed* or *improved* where its change is beyond the tolerance at that level,
+else *not confirmed*; proposals in low-n cells (fewer than ``LOW_N`` test trials of a class)
+are *inconclusive*.
 
 The gate's windowed figures (accuracy, TN rate, TP rate) are judged, per cell and pooled over
 a protocol's cells; streaming series are kept and plotted, and judged once compare judges
@@ -39,8 +40,9 @@ from ruptures.base import BaseCost
 from scipy.stats import t as student_t
 
 from slipbench.stats.compare import ALPHA, family_level, unpaired_cell
-from slipbench.stats.gate import SCALE, WINDOWED, WORSE, Gate, holm, two_sided_p
-from slipbench.stats.series import points, pooled_rows
+from slipbench.stats.gate import SCALE, WINDOWED, WORSE, Gate, two_sided_p
+from slipbench.stats.metrics import FIGURES
+from slipbench.stats.series import figure_rows, points
 
 #: the price of a cut, times the series' noise scale and log(points)
 PENALTY = 3.0
@@ -100,13 +102,28 @@ def propose(value: np.ndarray, se: np.ndarray) -> list[int]:
     return [int(b) for b in algo.predict(pen=pen)[:-1]]
 
 
+def _side(rows: list[dict], figure: str) -> dict:
+    """A segment's results as one side: their mean, and its standard error from their spread
+    over the results (each drew its own seed, and with it its split: its test noise is inside
+    that spread) on ``results - 1`` degrees of freedom; one result: its own interval's."""
+    values = np.array([r[figure] for r in rows], float)
+    unknown = {f"{name}_se": np.nan for name in FIGURES}  # the figures not judged here
+    if len(values) == 1:
+        return unknown | rows[0]
+    se = float(values.std(ddof=1) / np.sqrt(len(values)))
+    return unknown | {figure: float(values.mean()), f"{figure}_se": se, "df": len(values) - 1.0}
+
+
 def step_change(before: list[dict], after: list[dict], figure: str, level: float) -> dict:
     """The change of ``figure`` from the results ``before`` to those ``after`` (each a row
-    with the figure, its ``_se`` and ``df``; each side's rows its seeds), as the gate's
-    comparison gives it from rows (:func:`slipbench.stats.compare.unpaired_cell`): ``d``,
-    ``se``, ``df`` and the interval ``lo``, ``hi`` at ``level``, in the figure's stored units.
+    with the figure, its ``_se`` and ``df``; each segment's results its seeds), by the gate's
+    comparison of two rows (:func:`slipbench.stats.compare.unpaired_cell`): each side the mean
+    of its results with the standard error of their spread. Returns ``d``, ``se``, ``df`` and
+    the interval ``lo``, ``hi`` at ``level``, in the figure's stored units.
+
+    The one place steps call the comparison machinery: the contrast module replaces it.
     """
-    found = unpaired_cell(before, after, level)
+    found = unpaired_cell([_side(before, figure)], [_side(after, figure)], level)
     return {
         "d": found[f"d_{figure}"],
         "se": found[f"d_{figure}_se"],
@@ -161,6 +178,38 @@ def _runs(frame: pd.DataFrame) -> pd.DataFrame:
     )
 
 
+#: what a step's run may have changed against the run before, and the column that says so
+CAUSES = (
+    ("code", "code_identity"),
+    ("parameters", "detector_params"),
+    ("dataset", "dataset_fingerprint"),
+    ("bench file", "bench_digest"),
+)
+
+
+def _by_series(frame: pd.DataFrame, columns: list[str]) -> dict[str, dict[str, np.ndarray]]:
+    """Each series' ``columns`` as arrays: a proposal reads a few rows, and selecting them
+    from a frame costs a thousand times the work."""
+    arrays = {c: frame[c].to_numpy() for c in columns}
+    order = np.argsort(frame["series"].to_numpy(), kind="stable")
+    names, starts = np.unique(frame["series"].to_numpy()[order], return_index=True)
+    ends = [*starts[1:], len(order)]
+    return {
+        str(n): {c: a[order[i:j]] for c, a in arrays.items()}
+        for n, i, j in zip(names, starts, ends)
+    }
+
+
+def _run_causes(frame: pd.DataFrame) -> dict[int, dict[str, frozenset]]:
+    """Per run, the values each cause column holds (a pooled series' runs are its cells')."""
+    out: dict[int, dict[str, frozenset]] = {}
+    for _, column in CAUSES:
+        pairs = pd.DataFrame({"run": frame["run"], "v": frame[column]}).drop_duplicates()
+        for run, values in pairs.groupby("run")["v"]:
+            out.setdefault(int(run), {})[column] = frozenset(map(str, values))
+    return out
+
+
 def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> Steps:
     """Propose and confirm the steps of every judged series of a history (module docstring).
 
@@ -173,20 +222,21 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
     gate = gate or Gate()
     figures = [f for f in WINDOWED if f in gate.tolerances and f in frame]
     runs = _runs(frame)
+    causes = (_by_series(frame, ["run", *(c for _, c in CAUSES)]), _run_causes(frame))
     found, n_series, kept = [], 0, []
     for figure in figures:
-        cells = points(frame, figure)
-        pooled = pooled_rows(cells, figure)
-        for kind, pts in (("cell", cells), ("pooled", pooled)):
-            groups = [g.sort_values("run") for _, g in pts.groupby("series", sort=False)]
-            n_series += len(groups)
-            for g, cuts in zip(groups, _proposals(groups, jobs)):
-                found += _judge_series(g, cuts, figure, kind, frame)
-            kept.append(
-                pts[["series", "series_label", "run", "value", "se"]].assign(
-                    figure=figure, kind=kind
-                )
-            )
+        rows = figure_rows(frame, figure)
+        seeds = _by_series(rows, ["run", "seed", "result", "value", "se", "df"])
+        pts = points(rows)
+        groups = [g.sort_values("run") for _, g in pts.groupby("series", sort=False)]
+        n_series += len(groups)
+        for g, cuts in zip(groups, _proposals(groups, jobs)):
+            series = g["series"].iloc[0]
+            mine = causes[0].get(series, causes[1]) if g["kind"].iloc[0] == "cell" else causes[1]
+            found += _judge_series(g, cuts, figure, seeds[series], mine)
+        kept.append(
+            pts[["series", "series_label", "kind", "run", "value", "se"]].assign(figure=figure)
+        )
     steps = pd.DataFrame(found, columns=list(_COLUMNS))
     out = _verdicts(steps, runs, n_series, gate)
     out.points = pd.concat(kept, ignore_index=True) if kept else pd.DataFrame()
@@ -213,82 +263,70 @@ _COLUMNS = {
 
 
 def _judge_series(
-    pts: pd.DataFrame, cuts: list[int], figure: str, kind: str, frame: pd.DataFrame
+    pts: pd.DataFrame, cuts: list[int], figure: str, rows: dict[str, np.ndarray], causes: dict
 ) -> list[dict]:
     """Each proposed cut of one series with its change between the segments beside it."""
     bounds = [0, *cuts, len(pts)]
+    runs = pts["run"].to_numpy()
     out = []
     for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
-        before, after = pts.iloc[a:k], pts.iloc[k:b]
-        sides = [_seeds(part, figure, kind, frame) for part in (before, after)]
+        sides = [_seeds(runs[i:j], figure, rows) for i, j in ((a, k), (k, b))]
         change = step_change(sides[0], sides[1], figure, 1 - ALPHA)
+        last, first = int(runs[k - 1]), int(runs[k])
         out.append(
             {
                 "series": pts["series"].iloc[0],
                 "series_label": pts["series_label"].iloc[0],
-                "kind": kind,
+                "kind": pts["kind"].iloc[0],
                 "figure": figure,
-                "run": int(after["run"].iloc[0]),
-                "previous_run": int(before["run"].iloc[-1]),
-                "runs_before": len(before),
-                "runs_after": len(after),
+                "run": first,
+                "previous_run": last,
+                "runs_before": k - a,
+                "runs_after": b - k,
                 "seeds_before": len(sides[0]),
                 "seeds_after": len(sides[1]),
-                "low_n": bool(before["low_n"].any() or after["low_n"].any()),
+                "low_n": bool(pts["low_n"].iloc[a:b].any()),
                 "d": change["d"],
                 "se": change["se"],
                 "df": change["df"],
-                "what_changed": _what_changed(
-                    frame, pts, int(before["run"].iloc[-1]), int(after["run"].iloc[0]), kind
-                ),
+                "what_changed": _what_changed(causes, last, first),
             }
         )
     return out
 
 
-def _seeds(part: pd.DataFrame, figure: str, kind: str, frame: pd.DataFrame) -> list[dict]:
-    """A segment's results as seeds: the rows of its runs (a pooled series: its points), each
-    result once."""
-    if kind == "pooled":
-        kept = part.drop_duplicates("results")
-        return [
-            {figure: v, f"{figure}_se": s, "df": d}
-            for v, s, d in zip(kept["value"], kept["se"], kept["df"])
-        ]
-    rows = frame[
-        (frame["series"] == part["series"].iloc[0])
-        & frame["run"].isin(part["run"])
-        & (frame["status"] == "ok")
-        & frame[figure].notna()
-    ].drop_duplicates("key")
+def _seeds(runs: np.ndarray, figure: str, rows: dict[str, np.ndarray]) -> list[dict]:
+    """A segment's seeds: the results of its runs, each once (a result a later run kept, with
+    the same code and seed, is one), and the results of one seed as one (they share its split
+    and test trials): their mean, mean standard error and fewest degrees of freedom."""
+    mask = np.isin(rows["run"], runs)
+    _, first = np.unique(rows["result"][mask], return_index=True)
+    pick = np.flatnonzero(mask)[first]
+    seeds, at = np.unique(rows["seed"][pick], return_inverse=True)
+    count = np.bincount(at, minlength=len(seeds))
+    value = np.bincount(at, rows["value"][pick].astype(float), len(seeds)) / count
+    se = np.bincount(at, rows["se"][pick].astype(float), len(seeds)) / count
+    df = np.full(len(seeds), np.inf)
+    np.minimum.at(df, at, rows["df"][pick].astype(float))
     return [
         {figure: float(v), f"{figure}_se": float(s), "df": float(d)}
-        for v, s, d in zip(rows[figure], rows[f"{figure}_se"], rows["df"].fillna(np.inf))
+        for v, s, d in zip(value, se, df)
     ]
 
 
-def _what_changed(
-    frame: pd.DataFrame, pts: pd.DataFrame, before: int, after: int, kind: str
-) -> str:
-    """What the run of a step changed against the run before, in the rows it holds."""
-    # a pooled series: the whole runs (its cells' rows)
-    rows = frame[frame["series"] == pts["series"].iloc[0]] if kind == "cell" else frame
-    a, b = (rows[rows["run"] == r] for r in (before, after))
-    found = [
-        name
-        for name, column in (
-            ("code", "code_identity"),
-            ("parameters", "detector_params"),
-            ("dataset", "dataset_fingerprint"),
-            ("bench file", "bench_digest"),
-        )
-        if set(a[column].dropna().astype(str)) != set(b[column].dropna().astype(str))
-    ]
-    return ", ".join(found) or "seeds only"
+def _what_changed(causes: dict, before: int, after: int) -> str:
+    """What the run ``after`` changed against the run ``before``: in a series' rows (arrays),
+    or in the runs' sets of each cause (:func:`_run_causes`)."""
+    if "run" in causes:
+        a, b = (causes["run"] == r for r in (before, after))
+        differ = [set(map(str, causes[c][a])) != set(map(str, causes[c][b])) for _, c in CAUSES]
+    else:
+        differ = [causes[before][c] != causes[after][c] for _, c in CAUSES]
+    return ", ".join(name for (name, _), d in zip(CAUSES, differ) if d) or "seeds only"
 
 
 def _verdicts(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate) -> Steps:
-    """Holm over every proposal at ``ALPHA``; intervals at the family's Bonferroni level."""
+    """Bonferroni over every proposal at ``ALPHA``, the level of the intervals shown."""
     level = family_level(len(steps), ALPHA)
     steps = steps.copy()
     scale = steps["figure"].map(SCALE).to_numpy(float)
@@ -299,7 +337,8 @@ def _verdicts(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate
     p_worse, p_better = two_sided_p(sign * d, se, df, tol)
     testable = ~steps["low_n"].to_numpy(bool)
     p = np.where(testable, np.minimum(p_worse, p_better), 1.0)
-    steps["p_holm"] = holm(p) if len(p) else p
+    # Bonferroni, not Holm: every verdict then rests on the interval printed beside it
+    steps["p_adjusted"] = np.minimum(1.0, len(p) * p)
     q = student_t.ppf(1 - (1 - level) / 2, df) if len(df) else df
     steps["change"], steps["change_lo"], steps["change_hi"] = d, d - q * se, d + q * se
     steps["tolerance"] = tol
@@ -309,7 +348,7 @@ def _verdicts(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate
         else ("regressed" if w <= b else "improved")
         if ph <= ALPHA
         else "not confirmed"
-        for ok, ph, w, b in zip(testable, steps["p_holm"], p_worse, p_better)
+        for ok, ph, w, b in zip(testable, steps["p_adjusted"], p_worse, p_better)
     ]
     by_run = runs.set_index("run")
     for side, column in (("", "run"), ("previous_", "previous_run")):

@@ -1,0 +1,157 @@
+"""Steps: proposed where the series moves (each point weighted by its interval), confirmed
+only beyond the gate's tolerance, named by commit; the seed spread the gate reads."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from historygen import run_folder
+
+from slipbench.app.cli import main
+from slipbench.stats.compare import unpaired_cell
+from slipbench.stats.gate import Gate
+from slipbench.stats.series import seed_spread, series_rows
+from slipbench.stats.steps import find_steps, propose, step_change
+from slipbench.store.history import Run, add_run, read_history, utc_date
+from slipbench.store.results import read_results
+
+
+def _history(root, shifts, noise=0.005, codes=None):
+    """A history whose run i has every figure of every cell moved by shifts[i]."""
+    hist = root / "hist"
+    for i, shift in enumerate(shifts):
+        code = codes[i] if codes else f"code-{i}"
+        folder = run_folder(root / f"r{i}", seed=i, shift=shift, noise=noise, code=code)
+        day = f"2026-01-{1 + i // 24:02d}T{i % 24:02d}:00:00Z"
+        add_run(hist, series_rows(read_results(folder)), Run(f"c{i:02d}", utc_date(day), "m"))
+    return hist
+
+
+def _cli(*args: str) -> tuple[int, str]:
+    import io
+    from contextlib import redirect_stdout
+
+    buffer = io.StringIO()
+    with pytest.raises(SystemExit) as exit_, redirect_stdout(buffer):
+        main(list(args))
+        raise SystemExit(0)
+    return int(exit_.value.code or 0), buffer.getvalue()
+
+
+@pytest.fixture(scope="module")
+def stepped(tmp_path_factory):
+    """12 runs; from c06 on every figure 5 points lower (noise 0.5 point)."""
+    return _history(tmp_path_factory.mktemp("steps"), [0.0] * 6 + [-0.05] * 6)
+
+
+def test_a_step_beyond_the_tolerance_is_named_at_its_commit(stepped):
+    found = find_steps(read_history(stepped), Gate.of(["accuracy", "tn_rate", "tp_rate"]))
+    confirmed = found.confirmed
+    assert not confirmed.empty
+    assert set(confirmed["commit"]) == {"c06"}
+    assert set(confirmed["verdict"]) == {"regressed"}
+    assert set(confirmed["previous_commit"]) == {"c05"}
+    assert (confirmed["change_hi"] < -1).all()  # beyond the tolerance, in points
+    assert confirmed["change"].between(-6.5, -3.5).all()
+    # each cell and figure, and each protocol mean
+    assert (confirmed["kind"] == "pooled").sum() == 3
+    assert set(confirmed["what_changed"]) == {"code"}
+
+
+def test_steps_exit_1_for_a_regression_newer_than_since(stepped):
+    code, text = _cli("history", "steps", "--history", str(stepped), "--since", "c03")
+    assert code == 1
+    assert "c06" in text and "regressed" in text
+    assert _cli("history", "steps", "--history", str(stepped), "--since", "c06")[0] == 0
+    assert (
+        _cli("history", "steps", "--history", str(stepped), "--since", "2026-01-01T03:30")[0] == 1
+    )
+    assert _cli("history", "steps", "--history", str(stepped))[0] == 0
+    code, text = _cli("history", "steps", "--history", str(stepped), "--since", "nothing")
+    assert code == 2
+
+
+def test_steps_json_lists_every_proposal(stepped):
+    code, text = _cli("history", "steps", "--history", str(stepped), "--json")
+    doc = json.loads(text)
+    assert code == 0 and doc["runs"] == 12
+    assert {s["verdict"] for s in doc["steps"]} <= {"regressed", "not confirmed"}
+    assert all(s["commit"] == "c06" for s in doc["steps"] if s["verdict"] == "regressed")
+
+
+@pytest.mark.slow
+def test_a_step_inside_the_tolerance_is_not_confirmed(tmp_path):
+    hist = _history(tmp_path, [0.0] * 6 + [-0.005] * 6, noise=0.001)
+    found = find_steps(read_history(hist), Gate.of(["accuracy", "tn_rate", "tp_rate"]))
+    assert not found.steps.empty  # the search sees it
+    assert found.confirmed.empty  # the gate does not call half a point a regression
+
+
+@pytest.mark.slow
+def test_no_step_confirmed_in_a_flat_history(tmp_path):
+    hist = _history(tmp_path, [0.0] * 10, noise=0.01)
+    found = find_steps(read_history(hist), Gate.of(["accuracy", "tn_rate", "tp_rate"]))
+    assert found.confirmed.empty
+    assert found.series == 3 * (48 + 1)
+
+
+def test_runs_of_one_code_and_seed_count_once(tmp_path):
+    """A later run that kept the same results (same code, same seed: the same cell keys) is
+    one result, not a seed more."""
+    hist = tmp_path / "hist"
+    folder = run_folder(tmp_path / "r", seed=0)
+    for i in range(3):
+        add_run(
+            hist,
+            series_rows(read_results(folder)),
+            Run(f"c{i}", utc_date(f"2026-01-0{i + 1}"), "m"),
+        )
+    spread = seed_spread(read_history(hist), "accuracy")
+    assert spread.empty  # one result per series: no spread measured
+
+
+def test_weights_follow_the_intervals():
+    value = np.r_[np.zeros(10), 1.0, np.zeros(10)]
+    assert propose(value, np.r_[np.full(10, 0.01), 10.0, np.full(10, 0.01)]) == []
+    assert propose(value, np.full(21, 0.01)) != []
+    shift = np.r_[np.zeros(10), np.ones(10)] + np.random.default_rng(0).normal(0, 0.05, 20)
+    assert propose(shift, np.full(20, 0.05)) == [10]
+
+
+def test_step_change_is_compares_of_the_segments_means():
+    before = [{"accuracy": v, "accuracy_se": 0.01, "df": 30.0} for v in (0.80, 0.82, 0.81)]
+    after = [{"accuracy": v, "accuracy_se": 0.01, "df": 30.0} for v in (0.75, 0.76, 0.74)]
+    got = step_change(before, after, "accuracy", 0.95)
+    se = np.hypot(np.std([0.80, 0.82, 0.81], ddof=1), np.std([0.75, 0.76, 0.74], ddof=1)) / np.sqrt(
+        3
+    )
+    assert got["d"] == pytest.approx(-0.06)
+    assert got["se"] == pytest.approx(se)
+    assert got["df"] == 2
+    side = [{"accuracy": 0.81, "accuracy_se": se / np.sqrt(2), "df": 2.0}]
+    other = [{"accuracy": 0.75, "accuracy_se": se / np.sqrt(2), "df": 2.0}]
+    assert got["lo"] == pytest.approx(unpaired_cell(side, other, 0.95)["d_accuracy_lo"])
+
+
+def test_seed_spread_pools_each_code_identity(tmp_path):
+    """Two identities, three seeds each: the spread within each, pooled on 2 + 2 df."""
+    hist = _history(
+        tmp_path,
+        [0.0, 0.01, -0.01, 0.2, 0.21, 0.19],
+        noise=0.0,
+        codes=["a", "a", "a", "b", "b", "b"],
+    )
+    frame = read_history(hist)
+    spread = seed_spread(frame, "accuracy")
+    assert len(spread) == 48
+    assert spread["df"].eq(4).all() and spread["identities"].eq(2).all()
+    expected = np.var([0.0, 0.01, -0.01], ddof=1)  # a shift of 0.2 between codes is not spread
+    assert spread["variance"].to_numpy() == pytest.approx(np.full(48, expected), rel=1e-6)
+    only_b = seed_spread(frame, "accuracy", identities=["b"])
+    assert only_b["df"].eq(2).all()
+    assert seed_spread(frame, "accuracy", identities=["zzz"]).empty
+    assert list(only_b.columns) == ["series", "series_label", "variance", "df", "identities"]
+    assert isinstance(only_b, pd.DataFrame)

@@ -1,0 +1,155 @@
+"""The history store: runs added once and kept as written, read back in order, the index a
+cache, bad input refused with a clear message."""
+
+from __future__ import annotations
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from historygen import run_folder
+
+from slipbench.app.cli import main
+from slipbench.errors import DataError, UsageError
+from slipbench.stats.series import series_rows
+from slipbench.store.history import (
+    INDEX_FILE,
+    Run,
+    add_run,
+    check_commit,
+    read_history,
+    utc_date,
+)
+from slipbench.store.results import read_results
+
+
+def _cli(*args: str) -> int:
+    with pytest.raises(SystemExit) as exit_:
+        main(list(args))
+        raise SystemExit(0)
+    return int(exit_.value.code or 0)
+
+
+def _files(folder):
+    return {
+        p.relative_to(folder): (p.stat().st_mtime_ns, p.read_bytes())
+        for p in folder.rglob("*")
+        if p.is_file()
+    }
+
+
+def test_add_keeps_each_run_once_and_reads_them_in_date_order(tmp_path):
+    hist = tmp_path / "hist"
+    for i, date in enumerate(("2026-02-03", "2026-01-05T10:00:00+02:00", "2026-01-20")):
+        run_folder(tmp_path / f"r{i}", seed=i, code=f"code-{i}")
+        assert (
+            _cli(
+                "history",
+                "add",
+                str(tmp_path / f"r{i}"),
+                "--history",
+                str(hist),
+                "--commit",
+                f"c{i}",
+                "--date",
+                date,
+                "--machine",
+                "ci runner ü",
+            )
+            == 0
+        )
+    before = _files(hist)
+    # the same commit again, even with other rows: nothing changes
+    run_folder(tmp_path / "other", seed=9, shift=0.3)
+    assert (
+        _cli("history", "add", str(tmp_path / "other"), "--history", str(hist), "--commit", "c0")
+        == 0
+    )
+    assert _files(hist) == before
+    frame = read_history(hist)
+    assert len(frame) == 3 * 48
+    runs = frame.groupby("run")[["commit", "date"]].first()
+    assert list(runs["commit"]) == ["c1", "c2", "c0"]  # by date, zones made UTC
+    assert runs["date"].iloc[0] == "2026-01-05T08:00:00Z"
+    assert set(frame["machine"]) == {"ci runner ü"}
+    assert frame["bench_digest"].eq("").all()
+    assert frame.groupby("run")["code_identity"].first().tolist() == ["code-1", "code-2", "code-0"]
+    # one series per cell, the same in every run: the code and seed are not part of it
+    assert frame["series"].nunique() == 48
+    assert frame.groupby("series")["run"].nunique().eq(3).all()
+    assert list(hist.glob("runs/month=*/*.parquet"))  # hive-partitioned by month
+    assert sorted(p.name for p in (hist / "runs").iterdir()) == ["month=2026-01", "month=2026-02"]
+
+
+def test_the_index_is_a_cache_of_the_runs(tmp_path):
+    hist = tmp_path / "hist"
+    for i in range(2):
+        rows = series_rows(read_results(run_folder(tmp_path / f"r{i}", seed=i, code=f"k{i}")))
+        add_run(hist, rows, Run(f"c{i}", utc_date(f"2026-01-0{i + 1}"), "m"))
+    whole = read_history(hist)
+    (hist / INDEX_FILE).unlink()
+    assert read_history(hist).equals(whole)  # read from the run files
+    rows = series_rows(read_results(run_folder(tmp_path / "r2", seed=2, code="k2")))
+    add_run(hist, rows, Run("c2", utc_date("2026-01-03"), "m"))
+    index = pq.read_table(hist / INDEX_FILE)
+    assert index.num_rows == 3 * 48  # rebuilt with every run
+    assert read_history(hist, ["accuracy"]).shape == (3 * 48, 4 + 1 + 1)
+
+
+def test_a_run_file_edited_after_it_was_written_is_refused(tmp_path):
+    hist = tmp_path / "hist"
+    rows = series_rows(read_results(run_folder(tmp_path / "r0", seed=0)))
+    path = add_run(hist, rows, Run("c0", utc_date("2026-01-01"), "m"))
+    (hist / INDEX_FILE).unlink()
+    table = pq.read_table(path)
+    edited = table.set_column(
+        table.column_names.index("accuracy"), "accuracy", pq.read_table(path)["tn_rate"]
+    )
+    pq.write_table(edited.replace_schema_metadata(table.schema.metadata), path)
+    with pytest.raises(DataError, match=r"c0\.parquet: 48 row\(s\) are not what was written"):
+        read_history(hist)
+
+
+def test_only_verified_rows_are_added(tmp_path):
+    folder = run_folder(tmp_path / "r0", seed=0, cells=True)
+    path = folder / "results.parquet"
+    table = pq.read_table(path)  # a results file edited by hand, its metadata kept
+    column = table.column_names.index("accuracy")
+    edited = table.set_column(column, "accuracy", table["tn_rate"])
+    pq.write_table(edited.replace_schema_metadata(table.schema.metadata), path)
+    code = _cli("history", "add", str(path), "--history", str(tmp_path / "hist"), "--commit", "c0")
+    assert code == 2
+    assert not (tmp_path / "hist").exists()
+
+
+@pytest.mark.parametrize("commit", ["../up", "a/b", "", "-rf", "x" * 101, "ü"])
+def test_a_commit_that_cannot_name_a_file_is_refused(commit):
+    with pytest.raises(UsageError, match="--commit"):
+        check_commit(commit)
+
+
+def test_bad_dates_are_refused_and_zones_kept():
+    with pytest.raises(UsageError, match="--date: 'yesterday'"):
+        utc_date("yesterday")
+    assert utc_date("2026-03-01T12:00:00-05:00") == "2026-03-01T17:00:00Z"
+    assert utc_date("2026-03-01") == "2026-03-01T00:00:00Z"
+
+
+def test_a_history_that_is_not_there_is_named(tmp_path):
+    with pytest.raises(DataError, match="no history here"):
+        read_history(tmp_path / "nothing")
+    assert _cli("history", "steps", "--history", str(tmp_path / "nothing")) == 2
+
+
+def test_rows_the_columns_do_not_tell_apart_are_refused(tmp_path):
+    rows = read_results(run_folder(tmp_path / "r0", seed=0))
+    twice = pd.concat([rows, rows.assign(key=rows["key"] + "x")], ignore_index=True)
+    with pytest.raises(ValueError, match="fall in one series under one seed"):
+        series_rows(twice)
+
+
+def test_a_run_of_two_datasets_names_its_series_apart(tmp_path):
+    a = read_results(run_folder(tmp_path / "a", seed=0, dataset_fingerprint="aaaa"))
+    b = read_results(run_folder(tmp_path / "b", seed=0, code="code-b", dataset_fingerprint="bbbb"))
+    rows = series_rows(pd.concat([a, b], ignore_index=True))
+    assert rows["series"].nunique() == 96
+    assert rows["series_label"].str.contains("dataset_fingerprint bbbb").sum() == 48
