@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.stats.gate import NAMES, WINDOWED, unit
-from slipbench.stats.steps import Steps
+from slipbench.stats.steps import SERIES_ALPHA, Steps
 
 SHOWN = ("commit", "date", "verdict", "figure", "series_label", "change", "runs", "what_changed")
 
@@ -30,9 +30,9 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
         f"protocol's mean over its cells); tolerances: {tolerances}.\n"
         f"{len(found.steps)} steps proposed (ruptures, each point weighted by its interval), "
         f"{int(counts.get('regressed', 0))} regressed and {int(counts.get('improved', 0))} "
-        f"improved beyond the tolerance (Bonferroni over the proposals at 5 %; each segment's "
-        f"runs as seeds), {int(counts.get('inconclusive', 0))} inconclusive (low n); intervals at "
-        f"{100 * found.level:.4g} %.\n"
+        f"improved beyond the tolerance (each segment's seeds against the other's; Bonferroni "
+        f"over a series' proposals at {100 * SERIES_ALPHA:g} %, the level of each interval), "
+        f"{int(counts.get('inconclusive', 0))} inconclusive (one seed on each side, or low n).\n"
     )
 
 
@@ -80,7 +80,7 @@ def steps_json(found: Steps) -> str:
         "first": found.runs.iloc[0][["commit", "date"]].to_dict(),
         "last": found.runs.iloc[-1][["commit", "date"]].to_dict(),
         "series": found.series,
-        "level": found.level,
+        "series_alpha": SERIES_ALPHA,
         "tolerances": dict(found.gate.tolerances),
         "steps": [{k: _plain(v) for k, v in r.items()} for r in found.steps.to_dict("records")],
     }

@@ -39,15 +39,17 @@ import ruptures as rpt
 from ruptures.base import BaseCost
 from scipy.stats import t as student_t
 
-from slipbench.stats.compare import ALPHA, family_level, unpaired_cell
+from slipbench.stats.compare import ALPHA, unpaired_cell
 from slipbench.stats.gate import SCALE, WINDOWED, WORSE, Gate, two_sided_p
 from slipbench.stats.metrics import FIGURES
 from slipbench.stats.series import figure_rows, points
 
 #: the price of a cut, times the series' noise scale and log(points)
-PENALTY = 3.0
+PENALTY = 6.0
 #: the fewest runs a segment holds
-MIN_RUNS = 2
+MIN_RUNS = 4
+#: the chance that a series without a step gets a confirmed one (Bonferroni over its proposals)
+SERIES_ALPHA = 0.01
 #: points per worker process below which the series are cut in this process (starting the
 #: workers costs more than cutting; benchmarks/bench_history.py)
 POINTS_PER_WORKER = 200_000
@@ -102,28 +104,34 @@ def propose(value: np.ndarray, se: np.ndarray) -> list[int]:
     return [int(b) for b in algo.predict(pen=pen)[:-1]]
 
 
-def _side(rows: list[dict], figure: str) -> dict:
-    """A segment's results as one side: their mean, and its standard error from their spread
-    over the results (each drew its own seed, and with it its split: its test noise is inside
-    that spread) on ``results - 1`` degrees of freedom; one result: its own interval's."""
-    values = np.array([r[figure] for r in rows], float)
+def _sides(before: list[dict], after: list[dict], figure: str) -> tuple[dict, dict]:
+    """Both segments as one row each: the mean of its seeds, and a standard error from their
+    spread pooled over both segments (a step moves the figure, not the bench's seed noise) on
+    ``seeds - 2`` degrees of freedom. Where each segment holds one seed, nothing measures that
+    noise: each row keeps its own interval (test-set noise alone)."""
     unknown = {f"{name}_se": np.nan for name in FIGURES}  # the figures not judged here
-    if len(values) == 1:
-        return unknown | rows[0]
-    se = float(values.std(ddof=1) / np.sqrt(len(values)))
-    return unknown | {figure: float(values.mean()), f"{figure}_se": se, "df": len(values) - 1.0}
+    if len(before) + len(after) <= 2:
+        return unknown | before[0], unknown | after[0]
+    values = [np.array([r[figure] for r in side], float) for side in (before, after)]
+    df = float(len(values[0]) + len(values[1]) - 2)
+    variance = sum(float(((v - v.mean()) ** 2).sum()) for v in values) / df
+    return tuple(  # type: ignore[return-value]
+        unknown | {figure: float(v.mean()), f"{figure}_se": np.sqrt(variance / len(v)), "df": df}
+        for v in values
+    )
 
 
 def step_change(before: list[dict], after: list[dict], figure: str, level: float) -> dict:
-    """The change of ``figure`` from the results ``before`` to those ``after`` (each a row
-    with the figure, its ``_se`` and ``df``; each segment's results its seeds), by the gate's
-    comparison of two rows (:func:`slipbench.stats.compare.unpaired_cell`): each side the mean
-    of its results with the standard error of their spread. Returns ``d``, ``se``, ``df`` and
+    """The change of ``figure`` from the seeds ``before`` to those ``after`` (each a row with
+    the figure, its ``_se`` and ``df``), by the gate's comparison of two rows
+    (:func:`slipbench.stats.compare.unpaired_cell`), each side the mean of its seeds with the
+    standard error of their pooled spread (:func:`_sides`). Returns ``d``, ``se``, ``df`` and
     the interval ``lo``, ``hi`` at ``level``, in the figure's stored units.
 
     The one place steps call the comparison machinery: the contrast module replaces it.
     """
-    found = unpaired_cell([_side(before, figure)], [_side(after, figure)], level)
+    b, a = _sides(before, after, figure)
+    found = unpaired_cell([b], [a], level)
     return {
         "d": found[f"d_{figure}"],
         "se": found[f"d_{figure}_se"],
@@ -143,7 +151,6 @@ class Steps:
     # every series' points: series, series_label, figure, kind, run, value, se
     points: pd.DataFrame = field(default_factory=pd.DataFrame)
     gate: Gate = field(default_factory=Gate)
-    level: float = 1 - ALPHA
 
     @property
     def confirmed(self) -> pd.DataFrame:
@@ -326,8 +333,8 @@ def _what_changed(causes: dict, before: int, after: int) -> str:
 
 
 def _verdicts(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate) -> Steps:
-    """Bonferroni over every proposal at ``ALPHA``, the level of the intervals shown."""
-    level = family_level(len(steps), ALPHA)
+    """Bonferroni over each series' proposals at ``SERIES_ALPHA``, the level of the interval
+    shown beside each; one seed on each side or low n: inconclusive."""
     steps = steps.copy()
     scale = steps["figure"].map(SCALE).to_numpy(float)
     sign = steps["figure"].map(WORSE).to_numpy(float)
@@ -335,26 +342,31 @@ def _verdicts(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate
     d, se = scale * steps["d"].to_numpy(float), scale * steps["se"].to_numpy(float)
     df = steps["df"].to_numpy(float)
     p_worse, p_better = two_sided_p(sign * d, se, df, tol)
-    testable = ~steps["low_n"].to_numpy(bool)
-    p = np.where(testable, np.minimum(p_worse, p_better), 1.0)
+    alone = (steps["seeds_before"] + steps["seeds_after"] <= 2).to_numpy(bool)
+    testable = ~steps["low_n"].to_numpy(bool) & ~alone
+    m = steps.groupby(["series", "figure"])["run"].transform("size").to_numpy(float)
     # Bonferroni, not Holm: every verdict then rests on the interval printed beside it
-    steps["p_adjusted"] = np.minimum(1.0, len(p) * p)
-    q = student_t.ppf(1 - (1 - level) / 2, df) if len(df) else df
+    steps["p_adjusted"] = np.where(
+        testable, np.minimum(1.0, m * np.minimum(p_worse, p_better)), 1.0
+    )
+    steps["level"] = 1 - SERIES_ALPHA / np.maximum(m, 1)
+    q = student_t.ppf(1 - (1 - steps["level"].to_numpy(float)) / 2, df)
     steps["change"], steps["change_lo"], steps["change_hi"] = d, d - q * se, d + q * se
     steps["tolerance"] = tol
     steps["verdict"] = [
         "inconclusive"
         if not ok
         else ("regressed" if w <= b else "improved")
-        if ph <= ALPHA
+        if ph <= SERIES_ALPHA
         else "not confirmed"
         for ok, ph, w, b in zip(testable, steps["p_adjusted"], p_worse, p_better)
     ]
+    steps["why"] = np.where(alone, "one seed on each side", np.where(steps["low_n"], "low n", ""))
     by_run = runs.set_index("run")
     for side, column in (("", "run"), ("previous_", "previous_run")):
         for what in ("commit", "date"):
             steps[f"{side}{what}"] = steps[column].map(by_run[what])
-    return Steps(steps, runs, n_series, gate=gate, level=level)
+    return Steps(steps, runs, n_series, gate=gate)
 
 
 def default_jobs() -> int:
