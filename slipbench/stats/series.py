@@ -67,7 +67,7 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
         Two rows of the run fall in one series under one seed: the rows do not say what tells
         them apart.
     """
-    named = named_entrants(rows)
+    named = named_entrants(rows.reset_index(drop=True))  # a file's own index may repeat
     apart = [c for c in APART if c in named and factor_values(named, c).nunique() > 1]
     columns = [c for c in (*IDENTITY, *apart) if c in named]
     identity = pd.DataFrame({c: factor_values(named, c) for c in columns}, index=named.index)
@@ -77,7 +77,7 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
             out[c] = named[c] if c in named else None
     for figure in FIGURES:
         out[f"{figure}_se"] = _standard_error(named, figure)
-    out["row_digest"] = [row_digest(r) for r in rows.to_dict("records")]
+    out["row_digest"] = [row_digest(r) for r in rows.to_dict("records")]  # as read
     out["series"] = [_digest(r) for r in identity.to_dict("records")]
     out["series_label"] = [_label(r) for r in identity.to_dict("records")]
     twice = out.duplicated(["series", "seed"], keep=False)

@@ -36,9 +36,10 @@ def workflow(path: Path) -> dict:
     return data
 
 
-def steps(path: Path) -> list[dict]:
-    (job,) = workflow(path)["jobs"].values()
-    return job["steps"]
+def steps(path: Path, job: str = "compare") -> list[dict]:
+    """The steps of the pull-request job (a workflow of one job: its job's)."""
+    jobs = workflow(path)["jobs"]
+    return (jobs[job] if len(jobs) > 1 else next(iter(jobs.values())))["steps"]
 
 
 def step_named(path: Path, words: str) -> dict:
@@ -86,8 +87,16 @@ def test_docs_name_no_missing_plugin_folder():
 def test_workflow_comments_caches_and_gates(repo):
     path, bench = REPOS[repo]
     wf = workflow(path)
-    assert wf["on"] == "pull_request"
-    assert wf["permissions"] == {"contents": "read", "pull-requests": "write"}
+    if repo == "this":  # and on pushes to main, the history job
+        assert wf["on"] == {"pull_request": None, "push": {"branches": ["main"]}}
+        assert wf["jobs"]["compare"]["if"] == "github.event_name == 'pull_request'"
+        assert wf["permissions"]["actions"] == "read"  # main's artifacts
+    else:
+        assert wf["on"] == "pull_request"
+    assert {k: wf["permissions"][k] for k in ("contents", "pull-requests")} == {
+        "contents": "read",
+        "pull-requests": "write",
+    }
     assert wf["env"]["BENCH"] == bench.name
     # the base results: restored and saved under a key of the base commit and the bench file
     restore = next(s for s in steps(path) if s.get("uses", "").startswith("actions/cache/restore"))
@@ -98,7 +107,9 @@ def test_workflow_comments_caches_and_gates(repo):
     assert save["with"]["path"] == restore["with"]["path"] == "base"
     miss = f"steps.{restore['id']}.outputs.cache-hit != 'true'"
     base_run = step_named(path, "on the base branch")
-    assert base_run["if"] == save["if"] == miss and "--out base" in base_run["run"]
+    assert (
+        base_run["if"].startswith(miss) and save["if"] == miss and "--out base" in base_run["run"]
+    )
     # every install pinned by the constraints file; torch (where a plugin needs it) from
     # PyTorch's CPU index, never PyPI's multi-GB CUDA build
     installs = " ".join(s.get("run", "") for s in steps(path))
@@ -189,6 +200,87 @@ def test_workflow_slipbench_steps_run(repo, tmp_path, unit):
     assert not result["only_base"] and not result["only_candidate"]
     assert (work / "candidate" / "report.html").is_file()
     assert (work / "base" / "benchmark.toml").read_text() == small.read_text()
+
+
+def test_history_job_keeps_main_history_and_publishes():
+    path = REPOS["this"][0]
+    job = workflow(path)["jobs"]["history"]
+    assert job["if"] == "github.event_name == 'push'"
+    assert {("pages", "write"), ("id-token", "write"), ("actions", "read")} <= set(
+        job["permissions"].items()
+    )
+    names = [s.get("uses", "").split("@")[0] for s in job["steps"]]
+    assert names.count("actions/upload-artifact") == 2 and "actions/deploy-pages" in names
+    uploads = {
+        s["with"]["name"]: s["with"]["path"]
+        for s in job["steps"]
+        if "upload-artifact" in s.get("uses", "")
+    }
+    assert uploads == {"history": "history", "main-results": "results"}
+    text = "\n".join(s.get("run", "") for s in job["steps"])
+    assert (
+        "--name history --dir history" in text and "history add results --history history" in text
+    )
+    # the pull request's base: main's latest results, where they ran this bench file
+    main = next(s for s in steps(path) if s.get("id") == "main")
+    assert (
+        "--name main-results --dir base" in main["run"]
+        and 'cmp -s base/benchmark.toml "$BENCH"' in main["run"]
+    )
+
+
+@pytest.mark.slow
+def test_history_job_slipbench_steps_run(tmp_path, unit):
+    """The history job's own commands, run through bash on a tiny bench: a run, added twice
+    (the second changes nothing), its steps, its site."""
+    path, bench = REPOS["this"]
+    work = tmp_path / "repo"
+    work.mkdir()
+    shutil.copy(bench, work)
+    small = tiny(work / bench.name, unit)
+    subprocess.run(["git", "init", "-q"], cwd=work, check=True)
+    subprocess.run(
+        [
+            "git",
+            "-c",
+            "user.name=t",
+            "-c",
+            "user.email=t@t",
+            "commit",
+            "-q",
+            "--allow-empty",
+            "-m",
+            "x",
+        ],
+        cwd=work,
+        check=True,
+    )
+    env = {
+        **os.environ,
+        "BENCH": small.name,
+        "GITHUB_SHA": "0123abc",
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+    }
+    job = workflow(path)["jobs"]["history"]["steps"]
+    ran = [s for s in job if "run" in s and "slipbench " in s["run"] and "gh run" not in s["run"]]
+    assert len(ran) == 4
+    for step in [*ran, ran[1]]:
+        done = subprocess.run(
+            ["bash", "--noprofile", "--norc", "-eo", "pipefail", "-c", step["run"]],
+            cwd=work,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
+        assert done.returncode == 0, f"{step['name']}: {done.stderr[-2000:]}"
+    assert len(list((work / "history" / "runs").glob("month=*/0123abc.parquet"))) == 1
+    assert "1 runs" in (work / "steps.md").read_text()
+    assert {p.name for p in (work / "site").iterdir()} >= {
+        "index.html",
+        "series.html",
+        "report.html",
+    }
 
 
 @pytest.mark.parametrize("repo", REPOS)

@@ -1,0 +1,196 @@
+"""The results site: pages that load nothing from the network, data that cannot break out of
+its script, plotly written once; and, in a real headless Chromium, every page drawn with no
+console error."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import pytest
+from historygen import run_folder
+
+from slipbench.app.cli import main
+
+PLOTTED = ("index.html", "compare.html", "series.html")
+HOSTILE = 'holweg</script><script>alert("x")</script>'
+
+
+def _cli(*args: str) -> int:
+    with pytest.raises(SystemExit) as exit_:
+        main(list(args))
+        raise SystemExit(0)
+    return int(exit_.value.code or 0)
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """A history of 10 runs of two detectors (one with a hostile name), a 5-point drop of
+    holweg from c05 on, and its site with the last run's report."""
+    root = tmp_path_factory.mktemp("site")
+    for i in range(10):
+        folder = run_folder(root / f"r{i}", seed=i, shift=-0.05 * (i >= 5), code=f"k{i}")
+        other = run_folder(root / f"o{i}", seed=i, code=f"k{i}", detector=HOSTILE)
+        rows = [p / "results.parquet" for p in (folder, other)]
+        import pandas as pd
+
+        both = root / f"both{i}"
+        both.mkdir()
+        both_rows = pd.concat([pd.read_parquet(p) for p in rows], ignore_index=True)
+        both_rows.to_parquet(both / "results.parquet", index=False)
+        day = f"2026-02-{i + 1:02d}"
+        assert (
+            _cli(
+                "history",
+                "add",
+                str(both),
+                "--history",
+                str(root / "h"),
+                "--commit",
+                f"c{i:02d}",
+                "--date",
+                day,
+            )
+            == 0
+        )
+    assert (
+        _cli(
+            "history",
+            "page",
+            "--history",
+            str(root / "h"),
+            "--results",
+            str(both),
+            "--out",
+            str(root / "site"),
+        )
+        == 0
+    )
+    return root / "site"
+
+
+@pytest.mark.slow
+def test_every_page_loads_scripts_from_the_site_only(site):
+    pages = sorted(p.name for p in site.glob("*.html"))
+    assert pages == ["compare.html", "index.html", "report.html", "series.html"]
+    for name in PLOTTED:
+        text = (site / name).read_text()
+        sources = re.findall(r'<script[^>]*src="([^"]+)"', text)
+        assert sources == ["assets/plotly.js", "assets/site.js"]
+        assert not re.search(r'(src|href)="(https?:)?//', text)
+    report = (site / "report.html").read_text()
+    assert "<script" not in report and not re.search(r'src="(https?:)?//', report)
+    # plotly written once, gzipped: the whole site stays small
+    assert len(list(site.rglob("plotly*"))) == 1
+    total = sum(p.stat().st_size for p in site.rglob("*") if p.is_file())
+    assert total < 5_000_000
+
+
+@pytest.mark.slow
+def test_names_cannot_break_out_of_the_page_data(site):
+    text = (site / "compare.html").read_text()
+    assert HOSTILE not in text and "<\\/script><script>alert" in text
+    data = re.search(r"<script>window.SITE = (.*?);</script>", text, re.S)[1]
+    assert HOSTILE in json.loads(data)["detectors"]
+
+
+@pytest.mark.slow
+def test_the_series_page_marks_the_confirmed_step(site):
+    text = (site / "series.html").read_text()
+    data = json.loads(re.search(r"<script>window.SITE = (.*?);</script>", text, re.S)[1])
+    runs = data["runs"]
+    stepped = [s for s in data["series"] if s["steps"]]
+    assert stepped and all("holweg" in s["label"] and HOSTILE not in s["label"] for s in stepped)
+    assert {runs[st["run"]][0] for s in stepped for st in s["steps"]} == {"c05"}
+    assert all(len(s["segments"]) == 2 for s in stepped)
+    index = (site / "index.html").read_text()
+    assert "c05" in index and "regressed" in index
+
+
+@pytest.mark.slow
+def test_one_results_folder_gets_its_pages(tmp_path):
+    folder = run_folder(tmp_path / "r", seed=0, cells=True)
+    assert _cli("history", "page", "--results", str(folder), "--out", str(tmp_path / "s")) == 0
+    assert sorted(p.name for p in (tmp_path / "s").glob("*.html")) == [
+        "compare.html",
+        "index.html",
+        "report.html",
+    ]
+    assert _cli("history", "page", "--out", str(tmp_path / "t")) == 2
+
+
+def test_a_small_history_site_escapes_names_and_loads_local_scripts(tmp_path):
+    for i in range(4):
+        folder = run_folder(tmp_path / f"r{i}", seed=i, detector=HOSTILE)
+        assert (
+            _cli(
+                "history",
+                "add",
+                str(folder),
+                "--history",
+                str(tmp_path / "h"),
+                "--commit",
+                f"c{i}",
+                "--date",
+                f"2026-03-0{i + 1}",
+            )
+            == 0
+        )
+    assert (
+        _cli("history", "page", "--history", str(tmp_path / "h"), "--out", str(tmp_path / "s")) == 0
+    )
+    for name in PLOTTED:
+        text = (tmp_path / "s" / name).read_text()
+        assert re.findall(r'<script[^>]*src="([^"]+)"', text) == [
+            "assets/plotly.js",
+            "assets/site.js",
+        ]
+        assert HOSTILE not in text
+    data = re.search(
+        r"<script>window.SITE = (.*?);</script>",
+        (tmp_path / "s" / "compare.html").read_text(),
+        re.S,
+    )[1]
+    assert json.loads(data)["detectors"] == [HOSTILE]
+
+
+def _browser():
+    """A headless Chromium through selenium, or a skip naming what is missing."""
+    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    driver = shutil.which("chromedriver")
+    if not (browser and driver):
+        pytest.skip("no chromium and chromedriver here (apt-get install chromium chromium-driver)")
+    from selenium.webdriver.chrome.service import Service
+
+    options = webdriver.ChromeOptions()
+    options.binary_location = browser
+    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage"):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(driver), options=options)
+
+
+@pytest.mark.slow
+def test_pages_draw_in_a_real_browser_with_no_console_error(site):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    chrome = _browser()
+    try:
+        for name in PLOTTED:
+            chrome.get((site / name).as_uri())
+            WebDriverWait(chrome, 60).until(
+                lambda d: d.find_element(By.TAG_NAME, "body").get_attribute("data-drawn") == "yes"
+            )
+            plots = chrome.find_elements(By.CSS_SELECTOR, ".js-plotly-plot")
+            assert plots, f"{name}: no plot drawn"
+            assert chrome.find_elements(By.CSS_SELECTOR, ".js-plotly-plot .main-svg")
+            errors = [e for e in chrome.get_log("browser") if e["level"] == "SEVERE"]
+            assert not errors, f"{name}: {errors}"
+        chrome.get((site / "report.html").as_uri())
+        assert chrome.find_elements(By.TAG_NAME, "table")
+        assert not [e for e in chrome.get_log("browser") if e["level"] == "SEVERE"]
+    finally:
+        chrome.quit()
