@@ -48,6 +48,31 @@ from slipbench.stats.series import figure_rows, points
 PENALTY = 6.0
 #: the fewest runs a segment holds
 MIN_RUNS = 4
+#: what a step's run may have changed against the run before, and the column that says so
+CAUSES = (
+    ("code", "code_identity"),
+    ("parameters", "detector_params"),
+    ("dataset", "dataset_fingerprint"),
+    ("bench file", "bench_digest"),
+)
+#: the history's columns :func:`find_steps` reads (``read_history(..., STEP_COLUMNS)``)
+STEP_COLUMNS = [
+    "series",
+    "series_label",
+    "key",
+    "seed",
+    "status",
+    "low_n",
+    "df",
+    "protocol",
+    "protocol_params",
+    "split",
+    "labels",
+    "detector",
+    "cell",
+    *(c for _, c in CAUSES),
+    *(f"{f}{end}" for f in WINDOWED for end in ("", "_se")),
+]
 #: the chance that a series without a step gets a confirmed one (Bonferroni over its proposals)
 SERIES_ALPHA = 0.01
 #: points per worker process below which the series are cut in this process (starting the
@@ -183,15 +208,6 @@ def _runs(frame: pd.DataFrame) -> pd.DataFrame:
         .first()
         .reset_index()
     )
-
-
-#: what a step's run may have changed against the run before, and the column that says so
-CAUSES = (
-    ("code", "code_identity"),
-    ("parameters", "detector_params"),
-    ("dataset", "dataset_fingerprint"),
-    ("bench file", "bench_digest"),
-)
 
 
 def _by_series(frame: pd.DataFrame, columns: list[str]) -> dict[str, dict[str, np.ndarray]]:

@@ -136,11 +136,11 @@ def steps_command(**options) -> None:
     o = StepsArgs(**options)
     from slipbench.app.commands.compare import gate_from
     from slipbench.report.steps import steps_json, steps_text
-    from slipbench.stats.steps import default_jobs, find_steps
+    from slipbench.stats.steps import STEP_COLUMNS, default_jobs, find_steps
     from slipbench.store.history import read_history
 
     gate = gate_from(o.figures, o.bench, None, 40.0)
-    frame = read_history(o.history)
+    frame = read_history(o.history, STEP_COLUMNS)
     found = find_steps(frame, gate, o.jobs or default_jobs())
     click.echo(steps_json(found) if o.as_json else steps_text(found, o.history), nl=False)
     if o.since is not None and _regressed_since(found, o.since):
