@@ -13,12 +13,13 @@ Parquet dataset (``docs/history.md`` documents the format)::
 A run is added once: a commit the history holds already is not added again (the history does
 not change), whatever its rows. A run's rows are a results folder's verified rows (read through
 :func:`slipbench.store.results.read_results`) with the run's commit, date, machine and bench file
-digest on each, the columns of :data:`COLUMNS` and nothing else, and in the file's metadata the
-digest of each row (:func:`slipbench.store.results.row_digest`), checked when a run file is read.
+digest on each, the columns of :data:`COLUMNS` and nothing else, and in the file's metadata a
+digest of its values (:func:`table_digest`), checked when a run file is read.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import re
@@ -31,7 +32,6 @@ import pyarrow as pa
 
 from slipbench.atomic import check_writable, folder_lock, make_folder, open_parquet, write_atomic
 from slipbench.errors import DataError, UsageError, environment_fault
-from slipbench.store.results import row_digest
 
 FORMAT_VERSION = 1
 INDEX_FILE = "index.parquet"
@@ -134,9 +134,17 @@ def run_table(rows: pd.DataFrame, run: Run) -> pa.Table:
     frame = frame.assign(**{c: None for c in COLUMNS if c not in frame})[list(COLUMNS)]
     frame = frame.astype(object).where(frame.notna(), None)
     table = pa.Table.from_pylist(frame.to_dict("records"), schema=SCHEMA)
-    digests = [row_digest(r) for r in table.to_pylist()]
-    meta = {"format": FORMAT_VERSION, "commit": run.commit, "rows": digests}
+    meta = {"format": FORMAT_VERSION, "commit": run.commit, "rows": len(frame)}
+    meta["digest"] = table_digest(table)
     return table.replace_schema_metadata({_META: json.dumps(meta)})
+
+
+def table_digest(table: pa.Table) -> str:
+    """A digest of a history table's values, whatever its layout in memory or on disk: each
+    row hashed by pandas (vectorized: a run's 300 rows in a millisecond, where a digest per row
+    in Python took a second per thousand runs), the hashes hashed."""
+    hashes = pd.util.hash_pandas_object(table.to_pandas(), index=False).to_numpy()
+    return hashlib.sha256(hashes.tobytes()).hexdigest()[:16]
 
 
 def add_run(history: str | os.PathLike, rows: pd.DataFrame, run: Run) -> Path | None:
@@ -173,21 +181,20 @@ def _read_run(path: Path) -> pa.Table:
         raise DataError(f"{path}: not a readable history run ({exc})") from None
     try:
         meta = json.loads((table.schema.metadata or {}).get(_META, b""))
-        written = meta["rows"]
+        written = meta["digest"]
     except (ValueError, KeyError, TypeError):
-        raise DataError(f"{path}: not a slipbench history run (no row digests)") from None
+        raise DataError(f"{path}: not a slipbench history run (no digest)") from None
     missing = [c for c in COLUMNS if c not in table.column_names]
     if missing:
         raise DataError(f"{path}: a history run lacks the columns {', '.join(missing)}")
-    table = table.select(list(COLUMNS)).cast(SCHEMA)
-    found = [row_digest(r) for r in table.to_pylist()]
-    if found != written:
-        changed = sum(a != b for a, b in zip(found, written)) + abs(len(found) - len(written))
+    table = table.select(list(COLUMNS)).cast(SCHEMA).replace_schema_metadata(None)
+    if table_digest(table) != written:
         raise DataError(
-            f"{path}: {changed} row(s) are not what was written (edited or truncated); "
-            "restore the file from where the history is kept"
+            f"{path}: its rows are not what was written ({table.num_rows} rows now, "
+            f"{meta.get('rows')} written; edited or truncated); restore the file from where "
+            "the history is kept"
         )
-    return table.replace_schema_metadata(None)
+    return table
 
 
 def _read_index(history: Path) -> tuple[pa.Table | None, dict[str, int]]:

@@ -105,7 +105,9 @@ def test_a_run_file_edited_after_it_was_written_is_refused(tmp_path):
         table.column_names.index("accuracy"), "accuracy", pq.read_table(path)["tn_rate"]
     )
     pq.write_table(edited.replace_schema_metadata(table.schema.metadata), path)
-    with pytest.raises(DataError, match=r"c0\.parquet: 48 row\(s\) are not what was written"):
+    with pytest.raises(
+        DataError, match=r"c0\.parquet: its rows are not what was written \(48 rows now, 48 written"
+    ):
         read_history(hist)
 
 
