@@ -18,6 +18,7 @@ import os
 import shutil
 import tempfile
 import time
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,7 @@ from slipbench.store.history import Run, add_run, read_history, run_path, run_ta
 
 FIGURES = ("accuracy", "tn_rate", "tp_rate")
 STEPS_AT = (2500, 6000, 9000)  # runs where the second detector drops 3 points (of 10,000)
+START = datetime(2025, 1, 1, tzinfo=timezone.utc)
 
 
 def run_rows(
@@ -73,9 +75,10 @@ def build(history: Path, runs: int, cells: int) -> None:
     """Write the run files directly (one add rebuilds the index from all of them at the end)."""
     base = rng_for(0, "bench-history").uniform(0.7, 0.9, cells)
     for i in range(runs):
+        date = (START + timedelta(hours=i)).strftime("%Y-%m-%dT%H:%M:%SZ")  # a commit an hour
         run = Run(
             f"c{i:05d}",
-            f"20{20 + i // 4000:02d}-{1 + i // 400 % 10:02d}-{1 + i % 28:02d}T{i % 24:02d}:00:00Z",
+            date,
             "bench",
         )
         rows = run_rows(i, cells, base, rng_for(i, "bench-history"), runs)

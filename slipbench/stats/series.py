@@ -123,13 +123,10 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
         ``value``, ``se``, ``df``, ``low_n``, in the figure's stored units.
     """
     ok = frame[(frame["status"] == "ok") & frame[figure].notna()]
-    pool = pd.DataFrame(
-        {
-            c: factor_values(ok, c)
-            for c in ("protocol", "protocol_params", "split", "labels", "detector")
-        },
-        index=ok.index,
-    )
+    text = [
+        ok[c].fillna("").astype(str) for c in ("protocol", "protocol_params", "split", "labels")
+    ]
+    pool = text[0].str.cat([*text[1:], ok["detector"].astype(str)], sep="|")
     cells = pd.DataFrame(
         {
             "series": ok["series"].to_numpy(),
@@ -142,8 +139,11 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
             "se": pd.to_numeric(ok[f"{figure}_se"], errors="coerce").to_numpy(float),
             "df": pd.to_numeric(ok["df"], errors="coerce").fillna(np.inf).to_numpy(float),
             "low_n": ok["low_n"].fillna(False).astype(bool).to_numpy(),
-            "pool": pool.agg("|".join, axis=1).to_numpy(),
-            "pool_label": (pool["protocol"] + " · " + pool["detector"]).to_numpy(),
+            "pool": pool.to_numpy(),
+            "pool_label": (
+                ok["protocol"].astype(str) + " · " + ok["detector"].astype(str)
+            ).to_numpy(),
+            "series_hash": pd.util.hash_pandas_object(ok["series"], index=False).to_numpy(),
         }
     )
     group = cells.groupby(["run", "seed", "pool"], sort=False)
@@ -153,10 +153,16 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
         df=("df", "min"),
         low_n=("low_n", "any"),
         result=("result", np.bitwise_xor.reduce),
+        cells=("series_hash", np.bitwise_xor.reduce),  # which cells: a digest of their set
         pool_label=("pool_label", "first"),
     )
-    over = group["series"].agg(lambda s: _digest(sorted(s)))
-    pooled["series"] = [_digest({"pool": p, "cells": c}) for (_, _, p), c in over.items()]
+    named = {
+        k: _digest(list(map(str, k)))
+        for k in set(zip(pooled.index.get_level_values("pool"), pooled["cells"]))
+    }
+    pooled["series"] = [
+        named[k] for k in zip(pooled.index.get_level_values("pool"), pooled["cells"])
+    ]
     pooled["series_label"] = pooled["pool_label"] + f" · {POOLED}"
     pooled["kind"] = "pooled"
     pooled = pooled.reset_index()
