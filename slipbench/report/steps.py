@@ -36,13 +36,46 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
     )
 
 
+#: commits with proposals none of which was confirmed, listed newest first
+UNCONFIRMED_SHOWN = 10
+
+
+def _unconfirmed(found: Steps) -> str:
+    """The commits where steps were proposed and none confirmed, newest first, each with its
+    proposal nearest to being confirmed: where to look, not a verdict."""
+    rest = found.steps[~found.steps["verdict"].isin(["regressed", "improved"])]
+    rest = rest[~rest["commit"].isin(set(found.confirmed["commit"]))]
+    if rest.empty:
+        return ""
+    lines = []
+    for commit, part in rest.sort_values("p_adjusted").groupby("commit", sort=False):
+        r = part.iloc[0].to_dict()
+        lines.append(
+            (
+                r["run"],
+                f"- {commit} ({r['date']}): proposed in {len(part)} series, none confirmed; "
+                f"nearest: {NAMES[r['figure']]} of {r['series_label']}, {_change(r)}",
+            )
+        )
+    lines.sort(reverse=True)
+    shown = [text for _, text in lines[:UNCONFIRMED_SHOWN]]
+    more = len(lines) - len(shown)
+    return (
+        "\nProposed where the series moved, not confirmed (not beyond the tolerance at the "
+        "series' level):\n"
+        + "\n".join(shown)
+        + (f"\n- and {more} more commits" if more else "")
+        + "\n"
+    )
+
+
 def _change(r: dict) -> str:
     return f"{r['change']:+.2f} [{r['change_lo']:+.2f}, {r['change_hi']:+.2f}] {unit(r['figure'])}"
 
 
 def steps_text(found: Steps, where: str | os.PathLike) -> str:
     """The confirmed steps, newest first, after what stands behind them."""
-    out = _header(found, where)
+    out = _header(found, where) + _unconfirmed(found)
     confirmed = found.confirmed.sort_values(["run", "series_label"], ascending=[False, True])
     if confirmed.empty:
         return out + "\nNo confirmed step.\n"
