@@ -189,17 +189,17 @@ def test_stream_cells_are_judged_on_each_figure_in_its_direction():
 
 
 def test_the_command_reads_figures_from_options_or_the_bench_file(tmp_path):
-    from slipbench.app.commands.compare import _gate
+    from slipbench.app.commands.compare import gate_from
 
     bench = tmp_path / "bench.toml"
     bench.write_text(
         "[gate]\ntn_rate = 2.0\naccuracy = 1.5\n[detectors.holweg]\n[protocols.window-size]\n"
     )
-    assert _gate((), bench, None, 40.0).tolerances == {"tn_rate": 2.0, "accuracy": 1.5}
+    assert gate_from((), bench, None, 40.0).tolerances == {"tn_rate": 2.0, "accuracy": 1.5}
     # --figure wins over the file; a bare name takes its default; --margin sets the rates'
-    gate = _gate(("tp_rate", "median_delay_ms=20"), bench, 3.0, 40.0)
+    gate = gate_from(("tp_rate", "median_delay_ms=20"), bench, 3.0, 40.0)
     assert gate.tolerances == {"tp_rate": 3.0, "median_delay_ms": 20.0}
-    assert _gate(("accuracy=0.5",), None, 3.0, 40.0).tolerances == {"accuracy": 0.5}
+    assert gate_from(("accuracy=0.5",), None, 3.0, 40.0).tolerances == {"accuracy": 0.5}
     bench.write_text("[gate]\ntn_rate = -1\n[detectors.holweg]\n[protocols.window-size]\n")
     with pytest.raises(UsageError, match="tn_rate must be a tolerance > 0"):
-        _gate((), bench, None, 40.0)
+        gate_from((), bench, None, 40.0)
