@@ -32,7 +32,7 @@ from slipbench.stats.gate import NAMES, SCALE, WINDOWED, unit
 from slipbench.stats.steps import Steps
 
 #: the points every series page holds together (values and standard errors)
-POINT_BUDGET = 150_000
+POINT_BUDGET = 100_000
 MIN_POINTS = 30
 PAGES = {
     "index.html": "Leaderboard",
