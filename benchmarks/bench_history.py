@@ -152,7 +152,7 @@ def main() -> None:
             f"# A history of {a.runs} runs x {a.cells} cells\n\n"
             f"- load (index, the steps' columns): {loaded:.1f} s; find and confirm steps "
             f"({found.series} series, {len(found.steps)} proposed, {len(confirmed)} confirmed; "
-            f"pooled steps at {', '.join(at)}) with {a.jobs} processes: {stepped:.1f} s; "
+            f"pooled steps at {', '.join(at)}) at --jobs {a.jobs}: {stepped:.1f} s; "
             f"together {loaded + stepped:.1f} s;\n"
             f"- site: {size / 1e6:.2f} MB, written in {paged:.1f} s;\n"
             f"- in headless Chromium: {browse(root / 'site')};\n"
