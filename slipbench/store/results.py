@@ -68,6 +68,7 @@ from slipbench.store.scan import (
     MANIFEST,
     RESULTS_FILE,
     UNPROVEN,
+    Scan,
     cell_entries,
     check_ranges,
     read_cell,
@@ -104,6 +105,7 @@ class ResultsStore:
 
     def __init__(self, folder: str | os.PathLike):
         self.folder = Path(folder)
+        self._seen: Scan | None = None  # the latest scan: what it proved is not proved again
 
     def _cell_path(self, key: str) -> Path:
         return self.folder / "cells" / f"{key}.parquet"
@@ -128,10 +130,10 @@ class ResultsStore:
         left out with a warning naming it, so that a run computes that cell again and replaces
         the file; a damaged results.parquet is read from ``cells/`` instead.
         """
-        found = scan(self.folder)
-        for note in found.notes:
+        self._seen = scan(self.folder, known=self._seen)
+        for note in self._seen.notes:
             warnings.warn(note, stacklevel=2)
-        return found.rows()
+        return self._seen.rows()
 
     def put(self, row: dict[str, Any], predictions: pd.DataFrame | None = None) -> None:
         """Store one finished cell (its columns those of :mod:`slipbench.store.columns`), with
@@ -157,11 +159,11 @@ class ResultsStore:
         cells are never dropped.
         """
         path = self.folder / RESULTS_FILE
-        unlocked = scan(self.folder)
-        if not unlocked.changed:
+        self._seen = scan(self.folder, known=self._seen)
+        if not self._seen.changed:
             return path
         with folder_lock(self.folder):
-            found = scan(self.folder, known=unlocked)
+            found = self._seen = scan(self.folder, known=self._seen)
             if found.changed:
                 manifest = json.dumps(found.versions, separators=(",", ":"), sort_keys=True)
                 table = with_digests(found.combined(self.folder), found.row_digests())

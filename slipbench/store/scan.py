@@ -17,6 +17,7 @@ run, which computes again what it cannot trust):
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -53,38 +54,51 @@ class Cell(NamedTuple):
     proven: bool
 
 
+@dataclass(frozen=True)
+class Held:
+    """results.parquet's rows in use, as one read of the file's bytes found them."""
+
+    source: str  # a hash of the file's bytes ("" where there is no file, or it is unreadable)
+    table: pa.Table | None  # the rows in use, or None
+    rows: dict[str, dict[str, Any]]  # them by key: proved (or, for a report, unprovable)
+    digests: dict[str, str]  # the digest written for each of them
+    manifest: dict[str, Any]  # the cell file versions the file records
+    failed: tuple[str, ...] = ()  # keys of rows left out: they fail their digest, or (a
+    # run) the file carries none
+    unproven: bool = False  # the file carries no digests
+    note: str = ""  # what a reader should be told of the file
+
+
 @dataclass
 class Scan:
     """What a results folder holds: the rows of results.parquet it uses, and the cell files'
     rows that results.parquet lacks or says otherwise."""
 
-    table: pa.Table | None  # results.parquet's rows in use (``held``), or None
-    held: dict[str, dict[str, Any]]  # those rows by key: proved (or, for a report, unprovable)
-    digests: dict[str, str]  # the digest written for each of them
+    results: Held
+    strict: bool
     newer: dict[str, dict[str, Any]] = field(default_factory=dict)
     versions: dict[str, list[int]] = field(default_factory=dict)  # of each cell file read or held
     unreadable: dict[str, tuple[Path, str]] = field(default_factory=dict)  # damaged cell files
-    failed: list[str] = field(default_factory=list)  # keys of results.parquet's rows left
-    # out: they fail their digest, or (a run) the file carries none
     notes: list[str] = field(default_factory=list)  # what a reader should be told, one line each
     unproven: list[str] = field(default_factory=list)  # files read that carry no digests
 
     @property
     def changed(self) -> bool:
         """Whether results.parquet must be rebuilt to hold every row, and only proved rows."""
-        return bool(self.newer or self.failed)
+        return bool(self.newer or self.results.failed)
 
     def rows(self) -> dict[str, dict[str, Any]]:
         """Every row to use, by key; a damaged cell's is left out, so that a run computes it
         again and replaces the file."""
-        kept = {k: r for k, r in self.held.items() if k not in self.unreadable}
+        kept = {k: r for k, r in self.results.rows.items() if k not in self.unreadable}
         return {**kept, **self.newer}
 
     def _older(self) -> pa.Table | None:
-        if self.table is None or not self.newer:
-            return self.table
-        return self.table.filter(
-            pc.invert(pc.is_in(self.table["key"], pa.array(list(self.newer), pa.string())))
+        table = self.results.table
+        if table is None or not self.newer:
+            return table
+        return table.filter(
+            pc.invert(pc.is_in(table["key"], pa.array(list(self.newer), pa.string())))
         )
 
     def frame(self) -> pd.DataFrame:
@@ -101,9 +115,8 @@ class Scan:
     def row_digests(self) -> dict[str, str]:
         """The digest of every row :meth:`combined` holds: as written for the rows it keeps
         (proved equal), computed for the newer ones."""
-        return {k: d for k, d in self.digests.items() if k not in self.newer} | digests_of(
-            self.newer.values()
-        )
+        kept = {k: d for k, d in self.results.digests.items() if k not in self.newer}
+        return kept | digests_of(self.newer.values())
 
     def combined(self, folder: Path) -> pa.Table:
         """Every proved row as one table (protocols have different cell columns: the union is
@@ -114,13 +127,15 @@ class Scan:
         try:
             return pa.concat_tables([older, newer], promote_options="permissive")
         except (pa.ArrowInvalid, pa.ArrowTypeError):
-            return union({**self.held, **self.newer}, folder)  # names the column they disagree on
+            # names the column they disagree on
+            return union({**self.results.rows, **self.newer}, folder)
 
 
 def scan(folder: Path, strict: bool = False, known: Scan | None = None) -> Scan:
     """results.parquet's rows that prove themselves, and every cell file whose version it does
-    not hold (see the module's docstring for what is done with what cannot be proved). Rows of
-    ``known``, an earlier scan, are not read again where their file is unchanged.
+    not hold (see the module's docstring for what is done with what cannot be proved). What
+    ``known``, an earlier scan of the same kind, found is not checked again: results.parquet
+    where its bytes are the same, a cell file's row where its version is.
 
     Raises
     ------
@@ -129,19 +144,21 @@ def scan(folder: Path, strict: bool = False, known: Scan | None = None) -> Scan:
         their digest with no cell file to read instead, or a figure out of its range in a file
         that carries no digests.
     """
+    known = known if known is not None and known.strict == strict else None
     entries = cell_entries(folder / "cells")
-    out, manifest = _held(folder / RESULTS_FILE, entries, strict)
+    out = Scan(_held(folder / RESULTS_FILE, entries, strict, known), strict)
+    held, manifest = out.results.rows, out.results.manifest
     for entry in entries:
         key = entry.name[: -len(".parquet")]
         try:
             now = version(entry.stat())
         except FileNotFoundError:
             continue  # removed since the listing
-        if key in out.held and manifest.get(key) == now:
+        if key in held and manifest.get(key) == now:
             out.versions[key] = now
             continue
         if known is not None and key in known.newer and known.versions.get(key) == now:
-            cell = Cell(known.newer[key], now, True)
+            cell = Cell(known.newer[key], now, str(entry.path) not in known.unproven)
         else:
             try:
                 cell = read_cell(Path(entry.path), key)
@@ -157,21 +174,28 @@ def scan(folder: Path, strict: bool = False, known: Scan | None = None) -> Scan:
             check_ranges([cell.row], Path(entry.path))
             out.unproven.append(entry.path)
         out.versions[key] = cell.version
-        if key not in out.held or not same_row(cell.row, out.held[key]):
+        if key not in held or not same_row(cell.row, held[key]):
             out.newer[key] = cell.row
-    _settle(out, folder, strict)
+    _settle(out, folder)
     return out
 
 
-def _held(path: Path, entries: list[os.DirEntry], strict: bool) -> tuple[Scan, dict]:
+def _held(path: Path, entries: list[os.DirEntry], strict: bool, known: Scan | None) -> Held:
     """results.parquet's rows that prove themselves (a report also takes those of a file
-    without digests), as a new :class:`Scan`, and the cell versions the file records."""
+    without digests), and the cell versions the file records; ``known``'s where the file's
+    bytes are those it read."""
     if not path.is_file():
-        return Scan(None, {}, {}), {}
+        return Held("", None, {}, {}, {})
     try:
-        table = read_table(path)
-        if "key" not in table.column_names:
-            raise DataError(f"{path}: not a slipbench results file (no key column)")
+        data, _ = whole(path)
+    except OSError as exc:
+        raise read_error(exc, path, "not a readable results file") from None
+    source = hashlib.blake2b(data.read_buffer(), digest_size=16).hexdigest()
+    data.seek(0)
+    if known is not None and known.results.source == source:
+        return known.results
+    try:
+        table = _results_table(data, path)
         digests = written_digests(table, path)
         rows = rows_of(table, path)
         if entries and len({r["key"] for r in rows}) < len(rows):
@@ -179,8 +203,15 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool) -> tuple[Scan, d
     except DataError as exc:
         if not entries:
             raise
-        note = f"{exc}; its rows are read from the cell files in {path.parent / 'cells'} instead"
-        return Scan(None, {}, {}, notes=[note + " (a run rebuilds it)"]), {}
+        return Held(
+            source,
+            None,
+            {},
+            {},
+            {},
+            note=f"{exc}; its rows are read from the cell files in {path.parent / 'cells'} "
+            "instead (a run rebuilds it)",
+        )
     try:
         manifest = json.loads((table.schema.metadata or {}).get(MANIFEST, b"{}"))
     except ValueError:
@@ -191,35 +222,51 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool) -> tuple[Scan, d
         bad = set() if strict else {str(r["key"]) for r in rows}
     keep = [str(r["key"]) not in bad for r in rows]
     held = {str(r["key"]): r for r, k in zip(rows, keep) if k}
-    out = Scan(
+    return Held(
+        source,
         table.filter(pa.array(keep)) if bad else table,
         held,
         {k: d for k, d in (digests or {}).items() if k in held},
-        failed=sorted(bad),
-        unproven=[] if digests is not None else [str(path)],
+        manifest if isinstance(manifest, dict) else {},
+        tuple(sorted(bad)),
+        digests is None,
     )
-    return out, manifest if isinstance(manifest, dict) else {}
 
 
-def _settle(out: Scan, folder: Path, strict: bool) -> None:
+def _results_table(data: pa.BufferReader, path: Path) -> pa.Table:
+    """results.parquet's table from its bytes, with a key column."""
+    try:
+        table = open_parquet(data, path).read()
+    except (OSError, pa.ArrowException) as exc:
+        raise read_error(exc, path, "not a readable results file") from None
+    table = whole_text(table, path, key="key")
+    if "key" not in table.column_names:
+        raise DataError(f"{path}: not a slipbench results file (no key column)")
+    return table
+
+
+def _settle(out: Scan, folder: Path) -> None:
     """Say what was left out, and refuse (``strict``) what a report cannot show."""
-    path = folder / RESULTS_FILE
-    lost = [k for k in out.failed if k not in out.newer and k not in out.versions]
-    if lost and strict:
+    path, results = folder / RESULTS_FILE, out.results
+    if results.note:
+        out.notes.append(results.note)
+    lost = [k for k in results.failed if k not in out.newer and k not in out.versions]
+    if lost and out.strict:
         raise DataError(
             f"{path}: {len(lost)} row(s) fail their digest and no cell file holds them (e.g. "
             f"{', '.join(lost[:3])}): the file is damaged or was edited; rerun the command that "
             "made them to compute them again"
         )
     if lost:
-        why = "carry no digests" if str(path) in out.unproven else "fail their digest"
+        why = "carry no digests" if results.unproven else "fail their digest"
         out.notes.append(
             f"{path}: {len(lost)} row(s) {why} and no cell file holds them (e.g. "
             f"{', '.join(lost[:3])}): not used; a run that plans them computes them again"
         )
-    if strict and str(path) in out.unproven:
-        check_ranges([r for k, r in out.held.items() if k not in out.newer], path)
-    if strict and out.unproven:
+    if out.strict and results.unproven:
+        check_ranges([r for k, r in results.rows.items() if k not in out.newer], path)
+        out.unproven.insert(0, str(path))
+    if out.strict and out.unproven:
         out.notes.append(
             f"{folder}: {len(out.unproven)} file(s) carry no digests ({UNPROVEN}; e.g. "
             f"{out.unproven[0]}): their figures are checked against the results schema, but "
@@ -261,10 +308,10 @@ def cell_entries(cells: Path) -> list[os.DirEntry]:
 def read_table(path: Path) -> pa.Table:
     """A results file's table, its text checked (:func:`~slipbench.atomic.whole_text`)."""
     try:
-        table = open_parquet(whole(path)[0], path).read()
-    except (OSError, pa.ArrowException) as exc:
+        data, _ = whole(path)
+    except OSError as exc:
         raise read_error(exc, path, "not a readable results file") from None
-    return whole_text(table, path, key="key")
+    return _results_table(data, path)
 
 
 def whole(path: Path) -> tuple[pa.BufferReader, list[int]]:
