@@ -30,6 +30,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from slipbench.errors import (
+    ENVIRONMENT_ERRNOS,
     DataError,
     EnvironmentFault,
     UsageError,
@@ -130,10 +131,16 @@ def check_writable(path: str | os.PathLike) -> None:
     try:
         fd, probe = _unique_file(folder, "slipbench-probe")
     except OSError as exc:
-        fault = environment_fault(exc, path)
         where = "" if folder == path else f" (in {folder}, where it would be made)"
+        if exc.errno not in ENVIRONMENT_ERRNOS:  # a place no file can be made (/proc/self/x)
+            raise UsageError(
+                f"{path}: no file can be written there{where}: {exc.strerror or exc}; "
+                "nothing was written"
+            ) from None
         raise EnvironmentFault(
-            path, fault.cause, hint=f"found before any work{where}; nothing was written"
+            path,
+            environment_fault(exc, path).cause,
+            hint=f"found before any work{where}; nothing was written",
         ) from None
     os.close(fd)
     probe.unlink()
