@@ -256,7 +256,7 @@ def whole_text(table: pa.Table, where: str | os.PathLike, key: str | None = None
         row = _first_undecodable(table.column(name))
         if row is not None:
             label = f"row {row + 1} of {table.num_rows}"
-            if key is not None and key != name and key in table.column_names:
+            if key in table.column_names and _first_undecodable(table.column(key)) is None:
                 label += f" (key {table.column(key)[row].as_py()!r})"
             raise DataError(
                 f"{os.fspath(where)}: column {name!r}, {label}: its text is not valid UTF-8 "
@@ -271,7 +271,7 @@ def _first_undecodable(column: pa.ChunkedArray) -> int | None:
         return None
     for row, value in enumerate(column.cast(pa.binary()).to_pylist()):
         try:
-            None if value is None else value.decode()
+            (value or b"").decode()
         except UnicodeDecodeError:
             return row
     return None

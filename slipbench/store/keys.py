@@ -75,8 +75,8 @@ def canonical(value: Any, where: str = "key") -> Any:
                 raise TypeError(
                     f"{where}: dict key {k!r} is a {type(k).__name__}, not a str; cache keys take string keys only"
                 )
-            # plain values at once: every read digests each result row's ~90 values, and the
-            # recursion (its `where` text) took 3.6x as long on a real row (140 -> 38 us, loaded)
+            # plain values at once: every read digests each result row's ~100 values, and the
+            # recursion (its `where` text) took 2.5x as long (benchmarks/results/store.txt)
             kind = type(v)
             out[str(k)] = (
                 v

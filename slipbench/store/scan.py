@@ -264,7 +264,7 @@ def _settle(out: Scan, folder: Path) -> None:
             f"{', '.join(lost[:3])}): not used; a run that plans them computes them again"
         )
     if out.strict and results.unproven:
-        check_ranges([r for k, r in results.rows.items() if k not in out.newer], path)
+        check_ranges(list(results.rows.values()), path, skip=out.newer)
         out.unproven.insert(0, str(path))
     if out.strict and out.unproven:
         out.notes.append(
@@ -276,10 +276,11 @@ def _settle(out: Scan, folder: Path) -> None:
         out.notes.append(f"{cell}: unreadable cell file, its cell will be computed again ({why})")
 
 
-def check_ranges(rows: list[dict[str, Any]], path: Path | str) -> None:
-    """Refuse the first figure of ``rows`` out of its column's range (files without digests)."""
+def check_ranges(rows: list[dict[str, Any]], path: Path | str, skip: Any = ()) -> None:
+    """Refuse the first figure of ``rows`` (a file's, in its order) out of its column's range,
+    but in the rows whose key is in ``skip`` (files without digests)."""
     for i, row in enumerate(rows):
-        problems = out_of_range(row)
+        problems = [] if row.get("key") in skip else out_of_range(row)
         if problems:
             raise DataError(
                 f"{path}: row {i + 1} (key {row.get('key')!r}): {problems[0]}; the file carries "
@@ -364,8 +365,8 @@ def read_cell(path: Path, key: str) -> Cell:
     digests = written_digests(table, path)
     if digests is not None and failing(rows, digests):
         raise DataError(
-            f"{path}: its row is not what slipbench wrote (it fails its digest): the file is "
-            "damaged or was edited"
+            f"{path}: its row is not what slipbench wrote (it fails its digest: the file is "
+            "damaged, or was edited)"
         )
     return Cell(rows[0], at, digests is not None)
 

@@ -259,3 +259,12 @@ def test_a_row_of_results_parquet_that_fails_its_digest_is_read_from_its_cell(fo
         read_results(folder)
     with pytest.warns(UserWarning, match="fail their digest and no cell file holds them"):
         assert key not in ResultsStore(folder).finished()
+
+
+def test_text_not_utf8_in_a_predictions_file_names_column_and_row(folder):
+    from slipbench.store.results import read_predictions
+
+    path = next((folder / "predictions").glob("*.parquet"))
+    pq.write_table(_not_utf8(pq.read_table(path), "recording_id", 4), path)
+    with pytest.raises(DataError, match=f"{path}: column 'recording_id', row 5 of "):
+        read_predictions(folder, path.stem)
