@@ -242,7 +242,10 @@ def _results_table(data: pa.BufferReader, path: Path) -> pa.Table:
     table = whole_text(table, path, key="key")
     if "key" not in table.column_names:
         raise DataError(f"{path}: not a slipbench results file (no key column)")
-    return table
+    # pandas' notes on a table it wrote: flat rows need none, and a damaged one (a flipped bit)
+    # would fail every conversion to a frame
+    metadata = {k: v for k, v in (table.schema.metadata or {}).items() if k != b"pandas"}
+    return table.replace_schema_metadata(metadata or None)
 
 
 def _settle(out: Scan, folder: Path) -> None:
