@@ -1,5 +1,6 @@
 """Files that readers see whole or not at all, made with the user's umask, a folder lock, and
-Parquet files opened with their column names checked (:func:`open_parquet`).
+Parquet files opened with their column names checked (:func:`open_parquet`) and read with their
+text checked (:func:`whole_text`).
 
 Every file is first written under a unique hidden temporary name in its own folder (created
 with ``O_EXCL``, so two processes never share one), flushed to disk, then renamed over the
@@ -28,7 +29,14 @@ from typing import BinaryIO
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench.errors import DataError, EnvironmentFault, UsageError, environment_fault, writing
+from slipbench.errors import (
+    ENVIRONMENT_ERRNOS,
+    DataError,
+    EnvironmentFault,
+    UsageError,
+    environment_fault,
+    writing,
+)
 
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
 
@@ -123,10 +131,16 @@ def check_writable(path: str | os.PathLike) -> None:
     try:
         fd, probe = _unique_file(folder, "slipbench-probe")
     except OSError as exc:
-        fault = environment_fault(exc, path)
         where = "" if folder == path else f" (in {folder}, where it would be made)"
+        if exc.errno not in ENVIRONMENT_ERRNOS:  # a place no file can be made (/proc/self/x)
+            raise UsageError(
+                f"{path}: no file can be written there{where}: {exc.strerror or exc}; "
+                "nothing was written"
+            ) from None
         raise EnvironmentFault(
-            path, fault.cause, hint=f"found before any work{where}; nothing was written"
+            path,
+            environment_fault(exc, path).cause,
+            hint=f"found before any work{where}; nothing was written",
         ) from None
     os.close(fd)
     probe.unlink()
@@ -220,3 +234,44 @@ def _undecodable(source: str | os.PathLike | pa.Buffer) -> str:
         except UnicodeDecodeError:
             return f"leaf column {i + 1} of {md.num_columns} (a field nested in a column)"
     return "a column"
+
+
+def whole_text(table: pa.Table, where: str | os.PathLike, key: str | None = None) -> pa.Table:
+    """``table`` itself, once every value in it is whole: a string a flipped bit left not valid
+    UTF-8 is read by pyarrow without a word, and fails only where a value is converted (a
+    UnicodeDecodeError, or an ArrowException, deep in a report).
+
+    Raises
+    ------
+    DataError
+        Naming ``where``, the column and the row (by its ``key`` column's value, where given
+        and readable).
+    """
+    try:
+        table.validate(full=True)
+        return table
+    except pa.ArrowInvalid as exc:
+        problem = " ".join(str(exc).split())
+    for name in table.column_names:
+        row = _first_undecodable(table.column(name))
+        if row is not None:
+            label = f"row {row + 1} of {table.num_rows}"
+            if key in table.column_names and _first_undecodable(table.column(key)) is None:
+                label += f" (key {table.column(key)[row].as_py()!r})"
+            raise DataError(
+                f"{os.fspath(where)}: column {name!r}, {label}: its text is not valid UTF-8 "
+                "(the file is damaged, e.g. a flipped bit)"
+            )
+    raise DataError(f"{os.fspath(where)}: damaged values ({problem})")
+
+
+def _first_undecodable(column: pa.ChunkedArray) -> int | None:
+    """The first row of a string column whose bytes are not UTF-8 (None: none, or not text)."""
+    if not pa.types.is_string(column.type):
+        return None
+    for row, value in enumerate(column.cast(pa.binary()).to_pylist()):
+        try:
+            (value or b"").decode()
+        except UnicodeDecodeError:
+            return row
+    return None

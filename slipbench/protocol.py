@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.params import Parameterized, WindowLength, window_samples
-from slipbench.vocabulary import DATASET_SIDE, MIN_WINDOW, sensor_pairs
+from slipbench.vocabulary import DATASET_SIDE, MAX_WINDOW, MIN_WINDOW, sensor_pairs
 
 __all__ = [
     "BaseProtocol",
@@ -470,17 +470,13 @@ def window_cells(
 ) -> Iterator[tuple[int, dict[str, Any], str]]:
     """Each window of ``windows`` (samples, or milliseconds as "50ms") for one unit: its length in
     samples at the unit's rate, the cell-key items ``window`` (samples) and ``window_ms``, and a
-    skip reason when it is shorter than MIN_WINDOW samples."""
+    skip reason when it is shorter than MIN_WINDOW samples or longer than MAX_WINDOW."""
     rate = unit_rate(recordings, sensor)
     for window in [windows] if isinstance(windows, (int, str)) else windows:
         n = window_samples(window, rate)
         ms = float(window[:-2]) if isinstance(window, str) else round(1000.0 * n / rate, 1)
-        skip = (
-            ""
-            if n >= MIN_WINDOW
-            else (
-                f"{window} is {n} samples at {rate:g} Hz; a window needs at least "
-                f"{MIN_WINDOW} samples"
-            )
-        )
+        skip = ""
+        if not MIN_WINDOW <= n <= MAX_WINDOW:
+            bound = f"at least {MIN_WINDOW}" if n < MIN_WINDOW else f"at most {MAX_WINDOW}"
+            skip = f"{window} is {n} samples at {rate:g} Hz; a window needs {bound} samples"
         yield max(n, 1), {"window": n, "window_ms": ms}, skip

@@ -26,6 +26,10 @@ INPUTS = ("univariate", "channels")
 
 # ----------------------------------------------------------------------------- thresholds
 MIN_WINDOW = 5  # samples: the shortest window a detector is given
+# the longest window a plan takes: 10 M samples (80 MB a window in float64, hours at any rate
+# these sensors record), or an hour; beyond, one window's copy would not fit a machine
+MAX_WINDOW = 10_000_000
+MAX_WINDOW_MS = 3_600_000.0
 LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover
 # a slip onset counts as detected within this delay: a grasp controller's reaction budget
 MAX_DELAY_MS = 200.0

@@ -11,9 +11,11 @@ HEAD = """\
 
 Every column a result row may hold (`results.parquet`, `cells/<key>.parquet`), written from the
 results schema in `slipbench/store/columns.py` by `docs/tools/results_columns.py`; the store
-refuses a row with a column it does not declare. A protocol adds its own cell-key columns (those
-its `cell` column names). A row holds the columns of what its cell computed: a skipped cell has
-`status` and `reason`, a streaming cell no window figures.
+refuses a row with a column it does not declare, or a number outside the values its column
+allows (NaN passes where the column is not "finite"). A file without row digests (another tool,
+an older slipbench) is read with its numbers checked against them. A protocol adds its own
+cell-key columns (those its `cell` column names). A row holds the columns of what its cell
+computed: a skipped cell has `status` and `reason`, a streaming cell no window figures.
 
 ## Adding a figure
 
@@ -28,9 +30,12 @@ def page() -> str:
     parts = [HEAD]
     for title, columns in GROUPS.items():
         parts.append(
-            f"\n## {title}\n\n| column | type | unit | meaning |\n| --- | --- | --- | --- |\n"
+            f"\n## {title}\n\n| column | type | unit | values | meaning |\n"
+            "| --- | --- | --- | --- | --- |\n"
         )
-        parts += [f"| `{c.name}` | {c.type} | {c.unit} | {c.meaning} |\n" for c in columns]
+        parts += [
+            f"| `{c.name}` | {c.type} | {c.unit} | {c.allowed} | {c.meaning} |\n" for c in columns
+        ]
     return "".join(parts)
 
 

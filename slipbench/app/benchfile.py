@@ -59,7 +59,8 @@ from typing import Any
 
 import tomllib
 
-from slipbench.errors import PluginError, SlipbenchError, UsageError
+from slipbench.app.options import repeats_problem
+from slipbench.errors import TOO_DEEP, PluginError, SlipbenchError, UsageError
 from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
 
 BENCHMARK_FILE = "benchmark.toml"
@@ -91,7 +92,7 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "repeats": (int, "an int >= 1"),
         "jobs": (int, "an int >= 0"),
         "cell_timeout": ((int, float), "seconds > 0"),
-        "scheduler": (str, "a dask scheduler address"),
+        "scheduler": (str, "a dask scheduler's address or file"),
         "plugins": (list, "a list of folders"),
     },
     # the figures `compare --bench` judges, each with its tolerance
@@ -261,6 +262,8 @@ def load_benchmark(path: str | Path) -> Benchmark:
         raise UsageError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
         raise UsageError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: {TOO_DEEP}") from None
     data = _checked(path, text, data)
     home = path.resolve().parent
     b, d, r = data.get("benchmark", {}), data.get("dataset", {}), data.get("run", {})
@@ -322,8 +325,16 @@ def load_benchmark(path: str | Path) -> Benchmark:
         "input",
     )
     check(0 <= r.get("seed", 0) < 2**32, "seed must be in [0, 2**32 - 1]", "run", "seed")
+    from slipbench.engine.executors import jobs_problem, scheduler_problem
+
     check(r.get("repeats", 1) >= 1, "repeats must be >= 1", "run", "repeats")
+    seeds = repeats_problem(r.get("seed", 0), r.get("repeats", 1))
+    check(seeds is None, f"repeats {r.get('repeats', 1)}: {seeds}", "run", "repeats")
     check(r.get("jobs", 1) >= 0, "jobs must be >= 0", "run", "jobs")
+    workers = jobs_problem(r.get("jobs", 1)) if "scheduler" not in r else None
+    check(workers is None, f"jobs {r.get('jobs')}: {workers}", "run", "jobs")
+    where = scheduler_problem(r["scheduler"]) if "scheduler" in r else None
+    check(where is None, f"scheduler {r.get('scheduler')!r}: {where}", "run", "scheduler")
     check(r.get("cell_timeout", 1) > 0, "cell_timeout must be > 0 seconds", "run", "cell_timeout")
     for item in d.get("sensor_map", []):
         check(

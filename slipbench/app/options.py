@@ -16,10 +16,14 @@ from typing import Any
 
 import click
 
-from slipbench.errors import UsageError
+from slipbench.errors import TOO_DEEP, UsageError
 
 MAX_SCALE = 10.0  # 80 M samples per unit: beyond this machine's memory for any protocol
-SEED = click.IntRange(0, 2**32 - 1)  # what numpy's SeedSequence and every seeded library accept
+MAX_SEED = 2**32 - 1  # what numpy's SeedSequence and every seeded library accept
+SEED = click.IntRange(0, MAX_SEED)
+# seeds of one command: more than any interval needs (a seed retrains every model; the gate
+# decides with tens), and a plan of a billion runs would sit in planning without a word
+MAX_REPEATS = 1000
 SPLIT_CHOICES = ["paper", "grouped"]
 LABELLING_CHOICES = ["scenario", "majority", "any", "last"]
 
@@ -65,6 +69,15 @@ class Destination(click.Path):
         return path
 
 
+def repeats_problem(seed: int, repeats: int) -> str | None:
+    """Why seeds ``seed`` .. ``seed + repeats - 1`` cannot be run, or None."""
+    if repeats > MAX_REPEATS:
+        return f"at most {MAX_REPEATS} seeds (each retrains every model)"
+    if seed + repeats - 1 > MAX_SEED:
+        return f"seeds {seed} to {seed + repeats - 1} pass {MAX_SEED}, the largest seed"
+    return None
+
+
 def parse_params(values: tuple[str, ...]) -> dict:
     """The NAME=VALUE items of a repeated option as a dict; a VALUE that is not JSON stays text."""
     params = {}
@@ -76,6 +89,8 @@ def parse_params(values: tuple[str, ...]) -> dict:
             params[name] = json.loads(text)
         except json.JSONDecodeError:
             params[name] = text
+        except RecursionError:
+            raise UsageError(f"--param {name}: {TOO_DEEP}") from None
     return params
 
 
@@ -136,10 +151,37 @@ def protocol_params_option(help: str):
     return click.option("--protocol-param", "protocol_params", multiple=True, help=help)
 
 
+def _jobs(ctx, param, jobs: int | None) -> int | None:
+    from slipbench.engine.executors import jobs_problem
+
+    if jobs is not None and (problem := jobs_problem(jobs)):
+        raise UsageError(f"--jobs {jobs}: {problem}")
+    return jobs
+
+
 def jobs_option(help: str, default: int | None = None):
     return click.option(
-        "--jobs", type=click.IntRange(0), default=default, help=help, **_shown(default)
+        "--jobs",
+        type=click.IntRange(0),
+        default=default,
+        callback=_jobs,
+        help=help,
+        **_shown(default),
     )
+
+
+def _scheduler(ctx, param, scheduler: str | None) -> str | None:
+    from slipbench.engine.executors import scheduler_problem
+
+    if scheduler is not None and (problem := scheduler_problem(scheduler)):
+        raise UsageError(f"--scheduler {scheduler!r}: {problem}")
+    return scheduler
+
+
+def scheduler_option(help: str):
+    """``--scheduler``: an executor by name, or a dask scheduler's address or file, checked
+    as it is read (:func:`slipbench.engine.executors.scheduler_problem`)."""
+    return click.option("--scheduler", default=None, callback=_scheduler, help=help)
 
 
 def force_option():

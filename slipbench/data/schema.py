@@ -41,6 +41,10 @@ SCENARIOS = ("slip", "press", "free-space", "hold-slip")
 RATE_TOLERANCE = 0.01
 # Integers beyond 2**53 have no exact float64: refused rather than rounded.
 EXACT_INT = 2**53
+# A sample's magnitude at most, whatever its type: 2**53 (9.0e15) leaves a detector's arithmetic
+# room (a fourth power summed over 10**18 values stays finite in float64, a square in float32:
+# 8.1e31 < 3.4e38); beyond, it overflows to infinity and the detector is blamed for the data.
+MAX_MAGNITUDE = float(EXACT_INT)
 
 RECORDINGS_SCHEMA = pa.schema(
     [

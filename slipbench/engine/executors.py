@@ -158,7 +158,9 @@ class _Pool(Generic[T]):
     that died, but waits forever on a task whose worker exited with code 0, and on Ctrl-C
     waits for the tasks in flight."""
 
-    def __init__(self, jobs: int, timeout: float | None, on_report: Report | None) -> None:
+    def __init__(
+        self, jobs: int, timeout: float | None, on_report: Report | None, processes: int
+    ) -> None:
         import multiprocessing
 
         from pebble import ProcessPool
@@ -170,7 +172,7 @@ class _Pool(Generic[T]):
         context = multiprocessing.get_context("forkserver")
         self.reader, writer = context.Pipe(duplex=False)
         self.pool = ProcessPool(
-            max_workers=jobs,
+            max_workers=max(1, processes),  # pebble starts them all: never more than tasks
             initializer=workers.start,
             initargs=(threads.share(jobs), dict(PLUGIN_FILES), writer, on_report is not None),
             context=context,
@@ -232,7 +234,7 @@ def process_pool(
 ) -> Finished:
     """Local worker processes; at most two tasks per worker in flight, so their windows are
     not all in memory at once."""
-    pool: _Pool[T] = _Pool(jobs, timeout, on_report)
+    pool: _Pool[T] = _Pool(jobs, timeout, on_report, processes=min(jobs, len(tasks)))
     queue = iter(enumerate(tasks))
     interrupted = True
     try:
@@ -257,8 +259,10 @@ def dask_client(address: str):
             "--scheduler needs dask.distributed: pip install 'slipbench[dask]'"
         ) from None
     try:
+        if Path(address).is_file():  # a scheduler file, as `dask scheduler` writes it
+            return Client(scheduler_file=address, timeout="3s")
         return Client(address, timeout="3s")
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, ValueError) as exc:
         raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
 
 
@@ -361,11 +365,61 @@ def unguarded_script() -> str:
     return f"{file}:{line}"
 
 
+#: executors ``scheduler`` names (beside a dask scheduler's address or file), e.g. on a cluster
+NAMED_EXECUTORS: tuple[str, ...] = ()
+#: local worker processes per core beyond which more add only memory and contention (a worker
+#: holds its imports and a task's windows; each model gets ``cores // jobs`` threads, at least 1)
+JOBS_PER_CORE = 4
+
+
+def jobs_problem(jobs: int) -> str | None:
+    """Why this machine cannot run ``jobs`` local worker processes, or None."""
+    most = JOBS_PER_CORE * threads.cores()
+    if jobs <= most:
+        return None
+    return (
+        f"more than {most} worker processes ({JOBS_PER_CORE} per core, {threads.cores()} cores "
+        "here) add only memory and contention; use a dask scheduler to run on more machines"
+    )
+
+
+def scheduler_problem(scheduler: str) -> str | None:
+    """Why ``scheduler`` names no executor, or None: it may name one of
+    :data:`NAMED_EXECUTORS`, or a dask scheduler by its address (``host:port``,
+    ``tcp://host:port``, any scheme dask has) or by its scheduler file (JSON)."""
+    if scheduler in NAMED_EXECUTORS or Path(scheduler).is_file():
+        return None
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+        from distributed.comm.registry import backends
+    except ImportError:
+        return "a dask scheduler needs dask.distributed: pip install 'slipbench[dask]'"
+    named = f", nor one of {', '.join(NAMED_EXECUTORS)}" if NAMED_EXECUTORS else ""
+    try:
+        scheme, location = parse_address(scheduler, strict=False)
+        if scheme not in backends:
+            raise ValueError(f"dask knows no scheme {scheme!r}")
+        if scheme != "inproc":
+            parse_host_port(location)
+    except ValueError as exc:
+        return (
+            f"not a dask scheduler's address (host:port, tcp://host:port) or scheduler file"
+            f"{named} ({exc})"
+        )
+    return None
+
+
 def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
     """The local worker processes to start for ``jobs``: ``jobs`` itself, or 0 (run in this
     process) where a script without an ``if __name__ == "__main__":`` guard asked for one (the
     default), since its workers would run the script again. Such a script asking for more, or
-    for a time limit (which needs a worker to kill), is refused with one line saying what to add."""
+    for a time limit (which needs a worker to kill), is refused with one line saying what to add,
+    as are more jobs than the machine can run (:func:`jobs_problem`) and a ``scheduler`` that
+    names no executor (:func:`scheduler_problem`)."""
+    if scheduler and (problem := scheduler_problem(scheduler)):
+        raise UsageError(f"scheduler {scheduler!r}: {problem}")
+    if not scheduler and (problem := jobs_problem(jobs)):
+        raise UsageError(f"jobs={jobs}: {problem}")
     if scheduler or jobs == 0:
         return jobs
     where = unguarded_script()

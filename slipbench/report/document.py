@@ -101,7 +101,9 @@ class ReportOptions:
     rows come from, named in the header; ``predictions``: results folders holding the cells'
     test predictions (intervals pooled over seeds and fingers by one joint bootstrap);
     ``superseded``: rows left out because their cell and seed was run again later, named in the
-    header (:func:`slipbench.stats.factors.latest_runs`).
+    header (:func:`slipbench.stats.factors.latest_runs`); ``unproven``: the results files the
+    rows come from that carry no row digests, named in a line under the header (edits to them
+    cannot be detected).
 
     Report functions take these as keywords (``build_report(rows, intervals=True)``) and build
     one object of them, as a command does of its options."""
@@ -114,6 +116,21 @@ class ReportOptions:
     benchmark: str = ""
     predictions: Sequence[str | os.PathLike] = ()
     superseded: int = 0
+    unproven: Sequence[str] = ()
+
+
+def _unproven(files: Sequence[str]) -> list[Text]:
+    """The line that says which rows cannot be proved (files without row digests)."""
+    if not files:
+        return []
+    return [
+        Text(
+            f"Rows from files without row digests (another tool or an older slipbench wrote "
+            f"them): {', '.join(Path(f).name for f in files)}: edits to "
+            f"{'it' if len(files) == 1 else 'them'} cannot be detected; their figures were "
+            "checked against the ranges of the results schema."
+        )
+    ]
 
 
 def flatten(blocks: list) -> list:
@@ -430,6 +447,7 @@ def build_report(
         Heading("slipbench report", 1),
         Heading("What this report stands on", 2),
         *header_tables(rows, metric, order, o.benchmark, o.superseded),
+        *_unproven(o.unproven),
         Heading("Leaderboard", 2),
     ]
     side = (

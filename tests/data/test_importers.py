@@ -307,13 +307,20 @@ def _lines(before: int, bad: str) -> str:
             {},
             r"r.csv: line 19: column 'taxel_12': non-numeric value 'abc'",
         ),
-        (_lines(6, "7,,3\n"), {}, r"r.csv: line 8: column 'taxel_12': empty or missing value"),
+        (_lines(6, "7,,3\n"), {}, r"r.csv: line 8: column 'taxel_12': empty value$"),
+        (_lines(6, "7,nan,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-numeric value 'nan'$"),
+        (_lines(6, "7,NA,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-numeric value 'NA'$"),
         (
             _lines(6, "7,1\n"),
             {},
             r"r.csv: line 8: 2 fields, but the header \(line 1\) names 3 columns: a short row",
         ),
-        (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value"),
+        (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value 'inf'$"),
+        (
+            _lines(6, "7,-Infinity,3\n"),
+            {},
+            r"r.csv: line 8: column 'taxel_12': non-finite value '-Infinity'$",
+        ),
         (
             _lines(6, "7,1,3,4\n"),
             {},

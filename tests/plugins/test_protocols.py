@@ -8,6 +8,7 @@ from datagen import subset
 
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData
+from slipbench.protocol import window_cells
 from slipbench.protocols.cross_instance import CrossInstance
 from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.sampling_rate import SamplingRate
@@ -135,7 +136,7 @@ def test_sampling_rate_cells(nano):
         ),
         (
             WindowSize(windows="abc"),
-            "The 'windows' parameter of WindowSize must be an int number of samples >= 5, or milliseconds",
+            "The 'windows' parameter of WindowSize must be an int number of samples in \\[5, 10000000\\], or milliseconds",
         ),
         (WindowSize(windows=[50, "20ms"]), "takes samples or milliseconds, not both"),
         (MaterialHoldout(window=2), "The 'window' parameter of MaterialHoldout must be"),
@@ -164,4 +165,9 @@ def test_windows_in_milliseconds_convert_per_sensor(small):
     assert (
         WindowSize(windows=["50ms"]).layout.column == "window_ms"
         and WindowSize().layout.column == "window"
+    )
+    fast = small.recordings.assign(unit_rate_hz=1e6)  # an hour at 1 MHz: 3.6e9 samples
+    (_, key, skip), *_ = window_cells(fast, ("Nano17", "index"), "3600000ms")
+    assert key["window"] == 3_600_000_000 and skip.endswith(
+        "a window needs at most 10000000 samples"
     )

@@ -19,7 +19,9 @@ from slipbench.app.options import (
     plugins_option,
     protocol_params_option,
     quiet_option,
+    repeats_problem,
     scale_option,
+    scheduler_option,
     seed_option,
     split_option,
 )
@@ -126,9 +128,7 @@ class EvaluateArgs:
 @protocol_params_option("Protocol option NAME=VALUE, e.g. decimation=both.")
 @plugins_option()
 @jobs_option("Local worker processes (0: in this process, for debugging).", default=1)
-@click.option(
-    "--scheduler", default=None, help="Address of a dask.distributed scheduler to run on."
-)
+@scheduler_option("Address (or scheduler file) of a dask.distributed scheduler to run on.")
 @click.option(
     "--cell-timeout",
     default=None,
@@ -141,6 +141,8 @@ class EvaluateArgs:
 def evaluate_command(**options) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
     o = EvaluateArgs(**options)
+    if problem := repeats_problem(o.seed, o.repeats):
+        raise UsageError(f"--repeats {o.repeats}: {problem}")
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
     from slipbench.engine.runner import Run

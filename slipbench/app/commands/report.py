@@ -104,11 +104,9 @@ def report(**options) -> None:
             "the appendix needs a file of its own, not --out's", param_hint="--appendix"
         )
     add_plugin_folders(o.plugins)
+    read = [read_results(p) for p in o.results]
     rows, superseded = latest_runs(
-        check_unique_keys(
-            pd.concat([read_results(p) for p in o.results], ignore_index=True),
-            " + ".join(map(str, o.results)),
-        )
+        check_unique_keys(pd.concat(read, ignore_index=True), " + ".join(map(str, o.results)))
     )
     blocks = build_report(
         rows,
@@ -119,6 +117,7 @@ def report(**options) -> None:
         leaderboard_only=o.leaderboard_only,
         with_figures=o.fmt == "html" or o.plots_dir is not None,
         predictions=[results_folder(p) for p in o.results],
+        unproven=[path for part in read for path in part.attrs["unproven"]],
     )
     files = write_figures(blocks, o.plots_dir) if o.plots_dir else {}
     home = o.out.parent if o.out else Path.cwd()
