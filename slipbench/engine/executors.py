@@ -46,6 +46,11 @@ GRACE = 1.0
 STOP = 1.0  # seconds an interrupted worker has to end on SIGTERM before it is killed
 
 
+#: the schedulers named rather than addressed (``--scheduler NAME``); any other value is the
+#: address of a dask scheduler
+SCHEDULERS = ("slurm", "submitit-local")
+
+
 def serial(tasks: list[T], payload: Payload, on_report: Report | None) -> Finished:
     sink = workers.throttled(on_report) if on_report else None
     with threads.limited(threads.share(1)):  # restored for the caller when the run ends
@@ -158,7 +163,9 @@ class _Pool(Generic[T]):
     that died, but waits forever on a task whose worker exited with code 0, and on Ctrl-C
     waits for the tasks in flight."""
 
-    def __init__(self, jobs: int, timeout: float | None, on_report: Report | None) -> None:
+    def __init__(
+        self, jobs: int, timeout: float | None, on_report: Report | None, per_model: int
+    ) -> None:
         import multiprocessing
 
         from pebble import ProcessPool
@@ -172,7 +179,7 @@ class _Pool(Generic[T]):
         self.pool = ProcessPool(
             max_workers=jobs,
             initializer=workers.start,
-            initargs=(threads.share(jobs), dict(PLUGIN_FILES), writer, on_report is not None),
+            initargs=(per_model, dict(PLUGIN_FILES), writer, on_report is not None),
             context=context,
         )
         self.writer, self.timeout, self.on_report = writer, timeout, on_report
@@ -228,11 +235,14 @@ class _Pool(Generic[T]):
 
 
 def process_pool(
-    tasks: list[T], payload: Payload, jobs: int, timeout: float | None, on_report: Report | None
+    tasks: list[T], payload: Payload, executor: Executor, on_report: Report | None
 ) -> Finished:
-    """Local worker processes; at most two tasks per worker in flight, so their windows are
-    not all in memory at once."""
-    pool: _Pool[T] = _Pool(jobs, timeout, on_report)
+    """``executor.jobs`` local worker processes; at most two tasks per worker in flight, so
+    their windows are not all in memory at once."""
+    jobs = executor.jobs
+    pool: _Pool[T] = _Pool(
+        jobs, executor.timeout, on_report, executor.threads or threads.share(jobs)
+    )
     queue = iter(enumerate(tasks))
     interrupted = True
     try:
@@ -384,20 +394,31 @@ def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
 @dataclass(frozen=True)
 class Executor:
     """Where tasks run: ``jobs`` local worker processes (0: in this process, with no
-    protection against a crash and no time limit), or the dask scheduler at ``scheduler``;
-    ``timeout``: seconds one task may take in a local worker."""
+    protection against a crash and no time limit), a SLURM job array (``scheduler`` one of
+    :data:`SCHEDULERS`, with ``resources``), or the dask scheduler at ``scheduler``;
+    ``timeout``: seconds one model may take. ``threads``: a model's threads in a local worker
+    (None: this machine's share; an array task gives its own)."""
 
     jobs: int = 1
     scheduler: str | None = None
     timeout: float | None = None
+    resources: Any = None  # slipbench.engine.slurm.Resources
+    threads: int | None = None
 
-    def run(self, tasks: list[T], payload: Payload, on_report: Report | None = None) -> Finished:
+    def run(
+        self, tasks: list[T], payload: Payload, on_report: Report | None = None, remote: Any = None
+    ) -> Finished:
         """Every task with its results, as they finish; ``on_report`` shows the progress a model
-        reports (None: nobody listens, and workers send none)."""
+        reports (None: nobody listens, and workers send none). A job array needs ``remote``
+        (:class:`slipbench.engine.slurm.Remote`): its tasks cut their own payloads."""
+        if self.scheduler in SCHEDULERS:
+            from slipbench.engine import slurm
+
+            return slurm.run(tasks, remote, self.scheduler, self.resources, self.timeout)
         if self.scheduler:
             return dask(tasks, payload, self.scheduler, on_report)
         if self.jobs == 0:
             if self.timeout:
                 raise UsageError("a time limit needs worker processes: use --jobs 1 or more")
             return serial(tasks, payload, on_report)
-        return process_pool(tasks, payload, self.jobs, self.timeout, on_report)
+        return process_pool(tasks, payload, self, on_report)

@@ -191,6 +191,7 @@ FIT = (
     Column("train_us_per_sample", FLOAT, "us", "fit time per window sample"),
     Column("peak_mem_mb", FLOAT, "MiB", "peak resident memory above the start during the fit"),
     Column("infer_us_per_window", FLOAT, "us", "scoring time per test window"),
+    Column("test_s", FLOAT, "s", "test time: scoring, figures and their intervals"),
     Column(
         "train_balanced_accuracy",
         FLOAT,

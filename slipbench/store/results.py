@@ -182,6 +182,12 @@ class ResultsStore:
             )
         return scan.rows()
 
+    def cell(self, key: str) -> dict[str, Any] | None:
+        """The stored row of one cell (None: not stored): where another process (an array
+        task on another node) wrote it."""
+        path = self._cell_path(key)
+        return _read_cell(path, key)[0] if path.exists() else None
+
     def put(self, row: dict[str, Any], predictions: pd.DataFrame | None = None) -> None:
         """Store one finished cell (its columns those of :mod:`slipbench.store.columns`); its
         predictions first, so a row never lacks them."""
