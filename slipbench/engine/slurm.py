@@ -189,6 +189,18 @@ def time_limit(res: Resources, limits: list[float], workers: int) -> int:
     return math.ceil((STARTUP_S + MARGIN * worst) / 60)
 
 
+def array_minutes(res: Resources, shards: list[Shard], timeout: float | None) -> int | None:
+    """The time limit of an array of ``shards`` (minutes): ``res.time``, else the longest its
+    shards' models' cell time limits give (:func:`time_limit`); None where neither is set."""
+    if res.time:
+        return res.time
+    if not timeout:
+        return None
+    return max(
+        time_limit(res, [timeout * t.models for t in s.tasks], res.cpus_per_task) for s in shards
+    )
+
+
 @dataclass
 class Shard:
     """Tasks one array task runs, all of one detector's resources."""
@@ -328,16 +340,13 @@ def _submit_into(
     scheduler, res, timeout = how
     detector = shards[0].detector
     mine = res.of(detector)
-    limits = [
-        [(timeout or 0.0) * t.models for t in s.tasks] for s in shards
-    ]  # seconds per model set
-    if not mine.time and not timeout:
+    minutes = array_minutes(mine, shards, timeout)
+    if minutes is None:
         raise UsageError(
             f"--scheduler {scheduler}: the array tasks of {detector} need a time limit: give "
             "[slurm] time (minutes; --slurm time=MINUTES) or a cell time limit (--cell-timeout, "
             "[run] cell_timeout), from which each task's is derived"
         )
-    minutes = max(time_limit(mine, lim, mine.cpus_per_task) for lim in limits)
     executor = _executor(remote.folder, scheduler, mine, minutes, detector)
     work = [remote.work(s.tasks) for s in shards]
     try:

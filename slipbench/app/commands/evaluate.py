@@ -20,7 +20,10 @@ from slipbench.app.options import (
     protocol_params_option,
     quiet_option,
     scale_option,
+    scheduler_option,
     seed_option,
+    slurm_option,
+    slurm_resources,
     split_option,
 )
 from slipbench.app.selection import add_plugin_folders, readable, select_plugins, with_options
@@ -50,6 +53,7 @@ class EvaluateArgs:
     plugins: tuple[str, ...]
     jobs: int
     scheduler: str | None
+    slurm: tuple[str, ...]
     cell_timeout: float | None
     force: bool
     intervals: bool
@@ -126,9 +130,8 @@ class EvaluateArgs:
 @protocol_params_option("Protocol option NAME=VALUE, e.g. decimation=both.")
 @plugins_option()
 @jobs_option("Local worker processes (0: in this process, for debugging).", default=1)
-@click.option(
-    "--scheduler", default=None, help="Address of a dask.distributed scheduler to run on."
-)
+@scheduler_option()
+@slurm_option()
 @click.option(
     "--cell-timeout",
     default=None,
@@ -181,6 +184,7 @@ def evaluate_command(**options) -> None:
         )
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
+    slurm = slurm_resources(o.scheduler, o.slurm, None, detectors)
     if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
         from slipbench.data.transfer import combine, parse_sensor_map
 
@@ -202,6 +206,7 @@ def evaluate_command(**options) -> None:
         scheduler=o.scheduler,
         cell_timeout=o.cell_timeout,
         progress=not o.quiet,
+        slurm=slurm,
     )
     for (dn, kind, pn), group in rows.groupby(["detector", "input", "protocol"], sort=False):
         click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
