@@ -58,6 +58,7 @@ def _layout(bench: Benchmark, echo: Callable[[str], None]):
     dataset; the simulated one laid out from its design, never simulated."""
     from slipbench.data.canonical import canonical_recordings
     from slipbench.data.defaults import cache_dir
+    from slipbench.data.read import stored_fingerprint
     from slipbench.data.signals import Signals
     from slipbench.data.synth import MODEL_VERSION, layout
 
@@ -76,21 +77,8 @@ def _layout(bench: Benchmark, echo: Callable[[str], None]):
         f"the simulated design at scale {bench.scale:g}, seed {seed}, laid out from its design "
         f"(not simulated): {len(rec)} recordings, {per_unit / 1e6:.2g} M samples per unit"
     )
-    return Signals.from_layout(rec), rec, _stored_fingerprint(folder), what
-
-
-def _stored_fingerprint(folder: Path) -> str:
-    """The fingerprint a simulated dataset already in the cache stored ("" where none is):
-    without it no cell can be found cached, and reading the samples to compute it would cost
-    what simulating them does."""
-    from slipbench.atomic import open_parquet
-    from slipbench.data.schema import FINGERPRINT_KEY, RECORDINGS_FILE
-
-    try:
-        meta = open_parquet(folder / RECORDINGS_FILE).schema_arrow.metadata or {}
-    except (OSError, Exception):  # noqa: BLE001 - not there, or not readable: nothing cached
-        return ""
-    return meta.get(FINGERPRINT_KEY, b"").decode()
+    # a simulated dataset already in the cache: its stored fingerprint finds the cells cached
+    return Signals.from_layout(rec), rec, stored_fingerprint(folder), what
 
 
 def planning(bench: Benchmark, measured: list[Path], echo: Callable[[str], None]) -> Planning:

@@ -27,7 +27,7 @@ import pandas as pd
 
 from slipbench import __version__
 from slipbench.data.format import Dataset
-from slipbench.data.read import read_dataset
+from slipbench.data.read import read_dataset, stored_fingerprint
 from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import SCHEDULERS, Executor, workers_for
@@ -408,9 +408,9 @@ def _remote(dataset: Dataset, stamp: Stamp, store: ResultsStore, refit: set[str]
 
     res = options.get("slurm") or Resources()
     folder = make_folder(Path(res.folder) if res.folder else store.folder / "slurm")
-    if dataset.path is not None and not dataset.origin:
+    if dataset.path is not None and stored_fingerprint(dataset.path) == dataset.fingerprint:
         source = str(Path(dataset.path).resolve())
-    else:  # built in memory: the array tasks read the launcher's own
+    else:  # built or changed in memory (combined, a subset): the array tasks read this one
         source = str(folder / f"dataset-{dataset.fingerprint}.pkl")
         with atomic_file(source) as file:
             pickle.dump(dataset, file, pickle.HIGHEST_PROTOCOL)

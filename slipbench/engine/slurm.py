@@ -56,6 +56,8 @@ MARGIN = 1.25  # a task's time limit: its models' cell time limits, plus a quart
 STARTUP_S = 600.0  # and ten minutes to start, read the dataset and plan its cells
 POLL_S = {LOCAL: 0.5, "slurm": 15.0}  # seconds between looks at the array tasks
 ACTIVE = {"PENDING", "RUNNING", "REQUEUED", "CONFIGURING", "COMPLETING", "RESIZING", "SUSPENDED"}
+#: states of a task SLURM ended before it could write a result
+KILLED = {"TIMEOUT", "CANCELLED", "NODE_FAIL", "OUT_OF_MEMORY", "PREEMPTED", "BOOT_FAIL"}
 SUBMITTED = "submitted.json"  # array tasks of every launch, and the cells each holds
 
 
@@ -315,7 +317,7 @@ def run(
                 for task in flight.jobs.pop(job):
                     yield task, _results(task, job, remote, flight.minutes.get(job.job_id))
             if not done:
-                time.sleep(POLL_S[scheduler])
+                _pause(POLL_S[scheduler])
         interrupted = False
     finally:
         if interrupted:
@@ -324,6 +326,10 @@ def run(
                     job.cancel(check=False)
                 except (OSError, submitit.core.utils.UncompletedJobError):
                     pass
+
+
+def _pause(seconds: float) -> None:
+    time.sleep(seconds)  # a look at the array tasks every so often (the tests look at once)
 
 
 def _submit_into(
@@ -418,7 +424,11 @@ def _results(task: Any, job: Any, remote: Remote, minutes: int | None) -> list[R
     out = []
     for pc in task.cells:
         row = remote.stored(pc.key)
-        if row is not None and row.get("run_id") == remote.run_id:
+        # this run's row, or a finished one an earlier launch's task wrote meanwhile (its key
+        # is the content address: the same cell)
+        if row is not None and (
+            row.get("run_id") == remote.run_id or row.get("status") in ("ok", "skipped")
+        ):
             out.append(Result(row, None, stored=True))
         elif why is None:
             out.append(
@@ -435,13 +445,20 @@ def _results(task: Any, job: Any, remote: Remote, minutes: int | None) -> list[R
     return out
 
 
+def _killed(state: str) -> bool:
+    """SLURM ended the task before it could write a result (its time, a node, memory)."""
+    return bool(state) and state.split()[0] in KILLED
+
+
 def _ended(job: Any, minutes: int | None) -> dict[str, str] | None:
     """None where the array task ended well, else the status and reason of the cells it did
     not store."""
     from submitit.core.utils import FailedJobError, UncompletedJobError
 
     try:
-        job.result()
+        if _killed(str(job.state)) and not job.paths.result_pickle.exists():
+            raise UncompletedJobError(job.state)  # no result to wait for
+        job.result()  # waits a little for a result a shared file system is slow to show
         return None
     except FailedJobError as exc:  # the task raised: its last line says what
         last = [line for line in str(exc).splitlines() if line.strip()]
