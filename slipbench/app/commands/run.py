@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from slipbench.app.options import (
+    SCHEDULER_HELP,
     force_option,
     jobs_option,
     out_option,
@@ -16,6 +17,7 @@ from slipbench.app.options import (
     scheduler_option,
     seed_option,
     slurm_option,
+    split_option,
 )
 from slipbench.errors import UsageError
 
@@ -28,6 +30,7 @@ class RunArgs:
     out: Path | None
     jobs: int | None
     seed: int | None
+    split: str | None
     scheduler: str | None
     slurm: tuple[str, ...]
     plan: bool
@@ -45,7 +48,8 @@ class RunArgs:
     "gives its own) [default: the file's run.seed].",
     default=None,
 )
-@scheduler_option()
+@split_option("Split of the run [default: the file's run.split].", default=None)
+@scheduler_option("Where models run [default: the file's run.scheduler]: " + SCHEDULER_HELP)
 @slurm_option()
 @click.option(
     "--plan",
@@ -77,18 +81,23 @@ def run_command(**options) -> None:
     bench = with_overrides(bench, scheduler=o.scheduler, slurm=table)
     if o.slurm and not o.plan:  # checked before any work: names --slurm
         slurm_resources(bench.scheduler, o.slurm, bench.slurm, bench.detectors)
+    if o.split and bench.train is not None:
+        raise UsageError(
+            f"--split {o.split}: {bench.path} trains on [dataset] train and tests on its path "
+            "(the datasets split)"
+        )
     if o.measured and not o.plan:
         raise UsageError("--measured sets the costs of --plan")
     if o.plan:
         from slipbench.app.planning import planning, render
 
-        bench = with_overrides(bench, out=o.out, jobs=o.jobs, seed=o.seed)
+        bench = with_overrides(bench, out=o.out, jobs=o.jobs, seed=o.seed, split=o.split)
         note = lambda line: click.echo(line, err=True)  # noqa: E731
         click.echo(render(planning(bench, list(o.measured), note)))
         return
     if o.out is None:  # --out was checked as it was read; a run always writes its record there
         check_writable(bench.out)
-    bench = with_overrides(bench, out=o.out, jobs=o.jobs, seed=o.seed)
+    bench = with_overrides(bench, out=o.out, jobs=o.jobs, seed=o.seed, split=o.split)
     rows, paths = run_benchmark(bench, o.force, progress=not o.quiet, echo=click.echo)
     folder = bench.out
     counts = rows["status"].value_counts()
