@@ -384,6 +384,8 @@ def _slurm(path: Path, text: str, table: dict, detectors: tuple[str, ...]) -> di
         resources(table, detectors)
     except SlurmKeyError as exc:
         where, _, key = exc.key.rpartition(".")
+        if not where and isinstance(table.get(key), dict):  # a sub-table: its header's line
+            raise _fail(path, text, exc.what, f"slurm.{key}") from None
         raise _fail(path, text, exc.what, f"slurm.{where}" if where else "slurm", key) from None
     return table
 

@@ -170,7 +170,10 @@ def on_slurm(p: Planning) -> Section | None:
     if res is None:
         return None
     seconds = {id(t): s for t, s in zip(p.tasks, p.seconds, strict=True)}
-    shards = dealt(p.tasks, res, lambda t: seconds[id(t)] if np.isfinite(seconds[id(t)]) else 0)
+    # dealt as the run deals them: by estimated seconds, by models where nothing is measured
+    shards = dealt(
+        p.tasks, res, lambda t: seconds[id(t)] if np.isfinite(seconds[id(t)]) else t.models
+    )
     lines = [
         "| Detector | Resources | Array tasks | Longest task | Time limit | Wall | Core-hours |",
         "|:--|:--|--:|--:|--:|--:|--:|",

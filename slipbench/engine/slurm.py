@@ -223,7 +223,7 @@ def dealt(tasks: list[Any], res: Resources, weight: Callable[[Any], float]) -> l
     for detector, mine in by_detector.items():
         shards = [Shard(detector, []) for _ in range(min(len(mine), res.max_tasks))]
         for task in sorted(mine, key=weight, reverse=True):
-            lightest = min(shards, key=lambda s: s.weight)
+            lightest = min(shards, key=lambda s: (s.weight, len(s.tasks)))
             lightest.tasks.append(task)
             lightest.weight += weight(task)
         out += shards

@@ -12,6 +12,7 @@ import pytest
 from slipbench.app.benchfile import BenchmarkError, load_benchmark
 from slipbench.app.planning import SECTIONS, Planning, Section, frame, planning, render
 from slipbench.data.defaults import cache_dir
+from slipbench.engine import slurm
 from slipbench.engine.runner import Run, evaluate, planned, with_columns
 from slipbench.protocols.window_size import WindowSize
 from slipbench.store.results import ResultsStore
@@ -102,7 +103,9 @@ def test_a_plan_charges_each_model_from_measured_rows_and_sizes_the_arrays(tmp_p
     assert re.search(
         r"\| holweg \| partition cpu, 2 cores, 4 GB \| \d+ \| [^|]+ \| 45 min \|", text
     )
-    assert re.search(r"\| features \| [^|]+ \| \d+ \| - \| 23 min \|", text)
+    # 48 models in 16 tasks: 3 x 600 s on 2 cores each, the longest, a quarter and 10 minutes
+    limit = slurm.time_limit(slurm.Resources(cpus_per_task=2), [600.0] * 3, 2)
+    assert limit == 42 and "| features | partition cpu, 2 cores, 4 GB | 16 | - | 42 min |" in text
     assert "no cell ran and no data was generated" in text
 
 
@@ -130,8 +133,8 @@ def test_the_paper_file_plans_at_its_own_size_with_its_slurm_table(cli):
     ("table", "line", "message"),
     [
         ("[slurm]\ntime = 0\n", 3, "[slurm] time: must be minutes an array task may run"),
-        ("[slurm]\n[slurm.lstm]\ntasks = 3\n", 4, "[slurm.lstm] tasks: unknown key"),
-        ("[slurm.nope]\ntime = 3\n", 2, "[slurm] nope: not a detector of this run"),
+        ("[slurm]\n[slurm.holweg]\ntasks = 3\n", 4, "[slurm.holweg] tasks: unknown key"),
+        ("[slurm.nope]\ntime = 3\n", 2, "[slurm.nope]: not a detector of this run (holweg)"),
     ],
 )
 def test_a_bad_slurm_table_is_refused_at_its_line(tmp_path, table, line, message):
