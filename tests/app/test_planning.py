@@ -163,3 +163,27 @@ def test_the_guides_dask_jobqueue_cluster_is_the_job_script_it_says():
         assert "--nworkers 8" in script and "source ~/venvs/slipbench/bin/activate" in script
     finally:
         cluster.close()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (
+            ["--slurm", "time=10"],
+            "--slurm sets the resources of --scheduler slurm or submitit-local",
+        ),
+        (["--measured", "."], "--measured sets the costs of --plan"),
+        (["--scheduler", "slurm", "--slurm", "time=0"], "[slurm] time: must be minutes"),
+    ],
+)
+def test_run_refuses_options_that_do_not_apply(cli, tmp_path, extra, message):
+    code, _, err = cli(["run", str(_file(tmp_path, 0.002)), *extra])
+    assert code == 2 and message in err
+    assert not (tmp_path / "res").exists()
+
+
+def test_evaluate_refuses_slurm_resources_without_its_scheduler(cli, tmp_path):
+    code, _, err = cli(
+        ["evaluate", "--detector", "holweg", "--protocol", "window-size", "--slurm", "time=5"]
+    )
+    assert code == 2 and "--slurm sets the resources of --scheduler slurm" in err
