@@ -412,8 +412,9 @@ def _remote(dataset: Dataset, stamp: Stamp, store: ResultsStore, refit: set[str]
         source = str(Path(dataset.path).resolve())
     else:  # built or changed in memory (combined, a subset): the array tasks read this one
         source = str(folder / f"dataset-{dataset.fingerprint}.pkl")
-        with atomic_file(source) as file:
-            pickle.dump(dataset, file, pickle.HIGHEST_PROTOCOL)
+        if not Path(source).exists():  # named by its content: a relaunch's is the same
+            with atomic_file(source) as file:
+                pickle.dump(dataset, file, pickle.HIGHEST_PROTOCOL)
     plugins = dict(PLUGIN_FILES)
 
     def work(tasks: list[Task | Batch]) -> tuple[Callable, tuple]:
