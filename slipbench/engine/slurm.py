@@ -280,7 +280,7 @@ def needs_submitit() -> None:
 
 @dataclass
 class _Array:
-    """The array tasks in flight: each job with its tasks, and which tasks still wait."""
+    """The array tasks in flight: each job with the tasks it holds, and its time limit."""
 
     jobs: dict[Any, list[Any]] = field(default_factory=dict)
     minutes: dict[str, int] = field(default_factory=dict)  # job id -> its time limit
@@ -298,19 +298,19 @@ def run(
     An interrupted launcher (Ctrl-C, SIGTERM) cancels its array tasks; one that is killed
     leaves them running, and the next launch adopts them."""
     needs_submitit()
-    import submitit
+    from submitit.core.utils import UncompletedJobError
 
-    folder = remote.folder
-    flight = _adopted(tasks, folder, scheduler)
+    flight = _adopted(tasks, remote.folder, scheduler)
     adopted = {id(t) for ts in flight.jobs.values() for t in ts}
-    fresh = [t for t in tasks if id(t) not in adopted]
     arrays: dict[str, list[Shard]] = {}  # one job array per detector's resources
-    for shard in dealt(fresh, res, lambda t: float(t.models)):
+    for shard in dealt([t for t in tasks if id(t) not in adopted], res, lambda t: t.models):
         arrays.setdefault(shard.detector, []).append(shard)
-    for shards in arrays.values():
-        _submit_into(flight, shards, remote, (scheduler, res, timeout))
+    # every array's time limit before the first is submitted: a refusal leaves nothing queued
+    minutes = {d: _minutes(scheduler, res.of(d), shards, timeout) for d, shards in arrays.items()}
     interrupted = True
     try:
+        for detector, shards in arrays.items():
+            _submit_into(flight, shards, remote, (scheduler, res.of(detector), minutes[detector]))
         while flight.jobs:
             done = [job for job in flight.jobs if job.done()]
             for job in done:
@@ -324,8 +324,19 @@ def run(
             for job in flight.jobs:
                 try:
                     job.cancel(check=False)
-                except (OSError, submitit.core.utils.UncompletedJobError):
+                except (OSError, UncompletedJobError):
                     pass
+
+
+def _minutes(scheduler: str, res: Resources, shards: list[Shard], timeout: float | None) -> int:
+    minutes = array_minutes(res, shards, timeout)
+    if minutes is None:
+        raise UsageError(
+            f"--scheduler {scheduler}: the array tasks of {shards[0].detector} need a time "
+            "limit: give [slurm] time (minutes; --slurm time=MINUTES) or a cell time limit "
+            "(--cell-timeout, [run] cell_timeout), from which each task's is derived"
+        )
+    return minutes
 
 
 def _pause(seconds: float) -> None:
@@ -333,34 +344,24 @@ def _pause(seconds: float) -> None:
 
 
 def _submit_into(
-    flight: _Array,
-    shards: list[Shard],
-    remote: Remote,
-    how: tuple[str, Resources, float | None],
+    flight: _Array, shards: list[Shard], remote: Remote, how: tuple[str, Resources, int]
 ) -> None:
-    """Submit ``shards`` (one detector's) as one job array, as ``how`` says (scheduler,
-    resources, cell time limit), and note its tasks in ``SUBMITTED`` so that a later launch
-    finds them."""
+    """Submit ``shards`` (one detector's) as one job array, as ``how`` says (scheduler, the
+    detector's resources, the time limit in minutes), and note its tasks in ``SUBMITTED`` so
+    that a later launch finds them."""
     from submitit.core.utils import FailedSubmissionError
 
-    scheduler, res, timeout = how
-    detector = shards[0].detector
-    mine = res.of(detector)
-    minutes = array_minutes(mine, shards, timeout)
-    if minutes is None:
-        raise UsageError(
-            f"--scheduler {scheduler}: the array tasks of {detector} need a time limit: give "
-            "[slurm] time (minutes; --slurm time=MINUTES) or a cell time limit (--cell-timeout, "
-            "[run] cell_timeout), from which each task's is derived"
-        )
-    executor = _executor(remote.folder, scheduler, mine, minutes, detector)
+    scheduler, res, minutes = how
+    executor = _executor(remote.folder, scheduler, res, minutes, shards[0].detector)
     work = [remote.work(s.tasks) for s in shards]
     try:
         with executor.batch():
             jobs = [executor.submit(fn, *args) for fn, args in work]
     except (FailedSubmissionError, OSError) as exc:
         raise EnvironmentFault(
-            remote.folder, f"submitting {len(shards)} array tasks failed: {exc}", "submit"
+            remote.folder,
+            f"sbatch refused {len(shards)} array tasks of {shards[0].detector}: {exc}",
+            "submit job arrays from",
         ) from None
     for job, shard in zip(jobs, shards, strict=True):
         flight.jobs[job] = shard.tasks
