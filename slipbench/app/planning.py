@@ -127,6 +127,8 @@ def cells_and_cost(p: Planning) -> Section:
         if c.model_s:
             work, longest = duration(sum(c.model_s)), duration(max(c.model_s))
             basis = f"{c.measured} rows" + ("" if c.alike else " of other parameters")
+            if c.unknown:  # e.g. streaming cells where the pilot ran none
+                basis += f"; {c.unknown} models not counted (cells of a kind never measured)"
         else:
             work = longest = "-"
             basis = "nothing measured" if c.to_run else ""
@@ -199,7 +201,7 @@ def on_slurm(p: Planning) -> Section | None:
             f"| {detector} | {r.described()} | {len(mine)} | "
             f"{duration(max(times)) if known else '-'} | {shown_limit} | "
             f"{duration(wall) if known else '-'} | "
-            f"{sum(times) * r.cpus_per_task / 3600 if known else float('nan'):.1f} |"
+            f"{f'{sum(times) * r.cpus_per_task / 3600:.1f}' if known else '-'} |"
         )
     total = (
         f"All arrays at once, at most {res.array_parallelism} tasks each running: about "

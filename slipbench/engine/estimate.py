@@ -139,13 +139,15 @@ class Cost:
     skipped: int = 0
     to_run: int = 0
     models: int = 0
-    model_s: list[float] | None = field(default_factory=list)
+    model_s: list[float] = field(default_factory=list)
     measured: int = 0
     alike: bool = True
+    unknown: int = 0  # models to run that nothing measured prices (a kind of cell never run)
 
     @property
     def seconds(self) -> float | None:
-        return None if self.model_s is None else float(sum(self.model_s))
+        """The estimated models' seconds; None where none is estimated."""
+        return float(sum(self.model_s)) if self.model_s or not self.unknown else None
 
 
 def costs(plan: Plan, done: set[str], stored: dict[str, dict]) -> dict[str, Cost]:
@@ -166,8 +168,8 @@ def costs(plan: Plan, done: set[str], stored: dict[str, dict]) -> dict[str, Cost
         cost.skipped -= len(task.cells)
         found = rates_of(measured, task.first)
         seconds = None if found is None else found.model_seconds(task)
-        if seconds is None or cost.model_s is None:
-            cost.model_s = None
+        if seconds is None:
+            cost.unknown += 1
         else:
             cost.model_s.append(seconds)
             cost.measured, cost.alike = found.rows, cost.alike and found.alike  # type: ignore[union-attr]
@@ -209,9 +211,10 @@ def describe(costs: dict[str, Cost], jobs: int) -> list[str]:
             lines.append(f"{head}; no estimate yet (no measured cell of {name} in this store)")
         else:
             other = "" if c.alike else " of other parameters"
+            partly = f"; {c.unknown} models with cells of a kind never measured" * bool(c.unknown)
             lines.append(
                 f"{head}; about {duration(c.seconds)} of work (from {c.measured} measured "
-                f"cells{other})"
+                f"cells{other}{partly})"
             )
     cached, to_run = sum(c.cached for c in costs.values()), sum(c.to_run for c in costs.values())
     known = [s for c in costs.values() if c.to_run and c.model_s for s in c.model_s]
