@@ -66,12 +66,15 @@ class TestSet:
 
 class Result(NamedTuple):
     """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`) and the
-    scores of its test windows (None for a streaming or failed cell). ``stored``: ``fields``
-    is the whole row, already in the results folder (written where the cell ran)."""
+    scores of its test windows (None for a streaming or failed cell)."""
 
     fields: dict[str, Any]
     scores: np.ndarray | None = None
-    stored: bool = False
+
+
+class Stored(Result):
+    """A cell's whole row, already in the results folder (written where the cell ran: an
+    array task of a SLURM run)."""
 
 
 @dataclass

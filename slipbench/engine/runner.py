@@ -31,7 +31,7 @@ from slipbench.data.read import read_dataset, stored_fingerprint
 from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import SCHEDULERS, Executor, workers_for
-from slipbench.engine.fitting import Job, Lockstep, Result, TestSet, changed_reads
+from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet, changed_reads
 from slipbench.engine.plan import (
     LABELLED,
     Batch,
@@ -299,7 +299,7 @@ class _Recorder:
 
     def __call__(self, pc: PlannedCell, result: Result) -> None:
         _warn_reads(pc.run.detector_name, result.fields, self.warned)
-        if result.stored:
+        if isinstance(result, Stored):
             self.rows[pc.key] = result.fields
             return
         row = _row(pc, {**result.fields, **_scales(self.plan, pc)}, self.stamp)

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from slipbench.engine.fitting import Result
+from slipbench.engine.fitting import Result, Stored
 from slipbench.errors import EnvironmentFault, UsageError
 
 LOCAL = "submitit-local"
@@ -422,7 +422,7 @@ def _adopted(tasks: list[Any], folder: Path, scheduler: str) -> _Array:
 def _results(task: Any, job: Any, remote: Remote, minutes: int | None) -> list[Result]:
     """A task's results once its array task ended: its rows as stored there, or why not."""
     why = _ended(job, minutes)
-    out = []
+    out: list[Result] = []
     for pc in task.cells:
         row = remote.stored(pc.key)
         # this run's row, or a finished one an earlier launch's task wrote meanwhile (its key
@@ -430,7 +430,7 @@ def _results(task: Any, job: Any, remote: Remote, minutes: int | None) -> list[R
         if row is not None and (
             row.get("run_id") == remote.run_id or row.get("status") in ("ok", "skipped")
         ):
-            out.append(Result(row, None, stored=True))
+            out.append(Stored(row))
         elif why is None:
             out.append(
                 Result(

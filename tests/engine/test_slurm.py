@@ -77,7 +77,7 @@ def test_submitit_local_gives_the_rows_of_local_workers(tmp_path):
     assert (a["status"] == "ok").all()
     pd.testing.assert_frame_equal(a, b[a.columns])
     # the array tasks wrote the cells; their submitit files are kept beside the results
-    assert list((tmp_path / "arrays" / "slurm").glob("*_submission.sh"))
+    assert list((tmp_path / "arrays" / "slurm").glob("*_submitted.pkl"))
 
 
 def _has_aeon() -> bool:
@@ -90,8 +90,8 @@ def _has_aeon() -> bool:
 
 @pytest.mark.slow  # three runs of 48 slow cells
 def test_a_killed_launcher_resumes_with_the_rows_of_a_local_run(small_path, tmp_path):
-    """SIGKILL the launcher while its array tasks run: they go on writing cells, and the same
-    command, run again, computes what is missing; the rows are those of a local run."""
+    """SIGKILL the launcher and its array tasks mid-way: the same command, run again,
+    computes what is missing; the rows are those of a local run."""
     plugins = tmp_path / "plugins"
     plugins.mkdir()
     (plugins / "slow.py").write_text(toys.source(toys.Slow))
@@ -110,13 +110,15 @@ def test_a_killed_launcher_resumes_with_the_rows_of_a_local_run(small_path, tmp_
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and len(list((out / "cells").glob("*.parquet"))) < 5:
         time.sleep(0.05)
-    tasks = psutil.Process(launcher.pid).children(recursive=True)
-    os.kill(launcher.pid, signal.SIGKILL)
+    # the launcher and its array tasks at once, as a lost node takes both
+    procs = [psutil.Process(launcher.pid), *psutil.Process(launcher.pid).children(recursive=True)]
+    for proc in procs:
+        proc.send_signal(signal.SIGKILL)
+    psutil.wait_procs(procs, timeout=60)
     _, err = launcher.communicate()
     assert 5 <= len(list((out / "cells").glob("*.parquet"))) < 48, err
     again = _cli(*argv, cwd=tmp_path)
     assert again.returncode == 0, again.stderr
-    psutil.wait_procs(tasks, timeout=120)  # the first launch's tasks end on their own
     local = _cli(*common, "--jobs", "2", "--out", str(tmp_path / "local"), cwd=tmp_path)
     assert local.returncode == 0, local.stderr
     a, b = _rows(tmp_path / "local"), _rows(out)
