@@ -2,6 +2,9 @@
 # Regenerate reports/: the paper's tables and figures reproduced on the simulated default dataset.
 #
 #   reports/reproduce.sh                        # every built-in detector, every protocol, both splits
+#   reports/reproduce.sh reports/paper.toml     # what a run file declares (its scale, scheduler,
+#                                               # [slurm] resources), both splits: one command
+#                                               # for the paper's size on a cluster
 #   DETECTORS="holweg lstm" reports/reproduce.sh   # a subset
 #   SCALE=0.02 RESULTS=build/small REPORTS=build/small-reports reports/reproduce.sh
 #   REDUCTION_ONLY=1 reports/reproduce.sh          # only reports/reduction/: univariate vs channels
@@ -21,8 +24,14 @@ SCALE=${SCALE:-0.1}
 JOBS=${JOBS:-2}
 DETECTORS=${DETECTORS:-features holweg bandpass wavelet-svm minirocket lstm}  # features: the reference
 PROTOCOLS="window-size sampling-rate material-holdout speed-holdout cross-instance streaming"
+RUNFILE=${1:-}
 for split in grouped paper; do
   [ -n "${REPORT_ONLY:-}${REDUCTION_ONLY:-}" ] && break
+  if [ -n "$RUNFILE" ]; then
+    echo "run $RUNFILE, $split split" >&2
+    slipbench run "$RUNFILE" --split "$split" --out "$RESULTS" --quiet > /dev/null
+    continue
+  fi
   for detector in $DETECTORS; do
     params=()
     if [ "$detector" = lstm ]; then params=(--param max_epochs=100); fi

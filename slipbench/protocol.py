@@ -77,8 +77,12 @@ class Part:
 
     def mask(self, recordings: pd.DataFrame) -> np.ndarray:
         """(n_recordings,) bool: recordings of these sensors that meet every condition."""
-        pairs = pd.MultiIndex.from_frame(recordings[["sensor_type", "sensor_instance"]])
-        keep = pairs.isin(list(self.sensors))
+        # compared as arrays: a MultiIndex built per call took 30 ms, most of planning a run
+        types = recordings["sensor_type"].to_numpy()
+        instances = recordings["sensor_instance"].to_numpy()
+        keep = np.zeros(len(recordings), bool)
+        for sensor_type, instance in self.sensors:
+            keep |= (types == sensor_type) & (instances == instance)
         for column, op, value in self.where:
             equal = recordings[column].eq(value).to_numpy()
             keep &= equal if op == "==" else ~equal

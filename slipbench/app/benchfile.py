@@ -26,6 +26,13 @@
     cell_timeout = 600             # seconds
     plugins = ["plugins"]          # plugin folders, relative to this file
 
+    [slurm]                        # with scheduler = "slurm": each array task's resources
+    partition = "cpu"              # (see docs/guides/scale-out.md for every key)
+    time = 240                     # minutes; default: from cell_timeout
+    cpus_per_task = 4
+    [slurm.lstm]                   # one detector's tasks: their own resources
+    gpus_per_node = 1
+
     [gate]                         # what `compare --bench` judges (default: every figure)
     accuracy = 1.0                 # tolerance: a drop smaller than it is no regression
     tn_rate = 1.0                  # points; false_alarms_per_min per minute, median_delay_ms ms
@@ -92,7 +99,7 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "repeats": (int, "an int >= 1"),
         "jobs": (int, "an int >= 0"),
         "cell_timeout": ((int, float), "seconds > 0"),
-        "scheduler": (str, "a dask scheduler's address or file"),
+        "scheduler": (str, "slurm, submitit-local, or a dask scheduler's address or file"),
         "plugins": (list, "a list of folders"),
     },
     # the figures `compare --bench` judges, each with its tolerance
@@ -100,7 +107,7 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE
     },
 }
-TABLES = ("benchmark", "dataset", "run", "gate", "detectors", "protocols")
+TABLES = ("benchmark", "dataset", "run", "slurm", "gate", "detectors", "protocols")
 
 
 @dataclass
@@ -134,6 +141,7 @@ class Benchmark:
     detectors: dict[str, dict[str, Any]] = field(default_factory=dict)
     protocols: dict[str, dict[str, Any]] = field(default_factory=dict)
     gate: dict[str, float] = field(default_factory=dict)  # figure -> tolerance; empty: defaults
+    slurm: dict[str, Any] = field(default_factory=dict)  # the [slurm] table, checked
 
     @property
     def describe(self) -> str:
@@ -375,7 +383,22 @@ def load_benchmark(path: str | Path) -> Benchmark:
         detectors={k: dict(v) for k, v in data["detectors"].items()},
         protocols={k: dict(v) for k, v in data["protocols"].items()},
         gate=_gate(path, text, data.get("gate", {})),
+        slurm=_slurm(path, text, data.get("slurm", {}), tuple(data["detectors"])),
     )
+
+
+def _slurm(path: Path, text: str, table: dict, detectors: tuple[str, ...]) -> dict:
+    """The [slurm] table, every key and value checked (a bad one named with its line)."""
+    from slipbench.engine.slurm import SlurmKeyError, resources
+
+    try:
+        resources(table, detectors)
+    except SlurmKeyError as exc:
+        where, _, key = exc.key.rpartition(".")
+        if not where and isinstance(table.get(key), dict):  # a sub-table: its header's line
+            raise _fail(path, text, exc.what, f"slurm.{key}") from None
+        raise _fail(path, text, exc.what, f"slurm.{where}" if where else "slurm", key) from None
+    return table
 
 
 def _gate(path: Path, text: str, table: dict) -> dict[str, float]:
@@ -471,6 +494,39 @@ def with_overrides(bench: Benchmark, **overrides) -> Benchmark:
     return dataclasses.replace(bench, **{k: v for k, v in overrides.items() if v is not None})
 
 
+def read_data(bench: Benchmark, echo=print):
+    """The file's dataset folder (with ``train``: the two combined); None for the simulated."""
+    from slipbench.data.read import read_dataset
+
+    if bench.dataset is None:
+        return None
+    if bench.train is not None:
+        from slipbench.data.transfer import combine, parse_sensor_map
+
+        return combine(
+            read_dataset(bench.train),
+            read_dataset(bench.dataset),
+            parse_sensor_map(tuple(bench.sensor_map)),
+        )
+    return read_dataset(bench.dataset)
+
+
+def slurm_of(bench: Benchmark):
+    """The resources of the file's SLURM run (``[slurm]``, folder relative to the file), or
+    None where it runs elsewhere."""
+    from dataclasses import replace
+
+    from slipbench.engine.executors import SCHEDULERS
+    from slipbench.engine.slurm import resources
+
+    if bench.scheduler not in SCHEDULERS:
+        return None
+    res = resources(bench.slurm, tuple(bench.detectors))
+    if res.folder:
+        res = replace(res, folder=str(bench.path.resolve().parent / res.folder))
+    return res
+
+
 def record(bench: Benchmark, out: Path) -> None:
     """Keep the file's text with the results: ``benchmark.toml`` (a copy) and ``benchmark.json``
     (its SHA-256, where it came from, when it ran)."""
@@ -505,7 +561,6 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
     from slipbench.data.defaults import default_dataset
-    from slipbench.data.read import read_dataset
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.store.results import ResultsStore
@@ -514,17 +569,8 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     runs = plan_runs(
         bench, echo
     )  # every name and parameter before the dataset is read or simulated
-    if bench.train is not None:
-        from slipbench.data.transfer import combine, parse_sensor_map
-
-        assert bench.dataset is not None  # the bench file's check: train needs path
-        ds = combine(
-            read_dataset(bench.train),
-            read_dataset(bench.dataset),
-            parse_sensor_map(tuple(bench.sensor_map)),
-        )
-    elif bench.dataset is not None:
-        ds = read_dataset(bench.dataset)
+    if bench.dataset is not None:
+        ds = read_data(bench, echo)
     else:
         data_seed = bench.seed if bench.data_seed is None else bench.data_seed
         ds = default_dataset(bench.scale, data_seed, echo=echo)
@@ -538,6 +584,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         scheduler=bench.scheduler,
         cell_timeout=bench.cell_timeout,
         progress=progress,
+        slurm=slurm_of(bench),
     )
     blocks = build_report(
         rows,

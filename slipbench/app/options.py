@@ -178,10 +178,12 @@ def _scheduler(ctx, param, scheduler: str | None) -> str | None:
     return scheduler
 
 
-def scheduler_option(help: str):
+def scheduler_option(help: str | None = None):
     """``--scheduler``: an executor by name, or a dask scheduler's address or file, checked
     as it is read (:func:`slipbench.engine.executors.scheduler_problem`)."""
-    return click.option("--scheduler", default=None, callback=_scheduler, help=help)
+    return click.option(
+        "--scheduler", default=None, callback=_scheduler, help=help or SCHEDULER_HELP
+    )
 
 
 def force_option():
@@ -196,3 +198,36 @@ def quiet_option():
 
 def intervals_option(help: str):
     return click.option("--intervals", is_flag=True, help=help)
+
+
+SCHEDULER_HELP = (
+    "Where models run: slurm (a SLURM job array through submitit; the results folder must be "
+    "on a file system the nodes share), submitit-local (the same path in local processes), or "
+    "the address of a dask.distributed scheduler (tcp://HOST:8786)."
+)
+
+
+def slurm_option():
+    return click.option(
+        "--slurm",
+        "slurm",
+        multiple=True,
+        metavar="KEY=VALUE",
+        help="A SLURM resource for --scheduler slurm or submitit-local (repeatable; over a run "
+        "file's [slurm] table): partition, time (minutes), cpus_per_task, mem_gb, "
+        "gpus_per_node, array_parallelism, tasks, account, qos, constraint, setup, folder; "
+        "DETECTOR.KEY=VALUE for one detector's tasks.",
+    )
+
+
+def slurm_resources(scheduler: str | None, items: tuple[str, ...], table: dict | None, detectors):
+    """The checked resources of a SLURM run (None for any other scheduler); ``--slurm`` given
+    without one is a usage error."""
+    from slipbench.engine.executors import SCHEDULERS
+    from slipbench.engine.slurm import from_options, resources
+
+    if scheduler not in SCHEDULERS:
+        if items:
+            raise UsageError(f"--slurm sets the resources of --scheduler {' or '.join(SCHEDULERS)}")
+        return None
+    return resources(from_options(items, table), tuple(detectors))

@@ -66,6 +66,16 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
     return ds
 
 
+def stored_fingerprint(path: str | os.PathLike) -> str:
+    """The content fingerprint slipbench stored in a dataset folder's recordings.parquet when
+    it wrote it ("" where there is none, or no such file): reads the schema only."""
+    try:
+        meta = open_parquet(Path(path) / RECORDINGS_FILE).schema_arrow.metadata or {}
+    except (pa.ArrowException, OSError):
+        return ""
+    return meta.get(FINGERPRINT_KEY, b"").decode()
+
+
 def read_description(path: str | os.PathLike) -> dict[str, str]:
     """What a dataset folder says about itself beyond its content: the keys of recordings.parquet's
     schema metadata other than the format's own (``slipbench.source``, ``slipbench.citation``

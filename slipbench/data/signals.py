@@ -183,6 +183,30 @@ class Signals:
             [dataset.samples[r] for r in ids],
         )
 
+    @classmethod
+    def from_layout(cls, recordings: pd.DataFrame) -> Signals:
+        """The shape of a dataset's signals without its samples, for planning: the canonical
+        ``recordings`` (with ``n_samples``) give the offsets; ``buffer`` is empty (no window can
+        be cut). Samples are labelled by scenario, and a hold-slip recording holds for its first
+        half and slips in its second: a stand-in onset where a simulated one lies somewhere
+        inside, so that the cells that stream it, or label windows by samples, are planned
+        with about their windows."""
+        lengths = recordings["n_samples"].to_numpy(np.int64) - 1  # s_t spans two samples
+        by_scenario = {"slip": 1, "press": 0, "free-space": 0}
+        labels = [
+            np.repeat(np.array([0, 1], np.int8), [n // 2, n - n // 2])
+            if scenario == "hold-slip"
+            else np.full(n, by_scenario.get(scenario, -1), np.int8)
+            for scenario, n in zip(recordings["scenario"], lengths)
+        ]
+        return cls(
+            np.empty(0, np.float32),
+            np.r_[0, np.cumsum(lengths)].astype(np.int64),
+            recordings.reset_index(drop=True),
+            np.concatenate(labels),
+            np.ones(len(recordings), bool),
+        )
+
     def antialiased(self, factor: int, order: int = 4) -> Signals:
         """The signal of a sensor whose norm passes an anti-aliasing filter before it is sampled
         ``factor`` times slower, still at the full rate: :meth:`Windows.downsample` then

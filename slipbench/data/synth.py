@@ -1049,37 +1049,54 @@ def generate(
     labels : recording_id -> int8 (n_samples,): 1 while the contact slides, 0 otherwise,
         ``UNLABELLED`` (-1) after the contact is lost in a ``hold-slip`` trial.
     """
-    if not scale > 0:
-        raise ValueError(f"scale must be > 0, got {scale}")
     p = design.physics
     rows, samples, labels = [], {}, {}
+    units: dict[tuple[str, str], Unit] = {}
+    for key, inst, n, row in _recordings(design, scale, seed):
+        sensor_type = row["sensor_type"]
+        sensor = SENSORS[sensor_type]
+        if (sensor_type, inst) not in units:
+            units[sensor_type, inst] = make_unit(seed, sensor_type, inst, p)
+        unit = units[sensor_type, inst]
+        rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
+        sig = _signature(
+            rng_for(seed, "signature", sensor_type, inst, *key[1:]),
+            rng_for(seed, "surface", *key),
+            p,
+        )
+        trial_rng = rng_for(seed, "trial", *key)
+        take = Take(n, sensor.rate_hz, key[2], key[3], sensor, unit, sig, trial_rng, rng, p)
+        forces, label = SCENARIO_FORCES[key[1]](take)
+        electrode_rng = rng_for(seed, "electrodes", sensor_type, inst, *key[1:])
+        samples[row["recording_id"]] = _sense(forces, take, electrode_rng)
+        labels[row["recording_id"]] = label
+        rows.append(row)
+    return pd.DataFrame(rows), samples, labels
+
+
+def _recordings(design: Design, scale: float, seed: int):
+    """Per recording of the design, in the order :func:`generate` simulates them: its draw key
+    (sensor type, scenario, material, speed, trial token), unit instance, number of samples
+    and recordings row."""
+    if not scale > 0:
+        raise ValueError(f"scale must be > 0, got {scale}")
     for sensor_type in design.sensors:
         sensor = SENSORS[sensor_type]
         fs = sensor.rate_hz
-        units = {inst: make_unit(seed, sensor_type, inst, p) for inst in sensor.instances}
         for scenario, material, speed, tokens, seconds in _plan(design, scale):
             n = max(64, int(round(seconds * fs)))
             speed_name = "none" if speed is None else f"{speed:g}"
             for token in tokens:
                 key = (sensor_type, scenario, material, speed, token)
                 trial_id = "/".join((sensor_type, scenario, material or "none", speed_name, token))
-                for inst, unit in units.items():
-                    rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
-                    sig = _signature(
-                        rng_for(seed, "signature", sensor_type, inst, *key[1:]),
-                        rng_for(seed, "surface", *key),
-                        p,
-                    )
-                    trial_rng = rng_for(seed, "trial", *key)
-                    take = Take(n, fs, material, speed, sensor, unit, sig, trial_rng, rng, p)
-                    forces, label = SCENARIO_FORCES[scenario](take)
+                for inst in sensor.instances:
                     rid = "-".join(
                         (sensor_type, inst, scenario, material or "none", speed_name, token)
                     )
-                    electrode_rng = rng_for(seed, "electrodes", sensor_type, inst, *key[1:])
-                    samples[rid] = _sense(forces, take, electrode_rng)
-                    labels[rid] = label
-                    rows.append(
+                    yield (
+                        key,
+                        inst,
+                        n,
                         dict(
                             recording_id=rid,
                             sensor_type=sensor_type,
@@ -1093,9 +1110,16 @@ def generate(
                             univariate_channels=sensor.univariate_channels,
                             source=f"slipbench.synth v{MODEL_VERSION} seed={seed} scale={scale:g}",
                             trial=trial_id,
-                        )
+                        ),
                     )
-    return pd.DataFrame(rows), samples, labels
+
+
+def layout(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> pd.DataFrame:
+    """The recordings table :func:`generate` would make, with each recording's ``n_samples``,
+    without simulating a sample: what planning a run at any scale needs (milliseconds, where
+    simulating the paper's size takes many minutes)."""
+    rows = [dict(row, n_samples=n) for _, _, n, row in _recordings(design, scale, seed)]
+    return pd.DataFrame(rows)
 
 
 def synthesize(

@@ -46,6 +46,11 @@ GRACE = 1.0
 STOP = 1.0  # seconds an interrupted worker has to end on SIGTERM before it is killed
 
 
+#: the schedulers named rather than addressed (``--scheduler NAME``); any other value is the
+#: address of a dask scheduler
+SCHEDULERS = ("slurm", "submitit-local")
+
+
 def serial(tasks: list[T], payload: Payload, on_report: Report | None) -> Finished:
     sink = workers.throttled(on_report) if on_report else None
     with threads.limited(threads.share(1)):  # restored for the caller when the run ends
@@ -159,7 +164,11 @@ class _Pool(Generic[T]):
     waits for the tasks in flight."""
 
     def __init__(
-        self, jobs: int, timeout: float | None, on_report: Report | None, processes: int
+        self,
+        processes: int,
+        timeout: float | None,
+        on_report: Report | None,
+        per_model: int,
     ) -> None:
         import multiprocessing
 
@@ -174,7 +183,7 @@ class _Pool(Generic[T]):
         self.pool = ProcessPool(
             max_workers=max(1, processes),  # pebble starts them all: never more than tasks
             initializer=workers.start,
-            initargs=(threads.share(jobs), dict(PLUGIN_FILES), writer, on_report is not None),
+            initargs=(per_model, dict(PLUGIN_FILES), writer, on_report is not None),
             context=context,
         )
         self.writer, self.timeout, self.on_report = writer, timeout, on_report
@@ -230,11 +239,14 @@ class _Pool(Generic[T]):
 
 
 def process_pool(
-    tasks: list[T], payload: Payload, jobs: int, timeout: float | None, on_report: Report | None
+    tasks: list[T], payload: Payload, executor: Executor, on_report: Report | None
 ) -> Finished:
-    """Local worker processes; at most two tasks per worker in flight, so their windows are
-    not all in memory at once."""
-    pool: _Pool[T] = _Pool(jobs, timeout, on_report, processes=min(jobs, len(tasks)))
+    """``executor.jobs`` local worker processes (never more than tasks); at most two tasks per
+    worker in flight, so their windows are not all in memory at once."""
+    jobs = executor.jobs
+    pool: _Pool[T] = _Pool(
+        min(jobs, len(tasks)), executor.timeout, on_report, executor.threads or threads.share(jobs)
+    )
     queue = iter(enumerate(tasks))
     interrupted = True
     try:
@@ -365,8 +377,6 @@ def unguarded_script() -> str:
     return f"{file}:{line}"
 
 
-#: executors ``scheduler`` names (beside a dask scheduler's address or file), e.g. on a cluster
-NAMED_EXECUTORS: tuple[str, ...] = ()
 #: local worker processes per core beyond which more add only memory and contention (a worker
 #: holds its imports and a task's windows; each model gets ``cores // jobs`` threads, at least 1)
 JOBS_PER_CORE = 4
@@ -385,16 +395,16 @@ def jobs_problem(jobs: int) -> str | None:
 
 def scheduler_problem(scheduler: str) -> str | None:
     """Why ``scheduler`` names no executor, or None: it may name one of
-    :data:`NAMED_EXECUTORS`, or a dask scheduler by its address (``host:port``,
+    :data:`SCHEDULERS`, or a dask scheduler by its address (``host:port``,
     ``tcp://host:port``, any scheme dask has) or by its scheduler file (JSON)."""
-    if scheduler in NAMED_EXECUTORS or Path(scheduler).is_file():
+    if scheduler in SCHEDULERS or Path(scheduler).is_file():
         return None
     try:
         from distributed.comm.addressing import parse_address, parse_host_port
         from distributed.comm.registry import backends
     except ImportError:
         return "a dask scheduler needs dask.distributed: pip install 'slipbench[dask]'"
-    named = f", nor one of {', '.join(NAMED_EXECUTORS)}" if NAMED_EXECUTORS else ""
+    named = f", nor one of {', '.join(SCHEDULERS)}" if SCHEDULERS else ""
     try:
         scheme, location = parse_address(scheduler, strict=False)
         if scheme not in backends:
@@ -438,20 +448,31 @@ def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
 @dataclass(frozen=True)
 class Executor:
     """Where tasks run: ``jobs`` local worker processes (0: in this process, with no
-    protection against a crash and no time limit), or the dask scheduler at ``scheduler``;
-    ``timeout``: seconds one task may take in a local worker."""
+    protection against a crash and no time limit), a SLURM job array (``scheduler`` one of
+    :data:`SCHEDULERS`, with ``resources``), or the dask scheduler at ``scheduler``;
+    ``timeout``: seconds one model may take. ``threads``: a model's threads in a local worker
+    (None: this machine's share; an array task gives its own)."""
 
     jobs: int = 1
     scheduler: str | None = None
     timeout: float | None = None
+    resources: Any = None  # slipbench.engine.slurm.Resources
+    threads: int | None = None
 
-    def run(self, tasks: list[T], payload: Payload, on_report: Report | None = None) -> Finished:
+    def run(
+        self, tasks: list[T], payload: Payload, on_report: Report | None = None, remote: Any = None
+    ) -> Finished:
         """Every task with its results, as they finish; ``on_report`` shows the progress a model
-        reports (None: nobody listens, and workers send none)."""
+        reports (None: nobody listens, and workers send none). A job array needs ``remote``
+        (:class:`slipbench.engine.slurm.Remote`): its tasks cut their own payloads."""
+        if self.scheduler in SCHEDULERS:
+            from slipbench.engine import slurm
+
+            return slurm.run(tasks, remote, self.scheduler, self.resources, self.timeout)
         if self.scheduler:
             return dask(tasks, payload, self.scheduler, on_report)
         if self.jobs == 0:
             if self.timeout:
                 raise UsageError("a time limit needs worker processes: use --jobs 1 or more")
             return serial(tasks, payload, on_report)
-        return process_pool(tasks, payload, self.jobs, self.timeout, on_report)
+        return process_pool(tasks, payload, self, on_report)

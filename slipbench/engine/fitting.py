@@ -72,6 +72,11 @@ class Result(NamedTuple):
     scores: np.ndarray | None = None
 
 
+class Stored(Result):
+    """A cell's whole row, already in the results folder (written where the cell ran: an
+    array task of a SLURM run)."""
+
+
 @dataclass
 class Job:
     """One model's work, as plain data (it crosses to worker processes): fit ``detector`` on
@@ -214,18 +219,21 @@ def _classified(detector: BaseDetector, seed: int, test: TestSet, fields: dict) 
     scores = detector.predict_proba(test.x)
     infer_s = time.perf_counter() - t0
     y_pred = (scores >= 0.5).astype(np.int8)
+    figures = classification_figures(
+        test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
+    )
     return Result(
         {
             "status": "ok",
             "reason": _one_class(test.y),
             "n_test": len(test.x),
             "n_test_trials": int(len(np.unique(test.groups))),
-            **classification_figures(
-                test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
-            ),
+            **figures,
             **fields,
             **_constant(test.y),
             "infer_us_per_window": infer_s / len(test.x) * 1e6,
+            # with the figures' intervals (a bootstrap): what a plan charges a cell's test
+            "test_s": time.perf_counter() - t0,
         },
         scores,
     )

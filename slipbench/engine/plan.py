@@ -214,6 +214,7 @@ class CellData:
             self.signals, self.scales = signals.normalized(*self.normalization(normalize))
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
+        self._masks: dict[tuple, np.ndarray] = {}
         self._antialiased_channels: dict[int, list[np.ndarray]] = {}
         rec = signals.recordings
         self._rows = {
@@ -357,7 +358,19 @@ class CellData:
         """The windows (positions) of a part."""
         side = 0 if part.side == "train" else 1
         chosen = _concat([self.sides(s, window)[side] for s in part.sensors])
-        return chosen.take(np.flatnonzero(part.mask(self.signals.recordings)[chosen.recording]))
+        return chosen.take(np.flatnonzero(self._mask(part)[chosen.recording]))
+
+    def _mask(self, part: Part) -> np.ndarray:
+        """``part.mask`` of the recordings, once per part: every window and every detector of
+        a run asks again (a mask reads the recordings' columns, most of planning's time)."""
+        key = (part.sensors, part.where)
+        try:
+            hash(key)
+        except TypeError:  # a plugin's condition on an unhashable value
+            return part.mask(self.signals.recordings)
+        if key not in self._masks:
+            self._masks[key] = part.mask(self.signals.recordings)
+        return self._masks[key]
 
     def values(self, windows: Windows, cell: Cell, input: str = "univariate") -> Windows:
         """``windows`` with their samples, as a sensor ``cell.downsample`` times slower gives

@@ -285,6 +285,7 @@ FIT = (
     Column("train_us_per_sample", FLOAT, "us", "fit time per window sample", AT_LEAST_0),
     Column("peak_mem_mb", FLOAT, "MiB", "peak resident memory above the start during the fit"),
     Column("infer_us_per_window", FLOAT, "us", "scoring time per test window", AT_LEAST_0),
+    Column("test_s", FLOAT, "s", "test time: scoring, figures and their intervals", AT_LEAST_0),
     Column(
         "train_balanced_accuracy",
         FLOAT,

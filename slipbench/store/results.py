@@ -135,6 +135,20 @@ class ResultsStore:
             warnings.warn(note, stacklevel=2)
         return self._seen.rows()
 
+    def cell(self, key: str) -> dict[str, Any] | None:
+        """The stored row of one cell that proves itself (None: not stored, or not proved, with
+        a warning naming the file): where another process (an array task on another node)
+        wrote it."""
+        path = self._cell_path(key)
+        if not path.exists():
+            return None
+        try:
+            cell = read_cell(path, key)
+        except DataError as exc:
+            warnings.warn(str(exc), stacklevel=2)
+            return None
+        return cell.row if cell.proven else None
+
     def put(self, row: dict[str, Any], predictions: pd.DataFrame | None = None) -> None:
         """Store one finished cell (its columns those of :mod:`slipbench.store.columns`), with
         its digest; its predictions first, so a row never lacks them."""

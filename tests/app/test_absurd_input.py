@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from slipbench.engine import threads
-from slipbench.engine.executors import JOBS_PER_CORE, NAMED_EXECUTORS, scheduler_problem
+from slipbench.engine.executors import JOBS_PER_CORE, SCHEDULERS, scheduler_problem
 from slipbench.vocabulary import MAX_WINDOW
 
 EVALUATE = ["evaluate", "--detector", "holweg", "--protocol", "window-size"]
@@ -25,8 +25,8 @@ CASES = {
     "seeds past the largest": (["--seed", "4294967295", "--repeats", "2"], "pass 4294967295"),
     "jobs beyond the machine": (["--jobs", str(MOST + 1)], f"--jobs {MOST + 1}: more than {MOST}"),
     "a scheduler that is no address": (
-        ["--scheduler", "submitit-local"],
-        "--scheduler 'submitit-local': not a dask scheduler's address",
+        ["--scheduler", "submitit-locl"],
+        "--scheduler 'submitit-locl': not a dask scheduler's address",
     ),
     "a scheduler of a scheme dask lacks": (
         ["--scheduler", "http://example.org:80"],
@@ -62,8 +62,8 @@ RUN_FILES = {
     "repeats by the billion": ("[run]\nrepeats = 1000000000\n", "[run] repeats: repeats 100"),
     "jobs beyond the machine": (f"[run]\njobs = {MOST + 1}\n", f"[run] jobs: jobs {MOST + 1}"),
     "a scheduler that is no address": (
-        '[run]\nscheduler = "submitit-local"\n',
-        "[run] scheduler: scheduler 'submitit-local': not a dask",
+        '[run]\nscheduler = "submitit-locl"\n',
+        "[run] scheduler: scheduler 'submitit-locl': not a dask",
     ),
 }
 
@@ -89,10 +89,10 @@ def test_a_scheduler_is_an_address_a_file_or_a_known_name(tmp_path, monkeypatch)
     file = tmp_path / "scheduler.json"  # as `dask scheduler --scheduler-file` writes it
     file.write_text('{"address": "tcp://127.0.0.1:8786"}')
     assert scheduler_problem(str(file)) is None
-    assert "submitit-local" in str(scheduler_problem("submitit-local"))
-    monkeypatch.setattr("slipbench.engine.executors.NAMED_EXECUTORS", (*NAMED_EXECUTORS, "mine"))
+    assert scheduler_problem("submitit-local") is None
+    assert "nor one of slurm, submitit-local" in str(scheduler_problem("submitit-locl"))
+    monkeypatch.setattr("slipbench.engine.executors.SCHEDULERS", (*SCHEDULERS, "mine"))
     assert scheduler_problem("mine") is None
-    assert "nor one of mine" in str(scheduler_problem("submitit-local"))
 
 
 def test_the_python_api_refuses_the_same(small):

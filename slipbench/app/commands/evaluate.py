@@ -23,6 +23,8 @@ from slipbench.app.options import (
     scale_option,
     scheduler_option,
     seed_option,
+    slurm_option,
+    slurm_resources,
     split_option,
 )
 from slipbench.app.selection import add_plugin_folders, readable, select_plugins, with_options
@@ -52,6 +54,7 @@ class EvaluateArgs:
     plugins: tuple[str, ...]
     jobs: int
     scheduler: str | None
+    slurm: tuple[str, ...]
     cell_timeout: float | None
     force: bool
     intervals: bool
@@ -128,7 +131,8 @@ class EvaluateArgs:
 @protocol_params_option("Protocol option NAME=VALUE, e.g. decimation=both.")
 @plugins_option()
 @jobs_option("Local worker processes (0: in this process, for debugging).", default=1)
-@scheduler_option("Address (or scheduler file) of a dask.distributed scheduler to run on.")
+@scheduler_option()
+@slurm_option()
 @click.option(
     "--cell-timeout",
     default=None,
@@ -183,6 +187,7 @@ def evaluate_command(**options) -> None:
         )
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
+    slurm = slurm_resources(o.scheduler, o.slurm, None, detectors)
     if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
         from slipbench.data.transfer import combine, parse_sensor_map
 
@@ -204,6 +209,7 @@ def evaluate_command(**options) -> None:
         scheduler=o.scheduler,
         cell_timeout=o.cell_timeout,
         progress=not o.quiet,
+        slurm=slurm,
     )
     for (dn, kind, pn), group in rows.groupby(["detector", "input", "protocol"], sort=False):
         click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
