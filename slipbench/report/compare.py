@@ -28,7 +28,8 @@ from slipbench.stats.compare import (
     summary,
 )
 from slipbench.stats.factors import SETTINGS, setting_text
-from slipbench.stats.gate import NAMES, Gate, unit
+from slipbench.stats.gate import Gate, unit
+from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figure_of, figures
 from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
@@ -44,6 +45,8 @@ MARKS = dict(
         ),
     )
 ) | {"undecided": "◇ undecided"}
+#: the rates of one class each, TP then TN: a windowed cell's second column
+_CLASS_RATES = [f.name for f in figures(WINDOWED) if f.one_class]
 SCHEMA_VERSION = 3  # of the JSON: 3 gives the gate's figures, per-figure pooled tests, power
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
@@ -131,16 +134,18 @@ def _row(r: dict, cmp: Comparison) -> dict:
     line = {"protocol": r["protocol"], "detector": r["detector"], "cell": _label(r, cmp)}
     if r["stream"]:
         line["base → candidate"] = (
-            f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f} ms, "
-            f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f} /min"
+            ", ".join(
+                f"{f.scale * r['base_' + f.name]:.{f.decimals}f} → "
+                f"{f.scale * r['candidate_' + f.name]:.{f.decimals}f} {f.display}"
+                for f in figures(STREAMED, gated=True)
+            )
             if both
             else f"{r['base_status']} → {r['candidate_status']}"
         )
-        line["Δ [simultaneous CI]"] = (
-            f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
-            f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
-            f"{_delta(r, 'detection_rate')}" + _compute_text(r)
-        )
+        line["Δ [simultaneous CI]"] = "; ".join(
+            f"{f.called} {_delta(r, f.name, f.scale, f.decimals)} {f.change_unit}"
+            for f in figures(STREAMED, gated=True)
+        ) + _compute_text(r)
         line["Δ TP / TN rate"] = ""
     else:
         line["base → candidate"] = (
@@ -149,9 +154,7 @@ def _row(r: dict, cmp: Comparison) -> dict:
             else f"{r['base_status']} → {r['candidate_status']}"
         )
         line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
-        line["Δ TP / TN rate"] = (
-            f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
-        )
+        line["Δ TP / TN rate"] = " / ".join(_delta(r, name, bounds=False) for name in _CLASS_RATES)
     why = r.get("inconclusive_reason") or ""
     line[""] = MARKS[r["verdict"]] + (f" ({why})" if why else "")
     return line
@@ -316,12 +319,12 @@ def _seeds_text(cmp: Comparison) -> str:
 
 def gate_text(gate: Gate) -> str:
     """The gate's figures and tolerances, in words."""
-    return ", ".join(f"{NAMES[f]} ±{t:g} {unit(f)}" for f, t in gate.tolerances.items())
+    return ", ".join(f"{FIGURES[f].called} ±{t:g} {unit(f)}" for f, t in gate.tolerances.items())
 
 
 def _pooled_phrase(r: dict) -> str:
     return (
-        f"{md_text(r['protocol'])}, {md_text(r['detector'])}: {NAMES[r['figure']]} "
+        f"{md_text(r['protocol'])}, {md_text(r['detector'])}: {FIGURES[r['figure']].called} "
         f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {unit(r['figure'])}"
     )
 
@@ -336,7 +339,9 @@ def _flagged(cmp: Comparison) -> list[str]:
         flagged.append(f"{int(failed.sum())} cells the candidate no longer finishes")
     figures = cmp.regressions.loc[~failed, "regressed_figures"].str.split(", ").explode()
     for figure, n in figures.value_counts(sort=False).items():
-        flagged.append(f"{NAMES[str(figure)]} in {n} cell{'s' * (n != 1)} (cell level, Holm)")
+        flagged.append(
+            f"{FIGURES[str(figure)].called} in {n} cell{'s' * (n != 1)} (cell level, Holm)"
+        )
     return flagged
 
 
@@ -354,7 +359,7 @@ def _verdict_line(cmp: Comparison) -> str:
         )
     else:
         seen = [
-            f"{r['detectable']:.2g} {unit(r['figure'])} in {NAMES[r['figure']]} of "
+            f"{r['detectable']:.2g} {unit(r['figure'])} in {FIGURES[r['figure']].called} of "
             f"{md_text(r['protocol'])}, {md_text(r['detector'])}"
             for r in cmp.pooled.to_dict("records")
         ]
@@ -416,7 +421,7 @@ def _pooled_table(cmp: Comparison) -> str:
             {
                 "protocol": r["protocol"],
                 "detector": r["detector"],
-                "figure": NAMES[r["figure"]],
+                "figure": FIGURES[r["figure"]].called,
                 "cells (changed)": f"{r['cells']} ({r['changed_cells']})",
                 "mean Δ [CI]": f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {u}",
                 "p (Holm)": f"{r['p_holm']:.3g}",
@@ -493,17 +498,12 @@ def _compute_summary(cells: pd.DataFrame) -> str:
     )
 
 
-# cells' columns that hold rates as fractions; the JSON gives them in percentage points
-_RATE_NAMES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc", "detection_rate")
-
-
 def _in_points(frame: pd.DataFrame) -> pd.DataFrame:
+    """The cells' columns that hold fractions (figures and their changes) in percentage points."""
     out = frame.copy()
     for col in out.columns:
-        name = col.removeprefix("d_").removeprefix("base_").removeprefix("candidate_")
-        for suffix in ("_lo", "_hi", "_se"):
-            name = name.removesuffix(suffix)
-        if name in _RATE_NAMES:
+        shown = figure_of(col)
+        if shown is not None and shown.unit == "fraction":
             out[col] = 100 * pd.to_numeric(out[col], errors="coerce")
     return out
 

@@ -23,6 +23,7 @@ from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
 from slipbench.report.tables import Table, fits, ordered, rank, summarize
 from slipbench.stats.contrast import ONE_SEED_COVERAGE, Estimate, contrast
+from slipbench.store.columns import TN_RATE, TP_RATE
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
 
 COMBINED = "combined"
@@ -505,11 +506,11 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
         )
         lead_all = contrast(terms).scaled(100)
     rates = paper_frame("rates_window_50").set_index("sensor_type")
-    paper_gap = {s: 100 * (r["tp_rate"] - r["tn_rate"]) for s, r in rates.iterrows()}
+    paper_gap = {s: 100 * (r[TP_RATE.name] - r[TN_RATE.name]) for s, r in rates.iterrows()}
     ok = at50[at50["status"] == "ok"] if "status" in at50 else at50
     gaps, balanced = {}, []
-    if {"tp_rate", "tn_rate"} <= set(ok.columns) and len(ok):
-        tp, tn = _cells(ok, UNIT, "tp_rate"), _cells(ok, UNIT, "tn_rate")
+    if {TP_RATE.name, TN_RATE.name} <= set(ok.columns) and len(ok):
+        tp, tn = _cells(ok, UNIT, TP_RATE.name), _cells(ok, UNIT, TN_RATE.name)
         rates_ = pd.concat([tp.assign(_r="tp"), tn.assign(_r="tn")], ignore_index=True)
         for s in ordered(list(dict.fromkeys(ok["sensor_type"])), "sensor_type"):
             gap = _unit_contrast(rates_, "_r", ["tp"], ["tn"], [s])

@@ -17,6 +17,7 @@ from slipbench.report.tables import (
     Table,
     add_versus,
     change_text,
+    figure_label,
     ordered_keys,
     rank,
     summarize,
@@ -24,7 +25,7 @@ from slipbench.report.tables import (
 from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
 from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard, Scope
 from slipbench.stats.pairs import paired_change
-from slipbench.vocabulary import DETECTOR_ORDER, METRIC_NAMES, label
+from slipbench.vocabulary import DETECTOR_ORDER, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
 _SEEDS_INTERVAL = (
@@ -71,7 +72,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
             )
         ]
     order = board.order
-    name = METRIC_NAMES.get(board.metric, board.metric)
+    name = figure_label(board.metric)
     scopes = [s for s in board.scopes if s.n_cells]
     columns = [f"{'all' if s.name == ALL else s.name} ({s.n_cells})" for s in scopes]
     cells = [[f"{s.ranks[e]:.2f}" for s in scopes] for e in order]
@@ -113,14 +114,14 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     shown = [
         m for m in MEAN_METRICS if board.means[f"{m}_cells"].max() > 0
     ]  # figures the rows hold
-    mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in shown] + ["Blocks won"]
+    mean_cols = [f"{figure_label(m)} (%)" for m in shown] + ["Blocks won"]
     mean_cells = [
         [_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in shown]
         + [str(int(overall.wins[e]))]
         for e in order
     ]
     fewer = [
-        f"{METRIC_NAMES.get(m, m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
+        f"{figure_label(m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
         "test set)"
         for m in shown
         if board.means[f"{m}_cells"].min() < overall.n_cells

@@ -17,7 +17,7 @@ import pandas as pd
 
 from slipbench.report.blocks import Detail, Heading, Text
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.tables import LOW_MARK, Table, ordered, rank
+from slipbench.report.tables import CLASS_RATES, LOW_MARK, Table, ordered, rank
 from slipbench.stats.compare import ALPHA, MAX_WIDTH, MIN_SEEDS, RECOMMENDED_REPEATS
 from slipbench.stats.reduction import READINGS, InputComparison, compare_inputs, has_both_inputs
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, cell_label, label
@@ -163,8 +163,7 @@ def _pooled_table(cmp: InputComparison, sensor: str, protocols: list[str]) -> Ta
                 _percent(r["univariate_accuracy"]),
                 _percent(r["channels_accuracy"]),
                 _points(r, "accuracy") + (LOW_MARK if r["low_n"] else ""),
-                _points(r, "tp_rate"),
-                _points(r, "tn_rate"),
+                *(_points(r, name) for name in CLASS_RATES),
                 _extremes(mine),
                 r["reading"],
             ]
@@ -268,8 +267,7 @@ def _cells_table(cmp: InputComparison, detector: str, protocols: list[str]) -> T
                 _percent(r["univariate_accuracy"]),
                 _percent(r["channels_accuracy"]),
                 _points(r, "accuracy") + (LOW_MARK if r["low_n"] else ""),
-                _points(r, "tp_rate", bounds=False),
-                _points(r, "tn_rate", bounds=False),
+                *(_points(r, name, bounds=False) for name in CLASS_RATES),
             ]
         )
     return Table(

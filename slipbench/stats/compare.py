@@ -90,8 +90,6 @@ from slipbench.stats.factors import (
     setting_name,
 )
 from slipbench.stats.gate import (
-    SCALE,
-    WORSE,
     Gate,
     holm,
     needed,
@@ -100,14 +98,21 @@ from slipbench.stats.gate import (
     two_sided_p,
     unit,
 )
-from slipbench.stats.metrics import FIGURES, LEVEL, Predictions, over_seeds, paired_comparison
+from slipbench.stats.metrics import (
+    FIGURES,
+    LEVEL,
+    RATES,
+    Predictions,
+    over_seeds,
+    paired_comparison,
+)
 from slipbench.stats.pooled import (
-    RATE_MASKS,
     CellSides,
     pooled_change,
     pooled_from_rows,
     protocol_seed_pool,
 )
+from slipbench.store import columns
 from slipbench.store.results import (
     check_unique_keys,
     read_predictions,
@@ -444,8 +449,8 @@ def unpaired_cell(base_rows: list[dict], cand_rows: list[dict], level: float) ->
     return out
 
 
-# streaming figures compared: name -> the sign of a worse change (+1: larger is worse)
-STREAM_FIGURES = {"median_delay_ms": 1, "false_alarms_per_min": 1, "detection_rate": -1}
+# the streaming figures compared (the gate's)
+STREAM_FIGURES = columns.names(columns.STREAMED, gated=True)
 
 
 def _is_stream(row: dict) -> bool:
@@ -511,7 +516,9 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
             for r in (base_row, cand_row)
         ]
         se = float(np.hypot(*ses))
-        ok = np.isfinite(d) and np.isfinite(se) and not (stale and name != "false_alarms_per_min")
+        ok = (
+            np.isfinite(d) and np.isfinite(se) and not (stale and name != columns.FALSE_ALARMS.name)
+        )
         out[f"d_{name}"], out[f"d_{name}_se"] = d, se
         out[f"d_{name}_lo"], out[f"d_{name}_hi"] = (
             (d - z * se, d + z * se) if ok else (np.nan, np.nan)
@@ -781,7 +788,8 @@ def _identical(entry: dict, b_rows: list[dict], c_rows: list[dict]) -> dict:
 def _tests(frame: pd.DataFrame, figure: str, gate: Gate) -> tuple[np.ndarray, np.ndarray]:
     """Per row: the p-values of ``figure`` worse and better than its tolerance, from its
     change and standard error in the figure's units and the row's degrees of freedom."""
-    scale, sign, tol = SCALE[figure], WORSE[figure], gate.tolerances[figure]
+    scale, sign = columns.FIGURES[figure].scale, columns.FIGURES[figure].worse
+    tol = gate.tolerances[figure]
     d = scale * pd.to_numeric(frame[f"d_{figure}"], errors="coerce").to_numpy(float)
     se = scale * pd.to_numeric(frame[f"d_{figure}_se"], errors="coerce").to_numpy(float)
     df = pd.to_numeric(frame["df"], errors="coerce").fillna(np.inf).to_numpy(float)
@@ -849,7 +857,7 @@ def _inside(r: dict, gate: Gate) -> bool:
     """Every judged figure's interval inside plus or minus its tolerance."""
     for figure in gate.figures(bool(r["stream"])):
         lo, hi = r.get(f"d_{figure}_lo", np.nan), r.get(f"d_{figure}_hi", np.nan)
-        tol = gate.tolerances[figure] / SCALE[figure]
+        tol = gate.tolerances[figure] / columns.FIGURES[figure].scale
         if not (-tol <= lo and hi <= tol):
             return False
     return True
@@ -898,7 +906,7 @@ def _pooled_line(group: tuple, members: list, figure: str, seed: int, level: flo
         "trials": np.nan,
     }
     preds = [p for _, p in changed]
-    if figure in RATE_MASKS and all(x is not None for b, c, *_ in preds for x in (*b, *c)):
+    if figure in RATES and all(x is not None for b, c, *_ in preds for x in (*b, *c)):
         res = pooled_change([cell_sides(*p) for p in preds], seed, level, figure=figure)
         line["method"] = "joint cluster bootstrap over the trials the cells share" + (
             f" and {res['seed_design']}" if res["seeds"] else ""
@@ -920,7 +928,9 @@ def _pooled_line(group: tuple, members: list, figure: str, seed: int, level: flo
         line["method"] = "mean of the cells' standard errors (no predictions to pool)"
         line["low_n"] = all(r["low_n"] for r, _ in changed)
     for name in ("d", "lo", "hi", "se"):
-        line[f"change{'' if name == 'd' else '_' + name}"] = SCALE[figure] * share * res[name]
+        line[f"change{'' if name == 'd' else '_' + name}"] = (
+            columns.FIGURES[figure].scale * share * res[name]
+        )
     line["df"] = res["df"]
     return line
 
@@ -930,7 +940,7 @@ def _pooled_verdicts(pooled: pd.DataFrame, gate: Gate, retrained: bool) -> pd.Da
     power (``resolution``, ``detectable``) and is "undecided" where it cannot see a regression
     of its tolerance, its data are low-n or a side ran one seed."""
     pooled = pooled.copy()
-    sign = pooled["figure"].map(WORSE).to_numpy(float)
+    sign = np.array([columns.FIGURES[f].worse for f in pooled["figure"]], float)
     tol = pooled["figure"].map(gate.tolerances).to_numpy(float)
     se, df = pooled["change_se"].to_numpy(float), pooled["df"].to_numpy(float)
     p_reg, p_imp = two_sided_p(sign * pooled["change"].to_numpy(float), se, df, tol)
@@ -979,7 +989,7 @@ def _pooled_verdict(r: dict, worse: bool, retrained: bool) -> tuple[str, str]:
 
 def _figure(r: dict) -> str:
     """The figure a cell is summarised by: accuracy, or a stream's detection rate."""
-    return "detection_rate" if r["stream"] else "accuracy"
+    return (columns.DETECTION_RATE if r["stream"] else columns.ACCURACY).name
 
 
 def primary_change(r: dict, bound: str = "") -> float:
@@ -997,7 +1007,7 @@ def summary(cmp: Comparison) -> pd.DataFrame:
     pooled = {
         (r["protocol"], r["detector"]): r
         for r in cmp.pooled.to_dict("records")
-        if r["figure"] in ("accuracy", "detection_rate")
+        if r["figure"] in (columns.ACCURACY.name, columns.DETECTION_RATE.name)
     }
     lines = []
     for (protocol, detector), part in cmp.cells.groupby(["protocol", "detector"], sort=False):

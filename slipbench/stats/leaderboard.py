@@ -76,6 +76,7 @@ from statsmodels.stats.multitest import multipletests
 
 from slipbench.seeding import rng_for
 from slipbench.stats.factors import SETTINGS, entrant_names, factor_values, one_class
+from slipbench.store.columns import WINDOWED, figures
 
 ALPHA = 0.05
 LEVEL = 0.95
@@ -86,7 +87,8 @@ ALL = "all"
 CELL_IDENTITY = ("protocol", "cell", *SETTINGS)
 #: columns that, with the model key, name the windows a cell is scored on
 TEST_IDENTITY = ("test_sensors", "test_where", "test_stream")
-MEAN_METRICS = ("accuracy", "balanced_accuracy", "auroc")
+#: the figures whose means the board shows: a windowed cell's, but the rates of one class
+MEAN_METRICS = tuple(f.name for f in figures(WINDOWED) if not f.one_class)
 
 
 @dataclass

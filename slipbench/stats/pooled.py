@@ -46,13 +46,15 @@ from slipbench.stats.bootstrap import (
 )
 from slipbench.stats.metrics import (
     FIGURES,
+    RATES,
     Predictions,
+    class_masks,
     classes_low_n,
     cluster_counts,
     seed_spreads,
 )
+from slipbench.store.columns import FIGURES as FIGURES_DECLARED
 
-RATE_MASKS = ("accuracy", "tp_rate", "tn_rate")
 #: the interval of a pooled change: the t-interval the null and power studies measured (a
 #: change, where ``satterthwaite`` and the figures' ``replicate-logit`` agree); the default's
 #: choice of scale was screened on cells, not on means over many cells
@@ -129,8 +131,7 @@ def protocol_seed_pool(
 
 
 def _mask(p: Predictions, figure: str) -> np.ndarray:
-    y = np.asarray(p.y_true, bool)
-    return {"accuracy": np.ones(len(y), bool), "tp_rate": y, "tn_rate": ~y}[figure]
+    return class_masks(p.y_true)[FIGURES_DECLARED[figure].rate]
 
 
 def pooled_change(
@@ -152,8 +153,8 @@ def pooled_change(
         ``n_cells``; ``n_test_clusters_slip``/``_nonslip`` over the union of the
         test sets and ``low_n``; ``estimable``.
     """
-    if figure not in RATE_MASKS:
-        raise ValueError(f"pooled changes are of rates ({', '.join(RATE_MASKS)}), not {figure}")
+    if figure not in RATES:
+        raise ValueError(f"pooled changes are of rates ({', '.join(RATES)}), not {figure}")
     if not cells:
         raise ValueError("pooled_change needs at least one cell")
     ran = cells

@@ -116,7 +116,7 @@ def test_unpaired_regression_without_predictions(tmp_path):
         fake_rows("speed-holdout", shift=shift).to_parquet(tmp_path / name / "results.parquet")
     result = compare(tmp_path / "base", tmp_path / "cand")
     assert (result.cells["verdict"] == "regressed").all()
-    assert set(result.cells["regressed_figures"]) == {"accuracy, tn_rate, tp_rate"}
+    assert set(result.cells["regressed_figures"]) == {"accuracy, tp_rate, tn_rate"}
     assert result.exit_code == EXIT_UNDECIDED  # one seed per side
     assert result.cells["method"].str.startswith("unpaired").all()
 
