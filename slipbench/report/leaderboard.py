@@ -16,15 +16,14 @@ from slipbench.report.tables import (
     VERSUS,
     Table,
     add_versus,
-    change_text,
     figure_label,
     ordered_keys,
     rank,
     summarize,
 )
+from slipbench.stats.contrast import Contrast, pair_seeds, paired_change, summary_figure
 from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
 from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard, Scope
-from slipbench.stats.pairs import paired_change
 from slipbench.vocabulary import DETECTOR_ORDER, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
@@ -183,30 +182,24 @@ def versus_column(
     predictions: Sequence[str | os.PathLike] = (),
 ) -> None:
     """``table`` (a line per entrant of ``rows``) with its 'vs baseline' column: each line's
-    paired change in accuracy from the ``reference`` detectors' rows
-    (:func:`slipbench.stats.pairs.paired_change`), the reference's own lines marked; nothing
-    where the reference has no rows among ``rows``."""
+    seed-paired change from the ``reference`` detectors' rows
+    (:func:`slipbench.stats.contrast.paired_change`) in accuracy, or in a stream's detection
+    rate where the rows hold no accuracy; the reference's own lines marked; nothing where the
+    reference has no rows among ``rows``."""
     ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
     is_ref = ids.isin(reference)
     if not is_ref.any():
         return
-    texts, methods, twice = [], [], 0
+    figure = summary_figure(rows)
+    changes: list[Contrast | None] = []
     for (entrant,) in table.rows:
         mine = rows["detector"] == entrant
         if is_ref[mine].all():
-            texts.append("reference")
+            changes.append(None)
             continue
-        change = paired_change(rows[is_ref], rows[mine], predictions)
-        texts.append(change_text(change))
-        methods += [change["method"]] if change["method"] else []
-        twice += change["n_skipped"]
-    add_versus(table, texts, ", ".join(reference), methods)
-    if twice:  # never dropped unsaid
-        table.notes.append(
-            f"{VERSUS}: {twice} shared {'cell was' if twice == 1 else 'cells were'} left out, a "
-            "seed stored twice on a side (two runs of one cell in one folder, e.g. before and "
-            "after a code change): rerun into a fresh folder."
-        )
+        pairing = pair_seeds(rows[is_ref], rows[mine], figure, ("the reference", entrant))
+        changes.append(paired_change(pairing, figure, predictions))
+    add_versus(table, changes, ", ".join(reference), figure)
 
 
 _UNDECIDED = (

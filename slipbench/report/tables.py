@@ -21,6 +21,7 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
+from slipbench.stats.contrast import ONE_SEED, Contrast
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
@@ -1096,29 +1097,46 @@ def split_table(
 VERSUS = "vs baseline"
 
 
-def change_text(change: dict) -> str:
-    """A change from :func:`slipbench.stats.pairs.paired_change` in accuracy points:
-    ``+3.2 [1.0, 5.4]``; why there is none where no cell is shared."""
-    if change["n_cells"] == 0:  # shared cells all left out: a seed stored twice (pairs.py)
-        return "a seed stored twice" if change.get("n_skipped") else "no shared cell"
-    text = f"{100 * change['d']:+.1f}"
-    if np.isfinite(change["lo"]) and np.isfinite(change["hi"]):
-        text += f" [{100 * change['lo']:+.1f}, {100 * change['hi']:+.1f}]"
+def change_text(change: Contrast) -> str:
+    """A change of :func:`slipbench.stats.contrast.paired_change` in points (its figure a
+    fraction): ``+3.2 [+1.0, +5.4]``; why there is none where no cell and seed was paired."""
+    if change.n_cells == 0:
+        return change.missing
+    text = f"{100 * change.estimate:+.1f}"
+    if change.judged:
+        text += f" [{100 * change.lo:+.1f}, {100 * change.hi:+.1f}]"
     return text
 
 
-def add_versus(table: Table, texts: Sequence[str], reference: str, methods: Sequence[str]) -> None:
-    """``table`` (a line per detector) with a last column: each line's change from the
-    ``reference`` detector (``texts``, in the table's line order), and a note saying how."""
+def add_versus(
+    table: Table, changes: Sequence[Contrast | None], reference: str, figure: str
+) -> None:
+    """``table`` (a line per entrant) with a last column: each line's change of ``figure`` from
+    the ``reference`` detector (``changes``, in the table's line order; None: a reference line),
+    and notes saying how, what was left out and what the intervals lack."""
     header = f"{VERSUS} ({reference})"
     table.columns.append(header)
     if table.latex_columns is not None:
         table.latex_columns.append(escape(header))
-    for line, text in zip(table.cells, texts):
-        line.append(text)
-    how = "; ".join(sorted(set(methods)))
+    for line, change in zip(table.cells, changes):
+        line.append("reference" if change is None else change_text(change))
+    shown = [(entrant, c) for (entrant, *_), c in zip(table.rows, changes) if c is not None]
+    how = "; ".join(sorted({c.method for _, c in shown if c.method}))
     table.notes.append(
-        f"{header}: each detector's accuracy minus the reference's, in points, the mean over the "
-        "cells and seeds both finished (the same cells, input and split), with its 95 % interval "
-        f"(each line's alone, not simultaneous){': ' + how if how else ''}."
+        f"{header}: each detector's {FIGURES[figure].called} minus the reference's, in points, the "
+        "mean over the cells and seeds both finished (the same cells, input and split), paired "
+        "seed by seed, with its 95 % interval (each line's alone, not simultaneous)"
+        f"{': ' + how if how else ''}."
     )
+    table.notes += [
+        f"{header}, {entrant}: left out: {'; '.join(c.left_out)}."
+        for entrant, c in shown
+        if c.left_out and c.n_cells
+    ]
+    one = [entrant for entrant, c in shown if c.n_cells and c.missing == ONE_SEED]
+    if one:
+        table.notes.append(
+            f"{header}: {', '.join(one)} paired with the reference on one seed: the interval "
+            "holds the test trials' noise only, not retraining noise, so it decides nothing "
+            "(run `evaluate --repeats 2` or more on both)."
+        )

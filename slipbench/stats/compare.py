@@ -80,7 +80,7 @@ from scipy.stats import norm
 from scipy.stats import t as student_t
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED, DataError, UsageError
-from slipbench.stats.bootstrap import IntervalSpec, SeedPool
+from slipbench.stats.bootstrap import IntervalSpec
 from slipbench.stats.factors import (
     SETTINGS,
     differing_settings,
@@ -102,15 +102,17 @@ from slipbench.stats.metrics import (
     FIGURES,
     LEVEL,
     RATES,
-    Predictions,
     over_seeds,
     paired_comparison,
 )
+from slipbench.stats.noise import SeedNoise
 from slipbench.stats.pooled import (
     CellSides,
+    cell_sides,
     pooled_change,
     pooled_from_rows,
     protocol_seed_pool,
+    seed_sides,
 )
 from slipbench.store import columns
 from slipbench.store.results import (
@@ -344,38 +346,12 @@ def _same_predictions(base: pd.DataFrame | None, cand: pd.DataFrame | None) -> b
     )
 
 
-def _as_predictions(frame: pd.DataFrame, by_trial: bool) -> Predictions:
-    score = frame["score"].to_numpy()
-    groups = frame["trial" if by_trial else "recording_id"].astype(str).to_numpy()
-    return Predictions(frame["y_true"].to_numpy().astype(bool), score >= 0.5, groups, score)
-
-
-def seed_sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list, list]:
-    """Each seed's predictions as Predictions, clustered by trial where every file holds one."""
-    by_trial = all("trial" in f for f in (*base, *cand))
-    return [_as_predictions(f, by_trial) for f in base], [
-        _as_predictions(f, by_trial) for f in cand
-    ]
-
-
-def cell_sides(
-    base: list[pd.DataFrame], cand: list[pd.DataFrame], base_rows: list, cand_rows: list
-) -> CellSides:
-    """A compared cell as the pooled tests take it: each seed's predictions per side and the
-    seeds their rows ran, in the same order."""
-    return CellSides(
-        *seed_sides(base, cand),
-        [r.get("seed") for r in base_rows],
-        [r.get("seed") for r in cand_rows],
-    )
-
-
 def cell_over_seeds(
     base: list[pd.DataFrame],
     cand: list[pd.DataFrame],
     spec: IntervalSpec,
     paired: bool = False,
-    seed_pool: dict[str, SeedPool] | None = None,
+    seed_pool: dict[str, SeedNoise] | None = None,
 ) -> dict:
     """The two-level bootstrap (over seeds and trials) of a cell run under several seeds on a
     side, or under different seeds (:func:`slipbench.stats.metrics.over_seeds`); ``paired``
@@ -735,7 +711,7 @@ def _pool_of(plan: tuple) -> tuple[str, str, bool]:
     return (str(plan[0].get("protocol")), str(plan[0].get("detector")), bool(plan[4]))
 
 
-def seed_pools(plans: list[tuple]) -> dict[tuple[str, str, bool], dict[str, SeedPool]]:
+def seed_pools(plans: list[tuple]) -> dict[tuple[str, str, bool], dict[str, SeedNoise]]:
     """Per protocol and detector, the seed variance its cells judged over seeds share
     (:func:`slipbench.stats.pooled.protocol_seed_pool`), so that more seeds narrow each cell's
     interval: the cell's own two or three seeds no longer carry its seed term alone."""
@@ -747,7 +723,7 @@ def seed_pools(plans: list[tuple]) -> dict[tuple[str, str, bool], dict[str, Seed
 
 
 def _changes(
-    plan: tuple, seed: int, level: float, seed_pool: dict[str, SeedPool] | None = None
+    plan: tuple, seed: int, level: float, seed_pool: dict[str, SeedNoise] | None = None
 ) -> dict:
     """A planned cell's changes with intervals at ``level``, by the method its rows allow."""
     entry, b_rows, c_rows, (pb, pc), same_seeds = plan

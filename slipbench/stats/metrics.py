@@ -32,11 +32,11 @@ from slipbench.stats.bootstrap import (
     IntervalMethod,
     IntervalSpec,
     SeededFigure,
-    SeedPool,
     interval,
     make_design,
     seeded_interval,
 )
+from slipbench.stats.noise import SeedNoise
 from slipbench.store.columns import (
     BALANCED_ACCURACY,
     EVERY_WINDOW,
@@ -267,7 +267,7 @@ class SeedOptions:
 
     figures: Sequence[str] = FIGURES
     paired: bool = False
-    seed_pool: Mapping[str, SeedPool] | None = None
+    seed_pool: Mapping[str, SeedNoise] | None = None
 
 
 @dataclass(frozen=True)
@@ -575,7 +575,7 @@ def over_seeds(
         split): the change is bootstrapped as the seeds' paired differences, one side of
         ``S`` seeds, so the luck a seed gives both sides cancels and the seed variance rests on
         ``S - 1`` degrees of freedom. Without it, each side's seeds are drawn on their own.
-    seed_pool : mapping of figure to SeedPool, optional
+    seed_pool : mapping of figure to SeedNoise, optional
         The seed variance of each figure pooled over the protocol's cells
         (:func:`slipbench.stats.pooled.protocol_seed_pool`, built with the same ``paired``): it
         stands for this cell's own seed spread, on the protocol's degrees of freedom, where the
@@ -669,7 +669,7 @@ def seed_spreads(
 ) -> dict[str, list[tuple[float, int]]]:
     """Per figure, each side's variance over its seeds (ddof 1) and its number of seeds, as
     :func:`over_seeds` forms its sides (``paired``: one side of the seeds' differences): what
-    :func:`slipbench.stats.bootstrap.pool_seed_spreads` pools over a protocol's cells."""
+    :func:`slipbench.stats.noise.pool_seed_spreads` pools over a protocol's cells."""
     _, _, design, per_side = _seed_sides(base, cand, figures)
     of_seeds = _paired_seeds if paired else _per_seed
     one = np.ones((1, design.n_clusters))

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import json
 import os
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,22 +50,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.errors import DataError
 from slipbench.stats.bootstrap import IntervalSpec
 from slipbench.stats.compare import (
     ALPHA,
     MAX_WIDTH,
     cell_over_seeds,
-    cell_sides,
     family_level,
     paired_cell,
     unpaired_cell,
 )
+from slipbench.stats.factors import CHANNELS, UNIVARIATE, inputs, plain
 from slipbench.stats.metrics import LEVEL, RATES
-from slipbench.stats.pooled import pooled_change, pooled_from_rows
-from slipbench.store.results import read_predictions
+from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change, pooled_from_rows
 
-UNIVARIATE, CHANNELS = "univariate", "channels"
 #: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
 Sides = tuple[list, list, list[dict], list[dict]]
 #: the rates compared, per cell and pooled
@@ -106,14 +102,6 @@ class InputComparison:
     pooled_level: float = LEVEL
 
 
-def inputs(rows: pd.DataFrame) -> pd.Series:
-    """Each row's input: its ``input`` column, "univariate" where the rows lack it (older
-    results) or leave it empty."""
-    if "input" not in rows:
-        return pd.Series(UNIVARIATE, index=rows.index)
-    return rows["input"].where(rows["input"].notna() & (rows["input"] != ""), UNIVARIATE)
-
-
 def has_both_inputs(rows: pd.DataFrame) -> bool:
     """Whether some detector holds rows of both inputs."""
     if rows.empty or "detector" not in rows:
@@ -134,12 +122,6 @@ def _without_input(value: Any) -> Any:
         return value
     parsed.pop("input", None)
     return json.dumps(parsed, sort_keys=True)
-
-
-def plain(value: Any) -> Any:
-    if value is None or (np.ndim(value) == 0 and pd.isna(value)):
-        return None
-    return value.item() if isinstance(value, np.generic) else value
 
 
 def twin_key(row: dict) -> str:
@@ -171,20 +153,6 @@ def _seeds(rows: list[dict]) -> str:
     """The seeds of a cell's rows, each once: "0,1,2"."""
     seeds = sorted({_seed_order(r) for r in rows})
     return ",".join(f"{s:g}" for s in seeds)
-
-
-def find_predictions(folders: Sequence[Path], key: str) -> pd.DataFrame | None:
-    """A cell's stored predictions from the first folder that holds them; a damaged file costs
-    the cell its window-by-window pairing, not the report."""
-    for folder in folders:
-        try:
-            found = read_predictions(folder, key)
-        except DataError as exc:
-            warnings.warn(f"{exc}; the cell is compared from its rows", stacklevel=3)
-            return None
-        if found is not None:
-            return found
-    return None
 
 
 def _status(rows: list[dict]) -> str:
