@@ -552,7 +552,7 @@ def critical_difference(board: Leaderboard) -> Figure:
         )
     fig.suptitle(
         f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)\n"
-        "a bar joins detectors that do not differ (pairwise tests over blocks and seeds, Holm)"
+        "a bar joins detectors not shown to differ (decided pairwise contrasts, Bonferroni)"
     )
     return fig
 
@@ -601,8 +601,9 @@ def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> li
         FigureSpec(
             file_stem(f"leaderboard{tail}"),
             "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
-            "(duplicate cells merged); a bar joins detectors that do not differ (the pairwise "
-            f"table's tests over blocks and seeds, Holm; undecided pairs never differ).{named}",
+            "(duplicate cells merged); a bar joins detectors every pair of which is decided and "
+            "none shown to differ (the pairwise table's intervals over blocks and seeds, "
+            f"Bonferroni; a pair of one block or one seed joins no bar).{named}",
             None,
             lambda: critical_difference(board),
         )

@@ -213,11 +213,39 @@ def from_parts(
     ok = len(parts) > 0 and all(np.isfinite(v) and v >= 0 and df > 0 for v, df in parts)
     if not (ok and np.isfinite(estimate)):
         return Contrast(float(estimate), level=level, margin=margin)
-    q = 0.5 + level / 2
-    half = float(np.sqrt(sum(student_t.ppf(q, df) ** 2 * v for v, df in parts)))
+    half = half_width(parts, level)
     se = float(np.sqrt(sum(v for v, _ in parts)))
     df = effective_df(half, se, level) if se > 0 else np.inf
     return Contrast(float(estimate), estimate - half, estimate + half, se, df, level, margin)
+
+
+def half_width(parts: Sequence[tuple[float, float]], level: float) -> float:
+    """Banerjee's half-width of ``parts`` at ``level``: ``sqrt(sum t_i^2 V_i)``."""
+    q = 0.5 + level / 2
+    return float(np.sqrt(sum(student_t.ppf(q, df) ** 2 * v for v, df in parts)))
+
+
+def p_beyond(estimate: float, parts: Sequence[tuple[float, float]], margin: float = 0.0) -> float:
+    """The p-value of a change within ``margin``: the largest ``1 - level`` at which the
+    interval of :func:`from_parts` still reaches the margin on the estimate's side, so that
+    ``p < alpha`` exactly where the interval at ``1 - alpha`` is shown beyond it (1 where the
+    estimate lies within the margin; 0 where it does not and nothing varies)."""
+    gap = abs(estimate) - margin
+    if not np.isfinite(gap):
+        return np.nan
+    if gap <= 0:
+        return 1.0
+    if not any(v > 0 for v, _ in parts):
+        return 0.0
+
+    def reach(alpha: float) -> float:
+        return half_width(parts, 1 - alpha) - gap
+
+    if reach(1 - 1e-12) > 0:
+        return 1.0
+    if reach(1e-15) < 0:
+        return 0.0
+    return float(brentq(reach, 1e-15, 1 - 1e-12))
 
 
 def t_bounds(estimate: float, se: float, df: float, level: float) -> tuple[float, float]:
