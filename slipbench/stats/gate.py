@@ -1,15 +1,17 @@
-"""The CI gate's family of figures: which figures it reads, the tolerance of each, the Holm
-step-down that holds a level over them, and the power of every "no regression".
+"""The CI gate's family of figures: which figures it reads, the tolerance of each, and the power
+of every "no regression".
 
 Windowed cells are judged on accuracy, TN rate (false alarms) and TP rate (misses); streaming
 cells on false alarms per minute, detection rate and median delay. A figure *regressed* where
 its change is worse than its tolerance (in its own units: points of a rate, false alarms per
-minute, ms) at the family's level; higher is worse for false alarms per minute and delays.
+minute, ms): its interval, at the family's Bonferroni level, lies beyond the tolerance on the
+worse side (:mod:`slipbench.stats.contrast`); higher is worse for false alarms per minute and
+delays.
 
 Power. A pooled test that flags nothing says how large a drop it would have flagged with
 ``POWER`` (80 %): with ``se`` its standard error, ``df`` its degrees of freedom and ``N`` the
 pooled tests in the family, the resolution is ``X = se * (t(1 - alpha / (2 N), df) + t(POWER,
-df))`` (Holm's first, Bonferroni, step: conservative), and a drop of ``tolerance + X`` is
+df))`` (the family's Bonferroni level), and a drop of ``tolerance + X`` is
 flagged with 80 % power. Where ``X`` exceeds the tolerance, the noise is larger than what the
 gate is asked to hold: the test is *undecided*, and ``n * (X / tolerance) ** 2`` seeds (or test
 trials) would decide it, the standard error scaling as ``sqrt(n / n')``.
@@ -91,18 +93,6 @@ def parse_tolerances(items: Iterable[str]) -> dict[str, float]:
         if not sep:
             raise UsageError(f"--tolerance takes FIGURE=POINTS (e.g. tn_rate=2), got {item!r}")
     return out
-
-
-def holm(p: np.ndarray) -> np.ndarray:
-    """Holm's step-down adjusted p-values."""
-    n = len(p)
-    order = np.argsort(p, kind="stable")
-    adj = np.empty(n)
-    running = 0.0
-    for i, j in enumerate(order):
-        running = max(running, min(1.0, (n - i) * p[j]))
-        adj[j] = running
-    return adj
 
 
 def two_sided_p(worse: np.ndarray, se: np.ndarray, df: np.ndarray, tol: Any) -> tuple:

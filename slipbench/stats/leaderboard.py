@@ -10,24 +10,27 @@ are those of the intervals:
 3. per cell the detectors are ranked, 1 = best, ties sharing the mean rank
    (``scipy.stats.rankdata``); a detector's score in a scope is its mean rank over the scope's
    cells: per protocol, and over every cell at once (so a protocol weighs by its cell count);
-4. one family of tests decides every pair, every group and the diagram's bars
+4. one family of contrasts decides every pair, every group and the diagram's bars
    (:func:`pairwise`): each pair's mean difference over the scope's blocks with the interval the
-   means take (over blocks and seeds, :func:`crossed_interval`) and its p-value, Holm-adjusted
-   over every scope's pairs at once (:func:`one_family`); detectors no pair of which differs form a group, drawn as one bar. A pair
-   of which an entrant ran one seed is *undecided*: nothing measures the retraining luck its
-   one run had in every block, and blocks alone called equal detectors different on 5 of 10
-   boards (issue 35). So ranks, groups, pairwise table and diagram never disagree.
+   means take (over blocks and seeds, :func:`crossed_interval`), at one Bonferroni level over
+   every scope's decided pairs (:func:`one_family`), read against the margin as every contrast
+   is (:mod:`slipbench.stats.contrast`): "yes" beyond it, "no" inside it, else undecided.
+   Detectors every pair of which is decided and none differs form a group, drawn as one bar. A
+   pair of which an entrant ran one seed is *undecided*: nothing measures the retraining luck
+   its one run had in every block, and blocks alone called equal detectors different on 5 of 10
+   boards (issue 35); so is a pair over one block, where nothing measures how the difference
+   varies between conditions. So ranks, groups, pairwise table and diagram never disagree.
 
 A block is counted once: cells that test the same model on the same test windows (the
 sampling rate's full-rate cells are the window-size window-200 cells; with ``decimation=both``
 three of them) are duplicates, found by the rows' model keys and test parts
 (:func:`block_signature`), and merged into one block before anything is ranked, tested or
 averaged. Blocks still share recordings (window 50 of one unit appears in several protocols,
-each with another model or test set), so they are not independent: the tests' p-values are
+each with another model or test set), so they are not independent: the intervals are
 optimistic, and the report says so.
 
-Without repeats each pair still shows its mean difference with a percentile bootstrap interval
-over blocks (how the difference depends on which conditions make up the benchmark), undecided.
+Without repeats each pair still shows its mean difference with a t-interval over blocks (how
+the difference depends on which conditions make up the benchmark), undecided.
 
 Mean accuracy, balanced accuracy and AUROC are over the same ranked cells, so they compare.
 Their 95 % interval is a percentile bootstrap over cells (cells resampled, each cell's figure

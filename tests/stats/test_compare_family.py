@@ -85,9 +85,7 @@ def test_a_drop_spread_over_a_protocol_is_flagged_by_the_pooled_test(tmp_path):
     assert cmp.state == "undecided" and cmp.exit_code == EXIT_UNDECIDED == 6
     text = comment_markdown(cmp)
     assert "**Undecided** (exit 6): window-size, holweg: accuracy" in text
-    assert (
-        "(pooled, Holm), on one seed per side" in text and "cell level" not in text.split("\n\n")[2]
-    )
+    assert "(pooled), on one seed per side" in text and "cell level" not in text.split("\n\n")[2]
 
 
 def test_an_equal_candidate_is_not_flagged(tmp_path):
