@@ -24,7 +24,15 @@ from slipbench.report.tables import (
 )
 from slipbench.stats.contrast import Contrast, pair_seeds, paired_change, summary_figure
 from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
-from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard, Scope
+from slipbench.stats.leaderboard import (
+    ALL,
+    ALPHA,
+    MEAN_METRICS,
+    ONE_BLOCK,
+    ONE_RUN,
+    Leaderboard,
+    Scope,
+)
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
@@ -360,6 +368,16 @@ def _points(diff: float, lo: float, hi: float) -> str:
 
 #: a pair's state in the pairwise table
 _DIFFER = {"shown": "yes", "contradicted": "no"}
+#: why a pair lacks a full interval, in a word
+_LACKS = {ONE_BLOCK: "one block", ONE_RUN: "one seed"}
+
+
+def _differ(r) -> str:
+    """``yes``, ``no``, or ``undecided`` with the noise its interval lacks."""
+    if r.state in _DIFFER:
+        return _DIFFER[r.state]
+    lacks = [word for reason, word in _LACKS.items() if reason in r.missing]
+    return "undecided" + (f" ({', '.join(lacks)})" if lacks else "")
 
 
 def _pairs_table(board: Leaderboard, name: str) -> Table:
@@ -370,7 +388,7 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
         [
             _points(r.diff, r.lo, r.hi) + (_low(overall, r.a) or _low(overall, r.b)),
             "—" if not np.isfinite(r.p) else _p(r.p),
-            _DIFFER.get(r.state, "undecided"),
+            _differ(r),
         ]
         for r in pairs.itertuples(index=False)
     ]

@@ -386,17 +386,26 @@ def pair_seeds(
     common = sorted(set.intersection(*(set(s) for s in both.values()))) if both else []
     for side, at in ((who[0], 0), (who[1], 1)):
         lone = Counter(s for k, v in shared.items() for s in v[at] if s not in both[k])
-        for s, n in sorted(lone.items()):
-            left[f"seed {s} of {n} {_cells(n)}: {side} only"] += 1
+        left.update(_seeds_of(lone, f"{side} only"))
     spare = Counter(s for k in both for s in both[k] if s not in common)
-    for s, n in sorted(spare.items()):
-        left[f"seed {s} of {n} {_cells(n)}: not paired in every cell"] += 1
+    left.update(_seeds_of(spare, "not paired in every cell"))
     cells = tuple(
         (k, tuple(shared[k][0][s][0] for s in common), tuple(shared[k][1][s][0] for s in common))
         for k in shared
         if common
     )
     return Pairing(cells, tuple(left))
+
+
+def _seeds_of(counts: Counter, why: str) -> list[str]:
+    """``seeds 1, 2 of 4 cells: why``: the seeds left out, those of as many cells together."""
+    by_n: dict[int, list[int]] = {}
+    for seed, n in sorted(counts.items()):
+        by_n.setdefault(n, []).append(seed)
+    return [
+        f"seed{'s' * (len(seeds) > 1)} {', '.join(map(str, seeds))} of {n} {_cells(n)}: {why}"
+        for n, seeds in by_n.items()
+    ]
 
 
 def _number(row: dict, column: str) -> float:
