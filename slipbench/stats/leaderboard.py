@@ -463,9 +463,19 @@ def pairwise(
 
 def at_level(frames: list[pd.DataFrame], margin: float = MARGIN) -> float:
     """The pairs of ``frames`` (in place) with their intervals, states and adjusted p-values
-    at one Bonferroni level over every pair that can decide (no noise missing): the level
-    holds ``ALPHA`` for the family. Returns the level."""
-    m = sum(int((f["missing"] == "").sum()) for f in frames if len(f))
+    at one Bonferroni level over every distinct pair that can decide (no noise missing; a
+    scope of the same blocks as another, one protocol's and every cell's, repeats its tests
+    and is counted once): the level holds ``ALPHA`` for the family. An interval is clipped to
+    what a difference of two fractions can be, ±1 (its state is not moved by it). Returns the
+    level."""
+    tests = {
+        (a, b, d, parts)
+        for f in frames
+        if len(f)
+        for a, b, d, parts, missing in zip(f["a"], f["b"], f["diff"], f["parts"], f["missing"])
+        if not missing
+    }
+    m = len(tests)
     level = family_level(m, ALPHA)
     for f in frames:
         if not len(f):
@@ -474,7 +484,7 @@ def at_level(frames: list[pd.DataFrame], margin: float = MARGIN) -> float:
             replace(from_parts(d, parts, level, margin), missing=missing)
             for d, parts, missing in zip(f["diff"], f["parts"], f["missing"])
         ]
-        f["lo"], f["hi"] = [c.lo for c in shown], [c.hi for c in shown]
+        f["lo"], f["hi"] = [max(c.lo, -1.0) for c in shown], [min(c.hi, 1.0) for c in shown]
         f["se"], f["df"] = [c.se for c in shown], [c.df for c in shown]
         f["level"], f["state"], f["why"] = level, [c.state for c in shown], [c.why for c in shown]
         f["decided"] = [not c.missing and c.judged for c in shown]

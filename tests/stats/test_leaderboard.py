@@ -218,9 +218,11 @@ def test_groups_pairs_and_diagram_never_disagree():
         elif abs(order.index(r.a) - order.index(r.b)) == 1:
             assert (r.a, r.b) in together
     assert order[0] == "a" and overall.groups == [order[1:]]
-    # one family: one Bonferroni level over the decided pairs of every scope at once
+    # one family: one Bonferroni level over the decided pairs of every scope at once, a
+    # scope of the same blocks (window-size's, here every cell's) counted once
     every = pd.concat([s.pairs for s in board.scopes], ignore_index=True)
-    assert (every["level"] == 1 - 0.05 / int(every["decided"].sum())).all()
+    assert len(board.scopes) == 2 and int(every["decided"].sum()) == 6
+    assert (every["level"] == 1 - 0.05 / 3).all()
     assert board.level == every["level"].iloc[0]
 
 
@@ -309,9 +311,8 @@ def test_pairwise_with_repeats_counts_the_seeds():
     assert board.n_seeds == 3
     (pair,) = board.pairs.itertuples(index=False)
     a, b = _matrix(rows, "a"), _matrix(rows, "b")
-    # the same seeds: paired seed by seed; at the level of the family's two decided pairs
-    # (every cell and window-size, the same blocks)
-    assert board.level == 1 - 0.05 / 2
+    # the same seeds: paired seed by seed; one test (window-size's scope repeats every cell's)
+    assert board.level == 0.95
     lo, hi = _closed_form([a - b], (1.0,), board.level)
     assert (pair.lo, pair.hi) == pytest.approx((lo, hi))
     assert pair.diff == pytest.approx((a - b).mean())
