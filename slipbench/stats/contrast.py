@@ -267,7 +267,8 @@ def from_rows(
     terms : one line per cell, or per cell and ``seed``: ``unit`` (cells of one unit test the
         same windows), ``weight``, ``mean``, its ``se`` or its 95 % ``lo``/``hi``. With several
         seeds, every seed's lines are the same cells.
-    noise : the seed noise to take instead of the seeds' own spread (a calibration).
+    noise : a seed variance from elsewhere (a calibration), taken where the rows hold one seed
+        per cell and so no spread of their own.
 
     Returns
     -------
@@ -285,7 +286,7 @@ def from_rows(
     if not all(np.isfinite(se) for _, se in per):
         missing = "no interval in the rows"
         return Contrast(estimate, level=level, margin=margin, missing=missing, seeds=seeds)
-    seed_noise = noise or own_seeds(values)
+    seed_noise = own_seeds(values) or noise
     parts = [(float(np.mean([se for _, se in per])) ** 2, np.inf)]
     said = [TEST_NOISE]
     if seed_noise is not None:
@@ -304,7 +305,11 @@ def _one_seed(terms: pd.DataFrame) -> tuple[float, float]:
     z = float(norm.ppf(0.5 + LEVEL / 2))
     w = terms["weight"].to_numpy(dtype=float)
     value = float(np.sum(w * terms["mean"].to_numpy(dtype=float)))
-    from_bounds = (terms["hi"].to_numpy(dtype=float) - terms["lo"].to_numpy(dtype=float)) / (2 * z)
+    from_bounds = (
+        (terms["hi"].to_numpy(dtype=float) - terms["lo"].to_numpy(dtype=float)) / (2 * z)
+        if {"lo", "hi"} <= set(terms)
+        else np.full(len(terms), np.nan)
+    )
     se = terms["se"].to_numpy(dtype=float) if "se" in terms else from_bounds
     se = np.where(np.isfinite(se), se, from_bounds)
     if not np.all(np.isfinite(se)):
@@ -434,6 +439,7 @@ def paired_change(
     figure: str = ACCURACY.name,
     folders: Sequence[str | os.PathLike] = (),
     spec: IntervalSpec = SEED_0,
+    noise: SeedNoise | None = None,
 ) -> Contrast:
     """The mean over the cells and seeds of ``pairing`` (:func:`pair_seeds`) of (cand - base)
     ``figure`` (as stored: a fraction for rates), at ``spec``'s level, paired seed by seed.
@@ -442,8 +448,9 @@ def paired_change(
     its interval is one joint cluster bootstrap over the trials the cells share, the seeds
     crossed with the cells and paired (:func:`slipbench.stats.pooled.pooled_change`, seeded by
     ``spec``); else it is from the rows (:func:`from_rows`, each cell a unit of its two sides).
-    One seed: the state is undecided (retraining noise is not in the interval); its interval is
-    shown.
+    One seed: the state is undecided (retraining noise is not in the interval; its interval is
+    shown), unless ``noise`` (a seed variance from elsewhere, of the seeds' paired differences)
+    stands for the seed term.
     """
     seed, level, margin = spec.seed, spec.level, margin_of(figure)
     if not pairing.cells:
@@ -495,9 +502,13 @@ def paired_change(
         )
         how = "from the rows: each cell's two sides as independent, cells as moving together"
         change = replace(from_rows(terms, level, margin), method=how)
+    if len(seeds) == 1 and noise is not None and np.isfinite(change.se):
+        terms = [(change.se**2, change.df), (noise.of_mean(1), noise.df)]
+        added = from_parts(change.estimate, terms, level, margin)
+        change = replace(added, noise=(*change.noise, noise.source), method=change.method)
     return replace(
         change,
-        missing="" if len(seeds) > 1 else ONE_SEED,
+        missing="" if len(seeds) > 1 or noise is not None else ONE_SEED,
         n_cells=n,
         seeds=seeds,
         left_out=pairing.left_out,
