@@ -201,14 +201,14 @@ def versus_column(
     if not is_ref.any():
         return
     figure = summary_figure(rows)
-    changes: list[Contrast | None] = []
+    changes: list[tuple[Contrast, int] | None] = []
     for (entrant,) in table.rows:
         mine = rows["detector"] == entrant
         if is_ref[mine].all():
             changes.append(None)
             continue
         pairing = pair_seeds(rows[is_ref], rows[mine], figure, ("the reference", entrant))
-        changes.append(paired_change(pairing, figure, predictions))
+        changes.append((paired_change(pairing, figure, predictions), pairing.low_n))
     add_versus(table, changes, ", ".join(reference), figure)
 
 

@@ -15,11 +15,11 @@ import pandas as pd
 
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.outline import splits_of
-from slipbench.report.tables import Table, rank
+from slipbench.report.tables import LOW_MARK, Table, rank
 from slipbench.stats.contrast import margin_of
 from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, transferred
 from slipbench.store.columns import ACCURACY
-from slipbench.vocabulary import DETECTOR_ORDER
+from slipbench.vocabulary import DETECTOR_ORDER, LOW_N
 
 TITLE = "Across datasets"
 
@@ -95,7 +95,9 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
     for m in metas:
         per = m.datasets.set_index("dataset")
         line = [
-            _change(*per.loc[n, ["d", "lo", "hi", "df"]]) if n in per.index else "not run"
+            _change(*per.loc[n, ["d", "lo", "hi", "df"]]) + LOW_MARK * bool(per.loc[n, "low_n"])
+            if n in per.index
+            else "not run"
             for n in datasets
         ]
         pooled = np.isfinite(m.d)
@@ -113,6 +115,12 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
             if r["reason"]
         ]
         notes += [who + n for n in m.notes]
+        low = per[per["low_n"] > 0]
+        notes += [
+            f"{who}{name}: {LOW_MARK} {int(n)} of its paired cells rest on few test trials (fewer "
+            f"than {LOW_N} of a class): its change is not to be trusted, nor the pooled one."
+            for name, n in low["low_n"].items()
+        ]
     return Table(
         "Change in accuracy (points) per detector pair, on each dataset and pooled across them.",
         ["Pair"],

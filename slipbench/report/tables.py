@@ -1109,18 +1109,23 @@ def change_text(change: Contrast) -> str:
 
 
 def add_versus(
-    table: Table, changes: Sequence[Contrast | None], reference: str, figure: str
+    table: Table,
+    changes: Sequence[tuple[Contrast, int] | None],
+    reference: str,
+    figure: str,
 ) -> None:
     """``table`` (a line per entrant) with a last column: each line's change of ``figure`` from
-    the ``reference`` detector (``changes``, in the table's line order; None: a reference line),
-    and notes saying how, what was left out and what the intervals lack."""
+    the ``reference`` detector (``changes``, in the table's line order: the change and how many
+    of its paired cells are low-n; None: a reference line, marked so), and notes saying how,
+    what was left out and what the intervals lack."""
     header = f"{VERSUS} ({reference})"
     table.columns.append(header)
     if table.latex_columns is not None:
         table.latex_columns.append(escape(header))
-    for line, change in zip(table.cells, changes):
-        line.append("reference" if change is None else change_text(change))
-    shown = [(entrant, c) for (entrant, *_), c in zip(table.rows, changes) if c is not None]
+    for line, pair in zip(table.cells, changes):
+        low = pair is not None and pair[1] > 0
+        line.append("reference" if pair is None else change_text(pair[0]) + LOW_MARK * low)
+    shown = [(entrant, p[0]) for (entrant, *_), p in zip(table.rows, changes) if p is not None]
     how = "; ".join(sorted({c.method for _, c in shown if c.method}))
     table.notes.append(
         f"{header}: each detector's {FIGURES[figure].called} minus the reference's, in points, the "
@@ -1128,6 +1133,11 @@ def add_versus(
         "seed by seed, with its 95 % interval (each line's alone, not simultaneous)"
         f"{': ' + how if how else ''}."
     )
+    if any(p is not None and p[1] for p in changes):
+        table.notes.append(
+            f"{header}: {LOW_MARK} the change rests on cells of few test trials (fewer than "
+            f"{LOW_N} of a class): not to be trusted."
+        )
     table.notes += [
         f"{header}, {entrant}: left out: {'; '.join(c.left_out)}."
         for entrant, c in shown

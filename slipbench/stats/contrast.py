@@ -355,6 +355,11 @@ class Pairing:
     def seeds(self) -> tuple[int, ...]:
         return tuple(sorted({int(r["seed"]) for _, b, _ in self.cells for r in b}))
 
+    @property
+    def low_n(self) -> int:
+        """The paired cells where a row rests on few test trials (``low_n``)."""
+        return sum(any(bool(plain(r.get("low_n"))) for r in (*b, *c)) for _, b, c in self.cells)
+
 
 def _finished(rows: pd.DataFrame, figure: str) -> dict[str, dict[int, list[dict]]]:
     """Per cell and seed, the rows that finished with a value of ``figure``."""

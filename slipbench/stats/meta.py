@@ -57,6 +57,7 @@ DATASET_COLUMNS = [
     "df",
     "method",
     "left_out",
+    "low_n",
     "reason",
 ]
 
@@ -137,9 +138,8 @@ def meta_analysis(
     change with its interval at ``level``, then the pooled change."""
     lines, notes = [], []
     for name, (b, c) in per_dataset.items():
-        res = paired_change(
-            pair_seeds(b, c, names=pair), folders=folders, spec=IntervalSpec(seed, level)
-        )
+        pairing = pair_seeds(b, c, names=pair)
+        res = paired_change(pairing, folders=folders, spec=IntervalSpec(seed, level))
         if res.n_cells and res.left_out:  # never dropped unsaid
             notes.append(f"{name}: left out: {'; '.join(res.left_out)}.")
         if res.n_cells and res.missing == ONE_SEED:
@@ -163,6 +163,7 @@ def meta_analysis(
                 "df": res.df,
                 "method": res.method,
                 "left_out": "; ".join(res.left_out),
+                "low_n": pairing.low_n,
                 "reason": reason,
             }
         )

@@ -182,3 +182,11 @@ def test_the_leaderboard_report_shows_the_column():
     text = render(build_report(rows, leaderboard_only=True), "md", False, {})
     assert "vs baseline (features)" in text
     assert re.search(r"\|\s+features \|.*\|\s+reference \|", text)
+
+
+def test_a_change_over_low_n_cells_carries_the_mark():
+    ref = fake_rows("window-size", "features").head(6).assign(low_n=False)
+    holweg = fake_rows("window-size", "holweg", shift=0.03).head(6).assign(low_n=False)
+    holweg.loc[holweg.index[0], "low_n"] = True
+    table = column(board_tables(named_entrants(pd.concat([ref, holweg], ignore_index=True)))[1])
+    assert table["holweg"].endswith("†") and table["features"] == "reference"

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from rendering import render_report
 from resultgen import fake_rows
 
+from slipbench.report.leaderboard import leaderboard_tables
 from slipbench.stats.contrast import from_parts, p_beyond
 from slipbench.stats.leaderboard import (
     ALL,
@@ -342,3 +343,19 @@ def test_pairwise_p_value_and_interval_agree():
             if 0 < p < 1:
                 gap = abs(iv.estimate) - margin
                 assert iv.half_width(1 - p) == pytest.approx(gap, rel=1e-6)
+
+
+def test_figures_over_low_n_blocks_carry_the_mark():
+    """The issue's Xela board (3 test trials per block): the leaderboard printed its means, ranks
+    and blocks won without the dagger every other table carries."""
+    rows = board_rows()
+    rows["low_n"] = rows["sensor_type"] == "BioTacSP"
+    tables = leaderboard_tables(leaderboard(rows))
+    ranks, means, _, pairs = tables
+    assert all(c.endswith("†") for line in ranks.cells for c in line)
+    assert all(c.endswith("†") for line in means.cells for c in line)
+    assert all(line[0].endswith("†") for line in pairs.cells)
+    (note,) = [n for n in means.notes if n.startswith("†")]
+    assert "fewer than 10 test trials of a class" in note and "lstm 32 of 127" in note
+    clean = leaderboard_tables(leaderboard(board_rows()))
+    assert not any("†" in c for t in clean for line in t.cells for c in line)

@@ -192,3 +192,14 @@ def test_the_pooled_line_reproduces_from_the_shown_rows():
     # the normal pooling of the bootstrap's standard errors, as before, was narrower
     normal = 1.959964 / np.sqrt((1 / (m.datasets["se"] ** 2 + m.tau2)).sum())
     assert half > normal
+
+
+def test_a_dataset_over_low_n_cells_carries_the_mark():
+    base, cand = dataset("dos", 0.02)
+    per = {"sim": dataset("sim", 0.04), "dos": (base.assign(low_n=True), cand)}
+    table = summary_table([meta_analysis(per, ("features", "holweg"))])
+    line = dict(zip(table.columns, table.cells[0]))
+    assert line["dos"].endswith("†") and not line["sim"].endswith("†")
+    assert any(
+        f"dos: † {len(base)} of its paired cells rest on few test trials" in n for n in table.notes
+    )
