@@ -248,12 +248,6 @@ def p_beyond(estimate: float, parts: Sequence[tuple[float, float]], margin: floa
     return float(brentq(reach, 1e-15, 1 - 1e-12))
 
 
-def t_bounds(estimate: float, se: float, df: float, level: float) -> tuple[float, float]:
-    """``estimate +- t(df) * se`` at ``level``."""
-    half = float(student_t.ppf(0.5 + level / 2, df) * se)
-    return estimate - half, estimate + half
-
-
 def from_rows(
     terms: pd.DataFrame,
     level: float = LEVEL,

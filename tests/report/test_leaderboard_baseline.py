@@ -57,7 +57,9 @@ def test_joint_bootstrap_change_from_predictions(tmp_path):
     assert texts["features"] == "reference"
     change = change_of(ref, other, (base, cand))
     assert change.n_cells == 4 and change.method.startswith("joint cluster")
-    assert_is(texts["holweg"], change)
+    # these cells rest on few test trials (12 a class, some of them one class only): marked
+    assert ref["low_n"].any() and texts["holweg"].endswith("†")
+    assert_is(texts["holweg"].removesuffix("†"), change)
     assert change.hi < 0  # a quarter of the trials flipped wrong: a clear drop
 
 
