@@ -14,7 +14,7 @@ from resultgen import predictions_pair
 from slipbench.errors import EXIT_UNDECIDED
 from slipbench.report.compare import SCHEMA_VERSION, comment_markdown, to_json
 from slipbench.stats.compare import CELL_ALPHA, compare, summary
-from slipbench.stats.gate import Gate
+from slipbench.stats.gate import DEFAULT_TOLERANCE, Gate
 from slipbench.stats.metrics import Predictions, over_seeds, paired_comparison
 from slipbench.stats.pooled import POOLED_METHOD, CellSides, pooled_change
 
@@ -198,6 +198,9 @@ def test_json_is_in_points_with_cells_as_objects_and_validates(tmp_path):
     assert (
         doc["schema_version"] == SCHEMA_VERSION == schema["properties"]["schema_version"]["const"]
     )
+    # the schema's figures are the gate's, as the results schema declares them
+    pooled = schema["$defs"]["pooled"]["properties"]
+    assert set(pooled["figure"]["enum"]) == set(DEFAULT_TOLERANCE)
     cell = doc["cells"][0]
     assert isinstance(cell["cell"], dict) and cell["cell"]["sensor_type"] == "Nano17"
     assert cell["d_accuracy"] == pytest.approx(100 * cmp.cells["d_accuracy"].iloc[0], abs=1e-3)
