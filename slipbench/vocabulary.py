@@ -53,13 +53,6 @@ ORDERS: dict[str, Sequence[Any]] = {  # the known values of a key column, in the
     "test_instance": INSTANCE_ORDER,
     "material": MATERIALS,
 }
-METRIC_NAMES = {
-    "accuracy": "Classification Accuracy",
-    "tp_rate": "TP Rate",
-    "tn_rate": "TN Rate",
-    "balanced_accuracy": "Balanced Accuracy",
-    "auroc": "AUROC",
-}
 SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
     "window": "window {}",
     "window_ms": "({} ms)",

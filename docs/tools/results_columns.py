@@ -19,10 +19,15 @@ computed: a skipped cell has `status` and `reason`, a streaming cell no window f
 
 ## Adding a figure
 
-One entry: a `Figure(name, unit, meaning)` in `WINDOWED_FIGURES` (windowed cells) or
-`STREAMED_FIGURES` (streaming cells) of `slipbench/store/columns.py`. Its interval columns
-(`_lo`, `_hi`, and `_se`, `_wilson_lo/_hi`, `op_` as the entry says) follow from it; the code
-that computes the figure returns those names, and this page is regenerated.
+Two files: its entry in `FIGURES` of `slipbench/store/columns.py`, and its computation. The entry
+is a `Figure(name, unit, meaning, ...)` that says which cells hold it (`kind`: windowed or
+streamed), how tables head and show it (`label`, `called`, `display`, `decimals`), which
+direction is worse (`worse`), which windows it is the share of (`rate`) and whether the CI gate
+reads it (`tolerance`, its default). Its interval columns (`_lo`, `_hi`, and `_se`,
+`_wilson_lo/_hi`, `op_` as the entry says) follow from it. Every table, test, gate and verdict
+takes its figures from the schema (`figures()`, `names()`), never from a list of its own
+(`tests/test_architecture.py` fails on one); the computation returns the entry's names, and
+this page is regenerated.
 """
 
 

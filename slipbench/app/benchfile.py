@@ -69,11 +69,13 @@ import tomllib
 from slipbench.app.options import repeats_problem
 from slipbench.errors import TOO_DEEP, PluginError, SlipbenchError, UsageError
 from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
+from slipbench.store.columns import WINDOWED, names
 
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
 REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
-METRICS = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
+#: what a benchmark's report may rank by: a windowed cell's figures
+METRICS = names(WINDOWED)
 SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
     "benchmark": {
         "out": (str, "a folder"),

@@ -23,6 +23,7 @@ from slipbench.base import BaseDetector, FitJob, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
+from slipbench.store.columns import BALANCED_ACCURACY
 from slipbench.store.keys import file_digest, unkeyed
 from slipbench.store.reads import reading
 from slipbench.store.results import write_text_atomic
@@ -281,7 +282,7 @@ def _learned(
     while what it fitted is noise, at chance on windows it did not train on."""
     c = chance_interval(train_y, train_scores >= 0.5)
     fields = {
-        "train_balanced_accuracy": c["balanced_accuracy"],
+        "train_balanced_accuracy": c[BALANCED_ACCURACY.name],
         "train_balanced_accuracy_lo": c["lo"],
         "train_balanced_accuracy_hi": c["hi"],
     }
@@ -290,7 +291,7 @@ def _learned(
     if held is not None:
         v = chance_interval(held[0], held[1] >= 0.5)
         fields |= {
-            "validation_balanced_accuracy": v["balanced_accuracy"],
+            "validation_balanced_accuracy": v[BALANCED_ACCURACY.name],
             "validation_balanced_accuracy_lo": v["lo"],
             "validation_balanced_accuracy_hi": v["hi"],
         }
@@ -299,7 +300,7 @@ def _learned(
     if held is not None and v is not None and v["chance"]:
         where = f"on its {len(held[0])} held-out validation windows"
         return fields, _at_chance(v, where) + (
-            f", though its own training windows score {c['balanced_accuracy']:.2f}"
+            f", though its own training windows score {c[BALANCED_ACCURACY.name]:.2f}"
         )
     return fields, ""
 
@@ -315,7 +316,7 @@ def _validation_part(detector: BaseDetector) -> tuple[np.ndarray, np.ndarray] | 
 
 def _at_chance(c: dict, where: str) -> str:
     return (
-        f"did not learn: {where} its balanced accuracy, {c['balanced_accuracy']:.2f} (95 % "
+        f"did not learn: {where} its balanced accuracy, {c[BALANCED_ACCURACY.name]:.2f} (95 % "
         f"interval {c['lo']:.2f}-{c['hi']:.2f}), cannot be told from chance (0.5)"
     )
 

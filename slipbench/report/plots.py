@@ -45,6 +45,7 @@ from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 from slipbench.stats.meta import MetaAnalysis  # noqa: E402
+from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS  # noqa: E402
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E402
 
 if TYPE_CHECKING:
@@ -391,9 +392,9 @@ def envelope(curve: pd.DataFrame) -> pd.DataFrame:
     any threshold reaches at that rate or fewer, so the curve rises monotonically (a sweep's
     raw points saw-tooth where a lower threshold trades detections between scenarios).
     Columns ``false_alarms_per_min`` (ascending, distinct) and ``detection_rate``."""
-    points = curve.dropna(subset=["false_alarms_per_min", "detection_rate"])
-    points = points.sort_values(["false_alarms_per_min", "detection_rate"])
-    best = points.groupby("false_alarms_per_min", sort=True)["detection_rate"].max().cummax()
+    x, y = FALSE_ALARMS.name, DETECTION_RATE.name
+    points = curve.dropna(subset=[x, y]).sort_values([x, y])
+    best = points.groupby(x, sort=True)[y].max().cummax()
     return best.reset_index()
 
 
@@ -419,10 +420,11 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     curves = {i: envelope(pd.DataFrame(json.loads(r["tradeoff"]))) for i, r in rows.iterrows()}
-    rates = [float(x) for c in curves.values() for x in c["false_alarms_per_min"]]
-    rates += [float(x) for x in rows["false_alarms_per_min"].dropna()]
-    if "op_false_alarms_per_min" in rows:
-        rates += [float(x) for x in rows["op_false_alarms_per_min"].dropna()]
+    alarms, detected = FALSE_ALARMS.name, DETECTION_RATE.name
+    rates = [float(x) for c in curves.values() for x in c[alarms]]
+    rates += [float(x) for x in rows[alarms].dropna()]
+    if f"op_{alarms}" in rows:
+        rates += [float(x) for x in rows[f"op_{alarms}"].dropna()]
     floor, decade = _floor(rates)
     ncols = 1 if len(detectors) < 3 else 2
     nrows = -(-len(detectors) // ncols)
@@ -436,8 +438,8 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
             color = f"C{sensors.index(row['sensor_type'])}"
             curve = curves[i]
             ax.plot(
-                np.maximum(curve["false_alarms_per_min"], floor),
-                100 * curve["detection_rate"],
+                np.maximum(curve[alarms], floor),
+                100 * curve[detected],
                 "-",
                 color=color,
                 lw=0.8,
@@ -445,7 +447,7 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
                 drawstyle="steps-post",  # the envelope holds its rate until the next point
             )
             for prefix, marker in (("", "o"), ("op_", "x")):
-                x, y = row.get(f"{prefix}false_alarms_per_min"), row.get(f"{prefix}detection_rate")
+                x, y = row.get(prefix + alarms), row.get(prefix + detected)
                 if pd.notna(x) and pd.notna(y):
                     ax.plot(
                         max(float(x), floor),
@@ -550,7 +552,7 @@ def critical_difference(board: Leaderboard) -> Figure:
         )
     fig.suptitle(
         f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)\n"
-        "a bar joins detectors that do not differ (pairwise tests over blocks and seeds, Holm)"
+        "a bar joins detectors not shown to differ (decided pairwise contrasts, Bonferroni)"
     )
     return fig
 
@@ -599,8 +601,9 @@ def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> li
         FigureSpec(
             file_stem(f"leaderboard{tail}"),
             "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
-            "(duplicate cells merged); a bar joins detectors that do not differ (the pairwise "
-            f"table's tests over blocks and seeds, Holm; undecided pairs never differ).{named}",
+            "(duplicate cells merged); a bar joins detectors every pair of which is decided and "
+            "none shown to differ (the pairwise table's intervals over blocks and seeds, "
+            f"Bonferroni; a pair of one block or one seed joins no bar).{named}",
             None,
             lambda: critical_difference(board),
         )

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from slipbench.protocol import Layout
+from slipbench.store.columns import FALSE_ALARMS
 
 
 @dataclass(frozen=True)
@@ -94,7 +95,7 @@ PRESENTATIONS: dict[tuple[str, str], Presentation] = {
         title="Streaming",
         group="At the detector's own threshold (0.5)",
         figure="tradeoff",
-        x="false_alarms_per_min",
+        x=FALSE_ALARMS.name,
         x_label="false alarms per minute",
     ),
 }

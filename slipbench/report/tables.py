@@ -21,17 +21,27 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
+from slipbench.stats.contrast import ONE_SEED, Contrast
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
-from slipbench.stats.metrics import FIGURES, classes_low_n, seeds_from_rows, stream_low_n
+from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
+from slipbench.store.columns import AUROC, FIGURES, WINDOWED, figure_of, figures
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
-    METRIC_NAMES,
     ORDERS,
     SENSOR_NAMES,
     label,
 )
+
+#: the rates of one class each (TP, then TN), as the paper's Table II gives them
+CLASS_RATES = [f.name for f in figures(WINDOWED) if f.one_class]
+
+
+def figure_label(metric: str) -> str:
+    """How a table heads a figure: the paper's word (``TN Rate``), else the column's name."""
+    return FIGURES[metric].label if metric in FIGURES else metric
+
 
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
 LOW_MARK = "†"  # a cell resting on few test trials
@@ -263,7 +273,8 @@ def _seed_interval(ok: pd.DataFrame, metric: str) -> tuple[float, float]:
     from_bounds = (hi - lo) / (2 * 1.959964)  # a 95 % interval's half-width over z
     se = ok[se_col].astype(float).to_numpy() if se_col in ok else from_bounds
     se = np.where(np.isnan(se), from_bounds, se)
-    fraction = metric.removeprefix("op_") in (*FIGURES, "detection_rate")
+    shown = figure_of(metric)
+    fraction = shown is not None and shown.unit == "fraction"
     _, lo_, hi_ = seeds_from_rows(
         ok[metric].astype(float).to_numpy(),
         se,
@@ -498,8 +509,8 @@ def build_table(
     else:
         row_labels = [tuple(label(k, v) for k, v in zip(layout.rows, rk)) for rk in row_keys]
         headers = [ROW_HEADERS.get(k, k) for k in layout.rows]
-    unit = " (%)" if metric != "auroc" else " (%, 50 = chance)"
-    group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
+    unit = " (%)" if metric != AUROC.name else " (%, 50 = chance)"
+    group = f"{figure_label(metric)}{unit} {layout.group}".strip()
     if values == "difference":
         group = f"Ours - paper (points) {layout.group}".strip()
     if values == "ours":
@@ -761,7 +772,7 @@ def rates_table(
     if rows.empty:
         return None
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    avg = _averaged(rows, ["tp_rate", "tn_rate"], ["sensor_type"], intervals, _of(joint, detector))
+    avg = _averaged(rows, CLASS_RATES, ["sensor_type"], intervals, _of(joint, detector))
     cells = [avg.get((s,), ["NA", "NA"]) for s in sensors]
     columns = ["TP rate", "TN rate"]
     if paper:
@@ -769,7 +780,7 @@ def rates_table(
         columns += ["TP rate (paper, LSTM)", "TN rate (paper, LSTM)"]
         for i, s in enumerate(sensors):
             cells[i] = cells[i] + (
-                [_as_printed(100 * ref.loc[s, c]) for c in ("tp_rate", "tn_rate")]
+                [_as_printed(100 * ref.loc[s, c]) for c in CLASS_RATES]
                 if s in ref.index
                 else ["—", "—"]
             )
@@ -790,17 +801,14 @@ def rates_table(
 
 
 # ----------------------------------------------------------------------------- one column per metric
-# How each streaming figure reads: its column label, and the factor and decimals it is shown with.
-METRIC_COLUMNS: dict[str, tuple[str, float, int]] = {
-    "detection_rate": ("Detection rate (%)", 100.0, 1),
-    "median_delay_ms": ("Median delay (ms)", 1.0, 1),
-    "p95_delay_ms": ("95th pct. delay (ms)", 1.0, 1),
-    "false_alarms_per_min": ("False alarms / min", 1.0, 2),
-}
+def metric_header(metric: str) -> str:
+    """A value column's heading: the figure's (``Detection rate (%)``), else the column's name."""
+    shown = figure_of(metric)
+    return shown.header if shown is not None else metric
 
 
 def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str:
-    """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
+    """A figure in its own unit and decimals (the results schema's; others as fractions in %):
     ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals (over seeds, the
     interval holds their spread, so no ± beside it); 'NA' if absent; ``LOW_MARK`` appended
     where the cell rests on few test trials or onsets (``low``)."""
@@ -809,7 +817,8 @@ def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str
         return figure.status
     if pd.isna(mean):
         return "NA"
-    _, scale, digits = METRIC_COLUMNS.get(metric, (metric, 100.0, 1))
+    declared = figure_of(metric)
+    scale, digits = (declared.scale, declared.decimals) if declared is not None else (100.0, 1)
     text = f"{scale * mean:.{digits}f}"
     shown = intervals and not (pd.isna(lo) or pd.isna(hi))
     if figure.n > 1 and not pd.isna(sd) and not shown:
@@ -854,7 +863,7 @@ def metrics_table(
     if any(LOW_MARK in c for line in cells for c in line):
         notes.append(STREAM_LOW_NOTE)
     notes += data_notes(rows)
-    columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
+    columns = [metric_header(m) for m in metrics]
     return Table(
         caption_of(layout.caption, rows),
         headers,
@@ -982,7 +991,7 @@ def side_by_side(
         + " (units a detector did not finish are left out)."
     )
     notes += data_notes(rows)
-    group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
+    group = f"{figure_label(metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(
         caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes
@@ -1012,7 +1021,7 @@ def _metrics_side_by_side(
         f"{layout.title or 'Protocol'}: every detector side by side.",
         ["Detector"],
         layout.group,
-        [METRIC_COLUMNS.get(m, (m,))[0] for m in layout.metrics],
+        [metric_header(m) for m in layout.metrics],
         [(d,) for d in detectors],
         cells,
         label_,
@@ -1088,29 +1097,56 @@ def split_table(
 VERSUS = "vs baseline"
 
 
-def change_text(change: dict) -> str:
-    """A change from :func:`slipbench.stats.pairs.paired_change` in accuracy points:
-    ``+3.2 [1.0, 5.4]``; why there is none where no cell is shared."""
-    if change["n_cells"] == 0:  # shared cells all left out: a seed stored twice (pairs.py)
-        return "a seed stored twice" if change.get("n_skipped") else "no shared cell"
-    text = f"{100 * change['d']:+.1f}"
-    if np.isfinite(change["lo"]) and np.isfinite(change["hi"]):
-        text += f" [{100 * change['lo']:+.1f}, {100 * change['hi']:+.1f}]"
+def change_text(change: Contrast) -> str:
+    """A change of :func:`slipbench.stats.contrast.paired_change` in points (its figure a
+    fraction): ``+3.2 [+1.0, +5.4]``; why there is none where no cell and seed was paired."""
+    if change.n_cells == 0:
+        return change.missing
+    text = f"{100 * change.estimate:+.1f}"
+    if change.judged:
+        text += f" [{100 * change.lo:+.1f}, {100 * change.hi:+.1f}]"
     return text
 
 
-def add_versus(table: Table, texts: Sequence[str], reference: str, methods: Sequence[str]) -> None:
-    """``table`` (a line per detector) with a last column: each line's change from the
-    ``reference`` detector (``texts``, in the table's line order), and a note saying how."""
+def add_versus(
+    table: Table,
+    changes: Sequence[tuple[Contrast, int] | None],
+    reference: str,
+    figure: str,
+) -> None:
+    """``table`` (a line per entrant) with a last column: each line's change of ``figure`` from
+    the ``reference`` detector (``changes``, in the table's line order: the change and how many
+    of its paired cells are low-n; None: a reference line, marked so), and notes saying how,
+    what was left out and what the intervals lack."""
     header = f"{VERSUS} ({reference})"
     table.columns.append(header)
     if table.latex_columns is not None:
         table.latex_columns.append(escape(header))
-    for line, text in zip(table.cells, texts):
-        line.append(text)
-    how = "; ".join(sorted(set(methods)))
+    for line, pair in zip(table.cells, changes):
+        low = pair is not None and pair[1] > 0
+        line.append("reference" if pair is None else change_text(pair[0]) + LOW_MARK * low)
+    shown = [(entrant, p[0]) for (entrant, *_), p in zip(table.rows, changes) if p is not None]
+    how = "; ".join(sorted({c.method for _, c in shown if c.method}))
     table.notes.append(
-        f"{header}: each detector's accuracy minus the reference's, in points, the mean over the "
-        "cells and seeds both finished (the same cells, input and split), with its 95 % interval "
-        f"(each line's alone, not simultaneous){': ' + how if how else ''}."
+        f"{header}: each detector's {FIGURES[figure].called} minus the reference's, in points, the "
+        "mean over the cells and seeds both finished (the same cells, input and split), paired "
+        "seed by seed, with its 95 % interval (each line's alone, not simultaneous)"
+        f"{': ' + how if how else ''}."
     )
+    if any(p is not None and p[1] for p in changes):
+        table.notes.append(
+            f"{header}: {LOW_MARK} the change rests on cells of few test trials (fewer than "
+            f"{LOW_N} of a class): not to be trusted."
+        )
+    table.notes += [
+        f"{header}, {entrant}: left out: {'; '.join(c.left_out)}."
+        for entrant, c in shown
+        if c.left_out and c.n_cells
+    ]
+    one = [entrant for entrant, c in shown if c.n_cells and c.missing == ONE_SEED]
+    if one:
+        table.notes.append(
+            f"{header}: {', '.join(one)} paired with the reference on one seed: the interval "
+            "holds the test trials' noise only, not retraining noise, so it decides nothing "
+            "(run `evaluate --repeats 2` or more on both)."
+        )

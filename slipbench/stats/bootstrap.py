@@ -7,14 +7,15 @@ logit scale, its standard error at least the replicates' own logit spread; a cha
 own scale or, where its replicates say so, MOVER on the logit scale (Zou and Donner, Stat. Med.
 27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components. Several
 seeds add each side's seed variance net of the seed-by-cluster part (:func:`seeded_interval`),
-or a seed variance the protocol's cells share (:class:`SeedPool`). How each step was chosen and
+or a seed variance given from elsewhere (:class:`~slipbench.stats.noise.SeedNoise`: the
+protocol's cells pooled, a calibration). How each step was chosen and
 how well it covers: ``docs/coverage.md`` and ``docs/statistics.md``; the methods it was chosen
 against live in ``benchmarks/studies/intervals.py``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -25,6 +26,7 @@ from scipy.stats import f as f_dist
 from scipy.stats import t as student_t
 
 from slipbench.seeding import rng_for
+from slipbench.stats.noise import SeedNoise
 
 LEVEL = 0.95
 N_RESAMPLES = 999
@@ -344,29 +346,6 @@ def interval(
 
 
 @dataclass(frozen=True)
-class SeedPool:
-    """The seed variance a protocol's cells share: one seed's figure about its side's mean,
-    pooled over every cell side of two seeds or more, weighted by and carrying their degrees of
-    freedom (:func:`pool_seed_spreads`). Given to :func:`seeded_interval`, it stands for each
-    cell's own seed spread where that is smaller, so a cell's seed term rests on the protocol's
-    degrees of freedom, not its own two."""
-
-    variance: float
-    df: float
-
-
-def pool_seed_spreads(spreads: Iterable[tuple[float, int]]) -> SeedPool | None:
-    """The pooled seed variance of ``(variance over a side's seeds (ddof 1), seeds)`` pairs,
-    one per cell side; sides of one seed and NaN spreads carry nothing. None where none is left.
-    """
-    kept = [(float(v), n - 1) for v, n in spreads if n >= 2 and np.isfinite(v)]
-    df = sum(d for _, d in kept)
-    if df == 0:
-        return None
-    return SeedPool(sum(v * d for v, d in kept) / df, float(df))
-
-
-@dataclass(frozen=True)
 class _Replicates:
     """What the resamples of :func:`seeded_interval` give.
 
@@ -416,7 +395,7 @@ def _seed_variance(
     reps: _Replicates,
     at_one: Sequence[np.ndarray],
     signs: Sequence[float],
-    pool: SeedPool | None,
+    pool: SeedNoise | None,
 ) -> tuple[float, float]:
     """The sides' seed variance of their means net of their seed-by-cluster parts (a seed's own
     error on a cluster shows in the seeds' spread and again in the clusters' replicates of
@@ -581,7 +560,7 @@ def seeded_interval(
     figure: SeededFigure,
     clusters: Clusters,
     spec: IntervalSpec,
-    seed_pool: SeedPool | None = None,
+    seed_pool: SeedNoise | None = None,
 ) -> IntervalEstimate:
     """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
     seeds: its variance is the clusters' (each resample draws clusters once for every seed of
@@ -602,9 +581,10 @@ def seeded_interval(
         variance components alike.
     clusters, spec : the clusters the figure draws on (:class:`Clusters`), how the interval
         is drawn (:class:`IntervalSpec`).
-    seed_pool : SeedPool, optional
-        The seed variance the protocol's cells share (:func:`pool_seed_spreads`): it replaces
-        the sides' own seed spreads, with its degrees of freedom.
+    seed_pool : SeedNoise, optional
+        A seed variance from elsewhere (the protocol's cells pooled,
+        :func:`~slipbench.stats.noise.pool_seed_spreads`; a calibration): it replaces the sides'
+        own seed spreads, with its degrees of freedom.
 
     Degrees of freedom: the strata's components (:func:`satterthwaite_df`) and the sides' net
     seed variance, whose degrees of freedom are those of a difference, ``net^2 / sum_k

@@ -3,8 +3,10 @@
 Rows are checked against it where they are made (:func:`checked`) and where the store writes
 them; ``docs/results-columns.md`` is written from it (``docs/tools/results_columns.py``). A
 protocol's cell-key columns (``sensor_type``, ``window``, ...) are its own: a row may hold the
-keys its ``cell`` column names. Adding a figure is one entry in :data:`WINDOWED_FIGURES` or
-:data:`STREAMED_FIGURES`; its interval columns follow from the entry.
+keys its ``cell`` column names. Adding a figure is one entry in :data:`FIGURES` (what it is, how
+it reads, whether the gate reads it); its interval columns follow from the entry, and every
+table, test and verdict takes its names from here (:func:`figures`), never from a list of its
+own.
 """
 
 from __future__ import annotations
@@ -61,20 +63,64 @@ def _number(x: float) -> str:
     return str(int(x)) if math.isfinite(x) and float(x).is_integer() else f"{x:.6g}"
 
 
+#: a figure's kind: the cells that hold it
+WINDOWED, STREAMED = "windowed", "streamed"
+#: the windows a rate is the share of (the correct ones among them)
+EVERY_WINDOW, SLIP_WINDOWS, NONSLIP_WINDOWS = "every window", "slip windows", "non-slip windows"
+
+
 @dataclass(frozen=True)
 class Figure:
     """A figure of a cell with its interval: ``name``, ``name_lo``, ``name_hi`` and, with
     ``se``, ``name_se``; with ``wilson``, the window-level ``name_wilson_lo``/``_hi``; with
-    ``operating``, the same at the streaming operating point (``op_`` prefixed)."""
+    ``operating``, the same at the streaming operating point (``op_`` prefixed).
+
+    What every table, test and verdict reads of it: ``kind`` (:data:`WINDOWED` or
+    :data:`STREAMED` cells hold it), ``label`` (a table's heading, the paper's word), ``called``
+    (its name in a sentence), ``display`` (the unit a table shows it in) and ``decimals``,
+    ``worse`` (-1: a lower value is worse, +1: a higher one), ``rate`` (the windows it is the
+    share of: :data:`EVERY_WINDOW`, :data:`SLIP_WINDOWS` or :data:`NONSLIP_WINDOWS`; "" for any
+    other figure) and ``tolerance`` (the gate reads it, with this default tolerance in its
+    change unit; None: the gate does not read it). The tolerance is also the margin within
+    which a contrast of the figure reads "no difference" (:mod:`slipbench.stats.contrast`)."""
 
     name: str
     unit: str
     meaning: str
+    kind: str = WINDOWED
+    label: str = ""
+    called: str = ""
+    display: str = "%"
+    decimals: int = 1
+    worse: int = -1
+    rate: str = ""
+    tolerance: float | None = None
     se: bool = False
     wilson: bool = False
     operating: bool = False
     bounds: tuple[float, float] = (-math.inf, math.inf)  # of the figure and its interval
     finite: bool = False  # the figure (not its interval) is a number wherever a row holds it
+
+    @property
+    def scale(self) -> float:
+        """Stored value -> shown value: fractions are shown in percent (changes in points)."""
+        return 100.0 if self.unit == "fraction" else 1.0
+
+    @property
+    def change_unit(self) -> str:
+        """The unit of a change of the figure and of its tolerance."""
+        return "points" if self.unit == "fraction" else self.display
+
+    @property
+    def header(self) -> str:
+        """A table column's heading: ``Detection rate (%)``."""
+        return f"{self.label} ({self.display})"
+
+    @property
+    def one_class(self) -> bool:
+        """A rate over the windows of one class (the TP or TN rate): absent from a test set
+        without that class, and no summary of a detector on its own."""
+        return self.rate in (SLIP_WINDOWS, NONSLIP_WINDOWS)
 
     def columns(self) -> Iterator[Column]:
         within = self.bounds
@@ -119,70 +165,156 @@ JSON = "JSON"
 FRACTION = (0.0, 1.0)  # a rate, a share, an area under a curve
 AT_LEAST_0 = (0.0, math.inf)  # counts, durations, delays, rates per minute
 
-#: a windowed cell's figures (cluster bootstrap over test trials)
-WINDOWED_FIGURES = (
-    Figure(
-        "accuracy",
-        "fraction",
-        "share of test windows classified right",
-        se=True,
-        wilson=True,
-        finite=True,  # every windowed cell tests windows
-        bounds=FRACTION,
-    ),
-    Figure(
-        "tp_rate",
-        "fraction",
-        "share of slip windows called slip (1 - misses)",
-        se=True,
-        wilson=True,
-        bounds=FRACTION,
-    ),
-    Figure(
-        "tn_rate",
-        "fraction",
-        "share of non-slip windows called non-slip (1 - false alarms)",
-        se=True,
-        wilson=True,
-        bounds=FRACTION,
-    ),
-    Figure(
-        "balanced_accuracy", "fraction", "mean of the TP and TN rates", se=True, bounds=FRACTION
-    ),
-    Figure("auroc", "fraction", "area under the ROC curve of the scores", se=True, bounds=FRACTION),
+# a windowed cell's figures (cluster bootstrap over test trials)
+ACCURACY = Figure(
+    "accuracy",
+    "fraction",
+    "share of test windows classified right",
+    label="Classification Accuracy",
+    called="accuracy",
+    rate=EVERY_WINDOW,
+    tolerance=1.0,
+    se=True,
+    wilson=True,
+    finite=True,  # every windowed cell tests windows
+    bounds=FRACTION,
 )
-#: a streaming cell's figures (bootstrap over test trials), at the detector's threshold and at
-#: the operating point
-STREAMED_FIGURES = (
-    Figure(
-        "detection_rate",
-        "fraction",
-        "share of slip onsets detected in time",
-        operating=True,
-        bounds=FRACTION,
-    ),
-    Figure(
-        "median_delay_ms",
-        "ms",
-        "median delay from onset to detection",
-        operating=True,
-        bounds=AT_LEAST_0,
-    ),
-    Figure(
-        "p95_delay_ms",
-        "ms",
-        "95th percentile of the detection delay",
-        operating=True,
-        bounds=AT_LEAST_0,
-    ),
-    Figure(
-        "false_alarms_per_min",
-        "1/min",
-        "alarms per minute of non-slip streaming",
-        operating=True,
-        bounds=AT_LEAST_0,
-    ),
+TP_RATE = Figure(
+    "tp_rate",
+    "fraction",
+    "share of slip windows called slip (1 - misses)",
+    label="TP Rate",
+    called="TP rate (misses)",
+    rate=SLIP_WINDOWS,
+    tolerance=1.0,
+    se=True,
+    wilson=True,
+    bounds=FRACTION,
 )
+TN_RATE = Figure(
+    "tn_rate",
+    "fraction",
+    "share of non-slip windows called non-slip (1 - false alarms)",
+    label="TN Rate",
+    called="TN rate (false alarms)",
+    rate=NONSLIP_WINDOWS,
+    tolerance=1.0,
+    se=True,
+    wilson=True,
+    bounds=FRACTION,
+)
+BALANCED_ACCURACY = Figure(
+    "balanced_accuracy",
+    "fraction",
+    "mean of the TP and TN rates",
+    label="Balanced Accuracy",
+    called="balanced accuracy",
+    se=True,
+    bounds=FRACTION,
+)
+AUROC = Figure(
+    "auroc",
+    "fraction",
+    "area under the ROC curve of the scores",
+    label="AUROC",
+    called="AUROC",
+    se=True,
+    bounds=FRACTION,
+)
+# a streaming cell's figures (bootstrap over test trials), at the detector's threshold and at
+# the operating point
+DETECTION_RATE = Figure(
+    "detection_rate",
+    "fraction",
+    "share of slip onsets detected in time",
+    kind=STREAMED,
+    label="Detection rate",
+    called="detection rate",
+    tolerance=1.0,
+    operating=True,
+    bounds=FRACTION,
+)
+MEDIAN_DELAY = Figure(
+    "median_delay_ms",
+    "ms",
+    "median delay from onset to detection",
+    kind=STREAMED,
+    label="Median delay",
+    called="median delay",
+    display="ms",
+    worse=1,
+    tolerance=10.0,
+    operating=True,
+    bounds=AT_LEAST_0,
+)
+P95_DELAY = Figure(
+    "p95_delay_ms",
+    "ms",
+    "95th percentile of the detection delay",
+    kind=STREAMED,
+    label="95th pct. delay",
+    called="95th percentile delay",
+    display="ms",
+    worse=1,
+    operating=True,
+    bounds=AT_LEAST_0,
+)
+FALSE_ALARMS = Figure(
+    "false_alarms_per_min",
+    "1/min",
+    "alarms per minute of non-slip streaming",
+    kind=STREAMED,
+    label="False alarms",
+    called="false alarms per minute",
+    display="per min",
+    decimals=2,
+    worse=1,
+    tolerance=0.5,
+    operating=True,
+    bounds=AT_LEAST_0,
+)
+#: every figure by name, in the order tables and the gate list them
+FIGURES: dict[str, Figure] = {
+    f.name: f
+    for f in (
+        ACCURACY,
+        TP_RATE,
+        TN_RATE,
+        BALANCED_ACCURACY,
+        AUROC,
+        DETECTION_RATE,
+        MEDIAN_DELAY,
+        P95_DELAY,
+        FALSE_ALARMS,
+    )
+}
+
+
+def figures(kind: str | None = None, *, gated: bool | None = None) -> tuple[Figure, ...]:
+    """The declared figures, in order: those of ``kind`` (every kind where None) and, with
+    ``gated``, those the gate reads (True) or does not (False)."""
+    return tuple(
+        f
+        for f in FIGURES.values()
+        if kind in (None, f.kind) and gated in (None, f.tolerance is not None)
+    )
+
+
+def names(kind: str | None = None, *, gated: bool | None = None) -> tuple[str, ...]:
+    """The names of :func:`figures`."""
+    return tuple(f.name for f in figures(kind, gated=gated))
+
+
+def figure_of(column: str) -> Figure | None:
+    """The figure a results or change column shows (``accuracy``, ``op_detection_rate_lo``,
+    ``d_tn_rate_se``, ``base_accuracy``), or None where it shows none."""
+    name = column
+    for prefix in ("d_", "base_", "candidate_", "op_"):
+        name = name.removeprefix(prefix)
+    for suffix in ("_lo", "_hi", "_se"):
+        name = name.removesuffix(suffix)
+    return FIGURES.get(name)
+
 
 IDENTITY = (
     Column("key", STR, "", "content address of the cell: data, code, parameters, seed"),
@@ -350,9 +482,9 @@ GROUPS: dict[str, tuple[Column, ...]] = {
     "What was run": IDENTITY,
     "The cell": CELL,
     "Outcome and counts": OUTCOME,
-    "Figures of a windowed cell": tuple(c for f in WINDOWED_FIGURES for c in f.columns()),
+    "Figures of a windowed cell": tuple(c for f in figures(WINDOWED) for c in f.columns()),
     "Streaming counts and checks": STREAM,
-    "Figures of a streaming cell": tuple(c for f in STREAMED_FIGURES for c in f.columns()),
+    "Figures of a streaming cell": tuple(c for f in figures(STREAMED) for c in f.columns()),
     "Fit": FIT,
     "Provenance": PROVENANCE,
 }

@@ -12,6 +12,7 @@ from slipbench.data.format import Dataset
 from slipbench.errors import UsageError
 from slipbench.protocol import BaseProtocol, Cell, Layout
 from slipbench.seeding import rng_for
+from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS, MEDIAN_DELAY
 from slipbench.testing.data import assert_refused, toy_dataset
 
 
@@ -198,9 +199,9 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
             [
                 {
                     "threshold": t,
-                    "detection_rate": 1 - t,
-                    "median_delay_ms": 20 + 100 * t,
-                    "false_alarms_per_min": 10 * (1 - t),
+                    DETECTION_RATE.name: 1 - t,
+                    MEDIAN_DELAY.name: 20 + 100 * t,
+                    FALSE_ALARMS.name: 10 * (1 - t),
                 }
                 for t in (0.1, 0.5, 0.9)
             ]

@@ -16,6 +16,7 @@ from slipbench.app.options import (
     plugins_option,
 )
 from slipbench.app.selection import add_plugin_folders
+from slipbench.store.columns import WINDOWED, names
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,7 @@ class ReportArgs:
 )
 @click.option(
     "--metric",
-    type=click.Choice(["accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc"]),
+    type=click.Choice(names(WINDOWED)),
     default="accuracy",
     show_default=True,
     help="The figure the protocol tables show and the leaderboard ranks.",
