@@ -29,6 +29,8 @@
     [gate]                         # what `compare --bench` judges (default: every figure)
     accuracy = 1.0                 # tolerance: a drop smaller than it is no regression
     tn_rate = 1.0                  # points; false_alarms_per_min per minute, median_delay_ms ms
+    budget = 12                    # seeds per side an undecided figure may grow to, in steps
+                                   # of run.repeats (default: run.repeats, one look)
 
     [detectors.holweg]             # one table per detector: its parameters
     [detectors.lstm]
@@ -43,6 +45,11 @@ Every key is checked before anything runs: an unknown key, a wrong type or a val
 constraint is a usage error (exit 2) naming the file, the line and the key. The file's text is
 copied into the results folder (``benchmark.toml``) and its SHA-256 written beside it
 (``benchmark.json``), so results say which declaration made them.
+
+Where the file has a calibration beside it (``bench.calibration.json``, ``slipbench
+calibrate``) that holds for its settings and detectors, a ``[gate]`` tolerance the bench cannot
+decide even at its budget is refused when its runs are planned (:func:`plan_runs`), with the
+budget, tolerance or scale that would decide it (:mod:`slipbench.app.gateplan`).
 """
 
 from __future__ import annotations
@@ -65,6 +72,7 @@ from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
 REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
+BUDGET = "budget"  # the [gate] key that is not a figure
 METRICS = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
 SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
     "benchmark": {
@@ -94,10 +102,9 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "scheduler": (str, "a dask scheduler address"),
         "plugins": (list, "a list of folders"),
     },
-    # the figures `compare --bench` judges, each with its tolerance
-    "gate": {
-        name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE
-    },
+    # the figures `compare --bench` judges, each with its tolerance, and its seeds' budget
+    "gate": {name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE}
+    | {BUDGET: (int, "seeds per side, an int >= run.repeats")},
 }
 TABLES = ("benchmark", "dataset", "run", "gate", "detectors", "protocols")
 
@@ -133,6 +140,13 @@ class Benchmark:
     detectors: dict[str, dict[str, Any]] = field(default_factory=dict)
     protocols: dict[str, dict[str, Any]] = field(default_factory=dict)
     gate: dict[str, float] = field(default_factory=dict)  # figure -> tolerance; empty: defaults
+    budget: int | None = None  # seeds per side with sequential looks; None: repeats, one look
+
+    @property
+    def seeds_budget(self) -> int:
+        """The most seeds per side a comparison may grow to (the first look's, ``repeats``,
+        where the file sets no budget)."""
+        return self.repeats if self.budget is None else self.budget
 
     @property
     def describe(self) -> str:
@@ -336,6 +350,21 @@ def load_benchmark(path: str | Path) -> Benchmark:
         check(
             isinstance(folder, str), f"plugins holds folder names, got {folder!r}", "run", "plugins"
         )
+    g = data.get("gate", {})
+    check(
+        g.get(BUDGET, r.get("repeats", 1)) >= r.get("repeats", 1),
+        f"budget ({g.get(BUDGET)}) must be at least run.repeats ({r.get('repeats', 1)}): the "
+        "seeds of the first look",
+        "gate",
+        BUDGET,
+    )
+    check(
+        BUDGET not in g or r.get("repeats", 1) >= 2,
+        "a budget grows seeds in steps of run.repeats, which must then be >= 2 (one seed a "
+        "side measures no retraining noise)",
+        "gate",
+        BUDGET,
+    )
     return Benchmark(
         path=path,
         text=text,
@@ -363,23 +392,26 @@ def load_benchmark(path: str | Path) -> Benchmark:
         plugins=[home / p for p in r.get("plugins", [])],
         detectors={k: dict(v) for k, v in data["detectors"].items()},
         protocols={k: dict(v) for k, v in data["protocols"].items()},
-        gate=_gate(path, text, data.get("gate", {})),
+        gate=_gate(path, text, {k: v for k, v in g.items() if k != BUDGET}),
+        budget=g.get(BUDGET),
     )
 
 
 def _gate(path: Path, text: str, table: dict) -> dict[str, float]:
-    """The [gate] table: figure -> tolerance, each > 0."""
+    """The [gate] table's figures: figure -> tolerance, each > 0."""
     for name, value in table.items():
         if not value > 0:
             raise _fail(path, text, f"{name} must be a tolerance > 0, got {value!r}", "gate", name)
     return {name: float(value) for name, value in table.items()}
 
 
-def plan_runs(bench: Benchmark, echo=print) -> list:
+def plan_runs(bench: Benchmark, echo=print, check_gate: bool = True) -> list:
     """The runs the file declares, every plugin loaded and every parameter checked (a bad one
     names the file, line and table); plugin folders are registered first. A plugin whose
     optional dependency is not installed here is skipped with a line to ``echo`` (one file
-    serves machines with and without it); a kind left with none is refused (exit 3)."""
+    serves machines with and without it); a kind left with none is refused (exit 3). With
+    ``check_gate``, a ``[gate]`` tolerance the file's calibration says it cannot decide is
+    refused (:func:`gate_decides`)."""
     from slipbench.app.selection import available, readable
     from slipbench.engine import registry
     from slipbench.engine.runner import Run
@@ -444,7 +476,26 @@ def plan_runs(bench: Benchmark, echo=print) -> list:
             "run",
             "input",
         )
+    if check_gate:
+        gate_decides(bench, runs, echo)
     return runs
+
+
+def gate_decides(bench: Benchmark, runs: list, echo=print) -> None:
+    """Refuse (exit 2, at the ``[gate]`` key) a tolerance the bench cannot decide at its
+    budget, by the calibration beside it where that holds; say which detectors it no longer
+    holds for. Without a calibration nothing is known of the noise, and nothing is refused."""
+    from slipbench.app.calibrate import status
+    from slipbench.app.gateplan import plan_gate, refusal
+
+    found = status(bench, runs)
+    if found.calibration is None:
+        return
+    for line in found.lines():
+        echo(line)
+    refused = refusal(plan_gate(bench, runs, found), bench)
+    if refused is not None:
+        raise _fail(bench.path, bench.text, refused[1], "gate", refused[0])
 
 
 def _param_in(message: str, params: dict) -> str | None:
@@ -483,6 +534,27 @@ def record(bench: Benchmark, out: Path) -> None:
     )
 
 
+def bench_dataset(bench: Benchmark, echo=print):
+    """The dataset the file declares: a folder (with a training dataset, the two combined), or
+    the simulated one at its scale and seed (the run's seed where ``[dataset]`` gives none)."""
+    from slipbench.data.defaults import default_dataset
+    from slipbench.data.read import read_dataset
+
+    if bench.train is not None:
+        from slipbench.data.transfer import combine, parse_sensor_map
+
+        assert bench.dataset is not None  # the bench file's check: train needs path
+        return combine(
+            read_dataset(bench.train),
+            read_dataset(bench.dataset),
+            parse_sensor_map(tuple(bench.sensor_map)),
+        )
+    if bench.dataset is not None:
+        return read_dataset(bench.dataset)
+    data_seed = bench.seed if bench.data_seed is None else bench.data_seed
+    return default_dataset(bench.scale, data_seed, echo=echo)
+
+
 def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, echo=print):
     """Run what ``bench`` declares and write its reports into ``bench.out``.
 
@@ -493,8 +565,6 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
-    from slipbench.data.defaults import default_dataset
-    from slipbench.data.read import read_dataset
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.store.results import ResultsStore
@@ -503,20 +573,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     runs = plan_runs(
         bench, echo
     )  # every name and parameter before the dataset is read or simulated
-    if bench.train is not None:
-        from slipbench.data.transfer import combine, parse_sensor_map
-
-        assert bench.dataset is not None  # the bench file's check: train needs path
-        ds = combine(
-            read_dataset(bench.train),
-            read_dataset(bench.dataset),
-            parse_sensor_map(tuple(bench.sensor_map)),
-        )
-    elif bench.dataset is not None:
-        ds = read_dataset(bench.dataset)
-    else:
-        data_seed = bench.seed if bench.data_seed is None else bench.data_seed
-        ds = default_dataset(bench.scale, data_seed, echo=echo)
+    ds = bench_dataset(bench, echo)
     record(bench, out)
     rows = evaluate(
         ds,

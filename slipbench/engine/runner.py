@@ -351,6 +351,7 @@ def _payload(
         None if model_path is None else str(model_path),
         first.run.detector_name,
         trials[train.recording],
+        first.run.retrain,
     )
 
 
