@@ -10,12 +10,13 @@ calibrated standard deviation of one seed's change between two equal sides
 
     X = se * (t(1 - a, df) + t(0.80, df)).
 
-**At the bench's seeds** ``a = alpha / (2 N)``: Bonferroni over the ``N`` pooled tests of the
-family, two-sided, one look. **At the budget** the looks run at ``seeds, 2 seeds, ..`` up to the
-budget (:func:`looks`), each flagging at its Lan-DeMets O'Brien-Fleming nominal level
-(:mod:`slipbench.stats.sequential`), and ``X`` is the last look's, at its nominal level: the
-drop the last look alone flags with 80 % power (earlier looks only add power, so this errs
-safe). A test **decides** its tolerance where ``X`` at the budget is at most the tolerance: a
+Each test is held at ``a = alpha / (2 N)``: Bonferroni over the ``N`` pooled tests of the
+family, two-sided. With a budget above the bench's seeds, the looks run at ``seeds, 2 seeds,
+..`` up to the budget (:func:`looks`) and each flags at its Lan-DeMets O'Brien-Fleming nominal
+level (:mod:`slipbench.stats.sequential`), which spends ``a`` over them. **At the bench's
+seeds** ``X`` is the first look's, at its own nominal level (a budget makes it stricter than a
+single look's ``a``); **at the budget** it is the last look's: the drop the last look alone
+flags with 80 % power (earlier looks only add power, so this errs safe). A test **decides** its tolerance where ``X`` at the budget is at most the tolerance: a
 harmless change then reads "no regression" and a drop of twice the tolerance is flagged. Where
 it does not, :class:`Sight` says what would: a budget of more seeds, a larger tolerance, or
 more data (the scale, assuming the variance falls in proportion to the data: stated wherever
@@ -98,8 +99,8 @@ def resolution(sd: float, df: float, seeds: int, level: float) -> float:
 class Sight:
     """What one pooled test of a design sees, in the figure's units (points of a rate).
 
-    ``at_seeds``: ``X`` at the first look alone (the bench's seeds); ``at_budget``: ``X`` with
-    the looks up to the budget; ``budget_needed``: the fewest seeds per side whose looks decide
+    ``at_seeds``: ``X`` at the first look (the bench's seeds, at that look's level);
+    ``at_budget``: ``X`` at the last look (the budget); ``budget_needed``: the fewest seeds per side whose looks decide
     the tolerance (0: none in ``MAX_LOOKS`` looks); ``data_needed``: how many times the data the
     budget needs to decide, if the variance falls in proportion to the data (1 or less: it
     decides)."""
@@ -129,8 +130,9 @@ class Sight:
 def sight(sd: float, df: float, tolerance: float, design: Design) -> Sight:
     """What a pooled test whose one seed varies by ``sd`` (on ``df`` degrees of freedom) sees
     under ``design`` against ``tolerance``."""
-    at_seeds = resolution(sd, df, design.seeds, design.level)
-    at_budget = resolution(sd, df, design.budget, nominal_levels(design)[-1])
+    levels = nominal_levels(design)
+    at_seeds = resolution(sd, df, design.seeds, levels[0])
+    at_budget = resolution(sd, df, design.budget, levels[-1])
     return Sight(
         tolerance=tolerance,
         sd=sd,
