@@ -140,7 +140,7 @@ class HalfLogisticShift(HalfLogisticSalted):
     """HalfLogisticSalted with every logit raised by {shift:.4f}: more windows called slip."""
 
     def _predict_proba(self, x):
-        p = np.clip(super()._predict_proba(x), 1e-12, 1 - 1e-12)
+        p = np.clip(np.asarray(super()._predict_proba(x), float), 1e-12, 1 - 1e-12)
         return 1 / (1 + np.exp(-(np.log(p / (1 - p)) + {shift!r})))
 ''',
 }
@@ -236,6 +236,61 @@ class Study:
         rows = pd.read_parquet(out / "results.parquet", columns=["seed", "protocol"])
         per_seed = rows.groupby("seed")["protocol"].nunique()
         return set(per_seed[per_seed == len(self.protocols)].index)
+
+
+def study_bench(study: Study) -> Path:
+    """The bench file with the study's detector in place of the bench's: what its calibration
+    and plan are made of (the simulated dataset only)."""
+    import json
+
+    b = study.bench
+    assert b.dataset is None, "the study runs on the simulated dataset"
+    lines = [
+        f"# {b.path.name} with HalfLogistic in place of its detectors (benchmarks/gate_study.py)",
+        "[benchmark]",
+        'out = "results"',
+        "[dataset]",
+        f"scale = {b.scale!r}",
+        f"seed = {b.seed if b.data_seed is None else b.data_seed}",
+        "[run]",
+        f'split = "{b.split}"',
+        f"seed = {b.seed}",
+        f"repeats = {b.repeats}",
+        f"jobs = {b.jobs}",
+        'plugins = ["plugins"]',
+        "[gate]",
+        *(f"{name} = {tol!r}" for name, tol in b.gate.items()),
+        f"budget = {b.seeds_budget}",
+        "[detectors.half-logistic]",
+    ]
+    for name, params in b.protocols.items():
+        lines += [f"[protocols.{name}]", *(f"{k} = {json.dumps(v)}" for k, v in params.items())]
+    path = study.root / "study.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def calibrated_plan(study: Study, seeds: int) -> list[str]:
+    """Calibrate the study's bench on ``seeds`` seeds (kept in the work folder: a second run
+    reads them) and return its gate's plan."""
+    from slipbench.app.benchfile import load_benchmark, plan_runs
+    from slipbench.app.calibrate import calibrate, status
+    from slipbench.app.gateplan import plan_gate
+
+    bench = load_benchmark(study_bench(study))
+    runs = plan_runs(bench, echo=lambda _: None, check_gate=False)
+    t0 = time.perf_counter()
+    calibrate(
+        bench,
+        runs,
+        study.data,
+        seeds,
+        study.root / "calibration",
+        progress=False,
+        echo=lambda _: None,
+    )
+    print(f"# calibration: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    return plan_gate(bench, runs, status(bench, runs)).lines()
 
 
 def damage_constants(base: Path, seeds: list[int]) -> dict[str, float]:
@@ -395,6 +450,9 @@ def main() -> None:
     ap.add_argument("--nulls", type=int, default=20, help="comparisons per null design")
     ap.add_argument("--powers", type=int, default=10, help="comparisons per damage")
     ap.add_argument("--work", type=Path, default=None, help="keep the pools here (reused)")
+    ap.add_argument(
+        "--calibrate", type=int, default=21, help="seeds of the study bench's calibration (0: none)"
+    )
     args = ap.parse_args()
     root = args.work or Path(tempfile.mkdtemp(prefix="gate-study-"))
     root.mkdir(parents=True, exist_ok=True)
@@ -414,6 +472,9 @@ def main() -> None:
         f"{constants['drop']:.4f} of the windows inverted (drop), logits +{constants['shift']:.3f} "
         f"(shift). Pools of {size} seeds.\n"
     )
+    if args.calibrate:
+        print("The study bench's plan (`slipbench calibrate`, HalfLogistic):\n\n```text")
+        print("\n".join(calibrated_plan(study, args.calibrate)) + "\n```\n", flush=True)
     print(
         "| design | comparisons | exit 0 | exit 1 | exit 6 | pooled tests flagged | mean "
         "change accuracy / TN / TP (points) | seeds a side (median / 95th pct) | compare s "
