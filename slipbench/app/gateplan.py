@@ -45,12 +45,14 @@ class PlannedTest:
 @dataclass(frozen=True)
 class GatePlan:
     """The plan of a bench's gate: its ``design`` (seeds, budget, tests, level), its tests,
-    the calibration's status, and the cost of one seed of a side (None: not measured)."""
+    the calibration's status, the cost of one seed of a side (None: not measured) and the
+    simulated dataset's scale (None: a dataset folder), in what would decide a test."""
 
     design: Design
     tests: list[PlannedTest]
     status: CalibrationStatus
     seconds_per_seed: float | None
+    scale: float | None = None  # the simulated dataset's (None: a dataset folder)
 
     @property
     def undecided(self) -> list[PlannedTest]:
@@ -81,10 +83,10 @@ class GatePlan:
                     f"{m.get('processors')} processors, {m.get('jobs')} workers, load "
                     f"{'-'.join(map(str, m.get('load_average', [])))})"
                 )
-        return out + [_line(t) for t in self.tests]
+        return out + [_line(t, self.scale) for t in self.tests]
 
 
-def _line(t: PlannedTest) -> str:
+def _line(t: PlannedTest, scale: float | None) -> str:
     name = f"{t.detector}, {t.protocol}, {NAMES.get(t.figure, t.figure)}"
     u = unit(t.figure)
     if t.same is None or t.apart is None:
@@ -93,30 +95,31 @@ def _line(t: PlannedTest) -> str:
         "retraining adds no noise (its twin equals it): any drop beyond the tolerance, up to "
         "the change's own spread"
         if t.deterministic
-        else _seen(t.same, u)
+        else _seen(t.same, u, scale)
     )
     return (
         f"  {name} (tolerance {t.tolerance:g} {u}): same seeds: {same}; seeds apart: "
-        f"{_seen(t.apart, u)}"
+        f"{_seen(t.apart, u, scale)}"
     )
 
 
-def _seen(s: Sight, u: str) -> str:
+def _seen(s: Sight, u: str, scale: float | None) -> str:
     """What a design sees: the drops flagged with 80 % power at the seeds and the budget."""
     text = (
         f"flags {s.tolerance + s.at_seeds:.2g} {u} at its seeds, {s.detectable:.2g} at the budget"
     )
-    return text + ("" if s.decides else f" [cannot decide: {_would(s, u)}]")
+    return text + ("" if s.decides else f" [cannot decide; would: {_would(s, u, scale)}]")
 
 
-def _would(s: Sight, u: str) -> str:
-    """What would decide an undecided test."""
+def _would(s: Sight, u: str, scale: float | None) -> str:
+    """What would decide an undecided test: a budget, a tolerance, more data."""
     options = [f"a tolerance of {_up(s.at_budget)} {u}"]
     if s.budget_needed:
         options.insert(0, f"a budget of {s.budget_needed} seeds a side")
     if math.isfinite(s.data_needed):
-        options.append(f"{s.data_needed:.2g} times the data (if the noise falls with the data)")
-    return ", or ".join(options)
+        more = f"{s.data_needed:.2g} times the data, if the noise falls in proportion"
+        options.append(f"scale {_up(scale * s.data_needed)} ({more})" if scale else more)
+    return ", ".join(options[:-1]) + (" or " if len(options) > 1 else "") + options[-1]
 
 
 def _up(x: float) -> str:
@@ -158,7 +161,13 @@ def plan_gate(bench: Benchmark, runs: list[Run], status: CalibrationStatus) -> G
                 _planned(detector, protocol, figure, tolerances[figure], noise, status, design)
             )
     per_seed = cal.wall_seconds_per_seed if cal is not None else math.nan
-    return GatePlan(design, tests, status, per_seed if math.isfinite(per_seed) else None)
+    return GatePlan(
+        design,
+        tests,
+        status,
+        per_seed if math.isfinite(per_seed) else None,
+        bench.scale if bench.dataset is None else None,
+    )
 
 
 def _figures_of(bench: Benchmark, status: CalibrationStatus, detector: str, protocol: str):
@@ -210,7 +219,6 @@ def refusal(plan: GatePlan, bench: Benchmark) -> tuple[str, str] | None:
             f"calibrated noise ({t.same.sd:.2g} {u} a seed, {t.same.df:g} degrees of freedom), "
             f"the pooled test of {t.detector} on {t.protocol} flags with 80 % power only a "
             f"drop of {t.same.detectable:.2g} {u} at its budget of {bench.seeds_budget} seeds "
-            f"a side; {_would(t.same, u)} would decide it (`slipbench run "
-            f"{bench.path.name} --plan` shows every test)"
+            f"a side; {_would(t.same, u, plan.scale)} would decide it"
         )
     return None
