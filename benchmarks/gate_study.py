@@ -456,6 +456,7 @@ def main() -> None:
     args = ap.parse_args()
     root = args.work or Path(tempfile.mkdtemp(prefix="gate-study-"))
     root.mkdir(parents=True, exist_ok=True)
+    load = os.getloadavg()
     study = Study(root, args.bench)
     b, gate = study.bench, GATES[args.gate]
     size = args.nulls * b.repeats  # seeds per pool: each comparison's first look its own
@@ -486,6 +487,11 @@ def main() -> None:
         print(run_design(study, gate, name, n, size), flush=True)
     for line in holweg_lines(study, gate):
         print(line, flush=True)
+    print(
+        f"\nMachine: {os.cpu_count()} processors, {b.jobs} workers; load average "
+        f"{load[0]:.1f} at the start, {os.getloadavg()[0]:.1f} at the end (shared: compare's "
+        "seconds are this machine's under that load)."
+    )
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ from slipbench.engine.plan import Run
 from slipbench.stats.calibration import Noise
 from slipbench.stats.compare import POOLED_ALPHA
 from slipbench.stats.gate import DEFAULT_TOLERANCE, NAMES, SCALE, STREAMING, WINDOWED, unit
-from slipbench.stats.power import Design, Sight, looks, sight
+from slipbench.stats.power import Design, Sight, looks, nominal_levels, sight
 
 if TYPE_CHECKING:  # benchfile refuses a gate by this module's plan: imported at run time there
     from slipbench.app.benchfile import Benchmark
@@ -62,12 +62,19 @@ class GatePlan:
     def lines(self) -> list[str]:
         """The plan as a reader takes it: the design and cost, then one line per test."""
         d = self.design
+        at = looks(d.seeds, d.budget)
         head = (
             f"gate: {d.seeds} seeds a side, up to {d.budget} in looks of {d.seeds} "
-            f"({', '.join(map(str, looks(d.seeds, d.budget)))}); {d.tests} pooled tests held "
-            f"at {d.alpha:.1%} (Lan-DeMets O'Brien-Fleming over the looks)"
+            f"({', '.join(map(str, at))}); {d.tests} pooled tests held at {d.alpha:.1%}, "
+            f"each at {d.level:.2g} a side"
         )
-        out = [head, *self.status.lines()]
+        spent = (
+            "; spent over the looks (Lan-DeMets O'Brien-Fleming): one-sided levels "
+            + ", ".join(f"{p:.2g}" for p in nominal_levels(d))
+            if len(at) > 1
+            else ""
+        )
+        out = [head + spent, *self.status.lines()]
         cal = self.status.calibration
         if cal is not None:
             m = cal.machine

@@ -24,6 +24,7 @@ from slipbench.stats.calibration import (
     calibration_path,
     read_calibration,
 )
+from slipbench.stats.power import nominal_levels
 
 BENCH = """\
 [benchmark]
@@ -101,7 +102,10 @@ def test_a_decidable_bench_is_planned_and_passes(tmp_path, small_path):
     assert plan.undecided == [] and refusal(plan, bench) is None
     assert plan.design.tests == 2 and plan.design.budget == 12 and plan.design.seeds == 3
     text = "\n".join(plan.lines())
-    assert "3 seeds a side, up to 12 in looks of 3 (3, 6, 9, 12)" in text
+    assert "3 seeds a side, up to 12 in looks of 3 (3, 6, 9, 12); 2 pooled tests" in text
+    levels = nominal_levels(plan.design)  # 0.025 / 4 a side, spent over the four looks
+    assert levels[0] < 1e-6 < levels[-1] < plan.design.level == pytest.approx(0.025 / 4)
+    assert "one-sided levels " + ", ".join(f"{p:.2g}" for p in levels) in text
     assert "about 45 s at 3 seeds, 3 min at the budget" in text  # 15 s a seed, measured
     acc = next(t for t in plan.tests if t.figure == "accuracy")
     assert acc.same is not None and acc.same.decides and acc.same.sd == pytest.approx(0.3)
