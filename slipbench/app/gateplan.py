@@ -90,31 +90,31 @@ class GatePlan:
                     f"{m.get('processors')} processors, {m.get('jobs')} workers, load "
                     f"{'-'.join(map(str, m.get('load_average', [])))})"
                 )
-        return out + [_line(t, self.scale) for t in self.tests]
+        return out + [_line(t, d, self.scale) for t in self.tests]
 
 
-def _line(t: PlannedTest, scale: float | None) -> str:
+def _line(t: PlannedTest, d: Design, scale: float | None) -> str:
     name = f"{t.detector}, {t.protocol}, {NAMES.get(t.figure, t.figure)}"
     u = unit(t.figure)
     if t.same is None or t.apart is None:
         return f"  {name} (tolerance {t.tolerance:g} {u}): not planned ({t.why})"
     same = (
-        "retraining adds no noise (its twin equals it): any drop beyond the tolerance, up to "
-        "the change's own spread"
+        "its twin equals its run, so retraining adds no noise and a change is judged on its "
+        "own spread across seeds"
         if t.deterministic
-        else _seen(t.same, u, scale)
+        else _seen(t.same, d, u, scale)
     )
     return (
         f"  {name} (tolerance {t.tolerance:g} {u}): same seeds: {same}; seeds apart: "
-        f"{_seen(t.apart, u, scale)}"
+        f"{_seen(t.apart, d, u, scale)}"
     )
 
 
-def _seen(s: Sight, u: str, scale: float | None) -> str:
+def _seen(s: Sight, d: Design, u: str, scale: float | None) -> str:
     """What a design sees: the drops flagged with 80 % power at the seeds and the budget."""
-    text = (
-        f"flags {s.tolerance + s.at_seeds:.2g} {u} at its seeds, {s.detectable:.2g} at the budget"
-    )
+    text = f"flags a drop of {s.tolerance + s.at_seeds:.2g} {u} at {d.seeds} seeds"
+    if d.budget > d.seeds:
+        text += f", {s.detectable:.2g} by {d.budget}"
     return text + ("" if s.decides else f" [cannot decide; would: {_would(s, u, scale)}]")
 
 
