@@ -511,9 +511,12 @@ def with_overrides(bench: Benchmark, **overrides) -> Benchmark:
     return dataclasses.replace(bench, **{k: v for k, v in overrides.items() if v is not None})
 
 
-def record(bench: Benchmark, out: Path) -> None:
+def record(bench: Benchmark, out: Path, runs: list | None = None) -> None:
     """Keep the file's text with the results: ``benchmark.toml`` (a copy) and ``benchmark.json``
-    (its SHA-256, where it came from, when it ran)."""
+    (its SHA-256, where it came from, when it ran and, with ``runs``, what a calibration of the
+    file is checked against: its settings' digest and each detector's parameters and own code
+    as this run had them, so that a comparison made with other code can tell whether the
+    calibration holds for these rows)."""
     from slipbench.atomic import make_folder, write_text_atomic
 
     make_folder(out)
@@ -527,11 +530,24 @@ def record(bench: Benchmark, out: Path) -> None:
                 "name": bench.name,
                 "seed": bench.seed,
                 "started_at": datetime.now(timezone.utc).isoformat(),
+                **({"calibration_key": _calibration_key(bench, runs)} if runs else {}),
             },
             indent=2,
         )
         + "\n",
     )
+
+
+def _calibration_key(bench: Benchmark, runs: list) -> dict:
+    from slipbench.app.calibrate import detector_identities, digest, settings
+
+    return {
+        "settings_digest": digest(settings(bench, runs)),
+        "detectors": {
+            name: {"params": params, "own_code": code}
+            for name, (params, code) in detector_identities(runs).items()
+        },
+    }
 
 
 def bench_dataset(bench: Benchmark, echo=print):
@@ -574,7 +590,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         bench, echo
     )  # every name and parameter before the dataset is read or simulated
     ds = bench_dataset(bench, echo)
-    record(bench, out)
+    record(bench, out, runs)
     rows = evaluate(
         ds,
         runs,

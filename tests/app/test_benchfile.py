@@ -181,6 +181,23 @@ def test_the_gate_budget_defaults_to_the_first_looks_seeds(tmp_path):
     assert bench.budget == 9 == bench.seeds_budget and bench.gate == {"tn_rate": 2.0}
 
 
+def test_the_record_keeps_what_a_calibration_is_checked_against(tmp_path):
+    """A comparison runs with the candidate's code: the base's record says which settings and
+    detector code made its rows, as `slipbench calibrate` keys them."""
+    from slipbench.app.benchfile import record
+    from slipbench.app.calibrate import detector_identities, digest, settings
+
+    text = "[run]\nrepeats = 2\n[detectors.holweg]\nkeep = 0.7\n[protocols.window-size]\n"
+    bench = load_benchmark(write(tmp_path, text))
+    runs = plan_runs(bench)
+    record(bench, tmp_path / "res", runs)
+    key = json.loads((tmp_path / "res" / "benchmark.json").read_text())["calibration_key"]
+    assert key["settings_digest"] == digest(settings(bench, runs))
+    params, code = detector_identities(runs)["holweg"]
+    assert key["detectors"] == {"holweg": {"params": params, "own_code": code}}
+    assert params["keep"] == 0.7 and code.startswith("src:")
+
+
 def test_cli_exit_code_for_a_bad_file(tmp_path, cli):
     code, _, err = cli(
         ["run", write(tmp_path, "[detectors.holweg]\nkeep = 3\n[protocols.window-size]\n")]
