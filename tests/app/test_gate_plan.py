@@ -179,6 +179,15 @@ def test_a_file_that_is_not_a_calibration_is_refused(tmp_path, small_path, cli):
     assert code == 2 and "not a slipbench calibration" in err
 
 
+def test_calibrate_refuses_a_bench_of_both_inputs_before_any_work(tmp_path, small_path, cli):
+    path = _bench(tmp_path, small_path)
+    path.write_text(
+        path.read_text().replace('split = "grouped"', 'split = "grouped"\ninput = "both"')
+    )
+    code, _, err = cli(["calibrate", str(path), "--seeds", "3"])
+    assert code == 2 and 'input = "both"' in err and not (tmp_path / "res").exists()
+
+
 def test_without_a_calibration_nothing_is_refused_and_the_plan_says_so(tmp_path, small_path):
     path = _bench(tmp_path, small_path, accuracy=0.01)
     lines: list[str] = []

@@ -48,9 +48,16 @@ def calibrate_command(**options) -> None:
     from slipbench.app.calibrate import calibrate, status
     from slipbench.app.gateplan import plan_gate
     from slipbench.atomic import check_writable
+    from slipbench.errors import UsageError
     from slipbench.stats.calibration import calibration_path
 
     bench = with_overrides(load_benchmark(o.bench_file), jobs=o.jobs)
+    if bench.input == "both":
+        raise UsageError(
+            f'{bench.path}: [run] input = "both" runs each detector twice; a calibration '
+            'measures one input per detector: calibrate a copy with input = "univariate" or '
+            '"channels"'
+        )
     runs = plan_runs(bench, click.echo, check_gate=False)  # this is how a refused gate is mended
     work = o.work or bench.out / "calibration"
     target = calibration_path(bench.path)
