@@ -30,7 +30,11 @@ comparisons share seeds: their first looks are independent). Printed: per design
 codes, the pooled tests that flagged, the mean changes the candidate made, the seeds a side ran
 (the CI cost) and compare's time.
 
+With ``--alternatives`` it prints instead the plans of benches the shipped one was chosen
+against (:data:`ALTERNATIVES`: the study bench with other protocols), each calibrated alike.
+
     nice python benchmarks/gate_study.py --work DIR [--bench bench.toml] > benchmarks/results/gate_study_today.md
+    nice python benchmarks/gate_study.py --work DIR --alternatives > benchmarks/results/gate_plans_not_shipped.md
 """
 
 from __future__ import annotations
@@ -238,9 +242,18 @@ class Study:
         return set(per_seed[per_seed == len(self.protocols)].index)
 
 
-def study_bench(study: Study) -> Path:
-    """The bench file with the study's detector in place of the bench's: what its calibration
-    and plan are made of (the simulated dataset only)."""
+#: benches the plan was asked about and not shipped: the study bench with these protocols
+ALTERNATIVES = {
+    "window-size at 50 and 100 beside cross-instance": {
+        "window-size": {"windows": [50, 100]},
+        "cross-instance": {},
+    },
+}
+
+
+def study_bench(study: Study, protocols: dict | None = None, name: str = "study") -> Path:
+    """The bench file with the study's detector in place of the bench's (and ``protocols`` in
+    place of its protocols): what a calibration and plan are made of (simulated data only)."""
     import json
 
     b = study.bench
@@ -259,25 +272,25 @@ def study_bench(study: Study) -> Path:
         f"jobs = {b.jobs}",
         'plugins = ["plugins"]',
         "[gate]",
-        *(f"{name} = {tol!r}" for name, tol in b.gate.items()),
+        *(f"{figure} = {tol!r}" for figure, tol in b.gate.items()),
         f"budget = {b.seeds_budget}",
         "[detectors.half-logistic]",
     ]
-    for name, params in b.protocols.items():
-        lines += [f"[protocols.{name}]", *(f"{k} = {json.dumps(v)}" for k, v in params.items())]
-    path = study.root / "study.toml"
+    for protocol, params in (b.protocols if protocols is None else protocols).items():
+        lines += [f"[protocols.{protocol}]", *(f"{k} = {json.dumps(v)}" for k, v in params.items())]
+    path = study.root / f"{name}.toml"
     path.write_text("\n".join(lines) + "\n")
     return path
 
 
-def calibrated_plan(study: Study, seeds: int) -> list[str]:
-    """Calibrate the study's bench on ``seeds`` seeds (kept in the work folder: a second run
-    reads them) and return its gate's plan."""
+def calibrated_plan(study: Study, seeds: int, bench_file: Path | None = None) -> list[str]:
+    """Calibrate the study's bench (or ``bench_file``) on ``seeds`` seeds, kept in the work
+    folder (a second run, or a bench sharing cells, reads them), and return its gate's plan."""
     from slipbench.app.benchfile import load_benchmark, plan_runs
     from slipbench.app.calibrate import calibrate, status
     from slipbench.app.gateplan import plan_gate
 
-    bench = load_benchmark(study_bench(study))
+    bench = load_benchmark(bench_file or study_bench(study))
     runs = plan_runs(bench, echo=lambda _: None, check_gate=False)
     t0 = time.perf_counter()
     calibrate(
@@ -289,8 +302,16 @@ def calibrated_plan(study: Study, seeds: int) -> list[str]:
         progress=False,
         echo=lambda _: None,
     )
-    print(f"# calibration: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    print(f"# calibration of {bench.path.name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return plan_gate(bench, runs, status(bench, runs)).lines()
+
+
+def alternative_plans(study: Study, seeds: int) -> None:
+    """The plans of :data:`ALTERNATIVES`, each calibrated as the study's bench is."""
+    for k, (label, protocols) in enumerate(ALTERNATIVES.items()):
+        bench = study_bench(study, protocols, name=f"alternative-{k}")
+        print(f"The study bench with {label} (not shipped):\n\n```text")
+        print("\n".join(calibrated_plan(study, seeds, bench)) + "\n```\n", flush=True)
 
 
 def damage_constants(base: Path, seeds: list[int]) -> dict[str, float]:
@@ -453,11 +474,19 @@ def main() -> None:
     ap.add_argument(
         "--calibrate", type=int, default=21, help="seeds of the study bench's calibration (0: none)"
     )
+    ap.add_argument(
+        "--alternatives",
+        action="store_true",
+        help="print only the plans of the benches not shipped (ALTERNATIVES), then stop",
+    )
     args = ap.parse_args()
     root = args.work or Path(tempfile.mkdtemp(prefix="gate-study-"))
     root.mkdir(parents=True, exist_ok=True)
     load = os.getloadavg()
     study = Study(root, args.bench)
+    if args.alternatives:
+        alternative_plans(study, args.calibrate)
+        return
     b, gate = study.bench, GATES[args.gate]
     size = args.nulls * b.repeats  # seeds per pool: each comparison's first look its own
     seeds = list(range(b.seed, b.seed + size))
