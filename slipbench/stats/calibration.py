@@ -54,9 +54,10 @@ def calibration_path(bench: Path) -> Path:
 
 @dataclass(frozen=True)
 class Noise:
-    """The seed noise of one figure, of a cell or of a protocol's mean over its cells."""
+    """The seed noise of one figure, of a cell or of a protocol's mean over ``cells`` cells."""
 
     seeds: int
+    cells: int
     mean: float
     seed_var: float
     seed_df: float
@@ -80,12 +81,11 @@ class Noise:
 
 @dataclass(frozen=True)
 class ProtocolNoise:
-    """One protocol of one detector: ``figures``, its mean over ``cells_in_mean`` cells;
-    ``cells``, each cell's (keyed by the rows' ``cell``)."""
+    """One protocol of one detector: ``figures``, its mean over its cells; ``cells``, each
+    cell's (keyed by the rows' ``cell``)."""
 
     figures: dict[str, Noise]
     cells: dict[str, dict[str, Noise]]
-    cells_in_mean: int
 
 
 @dataclass(frozen=True)
@@ -185,7 +185,6 @@ def _ok(rows: pd.DataFrame) -> pd.DataFrame:
 def _protocol(rows: pd.DataFrame, figures: Sequence[str]) -> ProtocolNoise:
     cells: dict[str, dict[str, Noise]] = {}
     means: dict[str, Noise] = {}
-    n_in_mean = 0
     for f in figures:
         if f not in rows:
             continue
@@ -200,14 +199,13 @@ def _protocol(rows: pd.DataFrame, figures: Sequence[str]) -> ProtocolNoise:
         for c in kept:
             cells.setdefault(str(c), {})[f] = _noise(table[c], twin[c], se[c])
         if kept:
-            n_in_mean = max(n_in_mean, len(kept))
             means[f] = _noise(
-                table[kept].mean(axis=1), twin[kept].mean(axis=1), se[kept].mean(axis=1)
+                table[kept].mean(axis=1), twin[kept].mean(axis=1), se[kept].mean(axis=1), len(kept)
             )
-    return ProtocolNoise(means, cells, n_in_mean)
+    return ProtocolNoise(means, cells)
 
 
-def _noise(run: pd.Series, twin: pd.Series, se: pd.Series) -> Noise:
+def _noise(run: pd.Series, twin: pd.Series, se: pd.Series, cells: int = 1) -> Noise:
     """One figure's noise from its values per seed in the run and the twin, and the run's
     standard errors over trials (a protocol's mean: the mean of its cells', as if they moved
     together, the widest case)."""
@@ -215,6 +213,7 @@ def _noise(run: pd.Series, twin: pd.Series, se: pd.Series) -> Noise:
     n = len(x)
     return Noise(
         seeds=n,
+        cells=cells,
         mean=float(x.mean()),
         seed_var=float(x.var(ddof=1)) if n > 1 else math.nan,
         seed_df=float(n - 1),
@@ -269,7 +268,6 @@ def _calibration(data: dict) -> Calibration:
                         c: {f: _noise_of(v) for f, v in figs.items()}
                         for c, figs in part["cells"].items()
                     },
-                    int(part["cells_in_mean"]),
                 )
                 for p, part in d["protocols"].items()
             },
@@ -292,6 +290,7 @@ def _calibration(data: dict) -> Calibration:
 def _noise_of(v: Mapping[str, Any]) -> Noise:
     return Noise(
         seeds=int(v["seeds"]),
+        cells=int(v["cells"]),
         **{k: _number(v[k]) for k in ("mean", "seed_var", "seed_df", "paired_var", "paired_df")},
         trial_var=_number(v["trial_var"]),
     )

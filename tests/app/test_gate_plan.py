@@ -53,7 +53,7 @@ def _bench(tmp_path: Path, data, accuracy=1.5, keep=0.8) -> Path:
 
 def _noise(paired_sd: float, apart_sd: float) -> Noise:
     """Noise of a protocol's mean, its standard deviations given in points a seed."""
-    return Noise(20, 0.8, (apart_sd / 100) ** 2, 19.0, (paired_sd / 100) ** 2, 20.0, 4e-4)
+    return Noise(20, 8, 0.8, (apart_sd / 100) ** 2, 19.0, (paired_sd / 100) ** 2, 20.0, 4e-4)
 
 
 def _calibrate_by_hand(path: Path, paired_sd=0.3, apart_sd=1.0, deterministic=False) -> None:
@@ -79,7 +79,7 @@ def _calibrate_by_hand(path: Path, paired_sd=0.3, apart_sd=1.0, deterministic=Fa
                 code,
                 deterministic,
                 2.0,
-                {"window-size": ProtocolNoise({"accuracy": noise, "tn_rate": noise}, {}, 8)},
+                {"window-size": ProtocolNoise({"accuracy": noise, "tn_rate": noise}, {})},
             )
         },
     )

@@ -61,11 +61,11 @@ def _pair(**kw):
 def test_measure_gives_each_variance_with_its_degrees_of_freedom():
     runs, twins = _pair()
     part = measure(runs, twins, FIGURES)["d"]["p"]
-    assert part.cells_in_mean == 3 and set(part.cells) == {f'{{"window": {c}}}' for c in range(3)}
+    assert set(part.cells) == {f'{{"window": {c}}}' for c in range(3)}
     mean_run = runs.groupby("seed")["accuracy"].mean()
     mean_twin = twins.groupby("seed")["accuracy"].mean()
     noise = part.figures["accuracy"]
-    assert noise.seeds == 6 and noise.seed_df == 5 and noise.paired_df == 6
+    assert noise.seeds == 6 and noise.cells == 3 and noise.seed_df == 5 and noise.paired_df == 6
     assert noise.mean == pytest.approx(mean_run.mean())
     assert noise.seed_var == pytest.approx(mean_run.var(ddof=1))
     assert noise.paired_var == pytest.approx(((mean_twin - mean_run) ** 2).mean())
@@ -86,6 +86,7 @@ def test_cells_that_did_not_finish_every_seed_or_lack_a_figure_are_left_out():
     part = measure(runs, twins, FIGURES)["d"]["p"]
     assert set(part.cells) == {'{"window": 1}', '{"window": 2}'}
     assert set(part.cells['{"window": 1}']) == {"accuracy"}
+    assert part.figures["accuracy"].cells == 2 and part.figures["tn_rate"].cells == 1
     kept = runs[runs["cell"] == '{"window": 2}'].set_index("seed")["tn_rate"]
     assert part.figures["tn_rate"].seed_var == pytest.approx(kept.var(ddof=1))
 
