@@ -70,7 +70,20 @@ def benchmark_table() -> str:
     return "\n".join(rows)
 
 
-GENERATED = {"commands": command_help, "benchmarks": benchmark_table}
+def gate_plan() -> str:
+    """The shipped bench's gate plan, from bench.toml and its committed calibration, as
+    ``slipbench calibrate`` prints it."""
+    from slipbench.app.benchfile import load_benchmark, plan_runs
+    from slipbench.app.calibrate import status
+    from slipbench.app.gateplan import plan_gate
+
+    bench = load_benchmark(ROOT / "bench.toml")
+    runs = plan_runs(bench, echo=lambda _: None, check_gate=False)
+    lines = plan_gate(bench, runs, status(bench, runs)).lines()
+    return "\n".join(["```text", *lines, "```"])
+
+
+GENERATED = {"commands": command_help, "benchmarks": benchmark_table, "gate_plan": gate_plan}
 
 
 def on_page_markdown(markdown: str, **kwargs: object) -> str:

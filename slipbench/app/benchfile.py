@@ -36,6 +36,8 @@
     [gate]                         # what `compare --bench` judges (default: every figure)
     accuracy = 1.0                 # tolerance: a drop smaller than it is no regression
     tn_rate = 1.0                  # points; false_alarms_per_min per minute, median_delay_ms ms
+    budget = 12                    # seeds per side an undecided figure may grow to, in steps
+                                   # of run.repeats (default: run.repeats, one look)
 
     [detectors.holweg]             # one table per detector: its parameters
     [detectors.lstm]
@@ -50,6 +52,11 @@ Every key is checked before anything runs: an unknown key, a wrong type or a val
 constraint is a usage error (exit 2) naming the file, the line and the key. The file's text is
 copied into the results folder (``benchmark.toml``) and its SHA-256 written beside it
 (``benchmark.json``), so results say which declaration made them.
+
+Where the file has a calibration beside it (``bench.calibration.json``, ``slipbench
+calibrate``) that holds for its settings and detectors, a ``[gate]`` tolerance the bench cannot
+decide even at its budget is refused when its runs are planned (:func:`plan_runs`), with the
+budget, tolerance or scale that would decide it (:mod:`slipbench.app.gateplan`).
 """
 
 from __future__ import annotations
@@ -74,6 +81,7 @@ from slipbench.store.columns import WINDOWED, names
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
 REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
+BUDGET = "budget"  # the [gate] key that is not a figure
 #: what a benchmark's report may rank by: a windowed cell's figures
 METRICS = names(WINDOWED)
 SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
@@ -104,10 +112,9 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "scheduler": (str, "slurm, submitit-local, or a dask scheduler's address or file"),
         "plugins": (list, "a list of folders"),
     },
-    # the figures `compare --bench` judges, each with its tolerance
-    "gate": {
-        name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE
-    },
+    # the figures `compare --bench` judges, each with its tolerance, and its seeds' budget
+    "gate": {name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE}
+    | {BUDGET: (int, "seeds per side, an int >= run.repeats")},
 }
 TABLES = ("benchmark", "dataset", "run", "slurm", "gate", "detectors", "protocols")
 
@@ -144,6 +151,13 @@ class Benchmark:
     protocols: dict[str, dict[str, Any]] = field(default_factory=dict)
     gate: dict[str, float] = field(default_factory=dict)  # figure -> tolerance; empty: defaults
     slurm: dict[str, Any] = field(default_factory=dict)  # the [slurm] table, checked
+    budget: int | None = None  # seeds per side with sequential looks; None: repeats, one look
+
+    @property
+    def seeds_budget(self) -> int:
+        """The most seeds per side a comparison may grow to (the first look's, ``repeats``,
+        where the file sets no budget)."""
+        return self.repeats if self.budget is None else self.budget
 
     @property
     def describe(self) -> str:
@@ -357,6 +371,21 @@ def load_benchmark(path: str | Path) -> Benchmark:
         check(
             isinstance(folder, str), f"plugins holds folder names, got {folder!r}", "run", "plugins"
         )
+    g = data.get("gate", {})
+    check(
+        g.get(BUDGET, r.get("repeats", 1)) >= r.get("repeats", 1),
+        f"budget ({g.get(BUDGET)}) must be at least run.repeats ({r.get('repeats', 1)}): the "
+        "seeds of the first look",
+        "gate",
+        BUDGET,
+    )
+    check(
+        BUDGET not in g or r.get("repeats", 1) >= 2,
+        "a budget grows seeds in steps of run.repeats, which must then be >= 2 (one seed a "
+        "side measures no retraining noise)",
+        "gate",
+        BUDGET,
+    )
     return Benchmark(
         path=path,
         text=text,
@@ -384,7 +413,8 @@ def load_benchmark(path: str | Path) -> Benchmark:
         plugins=[home / p for p in r.get("plugins", [])],
         detectors={k: dict(v) for k, v in data["detectors"].items()},
         protocols={k: dict(v) for k, v in data["protocols"].items()},
-        gate=_gate(path, text, data.get("gate", {})),
+        gate=_gate(path, text, {k: v for k, v in g.items() if k != BUDGET}),
+        budget=g.get(BUDGET),
         slurm=_slurm(path, text, data.get("slurm", {}), tuple(data["detectors"])),
     )
 
@@ -404,18 +434,20 @@ def _slurm(path: Path, text: str, table: dict, detectors: tuple[str, ...]) -> di
 
 
 def _gate(path: Path, text: str, table: dict) -> dict[str, float]:
-    """The [gate] table: figure -> tolerance, each > 0."""
+    """The [gate] table's figures: figure -> tolerance, each > 0."""
     for name, value in table.items():
         if not value > 0:
             raise _fail(path, text, f"{name} must be a tolerance > 0, got {value!r}", "gate", name)
     return {name: float(value) for name, value in table.items()}
 
 
-def plan_runs(bench: Benchmark, echo=print) -> list:
+def plan_runs(bench: Benchmark, echo=print, check_gate: bool = True) -> list:
     """The runs the file declares, every plugin loaded and every parameter checked (a bad one
     names the file, line and table); plugin folders are registered first. A plugin whose
     optional dependency is not installed here is skipped with a line to ``echo`` (one file
-    serves machines with and without it); a kind left with none is refused (exit 3)."""
+    serves machines with and without it); a kind left with none is refused (exit 3). With
+    ``check_gate``, a ``[gate]`` tolerance the file's calibration says it cannot decide is
+    refused (:func:`gate_decides`)."""
     from slipbench.app.selection import available, readable
     from slipbench.engine import registry
     from slipbench.engine.runner import Run
@@ -480,7 +512,26 @@ def plan_runs(bench: Benchmark, echo=print) -> list:
             "run",
             "input",
         )
+    if check_gate:
+        gate_decides(bench, runs, echo)
     return runs
+
+
+def gate_decides(bench: Benchmark, runs: list, echo=print) -> None:
+    """Refuse (exit 2, at the ``[gate]`` key) a tolerance the bench cannot decide at its
+    budget, by the calibration beside it where that holds; say which detectors it no longer
+    holds for. Without a calibration nothing is known of the noise, and nothing is refused."""
+    from slipbench.app.calibrate import status
+    from slipbench.app.gateplan import plan_gate, refusal
+
+    found = status(bench, runs)
+    if found.calibration is None:
+        return
+    for line in found.lines():
+        echo(line)
+    refused = refusal(plan_gate(bench, runs, found), bench)
+    if refused is not None:
+        raise _fail(bench.path, bench.text, refused[1], "gate", refused[0])
 
 
 def _param_in(message: str, params: dict) -> str | None:
@@ -529,9 +580,12 @@ def slurm_of(bench: Benchmark):
     return res
 
 
-def record(bench: Benchmark, out: Path) -> None:
+def record(bench: Benchmark, out: Path, runs: list | None = None) -> None:
     """Keep the file's text with the results: ``benchmark.toml`` (a copy) and ``benchmark.json``
-    (its SHA-256, where it came from, when it ran)."""
+    (its SHA-256, where it came from, when it ran and, with ``runs``, what a calibration of the
+    file is checked against: its settings' digest and each detector's parameters and own code
+    as this run had them, so that a comparison made with other code can tell whether the
+    calibration holds for these rows)."""
     from slipbench.atomic import make_folder, write_text_atomic
 
     make_folder(out)
@@ -545,11 +599,35 @@ def record(bench: Benchmark, out: Path) -> None:
                 "name": bench.name,
                 "seed": bench.seed,
                 "started_at": datetime.now(timezone.utc).isoformat(),
+                **({"calibration_key": _calibration_key(bench, runs)} if runs else {}),
             },
             indent=2,
         )
         + "\n",
     )
+
+
+def _calibration_key(bench: Benchmark, runs: list) -> dict:
+    from slipbench.app.calibrate import detector_identities, digest, settings
+
+    return {
+        "settings_digest": digest(settings(bench, runs)),
+        "detectors": {
+            name: {"params": params, "own_code": code}
+            for name, (params, code) in detector_identities(runs).items()
+        },
+    }
+
+
+def bench_dataset(bench: Benchmark, echo=print):
+    """The dataset the file declares: its folder (:func:`read_data`), or the simulated one at
+    its scale and seed (the run's seed where ``[dataset]`` gives none)."""
+    from slipbench.data.defaults import default_dataset
+
+    if bench.dataset is not None:
+        return read_data(bench, echo)
+    data_seed = bench.seed if bench.data_seed is None else bench.data_seed
+    return default_dataset(bench.scale, data_seed, echo=echo)
 
 
 def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, echo=print):
@@ -562,7 +640,6 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
-    from slipbench.data.defaults import default_dataset
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.store.results import ResultsStore
@@ -571,12 +648,8 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     runs = plan_runs(
         bench, echo
     )  # every name and parameter before the dataset is read or simulated
-    if bench.dataset is not None:
-        ds = read_data(bench, echo)
-    else:
-        data_seed = bench.seed if bench.data_seed is None else bench.data_seed
-        ds = default_dataset(bench.scale, data_seed, echo=echo)
-    record(bench, out)
+    ds = bench_dataset(bench, echo)
+    record(bench, out, runs)
     rows = evaluate(
         ds,
         runs,

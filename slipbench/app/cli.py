@@ -15,6 +15,7 @@ from contextlib import contextmanager
 import click
 
 from slipbench.app.commands.bench import bench
+from slipbench.app.commands.calibrate import calibrate_command
 from slipbench.app.commands.compare import compare_command
 from slipbench.app.commands.dataset import dataset
 from slipbench.app.commands.evaluate import evaluate_command
@@ -46,6 +47,7 @@ for command in (
     spectral_cmd,
     report,
     run_command,
+    calibrate_command,
     compare_command,
 ):
     cli.add_command(command)

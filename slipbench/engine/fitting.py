@@ -100,6 +100,13 @@ class Job:
     model_path: str | None = None
     name: str = ""
     train_groups: np.ndarray | None = None
+    draw: int = 0  # which draw of the detector's seed stream it trains from (Run.retrained)
+
+    @property
+    def fit_seed(self) -> int:
+        """The seed ``fit`` receives: the run seed's ``detector`` stream (draw 0, as runs
+        always had), or another draw of it."""
+        return seed_int(self.seed, "detector", *((self.draw,) if self.draw else ()))
 
 
 @dataclass
@@ -417,7 +424,7 @@ def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
             job.train_x,
             job.train_y,
             sampling_rate=job.sampling_rate,
-            seed=seed_int(job.seed, "detector"),
+            seed=job.fit_seed,
             groups=job.train_groups,
         )
         train_s = time.perf_counter() - t0
@@ -469,8 +476,7 @@ def _fitted_together(jobs: list[Job], detectors: list[BaseDetector]) -> list[tup
     if not jobs:
         return []
     fit_jobs = [
-        FitJob(j.train_x, j.train_y, seed_int(j.seed, "detector"), j.sampling_rate, j.train_groups)
-        for j in jobs
+        FitJob(j.train_x, j.train_y, j.fit_seed, j.sampling_rate, j.train_groups) for j in jobs
     ]
     with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()

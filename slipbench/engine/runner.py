@@ -519,6 +519,7 @@ def _payload(
         None if model_path is None else str(model_path),
         first.run.detector_name,
         trials[train.recording],
+        first.run.retrain,
     )
 
 

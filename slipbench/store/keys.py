@@ -448,3 +448,74 @@ def _engine_packages() -> list[str]:
     """slipbench and the packages of its built-in plugins, which an editable install keeps in
     folders outside ``slipbench/`` (the registries name them)."""
     return ["slipbench", "slipbench.detectors", "slipbench.protocols"]
+
+
+def own_code_identity(cls: type) -> str:
+    """The identity of a plugin class's own code, narrower than :func:`code_identity`: the
+    module that defines it and the slipbench modules it imports, followed through their own
+    slipbench imports (for a built-in detector, its file and the contract it uses: ``base``,
+    ``spectra``, ``params``, ...), and, for a class outside slipbench, its
+    :func:`code_identity` too. A change elsewhere in slipbench (a report, a command) leaves it
+    as it is. What it is for: measurements of a detector's behaviour that stay true while its
+    code does (a bench's seed variance), not cache keys, which must change with any code that
+    runs."""
+    module = sys.modules.get(cls.__module__)
+    file = getattr(module, "__file__", None)
+    if not file:
+        return code_identity(cls)  # no source to follow (a REPL class): the strict identity
+    digest = hashlib.sha256()
+    if _unit(cls.__module__) != "slipbench":
+        digest.update(code_identity(cls).encode())
+    for label, path in _slipbench_closure(Path(file).resolve()):
+        digest.update(f"{label}\0".encode())
+        digest.update(path.read_bytes())
+    for label, path in data_files(cls):
+        digest.update(f"data:{label}\0{file_digest(path)}\0".encode())
+    return f"src:{digest.hexdigest()[:32]}"
+
+
+@cache
+def _slipbench_closure(start: Path) -> tuple[tuple[str, Path], ...]:
+    """(label, path) of ``start`` and of the slipbench modules it imports, transitively (import
+    statements read, inside functions too, so the closure does not depend on what has been
+    imported so far); labels are dotted module names, the same wherever slipbench is
+    installed."""
+    taken: dict[str, Path] = {"": start}
+    queue = [start]
+    while queue:
+        tree = _parsed(queue.pop())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            else:
+                continue
+            for name in names:
+                path = _slipbench_module(name)
+                if path is not None and name not in taken:
+                    taken[name] = path
+                    queue.append(path)
+    return tuple(sorted(taken.items()))
+
+
+def _parsed(path: Path) -> ast.AST:
+    try:
+        return ast.parse(path.read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return ast.Module(body=[], type_ignores=[])  # its bytes are still hashed
+
+
+def _slipbench_module(name: str) -> Path | None:
+    """The source file of a slipbench module (not a package's ``__init__``, nor a name that is
+    an attribute rather than a module)."""
+    if name.split(".")[0] != "slipbench" or "." not in name:
+        return None
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.origin or spec.submodule_search_locations is not None:
+        return None
+    path = Path(spec.origin)
+    return path.resolve() if path.suffix == ".py" and path.is_file() else None
