@@ -113,7 +113,7 @@ def whole_paper_pair(root) -> tuple:
     change = 0.06 * u - 0.15 * worse
     for name in ("accuracy", "tp_rate", "tn_rate"):
         for col in (name, f"{name}_lo", f"{name}_hi"):
-            cand[col] = base[col] + change
+            cand[col] = (base[col] + change).clip(0, 1)  # a rate stays a rate
     paths = (root / "base.parquet", root / "candidate.parquet")
     base.to_parquet(paths[0])
     cand.to_parquet(paths[1])

@@ -162,6 +162,9 @@ def mocked(monkeypatch):
                 done = run(
                     [sys.executable, "-m", "submitit.core._submit", str(pickled.parent)],
                     env=env,
+                    # from the job's folder, as a node would: `-m` puts the working folder first
+                    # on sys.path, and a source tree there would shadow the installed package
+                    cwd=pickled.parent,
                     capture_output=True,
                     text=True,
                 )

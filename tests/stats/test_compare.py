@@ -265,7 +265,7 @@ def _simulated_results(root, n_cells: int, shift: float) -> None:
     for i in range(n_cells):
         d = dataset(rng, 20, 0.5)
         cell = json.dumps(
-            {"sensor_type": "Nano17", "sensor_instance": "index", "window": i}, sort_keys=True
+            {"sensor_type": "Nano17", "sensor_instance": "index", "window": i + 1}, sort_keys=True
         )
         for name, score in (("base", d["base"]), ("cand", d["cand"] - shift)):
             key = f"{name}{i:04d}"
@@ -277,7 +277,7 @@ def _simulated_results(root, n_cells: int, shift: float) -> None:
                     "split": "grouped",
                     "seed": 0,
                     "cell": cell,
-                    "window": i,
+                    "window": i + 1,
                     "status": "ok",
                     "reason": "",
                     "dataset_fingerprint": "f00d",
