@@ -60,11 +60,11 @@ from typing import Any
 import tomllib
 
 from slipbench.errors import PluginError, SlipbenchError, UsageError
+from slipbench.report.render import FORMATS
 from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
 
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
-REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
 METRICS = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
 SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
     "benchmark": {
@@ -272,8 +272,8 @@ def load_benchmark(path: str | Path) -> Benchmark:
     formats = [b["report"]] if isinstance(b.get("report"), str) else b.get("report", ["md"])
     for f in formats:
         check(
-            f in REPORT_FORMATS,
-            f"unknown report format {f!r}; one of {', '.join(REPORT_FORMATS)}",
+            f in FORMATS,
+            f"unknown report format {f!r}; one of {', '.join(FORMATS)}",
             "benchmark",
             "report",
         )
@@ -497,6 +497,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     from slipbench.data.read import read_dataset
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
+    from slipbench.report.render import renderer
     from slipbench.store.results import ResultsStore
 
     out = bench.out
@@ -542,7 +543,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     from slipbench.atomic import write_text_atomic
 
     for fmt in bench.report:
-        path = out / f"report.{REPORT_FORMATS[fmt]}"
+        path = out / f"report.{renderer(fmt).suffix}"
         write_text_atomic(path, render(blocks, fmt, standalone=True, files=files, link_from=out))
         paths.append(path)
     return rows, paths

@@ -24,12 +24,12 @@ report, or moved to an appendix by :func:`split_appendix` so that the summary st
 
 from __future__ import annotations
 
-import base64
 import dataclasses
 import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
@@ -58,13 +58,7 @@ from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import presented
 from slipbench.report.provenance import fitted_tables, header_tables, on_simulation
 from slipbench.report.reduction import reduction_blocks
-from slipbench.report.render import (
-    md_target,
-    md_text,
-    standalone_latex,
-    to_latex,
-    to_markdown,
-)
+from slipbench.report.render import Drawn, renderer
 from slipbench.report.tables import (
     SIMULATED,
     Table,
@@ -72,7 +66,6 @@ from slipbench.report.tables import (
     baseline_table,
     build_table,
     compute_table,
-    escape,
     fits,
     generic_layout,
     metrics_table,
@@ -135,7 +128,9 @@ def split_appendix(
     """(summary, appendix): the report without its :class:`Detail` blocks, each section that
     had some pointing to ``appendix`` (the appendix's path as the summary links it), and the
     appendix: those blocks under their sections' headings, pointing back to ``summary_path``
-    (the summary's path as the appendix links it; "" where the summary has no file)."""
+    (the summary's path as the appendix links it; "" where the summary has no file). Links
+    name their target where format ``fmt`` links files, else they show their label."""
+    links = renderer(fmt).cross_links
     summary: list = []
     sections: dict[str, list] = {}
     for block in blocks:
@@ -147,13 +142,13 @@ def split_appendix(
                 Text(
                     "Each detector's own tables and figures of this section: ",
                     Link(f"{appendix}, {block.section}", f"{appendix}#{_anchor(block.section)}")
-                    if fmt == "md"
+                    if links
                     else Link(f"{appendix}, section {block.section}", ""),
                     ".",
                 )
             )
         sections.setdefault(block.section, []).extend(block.blocks)
-    back = Link(summary_path, summary_path if fmt == "md" else "") if summary_path else None
+    back = Link(summary_path, summary_path if links else "") if summary_path else None
     rest: list = [
         Heading("slipbench report: appendix", 1),
         Text(
@@ -604,7 +599,8 @@ def render(
     files: dict[str, list[Path]] | None = None,
     link_from: str | os.PathLike | None = None,
 ) -> str:
-    """Blocks as one Markdown, LaTeX or HTML text.
+    """Blocks as one text in format ``fmt`` (:data:`~slipbench.report.render.FORMATS`), by
+    that format's renderer.
 
     ``files``: figures drawn already (stem -> paths, from :func:`write_figures`): Markdown links
     them (relative to ``link_from``, the report's folder), LaTeX includes their PDF. HTML embeds
@@ -612,102 +608,26 @@ def render(
     """
     from slipbench.report.plots import FigureSpec
 
-    blocks = flatten(blocks)
+    out = renderer(fmt, standalone)
     files = files or {}
     base = Path(link_from) if link_from is not None else Path.cwd()
-    if fmt == "html":
-        from slipbench.report.html import page
-
-        parts = []
-        for block in blocks:
-            if isinstance(block, FigureSpec):
-                png = _png(block, files)
-                if png is not None:
-                    parts.append(
-                        (
-                            "figure",
-                            (block.stem, block.caption, base64.b64encode(png).decode("ascii")),
-                        )
-                    )
-            else:
-                parts.append((type(block).__name__.lower(), block))
-        return page(parts)
-    out: list[str] = []
-    sections = 0
-    for block in blocks:
+    parts = []
+    for block in flatten(blocks):
         if isinstance(block, Heading):
-            out.append(_heading(block, fmt, standalone, sections))
-            sections += block.level == 2
+            parts.append(out.heading(block))
         elif isinstance(block, Text):
-            out.append(_paragraph(block, fmt, standalone))
+            parts.append(out.paragraph(block))
         elif isinstance(block, Table):
-            out.append(to_markdown(block) if fmt == "md" else to_latex(block, page=standalone))
-        elif isinstance(block, FigureSpec) and block.stem in files:
-            paths = {p.suffix: Path(os.path.relpath(p, base)).as_posix() for p in files[block.stem]}
-            out += _figure(block.caption, paths, fmt, standalone)
-    text = "\n\n".join(out) + "\n"
-    if fmt == "latex" and standalone:
-        return standalone_latex(
-            text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks)
-        )
-    return text
-
-
-def _one_line(text: str) -> str:
-    return " ".join(text.splitlines())
-
-
-def _heading(block: Heading, fmt: str, standalone: bool, sections: int) -> str:
-    """A heading: Markdown's, a LaTeX comment (tables only), or a LaTeX section; its text
-    escaped. ``sections``: level-2 headings before it (each after the first opens a page)."""
-    if fmt == "md":
-        return "#" * block.level + " " + md_text(block.text)
-    if not standalone:
-        return f"% {_one_line(block.text)}"
-    if block.level == 1:
-        return rf"{{\LARGE\bfseries {escape(block.text)}\par}}"
-    if block.level == 2:  # a section per page: its floats stay near its heading
-        return (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
-    # a heading at a page's foot goes to the next page, with its first table
-    return rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
-
-
-def _paragraph(block: Text, fmt: str, standalone: bool) -> str:
-    """A paragraph, its text escaped and its link (Markdown's own, else its label)."""
-    link = block.link
-    if fmt == "md":
-        shown = (
-            ""
-            if link is None
-            else f"[{md_text(link.label)}]({md_target(link.target)})"
-            if link.target
-            else md_text(link.label)
-        )
-        return md_text(block.text, paragraph=True) + shown + md_text(block.after)
-    text = block.text + ("" if link is None else link.label) + block.after
-    return escape(text) if standalone else f"% {_one_line(text)}"
-
-
-def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> list[str]:
-    """A drawn figure (``paths``: suffix -> path relative to the report): Markdown's image
-    with its caption under it, or a LaTeX float of its PDF."""
-    if fmt == "md" and ".png" in paths:
-        return [f"![{md_text(caption)}]({md_target(paths['.png'])})\n\n_{md_text(caption)}_"]
-    if fmt != "latex" or ".pdf" not in paths:
-        return []
-    return [
-        "\n".join(
-            [
-                r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
-                r"\centering",
-                # a tall figure shrinks to the page rather than run off it
-                r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
-                rf"{{{paths['.pdf']}}}",  # its stem is file_stem's: letters, digits, dots, hyphens
-                rf"\caption{{{escape(caption)}}}",
-                r"\end{figure}",
-            ]
-        )
-    ]
+            parts.append(out.table(block))
+        elif isinstance(block, FigureSpec):
+            paths = {
+                p.suffix: Path(os.path.relpath(p, base)).as_posix()
+                for p in files.get(block.stem, [])
+            }
+            parts.append(
+                out.figure(Drawn(block.stem, block.caption, paths, partial(_png, block, files)))
+            )
+    return out.document([p for p in parts if p])
 
 
 def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
@@ -726,7 +646,8 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     why = fits(layout, rows)
     shown = generic_layout(rows, protocol) if why else layout
     tables = protocol_tables(rows, shown, protocol, detector, intervals=intervals)
-    return "\n\n".join(to_markdown(t) for _, t in tables)
+    markdown = renderer("md")
+    return "\n\n".join(markdown.table(t) for _, t in tables)
 
 
 __all__ = [

@@ -1,5 +1,6 @@
 """Result rows -> tables in a protocol's layout: labels, ordering, figures per cell, and the
-paper's extra tables at window 50. Format-independent: :mod:`slipbench.report.render` writes them out.
+paper's extra tables at window 50. In no format: a renderer (:mod:`slipbench.report.render`)
+writes them out.
 
 Layouts follow Van Wyk & Falco where the protocol declares the paper's: window size (Table I),
 sampling rate with its per-sensor rate header (Table II), material and speed with two numbers
@@ -84,7 +85,7 @@ COLUMN_UNITS = {
 
 @dataclass
 class Table:
-    """A rendered-format-independent table: labels and cell texts."""
+    """A table in no format: labels and cell texts, in plain text (each renderer escapes them)."""
 
     caption: str
     row_headers: list[str]
@@ -93,7 +94,10 @@ class Table:
     rows: list[tuple[str, ...]]
     cells: list[list[str]]
     label: str
-    latex_columns: list[str] | None = None  # LaTeX column labels where they differ from ``columns``
+    # a value column's label as values each with a superscript, (value, superscript) pairs by
+    # the column's index (the rates of the paper's Table II, numbered by sensor type), for a
+    # format that sets superscripts; ``columns`` holds the same label as plain text
+    superscripts: dict[int, list[tuple[str, str]]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
     # each this fraction of the line width; text columns need it, numbers do not
@@ -125,45 +129,6 @@ def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
 def ordered(values: Iterable[Any], column: str) -> list[Any]:
     out = rank(values, ORDERS.get(column, ()))
     return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
-
-
-LATEX_CHARS = {
-    "\\": r"\textbackslash{}",
-    "&": r"\&",
-    "%": r"\%",
-    "_": r"\_",
-    "#": r"\#",
-    "{": r"\{",
-    "}": r"\}",
-    "$": r"\$",
-    "~": r"\textasciitilde{}",
-    "^": r"\textasciicircum{}",
-    "±": r"$\pm$",
-    "—": "--",
-    "–": "--",
-    "−": "-",
-    LOW_MARK: r"\dag{}",
-    "χ": r"$\chi$",
-    "²": r"$^2$",
-    "α": r"$\alpha$",
-    "≥": r"$\geq$",
-    "≤": r"$\leq$",
-    "×": r"$\times$",
-    "µ": r"$\mu$",
-    "≈": r"$\approx$",
-    "→": r"$\rightarrow$",
-    "<": r"$<$",
-    ">": r"$>$",
-}
-
-
-def escape(text: str) -> str:
-    """Plain text as LaTeX (kernel commands only), one character at a time so that no
-    replacement is escaped again; on one line (a blank line would end a cell's paragraph),
-    control characters as spaces."""
-    return "".join(
-        LATEX_CHARS.get(c, " " if c.isspace() or not c.isprintable() else c) for c in str(text)
-    )
 
 
 def _as_printed(percent: float) -> str:
@@ -355,18 +320,18 @@ def fits(layout: Layout, rows: pd.DataFrame) -> str:
 
 def _column_labels(
     layout: Layout, rows: pd.DataFrame, columns: list[Any]
-) -> tuple[list[str], list[str], list[str]]:
-    """Plain and LaTeX column labels, and notes. With ``layout.column_label``, the label's value
-    per sensor type, numbered by superscripts as the rates of the paper's Table II; with
-    ``layout.note_column``, a note listing that column's values per sensor type."""
+) -> tuple[list[str], dict[int, list[tuple[str, str]]], list[str]]:
+    """Plain column labels, the same with superscripts (:attr:`Table.superscripts`), and notes.
+    With ``layout.column_label``, the label's value per sensor type, numbered by superscripts
+    as the rates of the paper's Table II; with ``layout.note_column``, a note listing that
+    column's values per sensor type."""
     notes = _note_column(layout, rows, columns)
     if not layout.column_label or layout.column_label not in rows or "sensor_type" not in rows:
-        plain = [label(layout.column, c) for c in columns]
-        return plain, [escape(p) for p in plain], notes
+        return [label(layout.column, c) for c in columns], {}, notes
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     number = {s: i + 1 for i, s in enumerate(sensors)}
-    plain, latex = [], []
-    for c in columns:
+    plain, marked = [], {}
+    for j, c in enumerate(columns):
         rates = (
             rows[rows[layout.column] == c]
             .groupby(layout.column_label, sort=True)["sensor_type"]
@@ -383,20 +348,15 @@ def _column_labels(
             if len(parts)
             else label(layout.column, c)
         )
-        latex.append(
-            r"\begin{tabular}{@{}c@{}}"
-            + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
-            + r"\end{tabular}"
-            if len(parts) > 1
-            else plain[-1]
-        )
+        if len(parts) > 1:
+            marked[j] = [(r, ",".join(map(str, ns))) for ns, r in parts]
     notes.insert(
         0,
         f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
         + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items())
         + ".",
     )
-    return plain, latex, notes
+    return plain, marked, notes
 
 
 def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
@@ -490,7 +450,7 @@ def build_table(
             else:
                 line.append(one((*rk, c)))
         cells.append(line)
-    plain, latex, notes = _column_labels(layout, rows, columns)
+    plain, marked, notes = _column_labels(layout, rows, columns)
     row_labels: list[tuple[str, ...]]
     if layout.merge_rows:
         row_labels = [(", ".join(label(k, v) for k, v in zip(layout.rows, rk)),) for rk in row_keys]
@@ -508,7 +468,7 @@ def build_table(
         notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
-    return Table(caption, headers, group, plain, row_labels, cells, "", latex, notes)
+    return Table(caption, headers, group, plain, row_labels, cells, "", marked, notes)
 
 
 def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict[tuple, float]:
@@ -973,7 +933,7 @@ def side_by_side(
         ]
         for d in detectors
     ]
-    plain, latex, notes = _column_labels(layout, rows, columns)
+    plain, marked, notes = _column_labels(layout, rows, columns)
     units = avg["units"]
     notes.append(
         f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
@@ -985,7 +945,7 @@ def side_by_side(
     group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(
-        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes
+        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, marked, notes
     )
 
 
@@ -1104,8 +1064,6 @@ def add_versus(table: Table, texts: Sequence[str], reference: str, methods: Sequ
     ``reference`` detector (``texts``, in the table's line order), and a note saying how."""
     header = f"{VERSUS} ({reference})"
     table.columns.append(header)
-    if table.latex_columns is not None:
-        table.latex_columns.append(escape(header))
     for line, text in zip(table.cells, texts):
         line.append(text)
     how = "; ".join(sorted(set(methods)))

@@ -168,7 +168,7 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     from slipbench.report.document import protocol_tables
     from slipbench.report.plots import figure
     from slipbench.report.presentation import lineage, presented
-    from slipbench.report.render import to_latex, to_markdown
+    from slipbench.report.render import FORMATS, renderer
 
     layout = presented(lineage(protocols.id_of(type(protocol)), type(protocol)), _layout(protocol))
     cells, _ = _cells(protocol, dataset or toy_dataset())
@@ -209,7 +209,9 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     assert tables, "the layout made no table"
     for _, table in tables:
         assert table.rows and table.columns, f"table {table.caption!r} has no rows or columns"
-        assert to_markdown(table) and to_latex(table).count(r"\begin{tabular}") >= 1
+        shown = {fmt: renderer(fmt).table(table) for fmt in FORMATS}  # every format renders it
+        assert shown["md"] and "<table" in shown["html"]
+        assert shown["latex"].count(r"\begin{tabular}") >= 1
     if layout.figure:
         import matplotlib.pyplot as plt
 

@@ -184,7 +184,7 @@ def test_names_and_units_as_the_dataset_spells_them(tmp_path):
 
 
 def test_latex_page_tables_stay_under_their_headings_and_within_the_page():
-    from slipbench.report.render import LONG_TABLE_LINES, latex_lines, to_latex
+    from slipbench.report.latex import LONG_TABLE_LINES, latex_lines, to_latex
 
     def table(n: int) -> Table:
         rows = [(f"unit {i}",) for i in range(n)]

@@ -16,6 +16,7 @@ from slipbench.app.options import (
     plugins_option,
 )
 from slipbench.app.selection import add_plugin_folders
+from slipbench.report.render import FORMATS
 
 
 @dataclass(frozen=True)
@@ -40,7 +41,7 @@ class ReportArgs:
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["md", "latex", "html"]),
+    type=click.Choice(list(FORMATS)),
     default="md",
     show_default=True,
     help="html: one self-contained page, figures embedded.",
@@ -91,12 +92,14 @@ def report(**options) -> None:
     import pandas as pd
 
     from slipbench.report.document import build_report, render, split_appendix, write_figures
+    from slipbench.report.render import renderer
     from slipbench.stats.factors import latest_runs
     from slipbench.store.results import check_unique_keys, read_results, results_folder
 
-    if o.appendix is not None and o.fmt == "html":
+    if o.appendix is not None and not renderer(o.fmt).appendix:
+        paged = ", ".join(f for f in FORMATS if renderer(f).appendix)
         raise click.BadParameter(
-            "the HTML page keeps every table on one page; use --appendix with --format md or latex",
+            f"a report in {o.fmt} keeps every table in one file; use --appendix with --format {paged}",
             param_hint="--appendix",
         )
     if o.appendix is not None and o.out is not None and o.appendix.resolve() == o.out.resolve():
