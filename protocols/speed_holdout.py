@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from slipbench.protocol import HoldoutProtocol, Layout
+from slipbench.protocol import HoldoutProtocol, Layout, Presentation
 from slipbench.vocabulary import DATASET_SIDE
 
 SLIPPING = ("slip", "hold-slip")  # the scenarios whose speed is a slip speed
@@ -31,6 +31,14 @@ class SpeedHoldout(HoldoutProtocol):
     """Each slip speed with and without explicit training (the paper's Table IV)."""
 
     layout = Layout(rows=("sensor_type", "sensor_instance"), column="speed_mm_s", pair="training")
+    presentation = Presentation(
+        "Slip state classification with and without (*) explicit training of indicated speeds "
+        "across sensors.",
+        title="Slip speed",
+        group="at Speed",
+        figure="with-without",
+        paper_table="speed-holdout",
+    )
     holdout_column = "speed_mm_s"
     test_column = "speed_group"  # pressing has no speed: columns() assigns it one
 

@@ -318,13 +318,14 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
             Entry(
                 "slipbench.protocol:BaseProtocol",
                 "from slipbench.protocol import BaseProtocol, Layout, sensor_pairs, window_cells\n"
-                "from slipbench.protocol import Cell, Part\n"
+                "from slipbench.protocol import Cell, Part, Presentation\n"
                 "\n"
                 "\n"
                 "class OneWindow(BaseProtocol):\n"
                 '    """Each unit at one window, trained and tested on itself."""\n'
                 "\n"
-                '    layout = Layout("Accuracy per unit.", rows=("sensor_type",), column="window")\n'
+                '    layout = Layout(rows=("sensor_type",), column="window")\n'
+                '    presentation = Presentation("Accuracy per unit.", title="One window")\n'
                 "\n"
                 "    def cells(self, recordings):\n"
                 "        for sensor in sensor_pairs(recordings):\n"
@@ -362,8 +363,11 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
             ),
             Entry(
                 "slipbench.protocol:Layout",
-                'Layout("Accuracy with and without each material.", rows=("sensor_type",),\n'
-                '       column="material", pair="training", figure="with-without")\n',
+                'Layout(rows=("sensor_type",), column="material", pair="training")\n',
+            ),
+            Entry(
+                "slipbench.protocol:Presentation",
+                'Presentation("Accuracy with and without each material.", figure="with-without")\n',
             ),
             Entry(
                 "slipbench.protocol:HoldoutProtocol",
@@ -374,9 +378,9 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 '    """Each material with and without training on it (option: window)."""\n'
                 "\n"
                 '    holdout_column = "material"\n'
-                "    layout = Layout(\n"
-                '        "Accuracy with and without each material.", rows=("sensor_type",),\n'
-                '        column="material", pair="training",\n'
+                '    layout = Layout(rows=("sensor_type",), column="material", pair="training")\n'
+                "    presentation = Presentation(\n"
+                '        "Accuracy with and without each material.", figure="with-without"\n'
                 "    )\n"
                 "\n"
                 "    def levels(self, recordings):\n"

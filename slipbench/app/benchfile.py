@@ -493,6 +493,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
+    from slipbench.app.selection import recorded_plugins
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
     from slipbench.engine.runner import evaluate
@@ -530,7 +531,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         progress=progress,
     )
     blocks = build_report(
-        rows,
+        recorded_plugins(rows),  # cells kept from a run before rows recorded their layouts
         metric=bench.metric,
         intervals=bench.intervals,
         paper=bench.paper,

@@ -55,7 +55,7 @@ from slipbench.report.outline import (
     which_text,
 )
 from slipbench.report.paper import paper_frame
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import ShownLayout
 from slipbench.report.provenance import fitted_tables, header_tables, on_simulation
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import Drawn, renderer
@@ -66,8 +66,6 @@ from slipbench.report.tables import (
     baseline_table,
     build_table,
     compute_table,
-    fits,
-    generic_layout,
     metrics_table,
     rank,
     rates_table,
@@ -165,7 +163,12 @@ def split_appendix(
 
 
 def protocol_tables(
-    rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, split: str = "", **options
+    rows: pd.DataFrame,
+    layout: ShownLayout,
+    protocol: str,
+    detector: str,
+    split: str = "",
+    **options,
 ) -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
     decimation), captions naming the detector and protocol. ``options``: :class:`ReportOptions`.
@@ -270,7 +273,9 @@ def _stream_note(rows: pd.DataFrame) -> str:
     )
 
 
-def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_: str) -> Table:
+def _operating_point(
+    rows: pd.DataFrame, layout: ShownLayout, intervals: bool, label_: str
+) -> Table:
     """A streaming table at the operating point (``op_`` columns): the threshold that keeps 1
     false alarm per minute on the training trials' streams, evaluated on the test trials."""
     budget = (
@@ -290,7 +295,7 @@ def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_
     return table
 
 
-def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table | None:
+def published_table(rows: pd.DataFrame, layout: ShownLayout, protocol: str) -> Table | None:
     """The published table (the paper's LSTM) laid out on the cells of ``rows``, or None where
     the layout names no paper table."""
     ref = paper_frame(layout.paper_table) if layout.paper_table else None
@@ -319,7 +324,7 @@ class _Shared:
 def _protocol_blocks(
     rows: pd.DataFrame,
     protocol: str,
-    found: tuple[Layout, str],  # the protocol's layout and its note
+    found: tuple[ShownLayout, str],  # the protocol's layout and its note
     o: ReportOptions,
     shared: _Shared,
 ) -> list:
@@ -391,7 +396,7 @@ def _protocol_blocks(
 
 
 def build_report(
-    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]] | None = None, **options
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]] | None = None, **options
 ) -> list:
     """The report as blocks (:class:`Heading`, :class:`Text`, tables, and, with
     ``with_figures``, :class:`~slipbench.report.plots.FigureSpec`), in the module's outline.
@@ -512,7 +517,9 @@ def _leaderboards(
     return blocks
 
 
-def _findings(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> list:
+def _findings(
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]], order: list[str]
+) -> list:
     """How the paper's findings fare on ``rows``: one pair of tables per combination of the
     settings that differ between them."""
     from slipbench.report.findings import findings_table, paper_findings_table
@@ -630,9 +637,9 @@ def render(
     return out.document([p for p in parts if p])
 
 
-def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
+def protocol_table(rows: pd.DataFrame, intervals: bool = False) -> str:
     """The Markdown table(s) of one protocol's rows for one detector (what ``evaluate`` prints),
-    ``layout`` shown as :func:`~slipbench.report.presentation.presented` says."""
+    in the layout the rows record (:func:`~slipbench.report.outline.layouts`)."""
     rows = pd.DataFrame(rows)
     if rows.empty:
         return "(no cells)"
@@ -642,10 +649,8 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     rows = as_tested(rows[~standing])
     rows = rows.assign(**{SIMULATED: on_simulation(rows)})
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
-    layout = presented(protocol, layout)
-    why = fits(layout, rows)
-    shown = generic_layout(rows, protocol) if why else layout
-    tables = protocol_tables(rows, shown, protocol, detector, intervals=intervals)
+    layout, _ = layouts(rows)[protocol]
+    tables = protocol_tables(rows, layout, protocol, detector, intervals=intervals)
     markdown = renderer("md")
     return "\n\n".join(markdown.table(t) for _, t in tables)
 

@@ -1,5 +1,5 @@
-"""What a report is made of, before any table is drawn: each protocol's layout (from the
-registry), the order of protocols, detectors and splits, and the parts of rows each table and
+"""What a report is made of, before any table is drawn: each protocol's layout (as its rows
+record it), the order of protocols, detectors and splits, and the parts of rows each table and
 figure shows. Shared by the report, its figures, the findings and compare."""
 
 from __future__ import annotations
@@ -8,12 +8,17 @@ import json
 
 import pandas as pd
 
-from slipbench.errors import SlipbenchError
-from slipbench.protocol import NO_CELL, Layout
+from slipbench.protocol import NO_CELL, Layout, Presentation, from_record
 from slipbench.report.paper import table_order
-from slipbench.report.presentation import lineage, presented
-from slipbench.report.tables import TRAINED_AS, fits, generic_layout, rank
-from slipbench.stats.factors import SETTINGS, differing_settings, factor_values, setting_text
+from slipbench.report.presentation import ShownLayout, shown
+from slipbench.report.tables import TRAINED_AS, rank
+from slipbench.stats.factors import (
+    ENTRANT_ID,
+    SETTINGS,
+    differing_settings,
+    factor_values,
+    setting_text,
+)
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
 
 
@@ -77,41 +82,74 @@ def no_cell_note(rows: pd.DataFrame, datasets: int = 1) -> str:
     return "No table:" + "".join(parts)
 
 
-def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
-    """Each protocol's layout, from its class in the registry (built-in, entry point or plugin
-    folder) made with the options its rows ran with and shown as :func:`presented` says, and a note when it fell back to a layout
-    from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows).
-    Stand-in rows (:func:`stand_ins`) are not laid out: a protocol with nothing else keeps its
-    own layout, for its place in the report."""
-    from slipbench.engine.registry import protocols
+def _key_columns(rows: pd.DataFrame) -> list[str]:
+    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
+    keys: list[str] = []
+    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
+        for k in json.loads(text):
+            if k not in keys:
+                keys.append(k)
+    return keys
 
-    out: dict[str, tuple[Layout, str]] = {}
+
+def generic_layout(rows: pd.DataFrame, protocol: str) -> ShownLayout:
+    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
+    its rows): all keys but the last as rows, the last as columns."""
+    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
+    what = Layout((keys[0],), "detector") if len(keys) == 1 else Layout(tuple(keys[:-1]), keys[-1])
+    return shown(what, Presentation(title=protocol), protocol)
+
+
+def fits(layout: Layout, rows: pd.DataFrame) -> str:
+    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
+    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
+    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
+
+
+def _recorded(rows: pd.DataFrame, column: str) -> str:
+    """The first value the rows record in ``column`` ("" where none does)."""
+    if column not in rows:
+        return ""
+    given = rows[column].dropna().astype(str)
+    given = given[given != ""]
+    return given.iloc[0] if len(given) else ""
+
+
+def recorded_layout(rows: pd.DataFrame, protocol: str) -> ShownLayout | None:
+    """The layout and presentation that the rows of ``protocol`` record
+    (:func:`slipbench.protocol.described`), or None where they record none; a ValueError says
+    why a recorded one cannot be read."""
+    text = _recorded(rows, "protocol_layout")
+    if not text:
+        return None
+    look = _recorded(rows, "protocol_presentation")
+    return shown(
+        from_record(Layout, text), from_record(Presentation, look) if look else None, protocol
+    )
+
+
+def layouts(rows: pd.DataFrame) -> dict[str, tuple[ShownLayout, str]]:
+    """Each protocol's layout as its rows record it (:func:`recorded_layout`), and a note where
+    the report laid its rows out from their cell keys instead: the rows record no layout (rows
+    written before results recorded it, that the command could not fill in from the protocol's
+    plugin), one that cannot be read, or one that does not fit them. Stand-in rows (:func:`stand_ins`) are not
+    laid out: a protocol with nothing else keeps its own layout, for its place in the report."""
+    out: dict[str, tuple[ShownLayout, str]] = {}
     for name in rows["protocol"].unique():
         every = rows[rows["protocol"] == name]
         part = every[~stand_ins(every)]
-        layout: Layout | None
+        layout: ShownLayout | None
         try:
-            cls = protocols.get(name)
-            given = every["protocol_params"].iloc[0] if "protocol_params" in every else None
-            params = json.loads(given) if isinstance(given, str) else {}  # absent: the defaults
-            declared = cls(**params).layout
-            layout = (
-                presented(lineage(name, cls), declared)
-                if isinstance(declared, Layout)
-                else declared
-            )
+            layout = recorded_layout(every, name)
             why = (
-                "it declares no layout"
+                "its rows do not record the protocol's layout"
                 if layout is None
                 else fits(layout, part)
                 if len(part)
                 else ""
             )
-        except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError) as exc:
-            layout, why = (
-                None,
-                f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins",
-            )
+        except ValueError as exc:
+            layout, why = None, f"its rows record a layout that cannot be read ({exc})"
         if why or layout is None:
             out[name] = (
                 generic_layout(part if len(part) else every, name),
@@ -122,7 +160,7 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
     return out
 
 
-def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
+def protocol_order(found: dict[str, tuple[ShownLayout, str]]) -> list[str]:
     """Protocols laid out as the paper's tables first, in the paper's order, then the others."""
     paper_order = table_order()
 
@@ -146,7 +184,7 @@ def splits_of(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
 
 
 def sections_of(
-    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]]
 ) -> list[tuple[str, str, str, pd.DataFrame]]:
     """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
     out = []
@@ -195,17 +233,10 @@ def which_text(which: dict) -> str:
 
 
 def references(rows: pd.DataFrame) -> list[str]:
-    """The plugin ids of the rows' detectors that are registered as the reference (the
-    baseline every table compares against); a detector that cannot be loaded is none."""
-    from slipbench.engine.registry import detectors
-    from slipbench.stats.factors import ENTRANT_ID
-
-    ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows.get("detector", pd.Series(dtype=str))
-    out = []
-    for name in sorted(ids.dropna().astype(str).unique()):
-        try:
-            if getattr(detectors.get(name), "reference", False):
-                out.append(name)
-        except SlipbenchError:
-            continue
-    return out
+    """The plugin ids of the rows' detectors that are the registered reference (the baseline
+    every table compares against), as the rows record it (``detector_reference``)."""
+    if "detector_reference" not in rows:
+        return []
+    ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
+    flagged = rows["detector_reference"].astype("boolean").fillna(False).to_numpy(bool)
+    return sorted(ids[flagged].dropna().astype(str).unique())

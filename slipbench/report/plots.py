@@ -1,7 +1,7 @@
 """Figures from result rows (matplotlib, no pyplot state), of the kinds each protocol's layout
-declares (``Layout.figure``), never chosen by a protocol's name:
+declares (``Presentation.figure``), never chosen by a protocol's name:
 
-- "curve": per detector, accuracy against ``Layout.x`` with one line per finger and its 95 %
+- "curve": per detector, accuracy against ``Presentation.x`` with one line per finger and its 95 %
   interval as a band (the paper's LSTM values as hollow markers); across detectors, every
   detector on one axis per sensor type (mean over fingers, the range over fingers shaded) with
   the paper's LSTM as a dashed reference line;
@@ -40,8 +40,8 @@ from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from slipbench.errors import writing  # noqa: E402
-from slipbench.protocol import Layout  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
+from slipbench.report.presentation import ShownLayout  # noqa: E402
 from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 from slipbench.stats.meta import MetaAnalysis  # noqa: E402
@@ -143,7 +143,7 @@ def _sensors(rows: pd.DataFrame) -> list[str]:
     return ordered(rows["sensor_type"].unique(), "sensor_type")
 
 
-def _x_axis(ax, x: pd.Series, layout: Layout) -> None:
+def _x_axis(ax, x: pd.Series, layout: ShownLayout) -> None:
     if layout.log_base:
         ax.set_xscale("log", base=layout.log_base)
         ticks = sorted(x.dropna().unique())
@@ -153,7 +153,9 @@ def _x_axis(ax, x: pd.Series, layout: Layout) -> None:
 
 
 @_styled
-def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None) -> Figure:
+def _curves(
+    rows: pd.DataFrame, layout: ShownLayout, title: str, paper: pd.DataFrame | None
+) -> Figure:
     """One detector: one panel per sensor type, stacked; one line per finger (and per
     combination of the layout's ``split`` columns that vary) with its interval band."""
     x, line, splits = layout.x or layout.column, layout.rows[-1], layout.splits
@@ -205,14 +207,14 @@ def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame 
     return _finish_figure(fig, axes, layout, x, title)
 
 
-def _finish_panel(ax, sensor: str, xs: pd.Series, layout: Layout) -> None:
+def _finish_panel(ax, sensor: str, xs: pd.Series, layout: ShownLayout) -> None:
     """A sensor's panel of an accuracy curve: its x ticks, title and y label."""
     _x_axis(ax, xs, layout)
     ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
     ax.set_ylabel("accuracy (%)")
 
 
-def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Figure:
+def _finish_figure(fig: Figure, axes, layout: ShownLayout, x: str, title: str) -> Figure:
     """Stacked panels: the x label under the last, one legend, the title wrapped to the width."""
     axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
@@ -222,7 +224,7 @@ def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Fig
 
 @_styled
 def _compare_curves(
-    rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None
+    rows: pd.DataFrame, layout: ShownLayout, title: str, paper: pd.DataFrame | None
 ) -> Figure:
     """Every detector on one axis per sensor type: the mean over fingers of each finger's
     figure (mean over seeds), the range over fingers shaded, the paper's LSTM dashed."""
@@ -311,7 +313,7 @@ def _matrix(
 
 
 @_styled
-def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
+def _heatmaps(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     """With and without explicit training (``layout.pair``) and with minus without, stacked;
     rows sensor and finger, columns ``layout.column``."""
     column, pair = layout.column, layout.pair
@@ -355,7 +357,7 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
 
 
 @_styled
-def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
+def _transfer(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     """The last row key by the column key (training by test unit), one panel per sensor type."""
     row, column = layout.rows[-1], layout.column
     sensors = _sensors(rows)
@@ -555,7 +557,7 @@ def critical_difference(board: Leaderboard) -> Figure:
     return fig
 
 
-def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figure | None:
+def figure(part: pd.DataFrame, layout: ShownLayout, title: str, paper: bool) -> Figure | None:
     """One detector's figure of the kind ``layout.figure`` asks for, or None (no figure kind,
     or rows it cannot draw)."""
     if layout.figure is None or "sensor_type" not in part:
@@ -577,7 +579,9 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figur
     return _transfer(part, layout, f"{layout.title or 'Accuracy'}: {title}")
 
 
-def compare_figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figure | None:
+def compare_figure(
+    part: pd.DataFrame, layout: ShownLayout, title: str, paper: bool
+) -> Figure | None:
     """Every detector of ``part`` on one figure, where ``layout.figure`` is a curve; else None."""
     if layout.figure != "curve" or "sensor_type" not in part or part["detector"].nunique() < 2:
         return None

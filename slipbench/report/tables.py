@@ -11,7 +11,6 @@ and TP/TN rates per sensor type.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -22,6 +21,7 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
+from slipbench.report.presentation import ShownLayout
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import FIGURES, classes_low_n, seeds_from_rows, stream_low_n
@@ -153,14 +153,40 @@ def _value_text(value: Any) -> str:
         return str(value)
 
 
+COUNTS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten")
+
+
+def sensors_text(rows: pd.DataFrame) -> str:
+    """What units ``rows`` hold, for a caption: "three types of sensors and fingers", "the
+    fingers of one sensor type (Biotac SP)", "one sensor (Biotac SP, ff)"."""
+    if "sensor_type" not in rows or rows["sensor_type"].dropna().empty:
+        return "sensors and fingers"
+    types = ordered(rows["sensor_type"].dropna().unique(), "sensor_type")
+    if len(types) > 1:
+        count = COUNTS[len(types)] if len(types) < len(COUNTS) else f"{len(types):,}"
+        return f"{count} types of sensors and fingers"
+    name = label("sensor_type", types[0])
+    fingers = rows["sensor_instance"].dropna().unique() if "sensor_instance" in rows else []
+    if len(fingers) == 1:
+        return f"one sensor ({name}, {label('sensor_instance', fingers[0])})"
+    return f"the fingers of one sensor type ({name})"
+
+
+#: a caption's placeholders that name no column: what the rows hold, in words
+DESCRIBED = {"sensors": sensors_text}
+
+
 def caption_of(caption: str, rows: pd.DataFrame) -> str:
-    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Layout`) replaced
-    by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor type
-    where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)". A name the rows do
-    not give stays as written."""
+    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Presentation`)
+    replaced by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor
+    type where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)"; ``{sensors}``
+    by what units they are (:func:`sensors_text`). A name the rows do not give stays as
+    written."""
 
     def values(match: re.Match) -> str:
         column = match.group(1)
+        if column in DESCRIBED and column not in rows:
+            return DESCRIBED[column](rows)
         if column not in rows or rows[column].dropna().empty:
             return match.group(0)
         if "sensor_type" in rows and rows[column].nunique() > 1:
@@ -293,33 +319,8 @@ def figure_text(figure: CellFigure, intervals: bool = False) -> str:
     return metric_text("", figure, intervals)
 
 
-def _key_columns(rows: pd.DataFrame) -> list[str]:
-    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
-    keys: list[str] = []
-    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
-        for k in json.loads(text):
-            if k not in keys:
-                keys.append(k)
-    return keys
-
-
-def generic_layout(rows: pd.DataFrame, protocol: str) -> Layout:
-    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
-    its rows): all keys but the last as rows, the last as columns."""
-    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
-    if len(keys) == 1:
-        return Layout(f"Protocol {protocol}.", tuple(keys), "detector", title=protocol)
-    return Layout(f"Protocol {protocol}.", tuple(keys[:-1]), keys[-1], title=protocol)
-
-
-def fits(layout: Layout, rows: pd.DataFrame) -> str:
-    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
-    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
-    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
-
-
 def _column_labels(
-    layout: Layout, rows: pd.DataFrame, columns: list[Any]
+    layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]
 ) -> tuple[list[str], dict[int, list[tuple[str, str]]], list[str]]:
     """Plain column labels, the same with superscripts (:attr:`Table.superscripts`), and notes.
     With ``layout.column_label``, the label's value per sensor type, numbered by superscripts
@@ -359,7 +360,7 @@ def _column_labels(
     return plain, marked, notes
 
 
-def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
+def _note_column(layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
     """ "Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
     col = layout.note_column
     if not col or col not in rows or "sensor_type" not in rows:
@@ -400,7 +401,7 @@ class TableValues:
 
 def build_table(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     metric: str = "accuracy",
     intervals: bool = False,
     shown: TableValues = TableValues(),
@@ -781,7 +782,7 @@ def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str
 
 def metrics_table(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     metrics: Sequence[str],
     intervals: bool = False,
     prefix: str = "",
@@ -838,7 +839,7 @@ def ordered_keys(rows: pd.DataFrame, keys: list[str]) -> list[tuple]:
     return list(row_values.itertuples(index=False, name=None))
 
 
-def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table | None:
+def compute_table(rows: pd.DataFrame, layout: ShownLayout, label_: str = "") -> Table | None:
     """A streaming detector's compute time per hop against its real-time budget, one line per
     row of ``layout``: the compute time (mean over seeds), the budget (the hop period) and
     whether it was met ("yes", "no", or in how many seeds). None where the rows hold no compute
@@ -892,7 +893,7 @@ def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table
 
 def side_by_side(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     detectors: Sequence[str],
     metric: str = "accuracy",
     label_: str = "",
@@ -950,7 +951,7 @@ def side_by_side(
 
 
 def _metrics_side_by_side(
-    rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str
+    rows: pd.DataFrame, layout: ShownLayout, detectors: Sequence[str], label_: str
 ) -> Table:
     """A layout with several metrics (streaming): a row per detector, a column per metric, each
     the mean over units of each unit's figure (mean over seeds)."""

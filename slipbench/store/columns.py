@@ -105,8 +105,23 @@ IDENTITY = (
     Column("run_id", STR, "", "UTC time stamp of the run that computed the cell"),
     Column("protocol", STR, "", "protocol id"),
     Column("protocol_params", STR, JSON, "the protocol's parameters"),
+    Column(
+        "protocol_layout", STR, JSON, "what the protocol's cells are: its table's rows and columns"
+    ),
+    Column(
+        "protocol_presentation",
+        STR,
+        JSON,
+        "how the protocol's table and figure look ('' where it declares none)",
+    ),
     Column("detector", STR, "", "detector id"),
     Column("detector_params", STR, JSON, "the detector's parameters"),
+    Column(
+        "detector_reference",
+        BOOL,
+        "",
+        "the detector is the registered reference, the baseline tables compare against",
+    ),
     Column("split", STR, "", "how windows were split into training and test sides"),
     Column("seed", INT, "", "the run's seed"),
     Column("labels", STR, "", "how windows were labelled (scenario or samples)"),

@@ -14,11 +14,10 @@ import pandas as pd
 import pytest
 from goldens import check_golden
 from rendering import render_report
-from resultgen import all_rows, fake_rows
+from resultgen import all_rows, fake_rows, recorded
 
 from slipbench.app.cli import main
 from slipbench.data.synth import MODEL_VERSION
-from slipbench.engine.registry import protocols
 from slipbench.report.document import protocol_table
 from slipbench.report.paper import paper_frame
 from slipbench.report.tables import LOW_NOTE
@@ -94,7 +93,7 @@ def test_latex_compiles_within_the_text_width(tmp_path):
 
 def test_repeats_show_mean_and_spread():
     rows = fake_rows("sampling-rate", seeds=(0, 1, 2))
-    text = protocol_table(rows, protocols.get("sampling-rate")().layout)
+    text = protocol_table(rows)
     one = rows[
         (rows["sensor_type"] == "Nano17")
         & (rows["sensor_instance"] == "index")
@@ -332,6 +331,7 @@ def test_findings_of_the_paper_reproduce_on_its_own_numbers():
             antialias=False,
             protocol_params="{}",
             cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")],
+            **recorded(protocol, "lstm"),
         )
         parts.append(rows)
     rows = pd.concat(parts, ignore_index=True)
@@ -369,6 +369,7 @@ def _paper_rows() -> pd.DataFrame:
                 antialias=False,
                 protocol_params="{}",
                 cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")],
+                **recorded(protocol, "lstm"),
             )
         )
     rows = pd.concat(parts, ignore_index=True)

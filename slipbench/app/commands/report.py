@@ -15,7 +15,7 @@ from slipbench.app.options import (
     out_option,
     plugins_option,
 )
-from slipbench.app.selection import add_plugin_folders
+from slipbench.app.selection import add_plugin_folders, recorded_plugins
 from slipbench.report.render import FORMATS
 
 
@@ -113,6 +113,7 @@ def report(**options) -> None:
             " + ".join(map(str, o.results)),
         )
     )
+    rows = recorded_plugins(rows)  # rows written before they recorded their layouts
     blocks = build_report(
         rows,
         superseded=superseded,
