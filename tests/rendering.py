@@ -9,6 +9,7 @@ from pathlib import Path
 import pandas as pd
 
 from slipbench.report.document import build_report, render, write_figures
+from slipbench.report.outline import outline
 from slipbench.report.plots import figure_specs, save
 
 
@@ -33,7 +34,7 @@ def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = Tru
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []
-    for spec in figure_specs(rows, paper, None):
+    for spec in figure_specs(outline(rows), paper):
         fig = spec.draw()
         if fig is not None:
             paths += save(fig, folder, spec.stem)

@@ -44,13 +44,14 @@ from slipbench.report.leaderboard import (
 )
 from slipbench.report.meta import meta_blocks
 from slipbench.report.outline import (
+    Section,
+    Split,
     as_tested,
     layouts,
     no_cell_note,
+    outline,
     protocol_order,
-    references,
     split_parts,
-    splits_of,
     stand_ins,
     which_text,
 )
@@ -74,7 +75,7 @@ from slipbench.report.tables import (
     split_table,
     table_keys,
 )
-from slipbench.stats.factors import named_entrants, setting_parts
+from slipbench.stats.factors import setting_parts
 from slipbench.stats.leaderboard import leaderboard
 from slipbench.vocabulary import DETECTOR_ORDER
 
@@ -312,85 +313,70 @@ def published_table(rows: pd.DataFrame, layout: ShownLayout, protocol: str) -> T
     return table
 
 
-@dataclass(frozen=True)
-class _Shared:
-    """What every protocol's section draws on: the figures by section (FigureSpecs) and the
-    reference detectors the others are set against."""
-
-    figures: dict[str | None, list]
-    reference: Sequence[str] = ()
+def _every_detector(
+    section: Section, split: Split, o: ReportOptions, reference: Sequence[str]
+) -> list:
+    """The tables that set every detector of a protocol side by side, one per part of a split,
+    each with its change from the ``reference`` detector where that ran."""
+    protocol, layout, tables = section.protocol, section.layout, []
+    for which, part in split.parts:
+        tag = [protocol, "detectors", *([split.name] if split.name != "paper" else [])]
+        table = side_by_side(
+            part,
+            layout,
+            [d for d in section.detectors if d in set(part["detector"])],
+            o.metric,
+            label_="tab:" + "-".join([*tag, *(str(v) for v in which.values())]),
+        )
+        if table is not None:
+            table.caption += which_text(which)
+            table.subject = f"Protocol {protocol}, {split.name} split."
+            if "detector" not in table_keys(part, layout):
+                versus_column(table, part, reference, o.predictions)
+            tables.append(table)
+    return tables
 
 
 def _protocol_blocks(
-    rows: pd.DataFrame,
-    protocol: str,
-    found: tuple[ShownLayout, str],  # the protocol's layout and its note
-    o: ReportOptions,
-    shared: _Shared,
+    section: Section, o: ReportOptions, figures: list, reference: Sequence[str]
 ) -> list:
-    (layout, note), metric, predictions = found, o.metric, o.predictions
-    figures, reference = shared.figures, shared.reference
-    prows = rows[rows["protocol"] == protocol]
+    """A protocol's section: why some of its data made no cell, its layout's note, every
+    detector side by side (with ``figures`` of them all), the published table, then each
+    detector's own tables and figures."""
+    protocol, layout = section.protocol, section.layout
     blocks: list = [Heading(protocol, 2)]
-    standing = stand_ins(prows)
-    if standing.any():  # the protocol made no cell on (some of) the data: say why
-        datasets = prows["dataset_fingerprint"].nunique() if "dataset_fingerprint" in prows else 1
-        blocks.append(Text(no_cell_note(prows[standing], datasets)))
-        prows = prows[~standing]
-        if prows.empty:
-            return blocks
-    if note:
-        blocks.append(Text(note))
-    detectors = rank(prows["detector"].unique(), DETECTOR_ORDER)
-    if len(detectors) > 1:
+    if section.no_cell:  # the protocol made no cell on (some of) the data: say why
+        blocks.append(Text(section.no_cell))
+    if section.cells.empty:
+        return blocks
+    if section.note:
+        blocks.append(Text(section.note))
+    splits = [split.name for split in section.splits]
+    if len(section.detectors) > 1:
         blocks.append(Heading(f"{protocol}: every detector", 3))
-        for split, srows in splits_of(prows):
-            for which, part in split_parts(srows, layout):
-                tag = "-".join(
-                    [
-                        protocol,
-                        "detectors",
-                        *([split] if split != "paper" else []),
-                        *(str(v) for v in which.values()),
-                    ]
-                )
-                table = side_by_side(
-                    part,
-                    layout,
-                    [d for d in detectors if d in set(part["detector"])],
-                    metric,
-                    label_=f"tab:{tag}",
-                )
-                if table is not None:
-                    table.caption += which_text(which)
-                    table.subject = f"Protocol {protocol}, {split} split."
-                    if "detector" not in table_keys(part, layout):
-                        versus_column(table, part, reference, predictions)
-                    blocks.append(table)
-        splits = [s for s, _ in splits_of(prows)]
+        for split in section.splits:
+            blocks += _every_detector(section, split, o, reference)
         blocks += sorted(
-            (f for f in figures.get(protocol, []) if f.detector is None),
+            (f for f in figures if f.detector is None),
             key=lambda f: splits.index(f.split) if f.split in splits else len(splits),
         )
     if o.paper:
-        published = published_table(prows, layout, protocol)
+        published = published_table(section.cells, layout, protocol)
         if published is not None:
             blocks += [Heading(f"{protocol}: published", 3), published]
-    for split, srows in splits_of(prows):
-        for detector in detectors:
-            drows = srows[srows["detector"] == detector]
+    for split in section.splits:
+        for detector in section.detectors:
+            drows = split.rows[split.rows["detector"] == detector]
             if drows.empty:
                 continue
-            detail: list = [Heading(f"{protocol}: {detector} ({split} split)", 3)]
+            detail: list = [Heading(f"{protocol}: {detector} ({split.name} split)", 3)]
             detail += [
                 t
                 for _, t in protocol_tables(
-                    drows, layout, protocol, detector, split, **dataclasses.asdict(o)
+                    drows, layout, protocol, detector, split.name, **dataclasses.asdict(o)
                 )
             ]
-            detail += [
-                f for f in figures.get(protocol, []) if f.detector == detector and f.split == split
-            ]
+            detail += [f for f in figures if f.detector == detector and f.split == split.name]
             blocks.append(Detail(protocol, detail))
     return blocks
 
@@ -408,47 +394,35 @@ def build_report(
     o = ReportOptions(**options)
     metric, intervals, paper, with_figures = o.metric, o.intervals, o.paper, o.with_figures
     predictions = o.predictions
-    both = rows[~stand_ins(rows)]
-    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
-    found = layouts(rows) if found is None else found
-    order = protocol_order(found)
-    splits = splits_of(rows)
-    # the header counts every row; the rest lays out cells, not the stand-ins of protocols that
-    # made none (their sections say why)
-    cells = rows[~stand_ins(rows)]
-    lead = splits[0][
-        1
-    ]  # the leaderboard and the findings rank one split: the grouped one where present
-    lead = lead[~stand_ins(lead)]
+    made = outline(rows, found)
+    cells, lead, splits = made.cells, made.lead, made.splits
     figures: dict[str | None, list] = {}
     if with_figures:
         from slipbench.report.plots import figure_specs
 
-        for spec in figure_specs(cells, paper, None, found):
+        for spec in figure_specs(made, paper):
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [
         Heading("slipbench report", 1),
         Heading("What this report stands on", 2),
-        *header_tables(rows, metric, order, o.benchmark, o.superseded),
+        *header_tables(made.rows, metric, made.order, o.benchmark, o.superseded),
         Heading("Leaderboard", 2),
     ]
     side = (
-        split_table(cells, [s for s, _ in splits], metric, order, DETECTOR_ORDER)
-        if len(splits) > 1
-        else None
+        split_table(cells, splits, metric, made.order, DETECTOR_ORDER) if len(splits) > 1 else None
     )
     if len(splits) > 1:
         blocks.append(
             Text(
-                f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split"
+                f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0]} split"
                 + (
-                    f"; the table after the leaderboard sets the {splits[1][0]} split beside it."
+                    f"; the table after the leaderboard sets the {splits[1]} split beside it."
                     if side
                     else "."
                 )
             )
         )
-    blocks += _leaderboards(lead, metric, order, with_figures, predictions)
+    blocks += _leaderboards(lead, metric, made.order, with_figures, predictions)
     lone = one_class_table(cells)  # ranked in no split
     if lone is not None:
         blocks += [Heading("Test sets of one class", 2), lone]
@@ -457,8 +431,7 @@ def build_report(
     if o.leaderboard_only:
         return blocks
     if paper:
-        blocks += _findings(lead, found, order)
-    reference = references(cells)
+        blocks += _findings(lead, made.found, made.order)
     fitted = fitted_tables(cells)
     if fitted:
         # each detector's choices are detail; the warnings about them stay in the summary
@@ -466,18 +439,18 @@ def build_report(
         blocks += [Heading("What fitting chose", 2)]
         blocks += [Detail("What fitting chose", own)] if own else []
         blocks += [t for t in fitted if not t.label.startswith("tab:fitted-")]
-    for protocol in order:
-        blocks += _protocol_blocks(rows, protocol, found[protocol], o, _Shared(figures, reference))
-    table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
+    for section in made.sections:
+        blocks += _protocol_blocks(section, o, figures.get(section.protocol, []), made.reference)
+    table_one = [s.protocol for s in made.sections if s.layout.paper_table == "window-size"]
     if table_one and "window" in lead:
         title = "At window 50: baseline and TP/TN rates" + (
-            f", {splits[0][0]} split" if len(splits) > 1 else ""
+            f", {splits[0]} split" if len(splits) > 1 else ""
         )
         blocks += _window_50(
             lead[lead["protocol"].isin(table_one)], title, intervals, paper, predictions
         )
-    blocks += meta_blocks(cells, reference, predictions, with_figures)
-    return blocks + reduction_blocks(both, predictions, with_figures)
+    blocks += meta_blocks(cells, made.reference, predictions, with_figures)
+    return blocks + reduction_blocks(made.stored, predictions, with_figures)
 
 
 def _tag(which: dict) -> str:

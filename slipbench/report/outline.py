@@ -1,22 +1,26 @@
-"""What a report is made of, before any table is drawn: each protocol's layout (as its rows
-record it), the order of protocols, detectors and splits, and the parts of rows each table and
-figure shows. Shared by the report, its figures, the findings and compare."""
+"""What a report is made of, before any table is drawn (:func:`outline`, once per report): each
+protocol's layout (as its rows record it), the order of protocols, detectors and splits, and
+the parts of rows each table and figure shows. Shared by the report, its figures, the findings
+and compare."""
 
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 
 import pandas as pd
 
 from slipbench.protocol import NO_CELL, Layout, Presentation, from_record
 from slipbench.report.paper import table_order
 from slipbench.report.presentation import ShownLayout, shown
-from slipbench.report.tables import TRAINED_AS, rank
+from slipbench.report.provenance import on_simulation
+from slipbench.report.tables import SIMULATED, TRAINED_AS, rank
 from slipbench.stats.factors import (
     ENTRANT_ID,
     SETTINGS,
     differing_settings,
     factor_values,
+    named_entrants,
     setting_text,
 )
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
@@ -183,21 +187,6 @@ def splits_of(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     ]
 
 
-def sections_of(
-    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]]
-) -> list[tuple[str, str, str, pd.DataFrame]]:
-    """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
-    out = []
-    for protocol in protocol_order(found):
-        prows = rows[rows["protocol"] == protocol]
-        for detector in rank(prows["detector"].unique(), DETECTOR_ORDER):
-            out += [
-                (protocol, detector, split, part)
-                for split, part in splits_of(prows[prows["detector"] == detector])
-            ]
-    return out
-
-
 def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataFrame]]:
     """The rows of each table: one part per combination of the layout's ``split`` columns
     (those the rows hold) and of the settings that differ between the rows
@@ -240,3 +229,98 @@ def references(rows: pd.DataFrame) -> list[str]:
     ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
     flagged = rows["detector_reference"].astype("boolean").fillna(False).to_numpy(bool)
     return sorted(ids[flagged].dropna().astype(str).unique())
+
+
+@dataclass(frozen=True)
+class Split:
+    """A protocol's cells of one split (``name``: grouped, paper, ...): their rows and the
+    parts of them each table of every detector shows (:func:`split_parts`)."""
+
+    name: str
+    rows: pd.DataFrame
+    parts: list[tuple[dict, pd.DataFrame]]
+
+
+@dataclass(frozen=True)
+class Section:
+    """One protocol's section of a report: its layout, the note where that is the cell keys'
+    (:func:`layouts`), why some of its data made no cell (:func:`no_cell_note`; "" where all
+    did), and its cells: their rows, the same per split (:func:`splits_of`), and their
+    detectors in the tables' order."""
+
+    protocol: str
+    layout: ShownLayout
+    note: str
+    no_cell: str
+    cells: pd.DataFrame
+    splits: list[Split]
+    detectors: list[str]
+
+
+@dataclass(frozen=True)
+class Outline:
+    """What a report is made of, decided once before any table is drawn.
+
+    Attributes
+    ----------
+    rows : every row, each detector named as its entrant
+        (:func:`~slipbench.stats.factors.named_entrants`), each unit as it was tested
+        (:func:`as_tested`), rows tested on a simulation whose force direction gives slip away
+        flagged (:data:`~slipbench.report.tables.SIMULATED`).
+    cells : those rows without the stand-ins of protocols that made no cell.
+    stored : the cells as the rows store them (detectors by plugin id), for the section that
+        pairs a detector's inputs.
+    found : each protocol's layout and its note.
+    sections : the protocols in the paper's order (:func:`protocol_order`).
+    splits : the splits of the rows, the one the leaderboard and the findings rank first.
+    lead : the cells of that split.
+    reference : the reference detectors (:func:`references`).
+    """
+
+    rows: pd.DataFrame
+    cells: pd.DataFrame
+    stored: pd.DataFrame
+    found: dict[str, tuple[ShownLayout, str]]
+    sections: list[Section]
+    splits: list[str]
+    lead: pd.DataFrame
+    reference: list[str]
+
+    @property
+    def order(self) -> list[str]:
+        return [s.protocol for s in self.sections]
+
+
+def _section(rows: pd.DataFrame, protocol: str, found: tuple[ShownLayout, str]) -> Section:
+    mine = rows[rows["protocol"] == protocol]
+    standing = stand_ins(mine)
+    datasets = mine["dataset_fingerprint"].nunique() if "dataset_fingerprint" in mine else 1
+    no_cell = no_cell_note(mine[standing], datasets) if standing.any() else ""
+    cells = mine[~standing]
+    detectors = rank(cells["detector"].unique(), DETECTOR_ORDER)
+    layout = found[0]
+    splits = (
+        [Split(s, r, split_parts(r, layout)) for s, r in splits_of(cells)] if len(cells) else []
+    )
+    return Section(protocol, *found, no_cell, cells, splits, detectors)
+
+
+def outline(rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]] | None = None) -> Outline:
+    """The :class:`Outline` of a report of ``rows``; ``found``: each protocol's layout and note
+    (default: :func:`layouts`)."""
+    stored = rows[~stand_ins(rows)]
+    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
+    found = layouts(rows) if found is None else found
+    cells = rows[~stand_ins(rows)]
+    splits = splits_of(rows)
+    lead = splits[0][1]
+    return Outline(
+        rows,
+        cells,
+        stored,
+        found,
+        [_section(rows, p, found[p]) for p in protocol_order(found)],
+        [s for s, _ in splits],
+        lead[~stand_ins(lead)],
+        references(cells),
+    )

@@ -40,6 +40,7 @@ from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from slipbench.errors import writing  # noqa: E402
+from slipbench.report.outline import Outline, Section, Split, split_parts  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.report.presentation import ShownLayout  # noqa: E402
 from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
@@ -611,101 +612,84 @@ def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> li
     ]
 
 
-def figure_specs(
-    rows: pd.DataFrame,
-    paper: bool = True,
-    board: Leaderboard | None = None,
-    found: dict | None = None,
-) -> list[FigureSpec]:
-    """Every figure the rows allow: the critical-difference diagram (with ``board`` of two
-    detectors or more), then per protocol the figure of every detector together and each
-    detector's own, one per table where a layout splits its tables.
+def figure_specs(made: Outline, paper: bool = True) -> list[FigureSpec]:
+    """Every figure of a report's cells (``made``, its :class:`~slipbench.report.outline.Outline`):
+    per protocol the figure of every detector together and each detector's own, one per table
+    where a layout splits its tables.
 
-    Stems: ``leaderboard``, ``<protocol>-detectors[-<split>][-<values>]``,
-    ``<protocol>-<detector>[-<split>][-<values>]`` (split omitted for the paper's)."""
-    from slipbench.report.outline import layouts, protocol_order, sections_of, split_parts
+    Stems: ``<protocol>-detectors[-<split>][-<values>]``, ``<protocol>-<detector>[-<split>][-<values>]``
+    (split omitted for the paper's)."""
+    specs = []
+    for section in made.sections:
+        for split in section.splits:
+            specs += _detectors_specs(section, split, paper)
+            for detector in section.detectors:
+                drows = split.rows[split.rows["detector"] == detector]
+                if len(drows):
+                    specs += _detector_specs(section, (detector, split.name), drows, paper)
+    return specs
 
-    found = layouts(rows) if found is None else found
-    specs = [] if board is None else leaderboard_specs(board)
-    for protocol in protocol_order(found):
-        layout = found[protocol][0]
-        prows = rows[rows["protocol"] == protocol]
-        for split in rank(
-            prows["split"].unique() if "split" in prows else ["paper"], ("paper", "grouped")
-        ):
-            srows = prows[prows["split"] == split] if "split" in prows else prows
-            parts = split_parts(srows, layout)
-            for which, part in parts:
-                named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
-                tail = ("" if split == "paper" else f"-{split}") + (
-                    "".join(f"-{v}" for v in which.values()) if named else ""
-                )
-                if (
-                    layout.figure == "tradeoff"
-                    and part["detector"].nunique() > 1
-                    and "sensor_type" in part
-                ):
-                    specs.append(
-                        FigureSpec(
-                            f"{protocol}-detectors{tail}",
-                            f"{protocol}, every detector ({split} split{named}): detection rate "
-                            "against false alarms per minute over the threshold sweep (its upper envelope), one "
-                            "panel per detector, one curve per unit; dot: threshold 0.5, cross: the operating "
-                            "point chosen on the training trials.",
-                            protocol,
-                            partial(
-                                tradeoff, part, f"{protocol}, every detector ({split} split{named})"
-                            ),
-                            None,
-                            split,
-                        )
-                    )
-                if (
-                    layout.figure == "curve"
-                    and part["detector"].nunique() > 1
-                    and "sensor_type" in part
-                ):
-                    specs.append(
-                        FigureSpec(
-                            f"{protocol}-detectors{tail}",
-                            f"{protocol}, every detector ({split} split{named}): mean over fingers (line), range over "
-                            "fingers (band)"
-                            + (
-                                "; the paper's LSTM dashed."
-                                if paper and layout.paper_table
-                                else "."
-                            ),
-                            protocol,
-                            partial(
-                                compare_figure,
-                                part,
-                                layout,
-                                f"every detector ({split} split{named})",
-                                paper,
-                            ),
-                            None,
-                            split,
-                        )
-                    )
-    for protocol, detector, split, part in sections_of(rows, found):
-        layout = found[protocol][0]
-        parts = split_parts(part, layout)
-        for which, rows_ in parts:
-            named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
-            if layout.figure is None or "sensor_type" not in rows_:
-                continue
-            stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
-            stem += "".join(f"-{v}" for v in which.values()) if named else ""
-            specs.append(
-                FigureSpec(
-                    file_stem(stem),
-                    f"{protocol}, {detector} ({split} split{named}).",
-                    protocol,
-                    partial(figure, rows_, layout, f"{detector} ({split} split{named})", paper),
-                    detector,
-                    split,
-                )
+
+def _tail(split: str, which: dict, named: str) -> str:
+    """A stem's end: the split (but the paper's) and, where a layout splits its tables, the
+    table's values."""
+    return ("" if split == "paper" else f"-{split}") + (
+        "".join(f"-{v}" for v in which.values()) if named else ""
+    )
+
+
+def _detectors_specs(section: Section, split: Split, paper: bool) -> list:
+    """The figures of every detector together, of one split of a protocol's cells."""
+    protocol, layout, parts = section.protocol, section.layout, split.parts
+    if layout.figure not in ("curve", "tradeoff") or "sensor_type" not in split.rows:
+        return []
+    specs = []
+    for which, part in parts:
+        if part["detector"].nunique() < 2:
+            continue
+        named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
+        title = f"every detector ({split.name} split{named})"
+        if layout.figure == "tradeoff":
+            caption = (
+                f"{protocol}, {title}: detection rate against false alarms per minute over the "
+                "threshold sweep (its upper envelope), one panel per detector, one curve per "
+                "unit; dot: threshold 0.5, cross: the operating point chosen on the training "
+                "trials."
             )
+            draw = partial(tradeoff, part, f"{protocol}, {title}")
+        else:
+            caption = (
+                f"{protocol}, {title}: mean over fingers (line), range over fingers (band)"
+                + ("; the paper's LSTM dashed." if paper and layout.paper_table else ".")
+            )
+            draw = partial(compare_figure, part, layout, title, paper)
+        stem = f"{protocol}-detectors{_tail(split.name, which, named)}"
+        specs.append(FigureSpec(stem, caption, protocol, draw, None, split.name))
+    return specs
+
+
+def _detector_specs(
+    section: Section, entry: tuple[str, str], rows: pd.DataFrame, paper: bool
+) -> list:
+    """The figures of one detector (``entry``: it and the split) of a protocol's cells."""
+    (detector, split), protocol, layout = entry, section.protocol, section.layout
+    specs = []
+    parts = split_parts(rows, layout)
+    for which, part in parts:
+        if layout.figure is None or "sensor_type" not in part:
+            continue
+        named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
+        title = f"{detector} ({split} split{named})"
+        specs.append(
+            FigureSpec(
+                file_stem(f"{protocol}-{detector}{_tail(split, which, named)}"),
+                f"{protocol}, {title}.",
+                protocol,
+                partial(figure, part, layout, title, paper),
+                detector,
+                split,
+            )
+        )
     return specs
 
 

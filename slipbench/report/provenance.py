@@ -49,6 +49,7 @@ NORMALIZATION_TEXTS = {
     "taken on the unit's training-side recordings (a test dataset's unit: on its own recordings)",
 }
 TOP_VALUES = 2  # fitted values listed per unit before "k more"
+MAX_SOURCES = 3  # a dataset's sources listed whole; more are counted
 MAX_WARNINGS = 12
 
 
@@ -70,6 +71,15 @@ def _sources(path: str) -> list[str]:
     return sorted({str(s) for s in column.to_pylist() if s is not None})
 
 
+def _sources_text(sources: list[str]) -> str:
+    """The sources of a dataset's recordings, in a few words however many there are: a few
+    listed whole, more as their count with the first and the last (a lab's 1,000 files each
+    naming its own would make a 70,000-character line)."""
+    if len(sources) <= MAX_SOURCES:
+        return f"source {'; '.join(sources)}"
+    return f"{len(sources):,} sources, {sources[0]} … {sources[-1]}"
+
+
 def dataset_source(path: str) -> str:
     """What the dataset at ``path`` is: simulated with its model, scale and seed, or the values
     of its ``source`` column; from its ``recordings.parquet`` where readable, else from the
@@ -84,7 +94,7 @@ def dataset_source(path: str) -> str:
         simulated = [m for m in map(SYNTH_SOURCE.search, sources) if m]
         if len(simulated) == len(sources) and len({m[0] for m in simulated}) == 1:
             return _simulated(simulated[0])
-        return f"recorded: source {'; '.join(sources)} (at {path})"
+        return f"recorded: {_sources_text(sources)} (at {path})"
     folder = SYNTH_FOLDER.search(Path(path).name)
     if folder:
         return _simulated(folder) + " (from its folder's name; the dataset is not readable here)"
@@ -92,7 +102,7 @@ def dataset_source(path: str) -> str:
     return f"the dataset at {path} ({state})"
 
 
-# the first model version whose pressing carries shear inside the friction cone (docs/simulation.md)
+# the first model version whose pressing carries shear inside the friction cone (docs/explanation/simulation.md)
 SHEAR_WITHOUT_SLIP = 4
 
 
