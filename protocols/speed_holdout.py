@@ -17,13 +17,13 @@ import numpy as np
 import pandas as pd
 
 from slipbench.protocol import HoldoutProtocol, Layout, Presentation
-from slipbench.vocabulary import DATASET_SIDE
-
-SLIPPING = ("slip", "hold-slip")  # the scenarios whose speed is a slip speed
+from slipbench.vocabulary import DATASET_SIDE, SLIPS
 
 
 def _speeds(recordings) -> list[float]:
-    slipping = recordings["scenario"].isin(SLIPPING)
+    """The slip speeds: those of recordings that slip (a hold-slip trial that held throughout
+    was never at its speed's slip)."""
+    slipping = recordings[SLIPS].to_numpy(bool)
     return sorted(float(s) for s in recordings.loc[slipping, "speed_mm_s"].dropna().unique())
 
 
@@ -76,13 +76,13 @@ class SpeedHoldout(HoldoutProtocol):
         return _speeds(recordings)
 
     def why_no_cells(self, recordings):
-        slipping = recordings["scenario"].isin(SLIPPING)
+        slipping = recordings[SLIPS].to_numpy(bool)
         if not slipping.any():
             return (
                 f"no recording slips (scenarios {', '.join(sorted(set(recordings['scenario'])))}; "
-                f"slip speeds come from {' or '.join(SLIPPING)} recordings)"
+                "slip speeds come from slip recordings and hold-slip trials that slip)"
             )
         return (
-            f"none of its {int(slipping.sum())} slip recordings gives a speed (speed_mm_s is empty): "
-            "there is no slip speed to hold out"
+            f"none of its {int(slipping.sum())} slip recordings gives a speed (speed_mm_s is "
+            "empty): there is no slip speed to hold out"
         )
