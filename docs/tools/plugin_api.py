@@ -1,5 +1,5 @@
-"""The plugin API reference, ``docs/plugin-api.md``, written from the docstrings of what a
-plugin may use: ``python docs/tools/plugin_api.py > docs/plugin-api.md``.
+"""The plugin API reference, ``docs/reference/plugin-api.md``, written from the docstrings of what a
+plugin may use: ``python docs/tools/plugin_api.py > docs/reference/plugin-api.md``.
 
 Signatures and text come from the code; each entry's example is kept here, in ``ENTRIES``, and
 the examples run in order as one script (``tests/testing/test_apidoc.py`` runs them and checks
@@ -16,7 +16,7 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any
 
-PAGE = "docs/plugin-api.md"
+PAGE = "docs/reference/plugin-api.md"
 
 
 @dataclass(frozen=True)
@@ -585,10 +585,10 @@ def render() -> str:
         "",
         "Every class, function and hook a detector or protocol plugin may use, with its "
         "signature and an example. Generated from the docstrings by "
-        "`python docs/tools/plugin_api.py > docs/plugin-api.md`; do not edit by hand "
+        "`python docs/tools/plugin_api.py > docs/reference/plugin-api.md`; do not edit by hand "
         "(`tests/testing/test_apidoc.py` fails when the page and the code disagree, and runs "
         "the examples below in order, as one script). How to register a plugin and what the "
-        "built-ins do: [Writing plugins](guides/plugins.md).",
+        "built-ins do: [Writing plugins](../guides/plugins.md).",
         "",
     ]
     for title, _, group in SECTIONS:

@@ -53,7 +53,7 @@ SIMULATED = "_on_simulation"
 TRAINED_AS = "_trained_as"
 SIMULATION_NOTE = (
     "Channels on simulated data of model version 3 or earlier: there, the force's direction alone "
-    "separates slip (tangential load) from pressing (a mostly normal load; docs/simulation.md), so "
+    "separates slip (tangential load) from pressing (a mostly normal load; docs/explanation/simulation.md), so "
     "these channels figures measure the simulation, not what a sensor can tell."
 )
 

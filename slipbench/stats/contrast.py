@@ -10,7 +10,7 @@ errors (the Minkowski bound, valid whatever the correlation: fingers share trial
 
 Measured (``benchmarks/bench_findings_contrast.py``: three fingers recorded in the same trials,
 10 and 20 trials per class, 500 replications per setting, against closed-form truths; table in
-``docs/coverage.md``), for the window rise, the change beyond window 50, the TP - TN gap and the
+``docs/studies/coverage.md``), for the window rise, the change beyond window 50, the TP - TN gap and the
 lead over a baseline:
 
 - test noise only: coverage 0.982-1.000, the intervals 1.3-6.7 times as wide as the estimates'

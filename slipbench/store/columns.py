@@ -1,7 +1,7 @@
 """The results schema: every column a result row may hold, with its type, unit and meaning.
 
 Rows are checked against it where they are made (:func:`checked`) and where the store writes
-them; ``docs/results-columns.md`` is written from it (``docs/tools/results_columns.py``). A
+them; ``docs/reference/results-columns.md`` is written from it (``docs/tools/results_columns.py``). A
 protocol's cell-key columns (``sensor_type``, ``window``, ...) are its own: a row may hold the
 keys its ``cell`` column names. Adding a figure is one entry in :data:`WINDOWED_FIGURES` or
 :data:`STREAMED_FIGURES`; its interval columns follow from the entry.

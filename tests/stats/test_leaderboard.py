@@ -322,7 +322,7 @@ def test_entrants_of_other_seeds_and_a_lost_seed():
 @pytest.mark.slow  # 2 x 200 boards: about 30 s
 def test_equal_detectors_with_seed_noise_rarely_differ():
     """benchmarks/bench_leaderboard_seeds.py at 200 boards per setting (the full study, 1,000,
-    is in docs/coverage.md): the interval over blocks and seeds excludes 0 for at most 8 % of
+    is in docs/studies/coverage.md): the interval over blocks and seeds excludes 0 for at most 8 % of
     boards of two equal detectors (two standard errors above 5 %), where the blocks alone
     exclude it for more than 20 %."""
     from benchmod import load
