@@ -552,8 +552,14 @@ def critical_difference(board: Leaderboard) -> Figure:
             fontsize=7,
         )
     fig.suptitle(
-        f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)\n"
-        "a bar joins detectors that do not differ (pairwise tests over blocks and seeds, Holm)"
+        textwrap.fill(
+            f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)", TITLE_CHARS
+        )
+        + "\n"
+        + textwrap.fill(
+            "a bar joins detectors that do not differ (pairwise tests over blocks and seeds, Holm)",
+            TITLE_CHARS,
+        )
     )
     return fig
 
