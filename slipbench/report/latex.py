@@ -5,6 +5,7 @@ every LaTeX installation. Every text from the data is escaped (kernel commands o
 from __future__ import annotations
 
 import re
+import textwrap
 
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.render import Drawn, Renderer
@@ -110,6 +111,30 @@ def _two_lines(text: str, limit: int = 44) -> str:
     return _stacked([escape(text[:middle]), escape(text[middle + 1 :])])
 
 
+def _values_width(table: Table) -> int:
+    """About how many characters wide the value columns are set: per column its widest line
+    (its label's, or a cell's figure or interval as :func:`latex_cell` stacks them), plus
+    the gap between columns."""
+    width = 0
+    for j, label in enumerate(table.columns):
+        lines = [label] if j not in table.superscripts else [v for v, _ in table.superscripts[j]]
+        for cells in table.cells:
+            for m in FIGURE.finditer(cells[j] if j < len(cells) else ""):
+                lines += [m["value"] + m["mark"], f"{m['lo']}-{m['hi']}" if m["lo"] else ""]
+        width += max(map(len, lines)) + 1
+    return width
+
+
+def _group_header(table: Table) -> str:
+    """The header over the value columns, escaped, on as many lines as keep it within their
+    width: a header wider than its columns would widen the last one alone."""
+    width = _values_width(table)
+    if len(table.group) <= width:
+        return _two_lines(table.group)
+    lines = textwrap.wrap(table.group, max(width, 20), break_long_words=False)
+    return _stacked([escape(line) for line in lines])
+
+
 def latex_lines(table: Table) -> int:
     """About how many lines of text ``table`` takes when set: per row, its tallest cell (stacked
     lines, or a wrapped paragraph's lines), plus the caption, header and notes."""
@@ -124,7 +149,8 @@ def latex_lines(table: Table) -> int:
         for labels, cells in zip(table.rows, table.cells)
     )
     notes = sum(-(-len(n) // CHARS_PER_LINE) for n in table.notes)
-    return body + 4 + (1 if table.group else 0) + notes
+    group = _group_header(table).count(r"\\") + 1 if table.group else 0
+    return body + 4 + group + notes
 
 
 def to_latex(table: Table, page: bool = False) -> str:
@@ -160,7 +186,7 @@ def to_latex(table: Table, page: bool = False) -> str:
     heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
     if table.group:
         head.append(
-            rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_two_lines(table.group)}}}\\"
+            rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_group_header(table)}}}\\"
         )
         head.append(rf"\cline{{{first}-{n_rows + n_cols}}}")
         heads = " & " * n_rows
