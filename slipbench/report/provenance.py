@@ -8,6 +8,7 @@ readable (results do not copy it).
 from __future__ import annotations
 
 import json
+import os
 import re
 from collections import Counter
 from functools import cache
@@ -49,7 +50,7 @@ NORMALIZATION_TEXTS = {
     "taken on the unit's training-side recordings (a test dataset's unit: on its own recordings)",
 }
 TOP_VALUES = 2  # fitted values listed per unit before "k more"
-MAX_SOURCES = 3  # a dataset's sources listed whole; more are counted
+MAX_SOURCE_CHARS = 200  # a dataset's sources beyond this are summed up
 MAX_WARNINGS = 12
 
 
@@ -72,11 +73,17 @@ def _sources(path: str) -> list[str]:
 
 
 def _sources_text(sources: list[str]) -> str:
-    """The sources of a dataset's recordings, in a few words however many there are: a few
-    listed whole, more as their count with the first and the last (a lab's 1,000 files each
-    naming its own would make a 70,000-character line)."""
-    if len(sources) <= MAX_SOURCES:
-        return f"source {'; '.join(sources)}"
+    """The sources of a dataset's recordings, in at most about :data:`MAX_SOURCE_CHARS`
+    characters however many there are: listed whole, else what they share said once
+    (``BioTacSP-DoS ..., direction {aw, cw, e, n, s, t, w}``), else their count with the first
+    and the last (a lab's 1,000 files each naming its own made a 72,000-character line)."""
+    whole = "; ".join(sources)
+    if len(sources) == 1 or len(whole) <= MAX_SOURCE_CHARS:
+        return f"source {whole}"
+    shared = re.sub(r"[\w.]*$", "", os.path.commonprefix(sources))  # up to a word's start
+    grouped = shared + "{" + ", ".join(s[len(shared) :] for s in sources) + "}"
+    if shared and len(grouped) <= MAX_SOURCE_CHARS:
+        return f"sources {grouped}"
     return f"{len(sources):,} sources, {sources[0]} … {sources[-1]}"
 
 

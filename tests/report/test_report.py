@@ -311,6 +311,15 @@ def test_a_dataset_of_many_sources_is_summed_up_in_the_header(tmp_path):
     assert shown == md_text(
         f"recorded: 1,000 sources, csvs/n/object0000.csv … csvs/n/object0999.csv (at {folder})"
     )
+    from slipbench.report.provenance import dataset_source
+
+    dos = [f"BioTacSP-DoS (Zapata-Impata et al. 2019), direction {d}" for d in ("aw", "cw", "e")]
+    dos += [f"BioTacSP-DoS (Zapata-Impata et al. 2019), direction {d}" for d in "nstw"]
+    pd.DataFrame({"source": dos}).to_parquet(folder / "recordings.parquet")
+    assert dataset_source(str(folder)) == (
+        "recorded: sources BioTacSP-DoS (Zapata-Impata et al. 2019), direction "
+        f"{{aw, cw, e, n, s, t, w}} (at {folder})"
+    )
 
 
 def test_fitted_choices_and_warnings_are_shown():
