@@ -85,7 +85,7 @@ class Html(Renderer):
     caption and notes, every figure embedded as PNG (drawn now where it has no file). The page
     keeps every table: it makes no appendix."""
 
-    name, suffix, cross_links, appendix = "html", "html", True, False
+    name, suffix, cross_links, appendix, embeds_figures = "html", "html", True, False, True
 
     def __init__(self, standalone: bool = False) -> None:
         super().__init__(standalone)  # a page is always whole

@@ -41,12 +41,14 @@ class Renderer(ABC):
 
     ``name`` is the format's name, ``suffix`` its files' suffix; ``cross_links``: a link may
     point into another file's section (an appendix's), else it shows its label alone;
-    ``appendix``: a report in this format may move its detail to an appendix file."""
+    ``appendix``: a report in this format may move its detail to an appendix file;
+    ``embeds_figures``: the format shows every figure without figure files (it draws them)."""
 
     name: ClassVar[str]
     suffix: ClassVar[str]
     cross_links: ClassVar[bool] = False
     appendix: ClassVar[bool] = True
+    embeds_figures: ClassVar[bool] = False
 
     def __init__(self, standalone: bool = False) -> None:
         self.standalone = standalone

@@ -121,7 +121,7 @@ def report(**options) -> None:
         intervals=o.intervals,
         paper=o.paper,
         leaderboard_only=o.leaderboard_only,
-        with_figures=o.fmt == "html" or o.plots_dir is not None,
+        with_figures=renderer(o.fmt).embeds_figures or o.plots_dir is not None,
         predictions=[results_folder(p) for p in o.results],
     )
     files = write_figures(blocks, o.plots_dir) if o.plots_dir else {}
