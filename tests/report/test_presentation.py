@@ -101,3 +101,17 @@ def test_rows_written_before_they_recorded_layouts_get_them_from_their_plugins()
     unknown = older.assign(protocol="gone", detector="gone")  # no plugin: left as they were
     left = recorded_plugins(unknown)
     assert all(c not in left or left[c].isna().all() for c in columns)
+
+
+def test_the_report_command_lays_out_older_rows_from_their_plugins(tmp_path, cli):
+    """Results written before rows recorded their layouts report as before: the command fills
+    in what the rows lack from the registry, and the report lays them out as the protocol's."""
+    rows = fake_rows("material-holdout").drop(
+        columns=["protocol_layout", "protocol_presentation", "detector_reference"]
+    )
+    folder = tmp_path / "older"
+    folder.mkdir()
+    rows.to_parquet(folder / "results.parquet")
+    code, out, err = cli(["report", str(folder)])
+    assert code == 0, err
+    assert "explicit training of indicated materials" in out and "Laid out from" not in out
