@@ -1,7 +1,7 @@
 """Coverage of the findings' contrast intervals (:mod:`slipbench.stats.contrast`, as
 :mod:`slipbench.report.findings` builds them from result rows), by simulation against a
 closed-form truth: the study behind the figures quoted in that module's docstring and in
-``docs/coverage.md``.
+``docs/studies/coverage.md``.
 
 A simulated sensor has ``FINGERS`` (3) fingers recorded in the same trials: ``m`` slip and ``m``
 non-slip trials, each finger's recording of a trial 10-60 (slip) or 5-30 (non-slip) windows. A

@@ -1,6 +1,6 @@
 """How often does the leaderboard call equal detectors different, and does it ever contradict
 itself? The study behind the one family of tests of :mod:`slipbench.stats.leaderboard` and its
-section of ``docs/statistics.md``.
+section of ``docs/explanation/statistics.md``.
 
 A simulated board holds three entrants that are the same detector run under seeds drawn apart,
 over two protocols of ``BLOCKS`` blocks each. Entrant ``k``'s figure in block ``b`` under its

@@ -1,6 +1,6 @@
 """False alarms of the leaderboard's pairwise "A - B [interval]" when detectors run under several
 seeds (issue 20), and coverage of its mean figures: the study behind :mod:`slipbench.stats.leaderboard`'s
-seeded intervals and the section of ``docs/coverage.md`` that gives its table.
+seeded intervals and the section of ``docs/studies/coverage.md`` that gives its table.
 
 A simulated board holds ``B`` blocks and two equal detectors, each run under ``S`` seeds. An
 entrant's figure in block ``b`` under seed ``s`` is

@@ -21,7 +21,7 @@ class TCN(TorchDetector):
     mean and spread (``pool="stats"``; ``"mean"``, or ``"last"``: the last step's). The training
     parameters are TorchDetector's, with batches of 64 at a learning rate of 1e-2 and at most 12
     epochs of 256 windows (patience 3): a cell's training is capped at 3,072 windows whatever its
-    set, chosen by ``benchmarks/tcn_study.py`` (``docs/tcn-study.md``) for learning where a
+    set, chosen by ``benchmarks/tcn_study.py`` (``docs/studies/tcn-study.md``) for learning where a
     logistic regression on per-channel features does, at a cost that fits the whole paper on two
     cores. Reads both inputs (TorchDetector's ``inputs``): the first block takes one input channel
     per channel of the windows (``channels`` is the blocks' width, not the input's)."""

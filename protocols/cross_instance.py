@@ -5,7 +5,15 @@ type, and a model trained on all instances combined is tested on each and on the
 from __future__ import annotations
 
 from slipbench.params import WindowLength
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, window_cells
+from slipbench.protocol import (
+    BaseProtocol,
+    Cell,
+    Layout,
+    Part,
+    Presentation,
+    sensor_pairs,
+    window_cells,
+)
 
 COMBINED = "combined"
 
@@ -14,6 +22,13 @@ class CrossInstance(BaseProtocol):
     """Train on one unit (or all combined), test on every unit of its type (the paper's Table V)."""
 
     layout = Layout(rows=("sensor_type", "train_instance"), column="test_instance")
+    presentation = Presentation(
+        "Classification trained and tested on data from one or all fingers of a single sensor type.",
+        title="Cross-instance transfer",
+        merge_rows=True,
+        figure="matrix",
+        paper_table="cross-instance",
+    )
     _parameter_constraints = {"window": WindowLength()}
 
     def __init__(self, window=50):

@@ -6,7 +6,7 @@ starred numbers."""
 
 from __future__ import annotations
 
-from slipbench.protocol import HoldoutProtocol, Layout
+from slipbench.protocol import HoldoutProtocol, Layout, Presentation
 from slipbench.vocabulary import MATERIALS
 
 
@@ -14,6 +14,14 @@ class MaterialHoldout(HoldoutProtocol):
     """Each material with and without explicit training (the paper's Table III)."""
 
     layout = Layout(rows=("sensor_type", "sensor_instance"), column="material", pair="training")
+    presentation = Presentation(
+        "Slip state classification with and without (*) explicit training of indicated materials "
+        "across sensors.",
+        title="Material",
+        group="with Material",
+        figure="with-without",
+        paper_table="material-holdout",
+    )
     holdout_column = "material"
 
     def levels(self, recordings):

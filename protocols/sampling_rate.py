@@ -31,6 +31,7 @@ from slipbench.protocol import (
     Cell,
     Layout,
     Part,
+    Presentation,
     sensor_pairs,
     unit_rate,
     window_cells,
@@ -47,6 +48,19 @@ class SamplingRate(BaseProtocol):
         rows=("sensor_type", "sensor_instance"),
         column="downsample",
         split=("decimation", "antialias"),
+    )
+    presentation = Presentation(
+        "Slip state classification at various sampling rates (Hz) across sensors and fingers, "
+        "window {window} downsampled. Superscripts indicate the sensor type for the selected "
+        "sampling rate.",
+        title="Sampling rate",
+        group="at Sampling Rate",
+        column_label="rate_hz",
+        figure="curve",
+        x="rate_hz",
+        x_label="sampling rate (Hz)",
+        log_base=2,
+        paper_table="sampling-rate",
     )
     _parameter_constraints = {
         "decimation": Options(("plain", "lag", "both")),

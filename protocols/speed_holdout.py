@@ -16,14 +16,14 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from slipbench.protocol import HoldoutProtocol, Layout
-from slipbench.vocabulary import DATASET_SIDE
-
-SLIPPING = ("slip", "hold-slip")  # the scenarios whose speed is a slip speed
+from slipbench.protocol import HoldoutProtocol, Layout, Presentation
+from slipbench.vocabulary import DATASET_SIDE, SLIPS
 
 
 def _speeds(recordings) -> list[float]:
-    slipping = recordings["scenario"].isin(SLIPPING)
+    """The slip speeds: those of recordings that slip (a hold-slip trial that held throughout
+    was never at its speed's slip)."""
+    slipping = recordings[SLIPS].to_numpy(bool)
     return sorted(float(s) for s in recordings.loc[slipping, "speed_mm_s"].dropna().unique())
 
 
@@ -31,6 +31,14 @@ class SpeedHoldout(HoldoutProtocol):
     """Each slip speed with and without explicit training (the paper's Table IV)."""
 
     layout = Layout(rows=("sensor_type", "sensor_instance"), column="speed_mm_s", pair="training")
+    presentation = Presentation(
+        "Slip state classification with and without (*) explicit training of indicated speeds "
+        "across sensors.",
+        title="Slip speed",
+        group="at Speed",
+        figure="with-without",
+        paper_table="speed-holdout",
+    )
     holdout_column = "speed_mm_s"
     test_column = "speed_group"  # pressing has no speed: columns() assigns it one
 
@@ -68,13 +76,13 @@ class SpeedHoldout(HoldoutProtocol):
         return _speeds(recordings)
 
     def why_no_cells(self, recordings):
-        slipping = recordings["scenario"].isin(SLIPPING)
+        slipping = recordings[SLIPS].to_numpy(bool)
         if not slipping.any():
             return (
                 f"no recording slips (scenarios {', '.join(sorted(set(recordings['scenario'])))}; "
-                f"slip speeds come from {' or '.join(SLIPPING)} recordings)"
+                "slip speeds come from slip recordings and hold-slip trials that slip)"
             )
         return (
-            f"none of its {int(slipping.sum())} slip recordings gives a speed (speed_mm_s is empty): "
-            "there is no slip speed to hold out"
+            f"none of its {int(slipping.sum())} slip recordings gives a speed (speed_mm_s is "
+            "empty): there is no slip speed to hold out"
         )

@@ -19,6 +19,7 @@ from slipbench.protocol import (
     Cell,
     Layout,
     Part,
+    Presentation,
     sensor_pairs,
     unit_rate,
     window_cells,
@@ -38,6 +39,15 @@ class Streaming(BaseProtocol):
         "max_delay_ms": Interval(float, 1.0, 60_000.0),
     }
     layout = LAYOUT
+    presentation = Presentation(
+        "Slip onsets detected, their delays and false alarms while streaming test recordings, "
+        "per sensor unit.",
+        title="Streaming",
+        group="At the detector's own threshold (0.5)",
+        figure="tradeoff",
+        x="false_alarms_per_min",
+        x_label="false alarms per minute",
+    )
 
     def __init__(self, window=50, hop=DEFAULT_HOP, max_delay_ms=MAX_DELAY_MS):
         self.window = window

@@ -6,11 +6,39 @@ from __future__ import annotations
 
 from slipbench.errors import UsageError
 from slipbench.params import Sequence, WindowLength
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs, window_cells
+from slipbench.protocol import (
+    BaseProtocol,
+    Cell,
+    Layout,
+    Part,
+    Presentation,
+    sensor_pairs,
+    window_cells,
+)
 
 WINDOWS = (5, 10, 25, 50, 100, 200)
 IN_SAMPLES = Layout(rows=("sensor_type", "sensor_instance"), column="window")
 IN_MS = Layout(rows=("sensor_type", "sensor_instance"), column="window_ms")
+CAPTION = "Slip state classification at various window sizes across {sensors}."
+SHOWN_IN_SAMPLES = Presentation(
+    CAPTION,
+    title="Window size",
+    group="at Window Size",
+    note_column="window_ms",
+    figure="curve",
+    x_label="window (samples)",
+    log_base=10,
+    paper_table="window-size",
+)
+SHOWN_IN_MS = Presentation(
+    CAPTION,
+    title="Window size",
+    group="at Window Size (ms)",
+    note_column="window",
+    figure="curve",
+    x_label="window (ms)",
+    log_base=10,
+)
 
 
 class WindowSize(BaseProtocol):
@@ -31,6 +59,11 @@ class WindowSize(BaseProtocol):
     @property
     def layout(self) -> Layout:
         return IN_MS if all(self._in_ms) else IN_SAMPLES
+
+    @property
+    def presentation(self) -> Presentation:
+        # the published table is in samples: a table in milliseconds has no paper beside it
+        return SHOWN_IN_MS if all(self._in_ms) else SHOWN_IN_SAMPLES
 
     def validate_params(self) -> None:
         super().validate_params()

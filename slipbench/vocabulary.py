@@ -21,6 +21,10 @@ MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")  # in the pa
 SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)  # mm/s, average speeds of slip
 FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)  # mm/s, arm speeds of free-space motion
 
+# a recording column the dataset reader derives: the recording holds slip (a slip recording, or
+# one with a sample labelled slip; a hold-slip trial that held throughout does not)
+SLIPS = "slips"
+
 # what a detector reads: the paper's univariate signal s, or the raw channels it reduces
 INPUTS = ("univariate", "channels")
 

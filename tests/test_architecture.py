@@ -15,6 +15,10 @@ The wings, top to bottom (a wing may import its own wing, any wing below it, and
 The plugin API is the contract and ``torch`` (TorchDetector, a base class for detectors written
 in PyTorch): built-in plugins import nothing else of the package.
 
+The report sits above the engine but imports nothing of it (``APART``): a report reads only
+the results store, so the rows record what it needs of the plugins (their layouts, the
+reference detector).
+
 Two wings on one level do not import each other, in either direction. Decided from the code:
 stats and stream share no import (stats reads stored rows, stream scores live pushes; both sit on
 data/store and the contract), nor do data and store (they meet only in the engine), nor report
@@ -61,6 +65,11 @@ LEVELS = {
 MAX_TOP_LEVEL = 10
 #: plugin imports outside the contract, each with its reason; each is a debt to pay off
 PLUGIN_EXCEPTIONS: dict[tuple[str, str], str] = {}  # (plugin module, target): why it may
+#: wings a wing may not import although they lie below it, each with its reason
+APART: dict[tuple[str, str], str] = {
+    ("report", "engine"): "a report reads only the results store: protocol names, layouts, "
+    "presentations and the reference detector are in the rows, never in the registry",
+}
 
 
 @dataclass(frozen=True)
@@ -185,6 +194,19 @@ def test_wings_import_only_downwards():
     assert not bad, (
         "imports against the wing order (app, testing -> report, analysis -> engine -> "
         "stats, stream -> data, store -> contract):\n" + _listing(bad)
+    )
+
+
+def test_wings_kept_apart_import_nothing_of_each_other():
+    edges, _ = graph()
+    bad = [
+        imp
+        for found in edges.values()
+        for imp in found
+        if (wing(imp.source), wing(imp.target)) in APART
+    ]
+    assert not bad, "imports between wings kept apart:\n" + "\n".join(
+        f"  {imp}: {APART[wing(imp.source), wing(imp.target)]}" for imp in bad
     )
 
 

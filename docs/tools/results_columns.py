@@ -1,5 +1,5 @@
-"""The results columns page, ``docs/results-columns.md``, written from the results schema
-(:mod:`slipbench.store.columns`): ``python docs/tools/results_columns.py > docs/results-columns.md``.
+"""The results columns page, ``docs/reference/results-columns.md``, written from the results schema
+(:mod:`slipbench.store.columns`): ``python docs/tools/results_columns.py > docs/reference/results-columns.md``.
 ``tests/store/test_columns.py`` checks that the committed page is what this writes."""
 
 from __future__ import annotations

@@ -75,12 +75,12 @@ import tomllib
 
 from slipbench.app.options import repeats_problem
 from slipbench.errors import TOO_DEEP, PluginError, SlipbenchError, UsageError
+from slipbench.report.render import FORMATS
 from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
 from slipbench.store.columns import WINDOWED, names
 
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
-REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
 BUDGET = "budget"  # the [gate] key that is not a figure
 #: what a benchmark's report may rank by: a windowed cell's figures
 METRICS = names(WINDOWED)
@@ -299,8 +299,8 @@ def load_benchmark(path: str | Path) -> Benchmark:
     formats = [b["report"]] if isinstance(b.get("report"), str) else b.get("report", ["md"])
     for f in formats:
         check(
-            f in REPORT_FORMATS,
-            f"unknown report format {f!r}; one of {', '.join(REPORT_FORMATS)}",
+            f in FORMATS,
+            f"unknown report format {f!r}; one of {', '.join(FORMATS)}",
             "benchmark",
             "report",
         )
@@ -640,8 +640,10 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
+    from slipbench.app.selection import recorded_plugins
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
+    from slipbench.report.render import renderer
     from slipbench.store.results import ResultsStore
 
     out = bench.out
@@ -662,7 +664,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         slurm=slurm_of(bench),
     )
     blocks = build_report(
-        rows,
+        recorded_plugins(rows),  # cells kept from a run before rows recorded their layouts
         metric=bench.metric,
         intervals=bench.intervals,
         paper=bench.paper,
@@ -675,7 +677,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     from slipbench.atomic import write_text_atomic
 
     for fmt in bench.report:
-        path = out / f"report.{REPORT_FORMATS[fmt]}"
+        path = out / f"report.{renderer(fmt).suffix}"
         write_text_atomic(path, render(blocks, fmt, standalone=True, files=files, link_from=out))
         paths.append(path)
     return rows, paths

@@ -100,8 +100,11 @@ def _shown(default) -> dict:
 
 
 PLUGINS_HELP = "A plugin folder (repeatable)."
-# report and compare load no plugin to run it: only its protocols' table layouts
-LAYOUT_PLUGINS_HELP = "A plugin folder whose protocols' layouts to use (repeatable)."
+# report and compare read layouts from the rows; a plugin only fills in those of older rows
+LAYOUT_PLUGINS_HELP = (
+    "A plugin folder whose protocols' layouts to use for rows written before results recorded "
+    "them (repeatable)."
+)
 
 
 def plugins_option(help: str = PLUGINS_HELP):

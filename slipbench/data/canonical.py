@@ -25,6 +25,7 @@ from slipbench.data.schema import (
     STRING_COLUMNS,
     UNIVARIATE_CHANNELS,
 )
+from slipbench.vocabulary import SLIPS
 
 
 def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame:
@@ -294,6 +295,10 @@ def canonical_dataset(
         if scenario == "hold-slip":
             _check_onset(labels.get(rid), rid, samples_where)
     rec["n_samples"] = np.array([len(out_samples[rid]) for rid in ids], np.int64)
+    rec[SLIPS] = [
+        scenario == "slip" or (rid in labels and bool((labels[rid] == 1).any()))
+        for rid, scenario in zip(ids, rec["scenario"])
+    ]
     return rec, out_samples, labels
 
 

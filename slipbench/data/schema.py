@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import pyarrow as pa
 
+from slipbench.vocabulary import SLIPS
+
 FORMAT_VERSION = "1"
 VERSION_KEY = b"slipbench.format_version"
 # Written since page checksums came in (readers verify them where stored): the content
@@ -82,6 +84,7 @@ STRING_COLUMNS = (
     "source",
     "trial",
 )
-# Derived by the reader: channels per recording, and the rate every recording of a unit pools at.
-DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples")
+# Derived by the reader: channels per recording, the rate every recording of a unit pools at, and
+# whether the recording slips at all (SLIPS: a hold-slip trial may hold throughout).
+DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples", SLIPS)
 IN_MEMORY = "in-memory dataset"

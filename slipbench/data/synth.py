@@ -7,7 +7,7 @@ continuous onset trials (``hold-slip``: contact held, then slip, sometimes a dro
 streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that the
 paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
 :class:`ElectrodeArray` or :class:`Material` and is described, with where its value comes from,
-in ``datasets.md`` and ``docs/simulation.md`` (the contact's mechanics, model version 4). The
+in ``datasets.md`` and ``docs/explanation/simulation.md`` (the contact's mechanics, model version 4). The
 model is physical and is *not* fitted to the paper's accuracies.
 
 Variability is layered as in a real campaign: each unit differs from its nominal type (gain,

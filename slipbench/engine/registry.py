@@ -25,7 +25,7 @@ from typing import Any, Generic, TypeVar
 from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
 from slipbench.params import param_defaults
-from slipbench.protocol import BaseProtocol, Layout
+from slipbench.protocol import BaseProtocol, Layout, Presentation
 from slipbench.store.keys import missing_data_files, note_import
 from slipbench.store.reads import reading
 
@@ -193,10 +193,9 @@ class Registry(Generic[Plugin]):
             )
         if self.base is not BaseProtocol:
             return
-        try:
-            layout = (
-                cls().layout
-            )  # a protocol's layout may depend on its options: check the defaults'
+        try:  # a protocol's layout may depend on its options: check the defaults'
+            made = cls()
+            layout, presentation = made.layout, made.presentation
         except Exception as exc:
             raise PluginError(
                 f"protocol {name!r} ({source.origin}) cannot be made with its default options: "
@@ -206,6 +205,11 @@ class Registry(Generic[Plugin]):
             raise PluginError(
                 f"protocol {name!r} ({source.origin}) must declare layout = slipbench.protocol.Layout(...), "
                 f"got {layout!r}"
+            )
+        if presentation is not None and not isinstance(presentation, Presentation):
+            raise PluginError(
+                f"protocol {name!r} ({source.origin}) must declare presentation = "
+                f"slipbench.protocol.Presentation(...) or none, got {presentation!r}"
             )
 
     def _class_in(self, module, name: str, source: Source) -> type[Plugin]:

@@ -44,7 +44,7 @@ from slipbench.engine.plan import (
     make_plan,
 )
 from slipbench.errors import DataError, EnvironmentFault, UsageError
-from slipbench.protocol import Cell
+from slipbench.protocol import Cell, described
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.store.columns import checked
 from slipbench.store.keys import canonical
@@ -103,8 +103,10 @@ def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
             "run_id": stamp.run_id,
             "protocol": run.protocol_name,
             "protocol_params": _json(run.protocol.get_params()),
+            **described(run.protocol),
             "detector": run.detector_name,
             "detector_params": _json(run.detector.get_params()),
+            "detector_reference": bool(run.detector.reference),
             "split": run.split,
             "seed": run.seed,
             "labels": run.labels,

@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 
 from slipbench.errors import UsageError
+from slipbench.report.markdown import md_code, md_table, md_text
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.render import md_code, md_table, md_text
 from slipbench.stats.compare import (
     ALPHA,
     CELL_ALPHA,

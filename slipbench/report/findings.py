@@ -19,9 +19,10 @@ from collections import Counter
 import numpy as np
 import pandas as pd
 
-from slipbench.protocol import Layout
+from slipbench.report.outline import fits
 from slipbench.report.paper import paper_frame
-from slipbench.report.tables import Table, fits, ordered, rank, summarize
+from slipbench.report.presentation import ShownLayout
+from slipbench.report.tables import Table, ordered, rank, summarize
 from slipbench.stats.contrast import ONE_SEED_COVERAGE, Contrast, from_rows
 from slipbench.store.columns import TN_RATE, TP_RATE
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
@@ -39,7 +40,7 @@ def _means(rows: pd.DataFrame, keys: list[str], values: str) -> pd.DataFrame:
 
 
 def _curve(
-    rows: pd.DataFrame, layout: Layout, values: str, ends: dict | None = None
+    rows: pd.DataFrame, layout: ShownLayout, values: str, ends: dict | None = None
 ) -> dict[str, float]:
     """Per sensor type: the mean over units at the largest ``x`` minus at the smallest; with
     ``ends`` (sensor type -> (smallest, largest), the paper's), only where the rows hold both."""
@@ -54,12 +55,12 @@ def _curve(
     return out
 
 
-def _ends(rows: pd.DataFrame, layout: Layout) -> dict:
+def _ends(rows: pd.DataFrame, layout: ShownLayout) -> dict:
     x = layout.x or layout.column
     return {s: (part[x].min(), part[x].max()) for s, part in rows.groupby("sensor_type")}
 
 
-def _pair(rows: pd.DataFrame, layout: Layout, values: str) -> tuple[float, str]:
+def _pair(rows: pd.DataFrame, layout: ShownLayout, values: str) -> tuple[float, str]:
     """The mean change without explicit training (points) and the level losing most."""
     keys, pair = [*layout.rows, layout.column], layout.pair
     assert pair is not None  # a with-without layout: its cells come in with/without pairs
@@ -74,7 +75,7 @@ def _pair(rows: pd.DataFrame, layout: Layout, values: str) -> tuple[float, str]:
     return float(change.mean()), f"{label(layout.column, worst)} ({per_level[worst]:+.1f})"
 
 
-def _matrix(rows: pd.DataFrame, layout: Layout, values: str) -> float:
+def _matrix(rows: pd.DataFrame, layout: ShownLayout, values: str) -> float:
     """Mean accuracy on the unit trained on minus on the other units (points)."""
     row, column = layout.rows[-1], layout.column
     m = _means(rows, ["sensor_type", row, column], values)
@@ -83,7 +84,7 @@ def _matrix(rows: pd.DataFrame, layout: Layout, values: str) -> float:
     return 100 * (same.mean() - other.mean()) if len(same) and len(other) else np.nan
 
 
-def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
+def _first_table(rows: pd.DataFrame, layout: ShownLayout) -> pd.DataFrame:
     from slipbench.report.outline import split_parts
 
     parts = split_parts(rows, layout)
@@ -93,7 +94,7 @@ def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
 
 
 def findings_table(
-    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]], order: list[str]
 ) -> Table | None:
     """One line per finding: the paper's value (its LSTM) and each detector's, in points."""
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
@@ -400,7 +401,9 @@ def _speed_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
     ]
 
 
-def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) -> list[list[str]]:
+def _material_findings(
+    ours: pd.DataFrame, paper: pd.DataFrame, layout: ShownLayout
+) -> list[list[str]]:
     texts, worst = [], {}
     for what, values in (("paper", paper), ("ours", ours)):
         change, text = _pair(values, layout, what) if len(values) else (np.nan, "")
@@ -441,7 +444,9 @@ def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
     ]
 
 
-def _transfer_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) -> list[list[str]]:
+def _transfer_findings(
+    ours: pd.DataFrame, paper: pd.DataFrame, layout: ShownLayout
+) -> list[list[str]]:
     penalty_p = _matrix(paper, layout, "paper") if len(paper) else np.nan
     row, column = layout.rows[-1], layout.column
     e = Contrast(np.nan)
@@ -580,7 +585,9 @@ def _sensor_mean(rows: pd.DataFrame, sensor: str, values: str) -> float:
     return float(m["mean"].mean()) if len(m) else np.nan
 
 
-def paper_findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> Table | None:
+def paper_findings_table(
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]]
+) -> Table | None:
     """Each of the paper's findings: its numbers (the published tables), ours (the LSTM's rows,
     and Holweg's for the comparison of the two), whether ours show it, and the criterion."""
     model = rows[rows["detector"] == PAPER_MODEL]
@@ -594,7 +601,7 @@ def paper_findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]
 
     def part(
         table: str, detector: str = PAPER_MODEL
-    ) -> tuple[pd.DataFrame, pd.DataFrame, Layout | None]:
+    ) -> tuple[pd.DataFrame, pd.DataFrame, ShownLayout | None]:
         if table not in by_table:
             return rows.iloc[:0], paper_frame(table), None
         protocol, layout = by_table[table]

@@ -1,5 +1,6 @@
 """Result rows -> tables in a protocol's layout: labels, ordering, figures per cell, and the
-paper's extra tables at window 50. Format-independent: :mod:`slipbench.report.render` writes them out.
+paper's extra tables at window 50. In no format: a renderer (:mod:`slipbench.report.render`)
+writes them out.
 
 Layouts follow Van Wyk & Falco where the protocol declares the paper's: window size (Table I),
 sampling rate with its per-sensor rate header (Table II), material and speed with two numbers
@@ -10,7 +11,6 @@ and TP/TN rates per sensor type.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -21,6 +21,7 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
+from slipbench.report.presentation import ShownLayout
 from slipbench.stats.contrast import ONE_SEED, Contrast
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
@@ -62,7 +63,7 @@ SIMULATED = "_on_simulation"
 TRAINED_AS = "_trained_as"
 SIMULATION_NOTE = (
     "Channels on simulated data of model version 3 or earlier: there, the force's direction alone "
-    "separates slip (tangential load) from pressing (a mostly normal load; docs/simulation.md), so "
+    "separates slip (tangential load) from pressing (a mostly normal load; docs/explanation/simulation.md), so "
     "these channels figures measure the simulation, not what a sensor can tell."
 )
 
@@ -94,7 +95,7 @@ COLUMN_UNITS = {
 
 @dataclass
 class Table:
-    """A rendered-format-independent table: labels and cell texts."""
+    """A table in no format: labels and cell texts, in plain text (each renderer escapes them)."""
 
     caption: str
     row_headers: list[str]
@@ -103,7 +104,10 @@ class Table:
     rows: list[tuple[str, ...]]
     cells: list[list[str]]
     label: str
-    latex_columns: list[str] | None = None  # LaTeX column labels where they differ from ``columns``
+    # a value column's label as values each with a superscript, (value, superscript) pairs by
+    # the column's index (the rates of the paper's Table II, numbered by sensor type), for a
+    # format that sets superscripts; ``columns`` holds the same label as plain text
+    superscripts: dict[int, list[tuple[str, str]]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
     # each this fraction of the line width; text columns need it, numbers do not
@@ -137,45 +141,6 @@ def ordered(values: Iterable[Any], column: str) -> list[Any]:
     return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
 
 
-LATEX_CHARS = {
-    "\\": r"\textbackslash{}",
-    "&": r"\&",
-    "%": r"\%",
-    "_": r"\_",
-    "#": r"\#",
-    "{": r"\{",
-    "}": r"\}",
-    "$": r"\$",
-    "~": r"\textasciitilde{}",
-    "^": r"\textasciicircum{}",
-    "±": r"$\pm$",
-    "—": "--",
-    "–": "--",
-    "−": "-",
-    LOW_MARK: r"\dag{}",
-    "χ": r"$\chi$",
-    "²": r"$^2$",
-    "α": r"$\alpha$",
-    "≥": r"$\geq$",
-    "≤": r"$\leq$",
-    "×": r"$\times$",
-    "µ": r"$\mu$",
-    "≈": r"$\approx$",
-    "→": r"$\rightarrow$",
-    "<": r"$<$",
-    ">": r"$>$",
-}
-
-
-def escape(text: str) -> str:
-    """Plain text as LaTeX (kernel commands only), one character at a time so that no
-    replacement is escaped again; on one line (a blank line would end a cell's paragraph),
-    control characters as spaces."""
-    return "".join(
-        LATEX_CHARS.get(c, " " if c.isspace() or not c.isprintable() else c) for c in str(text)
-    )
-
-
 def _as_printed(percent: float) -> str:
     """One decimal, or two where the paper printed two (its TN rate 89.79)."""
     return f"{percent:.1f}" if abs(percent - round(percent, 1)) < 1e-9 else f"{percent:.2f}"
@@ -198,14 +163,40 @@ def _value_text(value: Any) -> str:
         return str(value)
 
 
+COUNTS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten")
+
+
+def sensors_text(rows: pd.DataFrame) -> str:
+    """What units ``rows`` hold, for a caption: "three types of sensors and fingers", "the
+    fingers of one sensor type (Biotac SP)", "one sensor (Biotac SP, ff)"."""
+    if "sensor_type" not in rows or rows["sensor_type"].dropna().empty:
+        return "sensors and fingers"
+    types = ordered(rows["sensor_type"].dropna().unique(), "sensor_type")
+    if len(types) > 1:
+        count = COUNTS[len(types)] if len(types) < len(COUNTS) else f"{len(types):,}"
+        return f"{count} types of sensors and fingers"
+    name = label("sensor_type", types[0])
+    fingers = rows["sensor_instance"].dropna().unique() if "sensor_instance" in rows else []
+    if len(fingers) == 1:
+        return f"one sensor ({name}, {label('sensor_instance', fingers[0])})"
+    return f"the fingers of one sensor type ({name})"
+
+
+#: a caption's placeholders that name no column: what the rows hold, in words
+DESCRIBED = {"sensors": sensors_text}
+
+
 def caption_of(caption: str, rows: pd.DataFrame) -> str:
-    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Layout`) replaced
-    by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor type
-    where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)". A name the rows do
-    not give stays as written."""
+    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Presentation`)
+    replaced by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor
+    type where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)"; ``{sensors}``
+    by what units they are (:func:`sensors_text`). A name the rows do not give stays as
+    written."""
 
     def values(match: re.Match) -> str:
         column = match.group(1)
+        if column in DESCRIBED and column not in rows:
+            return DESCRIBED[column](rows)
         if column not in rows or rows[column].dropna().empty:
             return match.group(0)
         if "sensor_type" in rows and rows[column].nunique() > 1:
@@ -339,45 +330,20 @@ def figure_text(figure: CellFigure, intervals: bool = False) -> str:
     return metric_text("", figure, intervals)
 
 
-def _key_columns(rows: pd.DataFrame) -> list[str]:
-    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
-    keys: list[str] = []
-    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
-        for k in json.loads(text):
-            if k not in keys:
-                keys.append(k)
-    return keys
-
-
-def generic_layout(rows: pd.DataFrame, protocol: str) -> Layout:
-    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
-    its rows): all keys but the last as rows, the last as columns."""
-    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
-    if len(keys) == 1:
-        return Layout(f"Protocol {protocol}.", tuple(keys), "detector", title=protocol)
-    return Layout(f"Protocol {protocol}.", tuple(keys[:-1]), keys[-1], title=protocol)
-
-
-def fits(layout: Layout, rows: pd.DataFrame) -> str:
-    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
-    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
-    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
-
-
 def _column_labels(
-    layout: Layout, rows: pd.DataFrame, columns: list[Any]
-) -> tuple[list[str], list[str], list[str]]:
-    """Plain and LaTeX column labels, and notes. With ``layout.column_label``, the label's value
-    per sensor type, numbered by superscripts as the rates of the paper's Table II; with
-    ``layout.note_column``, a note listing that column's values per sensor type."""
+    layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]
+) -> tuple[list[str], dict[int, list[tuple[str, str]]], list[str]]:
+    """Plain column labels, the same with superscripts (:attr:`Table.superscripts`), and notes.
+    With ``layout.column_label``, the label's value per sensor type, numbered by superscripts
+    as the rates of the paper's Table II; with ``layout.note_column``, a note listing that
+    column's values per sensor type."""
     notes = _note_column(layout, rows, columns)
     if not layout.column_label or layout.column_label not in rows or "sensor_type" not in rows:
-        plain = [label(layout.column, c) for c in columns]
-        return plain, [escape(p) for p in plain], notes
+        return [label(layout.column, c) for c in columns], {}, notes
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     number = {s: i + 1 for i, s in enumerate(sensors)}
-    plain, latex = [], []
-    for c in columns:
+    plain, marked = [], {}
+    for j, c in enumerate(columns):
         rates = (
             rows[rows[layout.column] == c]
             .groupby(layout.column_label, sort=True)["sensor_type"]
@@ -394,23 +360,18 @@ def _column_labels(
             if len(parts)
             else label(layout.column, c)
         )
-        latex.append(
-            r"\begin{tabular}{@{}c@{}}"
-            + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
-            + r"\end{tabular}"
-            if len(parts) > 1
-            else plain[-1]
-        )
+        if len(parts) > 1:
+            marked[j] = [(r, ",".join(map(str, ns))) for ns, r in parts]
     notes.insert(
         0,
         f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
         + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items())
         + ".",
     )
-    return plain, latex, notes
+    return plain, marked, notes
 
 
-def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
+def _note_column(layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
     """ "Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
     col = layout.note_column
     if not col or col not in rows or "sensor_type" not in rows:
@@ -451,7 +412,7 @@ class TableValues:
 
 def build_table(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     metric: str = "accuracy",
     intervals: bool = False,
     shown: TableValues = TableValues(),
@@ -501,7 +462,7 @@ def build_table(
             else:
                 line.append(one((*rk, c)))
         cells.append(line)
-    plain, latex, notes = _column_labels(layout, rows, columns)
+    plain, marked, notes = _column_labels(layout, rows, columns)
     row_labels: list[tuple[str, ...]]
     if layout.merge_rows:
         row_labels = [(", ".join(label(k, v) for k, v in zip(layout.rows, rk)),) for rk in row_keys]
@@ -519,7 +480,7 @@ def build_table(
         notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
-    return Table(caption, headers, group, plain, row_labels, cells, "", latex, notes)
+    return Table(caption, headers, group, plain, row_labels, cells, "", marked, notes)
 
 
 def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict[tuple, float]:
@@ -830,7 +791,7 @@ def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str
 
 def metrics_table(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     metrics: Sequence[str],
     intervals: bool = False,
     prefix: str = "",
@@ -887,7 +848,7 @@ def ordered_keys(rows: pd.DataFrame, keys: list[str]) -> list[tuple]:
     return list(row_values.itertuples(index=False, name=None))
 
 
-def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table | None:
+def compute_table(rows: pd.DataFrame, layout: ShownLayout, label_: str = "") -> Table | None:
     """A streaming detector's compute time per hop against its real-time budget, one line per
     row of ``layout``: the compute time (mean over seeds), the budget (the hop period) and
     whether it was met ("yes", "no", or in how many seeds). None where the rows hold no compute
@@ -941,7 +902,7 @@ def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table
 
 def side_by_side(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     detectors: Sequence[str],
     metric: str = "accuracy",
     label_: str = "",
@@ -982,7 +943,7 @@ def side_by_side(
         ]
         for d in detectors
     ]
-    plain, latex, notes = _column_labels(layout, rows, columns)
+    plain, marked, notes = _column_labels(layout, rows, columns)
     units = avg["units"]
     notes.append(
         f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
@@ -994,12 +955,12 @@ def side_by_side(
     group = f"{figure_label(metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(
-        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes
+        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, marked, notes
     )
 
 
 def _metrics_side_by_side(
-    rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str
+    rows: pd.DataFrame, layout: ShownLayout, detectors: Sequence[str], label_: str
 ) -> Table:
     """A layout with several metrics (streaming): a row per detector, a column per metric, each
     the mean over units of each unit's figure (mean over seeds)."""
@@ -1120,8 +1081,6 @@ def add_versus(
     what was left out and what the intervals lack."""
     header = f"{VERSUS} ({reference})"
     table.columns.append(header)
-    if table.latex_columns is not None:
-        table.latex_columns.append(escape(header))
     for line, pair in zip(table.cells, changes):
         low = pair is not None and pair[1] > 0
         line.append("reference" if pair is None else change_text(pair[0]) + LOW_MARK * low)

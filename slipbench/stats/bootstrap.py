@@ -9,7 +9,7 @@ own scale or, where its replicates say so, MOVER on the logit scale (Zou and Don
 seeds add each side's seed variance net of the seed-by-cluster part (:func:`seeded_interval`),
 or a seed variance given from elsewhere (:class:`~slipbench.stats.noise.SeedNoise`: the
 protocol's cells pooled, a calibration). How each step was chosen and
-how well it covers: ``docs/coverage.md`` and ``docs/statistics.md``; the methods it was chosen
+how well it covers: ``docs/studies/coverage.md`` and ``docs/explanation/statistics.md``; the methods it was chosen
 against live in ``benchmarks/studies/intervals.py``.
 """
 
@@ -37,7 +37,7 @@ NOISIER_QUANTILE = 0.9
 #: the pooled changes (:mod:`slipbench.stats.pooled`); the study methods are in
 #: ``benchmarks/studies/intervals.py``
 METHODS = ("satterthwaite", "scale-choice")
-#: the interval every figure and change takes unless told otherwise (``docs/coverage.md``)
+#: the interval every figure and change takes unless told otherwise (``docs/studies/coverage.md``)
 DEFAULT_METHOD = "scale-choice"
 #: a method that differs from another only in its changes: the method whose figures it takes
 FIGURES_AS = {"scale-choice": "replicate-logit"}
@@ -499,7 +499,7 @@ class Fit:
 
 
 class IntervalMethod(Protocol):
-    """An interval method of a study (``benchmarks/studies/intervals.py``, ``docs/coverage.md``),
+    """An interval method of a study (``benchmarks/studies/intervals.py``, ``docs/studies/coverage.md``),
     given to :func:`seeded_interval` in place of a name of :data:`METHODS`."""
 
     @property
@@ -616,7 +616,7 @@ def seeded_interval(
         reps = _replicates(per_seed(w), at_one, signs, seed)
     net, unsure = _seed_variance(reps, at_one, signs, seed_pool)
     # `unsure` stays in the denominator where the net is cut at 0 too: seeds that happen to
-    # agree do not earn the clusters' degrees of freedom (docs/coverage.md)
+    # agree do not earn the clusters' degrees of freedom (docs/studies/coverage.md)
     extra = [(net, np.inf)] if net > 0 else []
     # the clusters' variance of the seeds' plain means plus the seeds' own: the two-level
     # replicates' variance holds the seed-by-cluster term three times (seed spread, clusters,

@@ -50,7 +50,7 @@ variance is the sum of the two resamplings' variances (in closed form,
 
 Measured (``benchmarks/bench_leaderboard_seeds.py``, 1,000 simulated boards per setting, two
 equal detectors, 30 or 300 blocks, 2, 3 or 5 seeds; seed luck per block only, shared by the
-blocks, both, or with the two detectors on different seeds; table in ``docs/coverage.md``): the
+blocks, both, or with the two detectors on different seeds; table in ``docs/studies/coverage.md``): the
 pairwise interval excludes 0 on 0.2-4.9 % of boards with 3 or 5 seeds (2 seeds: 0.5-5.9 %),
 where the percentile bootstrap over blocks does on 4-92 % (34-92 % wherever seed luck reaches
 every block); the means' intervals cover 0.94-0.99 (blocks alone 0.29-0.84). Its width is 1.3-2.1

@@ -525,7 +525,7 @@ def seeds_from_rows(
     not run liberal when the spread has two degrees of freedom, as a Welch-Satterthwaite t of the
     sum did: measured coverage of one cell's accuracy with 3 seeds
     (``benchmarks/bench_findings_contrast.py``, scenarios ``seeds-3`` and ``strong-3``, 10-20
-    trials per class, 500 replications each; ``docs/coverage.md``) 0.922-0.968, where
+    trials per class, 500 replications each; ``docs/studies/coverage.md``) 0.922-0.968, where
     Welch-Satterthwaite gave 0.872-0.932. Clipped to ``bounds``.
 
     Parameters

@@ -122,7 +122,7 @@ def protocol_seed_pool(
     cells: Sequence[CellSides], figures: Sequence[str] = FIGURES, paired: bool = False
 ) -> dict[str, SeedNoise]:
     """Per figure, the seed variance ``cells`` (a protocol's compared cells) share: each cell
-    side's spread over its seeds, pooled with its degrees of freedom (``docs/statistics.md``);
+    side's spread over its seeds, pooled with its degrees of freedom (``docs/explanation/statistics.md``);
     figures no cell side of two seeds measures are left out. Give it to
     :func:`slipbench.stats.metrics.over_seeds` (``seed_pool``, the same ``paired``) so that a
     cell's seed term rests on the protocol's degrees of freedom, and more seeds narrow it."""

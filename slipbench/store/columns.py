@@ -1,7 +1,7 @@
 """The results schema: every column a result row may hold, with its type, unit and meaning.
 
 Rows are checked against it where they are made (:func:`checked`) and where the store writes
-them; ``docs/results-columns.md`` is written from it (``docs/tools/results_columns.py``). A
+them; ``docs/reference/results-columns.md`` is written from it (``docs/tools/results_columns.py``). A
 protocol's cell-key columns (``sensor_type``, ``window``, ...) are its own: a row may hold the
 keys its ``cell`` column names. Adding a figure is one entry in :data:`FIGURES` (what it is, how
 it reads, whether the gate reads it); its interval columns follow from the entry, and every
@@ -322,8 +322,23 @@ IDENTITY = (
     Column("run_id", STR, "", "UTC time stamp of the run that computed the cell"),
     Column("protocol", STR, "", "protocol id"),
     Column("protocol_params", STR, JSON, "the protocol's parameters"),
+    Column(
+        "protocol_layout", STR, JSON, "what the protocol's cells are: its table's rows and columns"
+    ),
+    Column(
+        "protocol_presentation",
+        STR,
+        JSON,
+        "how the protocol's table and figure look ('' where it declares none)",
+    ),
     Column("detector", STR, "", "detector id"),
     Column("detector_params", STR, JSON, "the detector's parameters"),
+    Column(
+        "detector_reference",
+        BOOL,
+        "",
+        "the detector is the registered reference, the baseline tables compare against",
+    ),
     Column("split", STR, "", "how windows were split into training and test sides"),
     Column("seed", INT, "", "the run's seed", (0, 2**32 - 1)),
     Column("labels", STR, "", "how windows were labelled (scenario or samples)"),

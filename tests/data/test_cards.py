@@ -85,7 +85,7 @@ def _card_text() -> str:
 def test_the_documented_card_is_a_valid_card(tmp_path):
     import re
 
-    docs = (Path(__file__).resolve().parents[2] / "docs" / "datasets.md").read_text()
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "reference" / "datasets.md").read_text()
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", docs, flags=re.S) if "lab-x-slips" in b]
     card = load_card("datasets.md", block)
     assert card.name == "lab-x-slips" and card.mapping and card.importer is None

@@ -51,10 +51,10 @@ def test_import_keeps_every_recording(dos):
 
 @pytest.mark.slow
 def test_documented_mapping_gives_the_same_dataset(dos, tmp_path, cli):
-    """docs/datasets.md's biotacsp-dos.toml through `dataset import csv` is `dataset import biotacsp-dos`."""
+    """docs/reference/datasets.md's biotacsp-dos.toml through `dataset import csv` is `dataset import biotacsp-dos`."""
     import re
 
-    docs = (Path(__file__).resolve().parents[2] / "docs" / "datasets.md").read_text()
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "reference" / "datasets.md").read_text()
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", docs, flags=re.S) if "BioTacSP" in b]
     (tmp_path / "biotacsp-dos.toml").write_text(block)
     code, out, err = cli(

@@ -1,6 +1,6 @@
 """The study of the findings' contrast intervals (``benchmarks/bench_findings_contrast.py``):
 its simulation against its closed-form truth (fast), and the study at few replications (slow).
-The full study's table is in docs/coverage.md."""
+The full study's table is in docs/studies/coverage.md."""
 
 from __future__ import annotations
 
@@ -82,7 +82,7 @@ def test_a_contrast_over_seeds_is_taken_per_seed():
 
 @pytest.mark.slow  # 3 x 30 simulated sensors: about 1.5 minutes
 def test_the_contrasts_cover_unless_one_seed_leaves_retraining_out():
-    """The study at 30 replications (the full one, 500, is in docs/coverage.md): without
+    """The study at 30 replications (the full one, 500, is in docs/studies/coverage.md): without
     retraining noise, and with it over three seeds, every contrast covers at least 0.9 (they
     cover 0.98-1.00 at 500); with one seed, one cell's interval misses its truth where
     retraining moves the cell by about 12 points (0.47 at 500)."""

@@ -50,7 +50,9 @@ def change_of(base: pd.DataFrame, cand: pd.DataFrame, folders=()) -> Contrast:
 
 def test_joint_bootstrap_change_from_predictions(tmp_path):
     base, cand = predictions_pair(tmp_path, n_cells=4, trials=12, flip=0.25)
-    ref = pd.read_parquet(base / "results.parquet").assign(detector="features")
+    ref = pd.read_parquet(base / "results.parquet").assign(
+        detector="features", detector_reference=True
+    )
     other = pd.read_parquet(cand / "results.parquet")
     rows = named_entrants(pd.concat([ref, other], ignore_index=True))
     texts = column(board_tables(rows, (base, cand))[1])

@@ -15,10 +15,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_committed_page_is_what_the_generator_writes():
-    page = (ROOT / "docs" / "results-columns.md").read_text()
+    page = (ROOT / "docs" / "reference" / "results-columns.md").read_text()
     assert page == results_columns.page(), (
-        "docs/results-columns.md is stale: "
-        "python docs/tools/results_columns.py > docs/results-columns.md"
+        "docs/reference/results-columns.md is stale: "
+        "python docs/tools/results_columns.py > docs/reference/results-columns.md"
     )
 
 

@@ -27,7 +27,13 @@ from slipbench.app.options import (
     slurm_resources,
     split_option,
 )
-from slipbench.app.selection import add_plugin_folders, readable, select_plugins, with_options
+from slipbench.app.selection import (
+    add_plugin_folders,
+    readable,
+    recorded_plugins,
+    select_plugins,
+    with_options,
+)
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
 
@@ -211,9 +217,10 @@ def evaluate_command(**options) -> None:
         progress=not o.quiet,
         slurm=slurm,
     )
-    for (dn, kind, pn), group in rows.groupby(["detector", "input", "protocol"], sort=False):
+    shown = recorded_plugins(rows)  # cells kept from a run before rows recorded their layouts
+    for (dn, kind, pn), group in shown.groupby(["detector", "input", "protocol"], sort=False):
         click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
-        click.echo(protocol_table(group, protocols[pn].layout, intervals=o.intervals))
+        click.echo(protocol_table(group, intervals=o.intervals))
     counts = rows["status"].value_counts()
     click.echo(
         f"\n{len(rows)} cells: "
