@@ -17,7 +17,7 @@ mean over its cells (what the gate's pooled test reads), they give:
   (its row's bootstrap): the test-set share of that noise.
 
 Variances are in the units the results store (rates as fractions). The file format, its key
-and when it is stale: ``docs/gate.md`` (section "The calibration").
+and when it is stale: ``docs/explanation/gate.md`` (section "The calibration").
 """
 
 from __future__ import annotations
