@@ -5,7 +5,7 @@ columns that come with it: ``python docs/tools/figure_page.py > docs/reference/f
 
 from __future__ import annotations
 
-from slipbench.store.columns import STREAMED_FIGURES, WINDOWED_FIGURES, Figure
+from slipbench.store.columns import STREAMED, WINDOWED, Figure, figures
 
 PAGE = "docs/reference/figures.md"
 HEAD = """\
@@ -21,13 +21,13 @@ KINDS = (
         "Of a windowed cell",
         "A cell that classifies test windows: each figure with its 95 % interval, a cluster "
         "bootstrap over the test trials.",
-        WINDOWED_FIGURES,
+        figures(WINDOWED),
     ),
     (
         "Of a streaming cell",
         "A cell that streams whole test recordings through the detector: each figure at the "
         "detector's own threshold, with its 95 % interval over the test trials.",
-        STREAMED_FIGURES,
+        figures(STREAMED),
     ),
 )
 
