@@ -65,12 +65,19 @@ class Destination(click.Path):
         return path
 
 
-def parse_params(values: tuple[str, ...]) -> dict:
-    """The NAME=VALUE items of a repeated option as a dict; a VALUE that is not JSON stays text."""
+#: an example item of each NAME=VALUE option, for its error message
+PARAM_EXAMPLES = {"--param": "band=[0,100]", "--protocol-param": "decimation=both"}
+
+
+def parse_params(values: tuple[str, ...], option: str = "--param") -> dict:
+    """The NAME=VALUE items of a repeated option (``option``, named in errors) as a dict; a
+    VALUE that is not JSON stays text."""
     params = {}
     for item in values:
         if "=" not in item:
-            raise UsageError(f"--param {item!r}: expected NAME=VALUE, e.g. --param band=[0,100]")
+            raise UsageError(
+                f"{option} {item!r}: expected NAME=VALUE, e.g. {option} {PARAM_EXAMPLES[option]}"
+            )
         name, text = item.split("=", 1)
         try:
             params[name] = json.loads(text)

@@ -93,6 +93,9 @@ def select_plugins(
     where it comes from, one line each to ``echo`` (:func:`provenance_line`)."""
     out: dict[str, Plugin] = {}
     wanted = [n.strip() for value in names for n in value.split(",") if n.strip()]
+    for name in wanted:  # every id known before any plugin is imported
+        if name != "all":
+            reg.check_name(name)
     for name in wanted:
         for n, plugin in load_plugins(reg, name, broken, echo).items():
             out.setdefault(n, plugin)

@@ -10,10 +10,12 @@ and never breaks start-up or the other plugins.
 
 from __future__ import annotations
 
+import difflib
 import functools
 import hashlib
 import importlib.util
 import inspect
+import re
 import sys
 import warnings
 from collections.abc import Callable
@@ -83,6 +85,16 @@ def _note_reads(cls: type, opened: set[str], who: str) -> None:
         )
 
 
+def is_plugin_file(path: Path) -> bool:
+    """Whether a ``*.py`` file of a plugin folder is a plugin: not a helper (``_name.py``) and
+    not pytest's (``test_*.py``, ``*_test.py``, ``conftest.py``), so a plugin's tests may sit
+    beside it."""
+    name = path.name
+    return not (
+        name.startswith(("_", "test_")) or name.endswith("_test.py") or name == "conftest.py"
+    )
+
+
 @dataclass(frozen=True)
 class Status:
     """Whether a plugin can be used, and why not.
@@ -130,13 +142,14 @@ class Registry(Generic[Plugin]):
             )
 
     def add_folder(self, folder: str | Path) -> None:
-        """Register every ``*.py`` file of ``folder``; the file name (with - for _) is the id."""
+        """Register every plugin file of ``folder`` (:func:`is_plugin_file`); the file name
+        (with - for _) is the id."""
         folder = Path(folder)
         if not folder.is_dir():
             raise UsageError(f"plugin folder {folder} does not exist")
         self._discover()
         for path in sorted(folder.glob("*.py")):
-            if not path.name.startswith("_"):
+            if is_plugin_file(path):
                 self._add(
                     path.stem.replace("_", "-"),
                     Source(
@@ -150,13 +163,21 @@ class Registry(Generic[Plugin]):
         self._discover()
         return sorted(self._sources)
 
+    def check_name(self, name: str) -> None:
+        """Refuse an id no plugin is registered under, suggesting the closest ids (difflib) and
+        listing the others; imports nothing."""
+        names = self.names()
+        if name in names:
+            return
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+        hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+        raise UsageError(f"unknown {self.kind} {name!r}{hint}; available: {', '.join(names)}")
+
     def get(self, name: str) -> type[Plugin]:
         """The plugin class registered as ``name``; an unknown name lists the names that exist."""
-        self._discover()
         if name in self._loaded:
             return self._loaded[name]
-        if name not in self._sources:
-            raise UsageError(f"unknown {self.kind} {name!r}; available: {', '.join(self.names())}")
+        self.check_name(name)
         source = self._sources[name]
         try:
             with reading() as opened:
@@ -284,7 +305,7 @@ class Registry(Generic[Plugin]):
         }
         if name in self._loaded:
             cls = self._loaded[name]
-            out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
+            out["description"] = summary(cls.__doc__ or "")
             if issubclass(cls, BaseDetector):  # what it reads (evaluate --input), its mark
                 out["inputs"] = list(cls.inputs)
                 out["reference"] = bool(cls.reference)
@@ -297,6 +318,15 @@ class Registry(Generic[Plugin]):
                 for p, d in param_defaults(cls).items()
             }
         return out
+
+
+def summary(doc: str) -> str:
+    """A docstring's first sentence, whole (it may span lines), as plain text: ``code`` and
+    :role:`target` marks dropped. A sentence ends at a full stop followed by a capital or
+    ``code``, or at the end of the first paragraph."""
+    paragraph = " ".join(inspect.cleandoc(doc).split("\n\n")[0].split())
+    text = re.sub(r":\w+:`~?([^`]+)`", r"\1", paragraph)
+    return re.split(r"(?<=[.!?])\s+(?=[A-Z`])", text, maxsplit=1)[0].replace("``", "")
 
 
 detectors = Registry("detector", BaseDetector, DETECTOR_GROUP)

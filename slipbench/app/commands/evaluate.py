@@ -165,7 +165,7 @@ def evaluate_command(**options) -> None:
     )
     protocols = with_options(
         select_plugins(registry.protocols, o.protocol_name, broken, note),
-        parse_params(o.protocol_params),
+        parse_params(o.protocol_params, "--protocol-param"),
         "protocol",
     )
     runs = [
