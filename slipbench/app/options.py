@@ -54,14 +54,10 @@ class Destination(click.Path):
         self.results = results
 
     def convert(self, value, param, ctx):
-        from slipbench.atomic import check_writable
-        from slipbench.store.results import ResultsStore
+        from slipbench.atomic import RESULTS_CELLS, check_writable
 
         path = super().convert(value, param, ctx)
-        if self.results:
-            ResultsStore(path).check_writable(unless_stored=True)
-        else:
-            check_writable(path)
+        check_writable(path, RESULTS_CELLS if self.results else "")
         return path
 
 

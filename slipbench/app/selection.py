@@ -9,12 +9,15 @@ hint; named on its own it is refused before any work (exit 3, with the hint)."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from slipbench.base import BaseDetector
 from slipbench.engine import registry
 from slipbench.engine.registry import Plugin
 from slipbench.errors import PluginError, UsageError
 from slipbench.vocabulary import INPUTS
+
+if TYPE_CHECKING:
+    from slipbench.base import BaseDetector
 
 
 def add_plugin_folders(folders: tuple[str, ...]) -> None:
@@ -92,10 +95,7 @@ def select_plugins(
     What 'all' means depends on what is installed, so 'all' names each plugin it selects and
     where it comes from, one line each to ``echo`` (:func:`provenance_line`)."""
     out: dict[str, Plugin] = {}
-    wanted = [n.strip() for value in names for n in value.split(",") if n.strip()]
-    for name in wanted:  # every id known before any plugin is imported
-        if name != "all":
-            reg.check_name(name)
+    wanted = check_ids(reg, names)
     for name in wanted:
         for n, plugin in load_plugins(reg, name, broken, echo).items():
             out.setdefault(n, plugin)
@@ -105,6 +105,17 @@ def select_plugins(
         for n in out:
             echo(provenance_line(reg, n))
     return out
+
+
+def check_ids(reg: registry.Registry, names: tuple[str, ...] | list[str]) -> list[str]:
+    """The ids a repeated option names (each value an id, a comma list or 'all'), every one
+    checked against the registry (:meth:`~slipbench.engine.registry.Registry.check_name`)
+    before any plugin is imported."""
+    wanted = [n.strip() for value in names for n in value.split(",") if n.strip()]
+    for name in wanted:
+        if name != "all":
+            reg.check_name(name)
+    return wanted
 
 
 def provenance_line(reg: registry.Registry, name: str) -> str:

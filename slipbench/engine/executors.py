@@ -231,7 +231,9 @@ def process_pool(
     tasks: list[T], payload: Payload, jobs: int, timeout: float | None, on_report: Report | None
 ) -> Finished:
     """Local worker processes; at most two tasks per worker in flight, so their windows are
-    not all in memory at once."""
+    not all in memory at once. Nothing to run starts no worker."""
+    if not tasks:
+        return
     pool: _Pool[T] = _Pool(jobs, timeout, on_report)
     queue = iter(enumerate(tasks))
     interrupted = True

@@ -13,6 +13,7 @@ from __future__ import annotations
 import difflib
 import functools
 import hashlib
+import importlib
 import importlib.util
 import inspect
 import re
@@ -22,14 +23,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
-from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
-from slipbench.params import param_defaults
-from slipbench.protocol import BaseProtocol, Layout
-from slipbench.store.keys import missing_data_files, note_import
-from slipbench.store.reads import reading
+
+if TYPE_CHECKING:
+    from slipbench.base import BaseDetector
+    from slipbench.protocol import BaseProtocol
+
+# Ids are listed and checked from entry points and folder listings alone: the contract (numpy,
+# pandas, pyarrow) is imported when a plugin is loaded, so a mistyped id is refused at once.
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,8 @@ def _note_reads(cls: type, opened: set[str], who: str) -> None:
     Built-ins belong to slipbench, whose identity is its code alone."""
     if cls.__module__.split(".")[0] == "slipbench":
         return
+    from slipbench.store.keys import note_import
+
     for path in note_import(cls.__module__, opened):
         warnings.warn(
             f"{who} read {path} while importing; it is outside the plugin's folder and not "
@@ -110,18 +115,27 @@ class Status:
 
 
 #: the kind of plugin a registry holds
-Plugin = TypeVar("Plugin", BaseDetector, BaseProtocol)
+Plugin = TypeVar("Plugin", "BaseDetector", "BaseProtocol")
 
 
 class Registry(Generic[Plugin]):
-    """Ids -> plugin classes of one kind (detector or protocol)."""
+    """Ids -> plugin classes of one kind (detector or protocol). ``base`` is their base class,
+    or its "module:Class" name, imported when a plugin is first loaded."""
 
-    def __init__(self, kind: str, base: type[Plugin], group: str):
+    def __init__(self, kind: str, base: type[Plugin] | str, group: str):
         self.kind, self.group = kind, group
-        self.base: type[Plugin] = base
+        self._base: type[Plugin] | str = base
         self._sources: dict[str, Source] = {}
         self._loaded: dict[str, type[Plugin]] = {}
         self._discovered = False
+
+    @property
+    def base(self) -> type[Plugin]:
+        if isinstance(self._base, str):
+            module, _, attribute = self._base.partition(":")
+            self._base = getattr(importlib.import_module(module), attribute)
+        assert not isinstance(self._base, str)  # imported just above
+        return self._base
 
     def _add(self, name: str, source: Source) -> None:
         if name in self._sources and self._sources[name].origin != source.origin:
@@ -179,6 +193,8 @@ class Registry(Generic[Plugin]):
             return self._loaded[name]
         self.check_name(name)
         source = self._sources[name]
+        from slipbench.store.reads import reading
+
         try:
             with reading() as opened:
                 obj = source.load()
@@ -206,6 +222,9 @@ class Registry(Generic[Plugin]):
         return cls
 
     def _check_class(self, cls: type, name: str, source: Source) -> None:
+        from slipbench.protocol import BaseProtocol, Layout
+        from slipbench.store.keys import missing_data_files
+
         missing = missing_data_files(cls)
         if missing:  # its cache keys would not see the files it reads
             raise PluginError(
@@ -255,6 +274,8 @@ class Registry(Generic[Plugin]):
         for name, source in self._sources.items():
             if source.target == target or (name in self._loaded and self._loaded[name] is cls):
                 return name
+        from slipbench.base import plugin_id
+
         return plugin_id(cls)
 
     def status(self, name: str) -> Status:
@@ -304,6 +325,9 @@ class Registry(Generic[Plugin]):
             "parameters": {},
         }
         if name in self._loaded:
+            from slipbench.base import BaseDetector
+            from slipbench.params import param_defaults
+
             cls = self._loaded[name]
             out["description"] = summary(cls.__doc__ or "")
             if issubclass(cls, BaseDetector):  # what it reads (evaluate --input), its mark
@@ -329,8 +353,14 @@ def summary(doc: str) -> str:
     return re.split(r"(?<=[.!?])\s+(?=[A-Z`])", text, maxsplit=1)[0].replace("``", "")
 
 
-detectors = Registry("detector", BaseDetector, DETECTOR_GROUP)
-protocols = Registry("protocol", BaseProtocol, "slipbench.protocols")
+#: the built-in and installed plugins; the groups are those of slipbench's pyproject.toml (the
+#: detectors' is ``slipbench.base.DETECTOR_GROUP``, which saved models are loaded through)
+detectors: Registry[BaseDetector] = Registry(
+    "detector", "slipbench.base:BaseDetector", "slipbench.detectors"
+)
+protocols: Registry[BaseProtocol] = Registry(
+    "protocol", "slipbench.protocol:BaseProtocol", "slipbench.protocols"
+)
 
 
 def add_plugin_folder(folder: str | Path) -> None:

@@ -27,9 +27,10 @@ import pandas as pd
 from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals, channel_scales, standardized
+from slipbench.engine.cached import refits, reusable
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, Lockstep, TestSet, changed_reads
+from slipbench.engine.fitting import Job, Lockstep, TestSet
 from slipbench.engine.plan import (
     LABELLED,
     Batch,
@@ -203,12 +204,8 @@ def evaluate(
         check_labels(run.labels, dataset)
     with_cells = [(run, run.cells_or_stand_in(dataset.recordings)) for run in runs]
     stored = {} if force else store.finished()
-    refit = _changed_reads(stored)  # model keys whose fits read a file that has changed since
-    done = {
-        k
-        for k, r in stored.items()
-        if r.get("status") in ("ok", "skipped") and r.get("model_key") not in refit
-    }
+    refit = refits(stored)  # model keys whose fits read a file that has changed since
+    done = reusable(stored, refit)
     fingerprint = dataset.fingerprint
     signals = _signals(dataset, runs)
     plan = make_plan(signals, with_cells, fingerprint, done)
@@ -270,22 +267,6 @@ def evaluate(
     bar.close()
     store.consolidate()
     return pd.DataFrame([rows[pc.key] for pc in plan.cells])
-
-
-def _changed_reads(stored: dict[str, dict]) -> set[str]:
-    """Model keys of stored cells whose fit read a file outside its code identity that has
-    changed since: they are fitted again (a warning names the file)."""
-    refit: set[str] = set()
-    for row in stored.values():
-        changed = changed_reads(row) if row.get("unkeyed_reads") else []
-        if changed and str(row.get("model_key")) not in refit:
-            refit.add(str(row.get("model_key")))
-            warnings.warn(
-                f"detector {row.get('detector')!r}: {', '.join(changed)} changed since its cells "
-                "were computed (a file its fit read, not part of its code identity): refitting",
-                stacklevel=2,
-            )
-    return refit
 
 
 def _warn_reads(detector: str, fields: dict, warned: set[tuple[str, str]]) -> None:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.stats.metrics import seeds_from_rows
 
@@ -72,7 +72,7 @@ def contrast(terms: pd.DataFrame, level: float = LEVEL) -> Estimate:
     if terms.empty:
         return Estimate(np.nan, np.nan, np.nan)
     if "seed" in terms and terms["seed"].nunique() > 1:
-        z = float(norm.ppf(0.5 + level / 2))
+        z = float(scipy.stats.norm.ppf(0.5 + level / 2))
         per = [_one_seed(t, level) for _, t in terms.groupby("seed", sort=True)]
         ses = [(e.hi - e.lo) / (2 * z) for e in per]
         return Estimate(*seeds_from_rows(np.array([e.value for e in per]), np.array(ses), level))
@@ -81,7 +81,7 @@ def contrast(terms: pd.DataFrame, level: float = LEVEL) -> Estimate:
 
 def _one_seed(terms: pd.DataFrame, level: float) -> Estimate:
     """The contrast of one seed's (or one summary's) lines, with the module's interval."""
-    z = float(norm.ppf(0.5 + level / 2))
+    z = float(scipy.stats.norm.ppf(0.5 + level / 2))
     w = terms["weight"].to_numpy(dtype=float)
     value = float(np.sum(w * terms["mean"].to_numpy(dtype=float)))
     se = (terms["hi"].to_numpy(dtype=float) - terms["lo"].to_numpy(dtype=float)) / (2 * z)

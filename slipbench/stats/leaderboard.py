@@ -69,10 +69,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import brentq
-from scipy.stats import bootstrap, rankdata
-from scipy.stats import t as student_t
-from statsmodels.stats.multitest import multipletests
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.seeding import rng_for
 from slipbench.stats.factors import SETTINGS, entrant_names, factor_values, one_class
@@ -301,7 +298,7 @@ class Crossed:
         component with the fewest degrees of freedom alone, whatever the true ratio of the
         components (Banerjee 1961), where Welch-Satterthwaite's plug-in degrees of freedom run
         liberal with a component of 1-4."""
-        q = [student_t.ppf(0.5 + level / 2, df) for _, df in self.parts]
+        q = [scipy.stats.t.ppf(0.5 + level / 2, df) for _, df in self.parts]
         return float(np.sqrt(sum(qi**2 * v for qi, (v, _) in zip(q, self.parts))))
 
     def p_value(self) -> float:
@@ -319,7 +316,7 @@ class Crossed:
             return 1.0
         if reach(1e-15) < 0:
             return 0.0
-        return float(brentq(reach, 1e-15, 1 - 1e-12))
+        return float(scipy.optimize.brentq(reach, 1e-15, 1 - 1e-12))
 
 
 def _filled(values: np.ndarray) -> np.ndarray:
@@ -409,7 +406,7 @@ def pairwise(
     if finite.sum() == 1:  # Holm leaves a single p as it is
         pairs.loc[finite, "p_holm"] = pairs.loc[finite, "p"]
     elif finite.any():
-        pairs.loc[finite, "p_holm"] = multipletests(pairs.loc[finite, "p"], method="holm")[1]
+        pairs.loc[finite, "p_holm"] = _holm(pairs.loc[finite, "p"])
     pairs["differ"] = pairs["p_holm"] < ALPHA
     return pairs[columns]
 
@@ -462,13 +459,22 @@ def rank_scope(
         empty = pd.Series(dtype=float)
         return Scope(name, 0, n_excluded, empty, empty, pairwise(complete, []), [])
     ranks = pd.DataFrame(
-        rankdata(-complete.to_numpy(), axis=1), index=complete.index, columns=complete.columns
+        scipy.stats.rankdata(-complete.to_numpy(), axis=1),
+        index=complete.index,
+        columns=complete.columns,
     )
     mean = ranks.mean().sort_values(kind="stable")
     order = list(mean.index)
     wins = (ranks == ranks.min(axis=1).to_numpy()[:, None]).sum()[order]
     pairs = pairwise(scores, order, seed, seeds)
     return Scope(name, len(complete), n_excluded, mean, wins, pairs, _groups(order, pairs))
+
+
+def _holm(p: pd.Series) -> np.ndarray:
+    """Holm-adjusted p-values (statsmodels, imported when needed: see :mod:`slipbench.stats`)."""
+    from statsmodels.stats.multitest import multipletests
+
+    return multipletests(p, method="holm")[1]
 
 
 def one_family(scopes: list[Scope]) -> None:
@@ -482,7 +488,7 @@ def one_family(scopes: list[Scope]) -> None:
     if finite.sum() == 1:
         holm[finite] = p[finite]
     elif finite.any():
-        holm[finite] = multipletests(p[finite], method="holm")[1]
+        holm[finite] = _holm(p[finite])
     at = 0
     for s in scopes:
         n = len(s.pairs)
@@ -512,7 +518,7 @@ def _mean_interval(
         values == values[0]
     ):  # nothing to resample; scipy would warn of a degenerate distribution
         return float(values[0]), float(values[0]), float(values[0])
-    res = bootstrap(
+    res = scipy.stats.bootstrap(
         (values,),
         np.mean,
         n_resamples=N_RESAMPLES,

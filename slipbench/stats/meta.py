@@ -24,7 +24,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from statsmodels.stats.meta_analysis import combine_effects
 
 from slipbench.stats.metrics import LEVEL
 from slipbench.stats.pairs import paired_change
@@ -65,6 +64,8 @@ def transferred(rows: pd.DataFrame) -> pd.Series:
 def pool(effects: Sequence[float], ses: Sequence[float], level: float = LEVEL) -> dict:
     """The random-effects pooled change of ``effects`` with standard errors ``ses`` (two or
     more, every one positive): ``d``, ``lo``, ``hi``, ``tau2``, ``i2``."""
+    from statsmodels.stats.meta_analysis import combine_effects  # see slipbench.stats
+
     with np.errstate(divide="ignore"):  # its I² divides by Q; computed below
         res = combine_effects(
             np.asarray(effects, float),

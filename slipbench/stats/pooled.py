@@ -32,7 +32,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import t as student_t
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.stats.bootstrap import (
     N_RESAMPLES,
@@ -265,5 +265,5 @@ def pooled_from_rows(
         "se": float(np.mean(se)),
         "df": float(np.nanmin(np.asarray(df, float))),
     }
-    q = student_t.ppf(1 - (1 - level) / 2, out["df"])
+    q = scipy.stats.t.ppf(1 - (1 - level) / 2, out["df"])
     return out | {"lo": out["d"] - q * out["se"], "hi": out["d"] + q * out["se"]}

@@ -46,6 +46,7 @@ import pyarrow as pa
 import pyarrow.compute as pc
 
 from slipbench.atomic import (
+    RESULTS_CELLS,
     check_writable,
     folder_lock,
     make_folder,
@@ -154,7 +155,7 @@ class ResultsStore:
         self.folder = Path(folder)
 
     def _cell_path(self, key: str) -> Path:
-        return self.folder / "cells" / f"{key}.parquet"
+        return self.folder / RESULTS_CELLS / f"{key}.parquet"
 
     def model_path(self, model_key: str) -> Path:
         """Where the fitted model of a model key is kept, so that later runs reuse it."""
@@ -164,8 +165,7 @@ class ResultsStore:
         """Raise EnvironmentFault (exit 5, naming the folder) unless cells can be written here;
         creates nothing. With ``unless_stored``, a folder that holds cells passes: a rerun that
         finds them all writes nothing, and the run checks again once it knows what it writes."""
-        if not (unless_stored and (self.folder / "cells").is_dir()):
-            check_writable(self.folder)
+        check_writable(self.folder, RESULTS_CELLS if unless_stored else "")
 
     def finished(self) -> dict[str, dict[str, Any]]:
         """Every stored cell row by key: results.parquet, plus cells stored since it was written.
@@ -221,7 +221,7 @@ class ResultsStore:
         an unreadable cell file is a DataError (a report must not silently miss a cell). Rows
         of ``known``, an earlier scan, are not read again where their file is unchanged."""
         path = self.folder / RESULTS_FILE
-        cells = self.folder / "cells"
+        cells = self.folder / RESULTS_CELLS
         try:
             entries = sorted(
                 (
@@ -322,7 +322,7 @@ def _check_file(table: pa.Table, path: Path) -> None:
     DataError
         Naming what does not match: how many rows, and the first of them with their columns.
     """
-    cells = path.parent / "cells"
+    cells = path.parent / RESULTS_CELLS
     digests = _written_digests(table)
     if not digests and not cells.is_dir():
         return
