@@ -5,7 +5,6 @@ frequency band, thresholded where the empirical CDFs of slip and non-slip sums s
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import ks_2samp
 
 from slipbench.base import BaseDetector
 from slipbench.errors import UsageError
@@ -17,6 +16,8 @@ def significant_band(freqs: np.ndarray, amp: np.ndarray, y: np.ndarray, keep: fl
     """Bins of the most significant band: the contiguous run of bins around the bin whose
     slip and non-slip amplitudes differ most (two-sample KS statistic), extended while a bin's
     statistic stays at least ``keep`` times that maximum."""
+    from scipy.stats import ks_2samp  # here: scipy.stats costs a second to import
+
     stat = ks_2samp(
         amp[y == 1], amp[y == 0], axis=0, method="asymp"
     ).statistic  # no exact p-values needed

@@ -11,7 +11,9 @@ the training windows
 and each learning-rate stage starts from them with zero velocity; MATLAB's initialization
 (Glorot input and output weights, orthogonal recurrent weights, forget-gate bias 1); epochs per
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
-(``max_epochs=100`` is the paper's).
+(``max_epochs=100`` is the paper's); the percentiles mapped to [-4, 4] (``input_range``): at
+[-1, 1] the input barely moves the gates, and the LSTM did not learn on a real BioTac SP
+(docs/studies/lstm-study.md, ``benchmarks/lstm_input_study.py``).
 CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
 Many models train together through ``LSTM.fit_lockstep`` (lstm_lockstep.py, lstm_lockstep_torch.py).
 Streaming (``streamer``): every window still open keeps its state from push to push, so a
@@ -35,12 +37,14 @@ PARAMS = ("w_", "rt_", "b_", "wy_", "by_")
 
 
 class LSTM(BaseDetector):
-    """The paper's LSTM; ``device`` "auto" trains on a CUDA GPU where torch sees one and the
-    batch is large enough for it to be faster (``CUDA_MIN_BATCH``), else on the CPU."""
+    """The paper's LSTM (section V): 20 units on the univariate signal, SGD with momentum.
+
+    ``device`` "auto" trains on a CUDA GPU where torch sees one and the batch is large enough
+    for it to be faster (``CUDA_MIN_BATCH``), else on the CPU."""
 
     check_params = {"max_epochs": 2, "validation_fraction": 0.2}  # fast settings for check_detector
-    lo_: float  # fitted normalization: (x - lo_) * scale_ - 1
-    scale_: float
+    lo_: float  # fitted normalization: (x - lo_) * scale_ - 1, the training windows' 2.5th and
+    scale_: float  # 97.5th percentiles at -input_range and +input_range
     lockstep = True  # _fit_lockstep trains models of one window length and settings together
     _parameter_constraints = {
         "hidden_size": Interval(int, 1, 512),
@@ -51,6 +55,7 @@ class LSTM(BaseDetector):
         "device": Options(("auto", "cpu", "cuda")),
         "learning_rates": Sequence(Interval(float, 1e-12, 10.0)),
         "max_epochs": Sequence(Interval(int, 1, 100_000)),
+        "input_range": Interval(float, 1e-3, 1e3),
     }
 
     def __init__(  # noqa: PLR0913 (hyperparameters: get_params reads one keyword each)
@@ -63,6 +68,7 @@ class LSTM(BaseDetector):
         patience=10,
         validation_fraction=0.1,
         device="auto",
+        input_range=4.0,
     ):
         self.hidden_size = hidden_size
         self.batch_size = batch_size
@@ -72,6 +78,7 @@ class LSTM(BaseDetector):
         self.patience = patience
         self.validation_fraction = validation_fraction
         self.device = device
+        self.input_range = input_range
 
     def validate_params(self) -> None:
         super().validate_params()
@@ -217,7 +224,8 @@ class _Training:
         self.det, self.y, self.stages = det, y, det._stages()
         self.rng = rng = np.random.default_rng(seed)
         lo, hi = np.percentile(x, [2.5, 97.5])
-        det.lo_, det.scale_ = float(lo), float(2.0 / max(hi - lo, 1e-12))  # -> [-1, 1]
+        scale = 2.0 * det.input_range / max(hi - lo, 1e-12)  # [lo, hi] -> [-range, range]
+        det.lo_, det.scale_ = float(lo + (det.input_range - 1.0) / scale), float(scale)
         self.xn = ((x - det.lo_) * det.scale_ - 1.0).astype(np.float32)
         counts = [max(1, int(round(det.validation_fraction * (y == c).sum()))) for c in (0, 1)]
         self.val = np.concatenate(

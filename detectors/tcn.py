@@ -14,7 +14,9 @@ from slipbench.torch import TorchDetector
 
 
 class TCN(TorchDetector):
-    """``channels`` features per block, ``kernel_size`` taps per convolution, ``blocks`` residual
+    """A temporal convolutional network on PyTorch (Bai et al. 2018): dilated causal convolutions.
+
+    ``channels`` features per block, ``kernel_size`` taps per convolution, ``blocks`` residual
     blocks with dilations 1, 2, 4, ... (receptive field ``1 + 2 (kernel_size - 1)(2^blocks - 1)``
     samples: 29 by default); each window centered on its own mean when ``center`` (a level says
     which recording, not whether it slips), the last block's features pooled over time by their

@@ -96,6 +96,15 @@ gives (see `datasets.md`), not measured facts about the sensors:
 The findings table gives each contrast with its interval; these reasons are the simulation's,
 written once, and name no figure of the run.
 
+**The LSTM's input range.** The LSTM maps its training windows' 2.5th and 97.5th percentiles to
+`[-input_range, input_range]`: 4 since the LSTM study, which found that at slipbench 0.1.0's
+[-1, 1] the input barely moves its gates, so that on a real BioTac SP it did not learn. The
+detectors table below lists `input_range` with the LSTM's other parameters; a run made before
+the study lists none, and its LSTM ran at [-1, 1]. On this simulation the change leaves windows
+10 and 50 inside their intervals and raises window 200, where the old range failed to train some
+units: measured on a representative subset at scale 0.02 by the LSTM study
+(`docs/lstm-study.md`, `benchmarks/results/lstm_input_study.md`).
+
 TEXT
   tail -n +2 "$REPORTS/README.md"  # the report's own title gives way to the one above
   echo

@@ -24,10 +24,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import BinaryIO
-
-import pyarrow as pa
-import pyarrow.parquet as pq
+from typing import TYPE_CHECKING, BinaryIO
 
 from slipbench.errors import (
     ENVIRONMENT_ERRNOS,
@@ -37,6 +34,13 @@ from slipbench.errors import (
     environment_fault,
     writing,
 )
+
+if TYPE_CHECKING:  # pyarrow is imported by the functions that write or read Parquet: a
+    import pyarrow as pa  # command checks its destinations (check_writable) without it
+    import pyarrow.parquet as pq
+
+#: the folder of a results folder (slipbench.store.results) that holds its cell files
+RESULTS_CELLS = "cells"
 
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
 
@@ -89,6 +93,9 @@ def write_atomic(table: pa.Table, path: str | os.PathLike) -> None:
     """Write a Parquet file so that readers see the old file or the new one, never a torn one."""
     # serialized in memory first: pyarrow writing through a Python file object calls back into
     # Python from its own threads, which has aborted interpreters at exit (apache/arrow#34314)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     with atomic_file(path) as fh:
@@ -116,14 +123,18 @@ def unique_folder(parent: str | os.PathLike, prefix: str) -> Path:
     raise FileExistsError(errno.EEXIST, "no unused temporary folder name", os.fspath(parent))
 
 
-def check_writable(path: str | os.PathLike) -> None:
+def check_writable(path: str | os.PathLike, unless: str = "") -> None:
     """Raise EnvironmentFault (exit 5) naming ``path`` unless this process can write there: in
     the folder ``path`` where it is one, else in the folder that would hold it (its nearest
     existing ancestor, where a new folder would be made). Called before any work: it creates
     and removes one hidden file, the only test that sees permissions, ACLs, read-only mounts and
-    root alike, and leaves nothing behind.
+    root alike, and leaves nothing behind. ``unless``: a folder inside ``path`` whose presence
+    passes (a results folder's :data:`RESULTS_CELLS`: a rerun that finds every cell stored
+    writes nothing, and the run checks again once it knows what it writes).
     """
     path = Path(path)
+    if unless and (path / unless).is_dir():
+        return
     folder = next(p for p in (path, *path.parents) if p.exists())
     if folder != path and not folder.is_dir():
         raise UsageError(f"{path}: {folder} is a file, so no folder can be made there")
@@ -187,6 +198,8 @@ def open_parquet(
     naming ``where`` (the file; default ``source``) and the column's position. A file pyarrow
     cannot open raises what pyarrow raises (ArrowException, OSError): the caller names it.
     """
+    import pyarrow.parquet as pq
+
     where = os.fspath(source if where is None else where)
     try:
         pf = pq.ParquetFile(source, **options)

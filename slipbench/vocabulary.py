@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+if TYPE_CHECKING:  # annotations only: the CLI reads this module before it needs pandas
+    import pandas as pd
 
 # ----------------------------------------------------------------------------- the paper's design
 SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")  # sensor types, in the paper's order

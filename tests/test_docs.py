@@ -117,3 +117,9 @@ def test_performance_page_is_what_the_gpu_check_renders():
         + " ".join(f"benchmarks/results/{f.name}" for f in files)
         + " docs/studies/performance.md"
     )
+
+
+def test_the_readmes_docs_command_silences_the_themes_banner():
+    """mkdocs-material prints an end-of-life banner unless NO_MKDOCS_2_WARNING=1 (.ci/run sets it)."""
+    commands = re.findall(r"`([^`]*mkdocs (?:serve|build)[^`]*)`", README.read_text())
+    assert commands and all("NO_MKDOCS_2_WARNING=1 mkdocs" in c for c in commands)

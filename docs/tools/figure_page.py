@@ -41,12 +41,12 @@ def _also(figure: Figure) -> str:
 
 def page() -> str:
     out = [HEAD]
-    for title, text, figures in KINDS:
+    for title, text, declared in KINDS:
         out.append(f"\n## {title}\n\n{text}\n\n")
         out.append(
             "| figure | unit | what it is | interval | also |\n| --- | --- | --- | --- | --- |\n"
         )
-        for f in figures:
+        for f in declared:
             out.append(
                 f"| `{f.name}` | {f.unit} | {f.meaning} | `{f.name}_lo`, `{f.name}_hi` | "
                 f"{_also(f)} |\n"

@@ -50,13 +50,17 @@ def command_help() -> str:
         )
         if isinstance(command, click.Group):
             for sub in command.list_commands(ctx):
-                add(command.commands[sub], ctx, sub)
+                found = command.get_command(ctx, sub)
+                assert found is not None  # listed by the group itself
+                add(found, ctx, sub)
             return
         out.extend([f"## `{ctx.command_path}`", "", "```text", ctx.get_help(), "```", ""])
 
     root = click.Context(cli, info_name="slipbench")
     for name in cli.list_commands(root):
-        add(cli.commands[name], root, name)
+        found = cli.get_command(root, name)
+        assert found is not None  # listed by the group itself
+        add(found, root, name)
     return "\n".join(out)
 
 

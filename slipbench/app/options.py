@@ -58,14 +58,10 @@ class Destination(click.Path):
         self.results = results
 
     def convert(self, value, param, ctx):
-        from slipbench.atomic import check_writable
-        from slipbench.store.results import ResultsStore
+        from slipbench.atomic import RESULTS_CELLS, check_writable
 
         path = super().convert(value, param, ctx)
-        if self.results:
-            ResultsStore(path).check_writable(unless_stored=True)
-        else:
-            check_writable(path)
+        check_writable(path, RESULTS_CELLS if self.results else "")
         return path
 
 
@@ -78,19 +74,26 @@ def repeats_problem(seed: int, repeats: int) -> str | None:
     return None
 
 
-def parse_params(values: tuple[str, ...]) -> dict:
-    """The NAME=VALUE items of a repeated option as a dict; a VALUE that is not JSON stays text."""
+#: an example item of each NAME=VALUE option, for its error message
+PARAM_EXAMPLES = {"--param": "band=[0,100]", "--protocol-param": "decimation=both"}
+
+
+def parse_params(values: tuple[str, ...], option: str = "--param") -> dict:
+    """The NAME=VALUE items of a repeated option (``option``, named in errors) as a dict; a
+    VALUE that is not JSON stays text."""
     params = {}
     for item in values:
         if "=" not in item:
-            raise UsageError(f"--param {item!r}: expected NAME=VALUE, e.g. --param band=[0,100]")
+            raise UsageError(
+                f"{option} {item!r}: expected NAME=VALUE, e.g. {option} {PARAM_EXAMPLES[option]}"
+            )
         name, text = item.split("=", 1)
         try:
             params[name] = json.loads(text)
         except json.JSONDecodeError:
             params[name] = text
         except RecursionError:
-            raise UsageError(f"--param {name}: {TOO_DEEP}") from None
+            raise UsageError(f"{option} {name}: {TOO_DEEP}") from None
     return params
 
 

@@ -7,8 +7,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy import signal
-from sklearn.model_selection import train_test_split
 
 from slipbench.data.format import Dataset
 from slipbench.data.schema import UNIVARIATE_CHANNELS
@@ -227,6 +225,8 @@ class Signals:
             raise UsageError(
                 f"an anti-aliasing filter needs a downsampling factor >= 2, got {factor!r}"
             )
+        from scipy import signal  # here: planning a run (or a cached one) needs no filter
+
         out = np.empty_like(self.buffer)
         rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
         for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
@@ -374,6 +374,8 @@ class Signals:
         times slower; :meth:`Windows.downsample` then takes its readings."""
         if self.channels is None:
             raise UsageError("these signals were made without their channels")
+        from scipy import signal
+
         rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
         out = []
         for r, a in enumerate(self.channels):
@@ -572,6 +574,8 @@ def split(
     """
     rows = np.arange(len(windows))
     if how == "paper":
+        from sklearn.model_selection import train_test_split  # its import alone costs ~1 s
+
         strata = windows.strata()
         if np.unique(strata, return_counts=True)[1].min() < 2:
             strata = windows.y

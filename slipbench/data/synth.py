@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import signal
 
 from slipbench.data.contact import annulus_travel, breakaway
 from slipbench.data.write import write_dataset
@@ -474,6 +473,8 @@ def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.
     """Ring a damped oscillator at f0 with each impulse (a 2-pole IIR resonator)."""
     w = 2 * np.pi * min(f0, 0.45 * fs) / fs
     r = np.exp(-damping * w)
+    from scipy import signal  # here, not at import: reading the cached dataset needs no filter
+
     return signal.lfilter([np.sin(w)], [1.0, -2 * r * np.cos(w), r * r], impulses)
 
 
@@ -481,13 +482,21 @@ def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.
 def _butter(order: int, cutoff: float, fs: float, kind: str = "lowpass") -> np.ndarray:
     """A Butterworth filter's sections; designed once per unit, material and rate (the design
     took 40 % of the generation time when every recording redid it)."""
+    from scipy import signal
+
     return signal.butter(order, cutoff, kind, fs=fs, output="sos")
+
+
+def _filtered(sos: np.ndarray, x: np.ndarray, axis: int = -1) -> np.ndarray:
+    from scipy import signal
+
+    return signal.sosfilt(sos, x, axis=axis)
 
 
 def _lowpass(x: np.ndarray, cutoff: float, fs: float, order: int = 2, axis: int = -1) -> np.ndarray:
     if cutoff >= 0.49 * fs:
         return x
-    return signal.sosfilt(_butter(order, cutoff, fs), x, axis=axis)
+    return _filtered(_butter(order, cutoff, fs), x, axis=axis)
 
 
 def _events(distance_mm: np.ndarray, mean_spacing: float, rng: np.random.Generator) -> np.ndarray:
@@ -917,7 +926,7 @@ def _sense(
         forces = _lowpass(forces, unit.skin_cutoff_hz, fs, axis=1)
     out = unit.mixing @ take.sig.roll @ forces  # (channels, n), in the sensor's frame
     if sensor.highpass_hz is not None:
-        out = signal.sosfilt(_butter(2, sensor.highpass_hz, fs, "highpass"), out, axis=1)
+        out = _filtered(_butter(2, sensor.highpass_hz, fs, "highpass"), out, axis=1)
     out = out + rng.normal(0, sensor.noise_floor_n * unit.noise, out.shape)
     channels = (out.T * unit.gain * take.sig.drift * sensor.units_per_newton).astype(np.float32)
     if sensor.electrodes is None:

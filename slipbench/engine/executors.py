@@ -242,7 +242,10 @@ def process_pool(
     tasks: list[T], payload: Payload, executor: Executor, on_report: Report | None
 ) -> Finished:
     """``executor.jobs`` local worker processes (never more than tasks); at most two tasks per
-    worker in flight, so their windows are not all in memory at once."""
+    worker in flight, so their windows are not all in memory at once. Nothing to run starts no
+    worker."""
+    if not tasks:
+        return
     jobs = executor.jobs
     pool: _Pool[T] = _Pool(
         min(jobs, len(tasks)), executor.timeout, on_report, executor.threads or threads.share(jobs)

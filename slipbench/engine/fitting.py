@@ -359,17 +359,11 @@ def unkeyed_reads(cls: type, opened: set[str]) -> dict[str, str]:
     """``{"unkeyed_reads": JSON {path: digest}}`` of the files a fit read that its code identity
     does not hash (none: no field, so rows of plugins that read nothing keep their columns).
     The key had to exist before the fit, so a later run compares the digests instead
-    (:func:`changed_reads`) and refits where one differs."""
+    (:func:`slipbench.store.keys.changed_reads`) and refits where one differs."""
     paths = unkeyed(cls, opened)
     if not paths:
         return {}
     return {"unkeyed_reads": json.dumps({str(p): file_digest(p) for p in paths}, sort_keys=True)}
-
-
-def changed_reads(row: dict[str, Any]) -> list[str]:
-    """The files of a stored row's ``unkeyed_reads`` whose content is no longer what it was."""
-    recorded = json.loads(row.get("unkeyed_reads") or "{}")
-    return [path for path, digest in recorded.items() if file_digest(Path(path)) != digest]
 
 
 def _read_warnings(cost: dict[str, Any]) -> list[str]:

@@ -29,9 +29,10 @@ from slipbench import __version__
 from slipbench.data.format import Dataset
 from slipbench.data.read import read_dataset, stored_fingerprint
 from slipbench.data.signals import Signals, channel_scales, standardized
+from slipbench.engine.cached import refits, reusable
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import SCHEDULERS, Executor, workers_for
-from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet, changed_reads
+from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet
 from slipbench.engine.plan import (
     LABELLED,
     Batch,
@@ -177,12 +178,8 @@ def planned(
     protocols' cells of ``recordings``), the keys of ``stored`` rows it reuses (ok or skipped,
     unless their fit read a file changed since) and those model keys that fit again."""
     with_cells = [(run, run.cells_or_stand_in(recordings)) for run in runs]
-    refit = _changed_reads(stored)  # model keys whose fits read a file that has changed since
-    done = {
-        k
-        for k, r in stored.items()
-        if r.get("status") in ("ok", "skipped") and r.get("model_key") not in refit
-    }
+    refit = refits(stored)  # model keys whose fits read a file that has changed since
+    done = reusable(stored, refit)
     return make_plan(signals, with_cells, fingerprint, done), done, refit
 
 
@@ -440,22 +437,6 @@ def _remote(dataset: Dataset, stamp: Stamp, store: ResultsStore, refit: set[str]
         return run_array_task, (plugins, pickle.dumps(array_task, pickle.HIGHEST_PROTOCOL))
 
     return Remote(work, store.cell, stamp.run_id, folder)
-
-
-def _changed_reads(stored: dict[str, dict]) -> set[str]:
-    """Model keys of stored cells whose fit read a file outside its code identity that has
-    changed since: they are fitted again (a warning names the file)."""
-    refit: set[str] = set()
-    for row in stored.values():
-        changed = changed_reads(row) if row.get("unkeyed_reads") else []
-        if changed and str(row.get("model_key")) not in refit:
-            refit.add(str(row.get("model_key")))
-            warnings.warn(
-                f"detector {row.get('detector')!r}: {', '.join(changed)} changed since its cells "
-                "were computed (a file its fit read, not part of its code identity): refitting",
-                stacklevel=2,
-            )
-    return refit
 
 
 def _warn_reads(detector: str, fields: dict, warned: set[tuple[str, str]]) -> None:

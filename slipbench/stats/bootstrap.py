@@ -21,9 +21,7 @@ from typing import Protocol
 
 import numpy as np
 import pandas as pd
-from scipy.stats import beta as beta_dist
-from scipy.stats import f as f_dist
-from scipy.stats import t as student_t
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.seeding import rng_for
 from slipbench.stats.noise import SeedNoise
@@ -428,7 +426,7 @@ def _noisier(own: float, pooled: float, df: float, pool_df: float) -> bool:
     :data:`NOISIER_QUANTILE` (``benchmarks/bench_seed_pool.py``)."""
     if df < 1 or not own > pooled:
         return False
-    return bool(own > pooled * f_dist.ppf(NOISIER_QUANTILE, df, pool_df))
+    return bool(own > pooled * scipy.stats.f.ppf(NOISIER_QUANTILE, df, pool_df))
 
 
 @dataclass(frozen=True)
@@ -490,7 +488,7 @@ class Fit:
 
     def logit_t(self) -> tuple[float, float]:
         """The t-interval, on the logit scale for a figure in (0, 1)."""
-        q = student_t.ppf(1 - (1 - self.level) / 2, self.df)
+        q = scipy.stats.t.ppf(1 - (1 - self.level) / 2, self.df)
         est, se = self.est, self.se
         if self.unit and 0 < est < 1:
             z, s = np.log(est / (1 - est)), se / (est * (1 - est))
@@ -521,8 +519,8 @@ def _no_spread(fit: Fit, n_used: int) -> tuple[float, float]:
     if not fit.unit:
         return fit.est, fit.est
     alpha, x = 1 - fit.level, fit.est * n_used
-    lo = beta_dist.ppf(alpha / 2, x, n_used - x + 1) if x > 0 else 0.0
-    hi = beta_dist.ppf(1 - alpha / 2, x + 1, n_used - x) if x < n_used else 1.0
+    lo = scipy.stats.beta.ppf(alpha / 2, x, n_used - x + 1) if x > 0 else 0.0
+    hi = scipy.stats.beta.ppf(1 - alpha / 2, x + 1, n_used - x) if x < n_used else 1.0
     return float(lo), float(hi)
 
 
@@ -671,7 +669,7 @@ def logit_bounds(reps: np.ndarray, excess: float, fit: Fit, n: float) -> tuple[f
     reps = reps[np.isfinite(reps)]
     z = float(np.log(est / (1 - est)))
     s = max(fit.se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
-    q = student_t.ppf(1 - (1 - fit.level) / 2, fit.df)
+    q = scipy.stats.t.ppf(1 - (1 - fit.level) / 2, fit.df)
     return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
 
 
@@ -731,7 +729,7 @@ def mover_change_bounds(fit: Fit) -> tuple[float, float]:
         return 1 / (1 + np.exp(-(lam_ + dlt_ / 2))) - 1 / (1 + np.exp(-(lam_ - dlt_ / 2)))
 
     alpha = 1 - level
-    q_dlt, q_lam = (student_t.ppf(1 - alpha / 2, d) for d in dfs)
+    q_dlt, q_lam = (scipy.stats.t.ppf(1 - alpha / 2, d) for d in dfs)
     at = float(f(lam, dlt))
     up_c = float(f(lam, dlt + q_dlt * s_dlt)) - at  # f rises with the contrast
     down_c = at - float(f(lam, dlt - q_dlt * s_dlt))

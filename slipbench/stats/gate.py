@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.stats import t as student_t
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.errors import UsageError
 from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figures, names
@@ -99,8 +99,8 @@ def two_sided_p(worse: np.ndarray, se: np.ndarray, df: np.ndarray, tol: Any) -> 
     """p-values of "worse than the tolerance" and "better than the tolerance" from changes
     ``worse`` signed so that positive is worse, in the figure's units (NaN -> 1)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        p_reg = np.minimum(1.0, 2 * student_t.sf((worse - tol) / se, df))
-        p_imp = np.minimum(1.0, 2 * student_t.sf((-worse - tol) / se, df))
+        p_reg = np.minimum(1.0, 2 * scipy.stats.t.sf((worse - tol) / se, df))
+        p_imp = np.minimum(1.0, 2 * scipy.stats.t.sf((-worse - tol) / se, df))
     return np.nan_to_num(p_reg, nan=1.0), np.nan_to_num(p_imp, nan=1.0)
 
 
@@ -109,7 +109,7 @@ def resolution(se: float, df: float, n_tests: int, alpha: float) -> float:
     (2 n_tests), df) + t(POWER, df))`` (NaN without a finite standard error)."""
     if not (np.isfinite(se) and df > 0):
         return float("nan")
-    q = student_t.ppf(1 - alpha / (2 * max(1, n_tests)), df) + student_t.ppf(POWER, df)
+    q = scipy.stats.t.ppf(1 - alpha / (2 * max(1, n_tests)), df) + scipy.stats.t.ppf(POWER, df)
     return float(se * q)
 
 

@@ -19,8 +19,7 @@ from functools import partial
 
 import numpy as np
 import pandas as pd
-from scipy.stats import t as student_t
-from statsmodels.stats.proportion import proportion_confint
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.stats.bootstrap import (
     DEFAULT_METHOD,
@@ -419,6 +418,8 @@ def wilson_ci(hits: float, n: float, level: float = LEVEL) -> tuple[float, float
     """Window-level Wilson interval (statsmodels): right only if windows were independent."""
     if n == 0:
         return float("nan"), float("nan")
+    from statsmodels.stats.proportion import proportion_confint
+
     lo, hi = proportion_confint(hits, n, alpha=1 - level, method="wilson")
     return float(lo), float(hi)
 
@@ -542,7 +543,7 @@ def seeds_from_rows(
     if len(values) < 2 or not (np.isfinite(values).all() and np.isfinite(ses).all()):
         return mean, np.nan, np.nan
     test, spread = float(ses.mean()) ** 2, float(values.var(ddof=1)) / len(values)
-    z, t = (student_t.ppf(0.5 + level / 2, df) for df in (np.inf, len(values) - 1))
+    z, t = (scipy.stats.t.ppf(0.5 + level / 2, df) for df in (np.inf, len(values) - 1))
     half = float(np.sqrt(z**2 * test + t**2 * spread))
     return mean, max(mean - half, bounds[0]), min(mean + half, bounds[1])
 

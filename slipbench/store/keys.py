@@ -217,6 +217,12 @@ def file_digest(path: Path) -> str:
         return "missing"
 
 
+def changed_reads(row: dict[str, Any]) -> list[str]:
+    """The files of a stored row's ``unkeyed_reads`` whose content is no longer what it was."""
+    recorded = json.loads(row.get("unkeyed_reads") or "{}")
+    return [path for path, digest in recorded.items() if file_digest(Path(path)) != digest]
+
+
 @cache
 def _covered(unit: str) -> frozenset[Path]:
     return frozenset(p.resolve() for _, p in _source_files(unit))

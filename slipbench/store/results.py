@@ -46,6 +46,7 @@ import pandas as pd
 import pyarrow as pa
 
 from slipbench.atomic import (
+    RESULTS_CELLS,
     check_writable,
     folder_lock,
     make_folder,
@@ -108,7 +109,7 @@ class ResultsStore:
         self._seen: Scan | None = None  # the latest scan: what it proved is not proved again
 
     def _cell_path(self, key: str) -> Path:
-        return self.folder / "cells" / f"{key}.parquet"
+        return self.folder / RESULTS_CELLS / f"{key}.parquet"
 
     def model_path(self, model_key: str) -> Path:
         """Where the fitted model of a model key is kept, so that later runs reuse it."""
@@ -118,8 +119,7 @@ class ResultsStore:
         """Raise EnvironmentFault (exit 5, naming the folder) unless cells can be written here;
         creates nothing. With ``unless_stored``, a folder that holds cells passes: a rerun that
         finds them all writes nothing, and the run checks again once it knows what it writes."""
-        if not (unless_stored and (self.folder / "cells").is_dir()):
-            check_writable(self.folder)
+        check_writable(self.folder, RESULTS_CELLS if unless_stored else "")
 
     def finished(self) -> dict[str, dict[str, Any]]:
         """Every stored cell row that proves itself, by key: results.parquet, plus cells stored

@@ -238,7 +238,8 @@ def _evaluate(folder: Path, index, out: Path):
 def test_a_fit_that_reads_a_file_records_its_digest(tmp_path):
     import numpy as np
 
-    from slipbench.engine.fitting import Job, TestSet, changed_reads, fit_and_test
+    from slipbench.engine.fitting import Job, TestSet, fit_and_test
+    from slipbench.store.keys import changed_reads
 
     folder = plugin(tmp_path / "p", {"energy.py": READS_IN_FIT, "shift.txt": "0.5\n"})
     reg = registry.Registry("detector", BaseDetector, "slipbench.no-such-group")
