@@ -103,7 +103,7 @@ detectors table below lists `input_range` with the LSTM's other parameters; a ru
 the study lists none, and its LSTM ran at [-1, 1]. On this simulation the change leaves windows
 10 and 50 inside their intervals and raises window 200, where the old range failed to train some
 units: measured on a representative subset at scale 0.02 by the LSTM study
-(`docs/lstm-study.md`, `benchmarks/results/lstm_input_study.md`).
+(`docs/studies/lstm-study.md`, `benchmarks/results/lstm_input_study.md`).
 
 TEXT
   tail -n +2 "$REPORTS/README.md"  # the report's own title gives way to the one above

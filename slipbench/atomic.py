@@ -260,6 +260,8 @@ def whole_text(table: pa.Table, where: str | os.PathLike, key: str | None = None
         Naming ``where``, the column and the row (by its ``key`` column's value, where given
         and readable).
     """
+    import pyarrow as pa
+
     try:
         table.validate(full=True)
         return table
@@ -280,6 +282,8 @@ def whole_text(table: pa.Table, where: str | os.PathLike, key: str | None = None
 
 def _first_undecodable(column: pa.ChunkedArray) -> int | None:
     """The first row of a string column whose bytes are not UTF-8 (None: none, or not text)."""
+    import pyarrow as pa
+
     if not pa.types.is_string(column.type):
         return None
     for row, value in enumerate(column.cast(pa.binary()).to_pylist()):

@@ -349,7 +349,7 @@ def load_benchmark(path: str | Path) -> Benchmark:
         "input",
     )
     check(0 <= r.get("seed", 0) < 2**32, "seed must be in [0, 2**32 - 1]", "run", "seed")
-    from slipbench.engine.executors import jobs_problem, scheduler_problem
+    from slipbench.engine.limits import jobs_problem, scheduler_problem
 
     check(r.get("repeats", 1) >= 1, "repeats must be >= 1", "run", "repeats")
     seeds = repeats_problem(r.get("seed", 0), r.get("repeats", 1))
@@ -569,7 +569,7 @@ def slurm_of(bench: Benchmark):
     None where it runs elsewhere."""
     from dataclasses import replace
 
-    from slipbench.engine.executors import SCHEDULERS
+    from slipbench.engine.limits import SCHEDULERS
     from slipbench.engine.slurm import resources
 
     if bench.scheduler not in SCHEDULERS:

@@ -158,7 +158,7 @@ def protocol_params_option(help: str):
 
 
 def _jobs(ctx, param, jobs: int | None) -> int | None:
-    from slipbench.engine.executors import jobs_problem
+    from slipbench.engine.limits import jobs_problem
 
     if jobs is not None and (problem := jobs_problem(jobs)):
         raise UsageError(f"--jobs {jobs}: {problem}")
@@ -177,7 +177,7 @@ def jobs_option(help: str, default: int | None = None):
 
 
 def _scheduler(ctx, param, scheduler: str | None) -> str | None:
-    from slipbench.engine.executors import scheduler_problem
+    from slipbench.engine.limits import scheduler_problem
 
     if scheduler is not None and (problem := scheduler_problem(scheduler)):
         raise UsageError(f"--scheduler {scheduler!r}: {problem}")
@@ -186,7 +186,7 @@ def _scheduler(ctx, param, scheduler: str | None) -> str | None:
 
 def scheduler_option(help: str | None = None):
     """``--scheduler``: an executor by name, or a dask scheduler's address or file, checked
-    as it is read (:func:`slipbench.engine.executors.scheduler_problem`)."""
+    as it is read (:func:`slipbench.engine.limits.scheduler_problem`)."""
     return click.option(
         "--scheduler", default=None, callback=_scheduler, help=help or SCHEDULER_HELP
     )
@@ -229,7 +229,7 @@ def slurm_option():
 def slurm_resources(scheduler: str | None, items: tuple[str, ...], table: dict | None, detectors):
     """The checked resources of a SLURM run (None for any other scheduler); ``--slurm`` given
     without one is a usage error."""
-    from slipbench.engine.executors import SCHEDULERS
+    from slipbench.engine.limits import SCHEDULERS
     from slipbench.engine.slurm import from_options, resources
 
     if scheduler not in SCHEDULERS:

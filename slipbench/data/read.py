@@ -42,6 +42,7 @@ from slipbench.data.schema import (
     VERSION_KEY,
 )
 from slipbench.errors import DataError
+from slipbench.vocabulary import SLIPS
 
 
 def read_dataset(path: str | os.PathLike) -> Dataset:
@@ -101,7 +102,23 @@ def read_recordings(path: str | os.PathLike) -> tuple[pd.DataFrame, str] | None:
     if fingerprint is None or not ids.isin(list(declared)).all():
         return None
     recordings["n_samples"] = ids.map(declared).to_numpy(np.int64)
+    recordings[SLIPS] = _slipping(file, recordings)
     return recordings, fingerprint.decode(errors="replace")
+
+
+def _slipping(file: Path, recordings: pd.DataFrame) -> np.ndarray:
+    """(n_recordings,) bool: which recordings slip at all (the canonical reader's ``slips``),
+    from the samples file's ``slip`` labels alone: a protocol's cells depend on it."""
+    slipping = recordings["scenario"].eq("slip").to_numpy()
+    if "slip" not in _open_parquet(file).schema_arrow.names:
+        return slipping
+    try:
+        labels = pq.read_table(file, columns=["recording_id", "slip"])
+    except (pa.ArrowException, OSError) as exc:
+        raise DataError(f"{file}: unreadable ({one_line(exc)})") from None
+    slips = labels["slip"].to_numpy(zero_copy_only=False) == 1  # bool or integer labels
+    slipped = set(labels["recording_id"].to_numpy(zero_copy_only=False)[slips])
+    return slipping | recordings["recording_id"].isin(slipped).to_numpy()
 
 
 def read_description(path: str | os.PathLike) -> dict[str, str]:

@@ -32,6 +32,7 @@ import psutil
 from slipbench.base import listening
 from slipbench.engine import threads, workers
 from slipbench.engine.fitting import Job, Lockstep, Result, perform
+from slipbench.engine.limits import SCHEDULERS, jobs_problem, scheduler_problem
 from slipbench.errors import EnvironmentFault, UsageError
 
 T = TypeVar("T")
@@ -44,11 +45,6 @@ TICK = 0.1  # seconds between looks at the workers (and the progress they report
 # a task still open this long after its worker vanished lost a worker that exited with 0
 GRACE = 1.0
 STOP = 1.0  # seconds an interrupted worker has to end on SIGTERM before it is killed
-
-
-#: the schedulers named rather than addressed (``--scheduler NAME``); any other value is the
-#: address of a dask scheduler
-SCHEDULERS = ("slurm", "submitit-local")
 
 
 def serial(tasks: list[T], payload: Payload, on_report: Report | None) -> Finished:
@@ -378,48 +374,6 @@ def unguarded_script() -> str:
         ):
             return ""
     return f"{file}:{line}"
-
-
-#: local worker processes per core beyond which more add only memory and contention (a worker
-#: holds its imports and a task's windows; each model gets ``cores // jobs`` threads, at least 1)
-JOBS_PER_CORE = 4
-
-
-def jobs_problem(jobs: int) -> str | None:
-    """Why this machine cannot run ``jobs`` local worker processes, or None."""
-    most = JOBS_PER_CORE * threads.cores()
-    if jobs <= most:
-        return None
-    return (
-        f"more than {most} worker processes ({JOBS_PER_CORE} per core, {threads.cores()} cores "
-        "here) add only memory and contention; use a dask scheduler to run on more machines"
-    )
-
-
-def scheduler_problem(scheduler: str) -> str | None:
-    """Why ``scheduler`` names no executor, or None: it may name one of
-    :data:`SCHEDULERS`, or a dask scheduler by its address (``host:port``,
-    ``tcp://host:port``, any scheme dask has) or by its scheduler file (JSON)."""
-    if scheduler in SCHEDULERS or Path(scheduler).is_file():
-        return None
-    try:
-        from distributed.comm.addressing import parse_address, parse_host_port
-        from distributed.comm.registry import backends
-    except ImportError:
-        return "a dask scheduler needs dask.distributed: pip install 'slipbench[dask]'"
-    named = f", nor one of {', '.join(SCHEDULERS)}" if SCHEDULERS else ""
-    try:
-        scheme, location = parse_address(scheduler, strict=False)
-        if scheme not in backends:
-            raise ValueError(f"dask knows no scheme {scheme!r}")
-        if scheme != "inproc":
-            parse_host_port(location)
-    except ValueError as exc:
-        return (
-            f"not a dask scheduler's address (host:port, tcp://host:port) or scheduler file"
-            f"{named} ({exc})"
-        )
-    return None
 
 
 def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:

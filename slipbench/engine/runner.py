@@ -31,8 +31,9 @@ from slipbench.data.read import read_dataset, stored_fingerprint
 from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.cached import refits, reusable
 from slipbench.engine.estimate import costs, describe
-from slipbench.engine.executors import SCHEDULERS, Executor, workers_for
+from slipbench.engine.executors import Executor, workers_for
 from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet
+from slipbench.engine.limits import SCHEDULERS
 from slipbench.engine.plan import (
     LABELLED,
     Batch,

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from slipbench.engine import threads
-from slipbench.engine.executors import JOBS_PER_CORE, SCHEDULERS, scheduler_problem
+from slipbench.engine.limits import JOBS_PER_CORE, SCHEDULERS, scheduler_problem
 from slipbench.vocabulary import MAX_WINDOW
 
 EVALUATE = ["evaluate", "--detector", "holweg", "--protocol", "window-size"]
@@ -91,7 +91,7 @@ def test_a_scheduler_is_an_address_a_file_or_a_known_name(tmp_path, monkeypatch)
     assert scheduler_problem(str(file)) is None
     assert scheduler_problem("submitit-local") is None
     assert "nor one of slurm, submitit-local" in str(scheduler_problem("submitit-locl"))
-    monkeypatch.setattr("slipbench.engine.executors.SCHEDULERS", (*SCHEDULERS, "mine"))
+    monkeypatch.setattr("slipbench.engine.limits.SCHEDULERS", (*SCHEDULERS, "mine"))
     assert scheduler_problem("mine") is None
 
 

@@ -147,4 +147,7 @@ def test_no_task_starts_no_worker(monkeypatch):
     import slipbench.engine.executors as executors
 
     monkeypatch.setattr(executors, "_Pool", lambda *a: pytest.fail("a pool was started"))
-    assert list(executors.process_pool([], lambda task: task, 2, None, None)) == []
+    assert (
+        list(executors.process_pool([], lambda task: task, executors.Executor(2, None, None), None))
+        == []
+    )

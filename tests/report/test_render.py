@@ -40,5 +40,7 @@ def test_a_format_shows_a_drawn_figure_its_own_way():
 def test_an_unknown_format_is_refused_and_the_commands_offer_the_renderers():
     with pytest.raises(ValueError, match="unknown report format 'pdf'"):
         renderer("pdf")
-    option = next(p for p in cli.commands["report"].params if p.name == "fmt")
+    command = cli.get_command(click.Context(cli), "report")  # the group loads it when asked
+    assert command is not None
+    option = next(p for p in command.params if p.name == "fmt")
     assert isinstance(option.type, click.Choice) and list(option.type.choices) == list(FORMATS)
