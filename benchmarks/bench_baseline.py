@@ -195,7 +195,7 @@ hand. {provenance}
 so): each channel's (or the univariate signal's) mean, least-squares slope, log standard
 deviation, log mean absolute difference, log peak, zero-crossing rate and log mean power in 4
 octaves below Nyquist, standardized, into an L2 logistic regression (C = 1, balanced class
-weights; scikit-learn). Its docstring (`detectors/features.py`) says why each statistic. A
+weights; scikit-learn). Its docstring (`slipbench/detectors/features.py`) says why each statistic. A
 detector worth its cost beats it on the same cells:
 
     slipbench evaluate --detector features,YOURS --protocol window-size --input both

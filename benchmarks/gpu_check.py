@@ -197,7 +197,7 @@ def paper_row(seconds: float, jobs: int) -> dict:
         command = ["--detector", "all", "--protocol", "all", "--jobs", str(jobs), "--out", out]
         start = time.perf_counter()
         try:
-            done = subprocess.run(  # run outside the checkout: its slipbench/ lacks detectors/
+            done = subprocess.run(  # in its own folder: the results go there
                 [sys.executable, "-m", "slipbench", "evaluate", *command],
                 capture_output=True,
                 timeout=seconds,

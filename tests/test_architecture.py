@@ -37,12 +37,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = next(p for p in Path(__file__).resolve().parents if (p / "pyproject.toml").is_file())
-#: the folders of the package's modules: the built-in plugins ship inside it
-FOLDERS = {
-    "slipbench": ROOT / "slipbench",
-    "slipbench.detectors": ROOT / "detectors",
-    "slipbench.protocols": ROOT / "protocols",
-}
+#: the package's folder: the built-in plugins are its subpackages detectors/ and protocols/
+PACKAGE = ROOT / "slipbench"
 PLUGIN_PACKAGES = ("slipbench.detectors", "slipbench.protocols")
 CONTRACT = "contract"
 #: what a plugin may import of the package
@@ -87,17 +83,11 @@ class Import:
 def modules() -> dict[str, Path]:
     """Every module of the package (plugins included) by dotted name."""
     found = {}
-    for package, folder in FOLDERS.items():
-        for path in sorted(folder.rglob("*.py")):
-            if package == "slipbench" and path.relative_to(folder).parts[0] in (
-                "detectors",
-                "protocols",
-            ):
-                continue  # never the case in a source tree; an installed tree would nest them
-            parts = path.relative_to(folder).with_suffix("").parts
-            if parts[-1] == "__init__":
-                parts = parts[:-1]
-            found[".".join((package, *parts))] = path
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        found[".".join(("slipbench", *parts))] = path
     return found
 
 

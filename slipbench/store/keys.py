@@ -451,8 +451,8 @@ def _locations(package: str) -> tuple[list[Path], Path | None]:
 
 
 def _engine_packages() -> list[str]:
-    """slipbench and the packages of its built-in plugins, which an editable install keeps in
-    folders outside ``slipbench/`` (the registries name them)."""
+    """slipbench and the packages of its built-in plugins (the registries name them); the
+    plugins' folders lie inside ``slipbench/``, so their files are labelled alike either way."""
     return ["slipbench", "slipbench.detectors", "slipbench.protocols"]
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import importlib.util
 import warnings
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -291,10 +292,9 @@ def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
     from slipbench.detectors import lstm_lockstep as lockstep
     from slipbench.detectors import lstm_lockstep_torch
 
-    if dets[0].device_ == "cuda":
-        epoch = lstm_lockstep_torch.lockstep_epoch
-    else:
-        epoch = lockstep.lockstep_epoch
+    epoch: Callable[..., None] = (
+        lstm_lockstep_torch.lockstep_epoch if dets[0].device_ == "cuda" else lockstep.lockstep_epoch
+    )
 
     runs = [_Training(d, *args) for d, args in zip(dets, data)]
     xs = np.concatenate([r.xn for r in runs])
