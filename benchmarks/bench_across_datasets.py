@@ -1,8 +1,8 @@
 """The across-datasets report on real data (issue 36): a few fast detectors on the simulation
 and on the BioTac SP DoS recordings at one shared protocol setting, then ``slipbench report A B``
 of the two results folders. Writes the report's "Leaderboard" (with "vs baseline") and
-"Across datasets" sections to ``docs/across-datasets/summary.txt`` and the forest plot to
-``docs/across-datasets/forest.png``; ``docs/across-datasets.md`` embeds both.
+"Across datasets" sections to ``docs/studies/across-datasets/summary.txt`` and the forest plot to
+``docs/studies/across-datasets/forest.png``; ``docs/studies/across-datasets.md`` embeds both.
 
     nice python benchmarks/bench_across_datasets.py --dos PATH/biotacsp-dos/csvs
 
@@ -112,7 +112,7 @@ def provenance(args: argparse.Namespace, datasets: dict[str, Dataset], load: str
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--dos", type=Path, default=DOS, help="BioTacSP-DoS's csvs folder")
-    parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "across-datasets")
+    parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "studies" / "across-datasets")
     parser.add_argument(
         "--work", type=Path, default=Path(tempfile.gettempdir()) / "bench_across_datasets"
     )

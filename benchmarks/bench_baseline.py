@@ -1,9 +1,9 @@
 """The reference baseline ``features`` (issue 36), measured: its balanced accuracy on the BioTac SP
 DoS recordings at 500 ms with the grouped split, beside every other built-in detector on the
 same cells; that it runs every protocol on both inputs of the simulation and of DoS; and its
-cost against holweg, bandpass and the LSTM timed in the same run. Writes ``docs/baseline.md``.
+cost against holweg, bandpass and the LSTM timed in the same run. Writes ``docs/studies/baseline.md``.
 
-    nice python benchmarks/bench_baseline.py --dos PATH/biotacsp-dos/csvs --out docs/baseline.md
+    nice python benchmarks/bench_baseline.py --dos PATH/biotacsp-dos/csvs --out docs/studies/baseline.md
 
 DoS: ``slipbench dataset import biotacsp-dos`` of ``--dos`` into ``--work``; protocol
 window-size with ``windows=["500ms"]`` (50 samples at 100 Hz), split ``grouped``, seeds 0 to
@@ -195,7 +195,7 @@ hand. {provenance}
 so): each channel's (or the univariate signal's) mean, least-squares slope, log standard
 deviation, log mean absolute difference, log peak, zero-crossing rate and log mean power in 4
 octaves below Nyquist, standardized, into an L2 logistic regression (C = 1, balanced class
-weights; scikit-learn). Its docstring (`detectors/features.py`) says why each statistic. A
+weights; scikit-learn). Its docstring (`slipbench/detectors/features.py`) says why each statistic. A
 detector worth its cost beats it on the same cells:
 
     slipbench evaluate --detector features,YOURS --protocol window-size --input both
@@ -241,7 +241,7 @@ Training: microseconds per window sample (`train_us_per_sample`); scoring: per w
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--dos", type=Path, required=True, help="BioTacSP-DoS's csvs folder")
-    parser.add_argument("--out", type=Path, default=Path("docs/baseline.md"))
+    parser.add_argument("--out", type=Path, default=Path("docs/studies/baseline.md"))
     parser.add_argument("--work", type=Path, default=Path(tempfile.gettempdir()) / "bench_baseline")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--scale", type=float, default=0.05)

@@ -14,7 +14,7 @@ CI) or drawn apart; R seeds per side. Printed per design: the share of exit code
 regression), 1 (regressed) and 6 (undecided), which figures regressed, and the mean pooled
 change of accuracy and TN rate (what the damage did).
 
-    nice python benchmarks/bench_compare_gate.py [--nulls 20] [--nulls-3 20] [--powers 10] [--work DIR] > docs/gate-study.txt
+    nice python benchmarks/bench_compare_gate.py [--nulls 20] [--nulls-3 20] [--powers 10] [--work DIR] > docs/studies/gate-study.txt
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Coverage of slipbench's 95 % intervals in six scenarios, by simulation against a closed-form
-truth: the study behind ``docs/coverage.md`` and the docstring of :mod:`slipbench.stats.bootstrap`.
+truth: the study behind ``docs/studies/coverage.md`` and the docstring of :mod:`slipbench.stats.bootstrap`.
 
 A simulated test set holds ``m`` slip and ``m`` non-slip trials with window counts 10-200 (slip)
 and 5-100 (non-slip), uniform. A window's latent score is ``mu_class + u_trial + a_trial + e``:

@@ -1,5 +1,5 @@
 """How far any interval built from the sample can cover in ``bench_coverage``'s ``heavy`` scenario:
-the limit behind the cells of ``docs/coverage.md`` that stay short of 93 %.
+the limit behind the cells of ``docs/studies/coverage.md`` that stay short of 93 %.
 
 In ``heavy`` a trial fails wholesale with probability ``FAIL_SHARE`` (10 %); otherwise it is
 drawn exactly as in ``normal``. So a heavy test set that happens to hold no failing trial (a

@@ -1,7 +1,7 @@
 """Coverage of the findings' contrast intervals (:mod:`slipbench.stats.contrast`, as
 :mod:`slipbench.report.findings` builds them from result rows), by simulation against a
 closed-form truth: the study behind the figures quoted in that module's docstring and in
-``docs/coverage.md``.
+``docs/studies/coverage.md``.
 
 A simulated sensor has ``FINGERS`` (3) fingers recorded in the same trials: ``m`` slip and ``m``
 non-slip trials, each finger's recording of a trial 10-60 (slip) or 5-30 (non-slip) windows. A
@@ -52,7 +52,7 @@ from scipy.stats import norm
 
 from slipbench.report.findings import UNIT, _cells, _unit_contrast
 from slipbench.report.tables import summarize
-from slipbench.stats.contrast import Estimate
+from slipbench.stats.contrast import Contrast
 from slipbench.stats.metrics import classification_figures
 
 SCENARIOS = {  # SEED_SD, seeds per cell
@@ -139,7 +139,7 @@ def rows(rng: np.random.Generator, m: int, scenario: str, rep: int) -> pd.DataFr
     return pd.DataFrame(out)
 
 
-def contrasts(table: pd.DataFrame) -> dict[str, Estimate]:
+def contrasts(table: pd.DataFrame) -> dict[str, Contrast]:
     """The four contrasts as :mod:`slipbench.report.findings` builds them from rows, and one
     cell's accuracy (the index finger's at window 50) with its row interval, over seeds as the
     tables give it (:func:`slipbench.report.tables.summarize`)."""
@@ -161,7 +161,7 @@ def contrasts(table: pd.DataFrame) -> dict[str, Estimate]:
         "levels": _unit_contrast(cells, "window", [200], [50]),
         "gap": _unit_contrast(rates, "_r", ["tp"], ["tn"]),
         "lead": _unit_contrast(both, "_who", ["lstm"], ["holweg"]),
-        "cell": Estimate(*one[["mean", "lo", "hi"]].iloc[0]).scaled(100),
+        "cell": Contrast(*one[["mean", "lo", "hi"]].iloc[0]).scaled(100),
     }
 
 
@@ -175,8 +175,8 @@ def _chunk(task: tuple[str, int, int, int, int]) -> dict[str, float]:
         for name, e in contrasts(rows(rng, m, scenario, c * CHUNK + r)).items():
             out[f"hit {name}"] += bool(e.lo <= true[name] <= e.hi)
             out[f"w {name}"] += e.hi - e.lo
-            out[f"sum {name}"] += e.value
-            out[f"sq {name}"] += e.value**2
+            out[f"sum {name}"] += e.estimate
+            out[f"sq {name}"] += e.estimate**2
     return out
 
 

@@ -1,17 +1,19 @@
 """How often does the leaderboard call equal detectors different, and does it ever contradict
 itself? The study behind the one family of tests of :mod:`slipbench.stats.leaderboard` and its
-section of ``docs/statistics.md``.
+section of ``docs/explanation/statistics.md``.
 
 A simulated board holds three entrants that are the same detector run under seeds drawn apart,
 over two protocols of ``BLOCKS`` blocks each. Entrant ``k``'s figure in block ``b`` under its
 seed ``s`` is ``mu_b + c_k,s + e_k,b,s``: ``mu_b ~ N(0.80, 0.05^2)`` the block's difficulty,
 ``c_k,s ~ N(0, SD_RUN^2)`` the run's luck (its split and initialisation, in every block),
 ``e ~ N(0, SD_BLOCK^2)`` its luck in one block. Per board, every scope (all blocks, each
-protocol) is ranked by :func:`slipbench.stats.leaderboard.rank_scope` with the seeds, Holm over
-every scope's pairs (:func:`slipbench.stats.leaderboard.one_family`); counted:
-boards where some pair of some scope "differs" (target <= 5 %), boards where the groups split
-the entrants, and boards where a scope's groups contradict its pairs (a differing pair sharing a
-group, or neighbours in rank that do not differ kept apart). "Before": the Wilcoxon-Holm groups
+protocol) is ranked by :func:`slipbench.stats.leaderboard.rank_scope` with the seeds, one
+Bonferroni level over every scope's decided pairs, read against the 1-point margin
+(:func:`slipbench.stats.leaderboard.one_family`); counted: boards where some pair of some scope
+"differs" (target <= 5 %), boards where the groups split the entrants (one seed: no pair is
+decided, so there are no groups to split), and boards where a scope's groups contradict its
+pairs (a differing or undecided pair sharing a group, or neighbours in rank decided and not
+differing kept apart). "Before": the Wilcoxon-Holm groups
 the leaderboard drew until issue 35 (scope "all"), on the same boards.
 
     nice python benchmarks/bench_leaderboard_null.py --boards 100 --out benchmarks/results/leaderboard_null.md
@@ -50,12 +52,14 @@ def board(rep: int, n_seeds: int) -> tuple[pd.DataFrame, dict[str, np.ndarray]]:
 
 
 def contradicts(scope: Scope) -> bool:
+    """A differing pair, or an undecided one, sharing a group; or neighbours in rank decided
+    and not differing kept apart."""
     order = list(scope.ranks.index)
     together = {(x, y) for g in scope.groups for x in g for y in g}
     for r in scope.pairs.itertuples():
-        if r.differ and (r.a, r.b) in together:
+        if (r.differ or not r.decided) and (r.a, r.b) in together:
             return True
-        if not r.differ and abs(order.index(r.a) - order.index(r.b)) == 1:
+        if r.decided and not r.differ and abs(order.index(r.a) - order.index(r.b)) == 1:
             if (r.a, r.b) not in together:
                 return True
     return False
@@ -82,7 +86,8 @@ def one(rep: int, n_seeds: int) -> dict:
     one_family(scopes)
     return {
         "differ": any(s.pairs["differ"].any() for s in scopes),
-        "split": any(s.groups != [list(s.ranks.index)] for s in scopes),
+        # split: the groups keep apart entrants that no decided pair shows to differ
+        "split": any(s.groups and s.groups != [list(s.ranks.index)] for s in scopes),
         "contradicts": any(contradicts(s) for s in scopes),
         "before": wilcoxon_split(blocks),
     }

@@ -4,7 +4,7 @@ lstm --protocol window-size` (default scale, --jobs 2), run back to back with
 default dataset and numba's caches. Wall seconds, CPU seconds of the command's own process
 (RUSAGE_CHILDREN: the pool's workers, children of the fork server, are not in it), the load
 average around each run, and whether the two
-runs' figures agree, cell by cell. Writes a Markdown table that docs/performance.md includes.
+runs' figures agree, cell by cell. Writes a Markdown table that docs/studies/performance.md includes.
 
     python benchmarks/bench_lockstep_engine.py [--jobs 2] [--out benchmarks/results/lockstep_engine.md]
 """

@@ -1,6 +1,6 @@
 """Does a seed variance pooled over a protocol's cells narrow the cells' intervals as seeds are
 added? The study behind ``seed_pool`` of :func:`slipbench.stats.metrics.over_seeds` and the
-section "Seed variance pooled across a protocol's cells" of ``docs/statistics.md``.
+section "Seed variance pooled across a protocol's cells" of ``docs/explanation/statistics.md``.
 
 A simulated protocol holds ``CELLS`` cells tested on the same 10 + 10 trials (10-60 windows each)
 and two equal detectors (a null: the same model, seeds drawn apart). A window is right with

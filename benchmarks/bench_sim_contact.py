@@ -1,5 +1,5 @@
 """Does force direction alone give slip away in the simulation, and how do the simulated BioTac
-SP's electrodes compare with real ones? The study behind ``docs/simulation.md``.
+SP's electrodes compare with real ones? The study behind ``docs/explanation/simulation.md``.
 
 Force sensors (Nano17, OptoForce20): per slip or pressing recording, the median of |f_t| / |f_n|
 over its loaded samples (|f_n| > ``LOADED_N``), the force recovered from the channels by the
@@ -28,7 +28,7 @@ Detectors: with ``--results``, each detector and input's mean accuracy per senso
 results folder (``slipbench evaluate`` on each model's dataset), and the last minus the first.
 
     python benchmarks/bench_sim_contact.py --real DOS [--sim LABEL=DATASET ...] [--scale S]
-        [--seed N] [--results LABEL=RESULTS ...] [--out docs/simulation.md]
+        [--seed N] [--results LABEL=RESULTS ...] [--out docs/explanation/simulation.md]
 
 ``--real``: the folder ``slipbench dataset import biotacsp-dos`` writes. ``--sim``: a simulated
 dataset folder and its label (e.g. one written by an earlier model version); the current model

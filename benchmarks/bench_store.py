@@ -2,13 +2,16 @@
 
 - ``put`` (atomic, fsynced, umask-following) against a plain ``pq.write_table`` of the same
   row and predictions to their final names;
-- a no-op ``consolidate`` and ``read_results`` of a consolidated folder (one file read and one
-  ``stat`` per cell) against reading ``results.parquet`` alone;
+- a no-op ``consolidate`` and ``read_results`` of a consolidated folder (one file read, its rows'
+  digests checked, and one ``stat`` per cell) against reading ``results.parquet`` alone, for
+  narrow rows (13 columns) and rows as wide as a windowed cell's (about 90);
 - ``read_results`` after a kill (no results.parquet: every cell file read);
 - ``cell_key`` (canonical JSON) against the old ``json.dumps(default=str)``;
 - ``code_identity(slipbench)``: the first call (reads every source file) and a cached one.
 
     python benchmarks/bench_store.py [--cells 1000] [--windows 2000]
+
+Output of a run: ``benchmarks/results/store.txt``.
 """
 
 from __future__ import annotations
@@ -28,9 +31,9 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from slipbench.base import Part
-from slipbench.store import keys
-from slipbench.store.results import RESULTS_FILE, ResultsStore, cell_key, read_results
+from slipbench.protocol import Part
+from slipbench.store import columns, keys
+from slipbench.store.results import RESULTS_FILE, ResultsStore, cell_key, read_results, row_digest
 
 
 def row(i: int) -> dict:
@@ -44,7 +47,7 @@ def row(i: int) -> dict:
         "sensor_instance": "index",
         "window": 5 + i % 6,
         "seed": 0,
-        "accuracy": 50 + (i % 97) / 2,
+        "accuracy": 0.5 + (i % 97) / 200,
         "auroc": 0.5 + (i % 13) / 30,
         "train_s": 0.01 * i,
         "finished_at": "2024-06-11T10:00:00+00:00",
@@ -60,6 +63,45 @@ def predictions(i: int, n: int) -> pd.DataFrame:
             "y_true": rng.integers(0, 2, n).astype(np.int8),
             "score": rng.random(n),
         }
+    )
+
+
+def wide_row(i: int) -> dict:
+    """A windowed cell's row as the engine writes it: every column of the results schema but
+    the streaming ones (about 90), so that what a read costs per value shows."""
+    streaming = {c.name for c in (*columns.STREAM, *columns.GROUPS["Figures of a streaming cell"])}
+    value = {"string": "Nano17-index", "int64": 1 + i % 5, "float64": 0.5 + i / 1e6, "bool": False}
+    out = {c.name: value[c.type] for c in columns.COLUMNS.values() if c.name not in streaming}
+    return out | {"key": f"{i:020x}", "cell": f'{{"window": {5 + i % 6}}}', "status": "ok"}
+
+
+def folder_costs(store: ResultsStore, make, cells: int) -> None:
+    """What a results folder of ``cells`` rows from ``make`` costs to write and read, against
+    reading its results.parquet alone; with the share of the rows' digests, checked on every read."""
+    t0 = time.perf_counter()
+    for i in range(cells):
+        store.put(make(i))
+    put = (time.perf_counter() - t0) / cells
+    killed = best(lambda: read_results(store.folder), 2)
+    t0 = time.perf_counter()
+    store.consolidate()
+    first = time.perf_counter() - t0
+    noop = best(lambda: ResultsStore(store.folder).consolidate())  # as a new command pays it
+    again = best(store.consolidate)  # a run's later looks: what it proved is not proved again
+    whole = best(lambda: read_results(store.folder))
+    ref = best(lambda: pq.read_table(store.folder / RESULTS_FILE).to_pandas())
+    rows = pq.read_table(store.folder / RESULTS_FILE).to_pylist()
+    digests = best(lambda: [row_digest(r) for r in rows])
+    print(
+        f"{cells} cells of {len(make(0))} columns: put {put * 1e3:.2f} ms each; read_results "
+        f"without results.parquet (after a kill) {killed * 1e3:.0f} ms; first consolidate "
+        f"{first * 1e3:.0f} ms"
+    )
+    print(
+        f"  no-op consolidate {noop * 1e3:.1f} ms ({again * 1e3:.1f} ms again in one run), "
+        f"read_results {whole * 1e3:.1f} ms, of which the row digests {digests * 1e3:.1f} ms; "
+        f"reading results.parquet alone {ref * 1e3:.1f} ms (ratios {noop / ref:.1f}x, "
+        f"{again / ref:.1f}x, {whole / ref:.1f}x, {digests / ref:.1f}x)"
     )
 
 
@@ -108,26 +150,23 @@ def main() -> None:
             f"without its fsyncs); plain pq.write_table of both {ref_put * 1e3:.1f} ms "
             f"(ratio {with_preds / ref_put:.1f}x)"
         )
-        store = ResultsStore(root / "store")
-        t0 = time.perf_counter()
-        for i in range(args.cells):
-            store.put(row(i))
-        print(f"put of a row alone: {(time.perf_counter() - t0) / args.cells * 1e3:.2f} ms")
+        for kind, make in (("narrow", row), ("wide", wide_row)):
+            folder_costs(ResultsStore(root / kind), make, args.cells)
 
-        killed = best(lambda: read_results(store.folder), 2)
-        t0 = time.perf_counter()
-        store.consolidate()
-        first = time.perf_counter() - t0
-        noop = best(store.consolidate)
-        whole = best(lambda: read_results(store.folder))
-        ref = best(lambda: pq.read_table(store.folder / RESULTS_FILE).to_pandas())
-        print(
-            f"{args.cells} cells: read_results without results.parquet (after a kill) {killed * 1e3:.0f} ms; "
-            f"first consolidate {first * 1e3:.0f} ms"
+        wide = wide_row(0)
+        fast = best(lambda: [keys.canonical(wide) for _ in range(2000)], 3) / 2000
+        recursing = (
+            best(
+                lambda: [
+                    {k: keys.canonical(v, f"key.{k}") for k, v in wide.items()} for _ in range(2000)
+                ],
+                3,
+            )
+            / 2000
         )
         print(
-            f"no-op consolidate {noop * 1e3:.1f} ms, read_results {whole * 1e3:.1f} ms; reading results.parquet "
-            f"alone {ref * 1e3:.1f} ms (ratios {noop / ref:.1f}x, {whole / ref:.1f}x)"
+            f"canonical form of a {len(wide)}-column row: {fast * 1e6:.1f} us; each value through "
+            f"canonical, as before {recursing * 1e6:.1f} us (ratio {recursing / fast:.1f}x)"
         )
 
         fields = {

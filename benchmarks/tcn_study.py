@@ -14,7 +14,7 @@ standardized on the training fold. The candidates are tcn settings (``CANDIDATES
 defaults before this study, its defaults now, and one change at a time from them. Each fit runs
 on one thread (``--jobs`` processes at once), so its seconds compare within this run only, and
 "windows trained" (epochs run x windows per epoch) is the cost that does not depend on the
-machine. The figures of ``docs/tcn-study.md`` come from this script's ``--out`` file.
+machine. The figures of ``docs/studies/tcn-study.md`` come from this script's ``--out`` file.
 """
 
 from __future__ import annotations

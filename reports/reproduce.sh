@@ -2,6 +2,9 @@
 # Regenerate reports/: the paper's tables and figures reproduced on the simulated default dataset.
 #
 #   reports/reproduce.sh                        # every built-in detector, every protocol, both splits
+#   reports/reproduce.sh reports/paper.toml     # what a run file declares (its scale, scheduler,
+#                                               # [slurm] resources), both splits: one command
+#                                               # for the paper's size on a cluster
 #   DETECTORS="holweg lstm" reports/reproduce.sh   # a subset
 #   SCALE=0.02 RESULTS=build/small REPORTS=build/small-reports reports/reproduce.sh
 #   REDUCTION_ONLY=1 reports/reproduce.sh          # only reports/reduction/: univariate vs channels
@@ -21,8 +24,14 @@ SCALE=${SCALE:-0.1}
 JOBS=${JOBS:-2}
 DETECTORS=${DETECTORS:-features holweg bandpass wavelet-svm minirocket lstm}  # features: the reference
 PROTOCOLS="window-size sampling-rate material-holdout speed-holdout cross-instance streaming"
+RUNFILE=${1:-}
 for split in grouped paper; do
   [ -n "${REPORT_ONLY:-}${REDUCTION_ONLY:-}" ] && break
+  if [ -n "$RUNFILE" ]; then
+    echo "run $RUNFILE, $split split" >&2
+    slipbench run "$RUNFILE" --split "$split" --out "$RESULTS" --quiet > /dev/null
+    continue
+  fi
   for detector in $DETECTORS; do
     params=()
     if [ "$detector" = lstm ]; then params=(--param max_epochs=100); fi
@@ -86,6 +95,15 @@ gives (see `datasets.md`), not measured facts about the sensors:
 
 The findings table gives each contrast with its interval; these reasons are the simulation's,
 written once, and name no figure of the run.
+
+**The LSTM's input range.** The LSTM maps its training windows' 2.5th and 97.5th percentiles to
+`[-input_range, input_range]`: 4 since the LSTM study, which found that at slipbench 0.1.0's
+[-1, 1] the input barely moves its gates, so that on a real BioTac SP it did not learn. The
+detectors table below lists `input_range` with the LSTM's other parameters; a run made before
+the study lists none, and its LSTM ran at [-1, 1]. On this simulation the change leaves windows
+10 and 50 inside their intervals and raises window 200, where the old range failed to train some
+units: measured on a representative subset at scale 0.02 by the LSTM study
+(`docs/studies/lstm-study.md`, `benchmarks/results/lstm_input_study.md`).
 
 TEXT
   tail -n +2 "$REPORTS/README.md"  # the report's own title gives way to the one above

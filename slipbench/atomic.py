@@ -1,5 +1,6 @@
 """Files that readers see whole or not at all, made with the user's umask, a folder lock, and
-Parquet files opened with their column names checked (:func:`open_parquet`).
+Parquet files opened with their column names checked (:func:`open_parquet`) and read with their
+text checked (:func:`whole_text`).
 
 Every file is first written under a unique hidden temporary name in its own folder (created
 with ``O_EXCL``, so two processes never share one), flushed to disk, then renamed over the
@@ -23,12 +24,23 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
-from typing import BinaryIO
+from typing import TYPE_CHECKING, BinaryIO
 
-import pyarrow as pa
-import pyarrow.parquet as pq
+from slipbench.errors import (
+    ENVIRONMENT_ERRNOS,
+    DataError,
+    EnvironmentFault,
+    UsageError,
+    environment_fault,
+    writing,
+)
 
-from slipbench.errors import DataError, EnvironmentFault, UsageError, environment_fault, writing
+if TYPE_CHECKING:  # pyarrow is imported by the functions that write or read Parquet: a
+    import pyarrow as pa  # command checks its destinations (check_writable) without it
+    import pyarrow.parquet as pq
+
+#: the folder of a results folder (slipbench.store.results) that holds its cell files
+RESULTS_CELLS = "cells"
 
 _CREATE = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
 
@@ -81,6 +93,9 @@ def write_atomic(table: pa.Table, path: str | os.PathLike) -> None:
     """Write a Parquet file so that readers see the old file or the new one, never a torn one."""
     # serialized in memory first: pyarrow writing through a Python file object calls back into
     # Python from its own threads, which has aborted interpreters at exit (apache/arrow#34314)
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     with atomic_file(path) as fh:
@@ -108,14 +123,18 @@ def unique_folder(parent: str | os.PathLike, prefix: str) -> Path:
     raise FileExistsError(errno.EEXIST, "no unused temporary folder name", os.fspath(parent))
 
 
-def check_writable(path: str | os.PathLike) -> None:
+def check_writable(path: str | os.PathLike, unless: str = "") -> None:
     """Raise EnvironmentFault (exit 5) naming ``path`` unless this process can write there: in
     the folder ``path`` where it is one, else in the folder that would hold it (its nearest
     existing ancestor, where a new folder would be made). Called before any work: it creates
     and removes one hidden file, the only test that sees permissions, ACLs, read-only mounts and
-    root alike, and leaves nothing behind.
+    root alike, and leaves nothing behind. ``unless``: a folder inside ``path`` whose presence
+    passes (a results folder's :data:`RESULTS_CELLS`: a rerun that finds every cell stored
+    writes nothing, and the run checks again once it knows what it writes).
     """
     path = Path(path)
+    if unless and (path / unless).is_dir():
+        return
     folder = next(p for p in (path, *path.parents) if p.exists())
     if folder != path and not folder.is_dir():
         raise UsageError(f"{path}: {folder} is a file, so no folder can be made there")
@@ -123,10 +142,16 @@ def check_writable(path: str | os.PathLike) -> None:
     try:
         fd, probe = _unique_file(folder, "slipbench-probe")
     except OSError as exc:
-        fault = environment_fault(exc, path)
         where = "" if folder == path else f" (in {folder}, where it would be made)"
+        if exc.errno not in ENVIRONMENT_ERRNOS:  # a place no file can be made (/proc/self/x)
+            raise UsageError(
+                f"{path}: no file can be written there{where}: {exc.strerror or exc}; "
+                "nothing was written"
+            ) from None
         raise EnvironmentFault(
-            path, fault.cause, hint=f"found before any work{where}; nothing was written"
+            path,
+            environment_fault(exc, path).cause,
+            hint=f"found before any work{where}; nothing was written",
         ) from None
     os.close(fd)
     probe.unlink()
@@ -173,6 +198,8 @@ def open_parquet(
     naming ``where`` (the file; default ``source``) and the column's position. A file pyarrow
     cannot open raises what pyarrow raises (ArrowException, OSError): the caller names it.
     """
+    import pyarrow.parquet as pq
+
     where = os.fspath(source if where is None else where)
     try:
         pf = pq.ParquetFile(source, **options)
@@ -220,3 +247,48 @@ def _undecodable(source: str | os.PathLike | pa.Buffer) -> str:
         except UnicodeDecodeError:
             return f"leaf column {i + 1} of {md.num_columns} (a field nested in a column)"
     return "a column"
+
+
+def whole_text(table: pa.Table, where: str | os.PathLike, key: str | None = None) -> pa.Table:
+    """``table`` itself, once every value in it is whole: a string a flipped bit left not valid
+    UTF-8 is read by pyarrow without a word, and fails only where a value is converted (a
+    UnicodeDecodeError, or an ArrowException, deep in a report).
+
+    Raises
+    ------
+    DataError
+        Naming ``where``, the column and the row (by its ``key`` column's value, where given
+        and readable).
+    """
+    import pyarrow as pa
+
+    try:
+        table.validate(full=True)
+        return table
+    except pa.ArrowInvalid as exc:
+        problem = " ".join(str(exc).split())
+    for name in table.column_names:
+        row = _first_undecodable(table.column(name))
+        if row is not None:
+            label = f"row {row + 1} of {table.num_rows}"
+            if key in table.column_names and _first_undecodable(table.column(key)) is None:
+                label += f" (key {table.column(key)[row].as_py()!r})"
+            raise DataError(
+                f"{os.fspath(where)}: column {name!r}, {label}: its text is not valid UTF-8 "
+                "(the file is damaged, e.g. a flipped bit)"
+            )
+    raise DataError(f"{os.fspath(where)}: damaged values ({problem})")
+
+
+def _first_undecodable(column: pa.ChunkedArray) -> int | None:
+    """The first row of a string column whose bytes are not UTF-8 (None: none, or not text)."""
+    import pyarrow as pa
+
+    if not pa.types.is_string(column.type):
+        return None
+    for row, value in enumerate(column.cast(pa.binary()).to_pylist()):
+        try:
+            (value or b"").decode()
+        except UnicodeDecodeError:
+            return row
+    return None

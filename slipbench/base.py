@@ -331,19 +331,26 @@ class BaseDetector(Parameterized):
         ``predict_proba`` over the sliding window; override with a faster :class:`Streamer`."""
         return Streamer(self, hop, threshold)
 
-    # -- persistence without pickle: parameters as JSON, fitted attributes as plain arrays
+    # -- persistence without pickle: parameters as JSON, fitted attributes as plain arrays, a
+    # fitted scikit-learn estimator through skops (its own format, types checked before loading)
     def save(self, path: str | os.PathLike) -> None:
         """Write the fitted detector to ``path`` (an .npz that ``np.load(allow_pickle=False)``
-        reads). Fitted attributes must be arrays, numbers, strings or tuples/lists of them."""
+        reads). Fitted attributes must be arrays, numbers, strings or tuples/lists of them, or
+        scikit-learn estimators (a pipeline too) made of types skops trusts: scikit-learn's own,
+        numpy's and Python's; such an estimator is stored as skops bytes, never pickled."""
         self._check_fitted()
         arrays, kinds = {}, {}
         for key, value in vars(self).items():
             if key.endswith("_") and not key.startswith("_"):
+                if _is_estimator(value):
+                    arrays[key], kinds[key] = _estimator_bytes(self, key, value), SKOPS
+                    continue
                 arrays[key] = np.asarray(value)
                 if arrays[key].dtype == object:
                     raise UsageError(
                         f"cannot save {type(self).__name__}: fitted attribute {key!r} holds a "
-                        f"{type(value).__name__}, not an array, number or string"
+                        f"{type(value).__name__}, not an array, number, string or "
+                        "scikit-learn estimator"
                     )
                 kinds[key] = (
                     type(value).__name__
@@ -383,7 +390,9 @@ class BaseDetector(Parameterized):
         for key, value in arrays.items():
             kind = meta["kinds"][key]
             detector.__dict__[key] = (
-                value.item()
+                _estimator_from(value, key, path)
+                if kind == SKOPS
+                else value.item()
                 if kind == "scalar"
                 else value
                 if kind == "ndarray"
@@ -467,6 +476,59 @@ def _saved_class(target: str, path: Any) -> type:
             "(a plugin folder: slipbench.engine.registry.add_plugin_folder) or call TheClass.load"
         )
     return obj
+
+
+SKOPS = "skops"  # the kind of a fitted attribute saved by skops.io
+
+
+def _is_estimator(value: Any) -> bool:
+    """Whether ``value`` is a scikit-learn estimator (imported only where sklearn already is)."""
+    base = sys.modules.get("sklearn.base")
+    return base is not None and isinstance(value, base.BaseEstimator)
+
+
+def _untrusted(data: bytes) -> list[str]:
+    """The types in skops bytes that skops does not trust by default (its own check, which
+    reads the file's schema without running anything)."""
+    import skops.io
+
+    return list(skops.io.get_untrusted_types(data=data))
+
+
+def _estimator_bytes(detector: BaseDetector, key: str, value: Any) -> np.ndarray:
+    """A fitted estimator as skops bytes (uint8), refused where loading it would need a type
+    skops does not trust."""
+    import skops.io
+
+    data = skops.io.dumps(value)
+    untrusted = _untrusted(data)
+    if untrusted:
+        raise UsageError(
+            f"cannot save {type(detector).__name__}: fitted attribute {key!r} "
+            f"({type(value).__name__}) holds types skops does not trust, so it could not be "
+            f"loaded without running their code: {', '.join(untrusted)}; build it from "
+            "scikit-learn's own types, or store plain arrays"
+        )
+    return np.frombuffer(data, dtype=np.uint8)
+
+
+def _estimator_from(value: np.ndarray, key: str, path: Any) -> Any:
+    """The estimator in skops bytes, after skops' check that every type in it is trusted."""
+    import skops.io
+
+    data = value.tobytes()
+    try:
+        untrusted = _untrusted(data)
+    except Exception as exc:  # noqa: BLE001 - whatever a damaged file makes skops raise
+        raise UsageError(
+            f"{path}: fitted attribute {key!r} is not readable skops data: {exc}"
+        ) from exc
+    if untrusted:
+        raise UsageError(
+            f"{path}: fitted attribute {key!r} holds types skops does not trust: "
+            f"{', '.join(untrusted)}; not loaded (loading would run their code)"
+        )
+    return skops.io.loads(data)
 
 
 def _encode(value: Any) -> Any:

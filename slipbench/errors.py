@@ -97,6 +97,9 @@ class CellsFailed(SlipbenchError):
         return type(self), (self.cells, self.total, self.where)
 
 
+#: what a file or value nested past what Python's parsers read is told (their RecursionError)
+TOO_DEEP = "nested too deeply to read (lists or tables inside one another, hundreds deep)"
+
 # Errors that say the machine, not slipbench or its input, is at fault: more disk, another
 # folder or other permissions fix them, and rerunning the same command then resumes.
 ENVIRONMENT_ERRNOS: dict[int, str] = {

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar, TypeVar
 
 from slipbench.errors import UsageError
-from slipbench.vocabulary import MIN_WINDOW
+from slipbench.vocabulary import MAX_WINDOW, MAX_WINDOW_MS, MIN_WINDOW
 
 
 @dataclass(frozen=True)
@@ -100,11 +100,14 @@ class WindowLength:
 
     def check(self, value: Any) -> bool:
         if isinstance(value, str):
-            return parse_ms(value) is not None
-        return Interval(int, self.low, None).check(value)
+            return (parse_ms(value) or math.inf) <= MAX_WINDOW_MS
+        return Interval(int, self.low, MAX_WINDOW).check(value)
 
     def __str__(self) -> str:
-        return f"an int number of samples >= {self.low}, or milliseconds such as '50ms'"
+        return (
+            f"an int number of samples in [{self.low}, {MAX_WINDOW}], or milliseconds such as "
+            f"'50ms' (at most {MAX_WINDOW_MS:.0f}, an hour)"
+        )
 
 
 def parse_ms(text: str) -> float | None:

@@ -1,24 +1,27 @@
-"""The protocol contract: BaseProtocol, the cells it yields, and the layout it is shown in.
+"""The protocol contract: BaseProtocol, the cells it yields, and how its table reads and looks.
 
 A protocol is a standardized experiment built from the dataset's metadata alone: a list of
 :class:`Cell` objects, each naming the windows that train a model and the windows that test it.
 Protocols never train anything (the runner does) and never see samples. Each declares a
-:class:`Layout`: how its cells make a table and a figure, read by ``report``, ``plots`` and
-``compare`` for built-in and plugin protocols alike.
+:class:`Layout` (what its cells are: a table's rows, columns, pairs) and may declare a
+:class:`Presentation` (how its table and figure look: captions, titles, the figure's kind).
+Every result row records both (:func:`as_record`): the report reads them from the rows, for
+built-in and plugin protocols alike.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import numpy as np
 import pandas as pd
 
 from slipbench.params import Parameterized, WindowLength, window_samples
-from slipbench.vocabulary import DATASET_SIDE, MIN_WINDOW, sensor_pairs
+from slipbench.vocabulary import DATASET_SIDE, MAX_WINDOW, MIN_WINDOW, sensor_pairs
 
 __all__ = [
     "BaseProtocol",
@@ -26,7 +29,11 @@ __all__ = [
     "HoldoutProtocol",
     "Layout",
     "Part",
+    "Presentation",
     "NO_CELL",
+    "as_record",
+    "described",
+    "from_record",
     "holdout_cells",
     "no_cell",
     "sensor_pairs",
@@ -77,8 +84,12 @@ class Part:
 
     def mask(self, recordings: pd.DataFrame) -> np.ndarray:
         """(n_recordings,) bool: recordings of these sensors that meet every condition."""
-        pairs = pd.MultiIndex.from_frame(recordings[["sensor_type", "sensor_instance"]])
-        keep = pairs.isin(list(self.sensors))
+        # compared as arrays: a MultiIndex built per call took 30 ms, most of planning a run
+        types = recordings["sensor_type"].to_numpy()
+        instances = recordings["sensor_instance"].to_numpy()
+        keep = np.zeros(len(recordings), bool)
+        for sensor_type, instance in self.sensors:
+            keep |= (types == sensor_type) & (instances == instance)
         for column, op, value in self.where:
             equal = recordings[column].eq(value).to_numpy()
             keep &= equal if op == "==" else ~equal
@@ -202,54 +213,25 @@ class Cell:
 
 @dataclass(frozen=True)
 class Layout:
-    """How a protocol's cells make its table and its figure.
-
-    ``rows``, ``column``, ``pair``, ``split`` and ``metrics`` say what the cells are; the other
-    fields say how they look, and are a plugin's defaults: the report keeps the built-in
-    protocols' presentation itself (:mod:`slipbench.report.presentation`), and a layout without
-    a caption is captioned "Protocol {id}.".
+    """What a protocol's cells are, as its table reads them (how they look is its
+    :class:`Presentation`).
 
     Attributes
     ----------
-    caption : the table's caption. A result column named in braces ("window {window}") is
-        replaced by the values the table's rows hold there.
     rows : cell-key columns that label the table's rows, outermost first.
     column : the cell-key column whose values make the value columns.
-    title : a short name for headings and figure titles (default: the protocol's id).
-    group : text after the metric's name over the value columns ("at Window Size").
     pair : a cell-key column with values "with" and "without": each table cell shows both
         results, the second starred (the paper's "without explicit training").
     split : a cell-key column, or a tuple of them: one table per value (combination).
-    merge_rows : one row-label column ("Nano17, Index") instead of one per row key.
-    column_label : a result column whose values, per sensor type, label the value columns
-        (the paper's per-sensor sampling rates over Table II).
-    note_column : a result column whose values, per sensor type and value column, a note
-        under the table lists (a window's length in the other unit).
-    figure : "curve" (the figure against ``x``), "with-without" (heatmaps with and without
-        the ``pair``), "matrix" (rows by columns heatmap per sensor type), or None.
-    x, x_label, log_base : a curve's x column (default ``column``), its axis label with the
-        unit, and its log scale base (0: linear).
-    paper_table : the name of the published table with the same cells (``--paper``).
     metrics : result columns shown as the value columns, one each, instead of one column per
         value of ``column`` (which then has one value per row; the streaming protocol's detection
         rate, delays and false alarms). Empty: the usual table of one metric.
     """
 
-    caption: str = ""
-    rows: tuple[str, ...] = ()
-    column: str = ""
-    title: str = ""
-    group: str = ""
+    rows: tuple[str, ...]
+    column: str
     pair: str | None = None
     split: str | tuple[str, ...] | None = None
-    merge_rows: bool = False
-    column_label: str | None = None
-    note_column: str | None = None
-    figure: str | None = None
-    x: str | None = None
-    x_label: str = ""
-    log_base: int = 0
-    paper_table: str | None = None
     metrics: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -261,17 +243,8 @@ class Layout:
             raise ValueError(
                 f"Layout.rows must be a non-empty tuple of column names, got {self.rows!r}"
             )
-        for name in ("caption", "column", "title", "group", "x_label"):
-            if not isinstance(getattr(self, name), str):
-                raise ValueError(f"Layout.{name} must be a str, got {getattr(self, name)!r}")
-        if not self.column:
+        if not isinstance(self.column, str) or not self.column:
             raise ValueError("Layout.column must name the cell-key column of the value columns")
-        if self.figure is not None and self.figure not in FIGURE_KINDS:
-            raise ValueError(
-                f"Layout.figure must be one of {FIGURE_KINDS} or None, got {self.figure!r}"
-            )
-        if self.figure == "with-without" and not self.pair:
-            raise ValueError("a 'with-without' figure needs Layout.pair")
         split = (self.split,) if isinstance(self.split, str) else self.split
         if split is not None and not (
             isinstance(split, tuple) and split and all(isinstance(c, str) for c in split)
@@ -283,8 +256,6 @@ class Layout:
             raise ValueError(
                 f"Layout.metrics must be a tuple of result column names, got {self.metrics!r}"
             )
-        if self.log_base not in (0, 2, 10):
-            raise ValueError(f"Layout.log_base must be 0 (linear), 2 or 10, got {self.log_base!r}")
 
     @property
     def keys(self) -> list[str]:
@@ -303,12 +274,93 @@ class Layout:
         )
 
 
+@dataclass(frozen=True)
+class Presentation:
+    """How a protocol's table and figure look (what its cells are is its :class:`Layout`).
+    Every field is optional; a protocol without a presentation is captioned "Protocol {id}.".
+
+    Attributes
+    ----------
+    caption : the table's caption. A result column named in braces ("window {window}") is
+        replaced by the values the table's rows hold there; ``{sensors}`` by what units they
+        are ("three types of sensors and fingers", "the fingers of one sensor type (BioTac SP)").
+    title : a short name for headings and figure titles (default: the protocol's id).
+    group : text after the metric's name over the value columns ("at Window Size").
+    merge_rows : one row-label column ("Nano17, Index") instead of one per row key.
+    column_label : a result column whose values, per sensor type, label the value columns
+        (the paper's per-sensor sampling rates over Table II).
+    note_column : a result column whose values, per sensor type and value column, a note
+        under the table lists (a window's length in the other unit).
+    figure : "curve" (the figure against ``x``), "with-without" (heatmaps with and without
+        the layout's ``pair``), "matrix" (rows by columns heatmap per sensor type), "tradeoff"
+        (detection against false alarms over a threshold sweep), or None.
+    x, x_label, log_base : a curve's x column (default: the layout's ``column``), its axis label
+        with the unit, and its log scale base (0: linear).
+    paper_table : the name of the published table with the same cells (``--paper``).
+    """
+
+    caption: str = ""
+    title: str = ""
+    group: str = ""
+    merge_rows: bool = False
+    column_label: str | None = None
+    note_column: str | None = None
+    figure: str | None = None
+    x: str | None = None
+    x_label: str = ""
+    log_base: int = 0
+    paper_table: str | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("caption", "title", "group", "x_label"):
+            if not isinstance(getattr(self, name), str):
+                raise ValueError(f"Presentation.{name} must be a str, got {getattr(self, name)!r}")
+        if self.figure is not None and self.figure not in FIGURE_KINDS:
+            raise ValueError(
+                f"Presentation.figure must be one of {FIGURE_KINDS} or None, got {self.figure!r}"
+            )
+        if self.log_base not in (0, 2, 10):
+            raise ValueError(
+                f"Presentation.log_base must be 0 (linear), 2 or 10, got {self.log_base!r}"
+            )
+
+
+_Record = TypeVar("_Record", Layout, Presentation)
+
+
+def as_record(value: Layout | Presentation) -> str:
+    """A layout or presentation as the JSON its protocol's result rows record
+    (``protocol_layout``, ``protocol_presentation``): what a report reads."""
+    return json.dumps(dataclasses.asdict(value), sort_keys=True)
+
+
+def from_record(cls: type[_Record], text: str) -> _Record:
+    """The layout or presentation (``cls``) a result row records (:func:`as_record`); the keys
+    ``cls`` does not know are left out (a newer slipbench's), a list is a tuple again. A
+    ValueError says what does not fit."""
+    try:
+        given = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not JSON ({exc})") from None
+    if not isinstance(given, dict):
+        raise ValueError(f"not a JSON object: {text[:80]!r}")
+    known = {f.name for f in dataclasses.fields(cls)}
+    fields: dict[str, Any] = {
+        k: tuple(v) if isinstance(v, list) else v for k, v in given.items() if k in known
+    }
+    try:
+        return cls(**fields)
+    except TypeError as exc:  # a required field missing
+        raise ValueError(str(exc)) from None
+
+
 class BaseProtocol(Parameterized):
     """A standardized experiment: cells from the dataset's metadata alone.
 
-    Subclasses declare ``layout`` (a :class:`Layout`), options as keyword arguments of
-    ``__init__`` with ``_parameter_constraints`` (as detectors do), and implement
-    :meth:`cells`. The registry gives each protocol class its id (``name``). Like a detector,
+    Subclasses declare ``layout`` (a :class:`Layout`) and optionally ``presentation`` (a
+    :class:`Presentation`), options as keyword arguments of ``__init__`` with
+    ``_parameter_constraints`` (as detectors do), and implement :meth:`cells`. The registry
+    gives each protocol class its id (``name``). Like a detector,
     it may declare ``requires`` (modules slipbench does not install; ``slipbench list``
     reports the absent ones) with ``install_hint``, and ``data_files`` (files it reads, part of
     its code identity).
@@ -319,12 +371,14 @@ class BaseProtocol(Parameterized):
     install_hint: ClassVar[str | None] = None
     data_files: ClassVar[tuple[str, ...]] = ()
     if TYPE_CHECKING:
-        # read on an instance only: a class attribute, or a property where the layout depends
-        # on the options (window_size's unit)
+        # read on an instance only: a class attribute, or a property where they depend on the
+        # options (window_size's unit)
         @property
         def layout(self) -> Layout | None: ...
+        @property
+        def presentation(self) -> Presentation | None: ...
     else:
-        layout = None
+        layout = presentation = None
     _parameter_constraints: ClassVar[dict[str, Any]] = {}
 
     def cells(self, recordings: pd.DataFrame) -> Iterable[Cell]:
@@ -348,6 +402,19 @@ class BaseProtocol(Parameterized):
         lack, in a few words, for the skipped stand-in row the run records instead."""
         scenarios = ", ".join(sorted(set(recordings["scenario"].astype(str))))
         return f"no cell fits these recordings (scenarios: {scenarios})"
+
+
+def described(protocol: BaseProtocol) -> dict[str, str]:
+    """What every result row of ``protocol`` records of how its table reads and looks:
+    ``protocol_layout`` and ``protocol_presentation`` as JSON (:func:`as_record`; "" for what
+    it does not declare)."""
+    layout, presentation = protocol.layout, protocol.presentation
+    return {
+        "protocol_layout": as_record(layout) if isinstance(layout, Layout) else "",
+        "protocol_presentation": as_record(presentation)
+        if isinstance(presentation, Presentation)
+        else "",
+    }
 
 
 def no_cell(name: str, why: str, recordings: pd.DataFrame) -> Cell:
@@ -470,17 +537,13 @@ def window_cells(
 ) -> Iterator[tuple[int, dict[str, Any], str]]:
     """Each window of ``windows`` (samples, or milliseconds as "50ms") for one unit: its length in
     samples at the unit's rate, the cell-key items ``window`` (samples) and ``window_ms``, and a
-    skip reason when it is shorter than MIN_WINDOW samples."""
+    skip reason when it is shorter than MIN_WINDOW samples or longer than MAX_WINDOW."""
     rate = unit_rate(recordings, sensor)
     for window in [windows] if isinstance(windows, (int, str)) else windows:
         n = window_samples(window, rate)
         ms = float(window[:-2]) if isinstance(window, str) else round(1000.0 * n / rate, 1)
-        skip = (
-            ""
-            if n >= MIN_WINDOW
-            else (
-                f"{window} is {n} samples at {rate:g} Hz; a window needs at least "
-                f"{MIN_WINDOW} samples"
-            )
-        )
+        skip = ""
+        if not MIN_WINDOW <= n <= MAX_WINDOW:
+            bound = f"at least {MIN_WINDOW}" if n < MIN_WINDOW else f"at most {MAX_WINDOW}"
+            skip = f"{window} is {n} samples at {rate:g} Hz; a window needs {bound} samples"
         yield max(n, 1), {"window": n, "window_ms": ms}, skip

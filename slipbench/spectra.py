@@ -5,12 +5,13 @@ engine API for plugins (the built-ins use it as any plugin would)."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import expit
 
 
 def logistic(z: np.ndarray) -> np.ndarray:
     """1 / (1 + exp(-z)), without overflow warnings (``scipy.special.expit``): a decision value
     of 0 maps to 0.5."""
+    from scipy.special import expit  # here: a plugin's import (a cached run) needs no scipy
+
     return expit(np.asarray(z, dtype=np.float64))
 
 

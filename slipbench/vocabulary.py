@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+if TYPE_CHECKING:  # annotations only: the CLI reads this module before it needs pandas
+    import pandas as pd
 
 # ----------------------------------------------------------------------------- the paper's design
 SENSOR_ORDER = ("Nano17", "OptoForce20", "BioTacSP")  # sensor types, in the paper's order
@@ -21,11 +22,19 @@ MATERIALS = ("aluminum", "PVC", "neoprene", "cardboard", "plywood")  # in the pa
 SLIP_SPEEDS = (5.0, 25.0, 50.0, 75.0)  # mm/s, average speeds of slip
 FREE_SPACE_SPEEDS = (25.0, 50.0, 75.0)  # mm/s, arm speeds of free-space motion
 
+# a recording column the dataset reader derives: the recording holds slip (a slip recording, or
+# one with a sample labelled slip; a hold-slip trial that held throughout does not)
+SLIPS = "slips"
+
 # what a detector reads: the paper's univariate signal s, or the raw channels it reduces
 INPUTS = ("univariate", "channels")
 
 # ----------------------------------------------------------------------------- thresholds
 MIN_WINDOW = 5  # samples: the shortest window a detector is given
+# the longest window a plan takes: 10 M samples (80 MB a window in float64, hours at any rate
+# these sensors record), or an hour; beyond, one window's copy would not fit a machine
+MAX_WINDOW = 10_000_000
+MAX_WINDOW_MS = 3_600_000.0
 LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover
 # a slip onset counts as detected within this delay: a grasp controller's reaction budget
 MAX_DELAY_MS = 200.0
@@ -48,13 +57,6 @@ ORDERS: dict[str, Sequence[Any]] = {  # the known values of a key column, in the
     "train_instance": INSTANCE_ORDER,
     "test_instance": INSTANCE_ORDER,
     "material": MATERIALS,
-}
-METRIC_NAMES = {
-    "accuracy": "Classification Accuracy",
-    "tp_rate": "TP Rate",
-    "tn_rate": "TN Rate",
-    "balanced_accuracy": "Balanced Accuracy",
-    "auroc": "AUROC",
 }
 SHORT = {  # how a cell-key value reads in a one-line cell label, in this order after KEY_ORDER
     "window": "window {}",

@@ -29,11 +29,12 @@ def run_folder(
     ``noise`` on 30 degrees of freedom; ``extra`` columns set on every row. With ``cells``, a
     results folder as ``evaluate`` writes it (each cell stored, then consolidated: its rows
     verified when read); else the folder's results.parquet alone, written directly (fast)."""
-    rows = fake_rows("window-size", detector).assign(seed=seed)  # each cell's value: the seed's
+    # holweg's rows under the detector's name (a name no plugin holds: the site's hostile one)
+    rows = fake_rows("window-size", "holweg").assign(seed=seed, detector=detector)
     rng = rng_for(seed, "historygen", code)
     kept = []
     for r in rows.to_dict("records"):
-        salt = f"{r['key']}|{code}|{extra}".encode()
+        salt = f"{r['key']}|{detector}|{code}|{extra}".encode()
         r["key"] = f"{zlib.crc32(salt):08x}{seed:04d}"
         for name in ("accuracy", "tp_rate", "tn_rate"):
             value = r[name] + shift + noise * rng.standard_normal()

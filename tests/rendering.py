@@ -9,7 +9,9 @@ from pathlib import Path
 import pandas as pd
 
 from slipbench.report.document import build_report, render, write_figures
+from slipbench.report.outline import outline
 from slipbench.report.plots import figure_specs, save
+from slipbench.report.render import renderer
 
 
 def render_report(rows: pd.DataFrame, fmt: str = "md", found=None, **options) -> str:
@@ -20,7 +22,7 @@ def render_report(rows: pd.DataFrame, fmt: str = "md", found=None, **options) ->
     standalone = options.pop("standalone", False)
     plots_dir = options.pop("plots_dir", None)
     link_from = options.pop("link_from", None)
-    with_figures = fmt == "html" or plots_dir is not None
+    with_figures = renderer(fmt).embeds_figures or plots_dir is not None
     blocks = build_report(rows, found, **options, with_figures=with_figures)
     files = write_figures(blocks, plots_dir) if plots_dir is not None else {}
     return render(blocks, fmt, standalone, files, link_from)
@@ -33,7 +35,7 @@ def write_plots(rows: pd.DataFrame, folder: str | os.PathLike, paper: bool = Tru
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths: list[Path] = []
-    for spec in figure_specs(rows, paper, None):
+    for spec in figure_specs(outline(rows), paper):
         fig = spec.draw()
         if fig is not None:
             paths += save(fig, folder, spec.stem)

@@ -46,10 +46,23 @@ def _cells(protocol: str):
                         yield {**base, "speed_mm_s": s, "training": t}
 
 
+def recorded(protocol: str, detector: str) -> dict:
+    """What ``evaluate`` records in each row of the plugins: the protocol's layout and
+    presentation at its default options, and whether the detector is the reference."""
+    from slipbench.engine.registry import detectors, protocols
+    from slipbench.protocol import described
+
+    return {
+        **described(protocols.get(protocol)()),
+        "detector_reference": bool(detectors.get(detector).reference),
+    }
+
+
 def fake_rows(
     protocol: str, detector: str = "lstm", seeds=(0,), shift: float = 0.0
 ) -> pd.DataFrame:
     """Rows as ``evaluate`` writes them, accuracies drawn from a hash of the cell (so stable)."""
+    plugins = recorded(protocol, detector)
     rows = []
     for cell in _cells(protocol):
         text = json.dumps(cell, sort_keys=True)
@@ -76,6 +89,7 @@ def fake_rows(
                 "tn_rate_lo": acc - 0.04,
                 "tn_rate_hi": acc,
                 "dataset_fingerprint": "f00d",
+                **plugins,
             }
             rows.append(row)
     frame = pd.DataFrame(rows)
@@ -113,7 +127,7 @@ def whole_paper_pair(root) -> tuple:
     change = 0.06 * u - 0.15 * worse
     for name in ("accuracy", "tp_rate", "tn_rate"):
         for col in (name, f"{name}_lo", f"{name}_hi"):
-            cand[col] = base[col] + change
+            cand[col] = (base[col] + change).clip(0, 1)  # a rate stays a rate
     paths = (root / "base.parquet", root / "candidate.parquet")
     base.to_parquet(paths[0])
     cand.to_parquet(paths[1])

@@ -25,7 +25,7 @@ def cell_row(prefix: str, i: int) -> dict:
         "reason": "",
         "window": 5 + i % 7,
         "seed": i % 3,
-        "accuracy": 50 + i / 7,
+        "accuracy": 0.5 + i / 7000,
         "cell": f'{{"window": {5 + i % 7}}}',
     }
 

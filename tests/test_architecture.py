@@ -15,6 +15,10 @@ The wings, top to bottom (a wing may import its own wing, any wing below it, and
 The plugin API is the contract and ``torch`` (TorchDetector, a base class for detectors written
 in PyTorch): built-in plugins import nothing else of the package.
 
+The report sits above the engine but imports nothing of it (``APART``): a report reads only
+the results store, so the rows record what it needs of the plugins (their layouts, the
+reference detector).
+
 Two wings on one level do not import each other, in either direction. Decided from the code:
 stats and stream share no import (stats reads stored rows, stream scores live pushes; both sit on
 data/store and the contract), nor do data and store (they meet only in the engine), nor report
@@ -33,12 +37,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = next(p for p in Path(__file__).resolve().parents if (p / "pyproject.toml").is_file())
-#: the folders of the package's modules: the built-in plugins ship inside it
-FOLDERS = {
-    "slipbench": ROOT / "slipbench",
-    "slipbench.detectors": ROOT / "detectors",
-    "slipbench.protocols": ROOT / "protocols",
-}
+#: the package's folder: the built-in plugins are its subpackages detectors/ and protocols/
+PACKAGE = ROOT / "slipbench"
 PLUGIN_PACKAGES = ("slipbench.detectors", "slipbench.protocols")
 CONTRACT = "contract"
 #: what a plugin may import of the package
@@ -61,6 +61,11 @@ LEVELS = {
 MAX_TOP_LEVEL = 10
 #: plugin imports outside the contract, each with its reason; each is a debt to pay off
 PLUGIN_EXCEPTIONS: dict[tuple[str, str], str] = {}  # (plugin module, target): why it may
+#: wings a wing may not import although they lie below it, each with its reason
+APART: dict[tuple[str, str], str] = {
+    ("report", "engine"): "a report reads only the results store: protocol names, layouts, "
+    "presentations and the reference detector are in the rows, never in the registry",
+}
 
 
 @dataclass(frozen=True)
@@ -78,17 +83,11 @@ class Import:
 def modules() -> dict[str, Path]:
     """Every module of the package (plugins included) by dotted name."""
     found = {}
-    for package, folder in FOLDERS.items():
-        for path in sorted(folder.rglob("*.py")):
-            if package == "slipbench" and path.relative_to(folder).parts[0] in (
-                "detectors",
-                "protocols",
-            ):
-                continue  # never the case in a source tree; an installed tree would nest them
-            parts = path.relative_to(folder).with_suffix("").parts
-            if parts[-1] == "__init__":
-                parts = parts[:-1]
-            found[".".join((package, *parts))] = path
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = path.relative_to(PACKAGE).with_suffix("").parts
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        found[".".join(("slipbench", *parts))] = path
     return found
 
 
@@ -188,6 +187,19 @@ def test_wings_import_only_downwards():
     )
 
 
+def test_wings_kept_apart_import_nothing_of_each_other():
+    edges, _ = graph()
+    bad = [
+        imp
+        for found in edges.values()
+        for imp in found
+        if (wing(imp.source), wing(imp.target)) in APART
+    ]
+    assert not bad, "imports between wings kept apart:\n" + "\n".join(
+        f"  {imp}: {APART[wing(imp.source), wing(imp.target)]}" for imp in bad
+    )
+
+
 def test_imports_of_the_package_name_real_modules():
     _, unknown = graph()
     assert not unknown, "imports of slipbench names that no module defines:\n" + _listing(unknown)
@@ -266,3 +278,96 @@ def test_the_graph_sees_imports():
     assert "slipbench.protocol" in targets["slipbench.protocols.window_size"]
     assert "slipbench.detectors.lstm_kernels" in targets["slipbench.detectors.lstm"]
     assert {wing(m) for m in edges} >= set(LEVELS) | {None}
+
+
+# ----------------------------------------------------------------------------- a metric declared once
+#: the results schema, where each figure is declared (name, kind, label, unit, display, worse,
+#: rate, tolerance) and from which every list of figures is a query
+SCHEMA = ROOT / "slipbench" / "store" / "columns.py"
+#: the default figure of many signatures (``metric="accuracy"``): its spellings are not counted
+DEFAULT_FIGURE = "accuracy"
+
+
+def figure_names() -> set[str]:
+    """The declared figures: the first argument of each ``Figure(...)`` in the schema."""
+    calls = [n for n in ast.walk(ast.parse(SCHEMA.read_text())) if isinstance(n, ast.Call)]
+    return {
+        c.args[0].value
+        for c in calls
+        if isinstance(c.func, ast.Name)
+        and c.func.id == "Figure"
+        and c.args
+        and isinstance(c.args[0], ast.Constant)
+    }
+
+
+def _named(node: ast.AST, names: set[str]) -> bool:
+    return isinstance(node, ast.Constant) and node.value in names
+
+
+def _literal(node: ast.AST) -> bool:
+    try:
+        ast.literal_eval(node)
+    except ValueError:
+        return False
+    return True
+
+
+def hand_lists(tree: ast.AST, names: set[str]) -> list[int]:
+    """Lines of a tuple, list or set of two or more figure names, or of a dict that maps two or
+    more of them to constants (a label, a scale, a sign): a list of figures kept by hand. A dict
+    whose values are computed (the figures of a cell) is their computation, not a list."""
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+            if sum(_named(e, names) for e in node.elts) >= 2:
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Dict):
+            keyed = [
+                v for k, v in zip(node.keys, node.values) if k is not None and _named(k, names)
+            ]
+            if len(keyed) >= 2 and all(_literal(v) for v in keyed):
+                lines.append(node.lineno)
+    return lines
+
+
+def test_no_list_of_figures_but_the_results_schema():
+    """Every list of figures in slipbench is a query of the results schema. The built-in plugins
+    may name the figures their tables show: they reach the package through the contract alone,
+    as a third-party plugin does, so they cannot query the schema."""
+    names = figure_names()
+    found = [
+        f"{path.relative_to(ROOT)}:{line}"
+        for module, path in modules().items()
+        if wing(module) is not None and path != SCHEMA
+        for line in hand_lists(ast.parse(path.read_text()), names)
+    ]
+    assert not found, (
+        "lists of figure names kept by hand (query slipbench.store.columns instead):\n  "
+        + "\n  ".join(found)
+    )
+
+
+def test_a_figure_is_spelled_in_two_package_files_at_most():
+    """Its declaration and at most one more file (its computation, or a plugin naming it): a
+    figure's name is otherwise read from the schema (``TN_RATE.name``, :func:`figures`)."""
+    names = figure_names() - {DEFAULT_FIGURE}
+    files: dict[str, set[str]] = {n: set() for n in names}
+    for path in modules().values():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if _named(node, names):
+                files[node.value].add(str(path.relative_to(ROOT)))
+    spread = {n: sorted(f) for n, f in files.items() if len(f) > 2}
+    assert not spread, f"figure names spelled in more than two package files: {spread}"
+
+
+def test_the_figure_checks_see_lists():
+    """The two checks above would pass on a schema they cannot read: make sure they see the
+    figures and the lists of them."""
+    names = figure_names()
+    assert {"tn_rate", "false_alarms_per_min", DEFAULT_FIGURE} <= names
+    planted = ast.parse(
+        'A = ("tp_rate", "tn_rate")\nB = {"tn_rate": 1, "auroc": -1}\n'
+        'C = {"tn_rate": f(x), "auroc": g(x)}\nD = ["key", "tn_rate"]\n'
+    )
+    assert hand_lists(planted, names) == [1, 2]

@@ -70,17 +70,56 @@ def test_commit_msg_hook_keeps_subjects_to_72_characters(tmp_path, subject, refu
     assert bool(pygrep.main([*hook["args"], hook["entry"], str(message)])) == refused
 
 
+@pytest.mark.parametrize("tool", ["detector_page", "figure_page"])
+def test_generated_reference_page_is_what_its_generator_writes(tool):
+    """The reference pages of what the code declares (the registry's detectors, the results
+    schema's figures) are written from it, never by hand, so none goes stale."""
+    import importlib
+
+    generator = importlib.import_module(tool)  # docs/tools, on pytest's pythonpath
+    page = (ROOT / generator.PAGE).read_text()
+    assert page == generator.page(), (
+        f"{generator.PAGE} is stale: python docs/tools/{tool}.py > {generator.PAGE}"
+    )
+
+
+def test_every_docs_path_named_in_the_repository_exists():
+    """A page moved or renamed leaves no reference to its old path behind: every
+    ``docs/...`` file a tracked file names (in code, tests, scripts or pages) is there."""
+    import subprocess
+
+    tracked = subprocess.run(
+        ["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.split()
+    named = re.compile(r"(?<![\w./-])docs/[\w./-]+\.(?:md|txt|png|py)\b")
+    missing = {}
+    for name in tracked:
+        path = ROOT / name
+        if path.suffix not in (".py", ".md", ".toml", ".yml", ".yaml", ".sh", ".txt"):
+            continue
+        for found in named.findall(path.read_text(errors="replace")):
+            if not (ROOT / found).exists():
+                missing.setdefault(found, []).append(name)
+    assert not missing, f"docs paths named but not there: {missing}"
+
+
 def test_performance_page_is_what_the_gpu_check_renders():
-    """docs/performance.md is rendered from the committed runs it names, never edited by hand."""
+    """docs/studies/performance.md is rendered from the committed runs it names, never edited by hand."""
     import benchmod  # tests/, on pytest's pythonpath
 
     gpu_check = benchmod.load("gpu_check")
-    page = (ROOT / "docs" / "performance.md").read_text()
+    page = (ROOT / "docs" / "studies" / "performance.md").read_text()
     results = ROOT / "benchmarks" / "results"
     files = [results / name for name in re.findall(r"^## `(gpu_check-[\w-]+\.json)`$", page, re.M)]
-    assert files, "docs/performance.md names no gpu_check run"
+    assert files, "docs/studies/performance.md names no gpu_check run"
     assert page == gpu_check.render(files) + "\n", (
-        "docs/performance.md is stale: python benchmarks/gpu_check.py --render "
+        "docs/studies/performance.md is stale: python benchmarks/gpu_check.py --render "
         + " ".join(f"benchmarks/results/{f.name}" for f in files)
-        + " docs/performance.md"
+        + " docs/studies/performance.md"
     )
+
+
+def test_the_readmes_docs_command_silences_the_themes_banner():
+    """mkdocs-material prints an end-of-life banner unless NO_MKDOCS_2_WARNING=1 (.ci/run sets it)."""
+    commands = re.findall(r"`([^`]*mkdocs (?:serve|build)[^`]*)`", README.read_text())
+    assert commands and all("NO_MKDOCS_2_WARNING=1 mkdocs" in c for c in commands)

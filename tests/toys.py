@@ -19,7 +19,7 @@ import numpy as np
 from slipbench.base import BaseDetector
 from slipbench.errors import UsageError
 from slipbench.params import Interval
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part, Presentation
 
 
 class Energy(BaseDetector):
@@ -221,7 +221,8 @@ class ThreadProbe(Energy):
 class TwoCells(BaseProtocol):
     """Window 50 of two Nano17 fingers."""
 
-    layout = Layout("two cells", ("sensor_type", "sensor_instance"), "window")
+    layout = Layout(("sensor_type", "sensor_instance"), "window")
+    presentation = Presentation("two cells")
 
     def cells(self, recordings):
         for finger in ("index", "middle"):
@@ -237,10 +238,9 @@ class TwoCells(BaseProtocol):
 class TwoWindows(BaseProtocol):
     """Windows of 25 and 50 samples on two Nano17 fingers."""
 
-    layout = Layout(
+    layout = Layout(("sensor_type", "sensor_instance"), "window")
+    presentation = Presentation(
         "Energy at two window lengths.",
-        ("sensor_type", "sensor_instance"),
-        "window",
         title="Two windows",
         group="at Window",
         figure="curve",

@@ -1,5 +1,5 @@
 """Interval methods that no command runs: the references and candidates the coverage study
-(``docs/coverage.md``, ``benchmarks/bench_coverage.py``) measured slipbench's default against.
+(``docs/studies/coverage.md``, ``benchmarks/bench_coverage.py``) measured slipbench's default against.
 
 Each is an :class:`slipbench.stats.bootstrap.IntervalMethod`, given to the product's functions
 as ``method=`` (:func:`method` maps a study's name to it; the product's own names pass through):

@@ -50,13 +50,17 @@ def command_help() -> str:
         )
         if isinstance(command, click.Group):
             for sub in command.list_commands(ctx):
-                add(command.commands[sub], ctx, sub)
+                found = command.get_command(ctx, sub)
+                assert found is not None  # listed by the group itself
+                add(found, ctx, sub)
             return
         out.extend([f"## `{ctx.command_path}`", "", "```text", ctx.get_help(), "```", ""])
 
     root = click.Context(cli, info_name="slipbench")
     for name in cli.list_commands(root):
-        add(cli.commands[name], root, name)
+        found = cli.get_command(root, name)
+        assert found is not None  # listed by the group itself
+        add(found, root, name)
     return "\n".join(out)
 
 
@@ -70,7 +74,20 @@ def benchmark_table() -> str:
     return "\n".join(rows)
 
 
-GENERATED = {"commands": command_help, "benchmarks": benchmark_table}
+def gate_plan() -> str:
+    """The shipped bench's gate plan, from bench.toml and its committed calibration, as
+    ``slipbench calibrate`` prints it."""
+    from slipbench.app.benchfile import load_benchmark, plan_runs
+    from slipbench.app.calibrate import status
+    from slipbench.app.gateplan import plan_gate
+
+    bench = load_benchmark(ROOT / "bench.toml")
+    runs = plan_runs(bench, echo=lambda _: None, check_gate=False)
+    lines = plan_gate(bench, runs, status(bench, runs)).lines()
+    return "\n".join(["```text", *lines, "```"])
+
+
+GENERATED = {"commands": command_help, "benchmarks": benchmark_table, "gate_plan": gate_plan}
 
 
 def on_page_markdown(markdown: str, **kwargs: object) -> str:

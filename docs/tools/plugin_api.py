@@ -1,5 +1,5 @@
-"""The plugin API reference, ``docs/plugin-api.md``, written from the docstrings of what a
-plugin may use: ``python docs/tools/plugin_api.py > docs/plugin-api.md``.
+"""The plugin API reference, ``docs/reference/plugin-api.md``, written from the docstrings of what a
+plugin may use: ``python docs/tools/plugin_api.py > docs/reference/plugin-api.md``.
 
 Signatures and text come from the code; each entry's example is kept here, in ``ENTRIES``, and
 the examples run in order as one script (``tests/testing/test_apidoc.py`` runs them and checks
@@ -16,7 +16,7 @@ import textwrap
 from dataclasses import dataclass
 from typing import Any
 
-PAGE = "docs/plugin-api.md"
+PAGE = "docs/reference/plugin-api.md"
 
 
 @dataclass(frozen=True)
@@ -318,13 +318,14 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
             Entry(
                 "slipbench.protocol:BaseProtocol",
                 "from slipbench.protocol import BaseProtocol, Layout, sensor_pairs, window_cells\n"
-                "from slipbench.protocol import Cell, Part\n"
+                "from slipbench.protocol import Cell, Part, Presentation\n"
                 "\n"
                 "\n"
                 "class OneWindow(BaseProtocol):\n"
                 '    """Each unit at one window, trained and tested on itself."""\n'
                 "\n"
-                '    layout = Layout("Accuracy per unit.", rows=("sensor_type",), column="window")\n'
+                '    layout = Layout(rows=("sensor_type",), column="window")\n'
+                '    presentation = Presentation("Accuracy per unit.", title="One window")\n'
                 "\n"
                 "    def cells(self, recordings):\n"
                 "        for sensor in sensor_pairs(recordings):\n"
@@ -362,8 +363,11 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
             ),
             Entry(
                 "slipbench.protocol:Layout",
-                'Layout("Accuracy with and without each material.", rows=("sensor_type",),\n'
-                '       column="material", pair="training", figure="with-without")\n',
+                'Layout(rows=("sensor_type",), column="material", pair="training")\n',
+            ),
+            Entry(
+                "slipbench.protocol:Presentation",
+                'Presentation("Accuracy with and without each material.", figure="with-without")\n',
             ),
             Entry(
                 "slipbench.protocol:HoldoutProtocol",
@@ -374,9 +378,9 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 '    """Each material with and without training on it (option: window)."""\n'
                 "\n"
                 '    holdout_column = "material"\n'
-                "    layout = Layout(\n"
-                '        "Accuracy with and without each material.", rows=("sensor_type",),\n'
-                '        column="material", pair="training",\n'
+                '    layout = Layout(rows=("sensor_type",), column="material", pair="training")\n'
+                "    presentation = Presentation(\n"
+                '        "Accuracy with and without each material.", figure="with-without"\n'
                 "    )\n"
                 "\n"
                 "    def levels(self, recordings):\n"
@@ -581,10 +585,10 @@ def render() -> str:
         "",
         "Every class, function and hook a detector or protocol plugin may use, with its "
         "signature and an example. Generated from the docstrings by "
-        "`python docs/tools/plugin_api.py > docs/plugin-api.md`; do not edit by hand "
+        "`python docs/tools/plugin_api.py > docs/reference/plugin-api.md`; do not edit by hand "
         "(`tests/testing/test_apidoc.py` fails when the page and the code disagree, and runs "
         "the examples below in order, as one script). How to register a plugin and what the "
-        "built-ins do: [Writing plugins](guides/plugins.md).",
+        "built-ins do: [Writing plugins](../guides/plugins.md).",
         "",
     ]
     for title, _, group in SECTIONS:

@@ -26,9 +26,18 @@
     cell_timeout = 600             # seconds
     plugins = ["plugins"]          # plugin folders, relative to this file
 
+    [slurm]                        # with scheduler = "slurm": each array task's resources
+    partition = "cpu"              # (see docs/guides/scale-out.md for every key)
+    time = 240                     # minutes; default: from cell_timeout
+    cpus_per_task = 4
+    [slurm.lstm]                   # one detector's tasks: their own resources
+    gpus_per_node = 1
+
     [gate]                         # what `compare --bench` judges (default: every figure)
     accuracy = 1.0                 # tolerance: a drop smaller than it is no regression
     tn_rate = 1.0                  # points; false_alarms_per_min per minute, median_delay_ms ms
+    budget = 12                    # seeds per side an undecided figure may grow to, in steps
+                                   # of run.repeats (default: run.repeats, one look)
 
     [detectors.holweg]             # one table per detector: its parameters
     [detectors.lstm]
@@ -43,6 +52,11 @@ Every key is checked before anything runs: an unknown key, a wrong type or a val
 constraint is a usage error (exit 2) naming the file, the line and the key. The file's text is
 copied into the results folder (``benchmark.toml``) and its SHA-256 written beside it
 (``benchmark.json``), so results say which declaration made them.
+
+Where the file has a calibration beside it (``bench.calibration.json``, ``slipbench
+calibrate``) that holds for its settings and detectors, a ``[gate]`` tolerance the bench cannot
+decide even at its budget is refused when its runs are planned (:func:`plan_runs`), with the
+budget, tolerance or scale that would decide it (:mod:`slipbench.app.gateplan`).
 """
 
 from __future__ import annotations
@@ -59,13 +73,17 @@ from typing import Any
 
 import tomllib
 
-from slipbench.errors import PluginError, SlipbenchError, UsageError
+from slipbench.app.options import repeats_problem
+from slipbench.errors import TOO_DEEP, PluginError, SlipbenchError, UsageError
+from slipbench.report.render import FORMATS
 from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
+from slipbench.store.columns import WINDOWED, names
 
 BENCHMARK_FILE = "benchmark.toml"
 RECORD_FILE = "benchmark.json"
-REPORT_FORMATS = {"md": "md", "latex": "tex", "html": "html"}
-METRICS = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
+BUDGET = "budget"  # the [gate] key that is not a figure
+#: what a benchmark's report may rank by: a windowed cell's figures
+METRICS = names(WINDOWED)
 SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
     "benchmark": {
         "out": (str, "a folder"),
@@ -91,15 +109,14 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "repeats": (int, "an int >= 1"),
         "jobs": (int, "an int >= 0"),
         "cell_timeout": ((int, float), "seconds > 0"),
-        "scheduler": (str, "a dask scheduler address"),
+        "scheduler": (str, "slurm, submitit-local, or a dask scheduler's address or file"),
         "plugins": (list, "a list of folders"),
     },
-    # the figures `compare --bench` judges, each with its tolerance
-    "gate": {
-        name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE
-    },
+    # the figures `compare --bench` judges, each with its tolerance, and its seeds' budget
+    "gate": {name: ((int, float), f"a tolerance > 0 in {unit(name)}") for name in DEFAULT_TOLERANCE}
+    | {BUDGET: (int, "seeds per side, an int >= run.repeats")},
 }
-TABLES = ("benchmark", "dataset", "run", "gate", "detectors", "protocols")
+TABLES = ("benchmark", "dataset", "run", "slurm", "gate", "detectors", "protocols")
 
 
 @dataclass
@@ -133,6 +150,14 @@ class Benchmark:
     detectors: dict[str, dict[str, Any]] = field(default_factory=dict)
     protocols: dict[str, dict[str, Any]] = field(default_factory=dict)
     gate: dict[str, float] = field(default_factory=dict)  # figure -> tolerance; empty: defaults
+    slurm: dict[str, Any] = field(default_factory=dict)  # the [slurm] table, checked
+    budget: int | None = None  # seeds per side with sequential looks; None: repeats, one look
+
+    @property
+    def seeds_budget(self) -> int:
+        """The most seeds per side a comparison may grow to (the first look's, ``repeats``,
+        where the file sets no budget)."""
+        return self.repeats if self.budget is None else self.budget
 
     @property
     def describe(self) -> str:
@@ -261,6 +286,8 @@ def load_benchmark(path: str | Path) -> Benchmark:
         raise UsageError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
         raise UsageError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: {TOO_DEEP}") from None
     data = _checked(path, text, data)
     home = path.resolve().parent
     b, d, r = data.get("benchmark", {}), data.get("dataset", {}), data.get("run", {})
@@ -272,8 +299,8 @@ def load_benchmark(path: str | Path) -> Benchmark:
     formats = [b["report"]] if isinstance(b.get("report"), str) else b.get("report", ["md"])
     for f in formats:
         check(
-            f in REPORT_FORMATS,
-            f"unknown report format {f!r}; one of {', '.join(REPORT_FORMATS)}",
+            f in FORMATS,
+            f"unknown report format {f!r}; one of {', '.join(FORMATS)}",
             "benchmark",
             "report",
         )
@@ -322,8 +349,16 @@ def load_benchmark(path: str | Path) -> Benchmark:
         "input",
     )
     check(0 <= r.get("seed", 0) < 2**32, "seed must be in [0, 2**32 - 1]", "run", "seed")
+    from slipbench.engine.limits import jobs_problem, scheduler_problem
+
     check(r.get("repeats", 1) >= 1, "repeats must be >= 1", "run", "repeats")
+    seeds = repeats_problem(r.get("seed", 0), r.get("repeats", 1))
+    check(seeds is None, f"repeats {r.get('repeats', 1)}: {seeds}", "run", "repeats")
     check(r.get("jobs", 1) >= 0, "jobs must be >= 0", "run", "jobs")
+    workers = jobs_problem(r.get("jobs", 1)) if "scheduler" not in r else None
+    check(workers is None, f"jobs {r.get('jobs')}: {workers}", "run", "jobs")
+    where = scheduler_problem(r["scheduler"]) if "scheduler" in r else None
+    check(where is None, f"scheduler {r.get('scheduler')!r}: {where}", "run", "scheduler")
     check(r.get("cell_timeout", 1) > 0, "cell_timeout must be > 0 seconds", "run", "cell_timeout")
     for item in d.get("sensor_map", []):
         check(
@@ -336,6 +371,21 @@ def load_benchmark(path: str | Path) -> Benchmark:
         check(
             isinstance(folder, str), f"plugins holds folder names, got {folder!r}", "run", "plugins"
         )
+    g = data.get("gate", {})
+    check(
+        g.get(BUDGET, r.get("repeats", 1)) >= r.get("repeats", 1),
+        f"budget ({g.get(BUDGET)}) must be at least run.repeats ({r.get('repeats', 1)}): the "
+        "seeds of the first look",
+        "gate",
+        BUDGET,
+    )
+    check(
+        BUDGET not in g or r.get("repeats", 1) >= 2,
+        "a budget grows seeds in steps of run.repeats, which must then be >= 2 (one seed a "
+        "side measures no retraining noise)",
+        "gate",
+        BUDGET,
+    )
     return Benchmark(
         path=path,
         text=text,
@@ -363,23 +413,41 @@ def load_benchmark(path: str | Path) -> Benchmark:
         plugins=[home / p for p in r.get("plugins", [])],
         detectors={k: dict(v) for k, v in data["detectors"].items()},
         protocols={k: dict(v) for k, v in data["protocols"].items()},
-        gate=_gate(path, text, data.get("gate", {})),
+        gate=_gate(path, text, {k: v for k, v in g.items() if k != BUDGET}),
+        budget=g.get(BUDGET),
+        slurm=_slurm(path, text, data.get("slurm", {}), tuple(data["detectors"])),
     )
 
 
+def _slurm(path: Path, text: str, table: dict, detectors: tuple[str, ...]) -> dict:
+    """The [slurm] table, every key and value checked (a bad one named with its line)."""
+    from slipbench.engine.slurm import SlurmKeyError, resources
+
+    try:
+        resources(table, detectors)
+    except SlurmKeyError as exc:
+        where, _, key = exc.key.rpartition(".")
+        if not where and isinstance(table.get(key), dict):  # a sub-table: its header's line
+            raise _fail(path, text, exc.what, f"slurm.{key}") from None
+        raise _fail(path, text, exc.what, f"slurm.{where}" if where else "slurm", key) from None
+    return table
+
+
 def _gate(path: Path, text: str, table: dict) -> dict[str, float]:
-    """The [gate] table: figure -> tolerance, each > 0."""
+    """The [gate] table's figures: figure -> tolerance, each > 0."""
     for name, value in table.items():
         if not value > 0:
             raise _fail(path, text, f"{name} must be a tolerance > 0, got {value!r}", "gate", name)
     return {name: float(value) for name, value in table.items()}
 
 
-def plan_runs(bench: Benchmark, echo=print) -> list:
+def plan_runs(bench: Benchmark, echo=print, check_gate: bool = True) -> list:
     """The runs the file declares, every plugin loaded and every parameter checked (a bad one
     names the file, line and table); plugin folders are registered first. A plugin whose
     optional dependency is not installed here is skipped with a line to ``echo`` (one file
-    serves machines with and without it); a kind left with none is refused (exit 3)."""
+    serves machines with and without it); a kind left with none is refused (exit 3). With
+    ``check_gate``, a ``[gate]`` tolerance the file's calibration says it cannot decide is
+    refused (:func:`gate_decides`)."""
     from slipbench.app.selection import available, readable
     from slipbench.engine import registry
     from slipbench.engine.runner import Run
@@ -444,7 +512,26 @@ def plan_runs(bench: Benchmark, echo=print) -> list:
             "run",
             "input",
         )
+    if check_gate:
+        gate_decides(bench, runs, echo)
     return runs
+
+
+def gate_decides(bench: Benchmark, runs: list, echo=print) -> None:
+    """Refuse (exit 2, at the ``[gate]`` key) a tolerance the bench cannot decide at its
+    budget, by the calibration beside it where that holds; say which detectors it no longer
+    holds for. Without a calibration nothing is known of the noise, and nothing is refused."""
+    from slipbench.app.calibrate import status
+    from slipbench.app.gateplan import plan_gate, refusal
+
+    found = status(bench, runs)
+    if found.calibration is None:
+        return
+    for line in found.lines():
+        echo(line)
+    refused = refusal(plan_gate(bench, runs, found), bench)
+    if refused is not None:
+        raise _fail(bench.path, bench.text, refused[1], "gate", refused[0])
 
 
 def _param_in(message: str, params: dict) -> str | None:
@@ -460,9 +547,45 @@ def with_overrides(bench: Benchmark, **overrides) -> Benchmark:
     return dataclasses.replace(bench, **{k: v for k, v in overrides.items() if v is not None})
 
 
-def record(bench: Benchmark, out: Path) -> None:
+def read_data(bench: Benchmark, echo=print):
+    """The file's dataset folder (with ``train``: the two combined); None for the simulated."""
+    from slipbench.data.read import read_dataset
+
+    if bench.dataset is None:
+        return None
+    if bench.train is not None:
+        from slipbench.data.transfer import combine, parse_sensor_map
+
+        return combine(
+            read_dataset(bench.train),
+            read_dataset(bench.dataset),
+            parse_sensor_map(tuple(bench.sensor_map)),
+        )
+    return read_dataset(bench.dataset)
+
+
+def slurm_of(bench: Benchmark):
+    """The resources of the file's SLURM run (``[slurm]``, folder relative to the file), or
+    None where it runs elsewhere."""
+    from dataclasses import replace
+
+    from slipbench.engine.limits import SCHEDULERS
+    from slipbench.engine.slurm import resources
+
+    if bench.scheduler not in SCHEDULERS:
+        return None
+    res = resources(bench.slurm, tuple(bench.detectors))
+    if res.folder:
+        res = replace(res, folder=str(bench.path.resolve().parent / res.folder))
+    return res
+
+
+def record(bench: Benchmark, out: Path, runs: list | None = None) -> None:
     """Keep the file's text with the results: ``benchmark.toml`` (a copy) and ``benchmark.json``
-    (its SHA-256, where it came from, when it ran)."""
+    (its SHA-256, where it came from, when it ran and, with ``runs``, what a calibration of the
+    file is checked against: its settings' digest and each detector's parameters and own code
+    as this run had them, so that a comparison made with other code can tell whether the
+    calibration holds for these rows)."""
     from slipbench.atomic import make_folder, write_text_atomic
 
     make_folder(out)
@@ -476,11 +599,35 @@ def record(bench: Benchmark, out: Path) -> None:
                 "name": bench.name,
                 "seed": bench.seed,
                 "started_at": datetime.now(timezone.utc).isoformat(),
+                **({"calibration_key": _calibration_key(bench, runs)} if runs else {}),
             },
             indent=2,
         )
         + "\n",
     )
+
+
+def _calibration_key(bench: Benchmark, runs: list) -> dict:
+    from slipbench.app.calibrate import detector_identities, digest, settings
+
+    return {
+        "settings_digest": digest(settings(bench, runs)),
+        "detectors": {
+            name: {"params": params, "own_code": code}
+            for name, (params, code) in detector_identities(runs).items()
+        },
+    }
+
+
+def bench_dataset(bench: Benchmark, echo=print):
+    """The dataset the file declares: its folder (:func:`read_data`), or the simulated one at
+    its scale and seed (the run's seed where ``[dataset]`` gives none)."""
+    from slipbench.data.defaults import default_dataset
+
+    if bench.dataset is not None:
+        return read_data(bench, echo)
+    data_seed = bench.seed if bench.data_seed is None else bench.data_seed
+    return default_dataset(bench.scale, data_seed, echo=echo)
 
 
 def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, echo=print):
@@ -493,31 +640,18 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
-    from slipbench.data.defaults import default_dataset
-    from slipbench.data.read import read_dataset
+    from slipbench.app.selection import recorded_plugins
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
+    from slipbench.report.render import renderer
     from slipbench.store.results import ResultsStore
 
     out = bench.out
     runs = plan_runs(
         bench, echo
     )  # every name and parameter before the dataset is read or simulated
-    if bench.train is not None:
-        from slipbench.data.transfer import combine, parse_sensor_map
-
-        assert bench.dataset is not None  # the bench file's check: train needs path
-        ds = combine(
-            read_dataset(bench.train),
-            read_dataset(bench.dataset),
-            parse_sensor_map(tuple(bench.sensor_map)),
-        )
-    elif bench.dataset is not None:
-        ds = read_dataset(bench.dataset)
-    else:
-        data_seed = bench.seed if bench.data_seed is None else bench.data_seed
-        ds = default_dataset(bench.scale, data_seed, echo=echo)
-    record(bench, out)
+    ds = bench_dataset(bench, echo)
+    record(bench, out, runs)
     rows = evaluate(
         ds,
         runs,
@@ -527,9 +661,10 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         scheduler=bench.scheduler,
         cell_timeout=bench.cell_timeout,
         progress=progress,
+        slurm=slurm_of(bench),
     )
     blocks = build_report(
-        rows,
+        recorded_plugins(rows),  # cells kept from a run before rows recorded their layouts
         metric=bench.metric,
         intervals=bench.intervals,
         paper=bench.paper,
@@ -542,7 +677,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     from slipbench.atomic import write_text_atomic
 
     for fmt in bench.report:
-        path = out / f"report.{REPORT_FORMATS[fmt]}"
+        path = out / f"report.{renderer(fmt).suffix}"
         write_text_atomic(path, render(blocks, fmt, standalone=True, files=files, link_from=out))
         paths.append(path)
     return rows, paths

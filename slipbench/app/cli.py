@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import importlib
 import signal
 import sys
 import threading
@@ -14,15 +15,6 @@ from contextlib import contextmanager
 
 import click
 
-from slipbench.app.commands.bench import bench
-from slipbench.app.commands.compare import compare_command
-from slipbench.app.commands.dataset import dataset
-from slipbench.app.commands.evaluate import evaluate_command
-from slipbench.app.commands.history import history
-from slipbench.app.commands.list_plugins import list_plugins
-from slipbench.app.commands.report import report
-from slipbench.app.commands.run import run_command
-from slipbench.app.commands.spectral import spectral_cmd
 from slipbench.errors import ENVIRONMENT_ERRNOS, SlipbenchError, environment_fault
 
 EXIT_BUG = 70  # sysexits' EX_SOFTWARE: an internal error, reported with its traceback
@@ -32,25 +24,40 @@ bad data; 3 a plugin failed to load (failed cells listed too) or one named is un
 its traceback); 129, 130, 143 interrupted by SIGHUP, Ctrl-C (SIGINT), SIGTERM (128 + the
 signal's number)."""
 
+#: each command's module and attribute, imported only when that command runs (or its help
+#: shows): `--version` and a mistyped command import none, `list` not what `evaluate` needs
+COMMANDS = {
+    "bench": "slipbench.app.commands.bench:bench",
+    "calibrate": "slipbench.app.commands.calibrate:calibrate_command",
+    "compare": "slipbench.app.commands.compare:compare_command",
+    "dataset": "slipbench.app.commands.dataset:dataset",
+    "evaluate": "slipbench.app.commands.evaluate:evaluate_command",
+    "history": "slipbench.app.commands.history:history",
+    "list": "slipbench.app.commands.list_plugins:list_plugins",
+    "report": "slipbench.app.commands.report:report",
+    "run": "slipbench.app.commands.run:run_command",
+    "spectral": "slipbench.app.commands.spectral:spectral_cmd",
+}
 
-@click.group(epilog=EXIT_CODES)
+
+class LazyGroup(click.Group):
+    """A group that imports a command's module when the command is asked for (click's
+    documented pattern for lazily loaded subcommands)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS:
+            return None
+        module, attribute = COMMANDS[cmd_name].split(":")
+        return getattr(importlib.import_module(module), attribute)
+
+
+@click.group(cls=LazyGroup, epilog=EXIT_CODES)
 @click.version_option(package_name="slipbench")
 def cli() -> None:
     """Benchmark slip detectors on univariate tactile signals."""
-
-
-for command in (
-    dataset,
-    list_plugins,
-    evaluate_command,
-    bench,
-    spectral_cmd,
-    report,
-    run_command,
-    compare_command,
-    history,
-):
-    cli.add_command(command)
 
 
 INTERRUPTED = "interrupted{}; finished cells are kept, run the same command again to resume"

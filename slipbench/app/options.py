@@ -16,10 +16,14 @@ from typing import Any
 
 import click
 
-from slipbench.errors import UsageError
+from slipbench.errors import TOO_DEEP, UsageError
 
 MAX_SCALE = 10.0  # 80 M samples per unit: beyond this machine's memory for any protocol
-SEED = click.IntRange(0, 2**32 - 1)  # what numpy's SeedSequence and every seeded library accept
+MAX_SEED = 2**32 - 1  # what numpy's SeedSequence and every seeded library accept
+SEED = click.IntRange(0, MAX_SEED)
+# seeds of one command: more than any interval needs (a seed retrains every model; the gate
+# decides with tens), and a plan of a billion runs would sit in planning without a word
+MAX_REPEATS = 1000
 SPLIT_CHOICES = ["paper", "grouped"]
 LABELLING_CHOICES = ["scenario", "majority", "any", "last"]
 
@@ -54,28 +58,42 @@ class Destination(click.Path):
         self.results = results
 
     def convert(self, value, param, ctx):
-        from slipbench.atomic import check_writable
-        from slipbench.store.results import ResultsStore
+        from slipbench.atomic import RESULTS_CELLS, check_writable
 
         path = super().convert(value, param, ctx)
-        if self.results:
-            ResultsStore(path).check_writable(unless_stored=True)
-        else:
-            check_writable(path)
+        check_writable(path, RESULTS_CELLS if self.results else "")
         return path
 
 
-def parse_params(values: tuple[str, ...]) -> dict:
-    """The NAME=VALUE items of a repeated option as a dict; a VALUE that is not JSON stays text."""
+def repeats_problem(seed: int, repeats: int) -> str | None:
+    """Why seeds ``seed`` .. ``seed + repeats - 1`` cannot be run, or None."""
+    if repeats > MAX_REPEATS:
+        return f"at most {MAX_REPEATS} seeds (each retrains every model)"
+    if seed + repeats - 1 > MAX_SEED:
+        return f"seeds {seed} to {seed + repeats - 1} pass {MAX_SEED}, the largest seed"
+    return None
+
+
+#: an example item of each NAME=VALUE option, for its error message
+PARAM_EXAMPLES = {"--param": "band=[0,100]", "--protocol-param": "decimation=both"}
+
+
+def parse_params(values: tuple[str, ...], option: str = "--param") -> dict:
+    """The NAME=VALUE items of a repeated option (``option``, named in errors) as a dict; a
+    VALUE that is not JSON stays text."""
     params = {}
     for item in values:
         if "=" not in item:
-            raise UsageError(f"--param {item!r}: expected NAME=VALUE, e.g. --param band=[0,100]")
+            raise UsageError(
+                f"{option} {item!r}: expected NAME=VALUE, e.g. {option} {PARAM_EXAMPLES[option]}"
+            )
         name, text = item.split("=", 1)
         try:
             params[name] = json.loads(text)
         except json.JSONDecodeError:
             params[name] = text
+        except RecursionError:
+            raise UsageError(f"{option} {name}: {TOO_DEEP}") from None
     return params
 
 
@@ -85,8 +103,11 @@ def _shown(default) -> dict:
 
 
 PLUGINS_HELP = "A plugin folder (repeatable)."
-# report and compare load no plugin to run it: only its protocols' table layouts
-LAYOUT_PLUGINS_HELP = "A plugin folder whose protocols' layouts to use (repeatable)."
+# report and compare read layouts from the rows; a plugin only fills in those of older rows
+LAYOUT_PLUGINS_HELP = (
+    "A plugin folder whose protocols' layouts to use for rows written before results recorded "
+    "them (repeatable)."
+)
 
 
 def plugins_option(help: str = PLUGINS_HELP):
@@ -136,9 +157,38 @@ def protocol_params_option(help: str):
     return click.option("--protocol-param", "protocol_params", multiple=True, help=help)
 
 
+def _jobs(ctx, param, jobs: int | None) -> int | None:
+    from slipbench.engine.limits import jobs_problem
+
+    if jobs is not None and (problem := jobs_problem(jobs)):
+        raise UsageError(f"--jobs {jobs}: {problem}")
+    return jobs
+
+
 def jobs_option(help: str, default: int | None = None):
     return click.option(
-        "--jobs", type=click.IntRange(0), default=default, help=help, **_shown(default)
+        "--jobs",
+        type=click.IntRange(0),
+        default=default,
+        callback=_jobs,
+        help=help,
+        **_shown(default),
+    )
+
+
+def _scheduler(ctx, param, scheduler: str | None) -> str | None:
+    from slipbench.engine.limits import scheduler_problem
+
+    if scheduler is not None and (problem := scheduler_problem(scheduler)):
+        raise UsageError(f"--scheduler {scheduler!r}: {problem}")
+    return scheduler
+
+
+def scheduler_option(help: str | None = None):
+    """``--scheduler``: an executor by name, or a dask scheduler's address or file, checked
+    as it is read (:func:`slipbench.engine.limits.scheduler_problem`)."""
+    return click.option(
+        "--scheduler", default=None, callback=_scheduler, help=help or SCHEDULER_HELP
     )
 
 
@@ -154,3 +204,36 @@ def quiet_option():
 
 def intervals_option(help: str):
     return click.option("--intervals", is_flag=True, help=help)
+
+
+SCHEDULER_HELP = (
+    "Where models run: slurm (a SLURM job array through submitit; the results folder must be "
+    "on a file system the nodes share), submitit-local (the same path in local processes), or "
+    "the address of a dask.distributed scheduler (tcp://HOST:8786)."
+)
+
+
+def slurm_option():
+    return click.option(
+        "--slurm",
+        "slurm",
+        multiple=True,
+        metavar="KEY=VALUE",
+        help="A SLURM resource for --scheduler slurm or submitit-local (repeatable; over a run "
+        "file's [slurm] table): partition, time (minutes), cpus_per_task, mem_gb, "
+        "gpus_per_node, array_parallelism, tasks, account, qos, constraint, setup, folder; "
+        "DETECTOR.KEY=VALUE for one detector's tasks.",
+    )
+
+
+def slurm_resources(scheduler: str | None, items: tuple[str, ...], table: dict | None, detectors):
+    """The checked resources of a SLURM run (None for any other scheduler); ``--slurm`` given
+    without one is a usage error."""
+    from slipbench.engine.limits import SCHEDULERS
+    from slipbench.engine.slurm import from_options, resources
+
+    if scheduler not in SCHEDULERS:
+        if items:
+            raise UsageError(f"--slurm sets the resources of --scheduler {' or '.join(SCHEDULERS)}")
+        return None
+    return resources(from_options(items, table), tuple(detectors))

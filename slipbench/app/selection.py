@@ -4,17 +4,25 @@ the plugins that take them.
 
 A plugin whose declared optional dependency is not installed (minirocket without aeon) is a
 state, not a failure: 'all' and benchmark files skip it with one line naming it and its install
-hint; named on its own it is refused before any work (exit 3, with the hint)."""
+hint; named on its own it is refused before any work (exit 3, with the hint). Rows of results
+written before they recorded their plugins' layouts get them from the registry here
+(:func:`recorded_plugins`), for the report, which reads only rows."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
-from slipbench.base import BaseDetector
 from slipbench.engine import registry
 from slipbench.engine.registry import Plugin
-from slipbench.errors import PluginError, UsageError
+from slipbench.errors import PluginError, SlipbenchError, UsageError
 from slipbench.vocabulary import INPUTS
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from slipbench.base import BaseDetector
 
 
 def add_plugin_folders(folders: tuple[str, ...]) -> None:
@@ -92,7 +100,7 @@ def select_plugins(
     What 'all' means depends on what is installed, so 'all' names each plugin it selects and
     where it comes from, one line each to ``echo`` (:func:`provenance_line`)."""
     out: dict[str, Plugin] = {}
-    wanted = [n.strip() for value in names for n in value.split(",") if n.strip()]
+    wanted = check_ids(reg, names)
     for name in wanted:
         for n, plugin in load_plugins(reg, name, broken, echo).items():
             out.setdefault(n, plugin)
@@ -102,6 +110,17 @@ def select_plugins(
         for n in out:
             echo(provenance_line(reg, n))
     return out
+
+
+def check_ids(reg: registry.Registry, names: tuple[str, ...] | list[str]) -> list[str]:
+    """The ids a repeated option names (each value an id, a comma list or 'all'), every one
+    checked against the registry (:meth:`~slipbench.engine.registry.Registry.check_name`)
+    before any plugin is imported."""
+    wanted = [n.strip() for value in names for n in value.split(",") if n.strip()]
+    for name in wanted:
+        if name != "all":
+            reg.check_name(name)
+    return wanted
 
 
 def provenance_line(reg: registry.Registry, name: str) -> str:
@@ -142,3 +161,44 @@ def readable(
             + ("left out" if not chosen else f"no run with the {' and '.join(left)} input")
         )
     return chosen
+
+
+def _missing(rows: pd.DataFrame, column: str) -> pd.Series:
+    """(n_rows,) bool: rows that do not record ``column`` (absent, null or "")."""
+    import pandas as pd
+
+    if column not in rows:
+        return pd.Series(True, index=rows.index)
+    return rows[column].isna() | rows[column].astype(str).eq("")
+
+
+def recorded_plugins(rows: pd.DataFrame) -> pd.DataFrame:
+    """``rows`` with what rows written before results recorded it lack, from the registered
+    plugins: each protocol's layout and presentation, made with the options its rows ran with
+    (:func:`slipbench.protocol.described`), and whether each detector is the reference. A
+    report reads these from the rows, never from the registry; a plugin that cannot be loaded
+    leaves its rows as they are (the report then lays them out from their cell keys, and says
+    so)."""
+    import pandas as pd
+
+    from slipbench.protocol import described
+
+    out = rows.copy()
+    for (name, given), part in rows[_missing(rows, "protocol_layout")].groupby(
+        [rows["protocol"], rows.get("protocol_params", pd.Series("{}", index=rows.index))],
+        dropna=False,
+    ):
+        try:
+            params = json.loads(given) if isinstance(given, str) else {}  # absent: the defaults
+            made = registry.protocols.get(str(name))(**params)
+        except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError):
+            continue
+        for column, value in described(made).items():
+            out.loc[part.index, column] = value
+    for name, part in rows[_missing(rows, "detector_reference")].groupby("detector"):
+        try:
+            reference = bool(registry.detectors.get(str(name)).reference)
+        except SlipbenchError:
+            continue
+        out.loc[part.index, "detector_reference"] = reference
+    return out

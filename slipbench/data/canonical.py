@@ -16,6 +16,7 @@ from slipbench.data.messages import data_error, plain_number, some_names
 from slipbench.data.schema import (
     DERIVED_COLUMNS,
     FORMAT_COLUMNS,
+    MAX_MAGNITUDE,
     NULLABLE,
     OPTIONAL,
     RATE_TOLERANCE,
@@ -24,6 +25,7 @@ from slipbench.data.schema import (
     STRING_COLUMNS,
     UNIVARIATE_CHANNELS,
 )
+from slipbench.vocabulary import SLIPS
 
 
 def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame:
@@ -254,7 +256,7 @@ def canonical_dataset(
     rec = canonical_recordings(recordings, rec_where)
     ids = rec["recording_id"].tolist()
     out_samples: dict[str, np.ndarray] = {}
-    for rid, channels in zip(ids, rec["n_channels"].to_numpy()):
+    for rid, channels, names in zip(ids, rec["n_channels"].to_numpy(), rec["channels"]):
         if rid not in samples:
             raise data_error(samples_where, "recording has no samples", rid, "recording_id")
         a = np.asarray(samples[rid])
@@ -273,6 +275,7 @@ def canonical_dataset(
                 rid,
                 "values",
             )
+        _check_magnitude(a, rid, tuple(names), samples_where)
         out_samples[rid] = a
     labels: dict[str, np.ndarray] = {}
     if slip_labels:
@@ -292,7 +295,31 @@ def canonical_dataset(
         if scenario == "hold-slip":
             _check_onset(labels.get(rid), rid, samples_where)
     rec["n_samples"] = np.array([len(out_samples[rid]) for rid in ids], np.int64)
+    rec[SLIPS] = [
+        scenario == "slip" or (rid in labels and bool((labels[rid] == 1).any()))
+        for rid, scenario in zip(ids, rec["scenario"])
+    ]
     return rec, out_samples, labels
+
+
+def _check_magnitude(a: np.ndarray, rid: str, channels: tuple[str, ...], where) -> None:
+    """Refuse a non-finite sample, or one beyond MAX_MAGNITUDE, naming where it is and its
+    value: two reductions without a copy, the search only where one fails."""
+    if -MAX_MAGNITUDE <= a.min() and a.max() <= MAX_MAGNITUDE:  # NaN fails both
+        return
+    bad = ~(np.abs(a) <= MAX_MAGNITUDE)
+    sample, channel = np.unravel_index(int(np.argmax(bad)), a.shape)
+    value = float(a[sample, channel])
+    where_ = f"sample {sample}, channel {channels[channel]!r}"
+    raise data_error(
+        where,
+        f"non-finite value {value} (NaN or infinity) at {where_}"
+        if not np.isfinite(value)
+        else f"value {value:.6g} at {where_} is beyond {MAX_MAGNITUDE:.2g} in magnitude, where a "
+        "detector's arithmetic overflows; rescale the recording (e.g. to other units)",
+        rid,
+        "values",
+    )
 
 
 def _canonical_labels(labels, n: int, rid: str, where) -> np.ndarray:

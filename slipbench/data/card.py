@@ -16,7 +16,7 @@ from typing import Any
 
 import tomllib
 
-from slipbench.errors import UsageError
+from slipbench.errors import TOO_DEEP, UsageError
 
 CARDS_DIR = Path(__file__).with_name("cards")
 NAME = re.compile(r"[a-z0-9][a-z0-9._-]*")
@@ -66,6 +66,8 @@ def load_card(source: str | Path, text: str | None = None) -> Card:
         raise UsageError(f"{where}: cannot read the card ({exc.strerror or exc})") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise UsageError(f"{where}: not valid TOML ({exc})") from None
+    except RecursionError:
+        raise UsageError(f"{where}: {TOO_DEEP}") from None
     unknown = sorted(set(raw) - KEYS)
     if unknown:
         raise UsageError(f"{where}: unknown key(s) {', '.join(unknown)}; a card has {sorted(KEYS)}")
@@ -77,7 +79,8 @@ def load_card(source: str | Path, text: str | None = None) -> Card:
             raise UsageError(f"{where}: {key} must be a non-empty string")
     if not NAME.fullmatch(raw["name"]):
         raise UsageError(
-            f"{where}: name {raw['name']!r} must be lower-case letters, digits, '.', '-', '_'"
+            f"{where}: name {raw['name']!r} must start with a lower-case letter or a digit, "
+            "then hold only those, '.', '-' and '_'"
         )
     if not re.match(r"[a-z][a-z0-9+.-]*://", raw["base_url"]):
         raise UsageError(f"{where}: base_url {raw['base_url']!r} is not a URL (https://...)")

@@ -26,11 +26,16 @@ def cache_dir() -> Path:
     return Path(os.environ.get("SLIPBENCH_CACHE") or user_cache_dir("slipbench"))
 
 
+def default_dataset_path(scale: float = DEFAULT_SCALE, seed: int = 0) -> Path:
+    """Where the simulated dataset at ``scale`` and ``seed`` is cached (it may not be yet)."""
+    return cache_dir() / f"synth-v{MODEL_VERSION}-scale{scale:g}-seed{seed}"
+
+
 def default_dataset(
     scale: float = DEFAULT_SCALE, seed: int = 0, echo: Callable[[str], None] | None = None
 ) -> Dataset:
     """The simulated dataset at ``scale`` and ``seed``, generated once per cache."""
-    path = cache_dir() / f"synth-v{MODEL_VERSION}-scale{scale:g}-seed{seed}"
+    path = default_dataset_path(scale, seed)
     if not path.is_dir():
         if echo:
             echo(f"simulating the default dataset (scale {scale:g}, seed {seed}) into {path} ...")

@@ -42,6 +42,7 @@ from slipbench.data.schema import (
     VERSION_KEY,
 )
 from slipbench.errors import DataError
+from slipbench.vocabulary import SLIPS
 
 
 def read_dataset(path: str | os.PathLike) -> Dataset:
@@ -66,6 +67,60 @@ def read_dataset(path: str | os.PathLike) -> Dataset:
     return ds
 
 
+def stored_fingerprint(path: str | os.PathLike) -> str:
+    """The content fingerprint slipbench stored in a dataset folder's recordings.parquet when
+    it wrote it ("" where there is none, or no such file): reads the schema only."""
+    try:
+        meta = open_parquet(Path(path) / RECORDINGS_FILE).schema_arrow.metadata or {}
+    except (pa.ArrowException, OSError):
+        return ""
+    return meta.get(FINGERPRINT_KEY, b"").decode()
+
+
+def read_recordings(path: str | os.PathLike) -> tuple[pd.DataFrame, str] | None:
+    """A dataset folder's canonical recordings (``n_samples`` as recordings.parquet declares
+    them) and the fingerprint its writer stored, read without the samples: what a run needs to
+    find its cells in a results folder (:func:`slipbench.engine.cached.cached_rows`). The
+    recordings are checked against their stored digest; the samples are not read, so they are
+    checked against the fingerprint when a run reads them (:func:`read_dataset`). None where
+    the folder stores no fingerprint, or not the same one in both files, or no length for
+    every recording: then only :func:`read_dataset` can say what the content is."""
+    path = Path(path)
+    if not path.is_dir():
+        return None
+    file = path / RECORDINGS_FILE
+    try:
+        recordings, declared, rec_meta = _read_recordings(file)
+        file = path / SAMPLES_FILE
+        samples_meta = _open_parquet(file).schema_arrow.metadata or {}
+    except (pa.ArrowException, OSError) as exc:
+        raise DataError(f"{file}: unreadable ({one_line(exc)})") from None
+    _verify_recordings(recordings, path, rec_meta)
+    stored = {meta.get(FINGERPRINT_KEY) for meta in (rec_meta, samples_meta)}
+    fingerprint = stored.pop() if len(stored) == 1 else None
+    ids = recordings["recording_id"]
+    if fingerprint is None or not ids.isin(list(declared)).all():
+        return None
+    recordings["n_samples"] = ids.map(declared).to_numpy(np.int64)
+    recordings[SLIPS] = _slipping(file, recordings)
+    return recordings, fingerprint.decode(errors="replace")
+
+
+def _slipping(file: Path, recordings: pd.DataFrame) -> np.ndarray:
+    """(n_recordings,) bool: which recordings slip at all (the canonical reader's ``slips``),
+    from the samples file's ``slip`` labels alone: a protocol's cells depend on it."""
+    slipping = recordings["scenario"].eq("slip").to_numpy()
+    if "slip" not in _open_parquet(file).schema_arrow.names:
+        return slipping
+    try:
+        labels = pq.read_table(file, columns=["recording_id", "slip"])
+    except (pa.ArrowException, OSError) as exc:
+        raise DataError(f"{file}: unreadable ({one_line(exc)})") from None
+    slips = labels["slip"].to_numpy(zero_copy_only=False) == 1  # bool or integer labels
+    slipped = set(labels["recording_id"].to_numpy(zero_copy_only=False)[slips])
+    return slipping | recordings["recording_id"].isin(slipped).to_numpy()
+
+
 def read_description(path: str | os.PathLike) -> dict[str, str]:
     """What a dataset folder says about itself beyond its content: the keys of recordings.parquet's
     schema metadata other than the format's own (``slipbench.source``, ``slipbench.citation``
@@ -83,19 +138,26 @@ def read_description(path: str | os.PathLike) -> dict[str, str]:
     }
 
 
-def _verify(ds: Dataset, path: Path, rec_meta: Mapping, samples_meta: Mapping) -> None:
-    """Compare the content with what the writer stored (where it did): the recordings digest
-    first, so that a change in recordings.parquet is not blamed on samples.parquet."""
-    after = "the file is damaged, or was changed after slipbench wrote it"
+AFTER = "the file is damaged, or was changed after slipbench wrote it"
+
+
+def _verify_recordings(recordings: pd.DataFrame, path: Path, rec_meta: Mapping) -> None:
+    """The recordings against the digest their writer stored (where it did)."""
     stored = rec_meta.get(RECORDINGS_DIGEST_KEY)
     if stored is not None:
-        now = recordings_digest(ds.recordings)
+        now = recordings_digest(recordings)
         if stored.decode(errors="replace") != now:
             raise data_error(
                 path / RECORDINGS_FILE,
                 f"its recordings give digest {now}, not the {stored.decode(errors='replace')} "
-                f"stored when it was written: {after}",
+                f"stored when it was written: {AFTER}",
             )
+
+
+def _verify(ds: Dataset, path: Path, rec_meta: Mapping, samples_meta: Mapping) -> None:
+    """Compare the content with what the writer stored (where it did): the recordings digest
+    first, so that a change in recordings.parquet is not blamed on samples.parquet."""
+    _verify_recordings(ds.recordings, path, rec_meta)
     stored = {
         name: meta[FINGERPRINT_KEY].decode(errors="replace")
         for name, meta in ((RECORDINGS_FILE, rec_meta), (SAMPLES_FILE, samples_meta))
@@ -113,7 +175,7 @@ def _verify(ds: Dataset, path: Path, rec_meta: Mapping, samples_meta: Mapping) -
         raise data_error(
             path / blamed,
             f"the dataset's content gives fingerprint {ds.fingerprint}, not the "
-            f"{stored[wrong[0]]} stored in {wrong[0]} when it was written: {after}",
+            f"{stored[wrong[0]]} stored in {wrong[0]} when it was written: {AFTER}",
         )
 
 

@@ -20,6 +20,8 @@ from __future__ import annotations
 
 import pyarrow as pa
 
+from slipbench.vocabulary import SLIPS
+
 FORMAT_VERSION = "1"
 VERSION_KEY = b"slipbench.format_version"
 # Written since page checksums came in (readers verify them where stored): the content
@@ -41,6 +43,10 @@ SCENARIOS = ("slip", "press", "free-space", "hold-slip")
 RATE_TOLERANCE = 0.01
 # Integers beyond 2**53 have no exact float64: refused rather than rounded.
 EXACT_INT = 2**53
+# A sample's magnitude at most, whatever its type: 2**53 (9.0e15) leaves a detector's arithmetic
+# room (a fourth power summed over 10**18 values stays finite in float64, a square in float32:
+# 8.1e31 < 3.4e38); beyond, it overflows to infinity and the detector is blamed for the data.
+MAX_MAGNITUDE = float(EXACT_INT)
 
 RECORDINGS_SCHEMA = pa.schema(
     [
@@ -78,6 +84,7 @@ STRING_COLUMNS = (
     "source",
     "trial",
 )
-# Derived by the reader: channels per recording, and the rate every recording of a unit pools at.
-DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples")
+# Derived by the reader: channels per recording, the rate every recording of a unit pools at, and
+# whether the recording slips at all (SLIPS: a hold-slip trial may hold throughout).
+DERIVED_COLUMNS = ("n_channels", "unit_rate_hz", "n_samples", SLIPS)
 IN_MEMORY = "in-memory dataset"

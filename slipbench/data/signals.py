@@ -7,8 +7,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy import signal
-from sklearn.model_selection import train_test_split
 
 from slipbench.data.format import Dataset
 from slipbench.data.schema import UNIVARIATE_CHANNELS
@@ -183,6 +181,30 @@ class Signals:
             [dataset.samples[r] for r in ids],
         )
 
+    @classmethod
+    def from_layout(cls, recordings: pd.DataFrame) -> Signals:
+        """The shape of a dataset's signals without its samples, for planning: the canonical
+        ``recordings`` (with ``n_samples``) give the offsets; ``buffer`` is empty (no window can
+        be cut). Samples are labelled by scenario, and a hold-slip recording holds for its first
+        half and slips in its second: a stand-in onset where a simulated one lies somewhere
+        inside, so that the cells that stream it, or label windows by samples, are planned
+        with about their windows."""
+        lengths = recordings["n_samples"].to_numpy(np.int64) - 1  # s_t spans two samples
+        by_scenario = {"slip": 1, "press": 0, "free-space": 0}
+        labels = [
+            np.repeat(np.array([0, 1], np.int8), [n // 2, n - n // 2])
+            if scenario == "hold-slip"
+            else np.full(n, by_scenario.get(scenario, -1), np.int8)
+            for scenario, n in zip(recordings["scenario"], lengths)
+        ]
+        return cls(
+            np.empty(0, np.float32),
+            np.r_[0, np.cumsum(lengths)].astype(np.int64),
+            recordings.reset_index(drop=True),
+            np.concatenate(labels),
+            np.ones(len(recordings), bool),
+        )
+
     def antialiased(self, factor: int, order: int = 4) -> Signals:
         """The signal of a sensor whose norm passes an anti-aliasing filter before it is sampled
         ``factor`` times slower, still at the full rate: :meth:`Windows.downsample` then
@@ -203,6 +225,8 @@ class Signals:
             raise UsageError(
                 f"an anti-aliasing filter needs a downsampling factor >= 2, got {factor!r}"
             )
+        from scipy import signal  # here: planning a run (or a cached one) needs no filter
+
         out = np.empty_like(self.buffer)
         rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
         for r, (lo, hi) in enumerate(zip(self.offsets[:-1], self.offsets[1:])):
@@ -350,6 +374,8 @@ class Signals:
         times slower; :meth:`Windows.downsample` then takes its readings."""
         if self.channels is None:
             raise UsageError("these signals were made without their channels")
+        from scipy import signal
+
         rates = self.recordings["sampling_rate_hz"].to_numpy(dtype=float)
         out = []
         for r, a in enumerate(self.channels):
@@ -548,6 +574,8 @@ def split(
     """
     rows = np.arange(len(windows))
     if how == "paper":
+        from sklearn.model_selection import train_test_split  # its import alone costs ~1 s
+
         strata = windows.strata()
         if np.unique(strata, return_counts=True)[1].min() < 2:
             strata = windows.y

@@ -7,7 +7,7 @@ continuous onset trials (``hold-slip``: contact held, then slip, sometimes a dro
 streaming detection. The BioTac SP records its 24 electrodes beside the pac channel that the
 paper's signal uses. Every effect is a field of :class:`Physics`, :class:`Sensor`,
 :class:`ElectrodeArray` or :class:`Material` and is described, with where its value comes from,
-in ``datasets.md`` and ``docs/simulation.md`` (the contact's mechanics, model version 4). The
+in ``datasets.md`` and ``docs/explanation/simulation.md`` (the contact's mechanics, model version 4). The
 model is physical and is *not* fitted to the paper's accuracies.
 
 Variability is layered as in a real campaign: each unit differs from its nominal type (gain,
@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import signal
 
 from slipbench.data.contact import annulus_travel, breakaway
 from slipbench.data.write import write_dataset
@@ -474,6 +473,8 @@ def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.
     """Ring a damped oscillator at f0 with each impulse (a 2-pole IIR resonator)."""
     w = 2 * np.pi * min(f0, 0.45 * fs) / fs
     r = np.exp(-damping * w)
+    from scipy import signal  # here, not at import: reading the cached dataset needs no filter
+
     return signal.lfilter([np.sin(w)], [1.0, -2 * r * np.cos(w), r * r], impulses)
 
 
@@ -481,13 +482,21 @@ def _resonate(impulses: np.ndarray, f0: float, damping: float, fs: float) -> np.
 def _butter(order: int, cutoff: float, fs: float, kind: str = "lowpass") -> np.ndarray:
     """A Butterworth filter's sections; designed once per unit, material and rate (the design
     took 40 % of the generation time when every recording redid it)."""
+    from scipy import signal
+
     return signal.butter(order, cutoff, kind, fs=fs, output="sos")
+
+
+def _filtered(sos: np.ndarray, x: np.ndarray, axis: int = -1) -> np.ndarray:
+    from scipy import signal
+
+    return signal.sosfilt(sos, x, axis=axis)
 
 
 def _lowpass(x: np.ndarray, cutoff: float, fs: float, order: int = 2, axis: int = -1) -> np.ndarray:
     if cutoff >= 0.49 * fs:
         return x
-    return signal.sosfilt(_butter(order, cutoff, fs), x, axis=axis)
+    return _filtered(_butter(order, cutoff, fs), x, axis=axis)
 
 
 def _events(distance_mm: np.ndarray, mean_spacing: float, rng: np.random.Generator) -> np.ndarray:
@@ -917,7 +926,7 @@ def _sense(
         forces = _lowpass(forces, unit.skin_cutoff_hz, fs, axis=1)
     out = unit.mixing @ take.sig.roll @ forces  # (channels, n), in the sensor's frame
     if sensor.highpass_hz is not None:
-        out = signal.sosfilt(_butter(2, sensor.highpass_hz, fs, "highpass"), out, axis=1)
+        out = _filtered(_butter(2, sensor.highpass_hz, fs, "highpass"), out, axis=1)
     out = out + rng.normal(0, sensor.noise_floor_n * unit.noise, out.shape)
     channels = (out.T * unit.gain * take.sig.drift * sensor.units_per_newton).astype(np.float32)
     if sensor.electrodes is None:
@@ -1049,37 +1058,54 @@ def generate(
     labels : recording_id -> int8 (n_samples,): 1 while the contact slides, 0 otherwise,
         ``UNLABELLED`` (-1) after the contact is lost in a ``hold-slip`` trial.
     """
-    if not scale > 0:
-        raise ValueError(f"scale must be > 0, got {scale}")
     p = design.physics
     rows, samples, labels = [], {}, {}
+    units: dict[tuple[str, str], Unit] = {}
+    for key, inst, n, row in _recordings(design, scale, seed):
+        sensor_type = row["sensor_type"]
+        sensor = SENSORS[sensor_type]
+        if (sensor_type, inst) not in units:
+            units[sensor_type, inst] = make_unit(seed, sensor_type, inst, p)
+        unit = units[sensor_type, inst]
+        rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
+        sig = _signature(
+            rng_for(seed, "signature", sensor_type, inst, *key[1:]),
+            rng_for(seed, "surface", *key),
+            p,
+        )
+        trial_rng = rng_for(seed, "trial", *key)
+        take = Take(n, sensor.rate_hz, key[2], key[3], sensor, unit, sig, trial_rng, rng, p)
+        forces, label = SCENARIO_FORCES[key[1]](take)
+        electrode_rng = rng_for(seed, "electrodes", sensor_type, inst, *key[1:])
+        samples[row["recording_id"]] = _sense(forces, take, electrode_rng)
+        labels[row["recording_id"]] = label
+        rows.append(row)
+    return pd.DataFrame(rows), samples, labels
+
+
+def _recordings(design: Design, scale: float, seed: int):
+    """Per recording of the design, in the order :func:`generate` simulates them: its draw key
+    (sensor type, scenario, material, speed, trial token), unit instance, number of samples
+    and recordings row."""
+    if not scale > 0:
+        raise ValueError(f"scale must be > 0, got {scale}")
     for sensor_type in design.sensors:
         sensor = SENSORS[sensor_type]
         fs = sensor.rate_hz
-        units = {inst: make_unit(seed, sensor_type, inst, p) for inst in sensor.instances}
         for scenario, material, speed, tokens, seconds in _plan(design, scale):
             n = max(64, int(round(seconds * fs)))
             speed_name = "none" if speed is None else f"{speed:g}"
             for token in tokens:
                 key = (sensor_type, scenario, material, speed, token)
                 trial_id = "/".join((sensor_type, scenario, material or "none", speed_name, token))
-                for inst, unit in units.items():
-                    rng = rng_for(seed, "rec", sensor_type, inst, *key[1:])
-                    sig = _signature(
-                        rng_for(seed, "signature", sensor_type, inst, *key[1:]),
-                        rng_for(seed, "surface", *key),
-                        p,
-                    )
-                    trial_rng = rng_for(seed, "trial", *key)
-                    take = Take(n, fs, material, speed, sensor, unit, sig, trial_rng, rng, p)
-                    forces, label = SCENARIO_FORCES[scenario](take)
+                for inst in sensor.instances:
                     rid = "-".join(
                         (sensor_type, inst, scenario, material or "none", speed_name, token)
                     )
-                    electrode_rng = rng_for(seed, "electrodes", sensor_type, inst, *key[1:])
-                    samples[rid] = _sense(forces, take, electrode_rng)
-                    labels[rid] = label
-                    rows.append(
+                    yield (
+                        key,
+                        inst,
+                        n,
                         dict(
                             recording_id=rid,
                             sensor_type=sensor_type,
@@ -1093,9 +1119,16 @@ def generate(
                             univariate_channels=sensor.univariate_channels,
                             source=f"slipbench.synth v{MODEL_VERSION} seed={seed} scale={scale:g}",
                             trial=trial_id,
-                        )
+                        ),
                     )
-    return pd.DataFrame(rows), samples, labels
+
+
+def layout(scale: float = 0.05, seed: int = 0, design: Design = Design()) -> pd.DataFrame:
+    """The recordings table :func:`generate` would make, with each recording's ``n_samples``,
+    without simulating a sample: what planning a run at any scale needs (milliseconds, where
+    simulating the paper's size takes many minutes)."""
+    rows = [dict(row, n_samples=n) for _, _, n, row in _recordings(design, scale, seed)]
+    return pd.DataFrame(rows)
 
 
 def synthesize(

@@ -32,6 +32,7 @@ import psutil
 from slipbench.base import listening
 from slipbench.engine import threads, workers
 from slipbench.engine.fitting import Job, Lockstep, Result, perform
+from slipbench.engine.limits import SCHEDULERS, jobs_problem, scheduler_problem
 from slipbench.errors import EnvironmentFault, UsageError
 
 T = TypeVar("T")
@@ -158,7 +159,13 @@ class _Pool(Generic[T]):
     that died, but waits forever on a task whose worker exited with code 0, and on Ctrl-C
     waits for the tasks in flight."""
 
-    def __init__(self, jobs: int, timeout: float | None, on_report: Report | None) -> None:
+    def __init__(
+        self,
+        processes: int,
+        timeout: float | None,
+        on_report: Report | None,
+        per_model: int,
+    ) -> None:
         import multiprocessing
 
         from pebble import ProcessPool
@@ -170,9 +177,9 @@ class _Pool(Generic[T]):
         context = multiprocessing.get_context("forkserver")
         self.reader, writer = context.Pipe(duplex=False)
         self.pool = ProcessPool(
-            max_workers=jobs,
+            max_workers=max(1, processes),  # pebble starts them all: never more than tasks
             initializer=workers.start,
-            initargs=(threads.share(jobs), dict(PLUGIN_FILES), writer, on_report is not None),
+            initargs=(per_model, dict(PLUGIN_FILES), writer, on_report is not None),
             context=context,
         )
         self.writer, self.timeout, self.on_report = writer, timeout, on_report
@@ -228,11 +235,17 @@ class _Pool(Generic[T]):
 
 
 def process_pool(
-    tasks: list[T], payload: Payload, jobs: int, timeout: float | None, on_report: Report | None
+    tasks: list[T], payload: Payload, executor: Executor, on_report: Report | None
 ) -> Finished:
-    """Local worker processes; at most two tasks per worker in flight, so their windows are
-    not all in memory at once."""
-    pool: _Pool[T] = _Pool(jobs, timeout, on_report)
+    """``executor.jobs`` local worker processes (never more than tasks); at most two tasks per
+    worker in flight, so their windows are not all in memory at once. Nothing to run starts no
+    worker."""
+    if not tasks:
+        return
+    jobs = executor.jobs
+    pool: _Pool[T] = _Pool(
+        min(jobs, len(tasks)), executor.timeout, on_report, executor.threads or threads.share(jobs)
+    )
     queue = iter(enumerate(tasks))
     interrupted = True
     try:
@@ -257,8 +270,10 @@ def dask_client(address: str):
             "--scheduler needs dask.distributed: pip install 'slipbench[dask]'"
         ) from None
     try:
+        if Path(address).is_file():  # a scheduler file, as `dask scheduler` writes it
+            return Client(scheduler_file=address, timeout="3s")
         return Client(address, timeout="3s")
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, ValueError) as exc:
         raise UsageError(f"cannot reach the dask scheduler at {address}: {exc}") from None
 
 
@@ -365,7 +380,13 @@ def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
     """The local worker processes to start for ``jobs``: ``jobs`` itself, or 0 (run in this
     process) where a script without an ``if __name__ == "__main__":`` guard asked for one (the
     default), since its workers would run the script again. Such a script asking for more, or
-    for a time limit (which needs a worker to kill), is refused with one line saying what to add."""
+    for a time limit (which needs a worker to kill), is refused with one line saying what to add,
+    as are more jobs than the machine can run (:func:`jobs_problem`) and a ``scheduler`` that
+    names no executor (:func:`scheduler_problem`)."""
+    if scheduler and (problem := scheduler_problem(scheduler)):
+        raise UsageError(f"scheduler {scheduler!r}: {problem}")
+    if not scheduler and (problem := jobs_problem(jobs)):
+        raise UsageError(f"jobs={jobs}: {problem}")
     if scheduler or jobs == 0:
         return jobs
     where = unguarded_script()
@@ -384,20 +405,31 @@ def workers_for(jobs: int, scheduler: str | None, timeout: float | None) -> int:
 @dataclass(frozen=True)
 class Executor:
     """Where tasks run: ``jobs`` local worker processes (0: in this process, with no
-    protection against a crash and no time limit), or the dask scheduler at ``scheduler``;
-    ``timeout``: seconds one task may take in a local worker."""
+    protection against a crash and no time limit), a SLURM job array (``scheduler`` one of
+    :data:`SCHEDULERS`, with ``resources``), or the dask scheduler at ``scheduler``;
+    ``timeout``: seconds one model may take. ``threads``: a model's threads in a local worker
+    (None: this machine's share; an array task gives its own)."""
 
     jobs: int = 1
     scheduler: str | None = None
     timeout: float | None = None
+    resources: Any = None  # slipbench.engine.slurm.Resources
+    threads: int | None = None
 
-    def run(self, tasks: list[T], payload: Payload, on_report: Report | None = None) -> Finished:
+    def run(
+        self, tasks: list[T], payload: Payload, on_report: Report | None = None, remote: Any = None
+    ) -> Finished:
         """Every task with its results, as they finish; ``on_report`` shows the progress a model
-        reports (None: nobody listens, and workers send none)."""
+        reports (None: nobody listens, and workers send none). A job array needs ``remote``
+        (:class:`slipbench.engine.slurm.Remote`): its tasks cut their own payloads."""
+        if self.scheduler in SCHEDULERS:
+            from slipbench.engine import slurm
+
+            return slurm.run(tasks, remote, self.scheduler, self.resources, self.timeout)
         if self.scheduler:
             return dask(tasks, payload, self.scheduler, on_report)
         if self.jobs == 0:
             if self.timeout:
                 raise UsageError("a time limit needs worker processes: use --jobs 1 or more")
             return serial(tasks, payload, on_report)
-        return process_pool(tasks, payload, self.jobs, self.timeout, on_report)
+        return process_pool(tasks, payload, self, on_report)

@@ -23,6 +23,7 @@ from slipbench.base import BaseDetector, FitJob, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
+from slipbench.store.columns import BALANCED_ACCURACY
 from slipbench.store.keys import file_digest, unkeyed
 from slipbench.store.reads import reading
 from slipbench.store.results import write_text_atomic
@@ -72,6 +73,11 @@ class Result(NamedTuple):
     scores: np.ndarray | None = None
 
 
+class Stored(Result):
+    """A cell's whole row, already in the results folder (written where the cell ran: an
+    array task of a SLURM run)."""
+
+
 @dataclass
 class Job:
     """One model's work, as plain data (it crosses to worker processes): fit ``detector`` on
@@ -94,6 +100,13 @@ class Job:
     model_path: str | None = None
     name: str = ""
     train_groups: np.ndarray | None = None
+    draw: int = 0  # which draw of the detector's seed stream it trains from (Run.retrained)
+
+    @property
+    def fit_seed(self) -> int:
+        """The seed ``fit`` receives: the run seed's ``detector`` stream (draw 0, as runs
+        always had), or another draw of it."""
+        return seed_int(self.seed, "detector", *((self.draw,) if self.draw else ()))
 
 
 @dataclass
@@ -214,18 +227,21 @@ def _classified(detector: BaseDetector, seed: int, test: TestSet, fields: dict) 
     scores = detector.predict_proba(test.x)
     infer_s = time.perf_counter() - t0
     y_pred = (scores >= 0.5).astype(np.int8)
+    figures = classification_figures(
+        test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
+    )
     return Result(
         {
             "status": "ok",
             "reason": _one_class(test.y),
             "n_test": len(test.x),
             "n_test_trials": int(len(np.unique(test.groups))),
-            **classification_figures(
-                test.y, y_pred, test.groups, seed, scores=scores, strata=test.strata
-            ),
+            **figures,
             **fields,
             **_constant(test.y),
             "infer_us_per_window": infer_s / len(test.x) * 1e6,
+            # with the figures' intervals (a bootstrap): what a plan charges a cell's test
+            "test_s": time.perf_counter() - t0,
         },
         scores,
     )
@@ -273,7 +289,7 @@ def _learned(
     while what it fitted is noise, at chance on windows it did not train on."""
     c = chance_interval(train_y, train_scores >= 0.5)
     fields = {
-        "train_balanced_accuracy": c["balanced_accuracy"],
+        "train_balanced_accuracy": c[BALANCED_ACCURACY.name],
         "train_balanced_accuracy_lo": c["lo"],
         "train_balanced_accuracy_hi": c["hi"],
     }
@@ -282,7 +298,7 @@ def _learned(
     if held is not None:
         v = chance_interval(held[0], held[1] >= 0.5)
         fields |= {
-            "validation_balanced_accuracy": v["balanced_accuracy"],
+            "validation_balanced_accuracy": v[BALANCED_ACCURACY.name],
             "validation_balanced_accuracy_lo": v["lo"],
             "validation_balanced_accuracy_hi": v["hi"],
         }
@@ -291,7 +307,7 @@ def _learned(
     if held is not None and v is not None and v["chance"]:
         where = f"on its {len(held[0])} held-out validation windows"
         return fields, _at_chance(v, where) + (
-            f", though its own training windows score {c['balanced_accuracy']:.2f}"
+            f", though its own training windows score {c[BALANCED_ACCURACY.name]:.2f}"
         )
     return fields, ""
 
@@ -307,7 +323,7 @@ def _validation_part(detector: BaseDetector) -> tuple[np.ndarray, np.ndarray] | 
 
 def _at_chance(c: dict, where: str) -> str:
     return (
-        f"did not learn: {where} its balanced accuracy, {c['balanced_accuracy']:.2f} (95 % "
+        f"did not learn: {where} its balanced accuracy, {c[BALANCED_ACCURACY.name]:.2f} (95 % "
         f"interval {c['lo']:.2f}-{c['hi']:.2f}), cannot be told from chance (0.5)"
     )
 
@@ -343,17 +359,11 @@ def unkeyed_reads(cls: type, opened: set[str]) -> dict[str, str]:
     """``{"unkeyed_reads": JSON {path: digest}}`` of the files a fit read that its code identity
     does not hash (none: no field, so rows of plugins that read nothing keep their columns).
     The key had to exist before the fit, so a later run compares the digests instead
-    (:func:`changed_reads`) and refits where one differs."""
+    (:func:`slipbench.store.keys.changed_reads`) and refits where one differs."""
     paths = unkeyed(cls, opened)
     if not paths:
         return {}
     return {"unkeyed_reads": json.dumps({str(p): file_digest(p) for p in paths}, sort_keys=True)}
-
-
-def changed_reads(row: dict[str, Any]) -> list[str]:
-    """The files of a stored row's ``unkeyed_reads`` whose content is no longer what it was."""
-    recorded = json.loads(row.get("unkeyed_reads") or "{}")
-    return [path for path, digest in recorded.items() if file_digest(Path(path)) != digest]
 
 
 def _read_warnings(cost: dict[str, Any]) -> list[str]:
@@ -408,7 +418,7 @@ def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
             job.train_x,
             job.train_y,
             sampling_rate=job.sampling_rate,
-            seed=seed_int(job.seed, "detector"),
+            seed=job.fit_seed,
             groups=job.train_groups,
         )
         train_s = time.perf_counter() - t0
@@ -460,8 +470,7 @@ def _fitted_together(jobs: list[Job], detectors: list[BaseDetector]) -> list[tup
     if not jobs:
         return []
     fit_jobs = [
-        FitJob(j.train_x, j.train_y, seed_int(j.seed, "detector"), j.sampling_rate, j.train_groups)
-        for j in jobs
+        FitJob(j.train_x, j.train_y, j.fit_seed, j.sampling_rate, j.train_groups) for j in jobs
     ]
     with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()

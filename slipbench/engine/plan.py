@@ -9,6 +9,7 @@ skipped with its reason; it never stops the others.
 
 from __future__ import annotations
 
+import copy
 import sys
 from dataclasses import dataclass, field
 from typing import Any
@@ -72,6 +73,8 @@ class Run:
     input: str = "univariate"
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
+    #: which draw of the detector's seed stream its models train from (:meth:`retrained`)
+    retrain: int = field(init=False, default=0)
 
     def __init__(  # noqa: PLR0913 (a run's settings, passed by position by its callers in app/)
         self,
@@ -84,7 +87,7 @@ class Run:
         input: str = "univariate",
     ) -> None:
         self.split, self.seed, self.labels, self.normalize = split, seed, labels, normalize
-        self.input = input
+        self.input, self.retrain = input, 0
         if isinstance(detector, str):
             self.detector_name, self.detector = detector, detectors.get(detector)()
         else:
@@ -117,6 +120,18 @@ class Run:
             or not 0 <= self.seed < 2**32
         ):
             raise UsageError(f"seed must be an int in [0, 2**32 - 1], got {self.seed!r}")
+
+    def retrained(self, draw: int) -> Run:
+        """This run with every model trained from draw ``draw`` of the detector's seed stream
+        (0: the run itself): the same split and windows, other training randomness. A detector
+        that draws nothing in ``fit`` (a threshold on a fixed band) gives the same rows under
+        every draw; one that does shows its retraining noise alone, apart from the split's
+        (``slipbench calibrate`` runs a draw beside each seed). The draw is part of the keys."""
+        if isinstance(draw, bool) or not isinstance(draw, int) or draw < 0:
+            raise UsageError(f"a retraining draw is an int >= 0, got {draw!r}")
+        twin = copy.copy(self)
+        twin.retrain = draw
+        return twin
 
     def validate(self) -> None:
         """Every detector parameter and protocol option, and the input the detector reads,
@@ -214,6 +229,7 @@ class CellData:
             self.signals, self.scales = signals.normalized(*self.normalization(normalize))
         self._cache: dict[tuple, tuple[Windows, Windows] | str] = {}
         self._antialiased: dict[int, Signals] = {}
+        self._masks: dict[tuple, np.ndarray] = {}
         self._antialiased_channels: dict[int, list[np.ndarray]] = {}
         rec = signals.recordings
         self._rows = {
@@ -357,7 +373,19 @@ class CellData:
         """The windows (positions) of a part."""
         side = 0 if part.side == "train" else 1
         chosen = _concat([self.sides(s, window)[side] for s in part.sensors])
-        return chosen.take(np.flatnonzero(part.mask(self.signals.recordings)[chosen.recording]))
+        return chosen.take(np.flatnonzero(self._mask(part)[chosen.recording]))
+
+    def _mask(self, part: Part) -> np.ndarray:
+        """``part.mask`` of the recordings, once per part: every window and every detector of
+        a run asks again (a mask reads the recordings' columns, most of planning's time)."""
+        key = (part.sensors, part.where)
+        try:
+            hash(key)
+        except TypeError:  # a plugin's condition on an unhashable value
+            return part.mask(self.signals.recordings)
+        if key not in self._masks:
+            self._masks[key] = part.mask(self.signals.recordings)
+        return self._masks[key]
 
     def values(self, windows: Windows, cell: Cell, input: str = "univariate") -> Windows:
         """``windows`` with their samples, as a sensor ``cell.downsample`` times slower gives
@@ -545,6 +573,7 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
         # earlier versions
         **({"normalize": run.normalize} if run.normalize != "none" else {}),
         **({"input": run.input} if run.input != "univariate" else {}),
+        **({"retrain": run.retrain} if run.retrain else {}),
     }
     # at the full rate every decimation gives the same windows: one model serves them all
     sampling = (

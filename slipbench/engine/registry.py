@@ -10,24 +10,29 @@ and never breaks start-up or the other plugins.
 
 from __future__ import annotations
 
+import difflib
 import functools
 import hashlib
+import importlib
 import importlib.util
 import inspect
+import re
 import sys
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
-from slipbench.base import DETECTOR_GROUP, BaseDetector, plugin_id
 from slipbench.errors import PluginError, UsageError
-from slipbench.params import param_defaults
-from slipbench.protocol import BaseProtocol, Layout
-from slipbench.store.keys import missing_data_files, note_import
-from slipbench.store.reads import reading
+
+if TYPE_CHECKING:
+    from slipbench.base import BaseDetector
+    from slipbench.protocol import BaseProtocol
+
+# Ids are listed and checked from entry points and folder listings alone: the contract (numpy,
+# pandas, pyarrow) is imported when a plugin is loaded, so a mistyped id is refused at once.
 
 
 @dataclass(frozen=True)
@@ -75,12 +80,24 @@ def _note_reads(cls: type, opened: set[str], who: str) -> None:
     Built-ins belong to slipbench, whose identity is its code alone."""
     if cls.__module__.split(".")[0] == "slipbench":
         return
+    from slipbench.store.keys import note_import
+
     for path in note_import(cls.__module__, opened):
         warnings.warn(
             f"{who} read {path} while importing; it is outside the plugin's folder and not "
             "part of its code identity: cached cells do not see a change to it",
             stacklevel=2,
         )
+
+
+def is_plugin_file(path: Path) -> bool:
+    """Whether a ``*.py`` file of a plugin folder is a plugin: not a helper (``_name.py``) and
+    not pytest's (``test_*.py``, ``*_test.py``, ``conftest.py``), so a plugin's tests may sit
+    beside it."""
+    name = path.name
+    return not (
+        name.startswith(("_", "test_")) or name.endswith("_test.py") or name == "conftest.py"
+    )
 
 
 @dataclass(frozen=True)
@@ -98,18 +115,27 @@ class Status:
 
 
 #: the kind of plugin a registry holds
-Plugin = TypeVar("Plugin", BaseDetector, BaseProtocol)
+Plugin = TypeVar("Plugin", "BaseDetector", "BaseProtocol")
 
 
 class Registry(Generic[Plugin]):
-    """Ids -> plugin classes of one kind (detector or protocol)."""
+    """Ids -> plugin classes of one kind (detector or protocol). ``base`` is their base class,
+    or its "module:Class" name, imported when a plugin is first loaded."""
 
-    def __init__(self, kind: str, base: type[Plugin], group: str):
+    def __init__(self, kind: str, base: type[Plugin] | str, group: str):
         self.kind, self.group = kind, group
-        self.base: type[Plugin] = base
+        self._base: type[Plugin] | str = base
         self._sources: dict[str, Source] = {}
         self._loaded: dict[str, type[Plugin]] = {}
         self._discovered = False
+
+    @property
+    def base(self) -> type[Plugin]:
+        if isinstance(self._base, str):
+            module, _, attribute = self._base.partition(":")
+            self._base = getattr(importlib.import_module(module), attribute)
+        assert not isinstance(self._base, str)  # imported just above
+        return self._base
 
     def _add(self, name: str, source: Source) -> None:
         if name in self._sources and self._sources[name].origin != source.origin:
@@ -130,13 +156,14 @@ class Registry(Generic[Plugin]):
             )
 
     def add_folder(self, folder: str | Path) -> None:
-        """Register every ``*.py`` file of ``folder``; the file name (with - for _) is the id."""
+        """Register every plugin file of ``folder`` (:func:`is_plugin_file`); the file name
+        (with - for _) is the id."""
         folder = Path(folder)
         if not folder.is_dir():
             raise UsageError(f"plugin folder {folder} does not exist")
         self._discover()
         for path in sorted(folder.glob("*.py")):
-            if not path.name.startswith("_"):
+            if is_plugin_file(path):
                 self._add(
                     path.stem.replace("_", "-"),
                     Source(
@@ -150,14 +177,24 @@ class Registry(Generic[Plugin]):
         self._discover()
         return sorted(self._sources)
 
+    def check_name(self, name: str) -> None:
+        """Refuse an id no plugin is registered under, suggesting the closest ids (difflib) and
+        listing the others; imports nothing."""
+        names = self.names()
+        if name in names:
+            return
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+        hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+        raise UsageError(f"unknown {self.kind} {name!r}{hint}; available: {', '.join(names)}")
+
     def get(self, name: str) -> type[Plugin]:
         """The plugin class registered as ``name``; an unknown name lists the names that exist."""
-        self._discover()
         if name in self._loaded:
             return self._loaded[name]
-        if name not in self._sources:
-            raise UsageError(f"unknown {self.kind} {name!r}; available: {', '.join(self.names())}")
+        self.check_name(name)
         source = self._sources[name]
+        from slipbench.store.reads import reading
+
         try:
             with reading() as opened:
                 obj = source.load()
@@ -185,6 +222,9 @@ class Registry(Generic[Plugin]):
         return cls
 
     def _check_class(self, cls: type, name: str, source: Source) -> None:
+        from slipbench.protocol import BaseProtocol, Layout, Presentation
+        from slipbench.store.keys import missing_data_files
+
         missing = missing_data_files(cls)
         if missing:  # its cache keys would not see the files it reads
             raise PluginError(
@@ -193,10 +233,9 @@ class Registry(Generic[Plugin]):
             )
         if self.base is not BaseProtocol:
             return
-        try:
-            layout = (
-                cls().layout
-            )  # a protocol's layout may depend on its options: check the defaults'
+        try:  # a protocol's layout may depend on its options: check the defaults'
+            made = cls()
+            layout, presentation = made.layout, made.presentation
         except Exception as exc:
             raise PluginError(
                 f"protocol {name!r} ({source.origin}) cannot be made with its default options: "
@@ -206,6 +245,11 @@ class Registry(Generic[Plugin]):
             raise PluginError(
                 f"protocol {name!r} ({source.origin}) must declare layout = slipbench.protocol.Layout(...), "
                 f"got {layout!r}"
+            )
+        if presentation is not None and not isinstance(presentation, Presentation):
+            raise PluginError(
+                f"protocol {name!r} ({source.origin}) must declare presentation = "
+                f"slipbench.protocol.Presentation(...) or none, got {presentation!r}"
             )
 
     def _class_in(self, module, name: str, source: Source) -> type[Plugin]:
@@ -234,6 +278,8 @@ class Registry(Generic[Plugin]):
         for name, source in self._sources.items():
             if source.target == target or (name in self._loaded and self._loaded[name] is cls):
                 return name
+        from slipbench.base import plugin_id
+
         return plugin_id(cls)
 
     def status(self, name: str) -> Status:
@@ -283,8 +329,11 @@ class Registry(Generic[Plugin]):
             "parameters": {},
         }
         if name in self._loaded:
+            from slipbench.base import BaseDetector
+            from slipbench.params import param_defaults
+
             cls = self._loaded[name]
-            out["description"] = ((cls.__doc__ or "").strip().splitlines() or [""])[0]
+            out["description"] = summary(cls.__doc__ or "")
             if issubclass(cls, BaseDetector):  # what it reads (evaluate --input), its mark
                 out["inputs"] = list(cls.inputs)
                 out["reference"] = bool(cls.reference)
@@ -299,8 +348,23 @@ class Registry(Generic[Plugin]):
         return out
 
 
-detectors = Registry("detector", BaseDetector, DETECTOR_GROUP)
-protocols = Registry("protocol", BaseProtocol, "slipbench.protocols")
+def summary(doc: str) -> str:
+    """A docstring's first sentence, whole (it may span lines), as plain text: ``code`` and
+    :role:`target` marks dropped. A sentence ends at a full stop followed by a capital or
+    ``code``, or at the end of the first paragraph."""
+    paragraph = " ".join(inspect.cleandoc(doc).split("\n\n")[0].split())
+    text = re.sub(r":\w+:`~?([^`]+)`", r"\1", paragraph)
+    return re.split(r"(?<=[.!?])\s+(?=[A-Z`])", text, maxsplit=1)[0].replace("``", "")
+
+
+#: the built-in and installed plugins; the groups are those of slipbench's pyproject.toml (the
+#: detectors' is ``slipbench.base.DETECTOR_GROUP``, which saved models are loaded through)
+detectors: Registry[BaseDetector] = Registry(
+    "detector", "slipbench.base:BaseDetector", "slipbench.detectors"
+)
+protocols: Registry[BaseProtocol] = Registry(
+    "protocol", "slipbench.protocol:BaseProtocol", "slipbench.protocols"
+)
 
 
 def add_plugin_folder(folder: str | Path) -> None:

@@ -12,11 +12,12 @@ import contextlib
 import importlib.metadata
 import json
 import os
+import pickle
 import platform
 import sys
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, TypedDict
@@ -26,10 +27,13 @@ import pandas as pd
 
 from slipbench import __version__
 from slipbench.data.format import Dataset
+from slipbench.data.read import read_dataset, stored_fingerprint
 from slipbench.data.signals import Signals, channel_scales, standardized
+from slipbench.engine.cached import refits, reusable
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, Lockstep, TestSet, changed_reads
+from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet
+from slipbench.engine.limits import SCHEDULERS
 from slipbench.engine.plan import (
     LABELLED,
     Batch,
@@ -42,7 +46,8 @@ from slipbench.engine.plan import (
     make_plan,
     run_code_identity,
 )
-from slipbench.errors import EnvironmentFault
+from slipbench.errors import DataError, EnvironmentFault, UsageError
+from slipbench.protocol import Cell, described
 from slipbench.stats.bootstrap import DEFAULT_METHOD
 from slipbench.store.columns import checked
 from slipbench.store.keys import canonical
@@ -51,6 +56,8 @@ from slipbench.stream.cell import Recordings, StreamTest
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
+
+    from slipbench.engine.slurm import Resources
 
 
 def _version_of(distribution: str) -> str:
@@ -99,8 +106,10 @@ def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
             "run_id": stamp.run_id,
             "protocol": run.protocol_name,
             "protocol_params": _json(run.protocol.get_params()),
+            **described(run.protocol),
             "detector": run.detector_name,
             "detector_params": _json(run.detector.get_params()),
+            "detector_reference": bool(run.detector.reference),
             "split": run.split,
             "seed": run.seed,
             "labels": run.labels,
@@ -148,12 +157,33 @@ def _json(value) -> str:
 
 
 def _signals(dataset: Dataset, runs: list[Run]) -> Signals:
-    signals = Signals.from_dataset(dataset)
+    return with_columns(Signals.from_dataset(dataset), dataset.recordings, runs)
+
+
+def with_columns(signals: Signals, recordings: pd.DataFrame, runs: list[Run]) -> Signals:
+    """``signals`` whose recordings carry :data:`LABELLED` and the columns the runs' protocols
+    add (:meth:`BaseProtocol.columns` of ``recordings``)."""
     signals.recordings[LABELLED] = signals.labelled
     for run in runs:
-        for name, values in run.protocol.columns(dataset.recordings).items():
+        for name, values in run.protocol.columns(recordings).items():
             signals.recordings[name] = values
     return signals
+
+
+def planned(
+    signals: Signals,
+    recordings: pd.DataFrame,
+    fingerprint: str,
+    runs: list[Run],
+    stored: dict[str, dict],
+) -> tuple[Plan, set[str], set[str]]:
+    """What a run of ``runs`` computes, computing nothing: the plan of every cell (the
+    protocols' cells of ``recordings``), the keys of ``stored`` rows it reuses (ok or skipped,
+    unless their fit read a file changed since) and those model keys that fit again."""
+    with_cells = [(run, run.cells_or_stand_in(recordings)) for run in runs]
+    refit = refits(stored)  # model keys whose fits read a file that has changed since
+    done = reusable(stored, refit)
+    return make_plan(signals, with_cells, fingerprint, done), done, refit
 
 
 class Options(TypedDict, total=False):
@@ -165,6 +195,7 @@ class Options(TypedDict, total=False):
     cell_timeout: float | None
     progress: bool
     lockstep: bool
+    slurm: Resources | None
 
 
 def evaluate(
@@ -181,9 +212,15 @@ def evaluate(
         Called from a script without an ``if __name__ == "__main__":`` guard, ``jobs=1`` runs
         in this process (workers would import the script again) and more jobs or a
         ``cell_timeout`` are refused with a UsageError saying to add the guard.
-    scheduler : address of a dask.distributed scheduler; tasks run on its workers.
+    scheduler : address of a dask.distributed scheduler; tasks run on its workers. Or
+        ``"slurm"``: a SLURM job array through submitit, whose tasks write their cells into
+        ``store`` (a folder the nodes share); ``"submitit-local"``: the same through local
+        processes (:mod:`slipbench.engine.slurm`).
     cell_timeout : seconds one model may take to fit and test its cells in a local worker
-        before they are reported with status "timeout".
+        (or in an array task, whose time limit follows from it) before they are reported
+        with status "timeout".
+    slurm : the array tasks' resources (:class:`slipbench.engine.slurm.Resources`; default:
+        its defaults) with ``scheduler="slurm"`` or ``"submitit-local"``.
     progress : a bar of the cells done on stderr, with the latest progress a model in flight
         reports (``lstm: epoch 12/30, loss 0.41``; :meth:`BaseDetector.report_progress`).
     lockstep : train the models of a lockstep class (:attr:`BaseDetector.lockstep`) that share
@@ -203,52 +240,26 @@ def evaluate(
     for run in runs:
         run.validate()
         check_labels(run.labels, dataset)
-    with_cells = [(run, run.cells_or_stand_in(dataset.recordings)) for run in runs]
     stored = {} if force else store.finished()
-    refit = _changed_reads(stored)  # model keys whose fits read a file that has changed since
-    done = {
-        k
-        for k, r in stored.items()
-        if r.get("status") in ("ok", "skipped") and r.get("model_key") not in refit
-    }
     fingerprint = dataset.fingerprint
     signals = _signals(dataset, runs)
-    plan = make_plan(signals, with_cells, fingerprint, done)
+    plan, done, refit = planned(signals, dataset.recordings, fingerprint, runs, stored)
     tasks: list[Task | Batch] = list(plan.tasks)
     if options.get("lockstep", os.environ.get("SLIPBENCH_LOCKSTEP", "1") != "0"):
-        tasks = batched(plan.tasks, max(jobs, 1))
+        tasks = batched(plan.tasks, _parallel(jobs, scheduler, options.get("slurm")))
     run_id = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S%fZ")
     stamp = Stamp(run_id, fingerprint, str(dataset.path or ""), dataset.origin or {}, environment())
     rows: dict[str, dict] = {pc.key: stored[pc.key] for pc in plan.cells if pc.key in done}
     if len(rows) < len(plan.cells):  # cells to write: an unwritable folder fails before any fit
         store.check_writable()
 
-    warned: set[tuple[str, str]] = set()
-
-    def record(pc: PlannedCell, fields: dict, scores: np.ndarray | None = None) -> None:
-        _warn_reads(pc.run.detector_name, fields, warned)
-        row = _row(pc, {**fields, **_scales(plan, pc)}, stamp)
-        predictions = None
-        if scores is not None:  # the scores of test windows (a streaming cell keeps none)
-            rec, test = signals.recordings, pc.windows("test")
-            predictions = pd.DataFrame(
-                {
-                    "recording_id": rec["recording_id"].to_numpy()[test.recording],
-                    "trial": rec["trial"].to_numpy()[test.recording],
-                    "window_index": test.index,
-                    "y_true": test.y,
-                    "score": scores,
-                }
-            )
-        store.put(row, predictions)
-        rows[pc.key] = row
-
+    record = _Recorder(plan, signals, stamp, store, rows)
     for pc in plan.cells:
         if pc.key not in rows and pc.skip:
-            record(pc, {"status": "skipped", "reason": pc.skip})
+            record(pc, Result({"status": "skipped", "reason": pc.skip}))
 
     cached = len(rows)
-    if progress and len(with_cells) > 1:  # several detectors or protocols: say what it costs
+    if progress and len(runs) > 1:  # several detectors or protocols: say what it costs
         for line in describe(costs(plan, done, stored), jobs):
             print(line, file=sys.stderr)
     bar = _progress(len(plan.cells), cached, progress, _describe(runs))
@@ -256,13 +267,15 @@ def evaluate(
         if force:
             refit = {pc.model_key for pc in plan.cells}
         payload = lambda task: _work(plan, task, store, refit, scheduler)  # noqa: E731
-        finished = Executor(jobs, scheduler, cell_timeout).run(
-            tasks, payload, _shown(bar, cached) if progress else None
-        )
+        remote = None
+        if scheduler in SCHEDULERS:
+            remote = _remote(dataset, stamp, store, refit, options)
+        executor = Executor(jobs, scheduler, cell_timeout, options.get("slurm"))
+        finished = executor.run(tasks, payload, _shown(bar, cached) if progress else None, remote)
         with contextlib.closing(finished):  # stopped at once when this loop is left early
             for task, results in finished:
                 for pc, result in zip(task.cells, results, strict=True):
-                    record(pc, result.fields, result.scores)
+                    record(pc, result)
                 bar.update(len(task.cells))
     except BaseException:
         bar.close()
@@ -274,20 +287,159 @@ def evaluate(
     return pd.DataFrame([rows[pc.key] for pc in plan.cells])
 
 
-def _changed_reads(stored: dict[str, dict]) -> set[str]:
-    """Model keys of stored cells whose fit read a file outside its code identity that has
-    changed since: they are fitted again (a warning names the file)."""
-    refit: set[str] = set()
-    for row in stored.values():
-        changed = changed_reads(row) if row.get("unkeyed_reads") else []
-        if changed and str(row.get("model_key")) not in refit:
-            refit.add(str(row.get("model_key")))
-            warnings.warn(
-                f"detector {row.get('detector')!r}: {', '.join(changed)} changed since its cells "
-                "were computed (a file its fit read, not part of its code identity): refitting",
-                stacklevel=2,
+@dataclass
+class _Recorder:
+    """Writes each finished cell of a plan to the store (its row, with the run's stamp, and its
+    test windows' scores), or takes the row an array task stored; ``rows`` collects them."""
+
+    plan: Plan
+    signals: Signals
+    stamp: Stamp
+    store: ResultsStore
+    rows: dict[str, dict]
+    warned: set[tuple[str, str]] = field(default_factory=set)
+
+    def __call__(self, pc: PlannedCell, result: Result) -> None:
+        _warn_reads(pc.run.detector_name, result.fields, self.warned)
+        if isinstance(result, Stored):
+            self.rows[pc.key] = result.fields
+            return
+        row = _row(pc, {**result.fields, **_scales(self.plan, pc)}, self.stamp)
+        predictions = None
+        if result.scores is not None:  # the scores of test windows (a streaming cell keeps none)
+            rec, test = self.signals.recordings, pc.windows("test")
+            predictions = pd.DataFrame(
+                {
+                    "recording_id": rec["recording_id"].to_numpy()[test.recording],
+                    "trial": rec["trial"].to_numpy()[test.recording],
+                    "window_index": test.index,
+                    "y_true": test.y,
+                    "score": result.scores,
+                }
             )
-    return refit
+        self.store.put(row, predictions)
+        self.rows[pc.key] = row
+
+
+def _parallel(jobs: int, scheduler: str | None, slurm: Resources | None) -> int:
+    """Models that train at once: local workers, or a job array's tasks times their cores."""
+    if scheduler not in SCHEDULERS:
+        return max(jobs, 1)
+    from slipbench.engine.slurm import Resources
+
+    res = slurm or Resources()
+    return res.array_parallelism * res.cpus_per_task
+
+
+@dataclass
+class ArrayTask:
+    """What one array task of a SLURM run computes (:mod:`slipbench.engine.slurm`), as plain
+    data: the dataset (a folder, or the pickle of one the launcher wrote), the runs with the
+    cells of its models, each unit of work as its model keys (a lockstep batch: several,
+    kept together as the launcher batched them), and where and how to write the rows."""
+
+    dataset: str
+    stamp: Stamp
+    runs: list[tuple[Run, list[Cell]]]
+    units: list[list[str]]
+    store: str
+    refit: set[str]
+    workers: int
+    cell_timeout: float | None
+
+    def __call__(self) -> dict[str, str]:
+        """Plan these cells again from the dataset, fit and test them in a local pool of
+        ``workers``, write each verified cell; returns each cell's status by key."""
+        path = Path(self.dataset)
+        dataset = _unpickled(path) if path.suffix == ".pkl" else read_dataset(path)
+        fingerprint = self.stamp.fingerprint
+        if dataset.fingerprint != fingerprint:
+            raise DataError(
+                f"{path}: its content changed since the run was launched (fingerprint "
+                f"{dataset.fingerprint}, the launcher's {fingerprint})"
+            )
+        signals = _signals(dataset, [run for run, _ in self.runs])
+        plan = make_plan(signals, self.runs, fingerprint, set())
+        by_model = {t.model_key: t for t in plan.tasks}
+        wanted = {k for unit in self.units for k in unit}
+        if set(by_model) != wanted:
+            raise UsageError(
+                f"this array task planned {len(set(by_model) - wanted)} models its launcher did "
+                f"not and lacks {len(wanted - set(by_model))} it did: the nodes must run the same "
+                "slipbench, plugins and libraries as the launcher"
+            )
+        units: list[Task | Batch] = [
+            by_model[u[0]] if len(u) == 1 else Batch([by_model[k] for k in u]) for u in self.units
+        ]
+        store = ResultsStore(self.store)
+        stamp = replace(self.stamp, env=environment())
+        record = _Recorder(plan, signals, stamp, store, {})
+        payload = lambda task: _work(plan, task, store, self.refit, None)  # noqa: E731
+        pool = Executor(self.workers, None, self.cell_timeout, threads=1)
+        with contextlib.closing(pool.run(units, payload)) as finished:
+            for task, results in finished:
+                for pc, result in zip(task.cells, results, strict=True):
+                    record(pc, result)
+        store.consolidate()
+        return {key: str(row["status"]) for key, row in record.rows.items()}
+
+
+def _unpickled(path: Path) -> Dataset:
+    with path.open("rb") as file:
+        return pickle.load(file)  # the launcher's own dataset, written by this run
+
+
+def run_array_task(plugin_files: dict[str, str], task: bytes) -> dict[str, str]:
+    """What submitit runs in an array task: the plugin files the launcher loaded, imported
+    under the same names, then the :class:`ArrayTask` (unpickled after them, as its
+    detectors' classes may live there)."""
+    from slipbench.engine.registry import import_plugin_file
+
+    for path in plugin_files.values():
+        import_plugin_file(path)
+    work: ArrayTask = pickle.loads(task)
+    return work()
+
+
+def _remote(dataset: Dataset, stamp: Stamp, store: ResultsStore, refit: set[str], options):
+    """The SLURM executor's side of this run: what each array task runs, and how its rows
+    are read back."""
+    from slipbench.atomic import atomic_file, make_folder
+    from slipbench.engine.registry import PLUGIN_FILES
+    from slipbench.engine.slurm import Remote, Resources
+
+    res = options.get("slurm") or Resources()
+    folder = make_folder(Path(res.folder) if res.folder else store.folder / "slurm")
+    if dataset.path is not None and stored_fingerprint(dataset.path) == dataset.fingerprint:
+        source = str(Path(dataset.path).resolve())
+    else:  # built or changed in memory (combined, a subset): the array tasks read this one
+        source = str(folder / f"dataset-{dataset.fingerprint}.pkl")
+        if not Path(source).exists():  # named by its content: a relaunch's is the same
+            with atomic_file(source) as file:
+                pickle.dump(dataset, file, pickle.HIGHEST_PROTOCOL)
+    plugins = dict(PLUGIN_FILES)
+
+    def work(tasks: list[Task | Batch]) -> tuple[Callable, tuple]:
+        runs: dict[int, tuple[Run, list[Cell]]] = {}
+        units = []
+        for task in tasks:
+            members = task.tasks if isinstance(task, Batch) else [task]
+            units.append([t.model_key for t in members])
+            for pc in task.cells:
+                runs.setdefault(id(pc.run), (pc.run, []))[1].append(pc.cell)
+        array_task = ArrayTask(
+            source,
+            replace(stamp, env={}),
+            list(runs.values()),
+            units,
+            str(store.folder.resolve()),
+            refit,
+            res.cpus_per_task,
+            options.get("cell_timeout"),
+        )
+        return run_array_task, (plugins, pickle.dumps(array_task, pickle.HIGHEST_PROTOCOL))
+
+    return Remote(work, store.cell, stamp.run_id, folder)
 
 
 def _warn_reads(detector: str, fields: dict, warned: set[tuple[str, str]]) -> None:
@@ -353,6 +505,7 @@ def _payload(
         None if model_path is None else str(model_path),
         first.run.detector_name,
         trials[train.recording],
+        first.run.retrain,
     )
 
 

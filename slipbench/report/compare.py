@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 
 from slipbench.errors import UsageError
+from slipbench.report.markdown import md_code, md_table, md_text
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.render import md_code, md_table, md_text
 from slipbench.stats.compare import (
     ALPHA,
     CELL_ALPHA,
@@ -28,7 +28,8 @@ from slipbench.stats.compare import (
     summary,
 )
 from slipbench.stats.factors import SETTINGS, setting_text
-from slipbench.stats.gate import NAMES, Gate, unit
+from slipbench.stats.gate import Gate, unit
+from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figure_of, figures
 from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
 
 MARKS = dict(
@@ -44,7 +45,11 @@ MARKS = dict(
         ),
     )
 ) | {"undecided": "◇ undecided"}
-SCHEMA_VERSION = 3  # of the JSON: 3 gives the gate's figures, per-figure pooled tests, power
+#: the rates of one class each, TP then TN: a windowed cell's second column
+_CLASS_RATES = [f.name for f in figures(WINDOWED) if f.one_class]
+SCHEMA_VERSION = (
+    4  # of the JSON: 4 reads verdicts from Bonferroni intervals (``p``, not ``p_holm``)
+)
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
 
@@ -131,16 +136,18 @@ def _row(r: dict, cmp: Comparison) -> dict:
     line = {"protocol": r["protocol"], "detector": r["detector"], "cell": _label(r, cmp)}
     if r["stream"]:
         line["base → candidate"] = (
-            f"{r['base_median_delay_ms']:.1f} → {r['candidate_median_delay_ms']:.1f} ms, "
-            f"{r['base_false_alarms_per_min']:.2f} → {r['candidate_false_alarms_per_min']:.2f} /min"
+            ", ".join(
+                f"{f.scale * r['base_' + f.name]:.{f.decimals}f} → "
+                f"{f.scale * r['candidate_' + f.name]:.{f.decimals}f} {f.display}"
+                for f in figures(STREAMED, gated=True)
+            )
             if both
             else f"{r['base_status']} → {r['candidate_status']}"
         )
-        line["Δ [simultaneous CI]"] = (
-            f"delay {_delta(r, 'median_delay_ms', 1.0)} ms; alarms "
-            f"{_delta(r, 'false_alarms_per_min', 1.0, 2)} /min; detection "
-            f"{_delta(r, 'detection_rate')}" + _compute_text(r)
-        )
+        line["Δ [simultaneous CI]"] = "; ".join(
+            f"{f.called} {_delta(r, f.name, f.scale, f.decimals)} {f.change_unit}"
+            for f in figures(STREAMED, gated=True)
+        ) + _compute_text(r)
         line["Δ TP / TN rate"] = ""
     else:
         line["base → candidate"] = (
@@ -149,9 +156,7 @@ def _row(r: dict, cmp: Comparison) -> dict:
             else f"{r['base_status']} → {r['candidate_status']}"
         )
         line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
-        line["Δ TP / TN rate"] = (
-            f"{_delta(r, 'tp_rate', bounds=False)} / {_delta(r, 'tn_rate', bounds=False)}"
-        )
+        line["Δ TP / TN rate"] = " / ".join(_delta(r, name, bounds=False) for name in _CLASS_RATES)
     why = r.get("inconclusive_reason") or ""
     line[""] = MARKS[r["verdict"]] + (f" ({why})" if why else "")
     return line
@@ -257,10 +262,13 @@ def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
             + _pooled_table(cmp)
             + f"\n\n_mean Δ: candidate − base over the cells both sides finished (identical cells "
             f"count 0), with a {100 * cmp.pooled_level:.4g} % interval (one joint cluster bootstrap over "
-            "the trials the cells share, where both sides kept predictions); p: Holm-adjusted over the "
-            f"{len(cmp.pooled)} pooled tests (protocols × detectors × figures), flagged at "
-            f"{100 * POOLED_ALPHA:g} %; sees: the drop flagged with 80 % power (tolerance + se × "
-            "(t(1 − α/2N, df) + t(0.8, df))); undecided where that is more than twice the tolerance._"
+            "the trials the cells share, where both sides kept predictions), Bonferroni over the "
+            f"{len(cmp.pooled)} pooled tests (protocols × detectors × figures) at "
+            f"{100 * POOLED_ALPHA:g} %: a figure regressed or improved where that interval lies beyond its "
+            "tolerance, within margin where inside it; p: the Bonferroni-adjusted p-value of a change "
+            f"within the tolerance, below {POOLED_ALPHA:g} exactly there; sees: the drop flagged with 80 % "
+            "power (tolerance + se × (t(1 − α/2N, df) + t(0.8, df))); undecided where that is more than "
+            "twice the tolerance._"
         )
     parts.append(
         "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
@@ -316,27 +324,25 @@ def _seeds_text(cmp: Comparison) -> str:
 
 def gate_text(gate: Gate) -> str:
     """The gate's figures and tolerances, in words."""
-    return ", ".join(f"{NAMES[f]} ±{t:g} {unit(f)}" for f, t in gate.tolerances.items())
+    return ", ".join(f"{FIGURES[f].called} ±{t:g} {unit(f)}" for f, t in gate.tolerances.items())
 
 
 def _pooled_phrase(r: dict) -> str:
     return (
-        f"{md_text(r['protocol'])}, {md_text(r['detector'])}: {NAMES[r['figure']]} "
+        f"{md_text(r['protocol'])}, {md_text(r['detector'])}: {FIGURES[r['figure']].called} "
         f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {unit(r['figure'])}"
     )
 
 
 def _flagged(cmp: Comparison) -> list[str]:
     """What regressed: each pooled figure, and the cells per figure."""
-    flagged = [
-        f"{_pooled_phrase(r)} (pooled, Holm)" for r in cmp.pooled_regressions.to_dict("records")
-    ]
+    flagged = [f"{_pooled_phrase(r)} (pooled)" for r in cmp.pooled_regressions.to_dict("records")]
     failed = cmp.regressions["regressed_figures"] == ""
     if failed.any():
         flagged.append(f"{int(failed.sum())} cells the candidate no longer finishes")
     figures = cmp.regressions.loc[~failed, "regressed_figures"].str.split(", ").explode()
     for figure, n in figures.value_counts(sort=False).items():
-        flagged.append(f"{NAMES[str(figure)]} in {n} cell{'s' * (n != 1)} (cell level, Holm)")
+        flagged.append(f"{FIGURES[str(figure)].called} in {n} cell{'s' * (n != 1)} (cell level)")
     return flagged
 
 
@@ -354,7 +360,7 @@ def _verdict_line(cmp: Comparison) -> str:
         )
     else:
         seen = [
-            f"{r['detectable']:.2g} {unit(r['figure'])} in {NAMES[r['figure']]} of "
+            f"{r['detectable']:.2g} {unit(r['figure'])} in {FIGURES[r['figure']].called} of "
             f"{md_text(r['protocol'])}, {md_text(r['detector'])}"
             for r in cmp.pooled.to_dict("records")
         ]
@@ -416,10 +422,10 @@ def _pooled_table(cmp: Comparison) -> str:
             {
                 "protocol": r["protocol"],
                 "detector": r["detector"],
-                "figure": NAMES[r["figure"]],
+                "figure": FIGURES[r["figure"]].called,
                 "cells (changed)": f"{r['cells']} ({r['changed_cells']})",
                 "mean Δ [CI]": f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {u}",
-                "p (Holm)": f"{r['p_holm']:.3g}",
+                "p (Bonferroni)": f"{r['p']:.3g}",
                 "sees": f"{r['detectable']:.2g} {u}" if np.isfinite(r["detectable"]) else "—",
                 "": MARKS[r["verdict"]]
                 + (f" ({r['undecided_reason']})" if r["undecided_reason"] else ""),
@@ -450,16 +456,17 @@ def _notes(cmp: Comparison) -> list[str]:
     )
     notes = [
         f"_The family: the chance that anything in this comparison is wrongly called regressed or improved is at "
-        f"most {100 * ALPHA:g} %, split between the pooled tests ({100 * POOLED_ALPHA:g} %, Holm over the "
-        f"protocols, detectors and figures) and the cells ({100 * CELL_ALPHA:g} %, Holm over the figures of the "
-        f"{n_family} cells that changed and are not low-n, of {n} both sides finished; intervals at the Bonferroni level). Cells with identical predictions on both "
-        "sides leave the family._",
+        f"most {100 * ALPHA:g} %, split between the pooled tests ({100 * POOLED_ALPHA:g} %, Bonferroni over the "
+        f"protocols, detectors and figures) and the cells ({100 * CELL_ALPHA:g} %, Bonferroni over the figures of the "
+        f"{n_family} cells that changed and are not low-n, of {n} both sides finished). Every verdict reads the "
+        "interval printed beside it. Cells with identical predictions on both sides leave the family._",
         f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval "
         f"({'; '.join(f'{m}: {k} cells' for m, k in methods.items())}; a paired cluster bootstrap over the shared "
         f"test windows where both sides kept predictions; over seeds and trials where a side ran several seeds). "
         f"A cell regresses when a figure of the gate ({md_text(gate_text(cmp.gate))}) is worse than its "
-        "tolerance (Holm), or when the candidate did not finish a cell the base finished; it improves when one is "
-        "better and none worse. "
+        "tolerance (its interval lies beyond it), or when the candidate did not finish a cell the base finished; "
+        "it improves when one is better and none worse; within margin when every figure's interval lies inside its "
+        "tolerance. "
         f"A cell is inconclusive when it is low-n (fewer than 10 test trials of a class: its intervals undercover) "
         f"or its interval, deciding nothing, is wider than {cmp.gate.max_width:g} points._",
     ]
@@ -493,17 +500,12 @@ def _compute_summary(cells: pd.DataFrame) -> str:
     )
 
 
-# cells' columns that hold rates as fractions; the JSON gives them in percentage points
-_RATE_NAMES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc", "detection_rate")
-
-
 def _in_points(frame: pd.DataFrame) -> pd.DataFrame:
+    """The cells' columns that hold fractions (figures and their changes) in percentage points."""
     out = frame.copy()
     for col in out.columns:
-        name = col.removeprefix("d_").removeprefix("base_").removeprefix("candidate_")
-        for suffix in ("_lo", "_hi", "_se"):
-            name = name.removesuffix(suffix)
-        if name in _RATE_NAMES:
+        shown = figure_of(col)
+        if shown is not None and shown.unit == "fraction":
             out[col] = 100 * pd.to_numeric(out[col], errors="coerce")
     return out
 
@@ -543,11 +545,11 @@ def to_json(cmp: Comparison) -> str:
             "alpha": ALPHA,
             "pooled": {
                 "alpha": POOLED_ALPHA,
-                "method": "Holm over protocols x detectors x figures",
+                "method": "Bonferroni over protocols x detectors x figures, read from the intervals",
             },
             "cells": {
                 "alpha": CELL_ALPHA,
-                "method": "Holm over the figures of changed, not low-n cells",
+                "method": "Bonferroni over the figures of changed, not low-n cells, read from the intervals",
             },
         },
         "seeds": {"base": cmp.min_seeds_base, "candidate": cmp.min_seeds_candidate},

@@ -24,12 +24,12 @@ report, or moved to an appendix by :func:`split_appendix` so that the summary st
 
 from __future__ import annotations
 
-import base64
 import dataclasses
 import os
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
@@ -44,27 +44,22 @@ from slipbench.report.leaderboard import (
 )
 from slipbench.report.meta import meta_blocks
 from slipbench.report.outline import (
+    Section,
+    Split,
     as_tested,
     layouts,
     no_cell_note,
+    outline,
     protocol_order,
-    references,
     split_parts,
-    splits_of,
     stand_ins,
     which_text,
 )
 from slipbench.report.paper import paper_frame
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import ShownLayout
 from slipbench.report.provenance import fitted_tables, header_tables, on_simulation
 from slipbench.report.reduction import reduction_blocks
-from slipbench.report.render import (
-    md_target,
-    md_text,
-    standalone_latex,
-    to_latex,
-    to_markdown,
-)
+from slipbench.report.render import Drawn, renderer
 from slipbench.report.tables import (
     SIMULATED,
     Table,
@@ -72,9 +67,6 @@ from slipbench.report.tables import (
     baseline_table,
     build_table,
     compute_table,
-    escape,
-    fits,
-    generic_layout,
     metrics_table,
     rank,
     rates_table,
@@ -83,7 +75,7 @@ from slipbench.report.tables import (
     split_table,
     table_keys,
 )
-from slipbench.stats.factors import named_entrants, setting_parts
+from slipbench.stats.factors import setting_parts
 from slipbench.stats.leaderboard import leaderboard
 from slipbench.vocabulary import DETECTOR_ORDER
 
@@ -101,7 +93,9 @@ class ReportOptions:
     rows come from, named in the header; ``predictions``: results folders holding the cells'
     test predictions (intervals pooled over seeds and fingers by one joint bootstrap);
     ``superseded``: rows left out because their cell and seed was run again later, named in the
-    header (:func:`slipbench.stats.factors.latest_runs`).
+    header (:func:`slipbench.stats.factors.latest_runs`); ``unproven``: the results files the
+    rows come from that carry no row digests, named in a line under the header (edits to them
+    cannot be detected).
 
     Report functions take these as keywords (``build_report(rows, intervals=True)``) and build
     one object of them, as a command does of its options."""
@@ -114,6 +108,21 @@ class ReportOptions:
     benchmark: str = ""
     predictions: Sequence[str | os.PathLike] = ()
     superseded: int = 0
+    unproven: Sequence[str] = ()
+
+
+def _unproven(files: Sequence[str]) -> list[Text]:
+    """The line that says which rows cannot be proved (files without row digests)."""
+    if not files:
+        return []
+    return [
+        Text(
+            f"Rows from files without row digests (another tool or an older slipbench wrote "
+            f"them): {', '.join(Path(f).name for f in files)}: edits to "
+            f"{'it' if len(files) == 1 else 'them'} cannot be detected; their figures were "
+            "checked against the ranges of the results schema."
+        )
+    ]
 
 
 def flatten(blocks: list) -> list:
@@ -135,7 +144,9 @@ def split_appendix(
     """(summary, appendix): the report without its :class:`Detail` blocks, each section that
     had some pointing to ``appendix`` (the appendix's path as the summary links it), and the
     appendix: those blocks under their sections' headings, pointing back to ``summary_path``
-    (the summary's path as the appendix links it; "" where the summary has no file)."""
+    (the summary's path as the appendix links it; "" where the summary has no file). Links
+    name their target where format ``fmt`` links files, else they show their label."""
+    links = renderer(fmt).cross_links
     summary: list = []
     sections: dict[str, list] = {}
     for block in blocks:
@@ -147,13 +158,13 @@ def split_appendix(
                 Text(
                     "Each detector's own tables and figures of this section: ",
                     Link(f"{appendix}, {block.section}", f"{appendix}#{_anchor(block.section)}")
-                    if fmt == "md"
+                    if links
                     else Link(f"{appendix}, section {block.section}", ""),
                     ".",
                 )
             )
         sections.setdefault(block.section, []).extend(block.blocks)
-    back = Link(summary_path, summary_path if fmt == "md" else "") if summary_path else None
+    back = Link(summary_path, summary_path if links else "") if summary_path else None
     rest: list = [
         Heading("slipbench report: appendix", 1),
         Text(
@@ -170,7 +181,12 @@ def split_appendix(
 
 
 def protocol_tables(
-    rows: pd.DataFrame, layout: Layout, protocol: str, detector: str, split: str = "", **options
+    rows: pd.DataFrame,
+    layout: ShownLayout,
+    protocol: str,
+    detector: str,
+    split: str = "",
+    **options,
 ) -> list[tuple[str, Table]]:
     """The tables of one protocol and detector: one per ``split`` value of the layout (e.g.
     decimation), captions naming the detector and protocol. ``options``: :class:`ReportOptions`.
@@ -275,7 +291,9 @@ def _stream_note(rows: pd.DataFrame) -> str:
     )
 
 
-def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_: str) -> Table:
+def _operating_point(
+    rows: pd.DataFrame, layout: ShownLayout, intervals: bool, label_: str
+) -> Table:
     """A streaming table at the operating point (``op_`` columns): the threshold that keeps 1
     false alarm per minute on the training trials' streams, evaluated on the test trials."""
     budget = (
@@ -295,7 +313,7 @@ def _operating_point(rows: pd.DataFrame, layout: Layout, intervals: bool, label_
     return table
 
 
-def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table | None:
+def published_table(rows: pd.DataFrame, layout: ShownLayout, protocol: str) -> Table | None:
     """The published table (the paper's LSTM) laid out on the cells of ``rows``, or None where
     the layout names no paper table."""
     ref = paper_frame(layout.paper_table) if layout.paper_table else None
@@ -312,91 +330,76 @@ def published_table(rows: pd.DataFrame, layout: Layout, protocol: str) -> Table 
     return table
 
 
-@dataclass(frozen=True)
-class _Shared:
-    """What every protocol's section draws on: the figures by section (FigureSpecs) and the
-    reference detectors the others are set against."""
-
-    figures: dict[str | None, list]
-    reference: Sequence[str] = ()
+def _every_detector(
+    section: Section, split: Split, o: ReportOptions, reference: Sequence[str]
+) -> list:
+    """The tables that set every detector of a protocol side by side, one per part of a split,
+    each with its change from the ``reference`` detector where that ran."""
+    protocol, layout, tables = section.protocol, section.layout, []
+    for which, part in split.parts:
+        tag = [protocol, "detectors", *([split.name] if split.name != "paper" else [])]
+        table = side_by_side(
+            part,
+            layout,
+            [d for d in section.detectors if d in set(part["detector"])],
+            o.metric,
+            label_="tab:" + "-".join([*tag, *(str(v) for v in which.values())]),
+        )
+        if table is not None:
+            table.caption += which_text(which)
+            table.subject = f"Protocol {protocol}, {split.name} split."
+            if "detector" not in table_keys(part, layout):
+                versus_column(table, part, reference, o.predictions)
+            tables.append(table)
+    return tables
 
 
 def _protocol_blocks(
-    rows: pd.DataFrame,
-    protocol: str,
-    found: tuple[Layout, str],  # the protocol's layout and its note
-    o: ReportOptions,
-    shared: _Shared,
+    section: Section, o: ReportOptions, figures: list, reference: Sequence[str]
 ) -> list:
-    (layout, note), metric, predictions = found, o.metric, o.predictions
-    figures, reference = shared.figures, shared.reference
-    prows = rows[rows["protocol"] == protocol]
+    """A protocol's section: why some of its data made no cell, its layout's note, every
+    detector side by side (with ``figures`` of them all), the published table, then each
+    detector's own tables and figures."""
+    protocol, layout = section.protocol, section.layout
     blocks: list = [Heading(protocol, 2)]
-    standing = stand_ins(prows)
-    if standing.any():  # the protocol made no cell on (some of) the data: say why
-        datasets = prows["dataset_fingerprint"].nunique() if "dataset_fingerprint" in prows else 1
-        blocks.append(Text(no_cell_note(prows[standing], datasets)))
-        prows = prows[~standing]
-        if prows.empty:
-            return blocks
-    if note:
-        blocks.append(Text(note))
-    detectors = rank(prows["detector"].unique(), DETECTOR_ORDER)
-    if len(detectors) > 1:
+    if section.no_cell:  # the protocol made no cell on (some of) the data: say why
+        blocks.append(Text(section.no_cell))
+    if section.cells.empty:
+        return blocks
+    if section.note:
+        blocks.append(Text(section.note))
+    splits = [split.name for split in section.splits]
+    if len(section.detectors) > 1:
         blocks.append(Heading(f"{protocol}: every detector", 3))
-        for split, srows in splits_of(prows):
-            for which, part in split_parts(srows, layout):
-                tag = "-".join(
-                    [
-                        protocol,
-                        "detectors",
-                        *([split] if split != "paper" else []),
-                        *(str(v) for v in which.values()),
-                    ]
-                )
-                table = side_by_side(
-                    part,
-                    layout,
-                    [d for d in detectors if d in set(part["detector"])],
-                    metric,
-                    label_=f"tab:{tag}",
-                )
-                if table is not None:
-                    table.caption += which_text(which)
-                    table.subject = f"Protocol {protocol}, {split} split."
-                    if "detector" not in table_keys(part, layout):
-                        versus_column(table, part, reference, predictions)
-                    blocks.append(table)
-        splits = [s for s, _ in splits_of(prows)]
+        for split in section.splits:
+            blocks += _every_detector(section, split, o, reference)
         blocks += sorted(
-            (f for f in figures.get(protocol, []) if f.detector is None),
+            (f for f in figures if f.detector is None),
             key=lambda f: splits.index(f.split) if f.split in splits else len(splits),
         )
     if o.paper:
-        published = published_table(prows, layout, protocol)
+        published = published_table(section.cells, layout, protocol)
         if published is not None:
             blocks += [Heading(f"{protocol}: published", 3), published]
-    for split, srows in splits_of(prows):
-        for detector in detectors:
-            drows = srows[srows["detector"] == detector]
+    for split in section.splits:
+        for detector in section.detectors:
+            drows = split.rows[split.rows["detector"] == detector]
             if drows.empty:
                 continue
-            detail: list = [Heading(f"{protocol}: {detector} ({split} split)", 3)]
+            detail: list = [Heading(f"{protocol}: {detector} ({split.name} split)", 3)]
             detail += [
                 t
                 for _, t in protocol_tables(
-                    drows, layout, protocol, detector, split, **dataclasses.asdict(o)
+                    drows, layout, protocol, detector, split.name, **dataclasses.asdict(o)
                 )
             ]
-            detail += [
-                f for f in figures.get(protocol, []) if f.detector == detector and f.split == split
-            ]
+            detail += [f for f in figures if f.detector == detector and f.split == split.name]
             blocks.append(Detail(protocol, detail))
     return blocks
 
 
 def build_report(
-    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]] | None = None, **options
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]] | None = None, **options
 ) -> list:
     """The report as blocks (:class:`Heading`, :class:`Text`, tables, and, with
     ``with_figures``, :class:`~slipbench.report.plots.FigureSpec`), in the module's outline.
@@ -408,47 +411,36 @@ def build_report(
     o = ReportOptions(**options)
     metric, intervals, paper, with_figures = o.metric, o.intervals, o.paper, o.with_figures
     predictions = o.predictions
-    both = rows[~stand_ins(rows)]
-    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
-    found = layouts(rows) if found is None else found
-    order = protocol_order(found)
-    splits = splits_of(rows)
-    # the header counts every row; the rest lays out cells, not the stand-ins of protocols that
-    # made none (their sections say why)
-    cells = rows[~stand_ins(rows)]
-    lead = splits[0][
-        1
-    ]  # the leaderboard and the findings rank one split: the grouped one where present
-    lead = lead[~stand_ins(lead)]
+    made = outline(rows, found)
+    cells, lead, splits = made.cells, made.lead, made.splits
     figures: dict[str | None, list] = {}
     if with_figures:
         from slipbench.report.plots import figure_specs
 
-        for spec in figure_specs(cells, paper, None, found):
+        for spec in figure_specs(made, paper):
             figures.setdefault(spec.section, []).append(spec)
     blocks: list = [
         Heading("slipbench report", 1),
         Heading("What this report stands on", 2),
-        *header_tables(rows, metric, order, o.benchmark, o.superseded),
+        *header_tables(made.rows, metric, made.order, o.benchmark, o.superseded),
+        *_unproven(o.unproven),
         Heading("Leaderboard", 2),
     ]
     side = (
-        split_table(cells, [s for s, _ in splits], metric, order, DETECTOR_ORDER)
-        if len(splits) > 1
-        else None
+        split_table(cells, splits, metric, made.order, DETECTOR_ORDER) if len(splits) > 1 else None
     )
     if len(splits) > 1:
         blocks.append(
             Text(
-                f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0][0]} split"
+                f"{'The leaderboard and the findings rank' if paper else 'The leaderboard ranks'} the {splits[0]} split"
                 + (
-                    f"; the table after the leaderboard sets the {splits[1][0]} split beside it."
+                    f"; the table after the leaderboard sets the {splits[1]} split beside it."
                     if side
                     else "."
                 )
             )
         )
-    blocks += _leaderboards(lead, metric, order, with_figures, predictions)
+    blocks += _leaderboards(lead, metric, made.order, with_figures, predictions)
     lone = one_class_table(cells)  # ranked in no split
     if lone is not None:
         blocks += [Heading("Test sets of one class", 2), lone]
@@ -457,8 +449,7 @@ def build_report(
     if o.leaderboard_only:
         return blocks
     if paper:
-        blocks += _findings(lead, found, order)
-    reference = references(cells)
+        blocks += _findings(lead, made.found, made.order)
     fitted = fitted_tables(cells)
     if fitted:
         # each detector's choices are detail; the warnings about them stay in the summary
@@ -466,18 +457,18 @@ def build_report(
         blocks += [Heading("What fitting chose", 2)]
         blocks += [Detail("What fitting chose", own)] if own else []
         blocks += [t for t in fitted if not t.label.startswith("tab:fitted-")]
-    for protocol in order:
-        blocks += _protocol_blocks(rows, protocol, found[protocol], o, _Shared(figures, reference))
-    table_one = [p for p, (layout, _) in found.items() if layout.paper_table == "window-size"]
+    for section in made.sections:
+        blocks += _protocol_blocks(section, o, figures.get(section.protocol, []), made.reference)
+    table_one = [s.protocol for s in made.sections if s.layout.paper_table == "window-size"]
     if table_one and "window" in lead:
         title = "At window 50: baseline and TP/TN rates" + (
-            f", {splits[0][0]} split" if len(splits) > 1 else ""
+            f", {splits[0]} split" if len(splits) > 1 else ""
         )
         blocks += _window_50(
             lead[lead["protocol"].isin(table_one)], title, intervals, paper, predictions
         )
-    blocks += meta_blocks(cells, reference, predictions, with_figures)
-    return blocks + reduction_blocks(both, predictions, with_figures)
+    blocks += meta_blocks(cells, made.reference, predictions, with_figures)
+    return blocks + reduction_blocks(made.stored, predictions, with_figures)
 
 
 def _tag(which: dict) -> str:
@@ -517,7 +508,9 @@ def _leaderboards(
     return blocks
 
 
-def _findings(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]) -> list:
+def _findings(
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]], order: list[str]
+) -> list:
     """How the paper's findings fare on ``rows``: one pair of tables per combination of the
     settings that differ between them."""
     from slipbench.report.findings import findings_table, paper_findings_table
@@ -604,7 +597,8 @@ def render(
     files: dict[str, list[Path]] | None = None,
     link_from: str | os.PathLike | None = None,
 ) -> str:
-    """Blocks as one Markdown, LaTeX or HTML text.
+    """Blocks as one text in format ``fmt`` (:data:`~slipbench.report.render.FORMATS`), by
+    that format's renderer.
 
     ``files``: figures drawn already (stem -> paths, from :func:`write_figures`): Markdown links
     them (relative to ``link_from``, the report's folder), LaTeX includes their PDF. HTML embeds
@@ -612,107 +606,31 @@ def render(
     """
     from slipbench.report.plots import FigureSpec
 
-    blocks = flatten(blocks)
+    out = renderer(fmt, standalone)
     files = files or {}
     base = Path(link_from) if link_from is not None else Path.cwd()
-    if fmt == "html":
-        from slipbench.report.html import page
-
-        parts = []
-        for block in blocks:
-            if isinstance(block, FigureSpec):
-                png = _png(block, files)
-                if png is not None:
-                    parts.append(
-                        (
-                            "figure",
-                            (block.stem, block.caption, base64.b64encode(png).decode("ascii")),
-                        )
-                    )
-            else:
-                parts.append((type(block).__name__.lower(), block))
-        return page(parts)
-    out: list[str] = []
-    sections = 0
-    for block in blocks:
+    parts = []
+    for block in flatten(blocks):
         if isinstance(block, Heading):
-            out.append(_heading(block, fmt, standalone, sections))
-            sections += block.level == 2
+            parts.append(out.heading(block))
         elif isinstance(block, Text):
-            out.append(_paragraph(block, fmt, standalone))
+            parts.append(out.paragraph(block))
         elif isinstance(block, Table):
-            out.append(to_markdown(block) if fmt == "md" else to_latex(block, page=standalone))
-        elif isinstance(block, FigureSpec) and block.stem in files:
-            paths = {p.suffix: Path(os.path.relpath(p, base)).as_posix() for p in files[block.stem]}
-            out += _figure(block.caption, paths, fmt, standalone)
-    text = "\n\n".join(out) + "\n"
-    if fmt == "latex" and standalone:
-        return standalone_latex(
-            text, graphics=any(isinstance(b, FigureSpec) and b.stem in files for b in blocks)
-        )
-    return text
+            parts.append(out.table(block))
+        elif isinstance(block, FigureSpec):
+            paths = {
+                p.suffix: Path(os.path.relpath(p, base)).as_posix()
+                for p in files.get(block.stem, [])
+            }
+            parts.append(
+                out.figure(Drawn(block.stem, block.caption, paths, partial(_png, block, files)))
+            )
+    return out.document([p for p in parts if p])
 
 
-def _one_line(text: str) -> str:
-    return " ".join(text.splitlines())
-
-
-def _heading(block: Heading, fmt: str, standalone: bool, sections: int) -> str:
-    """A heading: Markdown's, a LaTeX comment (tables only), or a LaTeX section; its text
-    escaped. ``sections``: level-2 headings before it (each after the first opens a page)."""
-    if fmt == "md":
-        return "#" * block.level + " " + md_text(block.text)
-    if not standalone:
-        return f"% {_one_line(block.text)}"
-    if block.level == 1:
-        return rf"{{\LARGE\bfseries {escape(block.text)}\par}}"
-    if block.level == 2:  # a section per page: its floats stay near its heading
-        return (r"\clearpage" "\n" if sections else "") + rf"\section*{{{escape(block.text)}}}"
-    # a heading at a page's foot goes to the next page, with its first table
-    return rf"\slipneed{{0.25\textheight}}" "\n" rf"\subsection*{{{escape(block.text)}}}"
-
-
-def _paragraph(block: Text, fmt: str, standalone: bool) -> str:
-    """A paragraph, its text escaped and its link (Markdown's own, else its label)."""
-    link = block.link
-    if fmt == "md":
-        shown = (
-            ""
-            if link is None
-            else f"[{md_text(link.label)}]({md_target(link.target)})"
-            if link.target
-            else md_text(link.label)
-        )
-        return md_text(block.text, paragraph=True) + shown + md_text(block.after)
-    text = block.text + ("" if link is None else link.label) + block.after
-    return escape(text) if standalone else f"% {_one_line(text)}"
-
-
-def _figure(caption: str, paths: dict[str, str], fmt: str, standalone: bool) -> list[str]:
-    """A drawn figure (``paths``: suffix -> path relative to the report): Markdown's image
-    with its caption under it, or a LaTeX float of its PDF."""
-    if fmt == "md" and ".png" in paths:
-        return [f"![{md_text(caption)}]({md_target(paths['.png'])})\n\n_{md_text(caption)}_"]
-    if fmt != "latex" or ".pdf" not in paths:
-        return []
-    return [
-        "\n".join(
-            [
-                r"\begin{figure}[H]" if standalone else r"\begin{figure}[!htbp]",
-                r"\centering",
-                # a tall figure shrinks to the page rather than run off it
-                r"\includegraphics[width=\linewidth,height=0.8\textheight,keepaspectratio]"
-                rf"{{{paths['.pdf']}}}",  # its stem is file_stem's: letters, digits, dots, hyphens
-                rf"\caption{{{escape(caption)}}}",
-                r"\end{figure}",
-            ]
-        )
-    ]
-
-
-def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) -> str:
+def protocol_table(rows: pd.DataFrame, intervals: bool = False) -> str:
     """The Markdown table(s) of one protocol's rows for one detector (what ``evaluate`` prints),
-    ``layout`` shown as :func:`~slipbench.report.presentation.presented` says."""
+    in the layout the rows record (:func:`~slipbench.report.outline.layouts`)."""
     rows = pd.DataFrame(rows)
     if rows.empty:
         return "(no cells)"
@@ -722,11 +640,10 @@ def protocol_table(rows: pd.DataFrame, layout: Layout, intervals: bool = False) 
     rows = as_tested(rows[~standing])
     rows = rows.assign(**{SIMULATED: on_simulation(rows)})
     protocol, detector = str(rows["protocol"].iloc[0]), str(rows["detector"].iloc[0])
-    layout = presented(protocol, layout)
-    why = fits(layout, rows)
-    shown = generic_layout(rows, protocol) if why else layout
-    tables = protocol_tables(rows, shown, protocol, detector, intervals=intervals)
-    return "\n\n".join(to_markdown(t) for _, t in tables)
+    layout, _ = layouts(rows)[protocol]
+    tables = protocol_tables(rows, layout, protocol, detector, intervals=intervals)
+    markdown = renderer("md")
+    return "\n\n".join(markdown.table(t) for _, t in tables)
 
 
 __all__ = [

@@ -19,10 +19,12 @@ from collections import Counter
 import numpy as np
 import pandas as pd
 
-from slipbench.protocol import Layout
+from slipbench.report.outline import fits
 from slipbench.report.paper import paper_frame
-from slipbench.report.tables import Table, fits, ordered, rank, summarize
-from slipbench.stats.contrast import ONE_SEED_COVERAGE, Estimate, contrast
+from slipbench.report.presentation import ShownLayout
+from slipbench.report.tables import Table, ordered, rank, summarize
+from slipbench.stats.contrast import ONE_SEED_COVERAGE, Contrast, from_rows
+from slipbench.store.columns import TN_RATE, TP_RATE
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
 
 COMBINED = "combined"
@@ -38,7 +40,7 @@ def _means(rows: pd.DataFrame, keys: list[str], values: str) -> pd.DataFrame:
 
 
 def _curve(
-    rows: pd.DataFrame, layout: Layout, values: str, ends: dict | None = None
+    rows: pd.DataFrame, layout: ShownLayout, values: str, ends: dict | None = None
 ) -> dict[str, float]:
     """Per sensor type: the mean over units at the largest ``x`` minus at the smallest; with
     ``ends`` (sensor type -> (smallest, largest), the paper's), only where the rows hold both."""
@@ -53,12 +55,12 @@ def _curve(
     return out
 
 
-def _ends(rows: pd.DataFrame, layout: Layout) -> dict:
+def _ends(rows: pd.DataFrame, layout: ShownLayout) -> dict:
     x = layout.x or layout.column
     return {s: (part[x].min(), part[x].max()) for s, part in rows.groupby("sensor_type")}
 
 
-def _pair(rows: pd.DataFrame, layout: Layout, values: str) -> tuple[float, str]:
+def _pair(rows: pd.DataFrame, layout: ShownLayout, values: str) -> tuple[float, str]:
     """The mean change without explicit training (points) and the level losing most."""
     keys, pair = [*layout.rows, layout.column], layout.pair
     assert pair is not None  # a with-without layout: its cells come in with/without pairs
@@ -73,7 +75,7 @@ def _pair(rows: pd.DataFrame, layout: Layout, values: str) -> tuple[float, str]:
     return float(change.mean()), f"{label(layout.column, worst)} ({per_level[worst]:+.1f})"
 
 
-def _matrix(rows: pd.DataFrame, layout: Layout, values: str) -> float:
+def _matrix(rows: pd.DataFrame, layout: ShownLayout, values: str) -> float:
     """Mean accuracy on the unit trained on minus on the other units (points)."""
     row, column = layout.rows[-1], layout.column
     m = _means(rows, ["sensor_type", row, column], values)
@@ -82,7 +84,7 @@ def _matrix(rows: pd.DataFrame, layout: Layout, values: str) -> float:
     return 100 * (same.mean() - other.mean()) if len(same) and len(other) else np.nan
 
 
-def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
+def _first_table(rows: pd.DataFrame, layout: ShownLayout) -> pd.DataFrame:
     from slipbench.report.outline import split_parts
 
     parts = split_parts(rows, layout)
@@ -92,7 +94,7 @@ def _first_table(rows: pd.DataFrame, layout: Layout) -> pd.DataFrame:
 
 
 def findings_table(
-    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]], order: list[str]
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]], order: list[str]
 ) -> Table | None:
     """One line per finding: the paper's value (its LSTM) and each detector's, in points."""
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
@@ -198,7 +200,7 @@ def _per_sensor(rows: pd.DataFrame, column: str, values: str) -> pd.DataFrame:
 def _cells(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
     """Finished cells: ``keys``, ``mean``, ``lo``, ``hi``. Where every finished cell ran the same
     several seeds, one line per cell and ``seed`` (its row's figure and interval), so that a
-    contrast is taken per seed (:func:`~slipbench.stats.contrast.contrast`); else one line per
+    contrast is taken per seed (:func:`~slipbench.stats.contrast.from_rows`); else one line per
     cell, the mean over its seeds with their interval (:func:`~slipbench.report.tables.summarize`)."""
     by = [*keys, "seed"] if _seed_grid(rows, keys) else keys
     s = summarize(rows, by, metric)
@@ -218,14 +220,14 @@ def _seed_grid(rows: pd.DataFrame, keys: list[str]) -> bool:
 
 def _unit_contrast(
     cells: pd.DataFrame, column: str, plus: list, minus: list, sensors: list[str] | None = None
-) -> Estimate:
+) -> Contrast:
     """Points: over the units (of ``sensors``) holding every value of ``plus`` and ``minus``,
-    the mean of (mean at ``plus`` - mean at ``minus``), with :func:`contrast`'s interval."""
+    the mean of (mean at ``plus`` - mean at ``minus``), with :func:`~slipbench.stats.contrast.from_rows`'s interval."""
     part = cells if sensors is None else cells[cells["sensor_type"].isin(sensors)]
     need = set(plus) | set(minus)
     units = [u for u, g in part.groupby(UNIT) if need <= set(g[column])]
     if not units:
-        return Estimate(np.nan, np.nan, np.nan)
+        return Contrast(np.nan)
     terms = []
     for u in units:
         g = part[(part["sensor_type"] == u[0]) & (part["sensor_instance"] == u[1])]
@@ -234,25 +236,23 @@ def _unit_contrast(
                 weight = sign / len(values) / len(units)
                 line = r[[c for c in ("mean", "lo", "hi", "seed") if c in r]].to_dict()
                 terms.append({"unit": u, "weight": weight, **line})
-    return contrast(pd.DataFrame(terms)).scaled(100)
+    return from_rows(pd.DataFrame(terms)).scaled(100)
 
 
-def _est(e: Estimate) -> str:
-    if not np.isfinite(e.value):
+def _est(e: Contrast) -> str:
+    if not np.isfinite(e.estimate):
         return "—"
-    return f"{e.value:+.1f}" + (f" [{e.lo:+.1f}, {e.hi:+.1f}]" if e.judged else "")
+    return f"{e.estimate:+.1f}" + (f" [{e.lo:+.1f}, {e.hi:+.1f}]" if e.judged else "")
 
 
 def _by_sensor(values: dict) -> str:
     """``Nano17 +10.4, ...``; estimates with their intervals."""
-    shown = {
-        s: v if isinstance(v, Estimate) else Estimate(v, np.nan, np.nan) for s, v in values.items()
-    }
+    shown = {s: v if isinstance(v, Contrast) else Contrast(v) for s, v in values.items()}
     return (
         ", ".join(
             f"{label('sensor_type', s)} {_est(shown[s])}"
             for s in ordered(list(shown), "sensor_type")
-            if np.isfinite(shown[s].value)
+            if np.isfinite(shown[s].estimate)
         )
         or "—"
     )
@@ -272,12 +272,12 @@ def _verdict(states: list[str]) -> str:
     return "partly: " + ", ".join(f"{n[s]} {s}" for s in (SHOWN, CONTRADICTED, UNDECIDED) if n[s])
 
 
-def _judged(estimates: dict[str, Estimate], rule) -> list[str]:
+def _judged(estimates: dict[str, Contrast], rule) -> list[str]:
     """``rule`` applied to each estimate that has an interval (the others are not judged)."""
     return [rule(e) for e in estimates.values() if e.judged]
 
 
-def _rise(e: Estimate) -> str:
+def _rise(e: Contrast) -> str:
     return _state(e.lo > 0, e.hi < 0)
 
 
@@ -291,8 +291,8 @@ def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]
     late = {s: _unit_contrast(cells, "window", [200], [50], [s]) for s in sensors}
     # (200 - 50) - (50 - 5): the rise beyond window 50 less the rise up to it
     bend = {s: _unit_contrast(cells, "window", [200, 5], [50], [s]).scaled(2) for s in sensors}
-    rise = {s: e for s, e in rise.items() if np.isfinite(e.value)}
-    late = {s: e for s, e in late.items() if np.isfinite(e.value)}
+    rise = {s: e for s, e in rise.items() if np.isfinite(e.estimate)}
+    late = {s: e for s, e in late.items() if np.isfinite(e.estimate)}
     levels = [
         _state(bend[s].hi < 0 and e.hi >= 0, bend[s].lo > 0 or e.hi < 0)
         for s, e in late.items()
@@ -340,13 +340,15 @@ def _rate_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
     bio = cells[cells["sensor_type"] == "BioTacSP"]
     low = sorted(r for r in bio["rate_hz"].unique() if r <= 212.5)
     high = sorted(r for r in bio["rate_hz"].unique() if r >= 425)
-    drop = _unit_contrast(bio, "rate_hz", low, high) if low and high else Estimate(*[np.nan] * 3)
+    drop = _unit_contrast(bio, "rate_hz", low, high) if low and high else Contrast(np.nan)
     per = _per_sensor(ours, "rate_hz", "ours") if len(bio) else pd.DataFrame()
     text = "—"
-    if np.isfinite(drop.value):
+    if np.isfinite(drop.estimate):
         b = per.loc["BioTacSP"].dropna()
         text = f"{b[b.index >= 425].mean():.1f} → {b[b.index <= 212.5].mean():.1f} ({_est(drop)})"
-    collapse = [] if not drop.judged else [_state(drop.hi < 0 and drop.value <= -10, drop.lo > -10)]
+    collapse = (
+        [] if not drop.judged else [_state(drop.hi < 0 and drop.estimate <= -10, drop.lo > -10)]
+    )
     return [
         [
             "Accuracy rises with the sampling rate (lowest → full rate, points)",
@@ -399,7 +401,9 @@ def _speed_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
     ]
 
 
-def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) -> list[list[str]]:
+def _material_findings(
+    ours: pd.DataFrame, paper: pd.DataFrame, layout: ShownLayout
+) -> list[list[str]]:
     texts, worst = [], {}
     for what, values in (("paper", paper), ("ours", ours)):
         change, text = _pair(values, layout, what) if len(values) else (np.nan, "")
@@ -418,7 +422,7 @@ def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
             for v in levels.values()
         }
         if target is not None and target in per and len(per) > 1:
-            runner_up = min((v for v in per if v != target), key=lambda v: per[v].value)
+            runner_up = min((v for v in per if v != target), key=lambda v: per[v].estimate)
             e = _unit_contrast(
                 cells,
                 "_level",
@@ -440,10 +444,12 @@ def _material_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
     ]
 
 
-def _transfer_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) -> list[list[str]]:
+def _transfer_findings(
+    ours: pd.DataFrame, paper: pd.DataFrame, layout: ShownLayout
+) -> list[list[str]]:
     penalty_p = _matrix(paper, layout, "paper") if len(paper) else np.nan
     row, column = layout.rows[-1], layout.column
-    e = Estimate(np.nan, np.nan, np.nan)
+    e = Contrast(np.nan)
     if len(ours):
         cells = _cells(ours, ["sensor_type", row, column])
         cells = cells[(cells[row] != COMBINED) & (cells[column] != COMBINED)]
@@ -454,8 +460,8 @@ def _transfer_findings(ours: pd.DataFrame, paper: pd.DataFrame, layout: Layout) 
                 unit=list(zip(cells["sensor_type"], cells[column])),
                 weight=np.where(same, seeds / same.sum(), -seeds / (~same).sum()),
             )
-            e = contrast(terms).scaled(100)
-    flags = [_state(e.lo > 0 and e.value >= 2, e.hi < 0)] if e.judged else []
+            e = from_rows(terms).scaled(100)
+    flags = [_state(e.lo > 0 and e.estimate >= 2, e.hi < 0)] if e.judged else []
     return [
         [
             "Another unit of the same type tests worse (the unit trained on minus other units, points)",
@@ -486,9 +492,9 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
         for s in SENSOR_ORDER
         if len(cells) and s in set(cells["sensor_type"])
     }
-    ours_lead = {s: v for s, v in ours_lead.items() if np.isfinite(v.value)}
+    ours_lead = {s: v for s, v in ours_lead.items() if np.isfinite(v.estimate)}
     # the mean over sensors: each sensor's units weigh 1 / (sensors x its units)
-    lead_all = Estimate(np.nan, np.nan, np.nan)
+    lead_all = Contrast(np.nan)
     if ours_lead:
         n_units = (
             cells[cells["sensor_type"].isin(list(ours_lead))]
@@ -503,23 +509,23 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
                 / c["sensor_type"].map(n_units).to_numpy(dtype=float)
             ),
         )
-        lead_all = contrast(terms).scaled(100)
+        lead_all = from_rows(terms).scaled(100)
     rates = paper_frame("rates_window_50").set_index("sensor_type")
-    paper_gap = {s: 100 * (r["tp_rate"] - r["tn_rate"]) for s, r in rates.iterrows()}
+    paper_gap = {s: 100 * (r[TP_RATE.name] - r[TN_RATE.name]) for s, r in rates.iterrows()}
     ok = at50[at50["status"] == "ok"] if "status" in at50 else at50
     gaps, balanced = {}, []
-    if {"tp_rate", "tn_rate"} <= set(ok.columns) and len(ok):
-        tp, tn = _cells(ok, UNIT, "tp_rate"), _cells(ok, UNIT, "tn_rate")
+    if {TP_RATE.name, TN_RATE.name} <= set(ok.columns) and len(ok):
+        tp, tn = _cells(ok, UNIT, TP_RATE.name), _cells(ok, UNIT, TN_RATE.name)
         rates_ = pd.concat([tp.assign(_r="tp"), tn.assign(_r="tn")], ignore_index=True)
         for s in ordered(list(dict.fromkeys(ok["sensor_type"])), "sensor_type"):
             gap = _unit_contrast(rates_, "_r", ["tp"], ["tn"], [s])
-            if not np.isfinite(gap.value):
+            if not np.isfinite(gap.estimate):
                 continue
             gaps[s] = gap
             one = rates_[rates_["sensor_type"] == s]
             n = one["sensor_instance"].nunique()
             tp_e, tn_e = (
-                contrast(
+                from_rows(
                     one[one["_r"] == r].assign(unit=lambda c: c["sensor_instance"], weight=1.0 / n)
                 ).scaled(100)
                 for r in ("tp", "tn")
@@ -528,7 +534,7 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
                 balanced.append(_balance(gap, tp_e, tn_e))
     lead = (
         _state(
-            lead_all.lo > 0 and 10 <= lead_all.value <= 20,
+            lead_all.lo > 0 and 10 <= lead_all.estimate <= 20,
             lead_all.hi < 10 or lead_all.lo > 20,
         )
         if lead_all.judged
@@ -555,10 +561,10 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
     ]
 
 
-def _balance(gap: Estimate, tp: Estimate, tn: Estimate) -> str:
+def _balance(gap: Contrast, tp: Contrast, tn: Contrast) -> str:
     """TP and TN rates balance: the gap small, both rates above a coin flip."""
     shown = (
-        abs(round(gap.value, 1)) <= BALANCE
+        abs(round(gap.estimate, 1)) <= BALANCE
         and -BALANCE_BAND <= gap.lo
         and gap.hi <= BALANCE_BAND
         and tp.lo > 50
@@ -579,7 +585,9 @@ def _sensor_mean(rows: pd.DataFrame, sensor: str, values: str) -> float:
     return float(m["mean"].mean()) if len(m) else np.nan
 
 
-def paper_findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]) -> Table | None:
+def paper_findings_table(
+    rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]]
+) -> Table | None:
     """Each of the paper's findings: its numbers (the published tables), ours (the LSTM's rows,
     and Holweg's for the comparison of the two), whether ours show it, and the criterion."""
     model = rows[rows["detector"] == PAPER_MODEL]
@@ -593,7 +601,7 @@ def paper_findings_table(rows: pd.DataFrame, found: dict[str, tuple[Layout, str]
 
     def part(
         table: str, detector: str = PAPER_MODEL
-    ) -> tuple[pd.DataFrame, pd.DataFrame, Layout | None]:
+    ) -> tuple[pd.DataFrame, pd.DataFrame, ShownLayout | None]:
         if table not in by_table:
             return rows.iloc[:0], paper_frame(table), None
         protocol, layout = by_table[table]

@@ -1,13 +1,16 @@
-"""One self-contained HTML page from a report's blocks: inline CSS, figures as base64 PNG, no
+"""HTML: one self-contained page from a report's blocks: inline CSS, figures as base64 PNG, no
 script and no external resource, so a lab can publish the file as it is."""
 
 from __future__ import annotations
 
+import base64
 import html
 import re
-from typing import Any
 
-from slipbench.report.render import md_target, to_html
+from slipbench.report.blocks import Heading, Text
+from slipbench.report.markdown import md_target
+from slipbench.report.render import Drawn, Renderer
+from slipbench.report.tables import Table
 
 CSS = """
 body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1b1b1b; margin: 0 auto;
@@ -41,57 +44,113 @@ def _anchor(text: str, used: set[str]) -> str:
     return anchor
 
 
-def page(parts: list[tuple[str, Any]]) -> str:
-    """An HTML document from (kind, block) pairs: ``heading``, ``text``, ``table`` blocks of
-    :mod:`slipbench.report.document`, and ``figure`` as (stem, caption, base64 PNG). A contents list of
-    the level-2 headings follows the title."""
+def to_html(table: Table) -> str:
+    """An HTML ``<table>`` with its caption, the group header over the value columns, one
+    ``<th scope="row">`` per row label, and the notes after it."""
+    n_rows = len(table.row_headers)
     esc = html.escape
-    used: set[str] = set()
-    body, contents, title = [], [], "slipbench report"
-    for kind, block in parts:
-        if kind == "heading":
-            anchor = _anchor(block.text, used)
-            if block.level == 1:
-                title = block.text
-            elif block.level == 2:
-                contents.append(f'<li><a href="#{anchor}">{esc(block.text)}</a></li>')
-            level = min(block.level, 6)
-            body.append(f'<h{level} id="{anchor}">{esc(block.text)}</h{level}>')
-        elif kind == "text":
-            link = block.link
-            shown = (
-                ""
-                if link is None
-                else f'<a href="{esc(md_target(link.target))}">{esc(link.label)}</a>'
-                if link.target
-                else esc(link.label)
-            )
-            body.append(f"<p>{esc(block.text)}{shown}{esc(block.after)}</p>")
-        elif kind == "table":
-            body.append(to_html(block))
-        elif kind == "figure":
-            stem, caption, data = block
-            body.append(
-                f'<figure id="fig-{esc(stem)}"><img src="data:image/png;base64,{data}" alt="{esc(caption)}">'
-                f"<figcaption>{esc(caption)}</figcaption></figure>"
-            )
-    if body and body[0].startswith("<h1"):
-        body.insert(1, f'<nav aria-label="contents"><ol>{"".join(contents)}</ol></nav>')
-    return "\n".join(
-        [
-            "<!DOCTYPE html>",
-            '<html lang="en">',
-            "<head>",
-            '<meta charset="utf-8">',
-            '<meta name="viewport" content="width=device-width, initial-scale=1">',
-            '<meta name="generator" content="slipbench">',
-            f"<title>{esc(title)}</title>",
-            f"<style>{CSS}</style>",
-            "</head>",
-            "<body>",
-            *body,
-            "</body>",
-            "</html>",
-            "",
-        ]
+    head = "".join(f'<th scope="col" rowspan="2">{esc(h)}</th>' for h in table.row_headers)
+    group = (
+        f'<th scope="colgroup" colspan="{len(table.columns)}">{esc(table.group)}</th>'
+        if table.group
+        else ""
     )
+    columns = "".join(f'<th scope="col">{esc(c)}</th>' for c in table.columns)
+    if table.group:
+        thead = f"<tr>{head}{group}</tr><tr>{columns}</tr>"
+    else:
+        thead = (
+            "<tr>"
+            + "".join(f'<th scope="col">{esc(h)}</th>' for h in table.row_headers)
+            + columns
+            + "</tr>"
+        )
+    body = []
+    for labels, cells in zip(table.rows, table.cells):
+        row_heads = "".join(f'<th scope="row">{esc(x)}</th>' for x in labels)
+        body.append(f"<tr>{row_heads}" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
+    ident = f' id="{esc(table.label)}"' if table.label else ""
+    notes = "".join(f'<p class="note">{esc(n)}</p>' for n in table.notes)
+    classes = "text" if table.wrap else "numbers"
+    return (
+        f'<div class="table-wrap"><table class="{classes}"{ident} data-row-headers="{n_rows}">'
+        f"<caption>{esc(table.caption)}{f' <span class=subject>{esc(table.subject)}</span>' if table.subject else ''}"
+        f"</caption><thead>{thead}</thead><tbody>{''.join(body)}</tbody></table>"
+        f"{notes}</div>"
+    )
+
+
+class Html(Renderer):
+    """One page: a contents list of the level-2 headings after the title, every table with its
+    caption and notes, every figure embedded as PNG (drawn now where it has no file). The page
+    keeps every table: it makes no appendix."""
+
+    name, suffix, cross_links, appendix, embeds_figures = "html", "html", True, False, True
+
+    def __init__(self, standalone: bool = False) -> None:
+        super().__init__(standalone)  # a page is always whole
+        self.used: set[str] = set()  # anchors given so far
+        self.contents: list[str] = []
+        self.title = "slipbench report"
+
+    def heading(self, block: Heading) -> str:
+        anchor = _anchor(block.text, self.used)
+        text = html.escape(block.text)
+        if block.level == 1:
+            self.title = block.text
+        elif block.level == 2:
+            self.contents.append(f'<li><a href="#{anchor}">{text}</a></li>')
+        level = min(block.level, 6)
+        return f'<h{level} id="{anchor}">{text}</h{level}>'
+
+    def paragraph(self, block: Text) -> str:
+        esc, link = html.escape, block.link
+        shown = (
+            ""
+            if link is None
+            else f'<a href="{esc(md_target(link.target))}">{esc(link.label)}</a>'
+            if link.target
+            else esc(link.label)
+        )
+        return f"<p>{esc(block.text)}{shown}{esc(block.after)}</p>"
+
+    def table(self, block: Table) -> str:
+        return to_html(block)
+
+    def figure(self, drawn: Drawn) -> str:
+        png = drawn.png()
+        if png is None:
+            return ""
+        esc, data = html.escape, base64.b64encode(png).decode("ascii")
+        return (
+            f'<figure id="fig-{esc(drawn.stem)}"><img src="data:image/png;base64,{data}" '
+            f'alt="{esc(drawn.caption)}"><figcaption>{esc(drawn.caption)}</figcaption></figure>'
+        )
+
+    def document(self, parts: list[str]) -> str:
+        body = list(parts)
+        if body and body[0].startswith("<h1"):
+            body.insert(1, f'<nav aria-label="contents"><ol>{"".join(self.contents)}</ol></nav>')
+        return "\n".join(
+            [
+                "<!DOCTYPE html>",
+                '<html lang="en">',
+                "<head>",
+                '<meta charset="utf-8">',
+                '<meta name="viewport" content="width=device-width, initial-scale=1">',
+                '<meta name="generator" content="slipbench">',
+                f"<title>{html.escape(self.title)}</title>",
+                f"<style>{CSS}</style>",
+                "</head>",
+                "<body>",
+                *body,
+                "</body>",
+                "</html>",
+                "",
+            ]
+        )
+
+
+RENDERER = Html
+
+__all__ = ["CSS", "RENDERER", "Html", "to_html"]

@@ -13,18 +13,27 @@ import pandas as pd
 
 from slipbench.report.outline import references
 from slipbench.report.tables import (
+    LOW_MARK,
     VERSUS,
     Table,
     add_versus,
-    change_text,
+    figure_label,
     ordered_keys,
     rank,
     summarize,
 )
+from slipbench.stats.contrast import Contrast, pair_seeds, paired_change, summary_figure
 from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
-from slipbench.stats.leaderboard import ALL, ALPHA, MEAN_METRICS, Leaderboard, Scope
-from slipbench.stats.pairs import paired_change
-from slipbench.vocabulary import DETECTOR_ORDER, METRIC_NAMES, label
+from slipbench.stats.leaderboard import (
+    ALL,
+    ALPHA,
+    MEAN_METRICS,
+    ONE_BLOCK,
+    ONE_RUN,
+    Leaderboard,
+    Scope,
+)
+from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
 _SEEDS_INTERVAL = (
@@ -71,10 +80,10 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
             )
         ]
     order = board.order
-    name = METRIC_NAMES.get(board.metric, board.metric)
+    name = figure_label(board.metric)
     scopes = [s for s in board.scopes if s.n_cells]
     columns = [f"{'all' if s.name == ALL else s.name} ({s.n_cells})" for s in scopes]
-    cells = [[f"{s.ranks[e]:.2f}" for s in scopes] for e in order]
+    cells = [[f"{s.ranks[e]:.2f}{_low(s, e)}" for s in scopes] for e in order]
     dup = overall.n_duplicates
     notes = [
         f"Mean rank of {name.lower()} over blocks, in parentheses the blocks ranked (1 = best): per block the "
@@ -97,7 +106,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     ]
     if len(order) == 1:
         notes.append("One detector: nothing to rank it against.")
-    notes += _one_class_note(board)
+    notes += _one_class_note(board) + _low_notes(scopes)
     tables = [
         Table(
             f"Leaderboard: detectors ranked by {name.lower()}.",
@@ -113,14 +122,14 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     shown = [
         m for m in MEAN_METRICS if board.means[f"{m}_cells"].max() > 0
     ]  # figures the rows hold
-    mean_cols = [f"{METRIC_NAMES.get(m, m)} (%)" for m in shown] + ["Blocks won"]
+    mean_cols = [f"{figure_label(m)} (%)" for m in shown] + ["Blocks won"]
     mean_cells = [
-        [_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) for m in shown]
-        + [str(int(overall.wins[e]))]
+        [_percent(*board.means.loc[e, [m, f"{m}_lo", f"{m}_hi"]]) + _low(overall, e) for m in shown]
+        + [f"{int(overall.wins[e])}{_low(overall, e)}"]
         for e in order
     ]
     fewer = [
-        f"{METRIC_NAMES.get(m, m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
+        f"{figure_label(m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
         "test set)"
         for m in shown
         if board.means[f"{m}_cells"].min() < overall.n_cells
@@ -143,12 +152,13 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
                     "noise within a cell, which the per-cell intervals show.]"
                 )
                 + " Blocks won: blocks where the detector ranked first (a tie counts for each)."
-                + (" " + "; ".join(fewer) + "." if fewer else "")
+                + (" " + "; ".join(fewer) + "." if fewer else ""),
+                *_low_notes([overall]),
             ],
         )
     )
     if len(order) >= 2:
-        tables.append(_groups_table(scopes))
+        tables.append(_groups_table(scopes, board))
         tables.append(_pairs_table(board, name))
     return tables
 
@@ -182,62 +192,92 @@ def versus_column(
     predictions: Sequence[str | os.PathLike] = (),
 ) -> None:
     """``table`` (a line per entrant of ``rows``) with its 'vs baseline' column: each line's
-    paired change in accuracy from the ``reference`` detectors' rows
-    (:func:`slipbench.stats.pairs.paired_change`), the reference's own lines marked; nothing
-    where the reference has no rows among ``rows``."""
+    seed-paired change from the ``reference`` detectors' rows
+    (:func:`slipbench.stats.contrast.paired_change`) in accuracy, or in a stream's detection
+    rate where the rows hold no accuracy; the reference's own lines marked; nothing where the
+    reference has no rows among ``rows``."""
     ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
     is_ref = ids.isin(reference)
     if not is_ref.any():
         return
-    texts, methods, twice = [], [], 0
+    figure = summary_figure(rows)
+    changes: list[tuple[Contrast, int] | None] = []
     for (entrant,) in table.rows:
         mine = rows["detector"] == entrant
         if is_ref[mine].all():
-            texts.append("reference")
+            changes.append(None)
             continue
-        change = paired_change(rows[is_ref], rows[mine], predictions)
-        texts.append(change_text(change))
-        methods += [change["method"]] if change["method"] else []
-        twice += change["n_skipped"]
-    add_versus(table, texts, ", ".join(reference), methods)
-    if twice:  # never dropped unsaid
-        table.notes.append(
-            f"{VERSUS}: {twice} shared {'cell was' if twice == 1 else 'cells were'} left out, a "
-            "seed stored twice on a side (two runs of one cell in one folder, e.g. before and "
-            "after a code change): rerun into a fresh folder."
-        )
+        pairing = pair_seeds(rows[is_ref], rows[mine], figure, ("the reference", entrant))
+        changes.append((paired_change(pairing, figure, predictions), pairing.low_n))
+    add_versus(table, changes, ", ".join(reference), figure)
 
 
-_UNDECIDED = (
-    "undecided: an entrant ran one seed, so nothing measures the luck its one run had in every "
-    "block (run `evaluate --repeats 2` or more)"
-)
+def _low(scope: Scope, entrant: str) -> str:
+    """The low-n mark where some ranked block of ``scope`` rests on few test trials of
+    ``entrant``'s."""
+    return LOW_MARK if scope.low_n.get(entrant, 0) else ""
 
 
-def _groups_table(scopes: list[Scope]) -> Table:
-    """Per scope, the groups of detectors that do not differ, from the scope's pairs."""
+def _low_notes(scopes: Sequence[Scope]) -> list[str]:
+    """What the low-n mark says of a board's figures, per scope where it appears."""
+    marked = [s for s in scopes if s.low_n.gt(0).any()]
+    if not marked:
+        return []
+    counts = "; ".join(
+        f"{'all' if s.name == ALL else s.name}: "
+        + ", ".join(f"{e} {n} of {s.n_cells}" for e, n in s.low_n.items() if n)
+        for s in marked
+    )
+    return [
+        f"{LOW_MARK} the detector's figures there rest on blocks of fewer than {LOW_N} test trials of "
+        f"a class (low n; {counts} blocks): each such block's figure is not to be trusted, nor are "
+        "the means, ranks and wins over them."
+    ]
+
+
+def _groups_table(scopes: list[Scope], board: Leaderboard) -> Table:
+    """Per scope, the groups of detectors not shown to differ, from the scope's pairs."""
     cells = []
     for s in scopes:
         decided = int(s.pairs["decided"].sum())
-        groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups) or "none: every pair differs"
+        groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups)
+        if not groups:
+            groups = "none: every pair differs" if decided == len(s.pairs) else "none decided"
         cells.append([str(s.n_cells), f"{decided} of {len(s.pairs)}", groups])
     return Table(
-        "Do the detectors differ? Groups per scope, from the pairwise tests over blocks and seeds.",
+        "Do the detectors differ? Groups per scope, from the pairwise contrasts over blocks and seeds.",
         ["Scope"],
         "",
-        ["Blocks", "Pairs decided", f"Groups that do not differ (Holm, α = {ALPHA:g})"],
+        ["Blocks", "Pairs decided", "Groups not shown to differ"],
         [("all" if s.name == ALL else s.name,) for s in scopes],
         cells,
         "tab:leaderboard-tests",
         wrap={3: 0.5},
         notes=[
-            "A group lists detectors, in rank order, no pair of which differs in the scope's pairwise "
-            "tests (the intervals of the pairwise table, over the scope's blocks and seeds, Holm across "
-            "every scope's decided pairs at once); a detector in no group differs from every other. A pair is "
-            f"{_UNDECIDED}; it never differs. Blocks share recordings (window 50 of a unit appears in "
-            "several protocols, with another model or test set), so they are not independent and the "
-            "p-values are optimistic."
+            "A group lists detectors, in rank order, every pair of which is decided and none shown to "
+            "differ (the pairwise table's intervals, over the scope's blocks and seeds, "
+            f"{_family_text(board)}); a detector in no group differs from every other or is undecided "
+            f"against it. A pair is decided where its interval holds every noise its claim needs: "
+            f"undecided where {UNDECIDED_WHY}; such a pair never differs and joins no group. Blocks "
+            "share recordings (window 50 of a unit appears in several protocols, with another model or "
+            "test set), so they are not independent and the intervals are optimistic."
         ],
+    )
+
+
+#: why a pair has no full interval, in the tables' notes
+UNDECIDED_WHY = (
+    "an entrant ran one seed (nothing measures the luck its one run had in every block; run "
+    "`evaluate --repeats 2` or more) or the scope has one block (nothing measures how the "
+    "difference varies between conditions)"
+)
+
+
+def _family_text(board: Leaderboard) -> str:
+    """The pairs' level and margin, in words."""
+    return (
+        f"each at {100 * board.level:.4g} %, Bonferroni over every scope's decided pairs so that "
+        f"all hold at once with 95 %; the margin ±{100 * board.margin:g} points"
     )
 
 
@@ -326,40 +366,58 @@ def _points(diff: float, lo: float, hi: float) -> str:
     )
 
 
+#: a pair's state in the pairwise table
+_DIFFER = {"shown": "yes", "contradicted": "no"}
+#: why a pair lacks a full interval, in a word
+_LACKS = {ONE_BLOCK: "one block", ONE_RUN: "one seed"}
+
+
+def _differ(r) -> str:
+    """``yes``, ``no``, or ``undecided`` with the noise its interval lacks."""
+    if r.state in _DIFFER:
+        return _DIFFER[r.state]
+    lacks = [word for reason, word in _LACKS.items() if reason in r.missing]
+    return "undecided" + (f" ({', '.join(lacks)})" if lacks else "")
+
+
 def _pairs_table(board: Leaderboard, name: str) -> Table:
-    """Each pair of detectors: the mean difference over the ranked blocks with its interval."""
-    pairs = board.pairs
-    n = board.scopes[0].n_cells
+    """Each pair of detectors: the mean difference over the ranked blocks with the interval its
+    state reads, at the family's level."""
+    pairs, overall = board.pairs, board.scopes[0]
     cells = [
         [
-            _points(r.diff, r.lo, r.hi),
+            _points(r.diff, r.lo, r.hi) + (_low(overall, r.a) or _low(overall, r.b)),
             "—" if not np.isfinite(r.p) else _p(r.p),
-            "—" if not np.isfinite(r.p_holm) else _p(r.p_holm),
-            "yes" if r.differ else ("no" if r.decided else "undecided"),
+            _differ(r),
         ]
         for r in pairs.itertuples(index=False)
     ]
+    n = overall.n_cells
     return Table(
         f"Pairwise: {name.lower()} of A minus B over the {n} ranked blocks (points).",
         ["A", "B"],
         "",
-        ["A − B [95 % interval]", "p", "p (Holm)", f"Differ (α = {ALPHA:g})"],
+        [f"A − B [{100 * board.level:.4g} % interval]", "p (Bonferroni)", "Differ"],
         [(r.a, r.b) for r in pairs.itertuples(index=False)],
         cells,
         "tab:leaderboard-pairs",
         notes=[
-            "A − B: the mean over the ranked blocks of A's figure minus B's (each the mean over its seeds); "
+            "A − B: the mean over the ranked blocks of A's figure minus B's (each the mean over its "
+            "seeds); "
             + (
                 _SEEDS_INTERVAL.format(n=board.n_seeds)[:-2]
-                + "; paired seed by seed where both ran the same seeds; not adjusted]. p: the p-value "
-                "of no difference at which the interval reaches 0"
-                f"; p (Holm): Holm-adjusted over every scope's decided pairs; a pair differs where p (Holm) < {ALPHA:g}"
+                + "; paired seed by seed where both ran "
+                "the same seeds"
                 if board.n_seeds > 1
-                else "[95 % interval: percentile bootstrap over blocks, each block's figure fixed, every "
-                f"pair on the same draws; not adjusted]. A pair is {_UNDECIDED}"
+                else "[interval over the blocks alone, a t-interval on their spread"
             )
-            + ". Like the ranks, the interval covers which conditions make up the benchmark"
+            + f"; {_family_text(board)}]. Differ: yes where the interval lies beyond the margin, no "
+            "where it lies inside it, else undecided; p: the Bonferroni-adjusted p-value of a change "
+            f"within the margin, below {ALPHA:g} exactly where the pair differs; undecided, without p, "
+            f"where {UNDECIDED_WHY}. Like the ranks, the interval covers which conditions make up the "
+            "benchmark"
             + (" and the seeds" if board.n_seeds > 1 else "")
-            + ", not the test noise within a block."
+            + ", not the test noise within a block.",
+            *_low_notes([overall]),
         ],
     )

@@ -15,9 +15,11 @@ import pandas as pd
 
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.outline import splits_of
-from slipbench.report.tables import Table, rank
+from slipbench.report.tables import LOW_MARK, Table, rank
+from slipbench.stats.contrast import margin_of
 from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, transferred
-from slipbench.vocabulary import DETECTOR_ORDER
+from slipbench.store.columns import ACCURACY
+from slipbench.vocabulary import DETECTOR_ORDER, LOW_N
 
 TITLE = "Across datasets"
 
@@ -74,11 +76,16 @@ def analyses(
     return out
 
 
-def _change(d: float, lo: float, hi: float) -> str:
+def _change(d: float, lo: float, hi: float, df: float = np.nan) -> str:
+    """``+4.1 [-0.3, +8.6] (df 12)``: a change in points with the interval and degrees of
+    freedom the pooling reads (:func:`slipbench.stats.meta.pool`)."""
     if not np.isfinite(d):
         return "—"
     shown = f"{100 * d:+.1f}"
-    return shown + (f" [{100 * lo:+.1f}, {100 * hi:+.1f}]" if np.isfinite(lo) else "")
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        return shown
+    shown += f" [{100 * lo:+.1f}, {100 * hi:+.1f}]"
+    return shown + (f" (df {df:.3g})" if np.isfinite(df) else " (df ∞)" if df == np.inf else "")
 
 
 def summary_table(metas: list[MetaAnalysis]) -> Table:
@@ -88,12 +95,14 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
     for m in metas:
         per = m.datasets.set_index("dataset")
         line = [
-            _change(*per.loc[n, ["d", "lo", "hi"]]) if n in per.index else "not run"
+            _change(*per.loc[n, ["d", "lo", "hi", "df"]]) + LOW_MARK * bool(per.loc[n, "low_n"])
+            if n in per.index
+            else "not run"
             for n in datasets
         ]
         pooled = np.isfinite(m.d)
         line += [
-            _change(m.d, m.lo, m.hi) if pooled else "—",
+            _change(m.d, m.lo, m.hi, m.df) if pooled else "—",
             f"{1e4 * m.tau2:.2f}" if pooled else "—",
             f"{100 * m.i2:.0f} %" if pooled else "—",
             str(m.pooled_over),
@@ -106,6 +115,12 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
             if r["reason"]
         ]
         notes += [who + n for n in m.notes]
+        low = per[per["low_n"] > 0]
+        notes += [
+            f"{who}{name}: {LOW_MARK} {int(n)} of its paired cells rest on few test trials (fewer "
+            f"than {LOW_N} of a class): its change is not to be trusted, nor the pooled one."
+            for name, n in low["low_n"].items()
+        ]
     return Table(
         "Change in accuracy (points) per detector pair, on each dataset and pooled across them.",
         ["Pair"],
@@ -115,8 +130,9 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
         cells,
         "tab:meta",
         notes=[
-            "Each dataset: the mean over the cells both detectors finished there of the "
-            "difference in accuracy, its interval paired over the same cells and seeds. Pooled: "
+            "Each dataset: the mean over the cells and seeds both detectors finished there of "
+            "the difference in accuracy, paired seed by seed, with its 95 % interval "
+            "(estimate ± t(0.975, df) × se) and degrees of freedom. Pooled: "
             f"{METHOD_TEXT}; tau²: the variance of the true change between datasets; I²: the "
             "share of the spread between datasets that is not sampling noise. Rows trained on "
             "one dataset and tested on another do not enter.",
@@ -141,7 +157,8 @@ def meta_blocks(
         Text(
             f"Each pair of detectors on each of the {len(metas[0].datasets)} or more datasets "
             "these results hold, and one verdict across them: a pooled change whose interval "
-            "excludes 0 says which detector wins across the datasets; tau² and I² say how much "
+            f"lies beyond ±{100 * margin_of(ACCURACY.name):g} point (the accuracy's margin) says which detector "
+            "wins across the datasets; tau² and I² say how much "
             "that change differs from dataset to dataset."
         ),
         summary_table(metas),

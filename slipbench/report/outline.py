@@ -1,19 +1,28 @@
-"""What a report is made of, before any table is drawn: each protocol's layout (from the
-registry), the order of protocols, detectors and splits, and the parts of rows each table and
-figure shows. Shared by the report, its figures, the findings and compare."""
+"""What a report is made of, before any table is drawn (:func:`outline`, once per report): each
+protocol's layout (as its rows record it), the order of protocols, detectors and splits, and
+the parts of rows each table and figure shows. Shared by the report, its figures, the findings
+and compare."""
 
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 
 import pandas as pd
 
-from slipbench.errors import SlipbenchError
-from slipbench.protocol import NO_CELL, Layout
+from slipbench.protocol import NO_CELL, Layout, Presentation, from_record
 from slipbench.report.paper import table_order
-from slipbench.report.presentation import lineage, presented
-from slipbench.report.tables import TRAINED_AS, fits, generic_layout, rank
-from slipbench.stats.factors import SETTINGS, differing_settings, factor_values, setting_text
+from slipbench.report.presentation import ShownLayout, shown
+from slipbench.report.provenance import on_simulation
+from slipbench.report.tables import SIMULATED, TRAINED_AS, rank
+from slipbench.stats.factors import (
+    ENTRANT_ID,
+    SETTINGS,
+    differing_settings,
+    factor_values,
+    named_entrants,
+    setting_text,
+)
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
 
 
@@ -77,41 +86,74 @@ def no_cell_note(rows: pd.DataFrame, datasets: int = 1) -> str:
     return "No table:" + "".join(parts)
 
 
-def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
-    """Each protocol's layout, from its class in the registry (built-in, entry point or plugin
-    folder) made with the options its rows ran with and shown as :func:`presented` says, and a note when it fell back to a layout
-    from the cell keys (the protocol cannot be loaded, or its layout does not fit its rows).
-    Stand-in rows (:func:`stand_ins`) are not laid out: a protocol with nothing else keeps its
-    own layout, for its place in the report."""
-    from slipbench.engine.registry import protocols
+def _key_columns(rows: pd.DataFrame) -> list[str]:
+    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
+    keys: list[str] = []
+    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
+        for k in json.loads(text):
+            if k not in keys:
+                keys.append(k)
+    return keys
 
-    out: dict[str, tuple[Layout, str]] = {}
+
+def generic_layout(rows: pd.DataFrame, protocol: str) -> ShownLayout:
+    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
+    its rows): all keys but the last as rows, the last as columns."""
+    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
+    what = Layout((keys[0],), "detector") if len(keys) == 1 else Layout(tuple(keys[:-1]), keys[-1])
+    return shown(what, Presentation(title=protocol), protocol)
+
+
+def fits(layout: Layout, rows: pd.DataFrame) -> str:
+    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
+    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
+    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
+
+
+def _recorded(rows: pd.DataFrame, column: str) -> str:
+    """The first value the rows record in ``column`` ("" where none does)."""
+    if column not in rows:
+        return ""
+    given = rows[column].dropna().astype(str)
+    given = given[given != ""]
+    return given.iloc[0] if len(given) else ""
+
+
+def recorded_layout(rows: pd.DataFrame, protocol: str) -> ShownLayout | None:
+    """The layout and presentation that the rows of ``protocol`` record
+    (:func:`slipbench.protocol.described`), or None where they record none; a ValueError says
+    why a recorded one cannot be read."""
+    text = _recorded(rows, "protocol_layout")
+    if not text:
+        return None
+    look = _recorded(rows, "protocol_presentation")
+    return shown(
+        from_record(Layout, text), from_record(Presentation, look) if look else None, protocol
+    )
+
+
+def layouts(rows: pd.DataFrame) -> dict[str, tuple[ShownLayout, str]]:
+    """Each protocol's layout as its rows record it (:func:`recorded_layout`), and a note where
+    the report laid its rows out from their cell keys instead: the rows record no layout (rows
+    written before results recorded it, that the command could not fill in from the protocol's
+    plugin), one that cannot be read, or one that does not fit them. Stand-in rows (:func:`stand_ins`) are not
+    laid out: a protocol with nothing else keeps its own layout, for its place in the report."""
+    out: dict[str, tuple[ShownLayout, str]] = {}
     for name in rows["protocol"].unique():
         every = rows[rows["protocol"] == name]
         part = every[~stand_ins(every)]
-        layout: Layout | None
+        layout: ShownLayout | None
         try:
-            cls = protocols.get(name)
-            given = every["protocol_params"].iloc[0] if "protocol_params" in every else None
-            params = json.loads(given) if isinstance(given, str) else {}  # absent: the defaults
-            declared = cls(**params).layout
-            layout = (
-                presented(lineage(name, cls), declared)
-                if isinstance(declared, Layout)
-                else declared
-            )
+            layout = recorded_layout(every, name)
             why = (
-                "it declares no layout"
+                "its rows do not record the protocol's layout"
                 if layout is None
                 else fits(layout, part)
                 if len(part)
                 else ""
             )
-        except (SlipbenchError, TypeError, ValueError, json.JSONDecodeError) as exc:
-            layout, why = (
-                None,
-                f"protocol {name!r} could not be loaded ({exc}); pass its plugin folder with --plugins",
-            )
+        except ValueError as exc:
+            layout, why = None, f"its rows record a layout that cannot be read ({exc})"
         if why or layout is None:
             out[name] = (
                 generic_layout(part if len(part) else every, name),
@@ -122,7 +164,7 @@ def layouts(rows: pd.DataFrame) -> dict[str, tuple[Layout, str]]:
     return out
 
 
-def protocol_order(found: dict[str, tuple[Layout, str]]) -> list[str]:
+def protocol_order(found: dict[str, tuple[ShownLayout, str]]) -> list[str]:
     """Protocols laid out as the paper's tables first, in the paper's order, then the others."""
     paper_order = table_order()
 
@@ -143,21 +185,6 @@ def splits_of(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     return [
         (s, rows[rows["split"] == s]) for s in rank(rows["split"].unique(), ("grouped", "paper"))
     ]
-
-
-def sections_of(
-    rows: pd.DataFrame, found: dict[str, tuple[Layout, str]]
-) -> list[tuple[str, str, str, pd.DataFrame]]:
-    """(protocol, detector, split, rows): the paper's protocols in its order, then the others."""
-    out = []
-    for protocol in protocol_order(found):
-        prows = rows[rows["protocol"] == protocol]
-        for detector in rank(prows["detector"].unique(), DETECTOR_ORDER):
-            out += [
-                (protocol, detector, split, part)
-                for split, part in splits_of(prows[prows["detector"] == detector])
-            ]
-    return out
 
 
 def split_parts(rows: pd.DataFrame, layout: Layout) -> list[tuple[dict, pd.DataFrame]]:
@@ -195,17 +222,105 @@ def which_text(which: dict) -> str:
 
 
 def references(rows: pd.DataFrame) -> list[str]:
-    """The plugin ids of the rows' detectors that are registered as the reference (the
-    baseline every table compares against); a detector that cannot be loaded is none."""
-    from slipbench.engine.registry import detectors
-    from slipbench.stats.factors import ENTRANT_ID
+    """The plugin ids of the rows' detectors that are the registered reference (the baseline
+    every table compares against), as the rows record it (``detector_reference``)."""
+    if "detector_reference" not in rows:
+        return []
+    ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
+    flagged = rows["detector_reference"].astype("boolean").fillna(False).to_numpy(bool)
+    return sorted(ids[flagged].dropna().astype(str).unique())
 
-    ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows.get("detector", pd.Series(dtype=str))
-    out = []
-    for name in sorted(ids.dropna().astype(str).unique()):
-        try:
-            if getattr(detectors.get(name), "reference", False):
-                out.append(name)
-        except SlipbenchError:
-            continue
-    return out
+
+@dataclass(frozen=True)
+class Split:
+    """A protocol's cells of one split (``name``: grouped, paper, ...): their rows and the
+    parts of them each table of every detector shows (:func:`split_parts`)."""
+
+    name: str
+    rows: pd.DataFrame
+    parts: list[tuple[dict, pd.DataFrame]]
+
+
+@dataclass(frozen=True)
+class Section:
+    """One protocol's section of a report: its layout, the note where that is the cell keys'
+    (:func:`layouts`), why some of its data made no cell (:func:`no_cell_note`; "" where all
+    did), and its cells: their rows, the same per split (:func:`splits_of`), and their
+    detectors in the tables' order."""
+
+    protocol: str
+    layout: ShownLayout
+    note: str
+    no_cell: str
+    cells: pd.DataFrame
+    splits: list[Split]
+    detectors: list[str]
+
+
+@dataclass(frozen=True)
+class Outline:
+    """What a report is made of, decided once before any table is drawn.
+
+    Attributes
+    ----------
+    rows : every row, each detector named as its entrant
+        (:func:`~slipbench.stats.factors.named_entrants`), each unit as it was tested
+        (:func:`as_tested`), rows tested on a simulation whose force direction gives slip away
+        flagged (:data:`~slipbench.report.tables.SIMULATED`).
+    cells : those rows without the stand-ins of protocols that made no cell.
+    stored : the cells as the rows store them (detectors by plugin id), for the section that
+        pairs a detector's inputs.
+    found : each protocol's layout and its note.
+    sections : the protocols in the paper's order (:func:`protocol_order`).
+    splits : the splits of the rows, the one the leaderboard and the findings rank first.
+    lead : the cells of that split.
+    reference : the reference detectors (:func:`references`).
+    """
+
+    rows: pd.DataFrame
+    cells: pd.DataFrame
+    stored: pd.DataFrame
+    found: dict[str, tuple[ShownLayout, str]]
+    sections: list[Section]
+    splits: list[str]
+    lead: pd.DataFrame
+    reference: list[str]
+
+    @property
+    def order(self) -> list[str]:
+        return [s.protocol for s in self.sections]
+
+
+def _section(rows: pd.DataFrame, protocol: str, found: tuple[ShownLayout, str]) -> Section:
+    mine = rows[rows["protocol"] == protocol]
+    standing = stand_ins(mine)
+    datasets = mine["dataset_fingerprint"].nunique() if "dataset_fingerprint" in mine else 1
+    no_cell = no_cell_note(mine[standing], datasets) if standing.any() else ""
+    cells = mine[~standing]
+    detectors = rank(cells["detector"].unique(), DETECTOR_ORDER)
+    layout = found[0]
+    splits = (
+        [Split(s, r, split_parts(r, layout)) for s, r in splits_of(cells)] if len(cells) else []
+    )
+    return Section(protocol, *found, no_cell, cells, splits, detectors)
+
+
+def outline(rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]] | None = None) -> Outline:
+    """The :class:`Outline` of a report of ``rows``; ``found``: each protocol's layout and note
+    (default: :func:`layouts`)."""
+    stored = rows[~stand_ins(rows)]
+    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
+    found = layouts(rows) if found is None else found
+    cells = rows[~stand_ins(rows)]
+    splits = splits_of(rows)
+    lead = splits[0][1]
+    return Outline(
+        rows,
+        cells,
+        stored,
+        found,
+        [_section(rows, p, found[p]) for p in protocol_order(found)],
+        [s for s, _ in splits],
+        lead[~stand_ins(lead)],
+        references(cells),
+    )

@@ -9,6 +9,8 @@ from typing import Any
 
 import pandas as pd
 
+from slipbench.stats.metrics import RATES
+
 
 @cache
 def paper_data() -> dict[str, Any]:
@@ -35,7 +37,7 @@ def paper_frame(name: str) -> pd.DataFrame:
     if spec is None:
         return pd.DataFrame()
     frame = pd.DataFrame(spec["rows"], columns=spec["columns"])
-    for col in ("accuracy", "tp_rate", "tn_rate"):
+    for col in RATES:
         if col in frame:
             frame[col] = frame[col] / 100
     if name == "sampling-rate":

@@ -1,7 +1,7 @@
 """Figures from result rows (matplotlib, no pyplot state), of the kinds each protocol's layout
-declares (``Layout.figure``), never chosen by a protocol's name:
+declares (``Presentation.figure``), never chosen by a protocol's name:
 
-- "curve": per detector, accuracy against ``Layout.x`` with one line per finger and its 95 %
+- "curve": per detector, accuracy against ``Presentation.x`` with one line per finger and its 95 %
   interval as a band (the paper's LSTM values as hollow markers); across detectors, every
   detector on one axis per sensor type (mean over fingers, the range over fingers shaded) with
   the paper's LSTM as a dashed reference line;
@@ -40,11 +40,13 @@ from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from slipbench.errors import writing  # noqa: E402
-from slipbench.protocol import Layout  # noqa: E402
+from slipbench.report.outline import Outline, Section, Split, split_parts  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
+from slipbench.report.presentation import ShownLayout  # noqa: E402
 from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 from slipbench.stats.meta import MetaAnalysis  # noqa: E402
+from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS  # noqa: E402
 from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E402
 
 if TYPE_CHECKING:
@@ -143,7 +145,7 @@ def _sensors(rows: pd.DataFrame) -> list[str]:
     return ordered(rows["sensor_type"].unique(), "sensor_type")
 
 
-def _x_axis(ax, x: pd.Series, layout: Layout) -> None:
+def _x_axis(ax, x: pd.Series, layout: ShownLayout) -> None:
     if layout.log_base:
         ax.set_xscale("log", base=layout.log_base)
         ticks = sorted(x.dropna().unique())
@@ -153,7 +155,9 @@ def _x_axis(ax, x: pd.Series, layout: Layout) -> None:
 
 
 @_styled
-def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None) -> Figure:
+def _curves(
+    rows: pd.DataFrame, layout: ShownLayout, title: str, paper: pd.DataFrame | None
+) -> Figure:
     """One detector: one panel per sensor type, stacked; one line per finger (and per
     combination of the layout's ``split`` columns that vary) with its interval band."""
     x, line, splits = layout.x or layout.column, layout.rows[-1], layout.splits
@@ -205,14 +209,14 @@ def _curves(rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame 
     return _finish_figure(fig, axes, layout, x, title)
 
 
-def _finish_panel(ax, sensor: str, xs: pd.Series, layout: Layout) -> None:
+def _finish_panel(ax, sensor: str, xs: pd.Series, layout: ShownLayout) -> None:
     """A sensor's panel of an accuracy curve: its x ticks, title and y label."""
     _x_axis(ax, xs, layout)
     ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
     ax.set_ylabel("accuracy (%)")
 
 
-def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Figure:
+def _finish_figure(fig: Figure, axes, layout: ShownLayout, x: str, title: str) -> Figure:
     """Stacked panels: the x label under the last, one legend, the title wrapped to the width."""
     axes[-1].set_xlabel(layout.x_label or AXIS_LABELS.get(x, x))
     _legend_once(fig, axes)
@@ -222,7 +226,7 @@ def _finish_figure(fig: Figure, axes, layout: Layout, x: str, title: str) -> Fig
 
 @_styled
 def _compare_curves(
-    rows: pd.DataFrame, layout: Layout, title: str, paper: pd.DataFrame | None
+    rows: pd.DataFrame, layout: ShownLayout, title: str, paper: pd.DataFrame | None
 ) -> Figure:
     """Every detector on one axis per sensor type: the mean over fingers of each finger's
     figure (mean over seeds), the range over fingers shaded, the paper's LSTM dashed."""
@@ -311,7 +315,7 @@ def _matrix(
 
 
 @_styled
-def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
+def _heatmaps(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     """With and without explicit training (``layout.pair``) and with minus without, stacked;
     rows sensor and finger, columns ``layout.column``."""
     column, pair = layout.column, layout.pair
@@ -355,7 +359,7 @@ def _heatmaps(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
 
 
 @_styled
-def _transfer(rows: pd.DataFrame, layout: Layout, title: str) -> Figure:
+def _transfer(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     """The last row key by the column key (training by test unit), one panel per sensor type."""
     row, column = layout.rows[-1], layout.column
     sensors = _sensors(rows)
@@ -391,9 +395,9 @@ def envelope(curve: pd.DataFrame) -> pd.DataFrame:
     any threshold reaches at that rate or fewer, so the curve rises monotonically (a sweep's
     raw points saw-tooth where a lower threshold trades detections between scenarios).
     Columns ``false_alarms_per_min`` (ascending, distinct) and ``detection_rate``."""
-    points = curve.dropna(subset=["false_alarms_per_min", "detection_rate"])
-    points = points.sort_values(["false_alarms_per_min", "detection_rate"])
-    best = points.groupby("false_alarms_per_min", sort=True)["detection_rate"].max().cummax()
+    x, y = FALSE_ALARMS.name, DETECTION_RATE.name
+    points = curve.dropna(subset=[x, y]).sort_values([x, y])
+    best = points.groupby(x, sort=True)[y].max().cummax()
     return best.reset_index()
 
 
@@ -419,10 +423,11 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     curves = {i: envelope(pd.DataFrame(json.loads(r["tradeoff"]))) for i, r in rows.iterrows()}
-    rates = [float(x) for c in curves.values() for x in c["false_alarms_per_min"]]
-    rates += [float(x) for x in rows["false_alarms_per_min"].dropna()]
-    if "op_false_alarms_per_min" in rows:
-        rates += [float(x) for x in rows["op_false_alarms_per_min"].dropna()]
+    alarms, detected = FALSE_ALARMS.name, DETECTION_RATE.name
+    rates = [float(x) for c in curves.values() for x in c[alarms]]
+    rates += [float(x) for x in rows[alarms].dropna()]
+    if f"op_{alarms}" in rows:
+        rates += [float(x) for x in rows[f"op_{alarms}"].dropna()]
     floor, decade = _floor(rates)
     ncols = 1 if len(detectors) < 3 else 2
     nrows = -(-len(detectors) // ncols)
@@ -436,8 +441,8 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
             color = f"C{sensors.index(row['sensor_type'])}"
             curve = curves[i]
             ax.plot(
-                np.maximum(curve["false_alarms_per_min"], floor),
-                100 * curve["detection_rate"],
+                np.maximum(curve[alarms], floor),
+                100 * curve[detected],
                 "-",
                 color=color,
                 lw=0.8,
@@ -445,7 +450,7 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
                 drawstyle="steps-post",  # the envelope holds its rate until the next point
             )
             for prefix, marker in (("", "o"), ("op_", "x")):
-                x, y = row.get(f"{prefix}false_alarms_per_min"), row.get(f"{prefix}detection_rate")
+                x, y = row.get(prefix + alarms), row.get(prefix + detected)
                 if pd.notna(x) and pd.notna(y):
                     ax.plot(
                         max(float(x), floor),
@@ -549,13 +554,19 @@ def critical_difference(board: Leaderboard) -> Figure:
             fontsize=7,
         )
     fig.suptitle(
-        f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)\n"
-        "a bar joins detectors that do not differ (pairwise tests over blocks and seeds, Holm)"
+        textwrap.fill(
+            f"Mean rank of {board.metric.replace('_', ' ')} over blocks (1 = best)", TITLE_CHARS
+        )
+        + "\n"
+        + textwrap.fill(
+            "a bar joins detectors not shown to differ (decided pairwise contrasts, Bonferroni)",
+            TITLE_CHARS,
+        )
     )
     return fig
 
 
-def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figure | None:
+def figure(part: pd.DataFrame, layout: ShownLayout, title: str, paper: bool) -> Figure | None:
     """One detector's figure of the kind ``layout.figure`` asks for, or None (no figure kind,
     or rows it cannot draw)."""
     if layout.figure is None or "sensor_type" not in part:
@@ -577,7 +588,9 @@ def figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figur
     return _transfer(part, layout, f"{layout.title or 'Accuracy'}: {title}")
 
 
-def compare_figure(part: pd.DataFrame, layout: Layout, title: str, paper: bool) -> Figure | None:
+def compare_figure(
+    part: pd.DataFrame, layout: ShownLayout, title: str, paper: bool
+) -> Figure | None:
     """Every detector of ``part`` on one figure, where ``layout.figure`` is a curve; else None."""
     if layout.figure != "curve" or "sensor_type" not in part or part["detector"].nunique() < 2:
         return None
@@ -599,109 +612,93 @@ def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> li
         FigureSpec(
             file_stem(f"leaderboard{tail}"),
             "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
-            "(duplicate cells merged); a bar joins detectors that do not differ (the pairwise "
-            f"table's tests over blocks and seeds, Holm; undecided pairs never differ).{named}",
+            "(duplicate cells merged); a bar joins detectors every pair of which is decided and "
+            "none shown to differ (the pairwise table's intervals over blocks and seeds, "
+            f"Bonferroni; a pair of one block or one seed joins no bar).{named}",
             None,
             lambda: critical_difference(board),
         )
     ]
 
 
-def figure_specs(
-    rows: pd.DataFrame,
-    paper: bool = True,
-    board: Leaderboard | None = None,
-    found: dict | None = None,
-) -> list[FigureSpec]:
-    """Every figure the rows allow: the critical-difference diagram (with ``board`` of two
-    detectors or more), then per protocol the figure of every detector together and each
-    detector's own, one per table where a layout splits its tables.
+def figure_specs(made: Outline, paper: bool = True) -> list[FigureSpec]:
+    """Every figure of a report's cells (``made``, its :class:`~slipbench.report.outline.Outline`):
+    per protocol the figure of every detector together and each detector's own, one per table
+    where a layout splits its tables.
 
-    Stems: ``leaderboard``, ``<protocol>-detectors[-<split>][-<values>]``,
-    ``<protocol>-<detector>[-<split>][-<values>]`` (split omitted for the paper's)."""
-    from slipbench.report.outline import layouts, protocol_order, sections_of, split_parts
+    Stems: ``<protocol>-detectors[-<split>][-<values>]``, ``<protocol>-<detector>[-<split>][-<values>]``
+    (split omitted for the paper's)."""
+    specs = []
+    for section in made.sections:
+        for split in section.splits:
+            specs += _detectors_specs(section, split, paper)
+            for detector in section.detectors:
+                drows = split.rows[split.rows["detector"] == detector]
+                if len(drows):
+                    specs += _detector_specs(section, (detector, split.name), drows, paper)
+    return specs
 
-    found = layouts(rows) if found is None else found
-    specs = [] if board is None else leaderboard_specs(board)
-    for protocol in protocol_order(found):
-        layout = found[protocol][0]
-        prows = rows[rows["protocol"] == protocol]
-        for split in rank(
-            prows["split"].unique() if "split" in prows else ["paper"], ("paper", "grouped")
-        ):
-            srows = prows[prows["split"] == split] if "split" in prows else prows
-            parts = split_parts(srows, layout)
-            for which, part in parts:
-                named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
-                tail = ("" if split == "paper" else f"-{split}") + (
-                    "".join(f"-{v}" for v in which.values()) if named else ""
-                )
-                if (
-                    layout.figure == "tradeoff"
-                    and part["detector"].nunique() > 1
-                    and "sensor_type" in part
-                ):
-                    specs.append(
-                        FigureSpec(
-                            f"{protocol}-detectors{tail}",
-                            f"{protocol}, every detector ({split} split{named}): detection rate "
-                            "against false alarms per minute over the threshold sweep (its upper envelope), one "
-                            "panel per detector, one curve per unit; dot: threshold 0.5, cross: the operating "
-                            "point chosen on the training trials.",
-                            protocol,
-                            partial(
-                                tradeoff, part, f"{protocol}, every detector ({split} split{named})"
-                            ),
-                            None,
-                            split,
-                        )
-                    )
-                if (
-                    layout.figure == "curve"
-                    and part["detector"].nunique() > 1
-                    and "sensor_type" in part
-                ):
-                    specs.append(
-                        FigureSpec(
-                            f"{protocol}-detectors{tail}",
-                            f"{protocol}, every detector ({split} split{named}): mean over fingers (line), range over "
-                            "fingers (band)"
-                            + (
-                                "; the paper's LSTM dashed."
-                                if paper and layout.paper_table
-                                else "."
-                            ),
-                            protocol,
-                            partial(
-                                compare_figure,
-                                part,
-                                layout,
-                                f"every detector ({split} split{named})",
-                                paper,
-                            ),
-                            None,
-                            split,
-                        )
-                    )
-    for protocol, detector, split, part in sections_of(rows, found):
-        layout = found[protocol][0]
-        parts = split_parts(part, layout)
-        for which, rows_ in parts:
-            named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
-            if layout.figure is None or "sensor_type" not in rows_:
-                continue
-            stem = f"{protocol}-{detector}" + ("" if split == "paper" else f"-{split}")
-            stem += "".join(f"-{v}" for v in which.values()) if named else ""
-            specs.append(
-                FigureSpec(
-                    file_stem(stem),
-                    f"{protocol}, {detector} ({split} split{named}).",
-                    protocol,
-                    partial(figure, rows_, layout, f"{detector} ({split} split{named})", paper),
-                    detector,
-                    split,
-                )
+
+def _tail(split: str, which: dict, named: str) -> str:
+    """A stem's end: the split (but the paper's) and, where a layout splits its tables, the
+    table's values."""
+    return ("" if split == "paper" else f"-{split}") + (
+        "".join(f"-{v}" for v in which.values()) if named else ""
+    )
+
+
+def _detectors_specs(section: Section, split: Split, paper: bool) -> list:
+    """The figures of every detector together, of one split of a protocol's cells."""
+    protocol, layout, parts = section.protocol, section.layout, split.parts
+    if layout.figure not in ("curve", "tradeoff") or "sensor_type" not in split.rows:
+        return []
+    specs = []
+    for which, part in parts:
+        if part["detector"].nunique() < 2:
+            continue
+        named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
+        title = f"every detector ({split.name} split{named})"
+        if layout.figure == "tradeoff":
+            caption = (
+                f"{protocol}, {title}: detection rate against false alarms per minute over the "
+                "threshold sweep (its upper envelope), one panel per detector, one curve per "
+                "unit; dot: threshold 0.5, cross: the operating point chosen on the training "
+                "trials."
             )
+            draw = partial(tradeoff, part, f"{protocol}, {title}")
+        else:
+            caption = (
+                f"{protocol}, {title}: mean over fingers (line), range over fingers (band)"
+                + ("; the paper's LSTM dashed." if paper and layout.paper_table else ".")
+            )
+            draw = partial(compare_figure, part, layout, title, paper)
+        stem = f"{protocol}-detectors{_tail(split.name, which, named)}"
+        specs.append(FigureSpec(stem, caption, protocol, draw, None, split.name))
+    return specs
+
+
+def _detector_specs(
+    section: Section, entry: tuple[str, str], rows: pd.DataFrame, paper: bool
+) -> list:
+    """The figures of one detector (``entry``: it and the split) of a protocol's cells."""
+    (detector, split), protocol, layout = entry, section.protocol, section.layout
+    specs = []
+    parts = split_parts(rows, layout)
+    for which, part in parts:
+        if layout.figure is None or "sensor_type" not in part:
+            continue
+        named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
+        title = f"{detector} ({split} split{named})"
+        specs.append(
+            FigureSpec(
+                file_stem(f"{protocol}-{detector}{_tail(split, which, named)}"),
+                f"{protocol}, {title}.",
+                protocol,
+                partial(figure, part, layout, title, paper),
+                detector,
+                split,
+            )
+        )
     return specs
 
 

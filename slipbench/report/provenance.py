@@ -8,6 +8,7 @@ readable (results do not copy it).
 from __future__ import annotations
 
 import json
+import os
 import re
 from collections import Counter
 from functools import cache
@@ -49,6 +50,7 @@ NORMALIZATION_TEXTS = {
     "taken on the unit's training-side recordings (a test dataset's unit: on its own recordings)",
 }
 TOP_VALUES = 2  # fitted values listed per unit before "k more"
+MAX_SOURCE_CHARS = 200  # a dataset's sources beyond this are summed up
 MAX_WARNINGS = 12
 
 
@@ -70,6 +72,21 @@ def _sources(path: str) -> list[str]:
     return sorted({str(s) for s in column.to_pylist() if s is not None})
 
 
+def _sources_text(sources: list[str]) -> str:
+    """The sources of a dataset's recordings, in at most about :data:`MAX_SOURCE_CHARS`
+    characters however many there are: listed whole, else what they share said once
+    (``BioTacSP-DoS ..., direction {aw, cw, e, n, s, t, w}``), else their count with the first
+    and the last (a lab's 1,000 files each naming its own made a 72,000-character line)."""
+    whole = "; ".join(sources)
+    if len(sources) == 1 or len(whole) <= MAX_SOURCE_CHARS:
+        return f"source {whole}"
+    shared = re.sub(r"[\w.]*$", "", os.path.commonprefix(sources))  # up to a word's start
+    grouped = shared + "{" + ", ".join(s[len(shared) :] for s in sources) + "}"
+    if shared and len(grouped) <= MAX_SOURCE_CHARS:
+        return f"sources {grouped}"
+    return f"{len(sources):,} sources, {sources[0]} … {sources[-1]}"
+
+
 def dataset_source(path: str) -> str:
     """What the dataset at ``path`` is: simulated with its model, scale and seed, or the values
     of its ``source`` column; from its ``recordings.parquet`` where readable, else from the
@@ -84,7 +101,7 @@ def dataset_source(path: str) -> str:
         simulated = [m for m in map(SYNTH_SOURCE.search, sources) if m]
         if len(simulated) == len(sources) and len({m[0] for m in simulated}) == 1:
             return _simulated(simulated[0])
-        return f"recorded: source {'; '.join(sources)} (at {path})"
+        return f"recorded: {_sources_text(sources)} (at {path})"
     folder = SYNTH_FOLDER.search(Path(path).name)
     if folder:
         return _simulated(folder) + " (from its folder's name; the dataset is not readable here)"
@@ -92,7 +109,7 @@ def dataset_source(path: str) -> str:
     return f"the dataset at {path} ({state})"
 
 
-# the first model version whose pressing carries shear inside the friction cone (docs/simulation.md)
+# the first model version whose pressing carries shear inside the friction cone (docs/explanation/simulation.md)
 SHEAR_WITHOUT_SLIP = 4
 
 

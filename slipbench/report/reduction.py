@@ -17,9 +17,11 @@ import pandas as pd
 
 from slipbench.report.blocks import Detail, Heading, Text
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.tables import LOW_MARK, Table, ordered, rank
+from slipbench.report.tables import CLASS_RATES, LOW_MARK, Table, ordered, rank
 from slipbench.stats.compare import ALPHA, MAX_WIDTH, MIN_SEEDS, RECOMMENDED_REPEATS
+from slipbench.stats.contrast import margin_of
 from slipbench.stats.reduction import READINGS, InputComparison, compare_inputs, has_both_inputs
+from slipbench.store.columns import ACCURACY
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, cell_label, label
 
 REDUCTION_TITLE = "What the reduction keeps: univariate vs channels"
@@ -119,13 +121,15 @@ def _stands_on(cmp: InputComparison) -> str:
             if len(cmp.pooled) > 1
             else f"its {_level(cmp.pooled_level)} interval alone is read: "
         )
-        + "channels better (interval above 0), worse (below 0), "
-        f"no difference resolved (it holds 0), or inconclusive (fewer than {LOW_N} test trials of a "
-        f"class, or wider than {MAX_WIDTH:g} points)."
+        + f"channels better (interval above +{MARGIN_POINTS:g} point), worse (below "
+        f"-{MARGIN_POINTS:g}), within the margin (inside ±{MARGIN_POINTS:g}), undecided (neither), or "
+        f"inconclusive (fewer than {LOW_N} test trials of a class, one seed per side, or wider than "
+        f"{MAX_WIDTH:g} points)."
     )
     if fewest < MIN_SEEDS:
         text += (
-            " With one seed per cell, retraining noise is not inside the intervals: run "
+            " With one seed per cell, retraining noise is not inside the intervals, so they read "
+            "inconclusive: run "
             f"`evaluate --input both --repeats {RECOMMENDED_REPEATS}` to include it."
         )
     return text
@@ -163,8 +167,7 @@ def _pooled_table(cmp: InputComparison, sensor: str, protocols: list[str]) -> Ta
                 _percent(r["univariate_accuracy"]),
                 _percent(r["channels_accuracy"]),
                 _points(r, "accuracy") + (LOW_MARK if r["low_n"] else ""),
-                _points(r, "tp_rate"),
-                _points(r, "tn_rate"),
+                *(_points(r, name) for name in CLASS_RATES),
                 _extremes(mine),
                 r["reading"],
             ]
@@ -198,11 +201,15 @@ def _pooled_table(cmp: InputComparison, sensor: str, protocols: list[str]) -> Ta
     )
 
 
+#: the margin the pooled changes are read against, in points
+MARGIN_POINTS = 100 * margin_of(ACCURACY.name)
+
 # how a sentence says each reading of the pooled changes it lists
 CLAUSES = {
     "channels better": "the channels beat the univariate signal in {}",
     "channels worse": "the channels fall behind the univariate signal in {}",
-    "no difference resolved": "no difference is resolved in {} (the interval holds 0)",
+    "within the margin": "the two are within the margin of each other in {}",
+    "undecided": "no difference beyond the margin is resolved in {}",
     "inconclusive": "nothing can be read in {}",
 }
 
@@ -215,6 +222,8 @@ def _where(r: dict, splits: bool) -> str:
         text += (
             f"; fewer than {LOW_N} test trials of a class"
             if r["low_n"]
+            else "; one seed per side"
+            if r["seeds"] < MIN_SEEDS
             else f"; interval wider than {MAX_WIDTH:g} points"
         )
     return f"{where} ({text})"
@@ -268,8 +277,7 @@ def _cells_table(cmp: InputComparison, detector: str, protocols: list[str]) -> T
                 _percent(r["univariate_accuracy"]),
                 _percent(r["channels_accuracy"]),
                 _points(r, "accuracy") + (LOW_MARK if r["low_n"] else ""),
-                _points(r, "tp_rate", bounds=False),
-                _points(r, "tn_rate", bounds=False),
+                *(_points(r, name, bounds=False) for name in CLASS_RATES),
             ]
         )
     return Table(

@@ -20,7 +20,8 @@ from slipbench.vocabulary import label
 COLOURS = {
     "channels better": "#2166ac",
     "channels worse": "#b2182b",
-    "no difference resolved": "0.25",
+    "within the margin": "0.1",
+    "undecided": "0.35",
     "inconclusive": "0.6",
 }
 

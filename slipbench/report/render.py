@@ -1,336 +1,86 @@
-"""Tables -> text: Markdown, LaTeX and HTML renderers (formatting only)."""
+"""Blocks -> text: the one interface every format's renderer implements, and the formats by
+name. A format is one module of this wing (``markdown``, ``latex``, ``html``) whose
+``RENDERER`` is a :class:`Renderer`; :func:`slipbench.report.document.render` feeds it a
+report's blocks in order. Adding a format is its module and its line in :data:`FORMATS`."""
 
 from __future__ import annotations
 
-import html
-import re
-from urllib.parse import quote
+import importlib
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar
 
-import pandas as pd
+if TYPE_CHECKING:  # the commands read FORMATS at start-up: nothing heavy loads with it
+    from slipbench.report.blocks import Heading, Text
+    from slipbench.report.tables import Table
 
-from slipbench.report.tables import Table, escape
-
-# one figure of a cell as ``figure_text`` writes it ("88.0 ± 0.4 [86.9, 89.1]†"), its marks after
-# it ("*": without explicit training); a paired cell holds two, separated by a space
-FIGURE = re.compile(
-    r"(?P<value>-?\d+(?:\.\d+)?|NA|—|\w+)(?P<sd> ± \d+(?:\.\d+)?)?"
-    r"(?: \[(?P<lo>-?\d+(?:\.\d+)?), (?P<hi>-?\d+(?:\.\d+)?)\])?(?P<mark>[*†]*)"
-)
-LATEX_TABLE_SIZE = (
-    r"\footnotesize"  # with intervals on a second line, the paper's tables fit the text width
-)
-LATEX_COLUMN_SEP = "3pt"
-# a standalone page: tables taller than this many lines of \footnotesize break across pages
-# (longtable); a page of the article class holds about 50 with the caption and a heading
-LONG_TABLE_LINES = 40
-CHARS_PER_LINE = 95  # \footnotesize characters on one \linewidth of the article class
+#: each format's name (``--format``) -> the module of this wing that renders it; the modules are
+#: imported when a report is rendered, so that the commands start without them
+FORMATS = {"md": "markdown", "latex": "latex", "html": "html"}
 
 
-# what Markdown reads as markup inside a line: code, emphasis, links, HTML, tables, entities
-MD_MARKUP = re.compile(r"([\\`*_\[\]<>|#~&])")
-# what it reads as markup at a line's start: lists, quotes, headings, rules, setext underlines
-MD_LINE_START = re.compile(r"^(\s*)([-+=>]|\d+(?=[.)]))")
+@dataclass(frozen=True)
+class Drawn:
+    """A figure as a renderer places it: its file stem, its caption, the files drawn already
+    (suffix -> path relative to the report, ``{".png": "plots/x.png"}``) and ``png``, which
+    gives the figure's PNG bytes (read from its file, else drawn now; None where the rows hold
+    nothing to draw)."""
+
+    stem: str
+    caption: str
+    paths: dict[str, str]
+    png: Callable[[], bytes | None]
 
 
-def md_text(text: object, paragraph: bool = False) -> str:
-    """Plain text as Markdown that shows it as it is, on one line: every character Markdown
-    reads as markup backslash-escaped (so a name holding ``|`` adds no table cell, and
-    ``<script>`` or ``[x](javascript:...)`` stays text), line breaks made spaces. A
-    ``paragraph`` starts a line: a list, quote or heading marker there is escaped too."""
-    escaped = MD_MARKUP.sub(r"\\\1", " ".join(str(text).splitlines()))
-    if not paragraph:
-        return escaped
-    return MD_LINE_START.sub(
-        lambda m: f"{m[1]}{m[2]}\\" if m[2][0].isdigit() else f"{m[1]}\\{m[2]}", escaped
-    )
+class Renderer(ABC):
+    """One document in one format. A renderer is made for one document (``standalone``: a
+    whole document, not only its tables, where the format tells the two apart), is given the
+    blocks in order, each one returning its text ("" for what the format does not show), and
+    joins them in :meth:`document`.
+
+    ``name`` is the format's name, ``suffix`` its files' suffix; ``cross_links``: a link may
+    point into another file's section (an appendix's), else it shows its label alone;
+    ``appendix``: a report in this format may move its detail to an appendix file;
+    ``embeds_figures``: the format shows every figure without figure files (it draws them)."""
+
+    name: ClassVar[str]
+    suffix: ClassVar[str]
+    cross_links: ClassVar[bool] = False
+    appendix: ClassVar[bool] = True
+    embeds_figures: ClassVar[bool] = False
+
+    def __init__(self, standalone: bool = False) -> None:
+        self.standalone = standalone
+
+    @abstractmethod
+    def heading(self, block: Heading) -> str:
+        """A heading, its text escaped."""
+
+    @abstractmethod
+    def paragraph(self, block: Text) -> str:
+        """A paragraph, its text escaped, with its link."""
+
+    @abstractmethod
+    def table(self, block: Table) -> str:
+        """A table with its caption, headers and notes."""
+
+    @abstractmethod
+    def figure(self, drawn: Drawn) -> str:
+        """A figure with its caption, or "" where the format has no file of it to show."""
+
+    @abstractmethod
+    def document(self, parts: list[str]) -> str:
+        """The document from the texts of its blocks, in order (empty ones left out)."""
 
 
-def md_code(text: object) -> str:
-    """Text as one Markdown code span, whatever backticks it holds (its fence is longer than
-    any run of them inside), on one line."""
-    one_line = " ".join(str(text).splitlines())
-    fence = "`" * (max((len(r) for r in re.findall(r"`+", one_line)), default=0) + 1)
-    pad = " " if one_line.startswith("`") or one_line.endswith("`") else ""
-    return f"{fence}{pad}{one_line}{pad}{fence}"
+def renderer(fmt: str, standalone: bool = False) -> Renderer:
+    """The renderer of format ``fmt`` (one of :data:`FORMATS`: its module's ``RENDERER``) for
+    one document."""
+    if fmt not in FORMATS:
+        raise ValueError(f"unknown report format {fmt!r}; one of {', '.join(FORMATS)}")
+    cls: type[Renderer] = importlib.import_module(f"slipbench.report.{FORMATS[fmt]}").RENDERER
+    return cls(standalone)
 
 
-def md_target(target: str) -> str:
-    """A link target the report makes (a relative path and anchor) as Markdown takes it:
-    percent-encoded, and never read as a scheme (``javascript:`` becomes ``./javascript:``)."""
-    if re.match(r"[A-Za-z][A-Za-z0-9+.-]*:", target):
-        target = "./" + target
-    return quote(target, safe="/#.-_~")
-
-
-def md_table(header: list[str], rows: list[list[str]], align: str = "right") -> str:
-    """A pipe table of plain texts: each escaped (:func:`md_text`), so every row keeps the
-    header's number of cells."""
-    frame = pd.DataFrame(
-        [[md_text(c) for c in row] for row in rows], columns=[md_text(h) for h in header]
-    )
-    return frame.to_markdown(index=False, stralign=align, disable_numparse=True)
-
-
-def to_markdown(table: Table) -> str:
-    """Markdown: caption in bold, one pipe table, notes in italics; every text escaped."""
-    body = md_table(
-        [*table.row_headers, *table.columns],
-        [[*r, *c] for r, c in zip(table.rows, table.cells)],
-        "left" if table.wrap else "right",
-    )
-    rest = (f" {table.group}." if table.group else "") + (
-        f" {table.subject}" if table.subject else ""
-    )
-    parts = [f"**{md_text(table.caption)}**{md_text(rest)}", "", body]
-    parts += [""] + [f"_{md_text(n)}_" for n in table.notes] if table.notes else []
-    return "\n".join(parts)
-
-
-def _stacked(lines: list[str]) -> str:
-    return (
-        r"\begin{tabular}{@{}c@{}}" + r"\\".join(lines) + r"\end{tabular}"
-        if len(lines) > 1
-        else lines[0]
-    )
-
-
-def latex_cell(text: str) -> str:
-    """A cell for LaTeX, stacked so that wide tables fit the text width: the interval (and the
-    spread over seeds) on its own line in a smaller size (``88.0`` over ``86.9--89.1``), the
-    two figures of a paired cell (with, without*) one above the other."""
-    figures = list(FIGURE.finditer(text))
-    if " ".join(m[0] for m in figures) != text or not (
-        len(figures) > 1 or any(m["lo"] or m["sd"] for m in figures)
-    ):
-        named = re.fullmatch(r"(\S+) \((.+)\)", text)  # "Neoprene (-9.1)": the name over its figure
-        return _stacked([escape(named[1]), escape(f"({named[2]})")]) if named else escape(text)
-    lines = []
-    for m in figures:
-        lines.append(escape(m["value"] + m["mark"]))
-        if m["sd"]:  # the spread over seeds on a line of its own, as the interval
-            lines.append(rf"{{\scriptsize {escape(m['sd'].strip())}}}")
-        if m["lo"]:
-            lines.append(rf"{{\scriptsize {m['lo']}--{m['hi']}}}")
-    return _stacked(lines)
-
-
-def _latex_header(text: str) -> str:
-    """A column label on several lines: a parenthesis on its own ("holweg (paper)"), a long
-    hyphenated name broken after its hyphens ("material-" over "holdout")."""
-    if text.startswith(r"\begin"):
-        return text
-    head, _, tail = text.partition(" (")
-    lines = re.sub(r"(?<=-)(?=[a-z])", "\n", head).split("\n") if len(head) > 10 else [head]
-    return _stacked(lines + (["(" + tail] if tail else []))
-
-
-def _two_lines(text: str, limit: int = 44) -> str:
-    """Escaped text, on two lines (at the space nearest its middle) when longer than ``limit``."""
-    if len(text) <= limit or " " not in text:
-        return escape(text)
-    middle = min((i for i, c in enumerate(text) if c == " "), key=lambda i: abs(i - len(text) / 2))
-    return _stacked([escape(text[:middle]), escape(text[middle + 1 :])])
-
-
-def latex_lines(table: Table) -> int:
-    """About how many lines of text ``table`` takes when set: per row, its tallest cell (stacked
-    lines, or a wrapped paragraph's lines), plus the caption, header and notes."""
-
-    def height(i: int, text: str) -> int:
-        if i in table.wrap:
-            return max(1, -(-len(text) // max(1, int(table.wrap[i] * CHARS_PER_LINE))))
-        return latex_cell(text).count(r"\\") + 1
-
-    body = sum(
-        max(height(j, t) for j, t in enumerate([*labels, *cells]))
-        for labels, cells in zip(table.rows, table.cells)
-    )
-    notes = sum(-(-len(n) // CHARS_PER_LINE) for n in table.notes)
-    return body + 4 + (1 if table.group else 0) + notes
-
-
-def to_latex(table: Table, page: bool = False) -> str:
-    """A LaTeX ``table`` float in the paper's style (vertical rules, sensor name on the first row
-    of its group, ``\\cline`` between fingers). Uses only the LaTeX kernel: no packages.
-
-    ``page``: for :func:`standalone_latex`'s document, where nothing may be larger than the
-    page and a section's heading stays with its tables: the float is placed here (``[H]``,
-    package float), a table wider than the text is scaled to its width (``\\resizebox``) and
-    one taller than :data:`LONG_TABLE_LINES` lines breaks across pages (longtable, its header
-    repeated).
-
-    Wide tables fit the text width: the float is set in ``\\footnotesize`` with narrower column
-    gaps, intervals go on a second line in ``\\scriptsize``, long column labels on two lines,
-    and text columns (``Table.wrap``) wrap as paragraphs. Written by hand rather than with
-    ``Styler.to_latex``: that needs booktabs and multirow, and has no way to express the
-    per-sensor rate header of Table II.
-    """
-    n_rows, n_cols = len(table.row_headers), len(table.columns)
-    first = n_rows + 1
-    spec = "|" + "|".join("l" if i in table.wrap else "c" for i in range(n_rows + n_cols)) + "|"
-
-    def wrapped(i: int, text: str) -> str:
-        # a ragged-right paragraph: a justified p{} column stretches spaces across narrow lines
-        return (
-            rf"\parbox[t]{{{table.wrap[i]:.2f}\linewidth}}{{\raggedright {text}\strut}}"
-            if i in table.wrap
-            else text
-        )
-
-    caption = f"{table.caption} {table.subject}".strip()
-    head: list[str] = []
-    heads = " & ".join(rf"\textbf{{{escape(h)}}}" for h in table.row_headers)
-    if table.group:
-        head.append(
-            rf"{heads} & \multicolumn{{{n_cols}}}{{c|}}{{\bfseries {_two_lines(table.group)}}}\\"
-        )
-        head.append(rf"\cline{{{first}-{n_rows + n_cols}}}")
-        heads = " & " * n_rows
-    else:
-        heads += " & "
-    latex_cols = table.latex_columns or [escape(c) for c in table.columns]
-    head.append(
-        heads
-        + " & ".join(
-            wrapped(n_rows + j, c) if n_rows + j in table.wrap else _latex_header(c)
-            for j, c in enumerate(latex_cols)
-        )
-        + r"\\"
-    )
-    head.append(r"\hline")
-    lines: list[str] = []
-    previous: tuple[str, ...] | None = None
-    for i, (labels, cells) in enumerate(zip(table.rows, table.cells)):
-        shown = list(labels)
-        if n_rows > 1 and previous is not None and labels[0] == previous[0]:
-            shown[0] = ""  # the sensor name once per group, as the paper's multirow
-        texts = [
-            *(escape(x) for x in shown),
-            *(
-                escape(c) if n_rows + j in table.wrap else latex_cell(c)
-                for j, c in enumerate(cells)
-            ),
-        ]
-        lines.append(" & ".join(wrapped(j, t) for j, t in enumerate(texts)) + r"\\")
-        nxt = table.rows[i + 1] if i + 1 < len(table.rows) else None
-        lines.append(
-            rf"\cline{{2-{n_rows + n_cols}}}"
-            if n_rows > 1 and nxt is not None and nxt[0] == labels[0]
-            else r"\hline"
-        )
-        previous = labels
-    # a label is a key LaTeX reads raw: names from the data keep letters, digits, ":._-"
-    label_ = [rf"\label{{{re.sub(r'[^A-Za-z0-9:._-]+', '-', table.label)}}}"] if table.label else []
-    notes = [rf"\par {escape(note)}" for note in table.notes]
-    size = [LATEX_TABLE_SIZE, rf"\setlength{{\tabcolsep}}{{{LATEX_COLUMN_SEP}}}"]
-    if page and latex_lines(table) > LONG_TABLE_LINES:
-        columns = n_rows + n_cols
-        return "\n".join(
-            [
-                r"\begingroup",
-                *size,
-                rf"\begin{{longtable}}{{{spec}}}",
-                rf"\caption{{{escape(caption)}}}{''.join(label_)}\\",
-                r"\hline",
-                *head,
-                r"\endfirsthead",
-                rf"\multicolumn{{{columns}}}{{l}}{{\emph{{Table \thetable{{}}, continued}}}}\\",
-                r"\hline",
-                *head,
-                r"\endhead",
-                rf"\multicolumn{{{columns}}}{{r}}{{\emph{{continued on the next page}}}}\\",
-                r"\endfoot",
-                r"\endlastfoot",
-                *lines,
-                r"\end{longtable}",
-                *notes,
-                r"\par\endgroup",
-            ]
-        )
-    tabular = [rf"\begin{{tabular}}{{{spec}}}", r"\hline", *head, *lines, r"\end{tabular}"]
-    if page:  # scaled to the text's width where wider: nothing larger than the page
-        tabular = [
-            r"\sbox{\slipbox}{%",
-            *tabular,
-            r"}%",
-            r"\ifdim\wd\slipbox>\linewidth\resizebox{\linewidth}{!}{\usebox{\slipbox}}"
-            r"\else\usebox{\slipbox}\fi",
-        ]
-    return "\n".join(
-        [
-            r"\begin{table}[H]" if page else r"\begin{table}[!htbp]",
-            rf"\caption{{{escape(caption)}}}",
-            r"\centering",
-            *size,
-            *tabular,
-            *label_,
-            *notes,
-            r"\end{table}",
-        ]
-    )
-
-
-def standalone_latex(body: str, graphics: bool = False) -> str:
-    """Wrap tables (:func:`to_latex` with ``page``) in a minimal document that compiles with the
-    packages of every LaTeX installation: graphicx (scaled tables, figures), float (tables
-    placed under their headings) and longtable (tall tables across pages); and ``\\slipneed``,
-    which keeps a heading off a page's foot. ``graphics`` is kept for callers; graphicx is
-    always loaded."""
-    del graphics
-    return "\n".join(
-        [
-            r"\documentclass{article}",
-            r"\usepackage[utf8]{inputenc}",
-            r"\usepackage{graphicx}",
-            r"\usepackage{float}",
-            r"\usepackage{longtable}",
-            r"\newsavebox{\slipbox}",
-            # \slipneed{len}: a page break here unless len is left on the page (needspace's
-            # definition, without the package: a heading never ends a page its table leaves)
-            r"\makeatletter",
-            r"\newcommand{\slipneed}[1]{\par\penalty-100\begingroup\setlength{\dimen@}{#1}"
-            r"\dimen@ii\pagegoal\advance\dimen@ii-\pagetotal\ifdim\dimen@>\dimen@ii"
-            r"\ifdim\dimen@ii>\z@\vfil\fi\penalty-\@M\fi\endgroup}",
-            r"\makeatother",
-            r"\begin{document}",
-            body,
-            r"\end{document}",
-            "",
-        ]
-    )
-
-
-def to_html(table: Table) -> str:
-    """An HTML ``<table>`` with its caption, the group header over the value columns, one
-    ``<th scope="row">`` per row label, and the notes after it."""
-    n_rows = len(table.row_headers)
-    esc = html.escape
-    head = "".join(f'<th scope="col" rowspan="2">{esc(h)}</th>' for h in table.row_headers)
-    group = (
-        f'<th scope="colgroup" colspan="{len(table.columns)}">{esc(table.group)}</th>'
-        if table.group
-        else ""
-    )
-    columns = "".join(f'<th scope="col">{esc(c)}</th>' for c in table.columns)
-    if table.group:
-        thead = f"<tr>{head}{group}</tr><tr>{columns}</tr>"
-    else:
-        thead = (
-            "<tr>"
-            + "".join(f'<th scope="col">{esc(h)}</th>' for h in table.row_headers)
-            + columns
-            + "</tr>"
-        )
-    body = []
-    for labels, cells in zip(table.rows, table.cells):
-        row_heads = "".join(f'<th scope="row">{esc(x)}</th>' for x in labels)
-        body.append(f"<tr>{row_heads}" + "".join(f"<td>{esc(c)}</td>" for c in cells) + "</tr>")
-    ident = f' id="{esc(table.label)}"' if table.label else ""
-    notes = "".join(f'<p class="note">{esc(n)}</p>' for n in table.notes)
-    classes = "text" if table.wrap else "numbers"
-    return (
-        f'<div class="table-wrap"><table class="{classes}"{ident} data-row-headers="{n_rows}">'
-        f"<caption>{esc(table.caption)}{f' <span class=subject>{esc(table.subject)}</span>' if table.subject else ''}"
-        f"</caption><thead>{thead}</thead><tbody>{''.join(body)}</tbody></table>"
-        f"{notes}</div>"
-    )
+__all__ = ["FORMATS", "Drawn", "Renderer", "renderer"]

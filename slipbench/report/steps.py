@@ -9,8 +9,9 @@ import os
 import numpy as np
 import pandas as pd
 
-from slipbench.stats.gate import NAMES, WINDOWED, unit
-from slipbench.stats.steps import SERIES_ALPHA, Steps
+from slipbench.stats.gate import unit
+from slipbench.stats.steps import JUDGED, SERIES_ALPHA, Steps
+from slipbench.store.columns import FIGURES
 
 SHOWN = ("commit", "date", "verdict", "figure", "series_label", "change", "runs", "what_changed")
 
@@ -19,8 +20,8 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
     runs = found.runs
     first, last = runs.iloc[0], runs.iloc[-1]
     tolerances = ", ".join(
-        f"{NAMES[f]} {found.gate.tolerances[f]:g} {unit(f)}"
-        for f in WINDOWED
+        f"{FIGURES[f].label} {found.gate.tolerances[f]:g} {unit(f)}"
+        for f in JUDGED
         if f in found.gate.tolerances
     )
     counts = found.steps["verdict"].value_counts()
@@ -54,7 +55,7 @@ def _unconfirmed(found: Steps) -> str:
             (
                 r["run"],
                 f"- {commit} ({r['date']}): proposed in {len(part)} series, none confirmed; "
-                f"nearest: {NAMES[r['figure']]} of {r['series_label']}, {_change(r)}",
+                f"nearest: {FIGURES[r['figure']].label} of {r['series_label']}, {_change(r)}",
             )
         )
     lines.sort(reverse=True)
@@ -84,7 +85,7 @@ def steps_text(found: Steps, where: str | os.PathLike) -> str:
             "commit": confirmed["commit"],
             "date": confirmed["date"],
             "verdict": confirmed["verdict"],
-            "figure": confirmed["figure"].map(NAMES),
+            "figure": confirmed["figure"].map(lambda f: FIGURES[f].label),
             "series": confirmed["series_label"],
             "change [interval]": [_change(r) for r in confirmed.to_dict("records")],
             "runs": [

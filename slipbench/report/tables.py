@@ -1,5 +1,6 @@
 """Result rows -> tables in a protocol's layout: labels, ordering, figures per cell, and the
-paper's extra tables at window 50. Format-independent: :mod:`slipbench.report.render` writes them out.
+paper's extra tables at window 50. In no format: a renderer (:mod:`slipbench.report.render`)
+writes them out.
 
 Layouts follow Van Wyk & Falco where the protocol declares the paper's: window size (Table I),
 sampling rate with its per-sensor rate header (Table II), material and speed with two numbers
@@ -10,7 +11,6 @@ and TP/TN rates per sensor type.
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -21,17 +21,28 @@ import pandas as pd
 
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
+from slipbench.report.presentation import ShownLayout
+from slipbench.stats.contrast import ONE_SEED, Contrast
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
-from slipbench.stats.metrics import FIGURES, classes_low_n, seeds_from_rows, stream_low_n
+from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
+from slipbench.store.columns import AUROC, FIGURES, WINDOWED, figure_of, figures
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
-    METRIC_NAMES,
     ORDERS,
     SENSOR_NAMES,
     label,
 )
+
+#: the rates of one class each (TP, then TN), as the paper's Table II gives them
+CLASS_RATES = [f.name for f in figures(WINDOWED) if f.one_class]
+
+
+def figure_label(metric: str) -> str:
+    """How a table heads a figure: the paper's word (``TN Rate``), else the column's name."""
+    return FIGURES[metric].label if metric in FIGURES else metric
+
 
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
 LOW_MARK = "†"  # a cell resting on few test trials
@@ -52,7 +63,7 @@ SIMULATED = "_on_simulation"
 TRAINED_AS = "_trained_as"
 SIMULATION_NOTE = (
     "Channels on simulated data of model version 3 or earlier: there, the force's direction alone "
-    "separates slip (tangential load) from pressing (a mostly normal load; docs/simulation.md), so "
+    "separates slip (tangential load) from pressing (a mostly normal load; docs/explanation/simulation.md), so "
     "these channels figures measure the simulation, not what a sensor can tell."
 )
 
@@ -84,7 +95,7 @@ COLUMN_UNITS = {
 
 @dataclass
 class Table:
-    """A rendered-format-independent table: labels and cell texts."""
+    """A table in no format: labels and cell texts, in plain text (each renderer escapes them)."""
 
     caption: str
     row_headers: list[str]
@@ -93,7 +104,10 @@ class Table:
     rows: list[tuple[str, ...]]
     cells: list[list[str]]
     label: str
-    latex_columns: list[str] | None = None  # LaTeX column labels where they differ from ``columns``
+    # a value column's label as values each with a superscript, (value, superscript) pairs by
+    # the column's index (the rates of the paper's Table II, numbered by sensor type), for a
+    # format that sets superscripts; ``columns`` holds the same label as plain text
+    superscripts: dict[int, list[tuple[str, str]]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
     # each this fraction of the line width; text columns need it, numbers do not
@@ -127,45 +141,6 @@ def ordered(values: Iterable[Any], column: str) -> list[Any]:
     return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
 
 
-LATEX_CHARS = {
-    "\\": r"\textbackslash{}",
-    "&": r"\&",
-    "%": r"\%",
-    "_": r"\_",
-    "#": r"\#",
-    "{": r"\{",
-    "}": r"\}",
-    "$": r"\$",
-    "~": r"\textasciitilde{}",
-    "^": r"\textasciicircum{}",
-    "±": r"$\pm$",
-    "—": "--",
-    "–": "--",
-    "−": "-",
-    LOW_MARK: r"\dag{}",
-    "χ": r"$\chi$",
-    "²": r"$^2$",
-    "α": r"$\alpha$",
-    "≥": r"$\geq$",
-    "≤": r"$\leq$",
-    "×": r"$\times$",
-    "µ": r"$\mu$",
-    "≈": r"$\approx$",
-    "→": r"$\rightarrow$",
-    "<": r"$<$",
-    ">": r"$>$",
-}
-
-
-def escape(text: str) -> str:
-    """Plain text as LaTeX (kernel commands only), one character at a time so that no
-    replacement is escaped again; on one line (a blank line would end a cell's paragraph),
-    control characters as spaces."""
-    return "".join(
-        LATEX_CHARS.get(c, " " if c.isspace() or not c.isprintable() else c) for c in str(text)
-    )
-
-
 def _as_printed(percent: float) -> str:
     """One decimal, or two where the paper printed two (its TN rate 89.79)."""
     return f"{percent:.1f}" if abs(percent - round(percent, 1)) < 1e-9 else f"{percent:.2f}"
@@ -188,14 +163,40 @@ def _value_text(value: Any) -> str:
         return str(value)
 
 
+COUNTS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten")
+
+
+def sensors_text(rows: pd.DataFrame) -> str:
+    """What units ``rows`` hold, for a caption: "three types of sensors and fingers", "the
+    fingers of one sensor type (Biotac SP)", "one sensor (Biotac SP, ff)"."""
+    if "sensor_type" not in rows or rows["sensor_type"].dropna().empty:
+        return "sensors and fingers"
+    types = ordered(rows["sensor_type"].dropna().unique(), "sensor_type")
+    if len(types) > 1:
+        count = COUNTS[len(types)] if len(types) < len(COUNTS) else f"{len(types):,}"
+        return f"{count} types of sensors and fingers"
+    name = label("sensor_type", types[0])
+    fingers = rows["sensor_instance"].dropna().unique() if "sensor_instance" in rows else []
+    if len(fingers) == 1:
+        return f"one sensor ({name}, {label('sensor_instance', fingers[0])})"
+    return f"the fingers of one sensor type ({name})"
+
+
+#: a caption's placeholders that name no column: what the rows hold, in words
+DESCRIBED = {"sensors": sensors_text}
+
+
 def caption_of(caption: str, rows: pd.DataFrame) -> str:
-    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Layout`) replaced
-    by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor type
-    where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)". A name the rows do
-    not give stays as written."""
+    """``caption`` with each ``{column}`` it names (:class:`~slipbench.protocol.Presentation`)
+    replaced by the values ``rows`` hold there: "window {window}" -> "window 200", or per sensor
+    type where they differ, "window 200 (Nano17, OptoForce20), 170 (Biotac SP)"; ``{sensors}``
+    by what units they are (:func:`sensors_text`). A name the rows do not give stays as
+    written."""
 
     def values(match: re.Match) -> str:
         column = match.group(1)
+        if column in DESCRIBED and column not in rows:
+            return DESCRIBED[column](rows)
         if column not in rows or rows[column].dropna().empty:
             return match.group(0)
         if "sensor_type" in rows and rows[column].nunique() > 1:
@@ -263,7 +264,8 @@ def _seed_interval(ok: pd.DataFrame, metric: str) -> tuple[float, float]:
     from_bounds = (hi - lo) / (2 * 1.959964)  # a 95 % interval's half-width over z
     se = ok[se_col].astype(float).to_numpy() if se_col in ok else from_bounds
     se = np.where(np.isnan(se), from_bounds, se)
-    fraction = metric.removeprefix("op_") in (*FIGURES, "detection_rate")
+    shown = figure_of(metric)
+    fraction = shown is not None and shown.unit == "fraction"
     _, lo_, hi_ = seeds_from_rows(
         ok[metric].astype(float).to_numpy(),
         se,
@@ -328,45 +330,20 @@ def figure_text(figure: CellFigure, intervals: bool = False) -> str:
     return metric_text("", figure, intervals)
 
 
-def _key_columns(rows: pd.DataFrame) -> list[str]:
-    """The cell-key columns of rows (from their ``cell`` JSON), in first-seen order."""
-    keys: list[str] = []
-    for text in rows["cell"].dropna().unique() if "cell" in rows else ():
-        for k in json.loads(text):
-            if k not in keys:
-                keys.append(k)
-    return keys
-
-
-def generic_layout(rows: pd.DataFrame, protocol: str) -> Layout:
-    """A layout from the cell keys alone (a protocol whose own layout is unknown or does not fit
-    its rows): all keys but the last as rows, the last as columns."""
-    keys = [k for k in _key_columns(rows) if k in rows] or ["protocol"]
-    if len(keys) == 1:
-        return Layout(f"Protocol {protocol}.", tuple(keys), "detector", title=protocol)
-    return Layout(f"Protocol {protocol}.", tuple(keys[:-1]), keys[-1], title=protocol)
-
-
-def fits(layout: Layout, rows: pd.DataFrame) -> str:
-    """Why ``layout`` cannot lay out ``rows`` (a key column they lack), or "" when it can."""
-    missing = [k for k in (*layout.rows, layout.column, layout.pair) if k and k not in rows]
-    return f"the rows lack the layout's columns {', '.join(missing)}" if missing else ""
-
-
 def _column_labels(
-    layout: Layout, rows: pd.DataFrame, columns: list[Any]
-) -> tuple[list[str], list[str], list[str]]:
-    """Plain and LaTeX column labels, and notes. With ``layout.column_label``, the label's value
-    per sensor type, numbered by superscripts as the rates of the paper's Table II; with
-    ``layout.note_column``, a note listing that column's values per sensor type."""
+    layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]
+) -> tuple[list[str], dict[int, list[tuple[str, str]]], list[str]]:
+    """Plain column labels, the same with superscripts (:attr:`Table.superscripts`), and notes.
+    With ``layout.column_label``, the label's value per sensor type, numbered by superscripts
+    as the rates of the paper's Table II; with ``layout.note_column``, a note listing that
+    column's values per sensor type."""
     notes = _note_column(layout, rows, columns)
     if not layout.column_label or layout.column_label not in rows or "sensor_type" not in rows:
-        plain = [label(layout.column, c) for c in columns]
-        return plain, [escape(p) for p in plain], notes
+        return [label(layout.column, c) for c in columns], {}, notes
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
     number = {s: i + 1 for i, s in enumerate(sensors)}
-    plain, latex = [], []
-    for c in columns:
+    plain, marked = [], {}
+    for j, c in enumerate(columns):
         rates = (
             rows[rows[layout.column] == c]
             .groupby(layout.column_label, sort=True)["sensor_type"]
@@ -383,23 +360,18 @@ def _column_labels(
             if len(parts)
             else label(layout.column, c)
         )
-        latex.append(
-            r"\begin{tabular}{@{}c@{}}"
-            + r"\\".join(f"${r}^{{{','.join(map(str, ns))}}}$" for ns, r in parts)
-            + r"\end{tabular}"
-            if len(parts) > 1
-            else plain[-1]
-        )
+        if len(parts) > 1:
+            marked[j] = [(r, ",".join(map(str, ns))) for ns, r in parts]
     notes.insert(
         0,
         f"{COLUMN_UNITS.get(layout.column_label, layout.column_label)}; "
         + ", ".join(f"({n}) {SENSOR_NAMES.get(s, s)}" for s, n in number.items())
         + ".",
     )
-    return plain, latex, notes
+    return plain, marked, notes
 
 
-def _note_column(layout: Layout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
+def _note_column(layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
     """ "Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
     col = layout.note_column
     if not col or col not in rows or "sensor_type" not in rows:
@@ -440,7 +412,7 @@ class TableValues:
 
 def build_table(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     metric: str = "accuracy",
     intervals: bool = False,
     shown: TableValues = TableValues(),
@@ -490,7 +462,7 @@ def build_table(
             else:
                 line.append(one((*rk, c)))
         cells.append(line)
-    plain, latex, notes = _column_labels(layout, rows, columns)
+    plain, marked, notes = _column_labels(layout, rows, columns)
     row_labels: list[tuple[str, ...]]
     if layout.merge_rows:
         row_labels = [(", ".join(label(k, v) for k, v in zip(layout.rows, rk)),) for rk in row_keys]
@@ -498,8 +470,8 @@ def build_table(
     else:
         row_labels = [tuple(label(k, v) for k, v in zip(layout.rows, rk)) for rk in row_keys]
         headers = [ROW_HEADERS.get(k, k) for k in layout.rows]
-    unit = " (%)" if metric != "auroc" else " (%, 50 = chance)"
-    group = f"{METRIC_NAMES.get(metric, metric)}{unit} {layout.group}".strip()
+    unit = " (%)" if metric != AUROC.name else " (%, 50 = chance)"
+    group = f"{figure_label(metric)}{unit} {layout.group}".strip()
     if values == "difference":
         group = f"Ours - paper (points) {layout.group}".strip()
     if values == "ours":
@@ -508,7 +480,7 @@ def build_table(
         notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
-    return Table(caption, headers, group, plain, row_labels, cells, "", latex, notes)
+    return Table(caption, headers, group, plain, row_labels, cells, "", marked, notes)
 
 
 def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict[tuple, float]:
@@ -761,7 +733,7 @@ def rates_table(
     if rows.empty:
         return None
     sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    avg = _averaged(rows, ["tp_rate", "tn_rate"], ["sensor_type"], intervals, _of(joint, detector))
+    avg = _averaged(rows, CLASS_RATES, ["sensor_type"], intervals, _of(joint, detector))
     cells = [avg.get((s,), ["NA", "NA"]) for s in sensors]
     columns = ["TP rate", "TN rate"]
     if paper:
@@ -769,7 +741,7 @@ def rates_table(
         columns += ["TP rate (paper, LSTM)", "TN rate (paper, LSTM)"]
         for i, s in enumerate(sensors):
             cells[i] = cells[i] + (
-                [_as_printed(100 * ref.loc[s, c]) for c in ("tp_rate", "tn_rate")]
+                [_as_printed(100 * ref.loc[s, c]) for c in CLASS_RATES]
                 if s in ref.index
                 else ["—", "—"]
             )
@@ -790,17 +762,14 @@ def rates_table(
 
 
 # ----------------------------------------------------------------------------- one column per metric
-# How each streaming figure reads: its column label, and the factor and decimals it is shown with.
-METRIC_COLUMNS: dict[str, tuple[str, float, int]] = {
-    "detection_rate": ("Detection rate (%)", 100.0, 1),
-    "median_delay_ms": ("Median delay (ms)", 1.0, 1),
-    "p95_delay_ms": ("95th pct. delay (ms)", 1.0, 1),
-    "false_alarms_per_min": ("False alarms / min", 1.0, 2),
-}
+def metric_header(metric: str) -> str:
+    """A value column's heading: the figure's (``Detection rate (%)``), else the column's name."""
+    shown = figure_of(metric)
+    return shown.header if shown is not None else metric
 
 
 def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str:
-    """A figure in its own unit (:data:`METRIC_COLUMNS`; others as fractions in %):
+    """A figure in its own unit and decimals (the results schema's; others as fractions in %):
     ``49.1``; ``49.1 ± 0.4`` over seeds; ``49.1 [45.0, 52.3]`` with intervals (over seeds, the
     interval holds their spread, so no ± beside it); 'NA' if absent; ``LOW_MARK`` appended
     where the cell rests on few test trials or onsets (``low``)."""
@@ -809,7 +778,8 @@ def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str
         return figure.status
     if pd.isna(mean):
         return "NA"
-    _, scale, digits = METRIC_COLUMNS.get(metric, (metric, 100.0, 1))
+    declared = figure_of(metric)
+    scale, digits = (declared.scale, declared.decimals) if declared is not None else (100.0, 1)
     text = f"{scale * mean:.{digits}f}"
     shown = intervals and not (pd.isna(lo) or pd.isna(hi))
     if figure.n > 1 and not pd.isna(sd) and not shown:
@@ -821,7 +791,7 @@ def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str
 
 def metrics_table(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     metrics: Sequence[str],
     intervals: bool = False,
     prefix: str = "",
@@ -854,7 +824,7 @@ def metrics_table(
     if any(LOW_MARK in c for line in cells for c in line):
         notes.append(STREAM_LOW_NOTE)
     notes += data_notes(rows)
-    columns = [METRIC_COLUMNS.get(m, (m,))[0] for m in metrics]
+    columns = [metric_header(m) for m in metrics]
     return Table(
         caption_of(layout.caption, rows),
         headers,
@@ -878,7 +848,7 @@ def ordered_keys(rows: pd.DataFrame, keys: list[str]) -> list[tuple]:
     return list(row_values.itertuples(index=False, name=None))
 
 
-def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table | None:
+def compute_table(rows: pd.DataFrame, layout: ShownLayout, label_: str = "") -> Table | None:
     """A streaming detector's compute time per hop against its real-time budget, one line per
     row of ``layout``: the compute time (mean over seeds), the budget (the hop period) and
     whether it was met ("yes", "no", or in how many seeds). None where the rows hold no compute
@@ -932,7 +902,7 @@ def compute_table(rows: pd.DataFrame, layout: Layout, label_: str = "") -> Table
 
 def side_by_side(
     rows: pd.DataFrame,
-    layout: Layout,
+    layout: ShownLayout,
     detectors: Sequence[str],
     metric: str = "accuracy",
     label_: str = "",
@@ -973,7 +943,7 @@ def side_by_side(
         ]
         for d in detectors
     ]
-    plain, latex, notes = _column_labels(layout, rows, columns)
+    plain, marked, notes = _column_labels(layout, rows, columns)
     units = avg["units"]
     notes.append(
         f"Mean over units ({' and '.join(ROW_HEADERS.get(k, k).lower() for k in layout.rows)}) of each "
@@ -982,15 +952,15 @@ def side_by_side(
         + " (units a detector did not finish are left out)."
     )
     notes += data_notes(rows)
-    group = f"{METRIC_NAMES.get(metric, metric)} (%) {layout.group}".strip()
+    group = f"{figure_label(metric)} (%) {layout.group}".strip()
     caption = f"{layout.title or 'Protocol'}: every detector side by side."
     return Table(
-        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, latex, notes
+        caption, ["Detector"], group, plain, [(d,) for d in detectors], cells, label_, marked, notes
     )
 
 
 def _metrics_side_by_side(
-    rows: pd.DataFrame, layout: Layout, detectors: Sequence[str], label_: str
+    rows: pd.DataFrame, layout: ShownLayout, detectors: Sequence[str], label_: str
 ) -> Table:
     """A layout with several metrics (streaming): a row per detector, a column per metric, each
     the mean over units of each unit's figure (mean over seeds)."""
@@ -1012,7 +982,7 @@ def _metrics_side_by_side(
         f"{layout.title or 'Protocol'}: every detector side by side.",
         ["Detector"],
         layout.group,
-        [METRIC_COLUMNS.get(m, (m,))[0] for m in layout.metrics],
+        [metric_header(m) for m in layout.metrics],
         [(d,) for d in detectors],
         cells,
         label_,
@@ -1088,29 +1058,54 @@ def split_table(
 VERSUS = "vs baseline"
 
 
-def change_text(change: dict) -> str:
-    """A change from :func:`slipbench.stats.pairs.paired_change` in accuracy points:
-    ``+3.2 [1.0, 5.4]``; why there is none where no cell is shared."""
-    if change["n_cells"] == 0:  # shared cells all left out: a seed stored twice (pairs.py)
-        return "a seed stored twice" if change.get("n_skipped") else "no shared cell"
-    text = f"{100 * change['d']:+.1f}"
-    if np.isfinite(change["lo"]) and np.isfinite(change["hi"]):
-        text += f" [{100 * change['lo']:+.1f}, {100 * change['hi']:+.1f}]"
+def change_text(change: Contrast) -> str:
+    """A change of :func:`slipbench.stats.contrast.paired_change` in points (its figure a
+    fraction): ``+3.2 [+1.0, +5.4]``; why there is none where no cell and seed was paired."""
+    if change.n_cells == 0:
+        return change.missing
+    text = f"{100 * change.estimate:+.1f}"
+    if change.judged:
+        text += f" [{100 * change.lo:+.1f}, {100 * change.hi:+.1f}]"
     return text
 
 
-def add_versus(table: Table, texts: Sequence[str], reference: str, methods: Sequence[str]) -> None:
-    """``table`` (a line per detector) with a last column: each line's change from the
-    ``reference`` detector (``texts``, in the table's line order), and a note saying how."""
+def add_versus(
+    table: Table,
+    changes: Sequence[tuple[Contrast, int] | None],
+    reference: str,
+    figure: str,
+) -> None:
+    """``table`` (a line per entrant) with a last column: each line's change of ``figure`` from
+    the ``reference`` detector (``changes``, in the table's line order: the change and how many
+    of its paired cells are low-n; None: a reference line, marked so), and notes saying how,
+    what was left out and what the intervals lack."""
     header = f"{VERSUS} ({reference})"
     table.columns.append(header)
-    if table.latex_columns is not None:
-        table.latex_columns.append(escape(header))
-    for line, text in zip(table.cells, texts):
-        line.append(text)
-    how = "; ".join(sorted(set(methods)))
+    for line, pair in zip(table.cells, changes):
+        low = pair is not None and pair[1] > 0
+        line.append("reference" if pair is None else change_text(pair[0]) + LOW_MARK * low)
+    shown = [(entrant, p[0]) for (entrant, *_), p in zip(table.rows, changes) if p is not None]
+    how = "; ".join(sorted({c.method for _, c in shown if c.method}))
     table.notes.append(
-        f"{header}: each detector's accuracy minus the reference's, in points, the mean over the "
-        "cells and seeds both finished (the same cells, input and split), with its 95 % interval "
-        f"(each line's alone, not simultaneous){': ' + how if how else ''}."
+        f"{header}: each detector's {FIGURES[figure].called} minus the reference's, in points, the "
+        "mean over the cells and seeds both finished (the same cells, input and split), paired "
+        "seed by seed, with its 95 % interval (each line's alone, not simultaneous)"
+        f"{': ' + how if how else ''}."
     )
+    if any(p is not None and p[1] for p in changes):
+        table.notes.append(
+            f"{header}: {LOW_MARK} the change rests on cells of few test trials (fewer than "
+            f"{LOW_N} of a class): not to be trusted."
+        )
+    table.notes += [
+        f"{header}, {entrant}: left out: {'; '.join(c.left_out)}."
+        for entrant, c in shown
+        if c.left_out and c.n_cells
+    ]
+    one = [entrant for entrant, c in shown if c.n_cells and c.missing == ONE_SEED]
+    if one:
+        table.notes.append(
+            f"{header}: {', '.join(one)} paired with the reference on one seed: the interval "
+            "holds the test trials' noise only, not retraining noise, so it decides nothing "
+            "(run `evaluate --repeats 2` or more on both)."
+        )

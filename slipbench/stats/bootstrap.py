@@ -7,24 +7,24 @@ logit scale, its standard error at least the replicates' own logit spread; a cha
 own scale or, where its replicates say so, MOVER on the logit scale (Zou and Donner, Stat. Med.
 27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components. Several
 seeds add each side's seed variance net of the seed-by-cluster part (:func:`seeded_interval`),
-or a seed variance the protocol's cells share (:class:`SeedPool`). How each step was chosen and
-how well it covers: ``docs/coverage.md`` and ``docs/statistics.md``; the methods it was chosen
+or a seed variance given from elsewhere (:class:`~slipbench.stats.noise.SeedNoise`: the
+protocol's cells pooled, a calibration). How each step was chosen and
+how well it covers: ``docs/studies/coverage.md`` and ``docs/explanation/statistics.md``; the methods it was chosen
 against live in ``benchmarks/studies/intervals.py``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 import pandas as pd
-from scipy.stats import beta as beta_dist
-from scipy.stats import f as f_dist
-from scipy.stats import t as student_t
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.seeding import rng_for
+from slipbench.stats.noise import SeedNoise
 
 LEVEL = 0.95
 N_RESAMPLES = 999
@@ -35,7 +35,7 @@ NOISIER_QUANTILE = 0.9
 #: the pooled changes (:mod:`slipbench.stats.pooled`); the study methods are in
 #: ``benchmarks/studies/intervals.py``
 METHODS = ("satterthwaite", "scale-choice")
-#: the interval every figure and change takes unless told otherwise (``docs/coverage.md``)
+#: the interval every figure and change takes unless told otherwise (``docs/studies/coverage.md``)
 DEFAULT_METHOD = "scale-choice"
 #: a method that differs from another only in its changes: the method whose figures it takes
 FIGURES_AS = {"scale-choice": "replicate-logit"}
@@ -344,29 +344,6 @@ def interval(
 
 
 @dataclass(frozen=True)
-class SeedPool:
-    """The seed variance a protocol's cells share: one seed's figure about its side's mean,
-    pooled over every cell side of two seeds or more, weighted by and carrying their degrees of
-    freedom (:func:`pool_seed_spreads`). Given to :func:`seeded_interval`, it stands for each
-    cell's own seed spread where that is smaller, so a cell's seed term rests on the protocol's
-    degrees of freedom, not its own two."""
-
-    variance: float
-    df: float
-
-
-def pool_seed_spreads(spreads: Iterable[tuple[float, int]]) -> SeedPool | None:
-    """The pooled seed variance of ``(variance over a side's seeds (ddof 1), seeds)`` pairs,
-    one per cell side; sides of one seed and NaN spreads carry nothing. None where none is left.
-    """
-    kept = [(float(v), n - 1) for v, n in spreads if n >= 2 and np.isfinite(v)]
-    df = sum(d for _, d in kept)
-    if df == 0:
-        return None
-    return SeedPool(sum(v * d for v, d in kept) / df, float(df))
-
-
-@dataclass(frozen=True)
 class _Replicates:
     """What the resamples of :func:`seeded_interval` give.
 
@@ -416,7 +393,7 @@ def _seed_variance(
     reps: _Replicates,
     at_one: Sequence[np.ndarray],
     signs: Sequence[float],
-    pool: SeedPool | None,
+    pool: SeedNoise | None,
 ) -> tuple[float, float]:
     """The sides' seed variance of their means net of their seed-by-cluster parts (a seed's own
     error on a cluster shows in the seeds' spread and again in the clusters' replicates of
@@ -449,7 +426,7 @@ def _noisier(own: float, pooled: float, df: float, pool_df: float) -> bool:
     :data:`NOISIER_QUANTILE` (``benchmarks/bench_seed_pool.py``)."""
     if df < 1 or not own > pooled:
         return False
-    return bool(own > pooled * f_dist.ppf(NOISIER_QUANTILE, df, pool_df))
+    return bool(own > pooled * scipy.stats.f.ppf(NOISIER_QUANTILE, df, pool_df))
 
 
 @dataclass(frozen=True)
@@ -511,7 +488,7 @@ class Fit:
 
     def logit_t(self) -> tuple[float, float]:
         """The t-interval, on the logit scale for a figure in (0, 1)."""
-        q = student_t.ppf(1 - (1 - self.level) / 2, self.df)
+        q = scipy.stats.t.ppf(1 - (1 - self.level) / 2, self.df)
         est, se = self.est, self.se
         if self.unit and 0 < est < 1:
             z, s = np.log(est / (1 - est)), se / (est * (1 - est))
@@ -520,7 +497,7 @@ class Fit:
 
 
 class IntervalMethod(Protocol):
-    """An interval method of a study (``benchmarks/studies/intervals.py``, ``docs/coverage.md``),
+    """An interval method of a study (``benchmarks/studies/intervals.py``, ``docs/studies/coverage.md``),
     given to :func:`seeded_interval` in place of a name of :data:`METHODS`."""
 
     @property
@@ -542,8 +519,8 @@ def _no_spread(fit: Fit, n_used: int) -> tuple[float, float]:
     if not fit.unit:
         return fit.est, fit.est
     alpha, x = 1 - fit.level, fit.est * n_used
-    lo = beta_dist.ppf(alpha / 2, x, n_used - x + 1) if x > 0 else 0.0
-    hi = beta_dist.ppf(1 - alpha / 2, x + 1, n_used - x) if x < n_used else 1.0
+    lo = scipy.stats.beta.ppf(alpha / 2, x, n_used - x + 1) if x > 0 else 0.0
+    hi = scipy.stats.beta.ppf(1 - alpha / 2, x + 1, n_used - x) if x < n_used else 1.0
     return float(lo), float(hi)
 
 
@@ -581,7 +558,7 @@ def seeded_interval(
     figure: SeededFigure,
     clusters: Clusters,
     spec: IntervalSpec,
-    seed_pool: SeedPool | None = None,
+    seed_pool: SeedNoise | None = None,
 ) -> IntervalEstimate:
     """Interval of ``sum_k signs[k] * (mean over side k's seeds of its figure)`` over trials and
     seeds: its variance is the clusters' (each resample draws clusters once for every seed of
@@ -602,9 +579,10 @@ def seeded_interval(
         variance components alike.
     clusters, spec : the clusters the figure draws on (:class:`Clusters`), how the interval
         is drawn (:class:`IntervalSpec`).
-    seed_pool : SeedPool, optional
-        The seed variance the protocol's cells share (:func:`pool_seed_spreads`): it replaces
-        the sides' own seed spreads, with its degrees of freedom.
+    seed_pool : SeedNoise, optional
+        A seed variance from elsewhere (the protocol's cells pooled,
+        :func:`~slipbench.stats.noise.pool_seed_spreads`; a calibration): it replaces the sides'
+        own seed spreads, with its degrees of freedom.
 
     Degrees of freedom: the strata's components (:func:`satterthwaite_df`) and the sides' net
     seed variance, whose degrees of freedom are those of a difference, ``net^2 / sum_k
@@ -636,7 +614,7 @@ def seeded_interval(
         reps = _replicates(per_seed(w), at_one, signs, seed)
     net, unsure = _seed_variance(reps, at_one, signs, seed_pool)
     # `unsure` stays in the denominator where the net is cut at 0 too: seeds that happen to
-    # agree do not earn the clusters' degrees of freedom (docs/coverage.md)
+    # agree do not earn the clusters' degrees of freedom (docs/studies/coverage.md)
     extra = [(net, np.inf)] if net > 0 else []
     # the clusters' variance of the seeds' plain means plus the seeds' own: the two-level
     # replicates' variance holds the seed-by-cluster term three times (seed spread, clusters,
@@ -691,7 +669,7 @@ def logit_bounds(reps: np.ndarray, excess: float, fit: Fit, n: float) -> tuple[f
     reps = reps[np.isfinite(reps)]
     z = float(np.log(est / (1 - est)))
     s = max(fit.se / (est * (1 - est)), _logit_sd(reps, est, n, excess))
-    q = student_t.ppf(1 - (1 - fit.level) / 2, fit.df)
+    q = scipy.stats.t.ppf(1 - (1 - fit.level) / 2, fit.df)
     return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s))))
 
 
@@ -751,7 +729,7 @@ def mover_change_bounds(fit: Fit) -> tuple[float, float]:
         return 1 / (1 + np.exp(-(lam_ + dlt_ / 2))) - 1 / (1 + np.exp(-(lam_ - dlt_ / 2)))
 
     alpha = 1 - level
-    q_dlt, q_lam = (student_t.ppf(1 - alpha / 2, d) for d in dfs)
+    q_dlt, q_lam = (scipy.stats.t.ppf(1 - alpha / 2, d) for d in dfs)
     at = float(f(lam, dlt))
     up_c = float(f(lam, dlt + q_dlt * s_dlt)) - at  # f rises with the contrast
     down_c = at - float(f(lam, dlt - q_dlt * s_dlt))

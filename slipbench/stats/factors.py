@@ -68,6 +68,8 @@ KEY_FIELDS: dict[str, tuple[str, tuple[str, ...]]] = {
 }
 #: row fields outside the key that change what a row's figures or intervals are
 EXTRA_SETTINGS = ("interval_method", "slipbench_version")
+#: the two inputs a detector reads (``input``): the paper's signal, or the raw channels
+UNIVARIATE, CHANNELS = "univariate", "channels"
 #: the column :func:`named_entrants` keeps a detector's plugin id in
 ENTRANT_ID = "detector_id"
 #: what a row lacking a column meant when it was written (runs without the option)
@@ -274,3 +276,18 @@ def one_class(rows: pd.DataFrame) -> pd.Series:
     if "status" in rows:
         out &= rows["status"].eq("ok")
     return out
+
+
+def inputs(rows: pd.DataFrame) -> pd.Series:
+    """Each row's input: its ``input`` column, "univariate" where the rows lack it (older
+    results) or leave it empty."""
+    if "input" not in rows:
+        return pd.Series(UNIVARIATE, index=rows.index)
+    return rows["input"].where(rows["input"].notna() & (rows["input"] != ""), UNIVARIATE)
+
+
+def plain(value: Any) -> Any:
+    """A row's value as Python: None for a missing one, a NumPy scalar as its item."""
+    if value is None or (np.ndim(value) == 0 and pd.isna(value)):
+        return None
+    return value.item() if isinstance(value, np.generic) else value

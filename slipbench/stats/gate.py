@@ -1,15 +1,17 @@
-"""The CI gate's family of figures: which figures it reads, the tolerance of each, the Holm
-step-down that holds a level over them, and the power of every "no regression".
+"""The CI gate's family of figures: which figures it reads, the tolerance of each, and the power
+of every "no regression".
 
 Windowed cells are judged on accuracy, TN rate (false alarms) and TP rate (misses); streaming
 cells on false alarms per minute, detection rate and median delay. A figure *regressed* where
 its change is worse than its tolerance (in its own units: points of a rate, false alarms per
-minute, ms) at the family's level; higher is worse for false alarms per minute and delays.
+minute, ms): its interval, at the family's Bonferroni level, lies beyond the tolerance on the
+worse side (:mod:`slipbench.stats.contrast`); higher is worse for false alarms per minute and
+delays.
 
 Power. A pooled test that flags nothing says how large a drop it would have flagged with
 ``POWER`` (80 %): with ``se`` its standard error, ``df`` its degrees of freedom and ``N`` the
 pooled tests in the family, the resolution is ``X = se * (t(1 - alpha / (2 N), df) + t(POWER,
-df))`` (Holm's first, Bonferroni, step: conservative), and a drop of ``tolerance + X`` is
+df))`` (the family's Bonferroni level), and a drop of ``tolerance + X`` is
 flagged with 80 % power. Where ``X`` exceeds the tolerance, the noise is larger than what the
 gate is asked to hold: the test is *undecided*, and ``n * (X / tolerance) ** 2`` seeds (or test
 trials) would decide it, the standard error scaling as ``sqrt(n / n')``.
@@ -23,51 +25,23 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.stats import t as student_t
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.errors import UsageError
+from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figures, names
 
-WINDOWED = ("accuracy", "tn_rate", "tp_rate")
-STREAMING = ("false_alarms_per_min", "detection_rate", "median_delay_ms")
-#: +1 where a larger value is worse
-WORSE = {
-    "accuracy": -1,
-    "tn_rate": -1,
-    "tp_rate": -1,
-    "detection_rate": -1,
-    "false_alarms_per_min": 1,
-    "median_delay_ms": 1,
-}
-#: stored value -> the units a tolerance is given in (rates: fractions -> points)
-SCALE = {name: 100.0 for name in ("accuracy", "tn_rate", "tp_rate", "detection_rate")} | {
-    "false_alarms_per_min": 1.0,
-    "median_delay_ms": 1.0,
-}
-UNITS = {"false_alarms_per_min": "false alarms per minute", "median_delay_ms": "ms"}
-DEFAULT_TOLERANCE = {
-    "accuracy": 1.0,
-    "tn_rate": 1.0,
-    "tp_rate": 1.0,
-    "detection_rate": 1.0,
-    "false_alarms_per_min": 0.5,
-    "median_delay_ms": 10.0,
+#: the figures the gate reads, each with its default tolerance (the results schema's)
+DEFAULT_TOLERANCE: dict[str, float] = {
+    f.name: float(f.tolerance) for f in figures(gated=True) if f.tolerance is not None
 }
 POWER = 0.8
 #: the most seeds or trials :func:`needed` counts to
 MAX_NEEDED = 100_000
-#: what a figure is called in a verdict
-NAMES = {
-    "accuracy": "accuracy",
-    "tn_rate": "TN rate (false alarms)",
-    "tp_rate": "TP rate (misses)",
-    "detection_rate": "detection rate",
-    "false_alarms_per_min": "false alarms per minute",
-    "median_delay_ms": "median delay",
-}
 
 
 def unit(figure: str) -> str:
-    return UNITS.get(figure, "points")
+    """The unit of a change of ``figure`` and of its tolerance."""
+    return FIGURES[figure].change_unit
 
 
 @dataclass(frozen=True)
@@ -79,10 +53,11 @@ class Gate:
     max_width: float = 40.0
 
     def __post_init__(self) -> None:
-        unknown = set(self.tolerances) - set(WORSE)
+        unknown = set(self.tolerances) - set(DEFAULT_TOLERANCE)
         if unknown:
             raise UsageError(
-                f"the gate reads {', '.join(WORSE)}; unknown figure {', '.join(sorted(unknown))}"
+                f"the gate reads {', '.join(DEFAULT_TOLERANCE)}; unknown figure "
+                f"{', '.join(sorted(unknown))}"
             )
         bad = {k: v for k, v in self.tolerances.items() if not (v > 0 and math.isfinite(v))}
         if bad:
@@ -97,12 +72,13 @@ class Gate:
     def of(cls, figures: Iterable[str] | None = None, **tolerance: float) -> Gate:
         """The gate on ``figures`` (every figure where None), default tolerances overridden by
         ``tolerance``; a tolerance names its figure into the family."""
-        names = list(WORSE if figures is None else figures) + list(tolerance)
+        names = list(DEFAULT_TOLERANCE if figures is None else figures) + list(tolerance)
         return cls({n: float(tolerance.get(n, DEFAULT_TOLERANCE.get(n, 1.0))) for n in names})
 
     def figures(self, stream: bool) -> tuple[str, ...]:
         """The figures of a streaming or windowed cell the gate reads, in the family's order."""
-        return tuple(f for f in (STREAMING if stream else WINDOWED) if f in self.tolerances)
+        kind = STREAMED if stream else WINDOWED
+        return tuple(f for f in names(kind, gated=True) if f in self.tolerances)
 
 
 def parse_tolerances(items: Iterable[str]) -> dict[str, float]:
@@ -119,24 +95,12 @@ def parse_tolerances(items: Iterable[str]) -> dict[str, float]:
     return out
 
 
-def holm(p: np.ndarray) -> np.ndarray:
-    """Holm's step-down adjusted p-values."""
-    n = len(p)
-    order = np.argsort(p, kind="stable")
-    adj = np.empty(n)
-    running = 0.0
-    for i, j in enumerate(order):
-        running = max(running, min(1.0, (n - i) * p[j]))
-        adj[j] = running
-    return adj
-
-
 def two_sided_p(worse: np.ndarray, se: np.ndarray, df: np.ndarray, tol: Any) -> tuple:
     """p-values of "worse than the tolerance" and "better than the tolerance" from changes
     ``worse`` signed so that positive is worse, in the figure's units (NaN -> 1)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        p_reg = np.minimum(1.0, 2 * student_t.sf((worse - tol) / se, df))
-        p_imp = np.minimum(1.0, 2 * student_t.sf((-worse - tol) / se, df))
+        p_reg = np.minimum(1.0, 2 * scipy.stats.t.sf((worse - tol) / se, df))
+        p_imp = np.minimum(1.0, 2 * scipy.stats.t.sf((-worse - tol) / se, df))
     return np.nan_to_num(p_reg, nan=1.0), np.nan_to_num(p_imp, nan=1.0)
 
 
@@ -145,7 +109,7 @@ def resolution(se: float, df: float, n_tests: int, alpha: float) -> float:
     (2 n_tests), df) + t(POWER, df))`` (NaN without a finite standard error)."""
     if not (np.isfinite(se) and df > 0):
         return float("nan")
-    q = student_t.ppf(1 - alpha / (2 * max(1, n_tests)), df) + student_t.ppf(POWER, df)
+    q = scipy.stats.t.ppf(1 - alpha / (2 * max(1, n_tests)), df) + scipy.stats.t.ppf(POWER, df)
     return float(se * q)
 
 

@@ -10,24 +10,27 @@ are those of the intervals:
 3. per cell the detectors are ranked, 1 = best, ties sharing the mean rank
    (``scipy.stats.rankdata``); a detector's score in a scope is its mean rank over the scope's
    cells: per protocol, and over every cell at once (so a protocol weighs by its cell count);
-4. one family of tests decides every pair, every group and the diagram's bars
+4. one family of contrasts decides every pair, every group and the diagram's bars
    (:func:`pairwise`): each pair's mean difference over the scope's blocks with the interval the
-   means take (over blocks and seeds, :func:`crossed_interval`) and its p-value, Holm-adjusted
-   over every scope's pairs at once (:func:`one_family`); detectors no pair of which differs form a group, drawn as one bar. A pair
-   of which an entrant ran one seed is *undecided*: nothing measures the retraining luck its
-   one run had in every block, and blocks alone called equal detectors different on 5 of 10
-   boards (issue 35). So ranks, groups, pairwise table and diagram never disagree.
+   means take (over blocks and seeds, :func:`crossed_interval`), at one Bonferroni level over
+   every scope's decided pairs (:func:`one_family`), read against the margin as every contrast
+   is (:mod:`slipbench.stats.contrast`): "yes" beyond it, "no" inside it, else undecided.
+   Detectors every pair of which is decided and none differs form a group, drawn as one bar. A
+   pair of which an entrant ran one seed is *undecided*: nothing measures the retraining luck
+   its one run had in every block, and blocks alone called equal detectors different on 5 of 10
+   boards (issue 35); so is a pair over one block, where nothing measures how the difference
+   varies between conditions. So ranks, groups, pairwise table and diagram never disagree.
 
 A block is counted once: cells that test the same model on the same test windows (the
 sampling rate's full-rate cells are the window-size window-200 cells; with ``decimation=both``
 three of them) are duplicates, found by the rows' model keys and test parts
 (:func:`block_signature`), and merged into one block before anything is ranked, tested or
 averaged. Blocks still share recordings (window 50 of one unit appears in several protocols,
-each with another model or test set), so they are not independent: the tests' p-values are
+each with another model or test set), so they are not independent: the intervals are
 optimistic, and the report says so.
 
-Without repeats each pair still shows its mean difference with a percentile bootstrap interval
-over blocks (how the difference depends on which conditions make up the benchmark), undecided.
+Without repeats each pair still shows its mean difference with a t-interval over blocks (how
+the difference depends on which conditions make up the benchmark), undecided.
 
 Mean accuracy, balanced accuracy and AUROC are over the same ranked cells, so they compare.
 Their 95 % interval is a percentile bootstrap over cells (cells resampled, each cell's figure
@@ -47,7 +50,7 @@ variance is the sum of the two resamplings' variances (in closed form,
 
 Measured (``benchmarks/bench_leaderboard_seeds.py``, 1,000 simulated boards per setting, two
 equal detectors, 30 or 300 blocks, 2, 3 or 5 seeds; seed luck per block only, shared by the
-blocks, both, or with the two detectors on different seeds; table in ``docs/coverage.md``): the
+blocks, both, or with the two detectors on different seeds; table in ``docs/studies/coverage.md``): the
 pairwise interval excludes 0 on 0.2-4.9 % of boards with 3 or 5 seeds (2 seeds: 0.5-5.9 %),
 where the percentile bootstrap over blocks does on 4-92 % (34-92 % wherever seed luck reaches
 every block); the means' intervals cover 0.94-0.99 (blocks alone 0.29-0.84). Its width is 1.3-2.1
@@ -65,28 +68,38 @@ This module computes; the tables that show the leaderboard are the report wing's
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import brentq
 from scipy.stats import bootstrap, rankdata
-from scipy.stats import t as student_t
-from statsmodels.stats.multitest import multipletests
 
 from slipbench.seeding import rng_for
+from slipbench.stats.contrast import (
+    SHOWN,
+    family_level,
+    from_parts,
+    half_width,
+    margin_of,
+    p_beyond,
+)
 from slipbench.stats.factors import SETTINGS, entrant_names, factor_values, one_class
+from slipbench.stats.noise import SeedNoise
+from slipbench.store.columns import ACCURACY, WINDOWED, figures
 
 ALPHA = 0.05
 LEVEL = 0.95
 N_RESAMPLES = 2000
+#: the margin within which a pair of the default figure reads "no difference"
+MARGIN = margin_of(ACCURACY.name)
 ALL = "all"
 #: columns that, with the cell's key, name one cell across detectors: every setting of a run
 #: (data, split, labels, options, ...) is part of it, so no block pools two values of one
 CELL_IDENTITY = ("protocol", "cell", *SETTINGS)
 #: columns that, with the model key, name the windows a cell is scored on
 TEST_IDENTITY = ("test_sensors", "test_where", "test_stream")
-MEAN_METRICS = ("accuracy", "balanced_accuracy", "auroc")
+#: the figures whose means the board shows: a windowed cell's, but the rates of one class
+MEAN_METRICS = tuple(f.name for f in figures(WINDOWED) if not f.one_class)
 
 
 @dataclass
@@ -112,6 +125,8 @@ class Scope:
     pairs: pd.DataFrame
     groups: list[list[str]]
     n_duplicates: int = 0  # finished cells merged into a block another cell already stands for
+    #: entrant -> ranked blocks where a cell it ran rests on few test trials (``low_n``)
+    low_n: pd.Series = field(default_factory=lambda: pd.Series(dtype=int))
 
 
 @dataclass
@@ -131,6 +146,11 @@ class Leaderboard:
         means' intervals count seeds as a factor too (:func:`crossed_interval`).
     n_one_class : finished rows left out because their test set holds one class (a constant
         detector wins there: :func:`slipbench.stats.factors.one_class`).
+    margin : the change within which a pair reads "no difference" (the metric's stored unit).
+    level : the pairs' intervals' level, Bonferroni over every scope's pairs that can decide.
+    low_n : entrant -> the ranked blocks of ``ALL`` where a cell it ran rests on few test
+        trials (``low_n``): its figures there are not to be trusted, nor are means and ranks
+        over them.
     """
 
     metric: str
@@ -140,6 +160,9 @@ class Leaderboard:
     pairs: pd.DataFrame = field(default_factory=lambda: pairwise(pd.DataFrame(), []))
     n_seeds: int = 1
     n_one_class: int = 0
+    margin: float = MARGIN
+    level: float = LEVEL
+    low_n: pd.Series = field(default_factory=lambda: pd.Series(dtype=int))
 
     @property
     def order(self) -> list[str]:
@@ -296,30 +319,11 @@ class Crossed:
     parts: tuple[tuple[float, float], ...]
 
     def half_width(self, level: float = LEVEL) -> float:
-        """Banerjee's half-width, ``sqrt(sum_i t_i^2 V_i)`` with ``t_i`` the ``level`` quantile of
-        t at the component's degrees of freedom: never narrower than the interval of the
-        component with the fewest degrees of freedom alone, whatever the true ratio of the
-        components (Banerjee 1961), where Welch-Satterthwaite's plug-in degrees of freedom run
-        liberal with a component of 1-4."""
-        q = [student_t.ppf(0.5 + level / 2, df) for _, df in self.parts]
-        return float(np.sqrt(sum(qi**2 * v for qi, (v, _) in zip(q, self.parts))))
-
-    def p_value(self) -> float:
-        """The two-sided p-value of no difference: the largest ``1 - level`` at which the
-        interval still holds 0 (1 where the figure is 0; 0 where it is not and nothing varies)."""
-        if self.estimate == 0:
-            return 1.0
-        if not any(v > 0 for v, _ in self.parts):
-            return 0.0
-
-        def reach(alpha: float) -> float:
-            return self.half_width(1 - alpha) - abs(self.estimate)
-
-        if reach(1 - 1e-12) > 0:
-            return 1.0
-        if reach(1e-15) < 0:
-            return 0.0
-        return float(brentq(reach, 1e-15, 1 - 1e-12))
+        """Banerjee's half-width (:func:`slipbench.stats.contrast.half_width`): never narrower
+        than the interval of the component with the fewest degrees of freedom alone, whatever
+        the true ratio of the components (Banerjee 1961), where Welch-Satterthwaite's plug-in
+        degrees of freedom run liberal with a component of 1-4."""
+        return half_width(self.parts, level)
 
 
 def _filled(values: np.ndarray) -> np.ndarray:
@@ -364,86 +368,148 @@ def crossed_interval(sides: list[np.ndarray], signs: tuple[float, ...]) -> Cross
     return Crossed(float(np.mean(per_block)), tuple(parts))
 
 
+#: why a pair is undecided without a full interval
+ONE_BLOCK = "one block: how the difference varies between conditions is not measured"
+ONE_RUN = (
+    "an entrant ran one seed, so nothing measures the luck its one run had in every block "
+    "(run `evaluate --repeats 2` or more)"
+)
+#: the pairs' columns: the contrast of A - B, its interval at ``level`` (the family's
+#: Bonferroni level), its state and, where undecided, why; ``p``: the Bonferroni-adjusted
+#: p-value of a change within the margin (:func:`slipbench.stats.contrast.p_beyond`), below
+#: ``ALPHA`` exactly where the pair differs; ``decided``: its interval holds every noise the
+#: claim needs; ``parts``/``missing``: what :func:`at_level` draws it from
+PAIR_COLUMNS = [
+    "a",
+    "b",
+    "diff",
+    "lo",
+    "hi",
+    "se",
+    "df",
+    "level",
+    "p",
+    "state",
+    "why",
+    "decided",
+    "differ",
+    "parts",
+    "missing",
+]
+
+
+def pair_parts(
+    a: np.ndarray, b: np.ndarray, noise: SeedNoise | None = None
+) -> tuple[float, tuple[tuple[float, float], ...], str]:
+    """A - B over blocks and seeds (each (n_blocks, n_seeds), NaN where not run):
+    :func:`crossed_interval`'s estimate and variance parts, paired seed by seed where the two
+    ran the same seeds of every block, and the noise the pair lacks ("" where none): one block
+    leaves the blocks' part unmeasured, an entrant of one seed its seeds' part, which
+    ``noise`` (a seed variance from elsewhere, :class:`~slipbench.stats.noise.SeedNoise`) then
+    stands for."""
+    paired = np.array_equal(np.isfinite(a), np.isfinite(b))
+    sides, signs = ([a - b], (1.0,)) if paired else ([a, b], (1.0, -1.0))
+    filled = [_filled(x) for x in sides]
+    per_block = sum(k * x.mean(axis=1) for k, x in zip(signs, filled))
+    n_blocks = len(per_block)
+    parts, missing = [], []
+    if n_blocks > 1:
+        parts.append((float(np.var(per_block, ddof=1)) / n_blocks, n_blocks - 1.0))
+    else:
+        missing.append(ONE_BLOCK)
+    for k, x in zip(signs, filled):
+        n_seeds = x.shape[1]
+        if n_seeds > 1:
+            parts.append((k**2 * float(np.var(x.mean(axis=0), ddof=1)) / n_seeds, n_seeds - 1.0))
+        elif noise is not None:
+            parts.append((k**2 * noise.of_mean(n_seeds), noise.df))
+        elif ONE_RUN not in missing:
+            missing.append(ONE_RUN)
+    return float(np.mean(per_block)), tuple(parts), "; ".join(missing)
+
+
 def pairwise(
     blocks: pd.DataFrame,
     order: list[str],
-    seed: int = 0,
     seeds: dict[str, np.ndarray] | None = None,
+    noise: SeedNoise | None = None,
+    margin: float = MARGIN,
 ) -> pd.DataFrame:
-    """Every pair (a ranked above b): the mean of a - b over the complete ``blocks``, its
-    interval, the p-value of no difference, and that p Holm-adjusted over the decided pairs.
+    """Every pair (a ranked above b): the contrast of a - b over the complete ``blocks`` and
+    the seeds (``seeds``: :func:`seed_values` over ``blocks``' index; None: one seed each),
+    :func:`pair_parts`, with its interval and state against ``margin`` at the Bonferroni level
+    over the pairs that can decide (:func:`at_level`). A pair of one block, or of an entrant of
+    one seed (without ``noise``), is undecided: it never differs, never reads "no".
 
-    A pair whose entrants both ran several seeds of some block (``seeds``: :func:`seed_values`
-    over ``blocks``' index) is decided: :func:`crossed_interval` over blocks and seeds, paired
-    seed by seed where the two ran the same seeds in every block, and its p-value
-    (:meth:`Crossed.p_value`). Any other pair is undecided (``decided`` False, no p, never
-    ``differ``): its interval is a percentile bootstrap over blocks (each block's figure fixed;
-    every pair on the same draws), which leaves out the luck one run has in every block.
-
-    Columns: a, b, diff, lo, hi, p, p_holm, differ (p_holm < ALPHA), decided.
+    Columns: :data:`PAIR_COLUMNS`.
     """
-    columns = ["a", "b", "diff", "lo", "hi", "p", "p_holm", "differ", "decided"]
     complete = blocks[order].dropna() if len(order) else blocks.iloc[:0]
-    n = len(complete)
-    if n == 0 or len(order) < 2:
-        return pd.DataFrame(columns=columns)
+    if len(complete) == 0 or len(order) < 2:
+        return pd.DataFrame(columns=PAIR_COLUMNS)
     at = blocks.index.get_indexer(complete.index)
-    per_seed = {e: seeds[e][at] for e in order} if seeds is not None else {}
-    repeated = {e: bool((np.isfinite(v).sum(axis=1) > 1).any()) for e, v in per_seed.items()}
-    draws = rng_for(seed, "leaderboard-pairs").integers(0, n, (N_RESAMPLES, n))
-    out = []
+    per_seed = {
+        e: seeds[e][at] if seeds is not None else complete[e].to_numpy(float)[:, None]
+        for e in order
+    }
+    lines = []
     for i, a in enumerate(order):
         for b in order[i + 1 :]:
-            d = complete[a].to_numpy(dtype=float) - complete[b].to_numpy(dtype=float)
-            decided = repeated.get(a, False) and repeated.get(b, False)
-            if decided:
-                lo, hi, p = _seeded_pair(per_seed[a], per_seed[b])
-            else:
-                lo, hi = _percentile_pair(d, draws)
-                p = np.nan
-            row = {"a": a, "b": b, "diff": float(d.mean()), "lo": lo, "hi": hi, "p": p}
-            out.append(row | {"decided": decided})
-    pairs = pd.DataFrame(out, columns=[*columns[:6], "decided"])
-    finite = pairs["p"].notna()
-    pairs["p_holm"] = np.nan
-    if finite.sum() == 1:  # Holm leaves a single p as it is
-        pairs.loc[finite, "p_holm"] = pairs.loc[finite, "p"]
-    elif finite.any():
-        pairs.loc[finite, "p_holm"] = multipletests(pairs.loc[finite, "p"], method="holm")[1]
-    pairs["differ"] = pairs["p_holm"] < ALPHA
-    return pairs[columns]
+            diff, parts, missing = pair_parts(per_seed[a], per_seed[b], noise)
+            lines.append({"a": a, "b": b, "diff": diff, "parts": parts, "missing": missing})
+    pairs = pd.DataFrame(lines)
+    at_level([pairs], margin)
+    return pairs[PAIR_COLUMNS]
 
 
-def _percentile_pair(d: np.ndarray, draws: np.ndarray) -> tuple[float, float]:
-    """Percentile interval of the mean of the blocks' differences ``d``."""
-    if len(d) < 2:
-        return np.nan, np.nan
-    q = (1 - LEVEL) / 2
-    lo, hi = np.quantile(d[draws].mean(axis=1), [q, 1 - q])
-    return float(lo), float(hi)
-
-
-def _seeded_pair(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
-    """:func:`crossed_interval` of A - B over the blocks' figures per seed ``a``, ``b`` (paired
-    seed by seed where both ran the same seeds of every block) and its p-value."""
-    if len(a) < 2:
-        return np.nan, np.nan, np.nan
-    if np.array_equal(np.isfinite(a), np.isfinite(b)):
-        iv = crossed_interval([a - b], (1.0,))
-    else:
-        iv = crossed_interval([a, b], (1.0, -1.0))
-    half = iv.half_width()
-    return iv.estimate - half, iv.estimate + half, iv.p_value()
+def at_level(frames: list[pd.DataFrame], margin: float = MARGIN) -> float:
+    """The pairs of ``frames`` (in place) with their intervals, states and adjusted p-values
+    at one Bonferroni level over every distinct pair that can decide (no noise missing; a
+    scope of the same blocks as another, one protocol's and every cell's, repeats its tests
+    and is counted once): the level holds ``ALPHA`` for the family. An interval is clipped to
+    what a difference of two fractions can be, ±1 (its state is not moved by it). Returns the
+    level."""
+    tests = {
+        (a, b, d, parts)
+        for f in frames
+        if len(f)
+        for a, b, d, parts, missing in zip(f["a"], f["b"], f["diff"], f["parts"], f["missing"])
+        if not missing
+    }
+    m = len(tests)
+    level = family_level(m, ALPHA)
+    for f in frames:
+        if not len(f):
+            continue
+        shown = [
+            replace(from_parts(d, parts, level, margin), missing=missing)
+            for d, parts, missing in zip(f["diff"], f["parts"], f["missing"])
+        ]
+        f["lo"], f["hi"] = [max(c.lo, -1.0) for c in shown], [min(c.hi, 1.0) for c in shown]
+        f["se"], f["df"] = [c.se for c in shown], [c.df for c in shown]
+        f["level"], f["state"], f["why"] = level, [c.state for c in shown], [c.why for c in shown]
+        f["decided"] = [not c.missing and c.judged for c in shown]
+        f["p"] = [
+            min(1.0, m * p_beyond(d, parts, margin)) if ok else np.nan
+            for d, parts, ok in zip(f["diff"], f["parts"], f["decided"])
+        ]
+        f["differ"] = f["state"] == SHOWN
+    return level
 
 
 def _groups(order: list[str], pairs: pd.DataFrame) -> list[list[str]]:
-    """Maximal runs of rank-ordered entrants no two of which differ (the diagram's bars)."""
-    differ = {(a, b) for a, b, d in pairs[["a", "b", "differ"]].itertuples(index=False) if d}
+    """Maximal runs of rank-ordered entrants every pair of which is decided and none differs:
+    the diagram's bars. A pair left undecided for want of a noise (one block, one seed) joins
+    no group: nothing says its two do not differ."""
+    joined = {
+        (a, b)
+        for a, b, d, x in pairs[["a", "b", "decided", "differ"]].itertuples(index=False)
+        if d and not x
+    }
     runs: list[tuple[int, int]] = []  # (first, last) positions in ``order``
     for i in range(len(order)):
         j = i
-        while j + 1 < len(order) and not any(
-            (order[k], order[j + 1]) in differ for k in range(i, j + 1)
+        while j + 1 < len(order) and all(
+            (order[k], order[j + 1]) in joined for k in range(i, j + 1)
         ):
             j += 1
         if j > i and not any(s <= i and j <= e for s, e in runs):
@@ -452,7 +518,11 @@ def _groups(order: list[str], pairs: pd.DataFrame) -> list[list[str]]:
 
 
 def rank_scope(
-    scores: pd.DataFrame, name: str, seeds: dict[str, np.ndarray] | None = None, seed: int = 0
+    scores: pd.DataFrame,
+    name: str,
+    seeds: dict[str, np.ndarray] | None = None,
+    noise: SeedNoise | None = None,
+    margin: float = MARGIN,
 ) -> Scope:
     """Rank the entrants (columns) over the complete cells (rows) of ``scores``; the pairs and
     groups from :func:`pairwise` (``seeds``: :func:`seed_values` over ``scores``' index)."""
@@ -467,29 +537,20 @@ def rank_scope(
     mean = ranks.mean().sort_values(kind="stable")
     order = list(mean.index)
     wins = (ranks == ranks.min(axis=1).to_numpy()[:, None]).sum()[order]
-    pairs = pairwise(scores, order, seed, seeds)
+    pairs = pairwise(scores, order, seeds, noise, margin)
     return Scope(name, len(complete), n_excluded, mean, wins, pairs, _groups(order, pairs))
 
 
-def one_family(scopes: list[Scope]) -> None:
-    """Holm across the decided pairs of every scope at once (in place): a leaderboard is one
-    family, so equal detectors differ in some scope on at most ``ALPHA`` of boards (Holm
-    within each scope let 3 scopes of 3 equal entrants differ on 12.7 % of boards,
-    ``benchmarks/bench_leaderboard_null.py``); groups follow the adjusted pairs."""
-    p = pd.concat([s.pairs["p"] for s in scopes], ignore_index=True)
-    holm = np.full(len(p), np.nan)
-    finite = p.notna().to_numpy()
-    if finite.sum() == 1:
-        holm[finite] = p[finite]
-    elif finite.any():
-        holm[finite] = multipletests(p[finite], method="holm")[1]
-    at = 0
+def one_family(scopes: list[Scope], margin: float = MARGIN) -> float:
+    """One Bonferroni level across the pairs of every scope that can decide (in place): a
+    leaderboard is one family, so equal detectors differ in some scope on at most ``ALPHA`` of
+    boards (each scope its own family let 3 scopes of 3 equal entrants differ on 12.7 % of
+    boards, ``benchmarks/bench_leaderboard_null.py``); intervals, states and groups follow.
+    Returns the level."""
+    level = at_level([s.pairs for s in scopes], margin)
     for s in scopes:
-        n = len(s.pairs)
-        s.pairs["p_holm"] = holm[at : at + n]
-        s.pairs["differ"] = s.pairs["p_holm"] < ALPHA
         s.groups = _groups(list(s.ranks.index), s.pairs)
-        at += n
+    return level
 
 
 def _mean_interval(
@@ -528,7 +589,10 @@ def _mean_interval(
 
 
 def leaderboard(
-    rows: pd.DataFrame, metric: str = "accuracy", protocols: list[str] | None = None
+    rows: pd.DataFrame,
+    metric: str = ACCURACY.name,
+    protocols: list[str] | None = None,
+    noise: SeedNoise | None = None,
 ) -> Leaderboard:
     """Rank the detectors in ``rows`` (result rows of one or more detectors) by ``metric``.
 
@@ -538,7 +602,10 @@ def leaderboard(
         them not those tested on one class, where always saying "slip" would win).
     metric : the figure ranked; higher is better.
     protocols : the per-protocol scopes, in order (default: as the rows first name them).
+    noise : a seed variance from elsewhere (a calibration of the bench) that decides pairs
+        whose entrants ran one seed (:func:`pair_parts`).
     """
+    margin = margin_of(metric)
     lone = one_class(rows)
     rows = rows[~lone]
     who = entrants(rows)
@@ -547,10 +614,15 @@ def leaderboard(
     table = cell_table(rows, metric)
     signature = block_signature(rows)
 
+    low = merge_blocks(cell_table(rows, "low_n"), signature)[0] > 0
+
     def scope(part: pd.DataFrame, name: str) -> tuple[Scope, pd.DataFrame]:
         blocks, n_dup = merge_blocks(part, signature)
-        ranked = rank_scope(blocks, name, seed_values(rows, metric, blocks.index, signature))
+        per_seed = seed_values(rows, metric, blocks.index, signature)
+        ranked = rank_scope(blocks, name, per_seed, noise, margin)
         ranked.n_duplicates = n_dup
+        mine = low.reindex(index=blocks.dropna().index, columns=ranked.ranks.index)
+        ranked.low_n = mine.fillna(False).sum().astype(int)
         return ranked, blocks
 
     overall, blocks = scope(table, ALL)
@@ -559,7 +631,7 @@ def leaderboard(
         part = table[table.index.get_level_values("protocol") == protocol]
         if len(part):
             scopes.append(scope(part, protocol)[0])
-    one_family(scopes)
+    level = one_family(scopes, margin)
     ranked = blocks.dropna().index
     means = pd.DataFrame(index=pd.Index(overall.ranks.index, name=None))
     n_seeds = 1
@@ -575,7 +647,18 @@ def leaderboard(
             means.loc[e, [m, f"{m}_lo", f"{m}_hi"]] = _mean_interval(x, seeds[e])
             means.loc[e, f"{m}_cells"] = int(np.isfinite(x).sum())
             n_seeds = max(n_seeds, int(np.isfinite(seeds[e]).sum(axis=1).max(initial=1)))
-    return Leaderboard(metric, scopes, means, names, overall.pairs, n_seeds, int(lone.sum()))
+    return Leaderboard(
+        metric,
+        scopes,
+        means,
+        names,
+        overall.pairs,
+        n_seeds,
+        int(lone.sum()),
+        margin,
+        level,
+        overall.low_n,
+    )
 
 
 def _params_text(rows: pd.DataFrame) -> str:

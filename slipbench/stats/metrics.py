@@ -19,8 +19,7 @@ from functools import partial
 
 import numpy as np
 import pandas as pd
-from scipy.stats import t as student_t
-from statsmodels.stats.proportion import proportion_confint
+import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
 from slipbench.stats.bootstrap import (
     DEFAULT_METHOD,
@@ -32,15 +31,34 @@ from slipbench.stats.bootstrap import (
     IntervalMethod,
     IntervalSpec,
     SeededFigure,
-    SeedPool,
     interval,
     make_design,
     seeded_interval,
 )
+from slipbench.stats.noise import SeedNoise
+from slipbench.store.columns import (
+    BALANCED_ACCURACY,
+    EVERY_WINDOW,
+    NONSLIP_WINDOWS,
+    SLIP_WINDOWS,
+    WINDOWED,
+    figures,
+    names,
+)
+from slipbench.store.columns import FIGURES as COLUMN_FIGURES
 from slipbench.vocabulary import LOW_N
 
-FIGURES = ("accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc")
-RATES = ("accuracy", "tp_rate", "tn_rate")
+#: a windowed cell's figures, in the results schema's order
+FIGURES = names(WINDOWED)
+#: the figures that are shares of windows (their class's, or every window)
+RATES = tuple(f.name for f in figures(WINDOWED) if f.rate)
+
+
+def class_masks(y_true: np.ndarray) -> dict[str, np.ndarray]:
+    """The windows each rate of :data:`RATES` counts, by the schema's ``rate`` (shape
+    (n_windows,) each): every window, the slip windows, the non-slip windows."""
+    y = np.asarray(y_true, bool)
+    return {EVERY_WINDOW: np.ones(len(y), bool), SLIP_WINDOWS: y, NONSLIP_WINDOWS: ~y}
 
 
 # ----------------------------------------------------------------------------- low n
@@ -89,8 +107,9 @@ def stream_low_n(n_trials: float, n_onsets: float, n_nonslip_trials: float = np.
 # ----------------------------------------------------------------------------- per-cluster totals
 @dataclass(frozen=True)
 class _Totals:
-    """One test set's sufficient statistics per design cluster, each of shape (n_clusters,);
-    ``pairs`` (slip clusters x non-slip clusters) holds correctly ranked window pairs."""
+    """One test set's sufficient statistics per design cluster, each of shape (n_clusters,),
+    keyed by the windows a rate counts (:func:`class_masks`); ``pairs`` (slip clusters x
+    non-slip clusters) holds correctly ranked window pairs."""
 
     hits: dict[str, np.ndarray]
     size: dict[str, np.ndarray]
@@ -108,12 +127,12 @@ def _totals(
 ) -> _Totals:
     y = np.asarray(y_true, bool)
     hits, size = {}, {}
-    for name, mask in (("accuracy", np.ones(len(y), bool)), ("tp_rate", y), ("tn_rate", ~y)):
-        hits[name] = np.bincount(codes[mask], weights=correct[mask], minlength=n_clusters)
-        size[name] = np.bincount(codes[mask], minlength=n_clusters).astype(float)
+    for windows, mask in class_masks(y).items():
+        hits[windows] = np.bincount(codes[mask], weights=correct[mask], minlength=n_clusters)
+        size[windows] = np.bincount(codes[mask], minlength=n_clusters).astype(float)
     if scores is None or y.all() or not y.any():
         return _Totals(hits, size)
-    pos, neg = np.flatnonzero(size["tp_rate"]), np.flatnonzero(size["tn_rate"])
+    pos, neg = np.flatnonzero(size[SLIP_WINDOWS]), np.flatnonzero(size[NONSLIP_WINDOWS])
     return _Totals(
         hits, size, pos, neg, _pair_counts(y, np.asarray(scores, float), codes, pos, neg)
     )
@@ -159,39 +178,46 @@ def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
     milliseconds per cell, where 999 calls of ``sklearn.metrics.roc_auc_score`` take about a
     second on 8 000 windows. The estimate equals ``roc_auc_score`` (tested).
     """
-    if name == "balanced_accuracy":
-        return 0.5 * (_figure(t, "tp_rate", w) + _figure(t, "tn_rate", w))
-    if name == "auroc":
-        if t.pairs is None:
-            return np.full(len(w), np.nan)
-        wp, wn = w[:, t.pos], w[:, t.neg]
-        return ((wp @ t.pairs) * wn).sum(axis=1) / (
-            (wp @ t.size["tp_rate"][t.pos]) * (wn @ t.size["tn_rate"][t.neg])
-        )
-    return (w @ t.hits[name]) / (w @ t.size[name])
+    rate = COLUMN_FIGURES[name].rate
+    if rate:
+        return (w @ t.hits[rate]) / (w @ t.size[rate])
+    if name == BALANCED_ACCURACY.name:
+        slip, nonslip = ((w @ t.hits[c]) / (w @ t.size[c]) for c in (SLIP_WINDOWS, NONSLIP_WINDOWS))
+        return 0.5 * (slip + nonslip)
+    if t.pairs is None:  # the AUROC without scores or without both classes
+        return np.full(len(w), np.nan)
+    wp, wn = w[:, t.pos], w[:, t.neg]
+    return ((wp @ t.pairs) * wn).sum(axis=1) / (
+        (wp @ t.size[SLIP_WINDOWS][t.pos]) * (wn @ t.size[NONSLIP_WINDOWS][t.neg])
+    )
 
 
 def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
     """Derivative of a figure by each cluster's weight at weights ``w`` (n, n_clusters)."""
-    if name == "balanced_accuracy":
-        return 0.5 * (_influence(t, "tp_rate", w) + _influence(t, "tn_rate", w))
-    if name == "auroc":
-        out = np.zeros_like(w)
-        if t.pairs is None:
-            return out * np.nan
-        wp, wn = w[:, t.pos], w[:, t.neg]
-        n_pos, n_neg = wp @ t.size["tp_rate"][t.pos], wn @ t.size["tn_rate"][t.neg]
-        a = ((wp @ t.pairs) * wn).sum(axis=1) / (n_pos * n_neg)
-        out[:, t.pos] += (
-            wn @ t.pairs.T - a[:, None] * t.size["tp_rate"][t.pos] * n_neg[:, None]
-        ) / (n_pos * n_neg)[:, None]
-        out[:, t.neg] += (wp @ t.pairs - a[:, None] * t.size["tn_rate"][t.neg] * n_pos[:, None]) / (
-            n_pos * n_neg
-        )[:, None]
-        return out
-    denom = w @ t.size[name]
-    r = (w @ t.hits[name]) / denom
-    return (t.hits[name] - r[:, None] * t.size[name]) / denom[:, None]
+    rate = COLUMN_FIGURES[name].rate
+    if rate:
+        return _share_influence(t, rate, w)
+    if name == BALANCED_ACCURACY.name:
+        return 0.5 * (
+            _share_influence(t, SLIP_WINDOWS, w) + _share_influence(t, NONSLIP_WINDOWS, w)
+        )
+    out = np.zeros_like(w)  # the AUROC
+    if t.pairs is None:
+        return out * np.nan
+    sp, sn = t.size[SLIP_WINDOWS][t.pos], t.size[NONSLIP_WINDOWS][t.neg]
+    wp, wn = w[:, t.pos], w[:, t.neg]
+    n_pos, n_neg = wp @ sp, wn @ sn
+    a = ((wp @ t.pairs) * wn).sum(axis=1) / (n_pos * n_neg)
+    out[:, t.pos] += (wn @ t.pairs.T - a[:, None] * sp * n_neg[:, None]) / (n_pos * n_neg)[:, None]
+    out[:, t.neg] += (wp @ t.pairs - a[:, None] * sn * n_pos[:, None]) / (n_pos * n_neg)[:, None]
+    return out
+
+
+def _share_influence(t: _Totals, windows: str, w: np.ndarray) -> np.ndarray:
+    """Derivative of the share of correct ``windows`` by each cluster's weight."""
+    denom = w @ t.size[windows]
+    r = (w @ t.hits[windows]) / denom
+    return (t.hits[windows] - r[:, None] * t.size[windows]) / denom[:, None]
 
 
 #: a figure of one test set under cluster weights, or its influence (_figure, _influence)
@@ -210,14 +236,15 @@ def _each_side(of: _PerSet, sides: Sequence[_Totals], name: str, w: np.ndarray) 
 
 def _sizes(t: _Totals, name: str) -> np.ndarray:
     """Windows per cluster that a figure draws on, shape (n_clusters,)."""
-    return t.size[name] if name in RATES else t.size["accuracy"]
+    return t.size[COLUMN_FIGURES[name].rate or EVERY_WINDOW]
 
 
 def _used(t: _Totals, name: str) -> np.ndarray:
     """The clusters a figure draws on."""
-    if name in RATES:
-        return t.size[name] > 0
-    return (t.size["tp_rate"] > 0) | (t.size["tn_rate"] > 0)
+    rate = COLUMN_FIGURES[name].rate
+    if rate:
+        return t.size[rate] > 0
+    return (t.size[SLIP_WINDOWS] > 0) | (t.size[NONSLIP_WINDOWS] > 0)
 
 
 @dataclass(frozen=True)
@@ -239,7 +266,7 @@ class SeedOptions:
 
     figures: Sequence[str] = FIGURES
     paired: bool = False
-    seed_pool: Mapping[str, SeedPool] | None = None
+    seed_pool: Mapping[str, SeedNoise] | None = None
 
 
 @dataclass(frozen=True)
@@ -377,14 +404,13 @@ def classification_figures(
     }
     out |= _joint_figures([Predictions(y_true, y_pred, np.asarray(groups), **options)], spec)
     correct = y_true == y_pred
-    for name, mask in (
-        ("accuracy", np.ones(len(y_true), bool)),
-        ("tp_rate", y_true),
-        ("tn_rate", ~y_true),
-    ):
-        out[f"{name}_wilson_lo"], out[f"{name}_wilson_hi"] = wilson_ci(
-            int(correct[mask].sum()), int(mask.sum())
-        )
+    masks = class_masks(y_true)
+    for f in figures(WINDOWED):
+        if f.wilson:
+            mask = masks[f.rate]
+            out[f"{f.name}_wilson_lo"], out[f"{f.name}_wilson_hi"] = wilson_ci(
+                int(correct[mask].sum()), int(mask.sum())
+            )
     return out
 
 
@@ -392,6 +418,8 @@ def wilson_ci(hits: float, n: float, level: float = LEVEL) -> tuple[float, float
     """Window-level Wilson interval (statsmodels): right only if windows were independent."""
     if n == 0:
         return float("nan"), float("nan")
+    from statsmodels.stats.proportion import proportion_confint
+
     lo, hi = proportion_confint(hits, n, alpha=1 - level, method="wilson")
     return float(lo), float(hi)
 
@@ -420,11 +448,11 @@ def chance_interval(
     n_slip, n_nonslip = int(y_true.sum()), int((~y_true).sum())
     if not n_slip or not n_nonslip:
         nan = float("nan")
-        return {"balanced_accuracy": nan, "lo": nan, "hi": nan, "n_eff": 0.0, "chance": False}
+        return {BALANCED_ACCURACY.name: nan, "lo": nan, "hi": nan, "n_eff": 0.0, "chance": False}
     ba = ((y_pred & y_true).sum() / n_slip + (~y_pred & ~y_true).sum() / n_nonslip) / 2
     n = 4 / (1 / n_slip + 1 / n_nonslip)
     lo, hi = wilson_ci(ba * n, n, level)  # a real count: statsmodels takes one
-    return {"balanced_accuracy": float(ba), "lo": lo, "hi": hi, "n_eff": n, "chance": lo <= 0.5}
+    return {BALANCED_ACCURACY.name: float(ba), "lo": lo, "hi": hi, "n_eff": n, "chance": lo <= 0.5}
 
 
 # ----------------------------------------------------------------------------- several test sets
@@ -498,7 +526,7 @@ def seeds_from_rows(
     not run liberal when the spread has two degrees of freedom, as a Welch-Satterthwaite t of the
     sum did: measured coverage of one cell's accuracy with 3 seeds
     (``benchmarks/bench_findings_contrast.py``, scenarios ``seeds-3`` and ``strong-3``, 10-20
-    trials per class, 500 replications each; ``docs/coverage.md``) 0.922-0.968, where
+    trials per class, 500 replications each; ``docs/studies/coverage.md``) 0.922-0.968, where
     Welch-Satterthwaite gave 0.872-0.932. Clipped to ``bounds``.
 
     Parameters
@@ -515,7 +543,7 @@ def seeds_from_rows(
     if len(values) < 2 or not (np.isfinite(values).all() and np.isfinite(ses).all()):
         return mean, np.nan, np.nan
     test, spread = float(ses.mean()) ** 2, float(values.var(ddof=1)) / len(values)
-    z, t = (student_t.ppf(0.5 + level / 2, df) for df in (np.inf, len(values) - 1))
+    z, t = (scipy.stats.t.ppf(0.5 + level / 2, df) for df in (np.inf, len(values) - 1))
     half = float(np.sqrt(z**2 * test + t**2 * spread))
     return mean, max(mean - half, bounds[0]), min(mean + half, bounds[1])
 
@@ -548,7 +576,7 @@ def over_seeds(
         split): the change is bootstrapped as the seeds' paired differences, one side of
         ``S`` seeds, so the luck a seed gives both sides cancels and the seed variance rests on
         ``S - 1`` degrees of freedom. Without it, each side's seeds are drawn on their own.
-    seed_pool : mapping of figure to SeedPool, optional
+    seed_pool : mapping of figure to SeedNoise, optional
         The seed variance of each figure pooled over the protocol's cells
         (:func:`slipbench.stats.pooled.protocol_seed_pool`, built with the same ``paired``): it
         stands for this cell's own seed spread, on the protocol's degrees of freedom, where the
@@ -642,7 +670,7 @@ def seed_spreads(
 ) -> dict[str, list[tuple[float, int]]]:
     """Per figure, each side's variance over its seeds (ddof 1) and its number of seeds, as
     :func:`over_seeds` forms its sides (``paired``: one side of the seeds' differences): what
-    :func:`slipbench.stats.bootstrap.pool_seed_spreads` pools over a protocol's cells."""
+    :func:`slipbench.stats.noise.pool_seed_spreads` pools over a protocol's cells."""
     _, _, design, per_side = _seed_sides(base, cand, figures)
     of_seeds = _paired_seeds if paired else _per_seed
     one = np.ones((1, design.n_clusters))

@@ -28,31 +28,37 @@ cells' rows, taking their errors as moving together (the widest case).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 from scipy.stats import t as student_t
 
+from slipbench.errors import DataError
 from slipbench.stats.bootstrap import (
     N_RESAMPLES,
     Clusters,
     IntervalSpec,
     SeededFigure,
-    SeedPool,
     make_design,
-    pool_seed_spreads,
     seeded_interval,
 )
 from slipbench.stats.metrics import (
     FIGURES,
+    RATES,
     Predictions,
+    class_masks,
     classes_low_n,
     cluster_counts,
     seed_spreads,
 )
+from slipbench.stats.noise import SeedNoise, pool_seed_spreads
+from slipbench.store.columns import FIGURES as FIGURES_DECLARED
+from slipbench.store.results import read_predictions
 
-RATE_MASKS = ("accuracy", "tp_rate", "tn_rate")
 #: the interval of a pooled change: the t-interval the null and power studies measured (a
 #: change, where ``satterthwaite`` and the figures' ``replicate-logit`` agree); the default's
 #: choice of scale was screened on cells, not on means over many cells
@@ -114,9 +120,9 @@ def on_common_seeds(cells: Sequence[CellSides]) -> Sequence[CellSides]:
 
 def protocol_seed_pool(
     cells: Sequence[CellSides], figures: Sequence[str] = FIGURES, paired: bool = False
-) -> dict[str, SeedPool]:
+) -> dict[str, SeedNoise]:
     """Per figure, the seed variance ``cells`` (a protocol's compared cells) share: each cell
-    side's spread over its seeds, pooled with its degrees of freedom (``docs/statistics.md``);
+    side's spread over its seeds, pooled with its degrees of freedom (``docs/explanation/statistics.md``);
     figures no cell side of two seeds measures are left out. Give it to
     :func:`slipbench.stats.metrics.over_seeds` (``seed_pool``, the same ``paired``) so that a
     cell's seed term rests on the protocol's degrees of freedom, and more seeds narrow it."""
@@ -129,8 +135,7 @@ def protocol_seed_pool(
 
 
 def _mask(p: Predictions, figure: str) -> np.ndarray:
-    y = np.asarray(p.y_true, bool)
-    return {"accuracy": np.ones(len(y), bool), "tp_rate": y, "tn_rate": ~y}[figure]
+    return class_masks(p.y_true)[FIGURES_DECLARED[figure].rate]
 
 
 def pooled_change(
@@ -152,8 +157,8 @@ def pooled_change(
         ``n_cells``; ``n_test_clusters_slip``/``_nonslip`` over the union of the
         test sets and ``low_n``; ``estimable``.
     """
-    if figure not in RATE_MASKS:
-        raise ValueError(f"pooled changes are of rates ({', '.join(RATE_MASKS)}), not {figure}")
+    if figure not in RATES:
+        raise ValueError(f"pooled changes are of rates ({', '.join(RATES)}), not {figure}")
     if not cells:
         raise ValueError("pooled_change needs at least one cell")
     ran = cells
@@ -267,3 +272,43 @@ def pooled_from_rows(
     }
     q = student_t.ppf(1 - (1 - level) / 2, out["df"])
     return out | {"lo": out["d"] - q * out["se"], "hi": out["d"] + q * out["se"]}
+
+
+def _as_predictions(frame: pd.DataFrame, by_trial: bool) -> Predictions:
+    score = frame["score"].to_numpy()
+    groups = frame["trial" if by_trial else "recording_id"].astype(str).to_numpy()
+    return Predictions(frame["y_true"].to_numpy().astype(bool), score >= 0.5, groups, score)
+
+
+def seed_sides(base: list[pd.DataFrame], cand: list[pd.DataFrame]) -> tuple[list, list]:
+    """Each seed's predictions as Predictions, clustered by trial where every file holds one."""
+    by_trial = all("trial" in f for f in (*base, *cand))
+    return [_as_predictions(f, by_trial) for f in base], [
+        _as_predictions(f, by_trial) for f in cand
+    ]
+
+
+def cell_sides(
+    base: list[pd.DataFrame], cand: list[pd.DataFrame], base_rows: list, cand_rows: list
+) -> CellSides:
+    """A compared cell as the pooled tests take it: each seed's predictions per side and the
+    seeds their rows ran, in the same order."""
+    return CellSides(
+        *seed_sides(base, cand),
+        [r.get("seed") for r in base_rows],
+        [r.get("seed") for r in cand_rows],
+    )
+
+
+def find_predictions(folders: Sequence[Path], key: str) -> pd.DataFrame | None:
+    """A cell's stored predictions from the first folder that holds them; a damaged file costs
+    the cell its window-by-window pairing, not the report."""
+    for folder in folders:
+        try:
+            found = read_predictions(folder, key)
+        except DataError as exc:
+            warnings.warn(f"{exc}; the cell is compared from its rows", stacklevel=3)
+            return None
+        if found is not None:
+            return found
+    return None

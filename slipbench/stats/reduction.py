@@ -10,12 +10,12 @@ comparison). Twins pair across seeds as :func:`slipbench.stats.compare.compare` 
 candidate, with the same machinery:
 
 - one seed per side, the same: window by window, the paired stratified cluster bootstrap of
-  :func:`slipbench.stats.metrics.paired_comparison` (:func:`~slipbench.stats.compare.paired_cell`);
+  :func:`slipbench.stats.metrics.paired_comparison` (:func:`~slipbench.stats.changes.paired_cell`);
 - several seeds on a side: the two-level bootstrap over seeds and trials
-  (:func:`~slipbench.stats.compare.cell_over_seeds`), so retraining noise is inside the interval,
+  (:func:`~slipbench.stats.changes.cell_over_seeds`), so retraining noise is inside the interval,
   the seeds paired where both inputs ran the same ones (seed k made one split for both);
 - a side without stored predictions: judged from the rows
-  (:func:`~slipbench.stats.compare.unpaired_cell`), which errs wide.
+  (:func:`~slipbench.stats.changes.unpaired_cell`), which errs wide.
 
 Each cell's interval is at ``LEVEL`` (95 %) alone. Per detector, split, protocol and sensor type,
 the mean change over the cells is bootstrapped once, jointly over the trials the cells share
@@ -25,14 +25,17 @@ reproduction it does (the change's seed x cell layout: the seed's F 12.7-59.8, p
 of 18 detector, sensor and rate groups, p < 0.05 in 14; ``benchmarks/bench_seed_by_cell.py``),
 so drawing each cell's seeds on its own held it too narrowly. Those pooled intervals are
 simultaneous over every pooled change of the comparison (Bonferroni at ``ALPHA``), and they
-alone are read: channels *better* where the interval lies above 0, *worse* below, *no difference
-resolved* where it holds 0, *inconclusive* where the test trials are few or the interval is
-wider than :data:`~slipbench.stats.compare.MAX_WIDTH` points. Measured on simulated results
-with both inputs equal, retraining noise and a split's luck shared by a sensor's cells
+alone are read, as every contrast is (:mod:`slipbench.stats.contrast`), against the accuracy's
+margin (1 point): channels *better* where the interval lies above it, *worse* below -1 point,
+*within the margin* where inside it, *undecided* where it holds a change within the margin and
+one beyond it; *inconclusive* where the test trials are few, a side ran one seed (the interval
+then holds the test trials' noise only), or the interval is wider than
+:data:`~slipbench.stats.compare.MAX_WIDTH` points. Measured on simulated results with both inputs
+equal, retraining noise and a split's luck shared by a sensor's cells
 (``tests/stats/test_reduction.py``, 20 replications x 2 sensor types, each reading at 97.5 %):
 with three seeds per cell, 1 of 40 readings called a difference (9 inconclusive: three splits
-pin a split's luck down loosely); with one seed, 10 of 40, since the intervals then hold the
-test trials' noise only. The report says so where a cell ran one seed.
+pin a split's luck down loosely); with one seed, read as above the interval alone, 10 of 40:
+one seed is inconclusive, whatever its interval.
 
 Cells of a detector and protocol that ran with channels but cannot be paired (no twin, a side not
 finished, a streaming cell, a seed stored twice) are listed with the reason, never dropped.
@@ -42,7 +45,6 @@ from __future__ import annotations
 
 import json
 import os
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,22 +53,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.errors import DataError
 from slipbench.stats.bootstrap import IntervalSpec
-from slipbench.stats.compare import (
-    ALPHA,
-    MAX_WIDTH,
-    cell_over_seeds,
-    cell_sides,
-    family_level,
-    paired_cell,
-    unpaired_cell,
-)
+from slipbench.stats.changes import cell_over_seeds, paired_cell, unpaired_cell
+from slipbench.stats.compare import ALPHA, MAX_WIDTH, family_level
+from slipbench.stats.contrast import CONTRADICTED, ONE_SEED, SHOWN, Contrast, margin_of
+from slipbench.stats.factors import CHANNELS, UNIVARIATE, inputs, plain
 from slipbench.stats.metrics import LEVEL, RATES
-from slipbench.stats.pooled import pooled_change, pooled_from_rows
-from slipbench.store.results import read_predictions
+from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change, pooled_from_rows
+from slipbench.store.columns import ACCURACY
 
-UNIVARIATE, CHANNELS = "univariate", "channels"
 #: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
 Sides = tuple[list, list, list[dict], list[dict]]
 #: the rates compared, per cell and pooled
@@ -87,7 +82,7 @@ TWIN_COLUMNS = (
     "dataset_fingerprint",
 )
 _WITHOUT_INPUT = ("cell", "detector_params")  # JSON columns that may name the input
-READINGS = ("channels better", "channels worse", "no difference resolved", "inconclusive")
+READINGS = ("channels better", "channels worse", "within the margin", "undecided", "inconclusive")
 
 
 @dataclass
@@ -104,14 +99,6 @@ class InputComparison:
     unpaired: pd.DataFrame
     level: float = LEVEL
     pooled_level: float = LEVEL
-
-
-def inputs(rows: pd.DataFrame) -> pd.Series:
-    """Each row's input: its ``input`` column, "univariate" where the rows lack it (older
-    results) or leave it empty."""
-    if "input" not in rows:
-        return pd.Series(UNIVARIATE, index=rows.index)
-    return rows["input"].where(rows["input"].notna() & (rows["input"] != ""), UNIVARIATE)
 
 
 def has_both_inputs(rows: pd.DataFrame) -> bool:
@@ -134,12 +121,6 @@ def _without_input(value: Any) -> Any:
         return value
     parsed.pop("input", None)
     return json.dumps(parsed, sort_keys=True)
-
-
-def plain(value: Any) -> Any:
-    if value is None or (np.ndim(value) == 0 and pd.isna(value)):
-        return None
-    return value.item() if isinstance(value, np.generic) else value
 
 
 def twin_key(row: dict) -> str:
@@ -171,20 +152,6 @@ def _seeds(rows: list[dict]) -> str:
     """The seeds of a cell's rows, each once: "0,1,2"."""
     seeds = sorted({_seed_order(r) for r in rows})
     return ",".join(f"{s:g}" for s in seeds)
-
-
-def find_predictions(folders: Sequence[Path], key: str) -> pd.DataFrame | None:
-    """A cell's stored predictions from the first folder that holds them; a damaged file costs
-    the cell its window-by-window pairing, not the report."""
-    for folder in folders:
-        try:
-            found = read_predictions(folder, key)
-        except DataError as exc:
-            warnings.warn(f"{exc}; the cell is compared from its rows", stacklevel=3)
-            return None
-        if found is not None:
-            return found
-    return None
 
 
 def _status(rows: list[dict]) -> str:
@@ -282,7 +249,10 @@ def _pool(members: list[tuple[dict, Sides | None]], seed: int, level: float) -> 
     """The mean change of each rate over a group's cells: one joint bootstrap where every cell
     has its predictions, else from the rows."""
     cells = [e for e, _ in members]
-    line: dict[str, Any] = {"cells": len(cells)}
+    line: dict[str, Any] = {
+        "cells": len(cells),
+        "seeds": min(min(e["n_seeds_univariate"], e["n_seeds_channels"]) for e in cells),
+    }
     for side in (UNIVARIATE, CHANNELS):
         for name in RATES:
             line[f"{side}_{name}"] = float(np.mean([e[f"{side}_{name}"] for e in cells]))
@@ -316,15 +286,24 @@ def _pool(members: list[tuple[dict, Sides | None]], seed: int, level: float) -> 
 
 
 def change_reading(line: dict, max_width: float = MAX_WIDTH) -> str:
-    """What a pooled accuracy change says, read by its interval (one of ``READINGS``)."""
-    lo, hi = 100 * line["d_accuracy_lo"], 100 * line["d_accuracy_hi"]
-    if line["low_n"] or not np.isfinite(lo) or not np.isfinite(hi) or hi - lo > max_width:
+    """What a pooled accuracy change says (one of ``READINGS``), read as every contrast is
+    (:mod:`slipbench.stats.contrast`) against the accuracy's margin: beyond it, channels better
+    or worse; inside it, within the margin; neither, undecided; inconclusive where the interval
+    lacks what its claim needs: enough test trials, a second seed per side, or a width of at
+    most ``max_width`` points."""
+    width = 100 * (line["d_accuracy_hi"] - line["d_accuracy_lo"])
+    change = Contrast(
+        line["d_accuracy"],
+        line["d_accuracy_lo"],
+        line["d_accuracy_hi"],
+        margin=margin_of(ACCURACY.name),
+        missing="low n" if line["low_n"] else ONE_SEED if line["seeds"] < 2 else "",
+    )
+    if change.missing or not change.judged or not width <= max_width:
         return "inconclusive"
-    if lo > 0:
-        return "channels better"
-    if hi < 0:
-        return "channels worse"
-    return "no difference resolved"
+    if change.state == SHOWN:
+        return "channels better" if change.direction > 0 else "channels worse"
+    return "within the margin" if change.state == CONTRADICTED else "undecided"
 
 
 def compare_inputs(

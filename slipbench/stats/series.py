@@ -30,9 +30,9 @@ import numpy as np
 import pandas as pd
 from scipy.stats import norm
 
-from slipbench.stats.bootstrap import SeedPool, pool_seed_spreads
 from slipbench.stats.factors import CELLS, factor_values, named_entrants
 from slipbench.stats.metrics import LEVEL
+from slipbench.stats.noise import SeedNoise, pool_seed_spreads
 from slipbench.store.history import COLUMNS, FIGURES, RUN_COLUMNS
 from slipbench.store.results import row_digest
 
@@ -48,6 +48,8 @@ APART = (
 )
 IDENTITY = ("detector", *SETTINGS, *CELLS)
 POOLED = "all cells"  # the cell of a pooled series, as labels show it
+#: the source of a seed variance measured on a history (:func:`seed_spread`)
+HISTORY = "the history of main"
 
 
 def _digest(fields: object) -> str:
@@ -206,12 +208,13 @@ def points(rows: pd.DataFrame) -> pd.DataFrame:
 
 def seed_spread(
     frame: pd.DataFrame, figure: str, identities: Sequence[str] | None = None
-) -> pd.DataFrame:
+) -> dict[str, SeedNoise]:
     """The seed spread of every series of ``figure`` in a history: its variance between
     results of one code identity (and one parameter set), which differ in their seed alone,
     pooled over the identities with their degrees of freedom (seeds - 1 each;
-    :func:`slipbench.stats.bootstrap.pool_seed_spreads`). A result kept by several runs (same
-    code, same seed: the same cell key) counts once.
+    :func:`slipbench.stats.noise.pool_seed_spreads`), as the noise a contrast takes (source
+    :data:`HISTORY`). A result kept by several runs (same code, same seed: the same cell key)
+    counts once.
 
     Parameters
     ----------
@@ -222,31 +225,23 @@ def seed_spread(
 
     Returns
     -------
-    DataFrame
-        One row per series that some identity ran under two seeds or more: ``series``,
-        ``series_label``, ``variance`` (in the figure's stored units: a fraction for rates),
-        ``df`` and ``identities`` (how many identities contributed).
+    dict
+        Series (its 16-hex digest) to its :class:`~slipbench.stats.noise.SeedNoise`, for every
+        series that some identity ran under two seeds or more; the variance in the figure's
+        stored unit (a fraction for rates).
     """
     ok = frame[(frame["status"] == "ok") & frame[figure].notna()].drop_duplicates("key")
     if identities is not None:
         ok = ok[ok["code_identity"].isin(list(identities))]
     ok = ok[ok["code_identity"].fillna("") != ""]  # rows from before it was recorded
-    lines = []
+    found = {}
     for series, part in ok.groupby("series", sort=False):
         spreads = [
             (float(np.var(pd.to_numeric(g[figure]).to_numpy(float), ddof=1)), len(g))
             for _, g in part.groupby(["code_identity", "detector_params"], dropna=False)
             if len(g) > 1
         ]
-        pool: SeedPool | None = pool_seed_spreads(spreads)
+        pool = pool_seed_spreads(spreads)
         if pool is not None:
-            lines.append(
-                {
-                    "series": series,
-                    "series_label": part["series_label"].iloc[0],
-                    "variance": pool.variance,
-                    "df": pool.df,
-                    "identities": len(spreads),
-                }
-            )
-    return pd.DataFrame(lines, columns=["series", "series_label", "variance", "df", "identities"])
+            found[str(series)] = SeedNoise(pool.variance, pool.df, HISTORY)
+    return found

@@ -12,14 +12,14 @@ differences scales the penalty, never below what the intervals say. The penalty 
 *Confirmed.* A proposal is a step only where the gate would call it one: the runs of the
 segment before and of the segment after (up to the neighbouring proposals) are its two sides,
 each segment's results its seeds (a result a later run kept, with the same code and seed,
-counts once), and :func:`step_change` (the one place this module calls the comparison
-machinery) gives the change with its standard error and degrees of freedom. It is tested
-against the figure's tolerance in the gate (:mod:`slipbench.stats.gate`); Bonferroni holds
-the family of every proposal in the history at ``ALPHA`` (5 %), and each interval is shown at
-that level, so that an interval beyond the tolerance and a confirmed step are one statement.
-A step is *regressed* or *improved* where its change is beyond the tolerance at that level,
-else *not confirmed*; proposals in low-n cells (fewer than ``LOW_N`` test trials of a class)
-are *inconclusive*.
+counts once), and :func:`step_change` gives the change as the gate's one contrast
+(:mod:`slipbench.stats.contrast`): its estimate, standard error, degrees of freedom, interval
+and state against the figure's tolerance in the gate (its margin). Bonferroni holds each
+series' proposals at ``SERIES_ALPHA`` (:func:`~slipbench.stats.contrast.family_level`), and the
+interval shown is the one the verdict read: a step is *regressed* or *improved* where that
+interval lies beyond the tolerance (the contrast's state ``shown``), else *not confirmed*;
+proposals with one seed on each side (no retraining noise measured) or in low-n cells (fewer
+than ``LOW_N`` test trials of a class) are *inconclusive*.
 
 The gate's windowed figures (accuracy, TN rate, TP rate) are judged, per cell and pooled over
 a protocol's cells; streaming series are kept and plotted, and judged once compare judges
@@ -31,21 +31,31 @@ from __future__ import annotations
 import math
 import os
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 import ruptures as rpt
 from ruptures.base import BaseCost
-from scipy.stats import t as student_t
 
-from slipbench.stats.compare import ALPHA, unpaired_cell
-from slipbench.stats.gate import SCALE, WINDOWED, WORSE, Gate, two_sided_p
-from slipbench.stats.metrics import FIGURES
+from slipbench.stats.contrast import (
+    ONE_SEED,
+    SHOWN,
+    TEST_NOISE,
+    Contrast,
+    family_level,
+    from_parts,
+    p_beyond,
+)
+from slipbench.stats.gate import Gate
+from slipbench.stats.noise import SeedNoise, pool_seed_spreads
 from slipbench.stats.series import figure_rows, points
+from slipbench.store.columns import FIGURES, WINDOWED, names
 
 #: the price of a cut, times the series' noise scale and log(points)
 PENALTY = 6.0
+#: the figures judged: the windowed figures the gate reads
+JUDGED = names(WINDOWED, gated=True)
 #: the fewest runs a segment holds
 MIN_RUNS = 4
 #: what a step's run may have changed against the run before, and the column that says so
@@ -71,8 +81,10 @@ STEP_COLUMNS = [
     "detector",
     "cell",
     *(c for _, c in CAUSES),
-    *(f"{f}{end}" for f in WINDOWED for end in ("", "_se")),
+    *(f"{f}{end}" for f in JUDGED for end in ("", "_se")),
 ]
+#: where a step's seed noise was measured where no other source is given
+SEGMENT_SEEDS = "the seeds of the segments beside the step"
 #: the chance that a series without a step gets a confirmed one (Bonferroni over its proposals)
 SERIES_ALPHA = 0.01
 #: points per worker process below which the series are cut in this process (starting the
@@ -129,41 +141,40 @@ def propose(value: np.ndarray, se: np.ndarray) -> list[int]:
     return [int(b) for b in algo.predict(pen=pen)[:-1]]
 
 
-def _sides(before: list[dict], after: list[dict], figure: str) -> tuple[dict, dict]:
-    """Both segments as one row each: the mean of its seeds, and a standard error from their
-    spread pooled over both segments (a step moves the figure, not the bench's seed noise) on
-    ``seeds - 2`` degrees of freedom. Where each segment holds one seed, nothing measures that
-    noise: each row keeps its own interval (test-set noise alone)."""
-    unknown = {f"{name}_se": np.nan for name in FIGURES}  # the figures not judged here
-    if len(before) + len(after) <= 2:
-        return unknown | before[0], unknown | after[0]
-    values = [np.array([r[figure] for r in side], float) for side in (before, after)]
-    df = float(len(values[0]) + len(values[1]) - 2)
-    variance = sum(float(((v - v.mean()) ** 2).sum()) for v in values) / df
-    return tuple(  # type: ignore[return-value]
-        unknown | {figure: float(v.mean()), f"{figure}_se": np.sqrt(variance / len(v)), "df": df}
-        for v in values
-    )
+def step_change(
+    sides: tuple[list[dict], list[dict]],
+    figure: str,
+    level: float,
+    margin: float,
+    noise: SeedNoise | None = None,
+) -> Contrast:
+    """The change of ``figure`` from the seeds before a step to those after it (``sides``, each
+    seed a row with the figure, its ``_se`` and ``df``) as a contrast (:mod:`slipbench.stats.contrast`) at
+    ``level`` against ``margin`` (both in the figure's stored unit): the difference of the
+    segments' means, its variance the seed variance over the seeds of each side.
 
-
-def step_change(before: list[dict], after: list[dict], figure: str, level: float) -> dict:
-    """The change of ``figure`` from the seeds ``before`` to those ``after`` (each a row with
-    the figure, its ``_se`` and ``df``), by the gate's comparison of two rows
-    (:func:`slipbench.stats.compare.unpaired_cell`), each side the mean of its seeds with the
-    standard error of their pooled spread (:func:`_sides`). Returns ``d``, ``se``, ``df`` and
-    the interval ``lo``, ``hi`` at ``level``, in the figure's stored units.
-
-    The one place steps call the comparison machinery: the contrast module replaces it.
+    The seed variance is ``noise`` where given (a measure with more degrees of freedom), else
+    the segments' own spread pooled over both (a step moves the figure, not the bench's seed
+    noise) on ``seeds - 2`` degrees of freedom: a seed's value differs from another's by its
+    training and, where seeds draw the split, its test trials, so that spread holds both.
+    Where each side holds one seed and no ``noise`` is given, nothing measures retraining
+    noise: the interval holds both rows' test-set noise, and the contrast says what it lacks
+    (``missing``), so it stays undecided.
     """
-    b, a = _sides(before, after, figure)
-    found = unpaired_cell([b], [a], level)
-    return {
-        "d": found[f"d_{figure}"],
-        "se": found[f"d_{figure}_se"],
-        "df": found["df"],
-        "lo": found[f"d_{figure}_lo"],
-        "hi": found[f"d_{figure}_hi"],
-    }
+    before, after = sides
+    b, a = (np.array([r[figure] for r in side], float) for side in sides)
+    estimate = float(a.mean() - b.mean())
+    own = pool_seed_spreads(
+        (float(np.var(v, ddof=1)) if len(v) > 1 else np.nan, len(v)) for v in (b, a)
+    )
+    seeds = noise or (own and SeedNoise(own.variance, own.df, SEGMENT_SEEDS))
+    if seeds is None:
+        test = sum(float(r[f"{figure}_se"]) ** 2 for r in (before[0], after[0]))
+        df = min(float(r["df"]) for r in (before[0], after[0]))
+        alone = from_parts(estimate, [(test, df)], level, margin)
+        return replace(alone, missing=ONE_SEED, noise=(TEST_NOISE,))
+    parts = [(seeds.of_mean(len(b)) + seeds.of_mean(len(a)), seeds.df)]
+    return replace(from_parts(estimate, parts, level, margin), noise=(seeds.source,))
 
 
 @dataclass
@@ -243,11 +254,12 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
     jobs : processes that cut the series (used where the points are many).
     """
     gate = gate or Gate()
-    figures = [f for f in WINDOWED if f in gate.tolerances and f in frame]
+    figures = [f for f in JUDGED if f in gate.tolerances and f in frame]
     runs = _runs(frame)
     causes = (_by_series(frame, ["run", *(c for _, c in CAUSES)]), _run_causes(frame))
     found, n_series, kept = [], 0, []
     for figure in figures:
+        margin = gate.tolerances[figure] / FIGURES[figure].scale
         rows = figure_rows(frame, figure)
         seeds = _by_series(rows, ["run", "seed", "result", "value", "se", "df"])
         pts = points(rows)
@@ -256,14 +268,81 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         for g, cuts in zip(groups, _proposals(groups, jobs)):
             series = g["series"].iloc[0]
             mine = causes[0].get(series, causes[1]) if g["kind"].iloc[0] == "cell" else causes[1]
-            found += _judge_series(g, cuts, figure, seeds[series], mine)
+            found += _judge_series(g, cuts, (figure, margin), seeds[series], mine)
         kept.append(
             pts[["series", "series_label", "kind", "run", "value", "se"]].assign(figure=figure)
         )
     steps = pd.DataFrame(found, columns=list(_COLUMNS))
-    out = _verdicts(steps, runs, n_series, gate)
+    out = _dated(steps, runs, n_series, gate)
     out.points = pd.concat(kept, ignore_index=True) if kept else pd.DataFrame()
     return out
+
+
+def _judge_series(
+    pts: pd.DataFrame,
+    cuts: list[int],
+    judged: tuple[str, float],
+    rows: dict[str, np.ndarray],
+    causes: dict,
+) -> list[dict]:
+    """Each proposed cut of one series with its change between the segments beside it, at the
+    level that holds the series' proposals together; ``judged``: the figure and its margin."""
+    figure, margin = judged
+    bounds = [0, *cuts, len(pts)]
+    runs = pts["run"].to_numpy()
+    level = family_level(len(cuts), SERIES_ALPHA)
+    out = []
+    for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
+        sides = [_seeds(runs[i:j], figure, rows) for i, j in ((a, k), (k, b))]
+        change = step_change((sides[0], sides[1]), figure, level, margin)
+        last, first = int(runs[k - 1]), int(runs[k])
+        low_n = bool(pts["low_n"].iloc[a:b].any())
+        out.append(
+            {
+                "series": pts["series"].iloc[0],
+                "series_label": pts["series_label"].iloc[0],
+                "kind": pts["kind"].iloc[0],
+                "figure": figure,
+                "run": first,
+                "previous_run": last,
+                "runs_before": k - a,
+                "runs_after": b - k,
+                "seeds_before": len(sides[0]),
+                "seeds_after": len(sides[1]),
+                "low_n": low_n,
+                **_verdict(change, figure, low_n, len(cuts)),
+                "what_changed": _what_changed(causes, last, first),
+            }
+        )
+    return out
+
+
+def _verdict(change: Contrast, figure: str, low_n: bool, proposals: int) -> dict:
+    """A proposal's change in the figure's change unit (its interval the one its state read)
+    and its verdict; ``p_adjusted``: Bonferroni's p of a change within the tolerance (below
+    ``SERIES_ALPHA`` exactly where the interval is shown beyond it), for ordering."""
+    declared = FIGURES[figure]
+    shown = change.scaled(declared.scale)
+    p = p_beyond(change.estimate, [(change.se**2, change.df)], change.margin)
+    if low_n or change.missing:
+        verdict, why = "inconclusive", "low n" if low_n else change.missing
+    elif change.state == SHOWN:
+        verdict, why = ("regressed" if change.direction == declared.worse else "improved"), ""
+    else:
+        verdict, why = "not confirmed", change.why
+    return {
+        "change": shown.estimate,
+        "change_lo": shown.lo,
+        "change_hi": shown.hi,
+        "se": shown.se,
+        "df": shown.df,
+        "level": shown.level,
+        "tolerance": shown.margin,
+        "p_adjusted": min(1.0, proposals * p) if not (low_n or change.missing) else 1.0,
+        "noise": ", ".join(change.noise),
+        "verdict": verdict,
+        "why": why,
+    }
 
 
 _COLUMNS = {
@@ -278,44 +357,19 @@ _COLUMNS = {
     "seeds_before": int,
     "seeds_after": int,
     "low_n": bool,
-    "d": float,
+    "change": float,
+    "change_lo": float,
+    "change_hi": float,
     "se": float,
     "df": float,
+    "level": float,
+    "tolerance": float,
+    "p_adjusted": float,
+    "noise": str,
+    "verdict": str,
+    "why": str,
     "what_changed": str,
 }
-
-
-def _judge_series(
-    pts: pd.DataFrame, cuts: list[int], figure: str, rows: dict[str, np.ndarray], causes: dict
-) -> list[dict]:
-    """Each proposed cut of one series with its change between the segments beside it."""
-    bounds = [0, *cuts, len(pts)]
-    runs = pts["run"].to_numpy()
-    out = []
-    for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
-        sides = [_seeds(runs[i:j], figure, rows) for i, j in ((a, k), (k, b))]
-        change = step_change(sides[0], sides[1], figure, 1 - ALPHA)
-        last, first = int(runs[k - 1]), int(runs[k])
-        out.append(
-            {
-                "series": pts["series"].iloc[0],
-                "series_label": pts["series_label"].iloc[0],
-                "kind": pts["kind"].iloc[0],
-                "figure": figure,
-                "run": first,
-                "previous_run": last,
-                "runs_before": k - a,
-                "runs_after": b - k,
-                "seeds_before": len(sides[0]),
-                "seeds_after": len(sides[1]),
-                "low_n": bool(pts["low_n"].iloc[a:b].any()),
-                "d": change["d"],
-                "se": change["se"],
-                "df": change["df"],
-                "what_changed": _what_changed(causes, last, first),
-            }
-        )
-    return out
 
 
 def _seeds(runs: np.ndarray, figure: str, rows: dict[str, np.ndarray]) -> list[dict]:
@@ -348,36 +402,9 @@ def _what_changed(causes: dict, before: int, after: int) -> str:
     return ", ".join(name for (name, _), d in zip(CAUSES, differ) if d) or "seeds only"
 
 
-def _verdicts(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate) -> Steps:
-    """Bonferroni over each series' proposals at ``SERIES_ALPHA``, the level of the interval
-    shown beside each; one seed on each side or low n: inconclusive."""
+def _dated(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate) -> Steps:
+    """The proposals with their runs' commits and dates."""
     steps = steps.copy()
-    scale = steps["figure"].map(SCALE).to_numpy(float)
-    sign = steps["figure"].map(WORSE).to_numpy(float)
-    tol = steps["figure"].map(gate.tolerances).to_numpy(float)
-    d, se = scale * steps["d"].to_numpy(float), scale * steps["se"].to_numpy(float)
-    df = steps["df"].to_numpy(float)
-    p_worse, p_better = two_sided_p(sign * d, se, df, tol)
-    alone = (steps["seeds_before"] + steps["seeds_after"] <= 2).to_numpy(bool)
-    testable = ~steps["low_n"].to_numpy(bool) & ~alone
-    m = steps.groupby(["series", "figure"])["run"].transform("size").to_numpy(float)
-    # Bonferroni, not Holm: every verdict then rests on the interval printed beside it
-    steps["p_adjusted"] = np.where(
-        testable, np.minimum(1.0, m * np.minimum(p_worse, p_better)), 1.0
-    )
-    steps["level"] = 1 - SERIES_ALPHA / np.maximum(m, 1)
-    q = student_t.ppf(1 - (1 - steps["level"].to_numpy(float)) / 2, df)
-    steps["change"], steps["change_lo"], steps["change_hi"] = d, d - q * se, d + q * se
-    steps["tolerance"] = tol
-    steps["verdict"] = [
-        "inconclusive"
-        if not ok
-        else ("regressed" if w <= b else "improved")
-        if ph <= SERIES_ALPHA
-        else "not confirmed"
-        for ok, ph, w, b in zip(testable, steps["p_adjusted"], p_worse, p_better)
-    ]
-    steps["why"] = np.where(alone, "one seed on each side", np.where(steps["low_n"], "low n", ""))
     by_run = runs.set_index("run")
     for side, column in (("", "run"), ("previous_", "previous_run")):
         for what in ("commit", "date"):

@@ -1,5 +1,5 @@
 """The history: result rows of many runs, one run per commit, append-only, as a partitioned
-Parquet dataset (``docs/history.md`` documents the format)::
+Parquet dataset (``docs/guides/history.md`` documents the format)::
 
     HISTORY/
       runs/month=YYYY-MM/<commit>.parquet   one run's rows, written once, atomically; the
@@ -32,6 +32,7 @@ import pyarrow as pa
 
 from slipbench.atomic import check_writable, folder_lock, make_folder, open_parquet, write_atomic
 from slipbench.errors import DataError, UsageError, environment_fault
+from slipbench.store.columns import names
 
 FORMAT_VERSION = 1
 INDEX_FILE = "index.parquet"
@@ -41,16 +42,9 @@ _META = b"slipbench.history"
 COMMIT = re.compile(r"[0-9A-Za-z][0-9A-Za-z._-]{0,99}")
 #: the run's columns, on each of its rows
 RUN_COLUMNS = ("commit", "date", "machine", "bench_digest")
-#: the figures a history keeps, each with its standard error and 95 % bounds
-FIGURES = (
-    "accuracy",
-    "tn_rate",
-    "tp_rate",
-    "false_alarms_per_min",
-    "detection_rate",
-    "median_delay_ms",
-)
-#: every column of a history row and its type (docs/history.md says what each means)
+#: the figures a history keeps (the gate's), each with its standard error and 95 % bounds
+FIGURES = names(gated=True)
+#: every column of a history row and its type (docs/guides/history.md says what each means)
 COLUMNS: dict[str, pa.DataType] = {
     **dict.fromkeys(RUN_COLUMNS, pa.string()),
     "series": pa.string(),

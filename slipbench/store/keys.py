@@ -59,10 +59,7 @@ def canonical(value: Any, where: str = "key") -> Any:
     if isinstance(value, (int, np.integer)):
         return int(value)
     if isinstance(value, (float, np.floating)):
-        x = float(value)
-        if not math.isfinite(x):
-            return {"__float__": "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")}
-        return int(x) if x.is_integer() else x
+        return _float(float(value))
     if isinstance(value, (list, tuple)):
         return [canonical(v, f"{where}[{i}]") for i, v in enumerate(value)]
     if isinstance(value, np.ndarray):
@@ -78,7 +75,16 @@ def canonical(value: Any, where: str = "key") -> Any:
                 raise TypeError(
                     f"{where}: dict key {k!r} is a {type(k).__name__}, not a str; cache keys take string keys only"
                 )
-            out[str(k)] = canonical(v, f"{where}.{k}")
+            # plain values at once: every read digests each result row's ~100 values, and the
+            # recursion (its `where` text) took 2.5x as long (benchmarks/results/store.txt)
+            kind = type(v)
+            out[str(k)] = (
+                v
+                if kind in _PLAIN
+                else _float(v)
+                if kind is float
+                else canonical(v, f"{where}.{k}")
+            )
         return out
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return {
@@ -89,6 +95,16 @@ def canonical(value: Any, where: str = "key") -> Any:
         f"{where}: {value!r} (a {type(value).__module__}.{type(value).__qualname__}) cannot be part of a "
         "cache key; pass plain numbers, strings, booleans, None, lists, tuples, dicts or dataclasses"
     )
+
+
+_PLAIN = frozenset({str, int, bool, type(None)})  # exactly these types are their own canonical form
+
+
+def _float(x: float) -> Any:
+    """A float's canonical form: the int it equals, itself, or NaN and infinities spelt out."""
+    if not math.isfinite(x):
+        return {"__float__": "nan" if math.isnan(x) else ("inf" if x > 0 else "-inf")}
+    return int(x) if x.is_integer() else x
 
 
 def canonical_json(fields: dict[str, Any]) -> str:
@@ -199,6 +215,12 @@ def file_digest(path: Path) -> str:
         return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
     except OSError:
         return "missing"
+
+
+def changed_reads(row: dict[str, Any]) -> list[str]:
+    """The files of a stored row's ``unkeyed_reads`` whose content is no longer what it was."""
+    recorded = json.loads(row.get("unkeyed_reads") or "{}")
+    return [path for path, digest in recorded.items() if file_digest(Path(path)) != digest]
 
 
 @cache
@@ -429,6 +451,77 @@ def _locations(package: str) -> tuple[list[Path], Path | None]:
 
 
 def _engine_packages() -> list[str]:
-    """slipbench and the packages of its built-in plugins, which an editable install keeps in
-    folders outside ``slipbench/`` (the registries name them)."""
+    """slipbench and the packages of its built-in plugins (the registries name them); the
+    plugins' folders lie inside ``slipbench/``, so their files are labelled alike either way."""
     return ["slipbench", "slipbench.detectors", "slipbench.protocols"]
+
+
+def own_code_identity(cls: type) -> str:
+    """The identity of a plugin class's own code, narrower than :func:`code_identity`: the
+    module that defines it and the slipbench modules it imports, followed through their own
+    slipbench imports (for a built-in detector, its file and the contract it uses: ``base``,
+    ``spectra``, ``params``, ...), and, for a class outside slipbench, its
+    :func:`code_identity` too. A change elsewhere in slipbench (a report, a command) leaves it
+    as it is. What it is for: measurements of a detector's behaviour that stay true while its
+    code does (a bench's seed variance), not cache keys, which must change with any code that
+    runs."""
+    module = sys.modules.get(cls.__module__)
+    file = getattr(module, "__file__", None)
+    if not file:
+        return code_identity(cls)  # no source to follow (a REPL class): the strict identity
+    digest = hashlib.sha256()
+    if _unit(cls.__module__) != "slipbench":
+        digest.update(code_identity(cls).encode())
+    for label, path in _slipbench_closure(Path(file).resolve()):
+        digest.update(f"{label}\0".encode())
+        digest.update(path.read_bytes())
+    for label, path in data_files(cls):
+        digest.update(f"data:{label}\0{file_digest(path)}\0".encode())
+    return f"src:{digest.hexdigest()[:32]}"
+
+
+@cache
+def _slipbench_closure(start: Path) -> tuple[tuple[str, Path], ...]:
+    """(label, path) of ``start`` and of the slipbench modules it imports, transitively (import
+    statements read, inside functions too, so the closure does not depend on what has been
+    imported so far); labels are dotted module names, the same wherever slipbench is
+    installed."""
+    taken: dict[str, Path] = {"": start}
+    queue = [start]
+    while queue:
+        tree = _parsed(queue.pop())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            else:
+                continue
+            for name in names:
+                path = _slipbench_module(name)
+                if path is not None and name not in taken:
+                    taken[name] = path
+                    queue.append(path)
+    return tuple(sorted(taken.items()))
+
+
+def _parsed(path: Path) -> ast.AST:
+    try:
+        return ast.parse(path.read_bytes())
+    except (OSError, SyntaxError, ValueError):
+        return ast.Module(body=[], type_ignores=[])  # its bytes are still hashed
+
+
+def _slipbench_module(name: str) -> Path | None:
+    """The source file of a slipbench module (not a package's ``__init__``, nor a name that is
+    an attribute rather than a module)."""
+    if name.split(".")[0] != "slipbench" or "." not in name:
+        return None
+    try:
+        spec = importlib.util.find_spec(name)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.origin or spec.submodule_search_locations is not None:
+        return None
+    path = Path(spec.origin)
+    return path.resolve() if path.suffix == ".py" and path.is_file() else None

@@ -18,7 +18,8 @@ from typing import Any
 import numpy as np
 
 from slipbench.base import BaseDetector, hop_latency, stream_scores
-from slipbench.store.columns import STREAMED_FIGURES
+from slipbench.store.columns import STREAMED as STREAMED_CELLS
+from slipbench.store.columns import names
 from slipbench.stream.metrics import (
     Streams,
     collect,
@@ -34,8 +35,9 @@ LATENCY_HOPS = (
     300  # pushes timed for the compute time per hop: a stable median, well under a second
 )
 #: the figures a streaming cell reports, as the results schema declares them
-STREAMED = tuple(f.name for f in STREAMED_FIGURES)
-CURVE = ("threshold", "detection_rate", "median_delay_ms", "false_alarms_per_min")
+STREAMED = names(STREAMED_CELLS)
+#: the sweep kept in a row: per threshold, the figures an operating point trades (the gate's)
+CURVE = ("threshold", *names(STREAMED_CELLS, gated=True))
 
 
 @dataclass

@@ -55,6 +55,14 @@ import pandas as pd
 
 from slipbench.errors import UsageError
 from slipbench.seeding import rng_for
+from slipbench.store.columns import (
+    DETECTION_RATE,
+    FALSE_ALARMS,
+    MEDIAN_DELAY,
+    P95_DELAY,
+    STREAMED,
+    names,
+)
 from slipbench.vocabulary import MAX_DELAY_MS
 
 LEVEL = 0.95
@@ -323,12 +331,12 @@ def _figures(streams: Streams, o: Outcome, recordings: np.ndarray) -> dict[str, 
         "n_missed": int(miss.sum()),
         "n_censored": int((mine & (o.status == "censored")).sum()),
         "n_at_start": int((mine & streams.onset_at_start).sum()),
-        "detection_rate": float(det.sum() / n_eval) if n_eval else np.nan,
-        "median_delay_ms": float(p50),
-        "p95_delay_ms": float(p95),
+        DETECTION_RATE.name: float(det.sum() / n_eval) if n_eval else np.nan,
+        MEDIAN_DELAY.name: float(p50),
+        P95_DELAY.name: float(p95),
         "false_alarms": false,
         "nonslip_minutes": float(minutes),
-        "false_alarms_per_min": float(false / minutes) if minutes > 0 else np.nan,
+        FALSE_ALARMS.name: float(false / minutes) if minutes > 0 else np.nan,
     }
 
 
@@ -388,13 +396,13 @@ def _intervals(
         with np.errstate(invalid="ignore", divide="ignore"):
             interval(name, (w @ num[keep]) / (w @ den[keep]))
 
-    ratio("detection_rate", per["det"].astype(float), per["eval"].astype(float))
-    ratio("false_alarms_per_min", per["fa"], per["min"])
+    ratio(DETECTION_RATE.name, per["det"].astype(float), per["eval"].astype(float))
+    ratio(FALSE_ALARMS.name, per["fa"], per["min"])
     # delays: the pooled quantiles of each resample of the trials with detected onsets
     has = per["det"] > 0
     w = weights(has)
     if w is None:
-        for name in ("median_delay_ms", "p95_delay_ms"):
+        for name in (MEDIAN_DELAY.name, P95_DELAY.name):
             out[f"{name}_lo"] = out[f"{name}_hi"] = np.nan
     else:
         order = np.argsort(o.delay_ms[det], kind="stable")
@@ -404,8 +412,8 @@ def _intervals(
         stats = np.array(
             [np.quantile(np.repeat(delays, wb[owner].astype(np.int64)), [0.5, 0.95]) for wb in w]
         )
-        interval("median_delay_ms", stats[:, 0])
-        interval("p95_delay_ms", stats[:, 1])
+        interval(MEDIAN_DELAY.name, stats[:, 0])
+        interval(P95_DELAY.name, stats[:, 1])
     return out
 
 
@@ -465,9 +473,8 @@ def false_alarms_by_scenario(
                 "scenario": scenario,
                 "false_alarms": fig["false_alarms"],
                 "nonslip_minutes": fig["nonslip_minutes"],
-                "false_alarms_per_min": fig["false_alarms_per_min"],
-                "false_alarms_per_min_lo": ci["false_alarms_per_min_lo"],
-                "false_alarms_per_min_hi": ci["false_alarms_per_min_hi"],
+                FALSE_ALARMS.name: fig[FALSE_ALARMS.name],
+                **{k: ci[k] for k in (f"{FALSE_ALARMS.name}_lo", f"{FALSE_ALARMS.name}_hi")},
             }
         )
     return pd.DataFrame(rows)
@@ -495,30 +502,12 @@ def sweep(streams: Streams, thresholds: np.ndarray | None = None) -> pd.DataFram
         rows.append(
             {
                 "threshold": threshold,
-                **{
-                    k: fig[k]
-                    for k in (
-                        "detection_rate",
-                        "median_delay_ms",
-                        "p95_delay_ms",
-                        "false_alarms_per_min",
-                        "n_detected",
-                        "n_onsets",
-                    )
-                },
+                **{k: fig[k] for k in (*names(STREAMED), "n_detected", "n_onsets")},
             }
         )
     return pd.DataFrame(
         rows,
-        columns=[
-            "threshold",
-            "detection_rate",
-            "median_delay_ms",
-            "p95_delay_ms",
-            "false_alarms_per_min",
-            "n_detected",
-            "n_onsets",
-        ],
+        columns=["threshold", *names(STREAMED), "n_detected", "n_onsets"],
     )
 
 
@@ -530,11 +519,11 @@ def operating_point(curve: pd.DataFrame, false_alarms_per_min: float = 1.0) -> f
     Chosen on the streams swept: pick it on training recordings' streams and evaluate it on
     the test recordings (:func:`summarize`) for a figure that has not seen its test data.
     """
-    ok = curve[curve["false_alarms_per_min"] <= false_alarms_per_min]
+    ok = curve[curve[FALSE_ALARMS.name] <= false_alarms_per_min]
     if ok.empty:
         return float("nan")
     best = ok.sort_values(
-        ["detection_rate", "median_delay_ms", "threshold"],
+        [DETECTION_RATE.name, MEDIAN_DELAY.name, "threshold"],
         ascending=[False, True, True],
         na_position="last",
         kind="stable",

@@ -10,8 +10,9 @@ import pandas as pd
 
 from slipbench.data.format import Dataset
 from slipbench.errors import UsageError
-from slipbench.protocol import BaseProtocol, Cell, Layout
+from slipbench.protocol import BaseProtocol, Cell, Layout, Presentation, described
 from slipbench.seeding import rng_for
+from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS, MEDIAN_DELAY
 from slipbench.testing.data import assert_refused, toy_dataset
 
 
@@ -24,7 +25,8 @@ def _cells(protocol: BaseProtocol, dataset: Dataset) -> tuple[list[Cell], pd.Dat
 
 def check_protocol_params(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
     """Options are keyword parameters (get_params/set_params round-trip), valid as given, and an
-    unknown option is refused; the layout is a Layout."""
+    unknown option is refused; the layout is a Layout, the presentation a Presentation or none
+    (and a with-without figure has the layout's pair to draw)."""
     params = protocol.get_params()
     twin = type(protocol)(**params)
     assert twin.get_params() == params, (
@@ -38,6 +40,12 @@ def check_protocol_params(protocol: BaseProtocol, dataset: Dataset | None = None
         "set_params with an unknown name",
     )
     _layout(protocol)
+    presentation = protocol.presentation
+    assert presentation is None or isinstance(presentation, Presentation), (
+        f"presentation must be a slipbench.protocol.Presentation or None, got {presentation!r}"
+    )
+    if presentation is not None and presentation.figure == "with-without":
+        assert _layout(protocol).pair, "a 'with-without' figure needs Layout.pair"
 
 
 def _layout(protocol: BaseProtocol) -> Layout:
@@ -162,15 +170,15 @@ def _check_without_cells(
 
 
 def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None) -> None:
-    """The layout renders, as the report shows it: fake results for every cell make a Markdown
-    and a LaTeX table, and the figure the layout declares."""
-    from slipbench.engine.registry import protocols
+    """The layout renders, as the report shows it: fake results for every cell, recording the
+    layout and presentation as a run's rows do, give the report that layout (it fits the
+    cells' keys), a table in every format, and the figure the presentation declares."""
     from slipbench.report.document import protocol_tables
+    from slipbench.report.outline import layouts
     from slipbench.report.plots import figure
-    from slipbench.report.presentation import lineage, presented
-    from slipbench.report.render import to_latex, to_markdown
+    from slipbench.report.render import FORMATS, renderer
 
-    layout = presented(lineage(protocols.id_of(type(protocol)), type(protocol)), _layout(protocol))
+    _layout(protocol)
     cells, _ = _cells(protocol, dataset or toy_dataset())
     rng = rng_for(0, "toy", "rows")
     rows = pd.DataFrame(
@@ -186,10 +194,13 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
                 "accuracy": a,
                 "accuracy_lo": a - 0.05,
                 "accuracy_hi": a + 0.05,
+                **described(protocol),
             }
             for c, a in zip(cells, rng.uniform(0.55, 0.95, len(cells)))
         ]
     )
+    layout, why = layouts(rows)["checked"]
+    assert not why, f"the report cannot use the protocol's layout: {why}"
     for metric in layout.metrics:  # a layout of several metrics shows each
         rows[metric] = rng.uniform(0.55, 0.95, len(rows))
         rows[f"{metric}_lo"], rows[f"{metric}_hi"] = rows[metric] - 0.05, rows[metric] + 0.05
@@ -198,9 +209,9 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
             [
                 {
                     "threshold": t,
-                    "detection_rate": 1 - t,
-                    "median_delay_ms": 20 + 100 * t,
-                    "false_alarms_per_min": 10 * (1 - t),
+                    DETECTION_RATE.name: 1 - t,
+                    MEDIAN_DELAY.name: 20 + 100 * t,
+                    FALSE_ALARMS.name: 10 * (1 - t),
                 }
                 for t in (0.1, 0.5, 0.9)
             ]
@@ -209,7 +220,9 @@ def check_protocol_layout(protocol: BaseProtocol, dataset: Dataset | None = None
     assert tables, "the layout made no table"
     for _, table in tables:
         assert table.rows and table.columns, f"table {table.caption!r} has no rows or columns"
-        assert to_markdown(table) and to_latex(table).count(r"\begin{tabular}") >= 1
+        shown = {fmt: renderer(fmt).table(table) for fmt in FORMATS}  # every format renders it
+        assert shown["md"] and "<table" in shown["html"]
+        assert shown["latex"].count(r"\begin{tabular}") >= 1
     if layout.figure:
         import matplotlib.pyplot as plt
 

@@ -120,6 +120,18 @@ def test_run_declares_everything_and_records_the_file(tmp_path, small_path, cli)
             "[detectors] holweg: 'holweg' must be a table",
         ),
         ("[run\nseed = 1\n", "bench.toml: not valid TOML: "),
+        (
+            "[run]\nrepeats = 3\n[gate]\nbudget = 2\n[detectors.holweg]\n[protocols.window-size]\n",
+            "line 4, [gate] budget: budget (2) must be at least run.repeats (3)",
+        ),
+        (
+            "[gate]\nbudget = 6\n[detectors.holweg]\n[protocols.window-size]\n",
+            "line 2, [gate] budget: a budget grows seeds in steps of run.repeats, which must then",
+        ),
+        (
+            "[run]\nrepeats = 3\n[gate]\nbudget = 6.5\n[detectors.holweg]\n[protocols.window-size]\n",
+            "line 4, [gate] budget: budget must be seeds per side, an int >= run.repeats, got 6.5",
+        ),
     ],
 )
 def test_a_bad_file_is_refused_naming_line_and_key(tmp_path, text, message):
@@ -157,6 +169,33 @@ def test_plugins_and_their_parameters_are_checked_before_running(tmp_path, text,
     with pytest.raises(UsageError) as err:
         plan_runs(load_benchmark(write(tmp_path, text.replace("{", "{{").replace("}", "}}"))))
     assert message in str(err.value)
+
+
+def test_the_gate_budget_defaults_to_the_first_looks_seeds(tmp_path):
+    bench = load_benchmark(
+        write(tmp_path, "[run]\nrepeats = 3\n[detectors.holweg]\n[protocols.window-size]\n")
+    )
+    assert bench.budget is None and bench.seeds_budget == 3 and bench.gate == {}
+    text = "[run]\nrepeats = 3\n[gate]\ntn_rate = 2.0\nbudget = 9\n[detectors.holweg]\n[protocols.window-size]\n"
+    bench = load_benchmark(write(tmp_path, text))
+    assert bench.budget == 9 == bench.seeds_budget and bench.gate == {"tn_rate": 2.0}
+
+
+def test_the_record_keeps_what_a_calibration_is_checked_against(tmp_path):
+    """A comparison runs with the candidate's code: the base's record says which settings and
+    detector code made its rows, as `slipbench calibrate` keys them."""
+    from slipbench.app.benchfile import record
+    from slipbench.app.calibrate import detector_identities, digest, settings
+
+    text = "[run]\nrepeats = 2\n[detectors.holweg]\nkeep = 0.7\n[protocols.window-size]\n"
+    bench = load_benchmark(write(tmp_path, text))
+    runs = plan_runs(bench)
+    record(bench, tmp_path / "res", runs)
+    key = json.loads((tmp_path / "res" / "benchmark.json").read_text())["calibration_key"]
+    assert key["settings_digest"] == digest(settings(bench, runs))
+    params, code = detector_identities(runs)["holweg"]
+    assert key["detectors"] == {"holweg": {"params": params, "own_code": code}}
+    assert params["keep"] == 0.7 and code.startswith("src:")
 
 
 def test_cli_exit_code_for_a_bad_file(tmp_path, cli):

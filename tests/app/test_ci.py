@@ -134,9 +134,11 @@ def test_workflow_comments_caches_and_gates(repo):
 
 
 def tiny(bench: Path, data: Path) -> Path:
-    """``bench`` on one sensor unit, one seed, one window: everything else as shipped."""
+    """``bench`` on one sensor unit, one seed (so no budget of more), one window: everything
+    else as shipped."""
     text = re.sub(r"(?ms)^\[dataset\].*?(?=^\[)", "", bench.read_text())
     text = re.sub(r"(?m)^repeats = \d+", "repeats = 1", text)
+    text = re.sub(r"(?m)^budget = \d+.*\n", "", text)
     text = re.sub(r"(?m)^jobs = \d+", "jobs = 1", text)
     text = re.sub(r"(?m)^windows = \[.*\]", "windows = [50]", text)
     text += f'\n[dataset]\npath = "{data.as_posix()}"\n'

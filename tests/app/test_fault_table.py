@@ -1,4 +1,4 @@
-"""The fault table (docs/faults.md) stays true to the tests: every row names the test files that check
+"""The fault table (docs/reference/faults.md) stays true to the tests: every row names the test files that check
 it, and every file it names exists (a renamed or deleted test must take its row along)."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ ROOT = next(p for p in Path(__file__).resolve().parents if (p / "pyproject.toml"
 
 
 def _fault_rows() -> list[tuple[str, list[str]]]:
-    section = (ROOT / "docs" / "faults.md").read_text()
+    section = (ROOT / "docs" / "reference" / "faults.md").read_text()
     rows = []
     for line in section.splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]

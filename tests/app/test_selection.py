@@ -71,3 +71,53 @@ def test_all_names_each_plugin_it_selects_and_where_it_comes_from(tmp_path):
     lines.clear()
     select_plugins(registry.protocols, ("window-size",), [], lines.append)
     assert lines == []
+
+
+@pytest.mark.parametrize(
+    "option, typo, suggestion",
+    [("--detector", "holwge", "holweg"), ("--protocol", "windowsize", "window-size")],
+)
+def test_a_misspelt_id_is_refused_with_the_closest_ids(cli, option, typo, suggestion):
+    argv = ["evaluate", "--detector", "holweg", "--protocol", "window-size", option, typo]
+    code, _, err = cli(argv)
+    kind = option.removeprefix("--")
+    assert code == 2
+    assert f"unknown {kind} {typo!r} (did you mean {suggestion!r}?); available: " in err
+
+
+def test_an_unknown_id_after_a_known_one_imports_no_plugin():
+    """Every id is checked before any plugin is imported: the error comes first, however late."""
+    from slipbench.app.selection import select_plugins
+    from slipbench.base import BaseDetector
+    from slipbench.engine.registry import Registry
+
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    with pytest.raises(UsageError, match="unknown detector 'nope'; available: bandpass"):
+        select_plugins(reg, ["holweg,nope"], [])
+    assert not reg._loaded
+
+
+@pytest.mark.parametrize("option", ["--param", "--protocol-param"])
+def test_a_bad_name_value_item_names_its_own_option(cli, option):
+    code, _, err = cli(
+        ["evaluate", "--detector", "holweg", "--protocol", "window-size", option, "x"]
+    )
+    assert code == 2 and f"error: {option} 'x': expected NAME=VALUE, e.g. {option} " in err
+
+
+def test_list_shows_each_plugins_first_sentence_as_plain_text(cli):
+    from slipbench.engine.registry import detectors, protocols, summary
+
+    code, text, _ = cli(["list"])
+    assert code == 0 and "``" not in text
+    for reg in (detectors, protocols):
+        for name in reg.names():
+            description = reg.describe(name)["description"]
+            assert description == "" or description.endswith((".", ")")), (name, description)
+    assert detectors.describe("tcn")["description"].startswith("A temporal convolutional network")
+    doc = """Uses :func:`~a.b` and ``x``, e.g. over
+    two lines. A second sentence.
+
+    A second paragraph."""
+    assert summary(doc) == "Uses a.b and x, e.g. over two lines."
+    assert summary("Log energy. ``band``: a pair.") == "Log energy."

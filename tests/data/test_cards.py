@@ -56,6 +56,9 @@ def test_an_unknown_card_lists_the_known_ones(cli, tmp_path):
         ('importer = "nope"', "importer 'nope' is not built in"),
         ('licence = "MIT"', "unknown key(s) licence"),
         ('path = "../x.csv"', "must be relative"),
+        ('name = ".."', "name '..' must start with a lower-case letter or a digit"),
+        ('name = "Lab"', "name 'Lab' must start with a lower-case letter or a digit"),
+        ("description = " + "[" * 3000 + "]" * 3000, "nested too deeply to read"),
     ],
 )
 def test_a_bad_card_is_refused_naming_the_key(tmp_path, change, message):
@@ -65,8 +68,8 @@ def test_a_bad_card_is_refused_naming_the_key(tmp_path, change, message):
         i = next(i for i, line in enumerate(text) if line.startswith("  { path"))
         old = text[i].split(f"{key} = ")[1].split(",")[0]
         text[i] = text[i].replace(f"{key} = {old}", change)
-    elif key == "importer":
-        text = [change if line.startswith("importer =") else line for line in text]
+    elif key in ("importer", "name", "description"):
+        text = [change if line.startswith(f"{key} =") else line for line in text]
     else:
         text.insert(3, change)
     from slipbench.errors import UsageError
@@ -82,7 +85,7 @@ def _card_text() -> str:
 def test_the_documented_card_is_a_valid_card(tmp_path):
     import re
 
-    docs = (Path(__file__).resolve().parents[2] / "docs" / "datasets.md").read_text()
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "reference" / "datasets.md").read_text()
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", docs, flags=re.S) if "lab-x-slips" in b]
     card = load_card("datasets.md", block)
     assert card.name == "lab-x-slips" and card.mapping and card.importer is None

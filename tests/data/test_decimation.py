@@ -19,7 +19,7 @@ from slipbench.errors import UsageError
 from slipbench.protocol import Cell, Part
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.report.document import protocol_tables
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import shown_protocol
 
 
 def one_recording(a: np.ndarray, rate: float = 1000.0) -> Signals:
@@ -207,7 +207,7 @@ def test_report_gives_one_table_per_variant(tmp_path):
         frames.append(part.assign(cell=part["cell"] + f"{decimation}{antialias}"))
     tables = protocol_tables(
         pd.concat(frames, ignore_index=True),
-        presented("sampling-rate", SamplingRate.layout),
+        shown_protocol(SamplingRate(), "sampling-rate"),
         "sampling-rate",
         "lstm",
     )

@@ -21,7 +21,7 @@ from slipbench.data.importers import import_csv, load_mapping
 from slipbench.data.read import read_dataset
 from slipbench.errors import DataError, UsageError
 
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "datasets.md"
+DOCS = Path(__file__).resolve().parents[2] / "docs" / "reference" / "datasets.md"
 
 
 def _write(path: Path, frame: pd.DataFrame, header: str = "") -> Path:
@@ -31,11 +31,13 @@ def _write(path: Path, frame: pd.DataFrame, header: str = "") -> Path:
 
 
 def _toml_block(marker: str) -> str:
-    """The ```toml block of docs/datasets.md that contains ``marker``: the documented examples are
+    """The ```toml block of docs/reference/datasets.md that contains ``marker``: the documented examples are
     the ones tested."""
     blocks = re.findall(r"```toml\n(.*?)```", DOCS.read_text(), flags=re.S)
     found = [b for b in blocks if marker in b]
-    assert len(found) == 1, f"one toml block of docs/datasets.md should contain {marker!r}"
+    assert len(found) == 1, (
+        f"one toml block of docs/reference/datasets.md should contain {marker!r}"
+    )
     return found[0]
 
 
@@ -307,13 +309,20 @@ def _lines(before: int, bad: str) -> str:
             {},
             r"r.csv: line 19: column 'taxel_12': non-numeric value 'abc'",
         ),
-        (_lines(6, "7,,3\n"), {}, r"r.csv: line 8: column 'taxel_12': empty or missing value"),
+        (_lines(6, "7,,3\n"), {}, r"r.csv: line 8: column 'taxel_12': empty value$"),
+        (_lines(6, "7,nan,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-numeric value 'nan'$"),
+        (_lines(6, "7,NA,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-numeric value 'NA'$"),
         (
             _lines(6, "7,1\n"),
             {},
             r"r.csv: line 8: 2 fields, but the header \(line 1\) names 3 columns: a short row",
         ),
-        (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value"),
+        (_lines(6, "7,inf,3\n"), {}, r"r.csv: line 8: column 'taxel_12': non-finite value 'inf'$"),
+        (
+            _lines(6, "7,-Infinity,3\n"),
+            {},
+            r"r.csv: line 8: column 'taxel_12': non-finite value '-Infinity'$",
+        ),
         (
             _lines(6, "7,1,3,4\n"),
             {},

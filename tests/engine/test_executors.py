@@ -154,6 +154,16 @@ def test_on_dask_sys_exit_fails_cells_threads_are_the_share_and_progress_arrives
         seen = _seen(on_dask(toys.ThreadProbe()))
         capsys.readouterr()
         trained = on_dask(toys.Trainer(epochs=3, seconds=0.3), progress=True)
+        file = tmp_path / "scheduler.json"  # as `dask scheduler --scheduler-file` writes it
+        file.write_text(f'{{"address": "{cluster.scheduler_address}"}}')
+        by_file = evaluate(
+            index,
+            Run(toys.ThreadProbe(), WindowSize(windows=[50])),
+            ResultsStore(tmp_path / "by-file"),
+            scheduler=str(file),
+            progress=False,
+        )
+    assert (by_file["status"] == "ok").all()
     assert (exited["status"] == "failed").all() and cells_failed(exited) is not None
     assert exited["reason"].str.contains("raised SystemExit(0) in fit", regex=False).all()
     share = threads.share(2)  # two worker threads on this machine

@@ -295,7 +295,7 @@ def test_a_one_class_test_set_shows_what_a_constant_slip_detector_scores(tmp_pat
     rows = _run(WindowSize(windows=[50]), combine(a, b), tmp_path)
     assert (rows["status"] == "ok").all()
     assert (rows["constant_slip_accuracy"] == 1.0).all()
-    table = protocol_table(rows, WindowSize().layout)
+    table = protocol_table(rows)
     assert (
         '1 of 1 finished cells test on one class only: there a constant "slip" detector scores 100 %'
         in table
@@ -307,9 +307,7 @@ def test_a_one_class_test_set_shows_what_a_constant_slip_detector_scores(tmp_pat
         tmp_path,
         out="o2",
     )
-    assert "constant_slip_accuracy" not in both and "constant" not in protocol_table(
-        both, WindowSize().layout
-    )
+    assert "constant_slip_accuracy" not in both and "constant" not in protocol_table(both)
 
 
 # ----------------------------------------------------------------------------- real recordings

@@ -10,7 +10,7 @@ import pytest
 
 from slipbench.base import BaseDetector
 from slipbench.engine.registry import detectors, protocols
-from slipbench.protocol import BaseProtocol, Cell, Layout, Part, sensor_pairs
+from slipbench.protocol import BaseProtocol, Cell, Layout, Part, Presentation, sensor_pairs
 from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.testing import check_detector, check_protocol, parametrize_with_checks
 
@@ -159,7 +159,7 @@ def test_a_detector_without_init_conforms():
 class _Leaky(BaseProtocol):
     """Claims to hold out each material but trains on it."""
 
-    layout = Layout("leaky", ("sensor_type", "sensor_instance"), "material", pair="training")
+    layout = Layout(("sensor_type", "sensor_instance"), "material", pair="training")
 
     def cells(self, recordings):
         for sensor in sensor_pairs(recordings):
@@ -181,7 +181,7 @@ class _Leaky(BaseProtocol):
 class _Unlaid(_Leaky):
     """Its layout reads a column its cells lack."""
 
-    layout = Layout("unlaid", ("sensor_type", "sensor_instance"), "window")
+    layout = Layout(("sensor_type", "sensor_instance"), "window")
 
     def cells(self, recordings):
         for sensor in sensor_pairs(recordings):
@@ -206,7 +206,8 @@ class _UnfilteredUnpaired(MaterialHoldout):
     """The same bug in a protocol whose layout names no pair column: its two cells per
     material differ in an undeclared "model" column and train alike."""
 
-    layout = Layout("unpaired", ("sensor_type", "sensor_instance"), "material")
+    layout = Layout(("sensor_type", "sensor_instance"), "material")
+    presentation = None  # no pair to draw with and without
 
     def cells(self, recordings):
         for cell in super().cells(recordings):
@@ -253,7 +254,8 @@ def test_suite_catches_broken_protocols(protocol, words):
             ),
             "plain",
         ),
-        (lambda: Layout("x", ("a",), "b", figure="pie"), "Layout.figure must be one of"),
+        (lambda: Presentation("x", figure="pie"), "Presentation.figure must be one of"),
+        (lambda: Layout(("a",), ""), "Layout.column must name"),
     ],
 )
 def test_malformed_parts_cells_and_layouts_are_refused(make, words):

@@ -168,11 +168,15 @@ def test_gpu_epoch_matches_cpu_epoch():
         np.testing.assert_allclose(a, b, atol=1e-5)
 
 
-def test_normalization_by_training_percentiles():
+@pytest.mark.parametrize("input_range", [1.0, 4.0])
+def test_normalization_by_training_percentiles(input_range):
+    """The training windows' 2.5th and 97.5th percentiles land on -input_range and
+    +input_range (the paper's percentiles; 1 is [-1, 1], slipbench 0.1.0's), in every path."""
     x, y = toy_windows(200, 20)
-    d = LSTM(max_epochs=1).fit(x, y, seed=0)
+    d = LSTM(max_epochs=1, input_range=input_range).fit(x, y, seed=0)
     lo, hi = np.percentile(x, [2.5, 97.5])
-    assert d.lo_ == pytest.approx(lo) and (hi - d.lo_) * d.scale_ - 1 == pytest.approx(1.0)
+    normalized = (np.array([lo, hi]) - d.lo_) * d.scale_ - 1
+    np.testing.assert_allclose(normalized, [-input_range, input_range], rtol=1e-9)
     assert d.predict_window(x[0]) == pytest.approx(d.predict_proba(x[:1])[0], abs=1e-9)
 
 

@@ -2,17 +2,21 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 import pytest
 from datagen import subset
 
+from slipbench.data.format import Dataset
 from slipbench.data.signals import Signals
 from slipbench.engine.plan import CellData
+from slipbench.protocol import window_cells
 from slipbench.protocols.cross_instance import CrossInstance
 from slipbench.protocols.material_holdout import MaterialHoldout
 from slipbench.protocols.sampling_rate import SamplingRate
 from slipbench.protocols.speed_holdout import SpeedHoldout
 from slipbench.protocols.window_size import WindowSize
+from slipbench.vocabulary import SLIPS
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +65,38 @@ def test_material_holdout_never_trains_on_the_held_out_material(nano):
         if c.window == 50 and c.train == with_cell.train
     )
     assert ws.train == with_cell.train and ws.window == with_cell.window
+
+
+def test_a_hold_slip_trial_that_never_slips_is_no_slip_recording():
+    """A hold-slip trial that held throughout was never slipping at its speed: the reader marks
+    it as not slipping, and the speed holdout neither holds its speed out nor counts it."""
+    rows, samples, labels = [], {}, {}
+    for i, (speed, slips) in enumerate([(25.0, True), (25.0, False), (50.0, False)]):
+        rid = f"trial{i}"
+        rows.append(
+            dict(
+                recording_id=rid,
+                sensor_type="Skin",
+                sensor_instance="pad",
+                scenario="hold-slip",
+                material="felt",
+                speed_mm_s=speed,
+                sampling_rate_hz=100.0,
+                channels=("c",),
+                units=("raw",),
+                source="lab",
+                trial=rid,
+            )
+        )
+        samples[rid] = np.random.default_rng(i).normal(size=(200, 1))
+        labels[rid] = np.r_[np.zeros(100), np.full(100, int(slips))].astype(np.int8)
+    recordings = Dataset(pd.DataFrame(rows), samples, labels).recordings
+    assert list(recordings[SLIPS]) == [True, False, False]
+    assert SpeedHoldout().levels(recordings) == [25.0]
+    unknown = recordings.assign(speed_mm_s=np.nan)
+    assert "none of its 1 slip recordings gives a speed" in SpeedHoldout().why_no_cells(unknown)
+    held = recordings[~recordings[SLIPS]]
+    assert "no recording slips" in SpeedHoldout().why_no_cells(held)
 
 
 def test_speed_holdout_assigns_pressing_and_holds_out_speeds(nano):
@@ -135,7 +171,7 @@ def test_sampling_rate_cells(nano):
         ),
         (
             WindowSize(windows="abc"),
-            "The 'windows' parameter of WindowSize must be an int number of samples >= 5, or milliseconds",
+            "The 'windows' parameter of WindowSize must be an int number of samples in \\[5, 10000000\\], or milliseconds",
         ),
         (WindowSize(windows=[50, "20ms"]), "takes samples or milliseconds, not both"),
         (MaterialHoldout(window=2), "The 'window' parameter of MaterialHoldout must be"),
@@ -164,4 +200,9 @@ def test_windows_in_milliseconds_convert_per_sensor(small):
     assert (
         WindowSize(windows=["50ms"]).layout.column == "window_ms"
         and WindowSize().layout.column == "window"
+    )
+    fast = small.recordings.assign(unit_rate_hz=1e6)  # an hour at 1 MHz: 3.6e9 samples
+    (_, key, skip), *_ = window_cells(fast, ("Nano17", "index"), "3600000ms")
+    assert key["window"] == 3_600_000_000 and skip.endswith(
+        "a window needs at most 10000000 samples"
     )

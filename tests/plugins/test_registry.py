@@ -5,6 +5,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 import toys
@@ -36,6 +37,32 @@ def test_plugin_folder_and_broken_plugin(tmp_path):
         UsageError, match="unknown detector 'x'; available: .*broken, .*holweg, .*my-energy"
     ):
         reg.get("x")
+
+
+def test_tests_and_helpers_beside_plugins_are_not_plugins(tmp_path):
+    """pytest's files (test_*.py, *_test.py, conftest.py) and helpers (_name.py) sit beside the
+    plugins they serve without being loaded as broken plugins."""
+    (tmp_path / "energy.py").write_text(PLUGIN)
+    for name in ("test_energy.py", "energy_test.py", "conftest.py", "_tools.py"):
+        (tmp_path / name).write_text("raise RuntimeError('not a plugin')\n")
+    reg = Registry("detector", BaseDetector, "slipbench.detectors")
+    reg.add_folder(tmp_path)
+    mine = [n for n in reg.names() if reg.provenance(n).startswith("plugin file")]
+    assert mine == ["energy"]
+
+
+@pytest.mark.slow
+def test_the_example_plugins_tests_pass_beside_it(tmp_path):
+    """The plugins guide's layout: `pytest plugins/` runs the conformance suite on the plugin."""
+    folder = Path(__file__).resolve().parents[2] / "examples" / "plugin-repo" / "plugins"
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(folder)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert " passed" in done.stdout and "failed" not in done.stdout
 
 
 def test_duplicate_names_name_both_origins(tmp_path):

@@ -22,7 +22,7 @@ from slipbench.engine.runner import evaluate
 from slipbench.protocols.window_size import WindowSize
 from slipbench.report.document import build_report, protocol_tables, render
 from slipbench.report.outline import as_tested
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import shown_protocol
 from slipbench.report.provenance import on_simulation
 from slipbench.report.tables import SIMULATED, SIMULATION_NOTE, Table
 from slipbench.store.results import ResultsStore, read_results
@@ -43,7 +43,7 @@ def test_transfer_rows_name_the_unit_tested_and_what_it_was_trained_as():
     little = shown[rows["sensor_instance"].eq("little")]  # the map tested nothing as it
     assert set(little["sensor_type"]) == {"Nano17"} and set(little["sensor_instance"]) == {"little"}
     (_, table), *_ = protocol_tables(
-        shown, presented("window-size", WindowSize().layout), "window-size", "holweg"
+        shown, shown_protocol(WindowSize(), "window-size"), "window-size", "holweg"
     )
     assert ("Vib", "probe (trained as Nano17 index)") in table.rows
     assert any(n.startswith("Trained on one dataset, tested on another") for n in table.notes)
@@ -78,7 +78,7 @@ def test_channels_cells_on_the_simulation_carry_a_caution(tmp_path):
 
     def notes(part: pd.DataFrame) -> list[str]:
         (_, table), *_ = protocol_tables(
-            part, presented("window-size", WindowSize().layout), "window-size", "holweg"
+            part, shown_protocol(WindowSize(), "window-size"), "window-size", "holweg"
         )
         return table.notes
 

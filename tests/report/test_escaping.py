@@ -17,7 +17,7 @@ from resultgen import fake_rows
 
 from slipbench.report.compare import comment_markdown
 from slipbench.report.document import build_report, render
-from slipbench.report.tables import LATEX_CHARS, escape
+from slipbench.report.latex import LATEX_CHARS, escape
 from slipbench.stats.compare import compare
 
 HOSTILE = [

@@ -14,8 +14,8 @@ from slipbench.engine import plan
 from slipbench.engine.plan import Run, keys
 from slipbench.protocol import Cell, Part
 from slipbench.report.compare import comment_markdown
-from slipbench.report.document import ReportOptions, _protocol_blocks, _Shared, build_report, render
-from slipbench.report.outline import layouts
+from slipbench.report.document import ReportOptions, _protocol_blocks, build_report, render
+from slipbench.report.outline import outline
 from slipbench.report.plots import FigureSpec
 from slipbench.stats.compare import compare
 from slipbench.stats.factors import (
@@ -141,8 +141,8 @@ def test_a_protocols_tables_keep_two_values_apart(factor):
     tables (each detector's and every detector side by side) on four units."""
     rows = two_value_rows(factor)
     rows = named_entrants(rows[rows["sensor_type"].eq("Nano17") & rows["window"].isin([5, 50])])
-    layout = layouts(rows)["window-size"][0]
-    blocks = _protocol_blocks(rows, "window-size", (layout, ""), ReportOptions(), _Shared({}))
+    (section,) = outline(rows).sections
+    blocks = _protocol_blocks(section, ReportOptions(), [], [])
     text = render(blocks, "md")
     assert not _numbers(text) & _pooled_texts() and {"21.3", "68.1"} <= _numbers(text)
     named = "Normalize unit." if factor == "normalize" else "Labels majority."

@@ -1,6 +1,6 @@
 """The study of the findings' contrast intervals (``benchmarks/bench_findings_contrast.py``):
 its simulation against its closed-form truth (fast), and the study at few replications (slow).
-The full study's table is in docs/coverage.md."""
+The full study's table is in docs/studies/coverage.md."""
 
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ def test_the_simulation_matches_its_truth():
     true = bench.truth("test")
     assert set(runs[0]) == set(true)
     for name in true:
-        assert np.mean([run[name].value for run in runs]) == pytest.approx(true[name], abs=2.5)
-        assert all(run[name].lo < run[name].value < run[name].hi for run in runs)
+        assert np.mean([run[name].estimate for run in runs]) == pytest.approx(true[name], abs=2.5)
+        assert all(run[name].lo < run[name].estimate < run[name].hi for run in runs)
     # retraining noise pulls every rate towards one half: the truths shrink with it
     strong = bench.truth("strong-1")
     assert all(abs(strong[k]) < abs(true[k]) for k in ("rise", "gap", "lead"))
@@ -70,10 +70,10 @@ def test_a_contrast_over_seeds_is_taken_per_seed():
     e = _unit_contrast(cells, "window", [200], [5], ["Nano17"])
     means = summarize(rows, [*UNIT, "window"])
     pooled = _unit_contrast(means, "window", [200], [5], ["Nano17"])
-    assert e.value == pytest.approx(pooled.value)
+    assert e.estimate == pytest.approx(pooled.estimate)
     per = [_unit_contrast(c, "window", [200], [5], ["Nano17"]) for _, c in cells.groupby("seed")]
     ses = [(p.hi - p.lo) / (2 * 1.959964) for p in per]
-    _, lo, hi = seeds_from_rows(np.array([p.value for p in per]), np.array(ses))
+    _, lo, hi = seeds_from_rows(np.array([p.estimate for p in per]), np.array(ses))
     assert (e.lo, e.hi) == pytest.approx((lo, hi), rel=1e-4)
     # a cell one seed did not finish: no per-seed contrast, the means over seeds instead
     lost = rows.drop(rows.index[(rows["seed"] == 1)][:1])
@@ -82,7 +82,7 @@ def test_a_contrast_over_seeds_is_taken_per_seed():
 
 @pytest.mark.slow  # 3 x 30 simulated sensors: about 1.5 minutes
 def test_the_contrasts_cover_unless_one_seed_leaves_retraining_out():
-    """The study at 30 replications (the full one, 500, is in docs/coverage.md): without
+    """The study at 30 replications (the full one, 500, is in docs/studies/coverage.md): without
     retraining noise, and with it over three seeds, every contrast covers at least 0.9 (they
     cover 0.98-1.00 at 500); with one seed, one cell's interval misses its truth where
     retraining moves the cell by about 12 points (0.47 at 500)."""

@@ -183,8 +183,23 @@ def test_names_and_units_as_the_dataset_spells_them(tmp_path):
     assert "NA" not in text and "Ff" not in text and "Hd" not in text
 
 
+def test_latex_group_header_wraps_to_its_columns_width():
+    """A header wider than the value columns under it would widen the last column alone (the
+    window-size table's "200" was as wide as three others): it wraps to their width."""
+    from slipbench.report.latex import to_latex
+
+    group = "Classification Accuracy (%) at Window Size"
+    narrow = Table("T.", ["Unit"], group, ["5", "10"], [("a",)], [["88.0", "90.1"]], "t")
+    header = next(line for line in to_latex(narrow).splitlines() if r"\bfseries" in line)
+    lines = header.split(r"\begin{tabular}{@{}c@{}}")[1].split(r"\end{tabular}")[0].split(r"\\")
+    assert lines == ["Classification", r"Accuracy (\%) at", "Window Size"]
+    wide = [f"{w} samples of the window" for w in (5, 10)]
+    roomy = Table("T.", ["Unit"], group, wide, [("a",)], [["88.0", "90.1"]], "t")
+    assert r"\bfseries Classification Accuracy (\%) at Window Size}" in to_latex(roomy)
+
+
 def test_latex_page_tables_stay_under_their_headings_and_within_the_page():
-    from slipbench.report.render import LONG_TABLE_LINES, latex_lines, to_latex
+    from slipbench.report.latex import LONG_TABLE_LINES, latex_lines, to_latex
 
     def table(n: int) -> Table:
         rows = [(f"unit {i}",) for i in range(n)]

@@ -34,7 +34,9 @@ def test_the_section_reads_each_sensor_by_its_interval(report):
     nano = re.search(r"On the Nano17, with tcn, (.*?)\.\n", text)
     biotac = re.search(r"On the Biotac SP, with tcn, (.*?)\.\n", text)
     assert nano and nano[1].startswith("the channels beat the univariate signal in window-size")
-    assert biotac and biotac[1].startswith("no difference is resolved in window-size")
+    assert biotac and biotac[1].startswith(
+        "no difference beyond the margin is resolved in window-size"
+    )
     lo, hi = map(float, re.search(r"\\\[([-+\d.]+), ([-+\d.]+)\\\] points", nano[1]).groups())
     assert 0 < lo < hi
     lo, hi = map(float, re.search(r"\\\[([-+\d.]+), ([-+\d.]+)\\\] points", biotac[1]).groups())
@@ -82,7 +84,7 @@ def test_the_figure_shows_each_sensor_with_a_zero_line(report, tmp_path):
         assert any(list(line.get_xdata()) == [0, 0] for line in ax.lines)
     assert len(fig.legends) == 1
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    assert labels == ["channels better", "no difference resolved", "a cell"]
+    assert labels == ["channels better", "undecided", "a cell"]
     paths = write_figures(blocks, tmp_path)["reduction"]
     assert all(p.stat().st_size > 1000 for p in paths)
 

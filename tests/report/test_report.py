@@ -14,11 +14,10 @@ import pandas as pd
 import pytest
 from goldens import check_golden
 from rendering import render_report
-from resultgen import all_rows, fake_rows
+from resultgen import all_rows, fake_rows, recorded
 
 from slipbench.app.cli import main
 from slipbench.data.synth import MODEL_VERSION
-from slipbench.engine.registry import protocols
 from slipbench.report.document import protocol_table
 from slipbench.report.paper import paper_frame
 from slipbench.report.tables import LOW_NOTE
@@ -94,7 +93,7 @@ def test_latex_compiles_within_the_text_width(tmp_path):
 
 def test_repeats_show_mean_and_spread():
     rows = fake_rows("sampling-rate", seeds=(0, 1, 2))
-    text = protocol_table(rows, protocols.get("sampling-rate")().layout)
+    text = protocol_table(rows)
     one = rows[
         (rows["sensor_type"] == "Nano17")
         & (rows["sensor_instance"] == "index")
@@ -211,9 +210,10 @@ def test_plots_for_every_protocol(tmp_path):
 
 
 def test_figures_fit_a_column_with_one_legend_and_units():
+    from slipbench.report.outline import outline
     from slipbench.report.plots import figure_specs
 
-    for spec in figure_specs(all_rows(), paper=True):
+    for spec in figure_specs(outline(all_rows()), paper=True):
         fig = spec.draw()
         assert fig.get_size_inches()[0] == pytest.approx(3.5), spec.stem
         assert len(fig.legends) <= 1 and not any(ax.get_legend() for ax in fig.axes), spec.stem
@@ -231,6 +231,7 @@ def test_figures_fit_a_column_with_one_legend_and_units():
 
 
 def test_colour_scale_shows_its_true_range():
+    from slipbench.report.outline import outline
     from slipbench.report.plots import accuracy_range, figure_specs
 
     assert accuracy_range(np.array([[62.0, 91.0]])) == (50.0, 100.0)  # chance stays on the scale
@@ -240,7 +241,9 @@ def test_colour_scale_shows_its_true_range():
     )  # nothing below 50 clamps
     rows = fake_rows("material-holdout")
     rows.loc[rows.index[0], "accuracy"] = 0.312
-    (spec,) = [s for s in figure_specs(rows, paper=False) if s.stem == "material-holdout-lstm"]
+    (spec,) = [
+        s for s in figure_specs(outline(rows), paper=False) if s.stem == "material-holdout-lstm"
+    ]
     fig = spec.draw()
     images = [im for ax in fig.axes for im in ax.get_images()]
     assert len(images) == 3  # with, without, with minus without
@@ -292,6 +295,33 @@ def test_header_says_where_the_data_come_from(tmp_path):
     assert "not readable here" in dataset_source(str(tmp_path / "gone"))
 
 
+def test_a_dataset_of_many_sources_is_summed_up_in_the_header(tmp_path):
+    """A lab's importer may give each of 1,000 files its own source: the header's data line
+    counts them instead of listing them all (it was 72,000 characters, breaking the table)."""
+    folder = tmp_path / "lab"
+    folder.mkdir()
+    files = [f"csvs/n/object{i:04d}.csv" for i in range(1000)]
+    pd.DataFrame({"source": files}).to_parquet(folder / "recordings.parquet")
+    rows = fake_rows("window-size").assign(dataset_path=str(folder))
+    text = render_report(rows, "md", leaderboard_only=True)
+    (line,) = [t for t in text.splitlines() if t.startswith("| Data ")]
+    from slipbench.report.markdown import md_text
+
+    shown = line.split(" | ")[1].strip(" |")
+    assert shown == md_text(
+        f"recorded: 1,000 sources, csvs/n/object0000.csv … csvs/n/object0999.csv (at {folder})"
+    )
+    from slipbench.report.provenance import dataset_source
+
+    dos = [f"BioTacSP-DoS (Zapata-Impata et al. 2019), direction {d}" for d in ("aw", "cw", "e")]
+    dos += [f"BioTacSP-DoS (Zapata-Impata et al. 2019), direction {d}" for d in "nstw"]
+    pd.DataFrame({"source": dos}).to_parquet(folder / "recordings.parquet")
+    assert dataset_source(str(folder)) == (
+        "recorded: sources BioTacSP-DoS (Zapata-Impata et al. 2019), direction "
+        f"{{aw, cw, e, n, s, t, w}} (at {folder})"
+    )
+
+
 def test_fitted_choices_and_warnings_are_shown():
     rows = fake_rows("window-size", "holweg")
     rows["fitted"] = ['{"band_hz": [0, 80], "threshold": 0.5}'] * 4 + [
@@ -332,6 +362,7 @@ def test_findings_of_the_paper_reproduce_on_its_own_numbers():
             antialias=False,
             protocol_params="{}",
             cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")],
+            **recorded(protocol, "lstm"),
         )
         parts.append(rows)
     rows = pd.concat(parts, ignore_index=True)
@@ -369,6 +400,7 @@ def _paper_rows() -> pd.DataFrame:
                 antialias=False,
                 protocol_params="{}",
                 cell=[json.dumps({k: r[k] for k in keys}) for r in ref.to_dict("records")],
+                **recorded(protocol, "lstm"),
             )
         )
     rows = pd.concat(parts, ignore_index=True)

@@ -14,7 +14,7 @@ from resultgen import fake_rows
 
 from slipbench.protocol import NO_CELL, Layout
 from slipbench.report.document import protocol_table
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import shown, shown_protocol
 from slipbench.report.tables import (
     LOW_MARK,
     LOW_NOTE,
@@ -88,9 +88,7 @@ def test_stand_ins_beside_cells_of_another_dataset_say_which_dataset():
 
 def test_evaluate_prints_the_reason_for_a_protocol_without_cells():
     rows = pd.DataFrame([_stand_in("speed-holdout", "holweg")])
-    from slipbench.protocols.speed_holdout import SpeedHoldout
-
-    assert protocol_table(rows, SpeedHoldout.layout).startswith("No table: " + REASON)
+    assert protocol_table(rows).startswith("No table: " + REASON)
 
 
 def test_a_layout_by_detector_sets_the_detectors_side_by_side():
@@ -103,7 +101,7 @@ def test_a_layout_by_detector_sets_the_detectors_side_by_side():
             for lvl in ("a", "b")
         ]
     )
-    layout = Layout("Protocol p.", ("level",), "detector")
+    layout = shown(Layout(("level",), "detector"), None, "p")
     table = side_by_side(rows, layout, ["holweg", "bandpass"])
     assert table is not None and table.columns == ["bandpass", "holweg"]
     assert table.cells == [["90.0", "70.0"], ["90.0", "70.0"]]
@@ -125,9 +123,9 @@ def _stream_rows(trials: int, onsets: int) -> pd.DataFrame:
 
 
 def test_streaming_cells_on_few_trials_or_onsets_are_marked():
-    from slipbench.protocols.streaming import LAYOUT as DECLARED
+    from slipbench.protocols.streaming import Streaming
 
-    LAYOUT = presented("streaming", DECLARED)
+    LAYOUT = shown_protocol(Streaming(), "streaming")
 
     assert low_n(_stream_rows(3, 40)).all() and low_n(_stream_rows(40, 3)).all()
     assert not low_n(_stream_rows(40, 40)).any()

@@ -11,13 +11,13 @@ from storegen import repeats_store
 
 from slipbench.protocols.window_size import WindowSize
 from slipbench.report.document import protocol_tables
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import shown_protocol
 from slipbench.report.tables import baseline_table, summarize
 from slipbench.stats.joint import joint_means
 from slipbench.stats.metrics import Predictions, mean_over_test_sets, pool_seeds
 from slipbench.store.results import read_predictions, read_results
 
-LAYOUT = presented("window-size", WindowSize(windows=(50, 200)).layout)
+LAYOUT = shown_protocol(WindowSize(windows=(50, 200)), "window-size")
 KEYS = ["sensor_type", "sensor_instance", "window"]
 
 

@@ -80,8 +80,8 @@ def test_degraded_detector_is_named_and_undecided_on_one_seed(runs, cli, tmp_pat
     )
     assert code == EXIT_UNDECIDED
     assert "**Undecided** (exit 6)" in out and "on one seed per side" in out
-    assert "accuracy in 2 cells (cell level, Holm)" in out
-    assert "two-cells, holweg: accuracy" in out and "(pooled, Holm)" in out
+    assert "accuracy in 2 cells (cell level)" in out
+    assert "two-cells, holweg: accuracy" in out and "(pooled)" in out
     for finger in ("index", "middle"):
         assert f"Nano17 {finger.capitalize()} window 50" in out
     assert "paired" in out and comment.read_text() == out
@@ -116,7 +116,7 @@ def test_unpaired_regression_without_predictions(tmp_path):
         fake_rows("speed-holdout", shift=shift).to_parquet(tmp_path / name / "results.parquet")
     result = compare(tmp_path / "base", tmp_path / "cand")
     assert (result.cells["verdict"] == "regressed").all()
-    assert set(result.cells["regressed_figures"]) == {"accuracy, tn_rate, tp_rate"}
+    assert set(result.cells["regressed_figures"]) == {"accuracy, tp_rate, tn_rate"}
     assert result.exit_code == EXIT_UNDECIDED  # one seed per side
     assert result.cells["method"].str.startswith("unpaired").all()
 
@@ -164,10 +164,10 @@ def test_results_of_different_datasets_are_refused_first(tmp_path, cli):
     )
     code, out, err = cli(["compare", str(tmp_path / "base"), str(tmp_path / "cand")])
     assert code == 2 and out == ""
-    assert (
-        err.startswith("error: BASE and CANDIDATE were computed on different datasets")
-        and "f00d" in err
-    )
+    *said, error = err.splitlines()  # pandas wrote the files: each gets a line, without digests
+    assert all("edits to them cannot be detected" in line for line in said)
+    assert error.startswith("error: BASE and CANDIDATE were computed on different datasets")
+    assert "f00d" in error
 
 
 def test_repeated_keys_are_refused(tmp_path, cli):
@@ -265,7 +265,7 @@ def _simulated_results(root, n_cells: int, shift: float) -> None:
     for i in range(n_cells):
         d = dataset(rng, 20, 0.5)
         cell = json.dumps(
-            {"sensor_type": "Nano17", "sensor_instance": "index", "window": i}, sort_keys=True
+            {"sensor_type": "Nano17", "sensor_instance": "index", "window": i + 1}, sort_keys=True
         )
         for name, score in (("base", d["base"]), ("cand", d["cand"] - shift)):
             key = f"{name}{i:04d}"
@@ -277,7 +277,7 @@ def _simulated_results(root, n_cells: int, shift: float) -> None:
                     "split": "grouped",
                     "seed": 0,
                     "cell": cell,
-                    "window": i,
+                    "window": i + 1,
                     "status": "ok",
                     "reason": "",
                     "dataset_fingerprint": "f00d",

@@ -14,7 +14,7 @@ from resultgen import predictions_pair
 from slipbench.errors import EXIT_UNDECIDED
 from slipbench.report.compare import SCHEMA_VERSION, comment_markdown, to_json
 from slipbench.stats.compare import CELL_ALPHA, compare, summary
-from slipbench.stats.gate import Gate
+from slipbench.stats.gate import DEFAULT_TOLERANCE, Gate
 from slipbench.stats.metrics import Predictions, over_seeds, paired_comparison
 from slipbench.stats.pooled import POOLED_METHOD, CellSides, pooled_change
 
@@ -85,9 +85,7 @@ def test_a_drop_spread_over_a_protocol_is_flagged_by_the_pooled_test(tmp_path):
     assert cmp.state == "undecided" and cmp.exit_code == EXIT_UNDECIDED == 6
     text = comment_markdown(cmp)
     assert "**Undecided** (exit 6): window-size, holweg: accuracy" in text
-    assert (
-        "(pooled, Holm), on one seed per side" in text and "cell level" not in text.split("\n\n")[2]
-    )
+    assert "(pooled), on one seed per side" in text and "cell level" not in text.split("\n\n")[2]
 
 
 def test_an_equal_candidate_is_not_flagged(tmp_path):
@@ -200,6 +198,9 @@ def test_json_is_in_points_with_cells_as_objects_and_validates(tmp_path):
     assert (
         doc["schema_version"] == SCHEMA_VERSION == schema["properties"]["schema_version"]["const"]
     )
+    # the schema's figures are the gate's, as the results schema declares them
+    pooled = schema["$defs"]["pooled"]["properties"]
+    assert set(pooled["figure"]["enum"]) == set(DEFAULT_TOLERANCE)
     cell = doc["cells"][0]
     assert isinstance(cell["cell"], dict) and cell["cell"]["sensor_type"] == "Nano17"
     assert cell["d_accuracy"] == pytest.approx(100 * cmp.cells["d_accuracy"].iloc[0], abs=1e-3)

@@ -1,6 +1,6 @@
 """The coverage study of ``benchmarks/bench_coverage.py`` (normal, heavy-tailed, seeds and ranks
 scenarios): its simulation against its closed-form truth (fast), and the study itself at few
-replications against a looser band (slow). The full study's table is in docs/coverage.md."""
+replications against a looser band (slow). The full study's table is in docs/studies/coverage.md."""
 
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def test_the_benchmark_writes_its_table(tmp_path):
 
 # The study at 60 replications per setting, m = 10 and 20, pooled per scenario (120 test sets;
 # two standard errors of a coverage near 0.93 are about 0.05): the band 0.90-0.995, widened where
-# docs/coverage.md measures a shortfall (TN rate, AUROC and the change in TN rate: 0.89-0.92 at
+# docs/studies/coverage.md measures a shortfall (TN rate, AUROC and the change in TN rate: 0.89-0.92 at
 # 1,000 replications) or a conservative excess (the change in AUROC where its truth is 0:
 # 0.98-1.00). In the ``ranks`` scenario the base detector is normal's, so only its changes are
 # checked: those in TN rate and AUROC (the latter away from 0 here) fall short, 0.84-0.88 at

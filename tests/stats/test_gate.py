@@ -1,4 +1,4 @@
-"""The gate's decisions on synthetic tests: Holm, the power each "no regression" states, and
+"""The gate's decisions on synthetic tests: verdicts read from intervals, the power each "no regression" states, and
 when a comparison is undecided (exit 6) rather than passed or failed."""
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ from slipbench.stats.compare import POOLED_ALPHA, Comparison, _pooled_verdicts
 from slipbench.stats.gate import (
     MAX_NEEDED,
     Gate,
-    holm,
     needed,
     parse_tolerances,
     resolution,
@@ -22,20 +21,13 @@ from slipbench.stats.gate import (
 )
 
 
-def test_holm_matches_statsmodels():
-    from statsmodels.stats.multitest import multipletests
-
-    p = np.random.default_rng(0).uniform(0, 0.1, 17)
-    np.testing.assert_allclose(holm(p), multipletests(p, method="holm")[1])
-
-
 def test_a_drop_of_tolerance_plus_resolution_is_flagged_with_80_percent_power():
     """The stated formula, checked by simulation: normal changes of standard error 1."""
     se, tol, n_tests = 1.0, 1.0, 6
     drop = tol + resolution(se, np.inf, n_tests, POOLED_ALPHA)
     d = -drop + se * np.random.default_rng(1).standard_normal(20_000)
     p_reg, _ = two_sided_p(-d, np.full_like(d, se), np.full_like(d, np.inf), tol)
-    power = np.mean(p_reg <= POOLED_ALPHA / n_tests)  # Holm's first step: the worst case
+    power = np.mean(p_reg <= POOLED_ALPHA / n_tests)  # the family's Bonferroni level
     assert power == pytest.approx(0.8, abs=0.01)
     assert drop == pytest.approx(tol + norm.ppf(1 - POOLED_ALPHA / 12) + norm.ppf(0.8))
 
@@ -95,10 +87,30 @@ def test_low_n_and_one_seed_per_side_are_undecided_even_when_flagged():
 
 
 def test_false_alarms_per_minute_rising_is_the_worse_direction():
-    up = _verdict(figure="false_alarms_per_min", change=3.0, change_se=0.3)
-    down = _verdict(figure="false_alarms_per_min", change=-3.0, change_se=0.3)
+    def at(change: float) -> dict:
+        return dict(change=change, change_se=0.3, change_lo=change - 0.6, change_hi=change + 0.6)
+
+    up = _verdict(figure="false_alarms_per_min", **at(3.0))
+    down = _verdict(figure="false_alarms_per_min", **at(-3.0))
     assert (up["verdict"], down["verdict"]) == ("regressed", "improved")
-    assert _verdict(figure="tn_rate", change=-3.0, change_se=0.3)["verdict"] == "regressed"
+    assert _verdict(figure="tn_rate", **at(-3.0))["verdict"] == "regressed"
+    assert up["p"] < POOLED_ALPHA
+
+
+def test_a_pooled_verdict_reads_the_interval_printed_beside_it():
+    """The issue's compare comment: a TN line "regressed" (Holm p 0.023) beside a printed
+    interval that held 0. The verdict now reads that interval: a p below alpha with an interval
+    reaching past the tolerance is no regression, and the adjusted p agrees with the interval."""
+    r = _verdict(figure="tn_rate", change=-2.5, change_se=0.6, change_lo=-4.3, change_hi=0.1)
+    assert r["verdict"] != "regressed"
+    for change, lo, hi, se in (
+        (-2.5, -4.3, -1.2, 0.5),
+        (-2.5, -4.3, 0.1, 0.5),
+        (0.2, -0.1, 0.5, 0.1),
+    ):
+        r = _verdict(figure="tn_rate", change=change, change_lo=lo, change_hi=hi, change_se=se)
+        assert (r["verdict"] == "regressed") == (hi < -1)
+        assert (r["verdict"] == "within margin") == (-1 <= lo and hi <= 1)
 
 
 def _comparison(cell_verdict, pooled, seeds):

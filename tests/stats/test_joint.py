@@ -12,7 +12,7 @@ from slipbench.detectors.holweg import Holweg
 from slipbench.engine.runner import Run, evaluate
 from slipbench.protocols.window_size import WindowSize
 from slipbench.report.document import build_report, render
-from slipbench.report.presentation import presented
+from slipbench.report.presentation import shown_protocol
 from slipbench.stats.joint import joint_means
 from slipbench.store.results import ResultsStore
 
@@ -105,7 +105,7 @@ def test_seeds_pool_into_one_interval(small, tmp_path):
         store,
         progress=False,
     )
-    layout = presented("window-size", WindowSize(windows=(50,)).layout)
+    layout = shown_protocol(WindowSize(windows=(50,)), "window-size")
     pooled = joint_means(rows, ["sensor_type", "sensor_instance", "window"], [tmp_path])
     assert len(pooled) == rows[["sensor_type", "sensor_instance"]].drop_duplicates().shape[0]
     ((_, table),) = protocol_tables(
@@ -137,7 +137,7 @@ def test_seeds_pooled_for_some_figures_only_say_so(small, tmp_path):
     gone = rows[(rows["sensor_type"] == "Nano17") & (rows["seed"] == 1)]["key"]
     for key in gone:
         (tmp_path / "predictions" / f"{key}.parquet").unlink()
-    layout = presented("window-size", WindowSize(windows=(50,)).layout)
+    layout = shown_protocol(WindowSize(windows=(50,)), "window-size")
     ((_, table),) = protocol_tables(
         rows, layout, "window-size", "holweg", intervals=True, predictions=[tmp_path]
     )

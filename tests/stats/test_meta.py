@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 from resultgen import fake_rows
+from scipy.stats import t as student_t
+from statsmodels.stats.meta_analysis import combine_effects
 
+from slipbench.report.meta import summary_table
 from slipbench.seeding import rng_for
+from slipbench.stats.contrast import pair_seeds, paired_change
 from slipbench.stats.meta import meta_analysis, pool, transferred
-from slipbench.stats.pairs import paired_change
 
 FIGURES = ("accuracy", "tp_rate", "tn_rate")
 
@@ -46,7 +51,11 @@ def test_two_datasets_of_known_effects_are_recovered_within_their_intervals():
     assert 0 < v < truths.var(ddof=1)  # else the known spread would not show at all
     assert abs(m.tau2 - (truths.var(ddof=1) - v)) < 1e-9
     assert abs(m.i2 - m.tau2 / (m.tau2 + v)) < 1e-6
-    half = 1.959964 * np.sqrt((v + m.tau2) / 2)
+    # one seed each: the datasets' intervals are normal (df inf), and the pooled interval's
+    # degrees of freedom are tau²'s one, weighed by Welch-Satterthwaite: ((v + tau²) / tau²)²
+    df = ((v + m.tau2) / m.tau2) ** 2
+    half = student_t.ppf(0.975, df) * np.sqrt((v + m.tau2) / 2)
+    assert abs(m.df - df) < 1e-6
     assert abs(m.lo - (m.d - half)) < 1e-6 and abs(m.hi - (m.d + half)) < 1e-6
 
 
@@ -71,7 +80,7 @@ def test_known_effects_under_cell_noise_are_recovered_within_their_intervals():
 
 
 def test_pool_agrees_with_a_fixed_effect_where_datasets_agree():
-    res = pool([0.03, 0.03, 0.03], [0.01, 0.02, 0.01])
+    res = pool([0.03, 0.03, 0.03], [0.01, 0.02, 0.01], [np.inf, np.inf, np.inf])
     assert res["tau2"] == 0 and res["i2"] == 0
     assert abs(res["d"] - 0.03) < 1e-12 and res["lo"] < 0.03 < res["hi"]
 
@@ -80,7 +89,7 @@ def test_one_dataset_gives_its_change_and_no_pooled_one():
     m = meta_analysis({"sim": dataset("sim", 0.04)}, ("features", "holweg"))
     assert len(m.datasets) == 1 and np.isfinite(m.datasets["d"].iloc[0])
     assert np.isnan(m.d) and m.pooled_over == 1
-    assert "no pooled change" in m.notes[0]
+    assert any("no pooled change" in n for n in m.notes)
 
 
 def test_a_pair_missing_on_one_dataset_is_said_not_pooled():
@@ -97,11 +106,13 @@ def test_a_dataset_of_cells_stored_twice_says_so():
     twice = pd.concat([base, base.assign(key=base["key"] + "-rerun")])
     per = {"sim": dataset("sim", 0.04), "dos": (twice, cand)}
     dos = meta_analysis(per, ("features", "holweg")).datasets.set_index("dataset").loc["dos"]
-    assert dos["reason"] == f"each of its {len(base)} shared cells holds a seed stored twice"
+    assert dos["reason"] == (
+        f"no cell and seed both finished ({len(base)} cells holding a seed stored twice on a side)"
+    )
     partly = pd.concat([base, base.head(3).assign(key=base["key"].head(3) + "-rerun")])
     m = meta_analysis({"sim": dataset("sim", 0.04), "dos": (partly, cand)}, ("features", "holweg"))
     assert m.datasets.set_index("dataset").loc["dos", "n_cells"] == len(base) - 3
-    assert "dos: 3 shared cells left out, a seed stored twice." in m.notes
+    assert "dos: left out: 3 cells holding a seed stored twice on a side." in m.notes
 
 
 def test_zero_variance_is_left_out_with_its_reason():
@@ -123,11 +134,72 @@ def test_pairing_keeps_inputs_and_seeds_apart():
     base = fake_rows("window-size", "features", seeds=(0, 1)).head(12)
     cand = shifted(base, "tcn", 0.05)
     both = pd.concat([base, base.assign(input="channels", accuracy=base["accuracy"] - 0.5)])
-    change = paired_change(both, cand)  # cand has univariate rows only: pairs with those
-    assert change["n_cells"] == base["cell"].nunique()
-    assert abs(change["d"] - 0.05) < 1e-9 and change["lo"] < 0.05 < change["hi"]
+    change = paired_change(
+        pair_seeds(both, cand)
+    )  # cand has univariate rows only: pairs with those
+    assert change.n_cells == base["cell"].nunique() and change.seeds == (0, 1)
+    assert abs(change.estimate - 0.05) < 1e-9 and change.lo < 0.05 < change.hi
 
 
 def test_transfer_rows_are_marked_apart():
     rows = fake_rows("window-size").head(3).assign(sensor_map=[None, '{"a": "b"}', ""])
     assert transferred(rows).tolist() == [False, True, False]
+
+
+SHOWN = re.compile(r"([+-]\d+\.\d) \[([+-]\d+\.\d), ([+-]\d+\.\d)\] \(df ([\d.e+]+|∞)\)")
+
+
+def parse(text: str) -> tuple[float, float, float, float]:
+    found = SHOWN.fullmatch(text)
+    assert found, text
+    d, lo, hi, df = found.groups()
+    return float(d), float(lo), float(hi), np.inf if df == "∞" else float(df)
+
+
+def seeded(fingerprint: str, shift: float, seed_sd: float) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Two seeds per cell; the candidate's change moves by seed (retraining noise), so each
+    dataset's interval rests on one seed degree of freedom."""
+    base = fake_rows("window-size", "features", seeds=(0, 1)).head(24)
+    base = base.assign(dataset_fingerprint=fingerprint)
+    cand = shifted(base, "holweg", shift)
+    by_seed = rng_for(0, "test-meta-seeds", fingerprint).normal(0, seed_sd, 2)
+    return base, cand.assign(accuracy=cand["accuracy"] + by_seed[cand["seed"].to_numpy()])
+
+
+def test_the_pooled_line_reproduces_from_the_shown_rows():
+    """The issue's check: the pooled change, its interval, tau² and I² are what statsmodels and
+    the stated method give from each dataset's change as the table prints it (estimate,
+    interval, degrees of freedom), to the table's rounding; a dataset of two seeds enters with
+    its own few degrees of freedom, not as if its standard error were known."""
+    per = {"sim": seeded("sim", 0.02, 0.03), "dos": seeded("dos", 0.05, 0.01)}
+    m = meta_analysis(per, ("features", "holweg"))
+    table = summary_table([m])
+    line = dict(zip(table.columns, table.cells[0]))
+    shown = {name: parse(line[name]) for name in ("dos", "sim")}
+    assert shown["sim"][3] < 5  # two seeds of a noisy retraining: few degrees of freedom
+    d = np.array([x[0] for x in shown.values()]) / 100
+    df = np.array([x[3] for x in shown.values()])
+    se = np.array([(x[2] - x[1]) / 100 / (2 * student_t.ppf(0.975, x[3])) for x in shown.values()])
+    res = combine_effects(d, se**2, method_re="iterated")
+    w = 1 / (se**2 + res.tau2)
+    within, between = w**2 * se**2 / w.sum() ** 2, res.tau2 * (w**2).sum() / w.sum() ** 2
+    dof = (within.sum() + between) ** 2 / ((within**2 / df).sum() + between**2 / (len(d) - 1))
+    half = student_t.ppf(0.975, dof) * np.sqrt(within.sum() + between)
+    mean = (w * d).sum() / w.sum()
+    pooled = parse(line["Pooled"])
+    assert np.allclose(pooled[:3], 100 * np.array([mean, mean - half, mean + half]), atol=0.1)
+    assert abs(float(line["tau² (points²)"]) - 1e4 * res.tau2) <= 0.01 + 0.05 * 1e4 * res.tau2
+    # the normal pooling of the bootstrap's standard errors, as before, was narrower
+    normal = 1.959964 / np.sqrt((1 / (m.datasets["se"] ** 2 + m.tau2)).sum())
+    assert half > normal
+
+
+def test_a_dataset_over_low_n_cells_carries_the_mark():
+    base, cand = dataset("dos", 0.02)
+    per = {"sim": dataset("sim", 0.04), "dos": (base.assign(low_n=True), cand)}
+    table = summary_table([meta_analysis(per, ("features", "holweg"))])
+    line = dict(zip(table.columns, table.cells[0]))
+    assert line["dos"].endswith("†") and not line["sim"].endswith("†")
+    assert any(
+        f"dos: † {len(base)} of its paired cells rest on few test trials" in n for n in table.notes
+    )

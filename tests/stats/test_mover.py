@@ -1,6 +1,6 @@
 """The ``mover`` interval method (logit t with the replicates' own logit spread for figures;
 MOVER over the level and the contrast of a change) and ``replicate-logit`` (its figures of one
-seed, else the default): their mechanics. Their coverage is measured in docs/coverage.md
+seed, else the default): their mechanics. Their coverage is measured in docs/studies/coverage.md
 (``benchmarks/bench_coverage.py --method mover``, ``--method replicate-logit``)."""
 
 from __future__ import annotations

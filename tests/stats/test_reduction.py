@@ -31,14 +31,16 @@ def test_channels_better_on_one_sensor_equal_on_the_other(tmp_path, kwargs):
     cmp = compare_inputs(rows, [folder])
     assert len(cmp.cells) == 14  # 2 sensors x 2 fingers x 4 windows, less the two unpaired
     better, equal = _pooled(cmp, "Nano17"), _pooled(cmp, "BioTacSP")
-    assert better["reading"] == "channels better" and better["d_accuracy_lo"] > 0
+    seeds = len(kwargs.get("seeds", (0,)))
+    # one seed per side: its interval holds the test noise only, so nothing is read from it
+    assert better["reading"] == ("channels better" if seeds > 1 else "inconclusive")
+    assert better["d_accuracy_lo"] > 0.01
     assert better["d_tp_rate_lo"] > 0 and better["d_tn_rate_lo"] > 0
-    assert equal["reading"] == "no difference resolved"
+    assert equal["reading"] == ("undecided" if seeds > 1 else "inconclusive")
     assert equal["d_accuracy_lo"] < 0 < equal["d_accuracy_hi"]
     assert better["cells"] == equal["cells"] == 7
     # two pooled changes: each at 97.5 %, together at 95 %
     assert cmp.pooled_level == pytest.approx(0.975) and cmp.level == pytest.approx(0.95)
-    seeds = len(kwargs.get("seeds", (0,)))
     method = "paired over trials" if seeds == 1 else "over seeds and trials (paired seed by seed)"
     assert cmp.cells["method"].str.startswith(method).all()
     assert ("crossed with the cells and paired seed by seed" in better["method"]) == (seeds > 1)
@@ -56,7 +58,7 @@ def test_seeds_bring_retraining_noise_into_the_interval(tmp_path):
     one = _pooled(compare_inputs(rows, [folder]), "BioTacSP")
     folder, rows = inputs_folder(tmp_path / "three", seeds=(0, 1, 2), split_noise=SPLIT_NOISE)
     three = _pooled(compare_inputs(rows, [folder]), "BioTacSP")
-    assert three["reading"] == "no difference resolved"
+    assert three["reading"] == "undecided"
     width = [100 * (r["d_accuracy_hi"] - r["d_accuracy_lo"]) for r in (one, three)]
     assert width[1] > width[0]
 
@@ -84,7 +86,7 @@ def test_equal_inputs_are_rarely_read_as_different(tmp_path):
             readings += list(compare_inputs(rows, [folder]).pooled["reading"])
         called[len(seeds)] = sum(r in ("channels better", "channels worse") for r in readings)
     assert called[3] <= 2  # at most 5 % of 40
-    assert called[1] >= 4
+    assert called[1] == 0  # one seed: inconclusive, whatever its interval (read alone: 10 of 40)
 
 
 def test_a_cell_is_paired_window_by_window_as_compare_pairs_it(tmp_path):
@@ -157,7 +159,7 @@ def test_without_predictions_the_rows_decide(tmp_path):
     assert (cmp.cells["method"] == "unpaired").all()
     assert cmp.pooled["method"].str.startswith("mean of the cells' standard errors").all()
     better, equal = _pooled(cmp, "Nano17"), _pooled(cmp, "BioTacSP")
-    assert better["reading"] == "channels better"
+    assert better["d_accuracy_lo"] > 0.01 and better["reading"] == "inconclusive"  # one seed
     assert equal["d_accuracy_lo"] < 0 < equal["d_accuracy_hi"]
     # the rows' intervals err wide: wider than the paired ones
     paired = compare_inputs(*_with_predictions(tmp_path / "paired"))

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slipbench.stats.bootstrap import SeedPool, pool_seed_spreads
 from slipbench.stats.metrics import Predictions, over_seeds
+from slipbench.stats.noise import PROTOCOL_POOL, SeedNoise, pool_seed_spreads
 from slipbench.stats.pooled import CellSides, protocol_seed_pool
 
 
@@ -35,7 +35,8 @@ def _cells(n_cells: int, n_seeds: int, seed: int = 0) -> list[CellSides]:
 
 def test_pool_weighs_each_side_by_its_degrees_of_freedom():
     pool = pool_seed_spreads([(0.01, 3), (0.04, 2), (0.5, 1), (np.nan, 3)])
-    assert pool == SeedPool(pytest.approx((0.01 * 2 + 0.04 * 1) / 3), 3.0)
+    assert pool is not None and pool.variance == pytest.approx((0.01 * 2 + 0.04 * 1) / 3)
+    assert (pool.df, pool.source) == (3.0, PROTOCOL_POOL)
     assert pool_seed_spreads([(0.5, 1), (np.nan, 4)]) is None
 
 
@@ -82,7 +83,7 @@ def test_a_pool_of_no_seed_variance_leaves_one_seed_per_side_as_it_was():
     c = _cells(1, 1)[0]
     kw = {"figures": ("accuracy",), "n_resamples": 199}
     plain = over_seeds(c.base, c.cand, 0, **kw)
-    pooled = over_seeds(c.base, c.cand, 0, seed_pool={"accuracy": SeedPool(0.0, 10.0)}, **kw)
+    pooled = over_seeds(c.base, c.cand, 0, seed_pool={"accuracy": SeedNoise(0.0, 10.0)}, **kw)
     assert pooled == plain
 
 

@@ -6,15 +6,15 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pandas as pd
 import pytest
 from historygen import run_folder
 
 from slipbench.app.cli import main
-from slipbench.stats.compare import unpaired_cell
+from slipbench.stats.contrast import ONE_SEED, SHOWN, UNDECIDED, from_parts
 from slipbench.stats.gate import Gate
-from slipbench.stats.series import seed_spread, series_rows
-from slipbench.stats.steps import find_steps, propose, step_change
+from slipbench.stats.noise import SeedNoise
+from slipbench.stats.series import HISTORY, seed_spread, series_rows
+from slipbench.stats.steps import SEGMENT_SEEDS, find_steps, propose, step_change
 from slipbench.store.history import Run, add_run, read_history, utc_date
 from slipbench.store.results import read_results
 
@@ -110,7 +110,7 @@ def test_runs_of_one_code_and_seed_count_once(tmp_path):
             Run(f"c{i}", utc_date(f"2026-01-0{i + 1}"), "m"),
         )
     spread = seed_spread(read_history(hist), "accuracy")
-    assert spread.empty  # one result per series: no spread measured
+    assert spread == {}  # one result per series: no spread measured
 
 
 def test_weights_follow_the_intervals():
@@ -121,41 +121,50 @@ def test_weights_follow_the_intervals():
     assert propose(shift, np.full(20, 0.05)) == [10]
 
 
-def test_step_change_is_compares_of_the_segments_means():
+def test_step_change_is_the_contrast_of_the_segments_means():
     """The segments' means, their seed spread pooled over both (a step moves the figure, not
-    the bench's noise), judged as compare judges two rows."""
+    the bench's noise), as one contrast against the tolerance: the interval it shows is the
+    one its state read."""
     b, a = [0.80, 0.82, 0.81], [0.75, 0.76, 0.74]
     before = [{"accuracy": v, "accuracy_se": 0.01, "df": 30.0} for v in b]
     after = [{"accuracy": v, "accuracy_se": 0.01, "df": 30.0} for v in a]
-    got = step_change(before, after, "accuracy", 0.95)
+    got = step_change((before, after), "accuracy", 0.95, 0.01)
     pooled = (np.var(b) * 3 + np.var(a) * 3) / 4
-    assert got["d"] == pytest.approx(-0.06)
-    assert got["se"] == pytest.approx(np.sqrt(2 * pooled / 3))
-    assert got["df"] == 4
-    side = [{"accuracy": 0.81, "accuracy_se": np.sqrt(pooled / 3), "df": 4.0}]
-    other = [{"accuracy": 0.75, "accuracy_se": np.sqrt(pooled / 3), "df": 4.0}]
-    assert got["lo"] == pytest.approx(unpaired_cell(side, other, 0.95)["d_accuracy_lo"])
-    # one seed a side: each keeps its own interval (test-set noise alone)
-    alone = step_change(before[:1], after[:1], "accuracy", 0.95)
-    assert alone["se"] == pytest.approx(np.hypot(0.01, 0.01)) and alone["df"] == 30
+    assert got.estimate == pytest.approx(-0.06)
+    assert got.se == pytest.approx(np.sqrt(2 * pooled / 3))
+    assert got.df == pytest.approx(4)
+    assert got.noise == (SEGMENT_SEEDS,)
+    same = from_parts(-0.06, [(2 * pooled / 3, 4.0)], 0.95, 0.01)
+    assert (got.lo, got.hi) == pytest.approx((same.lo, same.hi))
+    assert got.state == SHOWN and got.direction == -1
+    # at a level the interval reaches the tolerance: undecided, never shown
+    assert step_change((before, after), "accuracy", 1 - 1e-9, 0.01).state == UNDECIDED
+    # a seed variance with more degrees of freedom replaces the segments' own
+    history = SeedNoise(pooled, 40.0, HISTORY)
+    wide = step_change((before, after), "accuracy", 0.95, 0.01, history)
+    assert wide.df == pytest.approx(40) and wide.hi < got.hi and wide.noise == (HISTORY,)
+    # one seed a side: the rows' test-set noise, and undecided: no retraining noise measured
+    alone = step_change((before[:1], after[:1]), "accuracy", 0.95, 0.01)
+    assert alone.se == pytest.approx(np.hypot(0.01, 0.01)) and alone.missing == ONE_SEED
+    assert alone.state == UNDECIDED
 
 
 def test_seed_spread_pools_each_code_identity(tmp_path):
     """Two identities, three seeds each: the spread within each, pooled on 2 + 2 df."""
     hist = _history(
         tmp_path,
-        [0.0, 0.01, -0.01, 0.2, 0.21, 0.19],
+        [0.0, 0.01, -0.01, -0.2, -0.21, -0.19],
         noise=0.0,
         codes=["a", "a", "a", "b", "b", "b"],
     )
     frame = read_history(hist)
     spread = seed_spread(frame, "accuracy")
     assert len(spread) == 48
-    assert spread["df"].eq(4).all() and spread["identities"].eq(2).all()
-    expected = np.var([0.0, 0.01, -0.01], ddof=1)  # a shift of 0.2 between codes is not spread
-    assert spread["variance"].to_numpy() == pytest.approx(np.full(48, expected), rel=1e-6)
+    assert all(isinstance(s, SeedNoise) and s.source == HISTORY for s in spread.values())
+    assert {s.df for s in spread.values()} == {4}
+    expected = np.var([0.0, 0.01, -0.01], ddof=1)  # a shift of -0.2 between codes is not spread
+    variances = [s.variance for s in spread.values()]
+    assert variances == pytest.approx([expected] * 48, rel=1e-6)
     only_b = seed_spread(frame, "accuracy", identities=["b"])
-    assert only_b["df"].eq(2).all()
-    assert seed_spread(frame, "accuracy", identities=["zzz"]).empty
-    assert list(only_b.columns) == ["series", "series_label", "variance", "df", "identities"]
-    assert isinstance(only_b, pd.DataFrame)
+    assert {s.df for s in only_b.values()} == {2} and set(only_b) == set(spread)
+    assert seed_spread(frame, "accuracy", identities=["zzz"]) == {}

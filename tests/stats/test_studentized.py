@@ -1,6 +1,6 @@
 """The ``studentized`` interval method (bootstrap-t united with the ``satterthwaite`` interval): its
 mechanics (fast) and its coverage in the three scenarios of ``benchmarks/bench_coverage.py``
-at low replications (slow). The study's table is in docs/coverage.md."""
+at low replications (slow). The study's table is in docs/studies/coverage.md."""
 
 from __future__ import annotations
 

@@ -15,10 +15,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_committed_page_is_what_the_generator_writes():
-    page = (ROOT / "docs" / "results-columns.md").read_text()
+    page = (ROOT / "docs" / "reference" / "results-columns.md").read_text()
     assert page == results_columns.page(), (
-        "docs/results-columns.md is stale: "
-        "python docs/tools/results_columns.py > docs/results-columns.md"
+        "docs/reference/results-columns.md is stale: "
+        "python docs/tools/results_columns.py > docs/reference/results-columns.md"
     )
 
 
@@ -63,6 +63,10 @@ def test_the_store_writes_a_declared_row(tmp_path):
         ({"window": "50"}, "window: '50' is not a int64"),
         ({"low_n": 1}, "low_n: 1 is not a bool"),
         ({"n_test": True}, "n_test: True is not a int64"),
+        ({"accuracy": 1.5}, r"accuracy 1.5 is not in \[0, 1\]"),
+        ({"accuracy": float("nan")}, "accuracy nan is not a finite number"),
+        ({"n_test": -1}, "n_test -1 is not >= 0"),
+        ({"seed": 2**32}, r"seed 4294967296 is not in \[0, 4294967295\]"),
     ],
 )
 def test_the_store_refuses_what_the_schema_does_not_declare(tmp_path, change, said):
@@ -70,3 +74,15 @@ def test_the_store_refuses_what_the_schema_does_not_declare(tmp_path, change, sa
     with pytest.raises(TypeError, match=said):
         store.put({**ROW, **change})
     assert not any(tmp_path.rglob("*.parquet"))  # nothing half-written
+
+
+def test_every_fraction_and_count_declares_its_range():
+    """A rate, a share or an area lies in [0, 1] and a count is >= 0, so that a file without
+    digests can be checked: a new column of such a unit must say so."""
+    for column in columns.COLUMNS.values():
+        if column.unit == "fraction":
+            assert column.bounds == (0.0, 1.0), column.name
+        if column.unit in ("windows", "trials", "ms", "s", "us", "1/min", "min"):
+            assert column.bounds[0] >= 0, column.name
+    assert columns.COLUMNS["accuracy"].finite and not columns.COLUMNS["accuracy_lo"].finite
+    assert columns.COLUMNS["accuracy_lo"].problem(float("nan")) is None  # an interval may be NaN

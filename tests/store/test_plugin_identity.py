@@ -238,7 +238,8 @@ def _evaluate(folder: Path, index, out: Path):
 def test_a_fit_that_reads_a_file_records_its_digest(tmp_path):
     import numpy as np
 
-    from slipbench.engine.fitting import Job, TestSet, changed_reads, fit_and_test
+    from slipbench.engine.fitting import Job, TestSet, fit_and_test
+    from slipbench.store.keys import changed_reads
 
     folder = plugin(tmp_path / "p", {"energy.py": READS_IN_FIT, "shift.txt": "0.5\n"})
     reg = registry.Registry("detector", BaseDetector, "slipbench.no-such-group")
@@ -299,3 +300,39 @@ def test_distribution_metadata_is_no_plugins_data(tmp_path):
         files.append(tmp_path / folder / "entry_points.txt")
         files[-1].write_text("[slipbench.detectors]\n")
     assert plugin_files({str(f) for f in files}) == [files[2].resolve()]
+
+
+def _own(folder: Path, name: str = "energy") -> str:
+    """A plugin's own code identity as a fresh process takes it."""
+    _forget()
+    keys._slipbench_closure.cache_clear()
+    reg = registry.Registry("detector", BaseDetector, "slipbench.no-such-group")
+    reg.add_folder(folder)
+    return keys.own_code_identity(reg.get(name))
+
+
+def test_a_built_in_detectors_own_code_is_its_file_and_the_contract_it_uses():
+    """What a bench's calibration is keyed on: holweg's module and the slipbench modules it
+    imports (the contract), not the engine, the statistics or the reports."""
+    from slipbench.detectors.bandpass import BandPass
+    from slipbench.detectors.holweg import Holweg
+
+    file = Path(sys.modules[Holweg.__module__].__file__).resolve()
+    closure = dict(keys._slipbench_closure(file))
+    assert {"slipbench.base", "slipbench.spectra", "slipbench.params"} <= set(closure)
+    assert not any(m.split(".")[1] in ("engine", "stats", "report", "app") for m in closure if m)
+    assert keys.own_code_identity(Holweg) != keys.own_code_identity(BandPass)
+    assert keys.own_code_identity(Holweg) != keys.code_identity(Holweg)  # narrower
+    assert keys.own_code_identity(Holweg) == keys.own_code_identity(Holweg)
+
+
+def test_a_plugins_own_code_changes_with_its_files(tmp_path):
+    folder = tmp_path / "plugins"
+    folder.mkdir()
+    (folder / "energy.py").write_text(ENERGY)
+    first = _own(folder)
+    assert first == _own(folder)
+    (tmp_path / "elsewhere.py").write_text("x = 1\n")  # not beside it: not its code
+    assert _own(folder) == first
+    (folder / "energy.py").write_text(ENERGY + "\n# a comment is a change of its file\n")
+    assert _own(folder) != first

@@ -181,7 +181,9 @@ def test_tables_render_in_markdown_and_latex(streamed):
     rows, _ = streamed
     md = render_report(rows, "md", intervals=True)
     assert (
-        "Detection rate (%)" in md and "False alarms / min" in md and "95th pct. delay (ms)" in md
+        "Detection rate (%)" in md
+        and "False alarms (per min)" in md
+        and "95th pct. delay (ms)" in md
     )
     assert "At 1 false alarm per minute" in md and "whole test trials" in md
     nano = rows[(rows["sensor_type"] == "Nano17") & (rows["sensor_instance"] == "index")].iloc[0]

@@ -1,4 +1,4 @@
-"""docs/plugin-api.md: written from the docstrings by docs/tools/plugin_api.py, never by hand;
+"""docs/reference/plugin-api.md: written from the docstrings by docs/tools/plugin_api.py, never by hand;
 every public hook a plugin uses is on it, with a docstring and an example that runs."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_committed_page_is_what_the_generator_writes():
     page = (ROOT / apidoc.PAGE).read_text()
     assert page == apidoc.render(), (
-        "docs/plugin-api.md is stale: python docs/tools/plugin_api.py > docs/plugin-api.md"
+        "docs/reference/plugin-api.md is stale: python docs/tools/plugin_api.py > docs/reference/plugin-api.md"
     )
 
 
@@ -81,7 +81,7 @@ def test_markdown_turns_rest_into_markdown():
 
 def test_the_plugins_guide_links_the_page():
     guide = (ROOT / "docs" / "guides" / "plugins.md").read_text()
-    assert re.search(r"\]\(\.\./plugin-api\.md\)", guide)
+    assert re.search(r"\]\(\.\./reference/plugin-api\.md\)", guide)
 
 
 @pytest.mark.slow

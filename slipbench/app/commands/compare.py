@@ -4,13 +4,13 @@ pull-request comment (Markdown) and JSON in one call; the exit code is the verdi
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import click
 
 from slipbench.app.options import LAYOUT_PLUGINS_HELP, out_option, plugins_option
-from slipbench.app.selection import add_plugin_folders
+from slipbench.app.selection import add_plugin_folders, recorded_plugins
 from slipbench.stats.gate import DEFAULT_TOLERANCE
 
 
@@ -101,6 +101,8 @@ def compare_command(**options) -> None:
 
     add_plugin_folders(o.plugins)
     result = compare(o.base, o.candidate, gate_from(o.figures, o.bench, o.margin, o.max_width))
+    if result.rows is not None:  # rows written before they recorded their layouts
+        result = replace(result, rows=recorded_plugins(result.rows))
     texts = {
         "json": to_json(result),
         "md": comment_markdown(result, MAX_ROWS if o.max_rows is None else o.max_rows),

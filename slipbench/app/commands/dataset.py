@@ -140,7 +140,9 @@ def dataset_check(**options) -> None:
     protocols: dict[str, BaseProtocol] = {}
     for name in o.protocol_names:
         protocols |= load_plugins(registry.protocols, name, broken)
-    protocols = with_options(protocols, parse_params(o.protocol_params), "protocol")
+    protocols = with_options(
+        protocols, parse_params(o.protocol_params, "--protocol-param"), "protocol"
+    )
     runs = [Run("holweg", p, o.split, o.seed, o.labels) for p in protocols.values()]
     for run in runs:
         run.validate()

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -19,13 +20,27 @@ from slipbench.app.options import (
     plugins_option,
     protocol_params_option,
     quiet_option,
+    repeats_problem,
     scale_option,
+    scheduler_option,
     seed_option,
+    slurm_option,
+    slurm_resources,
     split_option,
 )
-from slipbench.app.selection import add_plugin_folders, readable, select_plugins, with_options
+from slipbench.app.selection import (
+    add_plugin_folders,
+    check_ids,
+    readable,
+    recorded_plugins,
+    select_plugins,
+    with_options,
+)
 from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 @dataclass(frozen=True)
@@ -50,6 +65,7 @@ class EvaluateArgs:
     plugins: tuple[str, ...]
     jobs: int
     scheduler: str | None
+    slurm: tuple[str, ...]
     cell_timeout: float | None
     force: bool
     intervals: bool
@@ -126,9 +142,8 @@ class EvaluateArgs:
 @protocol_params_option("Protocol option NAME=VALUE, e.g. decimation=both.")
 @plugins_option()
 @jobs_option("Local worker processes (0: in this process, for debugging).", default=1)
-@click.option(
-    "--scheduler", default=None, help="Address of a dask.distributed scheduler to run on."
-)
+@scheduler_option()
+@slurm_option()
 @click.option(
     "--cell-timeout",
     default=None,
@@ -141,13 +156,8 @@ class EvaluateArgs:
 def evaluate_command(**options) -> None:
     """Run protocols with detectors; write results to --out and print the tables."""
     o = EvaluateArgs(**options)
-    from slipbench.data.defaults import default_dataset
-    from slipbench.data.read import read_dataset
-    from slipbench.engine.runner import Run
-    from slipbench.engine.runner import evaluate as run_protocols
-    from slipbench.report.document import protocol_table
-    from slipbench.store.results import ResultsStore, cells_failed
-
+    if problem := repeats_problem(o.seed, o.repeats):
+        raise UsageError(f"--repeats {o.repeats}: {problem}")
     add_plugin_folders(o.plugins)
     if o.train_path and not o.dataset_path:
         raise UsageError("--train-dataset needs --dataset: the dataset to test on")
@@ -156,6 +166,8 @@ def evaluate_command(**options) -> None:
             "--sensor-map matches a test dataset's sensors to a training dataset's: it needs --train-dataset"
         )
     split = "datasets" if o.train_path else o.split
+    check_ids(registry.detectors, o.detector_name)  # both kinds before a plugin is imported
+    check_ids(registry.protocols, o.protocol_name)
     broken: list[str] = []
     note = lambda line: click.echo(line, err=True)  # noqa: E731
     detectors = with_options(
@@ -165,9 +177,12 @@ def evaluate_command(**options) -> None:
     )
     protocols = with_options(
         select_plugins(registry.protocols, o.protocol_name, broken, note),
-        parse_params(o.protocol_params),
+        parse_params(o.protocol_params, "--protocol-param"),
         "protocol",
     )
+    # the engine once the plugins are known: a mistyped id is refused at once
+    from slipbench.engine.plan import Run
+
     runs = [
         Run(d, p, split, o.seed + r, o.labels, o.normalize, kind)
         for name, d in detectors.items()
@@ -181,31 +196,18 @@ def evaluate_command(**options) -> None:
         )
     for run in runs:
         run.validate()  # every option before the dataset is read or simulated
-    if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
-        from slipbench.data.transfer import combine, parse_sensor_map
+    slurm = slurm_resources(o.scheduler, o.slurm, None, detectors)
+    from slipbench.report.document import protocol_table
+    from slipbench.store.results import ResultsStore, cells_failed
 
-        ds = combine(
-            read_dataset(o.train_path), read_dataset(o.dataset_path), parse_sensor_map(o.sensor_map)
-        )
-    else:
-        ds = (
-            read_dataset(o.dataset_path)
-            if o.dataset_path
-            else default_dataset(o.scale, o.seed, echo=click.echo)
-        )
-    rows = run_protocols(
-        ds,
-        runs,
-        ResultsStore(o.out),
-        force=o.force,
-        jobs=o.jobs,
-        scheduler=o.scheduler,
-        cell_timeout=o.cell_timeout,
-        progress=not o.quiet,
-    )
-    for (dn, kind, pn), group in rows.groupby(["detector", "input", "protocol"], sort=False):
+    store = ResultsStore(o.out)
+    rows = None if o.force or o.train_path else _cached(o, runs, store)
+    if rows is None:
+        rows = _evaluated(o, runs, store, slurm)
+    shown = recorded_plugins(rows)  # cells kept from a run before rows recorded their layouts
+    for (dn, kind, pn), group in shown.groupby(["detector", "input", "protocol"], sort=False):
         click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
-        click.echo(protocol_table(group, protocols[pn].layout, intervals=o.intervals))
+        click.echo(protocol_table(group, intervals=o.intervals))
     counts = rows["status"].value_counts()
     click.echo(
         f"\n{len(rows)} cells: "
@@ -221,3 +223,46 @@ def evaluate_command(**options) -> None:
         )
     if failed:
         raise failed
+
+
+def _cached(o: EvaluateArgs, runs: list, store) -> pd.DataFrame | None:
+    """The rows of a fully cached run, read from the store without reading the dataset's samples
+    (:func:`slipbench.engine.cached.cached_rows`); None where a cell must be computed."""
+    from slipbench.data.defaults import default_dataset_path
+    from slipbench.data.read import read_recordings
+    from slipbench.engine.cached import cached_rows
+
+    known = read_recordings(o.dataset_path or default_dataset_path(o.scale, o.seed))
+    return None if known is None else cached_rows(*known, runs, store)
+
+
+def _evaluated(o: EvaluateArgs, runs: list, store, slurm) -> pd.DataFrame:
+    """The rows of a run that computes cells: the dataset read whole (or simulated, or two
+    combined), workers started where cells must run."""
+    from slipbench.data.defaults import default_dataset
+    from slipbench.data.read import read_dataset
+    from slipbench.engine.runner import evaluate as run_protocols
+
+    if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
+        from slipbench.data.transfer import combine, parse_sensor_map
+
+        ds = combine(
+            read_dataset(o.train_path), read_dataset(o.dataset_path), parse_sensor_map(o.sensor_map)
+        )
+    else:
+        ds = (
+            read_dataset(o.dataset_path)
+            if o.dataset_path
+            else default_dataset(o.scale, o.seed, echo=click.echo)
+        )
+    return run_protocols(
+        ds,
+        runs,
+        store,
+        force=o.force,
+        jobs=o.jobs,
+        scheduler=o.scheduler,
+        cell_timeout=o.cell_timeout,
+        progress=not o.quiet,
+        slurm=slurm,
+    )

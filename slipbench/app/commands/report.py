@@ -15,7 +15,9 @@ from slipbench.app.options import (
     out_option,
     plugins_option,
 )
-from slipbench.app.selection import add_plugin_folders
+from slipbench.app.selection import add_plugin_folders, recorded_plugins
+from slipbench.report.render import FORMATS
+from slipbench.store.columns import WINDOWED, names
 
 
 @dataclass(frozen=True)
@@ -40,14 +42,14 @@ class ReportArgs:
 @click.option(
     "--format",
     "fmt",
-    type=click.Choice(["md", "latex", "html"]),
+    type=click.Choice(list(FORMATS)),
     default="md",
     show_default=True,
     help="html: one self-contained page, figures embedded.",
 )
 @click.option(
     "--metric",
-    type=click.Choice(["accuracy", "tp_rate", "tn_rate", "balanced_accuracy", "auroc"]),
+    type=click.Choice(names(WINDOWED)),
     default="accuracy",
     show_default=True,
     help="The figure the protocol tables show and the leaderboard ranks.",
@@ -91,12 +93,14 @@ def report(**options) -> None:
     import pandas as pd
 
     from slipbench.report.document import build_report, render, split_appendix, write_figures
+    from slipbench.report.render import renderer
     from slipbench.stats.factors import latest_runs
     from slipbench.store.results import check_unique_keys, read_results, results_folder
 
-    if o.appendix is not None and o.fmt == "html":
+    if o.appendix is not None and not renderer(o.fmt).appendix:
+        paged = ", ".join(f for f in FORMATS if renderer(f).appendix)
         raise click.BadParameter(
-            "the HTML page keeps every table on one page; use --appendix with --format md or latex",
+            f"a report in {o.fmt} keeps every table in one file; use --appendix with --format {paged}",
             param_hint="--appendix",
         )
     if o.appendix is not None and o.out is not None and o.appendix.resolve() == o.out.resolve():
@@ -104,12 +108,11 @@ def report(**options) -> None:
             "the appendix needs a file of its own, not --out's", param_hint="--appendix"
         )
     add_plugin_folders(o.plugins)
+    read = [read_results(p) for p in o.results]
     rows, superseded = latest_runs(
-        check_unique_keys(
-            pd.concat([read_results(p) for p in o.results], ignore_index=True),
-            " + ".join(map(str, o.results)),
-        )
+        check_unique_keys(pd.concat(read, ignore_index=True), " + ".join(map(str, o.results)))
     )
+    rows = recorded_plugins(rows)  # rows written before they recorded their layouts
     blocks = build_report(
         rows,
         superseded=superseded,
@@ -117,8 +120,9 @@ def report(**options) -> None:
         intervals=o.intervals,
         paper=o.paper,
         leaderboard_only=o.leaderboard_only,
-        with_figures=o.fmt == "html" or o.plots_dir is not None,
+        with_figures=renderer(o.fmt).embeds_figures or o.plots_dir is not None,
         predictions=[results_folder(p) for p in o.results],
+        unproven=[path for part in read for path in part.attrs["unproven"]],
     )
     files = write_figures(blocks, o.plots_dir) if o.plots_dir else {}
     home = o.out.parent if o.out else Path.cwd()

@@ -15,7 +15,7 @@ import tomllib
 
 from slipbench.data.importers.metadata import MetadataReader, MetadataTable, parse_metadata
 from slipbench.data.importers.paths import check_relative, escapes
-from slipbench.errors import DataError, UsageError
+from slipbench.errors import TOO_DEEP, DataError, UsageError
 
 FIELDS = (
     "recording_id",
@@ -181,6 +181,8 @@ def load_mapping(
             raise UsageError(f"{path}: cannot read the mapping ({exc.strerror or exc})") from None
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise UsageError(f"{path}: not valid TOML ({exc})") from None
+        except RecursionError:
+            raise UsageError(f"{path}: {TOO_DEEP}") from None
         base = Path(base) if base else path.parent
     outside = None if outside is None else tuple(Path(f) for f in outside)
     _keys(raw, TOP_KEYS, where, "the mapping")

@@ -16,7 +16,7 @@ import tomllib
 
 from slipbench.data.importers.paths import check_inside, check_relative
 from slipbench.data.importers.tables import line_of, read_csv
-from slipbench.errors import DataError, UsageError
+from slipbench.errors import TOO_DEEP, DataError, UsageError
 
 METADATA_KEYS = {"table", "key", "match", "fields"}
 TABLE_CSV = {"delimiter": ",", "comment": "#", "skip_rows": 0}
@@ -103,6 +103,8 @@ def _records(path: Path) -> list[Record]:
         raise DataError(
             f"{path}: not valid {suffix[1:].upper()} ({' '.join(str(exc).split())})"
         ) from None
+    except RecursionError:
+        raise DataError(f"{path}: {TOO_DEEP}") from None
     if suffix == ".toml":
         arrays = [
             v

@@ -174,11 +174,20 @@ def column_numbers(frame: pd.DataFrame, column: str, path: Path, csv: dict[str, 
         if not bad.any():
             return numeric
         row = int(np.argmax(bad))
-        raw = series.iloc[row]
-        if pd.isna(raw):
-            what = "empty or missing value"
+        text = _field(path, row, list(frame.columns).index(column), csv).strip()
+        if not text:
+            what = "empty value"
         elif np.isinf(numeric[row]):
-            what = f"non-finite value {raw!r}"
-        else:
-            what = f"non-numeric value {raw!r}"
+            what = f"non-finite value {text!r}"
+        else:  # "nan", "NA", "abc": none of them a number
+            what = f"non-numeric value {text!r}"
     raise DataError(f"{path}: line {line_of(path, row, csv)}: column {column!r}: {what}")
+
+
+def _field(path: Path, row: int, position: int, csv: dict[str, Any]) -> str:
+    """The text of data row ``row``'s field ``position`` as the file holds it (pandas reads
+    "nan", "NA" and "" alike as missing, and "inf" as a float). Read again for a message only."""
+    number = line_of(path, row, csv)
+    text = next((t for n, t in _data_lines(path, csv) if n == number), "")
+    fields = next(csvlib.reader([text], delimiter=csv["delimiter"]), [])
+    return fields[position] if position < len(fields) else ""

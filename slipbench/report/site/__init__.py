@@ -28,8 +28,9 @@ import numpy as np
 import pandas as pd
 
 from slipbench.atomic import make_folder, write_text_atomic
-from slipbench.stats.gate import NAMES, SCALE, WINDOWED, unit
-from slipbench.stats.steps import Steps
+from slipbench.stats.gate import unit
+from slipbench.stats.steps import JUDGED, Steps
+from slipbench.store.columns import FIGURES
 
 #: the points every series page holds together (values and standard errors)
 POINT_BUDGET = 100_000
@@ -103,18 +104,18 @@ def leaderboard(rows: pd.DataFrame) -> dict:
     for (protocol, detector), part in ok.groupby(["protocol", "detector"], sort=True):
         means = [
             _round(100 * pd.to_numeric(part[f], errors="coerce").mean())
-            for f in WINDOWED
+            for f in JUDGED
             if f in part
         ]
         lines.append([protocol, detector, int(part["cell"].nunique()), *means])
-    columns = ["protocol", "detector", "cells", *(f"{NAMES[f]} (%)" for f in WINDOWED)]
+    columns = ["protocol", "detector", "cells", *(f"{FIGURES[f].label} (%)" for f in JUDGED)]
     return {"columns": columns, "rows": lines}
 
 
 def _cells(rows: pd.DataFrame) -> dict:
     """Each finished cell's figures (mean over its seeds, in points) per detector."""
     ok = rows[rows["status"] == "ok"]
-    figures = [f for f in WINDOWED if f in ok]
+    figures = [f for f in JUDGED if f in ok]
     cells = []
     for (protocol, cell, detector), part in ok.groupby(["protocol", "cell", "detector"], sort=True):
         cells.append(
@@ -136,7 +137,7 @@ def _step_rows(found: Steps) -> dict:
             r["commit"],
             r["date"],
             r["verdict"],
-            NAMES[r["figure"]],
+            FIGURES[r["figure"]].label,
             r["series_label"],
             f"{r['change']:+.2f} [{r['change_lo']:+.2f}, {r['change_hi']:+.2f}] {unit(r['figure'])}",
             r["what_changed"],
@@ -171,7 +172,7 @@ def _series(found: Steps) -> dict:
     figure's units, points for rates)."""
     pts = found.points.copy()
     pts["id"] = pts["figure"] + "-" + pts["series"]
-    scale = pts["figure"].map(SCALE).to_numpy(float)
+    scale = pts["figure"].map(lambda f: FIGURES[f].scale).to_numpy(float)
     pts["value"], pts["se"] = pts["value"] * scale, pts["se"] * scale
     groups = dict(iter(pts.groupby("id", sort=False)))
     keep = max(MIN_POINTS, POINT_BUDGET // max(1, len(groups)))
@@ -191,10 +192,10 @@ def _series(found: Steps) -> dict:
             {
                 "id": sid,
                 "label": part["series_label"].iloc[0],
-                "figure": NAMES[figure],
+                "figure": FIGURES[figure].label,
                 "unit": unit(figure),
                 "about": (
-                    f"{NAMES[figure]} of {'the mean over the cells of ' if kind == 'pooled' else ''}"
+                    f"{FIGURES[figure].label} of {'the mean over the cells of ' if kind == 'pooled' else ''}"
                     f"{part['series_label'].iloc[0]}: {len(part)} runs, the last {len(shown)} shown "
                     "with 95 % intervals; lines: each stretch's weighted mean between confirmed steps."
                 ),
