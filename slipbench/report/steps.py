@@ -9,7 +9,7 @@ import os
 import numpy as np
 import pandas as pd
 
-from slipbench.stats.gate import unit
+from slipbench.stats.gate import MAX_NEEDED, POWER, unit
 from slipbench.stats.steps import JUDGED, SERIES_ALPHA, Steps
 from slipbench.store.columns import FIGURES
 
@@ -54,8 +54,10 @@ def _unconfirmed(found: Steps) -> str:
         lines.append(
             (
                 r["run"],
-                f"- {commit} ({r['date']}): proposed in {len(part)} series, none confirmed; "
-                f"nearest: {FIGURES[r['figure']].label} of {r['series_label']}, {_change(r)}",
+                f"- {commit} ({r['date']}): a step proposed in {len(part)} series, none "
+                f"confirmed; nearest: {FIGURES[r['figure']].label} of {r['series_label']}, "
+                f"{_change(r)} at {100 * r['level']:.4g} % on {r['df']:.0f} df, "
+                f"{r['runs_before']} runs → {r['runs_after']}; {_would_confirm(r)}",
             )
         )
     lines.sort(reverse=True)
@@ -67,6 +69,23 @@ def _unconfirmed(found: Steps) -> str:
         + "\n".join(shown)
         + (f"\n- and {more} more commits" if more else "")
         + "\n"
+    )
+
+
+def _would_confirm(r: dict) -> str:
+    """What would decide an unconfirmed proposal: more runs, or none (within the tolerance)."""
+    if r["verdict"] == "inconclusive":
+        return f"inconclusive: {r['why']}"
+    n = int(r["runs_needed"])
+    if n == 0:
+        return "within the tolerance: no number of seeds confirms it beyond"
+    if n >= MAX_NEEDED:
+        return (
+            f"more than {MAX_NEEDED:,} seeds a side would be needed to confirm a change this large"
+        )
+    return (
+        f"about {n} seeds a side (a run of one seed is one) would confirm a change this large "
+        f"({100 * POWER:.0f} % power)"
     )
 
 

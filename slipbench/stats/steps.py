@@ -47,7 +47,7 @@ from slipbench.stats.contrast import (
     from_parts,
     p_beyond,
 )
-from slipbench.stats.gate import Gate
+from slipbench.stats.gate import Gate, needed, resolution, scaled_resolution
 from slipbench.stats.noise import SeedNoise, pool_seed_spreads
 from slipbench.stats.series import figure_rows, points
 from slipbench.store.columns import FIGURES, WINDOWED, names
@@ -146,18 +146,16 @@ def step_change(
     figure: str,
     level: float,
     margin: float,
-    noise: SeedNoise | None = None,
 ) -> Contrast:
     """The change of ``figure`` from the seeds before a step to those after it (``sides``, each
     seed a row with the figure, its ``_se`` and ``df``) as a contrast (:mod:`slipbench.stats.contrast`) at
     ``level`` against ``margin`` (both in the figure's stored unit): the difference of the
     segments' means, its variance the seed variance over the seeds of each side.
 
-    The seed variance is ``noise`` where given (a measure with more degrees of freedom), else
-    the segments' own spread pooled over both (a step moves the figure, not the bench's seed
-    noise) on ``seeds - 2`` degrees of freedom: a seed's value differs from another's by its
+    The seed variance is the segments' own spread pooled over both (a step moves the figure,
+    not the bench's seed noise) on ``seeds - 2`` degrees of freedom: a seed's value differs from another's by its
     training and, where seeds draw the split, its test trials, so that spread holds both.
-    Where each side holds one seed and no ``noise`` is given, nothing measures retraining
+    Where each side holds one seed, nothing measures retraining
     noise: the interval holds both rows' test-set noise, and the contrast says what it lacks
     (``missing``), so it stays undecided.
     """
@@ -167,7 +165,7 @@ def step_change(
     own = pool_seed_spreads(
         (float(np.var(v, ddof=1)) if len(v) > 1 else np.nan, len(v)) for v in (b, a)
     )
-    seeds = noise or (own and SeedNoise(own.variance, own.df, SEGMENT_SEEDS))
+    seeds = own and SeedNoise(own.variance, own.df, SEGMENT_SEEDS)
     if seeds is None:
         test = sum(float(r[f"{figure}_se"]) ** 2 for r in (before[0], after[0]))
         df = min(float(r["df"]) for r in (before[0], after[0]))
@@ -311,6 +309,7 @@ def _judge_series(
                 "seeds_after": len(sides[1]),
                 "low_n": low_n,
                 **_verdict(change, figure, low_n, len(cuts)),
+                "runs_needed": _runs_needed(change, len(cuts), min(map(len, sides))),
                 "what_changed": _what_changed(causes, last, first),
             }
         )
@@ -345,6 +344,21 @@ def _verdict(change: Contrast, figure: str, low_n: bool, proposals: int) -> dict
     }
 
 
+def _runs_needed(change: Contrast, proposals: int, seeds: int) -> int:
+    """The fewest seeds (runs of one seed) a side at which a change as large as this one,
+    measured with this spread, is confirmed with the gate's power (:func:`slipbench.stats.gate.needed`,
+    80 %): what would decide a proposal left unconfirmed. 0 where it is confirmed, cannot be
+    measured, or lies within the tolerance (no number of runs shows it beyond)."""
+    beyond = abs(change.estimate) - change.margin
+    if change.state == SHOWN or change.missing or not (beyond > 0 and change.se > 0):
+        return 0
+
+    def resolve(se: float, df: float) -> float:
+        return resolution(se, df, proposals, SERIES_ALPHA)
+
+    return needed(seeds, beyond, scaled_resolution(seeds, change.se, change.df, True, resolve))
+
+
 _COLUMNS = {
     "series": str,
     "series_label": str,
@@ -369,6 +383,7 @@ _COLUMNS = {
     "verdict": str,
     "why": str,
     "what_changed": str,
+    "runs_needed": int,
 }
 
 

@@ -64,6 +64,11 @@ def test_keep_changed_at_c5_is_named_there_alone(tmp_path, monkeypatch):
     assert code == 0
     named = set(re.findall(r"\bc\d\b", text.split("\n", 1)[1]))
     assert named == {"c5"}, text
+    # four seeds a side on their own datasets cannot confirm it: c5 is named as the proposed
+    # step, with its interval and the seeds a side that would confirm a change that large
+    (line,) = [x for x in text.splitlines() if x.startswith("- c5")]
+    assert re.search(r"\[[-+]\d+\.\d+, [-+]\d+\.\d+\] points at 99 % on 6 df", line), line
+    assert re.search(r"about \d+ seeds a side .* would confirm", line), line
     _, doc = _cli("history", "steps", "--history", "hist", "--json")
     steps = json.loads(doc)["steps"]
     assert steps and {s["commit"] for s in steps} == {"c5"}

@@ -11,10 +11,17 @@ from historygen import run_folder
 
 from slipbench.app.cli import main
 from slipbench.stats.contrast import ONE_SEED, SHOWN, UNDECIDED, from_parts
-from slipbench.stats.gate import Gate
+from slipbench.stats.gate import Gate, resolution
 from slipbench.stats.noise import SeedNoise
 from slipbench.stats.series import HISTORY, seed_spread, series_rows
-from slipbench.stats.steps import SEGMENT_SEEDS, find_steps, propose, step_change
+from slipbench.stats.steps import (
+    SEGMENT_SEEDS,
+    SERIES_ALPHA,
+    _runs_needed,
+    find_steps,
+    propose,
+    step_change,
+)
 from slipbench.store.history import Run, add_run, read_history, utc_date
 from slipbench.store.results import read_results
 
@@ -139,10 +146,6 @@ def test_step_change_is_the_contrast_of_the_segments_means():
     assert got.state == SHOWN and got.direction == -1
     # at a level the interval reaches the tolerance: undecided, never shown
     assert step_change((before, after), "accuracy", 1 - 1e-9, 0.01).state == UNDECIDED
-    # a seed variance with more degrees of freedom replaces the segments' own
-    history = SeedNoise(pooled, 40.0, HISTORY)
-    wide = step_change((before, after), "accuracy", 0.95, 0.01, history)
-    assert wide.df == pytest.approx(40) and wide.hi < got.hi and wide.noise == (HISTORY,)
     # one seed a side: the rows' test-set noise, and undecided: no retraining noise measured
     alone = step_change((before[:1], after[:1]), "accuracy", 0.95, 0.01)
     assert alone.se == pytest.approx(np.hypot(0.01, 0.01)) and alone.missing == ONE_SEED
@@ -168,3 +171,26 @@ def test_seed_spread_pools_each_code_identity(tmp_path):
     only_b = seed_spread(frame, "accuracy", identities=["b"])
     assert {s.df for s in only_b.values()} == {2} and set(only_b) == set(spread)
     assert seed_spread(frame, "accuracy", identities=["zzz"]) == {}
+
+
+def test_an_unconfirmed_step_says_the_seeds_that_would_confirm_it():
+    """Four seeds a side whose spread hides a 3-point drop against a 1-point tolerance: the
+    seeds a side at which the gate's resolution reaches the change beyond the tolerance."""
+    rng = np.random.default_rng(3)
+    b, a = 0.80 + 0.02 * rng.standard_normal(4), 0.77 + 0.02 * rng.standard_normal(4)
+    sides = tuple([{"tp_rate": v, "tp_rate_se": 0.01, "df": 30.0} for v in s] for s in (b, a))
+    change = step_change(sides, "tp_rate", 0.99, 0.01)
+    assert change.state != SHOWN
+    n = _runs_needed(change, 1, 4)
+    beyond = abs(change.estimate) - 0.01
+    sigma = change.se / np.sqrt(2 / 4)  # one seed's spread
+
+    def at(m):
+        return resolution(sigma * np.sqrt(2 / m), 2 * m - 2, 1, SERIES_ALPHA)
+
+    assert n > 4 and at(n) <= beyond < at(n - 1)
+    # within the tolerance, no number of seeds confirms it; confirmed, nothing more is needed
+    inside = step_change(sides, "tp_rate", 0.99, 0.5)
+    assert _runs_needed(inside, 1, 4) == 0
+    shown = step_change(sides, "tp_rate", 0.5, 0.0001)
+    assert shown.state == SHOWN and _runs_needed(shown, 1, 4) == 0
