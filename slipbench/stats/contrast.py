@@ -224,7 +224,10 @@ def from_parts(
         return Contrast(float(estimate), level=level, margin=margin)
     half = half_width(parts, level)
     se = float(np.sqrt(sum(v for v, _ in parts)))
-    df = effective_df(half, se, level) if se > 0 else np.inf
+    if len(parts) == 1:  # its own: no root to find (a history's steps build thousands)
+        df = float(parts[0][1])
+    else:
+        df = effective_df(half, se, level) if se > 0 else np.inf
     return Contrast(float(estimate), estimate - half, estimate + half, se, df, level, margin)
 
 
@@ -246,6 +249,9 @@ def p_beyond(estimate: float, parts: Sequence[tuple[float, float]], margin: floa
         return 1.0
     if not any(v > 0 for v, _ in parts):
         return 0.0
+    if len(parts) == 1:  # one component: the t-test's own p-value, no root to find
+        ((v, df),) = parts
+        return float(min(1.0, 2 * student_t.sf(gap / np.sqrt(v), df)))
 
     def reach(alpha: float) -> float:
         return half_width(parts, 1 - alpha) - gap
