@@ -48,6 +48,8 @@ APART = (
 )
 IDENTITY = ("detector", *SETTINGS, *CELLS)
 POOLED = "all cells"  # the cell of a pooled series, as labels show it
+#: what a pooled series is the mean over the cells of (its label: the first and the last)
+POOL = ("protocol", "protocol_params", "split", "labels", "detector")
 #: the source of a seed variance measured on a history (:func:`seed_spread`)
 HISTORY = "the history of main"
 
@@ -125,10 +127,11 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
         ``value``, ``se``, ``df``, ``low_n``, in the figure's stored units.
     """
     ok = frame[(frame["status"] == "ok") & frame[figure].notna()]
-    text = [
-        ok[c].fillna("").astype(str) for c in ("protocol", "protocol_params", "split", "labels")
-    ]
-    pool = text[0].str.cat([*text[1:], ok["detector"].astype(str)], sep="|")
+    # each row's pool as a code, its text made once per pool: joining the texts row by row
+    # cost more than the rest of this function on a long history
+    pool, pools = pd.MultiIndex.from_frame(ok[list(POOL)].fillna("")).factorize()
+    texts = np.array(["|".join(map(str, p)) for p in pools], dtype=object)
+    labels = np.array([f"{p[0]} · {p[-1]}" for p in pools], dtype=object)
     cells = pd.DataFrame(
         {
             "series": ok["series"].to_numpy(),
@@ -141,10 +144,7 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
             "se": pd.to_numeric(ok[f"{figure}_se"], errors="coerce").to_numpy(float),
             "df": pd.to_numeric(ok["df"], errors="coerce").fillna(np.inf).to_numpy(float),
             "low_n": ok["low_n"].fillna(False).astype(bool).to_numpy(),
-            "pool": pool.to_numpy(),
-            "pool_label": (
-                ok["protocol"].astype(str) + " · " + ok["detector"].astype(str)
-            ).to_numpy(),
+            "pool": pool,
             "series_hash": pd.util.hash_pandas_object(ok["series"], index=False).to_numpy(),
         }
     )
@@ -156,16 +156,11 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
         low_n=("low_n", "any"),
         result=("result", np.bitwise_xor.reduce),
         cells=("series_hash", np.bitwise_xor.reduce),  # which cells: a digest of their set
-        pool_label=("pool_label", "first"),
     )
-    named = {
-        k: _digest(list(map(str, k)))
-        for k in set(zip(pooled.index.get_level_values("pool"), pooled["cells"]))
-    }
-    pooled["series"] = [
-        named[k] for k in zip(pooled.index.get_level_values("pool"), pooled["cells"])
-    ]
-    pooled["series_label"] = pooled["pool_label"] + f" · {POOLED}"
+    codes = pooled.index.get_level_values("pool").to_numpy()
+    named = {k: _digest([texts[k[0]], str(k[1])]) for k in set(zip(codes, pooled["cells"]))}
+    pooled["series"] = [named[k] for k in zip(codes, pooled["cells"])]
+    pooled["series_label"] = labels[codes] + f" · {POOLED}"
     pooled["kind"] = "pooled"
     pooled = pooled.reset_index()
     columns = [
