@@ -90,8 +90,6 @@ SERIES_ALPHA = 0.01
 #: points per worker process below which the series are cut in this process (starting the
 #: workers costs more than cutting; benchmarks/bench_history.py)
 POINTS_PER_WORKER = 200_000
-#: a proposal's verdicts
-VERDICTS = ("regressed", "improved", "not confirmed", "inconclusive")
 
 
 class WeightedL2(BaseCost):
