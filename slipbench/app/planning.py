@@ -25,6 +25,7 @@ from slipbench.app.benchfile import Benchmark, plan_runs, slurm_of
 from slipbench.engine.estimate import Cost, costs, duration, makespan, task_seconds
 from slipbench.engine.plan import Batch, Plan, Task, batched
 from slipbench.engine.slurm import Resources, array_minutes, dealt
+from slipbench.vocabulary import SLIPS
 
 
 @dataclass
@@ -71,6 +72,8 @@ def _layout(bench: Benchmark, echo: Callable[[str], None]):
     laid = layout(bench.scale, seed)
     rec = canonical_recordings(laid.drop(columns="n_samples"), "the simulated design")
     rec["n_samples"] = laid.set_index("recording_id").loc[rec["recording_id"], "n_samples"].values
+    # not simulated, so not known to slip: a hold-slip trial is taken to, as the design means it
+    rec[SLIPS] = rec["scenario"].isin(["slip", "hold-slip"]).to_numpy()
     folder = cache_dir() / f"synth-v{MODEL_VERSION}-scale{bench.scale:g}-seed{seed}"
     per_unit = rec.groupby(["sensor_type", "sensor_instance"])["n_samples"].sum().median()
     what = (
