@@ -155,6 +155,7 @@ FILES = {
 }
 APART = 1000  # the seeds-apart candidate's seeds begin this far from the base's
 TARGET_DROP, TARGET_TN = 0.02, 0.07
+DAMAGE_SEEDS = 10  # comparisons' first looks the damage is solved on
 
 
 @dataclass(frozen=True)
@@ -195,6 +196,9 @@ class Study:
         self.bench_runs = plan_runs(self.bench, echo=lambda _: None, check_gate=False)
         self.protocols = {r.protocol_name: r.protocol for r in self.bench_runs}
         self.data = bench_dataset(self.bench, echo=lambda _: None)
+        # the calibrations a gate takes its noise from: the bench's own (its detectors) and
+        # the study bench's, once calibrated (HalfLogistic), each kept to what it holds for
+        self.sources = _held(self.bench, self.bench_runs)
 
     @property
     def repeats(self) -> int:
@@ -303,7 +307,16 @@ def calibrated_plan(study: Study, seeds: int, bench_file: Path | None = None) ->
         echo=lambda _: None,
     )
     print(f"# calibration of {bench.path.name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    if bench_file is None:  # the study bench's noise joins the gate's sources
+        study.sources = [*study.sources, *status(bench, runs).sources()]
     return plan_gate(bench, runs, status(bench, runs)).lines()
+
+
+def _held(bench, runs) -> list:
+    """The calibration of ``bench`` kept to the detectors it holds for (none without one)."""
+    from slipbench.app.calibrate import status
+
+    return status(bench, runs).sources()
 
 
 def alternative_plans(study: Study, seeds: int) -> None:
@@ -356,7 +369,30 @@ def judge_today(sides: Sides, study: Study) -> tuple[int, int, list[str], pd.Dat
     return cmp.exit_code, study.repeats, flagged, pooled
 
 
-GATES = {"today": judge_today}
+def judge_sequential(sides: Sides, study: Study) -> tuple[int, int, list[str], pd.DataFrame]:
+    """The gate as the shipped workflow runs it: ``compare`` at the bench's seeds, its noise from
+    the calibrations that hold (:attr:`Study.sources`), and while undecided the bench's seeds
+    more on both sides, up to its budget; each look decides at its own level."""
+    from slipbench.stats.compare import compare
+    from slipbench.stats.gate import Gate
+
+    b = study.bench
+    gate = Gate(
+        dict(b.gate) if b.gate else Gate().tolerances, seeds=b.repeats, budget=b.seeds_budget
+    )
+    n = b.repeats
+    while True:
+        base, cand = sides(n)
+        cmp = compare(base, cand, gate, sources=study.sources)
+        if cmp.state != "undecided" or n >= b.seeds_budget:
+            break
+        n = min(n + b.repeats, b.seeds_budget)
+    pooled = cmp.pooled
+    flagged = [] if pooled.empty else list(pooled.loc[pooled["verdict"] == "regressed", "figure"])
+    return cmp.exit_code, n, flagged, pooled
+
+
+GATES = {"today": judge_today, "sequential": judge_sequential}
 
 
 # ----------------------------------------------------------------------------- designs
@@ -472,6 +508,9 @@ def main() -> None:
     ap.add_argument("--powers", type=int, default=10, help="comparisons per damage")
     ap.add_argument("--work", type=Path, default=None, help="keep the pools here (reused)")
     ap.add_argument(
+        "--pool", type=int, default=20, help="comparisons whose first looks the pools hold apart"
+    )
+    ap.add_argument(
         "--calibrate", type=int, default=21, help="seeds of the study bench's calibration (0: none)"
     )
     ap.add_argument(
@@ -488,10 +527,13 @@ def main() -> None:
         alternative_plans(study, args.calibrate)
         return
     b, gate = study.bench, GATES[args.gate]
-    size = args.nulls * b.repeats  # seeds per pool: each comparison's first look its own
+    # seeds per pool: each comparison's first look its own; later looks wrap around the pool
+    size = max(args.nulls, args.pool) * b.repeats
     seeds = list(range(b.seed, b.seed + size))
     base = study.pool("base", seeds, "half-logistic")
-    constants = damage_constants(base, seeds[: b.repeats * args.powers])
+    # the damage is solved on the first DAMAGE_SEEDS seeds whatever --powers is: a damaged
+    # candidate's pool is then the same plugin in every run of the study
+    constants = damage_constants(base, seeds[: b.repeats * DAMAGE_SEEDS])
     for label in DAMAGED:
         study.damage(label, **constants)
     print(
@@ -502,7 +544,7 @@ def main() -> None:
         f"{constants['drop']:.4f} of the windows inverted (drop), logits +{constants['shift']:.3f} "
         f"(shift). Pools of {size} seeds.\n"
     )
-    if args.calibrate:
+    if args.calibrate:  # the gate takes the study bench's calibration from here on
         print("The study bench's plan (`slipbench calibrate`, HalfLogistic):\n\n```text")
         print("\n".join(calibrated_plan(study, args.calibrate)) + "\n```\n", flush=True)
     print(

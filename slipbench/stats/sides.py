@@ -229,6 +229,7 @@ def _plan(entry: dict, sides: list[list[dict]], folders: tuple) -> tuple:
     b_rows, c_rows = sides
     if "detector" not in entry:
         entry["detector"] = f"{b_rows[0]['detector']} → {c_rows[0]['detector']}"
+    entry["base_detector"] = str(b_rows[0]["detector"])  # whose measured noise it takes
     entry["seed"] = _seed_text(b_rows, c_rows)
     sb, sc = _side_status(b_rows), _side_status(c_rows)
     entry["base_status"], entry["candidate_status"] = sb, sc
