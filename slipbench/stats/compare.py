@@ -255,7 +255,12 @@ def compare(
     plans, only_base, only_cand = plan_cells(base, cand, on, (base_path, candidate_path))
     seeds = [(e["n_seeds_base"], e["n_seeds_cand"]) for e, *_ in plans if finished(e)]
     look = look_at(gate, min((min(b, c) for b, c in seeds), default=1))
-    n_tests = sum(len(gate.figures(e["stream"])) for e, *_ in plans if decidable(e))
+    shared = shared_with([e for e, *_ in plans])
+    n_tests = sum(
+        len(gate.figures(e["stream"]))
+        for (e, *_), s in zip(plans, shared)
+        if decidable(e) and not s
+    )
     level = look_level(gate, look, n_tests, CELL_ALPHA)
     pools = seed_pools(plans)
     cells = _judge_cells(
@@ -264,6 +269,7 @@ def compare(
         ),
         gate,
     )
+    cells["shared_with"] = shared
     pooled, pooled_level = _pooled_tests(plans, cells, IntervalSpec(seed, LEVEL), gate, sources)
     cmp = Comparison(
         cells,
@@ -285,6 +291,20 @@ def compare(
     if not pooled.empty:
         cmp.pooled = _pooled_verdicts(pooled, gate, cmp.retraining_covered, look)
     return cmp
+
+
+def shared_with(entries: list[dict]) -> list[str]:
+    """Per cell, the protocol of an earlier cell that is the same cell (the same models
+    tested on the same test set: :func:`slipbench.stats.sides._shared_key`), "" for the
+    first of each: a cell shared by two protocols is one test in the family, counted once."""
+    first: dict[str, str] = {}
+    out = []
+    for e in entries:
+        key = str(e.get("shared") or "")
+        out.append(first.get(key, "") if key else "")
+        if key:
+            first.setdefault(key, str(e["protocol"]))
+    return out
 
 
 def _cell_noise(

@@ -158,3 +158,62 @@ def test_compare_decides_at_the_look_of_its_seeds(tmp_path):
     q = student_t.ppf(1 - POOLED_ALPHA / 2, b["df"])  # one pooled test: the family's level
     assert b["bound"] == pytest.approx(-b["change"] + q * b["change_se"])
     assert b["final"] == np.False_ and b["next_seeds"] == 6
+
+
+def test_a_regressed_row_names_each_figure_with_its_own_change():
+    from slipbench.report.compare import _regressed_figures
+
+    row = {
+        "regressed_figures": "tn_rate",
+        "d_tn_rate": -0.16,
+        "d_tn_rate_lo": -0.221,
+        "d_tn_rate_hi": -0.098,
+        "d_accuracy": -0.003,
+    }
+    assert _regressed_figures(row) == "; TN rate (false alarms) -16.0 [-22.1, -9.8] points"
+    assert _regressed_figures({"regressed_figures": ""}) == ""
+
+
+def _shared_pair(tmp_path):
+    """A pair whose every window-size cell is also a cross-instance cell: the same models
+    (model keys) tested on the same test set, under another protocol and key."""
+    import shutil
+
+    import pandas as pd
+
+    base, cand = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+    )
+    for folder in (base, cand):
+        rows = pd.read_parquet(folder / "results.parquet")
+        rows["model_key"] = "m-" + rows["key"]
+        rows["test_sensors"] = '["Nano17 index"]'
+        twin = rows.assign(protocol="cross-instance", key="x-" + rows["key"])
+        for key in rows["key"]:
+            shutil.copy(
+                folder / "predictions" / f"{key}.parquet",
+                folder / "predictions" / f"x-{key}.parquet",
+            )
+        pd.concat([rows, twin], ignore_index=True).to_parquet(folder / "results.parquet")
+    return base, cand
+
+
+def test_a_cell_two_protocols_share_is_one_test_and_listed_once(tmp_path):
+    from slipbench.report.compare import comment_markdown
+
+    alone = compare(
+        *predictions_pair(
+            tmp_path / "alone", n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+        )
+    )
+    both = compare(*_shared_pair(tmp_path / "shared"))
+    assert len(both.cells) == 6
+    shared = both.cells.set_index("protocol")["shared_with"]
+    assert (shared["cross-instance"] == "window-size").all() and (shared["window-size"] == "").all()
+    # the family counts each cell once: the same level as the three cells alone
+    assert both.level == pytest.approx(alone.level)
+    text = comment_markdown(both)
+    assert (
+        "3 cells of cross-instance are window-size's (the same models tested on the same test set)"
+        in text
+    )
