@@ -429,7 +429,7 @@ def _what_to_run(cmp: Comparison) -> str:
     sides), or, with the budget spent, what a larger budget would take."""
     look, gate = cmp.look, cmp.gate
     if not look.final:
-        seed = 1 + int(pd.to_numeric(cmp.rows["seed"]).max()) if cmp.rows is not None else 0
+        seed = _look_json(cmp)["next_seed"]
         return (
             f"Run the next look: {look.next_seeds - look.seeds} more seeds on both sides "
             f"(`slipbench run BENCH --seed {seed} --out BASE`, the same with `--out CANDIDATE`), "
@@ -590,6 +590,20 @@ def _in_points(frame: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def _look_json(cmp: Comparison) -> dict:
+    """The gate's look as a workflow reads it: where the next look's seeds start."""
+    look, gate = cmp.look, cmp.gate
+    seeds = pd.to_numeric(cmp.rows["seed"]) if cmp.rows is not None else pd.Series(dtype=float)
+    return {
+        "index": look.index,
+        "seeds": look.seeds,
+        "final": look.final,
+        "next_seeds": look.next_seeds,
+        "next_seed": int(seeds.max()) + 1 if len(seeds) and not look.final else None,
+        "budget": gate.budget or look.seeds,
+    }
+
+
 def to_json(cmp: Comparison) -> str:
     """Every compared cell with its changes and verdict, the pooled tests, the summary and the
     one-sided cells, for bots (``compare.schema.json`` describes it). Rates and their changes
@@ -633,6 +647,8 @@ def to_json(cmp: Comparison) -> str:
             },
         },
         "seeds": {"base": cmp.min_seeds_base, "candidate": cmp.min_seeds_candidate},
+        "look": _look_json(cmp),
+        "noise_measured": cmp.measured,
         "retraining_noise_covered": cmp.retraining_covered,
         "exit_code": cmp.exit_code,
         "verdict": cmp.state,

@@ -252,6 +252,12 @@ def test_calibrate_measures_a_bench_and_resumes(tmp_path, small_path, cli):
     again = read_calibration(calibration_path(path))
     assert math.isnan(again.wall_seconds_per_seed)  # every cell cached: nothing timed
     assert again.detectors["coin"] == cal.detectors["coin"] and before != ""
+    # --if-stale (the workflow's push to main): a calibration that holds is left as it is
+    kept = calibration_path(path).read_text()
+    code, out, err = cli(["calibrate", str(path), "--seeds", "4", "--quiet", "--if-stale"])
+    assert code == 0, err
+    assert "holds for every detector of bench.toml: nothing to measure" in out
+    assert calibration_path(path).read_text() == kept
 
 
 def test_compare_takes_the_calibration_only_where_it_holds_for_base(tmp_path, small_path):
