@@ -1,8 +1,9 @@
 """The gate's study (issue 46): does the shipped bench say "no regression" to harmless changes
 and "regressed" to harmful ones, learned detectors included? Run at the shipped bench's
 settings (its protocols, scale, split, seeds a side, budget and tolerances, read from the bench
-file) against a gate (``--gate``; ``today``: ``compare`` as it stands, one look at the bench's
-seeds).
+file) against a gate (``--gate``; ``today``: ``compare`` one look at the bench's seeds, each side's
+noise from its own seeds, as before issue 46; ``sequential``: the shipped workflow's gate, the
+noise from the calibrations that hold and looks at more seeds up to the budget).
 
 The detector is a retrained plugin like the independent audit's: ``HalfLogistic``, a logistic
 regression on log band energies fitted on a random half of the training windows, drawn from
@@ -20,6 +21,8 @@ its fit's seed, so every seed retrains it. Candidates (each one retrained, damag
   logit by ``SHIFT``, solved on the base's stored scores so that the mean TN rate falls by 7
   points (at a threshold near the balanced optimum, accuracy moves little: the output says how
   much it did);
+- issue 35's check: ``HalfLogisticShiftHalf`` (salted), every logit raised by 0.5 (its
+  reproduction at filing: TN rate 66 -> 44 %), which must be flagged in TN at the bench's seeds;
 - the bench's own detectors with holweg's ``keep`` 0.80 -> 0.79 (a harmless tweak of a
   detector that draws nothing) and 0.80 -> 0.6 (a harmful one), at the bench's seeds.
 
@@ -34,6 +37,7 @@ With ``--alternatives`` it prints instead the plans of benches the shipped one w
 against (:data:`ALTERNATIVES`: the study bench with other protocols), each calibrated alike.
 
     nice python benchmarks/gate_study.py --work DIR [--bench bench.toml] > benchmarks/results/gate_study_today.md
+    nice python benchmarks/gate_study.py --work DIR --gate sequential > benchmarks/results/gate_study_sequential.md
     nice python benchmarks/gate_study.py --work DIR --alternatives > benchmarks/results/gate_plans_not_shipped.md
 """
 
@@ -147,6 +151,18 @@ class HalfLogisticShift(HalfLogisticSalted):
         p = np.clip(np.asarray(super()._predict_proba(x), float), 1e-12, 1 - 1e-12)
         return 1 / (1 + np.exp(-(np.log(p / (1 - p)) + {shift!r})))
 ''',
+    "shifthalf": '''
+import numpy as np
+from half_logistic_salted import HalfLogisticSalted
+
+
+class HalfLogisticShiftHalf(HalfLogisticSalted):
+    """HalfLogisticSalted with every logit raised by {issue35:.4f} (issue 35's check)."""
+
+    def _predict_proba(self, x):
+        p = np.clip(np.asarray(super()._predict_proba(x), float), 1e-12, 1 - 1e-12)
+        return 1 / (1 + np.exp(-(np.log(p / (1 - p)) + {issue35!r})))
+''',
 }
 FILES = {
     "half_logistic.py": PLUGIN,
@@ -155,6 +171,7 @@ FILES = {
 }
 APART = 1000  # the seeds-apart candidate's seeds begin this far from the base's
 TARGET_DROP, TARGET_TN = 0.02, 0.07
+ISSUE35_SHIFT = 0.5  # issue 35's check: this logit shift, 3 seeds a side, must flag TN
 DAMAGE_SEEDS = 10  # comparisons' first looks the damage is solved on
 
 
@@ -175,6 +192,7 @@ DESIGNS = {
     "null, a retrained rewrite": Design("rewrite", "half-logistic-rewrite", 0, "null"),
     "2-point accuracy drop": Design("drop", "half-logistic-drop", 0, "power"),
     "7 more points of false alarms": Design("shift", "half-logistic-shift", 0, "power"),
+    "issue 35's check: logits +0.5": Design("shifthalf", "half-logistic-shift-half", 0, "power"),
 }
 
 
@@ -514,6 +532,12 @@ def main() -> None:
         "--calibrate", type=int, default=21, help="seeds of the study bench's calibration (0: none)"
     )
     ap.add_argument(
+        "--designs",
+        nargs="*",
+        default=None,
+        help="only these designs (DESIGNS' names, 'holweg' for the bench's detectors)",
+    )
+    ap.add_argument(
         "--alternatives",
         action="store_true",
         help="print only the plans of the benches not shipped (ALTERNATIVES), then stop",
@@ -534,6 +558,7 @@ def main() -> None:
     # the damage is solved on the first DAMAGE_SEEDS seeds whatever --powers is: a damaged
     # candidate's pool is then the same plugin in every run of the study
     constants = damage_constants(base, seeds[: b.repeats * DAMAGE_SEEDS])
+    constants["issue35"] = ISSUE35_SHIFT
     for label in DAMAGED:
         study.damage(label, **constants)
     print(
@@ -547,16 +572,23 @@ def main() -> None:
     if args.calibrate:  # the gate takes the study bench's calibration from here on
         print("The study bench's plan (`slipbench calibrate`, HalfLogistic):\n\n```text")
         print("\n".join(calibrated_plan(study, args.calibrate)) + "\n```\n", flush=True)
+    else:  # the study bench's calibration as an earlier run left it, where there is one
+        from slipbench.app.benchfile import load_benchmark, plan_runs
+
+        bench = load_benchmark(study_bench(study))
+        study.sources += _held(bench, plan_runs(bench, echo=lambda _: None, check_gate=False))
     print(
         "| design | comparisons | exit 0 | exit 1 | exit 6 | pooled tests flagged | mean "
         "change accuracy / TN / TP (points) | seeds a side (median / 95th pct) | compare s "
         "(median) |"
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    chosen = set(args.designs or [*DESIGNS, "holweg"])
     for name, design in DESIGNS.items():
         n = args.nulls if design.kind == "null" else args.powers
-        print(run_design(study, gate, name, n, size), flush=True)
-    for line in holweg_lines(study, gate):
+        if name in chosen:
+            print(run_design(study, gate, name, n, size), flush=True)
+    for line in holweg_lines(study, gate) if "holweg" in chosen else []:
         print(line, flush=True)
     print(
         f"\nMachine: {os.cpu_count()} processors, {b.jobs} workers; load average "
