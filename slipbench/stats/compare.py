@@ -21,6 +21,15 @@ nothing, is wider than ``max_width`` points (``MAX_WIDTH``, 40); otherwise *no s
 change*. A pooled test that flags nothing states its power and may be *undecided*
 (:mod:`slipbench.stats.gate`); :attr:`Comparison.state` turns all of it into the exit code.
 
+Looks. A gate with a budget (:class:`~slipbench.stats.gate.Gate` ``seeds`` and ``budget``, a
+bench's ``repeats`` and ``[gate] budget``) decides at the look the stored seeds make
+(:func:`look_at`): each family's intervals at that look's share of its error
+(:func:`look_level`, Lan-DeMets O'Brien-Fleming), and before the last look a pooled test
+passes only where the worse bound of its interval at the family's level lies inside its
+tolerance. Noise. Seed noise measured outside the comparison (a bench's calibration; any
+:class:`~slipbench.stats.noise.NoiseSource`) enters every cell and pooled test where a source
+answers (:func:`measured_noise`, the one place where sources are combined).
+
 This module decides; it writes no text. The pull-request comment and the JSON for bots are
 written from a :class:`Comparison` by the report wing.
 """
@@ -191,7 +200,8 @@ class Comparison:
         """ "regressed": a cell the base finished failed on the candidate, or a figure regressed
         with retraining noise inside the intervals; "undecided": a figure regressed on one seed
         per side, or a pooled test cannot see a regression of its tolerance (too few seeds or
-        trials); else "no regression"."""
+        trials) or, before the gate's last look, cannot yet rule one out; else "no
+        regression"."""
         failed = self.regressions["method"].astype(str).str.startswith("status").any()
         if failed or (
             self.retraining_covered and (len(self.regressions) or len(self.pooled_regressions))
