@@ -29,6 +29,7 @@ from slipbench.stats.compare import (
 )
 from slipbench.stats.factors import SETTINGS, setting_text
 from slipbench.stats.gate import Gate, unit
+from slipbench.store import columns
 from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figure_of, figures
 from slipbench.vocabulary import KEY_ORDER, LOW_N, ORDERS, cell_label
 
@@ -163,12 +164,18 @@ def _row(r: dict, cmp: Comparison) -> dict:
 
 
 def _regressed_figures(r: dict) -> str:
-    """The figures a regressed cell regressed in, each with its own change and interval."""
+    """The figures a regressed cell regressed in: the one its Δ column shows by name, each
+    other with its own change and interval (points unless said)."""
     named = [f for f in str(r.get("regressed_figures") or "").split(", ") if f]
-    return "".join(
-        f"; {FIGURES[f].called} {_delta(r, f, FIGURES[f].scale, FIGURES[f].decimals)} {unit(f)}"
-        for f in named
-    )
+    shown = (columns.DETECTION_RATE if r.get("stream") else columns.ACCURACY).name
+
+    def said(f: str) -> str:
+        if f == shown:
+            return FIGURES[f].called
+        u = "" if unit(f) == "points" else f" {unit(f)}"
+        return f"{FIGURES[f].called} {_delta(r, f, FIGURES[f].scale, FIGURES[f].decimals)}{u}"
+
+    return f": {', '.join(map(said, named))}" if named else ""
 
 
 def _compute_text(r: dict) -> str:
@@ -405,8 +412,8 @@ def _verdict_line(cmp: Comparison) -> str:
         line = (
             "**Undecided** (exit 6): "
             + "; ".join([*(f"{f}, on one seed per side" for f in flagged), *_undecided(cmp)])
-            + ". "
-            + _what_to_run(cmp)
+            + "."
+            + (f" {_what_to_run(cmp)}" if _what_to_run(cmp) else "")
         )
     else:
         line = "**No regression**: " + "; ".join(map(_seen, cmp.pooled.to_dict("records"))) + "."

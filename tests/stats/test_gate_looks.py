@@ -170,7 +170,10 @@ def test_a_regressed_row_names_each_figure_with_its_own_change():
         "d_tn_rate_hi": -0.098,
         "d_accuracy": -0.003,
     }
-    assert _regressed_figures(row) == "; TN rate (false alarms) -16.0 [-22.1, -9.8] points"
+    assert _regressed_figures(row) == ": TN rate (false alarms) -16.0 [-22.1, -9.8]"
+    # the figure the row's Δ column shows is named only
+    both = row | {"regressed_figures": "accuracy, tn_rate"}
+    assert _regressed_figures(both) == ": accuracy, TN rate (false alarms) -16.0 [-22.1, -9.8]"
     assert _regressed_figures({"regressed_figures": ""}) == ""
 
 
