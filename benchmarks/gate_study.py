@@ -192,7 +192,7 @@ DESIGNS = {
     "null, a retrained rewrite": Design("rewrite", "half-logistic-rewrite", 0, "null"),
     "2-point accuracy drop": Design("drop", "half-logistic-drop", 0, "power"),
     "7 more points of false alarms": Design("shift", "half-logistic-shift", 0, "power"),
-    "issue 35's check: logits +0.5": Design("shifthalf", "half-logistic-shift-half", 0, "power"),
+    "issue 35's check: logits +0.5": Design("shifthalf", "half-logistic-shifthalf", 0, "power"),
 }
 
 
