@@ -495,7 +495,9 @@ def _pooled_line(
     return line
 
 
-def _pooled_verdicts(pooled: pd.DataFrame, gate: Gate, retrained: bool, look: Look) -> pd.DataFrame:
+def _pooled_verdicts(
+    pooled: pd.DataFrame, gate: Gate, retrained: bool, look: Look | None = None
+) -> pd.DataFrame:
     """Each pooled test read from its interval (at the level of the ``look``, over the pooled
     tests) against its tolerance; ``p``: the Bonferroni-adjusted p-value of a change within the
     tolerance, below ``POOLED_ALPHA`` where the interval lies beyond it. ``bound``: the worst
@@ -505,6 +507,7 @@ def _pooled_verdicts(pooled: pd.DataFrame, gate: Gate, retrained: bool, look: Lo
     ``bound`` lies beyond its tolerance (a look flags only at its own strict level, so a power
     rule there would pass a drop the later looks would catch); at the last look, where its
     power (``resolution``, ``detectable``) cannot see a regression of its tolerance."""
+    look = look or Look(0, 1, True, 0)  # one look
     pooled = pooled.copy()
     sign = np.array([columns.FIGURES[f].worse for f in pooled["figure"]], float)
     tol = pooled["figure"].map(gate.tolerances).to_numpy(float)
