@@ -1,8 +1,9 @@
 """The gate's study (issue 46): does the shipped bench say "no regression" to harmless changes
 and "regressed" to harmful ones, learned detectors included? Run at the shipped bench's
 settings (its protocols, scale, split, seeds a side, budget and tolerances, read from the bench
-file) against a gate (``--gate``; ``today``: ``compare`` as it stands, one look at the bench's
-seeds).
+file) against a gate (``--gate``; ``today``: ``compare`` one look at the bench's seeds, each side's
+noise from its own seeds, as before issue 46; ``sequential``: the shipped workflow's gate, the
+noise from the calibrations that hold and looks at more seeds up to the budget).
 
 The detector is a retrained plugin like the independent audit's: ``HalfLogistic``, a logistic
 regression on log band energies fitted on a random half of the training windows, drawn from
@@ -20,6 +21,8 @@ its fit's seed, so every seed retrains it. Candidates (each one retrained, damag
   logit by ``SHIFT``, solved on the base's stored scores so that the mean TN rate falls by 7
   points (at a threshold near the balanced optimum, accuracy moves little: the output says how
   much it did);
+- issue 35's check: ``HalfLogisticShiftHalf`` (salted), every logit raised by 0.5 (its
+  reproduction at filing: TN rate 66 -> 44 %), which must be flagged in TN at the bench's seeds;
 - the bench's own detectors with holweg's ``keep`` 0.80 -> 0.79 (a harmless tweak of a
   detector that draws nothing) and 0.80 -> 0.6 (a harmful one), at the bench's seeds.
 
@@ -34,6 +37,7 @@ With ``--alternatives`` it prints instead the plans of benches the shipped one w
 against (:data:`ALTERNATIVES`: the study bench with other protocols), each calibrated alike.
 
     nice python benchmarks/gate_study.py --work DIR [--bench bench.toml] > benchmarks/results/gate_study_today.md
+    nice python benchmarks/gate_study.py --work DIR --gate sequential > benchmarks/results/gate_study_sequential.md
     nice python benchmarks/gate_study.py --work DIR --alternatives > benchmarks/results/gate_plans_not_shipped.md
 """
 
@@ -147,6 +151,18 @@ class HalfLogisticShift(HalfLogisticSalted):
         p = np.clip(np.asarray(super()._predict_proba(x), float), 1e-12, 1 - 1e-12)
         return 1 / (1 + np.exp(-(np.log(p / (1 - p)) + {shift!r})))
 ''',
+    "shifthalf": '''
+import numpy as np
+from half_logistic_salted import HalfLogisticSalted
+
+
+class HalfLogisticShiftHalf(HalfLogisticSalted):
+    """HalfLogisticSalted with every logit raised by {issue35:.4f} (issue 35's check)."""
+
+    def _predict_proba(self, x):
+        p = np.clip(np.asarray(super()._predict_proba(x), float), 1e-12, 1 - 1e-12)
+        return 1 / (1 + np.exp(-(np.log(p / (1 - p)) + {issue35!r})))
+''',
 }
 FILES = {
     "half_logistic.py": PLUGIN,
@@ -155,6 +171,8 @@ FILES = {
 }
 APART = 1000  # the seeds-apart candidate's seeds begin this far from the base's
 TARGET_DROP, TARGET_TN = 0.02, 0.07
+ISSUE35_SHIFT = 0.5  # issue 35's check: this logit shift, 3 seeds a side, must flag TN
+DAMAGE_SEEDS = 10  # comparisons' first looks the damage is solved on
 
 
 @dataclass(frozen=True)
@@ -174,6 +192,7 @@ DESIGNS = {
     "null, a retrained rewrite": Design("rewrite", "half-logistic-rewrite", 0, "null"),
     "2-point accuracy drop": Design("drop", "half-logistic-drop", 0, "power"),
     "7 more points of false alarms": Design("shift", "half-logistic-shift", 0, "power"),
+    "issue 35's check: logits +0.5": Design("shifthalf", "half-logistic-shifthalf", 0, "power"),
 }
 
 
@@ -195,6 +214,9 @@ class Study:
         self.bench_runs = plan_runs(self.bench, echo=lambda _: None, check_gate=False)
         self.protocols = {r.protocol_name: r.protocol for r in self.bench_runs}
         self.data = bench_dataset(self.bench, echo=lambda _: None)
+        # the calibrations a gate takes its noise from: the bench's own (its detectors) and
+        # the study bench's, once calibrated (HalfLogistic), each kept to what it holds for
+        self.sources = _held(self.bench, self.bench_runs)
 
     @property
     def repeats(self) -> int:
@@ -303,7 +325,16 @@ def calibrated_plan(study: Study, seeds: int, bench_file: Path | None = None) ->
         echo=lambda _: None,
     )
     print(f"# calibration of {bench.path.name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    if bench_file is None:  # the study bench's noise joins the gate's sources
+        study.sources = [*study.sources, *status(bench, runs).sources()]
     return plan_gate(bench, runs, status(bench, runs)).lines()
+
+
+def _held(bench, runs) -> list:
+    """The calibration of ``bench`` kept to the detectors it holds for (none without one)."""
+    from slipbench.app.calibrate import status
+
+    return status(bench, runs).sources()
 
 
 def alternative_plans(study: Study, seeds: int) -> None:
@@ -356,7 +387,30 @@ def judge_today(sides: Sides, study: Study) -> tuple[int, int, list[str], pd.Dat
     return cmp.exit_code, study.repeats, flagged, pooled
 
 
-GATES = {"today": judge_today}
+def judge_sequential(sides: Sides, study: Study) -> tuple[int, int, list[str], pd.DataFrame]:
+    """The gate as the shipped workflow runs it: ``compare`` at the bench's seeds, its noise from
+    the calibrations that hold (:attr:`Study.sources`), and while undecided the bench's seeds
+    more on both sides, up to its budget; each look decides at its own level."""
+    from slipbench.stats.compare import compare
+    from slipbench.stats.gate import Gate
+
+    b = study.bench
+    gate = Gate(
+        dict(b.gate) if b.gate else Gate().tolerances, seeds=b.repeats, budget=b.seeds_budget
+    )
+    n = b.repeats
+    while True:
+        base, cand = sides(n)
+        cmp = compare(base, cand, gate, sources=study.sources)
+        if cmp.state != "undecided" or n >= b.seeds_budget:
+            break
+        n = min(n + b.repeats, b.seeds_budget)
+    pooled = cmp.pooled
+    flagged = [] if pooled.empty else list(pooled.loc[pooled["verdict"] == "regressed", "figure"])
+    return cmp.exit_code, n, flagged, pooled
+
+
+GATES = {"today": judge_today, "sequential": judge_sequential}
 
 
 # ----------------------------------------------------------------------------- designs
@@ -472,7 +526,16 @@ def main() -> None:
     ap.add_argument("--powers", type=int, default=10, help="comparisons per damage")
     ap.add_argument("--work", type=Path, default=None, help="keep the pools here (reused)")
     ap.add_argument(
+        "--pool", type=int, default=20, help="comparisons whose first looks the pools hold apart"
+    )
+    ap.add_argument(
         "--calibrate", type=int, default=21, help="seeds of the study bench's calibration (0: none)"
+    )
+    ap.add_argument(
+        "--designs",
+        nargs="*",
+        default=None,
+        help="only these designs (DESIGNS' names, 'holweg' for the bench's detectors)",
     )
     ap.add_argument(
         "--alternatives",
@@ -488,10 +551,14 @@ def main() -> None:
         alternative_plans(study, args.calibrate)
         return
     b, gate = study.bench, GATES[args.gate]
-    size = args.nulls * b.repeats  # seeds per pool: each comparison's first look its own
+    # seeds per pool: each comparison's first look its own; later looks wrap around the pool
+    size = max(args.nulls, args.pool) * b.repeats
     seeds = list(range(b.seed, b.seed + size))
     base = study.pool("base", seeds, "half-logistic")
-    constants = damage_constants(base, seeds[: b.repeats * args.powers])
+    # the damage is solved on the first DAMAGE_SEEDS seeds whatever --powers is: a damaged
+    # candidate's pool is then the same plugin in every run of the study
+    constants = damage_constants(base, seeds[: b.repeats * DAMAGE_SEEDS])
+    constants["issue35"] = ISSUE35_SHIFT
     for label in DAMAGED:
         study.damage(label, **constants)
     print(
@@ -502,19 +569,26 @@ def main() -> None:
         f"{constants['drop']:.4f} of the windows inverted (drop), logits +{constants['shift']:.3f} "
         f"(shift). Pools of {size} seeds.\n"
     )
-    if args.calibrate:
+    if args.calibrate:  # the gate takes the study bench's calibration from here on
         print("The study bench's plan (`slipbench calibrate`, HalfLogistic):\n\n```text")
         print("\n".join(calibrated_plan(study, args.calibrate)) + "\n```\n", flush=True)
+    else:  # the study bench's calibration as an earlier run left it, where there is one
+        from slipbench.app.benchfile import load_benchmark, plan_runs
+
+        bench = load_benchmark(study_bench(study))
+        study.sources += _held(bench, plan_runs(bench, echo=lambda _: None, check_gate=False))
     print(
         "| design | comparisons | exit 0 | exit 1 | exit 6 | pooled tests flagged | mean "
         "change accuracy / TN / TP (points) | seeds a side (median / 95th pct) | compare s "
         "(median) |"
     )
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    chosen = set(args.designs or [*DESIGNS, "holweg"])
     for name, design in DESIGNS.items():
         n = args.nulls if design.kind == "null" else args.powers
-        print(run_design(study, gate, name, n, size), flush=True)
-    for line in holweg_lines(study, gate):
+        if name in chosen:
+            print(run_design(study, gate, name, n, size), flush=True)
+    for line in holweg_lines(study, gate) if "holweg" in chosen else []:
         print(line, flush=True)
     print(
         f"\nMachine: {os.cpu_count()} processors, {b.jobs} workers; load average "

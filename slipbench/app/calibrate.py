@@ -18,6 +18,7 @@ import json
 import os
 import platform
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -115,6 +116,12 @@ class CalibrationStatus:
     def holds(self, detector: str) -> bool:
         return self.calibration is not None and detector not in self.stale
 
+    def sources(self) -> list[Calibration]:
+        """What a comparison takes of it (:func:`slipbench.stats.compare.compare`'s
+        ``sources``): the calibration kept to the detectors it holds for; none without one."""
+        cal = self.calibration
+        return [] if cal is None else [cal.holding(d for d in cal.detectors if self.holds(d))]
+
     def lines(self) -> list[str]:
         """What a run or a plan says of it: one line per detector it does not hold for."""
         if self.calibration is None:
@@ -138,6 +145,23 @@ def status(bench: Benchmark, runs: list[Run]) -> CalibrationStatus:
     cal = read_calibration(path)
     now = digest(settings(bench, runs))
     return CalibrationStatus(path, cal, stale_reasons(cal, now, detector_identities(runs)))
+
+
+def recorded_status(bench: Benchmark, key: Mapping[str, Any]) -> CalibrationStatus:
+    """The calibration beside ``bench`` checked against a results folder's recorded
+    ``calibration_key`` (``benchmark.json``: the settings' digest and each detector's
+    parameters and own code as that run had them)."""
+    path = calibration_path(bench.path)
+    if not path.is_file():
+        return CalibrationStatus(path, None)
+    cal = read_calibration(path)
+    identities = {
+        str(name): (dict(d["params"]), str(d["own_code"]))
+        for name, d in dict(key.get("detectors", {})).items()
+    }
+    return CalibrationStatus(
+        path, cal, stale_reasons(cal, str(key.get("settings_digest", "")), identities)
+    )
 
 
 def calibration_runs(runs: list[Run], first_seed: int, seeds: int) -> list[list[Run]]:

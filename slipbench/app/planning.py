@@ -8,7 +8,8 @@ batches), and each model is charged with the rates measured in earlier rows
 
 The plan is a list of :class:`Section`; each builder of :data:`SECTIONS` reads one
 :class:`Planning` and returns its section (or None where it has nothing to say), so another
-section (what the gate can see) joins by adding its builder.
+section joins by adding its builder; the last says what the gate can see
+(:func:`the_gate`).
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ class Planning:
     slurm: Resources | None
     took_s: float = 0.0
     costs: dict[str, Cost] = field(default_factory=dict)
+    runs: list = field(default_factory=list)  # the file's runs, as plan_runs made them
 
 
 def _layout(bench: Benchmark, echo: Callable[[str], None]):
@@ -106,6 +108,7 @@ def planning(bench: Benchmark, measured: list[Path], echo: Callable[[str], None]
     tasks: list[Task | Batch] = batched(plan.tasks, workers)
     p = Planning(bench, data, plan, done, rows, tasks, task_seconds(plan, rows, tasks), slurm)
     p.costs = costs(plan, done, rows)
+    p.runs = runs
     p.took_s = time.perf_counter() - start
     return p
 
@@ -224,8 +227,26 @@ def on_slurm(p: Planning) -> Section | None:
     )
 
 
+def the_gate(p: Planning) -> Section | None:
+    """What `compare --bench` can see with this file (:mod:`slipbench.app.gateplan`): per
+    gated figure, protocol and detector, the smallest drop flagged with 80 % power at the
+    file's seeds and at its budget, from its calibration; a file without [gate] says nothing."""
+    if not p.bench.gate and p.bench.budget is None:
+        return None
+    from slipbench.app.calibrate import status
+    from slipbench.app.gateplan import plan_gate
+
+    lines = plan_gate(p.bench, p.runs, status(p.bench, p.runs)).lines()
+    return Section("The gate ([gate])", ["```text", *lines, "```"])
+
+
 #: the plan's sections, in order: a builder per section, each reading the Planning
-SECTIONS: list[Callable[[Planning], Section | None]] = [cells_and_cost, on_this_machine, on_slurm]
+SECTIONS: list[Callable[[Planning], Section | None]] = [
+    cells_and_cost,
+    on_this_machine,
+    on_slurm,
+    the_gate,
+]
 
 
 def render(p: Planning) -> str:

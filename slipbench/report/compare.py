@@ -29,8 +29,9 @@ from slipbench.stats.compare import (
 )
 from slipbench.stats.factors import SETTINGS, setting_text
 from slipbench.stats.gate import Gate, unit
+from slipbench.store import columns
 from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figure_of, figures
-from slipbench.vocabulary import KEY_ORDER, ORDERS, cell_label
+from slipbench.vocabulary import KEY_ORDER, LOW_N, ORDERS, cell_label
 
 MARKS = dict(
     zip(
@@ -158,8 +159,23 @@ def _row(r: dict, cmp: Comparison) -> dict:
         line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
         line["Δ TP / TN rate"] = " / ".join(_delta(r, name, bounds=False) for name in _CLASS_RATES)
     why = r.get("inconclusive_reason") or ""
-    line[""] = MARKS[r["verdict"]] + (f" ({why})" if why else "")
+    line[""] = MARKS[r["verdict"]] + (f" ({why})" if why else "") + _regressed_figures(r)
     return line
+
+
+def _regressed_figures(r: dict) -> str:
+    """The figures a regressed cell regressed in: the one its Δ column shows by name, each
+    other with its own change and interval (points unless said)."""
+    named = [f for f in str(r.get("regressed_figures") or "").split(", ") if f]
+    shown = (columns.DETECTION_RATE if r.get("stream") else columns.ACCURACY).name
+
+    def said(f: str) -> str:
+        if f == shown:
+            return FIGURES[f].called
+        u = "" if unit(f) == "points" else f" {unit(f)}"
+        return f"{FIGURES[f].called} {_delta(r, f, FIGURES[f].scale, FIGURES[f].decimals)}{u}"
+
+    return f": {', '.join(map(said, named))}" if named else ""
 
 
 def _compute_text(r: dict) -> str:
@@ -202,9 +218,23 @@ def _summary_table(cmp: Comparison) -> str:
     return _table(lines)
 
 
+def _shown(cmp: Comparison) -> pd.DataFrame:
+    """The cells the comment lists: a cell shared by two protocols once (under the first)."""
+    cells = cmp.cells
+    return cells[cells["shared_with"] == ""] if "shared_with" in cells else cells
+
+
+def _folded(cmp: Comparison) -> pd.Series:
+    """The low-n cells that did not regress: counted, not listed (their intervals undercover)."""
+    cells = _shown(cmp)
+    return cells["low_n"].astype(bool) & (cells["verdict"] != "regressed")
+
+
 def _others(cmp: Comparison) -> pd.DataFrame:
-    """The cells that did not regress, improved ones first, then by the size of their change."""
-    rest = cmp.cells[~cmp.cells["verdict"].isin(["regressed", "identical"])]
+    """The cells that did not regress, improved ones first, then by the size of their change;
+    low-n cells folded (:func:`_folded`)."""
+    cells = _shown(cmp)
+    rest = cells[~cells["verdict"].isin(["regressed", "identical"]) & ~_folded(cmp)]
     size = -np.abs([primary_change(r) for r in rest.to_dict("records")])
     order = np.lexsort((np.nan_to_num(size, nan=0.0), (rest["verdict"] != "improved").to_numpy()))
     return rest.iloc[order]
@@ -241,9 +271,9 @@ def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     if max_rows < 0:
         raise UsageError(f"--max-rows must be >= 0, got {max_rows}")
     cmp = in_paper_order(cmp)
-    cells = cmp.cells
     if cmp.unchanged:
         return _unchanged(cmp)
+    cells = _shown(cmp)
     counts = cells["verdict"].value_counts()
     head = [
         "## slipbench compare",
@@ -290,7 +320,8 @@ def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     budget = (
         COMMENT_LIMIT - sum(len(p) + 2 for p in (*parts, *notes)) - 400
     )  # 400: the headings and cut lines
-    regressed = [_row(r, cmp) for r in cmp.regressions.to_dict("records")]
+    shown = _shown(cmp)
+    regressed = [_row(r, cmp) for r in shown[shown["verdict"] == "regressed"].to_dict("records")]
     table, listed = _fit(regressed, budget)
     if regressed:
         parts.append(
@@ -314,7 +345,30 @@ def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
         parts.append(
             f"_{len(others) - listed} other cells not shown (`--max-rows`; `--format json` lists every cell)._"
         )
+    parts += _folded_lines(cmp)
     return "\n\n".join(parts + notes) + "\n"
+
+
+def _folded_lines(cmp: Comparison) -> list[str]:
+    """What the lists leave out, counted: low-n cells, and cells two protocols share."""
+    out = []
+    low = int(_folded(cmp).sum())
+    if low:
+        out.append(
+            f"_{low} low-n cells (fewer than {LOW_N} test trials of a class) not listed: their "
+            "intervals undercover, so they decide nothing (`--format json` lists them)._"
+        )
+    if "shared_with" in cmp.cells:
+        twins = cmp.cells[cmp.cells["shared_with"] != ""]
+        for (protocol, first), n in (
+            twins.groupby(["protocol", "shared_with"], sort=False).size().items()
+        ):
+            out.append(
+                f"_{n} cells of {md_text(protocol)} are {md_text(first)}'s (the same models "
+                "tested on the same test set): counted and listed once, under "
+                f"{md_text(first)}._"
+            )
+    return out
 
 
 def _seeds_text(cmp: Comparison) -> str:
@@ -337,10 +391,12 @@ def _pooled_phrase(r: dict) -> str:
 def _flagged(cmp: Comparison) -> list[str]:
     """What regressed: each pooled figure, and the cells per figure."""
     flagged = [f"{_pooled_phrase(r)} (pooled)" for r in cmp.pooled_regressions.to_dict("records")]
-    failed = cmp.regressions["regressed_figures"] == ""
+    shown = _shown(cmp)
+    regressions = shown[shown["verdict"] == "regressed"]
+    failed = regressions["regressed_figures"] == ""
     if failed.any():
         flagged.append(f"{int(failed.sum())} cells the candidate no longer finishes")
-    figures = cmp.regressions.loc[~failed, "regressed_figures"].str.split(", ").explode()
+    figures = regressions.loc[~failed, "regressed_figures"].str.split(", ").explode()
     for figure, n in figures.value_counts(sort=False).items():
         flagged.append(f"{FIGURES[str(figure)].called} in {n} cell{'s' * (n != 1)} (cell level)")
     return flagged
@@ -357,16 +413,44 @@ def _verdict_line(cmp: Comparison) -> str:
             "**Undecided** (exit 6): "
             + "; ".join([*(f"{f}, on one seed per side" for f in flagged), *_undecided(cmp)])
             + "."
+            + (f" {_what_to_run(cmp)}" if _what_to_run(cmp) else "")
         )
     else:
-        seen = [
-            f"{r['detectable']:.2g} {unit(r['figure'])} in {FIGURES[r['figure']].called} of "
-            f"{md_text(r['protocol'])}, {md_text(r['detector'])}"
-            for r in cmp.pooled.to_dict("records")
-        ]
-        line = "**No regression** larger than " + "; ".join(seen) + " (80 % power)."
+        line = "**No regression**: " + "; ".join(map(_seen, cmp.pooled.to_dict("records"))) + "."
     note = repeats_note(cmp)
     return line + (f"\n\n⚠ Note: {md_text(note)}." if note else "")
+
+
+def _seen(r: dict) -> str:
+    """What a pooled test that flagged nothing could see: before the last look, the drop its
+    interval rules out (at the family's level); at the last, the drop it flags with 80 %
+    power."""
+    what = f"{FIGURES[r['figure']].called} of {md_text(r['protocol'])}, {md_text(r['detector'])}"
+    if not r.get("final", True):
+        return f"{what}: a drop beyond {r['bound']:.2g} {unit(r['figure'])} ruled out"
+    return f"{what}: a drop of {r['detectable']:.2g} {unit(r['figure'])} would show (80 % power)"
+
+
+def _what_to_run(cmp: Comparison) -> str:
+    """What settles an undecided comparison: the gate's next look (its seeds more on both
+    sides), or, with the budget spent, what a larger budget would take."""
+    look, gate = cmp.look, cmp.gate
+    if not look.final:
+        seed = _look_json(cmp)["next_seed"]
+        return (
+            f"Run the next look: {look.next_seeds - look.seeds} more seeds on both sides "
+            f"(`slipbench run BENCH --seed {seed} --out BASE`, the same with `--out CANDIDATE`), "
+            "then compare again."
+        )
+    if not gate.sequential and gate.budget <= gate.seeds and gate.seeds:
+        budget = f"The bench's {gate.seeds} seeds a side are its budget"
+    elif gate.sequential:
+        budget = f"The budget of {gate.budget} seeds a side is spent"
+    else:
+        return ""
+    needed = [int(n) for n in cmp.undecided.get("seeds_needed", []) if n]
+    more = f" about {max(needed)} seeds a side would decide it ([gate] budget)," if needed else ""
+    return f"{budget}:{more} or a larger tolerance; `slipbench run BENCH --plan` shows both."
 
 
 def _undecided(cmp: Comparison, shown: int = 5) -> list[str]:
@@ -378,6 +462,9 @@ def _undecided(cmp: Comparison, shown: int = 5) -> list[str]:
         return [f"{len(rows)} pooled tests: {reasons.pop()}"] if rows else []
     out = []
     for r in rows[:shown]:
+        if not r.get("final", True):
+            out.append(f"{_pooled_phrase(r)}: {r['undecided_reason']}")
+            continue
         more = f"{r['seeds_needed']} seeds per side"
         if r["trials_needed"]:
             more += f" or {r['trials_needed']} test trials per class"
@@ -510,6 +597,20 @@ def _in_points(frame: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def _look_json(cmp: Comparison) -> dict:
+    """The gate's look as a workflow reads it: where the next look's seeds start."""
+    look, gate = cmp.look, cmp.gate
+    seeds = pd.to_numeric(cmp.rows["seed"]) if cmp.rows is not None else pd.Series(dtype=float)
+    return {
+        "index": look.index,
+        "seeds": look.seeds,
+        "final": look.final,
+        "next_seeds": look.next_seeds,
+        "next_seed": int(seeds.max()) + 1 if len(seeds) and not look.final else None,
+        "budget": gate.budget or look.seeds,
+    }
+
+
 def to_json(cmp: Comparison) -> str:
     """Every compared cell with its changes and verdict, the pooled tests, the summary and the
     one-sided cells, for bots (``compare.schema.json`` describes it). Rates and their changes
@@ -553,6 +654,8 @@ def to_json(cmp: Comparison) -> str:
             },
         },
         "seeds": {"base": cmp.min_seeds_base, "candidate": cmp.min_seeds_candidate},
+        "look": _look_json(cmp),
+        "noise_measured": cmp.measured,
         "retraining_noise_covered": cmp.retraining_covered,
         "exit_code": cmp.exit_code,
         "verdict": cmp.state,

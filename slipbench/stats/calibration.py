@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -134,6 +134,20 @@ class Calibration:
         if part is None:
             return None
         return (part.figures if cell is None else part.cells.get(cell, {})).get(figure)
+
+    def seed_noise(
+        self, detector: str, protocol: str, figure: str, cell: str | None, paired: bool
+    ) -> SeedNoise | None:
+        """What a comparison takes of it (:class:`slipbench.stats.noise.NoiseSource`): the
+        :meth:`Noise.pool` of ``figure``, None where it was not calibrated."""
+        found = self.noise(detector, protocol, figure, cell)
+        return None if found is None else found.pool(paired)
+
+    def holding(self, detectors: Iterable[str]) -> Calibration:
+        """This calibration kept to ``detectors`` (those it holds for): the others' noise is
+        not answered."""
+        kept = set(detectors)
+        return replace(self, detectors={k: v for k, v in self.detectors.items() if k in kept})
 
     def to_json(self) -> str:
         out = {"format": FORMAT, "version": VERSION} | asdict(self)

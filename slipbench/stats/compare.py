@@ -21,6 +21,15 @@ nothing, is wider than ``max_width`` points (``MAX_WIDTH``, 40); otherwise *no s
 change*. A pooled test that flags nothing states its power and may be *undecided*
 (:mod:`slipbench.stats.gate`); :attr:`Comparison.state` turns all of it into the exit code.
 
+Looks. A gate with a budget (:class:`~slipbench.stats.gate.Gate` ``seeds`` and ``budget``, a
+bench's ``repeats`` and ``[gate] budget``) decides at the look the stored seeds make
+(:func:`look_at`): each family's intervals at that look's share of its error
+(:func:`look_level`, Lan-DeMets O'Brien-Fleming), and before the last look a pooled test
+passes only where the worse bound of its interval at the family's level lies inside its
+tolerance. Noise. Seed noise measured outside the comparison (a bench's calibration; any
+:class:`~slipbench.stats.noise.NoiseSource`) enters every cell and pooled test where a source
+answers (:func:`measured_noise`, the one place where sources are combined).
+
 This module decides; it writes no text. The pull-request comment and the JSON for bots are
 written from a :class:`Comparison` by the report wing.
 """
@@ -28,13 +37,16 @@ written from a :class:`Comparison` by the report wing.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy.stats import t as student_t
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED
+from slipbench.stats.bootstrap import IntervalSpec
 from slipbench.stats.changes import cell_changes, pool_of, seed_pools
 from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, state_of
 from slipbench.stats.gate import (
@@ -46,14 +58,17 @@ from slipbench.stats.gate import (
     unit,
 )
 from slipbench.stats.metrics import (
+    FIGURES,
     LEVEL,
     RATES,
 )
+from slipbench.stats.noise import NoiseSource, SeedNoise, combined
 from slipbench.stats.pooled import (
     cell_sides,
     pooled_change,
     pooled_from_rows,
 )
+from slipbench.stats.power import Design, looks, nominal_levels
 from slipbench.stats.sides import decidable, finished, plan_cells, read_sides
 from slipbench.store import columns
 from slipbench.vocabulary import LOW_N
@@ -82,6 +97,58 @@ VERDICTS = (
 )
 
 
+@dataclass(frozen=True)
+class Look:
+    """Which look of the gate a comparison is: ``index`` (0: the first) of the looks at
+    ``seeds`` per side; ``final`` where the budget is reached (or the gate looks once), else
+    ``next_seeds``: the seeds per side of the next look."""
+
+    index: int
+    seeds: int
+    final: bool
+    next_seeds: int
+
+
+def look_at(gate: Gate, held: int) -> Look:
+    """The look of ``gate`` that ``held`` seeds per side (the fewest any compared cell holds)
+    make: the last of its looks at or below them; final from the budget on."""
+    if not gate.sequential:
+        return Look(0, held, True, 0)
+    at = looks(gate.seeds, gate.budget)
+    index = max(0, sum(s <= held for s in at) - 1)
+    final = held >= gate.budget
+    return Look(index, held, final, 0 if final else next(s for s in at if s > held))
+
+
+def look_level(gate: Gate, look: Look, tests: int, alpha: float) -> float:
+    """The two-sided level of each of ``tests`` intervals of a family held at ``alpha`` at
+    ``look``: Bonferroni's ``1 - alpha / tests`` where the gate looks once; with looks, twice
+    the look's nominal one-sided level (Lan-DeMets O'Brien-Fleming over the budget,
+    :func:`slipbench.stats.power.nominal_levels`) off 1."""
+    if not gate.sequential:
+        return family_level(tests, alpha)
+    design = Design(gate.seeds, gate.budget, max(1, tests), alpha)
+    return 1 - 2 * nominal_levels(design)[look.index]
+
+
+def measured_noise(
+    sources: Sequence[NoiseSource],
+    cell: tuple[str, str, str | None],
+    figure: str,
+    paired: bool,
+) -> SeedNoise | None:
+    """The seed noise the gate takes from outside the comparison for ``cell`` (detector,
+    protocol, and the cell or None for the protocol's mean) and ``figure``: every source's
+    answer, combined (:func:`slipbench.stats.noise.combined`). None where none answers: the
+    sides' own seeds carry it."""
+    detector, protocol, name = cell
+    return combined(
+        n
+        for s in sources
+        if (n := s.seed_noise(detector, protocol, figure, name, paired)) is not None
+    )
+
+
 @dataclass
 class Comparison:
     """The outcome of :func:`compare`."""
@@ -107,6 +174,10 @@ class Comparison:
     # that side is not in the intervals)
     min_seeds_base: int = 1
     min_seeds_candidate: int = 1
+    # the look the stored seeds imply (:func:`look_at`) and where the seed noise came from
+    # besides the sides' own seeds (the sources' words, "" where none answered)
+    look: Look = field(default_factory=lambda: Look(0, 1, True, 0))
+    measured: str = ""
 
     @property
     def regressions(self) -> pd.DataFrame:
@@ -129,7 +200,8 @@ class Comparison:
         """ "regressed": a cell the base finished failed on the candidate, or a figure regressed
         with retraining noise inside the intervals; "undecided": a figure regressed on one seed
         per side, or a pooled test cannot see a regression of its tolerance (too few seeds or
-        trials); else "no regression"."""
+        trials) or, before the gate's last look, cannot yet rule one out; else "no
+        regression"."""
         failed = self.regressions["method"].astype(str).str.startswith("status").any()
         if failed or (
             self.retraining_covered and (len(self.regressions) or len(self.pooled_regressions))
@@ -163,6 +235,7 @@ def compare(
     candidate_path: str | os.PathLike,
     gate: Gate | None = None,
     seed: int = 0,
+    sources: Sequence[NoiseSource] = (),
 ) -> Comparison:
     """Compare CANDIDATE against BASE cell by cell, and per protocol, detector and figure pooled.
 
@@ -172,9 +245,14 @@ def compare(
         Results files or folders (as ``evaluate --out`` writes them).
     gate : Gate
         The figures judged and the tolerance of each (default: every figure,
-        ``slipbench.stats.gate.DEFAULT_TOLERANCE``).
+        ``slipbench.stats.gate.DEFAULT_TOLERANCE``), and its looks: the comparison decides at
+        the look its stored seeds make (:func:`look_at`).
     seed : int
         Seeds the paired bootstraps.
+    sources : NoiseSource
+        Seed noise measured outside the comparison (a bench's calibration that holds): where
+        one answers for a cell or a protocol's mean, it takes the place of the sides' own
+        seed spread, with its degrees of freedom (:func:`measured_noise`).
 
     Raises
     ------
@@ -185,15 +263,24 @@ def compare(
     gate = gate or Gate()
     base, cand, on, notes = read_sides(base_path, candidate_path)
     plans, only_base, only_cand = plan_cells(base, cand, on, (base_path, candidate_path))
-    n_tests = sum(len(gate.figures(e["stream"])) for e, *_ in plans if decidable(e))
-    level = family_level(n_tests, CELL_ALPHA)
+    seeds = [(e["n_seeds_base"], e["n_seeds_cand"]) for e, *_ in plans if finished(e)]
+    look = look_at(gate, min((min(b, c) for b, c in seeds), default=1))
+    shared = shared_with([e for e, *_ in plans])
+    n_tests = sum(
+        len(gate.figures(e["stream"]))
+        for (e, *_), s in zip(plans, shared)
+        if decidable(e) and not s
+    )
+    level = look_level(gate, look, n_tests, CELL_ALPHA)
     pools = seed_pools(plans)
     cells = _judge_cells(
-        pd.DataFrame([cell_changes(plan, seed, level, pools.get(pool_of(plan))) for plan in plans]),
+        pd.DataFrame(
+            [cell_changes(plan, seed, level, _cell_noise(plan, pools, sources)) for plan in plans]
+        ),
         gate,
     )
-    seeds = [(e["n_seeds_base"], e["n_seeds_cand"]) for e, *_ in plans if finished(e)]
-    pooled, pooled_level = _pooled_tests(plans, cells, seed, gate)
+    cells["shared_with"] = shared
+    pooled, pooled_level = _pooled_tests(plans, cells, IntervalSpec(seed, LEVEL), gate, sources)
     cmp = Comparison(
         cells,
         only_base,
@@ -208,10 +295,46 @@ def compare(
         pooled_level,
         min((b for b, _ in seeds), default=1),
         min((c for _, c in seeds), default=1),
+        look,
+        _measured_sources(pooled),
     )
     if not pooled.empty:
-        cmp.pooled = _pooled_verdicts(pooled, gate, cmp.retraining_covered)
+        cmp.pooled = _pooled_verdicts(pooled, gate, cmp.retraining_covered, look)
     return cmp
+
+
+def shared_with(entries: list[dict]) -> list[str]:
+    """Per cell, the protocol of an earlier cell that is the same cell (the same models
+    tested on the same test set: :func:`slipbench.stats.sides._shared_key`), "" for the
+    first of each: a cell shared by two protocols is one test in the family, counted once."""
+    first: dict[str, str] = {}
+    out = []
+    for e in entries:
+        key = str(e.get("shared") or "")
+        out.append(first.get(key, "") if key else "")
+        if key:
+            first.setdefault(key, str(e["protocol"]))
+    return out
+
+
+def _cell_noise(
+    plan: tuple, pools: dict, sources: Sequence[NoiseSource]
+) -> dict[str, SeedNoise] | None:
+    """A cell's seed noise per figure: the measured one (:func:`measured_noise`) where a
+    source answers, else its protocol's cells' pooled spread (:func:`seed_pools`)."""
+    entry, same_seeds = plan[0], bool(plan[4])
+    where = (str(entry.get("base_detector")), str(entry["protocol"]), str(entry["cell"]))
+    noise = dict(pools.get(pool_of(plan)) or {})
+    for figure in FIGURES:
+        found = measured_noise(sources, where, figure, same_seeds)
+        if found is not None:
+            noise[figure] = found
+    return noise or None
+
+
+def _measured_sources(pooled: pd.DataFrame) -> str:
+    """The sources of measured seed noise the pooled tests took, in words ("" where none)."""
+    return " and ".join(dict.fromkeys(str(x) for x in pooled.get("noise", []) if x))
 
 
 def _reading(lo: float, hi: float, figure: str, tolerance: float) -> str:
@@ -296,24 +419,40 @@ def _pooled_groups(plans: list, cells: pd.DataFrame) -> dict[tuple, list]:
 
 
 def _pooled_tests(
-    plans: list, cells: pd.DataFrame, seed: int, gate: Gate
+    plans: list, cells: pd.DataFrame, spec: IntervalSpec, gate: Gate, sources: Sequence
 ) -> tuple[pd.DataFrame, float]:
     """Per protocol, detector and judged figure: the mean change over the cells both sides
-    finished (identical ones count 0), with its interval at the Bonferroni level over the
-    pooled tests; verdicts come from :func:`_pooled_verdicts`."""
+    finished (identical ones count 0), with its interval at the level of the look (over the
+    pooled tests, :func:`look_level`); verdicts come from :func:`_pooled_verdicts`."""
     groups = _pooled_groups(plans, cells)
     tests = [
         (g, figure)
         for g, members in groups.items()
         for figure in gate.figures(bool(members[0][0]["stream"]))
     ]
-    level = family_level(len(tests), POOLED_ALPHA)
-    lines = [_pooled_line(g, groups[g], figure, seed, level) for g, figure in tests]
+    seeds = [min(e["n_seeds_base"], e["n_seeds_cand"]) for e, *_ in plans if finished(e)]
+    level = look_level(gate, look_at(gate, min(seeds, default=1)), len(tests), POOLED_ALPHA)
+    lines = []
+    for g, figure in tests:
+        where = (str(groups[g][0][0].get("base_detector")), str(g[0]), None)
+
+        def noise(paired: bool, where: tuple = where, figure: str = figure) -> SeedNoise | None:
+            return measured_noise(sources, where, figure, paired)
+
+        lines.append(_pooled_line(g, groups[g], figure, IntervalSpec(spec.seed, level), noise))
     return pd.DataFrame(lines), level
 
 
-def _pooled_line(group: tuple, members: list, figure: str, seed: int, level: float) -> dict:
-    """One pooled test: the mean change of ``figure`` over a protocol's cells, in its units."""
+def _pooled_line(
+    group: tuple,
+    members: list,
+    figure: str,
+    spec: IntervalSpec,
+    noise: Callable[[bool], SeedNoise | None],
+) -> dict:
+    """One pooled test: the mean change of ``figure`` over a protocol's cells, in its units;
+    ``noise``: its seed noise measured elsewhere, for sides of the same seeds or apart."""
+    seed, level = spec.seed, spec.level
     changed = [(r, p) for r, p in members if not r["identical"]]
     share = len(changed) / len(members)  # identical cells add 0 to the mean
     line: dict[str, Any] = {
@@ -327,10 +466,11 @@ def _pooled_line(group: tuple, members: list, figure: str, seed: int, level: flo
     }
     preds = [p for _, p in changed]
     if figure in RATES and all(x is not None for b, c, *_ in preds for x in (*b, *c)):
-        res = pooled_change([cell_sides(*p) for p in preds], seed, level, figure=figure)
+        res = pooled_change([cell_sides(*p) for p in preds], seed, level, figure, noise)
         line["method"] = "joint cluster bootstrap over the trials the cells share" + (
             f" and {res['seed_design']}" if res["seeds"] else ""
         )
+        line["noise"] = res["noise"]
         line["low_n"] = res["low_n"]
         line["trials"] = min(res["n_test_clusters_slip"], res["n_test_clusters_nonslip"])
     else:  # rows only: the cells' errors taken as moving together (the widest case)
@@ -355,22 +495,36 @@ def _pooled_line(group: tuple, members: list, figure: str, seed: int, level: flo
     return line
 
 
-def _pooled_verdicts(pooled: pd.DataFrame, gate: Gate, retrained: bool) -> pd.DataFrame:
-    """Each pooled test read from its interval (at the Bonferroni level over the pooled tests)
-    against its tolerance; ``p``: the Bonferroni-adjusted p-value of a change within the
-    tolerance, below ``POOLED_ALPHA`` where the interval lies beyond it. A test that flags
-    nothing states its power (``resolution``, ``detectable``) and is "undecided" where it
-    cannot see a regression of its tolerance, its data are low-n or a side ran one seed."""
+def _pooled_verdicts(
+    pooled: pd.DataFrame, gate: Gate, retrained: bool, look: Look | None = None
+) -> pd.DataFrame:
+    """Each pooled test read from its interval (at the level of the ``look``, over the pooled
+    tests) against its tolerance; ``p``: the Bonferroni-adjusted p-value of a change within the
+    tolerance, below ``POOLED_ALPHA`` where the interval lies beyond it. ``bound``: the worst
+    change its interval at the family's level (Bonferroni over the pooled tests at
+    ``POOLED_ALPHA``) leaves open, in the worse direction. A test that flags nothing is
+    "undecided" where its data are low-n or a side ran one seed; before the last look, where
+    ``bound`` lies beyond its tolerance (a look flags only at its own strict level, so a power
+    rule there would pass a drop the later looks would catch); at the last look, where its
+    power (``resolution``, ``detectable``) cannot see a regression of its tolerance."""
+    look = look or Look(0, 1, True, 0)  # one look
     pooled = pooled.copy()
     sign = np.array([columns.FIGURES[f].worse for f in pooled["figure"]], float)
     tol = pooled["figure"].map(gate.tolerances).to_numpy(float)
     se, df = pooled["change_se"].to_numpy(float), pooled["df"].to_numpy(float)
-    p_reg, p_imp = two_sided_p(sign * pooled["change"].to_numpy(float), se, df, tol)
+    worse = sign * pooled["change"].to_numpy(float)
+    p_reg, p_imp = two_sided_p(worse, se, df, tol)
     pooled["p"] = np.minimum(1.0, len(pooled) * np.minimum(p_reg, p_imp))
     pooled["tolerance"] = tol
+    with np.errstate(invalid="ignore"):
+        q = student_t.ppf(1 - POOLED_ALPHA / (2 * len(pooled)), df)
+    pooled["bound"] = worse + q * se
+    pooled["final"], pooled["next_seeds"] = look.final, look.next_seeds
+    # the family's error at this look, as the resolution takes it
+    alpha = len(pooled) * (1 - look_level(gate, look, len(pooled), POOLED_ALPHA))
 
     def resolve(s: float, d: float) -> float:
-        return resolution(s, d, len(pooled), POOLED_ALPHA)
+        return resolution(s, d, len(pooled), alpha)
 
     pooled["resolution"] = [resolve(s, d) for s, d in zip(se, df)]
     pooled["detectable"] = tol + pooled["resolution"]
@@ -399,6 +553,13 @@ def _pooled_verdict(r: dict, retrained: bool) -> tuple[str, str]:
         return "undecided", f"low n (fewer than {LOW_N} test trials of a class)"
     if not retrained:
         return "undecided", "one seed per side: retraining noise is not in the interval"
+    if not r["final"]:
+        if r["bound"] <= r["tolerance"]:
+            return (read or "no significant change"), ""
+        return "undecided", (
+            f"a drop of up to {r['bound']:.2g} {unit(r['figure'])} is not ruled out at "
+            f"{r['seeds']} seeds a side; the next look runs {r['next_seeds']}"
+        )
     if not r["resolution"] <= r["tolerance"]:
         return "undecided", (
             f"it would flag a drop of {r['detectable']:.2g} {unit(r['figure'])} with 80 % power, "

@@ -47,10 +47,17 @@ def unit(figure: str) -> str:
 @dataclass(frozen=True)
 class Gate:
     """The figures the gate reads and the tolerance of each, in the figure's units; a cell or
-    pooled change whose interval is wider than ``max_width`` points decides nothing."""
+    pooled change whose interval is wider than ``max_width`` points decides nothing.
+
+    ``seeds`` and ``budget`` (a bench's ``repeats`` and ``[gate] budget``): the gate looks at
+    ``seeds`` per side, then ``seeds`` more at a time up to ``budget``
+    (:func:`slipbench.stats.power.looks`), each look at its share of the error
+    (:mod:`slipbench.stats.sequential`); 0: one look, at whatever seeds the sides hold."""
 
     tolerances: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_TOLERANCE))
     max_width: float = 40.0
+    seeds: int = 0
+    budget: int = 0
 
     def __post_init__(self) -> None:
         unknown = set(self.tolerances) - set(DEFAULT_TOLERANCE)
@@ -67,6 +74,15 @@ class Gate:
             )
         if not self.max_width > 0:
             raise UsageError(f"--max-width must be > 0 points, got {self.max_width}")
+        if self.seeds and not 1 <= self.seeds <= self.budget:
+            raise UsageError(
+                f"the gate's looks need 1 <= seeds <= budget, got {self.seeds}, {self.budget}"
+            )
+
+    @property
+    def sequential(self) -> bool:
+        """Looks at more seeds follow where a look is undecided."""
+        return 0 < self.seeds < self.budget
 
     @classmethod
     def of(cls, figures: Iterable[str] | None = None, **tolerance: float) -> Gate:

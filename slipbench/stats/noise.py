@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -79,3 +80,26 @@ def pool_seed_spreads(spreads: Iterable[tuple[float, int]]) -> SeedNoise | None:
     if df == 0:
         return None
     return SeedNoise(sum(v * d for v, d in kept) / df, float(df), PROTOCOL_POOL)
+
+
+class NoiseSource(Protocol):
+    """Seed noise measured outside a comparison (a bench's calibration; the history of main):
+    per detector, protocol and figure (of the protocol's mean where ``cell`` is None, else of
+    that cell), for sides run under the same seeds (``paired``) or apart; None where it has
+    none."""
+
+    def seed_noise(
+        self, detector: str, protocol: str, figure: str, cell: str | None, paired: bool
+    ) -> SeedNoise | None: ...
+
+
+def combined(found: Iterable[SeedNoise]) -> SeedNoise | None:
+    """Seed variances of one figure from several sources as one: weighted by and carrying
+    their degrees of freedom (each an estimate of the same variance), their sources named
+    together. None where none is given."""
+    kept = list(found)
+    if not kept:
+        return None
+    df = sum(n.df for n in kept)
+    variance = sum(n.variance * n.df for n in kept) / df
+    return SeedNoise(variance, df, " and ".join(dict.fromkeys(n.source for n in kept)))

@@ -29,7 +29,7 @@ cells' rows, taking their errors as moving together (the widest case).
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -143,17 +143,21 @@ def pooled_change(
     seed: int,
     level: float,
     figure: str = "accuracy",
-    n_resamples: int = N_RESAMPLES,
+    noise: Callable[[bool], SeedNoise | None] | None = None,
 ) -> dict:
     """The mean over ``cells`` of (candidate - base) of ``figure`` (a rate, as a fraction),
     with an interval at ``level`` from one joint stratified cluster bootstrap over the trials
-    and, where a side holds several, its seeds.
+    and, where a side holds several, its seeds. ``noise``: the seed variance of the mean
+    measured elsewhere, for sides of the same seeds (True) or apart (False); it takes the
+    place of the sides' own spread where the cells' seeds are crossed (its noise is of the
+    mean over the cells, one seed at a time).
 
     Returns
     -------
     dict
         ``d``, ``lo``, ``hi``, ``se``, ``df``; ``seeds`` (a side held several seeds) and
-        ``seed_design`` (how they were drawn, in words);
+        ``seed_design`` (how they were drawn, in words); ``noise``: the source of the seed
+        variance measured elsewhere that it took ("" where none);
         ``n_cells``; ``n_test_clusters_slip``/``_nonslip`` over the union of the
         test sets and ``low_n``; ``estimable``.
     """
@@ -214,10 +218,12 @@ def pooled_change(
         r = (w @ H.T) / denom
         return gather(share * (H[None] - r[:, :, None] * S[None]) / denom[:, :, None])
 
+    measured = noise(paired(cells)) if noise is not None and crossed(cells) else None
     iv = seeded_interval(
         SeededFigure(per_seed, per_seed_influence, signs, (-1.0, 1.0)),
         Clusters(design, S.sum(axis=0) > 0, S.sum(axis=0)),
-        IntervalSpec(seed, level, n_resamples, POOLED_METHOD),
+        IntervalSpec(seed, level, N_RESAMPLES, POOLED_METHOD),
+        measured,
     )
     out = {
         "n_cells": len(cells),
@@ -229,6 +235,7 @@ def pooled_change(
         "df": iv.df,
         "seeds": any(len(c.base) > 1 or len(c.cand) > 1 for c in cells),
         "seed_design": _seed_design(ran, cells),
+        "noise": "" if measured is None else measured.source,
     }
     y = np.concatenate([np.asarray(p.y_true, bool) for p in parts])
     g = np.concatenate([np.asarray(p.groups) for p in parts])

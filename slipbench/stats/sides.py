@@ -16,6 +16,7 @@ keys and figures, or the same predictions under the same seeds) and low-n.
 
 from __future__ import annotations
 
+import json
 import os
 
 import numpy as np
@@ -229,6 +230,7 @@ def _plan(entry: dict, sides: list[list[dict]], folders: tuple) -> tuple:
     b_rows, c_rows = sides
     if "detector" not in entry:
         entry["detector"] = f"{b_rows[0]['detector']} → {c_rows[0]['detector']}"
+    entry["base_detector"] = str(b_rows[0]["detector"])  # whose measured noise it takes
     entry["seed"] = _seed_text(b_rows, c_rows)
     sb, sc = _side_status(b_rows), _side_status(c_rows)
     entry["base_status"], entry["candidate_status"] = sb, sc
@@ -252,7 +254,26 @@ def _plan(entry: dict, sides: list[list[dict]], folders: tuple) -> tuple:
     same_seeds = [r["seed"] for r in b_rows] == [r["seed"] for r in c_rows]
     same_preds = all(_same_predictions(x, y) for x, y in zip(*preds)) and len(preds[0]) > 0
     entry["identical"] = both and (same_keys or (same_seeds and same_preds))
+    entry["shared"] = _shared_key(b_rows, c_rows)
     return entry, b_rows, c_rows, preds, same_seeds
+
+
+#: what a cell's test set is, besides its model (whose key holds its training data and seed)
+TEST_SET = ("test_sensors", "test_where", "test_stream")
+
+
+def _shared_key(b_rows: list[dict], c_rows: list[dict]) -> str:
+    """What makes two protocols' cells one (the same models tested on the same test set, a
+    window-size cell on cross-instance's diagonal): each side's model keys and test sets;
+    "" where the rows hold no model key (nothing to tell them apart by)."""
+    if not all(r.get("model_key") for r in (*b_rows, *c_rows)):
+        return ""
+    return json.dumps(
+        [
+            [[str(r.get(k, "")) for k in ("model_key", *TEST_SET)] for r in rows]
+            for rows in (b_rows, c_rows)
+        ]
+    )
 
 
 def finished(e: dict) -> bool:

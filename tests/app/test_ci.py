@@ -121,7 +121,7 @@ def test_workflow_comments_caches_and_gates(repo):
     assert all("-c constraints.txt" in c for c in commands(installs) if "pip install" in c)
     assert (path.parents[2] / "constraints.txt").is_file()
     # compare decides the job: its Markdown call is the step's last command, nothing masks it
-    gate = next(s for s in steps(path) if "slipbench compare" in s.get("run", ""))
+    gate = [s for s in steps(path) if "slipbench compare" in s.get("run", "")][-1]
     assert not gate.get("continue-on-error") and "if" not in gate
     last = commands(gate["run"])[-1]
     assert last.startswith("slipbench compare base candidate") and "||" not in last
@@ -131,6 +131,40 @@ def test_workflow_comments_caches_and_gates(repo):
     assert comment["if"].startswith("always() && ")
     assert f"hashFiles('{out}') != ''" in comment["if"]
     assert f"--body-file {out}" in comment["run"] and "GH_TOKEN" in comment["env"]
+
+
+def test_this_workflow_looks_at_more_seeds_and_refreshes_its_calibration():
+    """While compare is undecided short of the budget, the workflow runs the next look's
+    seeds on both sides (the base's with the base's code) and compares again; on pushes to
+    main, a calibration that no longer holds is measured again and cached for the pull
+    requests, which restore it before they compare."""
+    path = REPOS["this"][0]
+    wf = workflow(path)
+    assert wf["on"]["push"] == {"branches": ["main"]}
+    assert wf["jobs"]["compare"]["if"] == "github.event_name == 'pull_request'"
+    cal = wf["jobs"]["history"]  # main's job: the calibration first, then the history
+    assert cal["if"] == "github.event_name == 'push'"
+    run = [c for s in cal["steps"] for c in commands(s.get("run", ""))]
+    assert 'slipbench calibrate "$BENCH" --if-stale --quiet' in run
+    saved = [s for s in cal["steps"] if s.get("uses", "").startswith("actions/cache/save")]
+    assert [s["with"]["path"] for s in saved] == ["bench.calibration.json"]
+    restored = [
+        s["with"]
+        for s in steps(path)
+        if s.get("uses", "").startswith("actions/cache/restore")
+        and s["with"]["path"] == "bench.calibration.json"
+    ]
+    assert restored and restored[0]["restore-keys"] == "slipbench-calibration-"
+    looks = step_named(path, "the next look's seeds on both sides")
+    script = looks["run"]
+    assert "jq .look.next_seed" in script and "jq .look.final" in script
+    assert '../base-env/bin/slipbench run "$BENCH" --seed "$seed" --out base' in script
+    assert 'slipbench run "$BENCH" --seed "$seed" --out candidate' in script
+    # then the comparison that decides the job reads every look's seeds
+    names = [s.get("name", "") for s in steps(path)]
+    assert names.index(looks["name"]) < names.index(
+        step_named(path, "Compare on the bench")["name"]
+    )
 
 
 def tiny(bench: Path, data: Path) -> Path:
@@ -264,7 +298,13 @@ def test_history_job_slipbench_steps_run(tmp_path, unit):
         "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
     }
     job = workflow(path)["jobs"]["history"]["steps"]
-    ran = [s for s in job if "run" in s and "slipbench " in s["run"] and "gh run" not in s["run"]]
+    ran = [
+        s
+        for s in job
+        if "run" in s
+        and "slipbench " in s["run"]
+        and not any(w in s["run"] for w in ("gh run", "slipbench calibrate"))
+    ]
     assert len(ran) == 4
     for step in [*ran, ran[1]]:
         done = subprocess.run(

@@ -17,6 +17,9 @@ from slipbench.app.calibrate import detector_identities, digest, settings, statu
 from slipbench.app.gateplan import plan_gate, refusal
 from slipbench.errors import DataError, UsageError
 from slipbench.stats.calibration import (
+    CALIBRATION as CALIBRATED,
+)
+from slipbench.stats.calibration import (
     Calibration,
     DetectorCalibration,
     Noise,
@@ -249,3 +252,45 @@ def test_calibrate_measures_a_bench_and_resumes(tmp_path, small_path, cli):
     again = read_calibration(calibration_path(path))
     assert math.isnan(again.wall_seconds_per_seed)  # every cell cached: nothing timed
     assert again.detectors["coin"] == cal.detectors["coin"] and before != ""
+    # --if-stale (the workflow's push to main): a calibration that holds is left as it is
+    kept = calibration_path(path).read_text()
+    code, out, err = cli(["calibrate", str(path), "--seeds", "4", "--quiet", "--if-stale"])
+    assert code == 0, err
+    assert "holds for every detector of bench.toml: nothing to measure" in out
+    assert calibration_path(path).read_text() == kept
+
+
+def test_compare_takes_the_calibration_only_where_it_holds_for_base(tmp_path, small_path):
+    """`compare --bench` checks the calibration against the calibration_key BASE's run
+    recorded: where it holds, its noise answers (paired or apart); where BASE ran other
+    parameters, one line says so and it answers nothing; without a record, a note."""
+    from slipbench.app.benchfile import record
+    from slipbench.app.commands.compare import _calibration
+    from slipbench.stats.noise import SeedNoise
+
+    path = _bench(tmp_path, small_path)
+    _calibrate_by_hand(path, paired_sd=0.3, apart_sd=1.0)
+    bench = load_benchmark(path)
+    record(bench, tmp_path / "base", plan_runs(bench, check_gate=False))
+    sources, notes = _calibration(path, tmp_path / "base")
+    assert notes == [] and len(sources) == 1
+    at = ("holweg", "window-size", "accuracy", None)
+    assert sources[0].seed_noise(*at, True) == SeedNoise(0.3**2 / 1e4, 20.0, CALIBRATED)
+    assert sources[0].seed_noise(*at, False) == SeedNoise(1.0 / 1e4, 19.0, CALIBRATED)
+
+    (tmp_path / "x").mkdir()
+    other = load_benchmark(_bench(tmp_path / "x", small_path, keep=0.7))
+    record(other, tmp_path / "old", plan_runs(other, check_gate=False))
+    sources, notes = _calibration(path, tmp_path / "old")
+    assert sources[0].seed_noise(*at, True) is None
+    assert notes == [
+        "bench.calibration.json is stale for holweg: its parameters changed since it was "
+        "calibrated; the gate falls back to the pull request's own seeds until `slipbench "
+        "calibrate` measures it again"
+    ]
+    (tmp_path / "bare").mkdir()
+    sources, notes = _calibration(path, tmp_path / "bare")
+    assert sources == [] and "BASE holds no record of a benchmark run's code" in notes[0]
+    (tmp_path / "bare" / "benchmark.json").write_text("[")
+    with pytest.raises(DataError, match="bare/benchmark.json: not a benchmark run's record"):
+        _calibration(path, tmp_path / "bare")

@@ -122,6 +122,21 @@ def test_a_section_joins_the_plan(tmp_path, monkeypatch):
     assert f"## What the gate can see\n\n{len(p.plan.cells)} cells" in render(p)
 
 
+def test_the_gates_section_ends_the_plan_of_a_file_with_a_gate(tmp_path):
+    """`run --plan` says what the gate can see after issue 49's sections; a file without
+    [gate] has no such section."""
+    without = render(planning(load_benchmark(_file(tmp_path, 0.002)), [], print))
+    assert "## The gate" not in without
+    path = _file(tmp_path, 0.002, "gated.toml")
+    text = path.read_text().replace("jobs = 2", "jobs = 2\nrepeats = 2")
+    path.write_text(text + "[gate]\naccuracy = 2.0\nbudget = 4\n")
+    text = render(planning(load_benchmark(path), [], print))
+    gate = text.index("## The gate ([gate])")
+    assert gate > text.index("## On SLURM")
+    assert "gate: 2 seeds a side, up to 4 in looks of 2 (2, 4)" in text[gate:]
+    assert "no calibration (gated.calibration.json)" in text[gate:]
+
+
 @pytest.mark.slow  # plans the paper's 4000 cells on its own size: see CHANGELOG for the time
 def test_the_paper_file_plans_at_its_own_size_with_its_slurm_table(cli):
     code, out, err = cli(["run", str(ROOT / "reports" / "paper.toml"), "--plan"])

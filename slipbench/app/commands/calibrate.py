@@ -19,6 +19,7 @@ class CalibrateArgs:
     seeds: int
     jobs: int | None
     work: Path | None
+    if_stale: bool
     quiet: bool
 
 
@@ -38,6 +39,13 @@ class CalibrateArgs:
     type=click.Path(path_type=Path, file_okay=False),
     help="Folder for the calibration's results (an interrupted calibration resumes from them) "
     "[default: calibration/ in the file's benchmark.out].",
+)
+@click.option(
+    "--if-stale",
+    is_flag=True,
+    help="Measure only where the calibration beside the file does not hold for every detector "
+    "(none yet, the bench's settings, a detector's parameters or code changed): what a "
+    "workflow runs on each push to main.",
 )
 @quiet_option()
 def calibrate_command(**options) -> None:
@@ -59,6 +67,10 @@ def calibrate_command(**options) -> None:
             '"channels"'
         )
     runs = plan_runs(bench, click.echo, check_gate=False)  # this is how a refused gate is mended
+    now = status(bench, runs)
+    if o.if_stale and now.calibration is not None and not now.stale:
+        click.echo(f"{now.path} holds for every detector of {bench.path.name}: nothing to measure")
+        return
     work = o.work or bench.out / "calibration"
     target = calibration_path(bench.path)
     for path in (work, target.parent):

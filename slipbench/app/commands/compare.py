@@ -53,7 +53,9 @@ class CompareArgs:
 @click.option(
     "--bench",
     type=click.Path(path_type=Path, dir_okay=False),
-    help="A benchmark file whose [gate] table gives the figures and tolerances.",
+    help="A benchmark file whose [gate] table gives the figures, tolerances and seeds' budget "
+    "(the comparison decides at the look BASE's and CANDIDATE's seeds make), and whose "
+    "calibration, where it holds for BASE's detectors, gives the seed noise.",
 )
 @click.option(
     "--max-width",
@@ -100,7 +102,10 @@ def compare_command(**options) -> None:
     from slipbench.stats.compare import compare
 
     add_plugin_folders(o.plugins)
-    result = compare(o.base, o.candidate, gate_from(o.figures, o.bench, o.margin, o.max_width))
+    gate = gate_from(o.figures, o.bench, o.margin, o.max_width)
+    sources, notes = _calibration(o.bench, o.base) if o.bench is not None else ([], [])
+    result = compare(o.base, o.candidate, gate, sources=sources)
+    result.notes.extend(notes)
     if result.rows is not None:  # rows written before they recorded their layouts
         result = replace(result, rows=recorded_plugins(result.rows))
     texts = {
@@ -129,4 +134,30 @@ def gate_from(figures: tuple[str, ...], bench: Path | None, margin: float | None
     tolerances = {f: DEFAULT_TOLERANCE.get(f, 1.0) for f in named or DEFAULT_TOLERANCE}
     if margin is not None:
         tolerances |= {f: margin for f in tolerances if unit(f) == "points"}
-    return Gate(tolerances | explicit, max_width)
+    if bench is None:
+        return Gate(tolerances | explicit, max_width)
+    b = load_benchmark(bench)
+    return Gate(tolerances | explicit, max_width, b.repeats, max(b.repeats, b.seeds_budget))
+
+
+def _calibration(bench: Path, base: Path) -> tuple[list, list[str]]:
+    """The calibration beside ``bench`` where it holds for BASE's detectors (checked against
+    the ``calibration_key`` BASE's run recorded), and the lines saying where it does not."""
+    import json
+
+    from slipbench.app.benchfile import RECORD_FILE, load_benchmark
+    from slipbench.app.calibrate import recorded_status
+    from slipbench.errors import DataError
+
+    record = base / RECORD_FILE
+    try:
+        key = json.loads(record.read_text()).get("calibration_key") if record.is_file() else None
+    except (ValueError, AttributeError) as exc:
+        raise DataError(f"{record}: not a benchmark run's record ({exc})") from exc
+    if key is None:
+        return [], [
+            f"BASE holds no record of a benchmark run's code ({RECORD_FILE}): the calibration "
+            "is not checked against it, and the seed noise rests on the sides' own seeds"
+        ]
+    found = recorded_status(load_benchmark(bench), key)
+    return found.sources(), found.lines()

@@ -1,0 +1,222 @@
+"""The gate's noise from outside a comparison (a calibration: any NoiseSource) and its looks at
+more seeds: which look stored seeds make, each look's level, and when an interim look passes.
+Small synthetic result folders with predictions (tests/resultgen.py:predictions_pair)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from resultgen import predictions_pair
+from scipy.stats import t as student_t
+
+from slipbench.stats.compare import (
+    POOLED_ALPHA,
+    Look,
+    _pooled_verdict,
+    compare,
+    look_at,
+    look_level,
+    measured_noise,
+)
+from slipbench.stats.contrast import family_level
+from slipbench.stats.gate import Gate
+from slipbench.stats.noise import SeedNoise, combined
+
+
+class Source:
+    """A NoiseSource answering ``variance`` on ``df`` for every figure, keeping what it was
+    asked (detector, protocol, figure, cell, paired)."""
+
+    def __init__(self, variance: float, df: float = 40.0, name: str = "a measured source"):
+        self.noise = SeedNoise(variance, df, name)
+        self.asked: list[tuple] = []
+
+    def seed_noise(self, detector, protocol, figure, cell, paired):
+        self.asked.append((detector, protocol, figure, cell, paired))
+        return self.noise
+
+
+class Silent:
+    def seed_noise(self, detector, protocol, figure, cell, paired):
+        return None
+
+
+def _acc(cmp):
+    (row,) = cmp.pooled[cmp.pooled["figure"] == "accuracy"].to_dict("records")
+    return row
+
+
+def test_sources_are_combined_by_their_degrees_of_freedom():
+    a, b = SeedNoise(1.0, 10, "the bench's calibration"), SeedNoise(4.0, 30, "the history")
+    both = combined([a, b])
+    assert both is not None
+    assert both.variance == pytest.approx((10 * 1.0 + 30 * 4.0) / 40) and both.df == 40
+    assert both.source == "the bench's calibration and the history"
+    assert combined([]) is None
+    assert measured_noise([Silent(), Source(2.0, 5)], ("d", "p", None), "accuracy", True) == (
+        SeedNoise(2.0, 5, "a measured source")
+    )
+
+
+@pytest.mark.parametrize(
+    ("cand_seeds", "paired"), [((0, 1, 2), True), ((3, 4, 5), False)], ids=["same", "apart"]
+)
+def test_a_measured_noise_replaces_the_sides_own_spread_and_stays_paired(
+    tmp_path, cand_seeds, paired
+):
+    """The source is asked per cell and per protocol's mean, for the design the seeds make
+    (paired where both sides ran the same seeds); a large measured variance widens both the
+    cells' and the pooled test's intervals, and the pooled test names its source."""
+    sides = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=cand_seeds, flip=0.05
+    )
+    own = compare(*sides)
+    loud = Source(0.04)  # a 20-point seed SD
+    measured = compare(*sides, sources=[loud])
+    assert {a[4] for a in loud.asked} == {paired}
+    assert {a[3] for a in loud.asked} >= {None, *map(str, own.cells["cell"])}
+    width = lambda c: (c.cells["d_accuracy_hi"] - c.cells["d_accuracy_lo"]).mean()  # noqa: E731
+    assert width(measured) > 1.2 * width(own)
+    wide, narrow = _acc(measured), _acc(own)
+    assert wide["change_hi"] - wide["change_lo"] > 2 * (narrow["change_hi"] - narrow["change_lo"])
+    assert wide["noise"] == "a measured source" and narrow["noise"] == ""
+    assert measured.measured == "a measured source" and own.measured == ""
+
+
+def test_a_measured_noise_with_many_degrees_of_freedom_narrows_three_seeds(tmp_path):
+    """Three seeds a side carry two degrees of freedom; the same variance measured on forty
+    gives a smaller t quantile, so the pooled interval narrows."""
+    sides = predictions_pair(tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(3, 4, 5))
+    own = _acc(compare(*sides))
+    var = (own["change_se"] / 100) ** 2 * 3 / 2  # about the sides' own seed variance
+    measured = _acc(compare(*sides, sources=[Source(var, df=400)]))
+    assert measured["df"] > own["df"]
+    assert measured["change_hi"] - measured["change_lo"] < own["change_hi"] - own["change_lo"]
+
+
+def test_the_look_is_the_last_one_the_stored_seeds_reach():
+    gate = Gate(seeds=3, budget=12)
+    assert look_at(gate, 3) == Look(0, 3, False, 6)
+    assert look_at(gate, 7) == Look(1, 7, False, 9)
+    assert look_at(gate, 2) == Look(0, 2, False, 3)  # short of the first look: its seeds next
+    assert look_at(gate, 12) == Look(3, 12, True, 0)
+    assert look_at(Gate(), 3) == Look(0, 3, True, 0)  # no budget: one look
+    assert look_at(Gate(seeds=3, budget=3), 3).final
+
+
+def test_each_look_spends_its_share_and_one_look_is_bonferroni():
+    assert look_level(Gate(), look_at(Gate(), 3), 3, POOLED_ALPHA) == family_level(3, POOLED_ALPHA)
+    gate = Gate(seeds=3, budget=12)
+    levels = [look_level(gate, look_at(gate, n), 3, POOLED_ALPHA) for n in (3, 6, 9, 12)]
+    # O'Brien-Fleming: the first look is far stricter, the last a little stricter than one look
+    assert levels[0] > levels[1] > levels[2] > levels[3] > family_level(3, POOLED_ALPHA)
+    assert 1 - levels[0] < (1 - family_level(3, POOLED_ALPHA)) / 100
+
+
+def _row(**kw):
+    row = {
+        "figure": "accuracy",
+        "tolerance": 1.5,
+        "change_lo": -0.8,
+        "change_hi": 0.9,
+        "low_n": False,
+        "seeds": 3,
+        "resolution": 0.5,
+        "detectable": 2.0,
+        "final": False,
+        "next_seeds": 6,
+        "bound": 1.2,
+    }
+    return row | kw
+
+
+def test_an_interim_look_passes_only_where_the_drops_bound_lies_inside_the_tolerance():
+    assert _pooled_verdict(_row(), True) == ("within margin", "")
+    verdict, why = _pooled_verdict(_row(bound=1.9), True)
+    # a power rule would pass it (resolution 0.5 <= 1.5): at an interim look it is undecided
+    assert verdict == "undecided"
+    assert "a drop of up to 1.9 points is not ruled out at 3 seeds a side" in why
+    assert "the next look runs 6" in why
+    # the last look: the power rule
+    assert _pooled_verdict(_row(bound=1.9, final=True), True)[0] == "within margin"
+    assert _pooled_verdict(_row(bound=1.9, final=True, resolution=2.0), True)[0] == "undecided"
+    # a flagged change is flagged at any look
+    assert _pooled_verdict(_row(change_lo=-4.0, change_hi=-2.0, bound=4.0), True)[0] == "regressed"
+
+
+def test_compare_decides_at_the_look_of_its_seeds(tmp_path):
+    """The same sides under a gate of looks: the pooled test's bound is the family's, the
+    interval the look's (wider at the first look than under one look)."""
+    sides = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.05
+    )
+    once = compare(*sides, Gate.of(["accuracy"], accuracy=1.5))
+    looks = compare(*sides, Gate({"accuracy": 1.5}, seeds=3, budget=12))
+    assert looks.look == Look(0, 3, False, 6) and once.look.final
+    a, b = _acc(once), _acc(looks)
+    assert b["change_hi"] - b["change_lo"] > a["change_hi"] - a["change_lo"]
+    q = student_t.ppf(1 - POOLED_ALPHA / 2, b["df"])  # one pooled test: the family's level
+    assert b["bound"] == pytest.approx(-b["change"] + q * b["change_se"])
+    assert b["final"] == np.False_ and b["next_seeds"] == 6
+
+
+def test_a_regressed_row_names_each_figure_with_its_own_change():
+    from slipbench.report.compare import _regressed_figures
+
+    row = {
+        "regressed_figures": "tn_rate",
+        "d_tn_rate": -0.16,
+        "d_tn_rate_lo": -0.221,
+        "d_tn_rate_hi": -0.098,
+        "d_accuracy": -0.003,
+    }
+    assert _regressed_figures(row) == ": TN rate (false alarms) -16.0 [-22.1, -9.8]"
+    # the figure the row's Δ column shows is named only
+    both = row | {"regressed_figures": "accuracy, tn_rate"}
+    assert _regressed_figures(both) == ": accuracy, TN rate (false alarms) -16.0 [-22.1, -9.8]"
+    assert _regressed_figures({"regressed_figures": ""}) == ""
+
+
+def _shared_pair(tmp_path):
+    """A pair whose every window-size cell is also a cross-instance cell: the same models
+    (model keys) tested on the same test set, under another protocol and key."""
+    import shutil
+
+    import pandas as pd
+
+    base, cand = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+    )
+    for folder in (base, cand):
+        rows = pd.read_parquet(folder / "results.parquet")
+        rows["model_key"] = "m-" + rows["key"]
+        rows["test_sensors"] = '["Nano17 index"]'
+        twin = rows.assign(protocol="cross-instance", key="x-" + rows["key"])
+        for key in rows["key"]:
+            shutil.copy(
+                folder / "predictions" / f"{key}.parquet",
+                folder / "predictions" / f"x-{key}.parquet",
+            )
+        pd.concat([rows, twin], ignore_index=True).to_parquet(folder / "results.parquet")
+    return base, cand
+
+
+def test_a_cell_two_protocols_share_is_one_test_and_listed_once(tmp_path):
+    from slipbench.report.compare import comment_markdown
+
+    alone = compare(
+        *predictions_pair(
+            tmp_path / "alone", n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+        )
+    )
+    both = compare(*_shared_pair(tmp_path / "shared"))
+    assert len(both.cells) == 6
+    shared = both.cells.set_index("protocol")["shared_with"]
+    assert (shared["cross-instance"] == "window-size").all() and (shared["window-size"] == "").all()
+    # the family counts each cell once: the same level as the three cells alone
+    assert both.level == pytest.approx(alone.level)
+    text = comment_markdown(both)
+    assert (
+        "3 cells of cross-instance are window-size's (the same models tested on the same test set)"
+        in text
+    )
