@@ -52,9 +52,10 @@ def recorded(protocol: str, detector: str) -> dict:
     from slipbench.engine.registry import detectors, protocols
     from slipbench.protocol import described
 
+    known = detector in detectors.names()  # a test's own name (hostile, made up) is no reference
     return {
         **described(protocols.get(protocol)()),
-        "detector_reference": bool(detectors.get(detector).reference),
+        "detector_reference": known and bool(detectors.get(detector).reference),
     }
 
 

@@ -28,7 +28,12 @@ def two_datasets() -> pd.DataFrame:
     base = rows_of("features", "aaaa")
     parts = [base, base.assign(dataset_fingerprint="bbbb", key=base["key"] + "b")]
     for fp, shift in (("aaaa", 0.05), ("bbbb", 0.02)):
-        cand = base.assign(detector="holweg", dataset_fingerprint=fp, key=base["key"] + "h" + fp)
+        cand = base.assign(
+            detector="holweg",
+            detector_reference=False,
+            dataset_fingerprint=fp,
+            key=base["key"] + "h" + fp,
+        )
         cand["accuracy"] += shift
         cand["accuracy_lo"] += shift
         cand["accuracy_hi"] += shift
