@@ -46,8 +46,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
-from scipy.stats import t as student_t
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.stats.bootstrap import LEVEL, IntervalSpec
 from slipbench.stats.metrics import FIGURES, over_seeds, paired_comparison
@@ -141,7 +140,7 @@ def unpaired_cell(base_rows: list[dict], cand_rows: list[dict], level: float) ->
                 else:
                     side_se.append(
                         (float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan)))
-                        / (2 * norm.ppf(0.5 + ROW_LEVEL / 2))
+                        / (2 * scipy.stats.norm.ppf(0.5 + ROW_LEVEL / 2))
                     )
                     df, out["method"] = np.inf, "unpaired (standard errors from 95 % bounds)"
             var = float(np.mean(side_se)) ** 2
@@ -152,7 +151,7 @@ def unpaired_cell(base_rows: list[dict], cand_rows: list[dict], level: float) ->
             ses.append(np.sqrt(var))
         d = means[1] - means[0]
         se = float(np.hypot(ses[0], ses[1]))
-        half = student_t.ppf(1 - (1 - level) / 2, df) * se
+        half = scipy.stats.t.ppf(1 - (1 - level) / 2, df) * se
         lo, hi = (
             (d - half, d + half) if np.isfinite(se) else (-1.0, 1.0)
         )  # no spread known: the whole range
@@ -210,13 +209,13 @@ def _streamed(base_row: dict, cand_row: dict, level: float) -> dict:
             "its machine's compute time (rows from before delays were counted on the stream)"
         )
     out |= compare_compute(base_row, cand_row)
-    z = norm.ppf(1 - (1 - level) / 2)
+    z = scipy.stats.norm.ppf(1 - (1 - level) / 2)
     for name in STREAM_FIGURES:
         d = float(cand_row.get(name, np.nan)) - float(base_row.get(name, np.nan))
         ses = [
             max(
                 (float(r.get(f"{name}_hi", np.nan)) - float(r.get(f"{name}_lo", np.nan)))
-                / (2 * norm.ppf(0.5 + ROW_LEVEL / 2)),
+                / (2 * scipy.stats.norm.ppf(0.5 + ROW_LEVEL / 2)),
                 _resolution(r) if name.endswith("_ms") else 0.0,
             )
             for r in (base_row, cand_row)

@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.stats import t as student_t
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED
 from slipbench.stats.bootstrap import IntervalSpec
@@ -517,7 +517,7 @@ def _pooled_verdicts(
     pooled["p"] = np.minimum(1.0, len(pooled) * np.minimum(p_reg, p_imp))
     pooled["tolerance"] = tol
     with np.errstate(invalid="ignore"):
-        q = student_t.ppf(1 - POOLED_ALPHA / (2 * len(pooled)), df)
+        q = scipy.stats.t.ppf(1 - POOLED_ALPHA / (2 * len(pooled)), df)
     pooled["bound"] = worse + q * se
     pooled["final"], pooled["next_seeds"] = look.final, look.next_seeds
     # the family's error at this look, as the resolution takes it

@@ -71,9 +71,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import brentq
-from scipy.stats import norm
-from scipy.stats import t as student_t
+import scipy  # its stats and optimize load on first use: reading stored rows pays neither
 
 from slipbench.stats.bootstrap import LEVEL, IntervalSpec
 from slipbench.stats.factors import inputs, plain
@@ -204,9 +202,9 @@ def effective_df(half: float, se: float, level: float) -> float:
     if not (se > 0 and np.isfinite(half)):
         return np.nan
     ratio = half / se
-    if ratio <= norm.ppf(q) * (1 + 1e-12):
+    if ratio <= scipy.stats.norm.ppf(q) * (1 + 1e-12):
         return np.inf
-    return float(brentq(lambda d: student_t.ppf(q, d) - ratio, 1e-3, 1e9))
+    return float(scipy.optimize.brentq(lambda d: scipy.stats.t.ppf(q, d) - ratio, 1e-3, 1e9))
 
 
 def from_parts(
@@ -234,7 +232,7 @@ def from_parts(
 def half_width(parts: Sequence[tuple[float, float]], level: float) -> float:
     """Banerjee's half-width of ``parts`` at ``level``: ``sqrt(sum t_i^2 V_i)``."""
     q = 0.5 + level / 2
-    return float(np.sqrt(sum(student_t.ppf(q, df) ** 2 * v for v, df in parts)))
+    return float(np.sqrt(sum(scipy.stats.t.ppf(q, df) ** 2 * v for v, df in parts)))
 
 
 def p_beyond(estimate: float, parts: Sequence[tuple[float, float]], margin: float = 0.0) -> float:
@@ -251,7 +249,7 @@ def p_beyond(estimate: float, parts: Sequence[tuple[float, float]], margin: floa
         return 0.0
     if len(parts) == 1:  # one component: the t-test's own p-value, no root to find
         ((v, df),) = parts
-        return float(min(1.0, 2 * student_t.sf(gap / np.sqrt(v), df)))
+        return float(min(1.0, 2 * scipy.stats.t.sf(gap / np.sqrt(v), df)))
 
     def reach(alpha: float) -> float:
         return half_width(parts, 1 - alpha) - gap
@@ -260,7 +258,7 @@ def p_beyond(estimate: float, parts: Sequence[tuple[float, float]], margin: floa
         return 1.0
     if reach(1e-15) < 0:
         return 0.0
-    return float(brentq(reach, 1e-15, 1 - 1e-12))
+    return float(scipy.optimize.brentq(reach, 1e-15, 1 - 1e-12))
 
 
 def from_rows(
@@ -311,7 +309,7 @@ def from_rows(
 
 def _one_seed(terms: pd.DataFrame) -> tuple[float, float]:
     """One seed's (or one summary's) contrast and its standard error (module docstring)."""
-    z = float(norm.ppf(0.5 + LEVEL / 2))
+    z = float(scipy.stats.norm.ppf(0.5 + LEVEL / 2))
     w = terms["weight"].to_numpy(dtype=float)
     value = float(np.sum(w * terms["mean"].to_numpy(dtype=float)))
     from_bounds = (

@@ -72,7 +72,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-from scipy.stats import bootstrap, rankdata
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.seeding import rng_for
 from slipbench.stats.contrast import (
@@ -532,7 +532,9 @@ def rank_scope(
         empty = pd.Series(dtype=float)
         return Scope(name, 0, n_excluded, empty, empty, pairwise(complete, []), [])
     ranks = pd.DataFrame(
-        rankdata(-complete.to_numpy(), axis=1), index=complete.index, columns=complete.columns
+        scipy.stats.rankdata(-complete.to_numpy(), axis=1),
+        index=complete.index,
+        columns=complete.columns,
     )
     mean = ranks.mean().sort_values(kind="stable")
     order = list(mean.index)
@@ -573,7 +575,7 @@ def _mean_interval(
         values == values[0]
     ):  # nothing to resample; scipy would warn of a degenerate distribution
         return float(values[0]), float(values[0]), float(values[0])
-    res = bootstrap(
+    res = scipy.stats.bootstrap(
         (values,),
         np.mean,
         n_resamples=N_RESAMPLES,

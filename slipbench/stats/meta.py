@@ -32,8 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy.stats import t as student_t
-from statsmodels.stats.meta_analysis import combine_effects
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.stats.bootstrap import LEVEL, IntervalSpec
 from slipbench.stats.contrast import ONE_SEED, pair_seeds, paired_change
@@ -96,6 +95,9 @@ def pool(
     """The random-effects pooled change of ``effects`` with standard errors ``ses`` (two or
     more, every one positive) on degrees of freedom ``dfs`` (module docstring): ``d``, ``lo``,
     ``hi``, ``se``, ``df``, ``tau2``, ``i2``."""
+    # about a second to import: paid where a pooling needs it, never by a read of stored rows
+    from statsmodels.stats.meta_analysis import combine_effects
+
     d_i, se_i = np.asarray(effects, float), np.asarray(ses, float)
     df_i = np.asarray(dfs, float)
     with np.errstate(divide="ignore"):  # its I² divides by Q; computed below
@@ -111,7 +113,7 @@ def pool(
     spread += between**2 / (k - 1)
     var = float(within.sum()) + between
     df = var**2 / spread if spread > 0 else np.inf
-    half = float(student_t.ppf(0.5 + level / 2, df) * np.sqrt(var))
+    half = float(scipy.stats.t.ppf(0.5 + level / 2, df) * np.sqrt(var))
     # I² = max(0, (Q - df) / Q); statsmodels divides by Q, which is 0 where the effects agree
     q = float(res.q)
     return {

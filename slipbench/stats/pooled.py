@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.stats import t as student_t
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.errors import DataError
 from slipbench.stats.bootstrap import (
@@ -277,7 +277,7 @@ def pooled_from_rows(
         "se": float(np.mean(se)),
         "df": float(np.nanmin(np.asarray(df, float))),
     }
-    q = student_t.ppf(1 - (1 - level) / 2, out["df"])
+    q = scipy.stats.t.ppf(1 - (1 - level) / 2, out["df"])
     return out | {"lo": out["d"] - q * out["se"], "hi": out["d"] + q * out["se"]}
 
 

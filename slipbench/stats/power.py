@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass
 from functools import cache
 
-from scipy.stats import t as student_t
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.stats.gate import POWER
 from slipbench.stats.sequential import boundaries, fractions_of
@@ -91,7 +91,7 @@ def resolution(sd: float, df: float, seeds: int, level: float) -> float:
         return math.nan
     if sd == 0:
         return 0.0
-    q = student_t.isf(level, df) + student_t.ppf(POWER, df)
+    q = scipy.stats.t.isf(level, df) + scipy.stats.t.ppf(POWER, df)
     return float(sd / math.sqrt(seeds) * q)
 
 

@@ -31,9 +31,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
-from scipy.special import ndtr
-from scipy.stats import norm
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 #: grid points per standard deviation of the narrowest increment in the recursive integration
 #: (8 gives the boundaries to 1e-5: 16 and 32 agree, and so does the exact second look)
@@ -50,7 +48,7 @@ def spending(fractions: Sequence[float] | np.ndarray, alpha: float) -> np.ndarra
         raise ValueError(f"information fractions must lie in (0, 1], got {t.tolist()}")
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must lie in (0, 1), got {alpha}")
-    return 2 * norm.sf(norm.isf(alpha / 2) / np.sqrt(t))
+    return 2 * scipy.stats.norm.sf(scipy.stats.norm.isf(alpha / 2) / np.sqrt(t))
 
 
 @dataclass(frozen=True)
@@ -75,7 +73,7 @@ class Boundaries:
     def nominal(self) -> tuple[float, ...]:
         """Each look's nominal one-sided level ``1 - Phi(c_k)``: a look flags where its
         one-sided p-value is at most this."""
-        return tuple(float(norm.sf(c)) for c in self.z)
+        return tuple(float(scipy.stats.norm.sf(c)) for c in self.z)
 
     @property
     def looks(self) -> int:
@@ -92,7 +90,7 @@ def boundaries(fractions: Sequence[float], alpha: float) -> Boundaries:
     spent = spending(t, alpha)
     targets = np.diff(spent, prepend=0.0)
     walk = _Walk(t, 0.0)
-    z = [float(norm.isf(targets[0]))]
+    z = [float(scipy.stats.norm.isf(targets[0]))]
     for k in range(1, len(t)):
         first_cross = walk.step_to(k, z[-1] * np.sqrt(t[k - 1]))
         z.append(_critical(first_cross, float(np.sqrt(t[k])), float(targets[k])))
@@ -102,7 +100,7 @@ def boundaries(fractions: Sequence[float], alpha: float) -> Boundaries:
 def _critical(first_cross: Callable[[float], float], root_t: float, target: float) -> float:
     """The critical z whose first-crossing chance (``first_cross`` of the score ``z *
     sqrt(t)``) is ``target``."""
-    return float(brentq(lambda c: first_cross(c * root_t) - target, -10.0, 40.0))
+    return float(scipy.optimize.brentq(lambda c: first_cross(c * root_t) - target, -10.0, 40.0))
 
 
 def crossing(bounds: Boundaries, drift: float = 0.0) -> np.ndarray:
@@ -112,7 +110,7 @@ def crossing(bounds: Boundaries, drift: float = 0.0) -> np.ndarray:
     t = np.asarray(bounds.fractions)
     b = np.asarray(bounds.z) * np.sqrt(t)
     walk = _Walk(t, drift)
-    out = [float(norm.sf((b[0] - drift * t[0]) / np.sqrt(t[0])))]
+    out = [float(scipy.stats.norm.sf((b[0] - drift * t[0]) / np.sqrt(t[0])))]
     for k in range(1, len(t)):
         out.append(walk.step_to(k, b[k - 1])(b[k]))
     return np.array(out)
@@ -128,7 +126,7 @@ def detectable_drift(bounds: Boundaries, chance: float = 0.8) -> float:
     with probability ``chance``: a change of that many standard errors at the budget."""
     if not bounds.alpha < chance < 1:
         raise ValueError(f"power must lie in ({bounds.alpha}, 1), got {chance}")
-    return float(brentq(lambda d: power(bounds, d) - chance, 0.0, 40.0, xtol=1e-9))
+    return float(scipy.optimize.brentq(lambda d: power(bounds, d) - chance, 0.0, 40.0, xtol=1e-9))
 
 
 def fractions_of(seeds: Sequence[int], budget: int) -> list[float]:
@@ -157,7 +155,9 @@ class _Walk:
         self.t, self.drift = t, drift
         # the grid step: the narrowest increment's sd over GRID_PER_SD
         self.h = float(np.sqrt(np.diff(t, prepend=0.0)).min()) / GRID_PER_SD
-        self.density = lambda y: norm.pdf(y, drift * t[0], np.sqrt(t[0]))  # the first look's
+        self.density = lambda y: scipy.stats.norm.pdf(
+            y, drift * t[0], np.sqrt(t[0])
+        )  # the first look's
 
     def step_to(self, k: int, b_prev: float) -> Callable[[float], float]:
         """Cut the density of look ``k - 1`` at ``b_prev`` (paths at or above it stopped), move
@@ -170,7 +170,7 @@ class _Walk:
         sd, shift = np.sqrt(dt), self.drift * dt
         scaled = g / (sd * np.sqrt(2 * np.pi))
         self.density = lambda y: np.exp(-0.5 * ((y[:, None] - x - shift) / sd) ** 2) @ scaled
-        return lambda b: float(g @ ndtr((x + shift - b) / sd))
+        return lambda b: float(g @ scipy.special.ndtr((x + shift - b) / sd))
 
 
 def _simpson(lo: float, hi: float, h: float) -> tuple[np.ndarray, np.ndarray]:

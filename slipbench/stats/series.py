@@ -28,7 +28,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import pandas as pd
-from scipy.stats import norm
+import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.stats.factors import CELLS, factor_values, named_entrants
 from slipbench.stats.metrics import LEVEL
@@ -101,7 +101,7 @@ def _standard_error(rows: pd.DataFrame, figure: str) -> pd.Series:
     if f"{figure}_lo" not in rows or f"{figure}_hi" not in rows:
         return pd.Series(np.nan, index=rows.index)
     hi, lo = (pd.to_numeric(rows[f"{figure}{b}"], errors="coerce") for b in ("_hi", "_lo"))
-    return (hi - lo) / (2 * norm.ppf(1 - (1 - LEVEL) / 2))
+    return (hi - lo) / (2 * scipy.stats.norm.ppf(1 - (1 - LEVEL) / 2))
 
 
 def _label(identity: dict) -> str:
