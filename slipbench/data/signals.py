@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
+from slipbench.data.channels import channel_orders
 from slipbench.data.format import Dataset
 from slipbench.data.schema import UNIVARIATE_CHANNELS
 from slipbench.errors import UsageError
@@ -142,7 +143,8 @@ class Signals:
         (``majority``, ``any``, ``last``) leaves out every window of the other recordings, so
         that no window is silently labelled by its scenario under their name.
     channels : per recording, its raw readings a_0 ... a_n (n_r + 1, n_channels): the
-        dataset's arrays, no copy; None for signals made without them. Sample t of the signal
+        dataset's arrays (a copy where :func:`channel_orders` reorders a recording's columns
+        to match the others' by name and unit); None for signals made without them. Sample t of the signal
         spans readings t and t + 1, so reading t + 1 stands under it: the windows of the
         ``channels`` input (:meth:`channel_values`) are cut from ``channels[r][1:]``.
     """
@@ -178,7 +180,10 @@ class Signals:
             dataset.recordings.reset_index(drop=True),
             np.concatenate(labels).astype(np.int8),
             has_sample_labels(dataset),
-            [dataset.samples[r] for r in ids],
+            [
+                dataset.samples[r] if order is None else dataset.samples[r][:, order]
+                for r, order in zip(ids, channel_orders(rec))
+            ],
         )
 
     @classmethod
@@ -348,7 +353,7 @@ class Signals:
         :meth:`antialiased_channels`); by default :attr:`channels`.
 
         UsageError where the windows' recordings differ in their number of channels (the
-        planner skips such cells first, saying which units differ).
+        planner skips such cells first, naming each unit's channels).
         """
         source = self.channels if channels is None else channels
         if source is None:

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.base import BaseDetector
+from slipbench.data.channels import channel_match
 from slipbench.data.format import Dataset
 from slipbench.data.signals import (
     LABELLINGS,
@@ -439,6 +440,8 @@ class PlannedCell:
     test: Windows | None = None
     sampling_rate: float = 0.0
     skip: str = ""
+    # what planning chose for the cell that its row must say (its warnings)
+    notes: list[str] = field(default_factory=list)
     streams: dict[str, np.ndarray] | None = (
         None  # streaming cells: "train"/"test" -> recording rows
     )
@@ -648,7 +651,7 @@ def make_plan(
             if pc.skip:
                 continue
             if run.input == "channels":
-                pc.skip = _channel_count(signals, train.recording, test.recording)
+                _match_channels(pc, signals, train.recording, test.recording)
                 if pc.skip:
                     continue
             for windows, role in ((train, "train"), (test, "test")):
@@ -661,18 +664,12 @@ def make_plan(
     return Plan(planned, list(tasks.values()), data)
 
 
-def _channel_count(signals: Signals, *rows: np.ndarray) -> str:
-    """Why a cell cannot read the channels input: its recordings (``rows``, on both sides)
-    differ in their number of channels (channels are matched by position); "" if they agree."""
-    rec = signals.recordings.iloc[np.unique(np.concatenate(rows))]
-    counts = rec.groupby("n_channels", sort=True)
-    if counts.ngroups < 2:
-        return ""
-    shown = "; ".join(
-        f"{int(n)} in {', '.join(sorted(set(g['sensor_type'] + ' ' + g['sensor_instance'])))}"
-        for n, g in counts
-    )
-    return f"the channels input needs one channel count per cell; its recordings have {shown}"
+def _match_channels(pc: PlannedCell, signals: Signals, *rows: np.ndarray) -> None:
+    """Skip a channels-input cell whose recordings (``rows``, on both sides) name different
+    channels or units, saying which; note where some were reordered to match by name."""
+    pc.skip, note = channel_match(signals.recordings, *rows)
+    if note:
+        pc.notes.append(note)
 
 
 def _data(
@@ -725,7 +722,7 @@ def _plan_stream(
     pc.streams = {side.side: cells_data.streamed(side) for side in (cell.train, cell.test)}
     test = pc.streams["test"]
     if run.input == "channels":
-        pc.skip = _channel_count(signals, pc.train.recording, test, pc.streams["train"])
+        _match_channels(pc, signals, pc.train.recording, test, pc.streams["train"])
         if pc.skip:
             return
     if not len(test):

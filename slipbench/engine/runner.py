@@ -304,7 +304,10 @@ class _Recorder:
         if isinstance(result, Stored):
             self.rows[pc.key] = result.fields
             return
-        row = _row(pc, {**result.fields, **_scales(self.plan, pc)}, self.stamp)
+        fields = {**result.fields, **_scales(self.plan, pc)}
+        if pc.notes and fields.get("status") == "ok":
+            fields["warnings"] = "; ".join([*pc.notes, *filter(None, [fields.get("warnings")])])
+        row = _row(pc, fields, self.stamp)
         predictions = None
         if result.scores is not None:  # the scores of test windows (a streaming cell keeps none)
             rec, test = self.signals.recordings, pc.windows("test")
