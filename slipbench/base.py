@@ -407,6 +407,14 @@ class BaseDetector(Parameterized):
         shown by the report; a band at 0 Hz or reaching Nyquist is flagged there."""
         return {}
 
+    def overrides(self) -> dict[str, tuple[Any, str]]:
+        """The declared parameters this fit ran with another value than the one asked:
+        ``{name: (the value that ran, why)}`` (plain JSON values), e.g. ``{"band": ([0.6, 2.16],
+        "above Nyquist 2.4 Hz")}``; none by default. The engine makes each a warning of the
+        row and keeps it in ``fitted`` (``"overrides"``); reports show the value that ran,
+        beside the one asked (:func:`slipbench.store.columns.overridden`)."""
+        return {}
+
     @classmethod
     def benchmark(cls, length: int, seconds: float, seed: int = 0) -> Any:
         """Optional: the detector's own speed figures (a DataFrame) against a reference timed in

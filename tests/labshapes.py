@@ -59,3 +59,34 @@ def holdslip(
                 )
             )
     return read_dataset(write_dataset(folder / "holdslip", pd.DataFrame(rows), samples, slip))
+
+
+def slow_imu(folder, rate: float = 4.8, trials: int = 12, n: int = 120, seed: int = 3) -> Dataset:
+    """A finger IMU at ``rate`` Hz (a few Hz: bandpass's 50-400 Hz band lies above Nyquist)
+    whose per-frame labels come in bursts of 1-2 frames, each burst shaking the readings."""
+    rng = np.random.default_rng(seed)
+    rows, samples, slip = [], {}, {}
+    for k in range(trials):
+        lab = np.zeros(n, bool)
+        for start in rng.choice(np.arange(5, n - 3), size=n // 10, replace=False):
+            lab[start : start + rng.integers(1, 3)] = True
+        a = rng.normal(0, 0.05, (n, 3)).cumsum(0) + 9.8
+        a[lab] += rng.normal(0, 1.5, (int(lab.sum()), 3))
+        rid = f"imu-{k}"
+        samples[rid], slip[rid] = a, lab
+        rows.append(
+            dict(
+                recording_id=rid,
+                sensor_type="IMU",
+                sensor_instance="index",
+                scenario="hold-slip",
+                material=("foam", "wood")[k % 2],
+                speed_mm_s=None,
+                sampling_rate_hz=rate,
+                channels=("ax", "ay", "az"),
+                units=("m/s^2",) * 3,
+                source="lab shapes",
+                trial=f"t{k}",
+            )
+        )
+    return read_dataset(write_dataset(folder / "imu", pd.DataFrame(rows), samples, slip))

@@ -109,6 +109,21 @@ SECTIONS: list[tuple[str, str, list[Entry]]] = [
                 'assert "threshold" in ReportedEnergy().fit(x, y).fitted_choices()\n',
             ),
             Entry(
+                "slipbench.base:BaseDetector.overrides",
+                "class FewWindowsEnergy(Energy):\n"
+                "    def overrides(self):  # the fit ran the median: too few windows for the tail\n"
+                "        if len(self.seen_) < 1000 and self.quantile > 0.9:\n"
+                '            return {"quantile": (0.5, f"{len(self.seen_)} windows")}\n'
+                "        return {}\n"
+                "\n"
+                "    def _fit(self, x, y, seed):\n"
+                "        self.seen_ = x\n"
+                "        super()._fit(x, y, seed)\n"
+                "\n"
+                "\n"
+                'assert FewWindowsEnergy(quantile=0.95).fit(x, y).overrides() == {"quantile": (0.5, "100 windows")}\n',
+            ),
+            Entry(
                 "slipbench.base:BaseDetector.report_progress",
                 "class PatientEnergy(Energy):\n"
                 "    def _fit(self, x, y, seed):\n"

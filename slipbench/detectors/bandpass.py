@@ -5,7 +5,8 @@ empirical CDFs of slip and non-slip energies separate most, as ``holweg`` does.
 
 The band is clipped to 0.9 times the Nyquist frequency. Fallback for low sampling rates: when the
 clipped band is empty (its low edge at or above the clipped top), the detector uses
-[Nyquist / 4, 0.9 Nyquist] instead, and says so in ``band_hz_`` and ``band_fallback_``.
+[Nyquist / 4, 0.9 Nyquist] instead, and says so in ``band_hz_`` and ``band_fallback_``. Either
+change is declared as an override of ``band`` (a warning of the row; reports show what ran).
 """
 
 from __future__ import annotations
@@ -70,6 +71,18 @@ class BandPass(BaseDetector):
             "threshold": self.threshold_,
             "separation": self.separation_,
         }
+
+    def overrides(self):
+        asked = (50.0, 400.0) if self.band is None else tuple(map(float, self.band))
+        if tuple(self.band_hz_) == asked:
+            return {}
+        nyquist = self.sampling_rate_ / 2
+        why = (
+            f"above Nyquist {nyquist:.3g} Hz, replaced by [Nyquist / 4, 0.9 Nyquist]"
+            if self.band_fallback_
+            else f"its top clipped to 0.9 x Nyquist ({nyquist:.3g} Hz)"
+        )
+        return {"band": ([round(f, 3) for f in self.band_hz_], why)}
 
     def _predict_proba(self, x):
         z = self.direction_ * (self._energy(x) - self.threshold_) / self.scale_

@@ -23,7 +23,7 @@ from slipbench.base import BaseDetector, FitJob, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
-from slipbench.store.columns import BALANCED_ACCURACY
+from slipbench.store.columns import BALANCED_ACCURACY, overridden
 from slipbench.store.keys import file_digest, unkeyed
 from slipbench.store.reads import reading
 from slipbench.store.results import write_text_atomic
@@ -332,10 +332,23 @@ def _choices(
     detector: BaseDetector, sampling_rate: float, warnings: list[str] | None = None
 ) -> dict[str, Any]:
     """The detector's fitted choices as JSON (and ``epochs``, where it reports the epochs it
-    ran), and warnings: ``warnings`` given, then about a band that thresholds drift (from 0 Hz)
-    or reaches the Nyquist frequency."""
+    ran), with the parameters it ran otherwise than asked (``overrides``), and warnings:
+    ``warnings`` given, then one per override, then about a band that thresholds drift (from
+    0 Hz) or reaches the Nyquist frequency."""
     choices = detector.fitted_choices()
     warnings = list(warnings or [])
+    ran = detector.overrides()
+    if ran:
+        asked = detector.get_params()
+        choices["overrides"] = json.loads(
+            json.dumps(
+                {k: {"ran": v, "asked": asked.get(k), "why": why} for k, (v, why) in ran.items()}
+            )
+        )
+        warnings += [
+            f"ran {overridden(k, v['ran'], v['asked'], v['why'])}"
+            for k, v in choices["overrides"].items()
+        ]
     band = choices.get("band_hz")
     if band is not None:
         if band[0] <= 0:

@@ -22,6 +22,7 @@ from slipbench.atomic import open_parquet
 from slipbench.errors import DataError
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
 from slipbench.stats.bootstrap import DEFAULT_METHOD, FIGURES_AS
+from slipbench.store.columns import overridden
 from slipbench.vocabulary import cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
@@ -272,6 +273,32 @@ def _params(text: str) -> str:
     )
 
 
+def _ran(text: str, rows: pd.DataFrame) -> str:
+    """The parameters ``text`` (JSON) as ``rows``' finished fits ran them: a parameter a fit
+    overrode (``fitted``'s ``overrides``) shows the value that ran, the one asked and why, and
+    in how many cells where not in all."""
+    ok = rows[(rows["status"] == "ok") & rows["fitted"].notna()] if "fitted" in rows else rows[:0]
+    seen: Counter[tuple[str, str]] = Counter()
+    for fitted in ok["fitted"]:
+        for name, o in json.loads(fitted or "{}").get("overrides", {}).items():
+            seen[(name, overridden(name, o["ran"], o["asked"], o["why"]))] += 1
+    try:
+        params = json.loads(text)
+    except (TypeError, json.JSONDecodeError):
+        params = None
+    if not seen or not isinstance(params, dict):
+        return _params(text)
+    shown = []
+    for name, value in params.items():
+        mine = [(said, n) for (k, said), n in seen.items() if k == name]
+        shown += [
+            said + ("" if n == len(ok) else f" in {n} of {len(ok)} cells") for said, n in mine
+        ]
+        if not mine:
+            shown.append(f"{name}={json.dumps(value, separators=(', ', ': '))}")
+    return "; ".join(shown)
+
+
 def _counts(rows: pd.DataFrame) -> str:
     counts = rows["status"].value_counts()
     others = [s for s in counts.index if s not in STATUSES]
@@ -405,7 +432,7 @@ def header_tables(
         det_rows.append((str(det),))
         det_cells.append(
             [
-                _params(params) if isinstance(params, str) and params else "(not recorded)",
+                _ran(params, part) if isinstance(params, str) and params else "(not recorded)",
                 _counts(part),
             ]
         )
@@ -456,6 +483,11 @@ def _unit(row: dict) -> tuple[str, str]:
     return str(row.get("sensor_type", "")), str(instance if isinstance(instance, str) else "")
 
 
+def _hz(f: float) -> str:
+    """A band edge: whole hertz, or two digits below 10 Hz (a slow sensor's band)."""
+    return f"{f:.0f}" if abs(f) >= 10 or f == 0 else f"{f:.2g}"
+
+
 def _summary(values: list) -> str:
     """Values fitting chose over several cells, in a few words."""
     if all(isinstance(v, bool) for v in values):
@@ -466,7 +498,7 @@ def _summary(values: list) -> str:
             f" ({x.min():.3g} to {x.max():.3g})" if x.min() != x.max() else ""
         )
     if all(isinstance(v, list) and len(v) == 2 for v in values):
-        counted = Counter(f"{v[0]:.0f}–{v[1]:.0f}" for v in values).most_common()
+        counted = Counter(f"{_hz(v[0])}–{_hz(v[1])}" for v in values).most_common()
         text = ", ".join(f"{b} ({n})" for b, n in counted[:TOP_VALUES])
         return text + (f", {len(counted) - TOP_VALUES} more" if len(counted) > TOP_VALUES else "")
     counted = Counter(json.dumps(v) for v in values).most_common()
@@ -491,7 +523,10 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
                 per_unit.setdefault(_unit(row), []).append(choices)
         if not per_unit:
             continue
-        keys = list(dict.fromkeys(k for cs in per_unit.values() for c in cs for k in c))
+        # what overrode a parameter shows in the parameters table and the warnings
+        keys = list(
+            dict.fromkeys(k for cs in per_unit.values() for c in cs for k in c if k != "overrides")
+        )
         units = sorted(
             per_unit,
             key=lambda u: (

@@ -474,7 +474,12 @@ FIT = (
         "its 95 % Wilson upper bound",
         FRACTION,
     ),
-    Column("fitted", STR, JSON, "what the fit chose (bands, thresholds)"),
+    Column(
+        "fitted",
+        STR,
+        JSON,
+        "what the fit chose (bands, thresholds); 'overrides': parameters it ran otherwise than asked",
+    ),
     Column("epochs", INT, "", "epochs a network trained", AT_LEAST_0),
     Column("warnings", STR, "", "warnings about the fit, '; '-separated"),
     Column(
@@ -518,6 +523,21 @@ _ACCEPTS: dict[str, tuple[type, ...]] = {
     "float64": (float, int, np.floating, np.integer),
     "bool": (bool, np.bool_),
 }
+
+
+def _shown(value: Any) -> str:
+    """A parameter's value as a reader reads it: numbers in %g, lists in brackets."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_shown(v) for v in value) + "]"
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    return "null" if value is None else str(value)
+
+
+def overridden(name: str, ran: Any, asked: Any, why: str) -> str:
+    """A parameter that ran with another value than the one asked, as rows and reports say
+    it: ``band=[0.6, 2.16] (asked [50, 400]: above Nyquist 2.4 Hz)``."""
+    return f"{name}={_shown(ran)} (asked {_shown(asked)}: {why})"
 
 
 def row_problems(row: dict[str, Any]) -> list[str]:

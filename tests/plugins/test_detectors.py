@@ -29,6 +29,12 @@ def test_bandpass_clips_the_band_and_falls_back(rate, band, fallback):
     x, y = toy_windows(100, 30)
     d = detectors.get("bandpass")().fit(x, y, sampling_rate=rate)
     assert d.band_hz_ == pytest.approx(band) and d.band_fallback_ is fallback
+    # what ran otherwise than asked is declared, as what ran
+    if rate == 1000.0:
+        assert d.overrides() == {}
+    else:
+        ((ran, why),) = d.overrides().values()
+        assert ran == pytest.approx(band, abs=1e-3) and ("above Nyquist" in why) is fallback
 
 
 def test_bandpass_separates_a_burst_in_its_band():
