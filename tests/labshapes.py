@@ -90,3 +90,60 @@ def slow_imu(folder, rate: float = 4.8, trials: int = 12, n: int = 120, seed: in
             )
         )
     return read_dataset(write_dataset(folder / "imu", pd.DataFrame(rows), samples, slip))
+
+
+def slow_sensor_logs(
+    src, files: int = 6, hold: int = 4, logger_hz=(40.0,), gaps: int = 0, seed: int = 5
+) -> None:
+    """CSV files of a pad (two taxels, integer counts) whose sensor updates every ``hold``
+    logger rows (a 10 Hz sensor logged at 40 Hz: hold 4), a time column ``t`` in s: file k
+    logged at ``logger_hz[k % len(logger_hz)]`` with 3 % jitter on each step, and ``gaps``
+    steps three times as long as the others in each file. A ``state`` column labels rows
+    (hold, then slip)."""
+    rng = np.random.default_rng(seed)
+    src.mkdir(parents=True, exist_ok=True)
+    for k in range(files):
+        n = 240
+        rate = logger_hz[k % len(logger_hz)]
+        step = (1 / rate) * (1 + rng.uniform(-0.03, 0.03, n - 1))
+        step[rng.choice(np.arange(10, n - 10), gaps, replace=False)] *= 3
+        t = np.r_[0.0, np.cumsum(step)]
+        updates = rng.normal(0, 3, (n // hold + 1, 2)).cumsum(0) + 500
+        values = np.repeat(updates, hold, axis=0)[:n].round().astype(int)
+        state = np.where(np.arange(n) < n // 2, "hold", "slip")
+        pd.DataFrame(
+            {"t": t.round(6), "taxel_0": values[:, 0], "taxel_1": values[:, 1], "state": state}
+        ).to_csv(src / f"trial_{k}.csv", index=False)
+
+
+LOG_MAPPING = {
+    "files": ["*.csv"],
+    "recording": {"sensor_type": "Pad", "sensor_instance": "left", "scenario": "hold-slip"},
+    "channels": {"pattern": "taxel_.*", "units": "count"},
+    "labels": {"column": "state", "slip": ["slip"], "no_slip": ["hold"]},
+}
+
+
+def repeated_rows(folder, hold: int = 4, rate: float = 40.0) -> Dataset:
+    """A dataset whose one unit repeats each reading ``hold`` times (a 10 Hz sensor at 40 Hz)."""
+    rng = np.random.default_rng(0)
+    rows, samples = [], {}
+    for k in range(3):
+        updates = rng.normal(0, 3, (100 // hold, 2)).cumsum(0) + 500
+        samples[f"r{k}"] = np.repeat(updates, hold, axis=0).round().astype(np.int64)
+        rows.append(
+            dict(
+                recording_id=f"r{k}",
+                sensor_type="Pad",
+                sensor_instance="left",
+                scenario=("slip", "press")[k % 2],
+                material="foam",
+                speed_mm_s=None,
+                sampling_rate_hz=rate,
+                channels=("taxel_0", "taxel_1"),
+                units=("count", "count"),
+                source="lab shapes",
+                trial=f"t{k}",
+            )
+        )
+    return read_dataset(write_dataset(folder / "repeated", pd.DataFrame(rows), samples))

@@ -238,7 +238,9 @@ def _unit_rates(rec: pd.DataFrame, where) -> np.ndarray:
                 f"sensor {sensor!r} unit {unit!r}: sampling rates differ by {100 * (hi / lo - 1):.3g} %, more than "
                 f"RATE_TOLERANCE ({100 * RATE_TOLERANCE:g} %): lowest {plain_number(lo)} Hz in recording(s) {some_names(ids[rows][r == lo])}, "
                 f"highest {plain_number(hi)} Hz in recording(s) {some_names(ids[rows][r == hi])}; a unit recorded at two settings "
-                "is two units (give each its own sensor_instance)",
+                "is two units (give each its own sensor_instance); a logger whose rate wanders is "
+                "one: import it with [rate] resample_hz = a nominal rate and its time_column "
+                "(drop_repeats = true first where a slower sensor's rows repeat)",
                 column="sampling_rate_hz",
             )
         out[rows] = np.median(r)

@@ -57,6 +57,7 @@ def dataset_validate(path: Path) -> None:
         f"{path}: valid slipbench dataset v1, {len(ds.recordings)} recordings in {ds.recordings['trial'].nunique()} trials, "
         f"{n} samples ({labelled} labelled per sample), fingerprint {ds.fingerprint}"
     )
+    _say_health(ds, path)
     lines = unguarded(path)
     click.echo(
         "\n".join(f"warning: {line}" for line in lines[:-1]) + f"\n{lines[-1]}"
@@ -87,7 +88,8 @@ def dataset_info(path: Path) -> None:
     from slipbench.app.info import describe, info
     from slipbench.data.read import read_dataset, read_description
 
-    table = info(read_dataset(path))
+    ds = read_dataset(path)
+    table = info(ds)
     click.echo(table.to_markdown(index=False, floatfmt=".3g"))
     click.echo(
         f"\ntotal: {int(table['recordings'].sum())} recordings, {int(table['samples'].sum())} samples, "
@@ -95,6 +97,16 @@ def dataset_info(path: Path) -> None:
     )
     for line in describe(read_description(path)):
         click.echo(line)
+    _say_health(ds, path)
+
+
+def _say_health(ds, path: Path) -> None:
+    """The dataset's health (repeated rows, time gaps, rate jitter) as ``warning:`` lines."""
+    from slipbench.data.health import health_lines
+    from slipbench.data.read import read_description
+
+    for line in health_lines(ds, read_description(path)):
+        click.echo(f"warning: {line}")
 
 
 @dataclass(frozen=True)
@@ -146,7 +158,9 @@ def dataset_check(**options) -> None:
     runs = [Run("holweg", p, o.split, o.seed, o.labels) for p in protocols.values()]
     for run in runs:
         run.validate()
-    result = check_dataset(read_dataset(o.path), runs)
+    ds = read_dataset(o.path)
+    _say_health(ds, o.path)
+    result = check_dataset(ds, runs)
     click.echo(f"## {o.path}: classes per unit (labels: {o.labels}; windows of 50 samples)\n")
     click.echo(result.units.to_markdown(index=False))
     click.echo(
@@ -211,6 +225,9 @@ def dataset_import(
     else:
         IMPORTERS[kind](src, out)
     click.echo(f"wrote {out}")
+    from slipbench.data.read import read_dataset
+
+    _say_health(read_dataset(out), out)
 
 
 @dataset.command("cards")

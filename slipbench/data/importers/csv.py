@@ -8,6 +8,7 @@ validated, then written atomically.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slipbench.data.health import TIMING_KEY, timing, timing_summary
 from slipbench.data.importers.labels import labels_of_file, segments_table
 from slipbench.data.importers.mapping import (
     TIME_UNITS,
@@ -26,6 +28,7 @@ from slipbench.data.importers.mapping import (
 )
 from slipbench.data.importers.metadata import MetadataReader
 from slipbench.data.importers.paths import check_inside
+from slipbench.data.importers.regular import regular
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.data.write import write_dataset
 from slipbench.errors import DataError, UsageError
@@ -84,14 +87,20 @@ def import_csv(
     samples: dict[str, np.ndarray] = {}
     labels: dict[str, np.ndarray] = {}
     origin: dict[str, str] = {}  # recording_id -> the file that gave it
+    timings: dict[str, dict] = {}  # file -> what its time column showed (gaps, rate)
     for rel in files:
         path = src / rel
         fields = file_fields(m, rel, selected, metadata)
         frame = read_csv(path, m.csv, text_columns)
         rate, times = _rate(m, fields, frame, path)
         file = CsvFile(path, rel, fields, frame, rate, times)
+        if times is not None:
+            timings[rel] = timing(times)
         file_labels = labels_of_file(m, file, segments.get(rel, []))
-        for row, values in _recordings_of(m, file, file_labels):
+        recordings, file_labels = regular(
+            m, file, _recordings_of(m, file, file_labels), file_labels
+        )
+        for row, values in recordings:
             rid = row["recording_id"]
             if rid in origin:
                 raise UsageError(
@@ -102,6 +111,11 @@ def import_csv(
             samples[rid] = values
             if file_labels is not None:
                 labels[rid] = file_labels
+    if timings:  # kept with the dataset, so that validate, info and check can say it
+        summary = timing_summary(timings)
+        if "resample_hz" in m.rate:
+            summary["resampled_hz"] = float(m.rate["resample_hz"])
+        description = {**(description or {}), TIMING_KEY.encode(): json.dumps(summary)}
     return write_dataset(out, pd.DataFrame(rows), samples, labels or None, description)
 
 

@@ -47,7 +47,7 @@ TOP_KEYS = {
     "metadata",
 }
 CHANNEL_KEYS = {"names", "pattern", "count", "units", "sensor_instance", "sensor_type"}
-RATE_KEYS = {"hz", "time_column", "time_unit"}
+RATE_KEYS = {"hz", "time_column", "time_unit", "drop_repeats", "resample_hz"}
 LABEL_KEYS = {
     "column",
     "slip",
@@ -280,12 +280,22 @@ def _channel_group(group: Any, where: str, i: int, n: int) -> dict[str, Any]:
 
 def _rate(raw: dict, where: str) -> dict[str, Any]:
     rate = _keys(raw.get("rate", {}), RATE_KEYS, where, "[rate]")
-    if "hz" in rate and (
-        isinstance(rate["hz"], bool)
-        or not isinstance(rate["hz"], (int, float))
-        or not rate["hz"] > 0
-    ):
-        raise _bad(where, f"[rate].hz must be a number > 0, got {rate['hz']!r}")
+    for key in ("hz", "resample_hz"):
+        if key in rate and (
+            isinstance(rate[key], bool)
+            or not isinstance(rate[key], (int, float))
+            or not rate[key] > 0
+        ):
+            raise _bad(where, f"[rate].{key} must be a number > 0, got {rate[key]!r}")
+    if not isinstance(rate.get("drop_repeats", False), bool):
+        raise _bad(
+            where, f"[rate].drop_repeats must be true or false, got {rate['drop_repeats']!r}"
+        )
+    if "resample_hz" in rate and "time_column" not in rate:
+        raise _bad(
+            where,
+            "[rate].resample_hz needs a time_column: each file's rows are interpolated at their times",
+        )
     if rate.get("time_unit", "s") not in TIME_UNITS:
         raise _bad(
             where,

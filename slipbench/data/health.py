@@ -1,0 +1,123 @@
+"""A dataset's health as a lab engineer reads it before trusting windows cut from it: rows a
+slow sensor's logger repeated (s_t = 0 on them), and, where the import had a time column, time
+gaps and a wandering rate. Said as ``warning:`` lines with figures by ``dataset validate``,
+``dataset info`` and ``dataset check``; the CSV importer's ``[rate]`` options ``drop_repeats``
+and ``resample_hz`` are the routes."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from slipbench.data.format import Dataset
+
+REPEATS_WARN = 0.1  # a unit with at least this share of samples equal to the one before is said
+GAP_STEPS = 1.5  # a time step this many times the file's median step is a gap
+JITTER_WARN = 0.05  # files whose rates spread more than this (of the median rate) are said
+TIMING_KEY = "slipbench.timing"  # recordings.parquet's metadata: what an import's times showed
+ROUTES = (
+    "import with [rate] drop_repeats = true (and hz = the sensor's own rate), or resample_hz = "
+    "a nominal rate with a time_column"
+)
+
+
+def repeats(samples: np.ndarray) -> tuple[int, int]:
+    """Of one recording's samples (n_samples, n_channels): how many equal the one before in
+    every channel, and the longest run of equal samples (1 where none repeats)."""
+    if len(samples) < 2:
+        return 0, len(samples)
+    same = np.all(samples[1:] == samples[:-1], axis=1)
+    if not same.any():
+        return 0, 1
+    # run lengths of True in ``same``: a run of k repeats is k + 1 equal samples
+    edges = np.flatnonzero(np.diff(np.r_[0, same.astype(np.int8), 0]))
+    return int(same.sum()), int((edges[1::2] - edges[::2]).max()) + 1
+
+
+def repeat_lines(dataset: Dataset) -> list[str]:
+    """One line per unit whose samples repeat the one before at least :data:`REPEATS_WARN` of
+    the time: the share, the longest run and the rate its sensor seems to update at."""
+    rec = dataset.recordings
+    lines = []
+    for (sensor, unit), part in rec.groupby(["sensor_type", "sensor_instance"], sort=True):
+        counted = [repeats(dataset.samples[r]) for r in part["recording_id"]]
+        steps = sum(max(len(dataset.samples[r]) - 1, 0) for r in part["recording_id"])
+        repeated = sum(c[0] for c in counted)
+        if not steps or repeated / steps < REPEATS_WARN:
+            continue
+        share = repeated / steps
+        rate = float(np.median(part["sampling_rate_hz"]))
+        lines.append(
+            f"sensor {sensor} unit {unit}: {100 * share:.1f} % of its samples repeat the one "
+            f"before in every channel ({repeated} of {steps}; longest run "
+            f"{max(c[1] for c in counted)} samples), so s_t is 0 there: it updates at about "
+            f"{rate * (1 - share):.3g} Hz, logged at {rate:g} Hz; {ROUTES}"
+        )
+    return lines
+
+
+def timing(times: np.ndarray) -> dict[str, Any]:
+    """One file's time column (s from its first row): its rate (from the median step), its
+    gaps (steps over :data:`GAP_STEPS` times the median: count, largest in s)."""
+    step = np.diff(times)
+    median = float(np.median(step)) if len(step) else 0.0
+    gaps = step[step > GAP_STEPS * median] if median > 0 else step[:0]
+    return {
+        "rate_hz": 1.0 / median if median > 0 else 0.0,
+        "gaps": int(len(gaps)),
+        "largest_gap_s": float(gaps.max()) if len(gaps) else 0.0,
+        "median_step_s": median,
+    }
+
+
+def timing_summary(per_file: Mapping[str, dict[str, Any]]) -> dict[str, Any]:
+    """What the files' times showed, together (stored under :data:`TIMING_KEY`)."""
+    rates = np.array([t["rate_hz"] for t in per_file.values()], float)
+    gapped = {f: t for f, t in per_file.items() if t["gaps"]}
+    worst = max(gapped, key=lambda f: gapped[f]["largest_gap_s"]) if gapped else ""
+    return {
+        "files": len(per_file),
+        "rate_hz": [float(rates.min()), float(np.median(rates)), float(rates.max())],
+        "gaps": int(sum(t["gaps"] for t in per_file.values())),
+        "files_with_gaps": len(gapped),
+        "largest_gap_s": gapped[worst]["largest_gap_s"] if worst else 0.0,
+        "largest_gap_file": worst,
+        "median_step_s": gapped[worst]["median_step_s"] if worst else 0.0,
+    }
+
+
+def timing_lines(description: Mapping[str, str]) -> list[str]:
+    """The lines about an import's time column (gaps, a wandering rate) that its dataset's
+    description stored; none where it had no time column or nothing to say."""
+    text = description.get(TIMING_KEY)
+    if not text:
+        return []
+    try:
+        t = json.loads(text)
+        if t.get("resampled_hz"):  # the import put every file on one rate: nothing left to say
+            return []
+        lo, mid, hi = t["rate_hz"]
+        lines = []
+        if t["gaps"]:
+            lines.append(
+                f"time gaps: {t['gaps']} steps over {GAP_STEPS:g} x the median step in "
+                f"{t['files_with_gaps']} of {t['files']} files (largest {t['largest_gap_s']:.3g} s "
+                f"among {t['median_step_s']:.3g} s steps, in {t['largest_gap_file']}): windows "
+                "span the missing rows; resample_hz on import fills them by interpolation"
+            )
+        if mid > 0 and hi - lo > JITTER_WARN * mid:
+            lines.append(
+                f"rate jitter: the files' rates (from their time columns) run {lo:.3g}-{hi:.3g} Hz "
+                f"(median {mid:.3g} Hz); resample_hz on import puts them on one rate"
+            )
+        return lines
+    except (ValueError, TypeError, KeyError):  # written by other means: shown as it is
+        return [f"timing: {text}"]
+
+
+def health_lines(dataset: Dataset, description: Mapping[str, str]) -> list[str]:
+    """Every health line of a dataset, each to be printed after ``warning: ``."""
+    return repeat_lines(dataset) + timing_lines(description)
