@@ -777,3 +777,48 @@ def test_a_csv_name_not_utf8_and_a_json_key_twice_are_named(tmp_path):
     ):
         import_csv(src, tmp_path / "bad", mapping)
     assert not (tmp_path / "bad").exists()
+
+
+def _two_settings(src: Path) -> None:
+    """Files of two fingers logged at two rate settings, the setting in the folder's name."""
+    for rate in (50, 60):
+        for k in range(2):
+            t = np.arange(40) / rate
+            frame = pd.DataFrame({"t": t, "a0": np.arange(40) % 7, "b0": np.arange(40) % 5})
+            _write(src / f"{rate}hz" / f"trial_{k}.csv", frame)
+
+
+def _settings_mapping(instance: str) -> dict:
+    return {
+        "files": ["*/*.csv"],
+        "recording": {
+            "regex": r"(?P<rate>\d+)hz/trial_\d\.csv",
+            "sensor_type": "Pad",
+            "scenario": "slip",
+        },
+        "channels": [
+            {"sensor_instance": f"left-{instance}", "names": ["a0"]},
+            {"sensor_instance": f"right-{instance}", "names": ["b0"]},
+        ],
+        "rate": {"time_column": "t"},
+    }
+
+
+def test_channel_groups_take_templates_as_recording_fields_do(tmp_path):
+    """The rate refusal's advice (a sensor_instance per setting) works in [[channels]]: its
+    templates are filled from the file's path, and a misspelled one is refused."""
+    _two_settings(tmp_path / "src")
+    ds = read_dataset(import_csv(tmp_path / "src", tmp_path / "out", _settings_mapping("{rate}")))
+    units = ds.recordings.groupby("sensor_instance")["sampling_rate_hz"].unique()
+    assert {k: v.tolist() for k, v in units.items()} == {
+        "left-50": [50.0],
+        "left-60": [60.0],
+        "right-50": [50.0],
+        "right-60": [60.0],
+    }
+    with pytest.raises(
+        UsageError,
+        match=r"\[\[channels\]\] #1.sensor_instance = 'left-\{rtae\}': no value for 'rtae' in "
+        r"50hz/trial_0.csv \(known: file, name, parent, path, rate, stem\)",
+    ):
+        import_csv(tmp_path / "src", tmp_path / "no", _settings_mapping("{rtae}"))

@@ -24,6 +24,8 @@ from slipbench.data.importers.mapping import (
     CsvMapping,
     default_id,
     file_fields,
+    file_variables,
+    fill_template,
     load_mapping,
 )
 from slipbench.data.importers.metadata import MetadataReader
@@ -93,7 +95,7 @@ def import_csv(
         fields = file_fields(m, rel, selected, metadata)
         frame = read_csv(path, m.csv, text_columns)
         rate, times = _rate(m, fields, frame, path)
-        file = CsvFile(path, rel, fields, frame, rate, times)
+        file = CsvFile(path, rel, fields, frame, rate, times, file_variables(m, rel, selected))
         if times is not None:
             timings[rel] = timing(times)
         file_labels = labels_of_file(m, file, segments.get(rel, []))
@@ -195,8 +197,8 @@ def _recordings_of(
     rel, path, fields, frame, rate = file.rel, file.path, file.fields, file.frame, file.rate
     file_id = str(fields.get("recording_id", default_id(rel)))
     out = []
-    for group in m.channels:
-        meta = {**fields, **{k: group[k] for k in ("sensor_instance", "sensor_type") if k in group}}
+    for i, group in enumerate(m.channels):
+        meta = {**fields, **_group_fields(m, file, group, i)}
         for key in ("sensor_type", "sensor_instance", "scenario"):
             if meta.get(key) in (None, ""):
                 raise UsageError(
@@ -233,6 +235,20 @@ def _recordings_of(
         out.append(
             (row, np.column_stack(values if integers else [v.astype(np.float64) for v in values]))
         )
+    return out
+
+
+def _group_fields(m: CsvMapping, file: CsvFile, group: dict, i: int) -> dict[str, Any]:
+    """A channel group's ``sensor_instance`` and ``sensor_type``, templates filled and values
+    mapped as [recording]'s are."""
+    section = "[channels]" if len(m.channels) == 1 else f"[[channels]] #{i + 1}"
+    out = {}
+    for key in ("sensor_instance", "sensor_type"):
+        if key in group:
+            value = group[key]
+            if isinstance(value, str):
+                value = fill_template(m, file.rel, file.variables, value, f"{section}.{key}")
+            out[key] = m.maps.get(key, {}).get(value, value)
     return out
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -90,6 +90,7 @@ class CsvFile:
     frame: Any  # a pandas DataFrame (pandas stays out of the mapping's imports)
     rate: float
     times: Any = None  # np.ndarray | None
+    variables: dict[str, str] = field(default_factory=dict)  # what its templates may name
 
 
 @dataclass(frozen=True)
@@ -336,6 +337,46 @@ def file_fields(
     """The resolved metadata of one file: [recording], then each rule that selects it, in order;
     templates filled from path parts and named regex groups; then the fields its
     [[metadata]] tables give (as written there, not templates); values mapped; numbers parsed."""
+    fields, variables = _resolved(m, rel, selected)
+
+    def fill(value: str, key: str) -> str:
+        return fill_template(m, rel, variables, value, key)
+
+    fields = {k: fill(v, k) if isinstance(v, str) else v for k, v in fields.items()}
+    if metadata is not None:
+        for entry in m.metadata:
+            fields.update(metadata.fields(entry, rel, fill))
+    out: dict[str, Any] = {}
+    for key, value in fields.items():
+        value = m.maps.get(key, {}).get(value, value)
+        if key in NUMERIC_FIELDS:
+            value = _number(value, rel, key)
+        out[key] = value
+    return out
+
+
+def file_variables(m: CsvMapping, rel: str, selected: list[set[str]]) -> dict[str, str]:
+    """What a template may name for one file: its path parts and the named groups of the
+    regexes of [recording] and the rules that select it."""
+    return _resolved(m, rel, selected)[1]
+
+
+def fill_template(m: CsvMapping, rel: str, variables: dict[str, str], value: str, key: str) -> str:
+    """``value`` with its templates filled from ``variables``; UsageError naming the key and
+    the names it may use where it names another."""
+    try:
+        return value.format_map(variables)
+    except (KeyError, IndexError, ValueError) as exc:
+        raise UsageError(
+            f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})"
+        ) from None
+
+
+def _resolved(
+    m: CsvMapping, rel: str, selected: list[set[str]]
+) -> tuple[dict[str, Any], dict[str, str]]:
+    """A file's fields as [recording] and its rules give them (templates unfilled), and the
+    variables its templates may name."""
     parts = rel.rsplit("/", 1)
     variables = {
         "path": default_id(rel),
@@ -360,26 +401,7 @@ def file_fields(
             variables.update(groups)
             fields.update({k: v for k, v in groups.items() if k in FIELDS})
         fields.update(rule.fields)
-
-    def fill(value: str, key: str) -> str:
-        try:
-            return value.format_map(variables)
-        except (KeyError, IndexError, ValueError) as exc:
-            raise UsageError(
-                f"{m.where}: {key} = {value!r}: no value for {exc} in {rel} (known: {', '.join(sorted(variables))})"
-            ) from None
-
-    fields = {k: fill(v, k) if isinstance(v, str) else v for k, v in fields.items()}
-    if metadata is not None:
-        for entry in m.metadata:
-            fields.update(metadata.fields(entry, rel, fill))
-    out: dict[str, Any] = {}
-    for key, value in fields.items():
-        value = m.maps.get(key, {}).get(value, value)
-        if key in NUMERIC_FIELDS:
-            value = _number(value, rel, key)
-        out[key] = value
-    return out
+    return fields, variables
 
 
 def _number(value: Any, rel: str, key: str) -> float | None:
