@@ -72,6 +72,13 @@ class Holweg(BaseDetector):
             "separation": self.separation_,
         }
 
+    def overrides(self):
+        nyquist = self.sampling_rate_ / 2
+        if self.band is None or float(self.band[1]) <= nyquist:
+            return {}
+        lo = float(self.band[0])
+        return {"band": ([lo, nyquist], f"its top above Nyquist {nyquist:.3g} Hz, where bins end")}
+
     def _predict_proba(self, x):
         z = (
             self.direction_

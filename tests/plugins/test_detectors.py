@@ -37,6 +37,15 @@ def test_bandpass_clips_the_band_and_falls_back(rate, band, fallback):
         assert ran == pytest.approx(band, abs=1e-3) and ("above Nyquist" in why) is fallback
 
 
+def test_holweg_declares_a_band_cut_at_nyquist():
+    x, y = toy_windows(100, 30)
+    assert detectors.get("holweg")(band=(40, 80)).fit(x, y, sampling_rate=1000.0).overrides() == {}
+    d = detectors.get("holweg")(band=(40, 800)).fit(x, y, sampling_rate=1000.0)
+    assert d.overrides() == {
+        "band": ([40.0, 500.0], "its top above Nyquist 500 Hz, where bins end")
+    }
+
+
 def test_bandpass_separates_a_burst_in_its_band():
     x, y = toy_windows(400, 50)  # slip adds a 60 Hz burst
     d = detectors.get("bandpass")(band=(40, 80)).fit(x[:200], y[:200])
