@@ -230,6 +230,13 @@ def page_command(**options) -> None:
             f"History {o.history.name}: {len(found.runs)} runs, the latest {last['commit']} "
             f"({last['date']})."
         )
+        marked = found.runs.loc[found.runs["unproven"] > 0, "commit"].tolist()
+        if marked:
+            about.append(
+                f"{len(marked)} run{' holds' if len(marked) == 1 else 's hold'} rows that "
+                f"entered unproven ({', '.join(marked)}): results without digests, whose edits "
+                "cannot be detected."
+            )
     report = None
     if o.results is not None:
         latest, report = _run_report(o.results)
