@@ -20,7 +20,7 @@ from parquetfaults import name_not_utf8
 
 from slipbench.app.cli import main
 from slipbench.errors import DataError
-from slipbench.store.history import INDEX_FILE, read_history
+from slipbench.store.history import INDEX_FILE, _json_digest, read_history
 
 FAST_FLIPS = 30
 SLOW_FLIPS = 300
@@ -173,6 +173,7 @@ def test_a_hand_edited_index_is_rebuilt_with_one_line(hist, capsys):
         ("a column of another type", "columns of other names or types"),
         ("text not UTF-8", "is damaged"),
         ("a run file dropped from the manifest", "manifest that is not the one it was written"),
+        ("a forged manifest (its digest made again)", "holds other runs than its manifest says"),
         ("a run file gone", "disagrees with the run files"),
     ],
 )
@@ -190,8 +191,12 @@ def test_a_damaged_index_is_rebuilt_from_the_run_files(hist, damage, said):
         pq.write_table(table.set_column(seed, "seed", table["seed"].cast(pa.float64())), path)
     elif damage == "text not UTF-8":
         path.write_bytes(name_not_utf8(path.read_bytes(), "series_label"))
-    elif damage == "a run file dropped from the manifest":
+    elif damage.startswith(("a run file dropped", "a forged")):
+        # the index still holds the dropped file's rows: read with the file again, 48 rows twice
         del meta["files"][next(iter(meta["files"]))]
+        if damage.startswith("a forged"):
+            meta["files"]["runs/month=2026-01/c1.parquet"]["rows"] += 48
+            meta["digest"] = _json_digest({k: v for k, v in meta.items() if k != "digest"})
         pq.write_table(
             table.replace_schema_metadata({b"slipbench.history": json.dumps(meta)}), path
         )
