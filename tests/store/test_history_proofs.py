@@ -237,17 +237,28 @@ def _value_not_utf8(path: Path, column: str) -> None:
     pq.write_table(table.set_column(at, column, text), path)
 
 
-@pytest.mark.parametrize("where", ["name", "value"])
-def test_a_run_file_not_utf8_is_refused_by_name(hist, cli, where):
+@pytest.mark.parametrize(
+    "where, said",
+    [
+        ("name", "not valid UTF-8"),
+        ("value", "not valid UTF-8"),
+        ("type", "holds double, not int64"),
+    ],
+)
+def test_a_damaged_run_file_is_refused_by_name(hist, cli, where, said):
     path = _run(hist, "c2")
     if where == "name":
         path.write_bytes(name_not_utf8(path.read_bytes(), "series_label"))
-    else:
+    elif where == "value":
         _value_not_utf8(path, "series_label")
+    else:
+        table = pq.read_table(path)
+        at = table.column_names.index("seed")
+        pq.write_table(table.set_column(at, "seed", table["seed"].cast(pa.float64())), path)
     (hist / INDEX_FILE).unlink()
     code, _, err = cli(["history", "steps", "--history", str(hist)])
     assert code == 2 and len(err.strip().splitlines()) == 1, err
-    assert err.startswith(f"error: {path}: column ") and "not valid UTF-8" in err
+    assert err.startswith(f"error: {path}: column ") and said in err, err
 
 
 def test_an_index_value_not_utf8_is_rebuilt(hist, cli):
