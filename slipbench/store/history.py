@@ -301,17 +301,18 @@ def _run_meta(table: pa.Table, path: Path) -> dict[str, Any]:
     except ValueError:  # UnicodeDecodeError too
         meta = None
     kinds = {"format": int, "commit": str, "date": str, "rows": int, "digest": str}
-    if not isinstance(meta, dict) or not all(isinstance(meta.get(k), t) for k, t in kinds.items()):
-        raise DataError(
-            f"{path}: not a slipbench history run file (its {_META} metadata is missing or "
-            f"damaged); {RESTORE}"
-        )
-    if meta["format"] != FORMAT_VERSION:
-        raise DataError(
-            f"{path}: a history run file of format {meta['format']}; this slipbench reads format "
-            f"{FORMAT_VERSION} (add the run again with this version)"
-        )
-    return meta
+    if isinstance(meta, dict) and isinstance(meta.get("format"), int):
+        if meta["format"] != FORMAT_VERSION:
+            raise DataError(
+                f"{path}: a history run file of format {meta['format']}; this slipbench reads "
+                f"format {FORMAT_VERSION} (add the run again with this version)"
+            )
+        if all(isinstance(meta.get(k), t) for k, t in kinds.items()):
+            return meta
+    raise DataError(
+        f"{path}: not a slipbench history run file (its {_META} metadata is missing or "
+        f"damaged); {RESTORE}"
+    )
 
 
 def _check_place(path: Path, meta: dict[str, Any], table: pa.Table) -> None:

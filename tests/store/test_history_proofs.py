@@ -261,6 +261,20 @@ def test_a_damaged_run_file_is_refused_by_name(hist, cli, where, said):
     assert err.startswith(f"error: {path}: column ") and said in err, err
 
 
+def test_a_run_file_of_another_format_is_refused_saying_so(hist, cli):
+    path = _run(hist, "c0")
+    table = pq.read_table(path)
+    meta = dict(table.schema.metadata)
+    meta[b"slipbench.history"] = json.dumps({"format": 1, "commit": "c0", "digest": "0"})
+    pq.write_table(table.replace_schema_metadata(meta), path)
+    (hist / INDEX_FILE).unlink()
+    code, _, err = cli(["history", "steps", "--history", str(hist)])
+    assert code == 2 and err.strip().splitlines() == [
+        f"error: {path}: a history run file of format 1; this slipbench reads format 2 (add the "
+        "run again with this version)"
+    ]
+
+
 def test_an_index_value_not_utf8_is_rebuilt(hist, cli):
     good = read_history(hist)
     _value_not_utf8(hist / INDEX_FILE, "series_label")
