@@ -46,6 +46,7 @@ def run_rows(
         "series_label": [f"window-size · {d} · cell {c}" for c, d in zip(range(cells), detector)],
         "key": [f"{i:08x}{c:04x}" for c in range(cells)],
         "row_digest": "",
+        "proven": True,
         "code_identity": f"code-{i}",
         "protocol": "window-size",
         "protocol_params": "{}",

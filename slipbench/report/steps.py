@@ -34,7 +34,31 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
         f"improved beyond the tolerance (each segment's seeds against the other's; Bonferroni "
         f"over a series' proposals at {100 * SERIES_ALPHA:g} %, the level of each interval), "
         f"{int(counts.get('inconclusive', 0))} inconclusive (one seed on each side, or low n).\n"
+        + unproven_line(runs)
     )
+
+
+def unproven_line(runs: pd.DataFrame) -> str:
+    """A line naming the runs that hold rows no digest vouched for when they were added (a
+    results file written by another tool, or edited), or ""."""
+    marked = runs[runs["unproven"] > 0] if "unproven" in runs else runs.iloc[:0]
+    if marked.empty:
+        return ""
+    shown = ", ".join(f"{c} ({n} rows)" for c, n in zip(marked["commit"], marked["unproven"]))
+    return (
+        f"Unproven: {len(marked)} run{' holds' if len(marked) == 1 else 's hold'} rows that "
+        f"entered unproven (results without digests: edits to them cannot be detected): "
+        f"{shown}; a step beside them is marked {UNPROVEN!r}.\n"
+    )
+
+
+#: how a step whose sides hold unproven rows is marked, after its verdict
+UNPROVEN = "unproven rows beside it"
+
+
+def verdict_shown(step: dict) -> str:
+    """A step's verdict, marked where its sides hold rows that entered unproven."""
+    return f"{step['verdict']} ({UNPROVEN})" if step.get("unproven") else str(step["verdict"])
 
 
 #: commits with proposals none of which was confirmed, listed newest first
@@ -103,7 +127,7 @@ def steps_text(found: Steps, where: str | os.PathLike) -> str:
         {
             "commit": confirmed["commit"],
             "date": confirmed["date"],
-            "verdict": confirmed["verdict"],
+            "verdict": [verdict_shown(r) for r in confirmed.to_dict("records")],
             "figure": confirmed["figure"].map(lambda f: FIGURES[f].label),
             "series": confirmed["series_label"],
             "change [interval]": [_change(r) for r in confirmed.to_dict("records")],
@@ -135,6 +159,7 @@ def steps_json(found: Steps) -> str:
         "series": found.series,
         "series_alpha": SERIES_ALPHA,
         "tolerances": dict(found.gate.tolerances),
+        "unproven_runs": found.runs.loc[found.runs["unproven"] > 0, "commit"].tolist(),
         "steps": [{k: _plain(v) for k, v in r.items()} for r in found.steps.to_dict("records")],
     }
     return json.dumps(doc, indent=2) + "\n"

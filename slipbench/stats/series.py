@@ -82,6 +82,7 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
     for figure in FIGURES:
         out[f"{figure}_se"] = _standard_error(named, figure)
     out["row_digest"] = [row_digest(r) for r in rows.to_dict("records")]  # as read
+    out["proven"] = _proven(rows).to_numpy()
     out["series"] = [_digest(r) for r in identity.to_dict("records")]
     out["series_label"] = [_label(r) for r in identity.to_dict("records")]
     twice = out.duplicated(["series", "seed"], keep=False)
@@ -92,6 +93,17 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
             "do not tell apart"
         )
     return out.reset_index(drop=True)
+
+
+def _proven(rows: pd.DataFrame) -> pd.Series:
+    """Whether each row proved itself by its digest when read: its ``proven`` column, else
+    not one of the keys :func:`slipbench.store.results.read_results` names in
+    ``attrs["unproven_keys"]``; rows read otherwise prove nothing."""
+    if "proven" in rows:
+        return rows["proven"].fillna(False).astype(bool)
+    if "unproven_keys" not in rows.attrs:
+        return pd.Series(False, index=rows.index)
+    return ~rows["key"].astype(str).isin(set(rows.attrs["unproven_keys"]))
 
 
 def _standard_error(rows: pd.DataFrame, figure: str) -> pd.Series:

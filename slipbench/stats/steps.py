@@ -80,6 +80,7 @@ STEP_COLUMNS = [
     "labels",
     "detector",
     "cell",
+    "proven",
     *(c for _, c in CAUSES),
     *(f"{f}{end}" for f in JUDGED for end in ("", "_se")),
 ]
@@ -210,11 +211,12 @@ def _proposals(series: list[pd.DataFrame], jobs: int) -> list[list[int]]:
 
 
 def _runs(frame: pd.DataFrame) -> pd.DataFrame:
-    return (
-        frame.groupby("run", sort=True)[["commit", "date", "machine", "bench_digest"]]
-        .first()
-        .reset_index()
-    )
+    """One row per run: its commit, date, machine, bench file, and its rows that entered the
+    history unproven (``unproven``: no digest vouched for them)."""
+    runs = frame.groupby("run", sort=True)[["commit", "date", "machine", "bench_digest"]].first()
+    proven = frame["proven"] if "proven" in frame else pd.Series(True, index=frame.index)
+    runs["unproven"] = (~proven.fillna(False).astype(bool)).groupby(frame["run"]).sum()
+    return runs.reset_index()
 
 
 def _by_series(frame: pd.DataFrame, columns: list[str]) -> dict[str, dict[str, np.ndarray]]:
@@ -303,6 +305,8 @@ def _judge_series(
                 "previous_run": last,
                 "runs_before": k - a,
                 "runs_after": b - k,
+                "first_run": int(runs[a]),
+                "last_run": int(runs[b - 1]),
                 "seeds_before": len(sides[0]),
                 "seeds_after": len(sides[1]),
                 "low_n": low_n,
@@ -366,6 +370,8 @@ _COLUMNS = {
     "previous_run": int,
     "runs_before": int,
     "runs_after": int,
+    "first_run": int,
+    "last_run": int,
     "seeds_before": int,
     "seeds_after": int,
     "low_n": bool,
@@ -422,6 +428,10 @@ def _dated(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate) -
     for side, column in (("", "run"), ("previous_", "previous_run")):
         for what in ("commit", "date"):
             steps[f"{side}{what}"] = steps[column].map(by_run[what])
+    # whether a run of either side holds rows no digest vouches for: marked, not judged apart
+    held = np.concatenate([[0], np.cumsum(by_run["unproven"].reindex(range(len(runs))).fillna(0))])
+    first, last = steps["first_run"].to_numpy(int), steps["last_run"].to_numpy(int)
+    steps["unproven"] = held[last + 1] > held[first]
     return Steps(steps, runs, n_series, gate=gate)
 
 

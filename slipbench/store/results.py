@@ -310,8 +310,9 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
     proved is a DataError naming it, a damaged results.parquet is read from ``cells/`` with a
     warning. What carries no digests (another tool, an older slipbench) has its figures checked
     against the results schema, a warning says that edits to it cannot be detected, and the
-    rows' ``attrs["unproven"]`` names it (for the report). Raises DataError when there is
-    nothing to read or a required column is missing.
+    rows' ``attrs["unproven"]`` names it (for the report), and ``attrs["unproven_keys"]`` the
+    keys of its rows (for the history). Raises DataError when there is nothing to read or a
+    required column is missing.
     """
     path = Path(path)
     if path.is_dir():
@@ -319,6 +320,9 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
         for note in found.notes:
             warnings.warn(note, stacklevel=2)
         rows, unproven = found.frame(), found.unproven
+        keys = [Path(p).stem for p in found.unproven if Path(p).parent.name == "cells"]
+        if found.results.unproven:  # results.parquet's rows that no cell file replaced
+            keys += [k for k in found.results.rows if k not in found.newer]
         if rows.empty:
             raise DataError(
                 f"{path}: no results here (run `slipbench evaluate --out FOLDER` first)"
@@ -328,6 +332,7 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
         _check_file(table, path)
         rows = table.to_pandas()
         unproven = [] if written_digests(table, path) is not None else [str(path)]
+        keys = [str(k) for k in rows["key"]] if unproven and "key" in rows else []
     else:
         raise DataError(
             f"{path}: no results file here (run `slipbench evaluate --out FOLDER` first)"
@@ -338,6 +343,7 @@ def read_results(path: str | os.PathLike) -> pd.DataFrame:
             f"{path}: not a slipbench results file (missing columns: {', '.join(sorted(missing))})"
         )
     rows.attrs["unproven"] = unproven
+    rows.attrs["unproven_keys"] = keys
     return rows
 
 

@@ -106,7 +106,7 @@ def test_a_run_file_edited_after_it_was_written_is_refused(tmp_path):
     )
     pq.write_table(edited.replace_schema_metadata(table.schema.metadata), path)
     with pytest.raises(
-        DataError, match=r"c0\.parquet: its rows are not what was written \(48 rows now, 48 written"
+        DataError, match=r"c0\.parquet: its rows are not what was written \(48 of 48 rows fail"
     ):
         read_history(hist)
 
@@ -134,6 +134,45 @@ def test_bad_dates_are_refused_and_zones_kept():
         utc_date("yesterday")
     assert utc_date("2026-03-01T12:00:00-05:00") == "2026-03-01T17:00:00Z"
     assert utc_date("2026-03-01") == "2026-03-01T00:00:00Z"
+
+
+@pytest.mark.parametrize("date", ["0001-01-01T00:00:00+01:00", "9999-12-31T23:00:00-05:00"])
+def test_a_date_out_of_range_once_utc_is_refused_in_add_and_since(tmp_path, cli, date):
+    folder = run_folder(tmp_path / "r0", seed=0)
+    hist = str(tmp_path / "hist")
+    code, _, err = cli(
+        ["history", "add", str(folder), "--history", hist, "--commit", "c0", "--date", date]
+    )
+    assert code == 2 and err.strip().splitlines()[-1] == (
+        f"error: --date: {date!r} falls outside years 1 to 9999 once made UTC"
+    )
+    assert not (tmp_path / "hist").exists()
+    assert cli(["history", "add", str(folder), "--history", hist, "--commit", "c0"])[0] == 0
+    code, _, err = cli(["history", "steps", "--history", hist, "--since", date])
+    assert code == 2 and err.strip().splitlines() == [
+        f"error: --since: {date!r} falls outside years 1 to 9999 once made UTC"
+    ]
+
+
+def test_years_before_1000_are_stored_with_four_digits_and_sort_first(tmp_path):
+    assert utc_date("0999-01-01") == "0999-01-01T00:00:00Z"
+    assert utc_date("0001-01-01") == "0001-01-01T00:00:00Z"
+    hist = tmp_path / "hist"
+    for i, day in enumerate(("2026-01-01", "0999-06-01")):
+        rows = series_rows(read_results(run_folder(tmp_path / f"r{i}", seed=i, code=f"k{i}")))
+        add_run(hist, rows, Run(f"c{i}", utc_date(day), "m"))
+    runs = read_history(hist).groupby("run")["commit"].first().tolist()
+    assert runs == ["c1", "c0"]  # year 999 is the oldest run
+    assert (hist / "runs" / "month=0999-06" / "c1.parquet").is_file()
+
+
+def test_a_history_that_is_a_file_is_refused(tmp_path, cli):
+    folder = run_folder(tmp_path / "r0", seed=0)
+    (tmp_path / "file").write_text("not a history")
+    for command in (["add", str(folder), "--commit", "c0"], ["steps"], ["page"]):
+        code, _, err = cli(["history", *command, "--history", str(tmp_path / "file")])
+        assert code == 2 and "is a file" in err, err
+    assert (tmp_path / "file").read_text() == "not a history"
 
 
 def test_a_history_that_is_not_there_is_named(tmp_path):

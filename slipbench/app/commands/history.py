@@ -33,7 +33,7 @@ class AddArgs:
 
 @history.command("add")
 @click.argument("results", type=click.Path(path_type=Path))
-@click.option("--history", type=Destination(), required=True, help=HISTORY_HELP)
+@click.option("--history", type=Destination(file_okay=False), required=True, help=HISTORY_HELP)
 @click.option("--commit", required=True, help="The commit the results were computed at.")
 @click.option("--date", help="The commit's date, ISO 8601 [default: now, UTC].")
 @click.option(
@@ -53,7 +53,10 @@ def add_command(**options) -> None:
     if (found := held(o.history, o.commit)) is not None:
         click.echo(f"{o.history}: commit {o.commit} is held already ({found}); nothing added")
         return
-    rows, superseded = latest_runs(check_unique_keys(read_results(o.results), str(o.results)))
+    found = read_results(o.results)
+    # rows of files without digests (another tool, an edit): marked so for good in the history
+    found["proven"] = ~found["key"].astype(str).isin(set(found.attrs["unproven_keys"]))
+    rows, superseded = latest_runs(check_unique_keys(found, str(o.results)))
     lacking = int(rows["code_identity"].isna().sum() if "code_identity" in rows else len(rows))
     if lacking:
         click.echo(
@@ -72,6 +75,9 @@ def add_command(**options) -> None:
         click.echo(f"{o.history}: commit {o.commit} was added meanwhile; nothing added")
         return
     left = f" ({superseded} earlier row(s) of cells run again left out)" if superseded else ""
+    unproven = int((~kept["proven"].astype(bool)).sum())
+    if unproven:
+        left += f"; {unproven} of them unproven (no digest vouches for them), marked so"
     click.echo(f"added {len(kept)} rows of commit {o.commit} ({date}) to {path}{left}")
 
 
@@ -150,6 +156,8 @@ def steps_command(**options) -> None:
 def _regressed_since(found, since: str) -> bool:
     """Whether a confirmed regression came after ``since``: a commit of the history (or a
     prefix of one) or an ISO date."""
+    from datetime import datetime
+
     from slipbench.errors import UsageError
     from slipbench.store.history import utc_date
 
@@ -161,12 +169,12 @@ def _regressed_since(found, since: str) -> bool:
         after = found.steps["run"] > int(match["run"].iloc[0])
     else:
         try:
-            date = utc_date(since)
-        except UsageError:
+            datetime.fromisoformat(since.strip().replace("Z", "+00:00"))
+        except ValueError:
             raise UsageError(
                 f"--since: {since!r} is neither a commit of the history nor an ISO date"
             ) from None
-        after = found.steps["date"] > date
+        after = found.steps["date"] > utc_date(since, "--since")
     return bool(((found.steps["verdict"] == "regressed") & after).any())
 
 
@@ -222,6 +230,13 @@ def page_command(**options) -> None:
             f"History {o.history.name}: {len(found.runs)} runs, the latest {last['commit']} "
             f"({last['date']})."
         )
+        marked = found.runs.loc[found.runs["unproven"] > 0, "commit"].tolist()
+        if marked:
+            about.append(
+                f"{len(marked)} run{' holds' if len(marked) == 1 else 's hold'} rows that "
+                f"entered unproven ({', '.join(marked)}): results without digests, whose edits "
+                "cannot be detected."
+            )
     report = None
     if o.results is not None:
         latest, report = _run_report(o.results)

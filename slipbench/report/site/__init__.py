@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.atomic import make_folder, write_text_atomic
+from slipbench.report.steps import verdict_shown
 from slipbench.stats.gate import unit
 from slipbench.stats.steps import JUDGED, Steps
 from slipbench.store.columns import FIGURES
@@ -136,7 +137,7 @@ def _step_rows(found: Steps) -> dict:
         [
             r["commit"],
             r["date"],
-            r["verdict"],
+            verdict_shown(r),
             FIGURES[r["figure"]].label,
             r["series_label"],
             f"{r['change']:+.2f} [{r['change_lo']:+.2f}, {r['change_hi']:+.2f}] {unit(r['figure'])}",
@@ -215,7 +216,11 @@ def _series(found: Steps) -> dict:
             }
         )
     out.sort(key=lambda s: (-len(s["steps"]), s["figure"], s["label"]))
-    runs = [[c, d] for c, d in zip(found.runs["commit"], found.runs["date"])]
+    # a run holding rows that entered unproven is named so wherever a point shows its commit
+    commits = [
+        f"{c} (unproven)" if n else c for c, n in zip(found.runs["commit"], found.runs["unproven"])
+    ]
+    runs = [[c, d] for c, d in zip(commits, found.runs["date"])]
     return {"series": out, "runs": runs}
 
 
