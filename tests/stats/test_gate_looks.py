@@ -117,31 +117,49 @@ def _row(**kw):
     row = {
         "figure": "accuracy",
         "tolerance": 1.5,
-        "change_lo": -0.8,
-        "change_hi": 0.9,
+        "change_lo": -8.0,
+        "change_hi": 9.0,
+        "read_lo": -0.8,
+        "read_hi": 0.9,
+        "look_level": 0.999997,
+        "flags": False,
         "low_n": False,
         "seeds": 3,
         "resolution": 0.5,
         "detectable": 2.0,
         "final": False,
         "next_seeds": 6,
-        "bound": 1.2,
+        "bound": 0.8,
     }
     return row | kw
 
 
 def test_an_interim_look_passes_only_where_the_drops_bound_lies_inside_the_tolerance():
     assert _pooled_verdict(_row(), True) == ("within margin", "")
-    verdict, why = _pooled_verdict(_row(bound=1.9), True)
+    verdict, why = _pooled_verdict(_row(read_lo=-1.9, bound=1.9), True)
     # a power rule would pass it (resolution 0.5 <= 1.5): at an interim look it is undecided
     assert verdict == "undecided"
     assert "a drop of up to 1.9 points is not ruled out at 3 seeds a side" in why
     assert "the next look runs 6" in why
     # the last look: the power rule
-    assert _pooled_verdict(_row(bound=1.9, final=True), True)[0] == "within margin"
-    assert _pooled_verdict(_row(bound=1.9, final=True, resolution=2.0), True)[0] == "undecided"
+    last = dict(final=True, change_lo=-1.9, change_hi=0.9, read_lo=-1.9, bound=1.9)
+    assert _pooled_verdict(_row(**last), True)[0] == "no significant change"
+    assert _pooled_verdict(_row(**last, resolution=2.0), True)[0] == "undecided"
     # a flagged change is flagged at any look
-    assert _pooled_verdict(_row(change_lo=-4.0, change_hi=-2.0, bound=4.0), True)[0] == "regressed"
+    flagged = dict(change_lo=-4.0, change_hi=-2.0, read_lo=-4.0, read_hi=-2.0, bound=4.0)
+    assert _pooled_verdict(_row(**flagged, flags=True), True)[0] == "regressed"
+
+
+def test_an_interim_look_never_calls_a_drop_beyond_its_tolerance_no_change():
+    """The family's interval lies beyond the tolerance, the look's does not flag it: undecided,
+    with the look's own interval and level said. At the last look a drop shown but not beyond
+    the tolerance is "worse"; a gain beyond it that the look does not flag is "better"."""
+    verdict, why = _pooled_verdict(_row(read_lo=-5.4, read_hi=-2.3, bound=5.4), True)
+    assert verdict == "undecided"
+    assert "not flagged at this look" in why and "99.9997 %" in why and "[-8, +9]" in why
+    worse = _row(final=True, read_lo=-2.0, read_hi=-0.1, bound=2.0)
+    assert _pooled_verdict(worse, True) == ("worse", "")
+    assert _pooled_verdict(_row(read_lo=2.0, read_hi=4.0, bound=-2.0), True) == ("better", "")
 
 
 def test_compare_decides_at_the_look_of_its_seeds(tmp_path):
@@ -158,6 +176,12 @@ def test_compare_decides_at_the_look_of_its_seeds(tmp_path):
     q = student_t.ppf(1 - POOLED_ALPHA / 2, b["df"])  # one pooled test: the family's level
     assert b["bound"] == pytest.approx(-b["change"] + q * b["change_se"])
     assert b["final"] == np.False_ and b["next_seeds"] == 6
+    # the interval the verdict reads is the family's where the look flags nothing, and its
+    # worse end is the drop ruled out
+    if not b["flags"]:
+        assert b["read_level"] == pytest.approx(family_level(1, POOLED_ALPHA))
+        assert b["read_lo"] == pytest.approx(b["change"] - q * b["change_se"])
+        assert b["bound"] == pytest.approx(-b["read_lo"])
 
 
 def test_a_regressed_row_names_each_figure_with_its_own_change():
@@ -220,3 +244,40 @@ def test_a_cell_two_protocols_share_is_one_test_and_listed_once(tmp_path):
         "3 cells of cross-instance are window-size's (the same models tested on the same test set)"
         in text
     )
+
+
+def test_a_calibration_of_zero_seed_noise_never_narrows_an_interval(tmp_path):
+    """A deterministic detector's calibration says 0 (its twin equals its run), yet the
+    change's test trials leave it uncertain: the pooled tests and the cells keep their
+    cluster-bootstrap variance, and no pooled interval is narrower than without it."""
+    sides = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+    )
+    own = compare(*sides)
+    zero = compare(*sides, sources=[Source(0.0, df=20)])
+    for a, b in zip(own.pooled.to_dict("records"), zero.pooled.to_dict("records")):
+        assert b["change_se"] > 0 and b["change_hi"] - b["change_lo"] > 0
+        assert b["change_hi"] - b["change_lo"] >= (a["change_hi"] - a["change_lo"]) * (1 - 1e-9)
+    for f in ("accuracy", "tn_rate", "tp_rate"):
+        # a cell's own seed spread may be below the protocol's pooled one (which the
+        # calibration replaces): its interval keeps its trials' variance, never a point
+        assert (zero.cells[f"d_{f}_se"] > 0.01).all()
+        assert (zero.cells[f"d_{f}_hi"] - zero.cells[f"d_{f}_lo"] > 0.05).all()
+
+
+def test_one_seed_with_a_calibration_of_zero_keeps_the_test_trials_interval():
+    """A contrast of one seed per side decides on a measured seed noise; where that is 0 its
+    interval is the test trials' alone, never narrower."""
+    import pandas as pd
+
+    from slipbench.stats.contrast import from_parts, from_rows
+
+    terms = pd.DataFrame(
+        {"unit": ["a", "a"], "seed": [0, 0], "weight": [-1.0, 1.0], "mean": [0.8, 0.77],
+         "se": [0.02, 0.02]}
+    )  # fmt: skip
+    alone = from_rows(terms)
+    zero = from_rows(terms, noise=SeedNoise(0.0, 20, "the bench's calibration"))
+    assert alone.missing and not zero.missing  # it decides now, on the trials' noise
+    tests = from_parts(alone.estimate, [(alone.se**2, np.inf)])
+    assert zero.hi - zero.lo >= (tests.hi - tests.lo) * (1 - 1e-12) > 0
