@@ -5,6 +5,7 @@ Small synthetic result folders with predictions (tests/resultgen.py:predictions_
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from resultgen import predictions_pair
 from scipy.stats import t as student_t
@@ -268,8 +269,6 @@ def test_a_calibration_of_zero_seed_noise_never_narrows_an_interval(tmp_path):
 def test_one_seed_with_a_calibration_of_zero_keeps_the_test_trials_interval():
     """A contrast of one seed per side decides on a measured seed noise; where that is 0 its
     interval is the test trials' alone, never narrower."""
-    import pandas as pd
-
     from slipbench.stats.contrast import from_parts, from_rows
 
     terms = pd.DataFrame(
@@ -281,3 +280,102 @@ def test_one_seed_with_a_calibration_of_zero_keeps_the_test_trials_interval():
     assert alone.missing and not zero.missing  # it decides now, on the trials' noise
     tests = from_parts(alone.estimate, [(alone.se**2, np.inf)])
     assert zero.hi - zero.lo >= (tests.hi - tests.lo) * (1 - 1e-12) > 0
+
+
+def _cell(read_at_look=True, **changes):
+    """A compared cell's row: ``figure=(change, lo, hi)`` in points."""
+    row = {
+        "base_status": "ok",
+        "candidate_status": "ok",
+        "identical": False,
+        "low_n": False,
+        "stream": False,
+        "method": "paired",
+        "read_at_look": read_at_look,
+    }
+    for f in ("accuracy", "tn_rate", "tp_rate"):
+        d, lo, hi = changes.get(f, (0.0, -1.0, 1.0))
+        row |= {f"d_{f}": d / 100, f"d_{f}_lo": lo / 100, f"d_{f}_hi": hi / 100}
+    return row
+
+
+@pytest.mark.parametrize(
+    ("changes", "verdict"),
+    [
+        # a TN drop its interval shows, not beyond the tolerance: never "no significant change"
+        ({"tn_rate": (-3.9, -5.4, -2.3)}, "worse"),
+        # better beyond the tolerance on TP, 12.6 points of TN rate lost: mixed, not improved
+        ({"tp_rate": (9.0, 5.0, 13.0), "tn_rate": (-12.6, -30.0, 4.0)}, "mixed"),
+        # a TN drop inside its tolerance leaves the gain an improvement
+        ({"tp_rate": (9.0, 5.0, 13.0), "tn_rate": (-1.0, -2.5, -0.2)}, "improved"),
+        ({"tp_rate": (9.0, 5.0, 13.0), "tn_rate": (-2.0, -3.5, -0.5)}, "mixed"),
+        ({"tp_rate": (9.0, 5.0, 13.0)}, "improved"),
+        ({"tp_rate": (2.0, 0.5, 3.5)}, "better"),
+        ({"tn_rate": (-9.0, -13.0, -5.0), "tp_rate": (9.0, 5.0, 13.0)}, "regressed"),
+        ({"accuracy": (0.1, -0.5, 0.7)}, "within margin"),
+        ({"tn_rate": (-1.0, -4.0, 2.0)}, "no significant change"),
+    ],
+)
+def test_a_cells_word_matches_its_intervals(changes, verdict):
+    from slipbench.stats.compare import _judge_cells
+
+    gate = Gate({"accuracy": 1.5, "tn_rate": 3.0, "tp_rate": 3.0})
+    judged = _judge_cells(pd.DataFrame([_cell(**changes)]), gate)
+    assert judged["verdict"].iloc[0] == verdict
+
+
+def test_a_cell_the_look_does_not_flag_is_worse_not_regressed():
+    """Before the last look a cell's interval at the family's level lying beyond the
+    tolerance is worse (the look did not flag it), and says so; at the look it regresses."""
+    from slipbench.stats.compare import BEYOND_UNFLAGGED, _judge_cells
+
+    gate = Gate({"accuracy": 1.5, "tn_rate": 3.0, "tp_rate": 3.0}, seeds=3, budget=12)
+    beyond = {"tn_rate": (-9.0, -13.0, -5.0)}
+    judged = _judge_cells(pd.DataFrame([_cell(False, **beyond), _cell(True, **beyond)]), gate)
+    assert judged["verdict"].tolist() == ["worse", "regressed"]
+    assert judged["inconclusive_reason"].iloc[0] == BEYOND_UNFLAGGED
+    assert judged["regressed_figures"].tolist() == ["", "tn_rate"]
+
+
+def test_a_level_is_never_printed_as_100_percent():
+    from slipbench.stats.compare import level_text
+
+    assert level_text(0.95) == "95 %"
+    assert level_text(1 - 0.025 / 12) == "99.79 %"
+    assert level_text(1 - 2.6e-7) == "99.999974 %"
+    assert level_text(1 - 1e-12) != "100 %" and "100 %" not in level_text(1.0)
+
+
+def test_a_power_beyond_a_rates_range_cannot_see_a_drop_of_any_size():
+    from slipbench.report.compare import _sees
+
+    assert _sees({"figure": "tp_rate", "detectable": 310.0, "final": False}) == (
+        "cannot see a drop of any size at this look"
+    )
+    assert _sees({"figure": "tp_rate", "detectable": 4.5, "final": True}) == "4.5 points"
+    assert _sees({"figure": "median_delay_ms", "detectable": 310.0, "final": True}) == "3.1e+02 ms"
+
+
+def test_the_comment_at_a_first_look_rules_out_only_what_its_printed_interval_does(tmp_path):
+    """At the first of four looks: every pooled line's "ruled out" bound is the worse end of
+    the interval printed beside it, at a level printed below 100 %."""
+    import re
+
+    from slipbench.report.compare import comment_markdown
+
+    sides = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.05
+    )
+    gate = Gate({"accuracy": 10.0, "tn_rate": 16.0, "tp_rate": 16.0}, seeds=3, budget=12)
+    cmp = compare(*sides, gate)
+    text = comment_markdown(cmp)
+    assert "100 %" not in text and not re.search(r"\b\d\.\de\+0[2-9] points", text)
+    said = re.findall(
+        r"([+-][\d.]+(?:e[+-]\d+)?) \[([+-][\d.e+-]+), ([+-][\d.e+-]+)\] points \(([\d.]+) %\): "
+        r"a drop (?:beyond ([\d.e+-]+) points|of any size) ruled out",
+        text,
+    )
+    assert len(said) == len(cmp.pooled) > 0, text
+    for _, lo, _, level, bound in said:
+        assert float(level) < 100
+        assert (float(bound) if bound else 0.0) == pytest.approx(max(0.0, -float(lo)))
