@@ -48,7 +48,7 @@ import scipy  # its submodules load on first use: reading stored rows pays none
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED
 from slipbench.stats.bootstrap import IntervalSpec
 from slipbench.stats.changes import cell_changes, pool_of, seed_pools
-from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, state_of
+from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, level_text, state_of
 from slipbench.stats.gate import (
     Gate,
     needed,
@@ -673,16 +673,6 @@ def _pooled_verdict(r: dict, retrained: bool) -> tuple[str, str]:
             f"more than twice its tolerance"
         )
     return (read or "no significant change"), ""
-
-
-def level_text(level: float) -> str:
-    """An interval's level in percent with as many decimals as it takes to differ from 100
-    ("99.79 %", "99.99974 %"; "95 %"): a look's level is never printed as 100 %."""
-    miss = 100 * (1 - level)
-    if not miss > 0:  # a look that spends no error flags nothing
-        return "no-error (it flags nothing)"
-    decimals = max(0, int(np.ceil(-np.log10(miss))) + 1)
-    return f"{100 * level:.{decimals}f}".rstrip("0").rstrip(".") + " %"
 
 
 def _figure(r: dict) -> str:
