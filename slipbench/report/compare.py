@@ -455,8 +455,10 @@ def _seen(r: dict) -> str:
             return f"{said}: a drop of any size ruled out"
         return f"{said}: a drop beyond {r['bound']:.2g} {u} ruled out"
     sees = _sees(r)
-    if sees.startswith("cannot") or sees == "—":
-        return f"{said}: it {sees}" if sees != "—" else said
+    if sees == "—":
+        return said
+    if sees.startswith("cannot"):
+        return f"{said}: it {sees}"
     return f"{said}: a drop of {sees} would show (80 % power)"
 
 

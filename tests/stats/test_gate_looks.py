@@ -379,3 +379,29 @@ def test_the_comment_at_a_first_look_rules_out_only_what_its_printed_interval_do
     for _, lo, _, level, bound in said:
         assert float(level) < 100
         assert (float(bound) if bound else 0.0) == pytest.approx(max(0.0, -float(lo)))
+
+
+def test_a_no_regression_line_prints_its_interval_and_reads_its_bound_from_it():
+    from slipbench.report.compare import _seen
+
+    row = {
+        "figure": "tp_rate",
+        "protocol": "cross-instance",
+        "detector": "holweg",
+        "change": 0.039,
+        "read_lo": -0.39,
+        "read_hi": 0.47,
+        "read_level": 1 - 0.025 / 3,
+        "bound": 0.39,
+        "detectable": 310.0,
+    }
+    interval = "+0.039 [-0.39, +0.47] points (99.17 %)"
+    assert _seen(row | {"final": False}) == (
+        f"TP rate (misses) of cross-instance, holweg {interval}: a drop beyond 0.39 points "
+        "ruled out"
+    )
+    assert _seen(row | {"final": False, "bound": -0.1}).endswith("a drop of any size ruled out")
+    assert _seen(row | {"final": True}).endswith(f"{interval}: it cannot see a drop of any size")
+    assert _seen(row | {"final": True, "detectable": 4.2}).endswith(
+        "a drop of 4.2 points would show (80 % power)"
+    )
