@@ -100,11 +100,10 @@ def _line(t: PlannedTest, d: Design, scale: float | None) -> str:
     if t.same is None or t.apart is None:
         return f"  {name} (tolerance {t.tolerance:g} {u}): not planned ({t.why})"
     same = (
-        "its twin equals its run, so retraining adds no noise and a change is judged on its "
-        "own spread across seeds"
+        "its twin equals its run (retraining adds no noise), its test trials' noise remains: "
         if t.deterministic
-        else _seen(t.same, d, u, scale)
-    )
+        else ""
+    ) + _seen(t.same, d, u, scale)
     return (
         f"  {name} (tolerance {t.tolerance:g} {u}): same seeds: {same}; seeds apart: "
         f"{_seen(t.apart, d, u, scale)}"
@@ -207,8 +206,9 @@ def _planned(  # noqa: PLR0913 - one test's coordinates and what it is planned f
     cal = status.calibration
     assert cal is not None
     scale = FIGURES[figure].scale
+    drop = 2 * tolerance / scale if FIGURES[figure].rate else None  # the drop it must flag
     same, apart = (
-        sight(scale * math.sqrt(noise.per_seed(paired)), noise.df(paired), tolerance, design)
+        sight(scale * math.sqrt(noise.per_seed(paired, drop)), noise.df(paired), tolerance, design)
         for paired in (True, False)
     )
     return PlannedTest(

@@ -23,10 +23,12 @@ from slipbench.stats.compare import (
     POOLED_ALPHA,
     VERDICTS,
     Comparison,
+    level_text,
     primary_change,
     repeats_note,
     summary,
 )
+from slipbench.stats.contrast import family_level
 from slipbench.stats.factors import SETTINGS, setting_text
 from slipbench.stats.gate import Gate, unit
 from slipbench.store import columns
@@ -38,7 +40,10 @@ MARKS = dict(
         VERDICTS,
         (
             "▼ regressed",
+            "◆ mixed (better on one figure, worse on another)",
             "▲ improved",
+            "▽ worse (not shown beyond its tolerance)",
+            "△ better (not shown beyond its tolerance)",
             "≈ within margin",
             "= no significant change",
             "? inconclusive",
@@ -48,9 +53,10 @@ MARKS = dict(
 ) | {"undecided": "◇ undecided"}
 #: the rates of one class each, TP then TN: a windowed cell's second column
 _CLASS_RATES = [f.name for f in figures(WINDOWED) if f.one_class]
-SCHEMA_VERSION = (
-    4  # of the JSON: 4 reads verdicts from Bonferroni intervals (``p``, not ``p_holm``)
-)
+#: of the JSON: 4 read verdicts from Bonferroni intervals (``p``, not ``p_holm``); 5 names the
+#: interval each pooled verdict reads (``read_lo``, ``read_hi``, ``read_level``) and adds the
+#: cells' words mixed, worse and better
+SCHEMA_VERSION = 5
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
 
@@ -159,6 +165,8 @@ def _row(r: dict, cmp: Comparison) -> dict:
         line["Δ [simultaneous CI]"] = _delta(r, "accuracy")
         line["Δ TP / TN rate"] = " / ".join(_delta(r, name, bounds=False) for name in _CLASS_RATES)
     why = r.get("inconclusive_reason") or ""
+    if not cmp.look.final and r.get("read_at_look"):
+        why = ", ".join(filter(None, [why, f"Δ at this look's {level_text(cmp.level)}"]))
     line[""] = MARKS[r["verdict"]] + (f" ({why})" if why else "") + _regressed_figures(r)
     return line
 
@@ -290,15 +298,8 @@ def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
         parts.append(
             "### Pooled per protocol and detector\n\n"
             + _pooled_table(cmp)
-            + f"\n\n_mean Δ: candidate − base over the cells both sides finished (identical cells "
-            f"count 0), with a {100 * cmp.pooled_level:.4g} % interval (one joint cluster bootstrap over "
-            "the trials the cells share, where both sides kept predictions), Bonferroni over the "
-            f"{len(cmp.pooled)} pooled tests (protocols × detectors × figures) at "
-            f"{100 * POOLED_ALPHA:g} %: a figure regressed or improved where that interval lies beyond its "
-            "tolerance, within margin where inside it; p: the Bonferroni-adjusted p-value of a change "
-            f"within the tolerance, below {POOLED_ALPHA:g} exactly there; sees: the drop flagged with 80 % "
-            "power (tolerance + se × (t(1 − α/2N, df) + t(0.8, df))); undecided where that is more than "
-            "twice the tolerance._"
+            + "\n\n"
+            + _pooled_footnote(cmp)
         )
     parts.append(
         "### Per protocol and detector\n\n" + _summary_table(cmp) + "\n\n_mean Δ and worst "
@@ -381,11 +382,32 @@ def gate_text(gate: Gate) -> str:
     return ", ".join(f"{FIGURES[f].called} ±{t:g} {unit(f)}" for f, t in gate.tolerances.items())
 
 
+def _interval(r: dict) -> str:
+    """A pooled test's change with the interval its verdict reads, at that level."""
+    return (
+        f"{r['change']:+.2g} [{r['read_lo']:+.2g}, {r['read_hi']:+.2g}] {unit(r['figure'])} "
+        f"({level_text(r['read_level'])})"
+    )
+
+
 def _pooled_phrase(r: dict) -> str:
     return (
         f"{md_text(r['protocol'])}, {md_text(r['detector'])}: {FIGURES[r['figure']].called} "
-        f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {unit(r['figure'])}"
+        f"{_interval(r)}"
     )
+
+
+def _sees(r: dict) -> str:
+    """The drop a pooled test flags with 80 % power (at this look); where that is beyond any
+    change the figure can make (100 points of a rate), that it cannot see a drop of any
+    size."""
+    seen = r["detectable"]
+    if not np.isfinite(seen):
+        return "—"
+    lo, hi = FIGURES[r["figure"]].bounds
+    if seen > FIGURES[r["figure"]].scale * (hi - lo):
+        return "cannot see a drop of any size" + ("" if r.get("final", True) else " at this look")
+    return f"{seen:.2g} {unit(r['figure'])}"
 
 
 def _flagged(cmp: Comparison) -> list[str]:
@@ -422,13 +444,22 @@ def _verdict_line(cmp: Comparison) -> str:
 
 
 def _seen(r: dict) -> str:
-    """What a pooled test that flagged nothing could see: before the last look, the drop its
-    interval rules out (at the family's level); at the last, the drop it flags with 80 %
-    power."""
+    """What a pooled test that flagged nothing could see, read from the interval printed
+    with it: before the last look, the drop that interval rules out (its worse end); at the
+    last, also the drop it flags with 80 % power."""
     what = f"{FIGURES[r['figure']].called} of {md_text(r['protocol'])}, {md_text(r['detector'])}"
+    u = unit(r["figure"])
+    said = f"{what} {_interval(r)}"
     if not r.get("final", True):
-        return f"{what}: a drop beyond {r['bound']:.2g} {unit(r['figure'])} ruled out"
-    return f"{what}: a drop of {r['detectable']:.2g} {unit(r['figure'])} would show (80 % power)"
+        if r["bound"] <= 0:
+            return f"{said}: a drop of any size ruled out"
+        return f"{said}: a drop beyond {r['bound']:.2g} {u} ruled out"
+    sees = _sees(r)
+    if sees == "—":
+        return said
+    if sees.startswith("cannot"):
+        return f"{said}: it {sees}"
+    return f"{said}: a drop of {sees} would show (80 % power)"
 
 
 def _what_to_run(cmp: Comparison) -> str:
@@ -511,14 +542,47 @@ def _pooled_table(cmp: Comparison) -> str:
                 "detector": r["detector"],
                 "figure": FIGURES[r["figure"]].called,
                 "cells (changed)": f"{r['cells']} ({r['changed_cells']})",
-                "mean Δ [CI]": f"{r['change']:+.2g} [{r['change_lo']:+.2g}, {r['change_hi']:+.2g}] {u}",
-                "p (Bonferroni)": f"{r['p']:.3g}",
-                "sees": f"{r['detectable']:.2g} {u}" if np.isfinite(r["detectable"]) else "—",
+                "mean Δ [CI]": f"{r['change']:+.2g} [{r['read_lo']:+.2g}, {r['read_hi']:+.2g}] {u}",
+                "level": level_text(r["read_level"]),
+                "sees": _sees(r),
                 "": MARKS[r["verdict"]]
                 + (f" ({r['undecided_reason']})" if r["undecided_reason"] else ""),
             }
         )
     return _table(lines)
+
+
+def _pooled_footnote(cmp: Comparison) -> str:
+    """How the pooled table's intervals are read, at this look."""
+    n = len(cmp.pooled)
+    family = level_text(family_level(n, POOLED_ALPHA))
+    head = (
+        "_mean Δ: candidate − base over the cells both sides finished (identical cells count 0), "
+        "with the interval its verdict reads, at the level beside it (one joint cluster "
+        "bootstrap over the trials the cells share, where both sides kept predictions). "
+    )
+    if cmp.look.final:
+        read = (
+            f"The interval is this look's ({level_text(cmp.pooled_level)}: Bonferroni over the {n} "
+            f"pooled tests at {100 * POOLED_ALPHA:g} %"
+            + (", its share of the budget's looks" if cmp.gate.sequential else "")
+            + "): a figure regressed or improved where it lies beyond its tolerance, within "
+            "margin where inside it; worse or better where it lies on one side of no change "
+            "only. sees: the drop flagged with 80 % power (tolerance + se × (t(1 − α/2N, df) + "
+            "t(0.8, df))); undecided where that is more than twice the tolerance._"
+        )
+    else:
+        read = (
+            f"At this look ({cmp.look.seeds} of {cmp.gate.budget} seeds a side) a figure is "
+            f"flagged only where its interval at the look's level ({level_text(cmp.pooled_level)}, "
+            "its O'Brien-Fleming share of the error) lies beyond its tolerance, and that "
+            "interval is printed; otherwise the interval printed is the family's "
+            f"({family}: Bonferroni over the {n} pooled tests at {100 * POOLED_ALPHA:g} %), and "
+            "no regression means its worse end lies inside the tolerance: that end is the drop "
+            "it rules out. sees: the drop this look flags with 80 % power; undecided where a "
+            "drop beyond the tolerance is not ruled out._"
+        )
+    return head + read
 
 
 def _fit(rows: list[dict], budget: int) -> tuple[str, int]:
@@ -547,19 +611,22 @@ def _notes(cmp: Comparison) -> list[str]:
         f"protocols, detectors and figures) and the cells ({100 * CELL_ALPHA:g} %, Bonferroni over the figures of the "
         f"{n_family} cells that changed and are not low-n, of {n} both sides finished). Every verdict reads the "
         "interval printed beside it. Cells with identical predictions on both sides leave the family._",
-        f"_Δ: candidate − base, percentage points, with a {100 * cmp.level:.4g} % interval "
+        f"_Δ: candidate − base, percentage points, with {_cell_levels(cmp)} "
         f"({'; '.join(f'{m}: {k} cells' for m, k in methods.items())}; a paired cluster bootstrap over the shared "
         f"test windows where both sides kept predictions; over seeds and trials where a side ran several seeds). "
         f"A cell regresses when a figure of the gate ({md_text(gate_text(cmp.gate))}) is worse than its "
         "tolerance (its interval lies beyond it), or when the candidate did not finish a cell the base finished; "
-        "it improves when one is better and none worse; within margin when every figure's interval lies inside its "
+        "it improves when one is better beyond its tolerance and none worse; mixed when one is better beyond its "
+        "tolerance and another worse (its interval below no change, or its change beyond its tolerance); worse "
+        "(better) when an interval lies on the worse (better) side of no change without a figure flagged beyond "
+        "its tolerance, never no significant change; within margin when every figure's interval lies inside its "
         "tolerance. "
         f"A cell is inconclusive when it is low-n (fewer than 10 test trials of a class: its intervals undercover) "
         f"or its interval, deciding nothing, is wider than {cmp.gate.max_width:g} points._",
     ]
     if cells["stream"].any():
         notes.append(
-            f"_Streaming cells: Δ with a {100 * cmp.level:.4g} % interval from the rows' bootstrap intervals over "
+            "_Streaming cells: Δ with the interval above from the rows' bootstrap intervals over "
             "trials, combined as independent (unpaired; both sides stream the same trials, so this is conservative). "
             "A streaming cell is judged on false alarms per minute, detection rate and median delay as the gate "
             "lists them. "
@@ -569,6 +636,19 @@ def _notes(cmp: Comparison) -> list[str]:
             + "_"
         )
     return notes + [f"_{md_text(n)}_" for n in cmp.notes]
+
+
+def _cell_levels(cmp: Comparison) -> str:
+    """The level of the cells' intervals, in words: the look's, or before the last look the
+    family's where the look flags nothing."""
+    if cmp.look.final:
+        return f"a {level_text(cmp.level)} interval"
+    return (
+        f"a {level_text(cmp.read_level)} interval (the cells' family: Bonferroni at "
+        f"{100 * CELL_ALPHA:g} %; at this look, {cmp.look.seeds} of {cmp.gate.budget} seeds a side, "
+        f"a cell is flagged only where its interval at the look's level, "
+        f"{level_text(cmp.level)}, lies beyond a tolerance, and such a cell prints that interval)"
+    )
 
 
 def _compute_summary(cells: pd.DataFrame) -> str:
@@ -642,6 +722,7 @@ def to_json(cmp: Comparison) -> str:
         "gate": {"tolerances": dict(cmp.gate.tolerances), "max_width": cmp.gate.max_width},
         "level": cmp.level,
         "pooled_level": cmp.pooled_level,
+        "read_level": cmp.read_level,
         "family": {
             "alpha": ALPHA,
             "pooled": {

@@ -9,8 +9,9 @@ import os
 import numpy as np
 import pandas as pd
 
+from slipbench.stats.contrast import level_text
 from slipbench.stats.gate import MAX_NEEDED, POWER, unit
-from slipbench.stats.steps import JUDGED, SERIES_ALPHA, Steps
+from slipbench.stats.steps import JUDGED, MIN_RUNS, SERIES_ALPHA, Steps
 from slipbench.store.columns import FIGURES
 
 SHOWN = ("commit", "date", "verdict", "figure", "series_label", "change", "runs", "what_changed")
@@ -34,7 +35,35 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
         f"improved beyond the tolerance (each segment's seeds against the other's; Bonferroni "
         f"over a series' proposals at {100 * SERIES_ALPHA:g} %, the level of each interval), "
         f"{int(counts.get('inconclusive', 0))} inconclusive (one seed on each side, or low n).\n"
-        + unproven_line(runs)
+        f"{AGAINST_COMPARE}\n" + unproven_line(runs)
+    )
+
+
+#: why a step and `compare` can read the same change differently
+AGAINST_COMPARE = (
+    "A step reads the runs of the segment before against those after (each at least "
+    f"{MIN_RUNS} runs; their seeds unpaired, their spread the noise) at its series' "
+    "Bonferroni level; `slipbench compare` reads one base against one candidate, seed by seed "
+    "(calibrated noise where the bench has it), at its look's level: on the same change they "
+    "differ where their seeds, noise or level differ, and each prints the interval and level "
+    "it read."
+)
+
+
+def short_history(found: Steps) -> str:
+    """Where no series holds enough runs for a step (a segment needs ``MIN_RUNS`` runs on each
+    side of it), how many it needs; "" where one does."""
+    held = (
+        int(found.points.groupby(["series", "figure"]).size().max())
+        if not found.points.empty
+        else len(found.runs)
+    )
+    if held >= 2 * MIN_RUNS:
+        return ""
+    return (
+        f"No step can be proposed: a segment needs {MIN_RUNS} runs on each side of a step "
+        f"({2 * MIN_RUNS} runs in a series), and the longest series holds {held}; "
+        f"{2 * MIN_RUNS - held} more runs would let one be proposed."
     )
 
 
@@ -80,7 +109,7 @@ def _unconfirmed(found: Steps) -> str:
                 r["run"],
                 f"- {commit} ({r['date']}): a step proposed in {len(part)} series, none "
                 f"confirmed; nearest: {FIGURES[r['figure']].label} of {r['series_label']}, "
-                f"{_change(r)} at {100 * r['level']:.4g} % on {r['df']:.0f} df, "
+                f"{_change(r)} at {level_text(r['level'])} on {r['df']:.0f} df, "
                 f"{r['runs_before']} runs → {r['runs_after']}; {_would_confirm(r)}",
             )
         )
@@ -122,7 +151,7 @@ def steps_text(found: Steps, where: str | os.PathLike) -> str:
     out = _header(found, where) + _unconfirmed(found)
     confirmed = found.confirmed.sort_values(["run", "series_label"], ascending=[False, True])
     if confirmed.empty:
-        return out + "\nNo confirmed step.\n"
+        return out + f"\n{short_history(found) or 'No confirmed step.'}\n"
     table = pd.DataFrame(
         {
             "commit": confirmed["commit"],
@@ -131,6 +160,7 @@ def steps_text(found: Steps, where: str | os.PathLike) -> str:
             "figure": confirmed["figure"].map(lambda f: FIGURES[f].label),
             "series": confirmed["series_label"],
             "change [interval]": [_change(r) for r in confirmed.to_dict("records")],
+            "level": [level_text(v) for v in confirmed["level"]],
             "runs": [
                 f"{b} → {a}" for b, a in zip(confirmed["runs_before"], confirmed["runs_after"])
             ],

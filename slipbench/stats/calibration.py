@@ -67,10 +67,29 @@ class Noise:
     paired_df: float
     trial_var: float
 
-    def per_seed(self, paired: bool) -> float:
-        """The variance of one seed's change between two equal sides: under the same seeds
-        (``paired``) the twin's, under different seeds twice one side's."""
-        return self.paired_var if paired else 2 * self.seed_var
+    def per_seed(self, paired: bool, drop: float | None = None) -> float:
+        """The variance of one seed's change between two sides, as a plan reads it: under
+        different seeds twice one side's (its splits' test sets inside it); under the same
+        seeds (``paired``) the twin's plus the test trials' share of a change of ``drop``
+        (:meth:`test_noise`), so that a detector whose twin is its run (``paired_var`` 0)
+        still carries the noise its test trials leave."""
+        if not paired:
+            return 2 * self.seed_var
+        return self.paired_var + self.test_noise(drop)
+
+    def test_noise(self, drop: float | None = None) -> float:
+        """The test trials' variance of one seed's paired change of ``drop`` (a rate's change,
+        stored units): a change of ``drop`` flips at least that share of the windows, whose
+        variance over trials is ``drop / (p (1 - p))`` of the figure's own (``trial_var``, ``p``
+        its mean), at most all of it; without ``drop`` (not a rate), all of it. 0 where the
+        rows held no standard error. A comparison's interval holds this noise in its cluster
+        bootstrap already: only a plan, made before any change is seen, adds it."""
+        if not math.isfinite(self.trial_var):
+            return 0.0
+        p = self.mean
+        if drop is None or not 0 < p < 1:
+            return self.trial_var
+        return self.trial_var * min(1.0, abs(drop) / (p * (1 - p)))
 
     def df(self, paired: bool) -> float:
         return self.paired_df if paired else self.seed_df

@@ -48,7 +48,7 @@ import scipy  # its submodules load on first use: reading stored rows pays none
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED
 from slipbench.stats.bootstrap import IntervalSpec
 from slipbench.stats.changes import cell_changes, pool_of, seed_pools
-from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, state_of
+from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, level_text, state_of
 from slipbench.stats.gate import (
     Gate,
     needed,
@@ -89,7 +89,10 @@ RECOMMENDED_REPEATS = 3
 # the verdicts a cell can get, in the order counts of them are given
 VERDICTS = (
     "regressed",
+    "mixed",
     "improved",
+    "worse",
+    "better",
     "within margin",
     "no significant change",
     "inconclusive",
@@ -178,6 +181,10 @@ class Comparison:
     # besides the sides' own seeds (the sources' words, "" where none answered)
     look: Look = field(default_factory=lambda: Look(0, 1, True, 0))
     measured: str = ""
+    # the level of the cells' intervals printed and read where the look flags nothing (the
+    # cells' family's, Bonferroni at CELL_ALPHA, before the last look; ``level`` at it): a cell
+    # the look flags (``read_at_look``) prints its interval at ``level``
+    read_level: float = LEVEL
 
     @property
     def regressions(self) -> pd.DataFrame:
@@ -273,12 +280,19 @@ def compare(
     )
     level = look_level(gate, look, n_tests, CELL_ALPHA)
     pools = seed_pools(plans)
-    cells = _judge_cells(
-        pd.DataFrame(
-            [cell_changes(plan, seed, level, _cell_noise(plan, pools, sources)) for plan in plans]
-        ),
-        gate,
-    )
+    noises = [_cell_noise(plan, pools, sources) for plan in plans]
+    if look.final:
+        cells = pd.DataFrame([cell_changes(p, seed, level, n) for p, n in zip(plans, noises)])
+        cells["read_at_look"] = True
+        read_level = level
+    else:  # the look flags; a cell it does not flag is read at the family's level
+        read_level = family_level(n_tests, CELL_ALPHA)
+        at_look = [cell_changes(_copied(p), seed, level, n) for p, n in zip(plans, noises)]
+        at_family = [cell_changes(p, seed, read_level, n) for p, n in zip(plans, noises)]
+        flags = [_flags(r, gate) for r in at_look]
+        cells = pd.DataFrame([a if f else b for a, b, f in zip(at_look, at_family, flags)])
+        cells["read_at_look"] = flags
+    cells = _judge_cells(cells, gate)
     cells["shared_with"] = shared
     pooled, pooled_level = _pooled_tests(plans, cells, IntervalSpec(seed, LEVEL), gate, sources)
     cmp = Comparison(
@@ -297,10 +311,27 @@ def compare(
         min((c for _, c in seeds), default=1),
         look,
         _measured_sources(pooled),
+        read_level,
     )
     if not pooled.empty:
         cmp.pooled = _pooled_verdicts(pooled, gate, cmp.retraining_covered, look)
     return cmp
+
+
+def _copied(plan: tuple) -> tuple:
+    """A cell's plan whose entry :func:`cell_changes` may fill without touching the plan's."""
+    return (dict(plan[0]), *plan[1:])
+
+
+def _flags(r: dict, gate: Gate) -> bool:
+    """A cell's interval at the look's level lies beyond a figure's tolerance on either side:
+    the look flags it."""
+    return decidable(r) and any(
+        _reading(r.get(f"d_{f}_lo", np.nan), r.get(f"d_{f}_hi", np.nan), f, gate.tolerances[f])
+        in ("regressed", "improved")
+        for f in gate.figures(bool(r["stream"]))
+        if f"d_{f}" in r
+    )
 
 
 def shared_with(entries: list[dict]) -> list[str]:
@@ -340,31 +371,51 @@ def _measured_sources(pooled: pd.DataFrame) -> str:
 def _reading(lo: float, hi: float, figure: str, tolerance: float) -> str:
     """What an interval of a change of ``figure`` (stored units) says against ``tolerance``
     (the figure's change units): "regressed" or "improved" where it lies beyond the tolerance
-    on one side, "within margin" where inside it, else "" (the contrast's states,
-    :func:`slipbench.stats.contrast.state_of`)."""
+    on one side, "within margin" where inside it (the contrast's states,
+    :func:`slipbench.stats.contrast.state_of`); "worse" or "better" where it lies wholly on
+    one side of no change without clearing the tolerance (a change its interval shows, never
+    "no significant change"); else ""."""
     declared = columns.FIGURES[figure]
     margin = tolerance / declared.scale
     state = state_of(lo, hi, margin)
     if state == CONTRADICTED:
         return "within margin"
-    if state != SHOWN:
+    if state == SHOWN:
+        up, words = lo > margin, ("regressed", "improved")
+    elif lo > 0 or hi < 0:
+        up, words = lo > 0, ("worse", "better")
+    else:
         return ""
-    higher = lo > margin
-    return "regressed" if higher == (declared.worse > 0) else "improved"
+    return words[0] if up == (declared.worse > 0) else words[1]
+
+
+def _beyond(r: dict, figure: str, tolerance: float) -> bool:
+    """The cell's change of ``figure`` lies beyond its tolerance on the worse side (its
+    estimate, whatever its interval)."""
+    declared = columns.FIGURES[figure]
+    d = float(r.get(f"d_{figure}", np.nan))
+    return bool(declared.worse * d * declared.scale > tolerance)
 
 
 def _judge_cells(cells: pd.DataFrame, gate: Gate) -> pd.DataFrame:
-    """Each cell's verdict, read from its figures' intervals (drawn at the cells' Bonferroni
-    level) against their tolerances; the figures that regressed are named."""
+    """Each cell's verdict, read from its figures' intervals against their tolerances (at the
+    look's level where the look flags the cell, ``read_at_look``, else at the cells' family's
+    level: there a change beyond the tolerance is "worse" or "better", never flagged); the
+    figures that regressed are named."""
     if "df" not in cells:
         cells["df"] = np.inf
+    if "read_at_look" not in cells:
+        cells["read_at_look"] = True
     cells["df"] = np.where(cells["stream"].astype(bool), np.inf, cells["df"])
     can = cells.apply(decidable, axis=1).to_numpy(bool)
     records = cells.to_dict("records")
     readings = [
         {
-            f: _reading(
-                r.get(f"d_{f}_lo", np.nan), r.get(f"d_{f}_hi", np.nan), f, gate.tolerances[f]
+            f: _unflagged(
+                _reading(
+                    r.get(f"d_{f}_lo", np.nan), r.get(f"d_{f}_hi", np.nan), f, gate.tolerances[f]
+                ),
+                bool(r["read_at_look"]),
             )
             for f in gate.figures(bool(r["stream"]))
             if f"d_{f}" in r
@@ -373,7 +424,10 @@ def _judge_cells(cells: pd.DataFrame, gate: Gate) -> pd.DataFrame:
         else {}
         for r, ok in zip(records, can)
     ]
-    verdicts = [_cell_verdict(r, read, gate) for r, read in zip(records, readings)]
+    verdicts = [
+        _cell_verdict(r, read, gate, any(_beyond(r, f, gate.tolerances[f]) for f in read))
+        for r, read in zip(records, readings)
+    ]
     cells["verdict"] = [v for v, _ in verdicts]
     cells["inconclusive_reason"] = [why for _, why in verdicts]
     cells["regressed_figures"] = [
@@ -382,8 +436,23 @@ def _judge_cells(cells: pd.DataFrame, gate: Gate) -> pd.DataFrame:
     return cells
 
 
-def _cell_verdict(r: dict, read: dict[str, str], gate: Gate) -> tuple[str, str]:
-    """A cell's verdict from its figures' readings and, where inconclusive, why."""
+#: a change beyond the tolerance that the look did not flag, read at the family's level
+BEYOND_UNFLAGGED = "beyond its tolerance, not flagged at this look"
+
+
+def _unflagged(word: str, at_look: bool) -> str:
+    """A figure's reading where the look did not flag its cell: a change beyond the tolerance
+    is claimed only where a look flags it, so it reads worse (or better)."""
+    if at_look:
+        return word
+    return {"regressed": "worse: " + BEYOND_UNFLAGGED, "improved": "better"}.get(word, word)
+
+
+def _cell_verdict(r: dict, read: dict[str, str], gate: Gate, beyond: bool) -> tuple[str, str]:
+    """A cell's verdict from its figures' readings (:func:`_reading`) and, where inconclusive,
+    why; ``beyond``: some figure's estimate lies beyond its tolerance on the worse side. A cell
+    better beyond the tolerance on one figure and worse on another (shown worse, or its
+    estimate beyond the tolerance) is "mixed", never "improved"."""
     if not finished(r):
         if r["base_status"] == "ok":
             return "regressed", ""  # the candidate no longer finishes a cell the base finished
@@ -394,11 +463,17 @@ def _cell_verdict(r: dict, read: dict[str, str], gate: Gate) -> tuple[str, str]:
         return "inconclusive", "streaming cells over several seeds are not compared"
     if r["low_n"]:
         return "inconclusive", f"low n (fewer than {LOW_N} test trials of a class)"
-    said = set(read.values())
+    said = {w.split(":")[0] for w in read.values()}
     if "regressed" in said:
         return "regressed", ""
+    if said & {"improved", "better"} and ("worse" in said or beyond):
+        return "mixed", ""
     if "improved" in said:
         return "improved", ""
+    if "worse" in said:  # a change its interval shows, whatever its width
+        return "worse", (BEYOND_UNFLAGGED if any(":" in w for w in read.values()) else "")
+    if "better" in said:
+        return "better", ""
     width = primary_change(r, "_hi") - primary_change(r, "_lo")
     if not width <= gate.max_width:
         return "inconclusive", f"interval wider than {gate.max_width:g} points"
@@ -498,30 +573,55 @@ def _pooled_line(
 def _pooled_verdicts(
     pooled: pd.DataFrame, gate: Gate, retrained: bool, look: Look | None = None
 ) -> pd.DataFrame:
-    """Each pooled test read from its interval (at the level of the ``look``, over the pooled
-    tests) against its tolerance; ``p``: the Bonferroni-adjusted p-value of a change within the
-    tolerance, below ``POOLED_ALPHA`` where the interval lies beyond it. ``bound``: the worst
-    change its interval at the family's level (Bonferroni over the pooled tests at
-    ``POOLED_ALPHA``) leaves open, in the worse direction. A test that flags nothing is
-    "undecided" where its data are low-n or a side ran one seed; before the last look, where
-    ``bound`` lies beyond its tolerance (a look flags only at its own strict level, so a power
-    rule there would pass a drop the later looks would catch); at the last look, where its
-    power (``resolution``, ``detectable``) cannot see a regression of its tolerance."""
+    """Each pooled test read from one interval, the one the comment prints beside it
+    (``read_lo``, ``read_hi`` at ``read_level``, in the figure's change units).
+
+    A regression (or improvement) is flagged only where the interval at the ``look``'s level
+    (``change_lo``, ``change_hi``: Bonferroni over the pooled tests, each look at its
+    O'Brien-Fleming share of ``POOLED_ALPHA``) lies beyond the tolerance; that interval is the
+    one read where it flags and at the last look. Before the last look, a test that does not
+    flag is read from its interval at the family's level (Bonferroni over the pooled tests at
+    ``POOLED_ALPHA``, no share spent: stopping to say "no regression" raises no false alarm):
+    "no regression" where that interval's worse end (``bound``, the drop it leaves open) lies
+    inside the tolerance. ``p``: the Bonferroni-adjusted p-value of a change within the
+    tolerance (below ``POOLED_ALPHA`` exactly where the family's interval lies beyond it). A
+    test that flags nothing is "undecided" where its data are low-n or a side ran one seed;
+    before the last look, where ``bound`` lies beyond its tolerance; at the last look, where
+    its power (``resolution``, ``detectable``) cannot see a regression of its tolerance."""
     look = look or Look(0, 1, True, 0)  # one look
     pooled = pooled.copy()
     sign = np.array([columns.FIGURES[f].worse for f in pooled["figure"]], float)
+    scale = np.array([columns.FIGURES[f].scale for f in pooled["figure"]], float)
     tol = pooled["figure"].map(gate.tolerances).to_numpy(float)
+    change = pooled["change"].to_numpy(float)
     se, df = pooled["change_se"].to_numpy(float), pooled["df"].to_numpy(float)
-    worse = sign * pooled["change"].to_numpy(float)
-    p_reg, p_imp = two_sided_p(worse, se, df, tol)
+    p_reg, p_imp = two_sided_p(sign * change, se, df, tol)
     pooled["p"] = np.minimum(1.0, len(pooled) * np.minimum(p_reg, p_imp))
     pooled["tolerance"] = tol
+    family = family_level(len(pooled), POOLED_ALPHA)
+    at_look = look_level(gate, look, len(pooled), POOLED_ALPHA)
     with np.errstate(invalid="ignore"):
-        q = scipy.stats.t.ppf(1 - POOLED_ALPHA / (2 * len(pooled)), df)
-    pooled["bound"] = worse + q * se
+        q = scipy.stats.t.ppf(0.5 + family / 2, df)
+    flags = np.array(
+        [
+            _reading(lo / k, hi / k, f, t) in ("regressed", "improved")
+            for lo, hi, k, f, t in zip(
+                pooled["change_lo"], pooled["change_hi"], scale, pooled["figure"], tol
+            )
+        ],
+        bool,
+    )
+    from_look = flags | look.final
+    pooled["flags"] = flags
+    pooled["look_level"] = at_look
+    pooled["read_level"] = np.where(from_look, at_look, family)
+    pooled["read_lo"] = np.where(from_look, pooled["change_lo"], change - q * se)
+    pooled["read_hi"] = np.where(from_look, pooled["change_hi"], change + q * se)
+    # the drop the printed interval leaves open: its worse end, as a drop
+    pooled["bound"] = np.where(sign > 0, pooled["read_hi"], -pooled["read_lo"])
     pooled["final"], pooled["next_seeds"] = look.final, look.next_seeds
     # the family's error at this look, as the resolution takes it
-    alpha = len(pooled) * (1 - look_level(gate, look, len(pooled), POOLED_ALPHA))
+    alpha = len(pooled) * (1 - at_look)
 
     def resolve(s: float, d: float) -> float:
         return resolution(s, d, len(pooled), alpha)
@@ -545,24 +645,31 @@ def _pooled_verdicts(
 
 
 def _pooled_verdict(r: dict, retrained: bool) -> tuple[str, str]:
+    """One pooled test's verdict from the interval it reads (:func:`_pooled_verdicts`)."""
     scale = columns.FIGURES[r["figure"]].scale  # the change is in the figure's change units
-    read = _reading(r["change_lo"] / scale, r["change_hi"] / scale, r["figure"], r["tolerance"])
-    if read in ("regressed", "improved") and not r["low_n"]:
+    read = _reading(r["read_lo"] / scale, r["read_hi"] / scale, r["figure"], r["tolerance"])
+    if r["flags"] and not r["low_n"]:
         return read, ""
     if r["low_n"]:
         return "undecided", f"low n (fewer than {LOW_N} test trials of a class)"
     if not retrained:
         return "undecided", "one seed per side: retraining noise is not in the interval"
+    u = unit(r["figure"])
     if not r["final"]:
+        wait = f"at {r['seeds']} seeds a side; the next look runs {r['next_seeds']}"
+        if read == "regressed":  # beyond the tolerance at the family's level, not the look's
+            return "undecided", (
+                f"a drop beyond its tolerance, not flagged at this look (whose own "
+                f"{level_text(r['look_level'])} interval is [{r['change_lo']:+.2g}, "
+                f"{r['change_hi']:+.2g}] {u}) {wait}"
+            )
         if r["bound"] <= r["tolerance"]:
-            return (read or "no significant change"), ""
-        return "undecided", (
-            f"a drop of up to {r['bound']:.2g} {unit(r['figure'])} is not ruled out at "
-            f"{r['seeds']} seeds a side; the next look runs {r['next_seeds']}"
-        )
+            # a change beyond the tolerance is claimed only where a look flags it
+            return {"improved": "better"}.get(read, read) or "no significant change", ""
+        return "undecided", f"a drop of up to {r['bound']:.2g} {u} is not ruled out {wait}"
     if not r["resolution"] <= r["tolerance"]:
         return "undecided", (
-            f"it would flag a drop of {r['detectable']:.2g} {unit(r['figure'])} with 80 % power, "
+            f"it would flag a drop of {r['detectable']:.2g} {u} with 80 % power, "
             f"more than twice its tolerance"
         )
     return (read or "no significant change"), ""

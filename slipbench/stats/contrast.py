@@ -184,6 +184,16 @@ def family_level(n: int, alpha: float = 1 - LEVEL) -> float:
     return 1 - alpha / max(1, n)
 
 
+def level_text(level: float) -> str:
+    """An interval's level in percent with as many decimals as it takes to differ from 100
+    ("99.79 %", "99.99974 %"; "95 %"): a look's level is never printed as 100 %."""
+    miss = 100 * (1 - level)
+    if not miss > 0:  # a look that spends no error flags nothing
+        return "no-error (it flags nothing)"
+    decimals = max(0, int(np.ceil(-np.log10(miss))) + 1)
+    return f"{100 * level:.{decimals}f}".rstrip("0").rstrip(".") + " %"
+
+
 def margin_of(figure: str) -> float:
     """The stated margin of a contrast of ``figure``, in its stored unit: its tolerance in the
     results schema (the gate's default), else one point of a fraction."""

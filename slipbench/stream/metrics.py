@@ -25,9 +25,11 @@ Definitions, per recording:
   the wait for the first full window. A run of positive decisions that began before the onset
   does not detect it: its alarm was raised while nothing slipped (a false alarm below), and the
   onset needs an alarm of its own.
-- **detected**: an alarm with delay <= ``max_delay_ms``; **missed**: none; **censored**: none,
-  but the recording ends before o + max_delay_ms (and before the next onset),
-  so the detector had not had its full time. Censored onsets leave the rates and are counted.
+- **detected**: an alarm with delay <= ``max_delay_ms``; **missed**: none; **censored**: the
+  recording ends before o + max_delay_ms (and before the next onset), so a detector would not
+  have its full time: whether an alarm came or not, a censored onset leaves the rates and the
+  delays and is counted. The labels alone censor, so every detector's rates on the same
+  streams are over the same onsets.
 - **non-slip time**: the samples labelled 0 whose window (the sample and the ``window - 1``
   before it) holds no sample labelled 1, between the first and the last score: the time the
   detector watched nothing but non-slip. A **false alarm** is an alarm raised in non-slip time,
@@ -300,7 +302,9 @@ def outcome(streams: Streams, threshold: float) -> Outcome:
         else np.empty(0, np.int64)
     )
     nxt = np.r_[following, n][np.minimum(st.onset_first, n)]
-    detected = nxt <= st.onset_last
+    # an onset the recording cuts short leaves the rates whatever the alarms did: counting
+    # only those a detector caught would give each detector its own denominator
+    detected = (nxt <= st.onset_last) & ~st.onset_short
     at = np.where(detected, nxt, 0)
     sample = np.where(detected, st.ends[at] if n else 0, -1)
     delay = np.where(

@@ -54,19 +54,24 @@ def _bench(tmp_path: Path, data, accuracy=1.5, keep=0.8) -> Path:
     return path
 
 
-def _noise(paired_sd: float, apart_sd: float) -> Noise:
-    """Noise of a protocol's mean, its standard deviations given in points a seed."""
-    return Noise(20, 8, 0.8, (apart_sd / 100) ** 2, 19.0, (paired_sd / 100) ** 2, 20.0, 4e-4)
+def _noise(paired_sd: float, apart_sd: float, trial_sd: float = 0.0) -> Noise:
+    """Noise of a protocol's mean, its standard deviations given in points a seed (``trial_sd``:
+    over test trials, 0 where a test is about the seeds' noise alone)."""
+    return Noise(
+        20, 8, 0.8, (apart_sd / 100) ** 2, 19.0, (paired_sd / 100) ** 2, 20.0, (trial_sd / 100) ** 2
+    )
 
 
-def _calibrate_by_hand(path: Path, paired_sd=0.3, apart_sd=1.0, deterministic=False) -> None:
+def _calibrate_by_hand(
+    path: Path, paired_sd=0.3, apart_sd=1.0, deterministic=False, trial_sd=0.0
+) -> None:
     """A calibration of the bench at ``path`` as `slipbench calibrate` would key it, with
     the given noise (no cell runs)."""
     bench = load_benchmark(path)
     runs = plan_runs(bench, check_gate=False)
     now = settings(bench, runs)
     params, code = detector_identities(runs)["holweg"]
-    noise = _noise(paired_sd, apart_sd)
+    noise = _noise(paired_sd, apart_sd, trial_sd)
     cal = Calibration(
         settings=now,
         digest=digest(now),
@@ -146,12 +151,23 @@ def test_a_budget_that_would_decide_is_named(tmp_path, small_path):
         plan_runs(load_benchmark(path))
 
 
-def test_a_detector_that_draws_nothing_decides_any_tolerance(tmp_path, small_path):
+def test_a_detector_that_draws_nothing_still_carries_its_test_trials_noise(tmp_path, small_path):
+    """Its twin equals its run (paired noise 0), but a drop of twice the tolerance leaves
+    test-set noise (2 points a seed over trials, the accuracy at 80 %): a tolerance of 0.1
+    points is refused, one the trials can resolve is planned, and the plan says which
+    noise remains."""
     path = _bench(tmp_path, small_path, accuracy=0.1)
-    _calibrate_by_hand(path, paired_sd=0.0, deterministic=True)
+    _calibrate_by_hand(path, paired_sd=0.0, deterministic=True, trial_sd=2.0)
+    with pytest.raises(UsageError, match=r"cannot decide: with its calibrated noise \(0\.22"):
+        plan_runs(load_benchmark(path))
+    path.write_text(path.read_text().replace("accuracy = 0.1", "accuracy = 1.5"))
+    _calibrate_by_hand(path, paired_sd=0.0, deterministic=True, trial_sd=2.0)
     plan_runs(load_benchmark(path))
     _, plan = _plan(path)
-    assert "retraining adds no noise" in "\n".join(plan.lines())
+    text = "\n".join(plan.lines())
+    assert "retraining adds no noise), its test trials' noise remains: flags a drop of" in text
+    (test,) = [t for t in plan.tests if t.figure == "accuracy"]
+    assert test.same.sd == pytest.approx(2.0 * (2 * 0.015 / (0.8 * 0.2)) ** 0.5)
 
 
 def test_a_stale_calibration_is_named_and_not_used(tmp_path, small_path):

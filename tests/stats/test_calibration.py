@@ -74,7 +74,13 @@ def test_measure_gives_each_variance_with_its_degrees_of_freedom():
     cell = part.cells['{"window": 1}']["tn_rate"]
     one = runs[runs["cell"] == '{"window": 1}'].set_index("seed")["tn_rate"]
     assert cell.seed_var == pytest.approx(one.var(ddof=1))
-    assert noise.per_seed(paired=True) == noise.paired_var
+    # same seeds: the twin's noise and the test trials' share of the drop asked for (a
+    # 3-point drop flips at least 3 % of the windows: 0.03 / (p (1 - p)) of the trials' variance)
+    share = 0.03 / (noise.mean * (1 - noise.mean))
+    assert noise.per_seed(paired=True, drop=0.03) == pytest.approx(
+        noise.paired_var + share * noise.trial_var
+    )
+    assert noise.per_seed(paired=True) == pytest.approx(noise.paired_var + noise.trial_var)
     assert noise.per_seed(paired=False) == 2 * noise.seed_var
     assert noise.pool(paired=True) == SeedNoise(noise.paired_var, 6.0, CALIBRATION)
     assert noise.pool(paired=False) == SeedNoise(noise.seed_var, 5.0, CALIBRATION)

@@ -5,6 +5,7 @@ Small synthetic result folders with predictions (tests/resultgen.py:predictions_
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from resultgen import predictions_pair
 from scipy.stats import t as student_t
@@ -117,31 +118,49 @@ def _row(**kw):
     row = {
         "figure": "accuracy",
         "tolerance": 1.5,
-        "change_lo": -0.8,
-        "change_hi": 0.9,
+        "change_lo": -8.0,
+        "change_hi": 9.0,
+        "read_lo": -0.8,
+        "read_hi": 0.9,
+        "look_level": 0.999997,
+        "flags": False,
         "low_n": False,
         "seeds": 3,
         "resolution": 0.5,
         "detectable": 2.0,
         "final": False,
         "next_seeds": 6,
-        "bound": 1.2,
+        "bound": 0.8,
     }
     return row | kw
 
 
 def test_an_interim_look_passes_only_where_the_drops_bound_lies_inside_the_tolerance():
     assert _pooled_verdict(_row(), True) == ("within margin", "")
-    verdict, why = _pooled_verdict(_row(bound=1.9), True)
+    verdict, why = _pooled_verdict(_row(read_lo=-1.9, bound=1.9), True)
     # a power rule would pass it (resolution 0.5 <= 1.5): at an interim look it is undecided
     assert verdict == "undecided"
     assert "a drop of up to 1.9 points is not ruled out at 3 seeds a side" in why
     assert "the next look runs 6" in why
     # the last look: the power rule
-    assert _pooled_verdict(_row(bound=1.9, final=True), True)[0] == "within margin"
-    assert _pooled_verdict(_row(bound=1.9, final=True, resolution=2.0), True)[0] == "undecided"
+    last = dict(final=True, change_lo=-1.9, change_hi=0.9, read_lo=-1.9, bound=1.9)
+    assert _pooled_verdict(_row(**last), True)[0] == "no significant change"
+    assert _pooled_verdict(_row(**last, resolution=2.0), True)[0] == "undecided"
     # a flagged change is flagged at any look
-    assert _pooled_verdict(_row(change_lo=-4.0, change_hi=-2.0, bound=4.0), True)[0] == "regressed"
+    flagged = dict(change_lo=-4.0, change_hi=-2.0, read_lo=-4.0, read_hi=-2.0, bound=4.0)
+    assert _pooled_verdict(_row(**flagged, flags=True), True)[0] == "regressed"
+
+
+def test_an_interim_look_never_calls_a_drop_beyond_its_tolerance_no_change():
+    """The family's interval lies beyond the tolerance, the look's does not flag it: undecided,
+    with the look's own interval and level said. At the last look a drop shown but not beyond
+    the tolerance is "worse"; a gain beyond it that the look does not flag is "better"."""
+    verdict, why = _pooled_verdict(_row(read_lo=-5.4, read_hi=-2.3, bound=5.4), True)
+    assert verdict == "undecided"
+    assert "not flagged at this look" in why and "99.9997 %" in why and "[-8, +9]" in why
+    worse = _row(final=True, read_lo=-2.0, read_hi=-0.1, bound=2.0)
+    assert _pooled_verdict(worse, True) == ("worse", "")
+    assert _pooled_verdict(_row(read_lo=2.0, read_hi=4.0, bound=-2.0), True) == ("better", "")
 
 
 def test_compare_decides_at_the_look_of_its_seeds(tmp_path):
@@ -158,6 +177,12 @@ def test_compare_decides_at_the_look_of_its_seeds(tmp_path):
     q = student_t.ppf(1 - POOLED_ALPHA / 2, b["df"])  # one pooled test: the family's level
     assert b["bound"] == pytest.approx(-b["change"] + q * b["change_se"])
     assert b["final"] == np.False_ and b["next_seeds"] == 6
+    # the interval the verdict reads is the family's where the look flags nothing, and its
+    # worse end is the drop ruled out
+    if not b["flags"]:
+        assert b["read_level"] == pytest.approx(family_level(1, POOLED_ALPHA))
+        assert b["read_lo"] == pytest.approx(b["change"] - q * b["change_se"])
+        assert b["bound"] == pytest.approx(-b["read_lo"])
 
 
 def test_a_regressed_row_names_each_figure_with_its_own_change():
@@ -219,4 +244,164 @@ def test_a_cell_two_protocols_share_is_one_test_and_listed_once(tmp_path):
     assert (
         "3 cells of cross-instance are window-size's (the same models tested on the same test set)"
         in text
+    )
+
+
+def test_a_calibration_of_zero_seed_noise_never_narrows_an_interval(tmp_path):
+    """A deterministic detector's calibration says 0 (its twin equals its run), yet the
+    change's test trials leave it uncertain: the pooled tests and the cells keep their
+    cluster-bootstrap variance, and no pooled interval is narrower than without it."""
+    sides = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.1
+    )
+    own = compare(*sides)
+    zero = compare(*sides, sources=[Source(0.0, df=20)])
+    for a, b in zip(own.pooled.to_dict("records"), zero.pooled.to_dict("records")):
+        assert b["change_se"] > 0 and b["change_hi"] - b["change_lo"] > 0
+        assert b["change_hi"] - b["change_lo"] >= (a["change_hi"] - a["change_lo"]) * (1 - 1e-9)
+    for f in ("accuracy", "tn_rate", "tp_rate"):
+        # a cell's own seed spread may be below the protocol's pooled one (which the
+        # calibration replaces): its interval keeps its trials' variance, never a point
+        assert (zero.cells[f"d_{f}_se"] > 0.01).all()
+        assert (zero.cells[f"d_{f}_hi"] - zero.cells[f"d_{f}_lo"] > 0.05).all()
+
+
+def test_one_seed_with_a_calibration_of_zero_keeps_the_test_trials_interval():
+    """A contrast of one seed per side decides on a measured seed noise; where that is 0 its
+    interval is the test trials' alone, never narrower."""
+    from slipbench.stats.contrast import from_parts, from_rows
+
+    terms = pd.DataFrame(
+        {"unit": ["a", "a"], "seed": [0, 0], "weight": [-1.0, 1.0], "mean": [0.8, 0.77],
+         "se": [0.02, 0.02]}
+    )  # fmt: skip
+    alone = from_rows(terms)
+    zero = from_rows(terms, noise=SeedNoise(0.0, 20, "the bench's calibration"))
+    assert alone.missing and not zero.missing  # it decides now, on the trials' noise
+    tests = from_parts(alone.estimate, [(alone.se**2, np.inf)])
+    assert zero.hi - zero.lo >= (tests.hi - tests.lo) * (1 - 1e-12) > 0
+
+
+def _cell(read_at_look=True, **changes):
+    """A compared cell's row: ``figure=(change, lo, hi)`` in points."""
+    row = {
+        "base_status": "ok",
+        "candidate_status": "ok",
+        "identical": False,
+        "low_n": False,
+        "stream": False,
+        "method": "paired",
+        "read_at_look": read_at_look,
+    }
+    for f in ("accuracy", "tn_rate", "tp_rate"):
+        d, lo, hi = changes.get(f, (0.0, -1.0, 1.0))
+        row |= {f"d_{f}": d / 100, f"d_{f}_lo": lo / 100, f"d_{f}_hi": hi / 100}
+    return row
+
+
+@pytest.mark.parametrize(
+    ("changes", "verdict"),
+    [
+        # a TN drop its interval shows, not beyond the tolerance: never "no significant change"
+        ({"tn_rate": (-3.9, -5.4, -2.3)}, "worse"),
+        # better beyond the tolerance on TP, 12.6 points of TN rate lost: mixed, not improved
+        ({"tp_rate": (9.0, 5.0, 13.0), "tn_rate": (-12.6, -30.0, 4.0)}, "mixed"),
+        # a TN drop inside its tolerance leaves the gain an improvement
+        ({"tp_rate": (9.0, 5.0, 13.0), "tn_rate": (-1.0, -2.5, -0.2)}, "improved"),
+        ({"tp_rate": (9.0, 5.0, 13.0), "tn_rate": (-2.0, -3.5, -0.5)}, "mixed"),
+        ({"tp_rate": (9.0, 5.0, 13.0)}, "improved"),
+        ({"tp_rate": (2.0, 0.5, 3.5)}, "better"),
+        ({"tn_rate": (-9.0, -13.0, -5.0), "tp_rate": (9.0, 5.0, 13.0)}, "regressed"),
+        ({"accuracy": (0.1, -0.5, 0.7)}, "within margin"),
+        ({"tn_rate": (-1.0, -4.0, 2.0)}, "no significant change"),
+    ],
+)
+def test_a_cells_word_matches_its_intervals(changes, verdict):
+    from slipbench.stats.compare import _judge_cells
+
+    gate = Gate({"accuracy": 1.5, "tn_rate": 3.0, "tp_rate": 3.0})
+    judged = _judge_cells(pd.DataFrame([_cell(**changes)]), gate)
+    assert judged["verdict"].iloc[0] == verdict
+
+
+def test_a_cell_the_look_does_not_flag_is_worse_not_regressed():
+    """Before the last look a cell's interval at the family's level lying beyond the
+    tolerance is worse (the look did not flag it), and says so; at the look it regresses."""
+    from slipbench.stats.compare import BEYOND_UNFLAGGED, _judge_cells
+
+    gate = Gate({"accuracy": 1.5, "tn_rate": 3.0, "tp_rate": 3.0}, seeds=3, budget=12)
+    beyond = {"tn_rate": (-9.0, -13.0, -5.0)}
+    judged = _judge_cells(pd.DataFrame([_cell(False, **beyond), _cell(True, **beyond)]), gate)
+    assert judged["verdict"].tolist() == ["worse", "regressed"]
+    assert judged["inconclusive_reason"].iloc[0] == BEYOND_UNFLAGGED
+    assert judged["regressed_figures"].tolist() == ["", "tn_rate"]
+
+
+def test_a_level_is_never_printed_as_100_percent():
+    from slipbench.stats.compare import level_text
+
+    assert level_text(0.95) == "95 %"
+    assert level_text(1 - 0.025 / 12) == "99.79 %"
+    assert level_text(1 - 2.6e-7) == "99.999974 %"
+    assert level_text(1 - 1e-12) != "100 %" and "100 %" not in level_text(1.0)
+
+
+def test_a_power_beyond_a_rates_range_cannot_see_a_drop_of_any_size():
+    from slipbench.report.compare import _sees
+
+    assert _sees({"figure": "tp_rate", "detectable": 310.0, "final": False}) == (
+        "cannot see a drop of any size at this look"
+    )
+    assert _sees({"figure": "tp_rate", "detectable": 4.5, "final": True}) == "4.5 points"
+    assert _sees({"figure": "median_delay_ms", "detectable": 310.0, "final": True}) == "3.1e+02 ms"
+
+
+def test_the_comment_at_a_first_look_rules_out_only_what_its_printed_interval_does(tmp_path):
+    """At the first of four looks: every pooled line's "ruled out" bound is the worse end of
+    the interval printed beside it, at a level printed below 100 %."""
+    import re
+
+    from slipbench.report.compare import comment_markdown
+
+    sides = predictions_pair(
+        tmp_path, n_cells=3, base_seeds=(0, 1, 2), cand_seeds=(0, 1, 2), flip=0.05
+    )
+    gate = Gate({"accuracy": 10.0, "tn_rate": 16.0, "tp_rate": 16.0}, seeds=3, budget=12)
+    cmp = compare(*sides, gate)
+    text = comment_markdown(cmp)
+    assert "100 %" not in text and not re.search(r"\b\d\.\de\+0[2-9] points", text)
+    said = re.findall(
+        r"([+-][\d.]+(?:e[+-]\d+)?) \[([+-][\d.e+-]+), ([+-][\d.e+-]+)\] points \(([\d.]+) %\): "
+        r"a drop (?:beyond ([\d.e+-]+) points|of any size) ruled out",
+        text,
+    )
+    assert len(said) == len(cmp.pooled) > 0, text
+    for _, lo, _, level, bound in said:
+        assert float(level) < 100
+        assert (float(bound) if bound else 0.0) == pytest.approx(max(0.0, -float(lo)))
+
+
+def test_a_no_regression_line_prints_its_interval_and_reads_its_bound_from_it():
+    from slipbench.report.compare import _seen
+
+    row = {
+        "figure": "tp_rate",
+        "protocol": "cross-instance",
+        "detector": "holweg",
+        "change": 0.039,
+        "read_lo": -0.39,
+        "read_hi": 0.47,
+        "read_level": 1 - 0.025 / 3,
+        "bound": 0.39,
+        "detectable": 310.0,
+    }
+    interval = "+0.039 [-0.39, +0.47] points (99.17 %)"
+    assert _seen(row | {"final": False}) == (
+        f"TP rate (misses) of cross-instance, holweg {interval}: a drop beyond 0.39 points "
+        "ruled out"
+    )
+    assert _seen(row | {"final": False, "bound": -0.1}).endswith("a drop of any size ruled out")
+    assert _seen(row | {"final": True}).endswith(f"{interval}: it cannot see a drop of any size")
+    assert _seen(row | {"final": True, "detectable": 4.2}).endswith(
+        "a drop of 4.2 points would show (80 % power)"
     )

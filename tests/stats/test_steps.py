@@ -194,3 +194,16 @@ def test_an_unconfirmed_step_says_the_seeds_that_would_confirm_it():
     assert _runs_needed(inside, 1, 4) == 0
     shown = step_change(sides, "tp_rate", 0.5, 0.0001)
     assert shown.state == SHOWN and _runs_needed(shown, 1, 4) == 0
+
+
+def test_a_history_too_short_for_a_step_says_how_many_runs_it_needs(tmp_path):
+    """Five runs, the change at the fourth: no segment of 4 runs fits on each side, and the
+    text says so instead of a bare "No confirmed step"."""
+    hist = _history(tmp_path, [0.0] * 3 + [-0.05] * 2)
+    code, text = _cli("history", "steps", "--history", str(hist))
+    assert code == 0
+    assert "No confirmed step." not in text
+    assert "a segment needs 4 runs on each side of a step (8 runs in a series)" in text
+    assert "the longest series holds 5; 3 more runs would let one be proposed" in text
+    # and why a step may read a change otherwise than compare does
+    assert "at its look's level" in text

@@ -26,7 +26,8 @@ def _recordings(n_slip: int, n_press: int, onsets_each: int = 1, seed: int = 0) 
     rng = np.random.default_rng(seed)
     signals, labels, trials, scenarios = [], [], [], []
     for k in range(n_slip + n_press):
-        lab = np.zeros(300 * max(onsets_each, 1), np.int8)
+        # 100 samples after the last slip: its onset keeps its full 200 ms (else censored)
+        lab = np.zeros(300 * max(onsets_each, 1) + 100, np.int8)
         if k < n_slip:
             for j in range(onsets_each):
                 lab[300 * j + 150 : 300 * j + 250] = 1

@@ -453,8 +453,9 @@ def test_censored_onsets_and_the_next_onset_bound():
     )  # 4 ms of slip left in the recording, no alarm
     s = S.summarize(short, 0.5)
     assert (s["n_censored"], s["n_onsets"]) == (1, 0)
+    # an alarm in the time left does not bring it back: the labels alone censor
     assert onset_table(_streams([(_labels((0, 95), (1, 5)), [97])]), 0.5)["status"].tolist() == [
-        "detected"
+        "censored"
     ]
     # onsets at 10 and 14 (slip 10-11, stick 12-13): an alarm at 15 detects the second only
     two = onset_table(_streams([(_labels((0, 10), (1, 2), (0, 2), (1, 30)), [15])]), 0.5)
@@ -462,6 +463,17 @@ def test_censored_onsets_and_the_next_onset_bound():
         [10, "missed", -1],
         [14, "detected", 1.0],
     ]
+
+
+def test_every_detector_is_scored_on_the_same_onsets():
+    """Two detectors on the same streams, one catching the onset the recording cuts short
+    and one not: the same onsets in each rate's denominator (the streams' own), the short
+    one censored for both."""
+    lab = _labels((0, 20), (1, 30), (0, 45), (1, 5))  # onsets at 20 and at 95 (cut short)
+    eager, late = (S.summarize(_streams([(lab, alarms_at)]), 0.5) for alarms_at in ([22, 97], [22]))
+    for s in (eager, late):
+        assert (s["n_onsets"], s["n_censored"], s["n_detected"]) == (1, 1, 1)
+    assert eager["detection_rate"] == late["detection_rate"] == 1.0
 
 
 def test_an_alarm_just_after_slip_is_neither_false_nor_a_detection():

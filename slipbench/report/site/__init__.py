@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.atomic import make_folder, write_text_atomic
-from slipbench.report.steps import verdict_shown
+from slipbench.report.steps import short_history, verdict_shown
 from slipbench.stats.gate import unit
 from slipbench.stats.steps import JUDGED, Steps
 from slipbench.store.columns import FIGURES
@@ -150,7 +150,8 @@ def _step_rows(found: Steps) -> dict:
         "columns": columns,
         "rows": rows,
         "link": {"column": 4, "href": "series.html#", "ids": ids},
-        "none": f"No confirmed step in {len(found.runs)} runs and {found.series} series.",
+        "none": short_history(found)
+        or f"No confirmed step in {len(found.runs)} runs and {found.series} series.",
     }
 
 
