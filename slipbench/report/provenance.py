@@ -310,10 +310,32 @@ def _as_figure(method: str) -> str:
 
 def _where(row: pd.Series) -> str:
     return (
-        f"{row['protocol']}, {row['detector']}, {cell_label(row['cell'])}"
+        f"{row['protocol']}, {row['detector']}, {cell_label(_tested_key(row))}"
         if "cell" in row
         else str(row["protocol"])
     )
+
+
+def _tested_key(row: pd.Series) -> dict | str:
+    """A cell's key naming the units it tested: a row trained on one dataset and tested on
+    another keys its cell by the training dataset's unit (its ``sensor_map`` says which test
+    unit was tested as it), so the tested instance reads ``Vib:ff (trained as BioTacSP ff)``."""
+    mapped = row.get("sensor_map")
+    if not isinstance(mapped, str) or not mapped:
+        return row["cell"]
+    try:
+        key, pairs = json.loads(row["cell"]), json.loads(mapped)
+        tested: dict[str, list[str]] = {}
+        for test, train in pairs.items():
+            tested.setdefault(str(train), []).append(str(test))
+    except (TypeError, AttributeError, json.JSONDecodeError):
+        return row["cell"]  # a key or map this version cannot read: named as stored
+    kind = key.get("sensor_type")
+    for column in ("sensor_instance", "test_instance"):
+        names = tested.get(f"{kind}:{key.get(column)}")
+        if column in key and names:
+            key[column] = f"{' + '.join(names)} (trained as {kind} {key[column]})"
+    return key
 
 
 def _smallest(rows: pd.DataFrame) -> str:
