@@ -1,7 +1,7 @@
 """What a dataset can support, said before anything trains (``slipbench dataset check``).
 
-Per unit: the classes, and the recordings and trials of each; windows available at each window
-length the protocols use.
+Per unit and window length the protocols use: the classes, and the recordings, trials and
+windows of each.
 Per protocol cell: whether it would run, be skipped (and why), or rest on fewer than
 ``LOW_N`` test trials of a class, where its intervals are not to be trusted.
 """
@@ -44,7 +44,8 @@ CELL_COLUMNS = [
 
 @dataclass
 class DatasetCheck:
-    """``units``: one row per unit and class; ``windows``: slip and non-slip windows per unit
+    """``units``: one row per unit, window length the protocols use and class (columns
+    :data:`UNIT_COLUMNS`); ``windows``: slip and non-slip windows per unit
     and window length the protocols use (columns :data:`WINDOW_COLUMNS`); ``cells``: one row
     per protocol cell with its verdict ("runs", "low n", "skipped"), a protocol that makes no
     cell on the dataset as one skipped row saying why."""
@@ -54,31 +55,22 @@ class DatasetCheck:
     cells: pd.DataFrame
 
 
-def _units(signals: Signals, labelling: str) -> pd.DataFrame:
-    rec = signals.recordings
-    rows = []
-    for (sensor, instance), part in rec.groupby(["sensor_type", "sensor_instance"], sort=False):
-        windows = signals.windows(50, part.index.to_numpy(), values=False, labelling=labelling)
-        for label, name in ((1, "slip"), (0, "non-slip")):
-            mine = windows.recording[windows.y == label]
-            rows.append(
-                {
-                    "sensor_type": sensor,
-                    "sensor_instance": instance,
-                    "class": name,
-                    "recordings": len(np.unique(mine)),
-                    "trials": rec["trial"].iloc[np.unique(mine)].nunique(),
-                    "windows_of_50": len(mine),
-                }
-            )
-    return pd.DataFrame(rows)
+UNIT_COLUMNS = [
+    "sensor_type",
+    "sensor_instance",
+    "window",
+    "class",
+    "recordings",
+    "trials",
+    "windows",
+]
 
 
-def _windows(signals: Signals, labelling: str, runs: list[tuple[Run, list[Cell]]]) -> pd.DataFrame:
-    """Slip and non-slip windows before balancing, once per unit and window length the runs'
-    cells use (in samples at the unit's full rate, and in ms), with the protocols that use it;
-    the sizes of :data:`SIZES` where no cell names a window."""
-    rec = signals.recordings
+def _used(
+    recordings: pd.DataFrame, runs: list[tuple[Run, list[Cell]]]
+) -> dict[tuple[tuple[str, str], int], list[str]]:
+    """(unit, window in samples) -> the protocols whose cells use it; every unit at the sizes
+    of :data:`SIZES` where no cell names a window."""
     used: dict[tuple[tuple[str, str], int], list[str]] = {}
     for run, cells in runs:
         for cell in cells:
@@ -88,9 +80,51 @@ def _windows(signals: Signals, labelling: str, runs: list[tuple[Run, list[Cell]]
                 names = used.setdefault((unit, cell.window), [])
                 if run.protocol_name not in names:
                     names.append(run.protocol_name)
-    units = list(rec.groupby(["sensor_type", "sensor_instance"], sort=False).groups.items())
     if not used:
-        used = {(unit, size): ["—"] for unit, _ in units for size in SIZES}
+        units = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
+        used = {
+            (u, size): ["—"] for u in units.itertuples(index=False, name=None) for size in SIZES
+        }
+    return used
+
+
+def _units(
+    signals: Signals, labelling: str, used: dict[tuple[tuple[str, str], int], list[str]]
+) -> pd.DataFrame:
+    """Per unit, window length the runs use and class: the recordings, trials and windows
+    holding it. Labelled from the samples, a class depends on the window (a majority of slip
+    samples), so each length the protocols ask for is counted, not one fixed size."""
+    rec = signals.recordings
+    rows = []
+    for (sensor, instance), part in rec.groupby(["sensor_type", "sensor_instance"], sort=False):
+        for size in sorted(w for u, w in used if u == (sensor, instance)):
+            windows = signals.windows(
+                size, part.index.to_numpy(), values=False, labelling=labelling
+            )
+            for label, name in ((1, "slip"), (0, "non-slip")):
+                mine = windows.recording[windows.y == label]
+                rows.append(
+                    {
+                        "sensor_type": sensor,
+                        "sensor_instance": instance,
+                        "window": size,
+                        "class": name,
+                        "recordings": len(np.unique(mine)),
+                        "trials": rec["trial"].iloc[np.unique(mine)].nunique(),
+                        "windows": len(mine),
+                    }
+                )
+    return pd.DataFrame(rows, columns=UNIT_COLUMNS)
+
+
+def _windows(
+    signals: Signals, labelling: str, used: dict[tuple[tuple[str, str], int], list[str]]
+) -> pd.DataFrame:
+    """Slip and non-slip windows before balancing, once per unit and window length the runs'
+    cells use (in samples at the unit's full rate, and in ms), with the protocols that use it;
+    the sizes of :data:`SIZES` where no cell names a window."""
+    rec = signals.recordings
+    units = list(rec.groupby(["sensor_type", "sensor_instance"], sort=False).groups.items())
     rows = []
     for unit, index in units:
         rate = unit_rate(rec, unit)
@@ -162,6 +196,9 @@ def check_dataset(dataset: Dataset, runs: list[Run]) -> DatasetCheck:
         for name, values in run.protocol.columns(dataset.recordings).items():
             signals.recordings[name] = values
     planned = [(run, run.cells_or_stand_in(signals.recordings)) for run in runs]
+    used = _used(signals.recordings, planned)
     return DatasetCheck(
-        _units(signals, labelling), _windows(signals, labelling, planned), _cells(signals, planned)
+        _units(signals, labelling, used),
+        _windows(signals, labelling, used),
+        _cells(signals, planned),
     )

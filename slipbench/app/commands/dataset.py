@@ -147,7 +147,7 @@ def dataset_check(**options) -> None:
     for run in runs:
         run.validate()
     result = check_dataset(read_dataset(o.path), runs)
-    click.echo(f"## {o.path}: classes per unit (labels: {o.labels}; windows of 50 samples)\n")
+    click.echo(f"## {o.path}: classes per unit and window the protocols use (labels: {o.labels})\n")
     click.echo(result.units.to_markdown(index=False))
     click.echo(
         "\n## Windows the protocols use, per unit: slip and non-slip windows before balancing\n"
