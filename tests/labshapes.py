@@ -81,3 +81,27 @@ def bursty_labels(folder, trials: int = 8, seed: int = 0) -> Dataset:
         labels[rid] = lab
         rows.append(_row(rid, ("IMU", "index"), x, 5.0, material="box", speed=25.0))
     return read_dataset(write_dataset(folder / "bursty", pd.DataFrame(rows), samples, labels))
+
+
+def few_windows(folder, per_scenario: int = 3, seed: int = 0) -> Dataset:
+    """One unit at 100 Hz with ``per_scenario`` slip and pressing recordings of 110 samples:
+    windows of 100 samples give one window each, so the paper split trains on 3 windows."""
+    rng = np.random.default_rng(seed)
+    rows, samples = [], {}
+    for scenario, spread in (("slip", 1.0), ("press", 0.3)):
+        for k in range(per_scenario):
+            x = rng.normal(0, spread, (110, 3)).cumsum(axis=0)
+            rid = f"{scenario}-{k}"
+            samples[rid] = x
+            rows.append(
+                _row(
+                    rid,
+                    ("Nano17", "index"),
+                    x,
+                    100.0,
+                    scenario=scenario,
+                    material="box",
+                    speed=25.0 if scenario == "slip" else None,
+                )
+            )
+    return read_dataset(write_dataset(folder / "few-windows", pd.DataFrame(rows), samples))

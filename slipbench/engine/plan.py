@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.base import BaseDetector
+from slipbench.base import BaseDetector, too_few_windows
 from slipbench.data.format import Dataset
 from slipbench.data.signals import (
     LABELLINGS,
@@ -656,6 +656,9 @@ def make_plan(
                 if missing and not (role == "test" and run.split == "datasets" and len(windows)):
                     pc.skip = f"no {missing} windows to {role} on"
                     break
+            # a detector that needs more windows of a class than the cell trains on (a network
+            # that validates on some) is skipped saying so, not failed in its fit
+            pc.skip = pc.skip or too_few_windows(type(run.detector), train.y)
             if not pc.skip:
                 tasks.setdefault(model, Task(model)).cells.append(pc)
     return Plan(planned, list(tasks.values()), data)
@@ -721,6 +724,9 @@ def _plan_stream(
     missing = _missing_classes(pc.train.y)
     if missing:
         pc.skip = f"no {missing} windows to train on"
+        return
+    pc.skip = too_few_windows(type(run.detector), pc.train.y)
+    if pc.skip:
         return
     pc.streams = {side.side: cells_data.streamed(side) for side in (cell.train, cell.test)}
     test = pc.streams["test"]
