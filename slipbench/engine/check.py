@@ -3,7 +3,9 @@
 Per unit and window length the protocols use: the classes, and the recordings, trials and
 windows of each.
 Per protocol cell: whether it would run, be skipped (and why), or rest on fewer than
-``LOW_N`` test trials of a class, where its intervals are not to be trusted.
+``LOW_N`` test trials of a class, where its intervals are not to be trusted; the windows of each
+class it uses of those its sides could hold before balancing, and a warning where balancing
+keeps under half of a class.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.data.format import Dataset
-from slipbench.data.signals import Signals
+from slipbench.data.signals import Signals, Windows
 from slipbench.engine.plan import CellData, Run, check_labels
 from slipbench.errors import UsageError
 from slipbench.protocol import NO_CELL_KEY, Cell, unit_rate
@@ -32,6 +34,7 @@ WINDOW_COLUMNS = [
     "non_slip",
     "used_by",
 ]
+KEPT_COLUMNS = ["train_slip", "train_nonslip", "test_slip", "test_nonslip"]
 CELL_COLUMNS = [
     "protocol",
     "cell",
@@ -39,6 +42,8 @@ CELL_COLUMNS = [
     "test_trials_slip",
     "test_trials_nonslip",
     "reason",
+    *KEPT_COLUMNS,
+    "balance_warning",
 ]
 
 
@@ -149,13 +154,15 @@ def _cells(signals: Signals, runs: list[tuple[Run, list[Cell]]]) -> pd.DataFrame
     rows = []
     trials = signals.recordings["trial"].to_numpy()
     for run, cells in runs:
-        data = CellData(signals, run.split, run.seed, run.labels)
+        data = CellData(signals, run.split, run.seed, run.labels, balancing=run.balance)
         for cell in cells:
             verdict, reason, n_slip, n_non = "runs", "", 0, 0
+            kept, warning = dict.fromkeys(KEPT_COLUMNS, ""), ""
             try:
                 if cell.skip:
                     raise UsageError(cell.skip)
                 train, test = data.part(cell.train, cell.window), data.part(cell.test, cell.window)
+                kept, warning = _kept(data, cell, {"train": train, "test": test})
                 for part, role in ((train, "train"), (test, "test")):
                     if len(np.unique(part.y)) < 2:
                         raise UsageError(
@@ -178,9 +185,23 @@ def _cells(signals: Signals, runs: list[tuple[Run, list[Cell]]]) -> pd.DataFrame
                     "test_trials_slip": n_slip,
                     "test_trials_nonslip": n_non,
                     "reason": reason,
+                    **kept,
+                    "balance_warning": warning,
                 }
             )
     return pd.DataFrame(rows, columns=CELL_COLUMNS)
+
+
+def _kept(data: CellData, cell: Cell, sides: dict[str, Windows]) -> tuple[dict[str, str], str]:
+    """Per side and class, the windows a cell uses of those it could hold before balancing
+    ("52 of 930"), and its balancing warning ("" where it kept at least half of each)."""
+    kept = {}
+    for role, windows in sides.items():
+        part = cell.train if role == "train" else cell.test
+        could = data.available(part, cell.window)
+        for c, name in ((1, "slip"), (0, "nonslip")):
+            kept[f"{role}_{name}"] = f"{int((windows.y == c).sum())} of {could[c]}"
+    return kept, data.balance_warning(cell, sides)
 
 
 def check_dataset(dataset: Dataset, runs: list[Run]) -> DatasetCheck:

@@ -41,6 +41,16 @@ LABEL_TEXTS = {
     "any": "any: a sample of the window slips",
     "last": "last: the window's last sample slips",
 }
+BALANCE_TEXTS = {
+    "within": "within material (the paper): slip equal per material and speed, non-slip per material",
+    "across": "across materials: slip equal per speed, non-slip pooled over materials",
+}
+#: a side and class's windows used, and those the side could hold before balancing
+KEPT = [
+    (f"{side} {name}", f"{side}_{cls}_windows", f"{side}_{cls}_available")
+    for side in ("train", "test")
+    for cls, name in (("slip", "slip"), ("nonslip", "non-slip"))
+]
 NORMALIZATION_TEXTS = {
     "none": "none: the signal as measured (the paper)",
     "recording": "recording: each recording's signal minus its median, over 1.4826 x its median absolute "
@@ -352,6 +362,64 @@ def _smallest(rows: pd.DataFrame) -> str:
     )
 
 
+def balance_kept(rows: pd.DataFrame) -> str:
+    """The windows the cells used of those their sides could hold before balancing, per side
+    and class, summed over the cells that record both ("" where none does)."""
+    parts, cells = [], 0
+    for name, used, could in KEPT:
+        if used not in rows or could not in rows:
+            continue
+        both = rows[[used, could]].apply(pd.to_numeric, errors="coerce").dropna()
+        if len(both):
+            cells = max(cells, len(both))
+            parts.append(f"{name} {int(both[used].sum()):,} of {int(both[could].sum()):,}")
+    return f"{', '.join(parts)} (summed over {cells} cells)" if parts else ""
+
+
+def grouped_warnings(rows: pd.DataFrame, limit: int = 10) -> list[str]:
+    """The rows' balancing warnings, one line per cause (a unit's, after "Why: "): how many
+    cells it concerns (each once, whatever its detectors), of which protocols, and one cell's
+    counts as an example; at most ``limit`` lines and one counting the rest."""
+    if "balance_warning" not in rows:
+        return []
+    flagged = rows[rows["balance_warning"].fillna("").astype(str) != ""]
+    flagged = flagged.drop_duplicates(["protocol", "cell"])
+    causes: dict[str, list[tuple[str, str, str]]] = {}
+    for p, c, w in flagged[["protocol", "cell", "balance_warning"]].itertuples(index=False):
+        kept, _, why = str(w).partition(". Why: ")
+        for cause in why.split("; "):
+            causes.setdefault(cause, []).append((str(p), cell_label(c), kept))
+    lines = []
+    for cause, cells in causes.items():
+        protocols = ", ".join(dict.fromkeys(p for p, _, _ in cells))
+        _, cell, kept = cells[0]
+        lines.append(
+            f"balancing kept under half of a class in {len(cells)} {'cell' if len(cells) == 1 else 'cells'} of {protocols} (e.g. {cell}: "
+            f"{kept.removeprefix('balancing ')})" + (f". Why: {cause}" if cause else "")
+        )
+    if len(lines) > limit:
+        return lines[:limit] + [f"{len(lines) - limit} more causes (the rows' balance_warning)"]
+    return lines
+
+
+def _balancing(rows: pd.DataFrame) -> list[tuple[str, str]]:
+    """The run table's lines on balancing: how, what it kept, and where it kept under half."""
+    how = [BALANCE_TEXTS.get(b, b) for b in _values(rows, "balance")] or (
+        [BALANCE_TEXTS["within"]] if len(rows) else []
+    )
+    kept = balance_kept(rows)
+    lines = [
+        (
+            "Balancing",
+            "; ".join(how) + (f"; windows used of those available: {kept}" if kept else ""),
+        )
+    ]
+    warned = grouped_warnings(rows, limit=3)
+    if warned:
+        lines.append(("Balancing kept under half of a class", "; ".join(warned)))
+    return lines
+
+
 def header_tables(
     rows: pd.DataFrame,
     metric: str = "accuracy",
@@ -377,6 +445,7 @@ def header_tables(
         ),
         ("Split", "; ".join(SPLIT_TEXTS.get(s, s) for s in _values(rows, "split")) or "unknown"),
         ("Labels", "; ".join(LABEL_TEXTS.get(s, s) for s in _values(rows, "labels")) or "unknown"),
+        *_balancing(rows),
         ("Seeds", ", ".join(str(int(s)) for s in _values(rows, "seed")) or "unknown"),
         ("Cells", _counts(rows)),
         *(

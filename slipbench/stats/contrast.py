@@ -333,6 +333,7 @@ CELL_COLUMNS = (
     "split",
     "labels",
     "normalize",
+    "balance",
     "cell",
     "decimation",
     "antialias",
