@@ -433,7 +433,8 @@ class CellData:
         windows = self._available[sensor, window]
         if side:
             windows = windows.take(np.flatnonzero(windows.column(SIDE_COLUMN) == side))
-        name = f"{sensor[0]} {sensor[1]} at window {window}"
+        dataset = {"train": " of the training dataset", "test": " of the test dataset"}
+        name = f"{sensor[0]} {sensor[1]}{dataset.get(side, '')} at window {window}"
         try:
             cause = balance_limits(windows, self.balancing)
         except UsageError:  # a test side of one class, kept whole

@@ -8,12 +8,14 @@ import numpy as np
 import pytest
 from labshapes import few_windows, objects_as_materials
 
+from slipbench.data.signals import Signals
+from slipbench.data.transfer import combine
 from slipbench.detectors.holweg import Holweg
 from slipbench.engine import plan
 from slipbench.engine.check import check_dataset
 from slipbench.engine.runner import Run, evaluate
-from slipbench.protocols.cross_instance import CrossInstance
 from slipbench.errors import UsageError
+from slipbench.protocols.cross_instance import CrossInstance
 from slipbench.protocols.window_size import WindowSize
 from slipbench.store.results import ResultsStore
 
@@ -46,6 +48,30 @@ def test_balancing_within_objects_as_materials_is_counted_and_explained(tmp_path
     line = checked[checked["cell"] == row["cell"]].iloc[0]
     assert line["train_slip"] == f"{used} of {could}"
     assert line["balance_warning"] == warning
+
+
+def test_across_datasets_each_side_is_counted_and_named(tmp_path):
+    train = objects_as_materials(tmp_path / "a", seed=0)
+    ds = combine(train, objects_as_materials(tmp_path / "b", seed=1))
+    run = Run("holweg", WindowSize(windows=[50]), "datasets", labels="majority")
+    row = evaluate(ds, [run], ResultsStore(tmp_path / "out"), progress=False).iloc[0]
+    # every window of each dataset's unit is available to its side: nothing is halved
+    assert int(row["train_slip_available"]) == int(
+        (
+            Signals.from_dataset(train)
+            .windows(
+                50,
+                np.flatnonzero(train.recordings["sensor_instance"] == row["sensor_instance"]),
+                values=False,
+                labelling="majority",
+            )
+            .y
+            == 1
+        ).sum()
+    )
+    warning = row["balance_warning"]
+    assert f"Nano17 {row['sensor_instance']} of the training dataset at window 50: " in warning
+    assert f"Nano17 {row['sensor_instance']} of the test dataset at window 50: " in warning
 
 
 def test_evaluate_and_the_report_say_what_balancing_kept(tmp_path, cli):
