@@ -74,6 +74,20 @@ def plugin_id(cls: type) -> str:
     return re.sub(r"(?<=[a-z0-9])(?=[A-Z])|(?<=[A-Z])(?=[A-Z][a-z])", "-", cls.__name__).lower()
 
 
+def too_few_windows(cls: type[BaseDetector], y: np.ndarray) -> str:
+    """Why detector class ``cls`` cannot fit on labels ``y`` (n_windows,): a class has fewer
+    windows than its :attr:`~BaseDetector.min_class_windows`; "" where it can."""
+    need = cls.min_class_windows
+    counts = {"slip": int((y == 1).sum()), "non-slip": int((y == 0).sum())}
+    if min(counts.values()) >= need:
+        return ""
+    held = " and ".join(f"{n} {name}" for name, n in counts.items())
+    return (
+        f"{plugin_id(cls)} needs at least {need} training windows of each class; the training "
+        f"side holds {held}"
+    )
+
+
 @dataclass(frozen=True)
 class FitJob:
     """One model's training data for :meth:`BaseDetector.fit_lockstep`: :meth:`BaseDetector.fit`'s
@@ -102,7 +116,10 @@ class BaseDetector(Parameterized):
     identity (cache keys); ``reference``, True on the one detector that is the baseline every
     table compares against (``slipbench list`` says which); ``lockstep``, that
     :meth:`fit_lockstep` trains many models together (the class implements
-    ``_fit_lockstep``); and the classmethod :meth:`benchmark`.
+    ``_fit_lockstep``); ``min_class_windows``, the fewest training windows of each class
+    ``fit`` can learn from (a network that holds some out to validate on needs 2): planning
+    skips a cell with fewer, saying so (:func:`too_few_windows`), and ``fit`` refuses them; and
+    the classmethod :meth:`benchmark`.
 
     ``inputs`` says which windows the detector reads: ``("univariate",)`` (the default), windows
     (n_windows, window_length) of the paper's signal s_t = ||a_t|| - ||a_{t-1}||;
@@ -121,6 +138,7 @@ class BaseDetector(Parameterized):
     inputs: ClassVar[tuple[str, ...]] = ("univariate",)  # or ("univariate", "channels"), ...
     reference: ClassVar[bool] = False  # True on the baseline every table compares against
     lockstep: ClassVar[bool] = False  # trains many models together: see fit_lockstep
+    min_class_windows: ClassVar[int] = 1  # fewest training windows of each class fit can use
 
     # -- input checks
     def _check_x(self, x: Any) -> np.ndarray:
@@ -193,6 +211,8 @@ class BaseDetector(Parameterized):
             raise UsageError(
                 f"training data holds only class {int(y[0])}; a detector needs slip and non-slip windows"
             )
+        if few := too_few_windows(type(self), y):
+            raise UsageError(few)
         if not (np.isfinite(sampling_rate) and sampling_rate > 0):
             raise UsageError(f"sampling_rate must be a positive number of Hz, got {sampling_rate}")
         self.sampling_rate_ = float(sampling_rate)

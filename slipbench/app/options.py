@@ -153,6 +153,18 @@ def labels_option(help: str | None = None):
     )
 
 
+def balance_option():
+    return click.option(
+        "--balance",
+        type=click.Choice(["within", "across"]),
+        default="within",
+        show_default=True,
+        help="Balancing keeps slip equal per material and speed, and non-slip per material "
+        "(within: the paper), or pools the materials (across: slip equal per speed), which keeps "
+        "more where each material is one object or trial.",
+    )
+
+
 def protocol_params_option(help: str):
     return click.option("--protocol-param", "protocol_params", multiple=True, help=help)
 

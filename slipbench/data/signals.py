@@ -25,6 +25,9 @@ LABELLINGS = ("scenario", "majority", "any", "last")
 # How the signal is scaled before windows are cut (see Signals.normalized): not at all (the
 # paper), per recording, or per sensor unit.
 NORMALIZATIONS = ("none", "recording", "unit")
+# How balancing strata treat materials (see Windows.strata): the paper's, each material its own
+# stratum; or materials pooled, for data whose "materials" are single objects or trials.
+BALANCINGS = ("within", "across")
 MAD_TO_SD = 1.4826  # the median absolute deviation of a normal distribution x this = its sd
 MEAN_AD_TO_SD = 1.2533  # the same for the mean absolute deviation
 
@@ -429,14 +432,17 @@ class Windows:
         """(n_windows,) int8: 1 slip, 0 no slip."""
         return self.labels
 
-    def strata(self) -> np.ndarray:
+    def strata(self, balancing: str = "within") -> np.ndarray:
         """The balancing stratum of each window (section II.D of the paper): slip per material
         and speed, pressing per material, free-space per speed; and, with labels from the
         samples, contact held without slip ("hold", per material) for non-slip windows of slip
-        and hold-slip recordings."""
+        and hold-slip recordings. ``balancing="across"`` pools the materials: slip per speed,
+        pressing and held contact one stratum each."""
         rec = self.recordings
         scenario = rec["scenario"].to_numpy(dtype=str)[self.recording]
         material = rec["material"].fillna("").to_numpy(dtype=str)[self.recording]
+        if balancing == "across":
+            material = np.full(len(material), "")
         speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[
             self.recording
         ]
@@ -502,22 +508,9 @@ class Windows:
         )
 
 
-def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
-    """Rows that give the paper's mix: half slip, half non-slip; slip equal per stratum;
-    non-slip split equally between pressing, free-space (and held contact, with labels from the
-    samples), equal per stratum inside each.
-
-    Kinds a dataset lacks drop out of the proportions (a dataset without free-space data
-    balances slip against pressing alone). Inside a stratum, windows are drawn at random.
-
-    Each kind's share is the paper's equal floor share, ``target // n_strata`` per stratum. Where
-    that is 0 (a kind has more strata than the other class has windows to match: thousands of
-    slip windows in 40 strata against 26 non-slip windows), every stratum of the kind keeps one
-    window instead, so no stratum, and no class present, is ever dropped; the two classes are
-    then unequal, and the counts each side keeps are recorded in every result row. Where every
-    share is at least 1 the allocation, and so the drawn rows, are the paper's.
-    """
-    strata = windows.strata()
+def _shares(strata: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The paper's allocation over ``strata`` (see :func:`balance`): the stratum names, each
+    window's stratum (code), the windows each stratum holds and the windows it keeps."""
     names, codes, counts = np.unique(strata, return_inverse=True, return_counts=True)
     category = np.array([n.split("|", 1)[0] for n in names])
     # the largest equal share each kind can give to every one of its strata
@@ -529,14 +522,92 @@ def balance(windows: Windows, rng: np.random.Generator) -> np.ndarray:
     per_nonslip = min(capacity[c] for c in nonslip)
     per_class = min(capacity["slip"], per_nonslip * len(nonslip))
     target = {"slip": per_class, **{c: per_class // len(nonslip) for c in nonslip}}
-    keep = []
-    for code, _name in enumerate(names):
-        cat = category[code]
-        # at least one window: a floor share of 0 would drop the stratum (and maybe its class)
-        share = max(1, target[cat] // (category == cat).sum())
-        rows = np.flatnonzero(codes == code)
-        keep.append(rng.choice(rows, size=share, replace=False))
+    # at least one window: a floor share of 0 would drop the stratum (and maybe its class)
+    shares = np.array(
+        [max(1, target[c] // (category == c).sum()) for c in category], dtype=np.int64
+    )
+    return names, codes, counts, shares
+
+
+def balance(windows: Windows, rng: np.random.Generator, balancing: str = "within") -> np.ndarray:
+    """Rows that give the paper's mix: half slip, half non-slip; slip equal per stratum;
+    non-slip split equally between pressing, free-space (and held contact, with labels from the
+    samples), equal per stratum inside each.
+
+    Kinds a dataset lacks drop out of the proportions (a dataset without free-space data
+    balances slip against pressing alone). Inside a stratum, windows are drawn at random.
+    ``balancing``: one of :data:`BALANCINGS` (:meth:`Windows.strata`).
+
+    Each kind's share is the paper's equal floor share, ``target // n_strata`` per stratum. Where
+    that is 0 (a kind has more strata than the other class has windows to match: thousands of
+    slip windows in 40 strata against 26 non-slip windows), every stratum of the kind keeps one
+    window instead, so no stratum, and no class present, is ever dropped; the two classes are
+    then unequal, and the counts each side keeps are recorded in every result row. Where every
+    share is at least 1 the allocation, and so the drawn rows, are the paper's.
+    """
+    _names, codes, _counts, shares = _shares(windows.strata(balancing))
+    keep = [
+        rng.choice(np.flatnonzero(codes == code), size=share, replace=False)
+        for code, share in enumerate(shares)
+    ]
     return np.sort(np.concatenate(keep))
+
+
+def balanced_counts(windows: Windows, balancing: str = "within") -> dict[int, int]:
+    """{1: slip, 0: non-slip} windows :func:`balance` keeps of ``windows`` (no draw needed)."""
+    names, _codes, _counts, shares = _shares(windows.strata(balancing))
+    slip = np.array([n.startswith("slip|") for n in names])
+    return {1: int(shares[slip].sum()), 0: int(shares[~slip].sum())}
+
+
+#: what a stratum of each kind is, per balancing
+STRATUM_OF = {
+    "within": {
+        "slip": "material and speed",
+        "press": "material",
+        "hold": "material",
+        "free-space": "speed",
+    },
+    "across": {"slip": "speed", "press": "one", "hold": "one", "free-space": "speed"},
+}
+
+
+def _stratum(name: str) -> str:
+    """``"slip|obj-3|25"`` -> ``"obj-3, 25 mm/s"``."""
+    _, material, speed = name.split("|")
+    parts = [material] if material else []
+    parts += [f"{speed} mm/s"] if speed and speed != "nan" else []
+    return ", ".join(parts) or "all"
+
+
+def _windows(n: int) -> str:
+    return f"{n} window" if n == 1 else f"{n} windows"
+
+
+def balance_limits(windows: Windows, balancing: str = "within") -> str:
+    """Why :func:`balance` keeps what it keeps of ``windows``, as a clause for a warning. A kind
+    is kept equal over its strata, so its smallest stratum sets what every other keeps; the
+    classes are then matched, so the kind that gives fewer limits the other class too."""
+    names, _codes, counts, _shares_ = _shares(windows.strata(balancing))
+    category = np.array([n.split("|", 1)[0] for n in names])
+    capacity, smallest = {}, {}
+    for kind in np.unique(category):
+        mine = np.flatnonzero(category == kind)
+        at = mine[np.argmin(counts[mine])]
+        capacity[kind] = int(counts[at]) * len(mine)
+        what = STRATUM_OF.get(balancing, {}).get(kind, "stratum")
+        smallest[kind] = (
+            f"{kind} is kept equal over its {len(mine)} strata (per {what}) and the smallest "
+            f"({_stratum(names[at])}) holds {_windows(int(counts[at]))}"
+            if len(mine) > 1
+            else f"{kind} has {_windows(int(counts[at]))}"
+        )
+    nonslip = sorted(c for c in capacity if c != "slip")
+    short = min(nonslip, key=lambda c: capacity[c])
+    if capacity["slip"] <= capacity[short] * len(nonslip):
+        return f"{smallest['slip']}, and non-slip is matched to it"
+    split = f", non-slip split equally over {', '.join(nonslip)}" if len(nonslip) > 1 else ""
+    return f"{smallest[short]}{split}, and slip is matched to it"
 
 
 def trial_sides(recordings: pd.DataFrame, seed: int) -> np.ndarray:
@@ -568,7 +639,11 @@ def trial_sides(recordings: pd.DataFrame, seed: int) -> np.ndarray:
 
 
 def split(
-    windows: Windows, how: str, seed: int, sides: np.ndarray | None = None
+    windows: Windows,
+    how: str,
+    seed: int,
+    sides: np.ndarray | None = None,
+    balancing: str = "within",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Train and test rows.
 
@@ -581,7 +656,7 @@ def split(
     if how == "paper":
         from sklearn.model_selection import train_test_split  # its import alone costs ~1 s
 
-        strata = windows.strata()
+        strata = windows.strata(balancing)
         if np.unique(strata, return_counts=True)[1].min() < 2:
             strata = windows.y
         if np.unique(strata, return_counts=True)[1].min() < 2:

@@ -17,16 +17,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.base import BaseDetector
+from slipbench.base import BaseDetector, too_few_windows
 from slipbench.data.channels import channel_match
 from slipbench.data.format import Dataset
 from slipbench.data.signals import (
+    BALANCINGS,
     LABELLINGS,
     NORMALIZATIONS,
     SPLITS,
     Signals,
     Windows,
     balance,
+    balance_limits,
+    balanced_counts,
     has_sample_labels,
     split,
     trial_sides,
@@ -62,7 +65,9 @@ class Run:
     :data:`slipbench.data.signals.NORMALIZATIONS` (see :meth:`CellData.normalization`).
     ``input``: one of :data:`slipbench.vocabulary.INPUTS`, what the detector reads: windows of
     the univariate signal, or of the raw channels, each standardized by its training windows'
-    statistics (the detector must declare it in ``inputs``).
+    statistics (the detector must declare it in ``inputs``). ``balance``: one of
+    :data:`slipbench.data.signals.BALANCINGS`, whether balancing keeps classes equal within each
+    material (the paper) or across materials pooled (:meth:`Windows.strata`).
     """
 
     detector: BaseDetector
@@ -72,6 +77,7 @@ class Run:
     labels: str = "scenario"
     normalize: str = "none"
     input: str = "univariate"
+    balance: str = "within"
     detector_name: str = field(init=False)
     protocol_name: str = field(init=False)
     #: which draw of the detector's seed stream its models train from (:meth:`retrained`)
@@ -86,9 +92,10 @@ class Run:
         labels: str = "scenario",
         normalize: str = "none",
         input: str = "univariate",
+        balance: str = "within",
     ) -> None:
         self.split, self.seed, self.labels, self.normalize = split, seed, labels, normalize
-        self.input, self.retrain = input, 0
+        self.input, self.balance, self.retrain = input, balance, 0
         if isinstance(detector, str):
             self.detector_name, self.detector = detector, detectors.get(detector)()
         else:
@@ -109,6 +116,10 @@ class Run:
             )
         if self.input not in INPUTS:
             raise UsageError(f"unknown input {self.input!r}; choose one of: {', '.join(INPUTS)}")
+        if self.balance not in BALANCINGS:
+            raise UsageError(
+                f"unknown balancing {self.balance!r}; choose one of: {', '.join(BALANCINGS)}"
+            )
         if self.input == "channels" and self.normalize != "none":
             raise UsageError(
                 f"--normalize {self.normalize} scales the univariate signal; the channels input "
@@ -208,15 +219,21 @@ class CellData:
     part's samples are cut when a model needs them, so memory holds one task's windows at a
     time. The same windows serve every downsampling, as the paper downsamples its 200-sample set."""
 
-    def __init__(
+    def __init__(  # noqa: PLR0913 (a run's settings that shape its windows)
         self,
         signals: Signals,
         how: str,
         seed: int,
         labelling: str = "scenario",
         normalize: str = "none",
+        balancing: str = "within",
     ):
         self.signals, self.how, self.seed, self.labelling = signals, how, seed, labelling
+        self.balancing = balancing
+        # per (sensor, window): its windows before balancing, and why balancing keeps what it
+        # keeps of each class (what a cell's rows and warnings count against)
+        self._available: dict[tuple, Windows] = {}
+        self._whys: dict[tuple, str] = {}
         self._sides = trial_sides(signals.recordings, seed) if how == "grouped" else None
         if how == "datasets" and SIDE_COLUMN not in signals.recordings:
             raise UsageError(
@@ -305,10 +322,11 @@ class CellData:
                 )
             )
         rng = rng_for(self.seed, "balance", *sensor, window)
+        self._available[sensor, window] = windows
         if self.how == "datasets":
             return self._across_datasets(windows, rng, name)
-        windows = windows.take(balance(windows, rng))
-        train, test = split(windows, self.how, self.seed, self._sides)
+        windows = windows.take(balance(windows, rng, self.balancing))
+        train, test = split(windows, self.how, self.seed, self._sides, self.balancing)
         for side, idx in (("train", train), ("test", test)):
             classes = set(np.unique(windows.y[idx]))
             if classes != {0, 1}:
@@ -352,12 +370,90 @@ class CellData:
         if len(train) == 0:
             raise UsageError(f"the training dataset has no windows of {name}")
         try:
-            train = train.take(balance(train, rng))
+            train = train.take(balance(train, rng, self.balancing))
         except UsageError as exc:
             raise UsageError(f"the training dataset's windows of {name}: {exc}") from None
         if len(np.unique(test.y)) == 2:
-            test = test.take(balance(test, rng))
+            test = test.take(balance(test, rng, self.balancing))
         return train, test
+
+    def available(self, part: Part, window: int) -> dict[int, int]:
+        """{1: slip, 0: non-slip} windows a part could hold before balancing: its units' windows
+        that meet its conditions, on its side where the split deals sides before balancing
+        (grouped, datasets); with the paper split, which halves each unit's balanced windows,
+        half of each unit's (the training side the smaller half, as the split gives it)."""
+        counts = {1: 0, 0: 0}
+        mask = self._mask(part)
+        for sensor in part.sensors:
+            self.sides(sensor, window)  # prepared, or the UsageError saying why not
+            windows = self._available[sensor, window]
+            keep = mask[windows.recording]
+            if self._sides is not None:  # grouped
+                keep &= (self._sides[windows.recording] == 1) == (part.side == "test")
+            elif self.how == "datasets":
+                keep &= windows.column(SIDE_COLUMN) == part.side
+            for c in counts:
+                n = int((windows.labels[keep] == c).sum())
+                if self.how == "paper":
+                    n = n // 2 if part.side == "train" else n - n // 2
+                counts[c] += n
+        return counts
+
+    def balance_warning(self, cell: Cell, kept: dict[str, Windows]) -> str:
+        """Where balancing kept under half of a class's windows a side could hold
+        (:meth:`available`), "balancing kept 4 of 15 slip training windows. Why: " and, per
+        unit of those sides ("; "-separated), why (:func:`balance_limits`) and what the other
+        balancing keeps; "" where it kept at least half of each."""
+        counts, units = [], []
+        for role, windows in kept.items():
+            part = cell.train if role == "train" else cell.test
+            could = self.available(part, cell.window)
+            for c, name in ((1, "slip"), (0, "non-slip")):
+                used = int((windows.y == c).sum())
+                if 2 * used < could[c]:
+                    side = "training" if role == "train" else "test"
+                    counts.append(f"{used} of {could[c]} {name} {side} windows")
+                    # across datasets each side is balanced alone; otherwise the unit once
+                    where = part.side if self.how == "datasets" else ""
+                    units += [(s, where) for s in part.sensors]
+        if not counts:
+            return ""
+        why = "; ".join(self._why(s, cell.window, side) for s, side in dict.fromkeys(units))
+        return f"balancing kept {', '.join(counts)}. Why: {why}"
+
+    def _why(self, sensor: tuple[str, str], window: int, side: str) -> str:
+        """Why balancing keeps what it keeps of a unit's windows (of one side across datasets,
+        which balances each alone), and what balancing across materials would keep; once per
+        unit, window and side (every cell and detector of a run asks again)."""
+        key = (sensor, window, side)
+        if key not in self._whys:
+            self._whys[key] = self._cause(sensor, window, side)
+        return self._whys[key]
+
+    def _cause(self, sensor: tuple[str, str], window: int, side: str) -> str:
+        windows = self._available[sensor, window]
+        if side:
+            windows = windows.take(np.flatnonzero(windows.column(SIDE_COLUMN) == side))
+        dataset = {"train": " of the training dataset", "test": " of the test dataset"}
+        name = f"{sensor[0]} {sensor[1]}{dataset.get(side, '')} at window {window}"
+        try:
+            cause = balance_limits(windows, self.balancing)
+        except UsageError:  # a test side of one class, kept whole
+            return f"{name}: one class only"
+        rec = windows.recordings.iloc[np.unique(windows.recording)]
+        materials = rec["material"].dropna().nunique()
+        trials = rec["trial"].nunique() if "trial" in rec else len(rec)
+        if self.balancing == "within" and 1 < materials >= trials:
+            cause = f"each material holds one trial, so {cause}"
+        if self.balancing == "within":
+            within, across = balanced_counts(windows, "within"), balanced_counts(windows, "across")
+            if sum(across.values()) > sum(within.values()):
+                held = {c: int((windows.y == c).sum()) for c in (1, 0)}
+                cause += (
+                    f", and --balance across keeps {across[1]} of its {held[1]} slip and "
+                    f"{across[0]} of {held[0]} non-slip windows"
+                )
+        return f"{name}: {cause}"
 
     def streamed(self, part: Part) -> np.ndarray:
         """Rows of the recordings a streaming cell's part streams: those of its units that meet
@@ -445,6 +541,10 @@ class PlannedCell:
     streams: dict[str, np.ndarray] | None = (
         None  # streaming cells: "train"/"test" -> recording rows
     )
+    # windows each side could hold before balancing (``train_slip_available``, ...)
+    available: dict[str, int] = field(default_factory=dict)
+    # where balancing kept under half of a class's windows: how many, why, what keeps more
+    balance_warning: str = ""
 
     def windows(self, side: str) -> Windows:
         """The "train" or "test" windows of a cell that runs: planning set them (a streaming
@@ -528,13 +628,13 @@ class Plan:
 
     cells: list[PlannedCell]
     tasks: list[Task]
-    data: dict[tuple[str, int, str, str], CellData]
+    data: dict[tuple[str, int, str, str, str], CellData]
 
     def data_of(self, pc: PlannedCell) -> CellData:
         """The windows and signal a cell was planned on (a streaming cell: its trial split's)."""
         run = pc.run
         how = stream_split(run.split) if pc.cell.stream else run.split
-        return self.data[how, run.seed, run.labels, run.normalize]
+        return self.data[how, run.seed, run.labels, run.normalize, run.balance]
 
 
 def _code(run: Run) -> dict[str, str]:
@@ -576,6 +676,7 @@ def keys(run: Run, cell: Cell, fingerprint: str) -> tuple[str, str]:
         # earlier versions
         **({"normalize": run.normalize} if run.normalize != "none" else {}),
         **({"input": run.input} if run.input != "univariate" else {}),
+        **({"balance": run.balance} if run.balance != "within" else {}),
         **({"retrain": run.retrain} if run.retrain else {}),
     }
     # at the full rate every decimation gives the same windows: one model serves them all
@@ -622,7 +723,7 @@ def make_plan(
 ) -> Plan:
     """Plan every cell of every run (a run with its protocol's cells); cells whose key is in
     ``done`` are listed but not computed."""
-    data: dict[tuple[str, int, str, str], CellData] = {}
+    data: dict[tuple[str, int, str, str, str], CellData] = {}
     planned: list[PlannedCell] = []
     tasks: dict[str, Task] = {}
     for run, cells in runs:
@@ -644,6 +745,7 @@ def make_plan(
                     cells_data.part(cell.test, cell.window),
                 )
                 pc.train, pc.test = train, test
+                _count_kept(pc, cells_data, {"train": train, "test": test})
                 pc.sampling_rate = cells_data.sampling_rate(cell.train, cell.downsample)
                 pc.skip = _same_model(cells_data, cell)
             except UsageError as exc:
@@ -659,6 +761,9 @@ def make_plan(
                 if missing and not (role == "test" and run.split == "datasets" and len(windows)):
                     pc.skip = f"no {missing} windows to {role} on"
                     break
+            # a detector that needs more windows of a class than the cell trains on (a network
+            # that validates on some) is skipped saying so, not failed in its fit
+            pc.skip = pc.skip or too_few_windows(type(run.detector), train.y)
             if not pc.skip:
                 tasks.setdefault(model, Task(model)).cells.append(pc)
     return Plan(planned, list(tasks.values()), data)
@@ -672,13 +777,22 @@ def _match_channels(pc: PlannedCell, signals: Signals, *rows: np.ndarray) -> Non
         pc.notes.append(note)
 
 
+def _count_kept(pc: PlannedCell, cells_data: CellData, kept: dict[str, Windows]) -> None:
+    """A cell's windows available on each side before balancing, and its balancing warning."""
+    for role in kept:
+        part = pc.cell.train if role == "train" else pc.cell.test
+        could = cells_data.available(part, pc.cell.window)
+        pc.available |= {f"{role}_slip_available": could[1], f"{role}_nonslip_available": could[0]}
+    pc.balance_warning = cells_data.balance_warning(pc.cell, kept)
+
+
 def _data(
-    data: dict[tuple[str, int, str, str], CellData], signals: Signals, run: Run, how: str
+    data: dict[tuple[str, int, str, str, str], CellData], signals: Signals, run: Run, how: str
 ) -> CellData:
     """The CellData of a run's split (``how``), made once and shared."""
-    key = (how, run.seed, run.labels, run.normalize)
+    key = (how, run.seed, run.labels, run.normalize, run.balance)
     if key not in data:
-        data[key] = CellData(signals, how, run.seed, run.labels, run.normalize)
+        data[key] = CellData(signals, how, run.seed, run.labels, run.normalize, run.balance)
     return data[key]
 
 
@@ -702,7 +816,7 @@ def _same_model(cells_data: CellData, cell: Cell) -> str:
 
 
 def _plan_stream(
-    pc: PlannedCell, data: dict[tuple[str, int, str, str], CellData], signals: Signals
+    pc: PlannedCell, data: dict[tuple[str, int, str, str, str], CellData], signals: Signals
 ) -> None:
     """A streaming cell's training windows (from the training trials) and the recordings it
     streams, or the reason it is skipped."""
@@ -711,6 +825,7 @@ def _plan_stream(
     units = ", ".join(f"{t} {i}" for t, i in cell.test.sensors)
     try:
         pc.train = cells_data.part(cell.train, cell.window)
+        _count_kept(pc, cells_data, {"train": pc.train})
         pc.sampling_rate = cells_data.sampling_rate(cell.train, 1)
     except UsageError as exc:
         pc.skip = str(exc)
@@ -718,6 +833,9 @@ def _plan_stream(
     missing = _missing_classes(pc.train.y)
     if missing:
         pc.skip = f"no {missing} windows to train on"
+        return
+    pc.skip = too_few_windows(type(run.detector), pc.train.y)
+    if pc.skip:
         return
     pc.streams = {side.side: cells_data.streamed(side) for side in (cell.train, cell.test)}
     test = pc.streams["test"]

@@ -115,6 +115,7 @@ def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
             "labels": run.labels,
             "normalize": run.normalize,
             "input": run.input,
+            "balance": run.balance,
             "code_identity": run_code_identity(run),
             **cell.key,
             "window": cell.window,
@@ -139,16 +140,18 @@ def _row(pc: PlannedCell, fields: dict, stamp: Stamp) -> dict:
     )
 
 
-def window_counts(pc: PlannedCell) -> dict[str, int]:
+def window_counts(pc: PlannedCell) -> dict[str, int | str]:
     """Windows per class on each side after balancing and splitting (``train_slip_windows``,
     ``train_nonslip_windows``, ``test_slip_windows``, ``test_nonslip_windows``), where the cell
-    got that far (a streaming cell tests on recordings, not windows: train counts only)."""
-    out = {}
+    got that far (a streaming cell tests on recordings, not windows: train counts only); those
+    each side could hold before balancing (``train_slip_available``, ...) and the cell's
+    ``balance_warning`` where balancing kept under half of a class."""
+    out: dict[str, int | str] = {}
     for role, windows in (("train", pc.train), ("test", pc.test)):
         if windows is not None:
             out[f"{role}_slip_windows"] = int((windows.y == 1).sum())
             out[f"{role}_nonslip_windows"] = int((windows.y == 0).sum())
-    return out
+    return out | pc.available | {"balance_warning": pc.balance_warning}
 
 
 def _json(value) -> str:

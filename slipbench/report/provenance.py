@@ -42,6 +42,16 @@ LABEL_TEXTS = {
     "any": "any: a sample of the window slips",
     "last": "last: the window's last sample slips",
 }
+BALANCE_TEXTS = {
+    "within": "within material (the paper): slip equal per material and speed, non-slip per material",
+    "across": "across materials: slip equal per speed, non-slip pooled over materials",
+}
+#: a side and class's windows used, and those the side could hold before balancing
+KEPT = [
+    (f"{side} {name}", f"{side}_{cls}_windows", f"{side}_{cls}_available")
+    for side in ("train", "test")
+    for cls, name in (("slip", "slip"), ("nonslip", "non-slip"))
+]
 NORMALIZATION_TEXTS = {
     "none": "none: the signal as measured (the paper)",
     "recording": "recording: each recording's signal minus its median, over 1.4826 x its median absolute "
@@ -337,10 +347,32 @@ def _as_figure(method: str) -> str:
 
 def _where(row: pd.Series) -> str:
     return (
-        f"{row['protocol']}, {row['detector']}, {cell_label(row['cell'])}"
+        f"{row['protocol']}, {row['detector']}, {cell_label(_tested_key(row))}"
         if "cell" in row
         else str(row["protocol"])
     )
+
+
+def _tested_key(row: pd.Series) -> dict | str:
+    """A cell's key naming the units it tested: a row trained on one dataset and tested on
+    another keys its cell by the training dataset's unit (its ``sensor_map`` says which test
+    unit was tested as it), so the tested instance reads ``Vib:ff (trained as BioTacSP ff)``."""
+    mapped = row.get("sensor_map")
+    if not isinstance(mapped, str) or not mapped:
+        return row["cell"]
+    try:
+        key, pairs = json.loads(row["cell"]), json.loads(mapped)
+        tested: dict[str, list[str]] = {}
+        for test, train in pairs.items():
+            tested.setdefault(str(train), []).append(str(test))
+    except (TypeError, AttributeError, json.JSONDecodeError):
+        return row["cell"]  # a key or map this version cannot read: named as stored
+    kind = key.get("sensor_type")
+    for column in ("sensor_instance", "test_instance"):
+        names = tested.get(f"{kind}:{key.get(column)}")
+        if column in key and names:
+            key[column] = f"{' + '.join(names)} (trained as {kind} {key[column]})"
+    return key
 
 
 def _smallest(rows: pd.DataFrame) -> str:
@@ -355,6 +387,64 @@ def _smallest(rows: pd.DataFrame) -> str:
         "; ".join(f"{', '.join(what)} ({_where(ok.loc[at])})" for at, what in found.items())
         or "unknown (the rows do not say)"
     )
+
+
+def balance_kept(rows: pd.DataFrame) -> str:
+    """The windows the cells used of those their sides could hold before balancing, per side
+    and class, summed over the cells that record both ("" where none does)."""
+    parts, cells = [], 0
+    for name, used, could in KEPT:
+        if used not in rows or could not in rows:
+            continue
+        both = rows[[used, could]].apply(pd.to_numeric, errors="coerce").dropna()
+        if len(both):
+            cells = max(cells, len(both))
+            parts.append(f"{name} {int(both[used].sum()):,} of {int(both[could].sum()):,}")
+    return f"{', '.join(parts)} (summed over {cells} cells)" if parts else ""
+
+
+def grouped_warnings(rows: pd.DataFrame, limit: int = 10) -> list[str]:
+    """The rows' balancing warnings, one line per cause (a unit's, after "Why: "): how many
+    cells it concerns (each once, whatever its detectors), of which protocols, and one cell's
+    counts as an example; at most ``limit`` lines and one counting the rest."""
+    if "balance_warning" not in rows:
+        return []
+    flagged = rows[rows["balance_warning"].fillna("").astype(str) != ""]
+    flagged = flagged.drop_duplicates(["protocol", "cell"])
+    causes: dict[str, list[tuple[str, str, str]]] = {}
+    for p, c, w in flagged[["protocol", "cell", "balance_warning"]].itertuples(index=False):
+        kept, _, why = str(w).partition(". Why: ")
+        for cause in why.split("; "):
+            causes.setdefault(cause, []).append((str(p), cell_label(c), kept))
+    lines = []
+    for cause, cells in causes.items():
+        protocols = ", ".join(dict.fromkeys(p for p, _, _ in cells))
+        _, cell, kept = cells[0]
+        lines.append(
+            f"balancing kept under half of a class in {len(cells)} {'cell' if len(cells) == 1 else 'cells'} of {protocols} (e.g. {cell}: "
+            f"{kept.removeprefix('balancing ')})" + (f". Why: {cause}" if cause else "")
+        )
+    if len(lines) > limit:
+        return lines[:limit] + [f"{len(lines) - limit} more causes (the rows' balance_warning)"]
+    return lines
+
+
+def _balancing(rows: pd.DataFrame) -> list[tuple[str, str]]:
+    """The run table's lines on balancing: how, what it kept, and where it kept under half."""
+    how = [BALANCE_TEXTS.get(b, b) for b in _values(rows, "balance")] or (
+        [BALANCE_TEXTS["within"]] if len(rows) else []
+    )
+    kept = balance_kept(rows)
+    lines = [
+        (
+            "Balancing",
+            "; ".join(how) + (f"; windows used of those available: {kept}" if kept else ""),
+        )
+    ]
+    warned = grouped_warnings(rows, limit=3)
+    if warned:
+        lines.append(("Balancing kept under half of a class", "; ".join(warned)))
+    return lines
 
 
 def header_tables(
@@ -382,6 +472,7 @@ def header_tables(
         ),
         ("Split", "; ".join(SPLIT_TEXTS.get(s, s) for s in _values(rows, "split")) or "unknown"),
         ("Labels", "; ".join(LABEL_TEXTS.get(s, s) for s in _values(rows, "labels")) or "unknown"),
+        *_balancing(rows),
         ("Seeds", ", ".join(str(int(s)) for s in _values(rows, "seed")) or "unknown"),
         ("Cells", _counts(rows)),
         *(

@@ -343,6 +343,7 @@ CELL_COLUMNS = (
     "split",
     "labels",
     "normalize",
+    "balance",
     "cell",
     "decimation",
     "antialias",

@@ -50,6 +50,7 @@ KEY_FIELDS: dict[str, tuple[str, tuple[str, ...]]] = {
     "split": (SETTING, ("split",)),
     "run_split": (SETTING, ("split",)),
     "labels": (SETTING, ("labels",)),
+    "balance": (SETTING, ("balance",)),
     "protocol_params": (SETTING, ("protocol_params",)),
     "protocol": (CELL, ("protocol",)),
     "cell": (CELL, ("cell",)),
@@ -73,7 +74,7 @@ UNIVARIATE, CHANNELS = "univariate", "channels"
 #: the column :func:`named_entrants` keeps a detector's plugin id in
 ENTRANT_ID = "detector_id"
 #: what a row lacking a column meant when it was written (runs without the option)
-DEFAULTS = {"normalize": "none", "input": "univariate"}
+DEFAULTS = {"normalize": "none", "input": "univariate", "balance": "within"}
 #: a setting's name in captions
 SETTING_NAMES = {
     "dataset_fingerprint": "dataset",

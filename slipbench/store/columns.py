@@ -345,6 +345,12 @@ IDENTITY = (
     Column("normalize", STR, "", "how recordings were scaled before windowing"),
     Column("input", STR, "", "univariate signal or channels"),
     Column(
+        "balance",
+        STR,
+        "",
+        "how balancing kept classes equal: within each material (the paper) or across materials",
+    ),
+    Column(
         "code_identity",
         STR,
         "",
@@ -374,6 +380,24 @@ CELL = (
     ),
     Column("test_slip_windows", INT, "windows", "slip windows on the test side", AT_LEAST_0),
     Column("test_nonslip_windows", INT, "windows", "non-slip windows on the test side", AT_LEAST_0),
+    *(
+        Column(
+            f"{side}_{cls}_available",
+            INT,
+            "windows",
+            f"{name} windows the {side} side could hold before balancing (its units and "
+            "conditions; the paper split, which halves the balanced windows, counts half)",
+            AT_LEAST_0,
+        )
+        for side in ("train", "test")
+        for cls, name in (("slip", "slip"), ("nonslip", "non-slip"))
+    ),
+    Column(
+        "balance_warning",
+        STR,
+        "",
+        "where balancing kept under half of a class's windows: how many, why, and what keeps more",
+    ),
     Column(
         "normalize_scale_train", FLOAT, "", "median scale the training recordings were divided by"
     ),

@@ -88,6 +88,8 @@ class TorchDetector(BaseDetector):
     install_hint: ClassVar[str | None] = INSTALL_HINT
     check_params: ClassVar[dict[str, Any]] = {"max_epochs": 3, "patience": 1}
     inputs: ClassVar[tuple[str, ...]] = ("univariate", "channels")
+    # one window of each class to validate on (early stopping), one to train on
+    min_class_windows: ClassVar[int] = 2
     TRAINING_CONSTRAINTS: ClassVar[dict[str, Any]] = {
         "batch_size": Interval(int, 1, 1 << 16),
         "learning_rate": Interval(float, 1e-7, 1.0),

@@ -8,7 +8,7 @@ import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from slipbench.data.signals import Windows, balance
+from slipbench.data.signals import Windows, balance, balance_limits, balanced_counts
 
 
 def _windows(slip: list[int], press: list[int], free: list[int], held: list[int]) -> Windows:
@@ -76,3 +76,27 @@ def test_many_slip_strata_against_few_non_slip_windows_keep_both_classes():
     kept = windows.take(balance(windows, np.random.default_rng(0)))
     assert (kept.y == 1).sum() == 40 and (kept.y == 0).sum() == 26
     assert len(np.unique(kept.recording[kept.y == 1])) == 40  # one window of each slip stratum
+
+
+def test_what_balancing_keeps_is_counted_and_its_limit_named():
+    # issue 54: slip in strata of 40 and 2 windows; 200 pressing windows in one stratum. Within
+    # material the 2-window stratum sets what every slip stratum keeps
+    windows = _windows(slip=[40, 2], press=[200], free=[], held=[])
+    kept = balance(windows, np.random.default_rng(0))
+    assert (
+        balanced_counts(windows)
+        == {1: 4, 0: 4}
+        == {c: int((windows.y[kept] == c).sum()) for c in (1, 0)}
+    )
+    assert balance_limits(windows) == (
+        "slip is kept equal over its 2 strata (per material and speed) and the smallest (m1, 1 "
+        "mm/s) holds 2 windows, and non-slip is matched to it"
+    )
+    # across materials slip is one stratum per speed (here each its own speed): no gain; with
+    # one speed the strata pool and every slip window is kept
+    windows.recordings["speed_mm_s"] = 25.0
+    assert balanced_counts(windows, "across") == {1: 42, 0: 42}
+    # the other way round (finger IMUs): few non-slip windows limit slip
+    imu = _windows(slip=[30], press=[8], free=[], held=[])
+    assert balanced_counts(imu) == {1: 8, 0: 8}
+    assert balance_limits(imu) == "press has 8 windows, and slip is matched to it"

@@ -1,15 +1,16 @@
 """`dataset check` and the stand-in of a protocol that makes no cell: every protocol is named
-with its reason, and the window table holds the windows the protocols use, once each."""
+with its reason, and the tables hold the windows the protocols use, once each."""
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from labshapes import bursty_labels
 from test_outside_data import _recording, hundred_hz
 
 from slipbench.data.read import read_dataset
 from slipbench.data.write import write_dataset
-from slipbench.engine.check import WINDOW_COLUMNS, check_dataset
+from slipbench.engine.check import UNIT_COLUMNS, WINDOW_COLUMNS, check_dataset
 from slipbench.engine.plan import Run
 from slipbench.protocol import NO_CELL
 from slipbench.protocols.speed_holdout import SpeedHoldout
@@ -80,3 +81,33 @@ def test_check_command_on_data_without_speeds(tmp_path, cli):
     assert "## speed-holdout: no cell" in out and "gives a speed" in out
     header = next(line for line in out.splitlines() if "window_ms" in line)
     assert [c.strip() for c in header.strip("|").split("|")] == WINDOW_COLUMNS
+
+
+def test_check_counts_classes_at_the_windows_asked_for(tmp_path, cli):
+    # issue 54: slip in 4-frame bursts; windows of 5 frames hold slip by majority, windows of
+    # 50 (the first table's fixed size before) none: the check said there was no slip at all
+    ds = bursty_labels(tmp_path)
+    result = check_dataset(ds, [Run("holweg", WindowSize(windows=[5]), labels="majority")])
+    assert list(result.units.columns) == UNIT_COLUMNS
+    assert set(result.units["window"]) == {5}
+    slip = result.units[result.units["class"] == "slip"]
+    assert int(slip["windows"].iloc[0]) > 0 and int(slip["trials"].iloc[0]) > 0
+    at_50 = check_dataset(ds, [Run("holweg", WindowSize(windows=[50]), labels="majority")])
+    assert int(at_50.units.loc[at_50.units["class"] == "slip", "windows"].iloc[0]) == 0
+    code, out, err = cli(
+        [
+            "dataset",
+            "check",
+            str(ds.path),
+            "--protocol",
+            "window-size",
+            "--protocol-param",
+            "windows=[5]",
+            "--labels",
+            "majority",
+        ]
+    )
+    assert code == 0, err
+    assert "windows of 50 samples" not in out
+    first = out.split("## ")[1]  # the first table: classes per unit, at window 5
+    assert "| IMU           | index             |        5 | slip" in first

@@ -23,7 +23,7 @@ from slipbench.protocols.window_size import WindowSize
 from slipbench.report.document import build_report, protocol_tables, render
 from slipbench.report.outline import as_tested
 from slipbench.report.presentation import shown_protocol
-from slipbench.report.provenance import on_simulation
+from slipbench.report.provenance import _where, header_tables, on_simulation
 from slipbench.report.tables import SIMULATED, SIMULATION_NOTE, Table
 from slipbench.store.results import ResultsStore, read_results
 
@@ -50,6 +50,25 @@ def test_transfer_rows_name_the_unit_tested_and_what_it_was_trained_as():
     # two test units tested as one training unit: both named
     two = as_tested(_rows(sensor_map=json.dumps({"A:x": "Nano17:index", "A:y": "Nano17:index"})))
     assert "x + y (trained as Nano17 index)" in set(two["sensor_instance"])
+
+
+def test_smallest_test_set_names_the_unit_tested_not_the_one_trained():
+    # issue 54: a transfer row's cell is keyed by the training unit; the header named it
+    rows = _rows(sensor_map=json.dumps({"Vib:probe": "Nano17:index"}))
+    rows["n_test_trials"] = 20
+    at = rows.index[rows["sensor_instance"].eq("index")][0]
+    rows.loc[at, "n_test_trials"] = 3
+    run = header_tables(rows)[0]
+    (line,) = [c[0] for r, c in zip(run.rows, run.cells) if r[0] == "Smallest test set"]
+    assert "3 test trials" in line and "Vib:probe (trained as Nano17 index)" in line
+    # a cross-instance cell across datasets: its test instance is the one renamed
+    cross = _rows(sensor_map=json.dumps({"Vib:tip": "Nano17:middle"}))
+    cross["cell"] = json.dumps(
+        {"sensor_type": "Nano17", "train_instance": "index", "test_instance": "middle"}
+    )
+    assert _where(cross.iloc[0]).endswith("Nano17 Index → Vib:tip (trained as Nano17 middle)")
+    # within one dataset nothing is renamed
+    assert _where(_rows().iloc[0]) == _where(_rows(sensor_map="").iloc[0])
 
 
 def _dataset(folder, source: str):

@@ -39,6 +39,7 @@ TWO_VALUES = {
     "sensor_map": ('{"Vib:a": "Nano17:index"}', '{"Vib:b": "Nano17:index"}'),
     "split": ("paper", "grouped"),
     "labels": ("scenario", "majority"),
+    "balance": ("within", "across"),
     "protocol_params": ('{"windows": [5, 10, 25, 50, 100, 200]}', '{"windows": [50, 100, 200]}'),
     "interval_method": ("satterthwaite", "scale-choice"),
     "slipbench_version": ("0.1.0", "0.2.0"),
@@ -84,7 +85,7 @@ def test_every_key_field_is_a_listed_factor(monkeypatch):
     part = Part((("Nano17", "index"),), "train")
     test = Part((("Nano17", "index"),), "test")
     for run in (
-        Run("holweg", "window-size", split="grouped", normalize="unit"),
+        Run("holweg", "window-size", split="grouped", normalize="unit", balance="across"),
         Run("tcn", "window-size", input="channels"),
     ):
         for cell in (

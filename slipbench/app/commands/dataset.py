@@ -10,6 +10,7 @@ import click
 
 from slipbench.app.options import (
     Destination,
+    balance_option,
     labels_option,
     parse_params,
     plugins_option,
@@ -118,6 +119,7 @@ class CheckArgs:
     protocol_params: tuple[str, ...]
     split: str
     labels: str
+    balance: str
     seed: int
     plugins: tuple[str, ...]
 
@@ -135,6 +137,7 @@ class CheckArgs:
 @protocol_params_option("Protocol option NAME=VALUE, e.g. windows='[\"50ms\"]'.")
 @split_option()
 @labels_option()
+@balance_option()
 @seed_option()
 @plugins_option()
 def dataset_check(**options) -> None:
@@ -142,9 +145,10 @@ def dataset_check(**options) -> None:
     which protocol cells would run, be skipped, or rest on too few test trials."""
     o = CheckArgs(**options)
     from slipbench.data.read import read_dataset
-    from slipbench.engine.check import check_dataset
+    from slipbench.engine.check import CELL_COLUMNS, KEPT_COLUMNS, check_dataset
     from slipbench.engine.runner import Run
     from slipbench.protocol import NO_CELL
+    from slipbench.report.provenance import grouped_warnings
     from slipbench.vocabulary import LOW_N
 
     add_plugin_folders(o.plugins)
@@ -155,13 +159,15 @@ def dataset_check(**options) -> None:
     protocols = with_options(
         protocols, parse_params(o.protocol_params, "--protocol-param"), "protocol"
     )
-    runs = [Run("holweg", p, o.split, o.seed, o.labels) for p in protocols.values()]
+    runs = [
+        Run("holweg", p, o.split, o.seed, o.labels, balance=o.balance) for p in protocols.values()
+    ]
     for run in runs:
         run.validate()
     ds = read_dataset(o.path)
     _say_health(ds, o.path)
     result = check_dataset(ds, runs)
-    click.echo(f"## {o.path}: classes per unit (labels: {o.labels}; windows of 50 samples)\n")
+    click.echo(f"## {o.path}: classes per unit and window the protocols use (labels: {o.labels})\n")
     click.echo(result.units.to_markdown(index=False))
     click.echo(
         "\n## Windows the protocols use, per unit: slip and non-slip windows before balancing\n"
@@ -179,7 +185,16 @@ def dataset_check(**options) -> None:
         )
         flagged = cells[cells["verdict"] != "runs"]
         if len(flagged):
-            click.echo(flagged.drop(columns="protocol").to_markdown(index=False))
+            click.echo(flagged[["cell", *CELL_COLUMNS[2:6]]].to_markdown(index=False))
+        kept = cells[cells["train_slip"] != ""]
+        if len(kept):
+            click.echo(
+                f"\nWindows each cell uses of those its sides could hold before balancing "
+                f"(--balance {o.balance}):\n"
+            )
+            click.echo(kept[["cell", *KEPT_COLUMNS]].to_markdown(index=False))
+        for line in grouped_warnings(cells.assign(protocol=name)):
+            click.echo(f"warning: {line}", err=True)
     click.echo(
         f"\nlow n: fewer than {LOW_N} test trials of a class; such cells are flagged in results and tables."
     )

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import click
 
 from slipbench.app.options import (
+    balance_option,
     dataset_option,
     force_option,
     intervals_option,
@@ -57,6 +58,7 @@ class EvaluateArgs:
     split: str
     labels: str
     normalize: str
+    balance: str
     input_kind: str
     seed: int
     repeats: int
@@ -107,6 +109,7 @@ class EvaluateArgs:
 @labels_option(
     "A window's class: its recording's scenario (the paper), or its samples' slip labels."
 )
+@balance_option()
 @click.option(
     "--normalize",
     type=click.Choice(["none", "recording", "unit"]),
@@ -184,7 +187,7 @@ def evaluate_command(**options) -> None:
     from slipbench.engine.plan import Run
 
     runs = [
-        Run(d, p, split, o.seed + r, o.labels, o.normalize, kind)
+        Run(d, p, split, o.seed + r, o.labels, o.normalize, kind, o.balance)
         for name, d in detectors.items()
         for kind in readable(name, d, o.input_kind, note)
         for p in protocols.values()
@@ -198,6 +201,7 @@ def evaluate_command(**options) -> None:
         run.validate()  # every option before the dataset is read or simulated
     slurm = slurm_resources(o.scheduler, o.slurm, None, detectors)
     from slipbench.report.document import protocol_table
+    from slipbench.report.provenance import balance_kept, grouped_warnings
     from slipbench.store.results import ResultsStore, cells_failed
 
     store = ResultsStore(o.out)
@@ -214,6 +218,10 @@ def evaluate_command(**options) -> None:
         + ", ".join(f"{int(counts.get(s, 0))} {s}" for s in ("ok", "skipped", "failed", "timeout"))
         + f"; results in {o.out / 'results.parquet'}"
     )
+    if kept := balance_kept(rows):
+        click.echo(f"windows used of those available before balancing: {kept}")
+    for line in grouped_warnings(rows):
+        click.echo(f"warning: {line}", err=True)
     for reason in rows.loc[rows["status"] == "skipped", "reason"].unique():
         click.echo(f"skipped: {reason}", err=True)
     failed = cells_failed(rows, str(o.out))
