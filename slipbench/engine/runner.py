@@ -301,6 +301,10 @@ class _Recorder:
 
     def __call__(self, pc: PlannedCell, result: Result) -> None:
         _warn_reads(pc.run.detector_name, result.fields, self.warned)
+        for notice in result.notices:  # a task's cells share its model: said once
+            if ("", notice) not in self.warned:
+                self.warned.add(("", notice))
+                warnings.warn(notice, stacklevel=2)
         if isinstance(result, Stored):
             self.rows[pc.key] = result.fields
             return
