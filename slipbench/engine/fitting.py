@@ -65,14 +65,17 @@ class TestSet:
     strata: np.ndarray | None = None
 
 
+#: a field of a result, never of a row: warnings the process that records the cell says once
+#: each (a saved model refused and fitted again)
+NOTICES = "notices"
+
+
 class Result(NamedTuple):
-    """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`), the
-    scores of its test windows (None for a streaming or failed cell), and warnings the process
-    that records it says once each (a saved model refused and fitted again)."""
+    """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`, and
+    :data:`NOTICES`) and the scores of its test windows (None for a streaming or failed cell)."""
 
     fields: dict[str, Any]
     scores: np.ndarray | None = None
-    notices: tuple[str, ...] = ()
 
 
 class Stored(Result):
@@ -171,7 +174,9 @@ def fit_and_test_together(
 
 
 def _told(results: list[Result], said: list[str]) -> list[Result]:
-    return [r._replace(notices=tuple(said)) for r in results] if said else results
+    if not said:
+        return results
+    return [Result({**r.fields, NOTICES: tuple(said)}, r.scores) for r in results]
 
 
 def _stamp_name(job: Job) -> None:

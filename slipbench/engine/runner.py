@@ -33,7 +33,7 @@ from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.cached import refits, reusable
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet
+from slipbench.engine.fitting import NOTICES, Job, Lockstep, Result, Stored, TestSet
 from slipbench.engine.limits import SCHEDULERS
 from slipbench.engine.plan import (
     LABELLED,
@@ -302,14 +302,15 @@ class _Recorder:
 
     def __call__(self, pc: PlannedCell, result: Result) -> None:
         _warn_reads(pc.run.detector_name, result.fields, self.warned)
-        for notice in result.notices:  # a task's cells share its model: said once
+        fields = {k: v for k, v in result.fields.items() if k != NOTICES}
+        for notice in result.fields.get(NOTICES, ()):  # a task's cells share its model
             if ("", notice) not in self.warned:
                 self.warned.add(("", notice))
                 warnings.warn(notice, stacklevel=2)
         if isinstance(result, Stored):
-            self.rows[pc.key] = result.fields
+            self.rows[pc.key] = fields
             return
-        row = _row(pc, {**result.fields, **_scales(self.plan, pc)}, self.stamp)
+        row = _row(pc, {**fields, **_scales(self.plan, pc)}, self.stamp)
         predictions = None
         if result.scores is not None:  # the scores of test windows (a streaming cell keeps none)
             rec, test = self.signals.recordings, pc.windows("test")
