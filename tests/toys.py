@@ -270,3 +270,42 @@ def source(toy: type) -> str:
     ]
     classes = [c for c in reversed(toy.__mro__) if c.__module__ == __name__]
     return "\n".join(header) + "\n\n\n" + "\n\n".join(inspect.getsource(c) for c in classes)
+
+
+class Forever(BaseDetector):
+    """A fit that never returns (for the default time limit)."""
+
+    name = "forever"
+
+    def _fit(self, x, y, seed):
+        while True:
+            time.sleep(3600)
+
+    def _predict_proba(self, x):
+        return np.full(len(x), 0.5)
+
+
+class Spawner(BaseDetector):
+    """Starts a child process in a session of its own, writes its pid to ``pid_file``, then
+    returns (``hang`` False) or never returns: the child must end with the worker either way."""
+
+    name = "spawner"
+
+    def __init__(self, pid_file="", hang=False):
+        self.pid_file = pid_file
+        self.hang = hang
+
+    def _fit(self, x, y, seed):
+        import subprocess
+
+        child = subprocess.Popen(
+            [sys.executable, "-c", "import time; time.sleep(3600)"], start_new_session=True
+        )
+        with open(self.pid_file, "a") as f:
+            f.write(f"{child.pid}\n")
+        while self.hang:
+            time.sleep(3600)
+        self.cut_ = float(np.median(np.abs(x).mean(axis=1)))
+
+    def _predict_proba(self, x):
+        return (np.abs(x).mean(axis=1) > self.cut_).astype(float)

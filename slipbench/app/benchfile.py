@@ -23,7 +23,7 @@
     seed = 0
     repeats = 3                    # seeds seed, seed+1, seed+2
     jobs = 2
-    cell_timeout = 600             # seconds
+    cell_timeout = 600             # seconds per model (default 7200; 0: none)
     plugins = ["plugins"]          # plugin folders, relative to this file
 
     [slurm]                        # with scheduler = "slurm": each array task's resources
@@ -108,7 +108,7 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "seed": (int, "an int in [0, 2**32 - 1]"),
         "repeats": (int, "an int >= 1"),
         "jobs": (int, "an int >= 0"),
-        "cell_timeout": ((int, float), "seconds > 0"),
+        "cell_timeout": ((int, float), "seconds >= 0 (0: none)"),
         "scheduler": (str, "slurm, submitit-local, or a dask scheduler's address or file"),
         "plugins": (list, "a list of folders"),
     },
@@ -359,7 +359,12 @@ def load_benchmark(path: str | Path) -> Benchmark:
     check(workers is None, f"jobs {r.get('jobs')}: {workers}", "run", "jobs")
     where = scheduler_problem(r["scheduler"]) if "scheduler" in r else None
     check(where is None, f"scheduler {r.get('scheduler')!r}: {where}", "run", "scheduler")
-    check(r.get("cell_timeout", 1) > 0, "cell_timeout must be > 0 seconds", "run", "cell_timeout")
+    check(
+        r.get("cell_timeout", 1) >= 0,
+        "cell_timeout must be >= 0 seconds (0: none)",
+        "run",
+        "cell_timeout",
+    )
     for item in d.get("sensor_map", []):
         check(
             isinstance(item, str) and "=" in item,
@@ -641,6 +646,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
     from slipbench.app.selection import recorded_plugins
+    from slipbench.engine.limits import cell_limit, limit_words
     from slipbench.engine.runner import evaluate
     from slipbench.report.document import build_report, render, write_figures
     from slipbench.report.render import renderer
@@ -652,6 +658,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     )  # every name and parameter before the dataset is read or simulated
     ds = bench_dataset(bench, echo)
     record(bench, out, runs)
+    echo(limit_words(bench.cell_timeout, bench.jobs, bench.scheduler))
     rows = evaluate(
         ds,
         runs,
@@ -659,7 +666,7 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         force=force,
         jobs=bench.jobs,
         scheduler=bench.scheduler,
-        cell_timeout=bench.cell_timeout,
+        cell_timeout=cell_limit(bench.cell_timeout, bench.jobs, bench.scheduler),
         progress=progress,
         slurm=slurm_of(bench),
     )

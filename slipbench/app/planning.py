@@ -24,6 +24,7 @@ import pandas as pd
 
 from slipbench.app.benchfile import Benchmark, plan_runs, slurm_of
 from slipbench.engine.estimate import Cost, costs, duration, makespan, task_seconds
+from slipbench.engine.limits import limit_words
 from slipbench.engine.plan import Batch, Plan, Task, batched
 from slipbench.engine.slurm import Resources, array_minutes, dealt
 from slipbench.vocabulary import SLIPS
@@ -121,8 +122,11 @@ def _resources(bench: Benchmark) -> Resources:
 
 def cells_and_cost(p: Planning) -> Section:
     """Per detector: cells, models, and the work they should take."""
+    limit = limit_words(p.bench.cell_timeout, p.bench.jobs, p.bench.scheduler)
     lines = [
         f"Data: {p.data}. Measured rows behind the estimates: {len(p.measured)}.",
+        "",
+        f"{limit[0].upper()}{limit[1:]}.",
         "",
         "| Detector | Cells | Cached | Skipped | To run | Models | Work (CPU) | Longest model "
         "| Measured from |",

@@ -137,13 +137,23 @@ def _running(proc: psutil.Process) -> bool:
     return False
 
 
-def _stop(workers: list[psutil.Process]) -> None:
-    """End the workers and every process they started: SIGTERM, then SIGKILL after STOP s
-    (a worker deep in native code does not see SIGTERM until it returns)."""
+def _descendants(workers: list[psutil.Process]) -> list[psutil.Process]:
+    """The running workers and every process they started."""
     procs = []
     for worker in filter(_running, workers):
         with suppress(psutil.Error):
             procs += [worker, *worker.children(recursive=True)]
+    return procs
+
+
+def _stop(workers: list[psutil.Process]) -> None:
+    """End the workers and every process they started: SIGTERM, then SIGKILL after STOP s
+    (a worker deep in native code does not see SIGTERM until it returns)."""
+    _end(_descendants(workers))
+
+
+def _end(procs: list[psutil.Process]) -> None:
+    """End ``procs`` (psutil knows each by its start time too: a reused pid is left alone)."""
     for method in ("terminate", "kill"):
         for proc in procs:
             with suppress(psutil.Error):
@@ -224,12 +234,17 @@ class _Pool(Generic[T]):
             self.on_report(report)  # the latest only: a few redraws a second
 
     def close(self, interrupted: bool) -> None:
-        """Stop the pool; ``interrupted``: its workers first, without waiting for their tasks."""
+        """Stop the pool; ``interrupted``: its workers first, without waiting for their tasks.
+        Every process a plugin started in a worker ends with it, even one in a session of its
+        own (which no signal to the worker's process group reaches): found before the workers
+        end, while they are still its parents."""
+        self._read()  # workers that started meanwhile
+        started = _descendants(self.workers)
         self.pool.stop()
         if interrupted:
-            self._read()  # workers that started meanwhile
             _stop(self.workers)
         self.pool.join()
+        _end(started)
         self.reader.close()
         self.writer.close()
 

@@ -23,10 +23,10 @@ from slipbench.base import BaseDetector, FitJob, clone, plugin_id
 from slipbench.errors import EnvironmentFault, UsageError
 from slipbench.seeding import seed_int
 from slipbench.stats.metrics import chance_interval, classification_figures, stream_low_n
+from slipbench.store import models
 from slipbench.store.columns import BALANCED_ACCURACY, overridden
 from slipbench.store.keys import file_digest, unkeyed
 from slipbench.store.reads import reading
-from slipbench.store.results import write_text_atomic
 from slipbench.stream.cell import StreamTest, streamed_figures
 
 
@@ -65,9 +65,14 @@ class TestSet:
     strata: np.ndarray | None = None
 
 
+#: a field of a result, never of a row: warnings the process that records the cell says once
+#: each (a saved model refused and fitted again)
+NOTICES = "notices"
+
+
 class Result(NamedTuple):
-    """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`) and the
-    scores of its test windows (None for a streaming or failed cell)."""
+    """One tested cell: its result fields (columns of :mod:`slipbench.store.columns`, and
+    :data:`NOTICES`) and the scores of its test windows (None for a streaming or failed cell)."""
 
     fields: dict[str, Any]
     scores: np.ndarray | None = None
@@ -136,15 +141,16 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
     process with (``sys.exit``), fails the cells with the reason and the phase.
     """
     _stamp_name(job)
+    saved, said = _saved(job)
     try:
-        detector, cost = _trained(job)
+        detector, cost = saved if saved is not None else _fitted(job)
     except EnvironmentFault:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001
-        return _failed_cells(job, exc, "fit")
+        return _told(_failed_cells(job, exc, "fit"), said)
     if on_phase is not None:
         on_phase("test")
-    return _tested(job, detector, cost)
+    return _told(_tested(job, detector, cost), said)
 
 
 def fit_and_test_together(
@@ -155,16 +161,22 @@ def fit_and_test_together(
     member that cannot train (one class, bad windows) fails alone with its reason."""
     for job in jobs:
         _stamp_name(job)
-    trained = _trained_together(jobs)
+    trained, said = _trained_together(jobs)
     if on_phase is not None:
         on_phase("test")
     out: list[Result] = []
-    for job, got in zip(jobs, trained, strict=True):
+    for job, got, told in zip(jobs, trained, said, strict=True):
         if isinstance(got, BaseException):
-            out += _failed_cells(job, got, "fit")
+            out += _told(_failed_cells(job, got, "fit"), told)
         else:
-            out += _tested(job, *got)
+            out += _told(_tested(job, *got), told)
     return out
+
+
+def _told(results: list[Result], said: list[str]) -> list[Result]:
+    if not said:
+        return results
+    return [Result({**r.fields, NOTICES: tuple(said)}, r.scores) for r in results]
 
 
 def _stamp_name(job: Job) -> None:
@@ -387,25 +399,26 @@ def _read_warnings(cost: dict[str, Any]) -> list[str]:
     ]
 
 
-def _saved(job: Job) -> tuple[BaseDetector, dict[str, Any]] | None:
-    """The model an earlier run saved at ``model_path`` for these windows, with its cost."""
-    if job.model_path is None or not Path(f"{job.model_path}.json").is_file():
-        return None
-    return type(job.detector).load(job.model_path), json.loads(
-        Path(f"{job.model_path}.json").read_text()
-    )
+def _saved(job: Job) -> tuple[tuple[BaseDetector, dict[str, Any]] | None, list[str]]:
+    """The model an earlier run saved at ``model_path`` for these windows, with its cost, once
+    it proves itself (None: none saved, or one refused); and, for a refused one, a warning
+    naming its file: it is fitted again, never reused and never blamed on the detector."""
+    if job.model_path is None:
+        return None, []
+    try:
+        return models.reuse(type(job.detector), Path(job.model_path)), []
+    except models.Unproved as exc:
+        return None, [f"{exc}; fitting it again"]
 
 
 def _kept(job: Job, detector: BaseDetector, cost: dict[str, Any]) -> None:
-    """Save a newly fitted model at ``model_path`` (where there is one), its cost last: the
-    cost file marks the model complete."""
+    """Save a newly fitted model at ``model_path`` (where there is one) with its proof."""
     if job.model_path is None:
         return
     try:
-        detector.save(job.model_path)
+        models.keep(detector, Path(job.model_path), cost)
     except UsageError:
         return  # state that cannot be saved safely: reuse it in this run only
-    write_text_atomic(Path(f"{job.model_path}.json"), json.dumps(cost))
 
 
 def _cost(job: Job, train_s: float, peak_mb: float, opened: set[str]) -> dict[str, Any]:
@@ -419,11 +432,8 @@ def _cost(job: Job, train_s: float, peak_mb: float, opened: set[str]) -> dict[st
     }
 
 
-def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
-    """A fitted detector and its training cost, from ``model_path`` when an earlier run left it."""
-    saved = _saved(job)
-    if saved is not None:
-        return saved
+def _fitted(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
+    """A newly fitted detector and its training cost (kept at ``model_path``)."""
     detector = clone(job.detector)
     with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()
@@ -443,17 +453,19 @@ def _trained(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
 Trained = tuple[BaseDetector, dict[str, Any]] | tuple[BaseDetector, dict[str, Any], list[str]]
 
 
-def _trained_together(jobs: list[Job]) -> list[Trained | BaseException]:
+def _trained_together(jobs: list[Job]) -> tuple[list[Trained | BaseException], list[list[str]]]:
     """Per job, its fitted detector and cost (and notes), or what it raised: saved models are
     loaded, the others fitted together through ``fit_lockstep``. A member that fails fit's
     checks is left out with its reason; should the lockstep fit itself raise, each model is
     fitted alone instead, so that the error lands on the member that caused it, and its rows
-    say so."""
+    say so. Also, per job, the warnings about a saved model refused."""
     out: list[Trained | BaseException | None] = [None] * len(jobs)
     fresh: list[tuple[int, BaseDetector]] = []
+    said: list[list[str]] = []
     for i, job in enumerate(jobs):
+        out[i], told = _saved(job)
+        said.append(told)
         try:
-            out[i] = _saved(job)
             if out[i] is None:
                 detector = clone(job.detector)
                 detector._checked_fit_args(
@@ -474,7 +486,7 @@ def _trained_together(jobs: list[Job]) -> list[Trained | BaseException]:
         for i, _ in fresh:
             out[i] = _alone(jobs[i], note)
     assert all(got is not None for got in out)
-    return out  # type: ignore[return-value]
+    return out, said  # type: ignore[return-value]
 
 
 def _fitted_together(jobs: list[Job], detectors: list[BaseDetector]) -> list[tuple[int, Trained]]:
@@ -499,7 +511,7 @@ def _fitted_together(jobs: list[Job], detectors: list[BaseDetector]) -> list[tup
 
 def _alone(job: Job, note: str) -> Trained | BaseException:
     try:
-        return (*_trained(job), [note])
+        return (*_fitted(job), [note])
     except EnvironmentFault:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001

@@ -53,3 +53,38 @@ def scheduler_problem(scheduler: str) -> str | None:
             f"{named} ({exc})"
         )
     return None
+
+
+#: seconds one model may fit and test in a local worker unless told otherwise (``--cell-timeout``,
+#: a run file's ``cell_timeout``; 0: none), so that a plugin whose fit never returns cannot hang
+#: a run. Generous: 16x the longest model of the reproduction at scale 0.1 (the LSTM, 451 s;
+#: reports/README.md), about 30x at the default scale 0.05, and above the 75 min that model is
+#: extrapolated to take at the paper's full size.
+DEFAULT_CELL_TIMEOUT = 7200.0
+
+
+def cell_limit(asked: float | None, jobs: int, scheduler: str | None) -> float | None:
+    """The time limit one model gets (seconds; None: none): ``asked`` where given (0: none),
+    else :data:`DEFAULT_CELL_TIMEOUT` for local workers. Cells in this process (``jobs`` 0)
+    and on a scheduler get no default: nothing there could stop them (a SLURM array has its
+    own time limit)."""
+    if asked is not None:
+        return float(asked) or None
+    return DEFAULT_CELL_TIMEOUT if jobs and not scheduler else None
+
+
+def limit_words(asked: float | None, jobs: int, scheduler: str | None) -> str:
+    """The time limit as a line says it where a run starts and in a plan."""
+    limit = cell_limit(asked, jobs, scheduler)
+    how = "--cell-timeout SECONDS or [run] cell_timeout; 0 for none"
+    if limit is None:
+        why = (
+            "0 given"
+            if asked == 0
+            else "cells run in this process (--jobs 0)"
+            if not jobs and not scheduler
+            else "none set for the scheduler's workers"
+        )
+        return f"time limit: none per model ({why}; {how})"
+    default = " (the default)" if asked is None else ""
+    return f"time limit: {limit:g} s per model{default}; {how}"

@@ -9,6 +9,7 @@ results store, atomically, in the parent process alone.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib.metadata
 import json
 import os
@@ -20,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -32,7 +33,7 @@ from slipbench.data.signals import Signals, channel_scales, standardized
 from slipbench.engine.cached import refits, reusable
 from slipbench.engine.estimate import costs, describe
 from slipbench.engine.executors import Executor, workers_for
-from slipbench.engine.fitting import Job, Lockstep, Result, Stored, TestSet
+from slipbench.engine.fitting import NOTICES, Job, Lockstep, Result, Stored, TestSet
 from slipbench.engine.limits import SCHEDULERS
 from slipbench.engine.plan import (
     LABELLED,
@@ -304,10 +305,15 @@ class _Recorder:
 
     def __call__(self, pc: PlannedCell, result: Result) -> None:
         _warn_reads(pc.run.detector_name, result.fields, self.warned)
+        fields = {k: v for k, v in result.fields.items() if k != NOTICES}
+        for notice in result.fields.get(NOTICES, ()):  # a task's cells share its model
+            if ("", notice) not in self.warned:
+                self.warned.add(("", notice))
+                warnings.warn(notice, stacklevel=2)
         if isinstance(result, Stored):
-            self.rows[pc.key] = result.fields
+            self.rows[pc.key] = fields
             return
-        fields = {**result.fields, **_scales(self.plan, pc)}
+        fields = {**fields, **_scales(self.plan, pc)}
         if pc.notes and fields.get("status") == "ok":
             fields["warnings"] = "; ".join([*pc.notes, *filter(None, [fields.get("warnings")])])
         row = _row(pc, fields, self.stamp)
@@ -352,12 +358,16 @@ class ArrayTask:
     refit: set[str]
     workers: int
     cell_timeout: float | None
+    dataset_sha256: str = ""  # of a pickled dataset: proved before it is unpickled
 
     def __call__(self) -> dict[str, str]:
         """Plan these cells again from the dataset, fit and test them in a local pool of
         ``workers``, write each verified cell; returns each cell's status by key."""
         path = Path(self.dataset)
-        dataset = _unpickled(path) if path.suffix == ".pkl" else read_dataset(path)
+        if path.suffix == ".pkl":
+            dataset = _unpickled(path, self.dataset_sha256)
+        else:
+            dataset = read_dataset(path)
         fingerprint = self.stamp.fingerprint
         if dataset.fingerprint != fingerprint:
             raise DataError(
@@ -390,9 +400,26 @@ class ArrayTask:
         return {key: str(row["status"]) for key, row in record.rows.items()}
 
 
-def _unpickled(path: Path) -> Dataset:
-    with path.open("rb") as file:
-        return pickle.load(file)  # the launcher's own dataset, written by this run
+def _unpickled(path: Path, digest: str) -> Dataset:
+    """The dataset its launcher pickled, once its bytes prove it: the folder may be shared,
+    and a pickle put there by anyone else would run code."""
+    data = path.read_bytes()
+    if hashlib.sha256(data).hexdigest() != digest:
+        raise DataError(
+            f"{path}: not the dataset its launcher wrote (its SHA-256 differs); not unpickled"
+        )
+    return pickle.loads(data)
+
+
+class _Hashing:
+    """A binary file that hashes what is written through it."""
+
+    def __init__(self, file: Any) -> None:
+        self.file, self.sha = file, hashlib.sha256()
+
+    def write(self, data: bytes) -> int:
+        self.sha.update(data)
+        return self.file.write(data)
 
 
 def run_array_task(plugin_files: dict[str, str], task: bytes) -> dict[str, str]:
@@ -416,13 +443,16 @@ def _remote(dataset: Dataset, stamp: Stamp, store: ResultsStore, refit: set[str]
 
     res = options.get("slurm") or Resources()
     folder = make_folder(Path(res.folder) if res.folder else store.folder / "slurm")
+    digest = ""
     if dataset.path is not None and stored_fingerprint(dataset.path) == dataset.fingerprint:
         source = str(Path(dataset.path).resolve())
     else:  # built or changed in memory (combined, a subset): the array tasks read this one
         source = str(folder / f"dataset-{dataset.fingerprint}.pkl")
-        if not Path(source).exists():  # named by its content: a relaunch's is the same
-            with atomic_file(source) as file:
-                pickle.dump(dataset, file, pickle.HIGHEST_PROTOCOL)
+        # written by every launch (a file found there is nobody's word), with its digest
+        with atomic_file(source) as file:
+            hashing = _Hashing(file)
+            pickle.dump(dataset, hashing, pickle.HIGHEST_PROTOCOL)
+        digest = hashing.sha.hexdigest()
     plugins = dict(PLUGIN_FILES)
 
     def work(tasks: list[Task | Batch]) -> tuple[Callable, tuple]:
@@ -442,6 +472,7 @@ def _remote(dataset: Dataset, stamp: Stamp, store: ResultsStore, refit: set[str]
             refit,
             res.cpus_per_task,
             options.get("cell_timeout"),
+            digest,
         )
         return run_array_task, (plugins, pickle.dumps(array_task, pickle.HIGHEST_PROTOCOL))
 

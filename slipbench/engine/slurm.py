@@ -10,6 +10,11 @@ limit, a lost node, a crash). Nothing depends on the launcher surviving: a new l
 same command skips the cells on disk and adopts the array tasks of an earlier launch that are
 still queued or running, rather than submitting their cells twice.
 
+The launcher never unpickles what an array task left (submitit's ``*_result.pkl``): the results
+folder may be shared, and a pickle planted there would run code. What an array task did is read
+from the cells it wrote, each proved by its digests, from its state (sacct, or the local
+process) and from the last line of its error log, read as text.
+
 ``submitit-local`` runs the same path through submitit's local executor (the tests' and a
 reviewer's check), each array task a local process.
 
@@ -58,6 +63,10 @@ POLL_S = {LOCAL: 0.5, "slurm": 15.0}  # seconds between looks at the array tasks
 ACTIVE = {"PENDING", "RUNNING", "REQUEUED", "CONFIGURING", "COMPLETING", "RESIZING", "SUSPENDED"}
 #: states of a task SLURM ended before it could write a result
 KILLED = {"TIMEOUT", "CANCELLED", "NODE_FAIL", "OUT_OF_MEMORY", "PREEMPTED", "BOOT_FAIL"}
+#: states of a task that ended by returning (SLURM's, submitit's local executor's)
+RETURNED = {"COMPLETED", "FINISHED"}
+SHARED_FS_S = 30.0  # how long cells of a finished task may take to show on a shared file system
+LOG_TAIL = 64 * 1024  # bytes of a task's error log read for the line that says why it failed
 SUBMITTED = "submitted.json"  # array tasks of every launch, and the cells each holds
 
 
@@ -312,7 +321,7 @@ def run(
         for detector, shards in arrays.items():
             _submit_into(flight, shards, remote, (scheduler, res.of(detector), minutes[detector]))
         while flight.jobs:
-            done = [job for job in flight.jobs if job.done()]
+            done = [job for job in flight.jobs if _done(job)]
             for job in done:
                 for task in flight.jobs.pop(job):
                     yield task, _results(task, job, remote, flight.minutes.get(job.job_id))
@@ -419,18 +428,43 @@ def _adopted(tasks: list[Any], folder: Path, scheduler: str) -> _Array:
     return flight
 
 
-def _results(task: Any, job: Any, remote: Remote, minutes: int | None) -> list[Result]:
-    """A task's results once its array task ended: its rows as stored there, or why not."""
-    why = _ended(job, minutes)
-    out: list[Result] = []
+def _done(job: Any) -> bool:
+    """Whether an array task ended, by its scheduler's word: submitit's ``done`` would also
+    take a result file in the (possibly shared) folder for it."""
+    from submitit.slurm.slurm import SlurmJob
+
+    if isinstance(job, SlurmJob):
+        return bool(job.watcher.is_done(job.job_id, mode="standard"))
+    return bool(job.done())  # a local task: its process has ended
+
+
+def _stored(task: Any, remote: Remote) -> dict[str, dict]:
+    """The rows of ``task``'s cells in the results folder, each proved by its digests: this
+    run's, or a finished one an earlier launch's task wrote meanwhile (its key is the content
+    address: the same cell)."""
+    out = {}
     for pc in task.cells:
         row = remote.stored(pc.key)
-        # this run's row, or a finished one an earlier launch's task wrote meanwhile (its key
-        # is the content address: the same cell)
         if row is not None and (
             row.get("run_id") == remote.run_id or row.get("status") in ("ok", "skipped")
         ):
-            out.append(Stored(row))
+            out[pc.key] = row
+    return out
+
+
+def _results(task: Any, job: Any, remote: Remote, minutes: int | None) -> list[Result]:
+    """A task's results once its array task ended: its rows as stored there, or why not."""
+    why = _ended(job, minutes)
+    rows = _stored(task, remote)
+    waited = 0.0
+    while why is None and len(rows) < len(task.cells) and waited < SHARED_FS_S:
+        time.sleep(1.0)  # a task that returned wrote its cells: a shared folder may lag
+        waited += 1.0
+        rows = _stored(task, remote)
+    out: list[Result] = []
+    for pc in task.cells:
+        if pc.key in rows:
+            out.append(Stored(rows[pc.key]))
         elif why is None:
             out.append(
                 Result(
@@ -453,30 +487,38 @@ def _killed(state: str) -> bool:
 
 def _ended(job: Any, minutes: int | None) -> dict[str, str] | None:
     """None where the array task ended well, else the status and reason of the cells it did
-    not store."""
-    from submitit.core.utils import FailedJobError, UncompletedJobError
-
-    try:
-        if _killed(str(job.state)) and not job.paths.result_pickle.exists():
-            raise UncompletedJobError(job.state)  # no result to wait for
-        job.result()  # waits a little for a result a shared file system is slow to show
+    not store: from its state and its error log, never from its result file."""
+    state = str(job.state)
+    if state.startswith("TIMEOUT"):
+        return {
+            "status": "timeout",
+            "reason": f"array task {job.job_id} reached its time limit ({minutes} min) "
+            "before this cell finished",
+        }
+    word = state.split()[0] if state.split() else ""
+    if word == "COMPLETED":  # SLURM's word that the task returned
         return None
-    except FailedJobError as exc:  # the task raised: its last line says what
-        last = [line for line in str(exc).splitlines() if line.strip()]
-        return {
-            "status": "failed",
-            "reason": f"array task {job.job_id} failed: {last[-1] if last else exc}",
-        }
-    except UncompletedJobError:
-        state = str(job.state)
-        if state.startswith("TIMEOUT"):
-            return {
-                "status": "timeout",
-                "reason": f"array task {job.job_id} reached its time limit ({minutes} min) "
-                "before this cell finished",
-            }
-        return {
-            "status": "failed",
-            "reason": f"array task {job.job_id} ended {state} before this cell finished "
-            f"(log: {job.paths.stderr})",
-        }
+    raised = _raised_in_log(Path(job.paths.stderr))
+    if raised and not _killed(state):
+        return {"status": "failed", "reason": f"array task {job.job_id} failed: {raised}"}
+    if word in RETURNED:  # a local task's process ended, and its log shows no exception
+        return None
+    return {
+        "status": "failed",
+        "reason": f"array task {job.job_id} ended {state} before this cell finished "
+        f"(log: {job.paths.stderr})",
+    }
+
+
+def _raised_in_log(path: Path) -> str:
+    """The exception a task's error log ends with (its traceback's last line), or ""."""
+    try:
+        with path.open("rb") as log:
+            log.seek(max(log.seek(0, 2) - LOG_TAIL, 0))
+            tail = log.read().decode("utf-8", "replace")
+    except OSError:
+        return ""
+    if "Traceback (most recent call last):" not in tail:
+        return ""
+    lines = [line for line in tail.splitlines() if line.strip()]
+    return lines[-1].strip() if lines else ""

@@ -327,7 +327,38 @@ def whole(path: Path) -> tuple[pa.BufferReader, list[int]]:
     (apache/arrow#34314, #50482). In-memory bytes avoid both; results files are small.
     """
     with open(path, "rb") as fh:
-        return pa.BufferReader(fh.read()), version(os.fstat(fh.fileno()))
+        at = os.fstat(fh.fileno())
+        not_parquet(fh, at.st_size)
+        fh.seek(0)
+        return pa.BufferReader(fh.read()), version(at)
+
+
+MAGIC = b"PAR1"  # a Parquet file's first and last 4 bytes
+
+
+class NotParquet(OSError):
+    """A file refused from its first and last bytes; callers say what they expected
+    (:func:`read_error`: the file's fault, exit 2)."""
+
+
+def not_parquet(fh: Any, size: int) -> None:
+    """Refuse a file that is not Parquet from its first and last 8 bytes (its magic, and a
+    footer length that fits in it), before anything else of it is read: a huge file that is
+    not Parquet (a 2 GB log, a disk image) would otherwise be read whole into memory first."""
+    why = ""
+    if size < 2 * len(MAGIC) + 4:
+        why = f"{size} bytes, too few for Parquet"
+    else:
+        head = fh.read(len(MAGIC))
+        fh.seek(size - 8)
+        tail = fh.read(8)
+        footer = int.from_bytes(tail[:4], "little")
+        if head != MAGIC or tail[4:] != MAGIC:
+            why = "it does not begin and end with Parquet's magic bytes PAR1"
+        elif footer > size - 12:
+            why = f"its footer claims {footer} bytes of a {size}-byte file"
+    if why:
+        raise NotParquet(f"not a Parquet file: {why}; refused before reading its {size} bytes")
 
 
 def read_error(exc: Exception, path: Path, what: str) -> Exception:

@@ -4,8 +4,10 @@ end badly."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import pickle
 import platform
 import signal
 import subprocess
@@ -391,3 +393,66 @@ def test_tasks_are_dealt_whole_longest_first():
         ("lstm", 5.0),
         ("holweg", 1.0),
     ]
+
+
+class _Planted:
+    """A pickle whose loading leaves ``marker``: what someone with write access to a shared
+    results folder could put there."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (str(self.marker), "w"))
+
+
+def test_a_planted_result_pickle_in_the_slurm_folder_never_runs(small, tmp_path, monkeypatch):
+    """A results folder whose ``slurm/submitted.json`` lists an array task that ``sacct``
+    (a fake one, on PATH) calls running, beside a planted ``*_result.pkl``: the relaunch adopts
+    the task, and when it ends reads its cells, never the pickle; the cells it did not write
+    fail, saying so."""
+    from submitit.slurm.slurm import SlurmJob
+
+    run = Run("holweg", WindowSize(windows=[50, 100]))
+    keys = evaluate(_index(small), run, ResultsStore(tmp_path / "local"), progress=False)["key"]
+    out, marker = tmp_path / "out", tmp_path / "marker"
+    folder = out / "slurm"
+    folder.mkdir(parents=True)
+    (folder / "submitted.json").write_text(json.dumps({"slurm": {"99_0": list(keys)}}))
+    for name in ("99_0_0_result.pkl", "99_0_result.pkl", "99_result.pkl"):
+        (folder / name).write_bytes(pickle.dumps(_Planted(marker)))
+    state = tmp_path / "state"
+    state.write_text("RUNNING")
+    bin_ = tmp_path / "bin"
+    bin_.mkdir()
+    sacct = bin_ / "sacct"
+    sacct.write_text(f'#!/bin/sh\necho "JobID|State|NodeList"\necho "99_0|$(cat {state})|n1"\n')
+    sacct.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_}{os.pathsep}{os.environ['PATH']}")
+    monkeypatch.setattr(slurm, "SHARED_FS_S", 0.0)
+
+    def ends(_seconds: float) -> None:
+        state.write_text("COMPLETED")
+        SlurmJob.watcher.update()
+
+    monkeypatch.setattr(slurm, "_pause", ends)
+    rows = evaluate(
+        _index(small), run, ResultsStore(out), scheduler="slurm", cell_timeout=60, progress=False
+    )
+    assert not marker.exists()
+    assert sorted(rows["key"]) == sorted(keys) and (rows["status"] == "failed").all()
+    assert set(rows["reason"]) == {
+        "array task 99_0 ended without this cell in the results folder: is it on a file "
+        "system the nodes share?"
+    }
+
+
+def test_an_array_task_never_unpickles_a_dataset_its_launcher_did_not_write(tmp_path):
+    from slipbench.engine.runner import _unpickled
+    from slipbench.errors import DataError
+
+    marker, path = tmp_path / "marker", tmp_path / "dataset-abc.pkl"
+    path.write_bytes(pickle.dumps(_Planted(marker)))
+    with pytest.raises(DataError, match="not the dataset its launcher wrote .*; not unpickled"):
+        _unpickled(path, hashlib.sha256(b"what the launcher wrote").hexdigest())
+    assert not marker.exists()

@@ -150,8 +150,9 @@ class EvaluateArgs:
 @click.option(
     "--cell-timeout",
     default=None,
-    type=click.FloatRange(min=0, min_open=True),
-    help="Seconds one model may take; its cells are then reported as timeout.",
+    type=click.FloatRange(min=0),
+    help="Seconds one model may take; its cells are then reported as timeout "
+    "(default: 7200 with local workers; 0: none).",
 )
 @force_option()
 @intervals_option("Show 95 % intervals in the table.")
@@ -249,6 +250,7 @@ def _evaluated(o: EvaluateArgs, runs: list, store, slurm) -> pd.DataFrame:
     combined), workers started where cells must run."""
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
+    from slipbench.engine.limits import cell_limit, limit_words
     from slipbench.engine.runner import evaluate as run_protocols
 
     if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
@@ -263,6 +265,8 @@ def _evaluated(o: EvaluateArgs, runs: list, store, slurm) -> pd.DataFrame:
             if o.dataset_path
             else default_dataset(o.scale, o.seed, echo=click.echo)
         )
+    if not o.quiet:
+        click.echo(limit_words(o.cell_timeout, o.jobs, o.scheduler), err=True)
     return run_protocols(
         ds,
         runs,
@@ -270,7 +274,7 @@ def _evaluated(o: EvaluateArgs, runs: list, store, slurm) -> pd.DataFrame:
         force=o.force,
         jobs=o.jobs,
         scheduler=o.scheduler,
-        cell_timeout=o.cell_timeout,
+        cell_timeout=cell_limit(o.cell_timeout, o.jobs, o.scheduler),
         progress=not o.quiet,
         slurm=slurm,
     )

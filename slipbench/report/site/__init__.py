@@ -44,9 +44,15 @@ PAGES = {
 }
 
 
+#: characters that could change how a browser parses a <script> element's text ("</script>"
+#: ends it, "<!--<script>" makes the parser hold it open past its end): in JSON strings (the only
+#: place JSON holds them) their escapes read back the same
+_SCRIPT_ESCAPES = str.maketrans({"<": "\\u003c", ">": "\\u003e", "&": "\\u0026"})
+
+
 def _script_data(data: dict) -> str:
-    """JSON a <script> element holds safely: no "</" that could end it early."""
-    return json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    """JSON a <script> element holds safely: no ``<``, ``>`` or ``&`` in it at all."""
+    return json.dumps(data, separators=(",", ":"), allow_nan=False).translate(_SCRIPT_ESCAPES)
 
 
 def _page(name: str, about: str, body: str, data: dict, pages: list[str]) -> str:
