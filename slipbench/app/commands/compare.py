@@ -110,11 +110,12 @@ def compare_command(**options) -> None:
     add_plugin_folders(o.plugins)
     judged = judge(o.base, o.candidate, o.bench)
     gate = gate_from(o.figures, judged.bench, o.margin, o.max_width)
-    sources, notes, refused = (
-        _calibration(judged.calibration_bench, o.base, gate)
+    sources, notes = (
+        _calibration(judged.calibration_bench, o.base)
         if judged.calibration_bench is not None
-        else ([], [], [])
+        else ([], [])
     )
+    sources, refused = _numbers_checked(sources, o.base, gate, judged.calibration_bench)
     result = compare(o.base, o.candidate, gate, sources=sources)
     result.notes.extend(notes)
     result.headline[:0] = [*judged.headline, *refused]
@@ -157,20 +158,15 @@ def gate_from(
     return Gate(tolerances | explicit, max_width, b.repeats, max(b.repeats, b.seeds_budget))
 
 
-def _calibration(bench: Path, base: Path, gate) -> tuple[list, list[str], list[str]]:
+def _calibration(bench: Path, base: Path) -> tuple[list, list[str]]:
     """The calibration beside ``bench`` (the base's bench file) where it holds for BASE's
-    detectors (checked against the ``calibration_key`` BASE's run recorded) and its numbers
-    agree with what BASE's own seeds show (:mod:`slipbench.stats.calibration_check`); the
-    lines saying where it does not hold, and the first-line words of a detector whose
-    calibration was refused (not used: the sides' own seeds carry its noise)."""
+    detectors (checked against the ``calibration_key`` BASE's run recorded), and the lines
+    saying where it does not."""
     import json
-    import warnings
 
     from slipbench.app.benchfile import RECORD_FILE, load_benchmark
     from slipbench.app.calibrate import recorded_status
     from slipbench.errors import DataError
-    from slipbench.stats.calibration_check import refused
-    from slipbench.store.results import read_results
 
     record = base / RECORD_FILE if base.is_dir() else base.parent / RECORD_FILE
     try:
@@ -178,26 +174,34 @@ def _calibration(bench: Path, base: Path, gate) -> tuple[list, list[str], list[s
     except (ValueError, AttributeError) as exc:
         raise DataError(f"{record}: not a benchmark run's record ({exc})") from None
     if key is None:
-        return (
-            [],
-            [
-                f"BASE holds no record of a benchmark run's code ({RECORD_FILE}): the calibration "
-                "is not checked against it, and the seed noise rests on the sides' own seeds"
-            ],
-            [],
-        )
+        return [], [
+            f"BASE holds no record of a benchmark run's code ({RECORD_FILE}): the calibration "
+            "is not checked against it, and the seed noise rests on the sides' own seeds"
+        ]
     found = recorded_status(load_benchmark(bench), key)
-    sources = found.sources()
-    if not sources:
-        return sources, found.lines(), []
+    return found.sources(), found.lines()
+
+
+def _numbers_checked(sources: list, base: Path, gate, bench: Path | None) -> tuple[list, list[str]]:
+    """The calibration kept to the detectors whose numbers agree with what BASE's own seeds
+    show (:mod:`slipbench.stats.calibration_check`), and the first-line words of each detector
+    it was refused for (not used: the sides' own seeds carry its noise)."""
+    import warnings
+
+    from slipbench.stats.calibration import calibration_path
+    from slipbench.stats.calibration_check import refused
+    from slipbench.store.results import read_results
+
+    if not sources or bench is None:
+        return sources, []
     with warnings.catch_warnings():  # compare reads BASE again and says what it finds
         warnings.simplefilter("ignore")
         rows = read_results(base)
-    bad = refused(sources[0], rows, list(gate.tolerances))
-    name = found.path.name
-    kept = [sources[0].holding(d for d in sources[0].detectors if d not in bad)]
+    cal = sources[0]
+    bad = refused(cal, rows, list(gate.tolerances))
     said = [
-        f"{name} not used for {detector}: {why}; the sides' own seeds carry its noise."
+        f"{calibration_path(bench).name} not used for {detector}: {why}; the sides' own seeds "
+        "carry its noise."
         for detector, why in bad.items()
     ]
-    return kept, found.lines(), said
+    return [cal.holding(d for d in cal.detectors if d not in bad)], said
