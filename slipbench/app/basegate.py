@@ -67,7 +67,7 @@ def recorded_bench(path: Path, side: str) -> Benchmark | None:
             f"{RECORD_FILE} records: the bench {side} ran cannot be proved; run the bench "
             "into a fresh folder"
         )
-    return load_benchmark(copy)
+    return load_benchmark(copy, here=False)
 
 
 def judge(base: Path, candidate: Path, bench: Path | None) -> Judge:
@@ -75,7 +75,7 @@ def judge(base: Path, candidate: Path, bench: Path | None) -> Judge:
     same file (the same SHA-256): it names where the calibration is. Without a record in BASE,
     ``bench`` is the gate as given, and the first line says it could not be checked."""
     mine = recorded_bench(base, "BASE")
-    given = load_benchmark(bench) if bench is not None else None
+    given = load_benchmark(bench, here=False) if bench is not None else None
     if mine is not None and given is not None and given.sha256 != mine.sha256:
         raise UsageError(
             f"--bench {bench}: not the bench BASE ran (SHA-256 {given.sha256[:16]}, BASE's "

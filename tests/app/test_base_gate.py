@@ -6,6 +6,7 @@ with bench records written as `slipbench run` writes them."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -161,6 +162,24 @@ def test_bench_must_be_the_one_base_recorded_and_the_record_proves_it(sides, cli
     code, _, _, err = _compare(cli, base, cand)
     assert code == 2 and "the bench BASE ran cannot be proved" in err
     assert "its benchmark.json records" in err
+
+
+def test_a_recorded_bench_is_read_for_what_it_measures_not_for_this_machine(tmp_path):
+    """A base run on a large machine (many workers) is judged on a small one: its record is
+    read for its gate, and its workers are not checked here."""
+    from slipbench.app.basegate import recorded_bench
+
+    folder = tmp_path / "base"
+    _record(folder, _bench(tmp_path / "main"))
+    text = (
+        (folder / "benchmark.toml").read_text().replace("repeats = 3", "repeats = 3\njobs = 100000")
+    )
+    (folder / "benchmark.toml").write_text(text)
+    written = json.loads((folder / "benchmark.json").read_text())
+    written["sha256"] = hashlib.sha256(text.encode()).hexdigest()
+    (folder / "benchmark.json").write_text(json.dumps(written))
+    bench = recorded_bench(folder, "BASE")
+    assert bench is not None and bench.jobs == 100000 and bench.gate["accuracy"] == 1.5
 
 
 # ----------------------------------------------------------------------------- calibration

@@ -178,7 +178,7 @@ def _calibration(bench: Path, base: Path) -> tuple[list, list[str]]:
             f"BASE holds no record of a benchmark run's code ({RECORD_FILE}): the calibration "
             "is not checked against it, and the seed noise rests on the sides' own seeds"
         ]
-    found = recorded_status(load_benchmark(bench), key)
+    found = recorded_status(load_benchmark(bench, here=False), key)
     return found.sources(), found.lines()
 
 
