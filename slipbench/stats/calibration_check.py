@@ -88,16 +88,18 @@ def _against_seeds(
             for cell, group in mine.groupby("cell", sort=False):
                 noise = part.cells.get(str(cell), {}).get(f)
                 x = pd.to_numeric(group[f], errors="coerce").to_numpy(float)
-                if noise is None or len(x) < 2 or not np.isfinite(x).all():
-                    continue
-                num += (len(x) - 1) * float(x.var(ddof=1))
+                if noise is None or len(x) < 2 or not np.isfinite([*x, noise.seed_var]).all():
+                    continue  # a variance not measured (null) says nothing either way
+                # equal values: 0 exactly (their mean's rounding would leave ~1e-32)
+                num += (len(x) - 1) * float(x.var(ddof=1)) if np.ptp(x) > 0 else 0.0
                 den += (len(x) - 1) * noise.seed_var
                 seeds = max(seeds, len(x))
             if num > 0 or den > 0:
                 ratios.append(math.inf if den == 0 else num / den)
     if not ratios:
         return ""
-    ratio = math.inf if math.inf in ratios else float(np.exp(np.mean(np.log(ratios))))
+    with np.errstate(divide="ignore"):  # a ratio of 0 (BASE's seeds do not vary): mean 0
+        ratio = math.inf if math.inf in ratios else float(np.exp(np.mean(np.log(ratios))))
     if 1 / SEED_FACTOR <= ratio <= SEED_FACTOR:
         return ""
     if math.isinf(ratio) or ratio == 0:

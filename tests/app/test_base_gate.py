@@ -284,3 +284,33 @@ def test_a_twin_louder_than_its_seeds_is_refused():
     assert "twin's variance of accuracy on p" in refused(cal(n), rows, ["accuracy"])["d"]
     assert refused(cal(ok), rows, ["accuracy"]) == {}
     assert SEED_FACTOR == 10.0
+
+
+def test_the_seed_check_pools_cells_and_skips_what_was_not_measured():
+    """The base's pooled seed variance over the calibration's: a true one passes, one 20
+    times too small or a base whose seeds never vary is refused, an unmeasured one (null)
+    says nothing."""
+    x = {0: 0.70, 1: 0.72, 2: 0.74}  # a seed variance of 4e-4 in every cell
+    rows = pd.DataFrame(
+        [
+            {"detector": "d", "protocol": "p", "cell": f"c{c}", "seed": s, "status": "ok"}
+            | {"accuracy": v + 0.01 * c}
+            for c in range(4)
+            for s, v in x.items()
+        ]
+    )
+
+    def cal(var: float) -> Calibration:
+        n = Noise(20, 1, 0.7, var, 19.0, 0.0, 20.0, 1e-4)
+        part = ProtocolNoise({}, {f"c{c}": {"accuracy": n} for c in range(4)})
+        det = DetectorCalibration({}, "src:0", True, 1.0, {"p": part})
+        return Calibration({}, "", (0,), "", "", "", 1.0, {}, {"d": det})
+
+    assert refused(cal(4e-4), rows, ["accuracy"]) == {}
+    assert refused(cal(float("nan")), rows, ["accuracy"]) == {}
+    assert (
+        "is 0.05 times what BASE's 3 seeds a cell show"
+        in refused(cal(2e-5), rows, ["accuracy"])["d"]
+    )
+    flat = rows.assign(accuracy=0.7)
+    assert "varies where BASE's seeds do not" in refused(cal(4e-4), flat, ["accuracy"])["d"]
