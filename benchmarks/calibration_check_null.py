@@ -2,8 +2,8 @@
 null spread behind ``slipbench.stats.calibration_check.SEED_FACTOR``.
 
 Runs the shipped bench (``bench.toml``) at disjoint triples of seeds (0-2, 3-5, ...), each as
-a base of the workflow runs it (``slipbench run bench.toml --seed S --out WORK/sS``, cached
-where the folder holds it), and prints, per detector, the ratio the check reads (the base's
+a base of the workflow runs it (``slipbench run bench.toml --seed S --out WORK/sS``; a folder
+that holds results is read as it is), and prints, per detector, the ratio the check reads (the base's
 pooled seed variance over the committed calibration's, per figure, and their geometric mean)
 and whether it refuses it; then the same for the calibration scaled by 25 and by 0.
 
@@ -73,6 +73,7 @@ def main() -> None:
     from slipbench.app.benchfile import load_benchmark
     from slipbench.stats.calibration import calibration_path, read_calibration
     from slipbench.stats.calibration_check import SEED_FACTOR, refused
+    from slipbench.stats.factors import latest_runs
     from slipbench.store.results import read_results
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -94,21 +95,22 @@ def main() -> None:
     for t in range(args.triples):
         seed = bench.seed + t * bench.repeats
         out = args.work / f"s{seed}"
-        subprocess.run(
-            [sys.executable, "-m", "slipbench", "run", str(args.bench), "--seed", str(seed),
-             "--out", str(out), "--quiet"],
-            check=True, capture_output=True,
-        )  # fmt: skip
+        if not (out / "results.parquet").is_file():  # a finished folder is read as it is
+            subprocess.run(
+                [sys.executable, "-m", "slipbench", "run", str(args.bench), "--seed", str(seed),
+                 "--out", str(out), "--quiet"],
+                check=True, capture_output=True,
+            )  # fmt: skip
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rows = rows_of[seed] = read_results(out)
+            rows = rows_of[seed] = latest_runs(read_results(out))[0]
         bad = refused(cal, rows, figures)
         for name, det in cal.detectors.items():
             r = _ratios(det, name, rows, figures)
             g = float(np.exp(np.mean(np.log(r))))
             means.append(g)
             print(
-                f"{seed}-{seed + bench.repeats - 1:<5} {name:<9} "
+                f"{f'{seed}-{seed + bench.repeats - 1}':<7} {name:<9} "
                 + ", ".join(f"{x:.2f}" for x in r)
                 + f"  {g:.2f}  {'yes' if name in bad else 'no'}"
             )
