@@ -97,8 +97,11 @@ def compare_command(**options) -> None:
     per minute, detection rate and median delay; each protocol and detector also gets a pooled
     test per figure, which states the smallest drop it would flag with 80 % power.
 
+    The gate (figures, tolerances, budget, detectors) is the bench BASE recorded, where it
+    recorded one; the comment's first line names where CANDIDATE's differs.
+
     Exit codes: 0 no regression; 1 a figure regressed (in a cell or pooled), or a cell the base
-    finished failed; 6 undecided (one seed per side, too few trials, or noise larger than the
+    finished failed or is missing; 6 undecided (one seed per side, too few trials, or noise larger than the
     tolerance: the comment says how many seeds or trials would decide); 2 bad usage or data.
     """
     o = CompareArgs(**options)
