@@ -279,8 +279,22 @@ def comment_markdown(cmp: Comparison, max_rows: int = MAX_ROWS) -> str:
     if max_rows < 0:
         raise UsageError(f"--max-rows must be >= 0, got {max_rows}")
     cmp = in_paper_order(cmp)
-    if cmp.unchanged:
-        return _unchanged(cmp)
+    return headline(cmp) + (_unchanged(cmp) if cmp.unchanged else _changed(cmp, max_rows))
+
+
+def headline(cmp: Comparison) -> str:
+    """The comment's first line where the gate is not simply the candidate's to read: the
+    base's bench judged and the candidate's differs, a calibration was refused, or work the
+    base's bench ran is missing from the candidate ("" otherwise)."""
+    said = [*cmp.headline]
+    if cmp.missing:
+        said.append(
+            "Missing from the candidate (lost work, a regression): " + "; ".join(cmp.missing) + "."
+        )
+    return f"⚠ {md_text(' '.join(said))}\n\n" if said else ""
+
+
+def _changed(cmp: Comparison, max_rows: int) -> str:
     cells = _shown(cmp)
     counts = cells["verdict"].value_counts()
     head = [
@@ -413,6 +427,7 @@ def _sees(r: dict) -> str:
 def _flagged(cmp: Comparison) -> list[str]:
     """What regressed: each pooled figure, and the cells per figure."""
     flagged = [f"{_pooled_phrase(r)} (pooled)" for r in cmp.pooled_regressions.to_dict("records")]
+    flagged += [f"missing: {md_text(m)}" for m in cmp.missing]
     shown = _shown(cmp)
     regressions = shown[shown["verdict"] == "regressed"]
     failed = regressions["regressed_figures"] == ""
@@ -747,5 +762,7 @@ def to_json(cmp: Comparison) -> str:
         "only_base": records(cmp.only_base),
         "only_candidate": records(cmp.only_candidate),
         "notes": [*cmp.notes, *([repeats_note(cmp)] if repeats_note(cmp) else [])],
+        "headline": list(cmp.headline),
+        "missing": list(cmp.missing),
     }
     return json.dumps(doc, indent=1, allow_nan=False, default=str) + "\n"

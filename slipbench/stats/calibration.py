@@ -298,9 +298,9 @@ def _calibration(data: dict) -> Calibration:
             seconds_per_seed=_number(d["seconds_per_seed"]),
             protocols={
                 p: ProtocolNoise(
-                    {f: _noise_of(v) for f, v in part["figures"].items()},
+                    {f: _noise_of(v, f"{name}, {p}, {f}") for f, v in part["figures"].items()},
                     {
-                        c: {f: _noise_of(v) for f, v in figs.items()}
+                        c: {f: _noise_of(v, f"{name}, {p}, cell {c}, {f}") for f, v in figs.items()}
                         for c, figs in part["cells"].items()
                     },
                 )
@@ -322,13 +322,21 @@ def _calibration(data: dict) -> Calibration:
     )
 
 
-def _noise_of(v: Mapping[str, Any]) -> Noise:
-    return Noise(
+def _noise_of(v: Mapping[str, Any], where: str) -> Noise:
+    """One figure's noise; a variance or degrees of freedom that is negative or infinite
+    (``null``, not measured, stands) is a ValueError naming ``where`` (a SeedNoise would
+    refuse it later as an internal error)."""
+    noise = Noise(
         seeds=int(v["seeds"]),
         cells=int(v["cells"]),
         **{k: _number(v[k]) for k in ("mean", "seed_var", "seed_df", "paired_var", "paired_df")},
         trial_var=_number(v["trial_var"]),
     )
+    for k in ("seed_var", "seed_df", "paired_var", "paired_df", "trial_var"):
+        x = getattr(noise, k)
+        if not (math.isnan(x) or (x >= 0 and math.isfinite(x))):
+            raise ValueError(f"{where}: {k} is {x!r}, not a finite number >= 0")
+    return noise
 
 
 def _number(v: Any) -> float:

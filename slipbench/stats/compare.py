@@ -185,6 +185,11 @@ class Comparison:
     # cells' family's, Bonferroni at CELL_ALPHA, before the last look; ``level`` at it): a cell
     # the look flags (``read_at_look``) prints its interval at ``level``
     read_level: float = LEVEL
+    # what the comment's first line says of who judged (the base's bench where the
+    # candidate's differs, a calibration refused), and the work the base's bench ran that
+    # the candidate lost (a detector, protocol or cells it holds no row of): a regression
+    headline: list[str] = field(default_factory=list)
+    missing: list[str] = field(default_factory=list)
 
     @property
     def regressions(self) -> pd.DataFrame:
@@ -204,14 +209,17 @@ class Comparison:
 
     @property
     def state(self) -> str:
-        """ "regressed": a cell the base finished failed on the candidate, or a figure regressed
+        """ "regressed": a cell the base finished failed on the candidate or is missing from it
+        (:attr:`missing`), or a figure regressed
         with retraining noise inside the intervals; "undecided": a figure regressed on one seed
         per side, or a pooled test cannot see a regression of its tolerance (too few seeds or
         trials) or, before the gate's last look, cannot yet rule one out; else "no
         regression"."""
         failed = self.regressions["method"].astype(str).str.startswith("status").any()
-        if failed or (
-            self.retraining_covered and (len(self.regressions) or len(self.pooled_regressions))
+        if (
+            failed
+            or self.missing
+            or (self.retraining_covered and (len(self.regressions) or len(self.pooled_regressions)))
         ):
             return "regressed"
         if len(self.regressions) or len(self.pooled_regressions) or len(self.undecided):

@@ -71,7 +71,7 @@ def _pairing(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
         if missing:
             raise DataError(f"{side}: results lack the columns {', '.join(sorted(missing))}")
     b, c = set(base["detector"]), set(cand["detector"])
-    if b == c:
+    if b == c or (b & c and (b <= c or c <= b)):  # one side's detectors lost or added: named
         return [*on, "detector"]
     if len(b) == 1 and len(c) == 1:
         return on
@@ -197,6 +197,7 @@ def plan_cells(
     """The cells both sides hold, each (entry, base rows, candidate rows, predictions, same
     seeds), and the cells of one side only."""
     ident = ["protocol", "detector", "split", "seed", "cell", *on[len(_pairing(base, cand)) :]]
+    ident += ["status"] if "status" in base and "status" in cand else []  # lost work: finished
     # cells pair by everything but the seed: a side may hold several seeds of a cell
     groups = [dict(iter(rows.groupby(on, sort=False, dropna=False))) for rows in (base, cand)]
     shared = [k for k in groups[0] if k in groups[1]]

@@ -1,8 +1,10 @@
 """The CI workflows as shipped: this repository's (.github/workflows/slipbench.yml, bench.toml)
 and the plugin repository's example (examples/plugin-repo/). The CI guide shows them as they are;
 each workflow has the permissions to comment, caches the base branch's results by its commit,
-guards its comment step, lets compare decide the job; its `slipbench` steps run here through
-bash as GitHub runs them, on one sensor unit instead of the simulated dataset."""
+guards its comment step, lets compare decide the job; the base runs its own bench file and
+compare runs from the base's install with the base's bench (nobody grades their own change);
+its `slipbench` steps run here through bash as GitHub runs them, on one sensor unit instead of
+the simulated dataset."""
 
 from __future__ import annotations
 
@@ -27,6 +29,10 @@ REPOS = {
     ),
 }
 SHIPPED = [p for pair in REPOS.values() for p in pair]
+#: the base branch's install, the judge (a venv from the base's checkout)
+JUDGE = "../base-env/bin/slipbench"
+#: the base branch's bench file, in its checkout
+BASE_BENCH = '../base-src/"$BENCH"'
 
 
 def workflow(path: Path) -> dict:
@@ -98,10 +104,11 @@ def test_workflow_comments_caches_and_gates(repo):
         "pull-requests": "write",
     }
     assert wf["env"]["BENCH"] == bench.name
-    # the base results: restored and saved under a key of the base commit and the bench file
+    # the base results: restored and saved under a key of the base commit (which fixes its
+    # bench file; the pull request's bench no longer makes them)
     restore = next(s for s in steps(path) if s.get("uses", "").startswith("actions/cache/restore"))
     key = restore["with"]["key"]
-    assert "github.event.pull_request.base.sha" in key and "hashFiles(env.BENCH)" in key
+    assert "github.event.pull_request.base.sha" in key and "hashFiles" not in key
     save = next(s for s in steps(path) if s.get("uses", "").startswith("actions/cache/save"))
     assert save["with"]["key"] == f"${{{{ steps.{restore['id']}.outputs.cache-primary-key }}}}"
     assert save["with"]["path"] == restore["with"]["path"] == "base"
@@ -110,6 +117,12 @@ def test_workflow_comments_caches_and_gates(repo):
     assert (
         base_run["if"].startswith(miss) and save["if"] == miss and "--out base" in base_run["run"]
     )
+    assert f"run {BASE_BENCH} --out base" in base_run["run"]  # the base's own bench
+    # the judge: a venv of the base's checkout (this repository) or of its pins (a plugin repo)
+    judge = step_named(path, "The judge, the base branch's checkout")
+    assert "git worktree add ../base-src" in judge["run"]
+    assert "python -m venv ../base-env" in judge["run"]
+    assert "../base-env/bin/pip install -c ../base-src/constraints.txt" in judge["run"]
     # every install pinned by the constraints file; torch (where a plugin needs it) from
     # PyTorch's CPU index, never PyPI's multi-GB CUDA build
     installs = " ".join(s.get("run", "") for s in steps(path))
@@ -118,13 +131,20 @@ def test_workflow_comments_caches_and_gates(repo):
         for c in commands(installs)
         if "pip install" in c and " torch" in c
     )
-    assert all("-c constraints.txt" in c for c in commands(installs) if "pip install" in c)
+    assert all(
+        re.search(r"-c (\.\./base-src/)?constraints\.txt", c)
+        for c in commands(installs)
+        if "pip install" in c
+    )
     assert (path.parents[2] / "constraints.txt").is_file()
     # compare decides the job: its Markdown call is the step's last command, nothing masks it
     gate = [s for s in steps(path) if "slipbench compare" in s.get("run", "")][-1]
     assert not gate.get("continue-on-error") and "if" not in gate
     last = commands(gate["run"])[-1]
-    assert last.startswith("slipbench compare base candidate") and "||" not in last
+    assert last.startswith(f"{JUDGE} compare base candidate --bench {BASE_BENCH}")
+    assert "||" not in last
+    candidate = step_named(path, "on this pull request, its own bench")
+    assert 'slipbench run "$BENCH" --out candidate' in candidate["run"]
     # the comment: posted whenever compare wrote its file, never failing when it did not
     out = compare_out(path)
     comment = step_named(path, "Comment")
@@ -149,21 +169,27 @@ def test_this_workflow_looks_at_more_seeds_and_refreshes_its_calibration():
     saved = [s for s in cal["steps"] if s.get("uses", "").startswith("actions/cache/save")]
     assert [s["with"]["path"] for s in saved] == ["bench.calibration.json"]
     restored = [
-        s["with"]
+        s
         for s in steps(path)
         if s.get("uses", "").startswith("actions/cache/restore")
         and s["with"]["path"] == "bench.calibration.json"
     ]
-    assert restored and restored[0]["restore-keys"] == "slipbench-calibration-"
+    assert restored and restored[0]["with"]["restore-keys"] == "slipbench-calibration-"
+    # main's calibration goes beside the base's bench only where the cache held one: the pull
+    # request's committed file never stands in for it
+    beside = step_named(path, "Beside the base's bench")
+    assert beside["if"] == f"steps.{restored[0]['id']}.outputs.cache-matched-key != ''"
+    assert "../base-src/" in beside["run"]
     looks = step_named(path, "the next look's seeds on both sides")
     script = looks["run"]
     assert "jq .look.next_seed" in script and "jq .look.final" in script
-    assert '../base-env/bin/slipbench run "$BENCH" --seed "$seed" --out base' in script
+    assert f"{JUDGE} compare base candidate --bench {BASE_BENCH} --format json" in script
+    assert f'{JUDGE} run {BASE_BENCH} --seed "$seed" --out base' in script
     assert 'slipbench run "$BENCH" --seed "$seed" --out candidate' in script
     # then the comparison that decides the job reads every look's seeds
     names = [s.get("name", "") for s in steps(path)]
     assert names.index(looks["name"]) < names.index(
-        step_named(path, "Compare on the bench")["name"]
+        step_named(path, "Compare on the base's [gate]")["name"]
     )
 
 
@@ -185,11 +211,12 @@ def tiny(bench: Path, data: Path) -> Path:
 
 
 def slipbench_steps(path: Path) -> list[dict]:
-    """The steps whose every command is a `slipbench` one (installs and git are GitHub's)."""
+    """The steps whose every command is a `slipbench` one, the pull request's or the base's
+    (installs and git are GitHub's)."""
     return [
         s
         for s in steps(path)
-        if "run" in s and all(c.startswith("slipbench ") for c in commands(s["run"]))
+        if "run" in s and all(c.startswith(("slipbench ", f"{JUDGE} ")) for c in commands(s["run"]))
     ]
 
 
@@ -206,11 +233,17 @@ def test_workflow_slipbench_steps_run(repo, tmp_path, unit):
     shutil.copytree(work, tmp_path / "base-src")
     small = tiny(work / bench.name, unit)
     shutil.copy(small, tmp_path / "base-src" / small.name)
+    # what the judge's step makes: the base's install (here this source, as both sides')
+    judge = tmp_path / "base-env" / "bin" / "slipbench"
+    judge.parent.mkdir(parents=True)
+    judge.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m slipbench "$@"\n')
+    judge.chmod(0o755)
     env = {
         **os.environ,
         **{k: str(v) for k, v in workflow(path)["env"].items()},
         "BENCH": small.name,
         "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+        "PYTHONPATH": str(ROOT),  # this source, not the installed one
     }
     ran = slipbench_steps(path)
     assert [("--out base" in s["run"], "compare" in s["run"]) for s in ran] == [
@@ -257,11 +290,11 @@ def test_history_job_keeps_main_history_and_publishes():
     assert (
         "--name history --dir history" in text and "history add results --history history" in text
     )
-    # the pull request's base: main's latest results, where they ran this bench file
+    # the pull request's base: main's latest results, where they ran the base's bench file
     main = next(s for s in steps(path) if s.get("id") == "main")
     assert (
         "--name main-results --dir base" in main["run"]
-        and 'cmp -s base/benchmark.toml "$BENCH"' in main["run"]
+        and f"cmp -s base/benchmark.toml {BASE_BENCH}" in main["run"]
     )
 
 
