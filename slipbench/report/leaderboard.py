@@ -22,7 +22,16 @@ from slipbench.report.tables import (
     rank,
     summarize,
 )
-from slipbench.stats.contrast import Contrast, pair_seeds, paired_change, summary_figure
+from slipbench.stats.contrast import (
+    CONTRADICTED,
+    SHOWN,
+    UNDECIDED,
+    Contrast,
+    is_decided,
+    pair_seeds,
+    paired_change,
+    summary_figure,
+)
 from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
 from slipbench.stats.leaderboard import (
     ALL,
@@ -236,33 +245,48 @@ def _low_notes(scopes: Sequence[Scope]) -> list[str]:
 
 
 def _groups_table(scopes: list[Scope], board: Leaderboard) -> Table:
-    """Per scope, the groups of detectors not shown to differ, from the scope's pairs."""
+    """Per scope, the groups of detectors shown not to differ, from the scope's pairs: the
+    decided count counts the pairs whose rows read "yes" or "no", nothing else."""
     cells = []
     for s in scopes:
-        decided = int(s.pairs["decided"].sum())
+        decided = int(s.pairs["state"].map(is_decided).sum()) if len(s.pairs) else 0
+        differ = int((s.pairs["state"] == SHOWN).sum()) if len(s.pairs) else 0
         groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups)
         if not groups:
-            groups = "none: every pair differs" if decided == len(s.pairs) else "none decided"
+            groups = (
+                "none: every pair differs"
+                if differ == len(s.pairs)
+                else "none: no pair decided"
+                if decided == 0
+                else "none"
+            )
         cells.append([str(s.n_cells), f"{decided} of {len(s.pairs)}", groups])
     return Table(
         "Do the detectors differ? Groups per scope, from the pairwise contrasts over blocks and seeds.",
         ["Scope"],
         "",
-        ["Blocks", "Pairs decided", "Groups not shown to differ"],
+        ["Blocks", "Pairs decided", "Groups shown not to differ"],
         [("all" if s.name == ALL else s.name,) for s in scopes],
         cells,
         "tab:leaderboard-tests",
         wrap={3: 0.5},
         notes=[
-            "A group lists detectors, in rank order, every pair of which is decided and none shown to "
-            "differ (the pairwise table's intervals, over the scope's blocks and seeds, "
-            f"{_family_text(board)}); a detector in no group differs from every other or is undecided "
-            f"against it. A pair is decided where its interval holds every noise its claim needs: "
-            f"undecided where {UNDECIDED_WHY}; such a pair never differs and joins no group. Blocks "
-            "share recordings (window 50 of a unit appears in several protocols, with another model or "
-            "test set), so they are not independent and the intervals are optimistic."
+            f"{DECIDED_TEXT} A group lists detectors, in rank order, every pair of which is shown not "
+            "to differ: its interval (the pairwise table's, over the scope's blocks and seeds, "
+            f"{_family_text(board)}) lies inside the margin. A detector in no group differs from every "
+            "other or is undecided against it. An undecided pair joins no group: its interval straddles "
+            f"the margin, or lacks a noise its claim needs where {UNDECIDED_WHY}. Blocks share recordings (window "
+            "50 of a unit appears in several protocols, with another model or test set), so they are "
+            "not independent and the intervals are optimistic."
         ],
     )
+
+
+#: what "decided" means, in every leaderboard table that counts or draws pairs
+DECIDED_TEXT = (
+    "Decided: the pair's printed interval settles it, lying beyond the margin (differ: yes) or "
+    "inside it (differ: no); a pair whose interval holds both is undecided and counts as such."
+)
 
 
 #: why a pair has no full interval, in the tables' notes
@@ -276,7 +300,7 @@ UNDECIDED_WHY = (
 def _family_text(board: Leaderboard) -> str:
     """The pairs' level and margin, in words."""
     return (
-        f"each at {100 * board.level:.4g} %, Bonferroni over every scope's decided pairs so that "
+        f"each at {100 * board.level:.4g} %, Bonferroni over every scope's testable pairs so that "
         f"all hold at once with 95 %; the margin ±{100 * board.margin:g} points"
     )
 
@@ -366,8 +390,8 @@ def _points(diff: float, lo: float, hi: float) -> str:
     )
 
 
-#: a pair's state in the pairwise table
-_DIFFER = {"shown": "yes", "contradicted": "no"}
+#: a pair's state in the pairwise table's "Differ" column
+_DIFFER = {SHOWN: "yes", CONTRADICTED: "no"}
 #: why a pair lacks a full interval, in a word
 _LACKS = {ONE_BLOCK: "one block", ONE_RUN: "one seed"}
 
@@ -377,7 +401,7 @@ def _differ(r) -> str:
     if r.state in _DIFFER:
         return _DIFFER[r.state]
     lacks = [word for reason, word in _LACKS.items() if reason in r.missing]
-    return "undecided" + (f" ({', '.join(lacks)})" if lacks else "")
+    return UNDECIDED + (f" ({', '.join(lacks)})" if lacks else "")
 
 
 def _pairs_table(board: Leaderboard, name: str) -> Table:
@@ -412,7 +436,8 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
                 else "[interval over the blocks alone, a t-interval on their spread"
             )
             + f"; {_family_text(board)}]. Differ: yes where the interval lies beyond the margin, no "
-            "where it lies inside it, else undecided; p: the Bonferroni-adjusted p-value of a change "
+            "where it lies inside it, else undecided (the groups table's decided pairs are the yes and "
+            "no rows); p: the Bonferroni-adjusted p-value of a change "
             f"within the margin, below {ALPHA:g} exactly where the pair differs; undecided, without p, "
             f"where {UNDECIDED_WHY}. Like the ranks, the interval covers which conditions make up the "
             "benchmark"

@@ -81,6 +81,10 @@ from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change
 from slipbench.store.columns import ACCURACY, DETECTION_RATE, FIGURES
 
 SHOWN, CONTRADICTED, UNDECIDED = "shown", "contradicted", "undecided"
+#: the states that settle a claim one way or the other: "decided" means one of these and
+#: nothing else, in every table and count (an interval that holds every noise its claim needs
+#: and still straddles the margin is undecided)
+DECIDED = (SHOWN, CONTRADICTED)
 #: what every contrast's interval holds
 TEST_NOISE = "test trials"
 #: the claim needs retraining noise and no seed measured it
@@ -138,6 +142,11 @@ class Contrast:
         return state_of(self.lo, self.hi, self.margin)
 
     @property
+    def decided(self) -> bool:
+        """Its interval settles it: shown or contradicted (:data:`DECIDED`)."""
+        return self.state in DECIDED
+
+    @property
     def direction(self) -> int:
         """+1 where shown above the margin, -1 below, 0 otherwise."""
         if self.state != SHOWN:
@@ -176,6 +185,11 @@ def state_of(lo: float, hi: float, margin: float) -> str:
     if -margin <= lo and hi <= margin:
         return CONTRADICTED
     return UNDECIDED
+
+
+def is_decided(state: str) -> bool:
+    """``state`` settles its claim (:data:`DECIDED`): what every "decided" count counts."""
+    return state in DECIDED
 
 
 def family_level(n: int, alpha: float = 1 - LEVEL) -> float:

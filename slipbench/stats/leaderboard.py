@@ -13,13 +13,16 @@ are those of the intervals:
 4. one family of contrasts decides every pair, every group and the diagram's bars
    (:func:`pairwise`): each pair's mean difference over the scope's blocks with the interval the
    means take (over blocks and seeds, :func:`crossed_interval`), at one Bonferroni level over
-   every scope's decided pairs (:func:`one_family`), read against the margin as every contrast
-   is (:mod:`slipbench.stats.contrast`): "yes" beyond it, "no" inside it, else undecided.
-   Detectors every pair of which is decided and none differs form a group, drawn as one bar. A
-   pair of which an entrant ran one seed is *undecided*: nothing measures the retraining luck
-   its one run had in every block, and blocks alone called equal detectors different on 5 of 10
-   boards (issue 35); so is a pair over one block, where nothing measures how the difference
-   varies between conditions. So ranks, groups, pairwise table and diagram never disagree.
+   every scope's testable pairs (:func:`one_family`), read against the margin as every contrast
+   is (:mod:`slipbench.stats.contrast`): shown ("yes") beyond it, contradicted ("no") inside
+   it, else undecided. A pair is *decided* where its state is one of the first two
+   (:data:`~slipbench.stats.contrast.DECIDED`), nowhere else. Detectors every pair of which is
+   contradicted (shown within the margin) form a group, drawn as one bar; an undecided pair
+   joins nothing. A pair of which an entrant ran one seed is not even *testable*: nothing
+   measures the retraining luck its one run had in every block, and blocks alone called equal
+   detectors different on 5 of 10 boards (issue 35); nor is a pair over one block, where
+   nothing measures how the difference varies between conditions; both are undecided. So
+   ranks, groups, pairwise table and diagram never disagree.
 
 A block is counted once: cells that test the same model on the same test windows (the
 sampling rate's full-rate cells are the window-size window-200 cells; with ``decimation=both``
@@ -76,6 +79,7 @@ import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.seeding import rng_for
 from slipbench.stats.contrast import (
+    CONTRADICTED,
     SHOWN,
     family_level,
     from_parts,
@@ -147,7 +151,7 @@ class Leaderboard:
     n_one_class : finished rows left out because their test set holds one class (a constant
         detector wins there: :func:`slipbench.stats.factors.one_class`).
     margin : the change within which a pair reads "no difference" (the metric's stored unit).
-    level : the pairs' intervals' level, Bonferroni over every scope's pairs that can decide.
+    level : the pairs' intervals' level, Bonferroni over every scope's testable pairs.
     low_n : entrant -> the ranked blocks of ``ALL`` where a cell it ran rests on few test
         trials (``low_n``): its figures there are not to be trusted, nor are means and ranks
         over them.
@@ -377,8 +381,10 @@ ONE_RUN = (
 #: the pairs' columns: the contrast of A - B, its interval at ``level`` (the family's
 #: Bonferroni level), its state and, where undecided, why; ``p``: the Bonferroni-adjusted
 #: p-value of a change within the margin (:func:`slipbench.stats.contrast.p_beyond`), below
-#: ``ALPHA`` exactly where the pair differs; ``decided``: its interval holds every noise the
-#: claim needs; ``parts``/``missing``: what :func:`at_level` draws it from
+#: ``ALPHA`` exactly where the pair differs; ``testable``: its interval holds every noise the
+#: claim needs (it counts in the Bonferroni family); ``decided``: its state settles it (shown
+#: or contradicted, :func:`slipbench.stats.contrast.is_decided`); ``parts``/``missing``: what
+#: :func:`at_level` draws it from
 PAIR_COLUMNS = [
     "a",
     "b",
@@ -391,6 +397,7 @@ PAIR_COLUMNS = [
     "p",
     "state",
     "why",
+    "testable",
     "decided",
     "differ",
     "parts",
@@ -487,23 +494,24 @@ def at_level(frames: list[pd.DataFrame], margin: float = MARGIN) -> float:
         f["lo"], f["hi"] = [max(c.lo, -1.0) for c in shown], [min(c.hi, 1.0) for c in shown]
         f["se"], f["df"] = [c.se for c in shown], [c.df for c in shown]
         f["level"], f["state"], f["why"] = level, [c.state for c in shown], [c.why for c in shown]
-        f["decided"] = [not c.missing and c.judged for c in shown]
+        f["testable"] = [not c.missing and c.judged for c in shown]
+        f["decided"] = [c.decided for c in shown]
         f["p"] = [
             min(1.0, m * p_beyond(d, parts, margin)) if ok else np.nan
-            for d, parts, ok in zip(f["diff"], f["parts"], f["decided"])
+            for d, parts, ok in zip(f["diff"], f["parts"], f["testable"])
         ]
         f["differ"] = f["state"] == SHOWN
     return level
 
 
 def _groups(order: list[str], pairs: pd.DataFrame) -> list[list[str]]:
-    """Maximal runs of rank-ordered entrants every pair of which is decided and none differs:
-    the diagram's bars. A pair left undecided for want of a noise (one block, one seed) joins
-    no group: nothing says its two do not differ."""
+    """Maximal runs of rank-ordered entrants every pair of which is contradicted (its interval
+    inside the margin): the diagram's bars. An undecided pair joins no group, whatever it lacks
+    (a noise, or an interval narrow enough): nothing says its two do not differ."""
     joined = {
         (a, b)
-        for a, b, d, x in pairs[["a", "b", "decided", "differ"]].itertuples(index=False)
-        if d and not x
+        for a, b, state in pairs[["a", "b", "state"]].itertuples(index=False)
+        if state == CONTRADICTED
     }
     runs: list[tuple[int, int]] = []  # (first, last) positions in ``order``
     for i in range(len(order)):
