@@ -42,6 +42,7 @@ from slipbench.stats.leaderboard import (
     Leaderboard,
     Scope,
 )
+from slipbench.store.columns import ACCURACY
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
@@ -179,19 +180,22 @@ NO_BASELINE = (
 
 
 def versus_baseline(
-    tables: list[Table], rows: pd.DataFrame, predictions: Sequence[str | os.PathLike] = ()
+    tables: list[Table],
+    rows: pd.DataFrame,
+    predictions: Sequence[str | os.PathLike] = (),
+    metric: str = ACCURACY.name,
 ) -> None:
     """The leaderboard ``tables`` (:func:`leaderboard_tables` of ``rows``) with the line to beat:
-    the means table's 'vs baseline' column (:func:`versus_column`) over the cells the
-    leaderboard may rank (none tested on one class); where no reference ran, one line saying
-    so, under the ranks. ``predictions``: the results folders holding the cells'
-    test predictions."""
+    the means table's 'vs baseline' column (:func:`versus_column`, in ``metric``, the figure
+    the board ranks) over the cells the leaderboard may rank (none tested on one class); where
+    no reference ran, one line saying so, under the ranks. ``predictions``: the results folders
+    holding the cells' test predictions."""
     rows = rows[~one_class(rows)]
     reference = references(rows)
     if not reference:
         tables[0].notes.append(NO_BASELINE)
     elif len(tables) > 1:  # else nothing ranked: no means table
-        versus_column(tables[1], rows, reference, predictions)
+        versus_column(tables[1], rows, reference, predictions, metric)
 
 
 def versus_column(
@@ -199,17 +203,20 @@ def versus_column(
     rows: pd.DataFrame,
     reference: Sequence[str],
     predictions: Sequence[str | os.PathLike] = (),
+    metric: str = ACCURACY.name,
 ) -> None:
     """``table`` (a line per entrant of ``rows``) with its 'vs baseline' column: each line's
     seed-paired change from the ``reference`` detectors' rows
-    (:func:`slipbench.stats.contrast.paired_change`) in accuracy, or in a stream's detection
-    rate where the rows hold no accuracy; the reference's own lines marked; nothing where the
-    reference has no rows among ``rows``."""
+    (:func:`slipbench.stats.contrast.paired_change`) in ``metric`` (the report's ``--metric``),
+    or in a stream's detection rate where the rows hold no value of it (streaming rows have no
+    accuracy); the reference's own lines marked; nothing where the reference has no rows among
+    ``rows``."""
     ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
     is_ref = ids.isin(reference)
     if not is_ref.any():
         return
-    figure = summary_figure(rows)
+    held = metric in rows and rows[metric].notna().any()
+    figure = metric if held else summary_figure(rows)
     changes: list[tuple[Contrast, int] | None] = []
     for (entrant,) in table.rows:
         mine = rows["detector"] == entrant

@@ -26,7 +26,7 @@ from slipbench.stats.contrast import ONE_SEED, Contrast
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
-from slipbench.store.columns import AUROC, FIGURES, WINDOWED, figure_of, figures
+from slipbench.store.columns import ACCURACY, AUROC, FIGURES, WINDOWED, figure_of, figures
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
@@ -1079,7 +1079,9 @@ def add_versus(
     the ``reference`` detector (``changes``, in the table's line order: the change and how many
     of its paired cells are low-n; None: a reference line, marked so), and notes saying how,
     what was left out and what the intervals lack."""
-    header = f"{VERSUS} ({reference})"
+    # accuracy is the default; another figure (``--metric``, a stream's rate) says which it is
+    named = "" if figure == ACCURACY.name else f", {figure_label(figure).lower()}"
+    header = f"{VERSUS}{named} ({reference})"
     table.columns.append(header)
     for line, pair in zip(table.cells, changes):
         low = pair is not None and pair[1] > 0
