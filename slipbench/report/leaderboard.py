@@ -13,6 +13,7 @@ import pandas as pd
 
 from slipbench.report.outline import references
 from slipbench.report.tables import (
+    BELOW_CONSTANT_MARK,
     LOW_MARK,
     VERSUS,
     Table,
@@ -36,6 +37,7 @@ from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
 from slipbench.stats.leaderboard import (
     ALL,
     ALPHA,
+    CONSTANT,
     MEAN_METRICS,
     ONE_BLOCK,
     ONE_RUN,
@@ -138,6 +140,14 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         + [f"{int(overall.wins[e])}{_low(overall, e)}"]
         for e in order
     ]
+    constant_notes = _constant_column(board, shown, mean_cols, mean_cells)
+    below = [e for e, line in zip(order, mean_cells) if BELOW_CONSTANT_MARK in " ".join(line)]
+    if below and board.metric == ACCURACY.name:
+        tables[0].notes.append(
+            f"{BELOW_CONSTANT_MARK} {', '.join(below)}: accuracy not above the constant answer's "
+            "(the means table): these ranks order detectors by a figure that answering one class "
+            "throughout would match."
+        )
     fewer = [
         f"{figure_label(m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
         "test set)"
@@ -163,6 +173,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
                 )
                 + " Blocks won: blocks where the detector ranked first (a tie counts for each)."
                 + (" " + "; ".join(fewer) + "." if fewer else ""),
+                *constant_notes,
                 *_low_notes([overall]),
             ],
         )
@@ -171,6 +182,55 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         tables.append(_groups_table(scopes, board))
         tables.append(_pairs_table(board, name))
     return tables
+
+
+def _constant_column(
+    board: Leaderboard, shown: list[str], columns: list[str], cells: list[list[str]]
+) -> list[str]:
+    """The means table (``columns``, ``cells``, in place) with what the constant answer scores
+    beside the accuracy, and the accuracy of a detector not above it marked; returns the notes
+    that say so. On an imbalanced test set accuracy is read beside it: a detector that scores
+    less than always giving the larger class's answer has not shown it tells the classes apart."""
+    if ACCURACY.name not in shown:
+        return []
+    means = board.means
+    if not means["constant_cells"].gt(0).any():
+        return [
+            "The rows hold no test windows per class (test_slip_windows, test_nonslip_windows, or "
+            "tp, tn, fp, fn): what the constant answer scores on these test sets is not shown."
+        ]
+    at = shown.index(ACCURACY.name) + 1
+    columns.insert(at, "Constant answer (%)")
+    below = []
+    for e, line in zip(board.order, cells):
+        n = int(means.loc[e, "constant_cells"])
+        constant, accuracy = means.loc[e, [CONSTANT, "constant_accuracy"]]
+        line.insert(at, f"{100 * constant:.1f}" if n else "—")
+        if n and accuracy <= constant:
+            line[at - 1] += BELOW_CONSTANT_MARK
+            below.append(f"{e} {100 * accuracy:.1f} against {100 * constant:.1f}")
+    n_blocks = board.scopes[0].n_cells
+    counted = means["constant_cells"].astype(int)
+    never = means["constant_never"].astype(int)
+    over = (
+        f"over the {n_blocks} ranked blocks"
+        if counted.eq(n_blocks).all()
+        else f"over the {counted.min()}-{counted.max()} ranked blocks whose rows give their test "
+        "windows per class"
+    )
+    notes = [
+        'Constant answer: the accuracy of answering "never slip" to every window, or "always '
+        "slip\", whichever scores more on each block's test set (the larger class's share of its "
+        f'windows), mean {over}; "never slip" on {never.max()} of them. Balanced accuracy and '
+        "AUROC of a constant answer are 50 %. On an imbalanced test set accuracy is read beside it."
+    ]
+    if below:
+        notes.append(
+            f"{BELOW_CONSTANT_MARK} accuracy not above the constant answer's on the same blocks "
+            f"({'; '.join(below)}): the detector does not beat answering one class throughout; "
+            "read its balanced accuracy."
+        )
+    return notes
 
 
 NO_BASELINE = (

@@ -46,6 +46,7 @@ def figure_label(metric: str) -> str:
 
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
 LOW_MARK = "†"  # a cell resting on few test trials
+BELOW_CONSTANT_MARK = "‡"  # an accuracy not above what the constant answer scores there
 LOW_NOTE = (
     f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
     f"else fewer than {LOW_N} in all): its interval is not to be trusted."

@@ -143,7 +143,8 @@ class Leaderboard:
     scopes : ``ALL`` first, then each protocol in the order given.
     means : entrant x (metric, "lo", "hi") over the ranked cells of ``ALL``: columns
         ``<m>``, ``<m>_lo``, ``<m>_hi`` for each of MEAN_METRICS, and ``<m>_cells`` (cells
-        with a value: balanced accuracy and AUROC do not exist on a one-class test set).
+        with a value: balanced accuracy and AUROC do not exist on a one-class test set); the
+        constant answer's accuracy beside the detector's (:func:`_constant_means`).
     entrants : entrant -> the detector and parameters it stands for.
     pairs : :func:`pairwise` over the ranked blocks of ``ALL``.
     n_seeds : the most seeds an entrant ran in a ranked block; above 1, the pairs' and the
@@ -175,6 +176,37 @@ class Leaderboard:
 
     def scope(self, name: str) -> Scope | None:
         return next((s for s in self.scopes if s.name == name), None)
+
+
+#: the means' column of the constant answer's accuracy (:func:`constant_accuracy`)
+CONSTANT = "constant_answer"
+
+
+def constant_accuracy(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per row, the accuracy of the constant answer on its test set: "never slip" or "always
+    slip", whichever scores more (the larger class's share of the test windows), and which
+    (``never``: True where "never slip" scores at least as much). From the rows' test windows
+    per class (``test_slip_windows``, ``test_nonslip_windows``), else from their confusion
+    counts (slip windows ``tp + fn``, non-slip ``tn + fp``); NaN where a row holds neither.
+
+    Returns
+    -------
+    DataFrame
+        (n_rows, 2): ``accuracy`` (a fraction) and ``never`` (bool), on ``rows``' index.
+    """
+
+    def number(column: str) -> pd.Series:
+        if column not in rows:
+            return pd.Series(np.nan, index=rows.index)
+        return pd.to_numeric(rows[column], errors="coerce").astype(float)
+
+    slip, nonslip = number("test_slip_windows"), number("test_nonslip_windows")
+    counted = number("tp") + number("fn"), number("tn") + number("fp")
+    slip = slip.where(slip.notna() & nonslip.notna(), counted[0])
+    nonslip = nonslip.where(nonslip.notna(), counted[1])
+    total = slip + nonslip
+    best = np.maximum(slip, nonslip) / total.where(total > 0)
+    return pd.DataFrame({"accuracy": best, "never": nonslip >= slip}, index=rows.index)
 
 
 def entrants(rows: pd.DataFrame) -> pd.Series:
@@ -657,6 +689,7 @@ def leaderboard(
             means.loc[e, [m, f"{m}_lo", f"{m}_hi"]] = _mean_interval(x, seeds[e])
             means.loc[e, f"{m}_cells"] = int(np.isfinite(x).sum())
             n_seeds = max(n_seeds, int(np.isfinite(seeds[e]).sum(axis=1).max(initial=1)))
+    _constant_means(means, rows, ranked, signature)
     return Leaderboard(
         metric,
         scopes,
@@ -669,6 +702,30 @@ def leaderboard(
         level,
         overall.low_n,
     )
+
+
+def _constant_means(
+    means: pd.DataFrame, rows: pd.DataFrame, ranked: pd.Index, signature: pd.Series
+) -> None:
+    """``means`` (in place) with the constant answer beside the accuracy: per entrant, over
+    the ranked blocks where both its accuracy and the constant's are known, the mean of each
+    (``constant_answer``, ``constant_accuracy``: the same blocks, so they compare), how many
+    blocks (``constant_cells``) and in how many of them "never slip" was the constant answer
+    (``constant_never``)."""
+    answer = constant_accuracy(rows)
+    with_answer = rows.assign(_constant=answer["accuracy"], _never=answer["never"].astype(float))
+    value = merge_blocks(cell_table(with_answer, "_constant"), signature)[0].reindex(ranked)
+    never = merge_blocks(cell_table(with_answer, "_never"), signature)[0].reindex(ranked)
+    accuracy = merge_blocks(cell_table(rows, ACCURACY.name), signature)[0].reindex(ranked)
+    for e in means.index:
+        c = value[e].to_numpy(float) if e in value else np.full(len(ranked), np.nan)
+        a = accuracy[e].to_numpy(float) if e in accuracy else np.full(len(ranked), np.nan)
+        both = np.isfinite(c) & np.isfinite(a)
+        n = int(both.sum())
+        means.loc[e, CONSTANT] = float(c[both].mean()) if n else np.nan
+        means.loc[e, "constant_accuracy"] = float(a[both].mean()) if n else np.nan
+        means.loc[e, "constant_cells"] = n
+        means.loc[e, "constant_never"] = int((never[e].to_numpy(float)[both] >= 0.5).sum())
 
 
 def _params_text(rows: pd.DataFrame) -> str:

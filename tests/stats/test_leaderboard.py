@@ -18,6 +18,7 @@ from slipbench.stats.leaderboard import (
     ALL,
     MARGIN,
     cell_table,
+    constant_accuracy,
     crossed_interval,
     entrants,
     leaderboard,
@@ -394,3 +395,44 @@ def test_a_board_of_undecided_pairs_draws_no_group_and_decides_none():
     fig = critical_difference(board)
     bars = [ln for ax in fig.axes for ln in ax.lines if ln.get_linewidth() == 2.2]
     assert bars == []  # no group bar drawn
+
+
+def test_accuracy_is_read_beside_the_constant_answer():
+    """The issue's imbalanced test sets: 17-33 % slip, detectors at 54-67 % accuracy where
+    "never slip" scores about 80 %. The means table shows the constant answer over the same
+    blocks and marks each detector that does not beat it; one that does is not marked."""
+    parts = []
+    for det, acc in (("holweg", 0.60), ("lstm", 0.66), ("bandpass", 0.93)):
+        rows = fake_rows("window-size", det).head(12)
+        slip = np.tile([10, 17, 33, 20], 3)  # of 100 windows per test set
+        rows["accuracy"] = acc + np.linspace(-0.03, 0.03, len(rows))
+        rows["test_slip_windows"], rows["test_nonslip_windows"] = slip, 100 - slip
+        parts.append(rows)
+    rows = pd.concat(parts, ignore_index=True)
+    rows.loc[rows.index[:12], ["test_slip_windows", "test_nonslip_windows"]] = np.nan
+    tp = rows.loc[rows.index[:12], "accuracy"] * 0  # holweg's counts from its confusion cells
+    slip = np.tile([10, 17, 33, 20], 3)
+    rows.loc[rows.index[:12], ["tp", "fn", "tn", "fp"]] = np.c_[tp, slip, 100 - slip, tp]
+    constant = constant_accuracy(rows)
+    assert constant["accuracy"].iloc[:4].tolist() == pytest.approx([0.9, 0.83, 0.67, 0.8])
+    assert constant["never"].all()
+    board = leaderboard(rows)
+    expected = np.mean([0.9, 0.83, 0.67, 0.8])
+    assert board.means["constant_answer"].to_numpy() == pytest.approx([expected] * 3)
+    ranks, means = leaderboard_tables(board)[:2]
+    assert any(n.startswith("‡ lstm, holweg: accuracy not above") for n in ranks.notes)
+    at = means.columns.index("Constant answer (%)")
+    assert means.columns[at - 1] == "Classification Accuracy (%)"
+    shown = dict(zip([r[0] for r in means.rows], means.cells))
+    assert all(c[at] == f"{100 * expected:.1f}" for c in shown.values())
+    assert shown["holweg"][at - 1].endswith("‡") and shown["lstm"][at - 1].endswith("‡")
+    assert not shown["bandpass"][at - 1].endswith("‡")
+    notes = " ".join(means.notes)
+    assert '"never slip" on 12 of them' in notes and "holweg 60.0 against 80.0" in notes
+
+
+def test_without_window_counts_the_table_says_so():
+    board = leaderboard(board_rows())
+    means = leaderboard_tables(board)[1]
+    assert "Constant answer (%)" not in means.columns
+    assert any("what the constant answer scores" in n for n in means.notes)
