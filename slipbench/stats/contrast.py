@@ -89,6 +89,10 @@ DECIDED = (SHOWN, CONTRADICTED)
 TEST_NOISE = "test trials"
 #: the claim needs retraining noise and no seed measured it
 ONE_SEED = "one seed per side: retraining noise is not in the interval"
+#: some cell's row holds no interval of the figure (neither a standard error nor bounds)
+NO_ROW_INTERVAL = "no interval in the rows"
+#: the note :mod:`slipbench.stats.metrics` writes where a class holds a single test trial
+SINGLE_CLUSTER = "a class holds a single cluster"
 #: the bootstraps' seed and level where a caller gives none
 SEED_0 = IntervalSpec(0)
 #: measured coverage of contrasts with one seed per cell where retraining moves a cell's
@@ -305,7 +309,7 @@ def from_rows(
     values = np.array([v for v, _ in per])
     estimate = float(values.mean())
     if not all(np.isfinite(se) for _, se in per):
-        missing = "no interval in the rows"
+        missing = NO_ROW_INTERVAL
         return Contrast(estimate, level=level, margin=margin, missing=missing, seeds=seeds)
     seed_noise = own_seeds(values) or noise
     parts = [(float(np.mean([se for _, se in per])) ** 2, np.inf)]
@@ -428,6 +432,52 @@ def pair_seeds(
     return Pairing(cells, tuple(left))
 
 
+def _unestimable(pairing: Pairing, figure: str, joint: bool) -> str:
+    """Why a paired change of ``figure`` has no interval, naming the cells: those whose row says
+    its interval is not estimable (a class of a single test trial: the row shows the figure's
+    whole range), else those whose row holds none; ``joint``: the joint bootstrap over the
+    trials the cells share was not estimable."""
+    lone, bare = [], []
+    for _, b, c in pairing.cells:
+        for r in (*b, *c):
+            note = str(plain(r.get("ci_note")) or "")
+            name = f"{plain(r.get('protocol')) or ''} {_cell_text(r)}".strip()
+            if SINGLE_CLUSTER in note and figure in note.split(":")[0].split(", "):
+                lone.append(name)
+            elif not any(np.isfinite(_number(r, f"{figure}_{e}")) for e in ("se", "lo", "hi")):
+                bare.append(name)
+    if lone:
+        return (
+            f"the interval of {_some(lone)} is not estimable (a class holds a single test "
+            "trial; its row shows the figure's whole range)"
+        )
+    if joint:
+        return (
+            "the joint interval over the paired cells' test trials is not estimable (a class "
+            "holds a single test trial)"
+        )
+    return f"no interval in the row of {_some(bare)}" if bare else NO_ROW_INTERVAL
+
+
+def _some(names: list[str], shown: int = 3) -> str:
+    """The first ``shown`` distinct names, and how many more."""
+    names = list(dict.fromkeys(names))
+    more = f" and {len(names) - shown} more cells" if len(names) > shown else ""
+    return "; ".join(names[:shown]) + more
+
+
+def _cell_text(row: dict) -> str:
+    """A cell named for a reader: its key's values (``sensor_type=Nano17, window=50``)."""
+    text = plain(row.get("cell"))
+    try:
+        key = json.loads(str(text))
+    except (TypeError, ValueError):
+        key = None
+    if not isinstance(key, dict):
+        return str(text or "")
+    return ", ".join(f"{k}={v}" for k, v in key.items())
+
+
 def _seeds_of(counts: Counter, why: str) -> list[str]:
     """``seeds 1, 2 of 4 cells: why``: the seeds left out, those of as many cells together."""
     by_n: dict[int, list[int]] = {}
@@ -511,6 +561,8 @@ def paired_change(
             noise=(TEST_NOISE, *((OWN_SEEDS,) if res["seeds"] else ())),
             method=how + (f", {res['seed_design']}" if res["seeds"] else ""),
         )
+        if not res["estimable"]:
+            change = replace(change, missing=_unestimable(pairing, figure, joint=True))
     else:
         terms = pd.DataFrame(
             [
@@ -532,9 +584,13 @@ def paired_change(
         terms = [(change.se**2, change.df), (noise.of_mean(1), noise.df)]
         added = from_parts(change.estimate, terms, level, margin)
         change = replace(added, noise=(*change.noise, noise.source), method=change.method)
+    if change.missing == NO_ROW_INTERVAL:
+        change = replace(change, missing=_unestimable(pairing, figure, joint=False))
+    # a cell without an interval outweighs the seeds: it says what the change lacks first
+    lacks = "" if change.missing in ("", ONE_SEED) else change.missing
     return replace(
         change,
-        missing="" if len(seeds) > 1 or noise is not None else ONE_SEED,
+        missing=lacks or ("" if len(seeds) > 1 or noise is not None else ONE_SEED),
         n_cells=n,
         seeds=seeds,
         left_out=pairing.left_out,
