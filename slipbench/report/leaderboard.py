@@ -14,6 +14,7 @@ import pandas as pd
 from slipbench.report.outline import references
 from slipbench.report.tables import (
     BELOW_CONSTANT_MARK,
+    DIFFER_WORDS,
     LOW_MARK,
     VERSUS,
     Table,
@@ -24,7 +25,6 @@ from slipbench.report.tables import (
     summarize,
 )
 from slipbench.stats.contrast import (
-    CONTRADICTED,
     SHOWN,
     UNDECIDED,
     Contrast,
@@ -457,18 +457,16 @@ def _points(diff: float, lo: float, hi: float) -> str:
     )
 
 
-#: a pair's state in the pairwise table's "Differ" column
-_DIFFER = {SHOWN: "yes", CONTRADICTED: "no"}
 #: why a pair lacks a full interval, in a word
 _LACKS = {ONE_BLOCK: "one block", ONE_RUN: "one seed"}
 
 
 def _differ(r) -> str:
     """``yes``, ``no``, or ``undecided`` with the noise its interval lacks."""
-    if r.state in _DIFFER:
-        return _DIFFER[r.state]
+    if r.state != UNDECIDED:
+        return DIFFER_WORDS[r.state]
     lacks = [word for reason, word in _LACKS.items() if reason in r.missing]
-    return UNDECIDED + (f" ({', '.join(lacks)})" if lacks else "")
+    return DIFFER_WORDS[UNDECIDED] + (f" ({', '.join(lacks)})" if lacks else "")
 
 
 def _pairs_table(board: Leaderboard, name: str) -> Table:

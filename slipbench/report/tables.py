@@ -22,7 +22,14 @@ import pandas as pd
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import ShownLayout
-from slipbench.stats.contrast import ONE_SEED, SINGLE_CLUSTER, Contrast
+from slipbench.stats.contrast import (
+    CONTRADICTED,
+    ONE_SEED,
+    SHOWN,
+    SINGLE_CLUSTER,
+    UNDECIDED,
+    Contrast,
+)
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
@@ -1086,6 +1093,12 @@ def split_table(
             "testing on trials it trained on."
         ],
     )
+
+
+# ----------------------------------------------------------------------------- verdict words
+#: a contrast's state (:mod:`slipbench.stats.contrast`) in a table's "Differ" column: the one
+#: place these words are defined; "decided" counts the yes and no rows
+DIFFER_WORDS = {SHOWN: "yes", CONTRADICTED: "no", UNDECIDED: "undecided"}
 
 
 # ----------------------------------------------------------------------------- the line to beat

@@ -230,3 +230,20 @@ def test_a_cell_whose_interval_is_not_estimable_is_named_as_the_reason():
     notes = " ".join(summary_table([m]).notes)
     assert f"holweg − features: lab left out: {reason}." in notes
     assert "no standard error" not in notes
+
+
+def test_the_pooled_line_reads_its_interval_in_the_contrasts_words():
+    """Differ on the pooled line: yes beyond the margin, no inside it, else undecided, read
+    from the interval printed beside it."""
+    from slipbench.stats.contrast import margin_of, state_of
+
+    for shift, word in ((0.08, "yes"), (0.0, None)):
+        per = {n: seeded(n, shift, 0.002) for n in ("sim", "dos", "lab")}
+        m = meta_analysis(per, ("features", "holweg"))
+        line = dict(zip(summary_table([m]).columns, summary_table([m]).cells[0]))
+        expected = {"shown": "yes", "contradicted": "no", "undecided": "undecided"}[
+            state_of(m.lo, m.hi, margin_of("accuracy"))
+        ]
+        assert line["Differ"] == expected
+        if word:
+            assert line["Differ"] == word and m.lo > 0.01
