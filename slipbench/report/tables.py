@@ -1151,6 +1151,12 @@ def add_versus(
         for entrant, c in shown
         if c.left_out and c.n_cells
     ]
+    # what else a change lacks (its interval not estimable: the cells named), said beside it
+    table.notes += [
+        f"{header}, {entrant}: undecided: {c.missing}."
+        for entrant, c in shown
+        if c.n_cells and c.missing not in ("", ONE_SEED)
+    ]
     one = [entrant for entrant, c in shown if c.n_cells and c.missing == ONE_SEED]
     if one:
         table.notes.append(

@@ -447,9 +447,11 @@ def _unestimable(pairing: Pairing, figure: str, joint: bool) -> str:
             elif not any(np.isfinite(_number(r, f"{figure}_{e}")) for e in ("se", "lo", "hi")):
                 bare.append(name)
     if lone:
+        n = len(set(lone))
+        what = "the interval of 1 cell is" if n == 1 else f"the intervals of {n} cells are"
         return (
-            f"the interval of {_some(lone)} is not estimable (a class holds a single test "
-            "trial; its row shows the figure's whole range)"
+            f"{what} not estimable (a class holds a single test trial; the row shows the "
+            f"figure's whole range): {_some(lone)}"
         )
     if joint:
         return (
@@ -462,7 +464,7 @@ def _unestimable(pairing: Pairing, figure: str, joint: bool) -> str:
 def _some(names: list[str], shown: int = 3) -> str:
     """The first ``shown`` distinct names, and how many more."""
     names = list(dict.fromkeys(names))
-    more = f" and {len(names) - shown} more cells" if len(names) > shown else ""
+    more = f" and {len(names) - shown} more" if len(names) > shown else ""
     return "; ".join(names[:shown]) + more
 
 

@@ -225,3 +225,19 @@ def test_the_metric_governs_the_line_to_beat():
         tables = leaderboard_tables(leaderboard(rows, metric))
         versus_baseline(tables, rows, metric=metric)
         assert tables[1].columns[-1] == header
+
+
+def test_a_change_without_an_estimable_interval_says_why_beside_it():
+    """The [-100, +100] of a change whose cells' intervals are not estimable is said, with the
+    cells, under the column: never a bare whole-range interval."""
+    from slipbench.report.tables import add_versus
+
+    lacks = (
+        "the interval of 1 cell is not estimable (a class holds a single test trial; the row "
+        "shows the figure's whole range): window-size window=50"
+    )
+    change = Contrast(-0.005, -1.0, 1.0, missing=lacks, n_cells=4, seeds=(0, 1))
+    table = Table("t", ["Detector"], "", ["x"], [("features",), ("holweg",)], [["1"], ["2"]], "")
+    add_versus(table, [None, (change, 0)], "features", "accuracy")
+    assert table.cells[1][-1] == "-0.5 [-100.0, +100.0]"
+    assert f"vs baseline (features), holweg: undecided: {lacks}." in table.notes

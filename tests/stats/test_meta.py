@@ -223,8 +223,8 @@ def test_a_cell_whose_interval_is_not_estimable_is_named_as_the_reason():
     reason = m.datasets.set_index("dataset").loc["lab", "reason"]
     cell = ", ".join(f"{k}={v}" for k, v in json.loads(cand.loc[first, "cell"]).items())
     assert reason == (
-        f"the interval of speed-holdout {cell} is not estimable (a class holds a single test "
-        "trial; its row shows the figure's whole range)"
+        "the interval of 1 cell is not estimable (a class holds a single test trial; the row "
+        f"shows the figure's whole range): speed-holdout {cell}"
     )
     assert m.pooled_over == 2
     notes = " ".join(summary_table([m]).notes)
