@@ -194,3 +194,19 @@ def test_pages_draw_in_a_real_browser_with_no_console_error(site):
         assert not [e for e in chrome.get_log("browser") if e["level"] == "SEVERE"]
     finally:
         chrome.quit()
+
+
+def test_the_site_leaderboard_shows_the_constant_answer():
+    """The site's sortable leaderboard sets the constant answer beside the accuracy, over the
+    rows that give their test windows per class, and says whether the accuracy is above it."""
+    from resultgen import fake_rows
+
+    from slipbench.report.site import leaderboard as board
+
+    rows = fake_rows("window-size", "holweg").head(4).assign(accuracy=0.6)
+    rows["test_slip_windows"], rows["test_nonslip_windows"] = 20, 80
+    out = board(rows)
+    assert out["columns"][-2:] == ["Constant answer (%)", "Accuracy above it"]
+    assert out["rows"][0][-2:] == [80.0, "no"]
+    assert board(rows.assign(accuracy=0.9))["rows"][0][-1] == "yes"
+    assert board(rows.drop(columns=["test_slip_windows"]))["rows"][0][-2:] == [None, "—"]
