@@ -349,7 +349,7 @@ def _every_detector(
             table.caption += which_text(which)
             table.subject = f"Protocol {protocol}, {split.name} split."
             if "detector" not in table_keys(part, layout):
-                versus_column(table, part, reference, o.predictions)
+                versus_column(table, part, reference, o.predictions, o.metric)
             tables.append(table)
     return tables
 
@@ -496,7 +496,7 @@ def _leaderboards(
     for which, part in setting_parts(rows):
         board = leaderboard(part, metric, protocols=order)
         tables = leaderboard_tables(board)
-        versus_baseline(tables, part, predictions)
+        versus_baseline(tables, part, predictions, metric)
         for table in tables:
             _name_part(table, which)
         tables[-1 if len(tables) == 1 else 1].notes += simulation_note(part)  # under the means

@@ -23,7 +23,14 @@ from slipbench.report.outline import fits
 from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import ShownLayout
 from slipbench.report.tables import Table, ordered, rank, summarize
-from slipbench.stats.contrast import ONE_SEED_COVERAGE, Contrast, from_rows
+from slipbench.stats.contrast import (
+    CONTRADICTED,
+    ONE_SEED_COVERAGE,
+    SHOWN,
+    UNDECIDED,
+    Contrast,
+    from_rows,
+)
 from slipbench.store.columns import TN_RATE, TP_RATE
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
 
@@ -182,8 +189,6 @@ def findings_table(
 
 # ----------------------------------------------------------------------------- does ours show it?
 PAPER_MODEL = "lstm"  # the detector behind the published tables
-#: a finding's states: its interval shows the claim, excludes it, or neither
-SHOWN, CONTRADICTED, UNDECIDED = "shown", "contradicted", "undecided"
 #: "balance": TP - TN at most this many points (as shown, to 0.1) ...
 BALANCE = 5.0
 #: ... and its interval within this band (points)
@@ -259,6 +264,8 @@ def _by_sensor(values: dict) -> str:
 
 
 def _state(shown: bool, contradicted: bool) -> str:
+    """A finding's state in the contrasts' words (:mod:`slipbench.stats.contrast`): its
+    intervals show the claim, exclude it, or neither; the criteria are the finding's own."""
     return SHOWN if shown else CONTRADICTED if contradicted else UNDECIDED
 
 

@@ -9,13 +9,13 @@ import textwrap
 
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.render import Drawn, Renderer
-from slipbench.report.tables import LOW_MARK, Table
+from slipbench.report.tables import BELOW_CONSTANT_MARK, LOW_MARK, UNESTIMABLE_MARK, Table
 
 # one figure of a cell as ``figure_text`` writes it ("88.0 ± 0.4 [86.9, 89.1]†"), its marks after
 # it ("*": without explicit training); a paired cell holds two, separated by a space
 FIGURE = re.compile(
     r"(?P<value>-?\d+(?:\.\d+)?|NA|—|\w+)(?P<sd> ± \d+(?:\.\d+)?)?"
-    r"(?: \[(?P<lo>-?\d+(?:\.\d+)?), (?P<hi>-?\d+(?:\.\d+)?)\])?(?P<mark>[*†]*)"
+    r"(?: \[(?P<lo>-?\d+(?:\.\d+)?), (?P<hi>-?\d+(?:\.\d+)?)\])?(?P<mark>[*†‡§]*)"
 )
 LATEX_TABLE_SIZE = (
     r"\footnotesize"  # with intervals on a second line, the paper's tables fit the text width
@@ -42,6 +42,8 @@ LATEX_CHARS = {
     "–": "--",
     "−": "-",
     LOW_MARK: r"\dag{}",
+    BELOW_CONSTANT_MARK: r"\ddag{}",
+    UNESTIMABLE_MARK: r"\S{}",
     "χ": r"$\chi$",
     "²": r"$^2$",
     "α": r"$\alpha$",

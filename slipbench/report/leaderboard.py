@@ -13,6 +13,8 @@ import pandas as pd
 
 from slipbench.report.outline import references
 from slipbench.report.tables import (
+    BELOW_CONSTANT_MARK,
+    DIFFER_WORDS,
     LOW_MARK,
     VERSUS,
     Table,
@@ -22,17 +24,27 @@ from slipbench.report.tables import (
     rank,
     summarize,
 )
-from slipbench.stats.contrast import Contrast, pair_seeds, paired_change, summary_figure
+from slipbench.stats.contrast import (
+    SHOWN,
+    UNDECIDED,
+    Contrast,
+    is_decided,
+    pair_seeds,
+    paired_change,
+    summary_figure,
+)
 from slipbench.stats.factors import ENTRANT_ID, one_class, setting_labels
 from slipbench.stats.leaderboard import (
     ALL,
     ALPHA,
+    CONSTANT,
     MEAN_METRICS,
     ONE_BLOCK,
     ONE_RUN,
     Leaderboard,
     Scope,
 )
+from slipbench.store.columns import ACCURACY
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
@@ -128,6 +140,14 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
         + [f"{int(overall.wins[e])}{_low(overall, e)}"]
         for e in order
     ]
+    constant_notes = _constant_column(board, shown, mean_cols, mean_cells)
+    below = [e for e, line in zip(order, mean_cells) if BELOW_CONSTANT_MARK in " ".join(line)]
+    if below and board.metric == ACCURACY.name:
+        tables[0].notes.append(
+            f"{BELOW_CONSTANT_MARK} {', '.join(below)}: accuracy not above the constant answer's "
+            "(the means table): these ranks order detectors by a figure that answering one class "
+            "throughout would match."
+        )
     fewer = [
         f"{figure_label(m)} exists on {int(board.means[f'{m}_cells'].min())} of them (not on a one-class "
         "test set)"
@@ -153,6 +173,7 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
                 )
                 + " Blocks won: blocks where the detector ranked first (a tie counts for each)."
                 + (" " + "; ".join(fewer) + "." if fewer else ""),
+                *constant_notes,
                 *_low_notes([overall]),
             ],
         )
@@ -163,6 +184,55 @@ def leaderboard_tables(board: Leaderboard) -> list[Table]:
     return tables
 
 
+def _constant_column(
+    board: Leaderboard, shown: list[str], columns: list[str], cells: list[list[str]]
+) -> list[str]:
+    """The means table (``columns``, ``cells``, in place) with what the constant answer scores
+    beside the accuracy, and the accuracy of a detector not above it marked; returns the notes
+    that say so. On an imbalanced test set accuracy is read beside it: a detector that scores
+    less than always giving the larger class's answer has not shown it tells the classes apart."""
+    if ACCURACY.name not in shown:
+        return []
+    means = board.means
+    if not means["constant_cells"].gt(0).any():
+        return [
+            "The rows hold no test windows per class (test_slip_windows, test_nonslip_windows, or "
+            "tp, tn, fp, fn): what the constant answer scores on these test sets is not shown."
+        ]
+    at = shown.index(ACCURACY.name) + 1
+    columns.insert(at, "Constant answer (%)")
+    below = []
+    for e, line in zip(board.order, cells):
+        n = int(means.loc[e, "constant_cells"])
+        constant, accuracy = means.loc[e, [CONSTANT, "constant_accuracy"]]
+        line.insert(at, f"{100 * constant:.1f}" if n else "—")
+        if n and accuracy <= constant:
+            line[at - 1] += BELOW_CONSTANT_MARK
+            below.append(f"{e} {100 * accuracy:.1f} against {100 * constant:.1f}")
+    n_blocks = board.scopes[0].n_cells
+    counted = means["constant_cells"].astype(int)
+    never = means["constant_never"].astype(int)
+    over = (
+        f"over the {n_blocks} ranked blocks"
+        if counted.eq(n_blocks).all()
+        else f"over the {counted.min()}-{counted.max()} ranked blocks whose rows give their test "
+        "windows per class"
+    )
+    notes = [
+        'Constant answer: the accuracy of answering "never slip" to every window, or "always '
+        "slip\", whichever scores more on each block's test set (the larger class's share of its "
+        f'windows), mean {over}; "never slip" on {never.max()} of them. Balanced accuracy and '
+        "AUROC of a constant answer are 50 %. On an imbalanced test set accuracy is read beside it."
+    ]
+    if below:
+        notes.append(
+            f"{BELOW_CONSTANT_MARK} accuracy not above the constant answer's on the same blocks "
+            f"({'; '.join(below)}): the detector does not beat answering one class throughout; "
+            "read its balanced accuracy."
+        )
+    return notes
+
+
 NO_BASELINE = (
     "No baseline ran on these cells: none of these detectors is the registered reference (the "
     f"one that slipbench list marks), so no '{VERSUS}' column."
@@ -170,19 +240,22 @@ NO_BASELINE = (
 
 
 def versus_baseline(
-    tables: list[Table], rows: pd.DataFrame, predictions: Sequence[str | os.PathLike] = ()
+    tables: list[Table],
+    rows: pd.DataFrame,
+    predictions: Sequence[str | os.PathLike] = (),
+    metric: str = ACCURACY.name,
 ) -> None:
     """The leaderboard ``tables`` (:func:`leaderboard_tables` of ``rows``) with the line to beat:
-    the means table's 'vs baseline' column (:func:`versus_column`) over the cells the
-    leaderboard may rank (none tested on one class); where no reference ran, one line saying
-    so, under the ranks. ``predictions``: the results folders holding the cells'
-    test predictions."""
+    the means table's 'vs baseline' column (:func:`versus_column`, in ``metric``, the figure
+    the board ranks) over the cells the leaderboard may rank (none tested on one class); where
+    no reference ran, one line saying so, under the ranks. ``predictions``: the results folders
+    holding the cells' test predictions."""
     rows = rows[~one_class(rows)]
     reference = references(rows)
     if not reference:
         tables[0].notes.append(NO_BASELINE)
     elif len(tables) > 1:  # else nothing ranked: no means table
-        versus_column(tables[1], rows, reference, predictions)
+        versus_column(tables[1], rows, reference, predictions, metric)
 
 
 def versus_column(
@@ -190,17 +263,20 @@ def versus_column(
     rows: pd.DataFrame,
     reference: Sequence[str],
     predictions: Sequence[str | os.PathLike] = (),
+    metric: str = ACCURACY.name,
 ) -> None:
     """``table`` (a line per entrant of ``rows``) with its 'vs baseline' column: each line's
     seed-paired change from the ``reference`` detectors' rows
-    (:func:`slipbench.stats.contrast.paired_change`) in accuracy, or in a stream's detection
-    rate where the rows hold no accuracy; the reference's own lines marked; nothing where the
-    reference has no rows among ``rows``."""
+    (:func:`slipbench.stats.contrast.paired_change`) in ``metric`` (the report's ``--metric``),
+    or in a stream's detection rate where the rows hold no value of it (streaming rows have no
+    accuracy); the reference's own lines marked; nothing where the reference has no rows among
+    ``rows``."""
     ids = rows[ENTRANT_ID] if ENTRANT_ID in rows else rows["detector"]
     is_ref = ids.isin(reference)
     if not is_ref.any():
         return
-    figure = summary_figure(rows)
+    held = metric in rows and rows[metric].notna().any()
+    figure = metric if held else summary_figure(rows)
     changes: list[tuple[Contrast, int] | None] = []
     for (entrant,) in table.rows:
         mine = rows["detector"] == entrant
@@ -236,33 +312,48 @@ def _low_notes(scopes: Sequence[Scope]) -> list[str]:
 
 
 def _groups_table(scopes: list[Scope], board: Leaderboard) -> Table:
-    """Per scope, the groups of detectors not shown to differ, from the scope's pairs."""
+    """Per scope, the groups of detectors shown not to differ, from the scope's pairs: the
+    decided count counts the pairs whose rows read "yes" or "no", nothing else."""
     cells = []
     for s in scopes:
-        decided = int(s.pairs["decided"].sum())
+        decided = int(s.pairs["state"].map(is_decided).sum()) if len(s.pairs) else 0
+        differ = int((s.pairs["state"] == SHOWN).sum()) if len(s.pairs) else 0
         groups = "; ".join("{" + ", ".join(g) + "}" for g in s.groups)
         if not groups:
-            groups = "none: every pair differs" if decided == len(s.pairs) else "none decided"
+            groups = (
+                "none: every pair differs"
+                if differ == len(s.pairs)
+                else "none: no pair decided"
+                if decided == 0
+                else "none"
+            )
         cells.append([str(s.n_cells), f"{decided} of {len(s.pairs)}", groups])
     return Table(
         "Do the detectors differ? Groups per scope, from the pairwise contrasts over blocks and seeds.",
         ["Scope"],
         "",
-        ["Blocks", "Pairs decided", "Groups not shown to differ"],
+        ["Blocks", "Pairs decided", "Groups shown not to differ"],
         [("all" if s.name == ALL else s.name,) for s in scopes],
         cells,
         "tab:leaderboard-tests",
         wrap={3: 0.5},
         notes=[
-            "A group lists detectors, in rank order, every pair of which is decided and none shown to "
-            "differ (the pairwise table's intervals, over the scope's blocks and seeds, "
-            f"{_family_text(board)}); a detector in no group differs from every other or is undecided "
-            f"against it. A pair is decided where its interval holds every noise its claim needs: "
-            f"undecided where {UNDECIDED_WHY}; such a pair never differs and joins no group. Blocks "
-            "share recordings (window 50 of a unit appears in several protocols, with another model or "
-            "test set), so they are not independent and the intervals are optimistic."
+            f"{DECIDED_TEXT} A group lists detectors, in rank order, every pair of which is shown not "
+            "to differ: its interval (the pairwise table's, over the scope's blocks and seeds, "
+            f"{_family_text(board)}) lies inside the margin. A detector in no group differs from every "
+            "other or is undecided against it. An undecided pair joins no group: its interval straddles "
+            f"the margin, or lacks a noise its claim needs where {UNDECIDED_WHY}. Blocks share recordings (window "
+            "50 of a unit appears in several protocols, with another model or test set), so they are "
+            "not independent and the intervals are optimistic."
         ],
     )
+
+
+#: what "decided" means, in every leaderboard table that counts or draws pairs
+DECIDED_TEXT = (
+    "Decided: the pair's printed interval settles it, lying beyond the margin (differ: yes) or "
+    "inside it (differ: no); a pair whose interval holds both is undecided and counts as such."
+)
 
 
 #: why a pair has no full interval, in the tables' notes
@@ -276,7 +367,7 @@ UNDECIDED_WHY = (
 def _family_text(board: Leaderboard) -> str:
     """The pairs' level and margin, in words."""
     return (
-        f"each at {100 * board.level:.4g} %, Bonferroni over every scope's decided pairs so that "
+        f"each at {100 * board.level:.4g} %, Bonferroni over every scope's testable pairs so that "
         f"all hold at once with 95 %; the margin ±{100 * board.margin:g} points"
     )
 
@@ -366,18 +457,16 @@ def _points(diff: float, lo: float, hi: float) -> str:
     )
 
 
-#: a pair's state in the pairwise table
-_DIFFER = {"shown": "yes", "contradicted": "no"}
 #: why a pair lacks a full interval, in a word
 _LACKS = {ONE_BLOCK: "one block", ONE_RUN: "one seed"}
 
 
 def _differ(r) -> str:
     """``yes``, ``no``, or ``undecided`` with the noise its interval lacks."""
-    if r.state in _DIFFER:
-        return _DIFFER[r.state]
+    if r.state != UNDECIDED:
+        return DIFFER_WORDS[r.state]
     lacks = [word for reason, word in _LACKS.items() if reason in r.missing]
-    return "undecided" + (f" ({', '.join(lacks)})" if lacks else "")
+    return DIFFER_WORDS[UNDECIDED] + (f" ({', '.join(lacks)})" if lacks else "")
 
 
 def _pairs_table(board: Leaderboard, name: str) -> Table:
@@ -412,7 +501,8 @@ def _pairs_table(board: Leaderboard, name: str) -> Table:
                 else "[interval over the blocks alone, a t-interval on their spread"
             )
             + f"; {_family_text(board)}]. Differ: yes where the interval lies beyond the margin, no "
-            "where it lies inside it, else undecided; p: the Bonferroni-adjusted p-value of a change "
+            "where it lies inside it, else undecided (the groups table's decided pairs are the yes and "
+            "no rows); p: the Bonferroni-adjusted p-value of a change "
             f"within the margin, below {ALPHA:g} exactly where the pair differs; undecided, without p, "
             f"where {UNDECIDED_WHY}. Like the ranks, the interval covers which conditions make up the "
             "benchmark"

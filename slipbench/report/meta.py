@@ -15,8 +15,8 @@ import pandas as pd
 
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.outline import splits_of
-from slipbench.report.tables import LOW_MARK, Table, rank
-from slipbench.stats.contrast import margin_of
+from slipbench.report.tables import DIFFER_WORDS, LOW_MARK, Table, rank
+from slipbench.stats.contrast import margin_of, state_of
 from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, transferred
 from slipbench.store.columns import ACCURACY
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N
@@ -103,6 +103,7 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
         pooled = np.isfinite(m.d)
         line += [
             _change(m.d, m.lo, m.hi, m.df) if pooled else "—",
+            DIFFER_WORDS[state_of(m.lo, m.hi, margin_of(ACCURACY.name))] if pooled else "—",
             f"{1e4 * m.tau2:.2f}" if pooled else "—",
             f"{100 * m.i2:.0f} %" if pooled else "—",
             str(m.pooled_over),
@@ -125,7 +126,7 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
         "Change in accuracy (points) per detector pair, on each dataset and pooled across them.",
         ["Pair"],
         "Change in accuracy (points) [95 % interval]",
-        [*datasets, "Pooled", "tau² (points²)", "I²", "Datasets pooled"],
+        [*datasets, "Pooled", "Differ", "tau² (points²)", "I²", "Datasets pooled"],
         [(f"{m.cand} − {m.base}",) for m in metas],
         cells,
         "tab:meta",
@@ -134,7 +135,9 @@ def summary_table(metas: list[MetaAnalysis]) -> Table:
             "the difference in accuracy, paired seed by seed, with its 95 % interval "
             "(estimate ± t(0.975, df) × se) and degrees of freedom. Pooled: "
             f"{METHOD_TEXT}; tau²: the variance of the true change between datasets; I²: the "
-            "share of the spread between datasets that is not sampling noise. Rows trained on "
+            "share of the spread between datasets that is not sampling noise. Differ: yes where "
+            f"the pooled interval lies beyond ±{100 * margin_of(ACCURACY.name):g} point, no where "
+            "it lies inside it, else undecided, as every contrast reads. Rows trained on "
             "one dataset and tested on another do not enter.",
             *notes,
         ],

@@ -498,7 +498,8 @@ def _zero_tick(ax, floor: float, decade: float) -> None:
 def critical_difference(board: Leaderboard) -> Figure:
     """The leaderboard's critical-difference diagram: per scope (every cell, then each
     protocol), the detectors at their mean rank on a rank axis (1 = best, on the left), and a
-    bar joining each group that does not differ (the leaderboard's pairwise tests).
+    bar joining each group shown not to differ (the leaderboard's pairwise tests; an undecided
+    pair joins none).
 
     Drawn here rather than with aeon's ``plot_critical_difference``: that recomputes its own
     tests (its "holm" is a fixed alpha / (k - 1), not Holm's step-down) and cannot take the
@@ -559,7 +560,7 @@ def critical_difference(board: Leaderboard) -> Figure:
         )
         + "\n"
         + textwrap.fill(
-            "a bar joins detectors not shown to differ (decided pairwise contrasts, Bonferroni)",
+            "a bar joins detectors shown not to differ (every pair's interval inside the margin)",
             TITLE_CHARS,
         )
     )
@@ -612,9 +613,9 @@ def leaderboard_specs(board: Leaderboard, named: str = "", tail: str = "") -> li
         FigureSpec(
             file_stem(f"leaderboard{tail}"),
             "Critical-difference diagram of the leaderboard: mean ranks per scope over blocks "
-            "(duplicate cells merged); a bar joins detectors every pair of which is decided and "
-            "none shown to differ (the pairwise table's intervals over blocks and seeds, "
-            f"Bonferroni; a pair of one block or one seed joins no bar).{named}",
+            "(duplicate cells merged); a bar joins detectors every pair of which is shown not to "
+            "differ (the pairwise table's intervals over blocks and seeds, Bonferroni, each inside "
+            f"the margin); an undecided pair joins no bar.{named}",
             None,
             lambda: critical_difference(board),
         )

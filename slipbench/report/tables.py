@@ -22,11 +22,18 @@ import pandas as pd
 from slipbench.protocol import Layout
 from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import ShownLayout
-from slipbench.stats.contrast import ONE_SEED, Contrast
+from slipbench.stats.contrast import (
+    CONTRADICTED,
+    ONE_SEED,
+    SHOWN,
+    SINGLE_CLUSTER,
+    UNDECIDED,
+    Contrast,
+)
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
-from slipbench.store.columns import AUROC, FIGURES, WINDOWED, figure_of, figures
+from slipbench.store.columns import ACCURACY, AUROC, FIGURES, WINDOWED, figure_of, figures
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
@@ -46,6 +53,13 @@ def figure_label(metric: str) -> str:
 
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
 LOW_MARK = "†"  # a cell resting on few test trials
+BELOW_CONSTANT_MARK = "‡"  # an accuracy not above what the constant answer scores there
+UNESTIMABLE_MARK = "§"  # an interval that is the figure's whole range: a class of one trial
+UNESTIMABLE_NOTE = (
+    f"{UNESTIMABLE_MARK} the interval is not estimable: a class of the test set holds a single "
+    "test trial, so nothing measures how its trials vary, and the interval shown is the "
+    "figure's whole range (the row's ci_note), whatever the number of test trials."
+)
 LOW_NOTE = (
     f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
     f"else fewer than {LOW_N} in all): its interval is not to be trusted."
@@ -116,9 +130,10 @@ class Table:
 
     def __post_init__(self) -> None:
         # every table that marks a cell says what the mark means, whoever built it
-        marked = any(LOW_MARK in c for line in self.cells for c in line)
-        if marked and not any(n.startswith(LOW_MARK) for n in self.notes):
-            self.notes.append(LOW_NOTE)
+        for mark, note in ((LOW_MARK, LOW_NOTE), (UNESTIMABLE_MARK, UNESTIMABLE_NOTE)):
+            marked = any(mark in c for line in self.cells for c in line)
+            if marked and not any(n.startswith(mark) for n in self.notes):
+                self.notes.append(note)
 
 
 # ----------------------------------------------------------------------------- ordering and labels
@@ -283,7 +298,7 @@ def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> 
     keys = list(dict.fromkeys(keys))  # a key named twice (a layout by detector) groups once
     if metric not in rows.columns:
         rows = rows.assign(**{metric: np.nan})
-    rows = rows.assign(_low=low_n(rows))
+    rows = rows.assign(_low=low_n(rows), _lone=unestimable(rows, metric))
     out = []
     for values, group in rows.groupby(keys, sort=False, dropna=False):
         ok = group[group["status"] == "ok"] if "status" in group else group
@@ -299,9 +314,21 @@ def summarize(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> 
                 "hi": hi,
                 "status": "ok" if len(ok) else str(group["status"].iloc[0]),
                 "low_n": bool(ok["_low"].any()),
+                "unestimable": bool(ok["_lone"].any()),
             }
         )
-    return pd.DataFrame(out, columns=[*keys, "mean", "sd", "n", "lo", "hi", "status", "low_n"])
+    columns = [*keys, "mean", "sd", "n", "lo", "hi", "status", "low_n", "unestimable"]
+    return pd.DataFrame(out, columns=columns)
+
+
+def unestimable(rows: pd.DataFrame, metric: str) -> pd.Series:
+    """(n_rows,) bool: rows whose interval of ``metric`` is not estimable, as their
+    ``ci_note`` says (a class of a single test trial: the interval is the whole range)."""
+    if "ci_note" not in rows:
+        return pd.Series(False, index=rows.index)
+    figures = rows["ci_note"].fillna("").astype(str).str.split(":").str[0].str.split(", ")
+    said = rows["ci_note"].fillna("").astype(str).str.contains(SINGLE_CLUSTER, regex=False)
+    return said & figures.map(lambda named: metric in named)
 
 
 @dataclass(frozen=True)
@@ -316,11 +343,15 @@ class CellFigure:
     hi: float = np.nan
     status: str = "ok"
     low: bool = False
+    unestimable: bool = False  # an interval behind it is the figure's whole range
 
     @classmethod
     def of(cls, r: dict) -> CellFigure:
         """From a record of :func:`summarize`."""
-        return cls(r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], bool(r["low_n"]))
+        lone = bool(r.get("unestimable", False))
+        return cls(
+            r["mean"], r["sd"], r["n"], r["lo"], r["hi"], r["status"], bool(r["low_n"]), lone
+        )
 
 
 def figure_text(figure: CellFigure, intervals: bool = False) -> str:
@@ -615,7 +646,16 @@ def _averaged(
                 mean = g["mean"].mean()
                 lo, hi = mean - half, mean + half
             out.setdefault(key, []).append(
-                figure_text(CellFigure(mean, lo=lo, hi=hi, low=bool(g["low_n"].any())), intervals)
+                figure_text(
+                    CellFigure(
+                        mean,
+                        lo=lo,
+                        hi=hi,
+                        low=bool(g["low_n"].any()),
+                        unestimable=key not in joint and bool(g["unestimable"].any()),
+                    ),
+                    intervals,
+                )
             )
     return out
 
@@ -786,6 +826,7 @@ def metric_text(metric: str, figure: CellFigure, intervals: bool = False) -> str
         text += f" ± {scale * sd:.{digits}f}"
     if shown:
         text += f" [{scale * lo:.{digits}f}, {scale * hi:.{digits}f}]"
+        text += UNESTIMABLE_MARK if figure.unestimable else ""
     return text + (LOW_MARK if figure.low else "")
 
 
@@ -1054,6 +1095,12 @@ def split_table(
     )
 
 
+# ----------------------------------------------------------------------------- verdict words
+#: a contrast's state (:mod:`slipbench.stats.contrast`) in a table's "Differ" column: the one
+#: place these words are defined; "decided" counts the yes and no rows
+DIFFER_WORDS = {SHOWN: "yes", CONTRADICTED: "no", UNDECIDED: "undecided"}
+
+
 # ----------------------------------------------------------------------------- the line to beat
 VERSUS = "vs baseline"
 
@@ -1079,7 +1126,9 @@ def add_versus(
     the ``reference`` detector (``changes``, in the table's line order: the change and how many
     of its paired cells are low-n; None: a reference line, marked so), and notes saying how,
     what was left out and what the intervals lack."""
-    header = f"{VERSUS} ({reference})"
+    # accuracy is the default; another figure (``--metric``, a stream's rate) says which it is
+    named = "" if figure == ACCURACY.name else f", {figure_label(figure).lower()}"
+    header = f"{VERSUS}{named} ({reference})"
     table.columns.append(header)
     for line, pair in zip(table.cells, changes):
         low = pair is not None and pair[1] > 0
@@ -1101,6 +1150,12 @@ def add_versus(
         f"{header}, {entrant}: left out: {'; '.join(c.left_out)}."
         for entrant, c in shown
         if c.left_out and c.n_cells
+    ]
+    # what else a change lacks (its interval not estimable: the cells named), said beside it
+    table.notes += [
+        f"{header}, {entrant}: undecided: {c.missing}."
+        for entrant, c in shown
+        if c.n_cells and c.missing not in ("", ONE_SEED)
     ]
     one = [entrant for entrant, c in shown if c.n_cells and c.missing == ONE_SEED]
     if one:

@@ -81,10 +81,18 @@ from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change
 from slipbench.store.columns import ACCURACY, DETECTION_RATE, FIGURES
 
 SHOWN, CONTRADICTED, UNDECIDED = "shown", "contradicted", "undecided"
+#: the states that settle a claim one way or the other: "decided" means one of these and
+#: nothing else, in every table and count (an interval that holds every noise its claim needs
+#: and still straddles the margin is undecided)
+DECIDED = (SHOWN, CONTRADICTED)
 #: what every contrast's interval holds
 TEST_NOISE = "test trials"
 #: the claim needs retraining noise and no seed measured it
 ONE_SEED = "one seed per side: retraining noise is not in the interval"
+#: some cell's row holds no interval of the figure (neither a standard error nor bounds)
+NO_ROW_INTERVAL = "no interval in the rows"
+#: the note :mod:`slipbench.stats.metrics` writes where a class holds a single test trial
+SINGLE_CLUSTER = "a class holds a single cluster"
 #: the bootstraps' seed and level where a caller gives none
 SEED_0 = IntervalSpec(0)
 #: measured coverage of contrasts with one seed per cell where retraining moves a cell's
@@ -138,6 +146,11 @@ class Contrast:
         return state_of(self.lo, self.hi, self.margin)
 
     @property
+    def decided(self) -> bool:
+        """Its interval settles it: shown or contradicted (:data:`DECIDED`)."""
+        return self.state in DECIDED
+
+    @property
     def direction(self) -> int:
         """+1 where shown above the margin, -1 below, 0 otherwise."""
         if self.state != SHOWN:
@@ -176,6 +189,11 @@ def state_of(lo: float, hi: float, margin: float) -> str:
     if -margin <= lo and hi <= margin:
         return CONTRADICTED
     return UNDECIDED
+
+
+def is_decided(state: str) -> bool:
+    """``state`` settles its claim (:data:`DECIDED`): what every "decided" count counts."""
+    return state in DECIDED
 
 
 def family_level(n: int, alpha: float = 1 - LEVEL) -> float:
@@ -301,7 +319,7 @@ def from_rows(
     values = np.array([v for v, _ in per])
     estimate = float(values.mean())
     if not all(np.isfinite(se) for _, se in per):
-        missing = "no interval in the rows"
+        missing = NO_ROW_INTERVAL
         return Contrast(estimate, level=level, margin=margin, missing=missing, seeds=seeds)
     seed_noise = own_seeds(values) or noise
     parts = [(float(np.mean([se for _, se in per])) ** 2, np.inf)]
@@ -425,6 +443,54 @@ def pair_seeds(
     return Pairing(cells, tuple(left))
 
 
+def _unestimable(pairing: Pairing, figure: str, joint: bool) -> str:
+    """Why a paired change of ``figure`` has no interval, naming the cells: those whose row says
+    its interval is not estimable (a class of a single test trial: the row shows the figure's
+    whole range), else those whose row holds none; ``joint``: the joint bootstrap over the
+    trials the cells share was not estimable."""
+    lone, bare = [], []
+    for _, b, c in pairing.cells:
+        for r in (*b, *c):
+            note = str(plain(r.get("ci_note")) or "")
+            name = f"{plain(r.get('protocol')) or ''} {_cell_text(r)}".strip()
+            if SINGLE_CLUSTER in note and figure in note.split(":")[0].split(", "):
+                lone.append(name)
+            elif not any(np.isfinite(_number(r, f"{figure}_{e}")) for e in ("se", "lo", "hi")):
+                bare.append(name)
+    if lone:
+        n = len(set(lone))
+        what = "the interval of 1 cell is" if n == 1 else f"the intervals of {n} cells are"
+        return (
+            f"{what} not estimable (a class holds a single test trial; the row shows the "
+            f"figure's whole range): {_some(lone)}"
+        )
+    if joint:
+        return (
+            "the joint interval over the paired cells' test trials is not estimable (a class "
+            "holds a single test trial)"
+        )
+    return f"no interval in the row of {_some(bare)}" if bare else NO_ROW_INTERVAL
+
+
+def _some(names: list[str], shown: int = 3) -> str:
+    """The first ``shown`` distinct names, and how many more."""
+    names = list(dict.fromkeys(names))
+    more = f" and {len(names) - shown} more" if len(names) > shown else ""
+    return "; ".join(names[:shown]) + more
+
+
+def _cell_text(row: dict) -> str:
+    """A cell named for a reader: its key's values (``sensor_type=Nano17, window=50``)."""
+    text = plain(row.get("cell"))
+    try:
+        key = json.loads(str(text))
+    except (TypeError, ValueError):
+        key = None
+    if not isinstance(key, dict):
+        return str(text or "")
+    return ", ".join(f"{k}={v}" for k, v in key.items())
+
+
 def _seeds_of(counts: Counter, why: str) -> list[str]:
     """``seeds 1, 2 of 4 cells: why``: the seeds left out, those of as many cells together."""
     by_n: dict[int, list[int]] = {}
@@ -508,6 +574,8 @@ def paired_change(
             noise=(TEST_NOISE, *((OWN_SEEDS,) if res["seeds"] else ())),
             method=how + (f", {res['seed_design']}" if res["seeds"] else ""),
         )
+        if not res["estimable"]:
+            change = replace(change, missing=_unestimable(pairing, figure, joint=True))
     else:
         terms = pd.DataFrame(
             [
@@ -529,9 +597,13 @@ def paired_change(
         terms = [(change.se**2, change.df), (noise.of_mean(1), noise.df)]
         added = from_parts(change.estimate, terms, level, margin)
         change = replace(added, noise=(*change.noise, noise.source), method=change.method)
+    if change.missing == NO_ROW_INTERVAL:
+        change = replace(change, missing=_unestimable(pairing, figure, joint=False))
+    # a cell without an interval outweighs the seeds: it says what the change lacks first
+    lacks = "" if change.missing in ("", ONE_SEED) else change.missing
     return replace(
         change,
-        missing="" if len(seeds) > 1 or noise is not None else ONE_SEED,
+        missing=lacks or ("" if len(seeds) > 1 or noise is not None else ONE_SEED),
         n_cells=n,
         seeds=seeds,
         left_out=pairing.left_out,

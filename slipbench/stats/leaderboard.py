@@ -13,13 +13,16 @@ are those of the intervals:
 4. one family of contrasts decides every pair, every group and the diagram's bars
    (:func:`pairwise`): each pair's mean difference over the scope's blocks with the interval the
    means take (over blocks and seeds, :func:`crossed_interval`), at one Bonferroni level over
-   every scope's decided pairs (:func:`one_family`), read against the margin as every contrast
-   is (:mod:`slipbench.stats.contrast`): "yes" beyond it, "no" inside it, else undecided.
-   Detectors every pair of which is decided and none differs form a group, drawn as one bar. A
-   pair of which an entrant ran one seed is *undecided*: nothing measures the retraining luck
-   its one run had in every block, and blocks alone called equal detectors different on 5 of 10
-   boards (issue 35); so is a pair over one block, where nothing measures how the difference
-   varies between conditions. So ranks, groups, pairwise table and diagram never disagree.
+   every scope's testable pairs (:func:`one_family`), read against the margin as every contrast
+   is (:mod:`slipbench.stats.contrast`): shown ("yes") beyond it, contradicted ("no") inside
+   it, else undecided. A pair is *decided* where its state is one of the first two
+   (:data:`~slipbench.stats.contrast.DECIDED`), nowhere else. Detectors every pair of which is
+   contradicted (shown within the margin) form a group, drawn as one bar; an undecided pair
+   joins nothing. A pair of which an entrant ran one seed is not even *testable*: nothing
+   measures the retraining luck its one run had in every block, and blocks alone called equal
+   detectors different on 5 of 10 boards (issue 35); nor is a pair over one block, where
+   nothing measures how the difference varies between conditions; both are undecided. So
+   ranks, groups, pairwise table and diagram never disagree.
 
 A block is counted once: cells that test the same model on the same test windows (the
 sampling rate's full-rate cells are the window-size window-200 cells; with ``decimation=both``
@@ -76,6 +79,7 @@ import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.seeding import rng_for
 from slipbench.stats.contrast import (
+    CONTRADICTED,
     SHOWN,
     family_level,
     from_parts,
@@ -139,7 +143,8 @@ class Leaderboard:
     scopes : ``ALL`` first, then each protocol in the order given.
     means : entrant x (metric, "lo", "hi") over the ranked cells of ``ALL``: columns
         ``<m>``, ``<m>_lo``, ``<m>_hi`` for each of MEAN_METRICS, and ``<m>_cells`` (cells
-        with a value: balanced accuracy and AUROC do not exist on a one-class test set).
+        with a value: balanced accuracy and AUROC do not exist on a one-class test set); the
+        constant answer's accuracy beside the detector's (:func:`_constant_means`).
     entrants : entrant -> the detector and parameters it stands for.
     pairs : :func:`pairwise` over the ranked blocks of ``ALL``.
     n_seeds : the most seeds an entrant ran in a ranked block; above 1, the pairs' and the
@@ -147,7 +152,7 @@ class Leaderboard:
     n_one_class : finished rows left out because their test set holds one class (a constant
         detector wins there: :func:`slipbench.stats.factors.one_class`).
     margin : the change within which a pair reads "no difference" (the metric's stored unit).
-    level : the pairs' intervals' level, Bonferroni over every scope's pairs that can decide.
+    level : the pairs' intervals' level, Bonferroni over every scope's testable pairs.
     low_n : entrant -> the ranked blocks of ``ALL`` where a cell it ran rests on few test
         trials (``low_n``): its figures there are not to be trusted, nor are means and ranks
         over them.
@@ -171,6 +176,37 @@ class Leaderboard:
 
     def scope(self, name: str) -> Scope | None:
         return next((s for s in self.scopes if s.name == name), None)
+
+
+#: the means' column of the constant answer's accuracy (:func:`constant_accuracy`)
+CONSTANT = "constant_answer"
+
+
+def constant_accuracy(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per row, the accuracy of the constant answer on its test set: "never slip" or "always
+    slip", whichever scores more (the larger class's share of the test windows), and which
+    (``never``: True where "never slip" scores at least as much). From the rows' test windows
+    per class (``test_slip_windows``, ``test_nonslip_windows``), else from their confusion
+    counts (slip windows ``tp + fn``, non-slip ``tn + fp``); NaN where a row holds neither.
+
+    Returns
+    -------
+    DataFrame
+        (n_rows, 2): ``accuracy`` (a fraction) and ``never`` (bool), on ``rows``' index.
+    """
+
+    def number(column: str) -> pd.Series:
+        if column not in rows:
+            return pd.Series(np.nan, index=rows.index)
+        return pd.to_numeric(rows[column], errors="coerce").astype(float)
+
+    slip, nonslip = number("test_slip_windows"), number("test_nonslip_windows")
+    counted = number("tp") + number("fn"), number("tn") + number("fp")
+    slip = slip.where(slip.notna() & nonslip.notna(), counted[0])
+    nonslip = nonslip.where(nonslip.notna(), counted[1])
+    total = slip + nonslip
+    best = np.maximum(slip, nonslip) / total.where(total > 0)
+    return pd.DataFrame({"accuracy": best, "never": nonslip >= slip}, index=rows.index)
 
 
 def entrants(rows: pd.DataFrame) -> pd.Series:
@@ -377,8 +413,10 @@ ONE_RUN = (
 #: the pairs' columns: the contrast of A - B, its interval at ``level`` (the family's
 #: Bonferroni level), its state and, where undecided, why; ``p``: the Bonferroni-adjusted
 #: p-value of a change within the margin (:func:`slipbench.stats.contrast.p_beyond`), below
-#: ``ALPHA`` exactly where the pair differs; ``decided``: its interval holds every noise the
-#: claim needs; ``parts``/``missing``: what :func:`at_level` draws it from
+#: ``ALPHA`` exactly where the pair differs; ``testable``: its interval holds every noise the
+#: claim needs (it counts in the Bonferroni family); ``decided``: its state settles it (shown
+#: or contradicted, :func:`slipbench.stats.contrast.is_decided`); ``parts``/``missing``: what
+#: :func:`at_level` draws it from
 PAIR_COLUMNS = [
     "a",
     "b",
@@ -391,6 +429,7 @@ PAIR_COLUMNS = [
     "p",
     "state",
     "why",
+    "testable",
     "decided",
     "differ",
     "parts",
@@ -487,23 +526,24 @@ def at_level(frames: list[pd.DataFrame], margin: float = MARGIN) -> float:
         f["lo"], f["hi"] = [max(c.lo, -1.0) for c in shown], [min(c.hi, 1.0) for c in shown]
         f["se"], f["df"] = [c.se for c in shown], [c.df for c in shown]
         f["level"], f["state"], f["why"] = level, [c.state for c in shown], [c.why for c in shown]
-        f["decided"] = [not c.missing and c.judged for c in shown]
+        f["testable"] = [not c.missing and c.judged for c in shown]
+        f["decided"] = [c.decided for c in shown]
         f["p"] = [
             min(1.0, m * p_beyond(d, parts, margin)) if ok else np.nan
-            for d, parts, ok in zip(f["diff"], f["parts"], f["decided"])
+            for d, parts, ok in zip(f["diff"], f["parts"], f["testable"])
         ]
         f["differ"] = f["state"] == SHOWN
     return level
 
 
 def _groups(order: list[str], pairs: pd.DataFrame) -> list[list[str]]:
-    """Maximal runs of rank-ordered entrants every pair of which is decided and none differs:
-    the diagram's bars. A pair left undecided for want of a noise (one block, one seed) joins
-    no group: nothing says its two do not differ."""
+    """Maximal runs of rank-ordered entrants every pair of which is contradicted (its interval
+    inside the margin): the diagram's bars. An undecided pair joins no group, whatever it lacks
+    (a noise, or an interval narrow enough): nothing says its two do not differ."""
     joined = {
         (a, b)
-        for a, b, d, x in pairs[["a", "b", "decided", "differ"]].itertuples(index=False)
-        if d and not x
+        for a, b, state in pairs[["a", "b", "state"]].itertuples(index=False)
+        if state == CONTRADICTED
     }
     runs: list[tuple[int, int]] = []  # (first, last) positions in ``order``
     for i in range(len(order)):
@@ -649,6 +689,7 @@ def leaderboard(
             means.loc[e, [m, f"{m}_lo", f"{m}_hi"]] = _mean_interval(x, seeds[e])
             means.loc[e, f"{m}_cells"] = int(np.isfinite(x).sum())
             n_seeds = max(n_seeds, int(np.isfinite(seeds[e]).sum(axis=1).max(initial=1)))
+    _constant_means(means, rows, ranked, signature)
     return Leaderboard(
         metric,
         scopes,
@@ -661,6 +702,30 @@ def leaderboard(
         level,
         overall.low_n,
     )
+
+
+def _constant_means(
+    means: pd.DataFrame, rows: pd.DataFrame, ranked: pd.Index, signature: pd.Series
+) -> None:
+    """``means`` (in place) with the constant answer beside the accuracy: per entrant, over
+    the ranked blocks where both its accuracy and the constant's are known, the mean of each
+    (``constant_answer``, ``constant_accuracy``: the same blocks, so they compare), how many
+    blocks (``constant_cells``) and in how many of them "never slip" was the constant answer
+    (``constant_never``)."""
+    answer = constant_accuracy(rows)
+    with_answer = rows.assign(_constant=answer["accuracy"], _never=answer["never"].astype(float))
+    value = merge_blocks(cell_table(with_answer, "_constant"), signature)[0].reindex(ranked)
+    never = merge_blocks(cell_table(with_answer, "_never"), signature)[0].reindex(ranked)
+    accuracy = merge_blocks(cell_table(rows, ACCURACY.name), signature)[0].reindex(ranked)
+    for e in means.index:
+        c = value[e].to_numpy(float) if e in value else np.full(len(ranked), np.nan)
+        a = accuracy[e].to_numpy(float) if e in accuracy else np.full(len(ranked), np.nan)
+        both = np.isfinite(c) & np.isfinite(a)
+        n = int(both.sum())
+        means.loc[e, CONSTANT] = float(c[both].mean()) if n else np.nan
+        means.loc[e, "constant_accuracy"] = float(a[both].mean()) if n else np.nan
+        means.loc[e, "constant_cells"] = n
+        means.loc[e, "constant_never"] = int((never[e].to_numpy(float)[both] >= 0.5).sum())
 
 
 def _params_text(rows: pd.DataFrame) -> str:

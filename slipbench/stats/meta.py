@@ -19,9 +19,9 @@ changes that it explains. With two or three datasets tau² is poorly pinned down
 how many datasets stand behind it.
 
 Rows tested on a dataset other than the one that trained them (transfer, a ``sensor_map``) are
-no dataset of their own and never enter. A dataset whose change has no standard error, or a
-zero one (the same predictions on both sides), would take every weight: it is listed with the
-reason and left out of the pooling.
+no dataset of their own and never enter. A dataset whose change has no standard error (a
+paired cell whose interval is not estimable, named), or a zero one (the same predictions on
+both sides), would take every weight: it is listed with the reason and left out of the pooling.
 """
 
 from __future__ import annotations
@@ -149,6 +149,9 @@ def meta_analysis(
         reason = ""
         if res.n_cells == 0:
             reason = res.missing + (f" ({'; '.join(res.left_out)})" if res.left_out else "")
+        elif res.missing not in ("", ONE_SEED):
+            # what the change lacks, naming the cells: a cell's interval not estimable
+            reason = res.missing
         elif not np.isfinite(res.se):
             reason = "no standard error in its rows"
         elif res.se <= 0:

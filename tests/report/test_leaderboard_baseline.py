@@ -194,3 +194,50 @@ def test_a_change_over_low_n_cells_carries_the_mark():
     holweg.loc[holweg.index[0], "low_n"] = True
     table = column(board_tables(named_entrants(pd.concat([ref, holweg], ignore_index=True)))[1])
     assert table["holweg"].endswith("†") and table["features"] == "reference"
+
+
+def test_the_metric_governs_the_line_to_beat():
+    """``report --metric balanced_accuracy``: the 'vs baseline' column is the change in balanced
+    accuracy (here +6 points where accuracy moved +2), named in its header and note, in the
+    leaderboard's means table and in every detector's side-by-side table."""
+    parts = []
+    for d, acc, bal in (("features", 0.0, 0.0), ("holweg", 0.02, 0.06)):
+        part = fake_rows("window-size", d).head(12)
+        level = fake_rows("window-size", "features")["accuracy"].head(12)
+        for col in ("accuracy", "accuracy_lo", "accuracy_hi"):
+            part[col] = fake_rows("window-size", "features")[col].head(12) + acc
+        part["balanced_accuracy"] = level + bal
+        part["balanced_accuracy_lo"] = part["balanced_accuracy"] - 0.02
+        part["balanced_accuracy_hi"] = part["balanced_accuracy"] + 0.02
+        parts.append(part)
+    rows = named_entrants(pd.concat(parts, ignore_index=True))
+    for metric, header, shown in (
+        ("accuracy", "vs baseline (features)", "+2.0 "),
+        ("balanced_accuracy", "vs baseline, balanced accuracy (features)", "+6.0 "),
+    ):
+        text = render(build_report(rows, leaderboard_only=True, metric=metric), "md", False, {})
+        assert header in text
+        line = next(ln for ln in text.splitlines() if header in ln)
+        at = [c.strip() for c in line.split("|")].index(header)
+        means = text[text.index(line) :].splitlines()
+        holweg = next(ln for ln in means if ln.split("|")[1].strip() == "holweg")
+        assert holweg.split("|")[at].strip().startswith(shown), holweg
+        tables = leaderboard_tables(leaderboard(rows, metric))
+        versus_baseline(tables, rows, metric=metric)
+        assert tables[1].columns[-1] == header
+
+
+def test_a_change_without_an_estimable_interval_says_why_beside_it():
+    """The [-100, +100] of a change whose cells' intervals are not estimable is said, with the
+    cells, under the column: never a bare whole-range interval."""
+    from slipbench.report.tables import add_versus
+
+    lacks = (
+        "the interval of 1 cell is not estimable (a class holds a single test trial; the row "
+        "shows the figure's whole range): window-size window=50"
+    )
+    change = Contrast(-0.005, -1.0, 1.0, missing=lacks, n_cells=4, seeds=(0, 1))
+    table = Table("t", ["Detector"], "", ["x"], [("features",), ("holweg",)], [["1"], ["2"]], "")
+    add_versus(table, [None, (change, 0)], "features", "accuracy")
+    assert table.cells[1][-1] == "-0.5 [-100.0, +100.0]"
+    assert f"vs baseline (features), holweg: undecided: {lacks}." in table.notes

@@ -166,3 +166,31 @@ def test_the_caption_names_the_window_the_rows_used():
         == "window 200 (Nano17, OptoForce20), 170 (Biotac SP) downsampled"
     )
     assert caption_of("window {nothing}", rows) == "window {nothing}"
+
+
+def test_an_interval_that_is_not_estimable_is_marked_not_low_n():
+    """The issue's cell: enough trials of each class (not low n), but one class holds a single
+    trial of its own stratum: its interval is the whole range, [0, 100]. The tables mark it
+    with what it is, in Markdown and LaTeX, and not as low n."""
+    from slipbench.report.latex import escape
+    from slipbench.report.tables import UNESTIMABLE_MARK, UNESTIMABLE_NOTE, summarize, unestimable
+
+    rows = fake_rows("window-size", "holweg").assign(
+        n_test_clusters_slip=30, n_test_clusters_nonslip=30, ci_note=""
+    )
+    first = rows.index[0]
+    rows.loc[first, ["accuracy_lo", "accuracy_hi"]] = [0.0, 1.0]
+    rows.loc[first, "ci_note"] = (
+        "accuracy, tn_rate: a class holds a single cluster, so nothing measures how its "
+        "clusters vary; the interval given is the figure's whole range"
+    )
+    assert unestimable(rows, "accuracy").tolist() == [True] + [False] * (len(rows) - 1)
+    assert not unestimable(rows, "tp_rate").any()  # the note names the figures it holds
+    assert summarize(rows, ["cell"])["unestimable"].sum() == 1
+    from slipbench.protocols.window_size import WindowSize
+
+    table = build_table(rows, shown_protocol(WindowSize(), "window-size"), intervals=True)
+    marked = [c for line in table.cells for c in line if UNESTIMABLE_MARK in c]
+    assert len(marked) == 1 and marked[0].endswith(f" [0.0, 100.0]{UNESTIMABLE_MARK}")
+    assert UNESTIMABLE_NOTE in table.notes and LOW_MARK not in str(table.cells)
+    assert escape(UNESTIMABLE_MARK) == r"\S{}"

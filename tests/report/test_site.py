@@ -240,3 +240,19 @@ def test_every_page_parses_as_a_browser_does_and_its_data_round_trips(tmp_path, 
     assert TRICKY[0] in json.dumps(written["compare.html"], ensure_ascii=False)
     series = json.dumps(written["series.html"], ensure_ascii=False)
     assert all(n in series for n in TRICKY), series[:300]
+
+
+def test_the_site_leaderboard_shows_the_constant_answer():
+    """The site's sortable leaderboard sets the constant answer beside the accuracy, over the
+    rows that give their test windows per class, and says whether the accuracy is above it."""
+    from resultgen import fake_rows
+
+    from slipbench.report.site import leaderboard as board
+
+    rows = fake_rows("window-size", "holweg").head(4).assign(accuracy=0.6)
+    rows["test_slip_windows"], rows["test_nonslip_windows"] = 20, 80
+    out = board(rows)
+    assert out["columns"][-2:] == ["Constant answer (%)", "Accuracy above it"]
+    assert out["rows"][0][-2:] == [80.0, "no"]
+    assert board(rows.assign(accuracy=0.9))["rows"][0][-1] == "yes"
+    assert board(rows.drop(columns=["test_slip_windows"]))["rows"][0][-2:] == [None, "—"]

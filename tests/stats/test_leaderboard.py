@@ -18,6 +18,7 @@ from slipbench.stats.leaderboard import (
     ALL,
     MARGIN,
     cell_table,
+    constant_accuracy,
     crossed_interval,
     entrants,
     leaderboard,
@@ -171,7 +172,7 @@ def test_cells_with_one_model_and_test_set_are_one_block():
     assert not pair.decided and np.isnan(pair.p)  # one seed each: undecided
     text = render_report(rows, "md", leaderboard_only=True)
     assert "144 finished cells were ranked as 128 blocks, 16 duplicates merged" in text
-    assert "undecided where an entrant ran one seed" in text
+    assert "undecided, without p, where an entrant ran one seed" in text
 
 
 def test_pairwise_bonferroni_over_the_decided_pairs():
@@ -206,23 +207,24 @@ def test_pairwise_bonferroni_over_the_decided_pairs():
 def test_groups_pairs_and_diagram_never_disagree():
     """Every scope's groups are runs of its pairwise table: a pair that differs shares no group;
     neighbours in rank that do not differ share one."""
-    rows = seeded_rows({"a": [0.1, 0.09, 0.11], "b": [0.0, 0.01, -0.01], "c": [0.0, 0.0, 0.01]})
+    # b and c close enough, seed by seed, for their interval to lie inside the margin: a group
+    rows = seeded_rows({"a": [0.1, 0.09, 0.11], "b": [0.0, 0.002, -0.001], "c": [0.0, 0.001, 0.0]})
     board = leaderboard(rows)
     overall = board.scope(ALL)
     pd.testing.assert_frame_equal(board.pairs, overall.pairs)
     together = {(x, y) for g in overall.groups for x in g for y in g}
     order = list(overall.ranks.index)
     for r in overall.pairs.itertuples():
-        assert r.decided
-        if r.differ:
+        assert r.testable and r.decided == (r.state in ("shown", "contradicted"))
+        if r.state != "contradicted":  # shown, or undecided: never joined
             assert (r.a, r.b) not in together
         elif abs(order.index(r.a) - order.index(r.b)) == 1:
             assert (r.a, r.b) in together
     assert order[0] == "a" and overall.groups == [order[1:]]
-    # one family: one Bonferroni level over the decided pairs of every scope at once, a
+    # one family: one Bonferroni level over the testable pairs of every scope at once, a
     # scope of the same blocks (window-size's, here every cell's) counted once
     every = pd.concat([s.pairs for s in board.scopes], ignore_index=True)
-    assert len(board.scopes) == 2 and int(every["decided"].sum()) == 6
+    assert len(board.scopes) == 2 and int(every["testable"].sum()) == 6
     assert (every["level"] == 1 - 0.05 / 3).all()
     assert board.level == every["level"].iloc[0]
 
@@ -249,16 +251,24 @@ def test_no_pair_without_a_full_interval_reads_decided(blocks, seeds):
             assert -board.margin <= r.lo and r.hi <= board.margin
         if r.state == "shown":
             assert r.lo > board.margin or r.hi < -board.margin
-        if not r.decided:
+        if not r.testable:
             assert r.state == "undecided" and np.isnan(r.p)
+        assert r.decided == (r.state != "undecided")
     if blocks == 1 or seeds == 1:
-        assert not pairs["decided"].any() and all(s.groups == [] for s in board.scopes)
+        assert not pairs["testable"].any() and not pairs["decided"].any()
+        assert all(s.groups == [] for s in board.scopes)
         text = render_report(rows, "md", leaderboard_only=True)
         table = text[text.index("**Pairwise") :]
         lacks = "one block" if blocks == 1 else "one seed"
         assert f"| undecided ({lacks}" in table and "| no |" not in table and "| yes |" not in table
     else:
-        assert pairs["decided"].all()
+        assert pairs["testable"].all()
+    # a group joins contradicted pairs only: an undecided pair (c and d, 0.1 points apart on
+    # an interval wider than the margin) is never drawn as "not differing"
+    for s in board.scopes:
+        joined = {(x, y) for g in s.groups for i, x in enumerate(g) for y in g[i + 1 :]}
+        state = {(r.a, r.b): r.state for r in s.pairs.itertuples()}
+        assert all(state[p] == "contradicted" for p in joined)
     if seeds == 3:  # two seeds leave one degree of freedom: too few to show 8 points at 99.6 %
         shown = pairs[pairs["state"] == "shown"]
         assert {("a", "b"), ("a", "c"), ("b", "c")} <= set(zip(shown["a"], shown["b"]))
@@ -359,3 +369,70 @@ def test_figures_over_low_n_blocks_carry_the_mark():
     assert "fewer than 10 test trials of a class" in note and "lstm 32 of 127" in note
     clean = leaderboard_tables(leaderboard(board_rows()))
     assert not any("†" in c for t in clean for line in t.cells for c in line)
+
+
+def test_a_board_of_undecided_pairs_draws_no_group_and_decides_none():
+    """The issue's two-block board: every pair holds every noise its claim needs (two blocks,
+    three seeds each) but its interval straddles the margin; the groups table once said
+    "decided 6 of 6" and drew one group "not shown to differ" beside six "undecided" rows. Now
+    the count counts the rows that read yes or no, and an undecided pair joins no group, in the
+    table and in the diagram."""
+    from slipbench.report.plots import critical_difference
+
+    luck = {"a": [0.3, -0.25, 0.1], "b": [-0.2, 0.28, 0.0], "c": [0.05, -0.3, 0.2]}
+    luck["d"] = [0.25, 0.1, -0.3]
+    rows = seeded_rows(luck)
+    rows = rows[rows["cell"].isin(rows["cell"].unique()[:2])]
+    board = leaderboard(rows)
+    pairs = pd.concat([s.pairs for s in board.scopes], ignore_index=True)
+    assert pairs["testable"].all() and set(pairs["state"]) == {"undecided"}
+    assert not pairs["decided"].any() and all(s.groups == [] for s in board.scopes)
+    text = render_report(rows, "md", leaderboard_only=True)
+    groups = text[text.index("**Do the detectors differ?") : text.index("**Pairwise")]
+    assert "| 0 of 6 " in groups and "none: no pair decided" in groups and "{" not in groups
+    pairs_table = text[text.index("**Pairwise") :]
+    assert pairs_table.count("| undecided ") == 6
+    fig = critical_difference(board)
+    bars = [ln for ax in fig.axes for ln in ax.lines if ln.get_linewidth() == 2.2]
+    assert bars == []  # no group bar drawn
+
+
+def test_accuracy_is_read_beside_the_constant_answer():
+    """The issue's imbalanced test sets: 17-33 % slip, detectors at 54-67 % accuracy where
+    "never slip" scores about 80 %. The means table shows the constant answer over the same
+    blocks and marks each detector that does not beat it; one that does is not marked."""
+    parts = []
+    for det, acc in (("holweg", 0.60), ("lstm", 0.66), ("bandpass", 0.93)):
+        rows = fake_rows("window-size", det).head(12)
+        slip = np.tile([10, 17, 33, 20], 3)  # of 100 windows per test set
+        rows["accuracy"] = acc + np.linspace(-0.03, 0.03, len(rows))
+        rows["test_slip_windows"], rows["test_nonslip_windows"] = slip, 100 - slip
+        parts.append(rows)
+    rows = pd.concat(parts, ignore_index=True)
+    rows.loc[rows.index[:12], ["test_slip_windows", "test_nonslip_windows"]] = np.nan
+    tp = rows.loc[rows.index[:12], "accuracy"] * 0  # holweg's counts from its confusion cells
+    slip = np.tile([10, 17, 33, 20], 3)
+    rows.loc[rows.index[:12], ["tp", "fn", "tn", "fp"]] = np.c_[tp, slip, 100 - slip, tp]
+    constant = constant_accuracy(rows)
+    assert constant["accuracy"].iloc[:4].tolist() == pytest.approx([0.9, 0.83, 0.67, 0.8])
+    assert constant["never"].all()
+    board = leaderboard(rows)
+    expected = np.mean([0.9, 0.83, 0.67, 0.8])
+    assert board.means["constant_answer"].to_numpy() == pytest.approx([expected] * 3)
+    ranks, means = leaderboard_tables(board)[:2]
+    assert any(n.startswith("‡ lstm, holweg: accuracy not above") for n in ranks.notes)
+    at = means.columns.index("Constant answer (%)")
+    assert means.columns[at - 1] == "Classification Accuracy (%)"
+    shown = dict(zip([r[0] for r in means.rows], means.cells))
+    assert all(c[at] == f"{100 * expected:.1f}" for c in shown.values())
+    assert shown["holweg"][at - 1].endswith("‡") and shown["lstm"][at - 1].endswith("‡")
+    assert not shown["bandpass"][at - 1].endswith("‡")
+    notes = " ".join(means.notes)
+    assert '"never slip" on 12 of them' in notes and "holweg 60.0 against 80.0" in notes
+
+
+def test_without_window_counts_the_table_says_so():
+    board = leaderboard(board_rows())
+    means = leaderboard_tables(board)[1]
+    assert "Constant answer (%)" not in means.columns
+    assert any("what the constant answer scores" in n for n in means.notes)

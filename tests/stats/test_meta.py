@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 
 import numpy as np
@@ -203,3 +204,46 @@ def test_a_dataset_over_low_n_cells_carries_the_mark():
     assert any(
         f"dos: † {len(base)} of its paired cells rest on few test trials" in n for n in table.notes
     )
+
+
+def test_a_cell_whose_interval_is_not_estimable_is_named_as_the_reason():
+    """A cell that is not low n but whose class holds a single test trial (its row: no interval
+    of accuracy, the note saying why) leaves its dataset out of the pooling; the reason says
+    that, naming the cell, not "no standard error"."""
+    base, cand = dataset("lab", 0.03)
+    first = cand.index[0]
+    cand.loc[first, ["accuracy_lo", "accuracy_hi"]] = np.nan
+    cand["ci_note"] = ""
+    cand.loc[first, "ci_note"] = (
+        "accuracy, tp_rate: a class holds a single cluster, so nothing measures how its "
+        "clusters vary; the interval given is the figure's whole range"
+    )
+    per = {"lab": (base, cand), "dos": dataset("dos", 0.02), "sim": dataset("sim", 0.04)}
+    m = meta_analysis(per, ("features", "holweg"))
+    reason = m.datasets.set_index("dataset").loc["lab", "reason"]
+    cell = ", ".join(f"{k}={v}" for k, v in json.loads(cand.loc[first, "cell"]).items())
+    assert reason == (
+        "the interval of 1 cell is not estimable (a class holds a single test trial; the row "
+        f"shows the figure's whole range): speed-holdout {cell}"
+    )
+    assert m.pooled_over == 2
+    notes = " ".join(summary_table([m]).notes)
+    assert f"holweg − features: lab left out: {reason}." in notes
+    assert "no standard error" not in notes
+
+
+def test_the_pooled_line_reads_its_interval_in_the_contrasts_words():
+    """Differ on the pooled line: yes beyond the margin, no inside it, else undecided, read
+    from the interval printed beside it."""
+    from slipbench.stats.contrast import margin_of, state_of
+
+    for shift, word in ((0.08, "yes"), (0.0, None)):
+        per = {n: seeded(n, shift, 0.002) for n in ("sim", "dos", "lab")}
+        m = meta_analysis(per, ("features", "holweg"))
+        line = dict(zip(summary_table([m]).columns, summary_table([m]).cells[0]))
+        expected = {"shown": "yes", "contradicted": "no", "undecided": "undecided"}[
+            state_of(m.lo, m.hi, margin_of("accuracy"))
+        ]
+        assert line["Differ"] == expected
+        if word:
+            assert line["Differ"] == word and m.lo > 0.01

@@ -30,8 +30,9 @@ import pandas as pd
 from slipbench.atomic import make_folder, write_text_atomic
 from slipbench.report.steps import short_history, verdict_shown
 from slipbench.stats.gate import unit
+from slipbench.stats.leaderboard import constant_accuracy
 from slipbench.stats.steps import JUDGED, Steps
-from slipbench.store.columns import FIGURES
+from slipbench.store.columns import ACCURACY, FIGURES
 
 #: the points every series page holds together (values and standard errors)
 POINT_BUDGET = 100_000
@@ -105,8 +106,11 @@ def _round(x: Any, digits: int = 2) -> float | None:
 
 def leaderboard(rows: pd.DataFrame) -> dict:
     """Per protocol and detector of finished cells: cells, and the mean over cells and seeds of
-    accuracy, TN rate and TP rate in points."""
+    accuracy, TN rate and TP rate in points; beside them what the constant answer ("never slip"
+    or "always slip", whichever scores more on each test set) scores over the rows that give
+    their test windows per class, and whether the accuracy there is above it."""
     ok = rows[rows["status"] == "ok"]
+    ok = ok.assign(_constant=constant_accuracy(ok)["accuracy"])
     lines = []
     for (protocol, detector), part in ok.groupby(["protocol", "detector"], sort=True):
         means = [
@@ -114,8 +118,24 @@ def leaderboard(rows: pd.DataFrame) -> dict:
             for f in JUDGED
             if f in part
         ]
-        lines.append([protocol, detector, int(part["cell"].nunique()), *means])
-    columns = ["protocol", "detector", "cells", *(f"{FIGURES[f].label} (%)" for f in JUDGED)]
+        known = part[part["_constant"].notna()]
+        held = known[ACCURACY.name] if ACCURACY.name in known else pd.Series(dtype=float)
+        accuracy = float(pd.to_numeric(held, errors="coerce").mean())
+        constant = float(known["_constant"].mean()) if len(known) else np.nan
+        above = (
+            "—" if not np.isfinite(accuracy * constant) else "yes" if accuracy > constant else "no"
+        )
+        lines.append(
+            [protocol, detector, int(part["cell"].nunique()), *means, _round(100 * constant), above]
+        )
+    columns = [
+        "protocol",
+        "detector",
+        "cells",
+        *(f"{FIGURES[f].label} (%)" for f in JUDGED),
+        "Constant answer (%)",
+        "Accuracy above it",
+    ]
     return {"columns": columns, "rows": lines}
 
 
