@@ -92,7 +92,9 @@ def make_design(
     each class is further split by balancing stratum, a cluster taking the stratum most of its
     windows carry. Strata of a single cluster give no spread to resample, so within a class the
     lone strata are pooled, and a pool that is still alone joins the largest stratum of its
-    class. A class of one cluster stays alone: figures that draw on it are not estimable.
+    class. A class of one pure cluster joins the mixed clusters where there are any
+    (:func:`_cluster_kinds`); without them it stays alone, and figures that draw on it are not
+    estimable.
 
     Parameters
     ----------
@@ -116,11 +118,7 @@ def make_design(
     n = len(labels)
     pos = np.bincount(codes_all, weights=y, minlength=n)
     neg = np.bincount(codes_all, weights=~y, minlength=n)
-    kind = np.where(neg == 0, "slip", np.where(pos == 0, "non-slip", "mixed")).astype(object)
-    if (kind == "mixed").sum() == 1:
-        kind[kind == "mixed"] = (
-            "slip" if pos[kind == "mixed"][0] >= neg[kind == "mixed"][0] else "non-slip"
-        )
+    kind = _cluster_kinds(pos, neg)
     if strata is None:
         sub = np.full(n, "", dtype=object)
     else:
@@ -141,6 +139,24 @@ def make_design(
             key[in_kind & (key == pooled)] = names[sizes > 1][np.argmax(sizes[sizes > 1])]
     _, stratum = np.unique(key, return_inverse=True)
     return ClusterDesign(labels, stratum, np.bincount(stratum)), codes
+
+
+def _cluster_kinds(pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
+    """Each cluster's class stratum from its slip (``pos``) and non-slip (``neg``) windows:
+    slip, non-slip or mixed. A lone mixed cluster joins the class holding most of its windows;
+    a lone pure cluster then joins the clusters holding windows of both classes, which share its
+    class (per-sample labels: one trial that only slips among trials that hold, then slip), so
+    its class is resampled rather than left alone. Shape (n_clusters,), dtype object."""
+    kind = np.where(neg == 0, "slip", np.where(pos == 0, "non-slip", "mixed")).astype(object)
+    mixed = kind == "mixed"
+    if mixed.sum() == 1:
+        kind[mixed] = "slip" if pos[mixed][0] >= neg[mixed][0] else "non-slip"
+    if mixed.any():
+        for k in ("slip", "non-slip"):
+            lone = (kind == k) & ~mixed
+            if lone.sum() == 1 and (kind == k).sum() == 1:
+                kind[lone] = kind[mixed][0]
+    return kind
 
 
 def sorted_codes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
