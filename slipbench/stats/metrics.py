@@ -5,7 +5,8 @@ stratified cluster bootstrap of :mod:`slipbench.stats.bootstrap`: whole clusters
 recording, or a trial shared by several units) are resampled within their class, never single
 windows. Its coverage is measured, not assumed: see that module's docstring and
 ``tests/stats/test_coverage.py``. Window-level Wilson intervals are offered beside them for the view
-that treats windows as independent; ``tests/stats/test_metrics.py`` shows they undercover.
+that treats windows as independent; ``tests/stats/test_metrics.py`` shows they undercover. They
+are also a floor: clustering widens an interval, never narrows it (:func:`binomial_floor`).
 
 Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn_rate``
 (non-slip windows passed), ``balanced_accuracy`` (their mean) and ``auroc``.
@@ -14,7 +15,7 @@ Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -331,6 +332,8 @@ def _joint_figures(parts: Sequence[Predictions], spec: IntervalSpec) -> dict:
     out: dict = {}
     unestimable, floored = [], []
     estimates, windows = _floor_inputs([totals])
+    counts = _class_counts(parts)
+    spec = replace(spec, few_trials=bool(counts["low_n"]))
     for name in FIGURES:
         clusters = Clusters(
             design,
@@ -352,7 +355,7 @@ def _joint_figures(parts: Sequence[Predictions], spec: IntervalSpec) -> dict:
         if bound:
             floored.append(name)
     out["ci_note"] = _ci_note(unestimable, floored)
-    return out | _class_counts(parts)
+    return out | counts
 
 
 # ----------------------------------------------------------------------------- the binomial floor
@@ -499,7 +502,8 @@ def classification_figures(
         window-level Wilson bounds ``<rate>_wilson_lo``/``_hi`` for accuracy, TP and TN rate;
         ``n_test_clusters_slip``, ``n_test_clusters_nonslip`` (clusters holding windows of each
         class) and ``low_n`` (fewer than ``LOW_N`` of a class it holds); ``ci_note``: empty, or which
-        intervals are the figure's whole range because a class holds one cluster. A figure
+        intervals are the figure's whole range because a class holds one cluster, and which the
+        binomial floor widened (:func:`binomial_floor`). A figure
         without an estimate (no slip window for a TP rate; no scores for the AUROC) is NaN with
         NaN bounds.
     """
@@ -715,6 +719,8 @@ def over_seeds(
     unestimable, floored = [], []
     # a figure's floor: one seed's windows (a change has none: its sides' floors do not add)
     estimates, windows = _floor_inputs(per_side[0]) if cand is None else ({}, {})
+    counts = _class_counts(parts)
+    spec = replace(spec, few_trials=bool(counts["low_n"]))
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
         figure = SeededFigure(
             partial(of_seeds, _figure, per_side, name),
@@ -744,7 +750,7 @@ def over_seeds(
         out["ci_note"] = _ci_note(unestimable, floored)
     return (
         out
-        | _class_counts(parts)
+        | counts
         | {"n_seeds_base": len(sides[0]), "n_seeds_cand": len(sides[1]) if cand is not None else 0}
     )
 
