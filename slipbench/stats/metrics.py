@@ -397,13 +397,13 @@ def binomial_floor(
         return lo, hi, _floor_se(lo, hi, level)
     if name != BALANCED_ACCURACY.name:
         return None
-    p = np.array([estimates[_RATE_OF[k]] for k in (SLIP_WINDOWS, NONSLIP_WINDOWS)])
-    n = np.array([windows[k] for k in (SLIP_WINDOWS, NONSLIP_WINDOWS)])
-    if not ((n > 0).all() and np.isfinite(p).all()):
+    ps = np.array([estimates[_RATE_OF[k]] for k in (SLIP_WINDOWS, NONSLIP_WINDOWS)])
+    ns = np.array([windows[k] for k in (SLIP_WINDOWS, NONSLIP_WINDOWS)])
+    if not ((ns > 0).all() and np.isfinite(ps).all()):
         return None
-    shrunk = (p * n + 1) / (n + 2)
-    ba, ba_shrunk = float(p.mean()), float(shrunk.mean())
-    n_eff = ba_shrunk * (1 - ba_shrunk) / float((shrunk * (1 - shrunk) / n).sum() / 4)
+    shrunk = (ps * ns + 1) / (ns + 2)
+    ba, ba_shrunk = float(ps.mean()), float(shrunk.mean())
+    n_eff = ba_shrunk * (1 - ba_shrunk) / float((shrunk * (1 - shrunk) / ns).sum() / 4)
     lo, hi = wilson_ci(ba * n_eff, n_eff, level)
     return lo, hi, _floor_se(lo, hi, level)
 
