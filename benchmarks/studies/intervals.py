@@ -122,7 +122,7 @@ def cr2_bm(fit: Fit) -> tuple[float, float, float, float]:
         e = r - size * r.sum() / size.sum()  # net of the stratum's own rate
         var += float((e**2 / (1 - np.minimum(size / size.sum(), 1 - 1e-9))).sum())
     se = float(np.sqrt(var)) if var > 0 else fit.se
-    df = bell_mccaffrey_df(Clusters(p.design, p.used, p.sizes))
+    df = bell_mccaffrey_df(Clusters(p.design, p.used, p.sizes, p.weights))
     q = float(scipy.stats.t.ppf(1 - (1 - fit.level) / 2, df))
     est = fit.est
     if fit.unit and 0 < est < 1:

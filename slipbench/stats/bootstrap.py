@@ -270,13 +270,17 @@ def bell_mccaffrey_df(clusters: Clusters) -> float:
     ``(tr A)^2 / tr A^2`` over the strata the figure uses: ``n_h - 1`` for clusters of equal size,
     fewer for unequal ones. Unlike the plug-in degrees of freedom of :func:`satterthwaite_df`,
     they do not fall to 1 because one cluster holds the errors (a t quantile of 12.7 made the
-    whole range out of 4 trials a class).
+    whole range out of 4 trials a class). A figure whose windows weigh differently (the
+    balanced accuracy: ``1 / 2 n_class``) gives each cluster its windows' squared weights
+    (``clusters.weights``) in place of its windows, so a class of few trials and few windows
+    carries its weight in the degrees of freedom too.
 
     Returns
     -------
     float, at least 1; clusters - strata where no stratum the figure uses has two clusters.
     """
-    design, used, sizes = clusters.design, clusters.used, clusters.sizes
+    design, used = clusters.design, clusters.used
+    sizes = clusters.sizes if clusters.weights is None else clusters.weights
     trace = square = 0.0
     for h, n_h in enumerate(design.size):
         m = (design.stratum == h) & used
@@ -345,11 +349,15 @@ class IntervalSpec:
 @dataclass(frozen=True)
 class Clusters:
     """The clusters a figure draws on: the design (strata, clusters), which clusters it uses
-    (bool, shape (n_clusters,)) and its windows per cluster (shape (n_clusters,))."""
+    (bool, shape (n_clusters,)) and its windows per cluster (shape (n_clusters,)); optionally
+    ``weights``, each cluster's sum of its windows' squared weights in the figure (shape
+    (n_clusters,); None: every window weighs alike, as in a share of windows), which
+    :func:`bell_mccaffrey_df` reads."""
 
     design: ClusterDesign
     used: np.ndarray
     sizes: np.ndarray
+    weights: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -499,6 +507,7 @@ class Problem:
     level: float
     n_resamples: int
     bounds: tuple[float, float]
+    weights: np.ndarray | None = None  # as Clusters.weights
 
 
 @dataclass(frozen=True)
@@ -655,7 +664,7 @@ def seeded_interval(
         raise ValueError(f"unknown interval method {method!r}; choose one of: {', '.join(METHODS)}")
     problem = Problem(
         per_seed, per_seed_influence, tuple(map(float, signs)), design, used, sizes,
-        seed, level, n_resamples, bounds,
+        seed, level, n_resamples, bounds, clusters.weights,
     )  # fmt: skip
     one = np.ones((1, design.n_clusters))
     with np.errstate(invalid="ignore", divide="ignore"):  # a figure the test set lacks is NaN

@@ -240,6 +240,20 @@ def _sizes(t: _Totals, name: str) -> np.ndarray:
     return t.size[COLUMN_FIGURES[name].rate or EVERY_WINDOW]
 
 
+def _df_weights(totals: Sequence[_Totals], name: str) -> np.ndarray | None:
+    """Each cluster's sum of its windows' squared weights in the balanced accuracy, ``1 / (2
+    n_class)`` a window, summed over test sets (:class:`~slipbench.stats.bootstrap.Clusters`);
+    None for the other figures, whose windows weigh alike."""
+    if name != BALANCED_ACCURACY.name:
+        return None
+    out = np.zeros_like(totals[0].size[SLIP_WINDOWS])
+    for t in totals:
+        for rate in (SLIP_WINDOWS, NONSLIP_WINDOWS):
+            n = t.size[rate].sum()
+            out = out + (t.size[rate] / (2 * n) ** 2 if n > 0 else 0.0)
+    return out
+
+
 def _used(t: _Totals, name: str) -> np.ndarray:
     """The clusters a figure draws on."""
     rate = COLUMN_FIGURES[name].rate
@@ -339,6 +353,7 @@ def _joint_figures(parts: Sequence[Predictions], spec: IntervalSpec) -> dict:
             design,
             np.logical_or.reduce([_used(t, name) for t in totals]),
             np.sum([_sizes(t, name) for t in totals], axis=0),
+            _df_weights(totals, name),
         )
         iv = interval(
             partial(_pooled, _figure, totals, name),
@@ -732,6 +747,7 @@ def over_seeds(
             design,
             np.logical_or.reduce([_used(t, name) for t in flat]),
             np.sum([_sizes(t, name) for t in flat], axis=0),
+            _df_weights(flat, name),
         )
         pool = None if seed_pool is None else seed_pool.get(name)
         iv = seeded_interval(figure, clusters, spec, pool)

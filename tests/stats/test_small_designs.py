@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.stats.bootstrap import make_design
+from slipbench.stats.bootstrap import Clusters, bell_mccaffrey_df, make_design
 from slipbench.stats.metrics import FIGURES, RATES, binomial_floor, classification_figures
 from slipbench.store.columns import EVERY_WINDOW, NONSLIP_WINDOWS, SLIP_WINDOWS
 
@@ -185,3 +185,23 @@ def test_the_real_xela_trials(tmp_path):
                 assert row[f"{name}_hi"] - row[f"{name}_lo"] >= 0.8 * wide - 1e-12
     if (rows[["n_test_clusters_slip", "n_test_clusters_nonslip"]].min(axis=1) >= 3).any():
         _no_whole_range_nor_narrow(rows)
+
+
+def test_design_degrees_of_freedom():
+    """Bell-McCaffrey's degrees of freedom: clusters - 1 for equal clusters in one stratum, about
+    the sum over strata for equal windows, and about the few-trial class's own where its windows
+    weigh most (the balanced accuracy on 3 slip trials and 12 non-slip ones)."""
+    y = np.repeat([True] * 3 + [False] * 12, 10)
+    design, _ = make_design([y], [np.repeat(np.arange(15), 10)])
+    every = np.ones(15, bool)
+    # 2 + 11 by Satterthwaite: the strata's eigenvalues differ (3/2 x 10 and 12/11 x 10)
+    assert bell_mccaffrey_df(Clusters(design, every, np.full(15, 10.0))) == pytest.approx(
+        150**2 / (2 * 15**2 + 11 * (120 / 11) ** 2)
+    )
+    slip = np.arange(15) < 3
+    assert bell_mccaffrey_df(Clusters(design, slip, np.full(15, 10.0))) == pytest.approx(2)
+    weights = np.where(slip, 10 / (2 * 30) ** 2, 10 / (2 * 120) ** 2)
+    df = bell_mccaffrey_df(Clusters(design, every, np.full(15, 10.0), weights))
+    assert 2 < df < 3.5  # not the 12.8 of equal windows
+    uneven = np.array([100.0, 5, 5] + [10] * 12)
+    assert bell_mccaffrey_df(Clusters(design, slip, uneven)) < 2
