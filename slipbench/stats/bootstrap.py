@@ -291,7 +291,10 @@ def bell_mccaffrey_df(clusters: Clusters) -> float:
         c = 1 / np.sqrt(1 - np.minimum(s / total, 1 - 1e-9))
         a = c[:, None] * (np.diag(s) - np.outer(s, s) / total) * c[None]
         trace, square = trace + float(np.trace(a)), square + float((a * a).sum())
-    return float(max(1.0, trace**2 / square)) if square > 0 else float(design.df(used))
+    if not square > 0:
+        return float(design.df(used))
+    # rounded: equal clusters give n_h - 1 exactly, not its last bit
+    return float(max(1.0, round(trace**2 / square, 9)))
 
 
 def seed_weights(n_seeds: int, seed: int, side: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
