@@ -12,11 +12,9 @@ the few-cluster remedy of ``benchmarks/bench_coverage_small.py``).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
-import scipy.stats
-from scipy.special import expit
 
 from slipbench.seeding import rng_for
 from slipbench.stats.bootstrap import (
@@ -27,6 +25,7 @@ from slipbench.stats.bootstrap import (
     Fit,
     IntervalMethod,
     bell_mccaffrey_df,
+    cr2_interval,
     logit_bounds,
     mover_change_bounds,
     replicate_logit_bounds,
@@ -91,44 +90,18 @@ def _studentized(fit: Fit) -> tuple[float, float]:
 
 
 def cr2_bm(fit: Fit) -> tuple[float, float, float, float]:
-    """CR2 standard error and Bell-McCaffrey degrees of freedom of a figure (Bell and McCaffrey,
-    Survey Methodology 28, 2002; Pustejovsky and Tipton, J. Bus. Econ. Stat. 36, 2018), from its
-    clusters' influences at the test set itself.
-
-    Within each stratum the figure is a ratio (windows right over windows), a regression on a
-    stratum intercept: a cluster's residual total ``e_g`` (its influence net of its windows'
-    share of the stratum's) is scaled by ``(1 - h_g)^-1/2``, ``h_g = s_g / N_h`` its leverage,
-    so clusters holding much of a stratum do not shrink the variance as the plain sum of squares
-    does; the degrees of freedom are :func:`~slipbench.stats.bootstrap.bell_mccaffrey_df`'s. The
-    balanced accuracy is taken with its windows as one rate's (its classes' weights left out of
-    the degrees of freedom).
+    """The product's CR2 t-interval (:func:`~slipbench.stats.bootstrap.cr2_interval`) on
+    Bell-McCaffrey's degrees of freedom at any number of trials (the default takes it below
+    ``LOW_N`` trials a class only).
 
     Returns
     -------
-    (lo, hi, se, df): the t-interval, on the logit scale for a figure in (0, 1).
+    (lo, hi, se, df)
     """
     p = fit.problem
-    one = np.ones((1, p.design.n_clusters))
-    infl = np.asarray(
-        sum(k * np.asarray(g)[0].mean(axis=0) for k, g in zip(p.signs, p.per_seed_influence(one))),
-        float,
-    )
-    var = 0.0
-    for h, n_h in enumerate(p.design.size):
-        m = (p.design.stratum == h) & p.used
-        if n_h < 2 or m.sum() < 2:
-            continue
-        r, size = infl[m], p.sizes[m].astype(float)
-        e = r - size * r.sum() / size.sum()  # net of the stratum's own rate
-        var += float((e**2 / (1 - np.minimum(size / size.sum(), 1 - 1e-9))).sum())
-    se = float(np.sqrt(var)) if var > 0 else fit.se
     df = bell_mccaffrey_df(Clusters(p.design, p.used, p.sizes, p.weights))
-    q = float(scipy.stats.t.ppf(1 - (1 - fit.level) / 2, df))
-    est = fit.est
-    if fit.unit and 0 < est < 1:
-        z, s = np.log(est / (1 - est)), se / (est * (1 - est))
-        return float(expit(z - q * s)), float(expit(z + q * s)), se, df
-    return est - q * se, est + q * se, se, df
+    lo, hi, se = cr2_interval(replace(fit, df=df))
+    return lo, hi, se, df
 
 
 def _cr2_bm(fit: Fit) -> tuple[float, float]:
