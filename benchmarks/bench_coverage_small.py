@@ -25,9 +25,10 @@ Scenarios, ``m`` test trials a class (mixed trials counting for both):
 Every replication's interval is checked against the truth; the Monte Carlo standard error of a
 coverage of 0.95 over ``R`` replications is ``sqrt(0.95 x 0.05 / R)`` (0.007 at 1,000, 0.010 at
 500). Methods (:data:`METHODS`), each on the same test sets: the product's default
-(``scale-choice``: a figure of one seed on Bell-McCaffrey's degrees of freedom), the figures as
-the default took them before (``replicate-logit``: the plug-in Satterthwaite degrees of
-freedom), and ``cr2-bm`` (CR2 standard errors with Bell-McCaffrey's degrees of freedom,
+(``scale-choice``: below ``LOW_N`` trials a class, a figure of one seed takes the CR2 interval
+on Bell-McCaffrey's degrees of freedom; from ``LOW_N`` up, the bootstrap's), the figures as the
+default took them before at every size (``replicate-logit``: the bootstrap on the plug-in
+Satterthwaite degrees of freedom), and ``cr2-bm`` (the CR2 interval at every size,
 ``benchmarks/studies/intervals.py``). Every method's figures hold the binomial floor
 (:func:`slipbench.stats.metrics.binomial_floor`).
 
