@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.stats
 
 from slipbench.seeding import rng_for
 from slipbench.stats.bootstrap import (
@@ -25,7 +26,6 @@ from slipbench.stats.bootstrap import (
     Fit,
     IntervalMethod,
     bell_mccaffrey_df,
-    cr2_interval,
     logit_bounds,
     mover_change_bounds,
     replicate_logit_bounds,
@@ -89,10 +89,49 @@ def _studentized(fit: Fit) -> tuple[float, float]:
     return min(lo, blo), max(hi, bhi)
 
 
+def cr2_interval(fit: Fit) -> tuple[float, float, float]:
+    """A figure's t-interval on ``fit.df`` degrees of freedom with its CR2 standard error (Bell
+    and McCaffrey, Survey Methodology 28, 2002; Pustejovsky and Tipton, J. Bus. Econ. Stat. 36,
+    2018), on the logit scale for a figure in (0, 1): the study's ``cr2-bm`` (with
+    :func:`~slipbench.stats.bootstrap.bell_mccaffrey_df`).
+
+    Within each stratum a share of windows is a regression on the stratum's intercept: a
+    cluster's residual total (its influence net of its windows' share of the stratum's) is
+    scaled by ``(1 - h_g)^-1/2``, ``h_g = s_g / N_h`` its leverage, so a cluster holding much of
+    a stratum does not shrink the variance as the plain sum of squares (and the bootstrap) does.
+    Where the influences show no spread, the bootstrap's standard error stands.
+
+    Returns
+    -------
+    (lo, hi, se)
+    """
+    p = fit.problem
+    one = np.ones((1, p.design.n_clusters))
+    infl = np.asarray(
+        sum(k * np.asarray(g)[0].mean(axis=0) for k, g in zip(p.signs, p.per_seed_influence(one))),
+        float,
+    )
+    var = 0.0
+    for h, n_h in enumerate(p.design.size):
+        m = (p.design.stratum == h) & p.used
+        if n_h < 2 or m.sum() < 2:
+            continue
+        r, size = infl[m], p.sizes[m].astype(float)
+        e = r - size * r.sum() / size.sum()  # net of the stratum's own rate
+        var += float((e**2 / (1 - np.minimum(size / size.sum(), 1 - 1e-9))).sum())
+    se = float(np.sqrt(var)) if var > 0 else fit.se
+    q = float(scipy.stats.t.ppf(1 - (1 - fit.level) / 2, fit.df))
+    est = fit.est
+    if fit.unit and 0 < est < 1:
+        z, s = np.log(est / (1 - est)), se / (est * (1 - est))
+        return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s)))), se
+    return est - q * se, est + q * se, se
+
+
 def cr2_bm(fit: Fit) -> tuple[float, float, float, float]:
-    """The product's CR2 t-interval (:func:`~slipbench.stats.bootstrap.cr2_interval`) on
-    Bell-McCaffrey's degrees of freedom at any number of trials (the default takes it below
-    ``LOW_N`` trials a class only).
+    """The CR2 t-interval (:func:`cr2_interval`) on Bell-McCaffrey's degrees of freedom, at any
+    number of trials (the default takes Bell-McCaffrey's degrees of freedom below ``LOW_N``
+    trials a class, with the bootstrap's standard error).
 
     Returns
     -------

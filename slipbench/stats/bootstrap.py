@@ -5,9 +5,8 @@ recorded at once) are resampled, within their class and balancing stratum: Rao a
 rescaling bootstrap (J. Am. Stat. Assoc. 83, 1988). Figures in [0, 1] take a t-interval on the
 logit scale, its standard error at least the replicates' own logit spread; a change takes its
 own scale or, where its replicates say so, MOVER on the logit scale (Zou and Donner, Stat. Med.
-27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components; a figure of one
-seed on few trials takes the CR2 standard error on Bell-McCaffrey's degrees of freedom from the
-design instead (:func:`cr2_interval`, :func:`bell_mccaffrey_df`). Several
+27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components, or, for a figure
+of one seed on few trials, Bell-McCaffrey's from the design (:func:`bell_mccaffrey_df`). Several
 seeds add each side's seed variance net of the seed-by-cluster part (:func:`seeded_interval`),
 or a seed variance given from elsewhere (:class:`~slipbench.stats.noise.SeedNoise`: the
 protocol's cells pooled, a calibration). How each step was chosen and
@@ -346,7 +345,7 @@ class IntervalSpec:
     n_resamples: int = N_RESAMPLES
     method: str | IntervalMethod = DEFAULT_METHOD
     #: the test set holds fewer than ``LOW_N`` trials of a class: under ``scale-choice`` a
-    #: figure of one seed takes :func:`cr2_interval` on :func:`bell_mccaffrey_df` (:func:`_takes_design_df`)
+    #: figure of one seed takes :func:`bell_mccaffrey_df` (:func:`_takes_design_df`)
     few_trials: bool = False
 
 
@@ -691,10 +690,9 @@ def seeded_interval(
     cluster = reps.cluster[np.isfinite(reps.cluster)]
     se = float(np.sqrt(np.var(cluster, ddof=1) + net))
     side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
-    few = False
     if getattr(method, "plain_df", False):
         df = float(design.df(used))
-    elif few := spec.few_trials and _takes_design_df(method, problem, at_one, seed_pool):
+    elif spec.few_trials and _takes_design_df(method, problem, at_one, seed_pool):
         df = bell_mccaffrey_df(clusters)
     else:
         infl = sum(k * g for k, g in zip(signs, side_infl))
@@ -708,8 +706,6 @@ def seeded_interval(
     fit = Fit(problem, est, se, df, reps, at_one, level_df, net)
     if se == 0:
         lo, hi = _no_spread(fit, int(used.sum()))
-    elif few:
-        lo, hi, se = cr2_interval(fit)
     elif isinstance(method, str):
         lo, hi = _bounds(fit, method)
     else:
@@ -725,12 +721,13 @@ def _takes_design_df(
     seed_pool: SeedNoise | None,
 ) -> bool:
     """``scale-choice`` on few trials (:attr:`IntervalSpec.few_trials`): a figure of one seed
-    (no change, no seed variance) takes the CR2 interval (:func:`cr2_interval`) on
-    :func:`bell_mccaffrey_df`, not the bootstrap's on the plug-in :func:`satterthwaite_df`, whose
-    kurtosis term falls to 1 when one of a few trials holds the errors. Below ``LOW_N`` trials a
-    class the bootstrap's overcovers with whole-range intervals; from 10 trials up it covers
-    better than CR2's (``docs/studies/coverage.md``, "Small test sets"). Seeds and changes keep
-    the bootstrap: their coverage was measured with it."""
+    (no change, no seed variance) takes :func:`bell_mccaffrey_df`, not the plug-in
+    :func:`satterthwaite_df`, whose kurtosis term falls to 1 when one of a few trials holds the
+    errors; its standard error stays the bootstrap's. Below ``LOW_N`` trials a class the plug-in
+    overcovers with whole-range intervals; from 10 trials up it covers better than
+    Bell-McCaffrey's, and the CR2 standard error falls short at 5 trials with unequal trials
+    (``docs/studies/coverage.md``, "Small test sets"). Seeds and changes keep the plug-in: their
+    coverage was measured with it."""
     return (
         method == "scale-choice"
         and problem.bounds == (0.0, 1.0)
@@ -738,45 +735,6 @@ def _takes_design_df(
         and all(len(f) == 1 for f in at_one)
         and seed_pool is None
     )
-
-
-def cr2_interval(fit: Fit) -> tuple[float, float, float]:
-    """A figure's t-interval on ``fit.df`` degrees of freedom with its CR2 standard error (Bell
-    and McCaffrey, Survey Methodology 28, 2002; Pustejovsky and Tipton, J. Bus. Econ. Stat. 36,
-    2018), on the logit scale for a figure in (0, 1): what ``scale-choice`` takes for a figure
-    of one seed on few trials (:func:`_takes_design_df`, with :func:`bell_mccaffrey_df`).
-
-    Within each stratum a share of windows is a regression on the stratum's intercept: a
-    cluster's residual total (its influence net of its windows' share of the stratum's) is
-    scaled by ``(1 - h_g)^-1/2``, ``h_g = s_g / N_h`` its leverage, so a cluster holding much of
-    a stratum does not shrink the variance as the plain sum of squares (and the bootstrap) does.
-    Where the influences show no spread, the bootstrap's standard error stands.
-
-    Returns
-    -------
-    (lo, hi, se)
-    """
-    p = fit.problem
-    one = np.ones((1, p.design.n_clusters))
-    infl = np.asarray(
-        sum(k * np.asarray(g)[0].mean(axis=0) for k, g in zip(p.signs, p.per_seed_influence(one))),
-        float,
-    )
-    var = 0.0
-    for h, n_h in enumerate(p.design.size):
-        m = (p.design.stratum == h) & p.used
-        if n_h < 2 or m.sum() < 2:
-            continue
-        r, size = infl[m], p.sizes[m].astype(float)
-        e = r - size * r.sum() / size.sum()  # net of the stratum's own rate
-        var += float((e**2 / (1 - np.minimum(size / size.sum(), 1 - 1e-9))).sum())
-    se = float(np.sqrt(var)) if var > 0 else fit.se
-    q = float(scipy.stats.t.ppf(1 - (1 - fit.level) / 2, fit.df))
-    est = fit.est
-    if fit.unit and 0 < est < 1:
-        z, s = np.log(est / (1 - est)), se / (est * (1 - est))
-        return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s)))), se
-    return est - q * se, est + q * se, se
 
 
 def _smoothed_logit(p: np.ndarray | float, n: float) -> np.ndarray:
