@@ -4,24 +4,28 @@
 Each is an :class:`slipbench.stats.bootstrap.IntervalMethod`, given to the product's functions
 as ``method=`` (:func:`method` maps a study's name to it; the product's own names pass through):
 ``t`` and ``percentile`` (the references), ``replicate-logit`` (the default's figure part
-alone), ``mover`` (MOVER for every change of two sides) and ``studentized`` (bootstrap-t united
-with the t-interval).
+alone), ``mover`` (MOVER for every change of two sides), ``studentized`` (bootstrap-t united
+with the t-interval) and ``cr2-bm`` (CR2 standard errors with Bell-McCaffrey degrees of freedom,
+the few-cluster remedy of ``benchmarks/bench_coverage_small.py``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
+import scipy.stats
 
 from slipbench.seeding import rng_for
 from slipbench.stats.bootstrap import (
     METHODS,
     N_RESAMPLES,
     ClusterDesign,
+    Clusters,
     Fit,
     IntervalMethod,
+    bell_mccaffrey_df,
     logit_bounds,
     mover_change_bounds,
     replicate_logit_bounds,
@@ -85,6 +89,66 @@ def _studentized(fit: Fit) -> tuple[float, float]:
     return min(lo, blo), max(hi, bhi)
 
 
+def cr2_interval(fit: Fit) -> tuple[float, float, float]:
+    """A figure's t-interval on ``fit.df`` degrees of freedom with its CR2 standard error (Bell
+    and McCaffrey, Survey Methodology 28, 2002; Pustejovsky and Tipton, J. Bus. Econ. Stat. 36,
+    2018), on the logit scale for a figure in (0, 1): the study's ``cr2-bm`` (with
+    :func:`~slipbench.stats.bootstrap.bell_mccaffrey_df`).
+
+    Within each stratum a share of windows is a regression on the stratum's intercept: a
+    cluster's residual total (its influence net of its windows' share of the stratum's) is
+    scaled by ``(1 - h_g)^-1/2``, ``h_g = s_g / N_h`` its leverage, so a cluster holding much of
+    a stratum does not shrink the variance as the plain sum of squares (and the bootstrap) does.
+    Where the influences show no spread, the bootstrap's standard error stands.
+
+    Returns
+    -------
+    (lo, hi, se)
+    """
+    p = fit.problem
+    one = np.ones((1, p.design.n_clusters))
+    infl = np.asarray(
+        sum(k * np.asarray(g)[0].mean(axis=0) for k, g in zip(p.signs, p.per_seed_influence(one))),
+        float,
+    )
+    var = 0.0
+    for h, n_h in enumerate(p.design.size):
+        m = (p.design.stratum == h) & p.used
+        if n_h < 2 or m.sum() < 2:
+            continue
+        r, size = infl[m], p.sizes[m].astype(float)
+        e = r - size * r.sum() / size.sum()  # net of the stratum's own rate
+        var += float((e**2 / (1 - np.minimum(size / size.sum(), 1 - 1e-9))).sum())
+    se = float(np.sqrt(var)) if var > 0 else fit.se
+    q = float(scipy.stats.t.ppf(1 - (1 - fit.level) / 2, fit.df))
+    est = fit.est
+    if fit.unit and 0 < est < 1:
+        z, s = np.log(est / (1 - est)), se / (est * (1 - est))
+        return float(1 / (1 + np.exp(-(z - q * s)))), float(1 / (1 + np.exp(-(z + q * s)))), se
+    return est - q * se, est + q * se, se
+
+
+def cr2_bm(fit: Fit) -> tuple[float, float, float, float]:
+    """The CR2 t-interval (:func:`cr2_interval`) on Bell-McCaffrey's degrees of freedom, at any
+    number of trials (the default takes Bell-McCaffrey's degrees of freedom below ``LOW_N``
+    trials a class, with the bootstrap's standard error).
+
+    Returns
+    -------
+    (lo, hi, se, df)
+    """
+    p = fit.problem
+    df = bell_mccaffrey_df(Clusters(p.design, p.used, p.sizes, p.weights))
+    lo, hi, se = cr2_interval(replace(fit, df=df))
+    return lo, hi, se, df
+
+
+def _cr2_bm(fit: Fit) -> tuple[float, float]:
+    """The CR2 t-interval with Bell-McCaffrey degrees of freedom (:func:`cr2_bm`)."""
+    lo, hi, _, _ = cr2_bm(fit)
+    return lo, hi
+
+
 STUDIES = {
     s.name: s
     for s in (
@@ -93,6 +157,7 @@ STUDIES = {
         Study("replicate-logit", False, _replicate_logit),
         Study("mover", False, _mover),
         Study("studentized", False, _studentized),
+        Study("cr2-bm", False, _cr2_bm),
     )
 }
 

@@ -5,7 +5,8 @@ recorded at once) are resampled, within their class and balancing stratum: Rao a
 rescaling bootstrap (J. Am. Stat. Assoc. 83, 1988). Figures in [0, 1] take a t-interval on the
 logit scale, its standard error at least the replicates' own logit spread; a change takes its
 own scale or, where its replicates say so, MOVER on the logit scale (Zou and Donner, Stat. Med.
-27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components. Several
+27, 2008); degrees of freedom are Welch-Satterthwaite's over strata and seed components, or, for a figure
+of one seed on few trials, Bell-McCaffrey's from the design (:func:`bell_mccaffrey_df`). Several
 seeds add each side's seed variance net of the seed-by-cluster part (:func:`seeded_interval`),
 or a seed variance given from elsewhere (:class:`~slipbench.stats.noise.SeedNoise`: the
 protocol's cells pooled, a calibration). How each step was chosen and
@@ -92,7 +93,9 @@ def make_design(
     each class is further split by balancing stratum, a cluster taking the stratum most of its
     windows carry. Strata of a single cluster give no spread to resample, so within a class the
     lone strata are pooled, and a pool that is still alone joins the largest stratum of its
-    class. A class of one cluster stays alone: figures that draw on it are not estimable.
+    class. A class of one pure cluster joins the mixed clusters where there are any
+    (:func:`_cluster_kinds`); without them it stays alone, and figures that draw on it are not
+    estimable.
 
     Parameters
     ----------
@@ -116,11 +119,7 @@ def make_design(
     n = len(labels)
     pos = np.bincount(codes_all, weights=y, minlength=n)
     neg = np.bincount(codes_all, weights=~y, minlength=n)
-    kind = np.where(neg == 0, "slip", np.where(pos == 0, "non-slip", "mixed")).astype(object)
-    if (kind == "mixed").sum() == 1:
-        kind[kind == "mixed"] = (
-            "slip" if pos[kind == "mixed"][0] >= neg[kind == "mixed"][0] else "non-slip"
-        )
+    kind = _cluster_kinds(pos, neg)
     if strata is None:
         sub = np.full(n, "", dtype=object)
     else:
@@ -141,6 +140,28 @@ def make_design(
             key[in_kind & (key == pooled)] = names[sizes > 1][np.argmax(sizes[sizes > 1])]
     _, stratum = np.unique(key, return_inverse=True)
     return ClusterDesign(labels, stratum, np.bincount(stratum)), codes
+
+
+def _cluster_kinds(pos: np.ndarray, neg: np.ndarray) -> np.ndarray:
+    """Each cluster's class stratum from its slip (``pos``) and non-slip (``neg``) windows:
+    slip, non-slip or mixed. A lone mixed cluster joins the class holding most of its windows
+    (the other, where only that one has pure clusters); a lone pure cluster then joins the clusters holding windows of both classes, which share its
+    class (per-sample labels: one trial that only slips among trials that hold, then slip), so
+    its class is resampled rather than left alone. Shape (n_clusters,), dtype object."""
+    kind = np.where(neg == 0, "slip", np.where(pos == 0, "non-slip", "mixed")).astype(object)
+    mixed = kind == "mixed"
+    if mixed.sum() == 1:
+        pure = {k: int((kind == k).sum()) for k in ("slip", "non-slip")}
+        major = "slip" if pos[mixed][0] >= neg[mixed][0] else "non-slip"
+        minor = "non-slip" if major == "slip" else "slip"
+        # into a class that has clusters to resample it with
+        kind[mixed] = minor if pure[major] == 0 and pure[minor] > 0 else major
+    if mixed.any():
+        for k in ("slip", "non-slip"):
+            lone = (kind == k) & ~mixed
+            if lone.sum() == 1 and (kind == k).sum() == 1:
+                kind[lone] = kind[mixed][0]
+    return kind
 
 
 def sorted_codes(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -237,6 +258,45 @@ def satterthwaite_df(
     return float(max(1.0, num**2 / den)) if den > 0 else float(design.df(used))
 
 
+def bell_mccaffrey_df(clusters: Clusters) -> float:
+    """Degrees of freedom of a figure's cluster variance from the design alone (Bell and
+    McCaffrey, Survey Methodology 28, 2002; Pustejovsky and Tipton, J. Bus. Econ. Stat. 36, 2018).
+
+    Within each stratum a share of windows is a regression on the stratum's intercept; its CR2
+    variance scales a cluster's residual total by ``(1 - h_g)^-1/2``, ``h_g = s_g / N_h`` (its
+    windows over the stratum's). Under a working model of independent windows of equal
+    variance, that variance is a quadratic form with matrix ``A = C (diag(s) - s s' / N_h) C``
+    per stratum, ``C = diag((1 - h)^-1/2)``, and Satterthwaite's degrees of freedom are
+    ``(tr A)^2 / tr A^2`` over the strata the figure uses: ``n_h - 1`` for clusters of equal size,
+    fewer for unequal ones. Unlike the plug-in degrees of freedom of :func:`satterthwaite_df`,
+    they do not fall to 1 because one cluster holds the errors (a t quantile of 12.7 made the
+    whole range out of 4 trials a class). A figure whose windows weigh differently (the
+    balanced accuracy: ``1 / 2 n_class``) gives each cluster its windows' squared weights
+    (``clusters.weights``) in place of its windows, so a class of few trials and few windows
+    carries its weight in the degrees of freedom too.
+
+    Returns
+    -------
+    float, at least 1; clusters - strata where no stratum the figure uses has two clusters.
+    """
+    design, used = clusters.design, clusters.used
+    sizes = clusters.sizes if clusters.weights is None else clusters.weights
+    trace = square = 0.0
+    for h, n_h in enumerate(design.size):
+        m = (design.stratum == h) & used
+        if n_h < 2 or m.sum() < 2:
+            continue
+        s = sizes[m].astype(float)
+        total = s.sum()
+        c = 1 / np.sqrt(1 - np.minimum(s / total, 1 - 1e-9))
+        a = c[:, None] * (np.diag(s) - np.outer(s, s) / total) * c[None]
+        trace, square = trace + float(np.trace(a)), square + float((a * a).sum())
+    if not square > 0:
+        return float(design.df(used))
+    # rounded: equal clusters give n_h - 1 exactly, not its last bit
+    return float(max(1.0, round(trace**2 / square, 9)))
+
+
 def seed_weights(n_seeds: int, seed: int, side: int, n_resamples: int = N_RESAMPLES) -> np.ndarray:
     """Seed weights of Rao-Wu resamples of one side's seeds (stream ``bootstrap-seeds``):
     ``S - 1`` of ``S`` drawn with replacement, each weighted ``S / (S - 1)``; one seed keeps
@@ -284,16 +344,23 @@ class IntervalSpec:
     level: float = LEVEL
     n_resamples: int = N_RESAMPLES
     method: str | IntervalMethod = DEFAULT_METHOD
+    #: the test set holds fewer than ``LOW_N`` trials of a class: under ``scale-choice`` a
+    #: figure of one seed takes :func:`bell_mccaffrey_df` (:func:`_takes_design_df`)
+    few_trials: bool = False
 
 
 @dataclass(frozen=True)
 class Clusters:
     """The clusters a figure draws on: the design (strata, clusters), which clusters it uses
-    (bool, shape (n_clusters,)) and its windows per cluster (shape (n_clusters,))."""
+    (bool, shape (n_clusters,)) and its windows per cluster (shape (n_clusters,)); optionally
+    ``weights``, each cluster's sum of its windows' squared weights in the figure (shape
+    (n_clusters,); None: every window weighs alike, as in a share of windows), which
+    :func:`bell_mccaffrey_df` reads."""
 
     design: ClusterDesign
     used: np.ndarray
     sizes: np.ndarray
+    weights: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -443,6 +510,7 @@ class Problem:
     level: float
     n_resamples: int
     bounds: tuple[float, float]
+    weights: np.ndarray | None = None  # as Clusters.weights
 
 
 @dataclass(frozen=True)
@@ -599,7 +667,7 @@ def seeded_interval(
         raise ValueError(f"unknown interval method {method!r}; choose one of: {', '.join(METHODS)}")
     problem = Problem(
         per_seed, per_seed_influence, tuple(map(float, signs)), design, used, sizes,
-        seed, level, n_resamples, bounds,
+        seed, level, n_resamples, bounds, clusters.weights,
     )  # fmt: skip
     one = np.ones((1, design.n_clusters))
     with np.errstate(invalid="ignore", divide="ignore"):  # a figure the test set lacks is NaN
@@ -607,7 +675,7 @@ def seeded_interval(
         est = float(sum(k * f.mean() for k, f in zip(signs, at_one)))
     if not np.isfinite(est):
         return IntervalEstimate(est, np.nan, np.nan, np.nan, np.nan, False)
-    if not used.any() or design.lone()[used].any():
+    if used.sum() < 2 or design.lone()[used].any():  # one cluster: nothing measures a spread
         return IntervalEstimate(est, bounds[0], bounds[1], np.nan, np.nan, False)
     with np.errstate(invalid="ignore", divide="ignore"):
         w = resample_weights(design, seed, n_resamples)
@@ -624,6 +692,8 @@ def seeded_interval(
     side_infl = [np.asarray(g)[0].mean(axis=0) for g in per_seed_influence(one)]
     if getattr(method, "plain_df", False):
         df = float(design.df(used))
+    elif spec.few_trials and _takes_design_df(method, problem, at_one, seed_pool):
+        df = bell_mccaffrey_df(clusters)
     else:
         infl = sum(k * g for k, g in zip(signs, side_infl))
         df = satterthwaite_df(clusters, np.asarray(infl), extra, unsure)
@@ -642,6 +712,29 @@ def seeded_interval(
         lo, hi = method.bounds(fit)
     lo, hi = float(max(lo, bounds[0])), float(min(hi, bounds[1]))
     return IntervalEstimate(est, lo, hi, se, df, True)
+
+
+def _takes_design_df(
+    method: str | IntervalMethod,
+    problem: Problem,
+    at_one: Sequence[np.ndarray],
+    seed_pool: SeedNoise | None,
+) -> bool:
+    """``scale-choice`` on few trials (:attr:`IntervalSpec.few_trials`): a figure of one seed
+    (no change, no seed variance) takes :func:`bell_mccaffrey_df`, not the plug-in
+    :func:`satterthwaite_df`, whose kurtosis term falls to 1 when one of a few trials holds the
+    errors; its standard error stays the bootstrap's. Below ``LOW_N`` trials a class the plug-in
+    overcovers with whole-range intervals; from 10 trials up it covers better than
+    Bell-McCaffrey's, and the CR2 standard error falls short at 5 trials with unequal trials
+    (``docs/studies/coverage.md``, "Small test sets"). Seeds and changes keep the plug-in: their
+    coverage was measured with it."""
+    return (
+        method == "scale-choice"
+        and problem.bounds == (0.0, 1.0)
+        and problem.signs == (1.0,)
+        and all(len(f) == 1 for f in at_one)
+        and seed_pool is None
+    )
 
 
 def _smoothed_logit(p: np.ndarray | float, n: float) -> np.ndarray:

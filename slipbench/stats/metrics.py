@@ -5,7 +5,8 @@ stratified cluster bootstrap of :mod:`slipbench.stats.bootstrap`: whole clusters
 recording, or a trial shared by several units) are resampled within their class, never single
 windows. Its coverage is measured, not assumed: see that module's docstring and
 ``tests/stats/test_coverage.py``. Window-level Wilson intervals are offered beside them for the view
-that treats windows as independent; ``tests/stats/test_metrics.py`` shows they undercover.
+that treats windows as independent; ``tests/stats/test_metrics.py`` shows they undercover. They
+are also a floor: clustering widens an interval, never narrows it (:func:`binomial_floor`).
 
 Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn_rate``
 (non-slip windows passed), ``balanced_accuracy`` (their mean) and ``auroc``.
@@ -14,7 +15,7 @@ Figures: ``accuracy`` (windows correct), ``tp_rate`` (slip windows caught), ``tn
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -239,6 +240,20 @@ def _sizes(t: _Totals, name: str) -> np.ndarray:
     return t.size[COLUMN_FIGURES[name].rate or EVERY_WINDOW]
 
 
+def _df_weights(totals: Sequence[_Totals], name: str) -> np.ndarray | None:
+    """Each cluster's sum of its windows' squared weights in the balanced accuracy, ``1 / (2
+    n_class)`` a window, summed over test sets (:class:`~slipbench.stats.bootstrap.Clusters`);
+    None for the other figures, whose windows weigh alike."""
+    if name != BALANCED_ACCURACY.name:
+        return None
+    out = np.zeros_like(totals[0].size[SLIP_WINDOWS])
+    for t in totals:
+        for rate in (SLIP_WINDOWS, NONSLIP_WINDOWS):
+            n = t.size[rate].sum()
+            out = out + (t.size[rate] / (2 * n) ** 2 if n > 0 else 0.0)
+    return out
+
+
 def _used(t: _Totals, name: str) -> np.ndarray:
     """The clusters a figure draws on."""
     rate = COLUMN_FIGURES[name].rate
@@ -329,12 +344,16 @@ def _joint_figures(parts: Sequence[Predictions], spec: IntervalSpec) -> dict:
     """Each figure's mean over ``parts`` with an interval from one joint bootstrap."""
     design, totals = _joint_design(parts)
     out: dict = {}
-    unestimable = []
+    unestimable, floored = [], []
+    estimates, windows = _floor_inputs([totals])
+    counts = _class_counts(parts)
+    spec = replace(spec, few_trials=bool(counts["low_n"]))
     for name in FIGURES:
         clusters = Clusters(
             design,
             np.logical_or.reduce([_used(t, name) for t in totals]),
             np.sum([_sizes(t, name) for t in totals], axis=0),
+            _df_weights(totals, name),
         )
         iv = interval(
             partial(_pooled, _figure, totals, name),
@@ -342,20 +361,129 @@ def _joint_figures(parts: Sequence[Predictions], spec: IntervalSpec) -> dict:
             clusters,
             spec,
         )
+        iv, bound = _floored(iv, binomial_floor(name, estimates, windows, spec.level))
         _put(out, name, iv)
         if name == "accuracy":
             out["df"] = iv.df
         if np.isfinite(iv.estimate) and not iv.estimable:
             unestimable.append(name)
-    out["ci_note"] = (
-        ""
-        if not unestimable
-        else (
-            f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures how its clusters vary; "
-            "the interval given is the figure's whole range"
-        )
+        if bound:
+            floored.append(name)
+    out["ci_note"] = _ci_note(unestimable, floored)
+    return out | counts
+
+
+# ----------------------------------------------------------------------------- the binomial floor
+#: the rate of each class's windows: the figure that counts them
+_RATE_OF = {f.rate: f.name for f in figures(WINDOWED) if f.rate}
+
+
+def binomial_floor(
+    name: str, estimates: Mapping[str, float], windows: Mapping[str, float], level: float = LEVEL
+) -> tuple[float, float, float] | None:
+    """The binomial interval that no interval of figure ``name`` may be narrower than, and its
+    standard error: what the figure's windows say if every window were its own trial. Windows
+    of one trial are correlated, so clustering widens this interval and never narrows it; a
+    bootstrap over few trials can still come out narrower (a class of two trials that both fail
+    their one window gives that class's rate no spread at all), and then this one stands.
+
+    A share of windows (accuracy, TP rate, TN rate) takes Wilson's interval of its windows. The
+    balanced accuracy takes Wilson's interval on ``n_eff`` windows, where a proportion at its
+    value has the binomial variance of the mean of its two rates,
+    ``(p1 q1 / n1 + p0 q0 / n0) / 4``, each rate shrunk by one hit and one miss (so a rate of 0
+    or 1 still has a variance): ``n_eff = 4 / (1 / n1 + 1 / n0)`` when the rates agree.
+
+    Parameters
+    ----------
+    estimates : mapping of figure name to its estimate (the rates of :data:`RATES`).
+    windows : mapping of :func:`class_masks`' keys to one test set's (one seed's) windows.
+
+    Returns
+    -------
+    (lo, hi, se), ``se`` by :func:`_floor_se`; None for a figure without a floor (the AUROC)
+    or without windows.
+    """
+    rate = COLUMN_FIGURES[name].rate
+    if rate:
+        p, n = estimates[name], windows[rate]
+        if not (n > 0 and np.isfinite(p)):
+            return None
+        lo, hi = wilson_ci(p * n, n, level)
+        return lo, hi, _floor_se(lo, hi, level)
+    if name != BALANCED_ACCURACY.name:
+        return None
+    ps = np.array([estimates[_RATE_OF[k]] for k in (SLIP_WINDOWS, NONSLIP_WINDOWS)])
+    ns = np.array([windows[k] for k in (SLIP_WINDOWS, NONSLIP_WINDOWS)])
+    if not ((ns > 0).all() and np.isfinite(ps).all()):
+        return None
+    shrunk = (ps * ns + 1) / (ns + 2)
+    ba, ba_shrunk = float(ps.mean()), float(shrunk.mean())
+    n_eff = ba_shrunk * (1 - ba_shrunk) / float((shrunk * (1 - shrunk) / ns).sum() / 4)
+    lo, hi = wilson_ci(ba * n_eff, n_eff, level)
+    return lo, hi, _floor_se(lo, hi, level)
+
+
+def _floor_se(lo: float, hi: float, level: float) -> float:
+    """The standard error of a floor: its interval's half-width over the normal quantile, so a
+    rate of 0 or 1 keeps the uncertainty its windows leave (``p q / n`` would call it exact)."""
+    return float((hi - lo) / 2 / scipy.stats.norm.ppf(0.5 + level / 2))
+
+
+def _floor_inputs(
+    seeds: Sequence[Sequence[_Totals]],
+) -> tuple[dict[str, float], dict[str, float]]:
+    """The rates' estimates (mean over seeds of the mean over a seed's test sets) and one
+    seed's windows of each class (the mean over seeds), from each seed's test sets' totals."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        estimates = {
+            name: float(
+                np.mean(
+                    [
+                        np.mean([t.hits[rate].sum() / t.size[rate].sum() for t in sets])
+                        for sets in seeds
+                    ]
+                )
+            )
+            for rate, name in _RATE_OF.items()
+        }
+    windows = {
+        rate: float(np.mean([sum(t.size[rate].sum() for t in sets) for sets in seeds]))
+        for rate in _RATE_OF
+    }
+    return estimates, windows
+
+
+def _floored(
+    iv: IntervalEstimate, floor: tuple[float, float, float] | None
+) -> tuple[IntervalEstimate, bool]:
+    """``iv`` widened to hold its binomial floor (:func:`binomial_floor`), its standard error
+    at least the floor's; and whether the floor widened it. An interval that is not estimable
+    (the figure's whole range) is left as it is."""
+    if floor is None or not iv.estimable or not (np.isfinite(iv.lo) and np.isfinite(iv.hi)):
+        return iv, False
+    lo, hi, se = floor
+    bound = bool(lo < iv.lo - 1e-12 or hi > iv.hi + 1e-12)
+    wider = IntervalEstimate(
+        iv.estimate, min(iv.lo, lo), max(iv.hi, hi), max(iv.se, se), iv.df, iv.estimable
     )
-    return out | _class_counts(parts)
+    return wider, bound
+
+
+def _ci_note(unestimable: Sequence[str], floored: Sequence[str]) -> str:
+    """Why intervals are wide: a class of a single cluster (the whole range), or the binomial
+    floor (:func:`binomial_floor`) reaching past the trials' spread."""
+    notes = []
+    if unestimable:
+        notes.append(
+            f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures how "
+            "its clusters vary; the interval given is the figure's whole range"
+        )
+    if floored:
+        notes.append(
+            f"{', '.join(floored)}: widened to the binomial (Wilson) interval of its windows, "
+            "which its trials' spread fell short of"
+        )
+    return "; ".join(notes)
 
 
 # ----------------------------------------------------------------------------- one cell
@@ -389,7 +517,8 @@ def classification_figures(
         window-level Wilson bounds ``<rate>_wilson_lo``/``_hi`` for accuracy, TP and TN rate;
         ``n_test_clusters_slip``, ``n_test_clusters_nonslip`` (clusters holding windows of each
         class) and ``low_n`` (fewer than ``LOW_N`` of a class it holds); ``ci_note``: empty, or which
-        intervals are the figure's whole range because a class holds one cluster. A figure
+        intervals are the figure's whole range because a class holds one cluster, and which the
+        binomial floor widened (:func:`binomial_floor`). A figure
         without an estimate (no slip window for a TP rate; no scores for the AUROC) is NaN with
         NaN bounds.
     """
@@ -602,7 +731,11 @@ def over_seeds(
     signs = (1.0,) if cand is None or paired else (-1.0, 1.0)
     prefix = "" if cand is None else "d_"
     out: dict = {} if cand is not None else {"n_test_sets": len(parts)}
-    unestimable = []
+    unestimable, floored = [], []
+    # a figure's floor: one seed's windows (a change has none: its sides' floors do not add)
+    estimates, windows = _floor_inputs(per_side[0]) if cand is None else ({}, {})
+    counts = _class_counts(parts)
+    spec = replace(spec, few_trials=bool(counts["low_n"]))
     for name in ("accuracy", *(f for f in figures if f != "accuracy")):
         figure = SeededFigure(
             partial(of_seeds, _figure, per_side, name),
@@ -614,9 +747,13 @@ def over_seeds(
             design,
             np.logical_or.reduce([_used(t, name) for t in flat]),
             np.sum([_sizes(t, name) for t in flat], axis=0),
+            _df_weights(flat, name),
         )
         pool = None if seed_pool is None else seed_pool.get(name)
         iv = seeded_interval(figure, clusters, spec, pool)
+        if cand is None:
+            iv, bound = _floored(iv, binomial_floor(name, estimates, windows, spec.level))
+            floored += [name] if bound else []
         key = f"{prefix}{name}"
         _put(out, key, iv)
         if name == "accuracy":
@@ -626,17 +763,10 @@ def over_seeds(
         if np.isfinite(iv.estimate) and not iv.estimable:
             unestimable.append(name)
     if cand is None:
-        out["ci_note"] = (
-            ""
-            if not unestimable
-            else (
-                f"{', '.join(unestimable)}: a class holds a single cluster, so nothing measures "
-                "how its clusters vary; the interval given is the figure's whole range"
-            )
-        )
+        out["ci_note"] = _ci_note(unestimable, floored)
     return (
         out
-        | _class_counts(parts)
+        | counts
         | {"n_seeds_base": len(sides[0]), "n_seeds_cand": len(sides[1]) if cand is not None else 0}
     )
 
