@@ -8,11 +8,19 @@ which columns are channels, where the sampling rate and the per-sample labels co
 which files form one trial.
 """
 
+from collections.abc import Callable
+from pathlib import Path
+
 from slipbench.data.importers.biotacsp import BIOTACSP_DOS_MAPPING, biotacsp_dos
 from slipbench.data.importers.csv import import_csv
 from slipbench.data.importers.mapping import CsvMapping, load_mapping
+from slipbench.data.importers.xela import xela_proactive
 
-IMPORTERS = {"biotacsp-dos": biotacsp_dos}
+# each takes (src, out, description=...) and returns the dataset folder
+IMPORTERS: dict[str, Callable[..., Path]] = {
+    "biotacsp-dos": biotacsp_dos,
+    "xela-proactive": xela_proactive,
+}
 
 __all__ = [
     "BIOTACSP_DOS_MAPPING",
@@ -21,4 +29,5 @@ __all__ = [
     "biotacsp_dos",
     "import_csv",
     "load_mapping",
+    "xela_proactive",
 ]
