@@ -287,7 +287,9 @@ def _ran(text: str, rows: pd.DataFrame) -> str:
     """The parameters ``text`` (JSON) as ``rows``' finished fits ran them: a parameter a fit
     overrode (``fitted``'s ``overrides``) shows the value that ran, the one asked and why, and
     in how many cells where not in all."""
-    ok = rows[(rows["status"] == "ok") & rows["fitted"].notna()] if "fitted" in rows else rows[:0]
+    if "fitted" not in rows:  # rows of another tool, or of a version before `fitted`
+        return _params(text)
+    ok = rows[(rows["status"] == "ok") & rows["fitted"].notna()]
     seen: Counter[tuple[str, str]] = Counter()
     for fitted in ok["fitted"]:
         for name, o in json.loads(fitted or "{}").get("overrides", {}).items():

@@ -188,6 +188,11 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool, known: Scan | No
         return Held("", None, {}, {}, {})
     try:
         data, _ = whole(path)
+    except NotParquet as exc:  # damaged beyond its magic bytes: as any damage, the cells hold it
+        damaged = read_error(exc, path, "not a readable results file")
+        if not entries:
+            raise damaged from None
+        return _from_cells("", damaged, path)
     except OSError as exc:
         raise read_error(exc, path, "not a readable results file") from None
     source = hashlib.blake2b(data.read_buffer(), digest_size=16).hexdigest()
@@ -203,15 +208,7 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool, known: Scan | No
     except DataError as exc:
         if not entries:
             raise
-        return Held(
-            source,
-            None,
-            {},
-            {},
-            {},
-            note=f"{exc}; its rows are read from the cell files in {path.parent / 'cells'} "
-            "instead (a run rebuilds it)",
-        )
+        return _from_cells(source, exc, path)
     try:
         manifest = json.loads((table.schema.metadata or {}).get(MANIFEST, b"{}"))
     except ValueError:
@@ -331,6 +328,12 @@ def whole(path: Path) -> tuple[pa.BufferReader, list[int]]:
         not_parquet(fh, at.st_size)
         fh.seek(0)
         return pa.BufferReader(fh.read()), version(at)
+
+
+def _from_cells(source: str, exc: Exception, path: Path) -> Held:
+    """A damaged results.parquet: none of its rows in use, the cell files read instead."""
+    note = f"{exc}; its rows are read from the cell files in {path.parent / 'cells'} instead"
+    return Held(source, None, {}, {}, {}, note=f"{note} (a run rebuilds it)")
 
 
 MAGIC = b"PAR1"  # a Parquet file's first and last 4 bytes
