@@ -8,12 +8,12 @@ import json
 
 import numpy as np
 import pytest
+from labshapes import LOG_MAPPING, repeated_rows, slow_sensor_logs
 
 from slipbench.data.health import repeats
 from slipbench.data.importers import import_csv
 from slipbench.data.read import read_dataset, read_description
 from slipbench.errors import DataError, UsageError
-from tests.labshapes import LOG_MAPPING, repeated_rows, slow_sensor_logs
 
 REPEATED = (
     "warning: sensor Pad unit left: 75.8 % of its samples repeat the one before in every "

@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+from labshapes import FORCE, holdslip
 
 from slipbench.data.channels import channel_match, channel_orders
 from slipbench.data.transfer import combine
 from slipbench.engine.plan import Run
 from slipbench.engine.runner import _signals, evaluate, make_plan
 from slipbench.store.results import ResultsStore
-from tests.labshapes import FORCE, holdslip
 
 SWAPPED = (("fz", "N"), ("fx", "N"), ("fy", "N"))
 # the shared fixture's second finger: a gyro where the first has a force channel

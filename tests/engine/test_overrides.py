@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import json
 
+from labshapes import slow_imu
+
 from slipbench.engine.plan import Run
 from slipbench.engine.runner import evaluate
 from slipbench.report.provenance import fitted_tables, header_tables
 from slipbench.store.columns import overridden
 from slipbench.store.results import ResultsStore
-from tests.labshapes import slow_imu
 
 
 def test_overridden_says_what_ran_beside_what_was_asked():

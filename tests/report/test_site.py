@@ -30,15 +30,11 @@ def site(tmp_path_factory):
     holweg from c05 on, and its site with the last run's report."""
     root = tmp_path_factory.mktemp("site")
     for i in range(10):
-        folder = run_folder(root / f"r{i}", seed=i, shift=-0.05 * (i >= 5), code=f"k{i}")
-        other = run_folder(root / f"o{i}", seed=i, code=f"k{i}", detector=HOSTILE)
-        rows = [p / "results.parquet" for p in (folder, other)]
-        import pandas as pd
-
-        both = root / f"both{i}"
-        both.mkdir()
-        both_rows = pd.concat([pd.read_parquet(p) for p in rows], ignore_index=True)
-        both_rows.to_parquet(both / "results.parquet", index=False)
+        # both detectors' cells in one results folder, each row with its digest (proven)
+        both = run_folder(
+            root / f"both{i}", seed=i, shift=-0.05 * (i >= 5), code=f"k{i}", cells=True
+        )
+        run_folder(both, seed=i, code=f"k{i}", detector=HOSTILE, cells=True)
         day = f"2026-02-{i + 1:02d}"
         assert (
             _cli(
