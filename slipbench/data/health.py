@@ -18,6 +18,7 @@ REPEATS_WARN = 0.1  # a unit with at least this share of samples equal to the on
 GAP_STEPS = 1.5  # a time step this many times the file's median step is a gap
 JITTER_WARN = 0.05  # files whose rates spread more than this (of the median rate) are said
 TIMING_KEY = "slipbench.timing"  # recordings.parquet's metadata: what an import's times showed
+LEADING_KEY = "slipbench.leading_slip"  # and what [labels] leading_slip took from which files
 ROUTES = (
     "import with [rate] drop_repeats = true (and hz = the sensor's own rate), or resample_hz = "
     "a nominal rate with a time_column"
@@ -118,6 +119,40 @@ def timing_lines(description: Mapping[str, str]) -> list[str]:
         return [f"timing: {text}"]
 
 
+def leading_summary(cut: Mapping[str, tuple[str, int, float]], held: int) -> dict[str, Any]:
+    """What ``[labels] leading_slip`` took (stored under :data:`LEADING_KEY`): ``cut`` maps
+    each file that started in slip to (route, rows, seconds); ``held``: the hold-slip files."""
+    most = max(cut, key=lambda f: cut[f][1])
+    return {
+        "routes": sorted({v[0] for v in cut.values()}),
+        "files": len(cut),
+        "hold_slip_files": held,
+        "rows": int(sum(v[1] for v in cut.values())),
+        "seconds": float(sum(v[2] for v in cut.values())),
+        "most_file": most,
+        "most_rows": int(cut[most][1]),
+    }
+
+
+def leading_lines(description: Mapping[str, str]) -> list[str]:
+    """The line saying what an import's ``leading_slip`` took; none where it took nothing."""
+    text = description.get(LEADING_KEY)
+    if not text:
+        return []
+    try:
+        t = json.loads(text)
+        did = {"trim": "dropped", "unlabelled": "kept unlabelled"}
+        return [
+            f"leading slip: {t['files']} of {t['hold_slip_files']} hold-slip files started in "
+            f"slip; [labels] leading_slip = {' / '.join(repr(r) for r in t['routes'])} "
+            f"{' or '.join(did.get(r, r) for r in t['routes'])} their rows before the first "
+            f"no-slip sample: {t['rows']} rows ({t['seconds']:.3g} s) in all, most "
+            f"{t['most_rows']} in {t['most_file']}"
+        ]
+    except (ValueError, TypeError, KeyError):  # written by other means: shown as it is
+        return [f"leading slip: {text}"]
+
+
 def health_lines(dataset: Dataset, description: Mapping[str, str]) -> list[str]:
     """Every health line of a dataset, each to be printed after ``warning: ``."""
-    return repeat_lines(dataset) + timing_lines(description)
+    return repeat_lines(dataset) + timing_lines(description) + leading_lines(description)
