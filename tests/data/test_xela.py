@@ -106,3 +106,20 @@ def test_a_pad_file_with_a_column_missing_is_refused(tmp_path):
     with pytest.raises(DataError, match=r"xela_sensor1\.csv: 47 columns; a uSkin pad has 48"):
         xela_proactive(copy, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_dataset_import_offers_every_importer(cli):
+    from slipbench.app.commands.dataset import IMPORT_KINDS
+    from slipbench.data.importers import IMPORTERS
+
+    assert IMPORT_KINDS == ["csv", *IMPORTERS]  # xela-proactive beside biotacsp-dos
+    code, out, _ = cli(["dataset", "import", "--help"])
+    assert code == 0 and "xela-proactive" in out
+
+
+@needs_xela
+def test_dataset_import_reads_the_shared_copy(cli, tmp_path):
+    code, out, err = cli(["dataset", "import", "xela-proactive", str(SOURCE), str(tmp_path / "x")])
+    assert code == 0, err
+    assert out.startswith(f"wrote {tmp_path / 'x'}")
+    assert read_dataset(tmp_path / "x").fingerprint == FINGERPRINT
