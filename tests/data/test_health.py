@@ -73,6 +73,12 @@ def test_time_gaps_and_rate_jitter_are_said(tmp_path, cli):
     )
     (jitter,) = [line for line in out.splitlines() if line.startswith("warning: rate jitter")]
     assert "run 38-41 Hz (median 39.5 Hz)" in jitter
+    (stated,) = [line for line in out.splitlines() if line.startswith("warning: stated rate")]
+    assert stated.startswith(  # 40 Hz stated; the 38 Hz files' rows over their times (gaps)
+        "warning: stated rate: 3 of 6 files state 40 Hz, but their rows over their time "
+        "columns come to 37.09-37.14 Hz; the stated rate is used"
+    )
+    assert "uneven steps" not in out  # 3 % jitter on each step: 5-95 % within 25 % of the median
     assert "repeat the one before" not in out  # hold 1: a sensor as fast as its logger
 
 
@@ -84,6 +90,8 @@ def test_dropping_repeats_keeps_one_row_per_reading(tmp_path):
         assert repeats(samples)[0] == 0 and 55 <= len(samples) <= 60  # 240 rows, 4 per reading
         assert len(ds.slip_labels[rid]) == len(samples)
     assert set(ds.recordings["sampling_rate_hz"]) == {10.0}
+    # 10 Hz stated for the sensor, its logger's times at 40 Hz: not a disagreement
+    assert "stated_off" not in json.loads(read_description(ds.path)["slipbench.timing"])
 
 
 @pytest.mark.parametrize(

@@ -104,7 +104,10 @@ def import_csv(
         rate, times = _rate(m, fields, frame, path)
         file = CsvFile(path, rel, fields, frame, rate, times, file_variables(m, rel, selected))
         if times is not None:
-            timings[rel] = timing(times)
+            # a rate stated is checked against the rows over their times, unless repeats are
+            # dropped (the times are the logger's then, the rate the sensor's)
+            stated = not (_from_times(m, fields) or m.rate.get("drop_repeats"))
+            timings[rel] = timing(times, rate if stated else None)
         file_labels = labels_of_file(m, file, segments.get(rel, []))
         recordings, file_labels = regular(
             m, file, _recordings_of(m, file, file_labels), file_labels
@@ -204,6 +207,11 @@ def _rate(
     raise UsageError(
         f"{m.where}: no sampling rate for {path}: give [rate] hz = ... or time_column = ..., or a sampling_rate_hz field"
     )
+
+
+def _from_times(m: CsvMapping, fields: dict) -> bool:
+    """Whether a file's rate was the median step of its time column (else stated)."""
+    return fields.get("sampling_rate_hz") is None and "hz" not in m.rate
 
 
 def _recordings_of(
