@@ -21,6 +21,7 @@ JITTER_WARN = 0.05  # files whose rates spread more than this (of the median rat
 STEPS_WARN = 0.25  # a file whose steps spread (5-95 %) more than this of its median is said
 TIMING_KEY = "slipbench.timing"  # recordings.parquet's metadata: what an import's times showed
 LEADING_KEY = "slipbench.leading_slip"  # and what [labels] leading_slip took from which files
+DROPPED_KEY = "slipbench.dropped_repeats"  # and the rows [rate] drop_repeats dropped
 ROUTES = (
     "import with [rate] drop_repeats = true (and hz = the sensor's own rate), or resample_hz = "
     "a nominal rate with a time_column"
@@ -217,6 +218,43 @@ def leading_lines(description: Mapping[str, str]) -> list[str]:
         return [f"leading slip: {text}"]
 
 
+def dropped_summary(per_file: Mapping[str, tuple[int, int]]) -> dict[str, Any]:
+    """The rows ``[rate] drop_repeats`` dropped (stored under :data:`DROPPED_KEY`): ``per_file``
+    maps each file to (its rows, those dropped)."""
+    most = max(per_file, key=lambda f: per_file[f][1] / max(per_file[f][0], 1))
+    return {
+        "files": len(per_file),
+        "rows": int(sum(v[0] for v in per_file.values())),
+        "dropped": int(sum(v[1] for v in per_file.values())),
+        "most_file": most,
+        "most_share": per_file[most][1] / max(per_file[most][0], 1),
+    }
+
+
+def dropped_lines(description: Mapping[str, str]) -> list[str]:
+    """The line counting the rows an import's ``drop_repeats`` dropped; none where it dropped
+    none or was not asked."""
+    text = description.get(DROPPED_KEY)
+    if not text:
+        return []
+    try:
+        t = json.loads(text)
+        if not t["dropped"]:
+            return []
+        return [
+            f"repeated rows dropped: [rate] drop_repeats = true dropped {t['dropped']} of "
+            f"{t['rows']} rows ({100 * t['dropped'] / t['rows']:.1f} %) in {t['files']} files "
+            f"(most {100 * t['most_share']:.1f} % of {t['most_file']}); their labels with them"
+        ]
+    except (ValueError, TypeError, KeyError, ZeroDivisionError):  # written by other means
+        return [f"repeated rows dropped: {text}"]
+
+
 def health_lines(dataset: Dataset, description: Mapping[str, str]) -> list[str]:
     """Every health line of a dataset, each to be printed after ``warning: ``."""
-    return repeat_lines(dataset) + timing_lines(description) + leading_lines(description)
+    return (
+        repeat_lines(dataset)
+        + timing_lines(description)
+        + dropped_lines(description)
+        + leading_lines(description)
+    )

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 from labshapes import LATE_MAPPING, LOG_MAPPING, late_logs, repeated_rows, slow_sensor_logs
 
-from slipbench.data.health import repeats
+from slipbench.data.health import health_lines, repeats
 from slipbench.data.importers import import_csv
 from slipbench.data.read import read_dataset, read_description
 from slipbench.errors import DataError, UsageError
@@ -92,6 +92,13 @@ def test_dropping_repeats_keeps_one_row_per_reading(tmp_path):
     assert set(ds.recordings["sampling_rate_hz"]) == {10.0}
     # 10 Hz stated for the sensor, its logger's times at 40 Hz: not a disagreement
     assert "stated_off" not in json.loads(read_description(ds.path)["slipbench.timing"])
+    # every row dropped is counted, and said with the dataset
+    dropped = sum(240 - len(v) for v in ds.samples.values())
+    (line,) = [x for x in health_lines(ds, read_description(ds.path)) if "dropped" in x]
+    assert line.startswith(
+        f"repeated rows dropped: [rate] drop_repeats = true dropped {dropped} of 480 rows "
+        f"({100 * dropped / 480:.1f} %) in 2 files (most 7"
+    )
 
 
 @pytest.mark.parametrize(

@@ -16,7 +16,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.data.health import LEADING_KEY, TIMING_KEY, leading_summary, timing, timing_summary
+from slipbench.data.health import (
+    DROPPED_KEY,
+    LEADING_KEY,
+    TIMING_KEY,
+    dropped_summary,
+    leading_summary,
+    timing,
+    timing_summary,
+)
 from slipbench.data.importers.labels import (
     label_choice,
     labels_of_file,
@@ -97,6 +105,7 @@ def import_csv(
     timings: dict[str, dict] = {}  # file -> what its time column showed (gaps, rate)
     leading: dict[str, tuple[str, int, float]] = {}  # file -> leading slip: route, rows, s
     held = 0  # hold-slip files
+    repeated: dict[str, tuple[int, int]] = {}  # file -> rows, rows drop_repeats dropped
     for rel in files:
         path = src / rel
         fields = file_fields(m, rel, selected, metadata)
@@ -110,7 +119,7 @@ def import_csv(
             timings[rel] = timing(times, rate if stated else None)
         file_labels = labels_of_file(m, file, segments.get(rel, []))
         recordings, file_labels = regular(
-            m, file, _recordings_of(m, file, file_labels), file_labels
+            m, file, _recordings_of(m, file, file_labels), file_labels, repeated
         )
         if recordings and recordings[0][0]["scenario"] == "hold-slip":
             held += 1
@@ -131,6 +140,11 @@ def import_csv(
         if "resample_hz" in m.rate:
             summary["resampled_hz"] = float(m.rate["resample_hz"])
         description = {**(description or {}), TIMING_KEY.encode(): json.dumps(summary)}
+    if repeated:
+        description = {
+            **(description or {}),
+            DROPPED_KEY.encode(): json.dumps(dropped_summary(repeated)),
+        }
     cut = {f: v for f, v in leading.items() if v[1]}
     if cut:  # every row the route took, counted and kept with the dataset
         description = {
