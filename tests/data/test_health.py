@@ -166,6 +166,7 @@ def test_trimming_the_leading_slip_drops_those_rows_and_counts_them(tmp_path, cl
         ["import", "csv", str(tmp_path / "src"), folder, "--config", str(config)],
         ["validate", folder],
         ["info", folder],
+        ["check", folder, "--protocol", "window-size", "--labels", "majority"],
     ):
         code, out, err = cli(["dataset", *command])
         assert code == 0, err
