@@ -670,7 +670,8 @@ def _warning_kinds(flagged: pd.DataFrame) -> list[tuple[tuple[str, str], list[tu
 def _warning_cells(found: list[tuple[str, dict]]) -> tuple[str, str, str]:
     """One kind of warning: its most frequent wording, its number of cells, its units."""
     wording = Counter(t for t, _ in found).most_common()
-    text = wording[0][0] + (f" (and {len(wording) - 1} other values)" if len(wording) > 1 else "")
+    others = len(wording) - 1
+    text = wording[0][0] + (f" (and {others} other value{'s' * (others > 1)})" if others else "")
     units = list(dict.fromkeys(_unit(r) for _, r in found))
     return (
         text,

@@ -49,3 +49,20 @@ def test_evaluate_closes_with_the_fallback_as_a_warning(tmp_path, cli):
     code, out, err = cli([*argv, "--dataset", str(ds.path), "--out", str(tmp_path / "o")])
     assert code == 0, err
     assert "warning: bandpass: ran band=[0.6, 2.16] (asked [50, 400]: above Nyquist 2.4 Hz" in err
+
+
+def test_a_warning_in_several_wordings_counts_the_others():
+    import pandas as pd
+
+    rows = pd.DataFrame(
+        {
+            "status": ["ok"] * 3,
+            "detector": ["holweg"] * 3,
+            "sensor_type": ["Pad"] * 3,
+            "sensor_instance": ["left"] * 3,
+            "warnings": ["band 0-4 Hz", "band 0-4 Hz", "band 0-2 Hz"],
+        }
+    )
+    assert fitting_warnings(rows) == [
+        "holweg: band 0-4 Hz (and 1 other value) (in 3 of 3 finished cells: Pad left)"
+    ]
