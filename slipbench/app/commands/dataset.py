@@ -10,6 +10,7 @@ import click
 
 from slipbench.app.options import (
     Destination,
+    SuggestingGroup,
     balance_option,
     labels_option,
     parse_params,
@@ -26,7 +27,7 @@ from slipbench.errors import PluginError, UsageError
 from slipbench.protocol import BaseProtocol
 
 
-@click.group("dataset")
+@click.group("dataset", cls=SuggestingGroup)
 def dataset() -> None:
     """Create, check and describe Parquet datasets."""
 

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import click
 
-from slipbench.app.options import Destination, jobs_option, out_option
+from slipbench.app.options import Destination, SuggestingGroup, jobs_option, out_option
 
 HISTORY_HELP = "The history folder (made by the first `history add`)."
 
 
-@click.group("history")
+@click.group("history", cls=SuggestingGroup)
 def history() -> None:
     """Runs kept over commits, the steps in their series, and a site of them."""
 
