@@ -38,6 +38,8 @@ import pandas as pd
 import ruptures as rpt
 from ruptures.base import BaseCost
 
+from slipbench.gate.gate import Gate, needed, resolution, scaled_resolution
+from slipbench.history.series import figure_rows, points
 from slipbench.stats.contrast import (
     ONE_SEED,
     SHOWN,
@@ -47,9 +49,7 @@ from slipbench.stats.contrast import (
     from_parts,
     p_beyond,
 )
-from slipbench.stats.gate import Gate, needed, resolution, scaled_resolution
 from slipbench.stats.noise import SeedNoise, pool_seed_spreads
-from slipbench.stats.series import figure_rows, points
 from slipbench.store.columns import FIGURES, WINDOWED, names
 
 #: the price of a cut, times the series' noise scale and log(points)

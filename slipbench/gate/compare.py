@@ -46,10 +46,8 @@ import pandas as pd
 import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED
-from slipbench.stats.bootstrap import IntervalSpec
-from slipbench.stats.changes import cell_changes, pool_of, seed_pools
-from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, level_text, state_of
-from slipbench.stats.gate import (
+from slipbench.gate.changes import cell_changes, pool_of, seed_pools
+from slipbench.gate.gate import (
     Gate,
     needed,
     resolution,
@@ -57,6 +55,10 @@ from slipbench.stats.gate import (
     two_sided_p,
     unit,
 )
+from slipbench.gate.power import Design, looks, nominal_levels
+from slipbench.gate.sides import decidable, finished, plan_cells, read_sides
+from slipbench.stats.bootstrap import IntervalSpec
+from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, level_text, state_of
 from slipbench.stats.metrics import (
     FIGURES,
     LEVEL,
@@ -68,8 +70,6 @@ from slipbench.stats.pooled import (
     pooled_change,
     pooled_from_rows,
 )
-from slipbench.stats.power import Design, looks, nominal_levels
-from slipbench.stats.sides import decidable, finished, plan_cells, read_sides
 from slipbench.store import columns
 from slipbench.vocabulary import LOW_N
 

@@ -31,8 +31,8 @@ from functools import cache
 
 import scipy  # its submodules load on first use: reading stored rows pays none
 
-from slipbench.stats.gate import POWER
-from slipbench.stats.sequential import boundaries, fractions_of
+from slipbench.gate.gate import POWER
+from slipbench.gate.sequential import boundaries, fractions_of
 
 #: the most looks :func:`sight` allows a budget it suggests (a workflow that runs the bench
 #: ten times is as far as one would go; a budget beyond it asks for a larger tolerance)
