@@ -356,8 +356,10 @@ class BaseDetector(Parameterized):
     def save(self, path: str | os.PathLike) -> None:
         """Write the fitted detector to ``path`` (an .npz that ``np.load(allow_pickle=False)``
         reads). Fitted attributes must be arrays, numbers, strings or tuples/lists of them, or
-        scikit-learn estimators (a pipeline too) made of types skops trusts: scikit-learn's own,
-        numpy's and Python's; such an estimator is stored as skops bytes, never pickled."""
+        scikit-learn estimators (a pipeline too) made of scikit-learn's own types (trees,
+        forests, boosting, neighbours, linear models, scalers: the types skops trusts and
+        :data:`SKLEARN_STATE_TYPES`), numpy's and Python's; such an estimator is stored as skops
+        bytes, never pickled."""
         self._check_fitted()
         arrays, kinds = {}, {}
         for key, value in vars(self).items():
@@ -508,6 +510,29 @@ def _saved_class(target: str, path: Any) -> type:
 
 SKOPS = "skops"  # the kind of a fitted attribute saved by skops.io
 
+# scikit-learn's own types that fitted trees, forests, boosting and neighbours hold, which skops
+# does not trust by default (they are not estimators): trusted here by name. skops builds each
+# from plain arrays and numbers (never pickle); a distance that runs a Python function
+# (PyFuncDistance) is left out. Private module paths move between scikit-learn versions:
+# tests/plugins/test_estimator_state.py imports every name from the installed scikit-learn.
+SKLEARN_STATE_TYPES: tuple[str, ...] = (
+    # decision trees, and every forest or boosting of them (random forest, extra trees,
+    # gradient boosting, AdaBoost, bagging, isolation forest)
+    "sklearn.tree._tree.Tree",
+    # histogram gradient boosting
+    "sklearn.ensemble._hist_gradient_boosting.predictor.TreePredictor",
+    # nearest neighbours: their search trees and the distances they measure with
+    "sklearn.neighbors._kd_tree.KDTree",
+    "sklearn.neighbors._ball_tree.BallTree",
+    *(
+        f"sklearn.metrics._dist_metrics.{name}Distance{bits}"
+        for name in ("Euclidean", "SEuclidean", "Manhattan", "Chebyshev", "Minkowski")
+        for bits in (64, 32)
+    ),
+    # voting and stacking ensembles keep their fitted members in a Bunch (a dict)
+    "sklearn.utils._bunch.Bunch",
+)
+
 
 def _is_estimator(value: Any) -> bool:
     """Whether ``value`` is a scikit-learn estimator (imported only where sklearn already is)."""
@@ -516,16 +541,34 @@ def _is_estimator(value: Any) -> bool:
 
 
 def _untrusted(data: bytes) -> list[str]:
-    """The types in skops bytes that skops does not trust by default (its own check, which
-    reads the file's schema without running anything)."""
+    """The types in skops bytes that neither skops (its own check, which reads the file's
+    schema without running anything) nor :data:`SKLEARN_STATE_TYPES` trusts."""
     import skops.io
 
-    return list(skops.io.get_untrusted_types(data=data))
+    return [t for t in skops.io.get_untrusted_types(data=data) if t not in SKLEARN_STATE_TYPES]
+
+
+def _untrusted_advice(untrusted: list[str]) -> str:
+    """What to do about ``untrusted`` types: scikit-learn's own ones not listed as safe state,
+    or the plugin's own (or another library's) types."""
+    own = [t for t in untrusted if t.split(".", 1)[0] == "sklearn"]
+    if len(own) == len(untrusted):
+        return (
+            "scikit-learn types slipbench does not list as safe state "
+            "(slipbench.base.SKLEARN_STATE_TYPES); use a model made of listed ones (trees, "
+            "forests, boosting, neighbours, linear models, pipelines, scalers), or keep its "
+            "fitted arrays as attributes ending in '_' and rebuild it in _predict_proba"
+        )
+    return (
+        "types that are not scikit-learn's own; keep their fitted arrays as attributes "
+        "ending in '_' (a custom transformer's mean_, say) and apply them in _predict_proba, "
+        "or use scikit-learn's own types in their place"
+    )
 
 
 def _estimator_bytes(detector: BaseDetector, key: str, value: Any) -> np.ndarray:
     """A fitted estimator as skops bytes (uint8), refused where loading it would need a type
-    skops does not trust."""
+    that neither skops nor :data:`SKLEARN_STATE_TYPES` trusts."""
     import skops.io
 
     data = skops.io.dumps(value)
@@ -534,14 +577,15 @@ def _estimator_bytes(detector: BaseDetector, key: str, value: Any) -> np.ndarray
         raise UsageError(
             f"cannot save {type(detector).__name__}: fitted attribute {key!r} "
             f"({type(value).__name__}) holds types skops does not trust, so it could not be "
-            f"loaded without running their code: {', '.join(untrusted)}; build it from "
-            "scikit-learn's own types, or store plain arrays"
+            f"loaded without running their code: {', '.join(untrusted)}; these are "
+            + _untrusted_advice(untrusted)
         )
     return np.frombuffer(data, dtype=np.uint8)
 
 
 def _estimator_from(value: np.ndarray, key: str, path: Any) -> Any:
-    """The estimator in skops bytes, after skops' check that every type in it is trusted."""
+    """The estimator in skops bytes, after the check that every type in it is trusted (by
+    skops or by :data:`SKLEARN_STATE_TYPES`)."""
     import skops.io
 
     data = value.tobytes()
@@ -556,7 +600,7 @@ def _estimator_from(value: np.ndarray, key: str, path: Any) -> Any:
             f"{path}: fitted attribute {key!r} holds types skops does not trust: "
             f"{', '.join(untrusted)}; not loaded (loading would run their code)"
         )
-    return skops.io.loads(data)
+    return skops.io.loads(data, trusted=list(SKLEARN_STATE_TYPES))
 
 
 def _encode(value: Any) -> Any:

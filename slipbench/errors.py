@@ -21,9 +21,10 @@ code  meaning                                                          raised as
 
 from __future__ import annotations
 
+import difflib
 import errno
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 
 EXIT_OK = 0
@@ -33,6 +34,14 @@ EXIT_PLUGIN = 3
 EXIT_CELLS_FAILED = 4
 EXIT_ENVIRONMENT = 5
 EXIT_UNDECIDED = 6
+
+
+def did_you_mean(name: str, names: Iterable[str]) -> str:
+    """`` (did you mean 'a' or 'b'?)`` for the (at most three) ``names`` closest to a mistyped
+    ``name`` (difflib's ratio at least 0.6), or '' when none is close: every suggestion
+    slipbench makes (plugin ids, commands) reads the same."""
+    close = difflib.get_close_matches(name, list(names), n=3, cutoff=0.6)
+    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
 
 
 class SlipbenchError(Exception):

@@ -10,6 +10,7 @@
     paper = true                   # the published tables beside ours
     intervals = true
     metric = "accuracy"
+    # calibration = "ci/bench.calibration.json"  # default: <this file's stem>.calibration.json
 
     [dataset]                      # a dataset folder, or the simulated one (the default)
     path = "data/my-lab"           # or: scale = 0.05, seed = 0 (simulated)
@@ -53,8 +54,8 @@ constraint is a usage error (exit 2) naming the file, the line and the key. The 
 copied into the results folder (``benchmark.toml``) and its SHA-256 written beside it
 (``benchmark.json``), so results say which declaration made them.
 
-Where the file has a calibration beside it (``bench.calibration.json``, ``slipbench
-calibrate``) that holds for its settings and detectors, a ``[gate]`` tolerance the bench cannot
+Where the file has a calibration (``slipbench calibrate``: ``bench.calibration.json`` beside it,
+or the file ``[benchmark] calibration`` names, relative to the bench file) that holds for its settings and detectors, a ``[gate]`` tolerance the bench cannot
 decide even at its budget is refused when its runs are planned (:func:`plan_runs`), with the
 budget, tolerance or scale that would decide it (:mod:`slipbench.app.gateplan`).
 """
@@ -75,6 +76,7 @@ import tomllib
 
 from slipbench.app.options import repeats_problem
 from slipbench.errors import TOO_DEEP, PluginError, SlipbenchError, UsageError
+from slipbench.gate.calibration import calibration_path
 from slipbench.gate.gate import DEFAULT_TOLERANCE, unit
 from slipbench.report.render import FORMATS
 from slipbench.store.columns import WINDOWED, names
@@ -93,6 +95,7 @@ SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], str]]] = {
         "intervals": (bool, "true or false"),
         "metric": (str, f"one of {', '.join(METRICS)}"),
         "name": (str, "a string"),
+        "calibration": (str, "a calibration file"),
     },
     "dataset": {
         "path": (str, "a dataset folder"),
@@ -133,6 +136,7 @@ class Benchmark:
     intervals: bool = False
     metric: str = "accuracy"
     name: str = ""
+    calibration: Path | None = None  # [benchmark] calibration; None: beside the file
     dataset: Path | None = None
     scale: float = 0.05
     data_seed: int | None = None
@@ -158,6 +162,12 @@ class Benchmark:
         """The most seeds per side a comparison may grow to (the first look's, ``repeats``,
         where the file sets no budget)."""
         return self.repeats if self.budget is None else self.budget
+
+    @property
+    def calibration_file(self) -> Path:
+        """Where this bench's calibration is kept: the file ``[benchmark] calibration`` names,
+        else ``<stem>.calibration.json`` beside the bench file."""
+        return self.calibration or calibration_path(self.path)
 
     @property
     def describe(self) -> str:
@@ -404,6 +414,7 @@ def load_benchmark(path: str | Path, here: bool = True) -> Benchmark:
         intervals=b.get("intervals", False),
         metric=b.get("metric", "accuracy"),
         name=b.get("name", ""),
+        calibration=(home / b["calibration"]).resolve() if "calibration" in b else None,
         dataset=home / d["path"] if "path" in d else None,
         scale=float(d.get("scale", 0.05)),
         data_seed=d.get("seed"),

@@ -32,7 +32,6 @@ from slipbench.gate.calibration import (
     TWIN_DRAW,
     Calibration,
     DetectorCalibration,
-    calibration_path,
     deterministic,
     measure,
     read_calibration,
@@ -137,9 +136,9 @@ class CalibrationStatus:
 
 
 def status(bench: Benchmark, runs: list[Run]) -> CalibrationStatus:
-    """The calibration beside ``bench`` checked against its settings and ``runs``' detectors
+    """The calibration of ``bench`` (:attr:`Benchmark.calibration_file`) checked against its settings and ``runs``' detectors
     (a file that is not a calibration is a DataError, exit 2)."""
-    path = calibration_path(bench.path)
+    path = bench.calibration_file
     if not path.is_file():
         return CalibrationStatus(path, None)
     cal = read_calibration(path)
@@ -148,10 +147,10 @@ def status(bench: Benchmark, runs: list[Run]) -> CalibrationStatus:
 
 
 def recorded_status(bench: Benchmark, key: Mapping[str, Any]) -> CalibrationStatus:
-    """The calibration beside ``bench`` checked against a results folder's recorded
+    """The calibration of ``bench`` checked against a results folder's recorded
     ``calibration_key`` (``benchmark.json``: the settings' digest and each detector's
     parameters and own code as that run had them)."""
-    path = calibration_path(bench.path)
+    path = bench.calibration_file
     if not path.is_file():
         return CalibrationStatus(path, None)
     cal = read_calibration(path)
@@ -246,7 +245,7 @@ def calibrate(  # noqa: PLR0913 - what a calibration needs, named
     )
     from slipbench.atomic import write_text_atomic
 
-    write_text_atomic(calibration_path(bench.path), cal.to_json())
+    write_text_atomic(bench.calibration_file, cal.to_json())
     return cal
 
 

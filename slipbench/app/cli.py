@@ -15,6 +15,7 @@ from contextlib import contextmanager
 
 import click
 
+from slipbench.app.options import SuggestingGroup
 from slipbench.errors import ENVIRONMENT_ERRNOS, SlipbenchError, environment_fault
 
 EXIT_BUG = 70  # sysexits' EX_SOFTWARE: an internal error, reported with its traceback
@@ -40,7 +41,7 @@ COMMANDS = {
 }
 
 
-class LazyGroup(click.Group):
+class LazyGroup(SuggestingGroup):
     """A group that imports a command's module when the command is asked for (click's
     documented pattern for lazily loaded subcommands)."""
 

@@ -16,7 +16,7 @@ from typing import Any
 
 import click
 
-from slipbench.errors import TOO_DEEP, UsageError
+from slipbench.errors import TOO_DEEP, UsageError, did_you_mean
 
 MAX_SCALE = 10.0  # 80 M samples per unit: beyond this machine's memory for any protocol
 MAX_SEED = 2**32 - 1  # what numpy's SeedSequence and every seeded library accept
@@ -26,6 +26,28 @@ SEED = click.IntRange(0, MAX_SEED)
 MAX_REPEATS = 1000
 SPLIT_CHOICES = ["paper", "grouped"]
 LABELLING_CHOICES = ["scenario", "majority", "any", "last"]
+
+
+class SuggestingGroup(click.Group):
+    """A command group that answers a mistyped command with the closest ones
+    (:func:`~slipbench.errors.did_you_mean`, as for plugin ids), from the names it lists: a lazy
+    group's ``commands`` is empty until one is imported, and click before 8.2 suggests none.
+    Options suggest already (click's own, as ``No such option '--protocl'. (Did you mean ...?)``)."""
+
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        name = args[0]
+        if (
+            not ctx.resilient_parsing
+            and not name.startswith("-")
+            and self.get_command(ctx, name) is None
+        ):
+            names = self.list_commands(ctx)
+            ctx.fail(
+                f"No such command {name!r}{did_you_mean(name, names)}; commands: {', '.join(names)}."
+            )
+        return super().resolve_command(ctx, args)
 
 
 class Scale(click.ParamType):

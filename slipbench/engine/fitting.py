@@ -143,14 +143,14 @@ def fit_and_test(job: Job, on_phase: Callable[[str], None] | None = None) -> lis
     _stamp_name(job)
     saved, said = _saved(job)
     try:
-        detector, cost = saved if saved is not None else _fitted(job)
+        got = saved if saved is not None else _fitted(job)
     except EnvironmentFault:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001
         return _told(_failed_cells(job, exc, "fit"), said)
     if on_phase is not None:
         on_phase("test")
-    return _told(_tested(job, detector, cost), said)
+    return _told(_tested(job, *got), said)
 
 
 def fit_and_test_together(
@@ -411,14 +411,17 @@ def _saved(job: Job) -> tuple[tuple[BaseDetector, dict[str, Any]] | None, list[s
         return None, [f"{exc}; fitting it again"]
 
 
-def _kept(job: Job, detector: BaseDetector, cost: dict[str, Any]) -> None:
-    """Save a newly fitted model at ``model_path`` (where there is one) with its proof."""
+def _kept(job: Job, detector: BaseDetector, cost: dict[str, Any]) -> list[str]:
+    """Save a newly fitted model at ``model_path`` (where there is one) with its proof; a model
+    whose state cannot be saved safely is used in this run only, and the warning returned says
+    so in its rows (every later run fits it again)."""
     if job.model_path is None:
-        return
+        return []
     try:
         models.keep(detector, Path(job.model_path), cost)
-    except UsageError:
-        return  # state that cannot be saved safely: reuse it in this run only
+    except UsageError as exc:
+        return [f"model not saved, so every run fits it again: {exc}"]
+    return []
 
 
 def _cost(job: Job, train_s: float, peak_mb: float, opened: set[str]) -> dict[str, Any]:
@@ -432,8 +435,9 @@ def _cost(job: Job, train_s: float, peak_mb: float, opened: set[str]) -> dict[st
     }
 
 
-def _fitted(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
-    """A newly fitted detector and its training cost (kept at ``model_path``)."""
+def _fitted(job: Job) -> tuple[BaseDetector, dict[str, Any], list[str]]:
+    """A newly fitted detector, its training cost (kept at ``model_path``) and the warnings
+    of keeping it."""
     detector = clone(job.detector)
     with PeakMemory() as mem, reading() as opened:
         t0 = time.perf_counter()
@@ -446,8 +450,7 @@ def _fitted(job: Job) -> tuple[BaseDetector, dict[str, Any]]:
         )
         train_s = time.perf_counter() - t0
     cost = _cost(job, train_s, mem.mb, opened)
-    _kept(job, detector, cost)
-    return detector, cost
+    return detector, cost, _kept(job, detector, cost)
 
 
 Trained = tuple[BaseDetector, dict[str, Any]] | tuple[BaseDetector, dict[str, Any], list[str]]
@@ -504,14 +507,14 @@ def _fitted_together(jobs: list[Job], detectors: list[BaseDetector]) -> list[tup
     out: list[tuple[int, Trained]] = []
     for i, (job, detector) in enumerate(zip(jobs, detectors, strict=True)):
         cost = _cost(job, train_s, mem.mb, opened)
-        _kept(job, detector, cost)
-        out.append((i, (detector, cost)))
+        out.append((i, (detector, cost, _kept(job, detector, cost))))
     return out
 
 
 def _alone(job: Job, note: str) -> Trained | BaseException:
     try:
-        return (*_fitted(job), [note])
+        detector, cost, notes = _fitted(job)
+        return detector, cost, [note, *notes]
     except EnvironmentFault:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001

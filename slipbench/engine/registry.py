@@ -10,7 +10,6 @@ and never breaks start-up or the other plugins.
 
 from __future__ import annotations
 
-import difflib
 import functools
 import hashlib
 import importlib
@@ -25,7 +24,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
-from slipbench.errors import PluginError, UsageError
+from slipbench.errors import PluginError, UsageError, did_you_mean
 
 if TYPE_CHECKING:
     from slipbench.base import BaseDetector
@@ -183,8 +182,7 @@ class Registry(Generic[Plugin]):
         names = self.names()
         if name in names:
             return
-        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
-        hint = f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+        hint = did_you_mean(name, names)
         raise UsageError(f"unknown {self.kind} {name!r}{hint}; available: {', '.join(names)}")
 
     def get(self, name: str) -> type[Plugin]:

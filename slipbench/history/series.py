@@ -35,6 +35,7 @@ from slipbench.stats.metrics import LEVEL
 from slipbench.stats.noise import SeedNoise, pool_seed_spreads
 from slipbench.store.history import COLUMNS, FIGURES, RUN_COLUMNS
 from slipbench.store.results import row_digest
+from slipbench.vocabulary import cell_label
 
 #: the settings (beyond the entrant and the cell's columns) that name a series
 SETTINGS = ("split", "labels", "protocol_params", "sensor_map")
@@ -117,11 +118,30 @@ def _standard_error(rows: pd.DataFrame, figure: str) -> pd.Series:
 
 
 def _label(identity: dict) -> str:
-    """``window-size · holweg · {"sensor_type": ...} · grouped``: how pages and steps name it."""
-    parts = [identity.get("protocol", ""), identity.get("detector", ""), identity.get("cell", "")]
+    """``window-size · holweg · Nano17 Index window 50 · grouped``: how pages and steps name
+    it, the cell by :func:`slipbench.vocabulary.cell_label` (as the pull-request comment and
+    the report name it)."""
+    cell = identity.get("cell", "")
+    parts = [identity.get("protocol", ""), identity.get("detector", ""), _cell_text(cell)]
     parts += [identity[c] for c in ("split", "labels") if identity.get(c)]
     parts += [f"{c} {identity[c][:12]}" for c in APART if identity.get(c)]
     return " · ".join(p for p in parts if p)
+
+
+def _cell_text(cell: str) -> str:
+    """A cell key (JSON) as its short label; a key that is not a JSON object as it is."""
+    try:
+        return cell_label(cell) if cell.startswith("{") else cell
+    except (ValueError, TypeError, AttributeError):  # not JSON: shown as recorded
+        return cell
+
+
+def shown_labels(labels: pd.Series) -> np.ndarray:
+    """Series labels as people read them: a label a history recorded with its cell as JSON
+    (before cells had short labels) gets the short one, computed once per distinct label."""
+    codes, uniques = pd.factorize(labels.fillna("").astype(str))
+    short = [" · ".join(_cell_text(p) for p in u.split(" · ")) for u in uniques]
+    return np.asarray(short, dtype=object)[codes] if len(short) else np.asarray([], dtype=object)
 
 
 def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
@@ -147,7 +167,7 @@ def figure_rows(frame: pd.DataFrame, figure: str) -> pd.DataFrame:
     cells = pd.DataFrame(
         {
             "series": ok["series"].to_numpy(),
-            "series_label": ok["series_label"].to_numpy(),
+            "series_label": shown_labels(ok["series_label"]),
             "kind": "cell",
             "run": ok["run"].to_numpy(),
             "seed": ok["seed"].to_numpy(),

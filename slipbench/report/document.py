@@ -51,6 +51,7 @@ from slipbench.report.outline import (
     no_cell_note,
     outline,
     protocol_order,
+    references,
     split_parts,
     stand_ins,
     which_text,
@@ -461,7 +462,7 @@ def build_report(
         blocks += _protocol_blocks(section, o, figures.get(section.protocol, []), made.reference)
     table_one = [s.protocol for s in made.sections if s.layout.paper_table == "window-size"]
     if table_one and "window" in lead:
-        title = "At window 50: baseline and TP/TN rates" + (
+        title = "At window 50: accuracy and TP/TN rates" + (
             f", {splits[0]} split" if len(splits) > 1 else ""
         )
         blocks += _window_50(
@@ -531,8 +532,9 @@ def _window_50(
     paper: bool,
     predictions: Sequence[str | os.PathLike],
 ) -> list:
-    """The baseline and the TP/TN rates at window 50 of the rows of protocols laid out as the
-    paper's Table I: one set per combination of the settings that differ between them."""
+    """Every detector's accuracy (the registered reference named as the baseline) and the TP/TN
+    rates at window 50 of the rows of protocols laid out as the paper's Table I: one set per
+    combination of the settings that differ between them."""
     from slipbench.report.tables import BASELINE_WINDOW
 
     blocks: list = []
@@ -544,7 +546,7 @@ def _window_50(
             joint = joint_means(
                 one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions
             )
-        tables = [baseline_table(one, intervals, paper, joint)]
+        tables = [baseline_table(one, intervals, paper, joint, references(one))]
         rates = [
             rates_table(one, d, intervals, paper, joint)
             for d in rank(one["detector"].unique(), DETECTOR_ORDER)

@@ -284,3 +284,20 @@ def test_a_results_folder_that_holds_cells_is_checked_by_the_run(tmp_path):
     finally:
         (tmp_path / "res").chmod(0o755)
     assert sorted(p.name for p in (tmp_path / "res").iterdir()) == ["cells"]
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["evalute"], "No such command 'evalute' (did you mean 'evaluate'?); commands: bench,"),
+        (["histroy", "steps"], "No such command 'histroy' (did you mean 'history'?)"),
+        (["history", "stpes"], "No such command 'stpes' (did you mean 'steps'?); commands: add,"),
+        (["dataset", "valdate"], "No such command 'valdate' (did you mean 'validate'?)"),
+        (["zzz"], "No such command 'zzz'; commands: bench, calibrate, compare,"),
+        (["evaluate", "--protocl", "window-size"], "Did you mean one of: '--protocol'"),
+        (["report", "--formt", "md"], "Did you mean one of: '--format'"),
+    ],
+)
+def test_a_mistyped_command_or_option_suggests_the_closest(argv, message, cli):
+    code, _, err = cli(argv)
+    assert code == 2 and message in err, err

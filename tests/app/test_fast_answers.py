@@ -44,6 +44,7 @@ def _probe(argv: list[str], tmp_path) -> dict:
         ["evaluate", "--detector", "holwge", "--protocol", "window-size"],
         ["evaluate", "--detector", "holweg", "--protocol", "window-sise"],
         ["nonsense"],
+        ["evalute"],
     ],
 )
 def test_the_answers_that_need_no_data_import_no_numerics(argv, tmp_path):

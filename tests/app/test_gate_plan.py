@@ -91,7 +91,8 @@ def _calibrate_by_hand(
             )
         },
     )
-    calibration_path(path).write_text(cal.to_json())
+    bench.calibration_file.parent.mkdir(parents=True, exist_ok=True)
+    bench.calibration_file.write_text(cal.to_json())
 
 
 def _plan(path: Path):
@@ -288,8 +289,8 @@ def test_compare_takes_the_calibration_only_where_it_holds_for_base(tmp_path, sm
     _calibrate_by_hand(path, paired_sd=0.3, apart_sd=1.0)
     bench = load_benchmark(path)
     record(bench, tmp_path / "base", plan_runs(bench, check_gate=False))
-    sources, notes = _calibration(path, tmp_path / "base")
-    assert notes == [] and len(sources) == 1
+    sources, notes, name = _calibration(path, tmp_path / "base")
+    assert notes == [] and len(sources) == 1 and name == "bench.calibration.json"
     at = ("holweg", "window-size", "accuracy", None)
     assert sources[0].seed_noise(*at, True) == SeedNoise(0.3**2 / 1e4, 20.0, CALIBRATED)
     assert sources[0].seed_noise(*at, False) == SeedNoise(1.0 / 1e4, 19.0, CALIBRATED)
@@ -297,7 +298,7 @@ def test_compare_takes_the_calibration_only_where_it_holds_for_base(tmp_path, sm
     (tmp_path / "x").mkdir()
     other = load_benchmark(_bench(tmp_path / "x", small_path, keep=0.7))
     record(other, tmp_path / "old", plan_runs(other, check_gate=False))
-    sources, notes = _calibration(path, tmp_path / "old")
+    sources, notes, _ = _calibration(path, tmp_path / "old")
     assert sources[0].seed_noise(*at, True) is None
     assert notes == [
         "bench.calibration.json is stale for holweg: its parameters changed since it was "
@@ -305,8 +306,42 @@ def test_compare_takes_the_calibration_only_where_it_holds_for_base(tmp_path, sm
         "calibrate` measures it again"
     ]
     (tmp_path / "bare").mkdir()
-    sources, notes = _calibration(path, tmp_path / "bare")
+    sources, notes, _ = _calibration(path, tmp_path / "bare")
     assert sources == [] and "BASE holds no record of a benchmark run's code" in notes[0]
     (tmp_path / "bare" / "benchmark.json").write_text("[")
     with pytest.raises(DataError, match="bare/benchmark.json: not a benchmark run's record"):
         _calibration(path, tmp_path / "bare")
+
+
+def test_a_calibration_the_bench_names_is_the_one_every_command_reads(tmp_path, small_path, cli):
+    """``[benchmark] calibration`` names the file (relative to the bench file): the plan, the
+    gate of `compare --bench` and `calibrate --if-stale` read it there, and a file beside the
+    bench of the same stem is not read."""
+    from slipbench.app.benchfile import record
+    from slipbench.app.commands.compare import _calibration
+
+    path = tmp_path / "ci" / "gate.toml"
+    path.parent.mkdir()
+    text = BENCH.format(data=small_path, accuracy=1.5, keep=0.8)
+    path.write_text(text.replace('out = "res"', 'out = "res"\ncalibration = "../cal/main.json"'))
+    calibration_path(path).write_text("{broken: never read")
+    bench = load_benchmark(path)
+    assert bench.calibration_file == (tmp_path / "cal" / "main.json").resolve()
+    _, plan = _plan(path)
+    assert "no calibration (main.json)" in "\n".join(plan.lines())
+    _calibrate_by_hand(path, paired_sd=0.3)
+    _, plan = _plan(path)
+    acc = next(t for t in plan.tests if t.figure == "accuracy")
+    assert acc.same is not None and acc.same.sd == pytest.approx(0.3)
+    record(bench, tmp_path / "base", plan_runs(bench, check_gate=False))
+    sources, notes, name = _calibration(path, tmp_path / "base")
+    assert notes == [] and len(sources) == 1 and name == "main.json"
+    code, out, err = cli(["calibrate", str(path), "--if-stale"])
+    assert code == 0 and f"{bench.calibration_file} holds for every detector" in out, err
+
+
+def test_a_named_calibration_must_be_a_string(tmp_path, small_path):
+    path = _bench(tmp_path, small_path)
+    path.write_text(path.read_text().replace('out = "res"', 'out = "res"\ncalibration = 3'))
+    with pytest.raises(UsageError, match=r"bench.toml, line 3, \[benchmark\] calibration"):
+        load_benchmark(path)

@@ -9,8 +9,9 @@ from resultgen import fake_rows
 from slipbench.report.document import build_report, render
 from slipbench.report.leaderboard import NO_BASELINE
 from slipbench.report.meta import analyses
+from slipbench.report.outline import references
 from slipbench.report.plots import forest
-from slipbench.report.tables import Table
+from slipbench.report.tables import Table, baseline_table
 
 HOSTILE = "lab|$x$_&<b>"
 
@@ -100,3 +101,21 @@ def test_hostile_names_are_escaped_everywhere():
     html = render(blocks, "html", False, {})
     assert "<b>" not in html.split("<body>")[-1].replace("<b>Note", "")
     assert forest(analyses(rows, ["features"])) is not None
+
+
+@pytest.mark.parametrize(
+    "detectors, says",
+    [
+        (["features", "holweg"], "(baseline: features)"),
+        (["lstm", "holweg"], "(no baseline ran: none of them is the registered reference)"),
+    ],
+)
+def test_the_window_50_table_names_the_baseline_as_the_leaderboard_does(detectors, says):
+    """The baseline is the registered reference, in the window-50 table as in the leaderboard's
+    note: Holweg's threshold, a column there, is not called the baseline when no reference ran."""
+    rows = pd.concat([fake_rows("window-size", d) for d in detectors], ignore_index=True)
+    rows = rows.assign(detector_reference=rows["detector"] == "features")
+    table = baseline_table(rows, paper=True, reference=references(rows))
+    assert table is not None and says in table.caption, table.caption
+    assert table.caption.endswith("with the paper's Holweg threshold and LSTM.")
+    assert "Holweg baseline" not in table.caption

@@ -5,8 +5,10 @@ console error."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
+from pathlib import Path
 
 import pytest
 from historygen import run_folder
@@ -14,6 +16,8 @@ from historygen import run_folder
 from slipbench.app.cli import main
 
 PLOTTED = ("index.html", "compare.html", "series.html")
+#: where the browser test keeps its screenshots (CI uploads the folder as an artifact)
+SHOTS = "SLIPBENCH_SCREENSHOTS"
 HOSTILE = 'holweg</script><script>alert("x")</script>'
 
 
@@ -100,8 +104,42 @@ def test_the_series_page_marks_the_confirmed_step(site):
     assert stepped and all("holweg" in s["label"] and HOSTILE not in s["label"] for s in stepped)
     assert {runs[st["run"]][0] for s in stepped for st in s["steps"]} == {"c05"}
     assert all(len(s["segments"]) == 2 for s in stepped)
+    assert all("c05<br>2026-02-06" in s["axis"]["ticktext"] for s in stepped)
     index = (site / "index.html").read_text()
     assert "c05" in index and "regressed" in index
+    # the landing page: the protocol's plot over commits, its step marked at its commit
+    (protocol,) = _data(site / "index.html")["protocols"]
+    assert protocol["protocol"] == "window-size"
+    assert {t["name"] for t in protocol["traces"]} == {"holweg", HOSTILE}
+    assert [(st["commit"], st["improved"]) for st in protocol["steps"]] == [("c05", 0)]
+    assert protocol["steps"][0]["regressed"] > 0
+    assert protocol["axis"]["ticktext"][0] == "c00<br>2026-02-01"
+
+
+def _data(page: Path) -> dict:
+    return json.loads(
+        re.search(r"<script>window.SITE = (.*?);</script>", page.read_text(), re.S)[1]
+    )
+
+
+def _strings(value) -> list[str]:
+    if isinstance(value, dict):
+        return [s for v in value.values() for s in _strings(v)]
+    if isinstance(value, list):
+        return [s for v in value for s in _strings(v)]
+    return [value] if isinstance(value, str) else []
+
+
+@pytest.mark.slow
+def test_no_page_names_a_cell_in_json_and_headers_name_commits_not_folders(site):
+    for name in PLOTTED:
+        raw = [s for s in _strings(_data(site / name)) if '{"' in s]
+        assert not raw, (name, raw[:3])
+        text = (site / name).read_text()
+        assert "History h:" not in text and "Latest run: both" not in text
+        assert "from c00 (2026-02-01) to the latest commit, c09 (2026-02-10)" in text
+    labels = {s["label"] for s in _data(site / "series.html")["series"]}
+    assert "window-size · holweg · Nano17 Index window 50 · paper" in labels, sorted(labels)[:5]
 
 
 @pytest.mark.slow
@@ -143,6 +181,7 @@ def test_a_small_history_site_escapes_names_and_loads_local_scripts(tmp_path):
             "assets/site.js",
         ]
         assert HOSTILE not in text
+        assert not [s for s in _strings(_data(tmp_path / "s" / name)) if '{"' in s]
     data = re.search(
         r"<script>window.SITE = (.*?);</script>",
         (tmp_path / "s" / "compare.html").read_text(),
@@ -252,3 +291,55 @@ def test_the_site_leaderboard_shows_the_constant_answer():
     assert out["rows"][0][-2:] == [80.0, "no"]
     assert board(rows.assign(accuracy=0.9))["rows"][0][-1] == "yes"
     assert board(rows.drop(columns=["test_slip_windows"]))["rows"][0][-2:] == [None, "—"]
+
+
+@pytest.mark.slow
+def test_screenshots_at_1400_and_400_px_and_every_column_reachable(site, tmp_path_factory):
+    """Every page drawn at a desktop's and a phone's width, each kept as a PNG under
+    $SLIPBENCH_SCREENSHOTS (CI keeps the folder as an artifact; else a temporary folder, printed).
+    At 400 px the page does not scroll sideways, the leaderboard's table does, so its last
+    column can be reached, and every legend entry lies inside the window."""
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    shots = Path(os.environ.get(SHOTS) or tmp_path_factory.mktemp("screenshots"))
+    shots.mkdir(parents=True, exist_ok=True)
+    print(f"screenshots of the site in {shots}")
+    chrome = _browser()
+    try:
+        for width in (1400, 400):
+            chrome.set_window_size(width, 1000)
+            for name in PLOTTED:
+                chrome.get((site / name).as_uri())
+                WebDriverWait(chrome, 60).until(
+                    lambda d: (
+                        d.find_element(By.TAG_NAME, "body").get_attribute("data-drawn") == "yes"
+                    )
+                )
+                assert chrome.save_screenshot(str(shots / f"{name[:-5]}-{width}px.png"))
+                inner, page = chrome.execute_script(
+                    "return [window.innerWidth, document.documentElement.scrollWidth]"
+                )
+                assert page <= inner, f"{name} at {width} px scrolls sideways ({page} > {inner})"
+                outside = chrome.execute_script(
+                    "return [...document.querySelectorAll('.legendtext')]"
+                    ".filter((t) => t.getBoundingClientRect().right > window.innerWidth)"
+                    ".map((t) => t.textContent)"
+                )
+                assert not outside, f"{name} at {width} px: legend entries cut off: {outside}"
+            chrome.get((site / "index.html").as_uri())
+            WebDriverWait(chrome, 60).until(
+                lambda d: d.find_element(By.TAG_NAME, "body").get_attribute("data-drawn") == "yes"
+            )
+            scroll, wide, right = chrome.execute_script(
+                "const box = document.querySelector('#leaderboard .scroll');"
+                "box.scrollLeft = box.scrollWidth;"
+                "const last = box.querySelector('thead th:last-child');"
+                "return [box.clientWidth, box.scrollWidth, last.getBoundingClientRect().right];"
+            )
+            assert right <= chrome.execute_script("return window.innerWidth"), (width, right)
+            if width == 400:
+                assert wide > scroll  # the table is wider than the phone: it scrolls, whole
+        assert len(list(shots.glob("*.png"))) >= 6
+    finally:
+        chrome.quit()

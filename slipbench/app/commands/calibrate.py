@@ -43,21 +43,21 @@ class CalibrateArgs:
 @click.option(
     "--if-stale",
     is_flag=True,
-    help="Measure only where the calibration beside the file does not hold for every detector "
+    help="Measure only where the bench's calibration does not hold for every detector "
     "(none yet, the bench's settings, a detector's parameters or code changed): what a "
     "workflow runs on each push to main.",
 )
 @quiet_option()
 def calibrate_command(**options) -> None:
-    """Measure BENCH_FILE's seed noise per detector, protocol, cell and figure, write it beside
-    the file (<name>.calibration.json), and print what the gate can then see."""
+    """Measure BENCH_FILE's seed noise per detector, protocol, cell and figure, write it to its
+    calibration file (<name>.calibration.json beside it, or the one its [benchmark] calibration
+    names), and print what the gate can then see."""
     o = CalibrateArgs(**options)
     from slipbench.app.benchfile import bench_dataset, load_benchmark, plan_runs, with_overrides
     from slipbench.app.calibrate import calibrate, status
     from slipbench.app.gateplan import plan_gate
     from slipbench.atomic import check_writable
     from slipbench.errors import UsageError
-    from slipbench.gate.calibration import calibration_path
 
     bench = with_overrides(load_benchmark(o.bench_file), jobs=o.jobs)
     if bench.input == "both":
@@ -72,7 +72,7 @@ def calibrate_command(**options) -> None:
         click.echo(f"{now.path} holds for every detector of {bench.path.name}: nothing to measure")
         return
     work = o.work or bench.out / "calibration"
-    target = calibration_path(bench.path)
+    target = bench.calibration_file
     for path in (work, target.parent):
         check_writable(path)
     data = bench_dataset(bench, click.echo)

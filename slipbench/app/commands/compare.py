@@ -113,12 +113,12 @@ def compare_command(**options) -> None:
     add_plugin_folders(o.plugins)
     judged = judge(o.base, o.candidate, o.bench)
     gate = gate_from(o.figures, judged.bench, o.margin, o.max_width)
-    sources, notes = (
+    sources, notes, source = (
         _calibration(judged.calibration_bench, o.base)
         if judged.calibration_bench is not None
-        else ([], [])
+        else ([], [], "")
     )
-    sources, refused = _numbers_checked(sources, o.base, gate, judged.calibration_bench)
+    sources, refused = _numbers_checked(sources, o.base, gate, source)
     result = compare(o.base, o.candidate, gate, sources=sources)
     result.notes.extend(notes)
     result.headline[:0] = [*judged.headline, *refused]
@@ -161,10 +161,11 @@ def gate_from(
     return Gate(tolerances | explicit, max_width, b.repeats, max(b.repeats, b.seeds_budget))
 
 
-def _calibration(bench: Path, base: Path) -> tuple[list, list[str]]:
-    """The calibration beside ``bench`` (the base's bench file) where it holds for BASE's
-    detectors (checked against the ``calibration_key`` BASE's run recorded), and the lines
-    saying where it does not."""
+def _calibration(bench: Path, base: Path) -> tuple[list, list[str], str]:
+    """The calibration of ``bench`` (the base's bench file: beside it, or the file its
+    ``[benchmark] calibration`` names) where it holds for BASE's detectors (checked against
+    the ``calibration_key`` BASE's run recorded), the lines saying where it does not, and the
+    calibration file's name."""
     import json
 
     from slipbench.app.benchfile import RECORD_FILE, load_benchmark
@@ -177,25 +178,28 @@ def _calibration(bench: Path, base: Path) -> tuple[list, list[str]]:
     except (ValueError, AttributeError) as exc:
         raise DataError(f"{record}: not a benchmark run's record ({exc})") from None
     if key is None:
-        return [], [
-            f"BASE holds no record of a benchmark run's code ({RECORD_FILE}): the calibration "
-            "is not checked against it, and the seed noise rests on the sides' own seeds"
-        ]
+        return (
+            [],
+            [
+                f"BASE holds no record of a benchmark run's code ({RECORD_FILE}): the calibration "
+                "is not checked against it, and the seed noise rests on the sides' own seeds"
+            ],
+            "",
+        )
     found = recorded_status(load_benchmark(bench, here=False), key)
-    return found.sources(), found.lines()
+    return found.sources(), found.lines(), found.path.name
 
 
-def _numbers_checked(sources: list, base: Path, gate, bench: Path | None) -> tuple[list, list[str]]:
+def _numbers_checked(sources: list, base: Path, gate, name: str) -> tuple[list, list[str]]:
     """The calibration kept to the detectors whose numbers agree with what BASE's own seeds
     show (:mod:`slipbench.gate.calibration_check`), and the first-line words of each detector
     it was refused for (not used: the sides' own seeds carry its noise)."""
     import warnings
 
-    from slipbench.gate.calibration import calibration_path
     from slipbench.gate.calibration_check import refused
     from slipbench.store.results import read_results
 
-    if not sources or bench is None:
+    if not sources:
         return sources, []
     with warnings.catch_warnings():  # compare reads BASE again and says what it finds
         warnings.simplefilter("ignore")
@@ -203,8 +207,7 @@ def _numbers_checked(sources: list, base: Path, gate, bench: Path | None) -> tup
     cal = sources[0]
     bad = refused(cal, rows, list(gate.tolerances))
     said = [
-        f"{calibration_path(bench).name} not used for {detector}: {why}; the sides' own seeds "
-        "carry its noise."
+        f"{name} not used for {detector}: {why}; the sides' own seeds carry its noise."
         for detector, why in bad.items()
     ]
     return [cal.holding(d for d in cal.detectors if d not in bad)], said

@@ -10,6 +10,7 @@ import click
 
 from slipbench.app.options import (
     Destination,
+    SuggestingGroup,
     balance_option,
     labels_option,
     parse_params,
@@ -25,14 +26,13 @@ from slipbench.engine import registry
 from slipbench.errors import PluginError, UsageError
 from slipbench.protocol import BaseProtocol
 
-
 # what `dataset import` takes: csv (with a mapping) and each published dataset's importer, as
 # slipbench.data.importers.IMPORTERS names them (kept here so that --help imports no pandas;
 # tests/app/test_cli.py holds the two lists together)
 IMPORT_KINDS = ["csv", "biotacsp-dos", "xela-proactive"]
 
 
-@click.group("dataset")
+@click.group("dataset", cls=SuggestingGroup)
 def dataset() -> None:
     """Create, check and describe Parquet datasets."""
 

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import click
 
-from slipbench.app.options import Destination, jobs_option, out_option
+from slipbench.app.options import Destination, SuggestingGroup, jobs_option, out_option
 
 HISTORY_HELP = "The history folder (made by the first `history add`)."
 
 
-@click.group("history")
+@click.group("history", cls=SuggestingGroup)
 def history() -> None:
     """Runs kept over commits, the steps in their series, and a site of them."""
 
@@ -226,9 +226,11 @@ def page_command(**options) -> None:
         found = find_steps(frame, gate, o.jobs or default_jobs())
         last = found.runs.iloc[-1]
         latest = frame[frame["run"] == frame["run"].max()]
+        first = found.runs.iloc[0]
         about.append(
-            f"History {o.history.name}: {len(found.runs)} runs, the latest {last['commit']} "
-            f"({last['date']})."
+            f"The project's history: {len(found.runs)} runs over commits, from "
+            f"{first['commit']} ({first['date'][:10]}) to the latest commit, {last['commit']} "
+            f"({last['date'][:10]})."
         )
         marked = found.runs.loc[found.runs["unproven"] > 0, "commit"].tolist()
         if marked:
@@ -240,9 +242,23 @@ def page_command(**options) -> None:
     report = None
     if o.results is not None:
         latest, report = _run_report(o.results)
-        about.append(f"Latest run: {o.results.name}.")
+    if latest is not None:
+        about.append(_latest_words(latest, found))
     for path in write_site(o.out, latest, found, report, " ".join(about)):
         click.echo(f"wrote {path}")
+
+
+def _latest_words(rows, found) -> str:
+    """What the leaderboard shows, in words: the latest commit's run where a history names it,
+    else one run's size (never a folder's name)."""
+    ok = rows[rows["status"] == "ok"]
+    counts = [(ok[c].nunique(), word) for c, word in (("cell", "cell"), ("detector", "detector"))]
+    counts.append((ok["protocol"].nunique(), "protocol"))
+    cells, detectors, protocols = (f"{n} {w}{'' if n == 1 else 's'}" for n, w in counts)
+    size = f"{cells} of {detectors} under {protocols}"
+    if found is None:
+        return f"Leaderboard and side by side: one run's results, {size}."
+    return f"Leaderboard and side by side: the latest commit's run, {size}."
 
 
 def _run_report(results: Path):

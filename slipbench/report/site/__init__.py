@@ -29,10 +29,12 @@ import pandas as pd
 
 from slipbench.atomic import make_folder, write_text_atomic
 from slipbench.gate.gate import unit
+from slipbench.history.series import POOLED
 from slipbench.history.steps import JUDGED, Steps
 from slipbench.report.steps import short_history, verdict_shown
 from slipbench.stats.leaderboard import constant_accuracy
 from slipbench.store.columns import ACCURACY, FIGURES
+from slipbench.vocabulary import cell_label
 
 #: the points every series page holds together (values and standard errors)
 POINT_BUDGET = 100_000
@@ -140,13 +142,14 @@ def leaderboard(rows: pd.DataFrame) -> dict:
 
 
 def _cells(rows: pd.DataFrame) -> dict:
-    """Each finished cell's figures (mean over its seeds, in points) per detector."""
+    """Each finished cell's figures (mean over its seeds, in points) per detector, the cell
+    named by its short label (:func:`slipbench.vocabulary.cell_label`)."""
     ok = rows[rows["status"] == "ok"]
     figures = [f for f in JUDGED if f in ok]
     cells = []
     for (protocol, cell, detector), part in ok.groupby(["protocol", "cell", "detector"], sort=True):
         cells.append(
-            [protocol, cell, detector]
+            [protocol, cell_label(str(cell)), detector]
             + [_round(100 * pd.to_numeric(part[f], errors="coerce").mean()) for f in figures]
         )
     return {
@@ -179,6 +182,70 @@ def _step_rows(found: Steps) -> dict:
         "none": short_history(found)
         or f"No confirmed step in {len(found.runs)} runs and {found.series} series.",
     }
+
+
+#: the commits named on a plot's x axis at most (every step's commit besides)
+MAX_TICKS = 12
+
+
+def _ticks(runs: pd.DataFrame, shown: list[int], marked: list[int]) -> dict:
+    """An x axis of runs named by commit and date: evenly spread over ``shown``, and every
+    run in ``marked``."""
+    picked = set(marked)
+    if shown:
+        step = max(1, -(-len(shown) // MAX_TICKS))
+        picked |= set(shown[::step]) | {shown[-1]}
+    vals = sorted(int(r) for r in picked if 0 <= r < len(runs))
+    text = [f"{runs['commit'].iloc[r]}<br>{str(runs['date'].iloc[r])[:10]}" for r in vals]
+    return {"tickvals": vals, "ticktext": text}
+
+
+def _overview(found: Steps) -> list[dict]:
+    """Per protocol, each detector's mean over the protocol's cells (the pooled series) of
+    the first judged figure over commits, and every confirmed step of the protocol's series
+    (cells' and pooled) marked at its commit: what a reviewer reads first."""
+    pts = found.points
+    if pts.empty:
+        return []
+    figure = next(f for f in JUDGED if f in set(pts["figure"]))
+    pooled = pts[(pts["kind"] == "pooled") & (pts["figure"] == figure)]
+    suffix = f" · {POOLED}"
+    out = []
+    parts = pooled["series_label"].str.removesuffix(suffix).str.split(" · ", n=1)
+    by_protocol = pooled.assign(protocol=parts.str[0], detector=parts.str[1]).groupby("protocol")
+    keep = max(MIN_POINTS, POINT_BUDGET // max(1, pooled["series"].nunique()))
+    for protocol, part in by_protocol:
+        traces = []
+        for detector, one in part.groupby("detector", sort=True):
+            one = one.sort_values("run").tail(keep)
+            traces.append(
+                {
+                    "name": detector,
+                    "x": [int(r) for r in one["run"]],
+                    "y": [_round(v * FIGURES[figure].scale) for v in one["value"]],
+                }
+            )
+        mine = found.confirmed[found.confirmed["series_label"].str.startswith(f"{protocol} · ")]
+        steps = [
+            {
+                "run": int(run),
+                "commit": str(found.runs["commit"].iloc[int(run)]),
+                "regressed": int((g["verdict"] == "regressed").sum()),
+                "improved": int((g["verdict"] == "improved").sum()),
+            }
+            for run, g in mine.groupby("run")
+        ]
+        shown = sorted({x for t in traces for x in t["x"]})
+        out.append(
+            {
+                "protocol": protocol,
+                "figure": f"{FIGURES[figure].label} ({unit(figure)}), mean over cells",
+                "traces": traces,
+                "steps": steps,
+                "axis": _ticks(found.runs, shown, [int(r) for r in mine["run"].unique()]),
+            }
+        )
+    return out
 
 
 def _segments(pts: pd.DataFrame, runs: list[int]) -> list[list]:
@@ -232,6 +299,7 @@ def _series(found: Steps) -> dict:
                     for r, v, s in zip(shown["run"], shown["value"], shown["se"])
                 ],
                 "segments": _segments(part, list(mine["run"])),
+                "axis": _ticks(found.runs, [int(r) for r in shown["run"]], list(mine["run"])),
                 "steps": [
                     {
                         "run": int(r["run"]),
@@ -243,16 +311,21 @@ def _series(found: Steps) -> dict:
             }
         )
     out.sort(key=lambda s: (-len(s["steps"]), s["figure"], s["label"]))
-    # a run holding rows that entered unproven is named so wherever a point shows its commit
+    return {"series": out, "runs": _runs(found)}
+
+
+def _runs(found: Steps) -> list[list[str]]:
+    """Each run's commit and date, oldest first: a run holding rows that entered unproven is
+    named so wherever a point shows its commit."""
     commits = [
         f"{c} (unproven)" if n else c for c, n in zip(found.runs["commit"], found.runs["unproven"])
     ]
-    runs = [[c, d] for c, d in zip(commits, found.runs["date"])]
-    return {"series": out, "runs": runs}
+    return [[c, d] for c, d in zip(commits, found.runs["date"])]
 
 
 BODIES = {
-    "index.html": '<div class="controls"><label>Filter <input id="filter" type="search" '
+    "index.html": '<div id="protocols"></div>\n<h2>Latest run</h2>\n'
+    '<div class="controls"><label>Filter <input id="filter" type="search" '
     'placeholder="protocol, detector, commit"></label></div>\n<div id="leaderboard"></div>\n'
     '<div id="overview" class="plot"></div>\n<h2>Confirmed steps, newest first</h2>\n'
     '<div id="steps"></div>',
@@ -296,6 +369,8 @@ def write_site(
             "page": "index",
             "leaderboard": leaderboard(latest),
             "steps": _step_rows(found) if found else none,
+            "protocols": _overview(found) if found else [],
+            "runs": _runs(found) if found else [],
         },
         "compare.html": {"page": "compare", **_cells(latest)},
         **({"series.html": {"page": "series", **_series(found)}} if found else {}),

@@ -50,7 +50,42 @@ function table(where, spec, filterBox) {
   }
   if (filterBox) filterBox.addEventListener("input", draw);
   draw();
-  where.appendChild(tbl);
+  // a narrow screen scrolls the table, never the page: every column stays reachable
+  where.appendChild(el("div", { class: "scroll" })).appendChild(tbl);
+}
+
+// Legends above the plot, in rows that wrap at any width.
+const LEGEND = { orientation: "h", x: 0, xanchor: "left", y: 1.02, yanchor: "bottom" };
+
+// One plot per protocol: each detector's mean over cells by commit, confirmed steps marked.
+function protocolPlots(site, Plotly) {
+  const where = document.getElementById("protocols");
+  for (const [i, p] of site.protocols.entries()) {
+    where.appendChild(el("h2", {}, p.protocol));
+    const steps = p.steps.map((st) => `${st.commit}: ${st.regressed} regressed, ${st.improved} improved`);
+    where.appendChild(el("p", { class: "note" }, `${p.figure}.` + (steps.length
+      ? ` Confirmed steps (dotted lines): ${steps.join("; ")}.` : " No confirmed step.")));
+    const id = `protocol-${i}`;
+    where.appendChild(el("div", { id, class: "plot" }));
+    const traces = p.traces.map((t) => ({
+      type: "scatter", mode: "lines+markers", name: t.name, x: t.x, y: t.y,
+      text: t.x.map((r) => `${site.runs[r][0]} ${site.runs[r][1]}`),
+      hovertemplate: "%{text}<br>%{y:.2f}<extra>%{fullData.name}</extra>",
+    }));
+    const shapes = p.steps.map((st) => ({
+      type: "line", x0: st.run - 0.5, x1: st.run - 0.5, yref: "paper", y0: 0, y1: 1,
+      line: { color: st.regressed ? "#c00" : "#080", dash: "dot" },
+    }));
+    const annotations = p.steps.map((st) => ({
+      x: st.run - 0.5, yref: "paper", y: 0.98, yanchor: "top", showarrow: false,
+      text: st.commit, font: { color: st.regressed ? "#c00" : "#080" },
+    }));
+    Plotly.newPlot(id, traces, {
+      xaxis: { title: { text: "commit (oldest first)" }, tickvals: p.axis.tickvals, ticktext: p.axis.ticktext },
+      yaxis: { title: { text: p.figure.split(",")[0] } }, legend: LEGEND,
+      shapes, annotations, margin: { t: 30, r: 10 },
+    }, { responsive: true });
+  }
 }
 
 function indexPage(site, Plotly) {
@@ -68,8 +103,9 @@ function indexPage(site, Plotly) {
   const traces = Object.entries(byDetector).map(([name, d]) => ({ type: "bar", name, x: d.x, y: d.y }));
   Plotly.newPlot("overview", traces, {
     barmode: "group", yaxis: { title: { text: site.leaderboard.columns[3] } },
-    margin: { t: 20 },
+    legend: LEGEND, margin: { t: 20, r: 10 },
   }, { responsive: true });
+  if (site.protocols) protocolPlots(site, Plotly);
 }
 
 function comparePage(site, Plotly) {
@@ -83,7 +119,10 @@ function comparePage(site, Plotly) {
   const where = document.getElementById("pairs");
   function draw() {
     const f = site.figures.indexOf(fig.value);
-    const of = (d) => Object.fromEntries(site.cells.filter((c) => c[2] === d).map((c) => [c[0] + " · " + c[1], c[3 + f]]));
+    // the protocol named only where the run holds several
+    const several = new Set(site.cells.map((c) => c[0])).size > 1;
+    const of = (d) => Object.fromEntries(site.cells.filter((c) => c[2] === d)
+      .map((c) => [several ? c[0] + " · " + c[1] : c[1], c[3 + f]]));
     const left = of(a.value), right = of(b.value);
     const shared = Object.keys(left).filter((k) => k in right);
     const rows = shared.map((k) => [k, left[k], right[k], Number(fmt(right[k] - left[k], 2))]);
@@ -91,8 +130,13 @@ function comparePage(site, Plotly) {
     const note = document.getElementById("shared");
     note.textContent = `${shared.length} cells both ran; ${fig.value} in points, ${b.value} − ${a.value}.`;
     table(where, { columns: ["cell", a.value, b.value, "difference"], rows }, null);
-    Plotly.react("difference", [{ type: "bar", x: shared, y: rows.map((r) => r[3]) }], {
-      yaxis: { title: { text: `${b.value} − ${a.value} (points)` } }, margin: { t: 20, b: 160 },
+    // one bar a row, its cell's label beside it: long labels stay readable at any width
+    Plotly.react("difference", [{
+      type: "bar", orientation: "h", y: shared, x: rows.map((r) => r[3]),
+    }], {
+      xaxis: { title: { text: `${b.value} − ${a.value} (points)` } },
+      yaxis: { automargin: true, autorange: "reversed", tickfont: { size: 11 } },
+      height: 120 + 18 * shared.length, margin: { t: 20, r: 10 },
     }, { responsive: true });
   }
   [a, b, fig].forEach((s) => s.addEventListener("change", draw));
@@ -119,7 +163,7 @@ function seriesPage(site, Plotly) {
     const commit = (r) => site.runs[r][0];
     const x = s.points.map((p) => p[0]);
     const traces = [{
-      type: "scatter", mode: "markers", name: "runs", x,
+      type: "scatter", mode: "markers", name: "commits", x,
       y: s.points.map((p) => p[1]),
       error_y: { type: "data", array: s.points.map((p) => 1.96 * p[2]), visible: true, thickness: 1 },
       text: x.map((r) => `${commit(r)} ${site.runs[r][1]}`),
@@ -138,8 +182,8 @@ function seriesPage(site, Plotly) {
       text: `${commit(st.run)} ${st.change}`,
     }));
     Plotly.react("plot", traces, {
-      xaxis: { title: { text: "run (oldest first)" } }, yaxis: { title: { text: s.unit } },
-      shapes, annotations, margin: { t: 40 },
+      xaxis: { title: { text: "commit (oldest first)" }, tickvals: s.axis.tickvals, ticktext: s.axis.ticktext },
+      yaxis: { title: { text: s.unit } }, legend: LEGEND, shapes, annotations, margin: { t: 40, r: 10 },
     }, { responsive: true });
     document.getElementById("about").textContent = s.about;
     history.replaceState(null, "", "#" + s.id);
