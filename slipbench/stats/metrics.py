@@ -901,7 +901,7 @@ def paired_comparison(
     y_true, base_pred, cand_pred, groups : ndarray of shape (n_windows,)
         Labels, the two hard predictions, and each window's cluster.
     level : float
-        Interval level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
+        Interval level; :func:`slipbench.gate.compare.compare` passes a Bonferroni-adjusted one.
     base_scores, cand_scores : ndarray of shape (n_windows,), optional
         Slip probabilities: give the change in AUROC.
     figures : sequence of str
