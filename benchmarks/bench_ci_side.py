@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from slipbench.app.benchfile import load_benchmark
+from slipbench.app.benchspec import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[1]
 OLD = """\

@@ -18,7 +18,7 @@ from unittest import mock
 import numpy as np
 import pandas as pd
 
-from slipbench.app.benchfile import load_benchmark
+from slipbench.app.benchspec import load_benchmark
 from slipbench.app.planning import planning
 from slipbench.protocol import Part
 

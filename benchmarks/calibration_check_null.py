@@ -70,7 +70,7 @@ def _ratios(det, name: str, rows, figures) -> list[float]:
 
 
 def main() -> None:
-    from slipbench.app.benchfile import load_benchmark
+    from slipbench.app.benchspec import load_benchmark
     from slipbench.gate.calibration import calibration_path, read_calibration
     from slipbench.gate.calibration_check import SEED_FACTOR, refused
     from slipbench.stats.factors import latest_runs

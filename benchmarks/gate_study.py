@@ -200,7 +200,8 @@ class Study:
     """The bench's settings, the dataset and the plugins, and pools of evaluated seeds."""
 
     def __init__(self, root: Path, bench_file: Path) -> None:
-        from slipbench.app.benchfile import bench_dataset, load_benchmark, plan_runs
+        from slipbench.app.benchfile import bench_dataset, plan_runs
+        from slipbench.app.benchspec import load_benchmark
         from slipbench.engine import registry
 
         self.root = root
@@ -308,7 +309,8 @@ def study_bench(study: Study, protocols: dict | None = None, name: str = "study"
 def calibrated_plan(study: Study, seeds: int, bench_file: Path | None = None) -> list[str]:
     """Calibrate the study's bench (or ``bench_file``) on ``seeds`` seeds, kept in the work
     folder (a second run, or a bench sharing cells, reads them), and return its gate's plan."""
-    from slipbench.app.benchfile import load_benchmark, plan_runs
+    from slipbench.app.benchfile import plan_runs
+    from slipbench.app.benchspec import load_benchmark
     from slipbench.app.calibrate import calibrate, status
     from slipbench.app.gateplan import plan_gate
 
@@ -573,7 +575,8 @@ def main() -> None:
         print("The study bench's plan (`slipbench calibrate`, HalfLogistic):\n\n```text")
         print("\n".join(calibrated_plan(study, args.calibrate)) + "\n```\n", flush=True)
     else:  # the study bench's calibration as an earlier run left it, where there is one
-        from slipbench.app.benchfile import load_benchmark, plan_runs
+        from slipbench.app.benchfile import plan_runs
+        from slipbench.app.benchspec import load_benchmark
 
         bench = load_benchmark(study_bench(study))
         study.sources += _held(bench, plan_runs(bench, echo=lambda _: None, check_gate=False))

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
-from slipbench.app.benchfile import load_benchmark, with_overrides
+from slipbench.app.benchspec import load_benchmark, with_overrides
 from slipbench.app.planning import planning
 from slipbench.engine.estimate import makespan
 

@@ -77,7 +77,8 @@ def benchmark_table() -> str:
 def gate_plan() -> str:
     """The shipped bench's gate plan, from bench.toml and its committed calibration, as
     ``slipbench calibrate`` prints it."""
-    from slipbench.app.benchfile import load_benchmark, plan_runs
+    from slipbench.app.benchfile import plan_runs
+    from slipbench.app.benchspec import load_benchmark
     from slipbench.app.calibrate import status
     from slipbench.app.gateplan import plan_gate
 

@@ -2,6 +2,6 @@
 
 ``cli`` holds the command group and ``main`` with its exit codes; ``commands/`` one module per
 command; ``options`` the options they share; ``selection`` plugins chosen by id or ``all``;
-``benchfile`` runs ``bench.toml``; ``bench`` measures detectors' costs; ``info`` summarises a
-dataset. May import: every wing.
+``benchspec`` reads ``bench.toml`` into its parsed form and ``benchfile`` runs it; ``bench``
+measures detectors' costs; ``info`` summarises a dataset. May import: every wing.
 """

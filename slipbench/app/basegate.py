@@ -20,7 +20,8 @@ from typing import Any
 import pandas as pd
 import tomllib
 
-from slipbench.app.benchfile import BENCHMARK_FILE, RECORD_FILE, Benchmark, load_benchmark
+from slipbench.app.benchfile import BENCHMARK_FILE, RECORD_FILE
+from slipbench.app.benchspec import Benchmark, load_benchmark
 from slipbench.errors import DataError, UsageError
 from slipbench.gate.gate import DEFAULT_TOLERANCE
 from slipbench.store.columns import FIGURES

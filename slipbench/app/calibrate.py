@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from slipbench.app.benchspec import Benchmark
 from slipbench.engine.plan import Run
 from slipbench.gate.calibration import (
     TWIN_DRAW,
@@ -42,8 +43,7 @@ from slipbench.seeding import STREAM_SCHEME
 from slipbench.store.keys import canonical, own_code_identity
 from slipbench.store.results import ResultsStore, cells_failed
 
-if TYPE_CHECKING:  # benchfile checks a gate by this module's status: imported at run time there
-    from slipbench.app.benchfile import Benchmark
+if TYPE_CHECKING:
     from slipbench.data.format import Dataset
 
 #: seeds a calibration runs by default: 20 degrees of freedom per paired variance

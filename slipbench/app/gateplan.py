@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
+from slipbench.app.benchspec import Benchmark
 from slipbench.app.calibrate import CalibrationStatus
 from slipbench.engine.estimate import duration
 from slipbench.engine.plan import Run
@@ -23,9 +23,6 @@ from slipbench.gate.compare import POOLED_ALPHA
 from slipbench.gate.gate import DEFAULT_TOLERANCE, unit
 from slipbench.gate.power import Design, Sight, looks, nominal_levels, sight
 from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, names
-
-if TYPE_CHECKING:  # benchfile refuses a gate by this module's plan: imported at run time there
-    from slipbench.app.benchfile import Benchmark
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from slipbench.app.benchfile import Benchmark, plan_runs, slurm_of
+from slipbench.app.benchfile import plan_runs, slurm_of
+from slipbench.app.benchspec import Benchmark
 from slipbench.engine.estimate import Cost, costs, duration, makespan, task_seconds
 from slipbench.engine.limits import limit_words
 from slipbench.engine.plan import Batch, Plan, Task, batched

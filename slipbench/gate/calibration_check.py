@@ -1,7 +1,7 @@
 """A calibration's numbers checked before a comparison takes them: a detector's noise is used
 only where it agrees with what BASE's own seeds show.
 
-A calibration (:mod:`slipbench.stats.calibration`) is keyed on the bench's settings and each
+A calibration (:mod:`slipbench.gate.calibration`) is keyed on the bench's settings and each
 detector's code, which says *whether* it was measured for this code, not whether its numbers
 are the ones measured: a hand-edited or damaged file could hold 25 times the noise, or none.
 Two checks, per detector, each a ratio of variances read against a stated factor:

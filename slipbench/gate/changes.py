@@ -6,7 +6,7 @@ and trials of :func:`slipbench.stats.metrics.over_seeds` (its change: mean over 
 seeds minus mean over the base's), so retraining noise is inside its interval; where both sides
 ran the same seeds, seed k of each shares its split and the seeds pair (``paired=True``: the
 seeds' differences are drawn, so the split's luck cancels). With one seed per side it is not,
-and :func:`slipbench.stats.compare.repeats_note` says so: a side needs ``MIN_SEEDS`` (2) seeds for a seed-to-seed
+and :func:`slipbench.gate.compare.repeats_note` says so: a side needs ``MIN_SEEDS`` (2) seeds for a seed-to-seed
 spread to exist; ``RECOMMENDED_REPEATS`` (3) is what the null study
 (``benchmarks/bench_compare_null.py``) runs and what CI should.
 

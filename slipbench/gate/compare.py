@@ -1,10 +1,10 @@
 """Two result sets -> per-cell changes with paired intervals, pooled tests per protocol and
 detector, and a CI verdict.
 
-Cells are paired as :mod:`slipbench.stats.sides` pairs them, and each cell's change gets
-its interval as :mod:`slipbench.stats.changes` draws it.
+Cells are paired as :mod:`slipbench.gate.sides` pairs them, and each cell's change gets
+its interval as :mod:`slipbench.gate.changes` draws it.
 
-Verdicts. The gate's figures and tolerances (:class:`slipbench.stats.gate.Gate`: accuracy, TP
+Verdicts. The gate's figures and tolerances (:class:`slipbench.gate.gate.Gate`: accuracy, TP
 and TN rate of windowed cells; detection rate, median delay and false alarms per minute of
 streaming cells) are judged at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA``
 (2.5 %) for the pooled tests, one per protocol, detector and figure (:mod:`slipbench.stats.pooled`),
@@ -19,9 +19,9 @@ also *regressed* when the candidate failed, timed out or skipped a cell the base
 *inconclusive* when the cell is low-n (its intervals undercover) or its interval, deciding
 nothing, is wider than ``max_width`` points (``MAX_WIDTH``, 40); otherwise *no significant
 change*. A pooled test that flags nothing states its power and may be *undecided*
-(:mod:`slipbench.stats.gate`); :attr:`Comparison.state` turns all of it into the exit code.
+(:mod:`slipbench.gate.gate`); :attr:`Comparison.state` turns all of it into the exit code.
 
-Looks. A gate with a budget (:class:`~slipbench.stats.gate.Gate` ``seeds`` and ``budget``, a
+Looks. A gate with a budget (:class:`~slipbench.gate.gate.Gate` ``seeds`` and ``budget``, a
 bench's ``repeats`` and ``[gate] budget``) decides at the look the stored seeds make
 (:func:`look_at`): each family's intervals at that look's share of its error
 (:func:`look_level`, Lan-DeMets O'Brien-Fleming), and before the last look a pooled test
@@ -127,7 +127,7 @@ def look_level(gate: Gate, look: Look, tests: int, alpha: float) -> float:
     """The two-sided level of each of ``tests`` intervals of a family held at ``alpha`` at
     ``look``: Bonferroni's ``1 - alpha / tests`` where the gate looks once; with looks, twice
     the look's nominal one-sided level (Lan-DeMets O'Brien-Fleming over the budget,
-    :func:`slipbench.stats.power.nominal_levels`) off 1."""
+    :func:`slipbench.gate.power.nominal_levels`) off 1."""
     if not gate.sequential:
         return family_level(tests, alpha)
     design = Design(gate.seeds, gate.budget, max(1, tests), alpha)
@@ -260,7 +260,7 @@ def compare(
         Results files or folders (as ``evaluate --out`` writes them).
     gate : Gate
         The figures judged and the tolerance of each (default: every figure,
-        ``slipbench.stats.gate.DEFAULT_TOLERANCE``), and its looks: the comparison decides at
+        ``slipbench.gate.gate.DEFAULT_TOLERANCE``), and its looks: the comparison decides at
         the look its stored seeds make (:func:`look_at`).
     seed : int
         Seeds the paired bootstraps.
@@ -344,7 +344,7 @@ def _flags(r: dict, gate: Gate) -> bool:
 
 def shared_with(entries: list[dict]) -> list[str]:
     """Per cell, the protocol of an earlier cell that is the same cell (the same models
-    tested on the same test set: :func:`slipbench.stats.sides._shared_key`), "" for the
+    tested on the same test set: :func:`slipbench.gate.sides._shared_key`), "" for the
     first of each: a cell shared by two protocols is one test in the family, counted once."""
     first: dict[str, str] = {}
     out = []

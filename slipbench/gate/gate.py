@@ -51,8 +51,8 @@ class Gate:
 
     ``seeds`` and ``budget`` (a bench's ``repeats`` and ``[gate] budget``): the gate looks at
     ``seeds`` per side, then ``seeds`` more at a time up to ``budget``
-    (:func:`slipbench.stats.power.looks`), each look at its share of the error
-    (:mod:`slipbench.stats.sequential`); 0: one look, at whatever seeds the sides hold."""
+    (:func:`slipbench.gate.power.looks`), each look at its share of the error
+    (:mod:`slipbench.gate.sequential`); 0: one look, at whatever seeds the sides hold."""
 
     tolerances: Mapping[str, float] = field(default_factory=lambda: dict(DEFAULT_TOLERANCE))
     max_width: float = 40.0

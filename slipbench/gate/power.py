@@ -4,8 +4,8 @@ seed noise, at the bench's seeds and with sequential looks up to its budget.
 
 A comparison of ``n`` seeds per side has the standard error ``sd / sqrt(n)``, with ``sd`` the
 calibrated standard deviation of one seed's change between two equal sides
-(:meth:`slipbench.stats.calibration.Noise.per_seed`) and ``df`` its degrees of freedom. As in
-:func:`slipbench.stats.gate.resolution`, a test at one-sided level ``a`` flags a drop of
+(:meth:`slipbench.gate.calibration.Noise.per_seed`) and ``df`` its degrees of freedom. As in
+:func:`slipbench.gate.gate.resolution`, a test at one-sided level ``a`` flags a drop of
 ``tolerance + X`` with power 80 %, where
 
     X = se * (t(1 - a, df) + t(0.80, df)).
@@ -13,7 +13,7 @@ calibrated standard deviation of one seed's change between two equal sides
 Each test is held at ``a = alpha / (2 N)``: Bonferroni over the ``N`` pooled tests of the
 family, two-sided. With a budget above the bench's seeds, the looks run at ``seeds, 2 seeds,
 ..`` up to the budget (:func:`looks`) and each flags at its Lan-DeMets O'Brien-Fleming nominal
-level (:mod:`slipbench.stats.sequential`), which spends ``a`` over them. **At the bench's
+level (:mod:`slipbench.gate.sequential`), which spends ``a`` over them. **At the bench's
 seeds** ``X`` is the first look's, at its own nominal level (a budget makes it stricter than a
 single look's ``a``); **at the budget** it is the last look's: the drop the last look alone
 flags with 80 % power (earlier looks only add power, so this errs safe). A test **decides** its tolerance where ``X`` at the budget is at most the tolerance: a

@@ -6,16 +6,16 @@ same test windows. Rows written before the column existed are univariate. A chan
 *twin* is the univariate row equal to it in everything else: protocol and its parameters,
 detector and its parameters, split, labels, normalization, cell key, decimation, test stream
 and dataset (an ``input`` entry in the cell key or the parameters is not part of the
-comparison). Twins pair across seeds as :func:`slipbench.stats.compare.compare` pairs base and
+comparison). Twins pair across seeds as :func:`slipbench.gate.compare.compare` pairs base and
 candidate, with the same machinery:
 
 - one seed per side, the same: window by window, the paired stratified cluster bootstrap of
-  :func:`slipbench.stats.metrics.paired_comparison` (:func:`~slipbench.stats.changes.paired_cell`);
+  :func:`slipbench.stats.metrics.paired_comparison` (:func:`~slipbench.gate.changes.paired_cell`);
 - several seeds on a side: the two-level bootstrap over seeds and trials
-  (:func:`~slipbench.stats.changes.cell_over_seeds`), so retraining noise is inside the interval,
+  (:func:`~slipbench.gate.changes.cell_over_seeds`), so retraining noise is inside the interval,
   the seeds paired where both inputs ran the same ones (seed k made one split for both);
 - a side without stored predictions: judged from the rows
-  (:func:`~slipbench.stats.changes.unpaired_cell`), which errs wide.
+  (:func:`~slipbench.gate.changes.unpaired_cell`), which errs wide.
 
 Each cell's interval is at ``LEVEL`` (95 %) alone. Per detector, split, protocol and sensor type,
 the mean change over the cells is bootstrapped once, jointly over the trials the cells share
@@ -30,7 +30,7 @@ margin (1 point): channels *better* where the interval lies above it, *worse* be
 *within the margin* where inside it, *undecided* where it holds a change within the margin and
 one beyond it; *inconclusive* where the test trials are few, a side ran one seed (the interval
 then holds the test trials' noise only), or the interval is wider than
-:data:`~slipbench.stats.compare.MAX_WIDTH` points. Measured on simulated results with both inputs
+:data:`~slipbench.gate.compare.MAX_WIDTH` points. Measured on simulated results with both inputs
 equal, retraining noise and a split's luck shared by a sensor's cells
 (``tests/stats/test_reduction.py``, 20 replications x 2 sensor types, each reading at 97.5 %):
 with three seeds per cell, 1 of 40 readings called a difference (9 inconclusive: three splits

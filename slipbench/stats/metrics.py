@@ -38,11 +38,13 @@ from slipbench.stats.bootstrap import (
 )
 from slipbench.stats.noise import SeedNoise
 from slipbench.store.columns import (
+    AUROC,
     BALANCED_ACCURACY,
     EVERY_WINDOW,
     NONSLIP_WINDOWS,
     SLIP_WINDOWS,
     WINDOWED,
+    Figure,
     figures,
     names,
 )
@@ -172,25 +174,13 @@ _PAIR_BLOCK = 8_000_000
 
 
 def _figure(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
-    """A figure of one test set under cluster weights ``w`` (n, n_clusters): shape (n,).
-
-    The AUROC of a cluster resample is a bilinear form in the weights of slip and non-slip
-    clusters over the pair counts, ``w_pos @ A @ w_neg / ((w_pos @ n_pos) (w_neg @ n_neg))``:
-    milliseconds per cell, where 999 calls of ``sklearn.metrics.roc_auc_score`` take about a
-    second on 8 000 windows. The estimate equals ``roc_auc_score`` (tested).
-    """
+    """A figure of one test set under cluster weights ``w`` (n, n_clusters): shape (n,). A rate
+    is the share of its windows that are correct; any other figure has its own computation
+    (:data:`COMPUTED`)."""
     rate = COLUMN_FIGURES[name].rate
     if rate:
         return (w @ t.hits[rate]) / (w @ t.size[rate])
-    if name == BALANCED_ACCURACY.name:
-        slip, nonslip = ((w @ t.hits[c]) / (w @ t.size[c]) for c in (SLIP_WINDOWS, NONSLIP_WINDOWS))
-        return 0.5 * (slip + nonslip)
-    if t.pairs is None:  # the AUROC without scores or without both classes
-        return np.full(len(w), np.nan)
-    wp, wn = w[:, t.pos], w[:, t.neg]
-    return ((wp @ t.pairs) * wn).sum(axis=1) / (
-        (wp @ t.size[SLIP_WINDOWS][t.pos]) * (wn @ t.size[NONSLIP_WINDOWS][t.neg])
-    )
+    return COMPUTED[name].value(t, w)
 
 
 def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
@@ -198,11 +188,33 @@ def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
     rate = COLUMN_FIGURES[name].rate
     if rate:
         return _share_influence(t, rate, w)
-    if name == BALANCED_ACCURACY.name:
-        return 0.5 * (
-            _share_influence(t, SLIP_WINDOWS, w) + _share_influence(t, NONSLIP_WINDOWS, w)
-        )
-    out = np.zeros_like(w)  # the AUROC
+    return COMPUTED[name].influence(t, w)
+
+
+def _balanced(t: _Totals, w: np.ndarray) -> np.ndarray:
+    slip, nonslip = ((w @ t.hits[c]) / (w @ t.size[c]) for c in (SLIP_WINDOWS, NONSLIP_WINDOWS))
+    return 0.5 * (slip + nonslip)
+
+
+def _balanced_influence(t: _Totals, w: np.ndarray) -> np.ndarray:
+    return 0.5 * (_share_influence(t, SLIP_WINDOWS, w) + _share_influence(t, NONSLIP_WINDOWS, w))
+
+
+def _auroc(t: _Totals, w: np.ndarray) -> np.ndarray:
+    """The AUROC of a cluster resample is a bilinear form in the weights of slip and non-slip
+    clusters over the pair counts, ``w_pos @ A @ w_neg / ((w_pos @ n_pos) (w_neg @ n_neg))``:
+    milliseconds per cell, where 999 calls of ``sklearn.metrics.roc_auc_score`` take about a
+    second on 8 000 windows. The estimate equals ``roc_auc_score`` (tested)."""
+    if t.pairs is None:  # without scores or without both classes
+        return np.full(len(w), np.nan)
+    wp, wn = w[:, t.pos], w[:, t.neg]
+    return ((wp @ t.pairs) * wn).sum(axis=1) / (
+        (wp @ t.size[SLIP_WINDOWS][t.pos]) * (wn @ t.size[NONSLIP_WINDOWS][t.neg])
+    )
+
+
+def _auroc_influence(t: _Totals, w: np.ndarray) -> np.ndarray:
+    out = np.zeros_like(w)
     if t.pairs is None:
         return out * np.nan
     sp, sn = t.size[SLIP_WINDOWS][t.pos], t.size[NONSLIP_WINDOWS][t.neg]
@@ -212,6 +224,46 @@ def _influence(t: _Totals, name: str, w: np.ndarray) -> np.ndarray:
     out[:, t.pos] += (wn @ t.pairs.T - a[:, None] * sp * n_neg[:, None]) / (n_pos * n_neg)[:, None]
     out[:, t.neg] += (wp @ t.pairs - a[:, None] * sn * n_pos[:, None]) / (n_pos * n_neg)[:, None]
     return out
+
+
+@dataclass(frozen=True)
+class Computation:
+    """A windowed figure that is no share of windows: its value on one test set under cluster
+    weights ``w`` (n, n_clusters) -> (n,), and its derivative by each cluster's weight -> (n,
+    n_clusters), the bootstrap's influence."""
+
+    value: Callable[[_Totals, np.ndarray], np.ndarray]
+    influence: Callable[[_Totals, np.ndarray], np.ndarray]
+
+
+#: each windowed figure without a ``rate`` in the results schema, with its own computation
+COMPUTED: dict[str, Computation] = {
+    BALANCED_ACCURACY.name: Computation(_balanced, _balanced_influence),
+    AUROC.name: Computation(_auroc, _auroc_influence),
+}
+
+
+def uncomputed(declared: Sequence[Figure], computed: Mapping[str, Computation]) -> list[str]:
+    """The windowed figures of ``declared`` that nothing here computes: neither a rate (the
+    share of its windows) nor an entry of ``computed``."""
+    return [
+        f.name for f in declared if f.kind == WINDOWED and not f.rate and f.name not in computed
+    ]
+
+
+def check_computed(declared: Sequence[Figure], computed: Mapping[str, Computation]) -> None:
+    """Refuse a schema whose windowed figure has no computation of its own, so that a new
+    figure is never computed as another one; raised when this module is imported."""
+    missing = uncomputed(declared, computed)
+    if missing:
+        raise NotImplementedError(
+            f"slipbench.store.columns declares the windowed figure(s) {', '.join(missing)} "
+            "without a computation: give it a rate (the windows it is the share of) or an "
+            "entry in slipbench.stats.metrics.COMPUTED"
+        )
+
+
+check_computed(figures(WINDOWED), COMPUTED)
 
 
 def _share_influence(t: _Totals, windows: str, w: np.ndarray) -> np.ndarray:
@@ -849,7 +901,7 @@ def paired_comparison(
     y_true, base_pred, cand_pred, groups : ndarray of shape (n_windows,)
         Labels, the two hard predictions, and each window's cluster.
     level : float
-        Interval level; :func:`slipbench.stats.compare.compare` passes a Bonferroni-adjusted one.
+        Interval level; :func:`slipbench.gate.compare.compare` passes a Bonferroni-adjusted one.
     base_scores, cand_scores : ndarray of shape (n_windows,), optional
         Slip probabilities: give the change in AUROC.
     figures : sequence of str

@@ -16,7 +16,8 @@ import pandas as pd
 import pytest
 from resultgen import predictions_pair
 
-from slipbench.app.benchfile import load_benchmark, plan_runs, record
+from slipbench.app.benchfile import plan_runs, record
+from slipbench.app.benchspec import load_benchmark
 from slipbench.app.calibrate import detector_identities, digest, settings
 from slipbench.gate.calibration import (
     Calibration,

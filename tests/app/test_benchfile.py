@@ -11,7 +11,8 @@ import textwrap
 import pandas as pd
 import pytest
 
-from slipbench.app.benchfile import load_benchmark, plan_runs
+from slipbench.app.benchfile import plan_runs
+from slipbench.app.benchspec import load_benchmark
 from slipbench.errors import UsageError
 
 GOOD = """\

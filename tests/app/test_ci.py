@@ -361,7 +361,8 @@ def test_history_job_slipbench_steps_run(tmp_path, unit):
 @pytest.mark.parametrize("repo", REPOS)
 def test_shipped_bench_files_plan(repo):
     """Every plugin and parameter the shipped files declare exists and is valid here."""
-    from slipbench.app.benchfile import load_benchmark, plan_runs
+    from slipbench.app.benchfile import plan_runs
+    from slipbench.app.benchspec import load_benchmark
 
     bench = load_benchmark(REPOS[repo][1])
     runs = plan_runs(bench, echo=lambda line: pytest.fail(f"skipped: {line}"))

@@ -12,7 +12,8 @@ from pathlib import Path
 import pytest
 import toys
 
-from slipbench.app.benchfile import load_benchmark, plan_runs
+from slipbench.app.benchfile import plan_runs
+from slipbench.app.benchspec import load_benchmark
 from slipbench.app.calibrate import detector_identities, digest, settings, status
 from slipbench.app.gateplan import plan_gate, refusal
 from slipbench.errors import DataError, UsageError

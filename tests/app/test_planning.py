@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from slipbench.app.benchfile import BenchmarkError, load_benchmark
+from slipbench.app.benchspec import BenchmarkError, load_benchmark
 from slipbench.app.planning import SECTIONS, Planning, Section, frame, planning, render
 from slipbench.data.defaults import cache_dir
 from slipbench.engine import slurm

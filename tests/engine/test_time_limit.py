@@ -102,7 +102,7 @@ def test_processes_a_plugin_started_end_with_its_worker(unit, tmp_path, hang):
 
 
 def test_the_plan_states_the_limit(tmp_path):
-    from slipbench.app.benchfile import load_benchmark
+    from slipbench.app.benchspec import load_benchmark
     from slipbench.app.planning import planning, render
 
     text = """

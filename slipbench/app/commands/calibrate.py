@@ -53,7 +53,8 @@ def calibrate_command(**options) -> None:
     calibration file (<name>.calibration.json beside it, or the one its [benchmark] calibration
     names), and print what the gate can then see."""
     o = CalibrateArgs(**options)
-    from slipbench.app.benchfile import bench_dataset, load_benchmark, plan_runs, with_overrides
+    from slipbench.app.benchfile import bench_dataset, plan_runs
+    from slipbench.app.benchspec import load_benchmark, with_overrides
     from slipbench.app.calibrate import calibrate, status
     from slipbench.app.gateplan import plan_gate
     from slipbench.atomic import check_writable

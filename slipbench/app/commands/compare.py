@@ -15,7 +15,7 @@ from slipbench.app.selection import add_plugin_folders, recorded_plugins
 from slipbench.gate.gate import DEFAULT_TOLERANCE
 
 if TYPE_CHECKING:  # read when compare runs (each command's imports are its own)
-    from slipbench.app.benchfile import Benchmark
+    from slipbench.app.benchspec import Benchmark
 
 
 @dataclass(frozen=True)
@@ -144,7 +144,7 @@ def gate_from(
     """The gate from --figure options, else the benchmark file's [gate] (the base's, as BASE
     recorded it), else every figure; --margin sets every rate's tolerance that is not given as
     NAME=TOLERANCE. The bench's repeats and budget set the looks."""
-    from slipbench.app.benchfile import load_benchmark
+    from slipbench.app.benchspec import load_benchmark
     from slipbench.gate.gate import Gate, parse_tolerances, unit
 
     b = load_benchmark(bench) if isinstance(bench, (str, Path)) else bench
@@ -168,7 +168,8 @@ def _calibration(bench: Path, base: Path) -> tuple[list, list[str], str]:
     calibration file's name."""
     import json
 
-    from slipbench.app.benchfile import RECORD_FILE, load_benchmark
+    from slipbench.app.benchfile import RECORD_FILE
+    from slipbench.app.benchspec import load_benchmark
     from slipbench.app.calibrate import recorded_status
     from slipbench.errors import DataError
 

@@ -70,7 +70,8 @@ def run_command(**options) -> None:
     """Run what BENCH_FILE (TOML) declares: dataset, detectors with parameters, protocols with
     options, split, seeds; write its results, its reports and a copy of the file."""
     o = RunArgs(**options)
-    from slipbench.app.benchfile import load_benchmark, run_benchmark, with_overrides
+    from slipbench.app.benchfile import run_benchmark
+    from slipbench.app.benchspec import load_benchmark, with_overrides
     from slipbench.app.options import slurm_resources
     from slipbench.atomic import check_writable
     from slipbench.engine.slurm import from_options
