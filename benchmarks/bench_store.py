@@ -93,9 +93,14 @@ def folder_costs(store: ResultsStore, make, cells: int) -> None:
     noop = best(lambda: ResultsStore(store.folder).consolidate())  # as a new command pays it
     again = best(store.consolidate)  # a run's later looks: what it proved is not proved again
     path = store.folder / RESULTS_FILE
-    whole = best(lambda: read_results(store.folder))
-    alone = best(lambda: read_results(path))
-    ref = best(lambda: pq.read_table(path).to_pandas())
+    # taken in turns, so that a quiet moment favours neither (this machine is shared)
+    ref, whole, alone = interleaved(
+        [
+            lambda: pq.read_table(path).to_pandas(),
+            lambda: read_results(store.folder),
+            lambda: read_results(path),
+        ]
+    )
     table = pq.read_table(path)
     assert proved_whole(table), "results.parquet is not proved whole by its table digest"
     digest = best(lambda: proved_whole(table))
@@ -124,6 +129,17 @@ def folder_costs(store: ResultsStore, make, cells: int) -> None:
         f"({digests / ref:.1f}x), as it still does a file of an older slipbench: read_results "
         f"of one {older * 1e3:.1f} ms ({older / ref:.1f}x)"
     )
+
+
+def interleaved(fns, repeats: int = 15) -> list[float]:
+    """The fastest of ``repeats`` calls of each of ``fns``, called in turns, in seconds."""
+    times = [[] for _ in fns]
+    for _ in range(repeats):
+        for fn, took in zip(fns, times):
+            t0 = time.perf_counter()
+            fn()
+            took.append(time.perf_counter() - t0)
+    return [min(took) for took in times]
 
 
 def best(fn, repeats: int = 5) -> float:
