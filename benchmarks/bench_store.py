@@ -2,9 +2,11 @@
 
 - ``put`` (atomic, fsynced, umask-following) against a plain ``pq.write_table`` of the same
   row and predictions to their final names;
-- a no-op ``consolidate`` and ``read_results`` of a consolidated folder (one file read, its rows'
-  digests checked, and one ``stat`` per cell) against reading ``results.parquet`` alone, for
-  narrow rows (13 columns) and rows as wide as a windowed cell's (about 90);
+- a no-op ``consolidate`` and ``read_results`` of a consolidated folder (one file read, proved
+  whole by its table digest, and one ``stat`` per cell) and of its results.parquet alone,
+  against reading ``results.parquet`` alone with pyarrow and pandas, for narrow rows (13
+  columns) and rows as wide as a windowed cell's (about 100); the table digest's share, and
+  each row's digest (the check a read made before, and makes on a file of an older slipbench);
 - ``read_results`` after a kill (no results.parquet: every cell file read);
 - ``cell_key`` (canonical JSON) against the old ``json.dumps(default=str)``;
 - ``code_identity(slipbench)``: the first call (reads every source file) and a cached one.
@@ -20,6 +22,7 @@ import argparse
 import hashlib
 import json
 import os
+import platform
 import shutil
 import tempfile
 import time
@@ -33,6 +36,7 @@ import pyarrow.parquet as pq
 
 from slipbench.protocol import Part
 from slipbench.store import columns, keys
+from slipbench.store.digests import TABLE, proved_whole
 from slipbench.store.results import RESULTS_FILE, ResultsStore, cell_key, read_results, row_digest
 
 
@@ -88,10 +92,26 @@ def folder_costs(store: ResultsStore, make, cells: int) -> None:
     first = time.perf_counter() - t0
     noop = best(lambda: ResultsStore(store.folder).consolidate())  # as a new command pays it
     again = best(store.consolidate)  # a run's later looks: what it proved is not proved again
-    whole = best(lambda: read_results(store.folder))
-    ref = best(lambda: pq.read_table(store.folder / RESULTS_FILE).to_pandas())
-    rows = pq.read_table(store.folder / RESULTS_FILE).to_pylist()
+    path = store.folder / RESULTS_FILE
+    # taken in turns, so that a quiet moment favours neither (this machine is shared)
+    ref, whole, alone = interleaved(
+        [
+            lambda: pq.read_table(path).to_pandas(),
+            lambda: read_results(store.folder),
+            lambda: read_results(path),
+        ]
+    )
+    table = pq.read_table(path)
+    assert proved_whole(table), "results.parquet is not proved whole by its table digest"
+    digest = best(lambda: proved_whole(table))
+    rows = table.to_pylist()
     digests = best(lambda: [row_digest(r) for r in rows])
+    # as an older slipbench wrote it: row digests, no table digest (a folder without cells/)
+    old = store.folder.parent / f"{store.folder.name}-older" / RESULTS_FILE
+    old.parent.mkdir()
+    metadata = {k: v for k, v in table.schema.metadata.items() if k != TABLE}
+    pq.write_table(table.replace_schema_metadata(metadata), old)
+    older = best(lambda: read_results(old), 3)
     print(
         f"{cells} cells of {len(make(0))} columns: put {put * 1e3:.2f} ms each; read_results "
         f"without results.parquet (after a kill) {killed * 1e3:.0f} ms; first consolidate "
@@ -99,10 +119,27 @@ def folder_costs(store: ResultsStore, make, cells: int) -> None:
     )
     print(
         f"  no-op consolidate {noop * 1e3:.1f} ms ({again * 1e3:.1f} ms again in one run), "
-        f"read_results {whole * 1e3:.1f} ms, of which the row digests {digests * 1e3:.1f} ms; "
-        f"reading results.parquet alone {ref * 1e3:.1f} ms (ratios {noop / ref:.1f}x, "
-        f"{again / ref:.1f}x, {whole / ref:.1f}x, {digests / ref:.1f}x)"
+        f"read_results {whole * 1e3:.1f} ms (the folder), {alone * 1e3:.1f} ms (its "
+        f"results.parquet); reading results.parquet alone {ref * 1e3:.1f} ms (ratios "
+        f"{noop / ref:.1f}x, {again / ref:.1f}x, {whole / ref:.1f}x, {alone / ref:.1f}x)"
     )
+    print(
+        f"  every digest checked: the table digest {digest * 1e3:.1f} ms ({digest / ref:.2f}x); "
+        f"each row's digest, as a read checked them before {digests * 1e3:.1f} ms "
+        f"({digests / ref:.1f}x), as it still does a file of an older slipbench: read_results "
+        f"of one {older * 1e3:.1f} ms ({older / ref:.1f}x)"
+    )
+
+
+def interleaved(fns, repeats: int = 15) -> list[float]:
+    """The fastest of ``repeats`` calls of each of ``fns``, called in turns, in seconds."""
+    times = [[] for _ in fns]
+    for _ in range(repeats):
+        for fn, took in zip(fns, times):
+            t0 = time.perf_counter()
+            fn()
+            took.append(time.perf_counter() - t0)
+    return [min(took) for took in times]
 
 
 def best(fn, repeats: int = 5) -> float:
@@ -117,6 +154,7 @@ def main() -> None:
         "--windows", type=int, default=2000, help="test windows per cell (predictions rows)"
     )
     args = parser.parse_args()
+    print(f"# {machine()}")
     root = Path(tempfile.mkdtemp(prefix="bench_store."))
     try:
         preds = [predictions(i, args.windows) for i in range(50)]
@@ -208,6 +246,13 @@ def main() -> None:
         )
     finally:
         shutil.rmtree(root, ignore_errors=True)
+    print(f"# at the end: {machine()}")
+
+
+def machine() -> str:
+    """The machine and its load, beside each run's figures."""
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+    return f"{platform.machine()}, {os.cpu_count()} cores, load average {load}"
 
 
 if __name__ == "__main__":

@@ -58,7 +58,13 @@ from slipbench.atomic import (
 )
 from slipbench.errors import DataError, EnvironmentFault, UsageError, environment_fault
 from slipbench.store.columns import names
-from slipbench.store.digests import digests_of, failing, with_digests, written_digests
+from slipbench.store.digests import (
+    column_digest,
+    digests_of,
+    failing,
+    with_digests,
+    written_digests,
+)
 from slipbench.store.scan import read_error, rows_of, whole
 
 FORMAT_VERSION = 2
@@ -185,31 +191,6 @@ def run_table(rows: pd.DataFrame, run: Run) -> pa.Table:
         "digest": _json_digest(digests),
     }
     return with_digests(table, digests, **{_META: json.dumps(meta)})
-
-
-def column_digest(column: pa.ChunkedArray) -> str:
-    """A digest of a column's values whatever its chunks: its type, which rows are null, and
-    its values' bytes (a text's lengths and bytes). Hashing Arrow's buffers costs a 3-million-row
-    index a second where a digest per row in Python would cost minutes."""
-    nulls, sizes, data = (hashlib.sha256() for _ in range(3))
-    text = pa.types.is_string(column.type)
-    for chunk in column.chunks:
-        if chunk.null_count:
-            nulls.update(chunk.is_null().to_numpy(zero_copy_only=False).tobytes())
-            if not text:  # the value under a null is undefined
-                chunk = pc.fill_null(chunk, False if pa.types.is_boolean(chunk.type) else 0)
-        else:
-            nulls.update(bytes(len(chunk)))
-        if text:
-            ends = np.frombuffer(chunk.buffers()[1], np.int32)
-            ends = ends[chunk.offset : chunk.offset + len(chunk) + 1]
-            sizes.update(np.diff(ends).tobytes())
-            if len(chunk) and chunk.buffers()[2] is not None:
-                data.update(memoryview(chunk.buffers()[2])[ends[0] : ends[-1]])
-        else:
-            data.update(chunk.to_numpy(zero_copy_only=False).tobytes())
-    parts = [str(column.type).encode(), nulls.digest(), sizes.digest(), data.digest()]
-    return hashlib.sha256(b"".join(parts)).hexdigest()[:16]
 
 
 def add_run(history: str | os.PathLike, rows: pd.DataFrame, run: Run) -> Path | None:

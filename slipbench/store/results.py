@@ -28,9 +28,10 @@ What survives what:
 - *A full disk, a read-only folder, a missing permission*: an
   :class:`~slipbench.errors.EnvironmentFault` (exit 5) naming the path; no partial file is left.
 - *A flipped bit, a damaged file, an edit*: every row carries its digest, in its cell file and in
-  results.parquet (:mod:`slipbench.store.digests`), checked on every read; what fails it is
-  refused by name, or computed again by a run (:mod:`slipbench.store.scan`); a run never copies
-  a row it has not proved.
+  results.parquet, and results.parquet a digest of its whole table besides
+  (:mod:`slipbench.store.digests`), checked on every read; what fails them is refused by name,
+  or computed again by a run (:mod:`slipbench.store.scan`); a run never copies a row it has not
+  proved.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ from __future__ import annotations
 import json
 import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -60,8 +61,10 @@ from slipbench.store.columns import checked
 from slipbench.store.digests import (
     digests_of,
     failing,
+    proved_whole,
     row_digest,
     with_digests,
+    with_table_digest,
     written_digests,
 )
 from slipbench.store.keys import cell_key
@@ -69,6 +72,7 @@ from slipbench.store.scan import (
     MANIFEST,
     RESULTS_FILE,
     UNPROVEN,
+    Rows,
     Scan,
     cell_entries,
     check_ranges,
@@ -182,7 +186,7 @@ class ResultsStore:
                 manifest = json.dumps(found.versions, separators=(",", ":"), sort_keys=True)
                 table = with_digests(found.combined(self.folder), found.row_digests())
                 metadata = {**(table.schema.metadata or {}), MANIFEST: manifest.encode()}
-                write_atomic(table.replace_schema_metadata(metadata), path)
+                write_atomic(with_table_digest(table.replace_schema_metadata(metadata)), path)
         return path
 
 
@@ -191,7 +195,8 @@ def _check_file(table: pa.Table, path: Path) -> None:
     edited, columns swapped): by the row digests written in its metadata, else, beside a cells/
     folder, by the cell files; warn where cells/ holds cells the file lacks (a run since).
     A file without digests (another tool, an older slipbench) has its figures checked against
-    the results schema, and a warning says that edits to it cannot be detected.
+    the results schema, and a warning says that edits to it cannot be detected. A file proved
+    whole by its table digest has its rows checked no further.
 
     Raises
     ------
@@ -201,6 +206,9 @@ def _check_file(table: pa.Table, path: Path) -> None:
     """
     cells = path.parent / "cells"
     digests = written_digests(table, path)
+    if digests is not None and proved_whole(table):
+        _warn_stale(table, path, cells, Rows(table, path))
+        return
     here = {str(r.get("key")): r for r in rows_of(table, path)}
     if digests is not None:
         changed = failing([r for k, r in here.items() if k in digests], digests)
@@ -236,17 +244,25 @@ def _check_file(table: pa.Table, path: Path) -> None:
             "results schema, but edits to it cannot be detected",
             stacklevel=3,
         )
+    _warn_stale(table, path, cells, here)
+
+
+def _warn_stale(
+    table: pa.Table, path: Path, cells: Path, here: Mapping[str, dict[str, Any]]
+) -> None:
+    """Warn where ``cells`` holds cells the results file ``path`` lacks or holds otherwise (a
+    run since it was written)."""
     stale = _stale_cells(table, cells, here)
     if stale:
         warnings.warn(
             f"{path}: {len(stale)} finished cell(s) of {cells} are not in this file as they are now "
             f"(e.g. {stale[0]}: a run since it was written, or one stopped before it was rebuilt); "
             "give the folder to read them",
-            stacklevel=3,
+            stacklevel=4,
         )
 
 
-def _stale_cells(table: pa.Table, cells: Path, here: dict[str, dict[str, Any]]) -> list[str]:
+def _stale_cells(table: pa.Table, cells: Path, here: Mapping[str, dict[str, Any]]) -> list[str]:
     """The cells of ``cells`` a results file lacks, or holds otherwise than the cell file says
     now (read where its metadata records another version of the file: a copied folder's cells
     are read, not taken for changed)."""

@@ -6,6 +6,8 @@ run, which computes again what it cannot trust):
 
 - a cell file that fails its digest, or cannot be read: a report refuses it by name; a run
   leaves its cell out (computed again when planned), with a line;
+- ``results.parquet`` whose table digest matches: its rows are used as they are, unconverted
+  until a row is asked for; otherwise each of its rows is checked against its own digest;
 - a row of ``results.parquet`` that fails its digest: its cell file is read instead; without
   one, a report refuses the folder and a run leaves the row out, with a line;
 - ``results.parquet`` damaged as a whole: its rows are read from ``cells/``, with a line (the
@@ -21,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -32,7 +35,7 @@ import pyarrow.compute as pc
 from slipbench.atomic import open_parquet, whole_text
 from slipbench.errors import ENVIRONMENT_ERRNOS, DataError, environment_fault
 from slipbench.store.columns import out_of_range
-from slipbench.store.digests import digests_of, failing, written_digests
+from slipbench.store.digests import digests_of, failing, proved_whole, written_digests
 
 RESULTS_FILE = "results.parquet"
 MANIFEST = b"slipbench.cells"  # results.parquet's metadata: the cell file versions it holds
@@ -54,13 +57,38 @@ class Cell(NamedTuple):
     proven: bool
 
 
+class Rows(Mapping[str, dict[str, Any]]):
+    """A table's rows by key, turned into Python values only when a row is asked for: a read
+    that finds results.parquet proved whole and its cells unchanged (a report, a cached
+    rerun) never pays for the conversion, which costs more than reading the file."""
+
+    def __init__(self, table: pa.Table, path: Path):
+        self._table, self._path = table, path
+        self._keys = dict.fromkeys(str(k) for k in table["key"].to_pylist())
+        self._rows: dict[str, dict[str, Any]] | None = None
+
+    def __getitem__(self, key: str) -> dict[str, Any]:
+        if self._rows is None:
+            self._rows = {str(r["key"]): r for r in rows_of(self._table, self._path)}
+        return self._rows[key]
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._keys
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return len(self._keys)
+
+
 @dataclass(frozen=True)
 class Held:
     """results.parquet's rows in use, as one read of the file's bytes found them."""
 
     source: str  # a hash of the file's bytes ("" where there is no file, or it is unreadable)
     table: pa.Table | None  # the rows in use, or None
-    rows: dict[str, dict[str, Any]]  # them by key: proved (or, for a report, unprovable)
+    rows: Mapping[str, dict[str, Any]]  # them by key: proved (or, for a report, unprovable)
     digests: dict[str, str]  # the digest written for each of them
     manifest: dict[str, Any]  # the cell file versions the file records
     failed: tuple[str, ...] = ()  # keys of rows left out: they fail their digest, or (a
@@ -202,9 +230,10 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool, known: Scan | No
     try:
         table = _results_table(data, path)
         digests = written_digests(table, path)
-        rows = rows_of(table, path)
-        if entries and len({r["key"] for r in rows}) < len(rows):
+        if entries and pc.count_distinct(table["key"], mode="all").as_py() < table.num_rows:
             raise DataError(f"{path}: a key appears more than once, which slipbench never writes")
+        whole_proved = digests is not None and proved_whole(table)
+        rows = None if whole_proved else rows_of(table, path)
     except DataError as exc:
         if not entries:
             raise
@@ -213,6 +242,9 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool, known: Scan | No
         manifest = json.loads((table.schema.metadata or {}).get(MANIFEST, b"{}"))
     except ValueError:
         manifest = {}  # its rows are compared with the cells instead
+    manifest = manifest if isinstance(manifest, dict) else {}
+    if rows is None:  # every row is as written, and slipbench wrote only rows it had proved
+        return Held(source, table, Rows(table, path), digests or {}, manifest)
     if digests is not None:
         bad = set(failing(rows, digests))
     else:  # a run cannot prove them, so it neither reuses nor copies them
@@ -224,7 +256,7 @@ def _held(path: Path, entries: list[os.DirEntry], strict: bool, known: Scan | No
         table.filter(pa.array(keep)) if bad else table,
         held,
         {k: d for k, d in (digests or {}).items() if k in held},
-        manifest if isinstance(manifest, dict) else {},
+        manifest,
         tuple(sorted(bad)),
         digests is None,
     )

@@ -17,7 +17,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from slipbench.errors import DataError
-from slipbench.store.digests import DIGESTS
+from slipbench.store import digests
+from slipbench.store.digests import DIGESTS, TABLE
 from slipbench.store.results import RESULTS_FILE, ResultsStore, read_results
 from slipbench.store.scan import read_cell, scan
 
@@ -78,6 +79,51 @@ def test_every_stored_row_carries_its_digest(evaluated):
     for path in [*(evaluated / "cells").glob("*.parquet"), evaluated / RESULTS_FILE]:
         assert DIGESTS in pq.read_schema(path).metadata, path
     assert all(read_cell(p, p.stem).proven for p in (evaluated / "cells").glob("*.parquet"))
+    assert TABLE in pq.read_schema(evaluated / RESULTS_FILE).metadata
+
+
+def test_results_parquet_proved_whole_computes_no_row_digest(folder, monkeypatch):
+    """Its table digest proves every row at once: what made a read cost 7x a plain one (each
+    row's canonical text) is not computed, by a report nor by a run's cached rerun."""
+    (folder / RESULTS_FILE).unlink()  # made here: it holds these cell files' versions
+    ResultsStore(folder).consolidate()
+    expected = read_results(folder).set_index("key").sort_index()
+
+    def refused(row):
+        raise AssertionError("a row digest was computed")
+
+    monkeypatch.setattr(digests, "row_digest", refused)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for path in (folder, folder / RESULTS_FILE):
+            assert read_results(path).set_index("key").sort_index().equals(expected)
+        store = ResultsStore(folder)
+        assert set(store.finished()) == set(expected.index)
+        store.consolidate()
+    # an edit with its metadata kept fails the table digest: its rows are checked one by one
+    _rewritten(folder / RESULTS_FILE, "accuracy", 0.01)
+    with pytest.raises(AssertionError, match="a row digest was computed"):
+        read_results(folder)
+
+
+def test_a_results_file_of_an_older_slipbench_is_proved_row_by_row(folder):
+    """Written before the table digest: its rows' digests prove it, as they did (no line, no
+    refusal), and an edit to a row with its metadata kept is still refused."""
+    path = folder / RESULTS_FILE
+    table = pq.read_table(path)
+    old = {k: v for k, v in table.schema.metadata.items() if k != TABLE}
+    pq.write_table(table.replace_schema_metadata(old), path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert len(read_results(path)) == len(read_results(folder)) == table.num_rows
+    key = table.column("key")[1].as_py()
+    _rewritten(path, "accuracy", 0.01, key=key)
+    assert TABLE not in pq.read_schema(path).metadata
+    with pytest.raises(DataError, match=f"{path}: its rows are not what slipbench wrote: 1 row"):
+        read_results(path)
+    (folder / "cells" / f"{key}.parquet").unlink()
+    with pytest.raises(DataError, match=f"1 row\\(s\\) fail their digest .*e.g. {key}"):
+        read_results(folder)
 
 
 @pytest.mark.slow
@@ -111,6 +157,43 @@ def test_no_single_bit_flip_in_a_cell_file_reads_back_changed(folder):
         kept = {r["key"]: r for r in pq.read_table(folder / RESULTS_FILE).to_pylist()}
         assert key not in kept or _same(kept[key], good), f"bit {bit}: copied changed"
         (folder / RESULTS_FILE).write_bytes(results)
+    path.write_bytes(data)
+    assert sum(outcomes.values()) == FLIPS and outcomes["refused"] > FLIPS // 4, outcomes
+
+
+@pytest.mark.slow
+def test_no_single_bit_flip_in_results_parquet_reads_back_changed(folder):
+    """200 seeded single-bit flips anywhere in a real results.parquet (its table digest, row
+    digests, manifest, values, footer): read alone, it is refused by name or reads back
+    unchanged; in its folder, a report and a run read every row unchanged (from cells/ where
+    the file cannot be used), and a run's rebuild holds only unchanged rows."""
+    path = folder / RESULTS_FILE
+    data = path.read_bytes()
+    good = {r["key"]: r for r in pq.read_table(path).to_pylist()}
+    rng = np.random.default_rng(45)
+    outcomes = {"refused": 0, "unchanged": 0}
+    for bit in rng.choice(len(data) * 8, FLIPS, replace=False):
+        flipped = bytearray(data)
+        flipped[bit // 8] ^= 1 << (bit % 8)
+        path.write_bytes(bytes(flipped))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                alone = read_results(path).to_dict("records")
+            except DataError as exc:
+                assert str(path) in str(exc)
+                outcomes["refused"] += 1
+            else:
+                assert {r["key"] for r in alone} == set(good), f"bit {bit}: rows lost or added"
+                assert all(_same(r, good[r["key"]]) for r in alone), f"bit {bit} read changed"
+                outcomes["unchanged"] += 1
+            rows = scan(folder, strict=True).rows()
+            assert rows.keys() == good.keys() and all(_same(rows[k], good[k]) for k in good)
+            run = ResultsStore(folder).finished()
+            assert all(_same(run[k], good[k]) for k in run), f"bit {bit}: a run reused it changed"
+            ResultsStore(folder).consolidate()
+        kept = {r["key"]: r for r in pq.read_table(path).to_pylist()}
+        assert all(_same(kept[k], good[k]) for k in kept), f"bit {bit}: rebuilt changed"
     path.write_bytes(data)
     assert sum(outcomes.values()) == FLIPS and outcomes["refused"] > FLIPS // 4, outcomes
 
