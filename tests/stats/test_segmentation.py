@@ -5,9 +5,32 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import ruptures as rpt
+from ruptures.base import BaseCost
 
 from slipbench.stats.segmentation import weighted_binseg
-from slipbench.stats.steps import MIN_RUNS, WeightedL2
+from slipbench.stats.steps import MIN_RUNS
+
+
+class WeightedL2(BaseCost):
+    """The cost the step search used with ruptures' Binseg (the oracle): sum of
+    ``w * (y - mean_w)**2``, ``w`` each point's precision, in O(1) from prefix sums. The
+    signal is (n, 2): the values and their weights."""
+
+    model = "weighted-l2"
+    min_size = MIN_RUNS
+
+    def fit(self, signal: np.ndarray) -> WeightedL2:
+        y, w = signal[:, 0], signal[:, 1]
+        # lists: one element read is 3x faster than from an array, and Binseg reads 4n of them
+        self._w = np.concatenate([[0.0], np.cumsum(w)]).tolist()
+        self._s = np.concatenate([[0.0], np.cumsum(w * y)]).tolist()
+        self._q = np.concatenate([[0.0], np.cumsum(w * y * y)]).tolist()
+        self.signal = signal
+        return self
+
+    def error(self, start: int, end: int) -> float:
+        s = self._s[end] - self._s[start]
+        return self._q[end] - self._q[start] - s * s / (self._w[end] - self._w[start])
 
 
 def _ruptures(value: np.ndarray, weight: np.ndarray, pen: float, min_size: int) -> list[int]:
