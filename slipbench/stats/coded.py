@@ -17,6 +17,9 @@ import pandas as pd
 
 from slipbench.stats.series import POOL, POOLED, _digest
 
+#: a series' kind by whether it is pooled
+KINDS = np.array(["cell", "pooled"], dtype=object)
+
 
 def _codes(column: pd.Series) -> tuple[np.ndarray, np.ndarray]:
     codes, uniques = pd.factorize(column, use_na_sentinel=True)
@@ -33,6 +36,13 @@ def _combine(*codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         combined = pd.factorize(key)[0].astype(np.int64)
     _, first = np.unique(combined, return_index=True)
     return combined, first
+
+
+def texts(codes: np.ndarray, values: np.ndarray) -> pd.Series:
+    """``values[codes]`` as a column of text, made from the few values rather than a Python
+    object per row."""
+    uniques, at = pd.factorize(values)[::-1]
+    return pd.Series(pd.Categorical.from_codes(at[codes], categories=uniques)).astype("str")
 
 
 def _xor_by(group: np.ndarray, values: np.ndarray, groups: int) -> np.ndarray:
@@ -78,10 +88,11 @@ class Coded:
         """Code a history's rows (:func:`slipbench.store.history.read_history`)."""
         series, names = _codes(frame["series"])
         _, first = np.unique(series, return_index=True)
-        labels = frame["series_label"].to_numpy()[first]
+        # taken before they become Python objects: only one row of each
+        labels = frame["series_label"].iloc[first].to_numpy(dtype=object)
         parts = [_codes(frame[c].fillna(""))[0] for c in POOL]
         pool, at = _combine(*parts)
-        tuples = frame[list(POOL)].fillna("").to_numpy()[at]
+        tuples = frame[list(POOL)].iloc[at].fillna("").to_numpy(dtype=object)
         seed, seeds = pd.factorize(frame["seed"], use_na_sentinel=True)
         return cls(
             frame=frame,
@@ -124,9 +135,9 @@ class FigureRows:
         """As figure_rows returns it."""
         return pd.DataFrame(
             {
-                "series": self.names[self.series],
-                "series_label": self.labels[self.series],
-                "kind": np.where(self.pooled[self.series], "pooled", "cell"),
+                "series": texts(self.series, self.names),
+                "series_label": texts(self.series, self.labels),
+                "kind": texts(self.pooled[self.series].astype(int), KINDS),
                 "run": self.run,
                 "seed": self.seed,
                 "result": self.result,
@@ -159,7 +170,8 @@ def figure_rows(coded: Coded, figure: str) -> FigureRows:
     members = _xor_by(key, coded.cell_hash[ok][seeded], n_groups)
     g_pool = pool[seeded][first]
     named: dict[tuple[int, int], int] = {}
-    pooled_names, pooled_labels = [], []
+    pooled_names: list[str] = []
+    pooled_labels: list[str] = []
     codes = np.empty(n_groups, np.int64)
     n_cells = len(coded.names)
     for i, k in enumerate(zip(g_pool.tolist(), members.tolist())):

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from slipbench.stats.coded import Coded, FigureRows
+from slipbench.stats.coded import KINDS, Coded, FigureRows, texts
 from slipbench.stats.coded import figure_rows as coded_rows
 from slipbench.stats.coded import points as coded_points
 from slipbench.stats.contrast import (
@@ -307,8 +307,7 @@ class _Causes:
 
 def _codes_of(column: pd.Series) -> np.ndarray:
     """A cause column's values as codes of their text (``str``, as the causes compare them)."""
-    values = column.to_numpy(dtype=object)
-    codes, uniques = pd.factorize(values, use_na_sentinel=False)
+    codes, uniques = pd.factorize(column, use_na_sentinel=False)
     texts = pd.factorize(np.array([str(u) for u in uniques], dtype=object))[0]
     return texts[codes]
 
@@ -341,9 +340,9 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         kept.append(
             pd.DataFrame(
                 {
-                    "series": rows.names[named],
-                    "series_label": rows.labels[named],
-                    "kind": np.where(rows.pooled[named], "pooled", "cell"),
+                    "series": texts(named, rows.names),
+                    "series_label": texts(named, rows.labels),
+                    "kind": texts(rows.pooled[named].astype(int), KINDS),
                     "run": pts["run"].to_numpy(),
                     "value": pts["value"].to_numpy(),
                     "se": pts["se"].to_numpy(),
@@ -387,16 +386,18 @@ def _judged(
     order, starts = _series_slices(rows.series)
     run, low = pts["run"].to_numpy(), pts["low_n"].to_numpy(bool)
     out: dict[str, list] = {c: [] for c in _COLUMNS}
-    sides, counts = [], []
+    sides: list[tuple[Side, Side]] = []
+    counts: list[int] = []
     for series, group, cuts in cut:
         if not cuts:
             continue
         mine = order[starts[series] : starts[series + 1]]
         seeds = {c: getattr(rows, c)[mine] for c in ("run", "seed", "result", "value", "se", "df")}
+        seeds["by_result"] = np.argsort(seeds["result"], kind="stable")
         runs = run[group]
         bounds = [0, *cuts, len(group)]
         for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
-            pair = tuple(_side(seeds, runs[i], runs[j - 1]) for i, j in ((a, k), (k, b)))
+            pair = (_side(seeds, runs[a], runs[k - 1]), _side(seeds, runs[k], runs[b - 1]))
             sides.append(pair)
             counts.append(len(cuts))
             last, first = int(runs[k - 1]), int(runs[k])
@@ -427,10 +428,14 @@ def _side(rows: dict[str, np.ndarray], first: int, last: int) -> Side:
     """A segment's seeds (its runs ``first`` to ``last``): the results of its runs, each once
     (a result a later run kept, with the same code and seed, is one), and the results of one
     seed as one (they share its split and test trials): their mean, mean standard error and
-    fewest degrees of freedom."""
-    mask = (rows["run"] >= first) & (rows["run"] <= last)
-    _, once = np.unique(rows["result"][mask], return_index=True)
-    pick = np.flatnonzero(mask)[once]
+    fewest degrees of freedom. ``rows`` holds ``by_result``, the series' rows stably sorted by
+    result: the segment's rows in that order, the first of each result, are what
+    ``np.unique(..., return_index=True)`` would pick, without a sort per segment."""
+    by_result = rows["by_result"]
+    run = rows["run"][by_result]
+    inside = by_result[(run >= first) & (run <= last)]
+    result = rows["result"][inside]
+    pick = inside[np.r_[True, result[1:] != result[:-1]]] if len(inside) else inside
     seeds, at = np.unique(rows["seed"][pick], return_inverse=True)
     count = np.bincount(at, minlength=len(seeds))
     value = np.bincount(at, rows["value"][pick].astype(float), len(seeds)) / count
