@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
 
 from slipbench.stats.series import POOL, POOLED, _digest
 
@@ -42,7 +43,10 @@ def texts(codes: np.ndarray, values: np.ndarray) -> pd.Series:
     """``values[codes]`` as a column of text, made from the few values rather than a Python
     object per row."""
     uniques, at = pd.factorize(values)[::-1]
-    return pd.Series(pd.Categorical.from_codes(at[codes], categories=uniques)).astype("str")
+    column = pa.DictionaryArray.from_arrays(
+        pa.array(at[codes].astype(np.int32)), pa.array(list(uniques), pa.large_string())
+    ).dictionary_decode()
+    return pd.Series(pd.array(column, dtype="str"))
 
 
 def _xor_by(group: np.ndarray, values: np.ndarray, groups: int) -> np.ndarray:

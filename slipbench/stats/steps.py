@@ -332,7 +332,8 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         pts = coded_points(rows)
         series, groups = _sorted_series(pts)
         n_series += len(series)
-        work = [(pts["value"].to_numpy(float)[g], pts["se"].to_numpy(float)[g]) for g in groups]
+        value, se = pts["value"].to_numpy(float), pts["se"].to_numpy(float)
+        work = [(value[g], se[g]) for g in groups]
         cuts = _proposals(work, jobs)
         margin = gate.tolerances[figure] / FIGURES[figure].scale
         found.append(_judged(figure, margin, (rows, pts), list(zip(series, groups, cuts)), causes))
