@@ -128,7 +128,7 @@ def _grow_from_smaller(root: Path, label: str, n: int) -> None:
 
 
 def run_design(root: Path, pool: dict[str, Path], design: str, n: int) -> str:
-    from slipbench.stats.compare import compare
+    from slipbench.gate.compare import compare
 
     cand, r, _ = DESIGNS[design]
     codes: Counter[int] = Counter()

@@ -64,7 +64,7 @@ def main() -> None:
             out = root / f"{label.replace(' ', '')}-{args.repeats}-{run}"
             if not out.exists():
                 flipped(base, out, np.random.default_rng(run), trials, windows)
-            from slipbench.stats.compare import compare
+            from slipbench.gate.compare import compare
 
             cmp = compare(base, out, seed=run)
             hits["any"] += cmp.exit_code == 1

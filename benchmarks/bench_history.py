@@ -38,10 +38,10 @@ import numpy as np
 import pandas as pd
 
 from slipbench.atomic import write_atomic
+from slipbench.gate.gate import Gate
+from slipbench.history.steps import STEP_COLUMNS, find_steps
 from slipbench.report.site import write_site
 from slipbench.seeding import rng_for
-from slipbench.stats.gate import Gate
-from slipbench.stats.steps import STEP_COLUMNS, find_steps
 from slipbench.store.history import RUN_COLUMNS, Run, add_run, read_history, run_path, run_table
 
 FIGURES = ("accuracy", "tn_rate", "tp_rate")

@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 from scipy.stats import f as f_dist
 
-from slipbench.stats.reduction import CHANNELS, RATES, UNIVARIATE, twin_key
+from slipbench.gate.reduction import CHANNELS, RATES, UNIVARIATE, twin_key
 from slipbench.store.results import read_results
 
 

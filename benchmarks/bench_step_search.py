@@ -1,7 +1,7 @@
 """Where the time of a long history's step search goes: one series of ``--points`` runs.
 
 ``history steps`` cuts every series with ``ruptures.Binseg`` under the interval-weighted cost
-(:func:`slipbench.stats.steps.propose`). Against it, in the same run, ruptures' compiled
+(:func:`slipbench.history.steps.propose`). Against it, in the same run, ruptures' compiled
 search: ``KernelCPD`` with the linear kernel (the unweighted L2 cost, searched by Pelt in C).
 Each is timed on a series with three 3-point steps and on a flat one (1 point of noise), and
 the time of a history of ``--series`` such series on ``--jobs`` cores is projected from them
@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import ruptures as rpt
 
+from slipbench.history.steps import MIN_RUNS, PENALTY, propose
 from slipbench.seeding import rng_for
-from slipbench.stats.steps import MIN_RUNS, PENALTY, propose
 
 
 def series(points: int, stepped: bool) -> np.ndarray:

@@ -1,5 +1,5 @@
 """How far a true calibration's seed variance lies from what three seeds of a base show: the
-null spread behind ``slipbench.stats.calibration_check.SEED_FACTOR``.
+null spread behind ``slipbench.gate.calibration_check.SEED_FACTOR``.
 
 Runs the shipped bench (``bench.toml``) at disjoint triples of seeds (0-2, 3-5, ...), each as
 a base of the workflow runs it (``slipbench run bench.toml --seed S --out WORK/sS``; a folder
@@ -71,8 +71,8 @@ def _ratios(det, name: str, rows, figures) -> list[float]:
 
 def main() -> None:
     from slipbench.app.benchfile import load_benchmark
-    from slipbench.stats.calibration import calibration_path, read_calibration
-    from slipbench.stats.calibration_check import SEED_FACTOR, refused
+    from slipbench.gate.calibration import calibration_path, read_calibration
+    from slipbench.gate.calibration_check import SEED_FACTOR, refused
     from slipbench.stats.factors import latest_runs
     from slipbench.store.results import read_results
 

@@ -107,8 +107,8 @@ def side(pool: Path, out: Path, seeds: list[int], rename: str = "") -> Path:
 
 def compare_exit(base: Path, cand: Path, seed: int = 0) -> tuple[int, str]:
     """compare's exit code and verdict line."""
+    from slipbench.gate.compare import compare
     from slipbench.report.compare import _verdict_line
-    from slipbench.stats.compare import compare
 
     cmp = compare(base, cand, seed=seed)
     return cmp.exit_code, _verdict_line(cmp).split("\n")[0]

@@ -377,8 +377,8 @@ Sides = Callable[[int], tuple[Path, Path]]
 def judge_today(sides: Sides, study: Study) -> tuple[int, int, list[str], pd.DataFrame]:
     """compare as it stands, at the bench's seeds and [gate] tolerances: (exit code, seeds a
     side, pooled figures flagged, pooled tests)."""
-    from slipbench.stats.compare import compare
-    from slipbench.stats.gate import Gate
+    from slipbench.gate.compare import compare
+    from slipbench.gate.gate import Gate
 
     base, cand = sides(study.repeats)
     cmp = compare(base, cand, Gate(dict(study.bench.gate)) if study.bench.gate else Gate())
@@ -391,8 +391,8 @@ def judge_sequential(sides: Sides, study: Study) -> tuple[int, int, list[str], p
     """The gate as the shipped workflow runs it: ``compare`` at the bench's seeds, its noise from
     the calibrations that hold (:attr:`Study.sources`), and while undecided the bench's seeds
     more on both sides, up to its budget; each look decides at its own level."""
-    from slipbench.stats.compare import compare
-    from slipbench.stats.gate import Gate
+    from slipbench.gate.compare import compare
+    from slipbench.gate.gate import Gate
 
     b = study.bench
     gate = Gate(

@@ -31,10 +31,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from slipbench.gate.gate import Gate
+from slipbench.history.series import series_rows
+from slipbench.history.steps import JUDGED, find_steps
 from slipbench.seeding import rng_for
-from slipbench.stats.gate import Gate
-from slipbench.stats.series import series_rows
-from slipbench.stats.steps import JUDGED, find_steps
 from slipbench.store.results import read_results
 
 STEP = 0.02  # 2 points, as a fraction

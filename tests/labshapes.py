@@ -118,6 +118,33 @@ def slow_sensor_logs(
         ).to_csv(src / f"trial_{k}.csv", index=False)
 
 
+def late_logs(src, files: int = 12, late: dict[int, int] | None = None, n: int = 60) -> None:
+    """CSV files of a finger IMU's hold-slip trials at 10 Hz (``state`` per row: hold, slip,
+    hold, slip) whose logger started late in some: file k of ``late`` (default 2 of 12, as 11
+    of 192 in a real IMU set) starts in slip for its first ``late[k]`` rows, then holds."""
+    late = {3: 4, 8: 7} if late is None else late
+    src.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(11)
+    for k in range(files):
+        state = np.array(["hold"] * n, dtype=object)
+        state[20:28] = "slip"
+        state[40:] = "slip"
+        state[: late.get(k, 0)] = "slip"
+        a = rng.normal(0, 0.1, (n, 3)).cumsum(0) + 9.8
+        pd.DataFrame({"ax": a[:, 0], "ay": a[:, 1], "az": a[:, 2], "state": state}).round(6).to_csv(
+            src / f"imu_{k:02d}.csv", index=False
+        )
+
+
+LATE_MAPPING = {
+    "files": ["*.csv"],
+    "recording": {"sensor_type": "IMU", "sensor_instance": "index", "scenario": "hold-slip"},
+    "channels": {"names": ["ax", "ay", "az"], "units": "m/s^2"},
+    "rate": {"hz": 10.0},
+    "labels": {"column": "state", "slip": ["slip"], "no_slip": ["hold"]},
+}
+
+
 LOG_MAPPING = {
     "files": ["*.csv"],
     "recording": {"sensor_type": "Pad", "sensor_instance": "left", "scenario": "hold-slip"},

@@ -6,7 +6,8 @@ The wings, top to bottom (a wing may import its own wing, any wing below it, and
 
     app, testing
     report, analysis
-    engine
+    history
+    engine, gate
     stats, stream
     data, store, torch
     contract (the modules directly in slipbench/, at most 10: base, protocol, params, spectra,
@@ -17,13 +18,15 @@ in PyTorch): built-in plugins import nothing else of the package.
 
 The report sits above the engine but imports nothing of it (``APART``): a report reads only
 the results store, so the rows record what it needs of the plugins (their layouts, the
-reference detector).
+reference detector). The history sits above the engine too and imports nothing of it: it reads
+stored runs and never runs a model.
 
 Two wings on one level do not import each other, in either direction. Decided from the code:
 stats and stream share no import (stats reads stored rows, stream scores live pushes; both sit on
 data/store and the contract), nor do data and store (they meet only in the engine), nor report
-and analysis (two readers of engine output), nor app and testing (the commands and the
-plugins' conformance kit); a level whose wings call each other would be one wing in all but
+and analysis (two readers of engine output), nor engine and gate (the engine runs models and
+never judges, the gate judges stored rows and never runs a model), nor app and testing (the
+commands and the plugins' conformance kit); a level whose wings call each other would be one wing in all but
 name. Every import counts for the layering, also one inside a function or under
 ``if TYPE_CHECKING:``; for the cycles only those that run (not ``TYPE_CHECKING`` ones).
 
@@ -52,10 +55,12 @@ LEVELS = {
     "stats": 2,
     "stream": 2,
     "engine": 3,
-    "report": 4,
-    "analysis": 4,
-    "app": 5,
-    "testing": 5,
+    "gate": 3,
+    "history": 4,
+    "report": 5,
+    "analysis": 5,
+    "app": 6,
+    "testing": 6,
 }
 #: most .py files directly in slipbench/ (the contract and the package's __init__)
 MAX_TOP_LEVEL = 10
@@ -65,6 +70,8 @@ PLUGIN_EXCEPTIONS: dict[tuple[str, str], str] = {}  # (plugin module, target): w
 APART: dict[tuple[str, str], str] = {
     ("report", "engine"): "a report reads only the results store: protocol names, layouts, "
     "presentations and the reference detector are in the rows, never in the registry",
+    ("history", "engine"): "a history reads stored runs (store.history) and judges them with "
+    "the gate; it never plans or runs a model",
 }
 
 
@@ -182,8 +189,8 @@ def test_wings_import_only_downwards():
             elif src != dst and dst != CONTRACT and LEVELS[dst] >= LEVELS[src]:
                 bad.append(imp)
     assert not bad, (
-        "imports against the wing order (app, testing -> report, analysis -> engine -> "
-        "stats, stream -> data, store -> contract):\n" + _listing(bad)
+        "imports against the wing order (app, testing -> report, analysis -> history -> "
+        "engine, gate -> stats, stream -> data, store, torch -> contract):\n" + _listing(bad)
     )
 
 

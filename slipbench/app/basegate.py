@@ -22,7 +22,7 @@ import tomllib
 
 from slipbench.app.benchfile import BENCHMARK_FILE, RECORD_FILE, Benchmark, load_benchmark
 from slipbench.errors import DataError, UsageError
-from slipbench.stats.gate import DEFAULT_TOLERANCE
+from slipbench.gate.gate import DEFAULT_TOLERANCE
 from slipbench.store.columns import FIGURES
 from slipbench.store.results import results_folder
 

@@ -75,8 +75,8 @@ import tomllib
 
 from slipbench.app.options import repeats_problem
 from slipbench.errors import TOO_DEEP, PluginError, SlipbenchError, UsageError
+from slipbench.gate.gate import DEFAULT_TOLERANCE, unit
 from slipbench.report.render import FORMATS
-from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
 from slipbench.store.columns import WINDOWED, names
 
 BENCHMARK_FILE = "benchmark.toml"

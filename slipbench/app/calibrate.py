@@ -1,5 +1,5 @@
 """A bench file's calibration, measured and checked: its detectors run on many seeds and again
-from another training draw on the same splits (:mod:`slipbench.stats.calibration`), the noise
+from another training draw on the same splits (:mod:`slipbench.gate.calibration`), the noise
 written beside the file; and whether a calibration on disk still holds for the file and the
 code that runs it.
 
@@ -28,8 +28,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.engine.plan import Run
-from slipbench.seeding import STREAM_SCHEME
-from slipbench.stats.calibration import (
+from slipbench.gate.calibration import (
     TWIN_DRAW,
     Calibration,
     DetectorCalibration,
@@ -39,7 +38,8 @@ from slipbench.stats.calibration import (
     read_calibration,
     stale_reasons,
 )
-from slipbench.stats.gate import DEFAULT_TOLERANCE
+from slipbench.gate.gate import DEFAULT_TOLERANCE
+from slipbench.seeding import STREAM_SCHEME
 from slipbench.store.keys import canonical, own_code_identity
 from slipbench.store.results import ResultsStore, cells_failed
 
@@ -117,7 +117,7 @@ class CalibrationStatus:
         return self.calibration is not None and detector not in self.stale
 
     def sources(self) -> list[Calibration]:
-        """What a comparison takes of it (:func:`slipbench.stats.compare.compare`'s
+        """What a comparison takes of it (:func:`slipbench.gate.compare.compare`'s
         ``sources``): the calibration kept to the detectors it holds for; none without one."""
         cal = self.calibration
         return [] if cal is None else [cal.holding(d for d in cal.detectors if self.holds(d))]

@@ -1,6 +1,6 @@
 """The gate's plan of a bench file, before any cell runs: per detector, protocol and figure of
 its ``[gate]``, the smallest drop the pooled test flags with 80 % power at the bench's seeds and
-at its budget (:mod:`slipbench.stats.power`), from the calibration's noise, and what it costs;
+at its budget (:mod:`slipbench.gate.power`), from the calibration's noise, and what it costs;
 and the refusal of a tolerance the bench cannot decide.
 
 Two designs are planned. **Same seeds** (the workflow: both sides run the bench file, so seed
@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING
 from slipbench.app.calibrate import CalibrationStatus
 from slipbench.engine.estimate import duration
 from slipbench.engine.plan import Run
-from slipbench.stats.calibration import Noise
-from slipbench.stats.compare import POOLED_ALPHA
-from slipbench.stats.gate import DEFAULT_TOLERANCE, unit
-from slipbench.stats.power import Design, Sight, looks, nominal_levels, sight
+from slipbench.gate.calibration import Noise
+from slipbench.gate.compare import POOLED_ALPHA
+from slipbench.gate.gate import DEFAULT_TOLERANCE, unit
+from slipbench.gate.power import Design, Sight, looks, nominal_levels, sight
 from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, names
 
 if TYPE_CHECKING:  # benchfile refuses a gate by this module's plan: imported at run time there

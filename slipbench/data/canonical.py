@@ -359,7 +359,9 @@ def _check_onset(labels: np.ndarray | None, rid: str, where) -> None:
     if not (before == 0).any():
         raise data_error(
             where,
-            "a hold-slip recording has no sample labelled no-slip before its onset: no hold",
+            "a hold-slip recording has no sample labelled no-slip before its onset: no hold "
+            "(one that starts in slip: cut or unlabel (-1) its samples before its hold, as the "
+            "CSV importer's [labels] leading_slip does)",
             rid,
             "slip",
         )

@@ -13,11 +13,15 @@ from typing import Any
 import numpy as np
 
 from slipbench.data.format import Dataset
+from slipbench.data.schema import RATE_TOLERANCE
 
 REPEATS_WARN = 0.1  # a unit with at least this share of samples equal to the one before is said
 GAP_STEPS = 1.5  # a time step this many times the file's median step is a gap
 JITTER_WARN = 0.05  # files whose rates spread more than this (of the median rate) are said
+STEPS_WARN = 0.25  # a file whose steps spread (5-95 %) more than this of its median is said
 TIMING_KEY = "slipbench.timing"  # recordings.parquet's metadata: what an import's times showed
+LEADING_KEY = "slipbench.leading_slip"  # and what [labels] leading_slip took from which files
+DROPPED_KEY = "slipbench.dropped_repeats"  # and the rows [rate] drop_repeats dropped
 ROUTES = (
     "import with [rate] drop_repeats = true (and hz = the sensor's own rate), or resample_hz = "
     "a nominal rate with a time_column"
@@ -59,17 +63,24 @@ def repeat_lines(dataset: Dataset) -> list[str]:
     return lines
 
 
-def timing(times: np.ndarray) -> dict[str, Any]:
+def timing(times: np.ndarray, stated_hz: float | None = None) -> dict[str, Any]:
     """One file's time column (s from its first row): its rate (from the median step), its
-    gaps (steps over :data:`GAP_STEPS` times the median: count, largest in s)."""
+    gaps (steps over :data:`GAP_STEPS` times the median: count, largest in s), how even its
+    steps are (5th and 95th percentiles), its rows over its span and the rate a mapping or the
+    lab stated for it (``stated_hz``; None where the times gave it)."""
     step = np.diff(times)
     median = float(np.median(step)) if len(step) else 0.0
     gaps = step[step > GAP_STEPS * median] if median > 0 else step[:0]
+    p5, p95 = np.percentile(step, [5, 95]) if len(step) else (0.0, 0.0)
     return {
         "rate_hz": 1.0 / median if median > 0 else 0.0,
         "gaps": int(len(gaps)),
         "largest_gap_s": float(gaps.max()) if len(gaps) else 0.0,
         "median_step_s": median,
+        "step_p5_s": float(p5),
+        "step_p95_s": float(p95),
+        "span_hz": len(step) / float(times[-1]) if len(step) and times[-1] > 0 else 0.0,
+        "stated_hz": None if stated_hz is None else float(stated_hz),
     }
 
 
@@ -78,7 +89,7 @@ def timing_summary(per_file: Mapping[str, dict[str, Any]]) -> dict[str, Any]:
     rates = np.array([t["rate_hz"] for t in per_file.values()], float)
     gapped = {f: t for f, t in per_file.items() if t["gaps"]}
     worst = max(gapped, key=lambda f: gapped[f]["largest_gap_s"]) if gapped else ""
-    return {
+    out = {
         "files": len(per_file),
         "rate_hz": [float(rates.min()), float(np.median(rates)), float(rates.max())],
         "gaps": int(sum(t["gaps"] for t in per_file.values())),
@@ -87,11 +98,66 @@ def timing_summary(per_file: Mapping[str, dict[str, Any]]) -> dict[str, Any]:
         "largest_gap_file": worst,
         "median_step_s": gapped[worst]["median_step_s"] if worst else 0.0,
     }
+    uneven = [
+        t
+        for t in per_file.values()
+        if t["step_p95_s"] - t["step_p5_s"] > STEPS_WARN * t["median_step_s"]
+    ]
+    if uneven:  # 5-95 % of steps, over the files whose steps spread
+        out["uneven"] = len(uneven)
+        out["step_s"] = [
+            min(t["step_p5_s"] for t in uneven),
+            float(np.median([t["median_step_s"] for t in uneven])),
+            max(t["step_p95_s"] for t in uneven),
+        ]
+    off = {
+        f: t
+        for f, t in per_file.items()
+        if t["stated_hz"]
+        and t["span_hz"]
+        and abs(t["span_hz"] / t["stated_hz"] - 1) > RATE_TOLERANCE
+    }
+    if off:  # the rate stated, against the rows over each file's times
+        out["stated_off"] = len(off)
+        out["stated_hz"] = [
+            min(t["stated_hz"] for t in off.values()),
+            max(t["stated_hz"] for t in off.values()),
+        ]
+        out["span_hz"] = [
+            min(t["span_hz"] for t in off.values()),
+            max(t["span_hz"] for t in off.values()),
+        ]
+    return out
+
+
+def _hz(lo: float, hi: float) -> str:
+    return f"{lo:.4g} Hz" if f"{lo:.4g}" == f"{hi:.4g}" else f"{lo:.4g}-{hi:.4g} Hz"
+
+
+def _step_lines(t: Mapping[str, Any]) -> list[str]:
+    """Lines on uneven steps and a stated rate the times do not bear out."""
+    lines = []
+    if t.get("uneven"):
+        lo, mid, hi = (1e3 * x for x in t["step_s"])
+        lines.append(
+            f"uneven steps: in {t['uneven']} of {t['files']} files 5-95 % of the rows are "
+            f"{lo:.3g}-{hi:.3g} ms apart (median {mid:.3g} ms), so a window of n rows spans a "
+            "varying time; resample_hz on a CSV import puts them on one grid"
+        )
+    if t.get("stated_off"):
+        lines.append(
+            f"stated rate: {t['stated_off']} of {t['files']} files state "
+            f"{_hz(*t['stated_hz'])}, but their rows over their time columns come to "
+            f"{_hz(*t['span_hz'])}; the stated rate is used (resample_hz on a CSV import uses "
+            "the times)"
+        )
+    return lines
 
 
 def timing_lines(description: Mapping[str, str]) -> list[str]:
-    """The lines about an import's time column (gaps, a wandering rate) that its dataset's
-    description stored; none where it had no time column or nothing to say."""
+    """The lines about an import's time column (gaps, a wandering rate, uneven steps, a stated
+    rate the times do not bear out) that its dataset's description stored; none where it had no
+    time column or nothing to say."""
     text = description.get(TIMING_KEY)
     if not text:
         return []
@@ -113,11 +179,82 @@ def timing_lines(description: Mapping[str, str]) -> list[str]:
                 f"rate jitter: the files' rates (from their time columns) run {lo:.3g}-{hi:.3g} Hz "
                 f"(median {mid:.3g} Hz); resample_hz on import puts them on one rate"
             )
-        return lines
+        return lines + _step_lines(t)
     except (ValueError, TypeError, KeyError):  # written by other means: shown as it is
         return [f"timing: {text}"]
 
 
+def leading_summary(cut: Mapping[str, tuple[str, int, float]], held: int) -> dict[str, Any]:
+    """What ``[labels] leading_slip`` took (stored under :data:`LEADING_KEY`): ``cut`` maps
+    each file that started in slip to (route, rows, seconds); ``held``: the hold-slip files."""
+    most = max(cut, key=lambda f: cut[f][1])
+    return {
+        "routes": sorted({v[0] for v in cut.values()}),
+        "files": len(cut),
+        "hold_slip_files": held,
+        "rows": int(sum(v[1] for v in cut.values())),
+        "seconds": float(sum(v[2] for v in cut.values())),
+        "most_file": most,
+        "most_rows": int(cut[most][1]),
+    }
+
+
+def leading_lines(description: Mapping[str, str]) -> list[str]:
+    """The line saying what an import's ``leading_slip`` took; none where it took nothing."""
+    text = description.get(LEADING_KEY)
+    if not text:
+        return []
+    try:
+        t = json.loads(text)
+        did = {"trim": "dropped", "unlabelled": "kept unlabelled"}
+        return [
+            f"leading slip: {t['files']} of {t['hold_slip_files']} hold-slip files started in "
+            f"slip; [labels] leading_slip = {' / '.join(repr(r) for r in t['routes'])} "
+            f"{' or '.join(did.get(r, r) for r in t['routes'])} their rows before the first "
+            f"no-slip sample: {t['rows']} rows ({t['seconds']:.3g} s) in all, most "
+            f"{t['most_rows']} in {t['most_file']}"
+        ]
+    except (ValueError, TypeError, KeyError):  # written by other means: shown as it is
+        return [f"leading slip: {text}"]
+
+
+def dropped_summary(per_file: Mapping[str, tuple[int, int]]) -> dict[str, Any]:
+    """The rows ``[rate] drop_repeats`` dropped (stored under :data:`DROPPED_KEY`): ``per_file``
+    maps each file to (its rows, those dropped)."""
+    most = max(per_file, key=lambda f: per_file[f][1] / max(per_file[f][0], 1))
+    return {
+        "files": len(per_file),
+        "rows": int(sum(v[0] for v in per_file.values())),
+        "dropped": int(sum(v[1] for v in per_file.values())),
+        "most_file": most,
+        "most_share": per_file[most][1] / max(per_file[most][0], 1),
+    }
+
+
+def dropped_lines(description: Mapping[str, str]) -> list[str]:
+    """The line counting the rows an import's ``drop_repeats`` dropped; none where it dropped
+    none or was not asked."""
+    text = description.get(DROPPED_KEY)
+    if not text:
+        return []
+    try:
+        t = json.loads(text)
+        if not t["dropped"]:
+            return []
+        return [
+            f"repeated rows dropped: [rate] drop_repeats = true dropped {t['dropped']} of "
+            f"{t['rows']} rows ({100 * t['dropped'] / t['rows']:.1f} %) in {t['files']} files "
+            f"(most {100 * t['most_share']:.1f} % of {t['most_file']}); their labels with them"
+        ]
+    except (ValueError, TypeError, KeyError, ZeroDivisionError):  # written by other means
+        return [f"repeated rows dropped: {text}"]
+
+
 def health_lines(dataset: Dataset, description: Mapping[str, str]) -> list[str]:
     """Every health line of a dataset, each to be printed after ``warning: ``."""
-    return repeat_lines(dataset) + timing_lines(description)
+    return (
+        repeat_lines(dataset)
+        + timing_lines(description)
+        + dropped_lines(description)
+        + leading_lines(description)
+    )

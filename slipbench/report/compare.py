@@ -1,7 +1,7 @@
 """`slipbench compare` said: the pull-request comment (Markdown) and the JSON for bots.
 
 The decisions (paired intervals, per-cell and summary verdicts, the exit code) are made by
-:mod:`slipbench.stats.compare`; this module only writes them down: cells in the paper's order
+:mod:`slipbench.gate.compare`; this module only writes them down: cells in the paper's order
 (protocols as the paper's tables, then sensors, fingers, materials as the tables list them),
 short cell labels, the verdicts' marks, and a comment held under the size a pull request takes.
 """
@@ -15,9 +15,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.errors import UsageError
-from slipbench.report.markdown import md_code, md_table, md_text
-from slipbench.report.outline import layouts, protocol_order
-from slipbench.stats.compare import (
+from slipbench.gate.compare import (
     ALPHA,
     CELL_ALPHA,
     POOLED_ALPHA,
@@ -28,9 +26,11 @@ from slipbench.stats.compare import (
     repeats_note,
     summary,
 )
+from slipbench.gate.gate import Gate, unit
+from slipbench.report.markdown import md_code, md_table, md_text
+from slipbench.report.outline import layouts, protocol_order
 from slipbench.stats.contrast import family_level
 from slipbench.stats.factors import SETTINGS, setting_text
-from slipbench.stats.gate import Gate, unit
 from slipbench.store import columns
 from slipbench.store.columns import FIGURES, STREAMED, WINDOWED, figure_of, figures
 from slipbench.vocabulary import KEY_ORDER, LOW_N, ORDERS, cell_label
@@ -105,7 +105,7 @@ def in_paper_order(cmp: Comparison) -> Comparison:
 
 
 def summary_rows(cmp: Comparison) -> pd.DataFrame:
-    """:func:`slipbench.stats.compare.summary` with its worst cell named by its label."""
+    """:func:`slipbench.gate.compare.summary` with its worst cell named by its label."""
     lines = summary(cmp)
     lines["worst_row"] = [
         "" if i is None or pd.isna(i) else _label(cmp.cells.loc[int(i)], cmp)

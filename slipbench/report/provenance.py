@@ -655,6 +655,49 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
     return tables
 
 
+def _warning_kinds(flagged: pd.DataFrame) -> list[tuple[tuple[str, str], list[tuple[str, dict]]]]:
+    """(detector, the warning up to its numbers) -> its (text, row) of each cell, most cells
+    first."""
+    kinds: dict[tuple[str, str], list[tuple[str, dict]]] = {}
+    for row in flagged.to_dict("records"):
+        for text in str(row["warnings"]).split("; "):
+            kinds.setdefault((str(row["detector"]), re.sub(r"\d+(\.\d+)?", "#", text)), []).append(
+                (text, row)
+            )
+    return sorted(kinds.items(), key=lambda kv: (-len(kv[1]), kv[0]))
+
+
+def _warning_cells(found: list[tuple[str, dict]]) -> tuple[str, str, str]:
+    """One kind of warning: its most frequent wording, its number of cells, its units."""
+    wording = Counter(t for t, _ in found).most_common()
+    others = len(wording) - 1
+    text = wording[0][0] + (f" (and {others} other value{'s' * (others > 1)})" if others else "")
+    units = list(dict.fromkeys(_unit(r) for _, r in found))
+    return (
+        text,
+        str(len(found)),
+        ", ".join(f"{label('sensor_type', s)} {label('sensor_instance', i)}" for s, i in units),
+    )
+
+
+def fitting_warnings(rows: pd.DataFrame, limit: int = 10) -> list[str]:
+    """The finished rows' warnings about fitting (a detector that ran another setting than it
+    was given, a model that did not learn, ...), one line per detector and kind, as the
+    report's table of them: its wording, the cells of the finished ones and the units; at most
+    ``limit`` lines and one counting the rest."""
+    if "warnings" not in rows:
+        return []
+    ok = rows[rows["status"] == "ok"]
+    lines = _warning_kinds(ok[ok["warnings"].fillna("") != ""])
+    out = []
+    for (detector, _), found in lines[:limit]:
+        text, n, units = _warning_cells(found)
+        out.append(f"{detector}: {text} (in {n} of {len(ok)} finished cells: {units})")
+    if len(lines) > limit:
+        out.append(f"{len(lines) - limit} more kinds of warning about fitting (the rows' warnings)")
+    return out
+
+
 def _warnings_table(ok: pd.DataFrame) -> list[Table]:
     """Warnings about fitting, one line per detector and kind of warning (the same text up to
     its numbers): its most frequent wording, the cells and the units it concerns. A model that
@@ -662,31 +705,11 @@ def _warnings_table(ok: pd.DataFrame) -> list[Table]:
     windows it held out, cannot be told from chance
     (:func:`slipbench.stats.metrics.chance_interval`); a note says so where one is shown."""
     flagged = ok[ok["warnings"].fillna("") != ""]
-    kinds: dict[tuple[str, str], list[tuple[str, dict]]] = {}
-    for row in flagged.to_dict("records"):
-        for text in str(row["warnings"]).split("; "):
-            kinds.setdefault((str(row["detector"]), re.sub(r"\d+(\.\d+)?", "#", text)), []).append(
-                (text, row)
-            )
-    if not kinds:
+    lines = _warning_kinds(flagged)
+    if not lines:
         return []
-    lines = sorted(kinds.items(), key=lambda kv: (-len(kv[1]), kv[0]))
-    cells = []
-    for _, found in lines[:MAX_WARNINGS]:
-        wording = Counter(t for t, _ in found).most_common()
-        text = wording[0][0] + (
-            f" (and {len(wording) - 1} other values)" if len(wording) > 1 else ""
-        )
-        units = list(dict.fromkeys(_unit(r) for _, r in found))
-        cells.append(
-            [
-                text,
-                str(len(found)),
-                ", ".join(
-                    f"{label('sensor_type', s)} {label('sensor_instance', i)}" for s, i in units
-                ),
-            ]
-        )
+    cells = [list(_warning_cells(found)) for _, found in lines[:MAX_WARNINGS]]
+    kinds = dict(lines)
     notes = (
         [f"{len(lines) - MAX_WARNINGS} further kinds of warning not shown."]
         if len(lines) > MAX_WARNINGS

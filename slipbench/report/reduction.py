@@ -1,5 +1,5 @@
 """The report's section "What the reduction keeps": each detector run with both inputs, its
-channels cells against their univariate twins (:mod:`slipbench.stats.reduction`), per sensor
+channels cells against their univariate twins (:mod:`slipbench.gate.reduction`), per sensor
 type. The summary holds per sensor type the pooled change of each detector and protocol with
 its simultaneous interval, a sentence reading it, and one figure; each detector's per-cell
 table is a :class:`~slipbench.report.blocks.Detail` (the appendix of a split report), and so is
@@ -15,12 +15,12 @@ from functools import partial
 import numpy as np
 import pandas as pd
 
+from slipbench.gate.compare import ALPHA, MAX_WIDTH, MIN_SEEDS, RECOMMENDED_REPEATS
+from slipbench.gate.reduction import READINGS, InputComparison, compare_inputs, has_both_inputs
 from slipbench.report.blocks import Detail, Heading, Text
 from slipbench.report.outline import layouts, protocol_order
 from slipbench.report.tables import CLASS_RATES, LOW_MARK, Table, ordered, rank
-from slipbench.stats.compare import ALPHA, MAX_WIDTH, MIN_SEEDS, RECOMMENDED_REPEATS
 from slipbench.stats.contrast import margin_of
-from slipbench.stats.reduction import READINGS, InputComparison, compare_inputs, has_both_inputs
 from slipbench.store.columns import ACCURACY
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, cell_label, label
 

@@ -30,7 +30,7 @@ def input_changes(pooled: pd.DataFrame, cells: pd.DataFrame) -> Figure | None:
     """One panel per sensor type, one line per detector and protocol (and split, where there
     are several): the mean change over its cells (marker, coloured by its reading) with its
     interval (bar), each cell's own change (grey dots), and a zero line. ``pooled`` and
-    ``cells`` are :class:`~slipbench.stats.reduction.InputComparison`'s, lines in the order
+    ``cells`` are :class:`~slipbench.gate.reduction.InputComparison`'s, lines in the order
     ``pooled`` gives them. None when nothing was compared."""
     if pooled.empty:
         return None

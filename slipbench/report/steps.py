@@ -9,9 +9,9 @@ import os
 import numpy as np
 import pandas as pd
 
+from slipbench.gate.gate import MAX_NEEDED, POWER, unit
+from slipbench.history.steps import JUDGED, MIN_RUNS, SERIES_ALPHA, Steps
 from slipbench.stats.contrast import level_text
-from slipbench.stats.gate import MAX_NEEDED, POWER, unit
-from slipbench.stats.steps import JUDGED, MIN_RUNS, SERIES_ALPHA, Steps
 from slipbench.store.columns import FIGURES
 
 SHOWN = ("commit", "date", "verdict", "figure", "series_label", "change", "runs", "what_changed")

@@ -213,7 +213,7 @@ def column_digest(column: pa.ChunkedArray) -> str:
 
 
 def add_run(history: str | os.PathLike, rows: pd.DataFrame, run: Run) -> Path | None:
-    """Add one run's rows (with their ``series``, :func:`slipbench.stats.series.series_rows`,
+    """Add one run's rows (with their ``series``, :func:`slipbench.history.series.series_rows`,
     and ``proven``) and rebuild the index; None, with nothing written, where the history holds
     the commit."""
     history = Path(history)

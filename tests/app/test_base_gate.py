@@ -18,14 +18,14 @@ from resultgen import predictions_pair
 
 from slipbench.app.benchfile import load_benchmark, plan_runs, record
 from slipbench.app.calibrate import detector_identities, digest, settings
-from slipbench.stats.calibration import (
+from slipbench.gate.calibration import (
     Calibration,
     DetectorCalibration,
     Noise,
     ProtocolNoise,
     calibration_path,
 )
-from slipbench.stats.calibration_check import refused
+from slipbench.gate.calibration_check import refused
 
 BENCH = """\
 [benchmark]

@@ -16,10 +16,10 @@ from slipbench.app.benchfile import load_benchmark, plan_runs
 from slipbench.app.calibrate import detector_identities, digest, settings, status
 from slipbench.app.gateplan import plan_gate, refusal
 from slipbench.errors import DataError, UsageError
-from slipbench.stats.calibration import (
+from slipbench.gate.calibration import (
     CALIBRATION as CALIBRATED,
 )
-from slipbench.stats.calibration import (
+from slipbench.gate.calibration import (
     Calibration,
     DetectorCalibration,
     Noise,
@@ -27,7 +27,7 @@ from slipbench.stats.calibration import (
     calibration_path,
     read_calibration,
 )
-from slipbench.stats.power import nominal_levels
+from slipbench.gate.power import nominal_levels
 
 BENCH = """\
 [benchmark]

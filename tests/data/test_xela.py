@@ -3,6 +3,7 @@ read from the shared folder beside the project (never copied into it), fetched o
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -21,6 +22,7 @@ SOURCE = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "xela-pro
 needs_xela = pytest.mark.skipif(not SOURCE.is_dir(), reason=f"xela-proactive not found at {SOURCE}")
 FINGERPRINT = "f507924e6b30be5b"  # `dataset fetch xela-proactive` of the commit the card pins
 TRIALS = 7
+FILES = 5  # per trial: two pads, labels, meta data, robot state
 
 
 @pytest.fixture(scope="module")
@@ -36,8 +38,14 @@ def test_the_card_pins_the_commit_and_lists_what_the_importer_reads():
     assert card.base_url.endswith("/73c84b02e382040ca4ab8de1b37d836b8f511d40/data_set/")
     assert "imanlab/proactive-slip-control" in card.citation
     names = {f.path.split("/")[1] for f in card.files}
-    assert names == {"meta_data.csv", "slip_label.csv", "xela_sensor1.csv", "xela_sensor2.csv"}
-    assert len(card.files) == 4 * TRIALS
+    assert names == {
+        "meta_data.csv",
+        "robot_state.csv",  # the rows' own clock, against which the stated rate is checked
+        "slip_label.csv",
+        "xela_sensor1.csv",
+        "xela_sensor2.csv",
+    }
+    assert len(card.files) == FILES * TRIALS
 
 
 @needs_xela
@@ -90,7 +98,7 @@ def test_fetch_over_loopback_gives_the_imported_dataset(cli, xela, tmp_path, mon
         argv = ["dataset", "fetch", "xela-proactive", "--url", f"{url}/data_set"]
         code, _, err = cli([*argv, "--out", str(tmp_path / "x")])
     assert code == 0, err
-    assert len(requested) == 4 * TRIALS  # the card's files only (no marker or robot state)
+    assert len(requested) == FILES * TRIALS  # the card's files only (no marker file)
     assert read_dataset(tmp_path / "x").fingerprint == xela.fingerprint == FINGERPRINT
     assert '"card": "xela-proactive"' in read_description(tmp_path / "x")["slipbench.source"]
 
@@ -106,3 +114,63 @@ def test_a_pad_file_with_a_column_missing_is_refused(tmp_path):
     with pytest.raises(DataError, match=r"xela_sensor1\.csv: 47 columns; a uSkin pad has 48"):
         xela_proactive(copy, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_dataset_import_offers_every_importer(cli):
+    from slipbench.app.commands.dataset import IMPORT_KINDS
+    from slipbench.data.importers import IMPORTERS
+
+    assert IMPORT_KINDS == ["csv", *IMPORTERS]  # xela-proactive beside biotacsp-dos
+    code, out, _ = cli(["dataset", "import", "--help"])
+    assert code == 0 and "xela-proactive" in out
+
+
+@needs_xela
+def test_dataset_import_reads_the_shared_copy(cli, tmp_path):
+    code, out, err = cli(["dataset", "import", "xela-proactive", str(SOURCE), str(tmp_path / "x")])
+    assert code == 0, err
+    assert out.startswith(f"wrote {tmp_path / 'x'}")
+    assert read_dataset(tmp_path / "x").fingerprint == FINGERPRINT
+
+
+def _one_trial(tmp_path: Path) -> Path:
+    """A writable copy of the first trial, in a data_set folder of its own."""
+    trial = sorted(SOURCE.glob("data_sample_*"))[0]
+    shutil.copytree(trial, tmp_path / "data_set" / trial.name)
+    for f in (tmp_path / "data_set" / trial.name).iterdir():
+        f.chmod(0o644)
+    return tmp_path / "data_set" / trial.name
+
+
+@needs_xela
+def test_the_rows_clock_bears_out_the_stated_rate_and_its_steps_are_said(cli, tmp_path):
+    """59.75 Hz stated; robot_state.csv's per-row time gives 59.6-59.8 Hz over each trial's
+    rows (the start and stop times of meta_data.csv span 2 s more, hence 36-45 Hz over them)."""
+    out = xela_proactive(SOURCE, tmp_path / "x")
+    timing = json.loads(read_description(out)["slipbench.timing"])
+    assert timing["files"] == TRIALS and "stated_off" not in timing and timing["gaps"] == 0
+    code, text, err = cli(["dataset", "validate", str(out)])
+    assert code == 0, err
+    assert (
+        "warning: uneven steps: in 2 of 7 files 5-95 % of the rows are 12-21 ms apart "
+        "(median 17 ms)" in text
+    )
+    assert "stated rate" not in text
+
+
+@needs_xela
+def test_a_clock_that_disagrees_with_the_stated_rate_is_said(cli, tmp_path):
+    folder = _one_trial(tmp_path)
+    state = pd.read_csv(folder / "robot_state.csv")
+    state["time"] *= 1.4  # rows over their times: 59.75 / 1.4 = 42.7 Hz
+    state.to_csv(folder / "robot_state.csv", index=False)
+    out = xela_proactive(folder.parent, tmp_path / "x")
+    code, text, err = cli(["dataset", "info", str(out)])
+    assert code == 0, err
+    assert (
+        "warning: stated rate: 1 of 1 files state 59.75 Hz, but their rows over their "
+        "time columns come to 42.65 Hz; the stated rate is used" in text
+    )
+    state.iloc[:-1].to_csv(folder / "robot_state.csv", index=False)
+    with pytest.raises(DataError, match=r"robot_state.csv: 403 rows, but the pads' files hold 404"):
+        xela_proactive(folder.parent, tmp_path / "y")

@@ -9,7 +9,7 @@ from labshapes import slow_imu
 
 from slipbench.engine.plan import Run
 from slipbench.engine.runner import evaluate
-from slipbench.report.provenance import fitted_tables, header_tables
+from slipbench.report.provenance import fitted_tables, fitting_warnings, header_tables
 from slipbench.store.columns import overridden
 from slipbench.store.results import ResultsStore
 
@@ -38,3 +38,31 @@ def test_bandpass_on_a_slow_imu_warns_and_shows_the_band_that_ran(tmp_path):
     fitted_table, warned = fitted_tables(rows)
     assert "overrides" not in fitted_table.columns and fitted_table.cells[0][1] == "0.6–2.2 (1)"
     assert warned.cells[0][0] == f"ran {said}"
+    # and evaluate's closing lines say it, as the report's warnings table does
+    assert fitting_warnings(rows) == [f"bandpass: ran {said} (in 1 of 1 finished cells: IMU Index)"]
+
+
+def test_evaluate_closes_with_the_fallback_as_a_warning(tmp_path, cli):
+    ds = slow_imu(tmp_path)
+    argv = ["evaluate", "--detector", "bandpass", "--protocol", "window-size", "--quiet"]
+    argv += ["--protocol-param", "windows=[8]", "--labels", "any", "--split", "grouped"]
+    code, out, err = cli([*argv, "--dataset", str(ds.path), "--out", str(tmp_path / "o")])
+    assert code == 0, err
+    assert "warning: bandpass: ran band=[0.6, 2.16] (asked [50, 400]: above Nyquist 2.4 Hz" in err
+
+
+def test_a_warning_in_several_wordings_counts_the_others():
+    import pandas as pd
+
+    rows = pd.DataFrame(
+        {
+            "status": ["ok"] * 3,
+            "detector": ["holweg"] * 3,
+            "sensor_type": ["Pad"] * 3,
+            "sensor_instance": ["left"] * 3,
+            "warnings": ["band 0-4 Hz", "band 0-4 Hz", "band 0-2 Hz"],
+        }
+    )
+    assert fitting_warnings(rows) == [
+        "holweg: band 0-4 Hz (and 1 other value) (in 3 of 3 finished cells: Pad left)"
+    ]

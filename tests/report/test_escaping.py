@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 from markdown_it import MarkdownIt
 from resultgen import fake_rows
 
+from slipbench.gate.compare import compare
 from slipbench.report.compare import comment_markdown
 from slipbench.report.document import build_report, render
 from slipbench.report.latex import LATEX_CHARS, escape
-from slipbench.stats.compare import compare
 
 HOSTILE = [
     "a|b",

@@ -12,12 +12,12 @@ from resultgen import fake_rows
 
 from slipbench.engine import plan
 from slipbench.engine.plan import Run, keys
+from slipbench.gate.compare import compare
 from slipbench.protocol import Cell, Part
 from slipbench.report.compare import comment_markdown
 from slipbench.report.document import ReportOptions, _protocol_blocks, build_report, render
 from slipbench.report.outline import outline
 from slipbench.report.plots import FigureSpec
-from slipbench.stats.compare import compare
 from slipbench.stats.factors import (
     ENTRANTS,
     KEY_FIELDS,

@@ -21,10 +21,10 @@ from test_coverage import TAUS, dataset
 
 from slipbench.app.cli import main
 from slipbench.errors import EXIT_UNDECIDED, DataError
+from slipbench.gate.compare import CELL_ALPHA, compare, family_level
+from slipbench.gate.gate import Gate
 from slipbench.report.compare import COMMENT_LIMIT, MAX_ROWS, comment_markdown, to_json
-from slipbench.stats.compare import CELL_ALPHA, compare, family_level
 from slipbench.stats.factors import latest_runs
-from slipbench.stats.gate import Gate
 from slipbench.stats.metrics import classification_figures, paired_comparison
 from slipbench.store.results import check_unique_keys
 
@@ -227,7 +227,7 @@ def test_a_whole_paper_null_comparison_rarely_calls_a_regression():
     share of runs with any cell called regressed stays at or below 5 %, where per-cell 95 %
     intervals call one in nearly every run. CI runs 20 comparisons with 199 resamples per cell
     (a noisier standard error: a stricter test than the 999 compare uses); the full study
-    (``SLIPBENCH_NULL_RUNS=100``) is quoted in slipbench/stats/compare.py."""
+    (``SLIPBENCH_NULL_RUNS=100``) is quoted in slipbench/gate/compare.py."""
     rng = np.random.default_rng(11)
     level = family_level(NULL_CELLS)
     false_runs = false_runs_95 = 0

@@ -10,7 +10,7 @@ from historygen import run_folder
 
 from slipbench.app.cli import main
 from slipbench.errors import DataError, UsageError
-from slipbench.stats.series import series_rows
+from slipbench.history.series import series_rows
 from slipbench.store.history import (
     INDEX_FILE,
     Run,

@@ -13,10 +13,10 @@ from slipbench.data.format import Dataset
 from slipbench.engine.plan import Run, make_plan
 from slipbench.engine.runner import _signals, evaluate
 from slipbench.errors import UsageError
+from slipbench.gate.compare import compare
+from slipbench.gate.gate import Gate
 from slipbench.protocols.streaming import Streaming
 from slipbench.report.compare import comment_markdown
-from slipbench.stats.compare import compare
-from slipbench.stats.gate import Gate
 from slipbench.store.results import ResultsStore
 
 FIGURES = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")

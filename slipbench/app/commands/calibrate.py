@@ -57,7 +57,7 @@ def calibrate_command(**options) -> None:
     from slipbench.app.gateplan import plan_gate
     from slipbench.atomic import check_writable
     from slipbench.errors import UsageError
-    from slipbench.stats.calibration import calibration_path
+    from slipbench.gate.calibration import calibration_path
 
     bench = with_overrides(load_benchmark(o.bench_file), jobs=o.jobs)
     if bench.input == "both":

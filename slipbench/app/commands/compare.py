@@ -12,7 +12,7 @@ import click
 
 from slipbench.app.options import LAYOUT_PLUGINS_HELP, out_option, plugins_option
 from slipbench.app.selection import add_plugin_folders, recorded_plugins
-from slipbench.stats.gate import DEFAULT_TOLERANCE
+from slipbench.gate.gate import DEFAULT_TOLERANCE
 
 if TYPE_CHECKING:  # read when compare runs (each command's imports are its own)
     from slipbench.app.benchfile import Benchmark
@@ -107,8 +107,8 @@ def compare_command(**options) -> None:
     o = CompareArgs(**options)
     from slipbench.app.basegate import judge, missing
     from slipbench.atomic import write_text_atomic
+    from slipbench.gate.compare import compare
     from slipbench.report.compare import MAX_ROWS, comment_markdown, to_json
-    from slipbench.stats.compare import compare
 
     add_plugin_folders(o.plugins)
     judged = judge(o.base, o.candidate, o.bench)
@@ -145,7 +145,7 @@ def gate_from(
     recorded it), else every figure; --margin sets every rate's tolerance that is not given as
     NAME=TOLERANCE. The bench's repeats and budget set the looks."""
     from slipbench.app.benchfile import load_benchmark
-    from slipbench.stats.gate import Gate, parse_tolerances, unit
+    from slipbench.gate.gate import Gate, parse_tolerances, unit
 
     b = load_benchmark(bench) if isinstance(bench, (str, Path)) else bench
     explicit = parse_tolerances(f for f in figures if "=" in f)
@@ -187,12 +187,12 @@ def _calibration(bench: Path, base: Path) -> tuple[list, list[str]]:
 
 def _numbers_checked(sources: list, base: Path, gate, bench: Path | None) -> tuple[list, list[str]]:
     """The calibration kept to the detectors whose numbers agree with what BASE's own seeds
-    show (:mod:`slipbench.stats.calibration_check`), and the first-line words of each detector
+    show (:mod:`slipbench.gate.calibration_check`), and the first-line words of each detector
     it was refused for (not used: the sides' own seeds carry its noise)."""
     import warnings
 
-    from slipbench.stats.calibration import calibration_path
-    from slipbench.stats.calibration_check import refused
+    from slipbench.gate.calibration import calibration_path
+    from slipbench.gate.calibration_check import refused
     from slipbench.store.results import read_results
 
     if not sources or bench is None:

@@ -26,6 +26,12 @@ from slipbench.errors import PluginError, UsageError
 from slipbench.protocol import BaseProtocol
 
 
+# what `dataset import` takes: csv (with a mapping) and each published dataset's importer, as
+# slipbench.data.importers.IMPORTERS names them (kept here so that --help imports no pandas;
+# tests/app/test_cli.py holds the two lists together)
+IMPORT_KINDS = ["csv", "biotacsp-dos", "xela-proactive"]
+
+
 @click.group("dataset")
 def dataset() -> None:
     """Create, check and describe Parquet datasets."""
@@ -203,7 +209,7 @@ def dataset_check(**options) -> None:
 
 
 @dataset.command("import")
-@click.argument("kind", type=click.Choice(["csv", "biotacsp-dos"]))
+@click.argument("kind", type=click.Choice(IMPORT_KINDS))
 @click.argument("src", type=click.Path(path_type=Path))
 @click.argument("out", type=Destination())
 @click.option(

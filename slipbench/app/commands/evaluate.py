@@ -202,7 +202,7 @@ def evaluate_command(**options) -> None:
         run.validate()  # every option before the dataset is read or simulated
     slurm = slurm_resources(o.scheduler, o.slurm, None, detectors)
     from slipbench.report.document import protocol_table
-    from slipbench.report.provenance import balance_kept, grouped_warnings
+    from slipbench.report.provenance import balance_kept, fitting_warnings, grouped_warnings
     from slipbench.store.results import ResultsStore, cells_failed
 
     store = ResultsStore(o.out)
@@ -221,7 +221,7 @@ def evaluate_command(**options) -> None:
     )
     if kept := balance_kept(rows):
         click.echo(f"windows used of those available before balancing: {kept}")
-    for line in grouped_warnings(rows):
+    for line in grouped_warnings(rows) + fitting_warnings(rows):
         click.echo(f"warning: {line}", err=True)
     for reason in rows.loc[rows["status"] == "skipped", "reason"].unique():
         click.echo(f"skipped: {reason}", err=True)

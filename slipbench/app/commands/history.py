@@ -43,8 +43,8 @@ def add_command(**options) -> None:
     """Add RESULTS (a results folder or file) to the history as the run of --commit; a commit
     the history holds already changes nothing."""
     o = AddArgs(**options)
+    from slipbench.history.series import series_rows
     from slipbench.stats.factors import latest_runs
-    from slipbench.stats.series import series_rows
     from slipbench.store.history import Run, add_run, check_commit, held, utc_date
     from slipbench.store.results import check_unique_keys, read_results
 
@@ -141,8 +141,8 @@ def steps_command(**options) -> None:
     """
     o = StepsArgs(**options)
     from slipbench.app.commands.compare import gate_from
+    from slipbench.history.steps import STEP_COLUMNS, default_jobs, find_steps
     from slipbench.report.steps import steps_json, steps_text
-    from slipbench.stats.steps import STEP_COLUMNS, default_jobs, find_steps
     from slipbench.store.history import read_history
 
     gate = gate_from(o.figures, o.bench, None, 40.0)
@@ -213,8 +213,8 @@ def page_command(**options) -> None:
     o = PageArgs(**options)
     from slipbench.app.commands.compare import gate_from
     from slipbench.errors import UsageError
+    from slipbench.history.steps import default_jobs, find_steps
     from slipbench.report.site import write_site
-    from slipbench.stats.steps import default_jobs, find_steps
     from slipbench.store.history import read_history
 
     if o.history is None and o.results is None:

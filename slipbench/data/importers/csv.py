@@ -16,8 +16,21 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from slipbench.data.health import TIMING_KEY, timing, timing_summary
-from slipbench.data.importers.labels import labels_of_file, segments_table
+from slipbench.data.health import (
+    DROPPED_KEY,
+    LEADING_KEY,
+    TIMING_KEY,
+    dropped_summary,
+    leading_summary,
+    timing,
+    timing_summary,
+)
+from slipbench.data.importers.labels import (
+    label_choice,
+    labels_of_file,
+    leading_slip,
+    segments_table,
+)
 from slipbench.data.importers.mapping import (
     TIME_UNITS,
     CsvFile,
@@ -90,6 +103,9 @@ def import_csv(
     labels: dict[str, np.ndarray] = {}
     origin: dict[str, str] = {}  # recording_id -> the file that gave it
     timings: dict[str, dict] = {}  # file -> what its time column showed (gaps, rate)
+    leading: dict[str, tuple[str, int, float]] = {}  # file -> leading slip: route, rows, s
+    held = 0  # hold-slip files
+    repeated: dict[str, tuple[int, int]] = {}  # file -> rows, rows drop_repeats dropped
     for rel in files:
         path = src / rel
         fields = file_fields(m, rel, selected, metadata)
@@ -97,11 +113,17 @@ def import_csv(
         rate, times = _rate(m, fields, frame, path)
         file = CsvFile(path, rel, fields, frame, rate, times, file_variables(m, rel, selected))
         if times is not None:
-            timings[rel] = timing(times)
+            # a rate stated is checked against the rows over their times, unless repeats are
+            # dropped (the times are the logger's then, the rate the sensor's)
+            stated = not (_from_times(m, fields) or m.rate.get("drop_repeats"))
+            timings[rel] = timing(times, rate if stated else None)
         file_labels = labels_of_file(m, file, segments.get(rel, []))
         recordings, file_labels = regular(
-            m, file, _recordings_of(m, file, file_labels), file_labels
+            m, file, _recordings_of(m, file, file_labels), file_labels, repeated
         )
+        if recordings and recordings[0][0]["scenario"] == "hold-slip":
+            held += 1
+            recordings, file_labels, leading[rel] = _lead(m, file, recordings, file_labels)
         for row, values in recordings:
             rid = row["recording_id"]
             if rid in origin:
@@ -118,6 +140,17 @@ def import_csv(
         if "resample_hz" in m.rate:
             summary["resampled_hz"] = float(m.rate["resample_hz"])
         description = {**(description or {}), TIMING_KEY.encode(): json.dumps(summary)}
+    if repeated:
+        description = {
+            **(description or {}),
+            DROPPED_KEY.encode(): json.dumps(dropped_summary(repeated)),
+        }
+    cut = {f: v for f, v in leading.items() if v[1]}
+    if cut:  # every row the route took, counted and kept with the dataset
+        description = {
+            **(description or {}),
+            LEADING_KEY.encode(): json.dumps(leading_summary(cut, held)),
+        }
     return write_dataset(out, pd.DataFrame(rows), samples, labels or None, description)
 
 
@@ -190,6 +223,11 @@ def _rate(
     )
 
 
+def _from_times(m: CsvMapping, fields: dict) -> bool:
+    """Whether a file's rate was the median step of its time column (else stated)."""
+    return fields.get("sampling_rate_hz") is None and "hz" not in m.rate
+
+
 def _recordings_of(
     m: CsvMapping, file: CsvFile, labels: np.ndarray | None
 ) -> list[tuple[dict, np.ndarray]]:
@@ -204,8 +242,6 @@ def _recordings_of(
                 raise UsageError(
                     f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file"
                 )
-        if meta["scenario"] == "hold-slip":
-            _check_hold(labels, path)
         names = _channel_names(frame, group, path)
         values = [column_numbers(frame, c, path, m.csv) for c in names]
         units = group.get("units", "raw")
@@ -252,21 +288,22 @@ def _group_fields(m: CsvMapping, file: CsvFile, group: dict, i: int) -> dict[str
     return out
 
 
-def _check_hold(labels: np.ndarray | None, path: Path) -> None:
-    """A hold-slip trial holds (labelled no-slip), then may slip; one that never slips is kept
-    (all of it is hold), as the dataset reader keeps it."""
-    if labels is None:
-        raise DataError(
-            f"{path}: scenario hold-slip needs per-sample labels: give [labels] a column, or "
-            'segments (a table or slip_onset), or unlisted = "no-slip" for a trial that never slips'
-        )
-    slipping = np.flatnonzero(labels == 1)
-    if not (labels[: slipping[0] if len(slipping) else len(labels)] == 0).any():
-        raise DataError(
-            f"{path}: scenario hold-slip: no sample labelled no-slip before "
-            + ("the slip onset" if len(slipping) else "the end (and no slip)")
-            + ": the trial has no hold"
-        )
+def _lead(
+    m: CsvMapping, file: CsvFile, recordings: list[tuple[dict, np.ndarray]], labels: Any
+) -> tuple[list[tuple[dict, np.ndarray]], np.ndarray, tuple[str, int, float]]:
+    """A hold-slip file's recordings and labels with its leading slip (the rows before its
+    first no-slip sample, where it starts in slip) dropped or unlabelled as ``leading_slip``
+    says, and (route, rows, seconds) of what it took."""
+    k = leading_slip(m, file.fields, labels, file.path)
+    if not k:
+        return recordings, labels, ("", 0, 0.0)
+    route = label_choice(m, file.fields, "leading_slip", file.path)
+    seconds = k / float(recordings[0][0]["sampling_rate_hz"])
+    if route == "trim":
+        return [(row, v[k:]) for row, v in recordings], labels[k:], (route, k, seconds)
+    labels = labels.copy()
+    labels[:k] = -1
+    return recordings, labels, (route, k, seconds)
 
 
 def _text(value: Any) -> str | None:

@@ -35,8 +35,8 @@ def labels_of_file(m: CsvMapping, file: CsvFile, segments: list) -> np.ndarray |
     return _segment_labels(m, file, segments)
 
 
-def _choice(m: CsvMapping, fields: dict, key: str, path: Path) -> str:
-    """A file's after_offset or unlisted: its own field (from [recording], [[rules]] or a
+def label_choice(m: CsvMapping, fields: dict, key: str, path: Path) -> str:
+    """A file's after_offset, unlisted or leading_slip: its own field (from [recording], [[rules]] or a
     metadata table) or [labels]'s, checked here since a template may fill it."""
     value = fields.get(key, m.labels.get(key, LABEL_CHOICES[key][0]))
     if value not in LABEL_CHOICES[key]:
@@ -44,6 +44,39 @@ def _choice(m: CsvMapping, fields: dict, key: str, path: Path) -> str:
             f"{m.where}: {key} of {path} is {value!r}; it must be one of {', '.join(LABEL_CHOICES[key])}"
         )
     return str(value)
+
+
+def leading_slip(m: CsvMapping, fields: dict, labels: np.ndarray | None, path: Path) -> int:
+    """Rows of a hold-slip file before its hold (its first no-slip sample) that ``leading_slip``
+    (``trim`` or ``unlabelled``) takes: 0 where the labels hold before any slip. Refused where
+    there is no hold at all, or where they start in slip and ``leading_slip`` is ``refuse``."""
+    if labels is None:
+        raise DataError(
+            f"{path}: scenario hold-slip needs per-sample labels: give [labels] a column, or "
+            'segments (a table or slip_onset), or unlisted = "no-slip" for a trial that never slips'
+        )
+    held, slipping = np.flatnonzero(labels == 0), np.flatnonzero(labels == 1)
+    if not len(held):
+        raise DataError(
+            f"{path}: scenario hold-slip: no sample labelled no-slip before "
+            + ("the slip onset" if len(slipping) else "the end (and no slip)")
+            + ": the trial has no hold"
+            + (
+                "; a trial that slips throughout is scenario slip (a [[rules]] for it)"
+                if len(slipping)
+                else ""
+            )
+        )
+    if not len(slipping) or slipping[0] > held[0]:
+        return 0
+    route = label_choice(m, fields, "leading_slip", path)
+    if route == "refuse":
+        raise DataError(
+            f"{path}: scenario hold-slip: the trial starts in slip ({held[0]} rows before its first "
+            'no-slip sample): [labels] leading_slip = "trim" drops those rows, "unlabelled" keeps '
+            "them unlabelled; either is counted in the import's warnings"
+        )
+    return int(held[0])
 
 
 def _label_column(m: CsvMapping, frame: pd.DataFrame, path: Path) -> np.ndarray:
@@ -74,9 +107,11 @@ def _segment_labels(m: CsvMapping, file: CsvFile, segments: list[Segment]) -> np
     fields, n, rate, times, path = file.fields, len(file.frame), file.rate, file.times, file.path
     if not segments:
         return (
-            None if _choice(m, fields, "unlisted", path) == "unlabelled" else np.zeros(n, np.int8)
+            None
+            if label_choice(m, fields, "unlisted", path) == "unlabelled"
+            else np.zeros(n, np.int8)
         )
-    file_after = _choice(m, fields, "after_offset", path)
+    file_after = label_choice(m, fields, "after_offset", path)
     in_seconds = m.labels.get("unit", "sample") == "s"
     t = times if times is not None else np.arange(n) / rate
 

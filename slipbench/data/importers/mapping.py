@@ -31,6 +31,7 @@ FIELDS = (
     "slip_offset",
     "after_offset",  # per file, overriding [labels]
     "unlisted",
+    "leading_slip",
 )
 NUMERIC_FIELDS = ("speed_mm_s", "sampling_rate_hz", "slip_onset", "slip_offset")
 TOP_KEYS = {
@@ -57,12 +58,16 @@ LABEL_KEYS = {
     "unit",
     "after_offset",
     "unlisted",
+    "leading_slip",
 }
-# What [labels] after_offset and unlisted (or a file's own fields of those names) may say; the
-# first is the default
+# What [labels] after_offset, unlisted and leading_slip (or a file's own fields of those names)
+# may say; the first is the default
 LABEL_CHOICES = {
     "after_offset": ("no-slip", "unlabelled"),
     "unlisted": ("unlabelled", "no-slip"),
+    # a hold-slip trial whose labels start in slip: refused, its leading rows dropped, or kept
+    # unlabelled (-1)
+    "leading_slip": ("refuse", "trim", "unlabelled"),
 }
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 GLOBS_STAY = "a glob selects files under SRC: no '..', no absolute path"

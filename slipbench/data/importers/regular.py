@@ -20,9 +20,11 @@ def regular(
     file: CsvFile,
     recordings: list[tuple[dict, np.ndarray]],
     labels: np.ndarray | None,
+    counted: dict[str, tuple[int, int]] | None = None,
 ) -> tuple[list[tuple[dict, np.ndarray]], np.ndarray | None]:
     """A file's recordings (metadata row, samples) and labels with its repeated rows dropped
-    and/or resampled, as the mapping's ``[rate]`` asks; as they are where it asks neither."""
+    and/or resampled, as the mapping's ``[rate]`` asks; as they are where it asks neither.
+    ``counted`` (file -> rows, rows dropped as repeats) gets this file's where it drops."""
     drop, target = bool(m.rate.get("drop_repeats")), m.rate.get("resample_hz")
     if not (drop or target) or not recordings:
         return recordings, labels
@@ -30,6 +32,8 @@ def regular(
     keep = np.ones(len(values), bool)
     if drop:
         keep[1:] = ~np.all(values[1:] == values[:-1], axis=1)
+        if counted is not None:  # every row dropped is counted, for the import's warning
+            counted[file.rel] = (len(keep), int(len(keep) - keep.sum()))
     if target is None:
         rate = _kept_rate(m, file, keep)
         return (

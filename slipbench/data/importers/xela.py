@@ -3,12 +3,14 @@ Panda moves a box held by two uSkin 4x4 pads, per-sample slip labels from a wris
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from slipbench.data.health import TIMING_KEY, timing, timing_summary
 from slipbench.data.importers.tables import column_numbers, read_csv
 from slipbench.data.write import write_dataset
 from slipbench.errors import DataError
@@ -58,6 +60,18 @@ def _rate(path: Path) -> float:
     return rate
 
 
+def _clock(path: Path, n: int) -> np.ndarray:
+    """The rows' own clock: ``robot_state.csv``'s ``time`` (s from the first row), one per row
+    of the pads' files, increasing."""
+    t = _column(read_csv(path, CSV, []), "time", path).astype(np.float64)
+    if len(t) != n:
+        raise DataError(f"{path}: {len(t)} rows, but the pads' files hold {n}; one clock per row")
+    if (np.diff(t) <= 0).any():
+        row = int(np.argmax(np.diff(t) <= 0)) + 1
+        raise DataError(f"{path}: row {row + 1}: column 'time' does not increase")
+    return t - t[0]
+
+
 def xela_proactive(
     src: str | Path, out: str | Path, description: Mapping[bytes, str] | None = None
 ) -> Path:
@@ -66,8 +80,10 @@ def xela_proactive(
     Each ``data_sample_*`` folder is one trial: ``xela_sensor1.csv`` and ``xela_sensor2.csv``
     become recordings ``<folder>/pad1`` and ``<folder>/pad2`` (sensor ``XelaUSkin``, the 48
     columns of the header, unit ``count``) of that trial, at the rate ``meta_data.csv`` gives
-    (``frequency_hz``; the seven trials' rates spread 0.4 %, within ``RATE_TOLERANCE``); the
-    labels are ``slip_label.csv``'s ``slip``, unlabelled where ``fail`` is 1. One object (material
+    (``frequency_hz``; the seven trials' rates spread 0.4 %, within ``RATE_TOLERANCE``), which
+    ``robot_state.csv``'s per-row ``time`` bears out (its steps, gaps and any disagreement with
+    the stated rate are kept as the CSV importer keeps a time column's, and said by
+    ``dataset validate``, ``info`` and ``check``); the labels are ``slip_label.csv``'s ``slip``, unlabelled where ``fail`` is 1. One object (material
     ``box``), speed unknown, scenario ``hold-slip``. ``description`` goes to the metadata.
     """
     src = Path(src)
@@ -75,6 +91,7 @@ def xela_proactive(
     if not trials:
         raise DataError(f"{src}: no data_sample_* folder (give the repository's data_set folder)")
     rows, samples, labels = [], {}, {}
+    timings = {}
     for folder in trials:
         rate = _rate(folder / "meta_data.csv")
         pads = {}
@@ -88,7 +105,9 @@ def xela_proactive(
             raise DataError(
                 f"{folder}: the pads' files hold {sorted(n)} rows; one trial, one length"
             )
-        slip = _labels(folder / "slip_label.csv", n.pop())
+        rows_n = n.pop()
+        slip = _labels(folder / "slip_label.csv", rows_n)
+        timings[folder.name] = timing(_clock(folder / "robot_state.csv", rows_n), rate)
         for pad, frame in pads.items():
             rid = f"{folder.name}/{pad}"
             path = folder / PADS[pad]
@@ -109,4 +128,5 @@ def xela_proactive(
                     "trial": folder.name,
                 }
             )
+    description = {**(description or {}), TIMING_KEY.encode(): json.dumps(timing_summary(timings))}
     return write_dataset(out, pd.DataFrame(rows), samples, labels, description=description)

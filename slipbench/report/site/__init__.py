@@ -28,10 +28,10 @@ import numpy as np
 import pandas as pd
 
 from slipbench.atomic import make_folder, write_text_atomic
+from slipbench.gate.gate import unit
+from slipbench.history.steps import JUDGED, Steps
 from slipbench.report.steps import short_history, verdict_shown
-from slipbench.stats.gate import unit
 from slipbench.stats.leaderboard import constant_accuracy
-from slipbench.stats.steps import JUDGED, Steps
 from slipbench.store.columns import ACCURACY, FIGURES
 
 #: the points every series page holds together (values and standard errors)
@@ -278,7 +278,7 @@ def write_site(
     Parameters
     ----------
     latest : the result rows of the run the leaderboard and side by side pages show.
-    found : a history's steps (:func:`slipbench.stats.steps.find_steps`): the series page and
+    found : a history's steps (:func:`slipbench.history.steps.find_steps`): the series page and
         the steps on the index; None for one results folder.
     report : the run's report as one HTML page (``report.html``), where there is one.
     about : what the pages stand on, said under each title.

@@ -4,7 +4,7 @@ detector, and a CI verdict.
 Cells are paired as :mod:`slipbench.stats.sides` pairs them, and each cell's change gets
 its interval as :mod:`slipbench.stats.changes` draws it.
 
-Verdicts. The gate's figures and tolerances (:class:`slipbench.stats.gate.Gate`: accuracy, TP
+Verdicts. The gate's figures and tolerances (:class:`slipbench.gate.gate.Gate`: accuracy, TP
 and TN rate of windowed cells; detection rate, median delay and false alarms per minute of
 streaming cells) are judged at ``ALPHA`` (5 %), split by the union bound: ``POOLED_ALPHA``
 (2.5 %) for the pooled tests, one per protocol, detector and figure (:mod:`slipbench.stats.pooled`),
@@ -19,9 +19,9 @@ also *regressed* when the candidate failed, timed out or skipped a cell the base
 *inconclusive* when the cell is low-n (its intervals undercover) or its interval, deciding
 nothing, is wider than ``max_width`` points (``MAX_WIDTH``, 40); otherwise *no significant
 change*. A pooled test that flags nothing states its power and may be *undecided*
-(:mod:`slipbench.stats.gate`); :attr:`Comparison.state` turns all of it into the exit code.
+(:mod:`slipbench.gate.gate`); :attr:`Comparison.state` turns all of it into the exit code.
 
-Looks. A gate with a budget (:class:`~slipbench.stats.gate.Gate` ``seeds`` and ``budget``, a
+Looks. A gate with a budget (:class:`~slipbench.gate.gate.Gate` ``seeds`` and ``budget``, a
 bench's ``repeats`` and ``[gate] budget``) decides at the look the stored seeds make
 (:func:`look_at`): each family's intervals at that look's share of its error
 (:func:`look_level`, Lan-DeMets O'Brien-Fleming), and before the last look a pooled test
@@ -46,10 +46,8 @@ import pandas as pd
 import scipy  # its submodules load on first use: reading stored rows pays none
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED
-from slipbench.stats.bootstrap import IntervalSpec
-from slipbench.stats.changes import cell_changes, pool_of, seed_pools
-from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, level_text, state_of
-from slipbench.stats.gate import (
+from slipbench.gate.changes import cell_changes, pool_of, seed_pools
+from slipbench.gate.gate import (
     Gate,
     needed,
     resolution,
@@ -57,6 +55,10 @@ from slipbench.stats.gate import (
     two_sided_p,
     unit,
 )
+from slipbench.gate.power import Design, looks, nominal_levels
+from slipbench.gate.sides import decidable, finished, plan_cells, read_sides
+from slipbench.stats.bootstrap import IntervalSpec
+from slipbench.stats.contrast import CONTRADICTED, SHOWN, family_level, level_text, state_of
 from slipbench.stats.metrics import (
     FIGURES,
     LEVEL,
@@ -68,8 +70,6 @@ from slipbench.stats.pooled import (
     pooled_change,
     pooled_from_rows,
 )
-from slipbench.stats.power import Design, looks, nominal_levels
-from slipbench.stats.sides import decidable, finished, plan_cells, read_sides
 from slipbench.store import columns
 from slipbench.vocabulary import LOW_N
 
@@ -260,7 +260,7 @@ def compare(
         Results files or folders (as ``evaluate --out`` writes them).
     gate : Gate
         The figures judged and the tolerance of each (default: every figure,
-        ``slipbench.stats.gate.DEFAULT_TOLERANCE``), and its looks: the comparison decides at
+        ``slipbench.gate.gate.DEFAULT_TOLERANCE``), and its looks: the comparison decides at
         the look its stored seeds make (:func:`look_at`).
     seed : int
         Seeds the paired bootstraps.

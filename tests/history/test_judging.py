@@ -6,9 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from slipbench.history.judging import Side, judge
+from slipbench.history.steps import SERIES_ALPHA, _runs_needed, _verdict, step_change
 from slipbench.stats.contrast import family_level
-from slipbench.stats.judging import Side, judge
-from slipbench.stats.steps import SERIES_ALPHA, _runs_needed, _verdict, step_change
 
 
 def _scalar(sides, figure, margin, proposals, low_n) -> dict:

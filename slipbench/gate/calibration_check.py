@@ -42,7 +42,7 @@ import numpy as np
 import pandas as pd
 import scipy  # scipy.stats loads on first use (see slipbench.stats)
 
-from slipbench.stats.calibration import Calibration, DetectorCalibration
+from slipbench.gate.calibration import Calibration, DetectorCalibration
 from slipbench.stats.factors import latest_runs
 
 #: the most a detector's calibrated seed variance may differ from BASE's seeds' (either way)

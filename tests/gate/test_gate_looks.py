@@ -10,7 +10,7 @@ import pytest
 from resultgen import predictions_pair
 from scipy.stats import t as student_t
 
-from slipbench.stats.compare import (
+from slipbench.gate.compare import (
     POOLED_ALPHA,
     Look,
     _pooled_verdict,
@@ -19,8 +19,8 @@ from slipbench.stats.compare import (
     look_level,
     measured_noise,
 )
+from slipbench.gate.gate import Gate
 from slipbench.stats.contrast import family_level
-from slipbench.stats.gate import Gate
 from slipbench.stats.noise import SeedNoise, combined
 
 
@@ -317,7 +317,7 @@ def _cell(read_at_look=True, **changes):
     ],
 )
 def test_a_cells_word_matches_its_intervals(changes, verdict):
-    from slipbench.stats.compare import _judge_cells
+    from slipbench.gate.compare import _judge_cells
 
     gate = Gate({"accuracy": 1.5, "tn_rate": 3.0, "tp_rate": 3.0})
     judged = _judge_cells(pd.DataFrame([_cell(**changes)]), gate)
@@ -327,7 +327,7 @@ def test_a_cells_word_matches_its_intervals(changes, verdict):
 def test_a_cell_the_look_does_not_flag_is_worse_not_regressed():
     """Before the last look a cell's interval at the family's level lying beyond the
     tolerance is worse (the look did not flag it), and says so; at the look it regresses."""
-    from slipbench.stats.compare import BEYOND_UNFLAGGED, _judge_cells
+    from slipbench.gate.compare import BEYOND_UNFLAGGED, _judge_cells
 
     gate = Gate({"accuracy": 1.5, "tn_rate": 3.0, "tp_rate": 3.0}, seeds=3, budget=12)
     beyond = {"tn_rate": (-9.0, -13.0, -5.0)}
@@ -338,7 +338,7 @@ def test_a_cell_the_look_does_not_flag_is_worse_not_regressed():
 
 
 def test_a_level_is_never_printed_as_100_percent():
-    from slipbench.stats.compare import level_text
+    from slipbench.gate.compare import level_text
 
     assert level_text(0.95) == "95 %"
     assert level_text(1 - 0.025 / 12) == "99.79 %"

@@ -12,9 +12,9 @@ import pytest
 from resultgen import predictions_pair
 
 from slipbench.errors import EXIT_UNDECIDED
+from slipbench.gate.compare import CELL_ALPHA, compare, summary
+from slipbench.gate.gate import DEFAULT_TOLERANCE, Gate
 from slipbench.report.compare import SCHEMA_VERSION, comment_markdown, to_json
-from slipbench.stats.compare import CELL_ALPHA, compare, summary
-from slipbench.stats.gate import DEFAULT_TOLERANCE, Gate
 from slipbench.stats.metrics import Predictions, over_seeds, paired_comparison
 from slipbench.stats.pooled import POOLED_METHOD, CellSides, pooled_change
 

@@ -1,8 +1,8 @@
 """Steps in a history's series: proposed by binary segmentation, confirmed by the gate's test.
 
-*Proposed.* Each series' points over runs (:func:`slipbench.stats.series.points`, one per run,
+*Proposed.* Each series' points over runs (:func:`slipbench.history.series.points`, one per run,
 oldest first) are cut by binary segmentation (ruptures' ``Binseg``, its breakpoints made in numpy:
-:func:`slipbench.stats.segmentation.weighted_binseg`) under a cost that weighs every point by
+:func:`slipbench.history.segmentation.weighted_binseg`) under a cost that weighs every point by
 its interval: the precision-weighted squared error about each segment's weighted mean (asv
 weighs its steps the same way). The intervals hold a run's
 test-set noise and, where it ran several seeds, their spread; where the series moves more
@@ -37,9 +37,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from slipbench.stats.coded import KINDS, Coded, FigureRows, texts
-from slipbench.stats.coded import figure_rows as coded_rows
-from slipbench.stats.coded import points as coded_points
+from slipbench.gate.gate import Gate, needed, resolution, scaled_resolution
+from slipbench.history.coded import KINDS, Coded, FigureRows, texts
+from slipbench.history.coded import figure_rows as coded_rows
+from slipbench.history.coded import points as coded_points
+from slipbench.history.judging import SEGMENT_SEEDS, SERIES_ALPHA, Side, judge
+from slipbench.history.segmentation import weighted_binseg
 from slipbench.stats.contrast import (
     ONE_SEED,
     SHOWN,
@@ -48,10 +51,7 @@ from slipbench.stats.contrast import (
     from_parts,
     p_beyond,
 )
-from slipbench.stats.gate import Gate, needed, resolution, scaled_resolution
-from slipbench.stats.judging import SEGMENT_SEEDS, SERIES_ALPHA, Side, judge
 from slipbench.stats.noise import SeedNoise, pool_seed_spreads
-from slipbench.stats.segmentation import weighted_binseg
 from slipbench.store.columns import FIGURES, WINDOWED, names
 
 #: the price of a cut, times the series' noise scale and log(points)
@@ -223,7 +223,7 @@ def _verdict(change: Contrast, figure: str, low_n: bool, proposals: int) -> dict
 
 def _runs_needed(change: Contrast, proposals: int, seeds: int) -> int:
     """The fewest seeds (runs of one seed) a side at which a change as large as this one,
-    measured with this spread, is confirmed with the gate's power (:func:`slipbench.stats.gate.needed`,
+    measured with this spread, is confirmed with the gate's power (:func:`slipbench.gate.gate.needed`,
     80 %): what would decide a proposal left unconfirmed. 0 where it is confirmed, cannot be
     measured, or lies within the tolerance (no number of runs shows it beyond)."""
     beyond = abs(change.estimate) - change.margin
@@ -382,7 +382,7 @@ def _judged(
     causes: _Causes,
 ) -> pd.DataFrame:
     """Every proposal of a figure with its change between the segments beside it, judged in
-    one batch (:func:`slipbench.stats.judging.judge`)."""
+    one batch (:func:`slipbench.history.judging.judge`)."""
     rows, pts = table
     order, starts = _series_slices(rows.series)
     run, low = pts["run"].to_numpy(), pts["low_n"].to_numpy(bool)

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from slipbench.errors import DataError
-from slipbench.stats.calibration import (
+from slipbench.gate.calibration import (
     CALIBRATION,
     Calibration,
     DetectorCalibration,

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from slipbench.stats import gate
-from slipbench.stats.power import (
+from slipbench.gate import gate
+from slipbench.gate.power import (
     MAX_LOOKS,
     Design,
     looks,

@@ -48,11 +48,11 @@ import numpy as np
 import pandas as pd
 import scipy  # its submodules load on first use: reading stored rows pays none
 
+from slipbench.gate.sides import STREAM_FIGURES, finished
 from slipbench.stats.bootstrap import LEVEL, IntervalSpec
 from slipbench.stats.metrics import FIGURES, over_seeds, paired_comparison
 from slipbench.stats.noise import SeedNoise
 from slipbench.stats.pooled import CellSides, cell_sides, protocol_seed_pool, seed_sides
-from slipbench.stats.sides import STREAM_FIGURES, finished
 from slipbench.store import columns
 
 #: the level of the 95 % intervals rows store

@@ -1,6 +1,6 @@
 """A history's rows as integer codes, made once, and every figure's points from them.
 
-:func:`slipbench.stats.series.figure_rows` and :func:`~slipbench.stats.series.points` group a
+:func:`slipbench.history.series.figure_rows` and :func:`~slipbench.history.series.points` group a
 history's text columns (series digests, a protocol's pool) once per figure; on a long history
 that grouping is most of the time a step search takes, and its copies most of the memory. Here
 the texts are coded once (:class:`Coded`), and each figure's rows and points are grouped on
@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from slipbench.stats.series import POOL, POOLED, _digest
+from slipbench.history.series import POOL, POOLED, _digest
 
 #: a series' kind by whether it is pooled
 KINDS = np.array(["cell", "pooled"], dtype=object)
@@ -64,7 +64,7 @@ class Coded:
     ----------
     series : each row's series as a code into ``names`` (their 16-hex digests, in order of
         first appearance), ``labels`` each code's label.
-    pool : each row's pool (:data:`slipbench.stats.series.POOL`, missing as "") as a code;
+    pool : each row's pool (:data:`slipbench.history.series.POOL`, missing as "") as a code;
         ``pool_texts`` and ``pool_labels`` what names and labels a pooled series of it.
     run, seed : each row's run and seed (a code; -1: none).
     result, cell_hash : each row's key and series hashed as figure_rows hashes them.
@@ -119,7 +119,7 @@ class Coded:
 
 @dataclass
 class FigureRows:
-    """One figure's rows as :func:`slipbench.stats.series.figure_rows` gives them, coded:
+    """One figure's rows as :func:`slipbench.history.series.figure_rows` gives them, coded:
     ``series`` a code into ``names`` (cells' codes first, then the pooled series'), ``labels``
     and ``pooled`` (whether a code is a pooled series) per code."""
 
@@ -154,7 +154,7 @@ class FigureRows:
 
 
 def figure_rows(coded: Coded, figure: str) -> FigureRows:
-    """:func:`slipbench.stats.series.figure_rows` of ``figure`` from the coded history."""
+    """:func:`slipbench.history.series.figure_rows` of ``figure`` from the coded history."""
     frame = coded.frame
     ok = np.flatnonzero(coded.finished & frame[figure].notna().to_numpy())
     value = pd.to_numeric(frame[figure], errors="coerce").to_numpy(float)[ok]
@@ -201,7 +201,7 @@ def figure_rows(coded: Coded, figure: str) -> FigureRows:
 
 
 def points(rows: FigureRows) -> pd.DataFrame:
-    """:func:`slipbench.stats.series.points` of coded rows: ``series`` a code (the rows'
+    """:func:`slipbench.history.series.points` of coded rows: ``series`` a code (the rows'
     ``names`` name it), the rest as points gives it, in its order."""
     key, first = _combine(rows.series, rows.run)
     table = pd.DataFrame({"value": rows.value, "se": rows.se, "df": rows.df, "low_n": rows.low_n})

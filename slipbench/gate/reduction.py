@@ -53,9 +53,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from slipbench.gate.changes import cell_over_seeds, paired_cell, unpaired_cell
+from slipbench.gate.compare import ALPHA, MAX_WIDTH, family_level
 from slipbench.stats.bootstrap import IntervalSpec
-from slipbench.stats.changes import cell_over_seeds, paired_cell, unpaired_cell
-from slipbench.stats.compare import ALPHA, MAX_WIDTH, family_level
 from slipbench.stats.contrast import CONTRADICTED, ONE_SEED, SHOWN, Contrast, margin_of
 from slipbench.stats.factors import CHANNELS, UNIVARIATE, inputs, plain
 from slipbench.stats.metrics import LEVEL, RATES

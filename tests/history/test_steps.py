@@ -10,11 +10,9 @@ import pytest
 from historygen import run_folder
 
 from slipbench.app.cli import main
-from slipbench.stats.contrast import ONE_SEED, SHOWN, UNDECIDED, from_parts
-from slipbench.stats.gate import Gate, resolution
-from slipbench.stats.noise import SeedNoise
-from slipbench.stats.series import HISTORY, seed_spread, series_rows
-from slipbench.stats.steps import (
+from slipbench.gate.gate import Gate, resolution
+from slipbench.history.series import HISTORY, seed_spread, series_rows
+from slipbench.history.steps import (
     SEGMENT_SEEDS,
     SERIES_ALPHA,
     _runs_needed,
@@ -22,6 +20,8 @@ from slipbench.stats.steps import (
     propose,
     step_change,
 )
+from slipbench.stats.contrast import ONE_SEED, SHOWN, UNDECIDED, from_parts
+from slipbench.stats.noise import SeedNoise
 from slipbench.store.history import Run, add_run, read_history, utc_date
 from slipbench.store.results import read_results
 

@@ -5,7 +5,7 @@ seed noise, at the bench's seeds and with sequential looks up to its budget.
 A comparison of ``n`` seeds per side has the standard error ``sd / sqrt(n)``, with ``sd`` the
 calibrated standard deviation of one seed's change between two equal sides
 (:meth:`slipbench.stats.calibration.Noise.per_seed`) and ``df`` its degrees of freedom. As in
-:func:`slipbench.stats.gate.resolution`, a test at one-sided level ``a`` flags a drop of
+:func:`slipbench.gate.gate.resolution`, a test at one-sided level ``a`` flags a drop of
 ``tolerance + X`` with power 80 %, where
 
     X = se * (t(1 - a, df) + t(0.80, df)).
@@ -31,8 +31,8 @@ from functools import cache
 
 import scipy  # its submodules load on first use: reading stored rows pays none
 
-from slipbench.stats.gate import POWER
-from slipbench.stats.sequential import boundaries, fractions_of
+from slipbench.gate.gate import POWER
+from slipbench.gate.sequential import boundaries, fractions_of
 
 #: the most looks :func:`sight` allows a budget it suggests (a workflow that runs the bench
 #: ten times is as far as one would go; a budget beyond it asks for a larger tolerance)

@@ -7,8 +7,8 @@ import pytest
 import ruptures as rpt
 from ruptures.base import BaseCost
 
-from slipbench.stats.segmentation import weighted_binseg
-from slipbench.stats.steps import MIN_RUNS
+from slipbench.history.segmentation import weighted_binseg
+from slipbench.history.steps import MIN_RUNS
 
 
 class WeightedL2(BaseCost):

@@ -9,8 +9,8 @@ import pytest
 from scipy.stats import norm
 
 from slipbench.errors import EXIT_REGRESSION, EXIT_UNDECIDED, UsageError
-from slipbench.stats.compare import POOLED_ALPHA, Comparison, _pooled_verdicts
-from slipbench.stats.gate import (
+from slipbench.gate.compare import POOLED_ALPHA, Comparison, _pooled_verdicts
+from slipbench.gate.gate import (
     MAX_NEEDED,
     Gate,
     needed,
@@ -169,7 +169,7 @@ def _stream_cell(**changes):
 
 
 def test_stream_cells_are_judged_on_each_figure_in_its_direction():
-    from slipbench.stats.compare import _judge_cells
+    from slipbench.gate.compare import _judge_cells
 
     cells = pd.DataFrame(
         [

@@ -1,6 +1,6 @@
 """All of a figure's proposed steps judged at once: the gate's contrast over arrays.
 
-:func:`slipbench.stats.steps.step_change` judges one proposal: a contrast of one part (the
+:func:`slipbench.history.steps.step_change` judges one proposal: a contrast of one part (the
 seeds' pooled variance, or both rows' test noise where each side holds one seed), its interval,
 its state, the p-value of a change within the tolerance and the seeds a side that would decide
 it. Each is a few scipy calls on scalars, and a long history proposes thousands of steps; here
@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy  # its stats load on first use
 
+from slipbench.gate.gate import MAX_NEEDED, POWER
 from slipbench.stats.contrast import ONE_SEED, TEST_NOISE
-from slipbench.stats.gate import MAX_NEEDED, POWER
 from slipbench.store.columns import FIGURES
 
 #: the chance that a series without a step gets a confirmed one (Bonferroni over its proposals)
@@ -29,7 +29,7 @@ SEGMENT_SEEDS = "the seeds of the segments beside the step"
 
 @dataclass(frozen=True)
 class Side:
-    """One segment's seeds (:func:`slipbench.stats.steps._seeds`): each seed's value, standard
+    """One segment's seeds (:func:`slipbench.history.steps._seeds`): each seed's value, standard
     error and degrees of freedom."""
 
     value: np.ndarray
@@ -84,7 +84,7 @@ def judge(
     margin: float,
     series: tuple[np.ndarray, np.ndarray],
 ) -> dict[str, np.ndarray]:
-    """Every proposal of ``figure``: its change and verdict as :func:`slipbench.stats.steps.
+    """Every proposal of ``figure``: its change and verdict as :func:`slipbench.history.steps.
     _verdict` and ``_runs_needed`` give them, one array per column.
 
     Parameters
@@ -159,8 +159,8 @@ def _p_beyond(est: np.ndarray, var: np.ndarray, df: np.ndarray, margin: float) -
 
 
 def _resolution(n: np.ndarray, m: np.ndarray, spread: tuple[np.ndarray, ...]) -> np.ndarray:
-    """:func:`slipbench.stats.gate.scaled_resolution` of seeds at ``m`` of the ``n`` that ran,
-    with :func:`slipbench.stats.gate.resolution` (``spread``: standard errors, degrees of
+    """:func:`slipbench.gate.gate.scaled_resolution` of seeds at ``m`` of the ``n`` that ran,
+    with :func:`slipbench.gate.gate.resolution` (``spread``: standard errors, degrees of
     freedom, tests), over arrays."""
     se, df, tests = spread
     grow = np.where(n > 1, (m - 1) / np.where(n > 1, n - 1, 1), m / n)
@@ -173,7 +173,7 @@ def _resolution(n: np.ndarray, m: np.ndarray, spread: tuple[np.ndarray, ...]) ->
 
 
 def _needed(n: np.ndarray, tol: np.ndarray, spread: tuple[np.ndarray, ...]) -> np.ndarray:
-    """:func:`slipbench.stats.gate.needed` of every open proposal in lockstep: doubling, then
+    """:func:`slipbench.gate.gate.needed` of every open proposal in lockstep: doubling, then
     bisection, each step one array of quantiles."""
     n = n.astype(float)
 

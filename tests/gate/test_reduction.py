@@ -8,8 +8,8 @@ import pandas as pd
 import pytest
 from resultgen import fake_rows, inputs_folder
 
+from slipbench.gate.reduction import compare_inputs, has_both_inputs, inputs, twin_key
 from slipbench.stats.metrics import paired_comparison
-from slipbench.stats.reduction import compare_inputs, has_both_inputs, inputs, twin_key
 from slipbench.store.results import read_predictions
 
 

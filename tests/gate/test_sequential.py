@@ -9,7 +9,7 @@ import pytest
 from scipy.optimize import brentq
 from scipy.stats import multivariate_normal, norm
 
-from slipbench.stats.sequential import (
+from slipbench.gate.sequential import (
     Boundaries,
     boundaries,
     crossing,
