@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from slipbench.stats import coded, series
+from slipbench.history import coded, series
 
 
 def _history(seed: int, runs: int = 30) -> pd.DataFrame:
