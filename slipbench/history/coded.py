@@ -91,6 +91,8 @@ class Coded:
     def of(cls, frame: pd.DataFrame) -> Coded:
         """Code a history's rows (:func:`slipbench.store.history.read_history`)."""
         series, names = _codes(frame["series"])
+        if (series < 0).any():
+            raise ValueError(f"{int((series < 0).sum())} history rows hold no series")
         _, first = np.unique(series, return_index=True)
         # taken before they become Python objects: only one row of each
         labels = frame["series_label"].iloc[first].to_numpy(dtype=object)
@@ -110,7 +112,8 @@ class Coded:
             seed=seed.astype(np.int64),
             seeds=np.asarray(seeds),
             result=pd.util.hash_pandas_object(frame["key"], index=False).to_numpy(),
-            cell_hash=pd.util.hash_pandas_object(frame["series"], index=False).to_numpy(),
+            # a value's hash is its own: hashed once per series, taken per row
+            cell_hash=pd.util.hash_pandas_object(pd.Series(names), index=False).to_numpy()[series],
             finished=(frame["status"] == "ok").to_numpy(bool),
             low_n=frame["low_n"].fillna(False).astype(bool).to_numpy(),
             df=pd.to_numeric(frame["df"], errors="coerce").fillna(np.inf).to_numpy(float),

@@ -397,8 +397,10 @@ def _judged(
         seeds["by_result"] = np.argsort(seeds["result"], kind="stable")
         runs = run[group]
         bounds = [0, *cuts, len(group)]
+        # each segment is a side of the proposals on either end of it: its seeds made once
+        made = {(i, j): _side(seeds, runs[i], runs[j - 1]) for i, j in zip(bounds, bounds[1:])}
         for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
-            pair = (_side(seeds, runs[a], runs[k - 1]), _side(seeds, runs[k], runs[b - 1]))
+            pair = (made[a, k], made[k, b])
             sides.append(pair)
             counts.append(len(cuts))
             last, first = int(runs[k - 1]), int(runs[k])
@@ -436,7 +438,7 @@ def _side(rows: dict[str, np.ndarray], first: int, last: int) -> Side:
     run = rows["run"][by_result]
     inside = by_result[(run >= first) & (run <= last)]
     result = rows["result"][inside]
-    pick = inside[np.r_[True, result[1:] != result[:-1]]] if len(inside) else inside
+    pick = inside[np.concatenate([[True], result[1:] != result[:-1]])] if len(inside) else inside
     seeds, at = np.unique(rows["seed"][pick], return_inverse=True)
     count = np.bincount(at, minlength=len(seeds))
     value = np.bincount(at, rows["value"][pick].astype(float), len(seeds)) / count
