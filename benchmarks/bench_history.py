@@ -272,8 +272,9 @@ def main() -> None:
             ratio = {
                 k: before[k] / max(after[k], 1e-9) for k in ("load_cpu", "steps_cpu", "peak_mb")
             }
+            load = "" if a.in_memory else f"load {ratio['load_cpu']:.2f}x, "
             text += (
-                f"- before / after: load {ratio['load_cpu']:.2f}x, steps {ratio['steps_cpu']:.2f}x "
+                f"- before / after: {load}steps {ratio['steps_cpu']:.2f}x "
                 f"CPU, peak RSS {ratio['peak_mb']:.2f}x; results "
                 f"{same(root / 'before.pkl', root / 'after.pkl')}\n"
             )
