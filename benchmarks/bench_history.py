@@ -2,12 +2,21 @@
 
 A history of ``--runs`` runs (one per commit, each its own code identity: the worst case) of
 ``--cells`` cells (two detectors, half the cells each), every figure drawn about its cell's
-value with 1 point of noise, and a 3-point drop of one detector's cells at a few commits. Timed:
+value with 1 point of noise, and a 3-point drop of one detector's cells at a few commits. Timed,
+each in a fresh process (CPU seconds, its children's included, wall seconds and peak RSS):
 ``read_history`` of the steps' columns, then ``find_steps`` with ``--jobs`` processes; then the
 site is written, its size counted and, where selenium and Chromium are here, its pages opened
 headless and their console read.
 
-    python benchmarks/bench_history.py [--runs 10000] [--cells 300] [--jobs 2] [--out FILE]
+``--before TREE`` times the same in a copy of the code before a change (``git archive <commit>
+slipbench | tar -x -C TREE``), in the same run, and says whether both found the same steps and points
+(exactly) and the ratios before / after. ``--history DIR`` reads (and keeps) a history built
+by an earlier run instead of building one (building 10,000 runs takes most of an hour on a
+loaded machine). ``--in-memory`` builds the history's rows in memory, as ``read_history``
+would give them, and times ``find_steps`` alone (no files, no load, no site).
+
+    python benchmarks/bench_history.py [--runs 10000] [--cells 300] [--jobs 2] [--before TREE]
+        [--history DIR] [--in-memory] [--out FILE]
 """
 
 from __future__ import annotations
@@ -15,7 +24,11 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import pickle
+import resource
 import shutil
+import subprocess
+import sys
 import tempfile
 import time
 from datetime import datetime, timedelta, timezone
@@ -29,7 +42,7 @@ from slipbench.gate.gate import Gate
 from slipbench.history.steps import STEP_COLUMNS, find_steps
 from slipbench.report.site import write_site
 from slipbench.seeding import rng_for
-from slipbench.store.history import Run, add_run, read_history, run_path, run_table
+from slipbench.store.history import RUN_COLUMNS, Run, add_run, read_history, run_path, run_table
 
 FIGURES = ("accuracy", "tn_rate", "tp_rate")
 STEPS_AT = (2500, 6000, 9000)  # runs where the second detector drops 3 points (of 10,000)
@@ -124,42 +137,152 @@ def browse(site: Path) -> str:
     return "; ".join(found)
 
 
+def memory_frame(runs: int, cells: int) -> pd.DataFrame:
+    """The rows ``read_history(..., STEP_COLUMNS)`` gives of the history :func:`build` writes,
+    made in memory (the same values; strings as pandas reads Arrow's)."""
+    base = rng_for(0, "bench-history").uniform(0.7, 0.9, cells)
+    parts = []
+    for i in range(runs):
+        rows = run_rows(i, cells, base, rng_for(i, "bench-history"), runs)
+        date = (START + timedelta(hours=i)).strftime("%Y-%m-%dT%H:%M:%SZ")
+        rows = rows.assign(commit=f"c{i:05d}", date=date, machine="bench", bench_digest=None)
+        parts.append(rows[[c for c in dict.fromkeys([*RUN_COLUMNS, *STEP_COLUMNS]) if c in rows]])
+    frame = pd.concat(parts, ignore_index=True)
+    frame["run"] = np.repeat(np.arange(runs), cells)
+    return frame
+
+
+def measure(history: str, runs: int, cells: int, jobs: int, out: Path) -> None:
+    """In this process (the tree on PYTHONPATH): load and find steps, timed; the steps and
+    points pickled to ``out``, the times to ``out`` + ``.json``."""
+    clock = time.process_time
+    frame = memory_frame(runs, cells) if history == "memory" else None
+    start, wall = clock(), time.perf_counter()
+    if frame is None:
+        frame = read_history(history, STEP_COLUMNS)
+    loaded, loaded_wall = clock() - start, time.perf_counter() - wall
+    rss_loaded = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    start, wall = clock(), time.perf_counter()
+    found = find_steps(frame, Gate.of(FIGURES), jobs=jobs)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    stepped = clock() - start + children.ru_utime + children.ru_stime
+    stepped_wall = time.perf_counter() - wall
+    confirmed = found.confirmed
+    with out.open("wb") as f:
+        pickle.dump((found.steps, found.points), f)
+    times = {
+        "load_cpu": loaded,
+        "load_wall": loaded_wall,
+        "steps_cpu": stepped,
+        "steps_wall": stepped_wall,
+        "rss_loaded_mb": rss_loaded,
+        "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "series": found.series,
+        "proposed": len(found.steps),
+        "confirmed": len(confirmed),
+        "pooled_at": sorted(set(confirmed.loc[confirmed["kind"] == "pooled", "commit"])),
+    }
+    out.with_suffix(".json").write_text(json.dumps(times))
+
+
+def timed(tree: Path, history: str, a: argparse.Namespace, out: Path) -> dict:
+    """:func:`measure` in a fresh process that imports slipbench from ``tree``."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    args = [sys.executable, __file__, "--measure", history, str(out)]
+    args += ["--runs", str(a.runs), "--cells", str(a.cells), "--jobs", str(a.jobs)]
+    subprocess.run(args, env=env, check=True, cwd=tree)
+    return json.loads(out.with_suffix(".json").read_text())
+
+
+def same(before: Path, after: Path) -> str:
+    """Whether two measurements found the same steps and points, exactly."""
+    with before.open("rb") as f, after.open("rb") as g:
+        (s0, p0), (s1, p1) = pickle.load(f), pickle.load(g)
+    try:
+        pd.testing.assert_frame_equal(s0, s1, check_exact=True)
+        pd.testing.assert_frame_equal(p0, p1, check_exact=True)
+    except AssertionError as e:
+        return f"NOT identical: {str(e).splitlines()[0]}"
+    return f"identical ({len(s1)} steps, {len(p1)} points, every value equal)"
+
+
+def site(root: Path, history: Path) -> str:
+    """The site of the history's latest run and its steps: size, time, its pages opened."""
+    frame = read_history(history, STEP_COLUMNS)
+    found = find_steps(frame, Gate.of(FIGURES), jobs=1)
+    latest = frame[frame["run"] == frame["run"].max()]
+    start = time.perf_counter()
+    write_site(root / "site", latest, found)
+    paged = time.perf_counter() - start
+    size = sum(p.stat().st_size for p in (root / "site").rglob("*") if p.is_file())
+    return (
+        f"- site: {size / 1e6:.2f} MB, written in {paged:.1f} s;\n"
+        f"- in headless Chromium: {browse(root / 'site')};\n"
+    )
+
+
+def line(name: str, t: dict) -> str:
+    return (
+        f"- {name}: load {t['load_cpu']:.1f} s CPU ({t['load_wall']:.1f} s wall), find and "
+        f"confirm steps {t['steps_cpu']:.1f} s CPU ({t['steps_wall']:.1f} s wall); together "
+        f"{t['load_cpu'] + t['steps_cpu']:.1f} s CPU; peak RSS {t['peak_mb']:.0f} MB "
+        f"({t['rss_loaded_mb']:.0f} MB once loaded)\n"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=10_000)
     parser.add_argument("--cells", type=int, default=300)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--before", type=Path, help="a checkout of the code before a change")
+    parser.add_argument("--history", type=Path, help="a history an earlier run built (kept)")
+    parser.add_argument("--in-memory", action="store_true", help="rows in memory, steps only")
+    parser.add_argument("--measure", nargs=2, help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path)
     a = parser.parse_args()
+    if a.measure:
+        measure(a.measure[0], a.runs, a.cells, a.jobs, Path(a.measure[1]))
+        return
     root = Path(tempfile.mkdtemp(prefix="bench-history-"))
     try:
-        start = time.perf_counter()
-        build(root / "history", a.runs, a.cells)
-        built = time.perf_counter() - start
-        start = time.perf_counter()
-        frame = read_history(root / "history", STEP_COLUMNS)
-        loaded = time.perf_counter() - start
-        start = time.perf_counter()
-        found = find_steps(frame, Gate.of(FIGURES), jobs=a.jobs)
-        stepped = time.perf_counter() - start
-        latest = frame[frame["run"] == frame["run"].max()]
-        start = time.perf_counter()
-        write_site(root / "site", latest, found)
-        paged = time.perf_counter() - start
-        size = sum(p.stat().st_size for p in (root / "site").rglob("*") if p.is_file())
-        confirmed = found.confirmed
-        at = sorted(set(confirmed.loc[confirmed["kind"] == "pooled", "commit"]))
-        text = (
-            f"# A history of {a.runs} runs x {a.cells} cells\n\n"
-            f"- load (index, the steps' columns): {loaded:.1f} s; find and confirm steps "
-            f"({found.series} series, {len(found.steps)} proposed, {len(confirmed)} confirmed; "
-            f"pooled steps at {', '.join(at)}) at --jobs {a.jobs}: {stepped:.1f} s; "
-            f"together {loaded + stepped:.1f} s;\n"
-            f"- site: {size / 1e6:.2f} MB, written in {paged:.1f} s;\n"
-            f"- in headless Chromium: {browse(root / 'site')};\n"
-            f"- building the history (not timed against anything): {built:.0f} s.\n\n"
-            f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end.\n"
+        built = 0.0
+        history = a.history or root / "history"
+        if a.in_memory:
+            source = "memory"
+        else:
+            source = str(history.resolve())
+            if a.history is None:
+                start = time.perf_counter()
+                build(history, a.runs, a.cells)
+                built = time.perf_counter() - start
+        here = Path(__file__).resolve().parents[1]
+        after = timed(here, source, a, root / "after.pkl")
+        text = f"# A history of {a.runs} runs x {a.cells} cells\n\n"
+        text += (
+            f"{after['series']} series, {after['proposed']} steps proposed, "
+            f"{after['confirmed']} confirmed (pooled steps at {', '.join(after['pooled_at'])}); "
+            f"--jobs {a.jobs}{'; rows made in memory: no load timed' if a.in_memory else ''}.\n\n"
         )
+        if a.before:
+            before = timed(a.before.resolve(), source, a, root / "before.pkl")
+            text += line("before (--before)", before)
+        text += line("this checkout", after)
+        if a.before:
+            ratio = {
+                k: before[k] / max(after[k], 1e-9) for k in ("load_cpu", "steps_cpu", "peak_mb")
+            }
+            load = "" if a.in_memory else f"load {ratio['load_cpu']:.2f}x, "
+            text += (
+                f"- before / after: {load}steps {ratio['steps_cpu']:.2f}x "
+                f"CPU, peak RSS {ratio['peak_mb']:.2f}x; results "
+                f"{same(root / 'before.pkl', root / 'after.pkl')}\n"
+            )
+        if not a.in_memory:
+            text += site(root, history)
+        if built:
+            text += f"- building the history (not timed against anything): {built:.0f} s.\n"
+        text += f"\n{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the end.\n"
         print(text)
         if a.out:
             a.out.write_text(text)

@@ -1,7 +1,9 @@
 """The history wing: a benchmark over commits. Stored runs to series and their steps.
 
-A history's series, their points over runs and their seed spread (``series``), and the change
-points in a series, proposed by ruptures and confirmed by the gate's contrast (``steps``). The
+A history's series, their points over runs and their seed spread (``series``; every figure's
+from integer codes made once: ``coded``), and the change points in a series, proposed by binary
+segmentation (``segmentation``: ruptures' breakpoints, in numpy) and confirmed by the gate's
+contrast, every proposal in one batch (``judging``, ``steps``). The
 runs themselves are stored and read by ``store.history`` (append-only, partitioned Parquet).
 May import: ``gate``, ``stats``, ``store``, ``data`` and the contract; never ``engine``,
 ``report`` or ``app``.

@@ -1,9 +1,10 @@
-"""Steps in a history's series: proposed by ruptures, confirmed by the gate's test.
+"""Steps in a history's series: proposed by binary segmentation, confirmed by the gate's test.
 
-*Proposed.* Each series' points over runs (:func:`slipbench.stats.series.points`, one per run,
-oldest first) are cut by binary segmentation (``ruptures.Binseg``) under a cost that weighs
-every point by its interval: :class:`WeightedL2`, the precision-weighted squared error about
-each segment's weighted mean (asv weighs its steps the same way). The intervals hold a run's
+*Proposed.* Each series' points over runs (:func:`slipbench.history.series.points`, one per run,
+oldest first) are cut by binary segmentation (ruptures' ``Binseg``, its breakpoints made in numpy:
+:func:`slipbench.history.segmentation.weighted_binseg`) under a cost that weighs every point by
+its interval: the precision-weighted squared error about each segment's weighted mean (asv
+weighs its steps the same way). The intervals hold a run's
 test-set noise and, where it ran several seeds, their spread; where the series moves more
 from run to run than they say (seeds that change splits), the robust spread of its successive
 differences scales the penalty, never below what the intervals say. The penalty is
@@ -35,17 +36,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-import ruptures as rpt
-from ruptures.base import BaseCost
 
 from slipbench.gate.gate import Gate, needed, resolution, scaled_resolution
-from slipbench.history.series import figure_rows, points
+from slipbench.history.coded import KINDS, Coded, FigureRows, texts
+from slipbench.history.coded import figure_rows as coded_rows
+from slipbench.history.coded import points as coded_points
+from slipbench.history.judging import SEGMENT_SEEDS, SERIES_ALPHA, Side, judge
+from slipbench.history.segmentation import weighted_binseg
 from slipbench.stats.contrast import (
     ONE_SEED,
     SHOWN,
     TEST_NOISE,
     Contrast,
-    family_level,
     from_parts,
     p_beyond,
 )
@@ -84,35 +86,9 @@ STEP_COLUMNS = [
     *(c for _, c in CAUSES),
     *(f"{f}{end}" for f in JUDGED for end in ("", "_se")),
 ]
-#: where a step's seed noise was measured where no other source is given
-SEGMENT_SEEDS = "the seeds of the segments beside the step"
-#: the chance that a series without a step gets a confirmed one (Bonferroni over its proposals)
-SERIES_ALPHA = 0.01
 #: points per worker process below which the series are cut in this process (starting the
 #: workers costs more than cutting; benchmarks/bench_history.py)
 POINTS_PER_WORKER = 200_000
-
-
-class WeightedL2(BaseCost):
-    """The cost of a segment: sum of ``w * (y - mean_w)**2``, ``w`` each point's precision
-    (1 / its standard error squared), in O(1) from prefix sums. The signal is (n, 2): the
-    values and their weights."""
-
-    model = "weighted-l2"
-    min_size = MIN_RUNS
-
-    def fit(self, signal: np.ndarray) -> WeightedL2:
-        y, w = signal[:, 0], signal[:, 1]
-        # lists: one element read is 3x faster than from an array, and Binseg reads 4n of them
-        self._w = np.concatenate([[0.0], np.cumsum(w)]).tolist()
-        self._s = np.concatenate([[0.0], np.cumsum(w * y)]).tolist()
-        self._q = np.concatenate([[0.0], np.cumsum(w * y * y)]).tolist()
-        self.signal = signal
-        return self
-
-    def error(self, start: int, end: int) -> float:
-        s = self._s[end] - self._s[start]
-        return self._q[end] - self._q[start] - s * s / (self._w[end] - self._w[start])
 
 
 def noise_scale(value: np.ndarray, se: np.ndarray) -> float:
@@ -127,17 +103,15 @@ def noise_scale(value: np.ndarray, se: np.ndarray) -> float:
 
 
 def propose(value: np.ndarray, se: np.ndarray) -> list[int]:
-    """The indices where a new segment starts (none: no step proposed), from Binseg under
-    :class:`WeightedL2` with the penalty of the module's docstring."""
+    """The indices where a new segment starts (none: no step proposed), from binary
+    segmentation under the weighted cost with the penalty of the module's docstring."""
     n = len(value)
     if n < 2 * MIN_RUNS:
         return []
     floor = np.nanmedian(se[se > 0]) if np.any(se > 0) else 1.0
     se = np.where(np.isfinite(se) & (se > 0), se, floor)  # a point without spread: the median's
     pen = PENALTY * noise_scale(value, se) * math.log(n)
-    signal = np.column_stack([value, 1.0 / se**2])
-    algo = rpt.Binseg(custom_cost=WeightedL2(), min_size=MIN_RUNS, jump=1).fit(signal)
-    return [int(b) for b in algo.predict(pen=pen)[:-1]]
+    return weighted_binseg(value, 1.0 / se**2, pen, MIN_RUNS)
 
 
 def step_change(
@@ -194,9 +168,9 @@ def _cut(batch: list[tuple[np.ndarray, np.ndarray]]) -> list[list[int]]:
     return [propose(v, s) for v, s in batch]
 
 
-def _proposals(series: list[pd.DataFrame], jobs: int) -> list[list[int]]:
-    """Binseg over every series, in ``jobs`` processes where the points are many enough."""
-    work = [(p["value"].to_numpy(float), p["se"].to_numpy(float)) for p in series]
+def _proposals(work: list[tuple[np.ndarray, np.ndarray]], jobs: int) -> list[list[int]]:
+    """Binseg over every series (values, standard errors), in ``jobs`` processes where the
+    points are many enough."""
     size = sum(len(v) for v, _ in work)
     workers = max(1, min(jobs, size // POINTS_PER_WORKER))
     if workers == 1:
@@ -217,105 +191,6 @@ def _runs(frame: pd.DataFrame) -> pd.DataFrame:
     proven = frame["proven"] if "proven" in frame else pd.Series(True, index=frame.index)
     runs["unproven"] = (~proven.fillna(False).astype(bool)).groupby(frame["run"]).sum()
     return runs.reset_index()
-
-
-def _by_series(frame: pd.DataFrame, columns: list[str]) -> dict[str, dict[str, np.ndarray]]:
-    """Each series' ``columns`` as arrays: a proposal reads a few rows, and selecting them
-    from a frame costs a thousand times the work."""
-    arrays = {c: frame[c].to_numpy() for c in columns}
-    order = np.argsort(frame["series"].to_numpy(), kind="stable")
-    names, starts = np.unique(frame["series"].to_numpy()[order], return_index=True)
-    ends = [*starts[1:], len(order)]
-    return {
-        str(n): {c: a[order[i:j]] for c, a in arrays.items()}
-        for n, i, j in zip(names, starts, ends)
-    }
-
-
-def _run_causes(frame: pd.DataFrame) -> dict[int, dict[str, frozenset]]:
-    """Per run, the values each cause column holds (a pooled series' runs are its cells')."""
-    out: dict[int, dict[str, frozenset]] = {}
-    for _, column in CAUSES:
-        pairs = pd.DataFrame({"run": frame["run"], "v": frame[column]}).drop_duplicates()
-        for run, values in pairs.groupby("run")["v"]:
-            out.setdefault(int(run), {})[column] = frozenset(map(str, values))
-    return out
-
-
-def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> Steps:
-    """Propose and confirm the steps of every judged series of a history (module docstring).
-
-    Parameters
-    ----------
-    frame : history rows with their ``run`` (:func:`slipbench.store.history.read_history`).
-    gate : the figures judged and their tolerances (default: the gate's windowed figures).
-    jobs : processes that cut the series (used where the points are many).
-    """
-    gate = gate or Gate()
-    figures = [f for f in JUDGED if f in gate.tolerances and f in frame]
-    runs = _runs(frame)
-    causes = (_by_series(frame, ["run", *(c for _, c in CAUSES)]), _run_causes(frame))
-    found, n_series, kept = [], 0, []
-    for figure in figures:
-        margin = gate.tolerances[figure] / FIGURES[figure].scale
-        rows = figure_rows(frame, figure)
-        seeds = _by_series(rows, ["run", "seed", "result", "value", "se", "df"])
-        pts = points(rows)
-        groups = [g.sort_values("run") for _, g in pts.groupby("series", sort=False)]
-        n_series += len(groups)
-        for g, cuts in zip(groups, _proposals(groups, jobs)):
-            series = g["series"].iloc[0]
-            mine = causes[0].get(series, causes[1]) if g["kind"].iloc[0] == "cell" else causes[1]
-            found += _judge_series(g, cuts, (figure, margin), seeds[series], mine)
-        kept.append(
-            pts[["series", "series_label", "kind", "run", "value", "se"]].assign(figure=figure)
-        )
-    steps = pd.DataFrame(found, columns=list(_COLUMNS))
-    out = _dated(steps, runs, n_series, gate)
-    out.points = pd.concat(kept, ignore_index=True) if kept else pd.DataFrame()
-    return out
-
-
-def _judge_series(
-    pts: pd.DataFrame,
-    cuts: list[int],
-    judged: tuple[str, float],
-    rows: dict[str, np.ndarray],
-    causes: dict,
-) -> list[dict]:
-    """Each proposed cut of one series with its change between the segments beside it, at the
-    level that holds the series' proposals together; ``judged``: the figure and its margin."""
-    figure, margin = judged
-    bounds = [0, *cuts, len(pts)]
-    runs = pts["run"].to_numpy()
-    level = family_level(len(cuts), SERIES_ALPHA)
-    out = []
-    for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
-        sides = [_seeds(runs[i:j], figure, rows) for i, j in ((a, k), (k, b))]
-        change = step_change((sides[0], sides[1]), figure, level, margin)
-        last, first = int(runs[k - 1]), int(runs[k])
-        low_n = bool(pts["low_n"].iloc[a:b].any())
-        out.append(
-            {
-                "series": pts["series"].iloc[0],
-                "series_label": pts["series_label"].iloc[0],
-                "kind": pts["kind"].iloc[0],
-                "figure": figure,
-                "run": first,
-                "previous_run": last,
-                "runs_before": k - a,
-                "runs_after": b - k,
-                "first_run": int(runs[a]),
-                "last_run": int(runs[b - 1]),
-                "seeds_before": len(sides[0]),
-                "seeds_after": len(sides[1]),
-                "low_n": low_n,
-                **_verdict(change, figure, low_n, len(cuts)),
-                "runs_needed": _runs_needed(change, len(cuts), min(map(len, sides))),
-                "what_changed": _what_changed(causes, last, first),
-            }
-        )
-    return out
 
 
 def _verdict(change: Contrast, figure: str, low_n: bool, proposals: int) -> dict:
@@ -348,7 +223,7 @@ def _verdict(change: Contrast, figure: str, low_n: bool, proposals: int) -> dict
 
 def _runs_needed(change: Contrast, proposals: int, seeds: int) -> int:
     """The fewest seeds (runs of one seed) a side at which a change as large as this one,
-    measured with this spread, is confirmed with the gate's power (:func:`slipbench.stats.gate.needed`,
+    measured with this spread, is confirmed with the gate's power (:func:`slipbench.gate.gate.needed`,
     80 %): what would decide a proposal left unconfirmed. 0 where it is confirmed, cannot be
     measured, or lies within the tolerance (no number of runs shows it beyond)."""
     beyond = abs(change.estimate) - change.margin
@@ -391,34 +266,186 @@ _COLUMNS = {
 }
 
 
-def _seeds(runs: np.ndarray, figure: str, rows: dict[str, np.ndarray]) -> list[dict]:
-    """A segment's seeds: the results of its runs, each once (a result a later run kept, with
-    the same code and seed, is one), and the results of one seed as one (they share its split
-    and test trials): their mean, mean standard error and fewest degrees of freedom."""
-    mask = np.isin(rows["run"], runs)
-    _, first = np.unique(rows["result"][mask], return_index=True)
-    pick = np.flatnonzero(mask)[first]
+def _series_slices(codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows grouped by code (stable: each group in the rows' order) and each code's start."""
+    order = np.argsort(codes, kind="stable")
+    starts = np.searchsorted(codes[order], np.arange(int(codes.max(initial=-1)) + 2))
+    return order, starts
+
+
+class _Causes:
+    """What each run changed, read from the history's rows as codes: per cell series its own
+    rows (:func:`_what_changed`), per pooled series every row of the two runs."""
+
+    def __init__(self, frame: pd.DataFrame, coded: Coded) -> None:
+        self.codes = [_codes_of(frame[c]) for _, c in CAUSES]
+        self.run = coded.run
+        self.by_series = _series_slices(coded.series)
+        self.by_run = _series_slices(coded.run)
+        self.cells = len(coded.names)
+        self._runs: dict[int, list[frozenset]] = {}
+
+    def _of_run(self, run: int) -> list[frozenset]:
+        if run not in self._runs:
+            order, starts = self.by_run
+            rows = order[starts[run] : starts[run + 1]]
+            self._runs[run] = [frozenset(c[rows].tolist()) for c in self.codes]
+        return self._runs[run]
+
+    def between(self, series: int, before: int, after: int) -> str:
+        """What run ``after`` changed against run ``before`` in the series (code ``series``)."""
+        if series < self.cells:
+            order, starts = self.by_series
+            rows = order[starts[series] : starts[series + 1]]
+            runs = self.run[rows]
+            a, b = rows[runs == before], rows[runs == after]
+            differ = [set(c[a].tolist()) != set(c[b].tolist()) for c in self.codes]
+        else:
+            differ = [x != y for x, y in zip(self._of_run(before), self._of_run(after))]
+        return ", ".join(name for (name, _), d in zip(CAUSES, differ) if d) or "seeds only"
+
+
+def _codes_of(column: pd.Series) -> np.ndarray:
+    """A cause column's values as codes of their text (``str``, as the causes compare them)."""
+    codes, uniques = pd.factorize(column, use_na_sentinel=False)
+    texts = pd.factorize(np.array([str(u) for u in uniques], dtype=object))[0]
+    return texts[codes]
+
+
+def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> Steps:
+    """Propose and confirm the steps of every judged series of a history (module docstring).
+
+    Parameters
+    ----------
+    frame : history rows with their ``run`` (:func:`slipbench.store.history.read_history`).
+    gate : the figures judged and their tolerances (default: the gate's windowed figures).
+    jobs : processes that cut the series (used where the points are many).
+    """
+    gate = gate or Gate()
+    figures = [f for f in JUDGED if f in gate.tolerances and f in frame]
+    runs = _runs(frame)
+    coded = Coded.of(frame)
+    causes = _Causes(frame, coded)
+    found, n_series, kept = [], 0, []
+    for figure in figures:
+        rows = coded_rows(coded, figure)
+        pts = coded_points(rows)
+        series, groups = _sorted_series(pts)
+        n_series += len(series)
+        value, se = pts["value"].to_numpy(float), pts["se"].to_numpy(float)
+        work = [(value[g], se[g]) for g in groups]
+        cuts = _proposals(work, jobs)
+        margin = gate.tolerances[figure] / FIGURES[figure].scale
+        found.append(_judged(figure, margin, (rows, pts), list(zip(series, groups, cuts)), causes))
+        named = pts["series"].to_numpy()
+        kept.append(
+            pd.DataFrame(
+                {
+                    "series": texts(named, rows.names),
+                    "series_label": texts(named, rows.labels),
+                    "kind": texts(rows.pooled[named].astype(int), KINDS),
+                    "run": pts["run"].to_numpy(),
+                    "value": pts["value"].to_numpy(),
+                    "se": pts["se"].to_numpy(),
+                    "figure": figure,
+                }
+            )
+        )
+    proposals = [f for f in found if len(f)]
+    steps = (
+        pd.concat(proposals, ignore_index=True)
+        if proposals
+        else pd.DataFrame([], columns=list(_COLUMNS))
+    )
+    out = _dated(steps, runs, n_series, gate)
+    out.points = pd.concat(kept, ignore_index=True) if kept else pd.DataFrame()
+    return out
+
+
+def _sorted_series(pts: pd.DataFrame) -> tuple[list[int], list[np.ndarray]]:
+    """The series of a figure's points in order of first appearance, each its points' rows
+    oldest run first."""
+    codes = pts["series"].to_numpy()
+    series = pd.unique(codes)
+    rank = np.empty(int(codes.max(initial=0)) + 1, np.int64)
+    rank[series] = np.arange(len(series))
+    order = np.lexsort((pts["run"].to_numpy(), rank[codes]))
+    ends = np.searchsorted(rank[codes][order], np.arange(len(series)), side="right")
+    return series.tolist(), np.split(order, ends[:-1])
+
+
+def _judged(
+    figure: str,
+    margin: float,
+    table: tuple[FigureRows, pd.DataFrame],
+    cut: list[tuple[int, np.ndarray, list[int]]],
+    causes: _Causes,
+) -> pd.DataFrame:
+    """Every proposal of a figure with its change between the segments beside it, judged in
+    one batch (:func:`slipbench.history.judging.judge`)."""
+    rows, pts = table
+    order, starts = _series_slices(rows.series)
+    run, low = pts["run"].to_numpy(), pts["low_n"].to_numpy(bool)
+    out: dict[str, list] = {c: [] for c in _COLUMNS}
+    sides: list[tuple[Side, Side]] = []
+    counts: list[int] = []
+    for series, group, cuts in cut:
+        if not cuts:
+            continue
+        mine = order[starts[series] : starts[series + 1]]
+        seeds = {c: getattr(rows, c)[mine] for c in ("run", "seed", "result", "value", "se", "df")}
+        seeds["by_result"] = np.argsort(seeds["result"], kind="stable")
+        runs = run[group]
+        bounds = [0, *cuts, len(group)]
+        # each segment is a side of the proposals on either end of it: its seeds made once
+        made = {(i, j): _side(seeds, runs[i], runs[j - 1]) for i, j in zip(bounds, bounds[1:])}
+        for a, k, b in zip(bounds, bounds[1:], bounds[2:]):
+            pair = (made[a, k], made[k, b])
+            sides.append(pair)
+            counts.append(len(cuts))
+            last, first = int(runs[k - 1]), int(runs[k])
+            for column, value in (
+                ("series", rows.names[series]),
+                ("series_label", rows.labels[series]),
+                ("kind", "pooled" if rows.pooled[series] else "cell"),
+                ("figure", figure),
+                ("run", first),
+                ("previous_run", last),
+                ("runs_before", k - a),
+                ("runs_after", b - k),
+                ("first_run", int(runs[a])),
+                ("last_run", int(runs[b - 1])),
+                ("seeds_before", len(pair[0].value)),
+                ("seeds_after", len(pair[1].value)),
+                ("low_n", bool(low[group[a:b]].any())),
+                ("what_changed", causes.between(series, last, first)),
+            ):
+                out[column].append(value)
+    if not sides:
+        return pd.DataFrame()
+    verdicts = judge(sides, figure, margin, (np.array(counts), np.array(out["low_n"])))
+    return pd.DataFrame({c: verdicts[c] if c in verdicts else out[c] for c in _COLUMNS})
+
+
+def _side(rows: dict[str, np.ndarray], first: int, last: int) -> Side:
+    """A segment's seeds (its runs ``first`` to ``last``): the results of its runs, each once
+    (a result a later run kept, with the same code and seed, is one), and the results of one
+    seed as one (they share its split and test trials): their mean, mean standard error and
+    fewest degrees of freedom. ``rows`` holds ``by_result``, the series' rows stably sorted by
+    result: the segment's rows in that order, the first of each result, are what
+    ``np.unique(..., return_index=True)`` would pick, without a sort per segment."""
+    by_result = rows["by_result"]
+    run = rows["run"][by_result]
+    inside = by_result[(run >= first) & (run <= last)]
+    result = rows["result"][inside]
+    pick = inside[np.concatenate([[True], result[1:] != result[:-1]])] if len(inside) else inside
     seeds, at = np.unique(rows["seed"][pick], return_inverse=True)
     count = np.bincount(at, minlength=len(seeds))
     value = np.bincount(at, rows["value"][pick].astype(float), len(seeds)) / count
     se = np.bincount(at, rows["se"][pick].astype(float), len(seeds)) / count
     df = np.full(len(seeds), np.inf)
     np.minimum.at(df, at, rows["df"][pick].astype(float))
-    return [
-        {figure: float(v), f"{figure}_se": float(s), "df": float(d)}
-        for v, s, d in zip(value, se, df)
-    ]
-
-
-def _what_changed(causes: dict, before: int, after: int) -> str:
-    """What the run ``after`` changed against the run ``before``: in a series' rows (arrays),
-    or in the runs' sets of each cause (:func:`_run_causes`)."""
-    if "run" in causes:
-        a, b = (causes["run"] == r for r in (before, after))
-        differ = [set(map(str, causes[c][a])) != set(map(str, causes[c][b])) for _, c in CAUSES]
-    else:
-        differ = [causes[before][c] != causes[after][c] for _, c in CAUSES]
-    return ", ".join(name for (name, _), d in zip(CAUSES, differ) if d) or "seeds only"
+    return Side(value, se, df)
 
 
 def _dated(steps: pd.DataFrame, runs: pd.DataFrame, n_series: int, gate: Gate) -> Steps:

@@ -1,6 +1,7 @@
-"""ruptures and plotly are the ``history`` extra's: the plain install (``pip install .``) brings
-neither, the test extra brings both, and every ``slipbench history`` command without them is
-refused before any work in one line naming the install command (exit 2). The missing library is
+"""plotly is the ``history`` extra's: the plain install (``pip install .``) brings neither it
+nor ruptures (the oracle of the steps' segmentation, a test's), the test extra brings both, and
+``slipbench history page`` without plotly is refused before any work in one line naming the
+install command (exit 2); ``add`` and ``steps`` need nothing beyond the plain install. The missing library is
 simulated (``sys.modules[name] = None`` makes its import fail), never uninstalled."""
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import tomllib
 from slipbench.app.commands.history import EXTRA, INSTALL
 
 ROOT = next(p for p in Path(__file__).resolve().parents if (p / "pyproject.toml").is_file())
-COMMANDS = (["add", "results", "--commit", "c0"], ["steps"], ["page"])
+COMMANDS = (["add", "results", "--commit", "c0"], ["steps"])
 
 
 def _requirements(spec: list[str]) -> set[str]:
@@ -24,25 +25,30 @@ def _requirements(spec: list[str]) -> set[str]:
 def test_the_plain_install_brings_no_history_library():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     extras = project["optional-dependencies"]
-    assert not _requirements(project["dependencies"]) & set(EXTRA)
+    assert not _requirements(project["dependencies"]) & {*EXTRA, "ruptures"}
     assert _requirements(extras["history"]) == set(EXTRA)
-    assert set(EXTRA) <= _requirements(extras["test"])  # the tests run the history's code
+    assert {*EXTRA, "ruptures"} <= _requirements(extras["test"])  # the tests run the site's code
 
 
-@pytest.mark.parametrize("missing", [EXTRA, EXTRA[:1], EXTRA[1:]])
-@pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
-def test_history_without_its_extra_names_it(tmp_path, monkeypatch, cli, command, missing):
-    for name in missing:
+def _without(monkeypatch, names) -> None:
+    for name in names:
         monkeypatch.setitem(sys.modules, name, None)
-    history = tmp_path / "history"
-    code, out, err = cli(["history", *command, "--history", str(history)])
+
+
+def test_the_page_without_its_extra_names_it(tmp_path, monkeypatch, cli):
+    _without(monkeypatch, EXTRA)
+    site = tmp_path / "site"
+    code, out, err = cli(["history", "page", "--history", str(tmp_path / "h"), "--out", str(site)])
     assert code == 2, err
     assert err.count("\n") == 1 and INSTALL in err, err
-    assert all(name in err for name in missing) and out == ""
-    assert not history.exists()  # refused before any work
+    assert all(name in err for name in EXTRA) and out == ""
+    assert not site.exists()  # refused before any work
 
 
-def test_with_its_extra_the_command_runs_on(tmp_path, cli):
-    """The check passes where both import (here): the command goes on to its own errors."""
-    code, _, err = cli(["history", "steps", "--history", str(tmp_path / "nothing")])
-    assert code == 2 and INSTALL not in err and "no history" in err, err
+@pytest.mark.parametrize("command", COMMANDS, ids=lambda c: c[0])
+def test_add_and_steps_need_no_extra(tmp_path, monkeypatch, cli, command):
+    """Without plotly or ruptures, add and steps go on to their own errors (here: nothing to
+    read), never the extra's line."""
+    _without(monkeypatch, (*EXTRA, "ruptures"))
+    code, _, err = cli(["history", *command, "--history", str(tmp_path / "nothing")])
+    assert code == 2 and INSTALL not in err, err

@@ -14,13 +14,14 @@ import click
 from slipbench.app.options import Destination, SuggestingGroup, jobs_option, out_option
 
 HISTORY_HELP = "The history folder (made by the first `history add`)."
-#: what the history commands import beyond the plain install: the `history` extra
-EXTRA = ("ruptures", "plotly")
+#: what `history page` imports beyond the plain install: the `history` extra (add and steps
+#: need nothing more: the steps' segmentation is numpy, slipbench/history/segmentation.py)
+EXTRA = ("plotly",)
 INSTALL = "pip install 'slipbench[history]'"
 
 
 def needs_extra() -> None:
-    """Refuse a history command, before any work, where the ``history`` extra is not installed:
+    """Refuse `history page`, before any work, where the ``history`` extra is not installed:
     a UsageError (exit 2) in one line naming what is missing and the install command."""
     missing = []
     for name in EXTRA:
@@ -32,7 +33,7 @@ def needs_extra() -> None:
         from slipbench.errors import UsageError
 
         raise UsageError(
-            f"slipbench history needs {' and '.join(missing)}, which the plain install leaves "
+            f"slipbench history page needs {' and '.join(missing)}, which the plain install leaves "
             f"out: {INSTALL}"
         )
 
@@ -65,7 +66,6 @@ def add_command(**options) -> None:
     """Add RESULTS (a results folder or file) to the history as the run of --commit; a commit
     the history holds already changes nothing."""
     o = AddArgs(**options)
-    needs_extra()
     from slipbench.history.series import series_rows
     from slipbench.stats.factors import latest_runs
     from slipbench.store.history import Run, add_run, check_commit, held, utc_date
@@ -163,7 +163,6 @@ def steps_command(**options) -> None:
     Exit codes: 0, or 1 where a confirmed regression is newer than --since; 2 bad usage or data.
     """
     o = StepsArgs(**options)
-    needs_extra()
     from slipbench.app.commands.compare import gate_from
     from slipbench.history.steps import STEP_COLUMNS, default_jobs, find_steps
     from slipbench.report.steps import steps_json, steps_text
