@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from slipbench.base import BaseDetector, Streamer
+from slipbench.base import BaseDetector, FitJob, Streamer
 from slipbench.detectors import lstm_compile
 from slipbench.detectors import lstm_kernels as kernels
 from slipbench.errors import UsageError
@@ -400,3 +400,25 @@ def _torch_epoch(data, order, schedule, state, device="cuda") -> None:
         for p, v, t, tv, f in zip(params, velocity, tensors, vel, to_numpy):
             p[:] = f(t).cpu().numpy()
             v[:] = f(tv).cpu().numpy()
+
+
+def _exercise_lockstep() -> None:
+    """Models trained in lockstep: one block (the serial kernel) and several (the parallel)."""
+    from slipbench.detectors.lstm_lockstep import MODELS
+
+    x, y = lstm_compile.exercise_data()
+    for n_models in (1, MODELS + 1):
+        dets = [LSTM(max_epochs=1, device="cpu") for _ in range(n_models)]
+        LSTM.fit_lockstep(dets, [FitJob(x[:40], y[:40], i) for i in range(n_models)])
+
+
+def _exercise_alone() -> None:
+    """One model trained alone, at a small batch (serial epochs) and a large one (parallel)."""
+
+    x, y = lstm_compile.exercise_data()
+    for batch in (1, 256):
+        LSTM(max_epochs=1, batch_size=batch, device="cpu").fit(x, y, seed=0)
+
+
+lstm_compile.register("lockstep", _exercise_lockstep)
+lstm_compile.register("alone", _exercise_alone)

@@ -90,7 +90,7 @@ def test_compiling_ahead_says_so_first_and_then_how_long(monkeypatch):
     lstm_compile.compile_ahead(said.append)
     assert said[0].startswith("lstm: compiling its numba kernels once for this machine, about ")
     assert said[1].startswith("lstm: kernels compiled in ") and len(children) == 1
-    assert "ready('predict', 'lockstep')" in children[0][-1]
+    assert "lstm_compile.ready('predict', 'lockstep')" in children[0][-1]
     lstm_compile.compile_ahead(said.append)  # cached now: nothing said, nothing run
     assert len(said) == 2 and len(children) == 1
 
