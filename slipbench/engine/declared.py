@@ -47,16 +47,32 @@ class _Module:
     absolute: list[str] = field(default_factory=list)  # top-level modules it imports
 
 
-@functools.cache
-def _module(name: str) -> _Module:
-    try:  # finds the file; imports the parent packages only (slipbench.detectors: one line)
-        spec = importlib.util.find_spec(name)
+def _source(name: str) -> tuple[Path, bool]:
+    """A module's source file and whether it is a package, found without importing its parent
+    packages (find_spec would: slipbench.torch's __init__ imports numpy)."""
+    top, *rest = name.split(".")
+    try:
+        spec = importlib.util.find_spec(top)
     except (ImportError, ValueError) as exc:
         raise NeedsImport(f"module {name} not found: {exc}") from None
     if spec is None or not spec.origin or not spec.origin.endswith(".py"):
         raise NeedsImport(f"module {name} has no Python source")
-    tree = ast.parse(Path(spec.origin).read_bytes(), spec.origin)
-    package = name if spec.submodule_search_locations else name.rpartition(".")[0]
+    path, package = Path(spec.origin), bool(spec.submodule_search_locations)
+    for part in rest:
+        if not package:
+            raise NeedsImport(f"{name}: {path} is not a package")
+        inner = path.parent / part / "__init__.py"
+        path, package = (inner, True) if inner.is_file() else (path.parent / f"{part}.py", False)
+        if not path.is_file():
+            raise NeedsImport(f"module {name} has no source file at {path}")
+    return path, package
+
+
+@functools.cache
+def _module(name: str) -> _Module:
+    path, is_package = _source(name)
+    tree = ast.parse(path.read_bytes(), str(path))
+    package = name if is_package else name.rpartition(".")[0]
     out = _Module(name)
     for node in tree.body:
         if isinstance(node, ast.Import):
