@@ -408,7 +408,7 @@ def _exercise_lockstep() -> None:
 
     x, y = lstm_compile.exercise_data()
     for n_models in (1, MODELS + 1):
-        dets = [LSTM(max_epochs=1, device="cpu") for _ in range(n_models)]
+        dets: list[BaseDetector] = [LSTM(max_epochs=1, device="cpu") for _ in range(n_models)]
         LSTM.fit_lockstep(dets, [FitJob(x[:40], y[:40], i) for i in range(n_models)])
 
 

@@ -27,6 +27,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,8 @@ def cache_folder() -> Path:
     cache, as numba's own locator decides)."""
     from slipbench.detectors import lstm_kernels
 
-    return Path(lstm_kernels.predict_window._cache._cache_path)  # numba's Cache, set at decoration
+    cache: Any = getattr(lstm_kernels.predict_window, "_cache")  # noqa: B009 (numba's, untyped)
+    return Path(cache._cache_path)  # numba's Cache knows its folder from decoration on
 
 
 def _stamp(group: str) -> Path:
