@@ -255,6 +255,12 @@ class BaseDetector(Parameterized):
                 det._fit(x, y, seed, **kw)
         return detectors
 
+    @classmethod
+    def prepare(cls, say: Callable[[str], None]) -> None:
+        """Work done once per machine before a run's workers start, such as compiling kernels
+        that every worker would otherwise compile at once; a class that does some says so
+        first through ``say`` (one line: what, and about how long). By default nothing."""
+
     def lockstep_key(self, window_length: int) -> str:
         """What models of a :attr:`lockstep` class must share to train together: by default
         their hyperparameters and window length (samples). The engine sends cells whose

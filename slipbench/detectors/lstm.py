@@ -29,7 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from slipbench.base import BaseDetector, Streamer
+from slipbench.base import BaseDetector, FitJob, Streamer
+from slipbench.detectors import lstm_compile
 from slipbench.detectors import lstm_kernels as kernels
 from slipbench.errors import UsageError
 from slipbench.params import Interval, Options, Sequence
@@ -105,7 +106,14 @@ class LSTM(BaseDetector):
         epochs = np.broadcast_to(np.atleast_1d(self.max_epochs), (len(rates),))
         return list(zip(rates, (int(e) for e in epochs)))
 
+    @classmethod
+    def prepare(cls, say):
+        """Compile the numba kernels once for this machine before any worker starts
+        (:mod:`lstm_compile`); nothing where they are cached."""
+        lstm_compile.compile_ahead(say)
+
     def _fit(self, x, y, seed):
+        lstm_compile.ready("predict", "alone")
         self.device_, self.device_reason_ = _device_choice(self.device, self.batch_size)
         run = _Training(self, x, y, seed)
         epoch = _torch_epoch if self.device_ == "cuda" else _numba_epoch
@@ -121,6 +129,7 @@ class LSTM(BaseDetector):
         together. On the CPU, MODELS at a time in the SIMD lanes (:mod:`lstm_lockstep`), each to
         its weights alone bit for bit; on CUDA, all in batched torch operations
         (:mod:`lstm_lockstep_torch`), to float32 tolerance of torch's LSTM alone."""
+        lstm_compile.ready("predict", "lockstep")
         groups: dict[tuple, list[int]] = {}
         for i, (det, (x, _, _, _)) in enumerate(zip(detectors, data)):
             det.device_, det.device_reason_ = _device_choice(det.device, det.batch_size)
@@ -130,6 +139,7 @@ class LSTM(BaseDetector):
             _train_in_lockstep([detectors[i] for i in members], [data[i][:3] for i in members])
 
     def _predict_proba(self, x):
+        lstm_compile.ready("predict")
         return kernels.predict_proba(x, self._net())
 
     def fitted_choices(self):
@@ -163,6 +173,7 @@ class LSTM(BaseDetector):
 
     def predict_window(self, window: np.ndarray) -> float:
         """Slip probability of one window (float32, the fitted length), unchecked: for control loops."""
+        lstm_compile.ready("stream")
         return kernels.predict_window(window, self._net())
 
     def _net(self) -> tuple:
@@ -176,6 +187,7 @@ class LSTMStreamer(Streamer):
 
     def reset(self):
         super().reset()
+        lstm_compile.ready("stream")
         det = self.detector
         self._net = det._net()
         self._state = np.zeros((-(-self.window // self.hop), 2, det.rt_.shape[0]), np.float32)
@@ -261,14 +273,16 @@ class _Training:
         """The training windows in this epoch's order."""
         return self.train[self.rng.permutation(len(self.train))]
 
-    def end_epoch(self) -> None:
-        """Validate the weights in :attr:`state`, keep the best, stop early or change stage."""
+    def end_epoch(self, report: bool = True) -> None:
+        """Validate the weights in :attr:`state`, keep the best, stop early or change stage;
+        ``report`` the epoch to the bar (in lockstep the group reports once per epoch)."""
         params, val, y = self.state[0], self.val, self.y
         net = kernels.network(-1.0, 1.0, params)
         p = np.clip(kernels.predict_proba(self.xn[val], net), 1e-12, 1 - 1e-12)
         loss = float(-np.mean(np.where(y[val] == 1, np.log(p), np.log1p(-p))))
         self.history.append((self.lr, loss))
-        self.det.report_progress(len(self.history), self.total_epochs, loss=loss)
+        if report:
+            self.det.report_progress(len(self.history), self.total_epochs, loss=loss)
         self.epochs_in_stage += 1
         if loss < self.best_loss - 1e-6:
             self.best, self.best_loss, self.stale = [q.copy() for q in params], loss, 0
@@ -305,6 +319,9 @@ def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
     params = lockstep.pack([r.state[0] for r in runs])
     velocity = np.zeros_like(params)
     batch_size, momentum = dets[0].batch_size, dets[0].momentum
+    total = max(r.total_epochs for r in runs)
+    dets[0].report_progress(0, total, models=len(runs))  # before the first epoch, which is long
+    epochs = 0
     while not all(r.done for r in runs):
         orders, counts = np.zeros((lanes, longest), np.int64), np.zeros(lanes, np.int64)
         rates = np.zeros(lanes, np.float32)
@@ -320,12 +337,21 @@ def _train_in_lockstep(dets: list[LSTM], data: list[tuple]) -> None:
             hidden = r.det.hidden_size
             r.state = (lockstep.unpack(params, i, hidden), lockstep.unpack(velocity, i, hidden))
             stage = r.stage
-            r.end_epoch()
+            r.end_epoch(report=False)
             if r.stage != stage:  # a new stage restarts from the best weights, zero velocity
                 lockstep.put(params, i, r.state[0])
                 lockstep.put(velocity, i, r.state[1])
+        epochs += 1
+        _report_group(dets[0], runs, epochs, total)
     for r in runs:
         r.finish()
+
+
+def _report_group(det: LSTM, runs: list[_Training], epoch: int, total: int) -> None:
+    """One report for models trained together, as a TorchDetector's per epoch: the lockstep
+    epoch, the models that trained in it and their mean validation loss."""
+    losses = [r.history[-1][1] for r in runs if len(r.history) == epoch]
+    det.report_progress(epoch, total, models=len(losses), loss=float(np.mean(losses)))
 
 
 def _numba_epoch(data, order, schedule, state) -> None:
@@ -374,3 +400,25 @@ def _torch_epoch(data, order, schedule, state, device="cuda") -> None:
         for p, v, t, tv, f in zip(params, velocity, tensors, vel, to_numpy):
             p[:] = f(t).cpu().numpy()
             v[:] = f(tv).cpu().numpy()
+
+
+def _exercise_lockstep() -> None:
+    """Models trained in lockstep: one block (the serial kernel) and several (the parallel)."""
+    from slipbench.detectors.lstm_lockstep import MODELS
+
+    x, y = lstm_compile.exercise_data()
+    for n_models in (1, MODELS + 1):
+        dets: list[BaseDetector] = [LSTM(max_epochs=1, device="cpu") for _ in range(n_models)]
+        LSTM.fit_lockstep(dets, [FitJob(x[:40], y[:40], i) for i in range(n_models)])
+
+
+def _exercise_alone() -> None:
+    """One model trained alone, at a small batch (serial epochs) and a large one (parallel)."""
+
+    x, y = lstm_compile.exercise_data()
+    for batch in (1, 256):
+        LSTM(max_epochs=1, batch_size=batch, device="cpu").fit(x, y, seed=0)
+
+
+lstm_compile.register("lockstep", _exercise_lockstep)
+lstm_compile.register("alone", _exercise_alone)

@@ -312,9 +312,15 @@ class Registry(Generic[Plugin]):
             return f"built in ({source.package})"
         return source.package or source.origin
 
-    def describe(self, name: str) -> dict[str, Any]:
+    def describe(self, name: str, check: bool = True) -> dict[str, Any]:
         """Id, status, one-line description and parameters with defaults (``slipbench list``);
-        for a detector also its ``inputs`` and whether it is the ``reference``."""
+        for a detector also its ``inputs`` and whether it is the ``reference``. Unless ``check``,
+        an entry point's plugin is read from its source (:mod:`slipbench.engine.declared`), not
+        imported, where its declaration is plain; ``read`` says which ("source" or "import")."""
+        if not check and name not in self._loaded:
+            found = self._declared(name)
+            if found is not None:
+                return found
         status = self.status(name)
         out: dict[str, Any] = {
             "name": name,
@@ -325,6 +331,7 @@ class Registry(Generic[Plugin]):
             "from": self.provenance(name),
             "description": "",
             "parameters": {},
+            "read": "import",
         }
         if name in self._loaded:
             from slipbench.base import BaseDetector
@@ -343,6 +350,55 @@ class Registry(Generic[Plugin]):
                 }
                 for p, d in param_defaults(cls).items()
             }
+        return out
+
+    def _declared(self, name: str) -> dict[str, Any] | None:
+        """:meth:`describe` from an entry point's source; None where it needs importing."""
+        from slipbench.engine.declared import NeedsImport, declaration
+
+        source = self._sources[name]
+        if source.target.startswith("file:"):  # a plugin file is the user's: imported, checked
+            return None
+        base = (
+            self._base
+            if isinstance(self._base, str)
+            else f"{self._base.__module__}:{self._base.__name__}"
+        )
+        module, _, cls = base.partition(":")
+        try:
+            found = declaration(source.target, (module, cls))
+        except (NeedsImport, SyntaxError, OSError):
+            return None
+        attributes = found["attributes"]
+        absent = [
+            m
+            for m in attributes.get("requires", ())
+            if importlib.util.find_spec(m.split(".")[0]) is None
+        ]
+        hint = (
+            f"; install it with: {attributes['install_hint']}"
+            if attributes.get("install_hint")
+            else ""
+        )
+        out: dict[str, Any] = {
+            "name": name,
+            "status": "unavailable" if absent else "ok",
+            "detail": f"needs {', '.join(absent)}{hint}" if absent else "",
+            "origin": source.origin,
+            "package": source.package,
+            "from": self.provenance(name),
+            "description": summary(found["description"]),
+            "parameters": {},
+            "read": "source",
+        }
+        if module == "slipbench.base":  # a detector: what it reads, its mark
+            out["inputs"] = list(attributes.get("inputs", ("univariate",)))
+            out["reference"] = bool(attributes.get("reference", False))
+        constraints = attributes.get("_parameter_constraints", {})
+        out["parameters"] = {
+            p: {"default": d, "constraint": constraints.get(p, "")}
+            for p, d in found["parameters"].items()
+        }
         return out
 
 

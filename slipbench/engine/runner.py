@@ -262,6 +262,8 @@ def evaluate(
         if pc.key not in rows and pc.skip:
             record(pc, Result({"status": "skipped", "reason": pc.skip}))
 
+    if scheduler is None:  # this machine's workers: a cold kernel cache compiled once, here
+        _prepare(tasks, progress)
     cached = len(rows)
     if progress and len(runs) > 1:  # several detectors or protocols: say what it costs
         for line in describe(costs(plan, done, stored), jobs):
@@ -602,6 +604,16 @@ def _stream_test(signals: Signals, pc: PlannedCell, scales: np.ndarray | None = 
         stream["hop"],
         stream["max_delay_ms"],
     )
+
+
+def _prepare(tasks: list[Task | Batch], say_it: bool) -> None:
+    """Each detector class with models to train does its once-per-machine work
+    (:meth:`BaseDetector.prepare`, e.g. the LSTM compiling its kernels) before any worker starts,
+    so that the workers load what it made instead of each making it at once."""
+    classes = dict.fromkeys(type(task.cells[0].run.detector) for task in tasks if task.cells)
+    say = (lambda line: print(line, file=sys.stderr, flush=True)) if say_it else (lambda _: None)
+    for cls in classes:
+        cls.prepare(say)
 
 
 def _describe(runs: list[Run]) -> str:

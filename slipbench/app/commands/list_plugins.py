@@ -17,13 +17,20 @@ REFERENCE = "the reference: the baseline every table will compare against"
 @click.command("list")
 @plugins_option()
 @click.option("--json", "as_json", is_flag=True, help="Machine-readable: one object per plugin.")
-def list_plugins(plugins: tuple[str, ...], as_json: bool) -> None:
+@click.option(
+    "--check",
+    is_flag=True,
+    help="Import every plugin to check that it loads (by default an installed plugin is read "
+    "from its source, which is fast, and imported when selected).",
+)
+def list_plugins(plugins: tuple[str, ...], as_json: bool, check: bool) -> None:
     """The detectors and protocols that can be selected: status, description, where each comes
     from (package and version, or plugin file), parameters, and which detector is the reference
-    baseline."""
+    baseline. Installed plugins are read from their source where it declares these plainly
+    (``read``: "source"), else imported ("import"); plugin files are always imported."""
     add_plugin_folders(plugins)
     found = {
-        kind: [reg.describe(n) for n in reg.names()]
+        kind: [reg.describe(n, check=check) for n in reg.names()]
         for kind, reg in (("detectors", registry.detectors), ("protocols", registry.protocols))
     }
     if as_json:
