@@ -216,11 +216,8 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     -------
     (rows, paths): the result rows of the declared runs, and the report and figure files written.
     """
-    from slipbench.app.selection import recorded_plugins
     from slipbench.engine.limits import cell_limit, limit_words
     from slipbench.engine.runner import evaluate
-    from slipbench.report.document import build_report, render, write_figures
-    from slipbench.report.render import renderer
     from slipbench.store.results import ResultsStore
 
     out = bench.out
@@ -241,6 +238,18 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
         progress=progress,
         slurm=slurm_of(bench),
     )
+    return rows, write_reports(bench, rows, out)
+
+
+def write_reports(bench: Benchmark, rows, out: Path) -> list[Path]:
+    """Write the file's reports (and figures, with ``plots``) of ``rows`` into ``out``: what a
+    run does after its last cell (and what a calibration times, :mod:`slipbench.app.calibrate`).
+    Returns the files written."""
+    from slipbench.app.selection import recorded_plugins
+    from slipbench.atomic import write_text_atomic
+    from slipbench.report.document import build_report, render, write_figures
+    from slipbench.report.render import renderer
+
     blocks = build_report(
         recorded_plugins(rows),  # cells kept from a run before rows recorded their layouts
         metric=bench.metric,
@@ -252,10 +261,8 @@ def run_benchmark(bench: Benchmark, force: bool = False, progress: bool = True, 
     )
     files = write_figures(blocks, out / "figures") if bench.plots else {}
     paths = [p for ps in files.values() for p in ps]
-    from slipbench.atomic import write_text_atomic
-
     for fmt in bench.report:
         path = out / f"report.{renderer(fmt).suffix}"
         write_text_atomic(path, render(blocks, fmt, standalone=True, files=files, link_from=out))
         paths.append(path)
-    return rows, paths
+    return paths

@@ -185,6 +185,7 @@ def calibrate(  # noqa: PLR0913 - what a calibration needs, named
     *,
     progress: bool,
     echo=print,
+    side: Mapping[str, float] | None = None,
 ) -> Calibration:
     """Run ``runs``' detectors and protocols on ``ds`` (the bench's dataset) at ``seeds``
     seeds from the bench's first (in batches of its ``repeats``, as a side of a comparison
@@ -192,11 +193,15 @@ def calibrate(  # noqa: PLR0913 - what a calibration needs, named
     beside the bench file.
 
     ``work`` keeps both runs' results: an interrupted calibration resumes from them. Cells
-    that fail leave no calibration written (CellsFailed, exit 4)."""
+    that fail leave no calibration written (CellsFailed, exit 4). ``side``: the start and the
+    dataset's read as the caller measured them (:func:`measured_read`); the reports of the
+    first seeds' rows are written into ``work``/runs and timed here, so that a side's cost
+    counts everything a `slipbench run` of the file does, not its models alone."""
     per_seed = calibration_runs(runs, bench.seed, seeds)
     stores = {"runs": ResultsStore(work / "runs"), "twins": ResultsStore(work / "twins")}
     rows: dict[str, list[pd.DataFrame]] = {"runs": [], "twins": []}
     walls, load_before = [], os.getloadavg()
+    measured = dict(side or {})
     size = max(1, bench.repeats)
     for lo in range(0, seeds, size):
         batch = [r for group in per_seed[lo : lo + size] for r in group]
@@ -207,6 +212,9 @@ def calibrate(  # noqa: PLR0913 - what a calibration needs, named
             got = _evaluated(ds, todo, store, bench, progress)
             if kind == "runs" and cached.isdisjoint(got["key"]):
                 walls.append((time.perf_counter() - t0) / len(per_seed[lo : lo + size]))
+            if kind == "runs" and lo == 0:  # a side's rows: its reports timed as a run writes them
+                measured["reports_s"] = _reports_seconds(bench, got, work / "runs")
+                measured["report_seeds"] = float(len(per_seed[:size]))
             rows[kind].append(got)
         echo(f"calibration: seeds {bench.seed} to {bench.seed + min(lo + size, seeds) - 1} done")
     both = {kind: pd.concat(frames, ignore_index=True) for kind, frames in rows.items()}
@@ -242,11 +250,41 @@ def calibrate(  # noqa: PLR0913 - what a calibration needs, named
             )
             for name, (params, code) in detector_identities(runs).items()
         },
+        side=measured,
     )
     from slipbench.atomic import write_text_atomic
 
     write_text_atomic(bench.calibration_file, cal.to_json())
     return cal
+
+
+def _reports_seconds(bench: Benchmark, rows: pd.DataFrame, out: Path) -> float:
+    """Seconds to write the bench's reports of ``rows`` into ``out``, as a run writes them."""
+    from slipbench.app.benchfile import write_reports
+
+    t0 = time.perf_counter()
+    write_reports(bench, rows, out)
+    return time.perf_counter() - t0
+
+
+def measured_read(bench: Benchmark, echo=print) -> tuple[Dataset, dict[str, float]]:
+    """The bench's dataset and what a side spends before it (``start_s``: this process's start,
+    imports and planning, up to now; ``read_s``: reading the dataset). A simulated dataset not
+    yet cached is simulated first and then read again, timed: a side reads it from the cache."""
+    import psutil
+
+    from slipbench.app.benchfile import bench_dataset
+    from slipbench.data.defaults import default_dataset_path
+
+    start_s = time.time() - psutil.Process().create_time()
+    data_seed = bench.seed if bench.data_seed is None else bench.data_seed
+    cached = bench.dataset is not None or default_dataset_path(bench.scale, data_seed).is_dir()
+    t0 = time.perf_counter()
+    ds = bench_dataset(bench, echo)
+    if not cached:
+        t0 = time.perf_counter()
+        ds = bench_dataset(bench, echo)
+    return ds, {"start_s": start_s, "read_s": time.perf_counter() - t0}
 
 
 def _of(rows: pd.DataFrame, detector: str) -> pd.DataFrame:

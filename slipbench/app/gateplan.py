@@ -12,7 +12,7 @@ split's luck as well. Only the first is refused: it is what a pull request meets
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from slipbench.app.benchspec import Benchmark
 from slipbench.app.calibrate import CalibrationStatus
@@ -51,6 +51,7 @@ class GatePlan:
     status: CalibrationStatus
     seconds_per_seed: float | None
     scale: float | None = None  # the simulated dataset's (None: a dataset folder)
+    side: dict[str, float] = field(default_factory=dict)  # the calibration's (Calibration.side)
 
     @property
     def undecided(self) -> list[PlannedTest]:
@@ -81,14 +82,62 @@ class GatePlan:
                 f"dataset {cal.dataset_fingerprint}"
             )
             if self.seconds_per_seed is not None:
-                out.append(
-                    f"cost of a side: about {duration(d.seeds * self.seconds_per_seed)} at "
-                    f"{d.seeds} seeds, {duration(d.budget * self.seconds_per_seed)} at the "
-                    f"budget (measured {self.seconds_per_seed:.3g} s a seed on "
-                    f"{m.get('processors')} processors, {m.get('jobs')} workers, load "
-                    f"{'-'.join(map(str, m.get('load_average', [])))})"
-                )
+                out.append(_cost_line(d, self.seconds_per_seed, self.side, m))
         return out + [_line(t, d, self.scale) for t in self.tests]
+
+
+#: the parts of a side besides its models, as the calibration names them, and in words
+SIDE_PARTS = {"start_s": "start", "read_s": "reading the data", "reports_s": "reports"}
+
+
+def side_seconds(seeds: int, per_seed: float, side: dict[str, float]) -> tuple[float, bool]:
+    """One side's wall seconds at ``seeds`` seeds (one `slipbench run`): its models at
+    ``per_seed`` each, plus the start, the dataset's read and the reports as the calibration
+    measured them (``side``; the reports scaled by seeds from the ``report_seeds`` they were
+    timed on). Returns (seconds, whether the side's other costs were counted: False where
+    the calibration predates measuring them, which counts the models alone)."""
+    counted = all(math.isfinite(side.get(k, math.nan)) for k in (*SIDE_PARTS, "report_seeds"))
+    seconds = seeds * per_seed
+    if counted:
+        reports = side["reports_s"] * seeds / max(side["report_seeds"], 1.0)
+        seconds += side["start_s"] + side["read_s"] + reports
+    return seconds, counted
+
+
+def budget_seconds(d: Design, per_seed: float, side: dict[str, float]) -> float:
+    """All looks' seconds on one side up to the budget: each look is a run of its new seeds
+    (:func:`slipbench.gate.power.looks`), which starts, reads and reports again."""
+    at = looks(d.seeds, d.budget)
+    return sum(side_seconds(b - a, per_seed, side)[0] for a, b in zip([0, *at], at, strict=False))
+
+
+def _cost_line(d: Design, per_seed: float, side: dict[str, float], m: dict) -> str:
+    first, counted = side_seconds(d.seeds, per_seed, side)
+    if counted:
+        parts = ", ".join(
+            f"{word} {side[k]:.2g} s" for k, word in SIDE_PARTS.items() if k != "reports_s"
+        )
+        reports = side["reports_s"] * d.seeds / max(side["report_seeds"], 1.0)
+        what = (
+            f"counting {parts}, models {d.seeds * per_seed:.3g} s ({per_seed:.3g} s a seed) "
+            f"and reports {reports:.2g} s"
+        )
+    else:
+        what = (
+            f"models only, {per_seed:.3g} s a seed: this calibration predates measuring the "
+            "start, the data's read and the reports; `slipbench calibrate` measures them"
+        )
+    looks_n = len(looks(d.seeds, d.budget))
+    budget = (
+        f", {duration(budget_seconds(d, per_seed, side))} at the budget ({looks_n} runs)"
+        if d.budget > d.seeds
+        else ""
+    )
+    return (
+        f"cost of a side: about {duration(first)} at {d.seeds} seeds{budget}; {what}; measured "
+        f"on {m.get('processors')} processors, {m.get('jobs')} workers, load "
+        f"{'-'.join(map(str, m.get('load_average', [])))}"
+    )
 
 
 def _line(t: PlannedTest, d: Design, scale: float | None) -> str:
@@ -171,6 +220,7 @@ def plan_gate(bench: Benchmark, runs: list[Run], status: CalibrationStatus) -> G
         status,
         per_seed if math.isfinite(per_seed) else None,
         bench.scale if bench.dataset is None else None,
+        dict(cal.side) if cal is not None else {},
     )
 
 

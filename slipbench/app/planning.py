@@ -171,7 +171,10 @@ def on_this_machine(p: Planning) -> Section | None:
         [
             f"With {jobs} worker(s) (run.jobs): about {duration(wall)} of wall time{tail}, "
             f"{sum(known) / 3600:.1f} core-hours in models; the longest task "
-            f"{duration(max(known))}."
+            f"{duration(max(known))}. This counts the models' fits and tests only, from "
+            "the measured rows; the process's start, reading the data, windowing and the "
+            "reports come on top (a file with a [gate] counts them in its cost of a side, as "
+            "its calibration measured them)."
         ],
     )
 

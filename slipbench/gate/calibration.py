@@ -131,7 +131,10 @@ class Calibration:
     input, protocols with their options and code, the stream scheme) and ``digest`` its
     SHA-256; ``seeds``: the seeds both runs ran; ``wall_seconds_per_seed``: the whole bench's
     wall time per seed and side on the machine that calibrated (``machine``: processors,
-    workers, load)."""
+    workers, load); ``side``: the rest of a side's wall seconds, measured there (``start_s``:
+    the process's start and planning its runs, ``read_s``: reading the dataset, ``reports_s``:
+    writing the reports of ``report_seeds`` seeds' rows); empty in a calibration written
+    before they were measured, whose cost of a side counts its models only."""
 
     settings: dict[str, Any]
     digest: str
@@ -142,6 +145,7 @@ class Calibration:
     wall_seconds_per_seed: float
     machine: dict[str, Any]
     detectors: dict[str, DetectorCalibration] = field(default_factory=dict)
+    side: dict[str, float] = field(default_factory=dict)
 
     def noise(
         self, detector: str, protocol: str, figure: str, cell: str | None = None
@@ -319,6 +323,8 @@ def _calibration(data: dict) -> Calibration:
         wall_seconds_per_seed=_number(data["wall_seconds_per_seed"]),
         machine=dict(data["machine"]),
         detectors=detectors,
+        # absent in a calibration written before a side's other costs were measured
+        side={str(k): _number(v) for k, v in dict(data.get("side", {})).items()},
     )
 
 

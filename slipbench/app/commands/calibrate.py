@@ -53,9 +53,9 @@ def calibrate_command(**options) -> None:
     calibration file (<name>.calibration.json beside it, or the one its [benchmark] calibration
     names), and print what the gate can then see."""
     o = CalibrateArgs(**options)
-    from slipbench.app.benchfile import bench_dataset, plan_runs
+    from slipbench.app.benchfile import plan_runs
     from slipbench.app.benchspec import load_benchmark, with_overrides
-    from slipbench.app.calibrate import calibrate, status
+    from slipbench.app.calibrate import calibrate, measured_read, status
     from slipbench.app.gateplan import plan_gate
     from slipbench.atomic import check_writable
     from slipbench.errors import UsageError
@@ -76,8 +76,8 @@ def calibrate_command(**options) -> None:
     target = bench.calibration_file
     for path in (work, target.parent):
         check_writable(path)
-    data = bench_dataset(bench, click.echo)
-    calibrate(bench, runs, data, o.seeds, work, progress=not o.quiet, echo=click.echo)
+    data, side = measured_read(bench, click.echo)
+    calibrate(bench, runs, data, o.seeds, work, progress=not o.quiet, echo=click.echo, side=side)
     click.echo(f"wrote {target}")
     for line in plan_gate(bench, runs, status(bench, runs)).lines():
         click.echo(line)
