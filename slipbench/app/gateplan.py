@@ -52,6 +52,7 @@ class GatePlan:
     seconds_per_seed: float | None
     scale: float | None = None  # the simulated dataset's (None: a dataset folder)
     side: dict[str, float] = field(default_factory=dict)  # the calibration's (Calibration.side)
+    uncached: bool = False  # the simulated dataset is not in the cache: the first run makes it
 
     @property
     def undecided(self) -> list[PlannedTest]:
@@ -82,7 +83,7 @@ class GatePlan:
                 f"dataset {cal.dataset_fingerprint}"
             )
             if self.seconds_per_seed is not None:
-                out.append(_cost_line(d, self.seconds_per_seed, self.side, m))
+                out.append(_cost_line(d, self.seconds_per_seed, self.side, m, self.uncached))
         return out + [_line(t, d, self.scale) for t in self.tests]
 
 
@@ -111,8 +112,25 @@ def budget_seconds(d: Design, per_seed: float, side: dict[str, float]) -> float:
     return sum(side_seconds(b - a, per_seed, side)[0] for a, b in zip([0, *at], at, strict=False))
 
 
-def _cost_line(d: Design, per_seed: float, side: dict[str, float], m: dict) -> str:
+def _simulating(side: dict[str, float], uncached: bool) -> tuple[float, str]:
+    """What simulating the dataset first adds to the first run (seconds, words): nothing
+    where it is cached; where it is not, what the calibration measured, or said uncounted."""
+    if not uncached:
+        return 0.0, ""
+    seconds = side.get("simulate_s", math.nan)
+    if math.isfinite(seconds):
+        return seconds, f"; the first run simulates the dataset first ({seconds:.2g} s, counted)"
+    return 0.0, (
+        "; the simulated dataset is not in the cache: the first run simulates it first, not "
+        "counted (the calibration did not simulate it)"
+    )
+
+
+def _cost_line(
+    d: Design, per_seed: float, side: dict[str, float], m: dict, uncached: bool = False
+) -> str:
     first, counted = side_seconds(d.seeds, per_seed, side)
+    simulate, simulated = _simulating(side, uncached)
     if counted:
         parts = ", ".join(
             f"{word} {side[k]:.2g} s" for k, word in SIDE_PARTS.items() if k != "reports_s"
@@ -129,14 +147,14 @@ def _cost_line(d: Design, per_seed: float, side: dict[str, float], m: dict) -> s
         )
     looks_n = len(looks(d.seeds, d.budget))
     budget = (
-        f", {duration(budget_seconds(d, per_seed, side))} at the budget ({looks_n} runs)"
+        f", {duration(simulate + budget_seconds(d, per_seed, side))} at the budget ({looks_n} runs)"
         if d.budget > d.seeds
         else ""
     )
     return (
-        f"cost of a side: about {duration(first)} at {d.seeds} seeds{budget}; {what}; measured "
-        f"on {m.get('processors')} processors, {m.get('jobs')} workers, load "
-        f"{'-'.join(map(str, m.get('load_average', [])))}"
+        f"cost of a side: about {duration(simulate + first)} at {d.seeds} seeds{budget}; "
+        f"{what}{simulated}; measured on {m.get('processors')} processors, {m.get('jobs')} "
+        f"workers, load {'-'.join(map(str, m.get('load_average', [])))}"
     )
 
 
@@ -221,7 +239,18 @@ def plan_gate(bench: Benchmark, runs: list[Run], status: CalibrationStatus) -> G
         per_seed if math.isfinite(per_seed) else None,
         bench.scale if bench.dataset is None else None,
         dict(cal.side) if cal is not None else {},
+        _uncached(bench),
     )
+
+
+def _uncached(bench: Benchmark) -> bool:
+    """Whether the bench's simulated dataset is not in the cache (a run simulates it first)."""
+    from slipbench.data.defaults import default_dataset_path
+
+    if bench.dataset is not None:
+        return False
+    seed = bench.seed if bench.data_seed is None else bench.data_seed
+    return not default_dataset_path(bench.scale, seed).is_dir()
 
 
 def _figures_of(bench: Benchmark, status: CalibrationStatus, detector: str, protocol: str):

@@ -133,7 +133,8 @@ class Calibration:
     wall time per seed and side on the machine that calibrated (``machine``: processors,
     workers, load); ``side``: the rest of a side's wall seconds, measured there (``start_s``:
     the process's start and planning its runs, ``read_s``: reading the dataset, ``reports_s``:
-    writing the reports of ``report_seeds`` seeds' rows); empty in a calibration written
+    writing the reports of ``report_seeds`` seeds' rows; ``simulate_s``, where the simulated
+    dataset was not cached: simulating it); empty in a calibration written
     before they were measured, whose cost of a side counts its models only."""
 
     settings: dict[str, Any]

@@ -128,3 +128,37 @@ def test_the_planned_side_is_near_a_side_measured_after_it(tmp_path, small_path)
     calibration_path(path).rename(tmp_path / "measured.calibration.json")
     measured = _slipbench("run", str(path), "--out", str(tmp_path / "side"), "--quiet")
     assert counted and 0.5 < planned / measured < 2.0, (planned, measured, cal.side)
+
+
+def test_a_dataset_not_yet_simulated_adds_its_simulation_to_the_first_run_only():
+    from slipbench.app.gateplan import _cost_line
+
+    machine = {"processors": 2, "jobs": 2, "load_average": [0.5, 0.7]}
+    design = Design(3, 6, 2, 0.025)  # two runs of 41 s each
+    line = _cost_line(design, 10.0, {**SIDE, "simulate_s": 40.0}, machine, uncached=True)
+    assert "about 81 s at 3 seeds, 2 min at the budget (2 runs)" in line  # 41 + 40, 82 + 40
+    assert "the first run simulates the dataset first (40 s, counted)" in line
+    cached = _cost_line(design, 10.0, {**SIDE, "simulate_s": 40.0}, machine)
+    assert "about 41 s at 3 seeds" in cached and "simulat" not in cached
+    unmeasured = _cost_line(design, 10.0, SIDE, machine, uncached=True)
+    assert "about 41 s at 3 seeds" in unmeasured and "simulates it first, not counted" in unmeasured
+
+
+@pytest.mark.slow  # simulates a dataset (about 10 s)
+def test_calibrate_times_a_simulation_apart_from_the_read_a_side_makes(tmp_path, monkeypatch):
+    from slipbench.app.benchspec import load_benchmark
+    from slipbench.app.calibrate import measured_read
+    from slipbench.app.gateplan import _uncached
+
+    monkeypatch.setenv("SLIPBENCH_CACHE", str(tmp_path / "cache"))
+    path = tmp_path / "bench.toml"
+    path.write_text(
+        "[dataset]\nscale = 0.005\nseed = 3\n[detectors.holweg]\n[protocols.window-size]\n"
+    )
+    bench = load_benchmark(path)
+    assert _uncached(bench)
+    ds, side = measured_read(bench, echo=lambda _: None)
+    assert set(side) == {"start_s", "read_s", "simulate_s"} and not _uncached(bench)
+    assert side["simulate_s"] > 0 < side["read_s"] and len(ds.recordings) > 0
+    _, again = measured_read(bench, echo=lambda _: None)
+    assert set(again) == {"start_s", "read_s"}  # cached: read only, as a side reads it
