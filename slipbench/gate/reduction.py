@@ -60,26 +60,16 @@ from slipbench.stats.contrast import CONTRADICTED, ONE_SEED, SHOWN, Contrast, ma
 from slipbench.stats.factors import CHANNELS, UNIVARIATE, inputs, plain
 from slipbench.stats.metrics import LEVEL, RATES
 from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change, pooled_from_rows
-from slipbench.store.columns import ACCURACY
+from slipbench.store.columns import ACCURACY, CELL_ROLE, ENTRANT, INPUT, READING, SETTING, identity
 
 #: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
 Sides = tuple[list, list, list[dict], list[dict]]
 #: the rates compared, per cell and pooled
 #: what a channels cell and its univariate twin share, where the rows hold the column (the seed
-#: pairs apart, as compare pairs it)
-TWIN_COLUMNS = (
-    "protocol",
-    "protocol_params",
-    "detector",
-    "detector_params",
-    "split",
-    "labels",
-    "normalize",
-    "cell",
-    "decimation",
-    "antialias",
-    "test_stream",
-    "dataset_fingerprint",
+#: pairs apart, as compare pairs it): the key's columns but the input, and but those another of
+#: them fixes already
+TWIN_COLUMNS = identity(
+    ENTRANT, READING, SETTING, CELL_ROLE, keyed=True, follows=False, but=(INPUT,)
 )
 _WITHOUT_INPUT = ("cell", "detector_params")  # JSON columns that may name the input
 READINGS = ("channels better", "channels worse", "within the margin", "undecided", "inconclusive")
