@@ -713,6 +713,17 @@ def identity(
     )
 
 
+def recording(*keys: str) -> tuple[str, ...]:
+    """The names of the columns recording the fields ``keys`` of the cell's key, in the order
+    of ``keys`` (``recording("test", "stream")``: what a cell's test set is); a ValueError
+    names a field no column records."""
+    found = key_columns()
+    unknown = [k for k in keys if k not in found]
+    if unknown:
+        raise ValueError(f"no results column records the key field(s) {unknown}")
+    return tuple(c for k in keys for c in found[k][1])
+
+
 def key_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
     """Each field of the cell's key the rows record -> (its role, the columns recording it),
     in the schema's order."""
