@@ -66,10 +66,10 @@ from slipbench.store.columns import (
     ENTRANT,
     INPUT,
     READING,
-    SENSOR_TYPE,
     SETTING,
     identity,
 )
+from slipbench.vocabulary import SENSOR_TYPE
 
 #: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
 Sides = tuple[list, list, list[dict], list[dict]]

@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from slipbench.vocabulary import SENSOR_INSTANCE, SENSOR_TYPE
+
 
 @dataclass(frozen=True)
 class Column:
@@ -88,9 +90,9 @@ SEED, ENTRANT, READING, SETTING, CELL_ROLE, FIGURE = (
     "figure",
 )
 ROLES = (SEED, ENTRANT, READING, SETTING, CELL_ROLE, FIGURE)
-#: columns code names on its own (a cell-key column of the sensor protocols; the input a
-#: detector reads), spelled once
-SENSOR_TYPE, INPUT, PROTOCOL, BALANCE = "sensor_type", "input", "protocol", "balance"
+#: columns code names on its own (the input a detector reads, ...), spelled once; the unit's
+#: columns (``SENSOR_TYPE``) are the contract's (:mod:`slipbench.vocabulary`)
+INPUT, PROTOCOL, BALANCE = "input", "protocol", "balance"
 DETECTOR = "detector"
 
 #: a figure's kind: the cells that hold it
@@ -421,8 +423,8 @@ IDENTITY = (
     ),
 )
 CELL = (
-    Column("sensor_type", STR, "", "cell key: the sensor type of the unit"),
-    Column("sensor_instance", STR, "", "cell key: the finger of the unit"),
+    Column(SENSOR_TYPE, STR, "", "cell key: the sensor type of the unit"),
+    Column(SENSOR_INSTANCE, STR, "", "cell key: the finger of the unit"),
     Column(
         "window",
         INT,
