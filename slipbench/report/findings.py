@@ -31,7 +31,7 @@ from slipbench.stats.contrast import (
     Contrast,
     from_rows,
 )
-from slipbench.store.columns import TN_RATE, TP_RATE
+from slipbench.store.columns import ENTRANT_CELL, TN_RATE, TP_RATE
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, SENSOR_TYPE, label
 
 COMBINED = "combined"
@@ -661,7 +661,7 @@ def _retraining_note(rows: pd.DataFrame) -> list[str]:
     """Where some finished cell of ``rows`` ran under one seed only: that retraining noise is
     outside its contrasts' intervals, with the measured coverage (:mod:`slipbench.stats.contrast`)."""
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
-    by = [c for c in ("protocol", "detector", "cell") if c in ok]
+    by = [c for c in ENTRANT_CELL if c in ok]
     if ok.empty or ("seed" in ok and "cell" in ok and ok.groupby(by)["seed"].nunique().min() > 1):
         return []
     return [

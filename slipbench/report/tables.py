@@ -33,7 +33,15 @@ from slipbench.stats.contrast import (
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
-from slipbench.store.columns import ACCURACY, AUROC, FIGURES, WINDOWED, figure_of, figures
+from slipbench.store.columns import (
+    ACCURACY,
+    AUROC,
+    ENTRANT_CELL,
+    FIGURES,
+    WINDOWED,
+    figure_of,
+    figures,
+)
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
@@ -696,7 +704,7 @@ def _repeated(rows: pd.DataFrame) -> bool:
     """Some cell of ``rows`` ran under several seeds."""
     if "seed" not in rows or "cell" not in rows:
         return False
-    by = [c for c in ("protocol", "detector", "cell") if c in rows]
+    by = [c for c in ENTRANT_CELL if c in rows]
     return bool((rows.groupby(by)["seed"].nunique() > 1).any())
 
 
@@ -1064,7 +1072,7 @@ def split_table(
     # a setting that differs (labels, dataset, ...) names the protocol's line: never pooled
     named = setting_labels(ok, exclude=("split",)).map(lambda t: f" ({t})" if t else "")
     ok = ok.assign(protocol=ok["protocol"].astype(str) + named)
-    keys = ["protocol", "detector", "cell", "seed"]
+    keys = [*ENTRANT_CELL, "seed"]
     wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean")
     wide = (
         wide.dropna(subset=[s for s in splits if s in wide])

@@ -94,6 +94,8 @@ ROLES = (SEED, ENTRANT, READING, SETTING, CELL_ROLE, FIGURE)
 #: columns (``SENSOR_TYPE``) are the contract's (:mod:`slipbench.vocabulary`)
 INPUT, PROTOCOL, BALANCE = "input", "protocol", "balance"
 DETECTOR = "detector"
+#: a result but its seed, as tables group it: the protocol, the entrant, the cell
+ENTRANT_CELL = (PROTOCOL, DETECTOR, "cell")
 
 #: a figure's kind: the cells that hold it
 WINDOWED, STREAMED = "windowed", "streamed"
