@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.params import Parameterized, WindowLength, window_samples
-from slipbench.vocabulary import DATASET_SIDE, MAX_WINDOW, MIN_WINDOW, sensor_pairs
+from slipbench.vocabulary import DATASET_SIDE, MAX_WINDOW, MIN_WINDOW, SENSOR_TYPE, sensor_pairs
 
 __all__ = [
     "BaseProtocol",
@@ -85,7 +85,7 @@ class Part:
     def mask(self, recordings: pd.DataFrame) -> np.ndarray:
         """(n_recordings,) bool: recordings of these sensors that meet every condition."""
         # compared as arrays: a MultiIndex built per call took 30 ms, most of planning a run
-        types = recordings["sensor_type"].to_numpy()
+        types = recordings[SENSOR_TYPE].to_numpy()
         instances = recordings["sensor_instance"].to_numpy()
         keep = np.zeros(len(recordings), bool)
         for sensor_type, instance in self.sensors:
@@ -420,7 +420,7 @@ def described(protocol: BaseProtocol) -> dict[str, str]:
 def no_cell(name: str, why: str, recordings: pd.DataFrame) -> Cell:
     """A skipped stand-in for protocol ``name`` that makes no cell on ``recordings``, so a run
     records why instead of stopping (key :data:`NO_CELL_KEY`, the first recording's unit)."""
-    unit = tuple(recordings[["sensor_type", "sensor_instance"]].iloc[0])
+    unit = tuple(recordings[[SENSOR_TYPE, "sensor_instance"]].iloc[0])
     part = Part((unit,), "train")
     return Cell(
         dict(NO_CELL_KEY),
@@ -457,14 +457,14 @@ def holdout_cells(
         tested = levels
         if DATASET_SIDE in recordings and column in recordings:
             rows = recordings[
-                (recordings["sensor_type"] == sensor[0])
+                (recordings[SENSOR_TYPE] == sensor[0])
                 & (recordings["sensor_instance"] == sensor[1])
                 & (recordings[DATASET_SIDE] == "test")
             ]
             tested = [v for v in levels if rows[name].eq(v).any() and rows[column].eq(v).any()]
         for level in tested:
             test = Part((sensor,), "test", ((column, "==", level),))
-            key = {"sensor_type": sensor[0], "sensor_instance": sensor[1], name: level}
+            key = {SENSOR_TYPE: sensor[0], "sensor_instance": sensor[1], name: level}
             held = (name, level)
             yield Cell(
                 {**key, "training": "with"},
@@ -526,7 +526,7 @@ def unit_rate(recordings: pd.DataFrame, sensor: tuple[str, str]) -> float:
     """The sampling rate (Hz) of one unit: its recordings' pooled rate (``unit_rate_hz``, the
     median of rates within tolerance) where the dataset gives it, else their median."""
     rows = recordings[
-        (recordings["sensor_type"] == sensor[0]) & (recordings["sensor_instance"] == sensor[1])
+        (recordings[SENSOR_TYPE] == sensor[0]) & (recordings["sensor_instance"] == sensor[1])
     ]
     column = "unit_rate_hz" if "unit_rate_hz" in rows else "sampling_rate_hz"
     return float(np.median(rows[column].to_numpy(dtype=float)))

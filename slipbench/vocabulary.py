@@ -38,6 +38,9 @@ MAX_WINDOW_MS = 3_600_000.0
 LOW_N = 10  # test trials (clusters) per class below which a cell's intervals undercover
 # a slip onset counts as detected within this delay: a grasp controller's reaction budget
 MAX_DELAY_MS = 200.0
+# a unit's columns, in recordings and in cell keys: its sensor type (the paper's sensors) and
+# its instance (the finger); code names them by these constants, never spelled again
+SENSOR_TYPE, SENSOR_INSTANCE = "sensor_type", "sensor_instance"
 # the recordings column of a dataset combined from two (slipbench.data.transfer): "train" or
 # "test", the side of the 'datasets' split each recording lies on
 DATASET_SIDE = "dataset_side"
@@ -46,14 +49,14 @@ DATASET_SIDE = "dataset_side"
 DETECTOR_ORDER = ("holweg", "lstm")  # the paper's baseline, then its model; others follow by name
 SPLIT_ORDER = ("plain", "lag", False, True)  # the paper's decimation first, without a filter first
 KEY_ORDER = (
-    "sensor_type",
-    "sensor_instance",
+    SENSOR_TYPE,
+    SENSOR_INSTANCE,
     "train_instance",
     "test_instance",
 )  # how a cell's key reads
 ORDERS: dict[str, Sequence[Any]] = {  # the known values of a key column, in the order shown
-    "sensor_type": SENSOR_ORDER,
-    "sensor_instance": INSTANCE_ORDER,
+    SENSOR_TYPE: SENSOR_ORDER,
+    SENSOR_INSTANCE: INSTANCE_ORDER,
     "train_instance": INSTANCE_ORDER,
     "test_instance": INSTANCE_ORDER,
     "material": MATERIALS,
@@ -71,9 +74,9 @@ SHORT = {  # how a cell-key value reads in a one-line cell label, in this order 
 
 def label(column: str, value: Any) -> str:
     """How a key value reads in a table."""
-    if column == "sensor_type":
+    if column == SENSOR_TYPE:
         return SENSOR_NAMES.get(value, str(value))
-    if column in ("sensor_instance", "train_instance", "test_instance", "material"):
+    if column in (SENSOR_INSTANCE, "train_instance", "test_instance", "material"):
         text = str(value)
         # the paper's own fingers and materials read capitalized, as in its tables; a lab's
         # names ("ff", "hd") as the dataset spells them
@@ -108,5 +111,5 @@ def cell_label(cell: str | dict) -> str:
 
 def sensor_pairs(recordings: pd.DataFrame) -> list[tuple[str, str]]:
     """(sensor_type, sensor_instance) pairs of a recordings table, in order of first appearance."""
-    pairs = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
+    pairs = recordings[[SENSOR_TYPE, SENSOR_INSTANCE]].drop_duplicates()
     return list(pairs.itertuples(index=False, name=None))

@@ -402,3 +402,72 @@ def test_the_figure_checks_see_lists():
         'C = {"tn_rate": f(x), "auroc": g(x)}\nD = ["key", "tn_rate"]\n'
     )
     assert hand_lists(planted, names) == [1, 2]
+
+
+# ----------------------------------------------------------------------------- a row declared once
+#: how many role-bearing column names make a list of them kept by hand
+ROLE_LIST = 3
+
+
+def role_names() -> set[str]:
+    """The columns the results schema gives a role other than a figure's (those have their own
+    check above): the seed, the entrant's, the settings, the cell's."""
+    from slipbench.store.columns import COLUMNS, FIGURE
+
+    return {c.name for c in COLUMNS.values() if c.role and c.role != FIGURE}
+
+
+def role_lists(tree: ast.AST, names: set[str]) -> list[int]:
+    """Lines of a tuple, list or set naming :data:`ROLE_LIST` or more role-bearing columns: a
+    list of identity or setting columns kept by hand."""
+    return [
+        node.lineno
+        for node in ast.walk(tree)
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set))
+        and sum(_named(e, names) for e in node.elts) >= ROLE_LIST
+    ]
+
+
+#: the hand lists left (9; 22 before the roles were the schema's), per file: each is to become a
+#: query; a file may hold no more, and one that holds fewer lowers its count here
+LEFT = {
+    "slipbench/app/commands/evaluate.py": 1,
+    "slipbench/gate/calibration.py": 2,
+    "slipbench/gate/reduction.py": 2,
+    "slipbench/gate/sides.py": 2,
+    "slipbench/report/compare.py": 1,
+    "slipbench/report/site/__init__.py": 1,
+}
+
+
+def test_no_list_of_role_columns_but_the_results_schema():
+    """Every list of identity or setting columns in slipbench is a query of the results schema
+    (:func:`slipbench.store.columns.identity`): a new role-bearing column is one entry there,
+    and every pairing, series and table keeps it apart. The lists of :data:`LEFT` may stay, no
+    more of them."""
+    names = role_names()
+    found: dict[str, list[int]] = {}
+    for module, path in modules().items():
+        lines = role_lists(ast.parse(path.read_text()), names)
+        if wing(module) is not None and path != SCHEMA and lines:
+            found[str(path.relative_to(ROOT))] = sorted(lines)
+    counts = {f: len(lines) for f, lines in found.items()}
+    more = {f: found[f] for f, n in counts.items() if n > LEFT.get(f, 0)}
+    assert not more, (
+        "lists of role-bearing columns kept by hand (query slipbench.store.columns.identity "
+        f"instead): {more}"
+    )
+    assert counts == LEFT, f"fewer hand lists than LEFT says: lower it to {counts}"
+
+
+def test_the_role_check_sees_lists():
+    """The check above would pass on a schema without roles: make sure it sees them and the
+    lists of them."""
+    names = role_names()
+    assert {"seed", "detector", "input", "split", "cell", "train_sensors", "sensor_map"} <= names
+    assert not names & {"sensor_type", "accuracy", "status"}
+    planted = ast.parse(
+        'A = ("protocol", "split", "labels")\nB = ["seed", "cell", "status"]\n'
+        'C = {"detector", "input", "normalize", "x"}\nD = (*POOL, "cell")\n'
+    )
+    assert role_lists(planted, names) == [1, 3]

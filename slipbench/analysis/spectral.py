@@ -60,6 +60,7 @@ from slipbench.data.signals import SPLITS, Signals, Windows, balance
 from slipbench.errors import UsageError, writing
 from slipbench.seeding import rng_for
 from slipbench.spectra import amplitude_spectrum, grow_band
+from slipbench.vocabulary import SENSOR_TYPE
 
 # Bytes of sequences (float32) gathered and transformed at once: bounds peak memory.
 CHUNK_BYTES = 64 * 2**20
@@ -306,10 +307,10 @@ def pools(
     """
     sensor, instance = unit
     recs = dataset.recordings
-    types = list(dict.fromkeys(recs["sensor_type"]))
+    types = list(dict.fromkeys(recs[SENSOR_TYPE]))
     if sensor not in types:
         raise UsageError(f"unknown sensor {sensor!r}; sensors in the dataset: {', '.join(types)}")
-    recs = recs[recs["sensor_type"] == sensor]
+    recs = recs[recs[SENSOR_TYPE] == sensor]
     instances = list(dict.fromkeys(recs["sensor_instance"]))
     if instance is not None and instance not in instances:
         raise UsageError(

@@ -24,7 +24,7 @@ from slipbench.app.benchfile import BENCHMARK_FILE, RECORD_FILE
 from slipbench.app.benchspec import Benchmark, load_benchmark
 from slipbench.errors import DataError, UsageError
 from slipbench.gate.gate import DEFAULT_TOLERANCE
-from slipbench.store.columns import FIGURES
+from slipbench.store.columns import ENTRANT_CELL, FIGURES
 from slipbench.store.results import results_folder
 
 #: keys of a bench that change how it runs, not what it measures: never a difference
@@ -176,7 +176,7 @@ def missing(only_base: pd.DataFrame, bench: Benchmark) -> list[str]:
     if lost.empty:
         return []
     out = []
-    cells = lost.drop_duplicates(["protocol", "detector", "cell"])
+    cells = lost.drop_duplicates(list(ENTRANT_CELL))
     for (detector, protocol), part in cells.groupby(["detector", "protocol"], sort=False):
         out.append(
             f"{len(part)} cell{'s' * (len(part) != 1)} of {detector} on {protocol} the base finished"

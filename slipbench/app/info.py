@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.data.format import Dataset
+from slipbench.vocabulary import SENSOR_TYPE
 
 SCENARIO_LABEL = {
     "slip": 1,
@@ -49,7 +50,7 @@ def info(dataset: Dataset) -> pd.DataFrame:
             slipping=("slipping", "sum"),
             disagreeing=("disagreeing", lambda v: v.sum(min_count=1)),
         )
-    keys = ["sensor_type", "sensor_instance", "scenario", "material", "speed_mm_s"]
+    keys = [SENSOR_TYPE, "sensor_instance", "scenario", "material", "speed_mm_s"]
     table = rec.groupby(keys, dropna=False, sort=True).agg(**aggregations).reset_index()
     if dataset.slip_labels:
         table["slip_fraction"] = table["slipping"] / table["labelled"].where(table["labelled"] > 0)

@@ -25,7 +25,7 @@ from slipbench.data.schema import (
     STRING_COLUMNS,
     UNIVARIATE_CHANNELS,
 )
-from slipbench.vocabulary import SLIPS
+from slipbench.vocabulary import SENSOR_TYPE, SLIPS
 
 
 def canonical_recordings(frame: pd.DataFrame, where: str | Path) -> pd.DataFrame:
@@ -91,7 +91,7 @@ def _check_strings(cols: dict[str, list], where: str | Path) -> None:
                 raise data_error(
                     where, f"must be a string, found {type(v).__name__} {v!r}", ids[i], name
                 )
-            if v == "" and name in ("recording_id", "sensor_type", "sensor_instance"):
+            if v == "" and name in ("recording_id", SENSOR_TYPE, "sensor_instance"):
                 raise data_error(
                     where, "empty string", None if name == "recording_id" else ids[i], name
                 )
@@ -228,7 +228,7 @@ def _unit_rates(rec: pd.DataFrame, where) -> np.ndarray:
     rates = rec["sampling_rate_hz"].to_numpy(dtype=float)
     ids = rec["recording_id"].to_numpy(dtype=object)
     for (sensor, unit), rows in rec.groupby(
-        ["sensor_type", "sensor_instance"], sort=True
+        [SENSOR_TYPE, "sensor_instance"], sort=True
     ).indices.items():
         r = rates[rows]
         lo, hi = r.min(), r.max()

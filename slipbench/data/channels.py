@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from slipbench.vocabulary import DATASET_SIDE
+from slipbench.vocabulary import DATASET_SIDE, SENSOR_TYPE
 
 Layout = tuple[tuple[str, str], ...]
 
@@ -54,7 +54,7 @@ def _shown(layout: Layout) -> str:
 
 def _owners(rec: pd.DataFrame) -> pd.Series:
     """Who holds each recording, as a reason names it: its unit, and its dataset in transfer."""
-    unit = rec["sensor_type"].astype(str) + " " + rec["sensor_instance"].astype(str)
+    unit = rec[SENSOR_TYPE].astype(str) + " " + rec["sensor_instance"].astype(str)
     if DATASET_SIDE in rec:
         return rec[DATASET_SIDE].map({"train": "training", "test": "test"}) + " dataset's " + unit
     return unit

@@ -14,6 +14,7 @@ import numpy as np
 
 from slipbench.data.format import Dataset
 from slipbench.data.schema import RATE_TOLERANCE
+from slipbench.vocabulary import SENSOR_TYPE
 
 REPEATS_WARN = 0.1  # a unit with at least this share of samples equal to the one before is said
 GAP_STEPS = 1.5  # a time step this many times the file's median step is a gap
@@ -46,7 +47,7 @@ def repeat_lines(dataset: Dataset) -> list[str]:
     the time: the share, the longest run and the rate its sensor seems to update at."""
     rec = dataset.recordings
     lines = []
-    for (sensor, unit), part in rec.groupby(["sensor_type", "sensor_instance"], sort=True):
+    for (sensor, unit), part in rec.groupby([SENSOR_TYPE, "sensor_instance"], sort=True):
         counted = [repeats(dataset.samples[r]) for r in part["recording_id"]]
         steps = sum(max(len(dataset.samples[r]) - 1, 0) for r in part["recording_id"])
         repeated = sum(c[0] for c in counted)

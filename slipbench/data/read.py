@@ -42,7 +42,7 @@ from slipbench.data.schema import (
     VERSION_KEY,
 )
 from slipbench.errors import DataError
-from slipbench.vocabulary import SLIPS
+from slipbench.vocabulary import SENSOR_TYPE, SLIPS
 
 
 def read_dataset(path: str | os.PathLike) -> Dataset:
@@ -203,7 +203,7 @@ def _nullable(check):
 
 RECORDING_TYPES = {
     "recording_id": (_is_string, "a string"),
-    "sensor_type": (_is_string, "a string"),
+    SENSOR_TYPE: (_is_string, "a string"),
     "sensor_instance": (_is_string, "a string"),
     "scenario": (_is_string, "a string"),
     "material": (_nullable(_is_string), "a string"),

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import pyarrow as pa
 
-from slipbench.vocabulary import SLIPS
+from slipbench.vocabulary import SENSOR_TYPE, SLIPS
 
 FORMAT_VERSION = "1"
 VERSION_KEY = b"slipbench.format_version"
@@ -51,7 +51,7 @@ MAX_MAGNITUDE = float(EXACT_INT)
 RECORDINGS_SCHEMA = pa.schema(
     [
         ("recording_id", pa.string()),
-        ("sensor_type", pa.string()),
+        (SENSOR_TYPE, pa.string()),
         ("sensor_instance", pa.string()),
         ("scenario", pa.string()),
         ("material", pa.string()),
@@ -77,7 +77,7 @@ UNIVARIATE_CHANNELS = pa.field("univariate_channels", pa.list_(pa.string()))
 NULLABLE = {"material", "speed_mm_s", "source", "trial"}
 STRING_COLUMNS = (
     "recording_id",
-    "sensor_type",
+    SENSOR_TYPE,
     "sensor_instance",
     "scenario",
     "material",

@@ -33,7 +33,7 @@ import pandas as pd
 from slipbench.data.contact import annulus_travel, breakaway
 from slipbench.data.write import write_dataset
 from slipbench.seeding import rng_for
-from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SLIP_SPEEDS
+from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SENSOR_TYPE, SLIP_SPEEDS
 
 UNLABELLED = -1  # per-sample label of samples whose slip state is undefined (after a drop)
 MODEL_VERSION = 4  # bump when the simulation changes, so cached datasets are regenerated
@@ -1062,7 +1062,7 @@ def generate(
     rows, samples, labels = [], {}, {}
     units: dict[tuple[str, str], Unit] = {}
     for key, inst, n, row in _recordings(design, scale, seed):
-        sensor_type = row["sensor_type"]
+        sensor_type = row[SENSOR_TYPE]
         sensor = SENSORS[sensor_type]
         if (sensor_type, inst) not in units:
             units[sensor_type, inst] = make_unit(seed, sensor_type, inst, p)

@@ -18,7 +18,7 @@ import pandas as pd
 from slipbench.data.format import Dataset
 from slipbench.data.schema import RATE_TOLERANCE
 from slipbench.errors import UsageError
-from slipbench.vocabulary import DATASET_SIDE
+from slipbench.vocabulary import DATASET_SIDE, SENSOR_TYPE
 
 SIDE_COLUMN = DATASET_SIDE
 
@@ -102,7 +102,7 @@ def resolve_sensor_map(
 
 def _rate(recordings: pd.DataFrame, unit: UnitKey) -> float:
     rows = recordings[
-        (recordings["sensor_type"] == unit[0]) & (recordings["sensor_instance"] == unit[1])
+        (recordings[SENSOR_TYPE] == unit[0]) & (recordings["sensor_instance"] == unit[1])
     ]
     return float(np.median(rows["sampling_rate_hz"].to_numpy(dtype=float)))
 
@@ -129,9 +129,9 @@ def combine(train: Dataset, test: Dataset, sensor_map: dict | None = None) -> Da
     a, b = train.recordings.copy(), test.recordings.copy()
     units_a, units_b = train.sensors(), test.sensors()
     resolved = resolve_sensor_map(sensor_map or {}, units_b, units_a)
-    pairs = list(zip(b["sensor_type"], b["sensor_instance"]))
+    pairs = list(zip(b[SENSOR_TYPE], b["sensor_instance"]))
     renamed = [resolved.get(u, u) for u in pairs]
-    b["sensor_type"] = [u[0] for u in renamed]
+    b[SENSOR_TYPE] = [u[0] for u in renamed]
     b["sensor_instance"] = [u[1] for u in renamed]
     matched = {u: resolved.get(u, u) for u in units_b if resolved.get(u, u) in set(units_a)}
     _same_rates(matched, train.recordings, test.recordings)

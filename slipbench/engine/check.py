@@ -21,11 +21,11 @@ from slipbench.engine.plan import CellData, Run, check_labels
 from slipbench.errors import UsageError
 from slipbench.protocol import NO_CELL_KEY, Cell, unit_rate
 from slipbench.stats.metrics import classes_low_n
-from slipbench.vocabulary import LOW_N
+from slipbench.vocabulary import LOW_N, SENSOR_TYPE
 
 SIZES = (5, 10, 25, 50, 100, 200)  # the window table's sizes where no protocol cell names one
 WINDOW_COLUMNS = [
-    "sensor_type",
+    SENSOR_TYPE,
     "sensor_instance",
     "rate_hz",
     "window",
@@ -61,7 +61,7 @@ class DatasetCheck:
 
 
 UNIT_COLUMNS = [
-    "sensor_type",
+    SENSOR_TYPE,
     "sensor_instance",
     "window",
     "class",
@@ -86,7 +86,7 @@ def _used(
                 if run.protocol_name not in names:
                     names.append(run.protocol_name)
     if not used:
-        units = recordings[["sensor_type", "sensor_instance"]].drop_duplicates()
+        units = recordings[[SENSOR_TYPE, "sensor_instance"]].drop_duplicates()
         used = {
             (u, size): ["—"] for u in units.itertuples(index=False, name=None) for size in SIZES
         }
@@ -101,7 +101,7 @@ def _units(
     samples), so each length the protocols ask for is counted, not one fixed size."""
     rec = signals.recordings
     rows = []
-    for (sensor, instance), part in rec.groupby(["sensor_type", "sensor_instance"], sort=False):
+    for (sensor, instance), part in rec.groupby([SENSOR_TYPE, "sensor_instance"], sort=False):
         for size in sorted(w for u, w in used if u == (sensor, instance)):
             windows = signals.windows(
                 size, part.index.to_numpy(), values=False, labelling=labelling
@@ -110,7 +110,7 @@ def _units(
                 mine = windows.recording[windows.y == label]
                 rows.append(
                     {
-                        "sensor_type": sensor,
+                        SENSOR_TYPE: sensor,
                         "sensor_instance": instance,
                         "window": size,
                         "class": name,
@@ -129,7 +129,7 @@ def _windows(
     cells use (in samples at the unit's full rate, and in ms), with the protocols that use it;
     the sizes of :data:`SIZES` where no cell names a window."""
     rec = signals.recordings
-    units = list(rec.groupby(["sensor_type", "sensor_instance"], sort=False).groups.items())
+    units = list(rec.groupby([SENSOR_TYPE, "sensor_instance"], sort=False).groups.items())
     rows = []
     for unit, index in units:
         rate = unit_rate(rec, unit)
@@ -137,7 +137,7 @@ def _windows(
             w = signals.windows(size, np.asarray(index), values=False, labelling=labelling)
             rows.append(
                 {
-                    "sensor_type": unit[0],
+                    SENSOR_TYPE: unit[0],
                     "sensor_instance": unit[1],
                     "rate_hz": rate,
                     "window": size,

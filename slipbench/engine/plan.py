@@ -41,7 +41,7 @@ from slipbench.protocol import BaseProtocol, Cell, Part, no_cell
 from slipbench.seeding import STREAM_SCHEME, rng_for
 from slipbench.store.keys import canonical, cell_key, code_identity
 from slipbench.stream.metrics import DELAY_CLOCK, onsets
-from slipbench.vocabulary import INPUTS
+from slipbench.vocabulary import INPUTS, SENSOR_TYPE
 
 # a recordings column the runner adds: True where the dataset gives the recording per-sample
 # slip labels (elsewhere Signals labels samples by scenario, which has no onset to time)
@@ -251,8 +251,8 @@ class CellData:
         self._antialiased_channels: dict[int, list[np.ndarray]] = {}
         rec = signals.recordings
         self._rows = {
-            k: np.flatnonzero((rec["sensor_type"] == k[0]) & (rec["sensor_instance"] == k[1]))
-            for k in rec[["sensor_type", "sensor_instance"]]
+            k: np.flatnonzero((rec[SENSOR_TYPE] == k[0]) & (rec["sensor_instance"] == k[1]))
+            for k in rec[[SENSOR_TYPE, "sensor_instance"]]
             .drop_duplicates()
             .itertuples(index=False, name=None)
         }
@@ -275,7 +275,7 @@ class CellData:
             rec[SIDE_COLUMN].astype(str).to_numpy() if SIDE_COLUMN in rec else np.full(len(rec), "")
         )
         units = pd.Series(
-            [f"{d}|{t}|{i}" for d, t, i in zip(side, rec["sensor_type"], rec["sensor_instance"])]
+            [f"{d}|{t}|{i}" for d, t, i in zip(side, rec[SENSOR_TYPE], rec["sensor_instance"])]
         )
         groups = pd.factorize(units)[0]
         if self._sides is not None:  # grouped

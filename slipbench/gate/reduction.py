@@ -60,26 +60,25 @@ from slipbench.stats.contrast import CONTRADICTED, ONE_SEED, SHOWN, Contrast, ma
 from slipbench.stats.factors import CHANNELS, UNIVARIATE, inputs, plain
 from slipbench.stats.metrics import LEVEL, RATES
 from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change, pooled_from_rows
-from slipbench.store.columns import ACCURACY
+from slipbench.store.columns import (
+    ACCURACY,
+    CELL_ROLE,
+    ENTRANT,
+    INPUT,
+    READING,
+    SETTING,
+    identity,
+)
+from slipbench.vocabulary import SENSOR_TYPE
 
 #: a paired cell's predictions and rows: (univariate, channels, their rows in the same order)
 Sides = tuple[list, list, list[dict], list[dict]]
 #: the rates compared, per cell and pooled
 #: what a channels cell and its univariate twin share, where the rows hold the column (the seed
-#: pairs apart, as compare pairs it)
-TWIN_COLUMNS = (
-    "protocol",
-    "protocol_params",
-    "detector",
-    "detector_params",
-    "split",
-    "labels",
-    "normalize",
-    "cell",
-    "decimation",
-    "antialias",
-    "test_stream",
-    "dataset_fingerprint",
+#: pairs apart, as compare pairs it): the key's columns but the input, and but those another of
+#: them fixes already
+TWIN_COLUMNS = identity(
+    ENTRANT, READING, SETTING, CELL_ROLE, keyed=True, follows=False, but=(INPUT,)
 )
 _WITHOUT_INPUT = ("cell", "detector_params")  # JSON columns that may name the input
 READINGS = ("channels better", "channels worse", "within the margin", "undecided", "inconclusive")
@@ -134,11 +133,11 @@ def twin_key(row: dict) -> str:
 
 
 def _sensor(row: dict) -> str:
-    value = row.get("sensor_type")
+    value = row.get(SENSOR_TYPE)
     if plain(value) is not None:
         return str(value)
     try:
-        return str(json.loads(row.get("cell") or "{}").get("sensor_type", ""))
+        return str(json.loads(row.get("cell") or "{}").get(SENSOR_TYPE, ""))
     except (TypeError, json.JSONDecodeError):
         return ""
 
@@ -186,7 +185,7 @@ def _identity(row: dict) -> dict:
         "detector": row.get("detector"),
         "protocol": row.get("protocol"),
         "split": row.get("split", ""),
-        "sensor_type": _sensor(row),
+        SENSOR_TYPE: _sensor(row),
         "cell": _without_input(row.get("cell", "")),
     }
 
@@ -355,16 +354,16 @@ def compare_inputs(
         compared.append(_compare_cell(uni, ch, paths, seed))
     by_group: dict[tuple, list] = {}
     for entry, preds in compared:
-        key = tuple(entry[c] for c in ("detector", "split", "protocol", "sensor_type"))
+        key = tuple(entry[c] for c in ("detector", "split", "protocol", SENSOR_TYPE))
         by_group.setdefault(key, []).append((entry, preds))
     pooled_level = family_level(len(by_group), ALPHA)
     lines = []
     for (detector, split, protocol, sensor), members in by_group.items():
-        line = {"detector": detector, "split": split, "protocol": protocol, "sensor_type": sensor}
+        line = {"detector": detector, "split": split, "protocol": protocol, SENSOR_TYPE: sensor}
         line |= _pool(members, seed, pooled_level)
         line["reading"] = change_reading(line, max_width)
         lines.append(line)
-    identity = ["detector", "protocol", "split", "sensor_type", "cell", "inputs", "seeds", "reason"]
+    identity = ["detector", "protocol", "split", SENSOR_TYPE, "cell", "inputs", "seeds", "reason"]
     return InputComparison(
         pd.DataFrame([e for e, _ in compared]),
         pd.DataFrame(lines),

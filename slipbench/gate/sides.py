@@ -260,7 +260,7 @@ def _plan(entry: dict, sides: list[list[dict]], folders: tuple) -> tuple:
 
 
 #: what a cell's test set is, besides its model (whose key holds its training data and seed)
-TEST_SET = ("test_sensors", "test_where", "test_stream")
+TEST_SET = columns.recording("test", "stream")
 
 
 def _shared_key(b_rows: list[dict], c_rows: list[dict]) -> str:

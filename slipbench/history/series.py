@@ -30,27 +30,30 @@ import numpy as np
 import pandas as pd
 import scipy  # its submodules load on first use: reading stored rows pays none
 
-from slipbench.stats.factors import CELLS, factor_values, named_entrants
+from slipbench.stats.factors import CELLS, DEFAULTS, factor_values, named_entrants
 from slipbench.stats.metrics import LEVEL
 from slipbench.stats.noise import SeedNoise, pool_seed_spreads
+from slipbench.store.columns import BALANCE, DETECTOR, PROTOCOL, SETTING, identity
 from slipbench.store.history import COLUMNS, FIGURES, RUN_COLUMNS
 from slipbench.store.results import row_digest
 from slipbench.vocabulary import cell_label
 
-#: the settings (beyond the entrant and the cell's columns) that name a series
-SETTINGS = ("split", "labels", "protocol_params", "sensor_map")
-#: recorded on every row, a series' identity only where one run holds several of them
-APART = (
-    "dataset_fingerprint",
-    "train_dataset_fingerprint",
-    "test_dataset_fingerprint",
-    "interval_method",
-    "slipbench_version",
-)
-IDENTITY = ("detector", *SETTINGS, *CELLS)
+#: the settings (beyond the entrant and the cell's columns) that name a series: the conditions
+#: chosen for a run (a setting at its default is left out of the name, as
+#: :func:`slipbench.engine.plan.keys` leaves it out of a cell's key: a setting added later
+#: renames no series of the runs before)
+SETTINGS = identity(SETTING, version=False)
+#: recorded on every row, a series' identity only where one run holds several of them: the
+#: versions of what a run read (the data, the code, the interval method)
+APART = identity(SETTING, version=True)
+IDENTITY = (DETECTOR, *SETTINGS, *CELLS)
 POOLED = "all cells"  # the cell of a pooled series, as labels show it
 #: what a pooled series is the mean over the cells of (its label: the first and the last)
-POOL = ("protocol", "protocol_params", "split", "labels", "detector")
+POOL = (
+    PROTOCOL,
+    *identity(SETTING, keyed=True, follows=False, version=False, but=(BALANCE,)),
+    DETECTOR,
+)
 #: the source of a seed variance measured on a history (:func:`seed_spread`)
 HISTORY = "the history of main"
 
@@ -84,7 +87,10 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
         out[f"{figure}_se"] = _standard_error(named, figure)
     out["row_digest"] = [row_digest(r) for r in rows.to_dict("records")]  # as read
     out["proven"] = _proven(rows).to_numpy()
-    out["series"] = [_digest(r) for r in identity.to_dict("records")]
+    named_by = [
+        {c: v for c, v in r.items() if v != DEFAULTS.get(c)} for r in identity.to_dict("records")
+    ]
+    out["series"] = [_digest(r) for r in named_by]
     out["series_label"] = [_label(r) for r in identity.to_dict("records")]
     twice = out.duplicated(["series", "seed"], keep=False)
     if twice.any():

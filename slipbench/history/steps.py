@@ -43,6 +43,7 @@ from slipbench.history.coded import figure_rows as coded_rows
 from slipbench.history.coded import points as coded_points
 from slipbench.history.judging import SEGMENT_SEEDS, SERIES_ALPHA, Side, judge
 from slipbench.history.segmentation import weighted_binseg
+from slipbench.history.series import POOL
 from slipbench.stats.contrast import (
     ONE_SEED,
     SHOWN,
@@ -76,11 +77,7 @@ STEP_COLUMNS = [
     "status",
     "low_n",
     "df",
-    "protocol",
-    "protocol_params",
-    "split",
-    "labels",
-    "detector",
+    *POOL,  # what labels and pools a step's series
     "cell",
     "proven",
     *(c for _, c in CAUSES),

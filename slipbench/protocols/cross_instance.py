@@ -14,6 +14,7 @@ from slipbench.protocol import (
     sensor_pairs,
     window_cells,
 )
+from slipbench.vocabulary import SENSOR_TYPE
 
 COMBINED = "combined"
 
@@ -21,7 +22,7 @@ COMBINED = "combined"
 class CrossInstance(BaseProtocol):
     """Train on one unit (or all combined), test on every unit of its type (the paper's Table V)."""
 
-    layout = Layout(rows=("sensor_type", "train_instance"), column="test_instance")
+    layout = Layout(rows=(SENSOR_TYPE, "train_instance"), column="test_instance")
     presentation = Presentation(
         "Classification trained and tested on data from one or all fingers of a single sensor type.",
         title="Cross-instance transfer",
@@ -59,7 +60,7 @@ class CrossInstance(BaseProtocol):
                 for test_name, test in groups.items():
                     yield Cell(
                         key={
-                            "sensor_type": sensor_type,
+                            SENSOR_TYPE: sensor_type,
                             "train_instance": train_name,
                             "test_instance": test_name,
                         },

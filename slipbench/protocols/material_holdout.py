@@ -7,13 +7,13 @@ starred numbers."""
 from __future__ import annotations
 
 from slipbench.protocol import HoldoutProtocol, Layout, Presentation
-from slipbench.vocabulary import MATERIALS
+from slipbench.vocabulary import MATERIALS, SENSOR_TYPE
 
 
 class MaterialHoldout(HoldoutProtocol):
     """Each material with and without explicit training (the paper's Table III)."""
 
-    layout = Layout(rows=("sensor_type", "sensor_instance"), column="material", pair="training")
+    layout = Layout(rows=(SENSOR_TYPE, "sensor_instance"), column="material", pair="training")
     presentation = Presentation(
         "Slip state classification with and without (*) explicit training of indicated materials "
         "across sensors.",

@@ -36,7 +36,7 @@ from slipbench.protocol import (
     unit_rate,
     window_cells,
 )
-from slipbench.vocabulary import MIN_WINDOW
+from slipbench.vocabulary import MIN_WINDOW, SENSOR_TYPE
 
 FACTORS = (1, 2, 4, 8, 16, 32)
 
@@ -45,7 +45,7 @@ class SamplingRate(BaseProtocol):
     """Accuracy against sampling rate, windows of 200 full-rate samples downsampled (Table II)."""
 
     layout = Layout(
-        rows=("sensor_type", "sensor_instance"),
+        rows=(SENSOR_TYPE, "sensor_instance"),
         column="downsample",
         split=("decimation", "antialias"),
     )
@@ -93,7 +93,7 @@ class SamplingRate(BaseProtocol):
                         # the full-rate cell of every variant shares one model (the plan keys it so)
                         yield Cell(
                             key={
-                                "sensor_type": sensor[0],
+                                SENSOR_TYPE: sensor[0],
                                 "sensor_instance": sensor[1],
                                 "window": n,
                                 "downsample": factor,

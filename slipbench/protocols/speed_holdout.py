@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.protocol import HoldoutProtocol, Layout, Presentation
-from slipbench.vocabulary import DATASET_SIDE, SLIPS
+from slipbench.vocabulary import DATASET_SIDE, SENSOR_TYPE, SLIPS
 
 
 def _speeds(recordings) -> list[float]:
@@ -30,7 +30,7 @@ def _speeds(recordings) -> list[float]:
 class SpeedHoldout(HoldoutProtocol):
     """Each slip speed with and without explicit training (the paper's Table IV)."""
 
-    layout = Layout(rows=("sensor_type", "sensor_instance"), column="speed_mm_s", pair="training")
+    layout = Layout(rows=(SENSOR_TYPE, "sensor_instance"), column="speed_mm_s", pair="training")
     presentation = Presentation(
         "Slip state classification with and without (*) explicit training of indicated speeds "
         "across sensors.",
@@ -63,7 +63,7 @@ class SpeedHoldout(HoldoutProtocol):
             ["_length", "recording_id"], ascending=[False, True]
         )
         for _, part in press.groupby(
-            ["sensor_type", "sensor_instance", "material"], sort=False, dropna=False
+            [SENSOR_TYPE, "sensor_instance", "material"], sort=False, dropna=False
         ):
             held = np.zeros(len(speeds))
             for index, n in zip(part.index, part["_length"]):

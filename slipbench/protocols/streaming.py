@@ -24,10 +24,10 @@ from slipbench.protocol import (
     unit_rate,
     window_cells,
 )
-from slipbench.vocabulary import MAX_DELAY_MS
+from slipbench.vocabulary import MAX_DELAY_MS, SENSOR_TYPE
 
 METRICS = ("detection_rate", "median_delay_ms", "p95_delay_ms", "false_alarms_per_min")
-LAYOUT = Layout(rows=("sensor_type", "sensor_instance"), column="window", metrics=METRICS)
+LAYOUT = Layout(rows=(SENSOR_TYPE, "sensor_instance"), column="window", metrics=METRICS)
 
 
 class Streaming(BaseProtocol):
@@ -84,7 +84,7 @@ class Streaming(BaseProtocol):
                 max(hop, 1), n
             )  # only a skipped cell is clipped; the option's check keeps hop <= window
             yield Cell(
-                {"sensor_type": sensor[0], "sensor_instance": sensor[1], **key, "hop": hop},
+                {SENSOR_TYPE: sensor[0], "sensor_instance": sensor[1], **key, "hop": hop},
                 Part((sensor,), "train"),
                 Part((sensor,), "test"),
                 n,

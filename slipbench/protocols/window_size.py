@@ -15,10 +15,11 @@ from slipbench.protocol import (
     sensor_pairs,
     window_cells,
 )
+from slipbench.vocabulary import SENSOR_TYPE
 
 WINDOWS = (5, 10, 25, 50, 100, 200)
-IN_SAMPLES = Layout(rows=("sensor_type", "sensor_instance"), column="window")
-IN_MS = Layout(rows=("sensor_type", "sensor_instance"), column="window_ms")
+IN_SAMPLES = Layout(rows=(SENSOR_TYPE, "sensor_instance"), column="window")
+IN_MS = Layout(rows=(SENSOR_TYPE, "sensor_instance"), column="window_ms")
 CAPTION = "Slip state classification at various window sizes across {sensors}."
 SHOWN_IN_SAMPLES = Presentation(
     CAPTION,
@@ -77,7 +78,7 @@ class WindowSize(BaseProtocol):
         for sensor in sensor_pairs(recordings):
             for window, key, skip in window_cells(recordings, sensor, self.windows):
                 yield Cell(
-                    key={"sensor_type": sensor[0], "sensor_instance": sensor[1], **key},
+                    key={SENSOR_TYPE: sensor[0], "sensor_instance": sensor[1], **key},
                     train=Part((sensor,), "train"),
                     test=Part((sensor,), "test"),
                     window=window,

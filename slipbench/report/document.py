@@ -78,7 +78,7 @@ from slipbench.report.tables import (
 )
 from slipbench.stats.factors import setting_parts
 from slipbench.stats.leaderboard import leaderboard
-from slipbench.vocabulary import DETECTOR_ORDER
+from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_TYPE
 
 PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
@@ -544,7 +544,7 @@ def _window_50(
             from slipbench.stats.joint import joint_means
 
             joint = joint_means(
-                one[one["window"] == BASELINE_WINDOW], ["detector", "sensor_type"], predictions
+                one[one["window"] == BASELINE_WINDOW], ["detector", SENSOR_TYPE], predictions
             )
         tables = [baseline_table(one, intervals, paper, joint, references(one))]
         rates = [

@@ -31,8 +31,8 @@ from slipbench.stats.contrast import (
     Contrast,
     from_rows,
 )
-from slipbench.store.columns import TN_RATE, TP_RATE
-from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, label
+from slipbench.store.columns import ENTRANT_CELL, TN_RATE, TP_RATE
+from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_ORDER, SENSOR_TYPE, label
 
 COMBINED = "combined"
 
@@ -52,9 +52,9 @@ def _curve(
     """Per sensor type: the mean over units at the largest ``x`` minus at the smallest; with
     ``ends`` (sensor type -> (smallest, largest), the paper's), only where the rows hold both."""
     x, unit = layout.x or layout.column, layout.rows[-1]
-    m = _means(rows, ["sensor_type", unit, x], values)
+    m = _means(rows, [SENSOR_TYPE, unit, x], values)
     out = {}
-    for sensor, part in m.groupby("sensor_type"):
+    for sensor, part in m.groupby(SENSOR_TYPE):
         by_x = part.groupby(x)["mean"].mean().sort_index()
         lo, hi = (by_x.index[0], by_x.index[-1]) if ends is None else ends.get(sensor, (None, None))
         if len(by_x) > 1 and lo in by_x.index and hi in by_x.index:
@@ -64,7 +64,7 @@ def _curve(
 
 def _ends(rows: pd.DataFrame, layout: ShownLayout) -> dict:
     x = layout.x or layout.column
-    return {s: (part[x].min(), part[x].max()) for s, part in rows.groupby("sensor_type")}
+    return {s: (part[x].min(), part[x].max()) for s, part in rows.groupby(SENSOR_TYPE)}
 
 
 def _pair(rows: pd.DataFrame, layout: ShownLayout, values: str) -> tuple[float, str]:
@@ -85,7 +85,7 @@ def _pair(rows: pd.DataFrame, layout: ShownLayout, values: str) -> tuple[float, 
 def _matrix(rows: pd.DataFrame, layout: ShownLayout, values: str) -> float:
     """Mean accuracy on the unit trained on minus on the other units (points)."""
     row, column = layout.rows[-1], layout.column
-    m = _means(rows, ["sensor_type", row, column], values)
+    m = _means(rows, [SENSOR_TYPE, row, column], values)
     m = m[(m[row] != COMBINED) & (m[column] != COMBINED)]
     same, other = m[m[row] == m[column]]["mean"], m[m[row] != m[column]]["mean"]
     return 100 * (same.mean() - other.mean()) if len(same) and len(other) else np.nan
@@ -117,7 +117,7 @@ def findings_table(
             paper = _curve(ref, layout, "paper")
             mine = {d: _curve(r, layout, "ours", _ends(ref, layout)) for d, r in ours.items()}
             what = (layout.title or layout.x or layout.column).lower()
-            for sensor in ordered(list(paper), "sensor_type"):
+            for sensor in ordered(list(paper), SENSOR_TYPE):
                 lines.append(
                     (
                         protocol,
@@ -193,13 +193,13 @@ PAPER_MODEL = "lstm"  # the detector behind the published tables
 BALANCE = 5.0
 #: ... and its interval within this band (points)
 BALANCE_BAND = 10.0
-UNIT = ["sensor_type", "sensor_instance"]
+UNIT = [SENSOR_TYPE, "sensor_instance"]
 
 
 def _per_sensor(rows: pd.DataFrame, column: str, values: str) -> pd.DataFrame:
     """Mean accuracy (%) per sensor type and ``column`` value, over units (and seeds)."""
-    m = _means(rows, ["sensor_type", "sensor_instance", column], values)
-    return 100 * m.groupby(["sensor_type", column])["mean"].mean().unstack(column)
+    m = _means(rows, [SENSOR_TYPE, "sensor_instance", column], values)
+    return 100 * m.groupby([SENSOR_TYPE, column])["mean"].mean().unstack(column)
 
 
 def _cells(rows: pd.DataFrame, keys: list[str], metric: str = "accuracy") -> pd.DataFrame:
@@ -228,14 +228,14 @@ def _unit_contrast(
 ) -> Contrast:
     """Points: over the units (of ``sensors``) holding every value of ``plus`` and ``minus``,
     the mean of (mean at ``plus`` - mean at ``minus``), with :func:`~slipbench.stats.contrast.from_rows`'s interval."""
-    part = cells if sensors is None else cells[cells["sensor_type"].isin(sensors)]
+    part = cells if sensors is None else cells[cells[SENSOR_TYPE].isin(sensors)]
     need = set(plus) | set(minus)
     units = [u for u, g in part.groupby(UNIT) if need <= set(g[column])]
     if not units:
         return Contrast(np.nan)
     terms = []
     for u in units:
-        g = part[(part["sensor_type"] == u[0]) & (part["sensor_instance"] == u[1])]
+        g = part[(part[SENSOR_TYPE] == u[0]) & (part["sensor_instance"] == u[1])]
         for values, sign in ((plus, 1.0), (minus, -1.0)):
             for _, r in g[g[column].isin(values)].iterrows():
                 weight = sign / len(values) / len(units)
@@ -256,7 +256,7 @@ def _by_sensor(values: dict) -> str:
     return (
         ", ".join(
             f"{label('sensor_type', s)} {_est(shown[s])}"
-            for s in ordered(list(shown), "sensor_type")
+            for s in ordered(list(shown), SENSOR_TYPE)
             if np.isfinite(shown[s].estimate)
         )
         or "—"
@@ -293,7 +293,7 @@ def _window_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]
     rise_p = {s: t.loc[s, 200] - t.loc[s, 5] for s in t.index if {5, 200} <= set(t.columns)}
     late_p = {s: t.loc[s, 200] - t.loc[s, 50] for s in t.index if {5, 50, 200} <= set(t.columns)}
     cells = _cells(ours, [*UNIT, "window"])
-    sensors = list(dict.fromkeys(cells["sensor_type"]))
+    sensors = list(dict.fromkeys(cells[SENSOR_TYPE]))
     rise = {s: _unit_contrast(cells, "window", [200], [5], [s]) for s in sensors}
     late = {s: _unit_contrast(cells, "window", [200], [50], [s]) for s in sensors}
     # (200 - 50) - (50 - 5): the rise beyond window 50 less the rise up to it
@@ -340,11 +340,11 @@ def _rate_findings(ours: pd.DataFrame, paper: pd.DataFrame) -> list[list[str]]:
     )
     cells = _cells(ours, [*UNIT, "rate_hz"])
     rise = {}
-    for s, g in cells.groupby("sensor_type", sort=False):
+    for s, g in cells.groupby(SENSOR_TYPE, sort=False):
         rates = sorted(g["rate_hz"].unique())
         if len(rates) > 1:
             rise[s] = _unit_contrast(cells, "rate_hz", [rates[-1]], [rates[0]], [s])
-    bio = cells[cells["sensor_type"] == "BioTacSP"]
+    bio = cells[cells[SENSOR_TYPE] == "BioTacSP"]
     low = sorted(r for r in bio["rate_hz"].unique() if r <= 212.5)
     high = sorted(r for r in bio["rate_hz"].unique() if r >= 425)
     drop = _unit_contrast(bio, "rate_hz", low, high) if low and high else Contrast(np.nan)
@@ -458,13 +458,13 @@ def _transfer_findings(
     row, column = layout.rows[-1], layout.column
     e = Contrast(np.nan)
     if len(ours):
-        cells = _cells(ours, ["sensor_type", row, column])
+        cells = _cells(ours, [SENSOR_TYPE, row, column])
         cells = cells[(cells[row] != COMBINED) & (cells[column] != COMBINED)]
         same = cells[row] == cells[column]
         if same.any() and (~same).any():
             seeds = cells["seed"].nunique() if "seed" in cells else 1  # a line per cell and seed
             terms = cells.assign(
-                unit=list(zip(cells["sensor_type"], cells[column])),
+                unit=list(zip(cells[SENSOR_TYPE], cells[column])),
                 weight=np.where(same, seeds / same.sum(), -seeds / (~same).sum()),
             )
             e = from_rows(terms).scaled(100)
@@ -484,7 +484,7 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
     """The LSTM ahead of Holweg at window 50 (paper: section VI.A), and its TP/TN balance."""
     paper_lead = {
         s: 100 * (_sensor_mean(paper_frame("window-size"), s, "paper") - a)
-        for s, a in paper_frame("holweg").set_index("sensor_type")["accuracy"].items()
+        for s, a in paper_frame("holweg").set_index(SENSOR_TYPE)["accuracy"].items()
     }
     at50 = (
         window_rows[window_rows["window"] == 50]
@@ -497,39 +497,39 @@ def _lead_findings(window_rows: pd.DataFrame, holweg: pd.DataFrame) -> list[list
     ours_lead = {
         s: _unit_contrast(cells, "_who", ["lstm"], ["holweg"], [s])
         for s in SENSOR_ORDER
-        if len(cells) and s in set(cells["sensor_type"])
+        if len(cells) and s in set(cells[SENSOR_TYPE])
     }
     ours_lead = {s: v for s, v in ours_lead.items() if np.isfinite(v.estimate)}
     # the mean over sensors: each sensor's units weigh 1 / (sensors x its units)
     lead_all = Contrast(np.nan)
     if ours_lead:
         n_units = (
-            cells[cells["sensor_type"].isin(list(ours_lead))]
-            .groupby("sensor_type")["sensor_instance"]
+            cells[cells[SENSOR_TYPE].isin(list(ours_lead))]
+            .groupby(SENSOR_TYPE)["sensor_instance"]
             .nunique()
         )
-        terms = cells[cells["sensor_type"].isin(list(ours_lead))].assign(
-            unit=lambda c: list(zip(c["sensor_type"], c["sensor_instance"])),
+        terms = cells[cells[SENSOR_TYPE].isin(list(ours_lead))].assign(
+            unit=lambda c: list(zip(c[SENSOR_TYPE], c["sensor_instance"])),
             weight=lambda c: (
                 np.where(c["_who"] == "lstm", 1.0, -1.0)
                 / len(ours_lead)
-                / c["sensor_type"].map(n_units).to_numpy(dtype=float)
+                / c[SENSOR_TYPE].map(n_units).to_numpy(dtype=float)
             ),
         )
         lead_all = from_rows(terms).scaled(100)
-    rates = paper_frame("rates_window_50").set_index("sensor_type")
+    rates = paper_frame("rates_window_50").set_index(SENSOR_TYPE)
     paper_gap = {s: 100 * (r[TP_RATE.name] - r[TN_RATE.name]) for s, r in rates.iterrows()}
     ok = at50[at50["status"] == "ok"] if "status" in at50 else at50
     gaps, balanced = {}, []
     if {TP_RATE.name, TN_RATE.name} <= set(ok.columns) and len(ok):
         tp, tn = _cells(ok, UNIT, TP_RATE.name), _cells(ok, UNIT, TN_RATE.name)
         rates_ = pd.concat([tp.assign(_r="tp"), tn.assign(_r="tn")], ignore_index=True)
-        for s in ordered(list(dict.fromkeys(ok["sensor_type"])), "sensor_type"):
+        for s in ordered(list(dict.fromkeys(ok[SENSOR_TYPE])), SENSOR_TYPE):
             gap = _unit_contrast(rates_, "_r", ["tp"], ["tn"], [s])
             if not np.isfinite(gap.estimate):
                 continue
             gaps[s] = gap
-            one = rates_[rates_["sensor_type"] == s]
+            one = rates_[rates_[SENSOR_TYPE] == s]
             n = one["sensor_instance"].nunique()
             tp_e, tn_e = (
                 from_rows(
@@ -582,7 +582,7 @@ def _balance(gap: Contrast, tp: Contrast, tn: Contrast) -> str:
 
 def _sensor_mean(rows: pd.DataFrame, sensor: str, values: str) -> float:
     part = (
-        rows[(rows["sensor_type"] == sensor) & (rows["window"] == 50)]
+        rows[(rows[SENSOR_TYPE] == sensor) & (rows["window"] == 50)]
         if "window" in rows
         else rows.iloc[:0]
     )
@@ -661,7 +661,7 @@ def _retraining_note(rows: pd.DataFrame) -> list[str]:
     """Where some finished cell of ``rows`` ran under one seed only: that retraining noise is
     outside its contrasts' intervals, with the measured coverage (:mod:`slipbench.stats.contrast`)."""
     ok = rows[rows["status"] == "ok"] if "status" in rows else rows
-    by = [c for c in ("protocol", "detector", "cell") if c in ok]
+    by = [c for c in ENTRANT_CELL if c in ok]
     if ok.empty or ("seed" in ok and "cell" in ok and ok.groupby(by)["seed"].nunique().min() > 1):
         return []
     return [

@@ -45,7 +45,7 @@ from slipbench.stats.leaderboard import (
     Scope,
 )
 from slipbench.store.columns import ACCURACY
-from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, label
+from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_TYPE, label
 
 # the intervals of a board whose entrants ran several seeds (slipbench.stats.leaderboard.crossed_interval)
 _SEEDS_INTERVAL = (
@@ -383,7 +383,7 @@ def _one_class_note(board: Leaderboard) -> list[str]:
     ]
 
 
-UNIT = ("sensor_type", "sensor_instance")
+UNIT = (SENSOR_TYPE, "sensor_instance")
 
 
 def one_class_table(rows: pd.DataFrame) -> Table | None:

@@ -23,7 +23,7 @@ from slipbench.stats.factors import (
     named_entrants,
     setting_text,
 )
-from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER
+from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_TYPE, SPLIT_ORDER
 
 
 def _unit_of(name: str, sensor_type: str) -> tuple[str, str]:
@@ -48,13 +48,13 @@ def as_tested(rows: pd.DataFrame) -> pd.DataFrame:
                 tested.setdefault(str(train), []).append(str(test))
         except (TypeError, AttributeError, json.JSONDecodeError):
             continue  # a map this version cannot read: the rows keep the training unit's names
-        for i, kind, instance in part[["sensor_type", "sensor_instance"]].itertuples(name=None):
+        for i, kind, instance in part[[SENSOR_TYPE, "sensor_instance"]].itertuples(name=None):
             names = tested.get(f"{kind}:{instance}")
             if pd.isna(instance) or not names:
                 continue
             units = [_unit_of(n, str(kind)) for n in names]
             kinds = list(dict.fromkeys(k for k, _ in units))
-            out.at[i, "sensor_type"] = kinds[0] if len(kinds) == 1 else " + ".join(kinds)
+            out.at[i, SENSOR_TYPE] = kinds[0] if len(kinds) == 1 else " + ".join(kinds)
             shown = " + ".join(u if len(kinds) == 1 else f"{k}:{u}" for k, u in units)
             out.at[i, "sensor_instance"] = f"{shown} (trained as {kind} {instance})"
             out.at[i, TRAINED_AS] = f"{kind}:{instance}"

@@ -10,6 +10,7 @@ from typing import Any
 import pandas as pd
 
 from slipbench.stats.metrics import RATES
+from slipbench.vocabulary import SENSOR_TYPE
 
 
 @cache
@@ -43,7 +44,7 @@ def paper_frame(name: str) -> pd.DataFrame:
     if name == "sampling-rate":
         full = paper_frame("window-size").query("window == 200").drop(columns="window")
         full = full.assign(
-            downsample=1, rate_hz=full["sensor_type"].map({"BioTacSP": 850.0}).fillna(1000.0)
+            downsample=1, rate_hz=full[SENSOR_TYPE].map({"BioTacSP": 850.0}).fillna(1000.0)
         )
         # every published rate is of windows of 200 full-rate samples: the caption's window
         frame = pd.concat([frame, full[frame.columns]], ignore_index=True).assign(window=200)

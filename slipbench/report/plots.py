@@ -47,7 +47,7 @@ from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 from slipbench.stats.meta import MetaAnalysis  # noqa: E402
 from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS  # noqa: E402
-from slipbench.vocabulary import DETECTOR_ORDER, SPLIT_ORDER, label  # noqa: E402
+from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_TYPE, SPLIT_ORDER, label  # noqa: E402
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType
@@ -142,7 +142,7 @@ def _legend_once(fig: Figure, axes) -> None:
 
 
 def _sensors(rows: pd.DataFrame) -> list[str]:
-    return ordered(rows["sensor_type"].unique(), "sensor_type")
+    return ordered(rows[SENSOR_TYPE].unique(), SENSOR_TYPE)
 
 
 def _x_axis(ax, x: pd.Series, layout: ShownLayout) -> None:
@@ -181,7 +181,7 @@ def _curves(
         zip(variants, ("-", "--", ":", "-.") * len(variants))
     )  # the first (the paper's) solid
     for ax, sensor in zip(axes, sensors):
-        s = summarize(rows[rows["sensor_type"] == sensor], [line, *extra, x])
+        s = summarize(rows[rows[SENSOR_TYPE] == sensor], [line, *extra, x])
         for i, inst in enumerate(ordered(s[line].unique(), line)):
             color = f"C{i}"
             for dec, points in (
@@ -201,18 +201,18 @@ def _curves(
                     points[x], 100 * points["lo"], 100 * points["hi"], color=color, alpha=0.15, lw=0
                 )
             if paper is not None and len(paper) and line in paper and x in paper:
-                ref = paper[(paper["sensor_type"] == sensor) & (paper[line] == inst)].sort_values(x)
+                ref = paper[(paper[SENSOR_TYPE] == sensor) & (paper[line] == inst)].sort_values(x)
                 ax.plot(ref[x], 100 * ref["accuracy"], "o", mfc="none", color=color, ms=5)
         if paper is not None and len(paper):
             ax.plot([], [], "o", mfc="none", color="0.3", ms=5, label="paper (LSTM)")
-        _finish_panel(ax, sensor, rows.loc[rows["sensor_type"] == sensor, x], layout)
+        _finish_panel(ax, sensor, rows.loc[rows[SENSOR_TYPE] == sensor, x], layout)
     return _finish_figure(fig, axes, layout, x, title)
 
 
 def _finish_panel(ax, sensor: str, xs: pd.Series, layout: ShownLayout) -> None:
     """A sensor's panel of an accuracy curve: its x ticks, title and y label."""
     _x_axis(ax, xs, layout)
-    ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
+    ax.set_title(label(SENSOR_TYPE, sensor), loc="left", pad=2)
     ax.set_ylabel("accuracy (%)")
 
 
@@ -238,7 +238,7 @@ def _compare_curves(
         :, 0
     ]  # each sensor its own x ticks (its rates)
     for ax, sensor in zip(axes, sensors):
-        part = rows[rows["sensor_type"] == sensor]
+        part = rows[rows[SENSOR_TYPE] == sensor]
         for i, det in enumerate(detectors):
             s = summarize(part[part["detector"] == det], [unit, x])
             s = s[s["status"] == "ok"]
@@ -250,7 +250,7 @@ def _compare_curves(
                 g.index, 100 * g["min"], 100 * g["max"], color=f"C{i}", alpha=0.12, lw=0
             )
         if paper is not None and len(paper) and x in paper:
-            ref = paper[paper["sensor_type"] == sensor].groupby(x)["accuracy"].mean().sort_index()
+            ref = paper[paper[SENSOR_TYPE] == sensor].groupby(x)["accuracy"].mean().sort_index()
             ax.plot(
                 ref.index,
                 100 * ref,
@@ -320,11 +320,11 @@ def _heatmaps(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     rows sensor and finger, columns ``layout.column``."""
     column, pair = layout.column, layout.pair
     assert pair is not None  # drawn for with-without layouts only
-    s = summarize(rows, ["sensor_type", "sensor_instance", column, pair])
+    s = summarize(rows, [SENSOR_TYPE, "sensor_instance", column, pair])
     index = sorted(
-        s[["sensor_type", "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None),
+        s[[SENSOR_TYPE, "sensor_instance"]].drop_duplicates().itertuples(index=False, name=None),
         key=lambda t: (
-            ordered(s["sensor_type"].unique(), "sensor_type").index(t[0]),
+            ordered(s[SENSOR_TYPE].unique(), SENSOR_TYPE).index(t[0]),
             ordered(s["sensor_instance"].unique(), "sensor_instance").index(t[1]),
         ),
     )
@@ -333,7 +333,7 @@ def _heatmaps(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     for training in ("with", "without"):
         grid = np.full((len(index), len(cols)), np.nan)
         for r in s[(s[pair] == training) & (s["status"] == "ok")].to_dict("records"):
-            grid[index.index((r["sensor_type"], r["sensor_instance"])), cols.index(r[column])] = (
+            grid[index.index((r[SENSOR_TYPE], r["sensor_instance"])), cols.index(r[column])] = (
                 100 * r["mean"]
             )
         grids[training] = grid
@@ -365,7 +365,7 @@ def _transfer(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
     sensors = _sensors(rows)
     summaries = {}
     for sensor in sensors:
-        s = summarize(rows[rows["sensor_type"] == sensor], [row, column])
+        s = summarize(rows[rows[SENSOR_TYPE] == sensor], [row, column])
         tr, te = ordered(s[row].unique(), row), ordered(s[column].unique(), column)
         grid = np.full((len(tr), len(te)), np.nan)
         for r in s[s["status"] == "ok"].to_dict("records"):
@@ -383,7 +383,7 @@ def _transfer(rows: pd.DataFrame, layout: ShownLayout, title: str) -> Figure:
         tr, te, grid = summaries[sensor]
         im = _matrix(ax, grid, [label(row, t) for t in tr], [label(column, t) for t in te], limits)
         ax.set_ylabel("trained on")
-        ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
+        ax.set_title(label(SENSOR_TYPE, sensor), loc="left", pad=2)
         fig.colorbar(im, ax=ax, label="accuracy (%)", fraction=0.05, pad=0.02)
     axes[-1].set_xlabel("tested on")
     fig.suptitle(textwrap.fill(title, TITLE_CHARS))
@@ -420,7 +420,7 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
     if "tradeoff" not in rows or rows["tradeoff"].dropna().empty:
         return None
     rows = rows[rows["tradeoff"].notna()]
-    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    sensors = ordered(rows[SENSOR_TYPE].unique(), SENSOR_TYPE)
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
     curves = {i: envelope(pd.DataFrame(json.loads(r["tradeoff"]))) for i, r in rows.iterrows()}
     alarms, detected = FALSE_ALARMS.name, DETECTION_RATE.name
@@ -476,7 +476,7 @@ def tradeoff(rows: pd.DataFrame, title: str) -> Figure | None:
 
     keys = [Line2D([], [], color=f"C{i}", lw=1) for i in range(len(sensors))]
     keys += [Line2D([], [], ls="", marker=m, color="0.3", mfc="none", ms=3.5) for m in "ox"]
-    names = [label("sensor_type", s) for s in sensors] + ["threshold 0.5", "operating point"]
+    names = [label(SENSOR_TYPE, s) for s in sensors] + ["threshold 0.5", "operating point"]
     fig.legend(keys, names, loc="outside lower center", ncols=min(len(names), 3), frameon=False)
     fig.suptitle(textwrap.fill(title, TITLE_CHARS))
     return fig
@@ -570,7 +570,7 @@ def critical_difference(board: Leaderboard) -> Figure:
 def figure(part: pd.DataFrame, layout: ShownLayout, title: str, paper: bool) -> Figure | None:
     """One detector's figure of the kind ``layout.figure`` asks for, or None (no figure kind,
     or rows it cannot draw)."""
-    if layout.figure is None or "sensor_type" not in part:
+    if layout.figure is None or SENSOR_TYPE not in part:
         return None
     if layout.figure == "curve":
         ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
@@ -593,7 +593,7 @@ def compare_figure(
     part: pd.DataFrame, layout: ShownLayout, title: str, paper: bool
 ) -> Figure | None:
     """Every detector of ``part`` on one figure, where ``layout.figure`` is a curve; else None."""
-    if layout.figure != "curve" or "sensor_type" not in part or part["detector"].nunique() < 2:
+    if layout.figure != "curve" or SENSOR_TYPE not in part or part["detector"].nunique() < 2:
         return None
     ref = paper_frame(layout.paper_table) if paper and layout.paper_table else None
     return _compare_curves(
@@ -651,7 +651,7 @@ def _tail(split: str, which: dict, named: str) -> str:
 def _detectors_specs(section: Section, split: Split, paper: bool) -> list:
     """The figures of every detector together, of one split of a protocol's cells."""
     protocol, layout, parts = section.protocol, section.layout, split.parts
-    if layout.figure not in ("curve", "tradeoff") or "sensor_type" not in split.rows:
+    if layout.figure not in ("curve", "tradeoff") or SENSOR_TYPE not in split.rows:
         return []
     specs = []
     for which, part in parts:
@@ -686,7 +686,7 @@ def _detector_specs(
     specs = []
     parts = split_parts(rows, layout)
     for which, part in parts:
-        if layout.figure is None or "sensor_type" not in part:
+        if layout.figure is None or SENSOR_TYPE not in part:
             continue
         named = "".join(f", {c} {v}" for c, v in which.items()) if len(parts) > 1 else ""
         title = f"{detector} ({split} split{named})"

@@ -23,7 +23,7 @@ from slipbench.errors import DataError
 from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
 from slipbench.stats.bootstrap import DEFAULT_METHOD, FIGURES_AS
 from slipbench.store.columns import overridden
-from slipbench.vocabulary import cell_label, label
+from slipbench.vocabulary import SENSOR_TYPE, cell_label, label
 
 STATUSES = ("ok", "skipped", "failed", "timeout")
 SYNTH_SOURCE = re.compile(
@@ -168,17 +168,15 @@ def sensor_units(path: str) -> str:
     try:
         table = (
             open_parquet(Path(path) / "recordings.parquet", page_checksum_verification=True)
-            .read(columns=["sensor_type", "sensor_instance", "units"])
+            .read(columns=[SENSOR_TYPE, "sensor_instance", "units"])
             .to_pydict()
         )
     except (OSError, pa.ArrowException, KeyError, DataError):
         return ""
-    if not {"sensor_type", "sensor_instance", "units"} <= table.keys():  # read skips what lacks
+    if not {SENSOR_TYPE, "sensor_instance", "units"} <= table.keys():  # read skips what lacks
         return ""
     sensors: dict[str, tuple[dict, dict]] = {}  # type -> (instances, units), in first-seen order
-    for kind, instance, units in zip(
-        table["sensor_type"], table["sensor_instance"], table["units"]
-    ):
+    for kind, instance, units in zip(table[SENSOR_TYPE], table["sensor_instance"], table["units"]):
         instances, found = sensors.setdefault(str(kind), ({}, {}))
         instances[str(instance)] = None
         for unit in units or [None]:
@@ -369,7 +367,7 @@ def _tested_key(row: pd.Series) -> dict | str:
             tested.setdefault(str(train), []).append(str(test))
     except (TypeError, AttributeError, json.JSONDecodeError):
         return row["cell"]  # a key or map this version cannot read: named as stored
-    kind = key.get("sensor_type")
+    kind = key.get(SENSOR_TYPE)
     for column in ("sensor_instance", "test_instance"):
         names = tested.get(f"{kind}:{key.get(column)}")
         if column in key and names:
@@ -573,7 +571,7 @@ def _unit(row: dict) -> tuple[str, str]:
     instance = row.get("sensor_instance")
     if not isinstance(instance, str):
         instance = row.get("train_instance")
-    return str(row.get("sensor_type", "")), str(instance if isinstance(instance, str) else "")
+    return str(row.get(SENSOR_TYPE, "")), str(instance if isinstance(instance, str) else "")
 
 
 def _hz(f: float) -> str:
@@ -623,7 +621,7 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
         units = sorted(
             per_unit,
             key=lambda u: (
-                ordered([x[0] for x in per_unit], "sensor_type").index(u[0]),
+                ordered([x[0] for x in per_unit], SENSOR_TYPE).index(u[0]),
                 ordered([x[1] for x in per_unit], "sensor_instance").index(u[1]),
             ),
         )
@@ -639,7 +637,7 @@ def fitted_tables(rows: pd.DataFrame) -> list[Table]:
                 ["Sensor", "Finger"],
                 "",
                 columns,
-                [(label("sensor_type", u[0]), label("sensor_instance", u[1])) for u in units],
+                [(label(SENSOR_TYPE, u[0]), label("sensor_instance", u[1])) for u in units],
                 cells,
                 f"tab:fitted-{det}",
                 wrap={2 + i: 0.55 / len(keys) for i in range(len(keys))},

@@ -22,7 +22,7 @@ from slipbench.report.outline import layouts, protocol_order
 from slipbench.report.tables import CLASS_RATES, LOW_MARK, Table, ordered, rank
 from slipbench.stats.contrast import margin_of
 from slipbench.store.columns import ACCURACY
-from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, cell_label, label
+from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, SENSOR_TYPE, cell_label, label
 
 REDUCTION_TITLE = "What the reduction keeps: univariate vs channels"
 CHANGE = "channels − univariate"
@@ -53,7 +53,7 @@ def _short_cell(cell: str) -> str:
         key = json.loads(cell)
     except (TypeError, json.JSONDecodeError):
         return str(cell)
-    key.pop("sensor_type", None)
+    key.pop(SENSOR_TYPE, None)
     return cell_label(key) or "(the sensor's only cell)"
 
 
@@ -150,7 +150,7 @@ def _extremes(cells: pd.DataFrame) -> str:
 
 
 def _pooled_table(cmp: InputComparison, sensor: str, protocols: list[str]) -> Table:
-    pooled = _order(cmp.pooled[cmp.pooled["sensor_type"] == sensor], protocols)
+    pooled = _order(cmp.pooled[cmp.pooled[SENSOR_TYPE] == sensor], protocols)
     splits = cmp.pooled["split"].nunique() > 1
     rows, cells = [], []
     for r in pooled.to_dict("records"):
@@ -159,7 +159,7 @@ def _pooled_table(cmp: InputComparison, sensor: str, protocols: list[str]) -> Ta
             (cmp.cells["detector"] == r["detector"])
             & (cmp.cells["protocol"] == r["protocol"])
             & (cmp.cells["split"] == r["split"])
-            & (cmp.cells["sensor_type"] == sensor)
+            & (cmp.cells[SENSOR_TYPE] == sensor)
         ]
         cells.append(
             [
@@ -235,7 +235,7 @@ def _listed(items: list[str]) -> str:
 
 def _readings(cmp: InputComparison, sensor: str, protocols: list[str]) -> str:
     """One sentence per detector: what its pooled changes on this sensor say, by reading."""
-    pooled = _order(cmp.pooled[cmp.pooled["sensor_type"] == sensor], protocols)
+    pooled = _order(cmp.pooled[cmp.pooled[SENSOR_TYPE] == sensor], protocols)
     splits = cmp.pooled["split"].nunique() > 1
     name = SENSOR_NAMES.get(sensor, sensor)
     out = []
@@ -255,17 +255,17 @@ def _readings(cmp: InputComparison, sensor: str, protocols: list[str]) -> str:
 def _cells_table(cmp: InputComparison, detector: str, protocols: list[str]) -> Table:
     """A detector's every paired cell, by sensor type and protocol."""
     mine = cmp.cells[cmp.cells["detector"] == detector]
-    sensors = ordered(mine["sensor_type"].unique(), "sensor_type")
+    sensors = ordered(mine[SENSOR_TYPE].unique(), SENSOR_TYPE)
     mine = _order(mine, protocols)
     mine = mine.iloc[
-        sorted(range(len(mine)), key=lambda i: sensors.index(mine["sensor_type"].iloc[i]))
+        sorted(range(len(mine)), key=lambda i: sensors.index(mine[SENSOR_TYPE].iloc[i]))
     ]
     splits = cmp.cells["split"].nunique() > 1
     rows, cells = [], []
     for r in mine.to_dict("records"):
         rows.append(
             (
-                label("sensor_type", r["sensor_type"]),
+                label(SENSOR_TYPE, r[SENSOR_TYPE]),
                 r["protocol"],
                 _short_cell(r["cell"]),
                 *([r["split"]] if splits else []),
@@ -361,7 +361,7 @@ def reduction_blocks(
     else:
         protocols = protocol_order(layouts(rows))
         blocks.append(Text(_stands_on(cmp)))
-        for sensor in ordered(cmp.pooled["sensor_type"].unique(), "sensor_type"):
+        for sensor in ordered(cmp.pooled[SENSOR_TYPE].unique(), SENSOR_TYPE):
             blocks += [
                 Heading(f"{SENSOR_NAMES.get(sensor, sensor)}: univariate vs channels", 3),
                 _pooled_table(cmp, sensor, protocols),

@@ -14,7 +14,7 @@ from matplotlib.lines import Line2D
 
 from slipbench.report.plots import STYLE, TITLE_CHARS, WIDTH
 from slipbench.report.tables import ordered
-from slipbench.vocabulary import label
+from slipbench.vocabulary import SENSOR_TYPE, label
 
 # a reading's colour: better blue, worse red (as the difference heatmaps), the rest grey
 COLOURS = {
@@ -39,20 +39,20 @@ def input_changes(pooled: pd.DataFrame, cells: pd.DataFrame) -> Figure | None:
 
 
 def _draw(pooled: pd.DataFrame, cells: pd.DataFrame) -> Figure:
-    sensors = ordered(pooled["sensor_type"].unique(), "sensor_type")
+    sensors = ordered(pooled[SENSOR_TYPE].unique(), SENSOR_TYPE)
     splits = pooled["split"].nunique() > 1
-    counts = [int((pooled["sensor_type"] == s).sum()) for s in sensors]
+    counts = [int((pooled[SENSOR_TYPE] == s).sum()) for s in sensors]
     fig = Figure(figsize=(WIDTH, 1.0 + sum(0.4 + 0.25 * n for n in counts)), layout="constrained")
     axes = fig.subplots(len(sensors), 1, squeeze=False, sharex=True, height_ratios=counts)[:, 0]
     for ax, sensor in zip(axes, sensors):
-        part = pooled[pooled["sensor_type"] == sensor].reset_index(drop=True)
+        part = pooled[pooled[SENSOR_TYPE] == sensor].reset_index(drop=True)
         names = []
         for y, r in enumerate(part.to_dict("records")):
             names.append(
                 f"{r['detector']}\n{r['protocol']}" + (f", {r['split']}" if splits else "")
             )
             mine = cells[
-                (cells["sensor_type"] == sensor)
+                (cells[SENSOR_TYPE] == sensor)
                 & (cells["detector"] == r["detector"])
                 & (cells["protocol"] == r["protocol"])
                 & (cells["split"] == r["split"])
@@ -67,7 +67,7 @@ def _draw(pooled: pd.DataFrame, cells: pd.DataFrame) -> Figure:
         ax.axvline(0, color="black", lw=0.8)
         ax.set_yticks(range(len(names)), names)
         ax.set_ylim(len(names) - 0.5, -0.5)  # the first line on top
-        ax.set_title(label("sensor_type", sensor), loc="left", pad=2)
+        ax.set_title(label(SENSOR_TYPE, sensor), loc="left", pad=2)
         ax.grid(axis="x", alpha=0.3)
     axes[-1].set_xlabel("channels − univariate, accuracy (points)")
     shown = [k for k in COLOURS if k in set(pooled["reading"])]

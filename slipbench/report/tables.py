@@ -33,12 +33,21 @@ from slipbench.stats.contrast import (
 from slipbench.stats.factors import setting_labels
 from slipbench.stats.joint import JOINT_NOTE
 from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
-from slipbench.store.columns import ACCURACY, AUROC, FIGURES, WINDOWED, figure_of, figures
+from slipbench.store.columns import (
+    ACCURACY,
+    AUROC,
+    ENTRANT_CELL,
+    FIGURES,
+    WINDOWED,
+    figure_of,
+    figures,
+)
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
     ORDERS,
     SENSOR_NAMES,
+    SENSOR_TYPE,
     label,
 )
 
@@ -96,7 +105,7 @@ ROWS_TEXT = (
     "keep predictions for the two-level bootstrap)"
 )
 ROW_HEADERS = {
-    "sensor_type": "Sensor",
+    SENSOR_TYPE: "Sensor",
     "sensor_instance": "Finger",
     "train_instance": "Training Data",
 }
@@ -184,13 +193,13 @@ COUNTS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", 
 def sensors_text(rows: pd.DataFrame) -> str:
     """What units ``rows`` hold, for a caption: "three types of sensors and fingers", "the
     fingers of one sensor type (Biotac SP)", "one sensor (Biotac SP, ff)"."""
-    if "sensor_type" not in rows or rows["sensor_type"].dropna().empty:
+    if SENSOR_TYPE not in rows or rows[SENSOR_TYPE].dropna().empty:
         return "sensors and fingers"
-    types = ordered(rows["sensor_type"].dropna().unique(), "sensor_type")
+    types = ordered(rows[SENSOR_TYPE].dropna().unique(), SENSOR_TYPE)
     if len(types) > 1:
         count = COUNTS[len(types)] if len(types) < len(COUNTS) else f"{len(types):,}"
         return f"{count} types of sensors and fingers"
-    name = label("sensor_type", types[0])
+    name = label(SENSOR_TYPE, types[0])
     fingers = rows["sensor_instance"].dropna().unique() if "sensor_instance" in rows else []
     if len(fingers) == 1:
         return f"one sensor ({name}, {label('sensor_instance', fingers[0])})"
@@ -214,10 +223,10 @@ def caption_of(caption: str, rows: pd.DataFrame) -> str:
             return DESCRIBED[column](rows)
         if column not in rows or rows[column].dropna().empty:
             return match.group(0)
-        if "sensor_type" in rows and rows[column].nunique() > 1:
+        if SENSOR_TYPE in rows and rows[column].nunique() > 1:
             per: dict[tuple[str, ...], list[str]] = {}
-            for sensor in ordered(rows["sensor_type"].dropna().unique(), "sensor_type"):
-                mine = rows.loc[rows["sensor_type"] == sensor, column].dropna().unique()
+            for sensor in ordered(rows[SENSOR_TYPE].dropna().unique(), SENSOR_TYPE):
+                mine = rows.loc[rows[SENSOR_TYPE] == sensor, column].dropna().unique()
                 if len(mine):
                     texts = tuple(_value_text(v) for v in rank(mine))
                     per.setdefault(texts, []).append(SENSOR_NAMES.get(sensor, sensor))
@@ -369,15 +378,15 @@ def _column_labels(
     as the rates of the paper's Table II; with ``layout.note_column``, a note listing that
     column's values per sensor type."""
     notes = _note_column(layout, rows, columns)
-    if not layout.column_label or layout.column_label not in rows or "sensor_type" not in rows:
+    if not layout.column_label or layout.column_label not in rows or SENSOR_TYPE not in rows:
         return [label(layout.column, c) for c in columns], {}, notes
-    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    sensors = ordered(rows[SENSOR_TYPE].unique(), SENSOR_TYPE)
     number = {s: i + 1 for i, s in enumerate(sensors)}
     plain, marked = [], {}
     for j, c in enumerate(columns):
         rates = (
             rows[rows[layout.column] == c]
-            .groupby(layout.column_label, sort=True)["sensor_type"]
+            .groupby(layout.column_label, sort=True)[SENSOR_TYPE]
             .unique()
         )
         parts = sorted(
@@ -405,11 +414,11 @@ def _column_labels(
 def _note_column(layout: ShownLayout, rows: pd.DataFrame, columns: list[Any]) -> list[str]:
     """ "Window (ms): Nano17, OptoForce20: 5, 10, ...; Biotac SP: 5.9, ..." for ``note_column``."""
     col = layout.note_column
-    if not col or col not in rows or "sensor_type" not in rows:
+    if not col or col not in rows or SENSOR_TYPE not in rows:
         return []
     per_sensor: dict[tuple, list[str]] = {}
-    for sensor in ordered(rows["sensor_type"].unique(), "sensor_type"):
-        part = rows[rows["sensor_type"] == sensor]
+    for sensor in ordered(rows[SENSOR_TYPE].unique(), SENSOR_TYPE):
+        part = rows[rows[SENSOR_TYPE] == sensor]
         values = tuple(
             _rate(float(part.loc[part[layout.column] == c, col].iloc[0]))
             if (part[layout.column] == c).any()
@@ -695,7 +704,7 @@ def _repeated(rows: pd.DataFrame) -> bool:
     """Some cell of ``rows`` ran under several seeds."""
     if "seed" not in rows or "cell" not in rows:
         return False
-    by = [c for c in ("protocol", "detector", "cell") if c in rows]
+    by = [c for c in ENTRANT_CELL if c in rows]
     return bool((rows.groupby(by)["seed"].nunique() > 1).any())
 
 
@@ -730,22 +739,22 @@ def baseline_table(
     if rows.empty:
         return None
     detectors = rank(rows["detector"].unique(), DETECTOR_ORDER)
-    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
+    sensors = ordered(rows[SENSOR_TYPE].unique(), SENSOR_TYPE)
     cells: list[list[str]] = [[] for _ in sensors]
     columns, shown = list(detectors), []
     for det in detectors:
         avg = _averaged(
-            rows[rows["detector"] == det], ["accuracy"], ["sensor_type"], intervals, _of(joint, det)
+            rows[rows["detector"] == det], ["accuracy"], [SENSOR_TYPE], intervals, _of(joint, det)
         )
         shown += [(det, *k) for k in avg]
         for i, s in enumerate(sensors):
             cells[i].append(avg.get((s,), ["NA"])[0])
     if paper:
-        holweg = paper_frame("holweg").set_index("sensor_type")["accuracy"]
+        holweg = paper_frame("holweg").set_index(SENSOR_TYPE)["accuracy"]
         lstm = (
             paper_frame("window-size")
             .query(f"window == {BASELINE_WINDOW}")
-            .groupby("sensor_type")["accuracy"]
+            .groupby(SENSOR_TYPE)["accuracy"]
             .mean()
         )
         columns += ["holweg (paper)", "lstm (paper)"]
@@ -766,7 +775,7 @@ def baseline_table(
         ["Sensor"],
         "Classification Accuracy (%) by Detector",
         columns,
-        [(label("sensor_type", s),) for s in sensors],
+        [(label(SENSOR_TYPE, s),) for s in sensors],
         cells,
         "tab:baseline",
         notes=notes,
@@ -785,12 +794,12 @@ def rates_table(
     rows = rows[(rows["window"] == BASELINE_WINDOW) & (rows["detector"] == detector)]
     if rows.empty:
         return None
-    sensors = ordered(rows["sensor_type"].unique(), "sensor_type")
-    avg = _averaged(rows, CLASS_RATES, ["sensor_type"], intervals, _of(joint, detector))
+    sensors = ordered(rows[SENSOR_TYPE].unique(), SENSOR_TYPE)
+    avg = _averaged(rows, CLASS_RATES, [SENSOR_TYPE], intervals, _of(joint, detector))
     cells = [avg.get((s,), ["NA", "NA"]) for s in sensors]
     columns = ["TP rate", "TN rate"]
     if paper:
-        ref = paper_frame("rates_window_50").set_index("sensor_type")
+        ref = paper_frame("rates_window_50").set_index(SENSOR_TYPE)
         columns += ["TP rate (paper, LSTM)", "TN rate (paper, LSTM)"]
         for i, s in enumerate(sensors):
             cells[i] = cells[i] + (
@@ -803,7 +812,7 @@ def rates_table(
         ["Sensor"],
         "Rate (%)",
         columns,
-        [(label("sensor_type", s),) for s in sensors],
+        [(label(SENSOR_TYPE, s),) for s in sensors],
         cells,
         f"tab:rates-{detector}",
         notes=[
@@ -1063,7 +1072,7 @@ def split_table(
     # a setting that differs (labels, dataset, ...) names the protocol's line: never pooled
     named = setting_labels(ok, exclude=("split",)).map(lambda t: f" ({t})" if t else "")
     ok = ok.assign(protocol=ok["protocol"].astype(str) + named)
-    keys = ["protocol", "detector", "cell", "seed"]
+    keys = [*ENTRANT_CELL, "seed"]
     wide = ok.pivot_table(index=keys, columns="split", values=metric, aggfunc="mean")
     wide = (
         wide.dropna(subset=[s for s in splits if s in wide])

@@ -78,7 +78,15 @@ from slipbench.stats.factors import inputs, plain
 from slipbench.stats.metrics import RATES
 from slipbench.stats.noise import OWN_SEEDS, SeedNoise, own_seeds
 from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change
-from slipbench.store.columns import ACCURACY, DETECTION_RATE, FIGURES
+from slipbench.store.columns import (
+    ACCURACY,
+    CELL_ROLE,
+    DETECTION_RATE,
+    FIGURES,
+    READING,
+    SETTING,
+    identity,
+)
 
 SHOWN, CONTRADICTED, UNDECIDED = "shown", "contradicted", "undecided"
 #: the states that settle a claim one way or the other: "decided" means one of these and
@@ -354,22 +362,9 @@ def _one_seed(terms: pd.DataFrame) -> tuple[float, float]:
 
 
 # ----------------------------------------------------------------------------- pairing
-#: what two detectors' rows of one cell share (where the rows hold the column)
-CELL_COLUMNS = (
-    "protocol",
-    "protocol_params",
-    "split",
-    "labels",
-    "normalize",
-    "balance",
-    "cell",
-    "decimation",
-    "antialias",
-    "test_stream",
-    "input",
-    "dataset_fingerprint",
-    "sensor_map",
-)
+#: what two detectors' rows of one cell share (where the rows hold the column): the key's
+#: columns but the detector's own, and but those another of them fixes already
+CELL_COLUMNS = identity(READING, SETTING, CELL_ROLE, keyed=True, follows=False)
 
 
 def cell_of(row: dict) -> str:

@@ -3,20 +3,22 @@
 A figure may pool rows that differ in their seed alone (its mean over seeds); rows that differ
 in anything else in their cell's key are different results, and no figure averages them. Every
 field :func:`slipbench.engine.plan.keys` hashes is listed in :data:`KEY_FIELDS` with the row
-columns that record it and its role (a test fails on a key field missing here):
+columns that record it and its role (a test fails on a key field missing here). The roles are
+the results schema's (:attr:`slipbench.store.columns.Column.role`), and every list of columns
+here is a query of it (:func:`slipbench.store.columns.identity`):
 
 - ``SEED``: the repeat (``--repeats``); the one thing a figure averages over;
-- ``ENTRANT``: what the detector is and reads (its id, parameters, input, normalization): two
-  values are two entrants, named apart (:func:`entrant_names`) in every table and leaderboard;
+- ``ENTRANT`` and ``READING``: what the detector is and reads (its id, parameters, input,
+  normalization): two values are two entrants, named apart (:func:`entrant_names`) in every table and leaderboard;
 - ``SETTING``: the conditions of the run (data, split, labels, protocol options, ...): two values
   are two tables (:func:`setting_parts`), two blocks of a leaderboard, two cells of a compare;
-- ``CELL``: which cell of a protocol it is (its key, window, rate, training and test parts):
+- ``CELL_ROLE``: which cell of a protocol it is (its key, window, rate, training and test parts):
   what a protocol's table lays out;
 - ``UNRECORDED``: fields rows do not hold (the code's identity, the random-stream scheme): a
   row's slipbench version stands for them where it differs.
 
 The interval method and the slipbench version are not key fields but settings too: they change
-what a row's figures or intervals are.
+what a row's figures or intervals are (the schema gives them the setting role and no key).
 """
 
 from __future__ import annotations
@@ -28,47 +30,27 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-SEED, ENTRANT, SETTING, CELL, UNRECORDED = "seed", "entrant", "setting", "cell", "unrecorded"
+from slipbench.store.columns import (
+    CELL_ROLE,
+    ENTRANT,
+    READING,
+    SEED,
+    SETTING,
+    identity,
+    key_columns,
+)
 
-#: each field of a cell's key -> (its role, the row columns that record it)
+UNRECORDED = "unrecorded"
+#: each field of a cell's key -> (its role, the row columns that record it): the results
+#: schema's (:func:`slipbench.store.columns.key_columns`) and those rows do not record
 KEY_FIELDS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "seed": (SEED, ("seed",)),
-    "detector": (ENTRANT, ("detector",)),
-    "params": (ENTRANT, ("detector_params",)),
-    "input": (ENTRANT, ("input",)),
-    "normalize": (ENTRANT, ("normalize",)),
-    # a combined dataset's fingerprint holds both datasets and the sensor map
-    "dataset": (
-        SETTING,
-        (
-            "dataset_fingerprint",
-            "train_dataset_fingerprint",
-            "test_dataset_fingerprint",
-            "sensor_map",
-        ),
-    ),
-    "split": (SETTING, ("split",)),
-    "run_split": (SETTING, ("split",)),
-    "labels": (SETTING, ("labels",)),
-    "balance": (SETTING, ("balance",)),
-    "protocol_params": (SETTING, ("protocol_params",)),
-    "protocol": (CELL, ("protocol",)),
-    "cell": (CELL, ("cell",)),
-    "train": (CELL, ("train_sensors", "train_where")),
-    "test": (CELL, ("test_sensors", "test_where")),
-    "window": (CELL, ("window",)),
-    "downsample": (CELL, ("downsample",)),
-    "decimation": (CELL, ("decimation",)),
-    "antialias": (CELL, ("antialias",)),
-    "stream": (CELL, ("test_stream",)),
+    **key_columns(),
     "code": (UNRECORDED, ()),
     "protocol_code": (UNRECORDED, ()),
     "streams": (UNRECORDED, ()),
     "delays": (UNRECORDED, ()),
     "model": (UNRECORDED, ()),  # a hash of the fields above, the seed among them
 }
-#: row fields outside the key that change what a row's figures or intervals are
-EXTRA_SETTINGS = ("interval_method", "slipbench_version")
 #: the two inputs a detector reads (``input``): the paper's signal, or the raw channels
 UNIVARIATE, CHANNELS = "univariate", "channels"
 #: the column :func:`named_entrants` keeps a detector's plugin id in
@@ -88,14 +70,9 @@ SETTING_NAMES = {
 }
 
 
-def _columns(role: str) -> tuple[str, ...]:
-    found = (c for r, columns in KEY_FIELDS.values() if r == role for c in columns)
-    return tuple(dict.fromkeys([*found, *(EXTRA_SETTINGS if role == SETTING else ())]))
-
-
-ENTRANTS = _columns(ENTRANT)
-SETTINGS = _columns(SETTING)
-CELLS = _columns(CELL)
+ENTRANTS = identity(ENTRANT, READING)
+SETTINGS = identity(SETTING)
+CELLS = identity(CELL_ROLE)
 
 
 def factor_values(rows: pd.DataFrame, column: str) -> pd.Series:
@@ -123,7 +100,7 @@ def latest_runs(rows: pd.DataFrame) -> tuple[pd.DataFrame, int]:
     count both, or average them, as two results."""
     if "finished_at" not in rows or "seed" not in rows:
         return rows, 0
-    recorded = [*_columns(SEED), *ENTRANTS, *SETTINGS, *CELLS]
+    recorded = identity(SEED, ENTRANT, READING, SETTING, CELL_ROLE)
     same = pd.DataFrame({c: factor_values(rows, c).to_numpy() for c in recorded if c in rows})
     order = np.argsort(rows["finished_at"].fillna("").astype(str).to_numpy(), kind="stable")
     earlier = np.zeros(len(rows), bool)

@@ -89,7 +89,7 @@ from slipbench.stats.contrast import (
 )
 from slipbench.stats.factors import SETTINGS, entrant_names, factor_values, one_class
 from slipbench.stats.noise import SeedNoise
-from slipbench.store.columns import ACCURACY, WINDOWED, figures
+from slipbench.store.columns import ACCURACY, WINDOWED, figures, recording
 
 ALPHA = 0.05
 LEVEL = 0.95
@@ -99,9 +99,9 @@ MARGIN = margin_of(ACCURACY.name)
 ALL = "all"
 #: columns that, with the cell's key, name one cell across detectors: every setting of a run
 #: (data, split, labels, options, ...) is part of it, so no block pools two values of one
-CELL_IDENTITY = ("protocol", "cell", *SETTINGS)
+CELL_IDENTITY = (*recording("protocol", "cell"), *SETTINGS)
 #: columns that, with the model key, name the windows a cell is scored on
-TEST_IDENTITY = ("test_sensors", "test_where", "test_stream")
+TEST_IDENTITY = recording("test", "stream")
 #: the figures whose means the board shows: a windowed cell's, but the rates of one class
 MEAN_METRICS = tuple(f.name for f in figures(WINDOWED) if not f.one_class)
 

@@ -19,13 +19,23 @@ from typing import Any
 
 import numpy as np
 
+from slipbench.vocabulary import SENSOR_INSTANCE, SENSOR_TYPE
+
 
 @dataclass(frozen=True)
 class Column:
     """One results column: its name, its Arrow type (``string``, ``int64``, ``float64``,
     ``bool``), its unit ("" where it has none), what it means, and the numbers it may hold: in
     ``bounds`` (NaN and null pass unless ``finite``: then it is a finite number wherever a row
-    holds the column)."""
+    holds the column).
+
+    What makes two rows two results (:func:`identity`): its ``role`` (:data:`ROLES`; "" for a
+    column that tells no results apart), the fields of the cell's key it records (``keys``,
+    :func:`slipbench.engine.plan.keys`; none for a setting outside the key), the column whose
+    value fixes it already (``follows``: the protocol lays a cell's parts out from its key, a
+    combined dataset's fingerprint holds both datasets and the sensor map) and, for a setting,
+    whether it records a version of what the run read (``version``: the data, the code, the
+    interval method) rather than a condition chosen for it."""
 
     name: str
     type: str
@@ -33,6 +43,10 @@ class Column:
     meaning: str
     bounds: tuple[float, float] = (-math.inf, math.inf)
     finite: bool = False
+    role: str = ""
+    keys: tuple[str, ...] = ()
+    follows: str = ""
+    version: bool = False
 
     @property
     def allowed(self) -> str:
@@ -62,6 +76,26 @@ def _number(x: float) -> str:
     """A number as a message shows it: 4294967295, 0.5, nan (never 4.29497e+09)."""
     return str(int(x)) if math.isfinite(x) and float(x).is_integer() else f"{x:.6g}"
 
+
+#: the roles of a column (:attr:`Column.role`): the repeat (the one thing a figure averages over);
+#: the detector that competes (its id and parameters); what it reads (input, normalization; with
+#: the detector, an entrant); the conditions of the run (two values: two tables); which cell of
+#: a protocol it is; a figure of the cell
+SEED, ENTRANT, READING, SETTING, CELL_ROLE, FIGURE = (
+    "seed",
+    "entrant",
+    "reading",
+    "setting",
+    "cell",
+    "figure",
+)
+ROLES = (SEED, ENTRANT, READING, SETTING, CELL_ROLE, FIGURE)
+#: columns code names on its own (the input a detector reads, ...), spelled once; the unit's
+#: columns (``SENSOR_TYPE``) are the contract's (:mod:`slipbench.vocabulary`)
+INPUT, PROTOCOL, BALANCE = "input", "protocol", "balance"
+DETECTOR = "detector"
+#: a result but its seed, as tables group it: the protocol, the entrant, the cell
+ENTRANT_CELL = (PROTOCOL, DETECTOR, "cell")
 
 #: a figure's kind: the cells that hold it
 WINDOWED, STREAMED = "windowed", "streamed"
@@ -126,7 +160,7 @@ class Figure:
         within = self.bounds
         for prefix, where in [("", "")] + [("op_", " at the operating point")] * self.operating:
             name, meaning = prefix + self.name, self.meaning + where
-            yield Column(name, "float64", self.unit, meaning, within, self.finite)
+            yield Column(name, "float64", self.unit, meaning, within, self.finite, FIGURE)
             yield Column(
                 f"{name}_lo",
                 "float64",
@@ -320,8 +354,15 @@ IDENTITY = (
     Column("key", STR, "", "content address of the cell: data, code, parameters, seed"),
     Column("model_key", STR, "", "content address of the model the cell tests"),
     Column("run_id", STR, "", "UTC time stamp of the run that computed the cell"),
-    Column("protocol", STR, "", "protocol id"),
-    Column("protocol_params", STR, JSON, "the protocol's parameters"),
+    Column("protocol", STR, "", "protocol id", role=CELL_ROLE, keys=("protocol",)),
+    Column(
+        "protocol_params",
+        STR,
+        JSON,
+        "the protocol's parameters",
+        role=SETTING,
+        keys=("protocol_params",),
+    ),
     Column(
         "protocol_layout", STR, JSON, "what the protocol's cells are: its table's rows and columns"
     ),
@@ -331,24 +372,49 @@ IDENTITY = (
         JSON,
         "how the protocol's table and figure look ('' where it declares none)",
     ),
-    Column("detector", STR, "", "detector id"),
-    Column("detector_params", STR, JSON, "the detector's parameters"),
+    Column("detector", STR, "", "detector id", role=ENTRANT, keys=("detector",)),
+    Column(
+        "detector_params", STR, JSON, "the detector's parameters", role=ENTRANT, keys=("params",)
+    ),
     Column(
         "detector_reference",
         BOOL,
         "",
         "the detector is the registered reference, the baseline tables compare against",
     ),
-    Column("split", STR, "", "how windows were split into training and test sides"),
-    Column("seed", INT, "", "the run's seed", (0, 2**32 - 1)),
-    Column("labels", STR, "", "how windows were labelled (scenario or samples)"),
-    Column("normalize", STR, "", "how recordings were scaled before windowing"),
-    Column("input", STR, "", "univariate signal or channels"),
+    Column(
+        "split",
+        STR,
+        "",
+        "how windows were split into training and test sides",
+        role=SETTING,
+        keys=("split", "run_split"),
+    ),
+    Column("seed", INT, "", "the run's seed", (0, 2**32 - 1), role=SEED, keys=("seed",)),
+    Column(
+        "labels",
+        STR,
+        "",
+        "how windows were labelled (scenario or samples)",
+        role=SETTING,
+        keys=("labels",),
+    ),
+    Column(
+        "normalize",
+        STR,
+        "",
+        "how recordings were scaled before windowing",
+        role=READING,
+        keys=("normalize",),
+    ),
+    Column("input", STR, "", "univariate signal or channels", role=READING, keys=("input",)),
     Column(
         "balance",
         STR,
         "",
         "how balancing kept classes equal: within each material (the paper) or across materials",
+        role=SETTING,
+        keys=("balance",),
     ),
     Column(
         "code_identity",
@@ -359,21 +425,69 @@ IDENTITY = (
     ),
 )
 CELL = (
-    Column("sensor_type", STR, "", "cell key: the sensor type of the unit"),
-    Column("sensor_instance", STR, "", "cell key: the finger of the unit"),
-    Column("window", INT, "samples", "window length", (1, math.inf)),
+    Column(SENSOR_TYPE, STR, "", "cell key: the sensor type of the unit"),
+    Column(SENSOR_INSTANCE, STR, "", "cell key: the finger of the unit"),
+    Column(
+        "window",
+        INT,
+        "samples",
+        "window length",
+        (1, math.inf),
+        role=CELL_ROLE,
+        keys=("window",),
+        follows="cell",
+    ),
     Column("window_ms", FLOAT, "ms", "window length in time at the unit's rate", AT_LEAST_0),
     Column("hop", INT, "samples", "streaming hop between two scores", (1, math.inf)),
     Column("rate_hz", FLOAT, "Hz", "cell key: the sampling rate after downsampling", AT_LEAST_0),
-    Column("downsample", INT, "", "decimation factor", (1, math.inf)),
-    Column("decimation", STR, "", "how the signal was decimated"),
-    Column("antialias", BOOL, "", "whether a low-pass filter preceded decimation"),
-    Column("cell", STR, JSON, "the cell's key, whole"),
-    Column("train_sensors", STR, JSON, "units of the training side"),
-    Column("train_where", STR, JSON, "filters of the training side"),
-    Column("test_sensors", STR, JSON, "units of the test side"),
-    Column("test_where", STR, JSON, "filters of the test side"),
-    Column("test_stream", STR, JSON, "streaming settings of the test ('' for windows)"),
+    Column(
+        "downsample",
+        INT,
+        "",
+        "decimation factor",
+        (1, math.inf),
+        role=CELL_ROLE,
+        keys=("downsample",),
+        follows="cell",
+    ),
+    Column(
+        "decimation",
+        STR,
+        "",
+        "how the signal was decimated",
+        role=CELL_ROLE,
+        keys=("decimation",),
+    ),
+    Column(
+        "antialias",
+        BOOL,
+        "",
+        "whether a low-pass filter preceded decimation",
+        role=CELL_ROLE,
+        keys=("antialias",),
+    ),
+    Column("cell", STR, JSON, "the cell's key, whole", role=CELL_ROLE, keys=("cell",)),
+    *(
+        Column(
+            f"{side}_{part}",
+            STR,
+            JSON,
+            f"{what} of the {name} side",
+            role=CELL_ROLE,
+            keys=(side,),
+            follows="cell",
+        )
+        for side, name in (("train", "training"), ("test", "test"))
+        for part, what in (("sensors", "units"), ("where", "filters"))
+    ),
+    Column(
+        "test_stream",
+        STR,
+        JSON,
+        "streaming settings of the test ('' for windows)",
+        role=CELL_ROLE,
+        keys=("stream",),
+    ),
     Column("train_slip_windows", INT, "windows", "slip windows on the training side", AT_LEAST_0),
     Column(
         "train_nonslip_windows", INT, "windows", "non-slip windows on the training side", AT_LEAST_0
@@ -511,15 +625,50 @@ FIT = (
     ),
 )
 PROVENANCE = (
-    Column("dataset_fingerprint", STR, "", "content fingerprint of the dataset"),
+    Column(
+        "dataset_fingerprint",
+        STR,
+        "",
+        "content fingerprint of the dataset",
+        role=SETTING,
+        keys=("dataset",),
+        version=True,
+    ),
     Column("dataset_path", STR, "", "where the dataset was read"),
     Column("train_dataset_path", STR, "", "transfer: the training dataset"),
-    Column("train_dataset_fingerprint", STR, "", "transfer: its fingerprint"),
+    Column(
+        "train_dataset_fingerprint",
+        STR,
+        "",
+        "transfer: its fingerprint",
+        role=SETTING,
+        keys=("dataset",),
+        follows="dataset_fingerprint",
+        version=True,
+    ),
     Column("test_dataset_path", STR, "", "transfer: the test dataset"),
-    Column("test_dataset_fingerprint", STR, "", "transfer: its fingerprint"),
-    Column("sensor_map", STR, JSON, "transfer: training unit -> test unit"),
-    Column("slipbench_version", STR, "", "slipbench's version"),
-    Column("interval_method", STR, "", "the intervals' method"),
+    Column(
+        "test_dataset_fingerprint",
+        STR,
+        "",
+        "transfer: its fingerprint",
+        role=SETTING,
+        keys=("dataset",),
+        follows="dataset_fingerprint",
+        version=True,
+    ),
+    Column(
+        "sensor_map",
+        STR,
+        JSON,
+        "transfer: training unit -> test unit",
+        role=SETTING,
+        keys=("dataset",),
+        follows="dataset_fingerprint",
+    ),
+    # not key fields, yet they change what a row's figures or intervals are
+    Column("interval_method", STR, "", "the intervals' method", role=SETTING, version=True),
+    Column("slipbench_version", STR, "", "slipbench's version", role=SETTING, version=True),
     Column("python_version", STR, "", "Python's version"),
     Column("numpy_version", STR, "", "NumPy's version"),
     Column("numba_version", STR, "", "numba's version"),
@@ -540,6 +689,55 @@ GROUPS: dict[str, tuple[Column, ...]] = {
     "Provenance": PROVENANCE,
 }
 COLUMNS: dict[str, Column] = {c.name: c for group in GROUPS.values() for c in group}
+
+
+def identity(
+    *roles: str,
+    keyed: bool | None = None,
+    follows: bool | None = None,
+    version: bool | None = None,
+    but: tuple[str, ...] = (),
+) -> tuple[str, ...]:
+    """The names of the columns of ``roles`` (:data:`ROLES`), in the schema's order: with
+    ``keyed``, those recording a field of the cell's key (True) or none (False); with
+    ``follows``, those another column fixes already (True) or not (False); with ``version``,
+    those recording a version of what the run read (True) or not (False); never those of
+    ``but``. Every list of identity or setting columns is one of these queries."""
+    unknown = set(roles) - set(ROLES)
+    if unknown:
+        raise ValueError(f"not a column role: {sorted(unknown)} (roles: {', '.join(ROLES)})")
+    return tuple(
+        c.name
+        for c in COLUMNS.values()
+        if c.role in roles
+        and keyed in (None, bool(c.keys))
+        and follows in (None, bool(c.follows))
+        and version in (None, c.version)
+        and c.name not in but
+    )
+
+
+def recording(*keys: str) -> tuple[str, ...]:
+    """The names of the columns recording the fields ``keys`` of the cell's key, in the order
+    of ``keys`` (``recording("test", "stream")``: what a cell's test set is); a ValueError
+    names a field no column records."""
+    found = key_columns()
+    unknown = [k for k in keys if k not in found]
+    if unknown:
+        raise ValueError(f"no results column records the key field(s) {unknown}")
+    return tuple(c for k in keys for c in found[k][1])
+
+
+def key_columns() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Each field of the cell's key the rows record -> (its role, the columns recording it),
+    in the schema's order."""
+    out: dict[str, tuple[str, tuple[str, ...]]] = {}
+    for c in COLUMNS.values():
+        for key in c.keys:
+            role, names = out.get(key, (c.role, ()))
+            out[key] = (role, (*names, c.name))
+    return out
+
 
 _ACCEPTS: dict[str, tuple[type, ...]] = {
     "string": (str,),

@@ -14,6 +14,7 @@ from slipbench.protocol import BaseProtocol, Cell, Layout, Presentation, describ
 from slipbench.seeding import rng_for
 from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS, MEDIAN_DELAY
 from slipbench.testing.data import assert_refused, toy_dataset
+from slipbench.vocabulary import SENSOR_TYPE
 
 
 def _cells(protocol: BaseProtocol, dataset: Dataset) -> tuple[list[Cell], pd.DataFrame]:
@@ -77,7 +78,7 @@ def check_protocol_cells(protocol: BaseProtocol, dataset: Dataset | None = None)
         assert wanted <= set(cell.key), (
             f"cell {cell.name} lacks the layout's columns {sorted(wanted - set(cell.key))}"
         )
-    known = set(zip(recordings["sensor_type"], recordings["sensor_instance"]))
+    known = set(zip(recordings[SENSOR_TYPE], recordings["sensor_instance"]))
     for cell in cells:
         for part in (cell.train, cell.test):
             assert set(part.sensors) <= known, (

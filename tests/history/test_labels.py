@@ -57,3 +57,15 @@ def test_history_steps_names_no_cell_in_json(tmp_path):
     code, text = _cli("history", "steps", "--history", str(hist), "--json")
     steps = json.loads(text)["steps"]
     assert steps and not [s["series_label"] for s in steps if '{"' in s["series_label"]]
+
+
+def test_a_setting_at_its_default_renames_no_series(tmp_path):
+    """The balance names a series (the schema gives it a setting's role) but, at its default,
+    stays out of the series' digest: runs before the option keep their series, and a run
+    balanced across materials is a series of its own."""
+    rows = read_results(run_folder(tmp_path / "r", seed=0))
+    before = series_rows(rows.drop(columns=["balance"], errors="ignore"))["series"]
+    within = series_rows(rows.assign(balance="within"))["series"]
+    across = series_rows(rows.assign(balance="across"))["series"]
+    assert list(within) == list(before)
+    assert not set(across) & set(before)

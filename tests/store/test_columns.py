@@ -86,3 +86,40 @@ def test_every_fraction_and_count_declares_its_range():
             assert column.bounds[0] >= 0, column.name
     assert columns.COLUMNS["accuracy"].finite and not columns.COLUMNS["accuracy_lo"].finite
     assert columns.COLUMNS["accuracy_lo"].problem(float("nan")) is None  # an interval may be NaN
+
+
+def test_a_column_role_is_one_field_every_identity_list_follows(monkeypatch):
+    """A new setting is one schema entry: the factors' settings, the contrast's and the input
+    twins' pairing and the history's series read it from there (queried when asked)."""
+    new = columns.Column("grip", "string", "", "how the object was held", role=columns.SETTING)
+    keyed = columns.Column(
+        "grip", "string", "", "how the object was held", role=columns.SETTING, keys=("grip",)
+    )
+    assert "grip" not in columns.identity(columns.SETTING)
+    monkeypatch.setitem(columns.COLUMNS, "grip", new)
+    assert columns.identity(columns.SETTING)[-1] == "grip"
+    assert "grip" not in columns.identity(columns.SETTING, keyed=True)
+    monkeypatch.setitem(columns.COLUMNS, "grip", keyed)
+    assert "grip" in columns.identity(columns.READING, columns.SETTING, keyed=True, follows=False)
+    assert columns.recording("grip") == ("grip",)
+    assert "grip" in columns.key_columns()
+
+
+def test_the_identity_queries_say_what_is_wrong():
+    with pytest.raises(ValueError, match="not a column role"):
+        columns.identity("settng")
+    with pytest.raises(ValueError, match="records the key field"):
+        columns.recording("nowhere")
+    # what the queries give today, so that a role moved by mistake shows
+    assert columns.identity(columns.ENTRANT, columns.READING) == (
+        "detector",
+        "detector_params",
+        "normalize",
+        "input",
+    )
+    assert columns.recording("test", "stream") == ("test_sensors", "test_where", "test_stream")
+    assert set(columns.identity(columns.SETTING, follows=True)) == {
+        "train_dataset_fingerprint",
+        "test_dataset_fingerprint",
+        "sensor_map",
+    }

@@ -47,6 +47,7 @@ from slipbench.data.importers.regular import regular
 from slipbench.data.importers.tables import column_numbers, line_of, read_csv
 from slipbench.data.write import write_dataset
 from slipbench.errors import DataError, UsageError
+from slipbench.vocabulary import SENSOR_TYPE
 
 
 def import_csv(
@@ -237,7 +238,7 @@ def _recordings_of(
     out = []
     for i, group in enumerate(m.channels):
         meta = {**fields, **_group_fields(m, file, group, i)}
-        for key in ("sensor_type", "sensor_instance", "scenario"):
+        for key in (SENSOR_TYPE, "sensor_instance", "scenario"):
             if meta.get(key) in (None, ""):
                 raise UsageError(
                     f"{m.where}: no {key} for {rel}: set it in [recording] or a [[rules]] that selects the file"
@@ -253,7 +254,7 @@ def _recordings_of(
         several = len(m.channels) > 1
         row = dict(
             recording_id=f"{file_id}/{meta['sensor_instance']}" if several else file_id,
-            sensor_type=str(meta["sensor_type"]),
+            sensor_type=str(meta[SENSOR_TYPE]),
             sensor_instance=str(meta["sensor_instance"]),
             scenario=str(meta["scenario"]),
             material=_text(meta.get("material")),
@@ -279,7 +280,7 @@ def _group_fields(m: CsvMapping, file: CsvFile, group: dict, i: int) -> dict[str
     mapped as [recording]'s are."""
     section = "[channels]" if len(m.channels) == 1 else f"[[channels]] #{i + 1}"
     out = {}
-    for key in ("sensor_instance", "sensor_type"):
+    for key in ("sensor_instance", SENSOR_TYPE):
         if key in group:
             value = group[key]
             if isinstance(value, str):

@@ -16,10 +16,11 @@ import tomllib
 from slipbench.data.importers.metadata import MetadataReader, MetadataTable, parse_metadata
 from slipbench.data.importers.paths import check_relative, escapes
 from slipbench.errors import TOO_DEEP, DataError, UsageError
+from slipbench.vocabulary import SENSOR_TYPE
 
 FIELDS = (
     "recording_id",
-    "sensor_type",
+    SENSOR_TYPE,
     "sensor_instance",
     "scenario",
     "material",
@@ -47,7 +48,7 @@ TOP_KEYS = {
     "labels",
     "metadata",
 }
-CHANNEL_KEYS = {"names", "pattern", "count", "units", "sensor_instance", "sensor_type"}
+CHANNEL_KEYS = {"names", "pattern", "count", "units", "sensor_instance", SENSOR_TYPE}
 RATE_KEYS = {"hz", "time_column", "time_unit", "drop_repeats", "resample_hz"}
 LABEL_KEYS = {
     "column",

@@ -14,6 +14,7 @@ from slipbench.data.health import TIMING_KEY, timing, timing_summary
 from slipbench.data.importers.tables import column_numbers, read_csv
 from slipbench.data.write import write_dataset
 from slipbench.errors import DataError
+from slipbench.vocabulary import SENSOR_TYPE
 
 CSV = {"delimiter": ",", "comment": None, "skip_rows": 0}
 PADS = {"pad1": "xela_sensor1.csv", "pad2": "xela_sensor2.csv"}
@@ -116,7 +117,7 @@ def xela_proactive(
             rows.append(
                 {
                     "recording_id": rid,
-                    "sensor_type": "XelaUSkin",
+                    SENSOR_TYPE: "XelaUSkin",
                     "sensor_instance": pad,
                     "scenario": "hold-slip",
                     "material": "box",
