@@ -200,7 +200,8 @@ class Study:
     """The bench's settings, the dataset and the plugins, and pools of evaluated seeds."""
 
     def __init__(self, root: Path, bench_file: Path) -> None:
-        from slipbench.app.benchfile import bench_dataset, plan_runs
+        from slipbench.app.benchfile import plan_runs
+        from slipbench.app.benchside import bench_dataset
         from slipbench.app.benchspec import load_benchmark
         from slipbench.engine import registry
 

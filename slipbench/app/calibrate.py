@@ -260,7 +260,7 @@ def calibrate(  # noqa: PLR0913 - what a calibration needs, named
 
 def _reports_seconds(bench: Benchmark, rows: pd.DataFrame, out: Path) -> float:
     """Seconds to write the bench's reports of ``rows`` into ``out``, as a run writes them."""
-    from slipbench.app.benchfile import write_reports
+    from slipbench.app.benchside import write_reports
 
     t0 = time.perf_counter()
     write_reports(bench, rows, out)
@@ -274,7 +274,7 @@ def measured_read(bench: Benchmark, echo=print) -> tuple[Dataset, dict[str, floa
     again, timed: a side reads it from the cache."""
     import psutil
 
-    from slipbench.app.benchfile import bench_dataset
+    from slipbench.app.benchside import bench_dataset
     from slipbench.data.defaults import default_dataset_path
 
     start_s = time.time() - psutil.Process().create_time()

@@ -68,7 +68,7 @@ def _layout(bench: Benchmark, echo: Callable[[str], None]):
     from slipbench.data.synth import MODEL_VERSION, layout
 
     if bench.dataset is not None:
-        from slipbench.app.benchfile import read_data
+        from slipbench.app.benchside import read_data
 
         ds = read_data(bench, echo)
         return Signals.from_dataset(ds), ds.recordings, ds.fingerprint, f"dataset {ds.path}"
