@@ -50,7 +50,7 @@ def test_summary_leaves_each_detectors_tables_to_the_appendix():
     assert {"window-size", "material-holdout"} <= {t.subject.split()[1].rstrip(",") for t in side}
     text, rest = render(summary, "md"), render(appendix, "md")
     assert "[appendix.md, window-size](appendix.md#window-size)" in text
-    assert "(appendix.md#at-window-50-baseline-and-tptn-rates)" in text
+    assert "(appendix.md#at-window-50-accuracy-and-tptn-rates)" in text
     assert "### window-size: holweg (paper split)" in rest
     assert "### window-size: holweg" not in text
     # the split loses nothing: the whole report holds what the two files hold

@@ -236,8 +236,8 @@ def test_a_cached_rerun_computes_an_edited_cell_again_and_never_copies_it(folder
     after = read_results(folder).set_index("key").loc[path.stem]
     assert after["accuracy"] == before["accuracy"] != 0.01
     assert read_cell(path, path.stem).proven  # the file is written anew
-    code, _, err = cli(args)
-    assert code == 0 and "warning" not in err
+    code, _, err = cli(args)  # the cell proves itself now (the detector's own warnings may print)
+    assert code == 0 and "unreadable" not in err and "not what slipbench wrote" not in err, err
 
 
 @pytest.mark.parametrize("value", [5.0, -1.0, math.nan])
