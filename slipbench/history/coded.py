@@ -1,11 +1,11 @@
 """A history's rows as integer codes, made once, and every figure's points from them.
 
-:func:`slipbench.history.series.figure_rows` and :func:`~slipbench.history.series.points` group a
-history's text columns (series digests, a protocol's pool) once per figure; on a long history
-that grouping is most of the time a step search takes, and its copies most of the memory. Here
-the texts are coded once (:class:`Coded`), and each figure's rows and points are grouped on
+Grouping a history's text columns (series digests, a protocol's pool) once per figure was most
+of the time a step search took on a long history, and its copies most of the memory. Here the
+texts are coded once (:class:`Coded`), and each figure's rows and points are grouped on
 integers with pandas' own aggregations, over the same rows in the same order, so that every
-mean, variance and row order is the one those functions give (``tests/stats/test_coded.py``).
+mean, variance and row order is the text grouping's (``tests/history/test_coded.py`` keeps that
+grouping as the reference).
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ class Coded:
 
 @dataclass
 class FigureRows:
-    """One figure's rows as :func:`slipbench.history.series.figure_rows` gives them, coded:
+    """One figure's rows (:func:`figure_rows`), coded:
     ``series`` a code into ``names`` (cells' codes first, then the pooled series'), ``labels``
     and ``pooled`` (whether a code is a pooled series) per code."""
 
@@ -157,7 +157,10 @@ class FigureRows:
 
 
 def figure_rows(coded: Coded, figure: str) -> FigureRows:
-    """:func:`slipbench.history.series.figure_rows` of ``figure`` from the coded history."""
+    """The finished results of ``figure``, each a row of its series (``kind`` "cell"), and per
+    run, seed, protocol and entrant the mean over its cells (a pooled series): its standard
+    error the mean of the cells' (their errors taken as moving together, the widest case), its
+    degrees of freedom the fewest; a pooled series' identity holds the cells it is over."""
     frame = coded.frame
     ok = np.flatnonzero(coded.finished & frame[figure].notna().to_numpy())
     value = pd.to_numeric(frame[figure], errors="coerce").to_numpy(float)[ok]
@@ -204,8 +207,10 @@ def figure_rows(coded: Coded, figure: str) -> FigureRows:
 
 
 def points(rows: FigureRows) -> pd.DataFrame:
-    """:func:`slipbench.history.series.points` of coded rows: ``series`` a code (the rows'
-    ``names`` name it), the rest as points gives it, in its order."""
+    """(series, run) points of coded rows: each run's mean over its seeds, with the standard
+    error compare gives a side of several seeds (the mean of the seeds' standard errors plus
+    their spread over the number of seeds) and the fewest degrees of freedom; ``series`` a code
+    (the rows' ``names`` name it)."""
     key, first = _combine(rows.series, rows.run)
     table = pd.DataFrame({"value": rows.value, "se": rows.se, "df": rows.df, "low_n": rows.low_n})
     out = table.groupby(key, sort=False).agg(

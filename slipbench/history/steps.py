@@ -1,6 +1,6 @@
 """Steps in a history's series: proposed by binary segmentation, confirmed by the gate's test.
 
-*Proposed.* Each series' points over runs (:func:`slipbench.history.series.points`, one per run,
+*Proposed.* Each series' points over runs (:func:`slipbench.history.coded.points`, one per run,
 oldest first) are cut by binary segmentation (ruptures' ``Binseg``, its breakpoints made in numpy:
 :func:`slipbench.history.segmentation.weighted_binseg`) under a cost that weighs every point by
 its interval: the precision-weighted squared error about each segment's weighted mean (asv
