@@ -34,6 +34,7 @@ import pandas as pd
 
 from slipbench.errors import DataError
 from slipbench.stats.noise import SeedNoise
+from slipbench.store.columns import CELL_ROLE, ENTRANT, SEED, identity
 from slipbench.store.keys import canonical
 
 #: the source a calibration's noise names beside a verdict
@@ -47,6 +48,9 @@ TWIN_DRAW = 1
 #: where two cells of a twin and its run differ by less than this, in every figure, the
 #: detector drew nothing in fit (floating-point noise of a BLAS aside)
 SAME = 1e-12
+#: what pairs a twin's row with its run's: the same entrant's cell and seed (a bench's
+#: settings are one per bench)
+TWINNED = list(identity(SEED, ENTRANT, CELL_ROLE, named=True))
 
 
 def calibration_path(bench: Path) -> Path:
@@ -190,8 +194,7 @@ def measure(
     is finite in every one of them (a cell of one class has no TN rate). A protocol's mean is
     over the cells in which the figure counts, the same cells at every seed.
     """
-    on = ["detector", "protocol", "cell", "seed"]
-    both = _ok(runs).merge(_ok(twins), on=on, suffixes=("", "_twin"), validate="one_to_one")
+    both = _ok(runs).merge(_ok(twins), on=TWINNED, suffixes=("", "_twin"), validate="one_to_one")
     seeds = sorted(set(_ok(runs)["seed"]))
     out: dict[str, dict[str, ProtocolNoise]] = {}
     for (detector, protocol), rows in both.groupby(["detector", "protocol"], sort=True):
@@ -205,8 +208,7 @@ def measure(
 
 def deterministic(runs: pd.DataFrame, twins: pd.DataFrame, figures: Sequence[str]) -> bool:
     """Every cell of the twin scored as its run in every figure: the detector drew nothing."""
-    on = ["detector", "protocol", "cell", "seed"]
-    both = _ok(runs).merge(_ok(twins), on=on, suffixes=("", "_twin"))
+    both = _ok(runs).merge(_ok(twins), on=TWINNED, suffixes=("", "_twin"))
     if both.empty:
         return False
     for f in figures:

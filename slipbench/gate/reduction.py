@@ -81,6 +81,10 @@ TWIN_COLUMNS = identity(
     ENTRANT, READING, SETTING, CELL_ROLE, keyed=True, follows=False, but=(INPUT,)
 )
 _WITHOUT_INPUT = ("cell", "detector_params")  # JSON columns that may name the input
+#: what names a compared cell (the seeds pool): the result's name, its cell key without the
+#: input; its pooled group is the same but the cell key, per sensor type
+_NAMED = identity(ENTRANT, SETTING, CELL_ROLE, named=True)
+_POOLED = (*identity(ENTRANT, SETTING, CELL_ROLE, named=True, but=("cell",)), SENSOR_TYPE)
 READINGS = ("channels better", "channels worse", "within the margin", "undecided", "inconclusive")
 
 
@@ -181,13 +185,8 @@ def _why_not(uni: list[dict], ch: list[dict]) -> str:
 
 
 def _identity(row: dict) -> dict:
-    return {
-        "detector": row.get("detector"),
-        "protocol": row.get("protocol"),
-        "split": row.get("split", ""),
-        SENSOR_TYPE: _sensor(row),
-        "cell": _without_input(row.get("cell", "")),
-    }
+    named = {c: row.get(c, "") for c in _NAMED} | {SENSOR_TYPE: _sensor(row)}
+    return named | {"cell": _without_input(named["cell"])}
 
 
 def _compare_cell(
@@ -354,20 +353,18 @@ def compare_inputs(
         compared.append(_compare_cell(uni, ch, paths, seed))
     by_group: dict[tuple, list] = {}
     for entry, preds in compared:
-        key = tuple(entry[c] for c in ("detector", "split", "protocol", SENSOR_TYPE))
+        key = tuple(entry[c] for c in _POOLED)
         by_group.setdefault(key, []).append((entry, preds))
     pooled_level = family_level(len(by_group), ALPHA)
     lines = []
-    for (detector, split, protocol, sensor), members in by_group.items():
-        line = {"detector": detector, "split": split, "protocol": protocol, SENSOR_TYPE: sensor}
-        line |= _pool(members, seed, pooled_level)
+    for key, members in by_group.items():
+        line = dict(zip(_POOLED, key)) | _pool(members, seed, pooled_level)
         line["reading"] = change_reading(line, max_width)
         lines.append(line)
-    identity = ["detector", "protocol", "split", SENSOR_TYPE, "cell", "inputs", "seeds", "reason"]
     return InputComparison(
         pd.DataFrame([e for e, _ in compared]),
         pd.DataFrame(lines),
-        pd.DataFrame(unpaired, columns=identity),
+        pd.DataFrame(unpaired, columns=[*_NAMED, SENSOR_TYPE, "inputs", "seeds", "reason"]),
         LEVEL,
         pooled_level,
     )

@@ -42,6 +42,14 @@ from slipbench.store.results import (
 
 # the streaming figures compared (the gate's)
 STREAM_FIGURES = columns.names(columns.STREAMED, gated=True)
+#: what pairs two sides' cells: the cell and the settings a result is named by (the detector
+#: too where both sides hold the same; not the seed: a side may hold several per cell)
+PAIRED = (
+    *columns.identity(columns.CELL_ROLE, named=True),
+    *columns.identity(columns.SETTING, named=True),
+)
+#: what names a one-sided cell: the result's name, then the settings it is kept apart by
+NAMED = columns.identity(*columns.ROLES, named=True)
 
 
 def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
@@ -65,7 +73,7 @@ def check_same_dataset(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
 
 
 def _pairing(base: pd.DataFrame, cand: pd.DataFrame) -> list[str]:
-    on = ["protocol", "cell", "split"]  # not the seed: a side may hold several per cell
+    on = list(PAIRED)
     for side, rows in (("BASE", base), ("CANDIDATE", cand)):
         missing = {*on, "seed"} - set(rows.columns)
         if missing:
@@ -90,11 +98,11 @@ def _kept_apart(
     note per setting the two sides differ in (each cell then compares one value with the other)."""
     base, cand = named_entrants(base), named_entrants(cand)
     apart = [c for c in SETTINGS if c in differing_settings(base) or c in differing_settings(cand)]
-    apart = [c for c in apart if c != "split"]  # cells pair on the split already
+    apart = [c for c in apart if c not in PAIRED]  # cells pair on these already
     base, cand = (r.assign(**{c: factor_values(r, c) for c in apart}) for r in (base, cand))
     notes = []
     for c in SETTINGS:
-        if c in apart or c == "split" or not (c in base or c in cand):
+        if c in apart or c in PAIRED or not (c in base or c in cand):
             continue
         b, k = (sorted(set(factor_values(r, c)) - {""}) for r in (base, cand))
         if b and k and b != k:
@@ -196,7 +204,7 @@ def plan_cells(
 ) -> tuple[list, pd.DataFrame, pd.DataFrame]:
     """The cells both sides hold, each (entry, base rows, candidate rows, predictions, same
     seeds), and the cells of one side only."""
-    ident = ["protocol", "detector", "split", "seed", "cell", *on[len(_pairing(base, cand)) :]]
+    ident = [*NAMED, *on[len(_pairing(base, cand)) :]]
     ident += ["status"] if "status" in base and "status" in cand else []  # lost work: finished
     # cells pair by everything but the seed: a side may hold several seeds of a cell
     groups = [dict(iter(rows.groupby(on, sort=False, dropna=False))) for rows in (base, cand)]

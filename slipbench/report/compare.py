@@ -58,6 +58,12 @@ _CLASS_RATES = [f.name for f in figures(WINDOWED) if f.one_class]
 #: cells' words mixed, worse and better
 SCHEMA_VERSION = 5
 MAX_ROWS = 60  # cells listed besides the regressed ones (the CLI default)
+#: a comparison's cells in order of their name (protocol, detector, split, cell), a cell's
+#: seeds side by side
+_ORDER = (
+    *columns.identity(columns.ENTRANT, columns.SETTING, columns.CELL_ROLE, named=True),
+    *columns.identity(columns.SEED, named=True),
+)
 COMMENT_LIMIT = 60_000  # characters; a pull-request comment is capped at 65,536
 
 
@@ -95,10 +101,11 @@ def in_paper_order(cmp: Comparison) -> Comparison:
     cells = cmp.cells
     order = protocol_order(layouts(cells if cmp.rows is None else cmp.rows))
     rank = [
-        (order.index(p), p, d, sp, _cell_rank(c), s)
-        for p, d, sp, c, s in cells[["protocol", "detector", "split", "cell", "seed"]].itertuples(
-            index=False
+        (
+            order.index(r[columns.PROTOCOL]),
+            *(_cell_rank(v) if c == "cell" else v for c, v in r.items()),
         )
+        for r in cells[list(_ORDER)].to_dict("records")
     ]
     cells = cells.iloc[sorted(range(len(cells)), key=rank.__getitem__)].reset_index(drop=True)
     return replace(cmp, cells=cells)

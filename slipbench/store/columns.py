@@ -35,7 +35,10 @@ class Column:
     value fixes it already (``follows``: the protocol lays a cell's parts out from its key, a
     combined dataset's fingerprint holds both datasets and the sensor map) and, for a setting,
     whether it records a version of what the run read (``version``: the data, the code, the
-    interval method) rather than a condition chosen for it."""
+    interval method) rather than a condition chosen for it. A ``named`` column names a result
+    wherever a table, pairing or series lists results (the protocol, the detector, the split,
+    the seed, the cell key); its role's other columns name one only where rows differ in them
+    (:func:`slipbench.stats.factors.differing_settings`, :func:`~slipbench.stats.factors.entrant_names`)."""
 
     name: str
     type: str
@@ -47,6 +50,7 @@ class Column:
     keys: tuple[str, ...] = ()
     follows: str = ""
     version: bool = False
+    named: bool = False
 
     @property
     def allowed(self) -> str:
@@ -94,8 +98,6 @@ ROLES = (SEED, ENTRANT, READING, SETTING, CELL_ROLE, FIGURE)
 #: columns (``SENSOR_TYPE``) are the contract's (:mod:`slipbench.vocabulary`)
 INPUT, PROTOCOL, BALANCE = "input", "protocol", "balance"
 DETECTOR = "detector"
-#: a result but its seed, as tables group it: the protocol, the entrant, the cell
-ENTRANT_CELL = (PROTOCOL, DETECTOR, "cell")
 
 #: a figure's kind: the cells that hold it
 WINDOWED, STREAMED = "windowed", "streamed"
@@ -354,7 +356,7 @@ IDENTITY = (
     Column("key", STR, "", "content address of the cell: data, code, parameters, seed"),
     Column("model_key", STR, "", "content address of the model the cell tests"),
     Column("run_id", STR, "", "UTC time stamp of the run that computed the cell"),
-    Column("protocol", STR, "", "protocol id", role=CELL_ROLE, keys=("protocol",)),
+    Column("protocol", STR, "", "protocol id", role=CELL_ROLE, keys=("protocol",), named=True),
     Column(
         "protocol_params",
         STR,
@@ -372,7 +374,7 @@ IDENTITY = (
         JSON,
         "how the protocol's table and figure look ('' where it declares none)",
     ),
-    Column("detector", STR, "", "detector id", role=ENTRANT, keys=("detector",)),
+    Column("detector", STR, "", "detector id", role=ENTRANT, keys=("detector",), named=True),
     Column(
         "detector_params", STR, JSON, "the detector's parameters", role=ENTRANT, keys=("params",)
     ),
@@ -389,8 +391,11 @@ IDENTITY = (
         "how windows were split into training and test sides",
         role=SETTING,
         keys=("split", "run_split"),
+        named=True,
     ),
-    Column("seed", INT, "", "the run's seed", (0, 2**32 - 1), role=SEED, keys=("seed",)),
+    Column(
+        "seed", INT, "", "the run's seed", (0, 2**32 - 1), role=SEED, keys=("seed",), named=True
+    ),
     Column(
         "labels",
         STR,
@@ -466,7 +471,7 @@ CELL = (
         role=CELL_ROLE,
         keys=("antialias",),
     ),
-    Column("cell", STR, JSON, "the cell's key, whole", role=CELL_ROLE, keys=("cell",)),
+    Column("cell", STR, JSON, "the cell's key, whole", role=CELL_ROLE, keys=("cell",), named=True),
     *(
         Column(
             f"{side}_{part}",
@@ -696,13 +701,16 @@ def identity(
     keyed: bool | None = None,
     follows: bool | None = None,
     version: bool | None = None,
+    named: bool | None = None,
     but: tuple[str, ...] = (),
 ) -> tuple[str, ...]:
     """The names of the columns of ``roles`` (:data:`ROLES`), in the schema's order: with
     ``keyed``, those recording a field of the cell's key (True) or none (False); with
     ``follows``, those another column fixes already (True) or not (False); with ``version``,
-    those recording a version of what the run read (True) or not (False); never those of
-    ``but``. Every list of identity or setting columns is one of these queries."""
+    those recording a version of what the run read (True) or not (False); with ``named``, those
+    naming a result wherever results are listed (True) or only where rows differ in them
+    (False); never those of ``but``. Every list of identity or setting columns is one of these
+    queries."""
     unknown = set(roles) - set(ROLES)
     if unknown:
         raise ValueError(f"not a column role: {sorted(unknown)} (roles: {', '.join(ROLES)})")
@@ -713,8 +721,13 @@ def identity(
         and keyed in (None, bool(c.keys))
         and follows in (None, bool(c.follows))
         and version in (None, c.version)
+        and named in (None, c.named)
         and c.name not in but
     )
+
+
+#: a result but its seed, as tables group it: the protocol, the detector, the cell
+ENTRANT_CELL = identity(ENTRANT, CELL_ROLE, named=True)
 
 
 def recording(*keys: str) -> tuple[str, ...]:

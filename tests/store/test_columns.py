@@ -118,6 +118,15 @@ def test_the_identity_queries_say_what_is_wrong():
         "input",
     )
     assert columns.recording("test", "stream") == ("test_sensors", "test_where", "test_stream")
+    # what tables, pairings and sorts name a result by, in this order (compare's JSON keeps it)
+    assert columns.identity(*columns.ROLES, named=True) == (
+        "protocol",
+        "detector",
+        "split",
+        "seed",
+        "cell",
+    )
+    assert columns.ENTRANT_CELL == ("protocol", "detector", "cell")
     assert set(columns.identity(columns.SETTING, follows=True)) == {
         "train_dataset_fingerprint",
         "test_dataset_fingerprint",

@@ -203,6 +203,7 @@ def evaluate_command(**options) -> None:
     slurm = slurm_resources(o.scheduler, o.slurm, None, detectors)
     from slipbench.report.document import protocol_table
     from slipbench.report.provenance import balance_kept, fitting_warnings, grouped_warnings
+    from slipbench.store.columns import DETECTOR, ENTRANT, INPUT, PROTOCOL, READING, identity
     from slipbench.store.results import ResultsStore, cells_failed
 
     store = ResultsStore(o.out)
@@ -210,7 +211,9 @@ def evaluate_command(**options) -> None:
     if rows is None:
         rows = _evaluated(o, runs, store, slurm)
     shown = recorded_plugins(rows)  # cells kept from a run before rows recorded their layouts
-    for (dn, kind, pn), group in shown.groupby(["detector", "input", "protocol"], sort=False):
+    by = [c for c in (*identity(ENTRANT, READING), PROTOCOL) if c in shown]  # an entrant's table
+    for _, group in shown.groupby(by, sort=False, dropna=False):
+        dn, kind, pn = (group[c].iloc[0] for c in (DETECTOR, INPUT, PROTOCOL))
         click.echo(f"\n## {dn}{'' if kind == 'univariate' else f' ({kind})'} x {pn}\n")
         click.echo(protocol_table(group, intervals=o.intervals))
     counts = rows["status"].value_counts()

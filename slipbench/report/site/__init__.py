@@ -33,12 +33,14 @@ from slipbench.history.series import POOLED
 from slipbench.history.steps import JUDGED, Steps
 from slipbench.report.steps import short_history, verdict_shown
 from slipbench.stats.leaderboard import constant_accuracy
-from slipbench.store.columns import ACCURACY, FIGURES
+from slipbench.store.columns import ACCURACY, CELL_ROLE, ENTRANT, FIGURES, identity
 from slipbench.vocabulary import cell_label
 
 #: the points every series page holds together (values and standard errors)
 POINT_BUDGET = 100_000
 MIN_POINTS = 30
+#: a cell (its protocol and key), then the detectors side by side in it
+_CELL_ENTRANT = (*identity(CELL_ROLE, named=True), *identity(ENTRANT, named=True))
 PAGES = {
     "index.html": "Leaderboard",
     "compare.html": "Side by side",
@@ -147,7 +149,7 @@ def _cells(rows: pd.DataFrame) -> dict:
     ok = rows[rows["status"] == "ok"]
     figures = [f for f in JUDGED if f in ok]
     cells = []
-    for (protocol, cell, detector), part in ok.groupby(["protocol", "cell", "detector"], sort=True):
+    for (protocol, cell, detector), part in ok.groupby(list(_CELL_ENTRANT), sort=True):
         cells.append(
             [protocol, cell_label(str(cell)), detector]
             + [_round(100 * pd.to_numeric(part[f], errors="coerce").mean()) for f in figures]
