@@ -48,8 +48,9 @@ if [ -z "${REDUCTION_ONLY:-}" ]; then
 rm -rf "$REPORTS/figures" "$REPORTS/appendix.md"
 mkdir -p "$REPORTS"
 # written inside $REPORTS so that its figure links are relative to README.md and appendix.md
-# README.md keeps the summary, each detector's own tables and figures go to appendix.md (the
-# two link each other); the introduction and the cost are wrapped around README.md below
+# README.md keeps the summary (under 60 KB: tests/app/test_reports_readme.py), the full tables go
+# to appendix.md (each detector's own, every detector on the paper split, the published ones;
+# the two link each other); the introduction and the cost are wrapped around README.md below
 slipbench report "$RESULTS" --paper --intervals --plots "$REPORTS/figures" --out "$REPORTS/README.md" \
   --appendix "$REPORTS/appendix.md" > /dev/null
 slipbench report "$RESULTS" --format latex --standalone --paper --intervals --out "$REPORTS/tables.tex" > /dev/null
