@@ -48,8 +48,9 @@ if [ -z "${REDUCTION_ONLY:-}" ]; then
 rm -rf "$REPORTS/figures" "$REPORTS/appendix.md"
 mkdir -p "$REPORTS"
 # written inside $REPORTS so that its figure links are relative to README.md and appendix.md
-# README.md keeps the summary, each detector's own tables and figures go to appendix.md (the
-# two link each other); the introduction and the cost are wrapped around README.md below
+# README.md keeps the summary (under 60 KB: tests/app/test_reports_readme.py), the full tables go
+# to appendix.md (each detector's own, every detector on the paper split, the published ones;
+# the two link each other); the introduction and the cost are wrapped around README.md below
 slipbench report "$RESULTS" --paper --intervals --plots "$REPORTS/figures" --out "$REPORTS/README.md" \
   --appendix "$REPORTS/appendix.md" > /dev/null
 slipbench report "$RESULTS" --format latex --standalone --paper --intervals --out "$REPORTS/tables.tex" > /dev/null
@@ -65,15 +66,16 @@ paper's numbers. Agreement or disagreement with the published tables says how th
 behaves on such data, not how these sensors behave. The LSTM trains at the paper's settings
 (up to 100 epochs per learning-rate stage, early stopping after 10 without progress).
 
-What follows: what the numbers stand on, the leaderboard of every built-in detector on the
-grouped split (whole trials on one side for every unit), the grouped and the paper's split side
-by side, whether the paper's findings show here, then per protocol every detector side by side
-(with 95 % intervals and the published table) and its figure, and at the end what the run cost
-and would cost at the paper's size. Each detector's own tables (for the LSTM with ours minus
-published), figures, fitted choices and TP/TN rates are in [appendix.md](appendix.md). The same
-tables in LaTeX are in `tables.tex`; a self-contained HTML page of everything is written to the
-results folder (`report.html`).
-Regenerate everything with `reports/reproduce.sh` from the repository root.
+This page is the summary. What follows: what the numbers stand on, the leaderboard of every
+built-in detector on the grouped split (whole trials on one side for every unit), the grouped
+and the paper's split side by side, whether the paper's findings show here, then per protocol
+every detector side by side on the grouped split and its figure, the baseline at window 50, and
+at the end what the run cost and would cost at the paper's size. The full tables are in
+[appendix.md](appendix.md), linked from each section: per protocol every detector on the paper's
+split, the published table, and each detector's own tables (for the LSTM with ours minus
+published), figures, fitted choices and TP/TN rates. The same tables in LaTeX are in
+`tables.tex`; a self-contained HTML page of everything is written to the results folder
+(`report.html`). Regenerate everything with `reports/reproduce.sh` from the repository root.
 
 **Why a finding may not show here.** The findings table below says, finding by finding, whether
 this reproduction shows what the paper found: "shown" where the 95 % interval of the contrast

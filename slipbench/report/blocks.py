@@ -30,10 +30,17 @@ class Text:
     after: str = ""
 
 
+OWN = "each detector's own tables and figures"
+
+
 @dataclass
 class Detail:
-    """One detector's blocks of a section (its tables and figures): inline in a whole report,
-    moved to the appendix where the report is split (:func:`slipbench.report.document.split_appendix`)."""
+    """Blocks of a section that a summary leaves out (one detector's tables and figures, every
+    detector on a split the summary does not lead with, the published table): inline in a whole
+    report, moved to the appendix where the report is split
+    (:func:`slipbench.report.document.split_appendix`). ``what``: what they are, as the
+    summary's link to them names it."""
 
     section: str
     blocks: list
+    what: str = OWN

@@ -18,8 +18,10 @@ Every report has the same outline:
    their univariate twins (:mod:`slipbench.report.reduction`).
 
 ``leaderboard_only`` stops after 2. Each detector's own blocks (what fitting chose for it, its
-tables and figures of a protocol, its TP/TN rates) are :class:`Detail`: inline in the whole
-report, or moved to an appendix by :func:`split_appendix` so that the summary stays short.
+tables and figures of a protocol, its TP/TN rates), every detector side by side on a split after
+the first and the published tables are :class:`Detail`: inline in the whole report, or moved to
+an appendix by :func:`split_appendix` so that the summary stays short however many splits and
+detectors it holds.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from pathlib import Path
 import pandas as pd
 
 from slipbench.protocol import Layout
-from slipbench.report.blocks import Detail, Heading, Link, Text
+from slipbench.report.blocks import OWN, Detail, Heading, Link, Text
 from slipbench.report.leaderboard import (
     leaderboard_tables,
     one_class_table,
@@ -80,6 +82,8 @@ from slipbench.stats.factors import setting_parts
 from slipbench.stats.leaderboard import leaderboard
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_TYPE
 
+OTHER_SPLITS = "every detector on the other splits"  # what a summary's link names
+PUBLISHED = "the published table"
 PAPER_DETECTOR = (
     "lstm"  # the published tables are this detector's: only its tables get "ours minus published"
 )
@@ -139,15 +143,25 @@ def _anchor(heading: str) -> str:
     return re.sub(r"[^\w\- ]", "", heading.lower()).replace(" ", "-")
 
 
+def _listed(parts: list[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
+
+
 def split_appendix(
     blocks: list, appendix: str, fmt: str = "md", summary_path: str = ""
 ) -> tuple[list, list]:
     """(summary, appendix): the report without its :class:`Detail` blocks, each section that
-    had some pointing to ``appendix`` (the appendix's path as the summary links it), and the
-    appendix: those blocks under their sections' headings, pointing back to ``summary_path``
-    (the summary's path as the appendix links it; "" where the summary has no file). Links
-    name their target where format ``fmt`` links files, else they show their label."""
+    had some pointing to ``appendix`` (the appendix's path as the summary links it) and naming
+    what went there, and the appendix: those blocks under their sections' headings, pointing
+    back to ``summary_path`` (the summary's path as the appendix links it; "" where the summary
+    has no file). Links name their target where format ``fmt`` links files, else they show
+    their label."""
     links = renderer(fmt).cross_links
+    whats: dict[str, list[str]] = {}
+    for block in blocks:  # the link says all that its section moved, wherever it stands
+        if isinstance(block, Detail) and block.what not in whats.setdefault(block.section, []):
+            whats[block.section].append(block.what)
     summary: list = []
     sections: dict[str, list] = {}
     for block in blocks:
@@ -157,7 +171,7 @@ def split_appendix(
         if block.section not in sections:
             summary.append(
                 Text(
-                    "Each detector's own tables and figures of this section: ",
+                    f"In the appendix, {_listed(whats[block.section])} of this section: ",
                     Link(f"{appendix}, {block.section}", f"{appendix}#{_anchor(block.section)}")
                     if links
                     else Link(f"{appendix}, section {block.section}", ""),
@@ -166,14 +180,16 @@ def split_appendix(
             )
         sections.setdefault(block.section, []).extend(block.blocks)
     back = Link(summary_path, summary_path if links else "") if summary_path else None
+    # each detector's own first, the rest as they first come
+    moved = sorted(dict.fromkeys(w for ws in whats.values() for w in ws), key=lambda w: w != OWN)
     rest: list = [
         Heading("slipbench report: appendix", 1),
         Text(
-            "Each detector's own tables and figures, section by section, as the summary"
-            + (" (" if back else ""),
+            f"What the summary{' (' if back else ''}",
             back,
             (")" if back else "")
-            + " leaves them out: the summary says what data and settings stand behind them.",
+            + f" leaves out, section by section: {_listed(moved or [OWN])}. The summary says "
+            "what data and settings stand behind them.",
         ),
     ]
     for section, parts in sections.items():
@@ -355,6 +371,26 @@ def _every_detector(
     return tables
 
 
+def _side_by_side(
+    section: Section, o: ReportOptions, figures: list, reference: Sequence[str]
+) -> list:
+    """Every detector of a protocol side by side: the lead split's tables and figure, then
+    each other split's as :class:`Detail` (a summary leads with one split, as its leaderboard
+    does; the splits side by side say how the others differ)."""
+    protocol, splits = section.protocol, [split.name for split in section.splits]
+    blocks: list = []
+    for n, split in enumerate(section.splits):
+        side = _every_detector(section, split, o, reference)
+        side += [f for f in figures if f.detector is None and f.split == split.name]
+        named = f" ({split.name} split)" if len(splits) > 1 else ""
+        heading = Heading(f"{protocol}: every detector{named}", 3)
+        if n == 0:
+            blocks += [heading, *side]
+        elif side:
+            blocks.append(Detail(protocol, [heading, *side], OTHER_SPLITS))
+    return blocks + [f for f in figures if f.detector is None and f.split not in splits]
+
+
 def _protocol_blocks(
     section: Section, o: ReportOptions, figures: list, reference: Sequence[str]
 ) -> list:
@@ -369,19 +405,14 @@ def _protocol_blocks(
         return blocks
     if section.note:
         blocks.append(Text(section.note))
-    splits = [split.name for split in section.splits]
     if len(section.detectors) > 1:
-        blocks.append(Heading(f"{protocol}: every detector", 3))
-        for split in section.splits:
-            blocks += _every_detector(section, split, o, reference)
-        blocks += sorted(
-            (f for f in figures if f.detector is None),
-            key=lambda f: splits.index(f.split) if f.split in splits else len(splits),
-        )
+        blocks += _side_by_side(section, o, figures, reference)
     if o.paper:
         published = published_table(section.cells, layout, protocol)
         if published is not None:
-            blocks += [Heading(f"{protocol}: published", 3), published]
+            blocks.append(
+                Detail(protocol, [Heading(f"{protocol}: published", 3), published], PUBLISHED)
+            )
     for split in section.splits:
         for detector in section.detectors:
             drows = split.rows[split.rows["detector"] == detector]

@@ -43,13 +43,17 @@ def test_summary_leaves_each_detectors_tables_to_the_appendix():
     assert not any(isinstance(b, Detail) for b in summary + appendix)
     # every table once, in one of the two files; a detector's own ones in the appendix only
     assert sorted(t.label for t in kept + moved) == sorted(t.label for t in whole)
-    assert moved and all(_own(t) for t in moved)
+    published = [t for t in moved if t.label.endswith("-paper")]
+    assert moved and published and all(_own(t) for t in moved if t not in published)
     assert not any(_own(t) for t in kept)
     # the summary keeps a table of every detector side by side for each protocol they share
     side = [t for t in kept if "every detector side by side" in t.caption]
     assert {"window-size", "material-holdout"} <= {t.subject.split()[1].rstrip(",") for t in side}
     text, rest = render(summary, "md"), render(appendix, "md")
-    assert "[appendix.md, window-size](appendix.md#window-size)" in text
+    assert (
+        "In the appendix, the published table and each detector's own tables and figures of "
+        "this section: [appendix.md, window-size](appendix.md#window-size)"
+    ) in text
     assert "(appendix.md#at-window-50-accuracy-and-tptn-rates)" in text
     assert "### window-size: holweg (paper split)" in rest
     assert "### window-size: holweg" not in text
@@ -77,6 +81,42 @@ def test_report_command_writes_summary_and_appendix(tmp_path, cli):
     assert "Detector lstm, protocol sampling-rate" in whole.read_text()  # default: everything
     code, _, err = cli(["report", str(results), "--format", "html", "--appendix", str(extra)])
     assert code == 2 and "--appendix" in err
+
+
+def _two_splits() -> pd.DataFrame:
+    paper = pd.concat(
+        [fake_rows(p, d) for p in ("window-size", "sampling-rate") for d in ("holweg", "lstm")],
+        ignore_index=True,
+    )
+    grouped = paper.assign(split="grouped", key=paper["key"] + "g")
+    return pd.concat([grouped, paper], ignore_index=True)
+
+
+def test_a_summary_shows_every_detector_on_its_lead_split_alone():
+    """A summary stays short as splits add up: every detector side by side on the split its
+    leaderboard ranks; the other split's side by side, the published tables and each
+    detector's own go to the appendix, and the link of each section names them."""
+    blocks = build_report(_two_splits(), paper=True)
+    summary, appendix = split_appendix(blocks, "appendix.md", summary_path="README.md")
+    kept = [b.label for b in summary if isinstance(b, Table)]
+    moved = [b.label for b in appendix if isinstance(b, Table)]
+    whole = [b.label for b in flatten(blocks) if isinstance(b, Table)]
+    assert sorted(kept + moved) == sorted(whole)  # nothing lost, nothing twice
+    side = [label for label in kept if "-detectors" in label]
+    assert side and all("-detectors-grouped" in label for label in side)
+    assert any("-detectors-" in label and "grouped" not in label for label in moved)
+    assert not any(label.endswith("-paper") for label in kept)
+    text, rest = render(summary, "md"), render(appendix, "md")
+    assert "### window-size: every detector (paper split)" in rest
+    assert "### window-size: published" in rest and "### window-size: published" not in text
+    assert (
+        "In the appendix, every detector on the other splits, the published table and each "
+        "detector's own tables and figures of this section: "
+        "[appendix.md, sampling-rate](appendix.md#sampling-rate)."
+    ) in text
+    assert "[README.md](README.md)" in rest and "the published table" in rest
+    # the whole report shows every table where it stood before: the summary holds under half
+    assert len(text) < 0.5 * len(render(blocks, "md"))
 
 
 def _stream_rows(detectors=("holweg", "bandpass", "lstm")) -> pd.DataFrame:

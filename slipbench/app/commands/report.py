@@ -79,9 +79,10 @@ class ReportArgs:
 @click.option(
     "--appendix",
     type=Destination(dir_okay=False),
-    help="Markdown or LaTeX: write each detector's own tables and figures to this file; the "
-    "report keeps the summary (what it stands on, leaderboard, findings, every detector side by "
-    "side) and links it.",
+    help="Markdown or LaTeX: write each detector's own tables and figures, every detector on "
+    "the other splits and the published tables to this file; the report keeps the summary (what "
+    "it stands on, leaderboard, findings, every detector side by side on the lead split) and "
+    "links it.",
 )
 @plugins_option(LAYOUT_PLUGINS_HELP)
 def report(**options) -> None:
