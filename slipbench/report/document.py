@@ -43,6 +43,7 @@ from slipbench.report.leaderboard import (
     versus_column,
 )
 from slipbench.report.meta import meta_blocks
+from slipbench.report.notes import SIMULATED, simulation_note
 from slipbench.report.outline import (
     Section,
     Split,
@@ -62,7 +63,6 @@ from slipbench.report.provenance import fitted_tables, header_tables, on_simulat
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import Drawn, renderer
 from slipbench.report.tables import (
-    SIMULATED,
     Table,
     TableValues,
     baseline_table,
@@ -72,7 +72,6 @@ from slipbench.report.tables import (
     rank,
     rates_table,
     side_by_side,
-    simulation_note,
     split_table,
     table_keys,
 )

@@ -14,16 +14,14 @@ import pandas as pd
 from slipbench.report.outline import references
 from slipbench.report.tables import (
     BELOW_CONSTANT_MARK,
-    DIFFER_WORDS,
     LOW_MARK,
-    VERSUS,
     Table,
-    add_versus,
     figure_label,
     ordered_keys,
     rank,
     summarize,
 )
+from slipbench.report.versus import DIFFER_WORDS, VERSUS, add_versus
 from slipbench.stats.contrast import (
     SHOWN,
     UNDECIDED,

@@ -15,7 +15,8 @@ import pandas as pd
 
 from slipbench.report.blocks import Heading, Text
 from slipbench.report.outline import splits_of
-from slipbench.report.tables import DIFFER_WORDS, LOW_MARK, Table, rank
+from slipbench.report.tables import LOW_MARK, Table, rank
+from slipbench.report.versus import DIFFER_WORDS
 from slipbench.stats.contrast import margin_of, state_of
 from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, transferred
 from slipbench.store.columns import ACCURACY

@@ -230,7 +230,7 @@ def test_the_metric_governs_the_line_to_beat():
 def test_a_change_without_an_estimable_interval_says_why_beside_it():
     """The [-100, +100] of a change whose cells' intervals are not estimable is said, with the
     cells, under the column: never a bare whole-range interval."""
-    from slipbench.report.tables import add_versus
+    from slipbench.report.versus import add_versus
 
     lacks = (
         "the interval of 1 cell is not estimable (a class holds a single test trial; the row "
