@@ -93,6 +93,10 @@ def walk(rows: pd.DataFrame) -> dict[str, int]:
         for (where, name), n in calls.items()
         if where in DERIVING and (DERIVING[where] is None or name in DERIVING[where])
     )
+    moves = Counter(zip(path, path[1:]))
+    print(
+        "most frequent moves:", ", ".join(f"{a} -> {b} {n}" for (a, b), n in moves.most_common(6))
+    )
     return {
         "functions": len(calls),
         "calls": sum(calls.values()),

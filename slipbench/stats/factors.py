@@ -19,11 +19,14 @@ here is a query of it (:func:`slipbench.store.columns.identity`):
 
 The interval method and the slipbench version are not key fields but settings too: they change
 what a row's figures or intervals are (the schema gives them the setting role and no key).
+
+What names and tells rows apart (each factor's text, the entrants' names, the settings that
+differ, the one-class cells) is computed once by the resolved reader,
+:mod:`slipbench.store.resolved`, and named here as before; this module keeps the key's fields
+and what splits rows by them.
 """
 
 from __future__ import annotations
-
-from collections.abc import Iterable
 
 import numpy as np
 import pandas as pd
@@ -53,7 +56,9 @@ from slipbench.store.resolved import (  # noqa: F401  (this module's names since
     named_entrants,
     one_class,
     plain,
+    setting_labels,
     setting_name,
+    setting_parts,
     setting_text,
 )
 
@@ -83,31 +88,3 @@ def latest_runs(rows: pd.DataFrame) -> tuple[pd.DataFrame, int]:
     earlier = np.zeros(len(rows), bool)
     earlier[order] = same.iloc[order].duplicated(keep="last").to_numpy()
     return rows[~earlier], int(earlier.sum())
-
-
-def setting_parts(rows: pd.DataFrame) -> list[tuple[dict[str, str], pd.DataFrame]]:
-    """The rows split by every setting that differs between them (:func:`differing_settings`):
-    (setting -> value, rows) per combination, in first-seen order; the rows whole, with no
-    setting named, where none differs."""
-    columns = differing_settings(rows)
-    if not columns:
-        return [({}, rows)]
-    keys = pd.DataFrame({c: factor_values(rows, c) for c in columns}, index=rows.index)
-    return [
-        (dict(zip(columns, k if isinstance(k, tuple) else (k,))), rows.loc[part.index])
-        for k, part in keys.groupby(columns, sort=False)
-    ]
-
-
-def setting_labels(rows: pd.DataFrame, exclude: Iterable[str] = ()) -> pd.Series:
-    """(n_rows,) the settings that differ between ``rows`` (but ``exclude``), each row's as
-    text (``labels majority, dataset aac611fa5f8a``); "" where none differs."""
-    columns = [c for c in differing_settings(rows) if c not in set(exclude)]
-    texts = [factor_values(rows, c) for c in columns]
-    return pd.Series(
-        [", ".join(setting_text(c, v) for c, v in zip(columns, k)) for k in zip(*texts)]
-        if columns
-        else "",
-        index=rows.index,
-        dtype=object,
-    )

@@ -16,6 +16,7 @@ its own frame (:func:`plain_rows`) before it does.
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import Any
@@ -122,6 +123,34 @@ def setting_text(column: str, value: Any) -> str:
         except json.JSONDecodeError:
             pass
     return f"{name} {text or 'not recorded'}"
+
+
+def setting_parts(rows: pd.DataFrame) -> list[tuple[dict[str, str], pd.DataFrame]]:
+    """The rows split by every setting that differs between them (:func:`differing_settings`):
+    (setting -> value, rows) per combination, in first-seen order; the rows whole, with no
+    setting named, where none differs."""
+    columns = differing_settings(rows)
+    if not columns:
+        return [({}, rows)]
+    keys = pd.DataFrame({c: factor_values(rows, c) for c in columns}, index=rows.index)
+    return [
+        (dict(zip(columns, k if isinstance(k, tuple) else (k,))), rows.loc[part.index])
+        for k, part in keys.groupby(columns, sort=False)
+    ]
+
+
+def setting_labels(rows: pd.DataFrame, exclude: Iterable[str] = ()) -> pd.Series:
+    """(n_rows,) the settings that differ between ``rows`` (but ``exclude``), each row's as
+    text (``labels majority, dataset aac611fa5f8a``); "" where none differs."""
+    columns = [c for c in differing_settings(rows) if c not in set(exclude)]
+    texts = [factor_values(rows, c) for c in columns]
+    return pd.Series(
+        [", ".join(setting_text(c, v) for c, v in zip(columns, k)) for k in zip(*texts)]
+        if columns
+        else "",
+        index=rows.index,
+        dtype=object,
+    )
 
 
 def entrant_names(rows: pd.DataFrame) -> pd.Series:
@@ -326,14 +355,7 @@ class Resolved:
 
     def setting_labels(self) -> pd.Series:
         """(n_rows,) the settings that differ, each row's as text ("" where none differs)."""
-        texts = [self.text(c) for c in self.settings]
-        return pd.Series(
-            [", ".join(setting_text(c, v) for c, v in zip(self.settings, k)) for k in zip(*texts)]
-            if self.settings
-            else "",
-            index=self.rows.index,
-            dtype=object,
-        )
+        return setting_labels(self.rows)
 
 
 def resolve(rows: pd.DataFrame | Resolved) -> Resolved:
@@ -341,15 +363,16 @@ def resolve(rows: pd.DataFrame | Resolved) -> Resolved:
     nothing computed again."""
     if isinstance(rows, Resolved):
         return rows
-    if not is_resolved(rows):
-        present = [c for c in dict.fromkeys((*ENTRANTS, *SETTINGS, *CELLS)) if c in rows]
-        rows = rows.assign(
-            **{TEXT + c: factor_values(rows, c) for c in present},
-            **{
-                ENTRANT_NAME: entrant_names(rows),
-                ONE_CLASS: one_class(rows),
-                CELL_LABEL: cell_labels(rows),
-                CELL_KEY: cell_keys(rows),
-            },
-        )
-    return Resolved(rows)
+    return Resolved(rows if is_resolved(rows) else rows.assign(**_derived(rows)))
+
+
+def _derived(rows: pd.DataFrame) -> dict[str, pd.Series]:
+    """The hidden columns of :func:`resolve`, each computed once over all of ``rows``."""
+    present = [c for c in dict.fromkeys((*ENTRANTS, *SETTINGS, *CELLS)) if c in rows]
+    return {
+        **{TEXT + c: factor_values(rows, c) for c in present},
+        ENTRANT_NAME: entrant_names(rows),
+        ONE_CLASS: one_class(rows),
+        CELL_LABEL: cell_labels(rows),
+        CELL_KEY: cell_keys(rows),
+    }
