@@ -104,9 +104,9 @@ def test_consumers_take_resolved_rows():
     assert board.entrants == again.entrants and board.means.equals(again.means)
     assert series_rows(rows)["series_label"].equals(series_rows(raw)["series_label"])
     lstm = rows[rows["detector"] == "lstm"]
-    assert pair_seeds(lstm, lstm).cells == pair_seeds(
-        raw.loc[lstm.index], raw.loc[lstm.index]
-    ).cells
+    assert (
+        pair_seeds(lstm, lstm).cells == pair_seeds(raw.loc[lstm.index], raw.loc[lstm.index]).cells
+    )
 
 
 def test_a_rewritten_column_is_resolved_anew():
