@@ -27,7 +27,7 @@ from slipbench.stats.contrast import (
     SINGLE_CLUSTER,
 )
 from slipbench.stats.factors import setting_labels
-from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
+from slipbench.stats.metrics import classes_low_n_of, seeds_from_rows, stream_low_n
 from slipbench.store.columns import (
     AUROC,
     ENTRANT_CELL,
@@ -225,8 +225,7 @@ def low_n(rows: pd.DataFrame) -> pd.Series:
     slip, nonslip = column("n_test_clusters_slip"), column("n_test_clusters_nonslip")
     trials, onsets = column("n_test_trials"), column("n_onsets")
     known = ~np.isnan(slip) & ~np.isnan(nonslip)
-    for i in np.flatnonzero(known):
-        out[i] = classes_low_n(int(slip[i]), int(nonslip[i]))
+    out[known] = classes_low_n_of(slip[known].astype(int), nonslip[known].astype(int))
     # the trials holding onsets where the rows count them (older rows: every test trial)
     onset_trials, quiet_trials = column("n_onset_trials"), column("n_nonslip_trials")
     onset_trials = np.where(np.isnan(onset_trials), trials, onset_trials)
