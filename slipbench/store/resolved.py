@@ -3,14 +3,15 @@
 A report, a leaderboard, a contrast, a compare and a history each need the same things of the
 rows they read: who competes (each entrant's name: ``holweg (band=[39, 100])``), each
 identity column's value as text (one spelling per meaning, a missing value its default), which
-settings differ, each cell's label, which test sets hold one class. :func:`resolve` computes
-them once, vectorized, and keeps them in the rows as hidden columns (:data:`TEXT`,
-:data:`ONE_CLASS`, :data:`CELL_LABEL`), so that any part of the rows a step hands on still
-carries them: :func:`factor_values`, :func:`entrant_names` and :func:`one_class` read them
-where they are and derive them only from rows that were never resolved.
+settings differ, which test sets hold one class, what pairs a cell across detectors, each
+cell's label. :func:`resolve` computes them once and keeps them in the rows as hidden columns
+(:data:`TEXT`, :data:`ENTRANT_NAME`, :data:`ONE_CLASS`, :data:`CELL_KEY`), so that any part
+of the rows a step hands on still carries them: :func:`factor_values`, :func:`entrant_names`,
+:func:`one_class` and :func:`cell_keys` read them where they are and derive them only from
+rows that were never resolved.
 
-Resolved rows are read, not rewritten: a step that changes an identity column of them makes
-its own frame (:func:`plain_rows`) before it does.
+Resolved rows are read, not rewritten: a step that changes an identity column of them does it
+through :func:`rewritten`, which makes anew what the column's new values change.
 """
 
 from __future__ import annotations
@@ -53,12 +54,12 @@ UNIVARIATE, CHANNELS = "univariate", "channels"
 CELL_COLUMNS = identity(READING, SETTING, CELL_ROLE, keyed=True, follows=False)
 #: the hidden column of an identity column's text (:func:`factor_values`): ``TEXT + column``
 TEXT = "_text:"
-#: the hidden columns of each row's one-class flag (:func:`one_class`), its cell's label
-#: (:func:`cell_labels`) and what it shares with another detector's row of its cell (:func:`cell_keys`)
-ONE_CLASS, CELL_LABEL, CELL_KEY = "_one_class", "_cell_label", "_cell_key"
+#: the hidden columns of each row's one-class flag (:func:`one_class`) and what it shares with
+#: another detector's row of its cell (:func:`cell_keys`)
+ONE_CLASS, CELL_KEY = "_one_class", "_cell_key"
 #: the hidden column of each row's entrant (:func:`entrant_names`), its detector column kept
 ENTRANT_NAME = "_entrant"
-HIDDEN = (ONE_CLASS, CELL_LABEL, CELL_KEY, ENTRANT_NAME)
+HIDDEN = (ONE_CLASS, CELL_KEY, ENTRANT_NAME)
 
 
 def _text(column: str, v: Any) -> str:
@@ -241,9 +242,7 @@ def one_class(rows: pd.DataFrame) -> pd.Series:
 
 def cell_labels(rows: pd.DataFrame) -> pd.Series:
     """(n_rows,) each row's cell as a short label (:func:`slipbench.vocabulary.cell_label`),
-    each distinct cell key read once; "" where a row has none. Resolved rows hold it."""
-    if CELL_LABEL in rows:
-        return rows[CELL_LABEL]
+    each distinct cell key read once; "" where a row has none."""
     if "cell" not in rows:
         return pd.Series("", index=rows.index, dtype=object)
     keys = rows["cell"].fillna("").astype(str)
@@ -320,8 +319,8 @@ class Resolved:
     Attributes
     ----------
     rows : the rows as given, with each identity column's text (:data:`TEXT`), each row's
-        entrant (:data:`ENTRANT_NAME`), one-class flag (:data:`ONE_CLASS`), cell label
-        (:data:`CELL_LABEL`) and cell key (:data:`CELL_KEY`) beside them.
+        entrant (:data:`ENTRANT_NAME`), one-class flag (:data:`ONE_CLASS`) and cell key
+        (:data:`CELL_KEY`) beside them.
 
     The protocols, the entrants' names (as the rows first name them) and the settings that
     differ between the rows (:func:`differing_settings`) are computed when first asked for.
@@ -345,9 +344,11 @@ class Resolved:
     def one_class(self) -> pd.Series:
         return self.rows[ONE_CLASS]
 
-    @property
+    @cached_property
     def cell_labels(self) -> pd.Series:
-        return self.rows[CELL_LABEL]
+        """(n_rows,) each row's cell label (:func:`cell_labels`), made when first asked for:
+        a report names few cells by label, a history every one."""
+        return cell_labels(self.rows)
 
     def text(self, column: str) -> pd.Series:
         """(n_rows,) ``column``'s values as text (:func:`factor_values`)."""
@@ -373,6 +374,5 @@ def _derived(rows: pd.DataFrame) -> dict[str, pd.Series]:
         **{TEXT + c: factor_values(rows, c) for c in present},
         ENTRANT_NAME: entrant_names(rows),
         ONE_CLASS: one_class(rows),
-        CELL_LABEL: cell_labels(rows),
         CELL_KEY: cell_keys(rows),
     }

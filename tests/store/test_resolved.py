@@ -85,6 +85,7 @@ def test_resolved_rows_read_as_raw_ones_do():
     assert set(entrant_names(rows)) >= {"holweg (band=[39, 100])", "tcn (channels)"}
     assert one_class(rows).equals(one_class(raw)) and one_class(rows).sum() == 1
     assert cell_labels(rows).iloc[0].startswith("Nano17")
+    assert resolve(rows).cell_labels.equals(cell_labels(raw))
     assert cell_keys(rows).equals(cell_keys(raw))
     assert differing_settings(rows) == differing_settings(raw) == ["labels"]
     assert setting_labels(rows).equals(setting_labels(raw))
