@@ -35,7 +35,7 @@ from pathlib import Path
 import pandas as pd
 
 from slipbench.protocol import Layout
-from slipbench.report.blocks import Detail, Heading, Link, Text
+from slipbench.report.blocks import Detail, Heading, Link, Table, Text
 from slipbench.report.leaderboard import (
     leaderboard_tables,
     one_class_table,
@@ -44,6 +44,7 @@ from slipbench.report.leaderboard import (
 )
 from slipbench.report.meta import meta_blocks
 from slipbench.report.notes import SIMULATED, simulation_note
+from slipbench.report.order import rank
 from slipbench.report.outline import (
     Section,
     Split,
@@ -63,13 +64,11 @@ from slipbench.report.provenance import fitted_tables, header_tables, on_simulat
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import Drawn, renderer
 from slipbench.report.tables import (
-    Table,
     TableValues,
     baseline_table,
     build_table,
     compute_table,
     metrics_table,
-    rank,
     rates_table,
     side_by_side,
     split_table,

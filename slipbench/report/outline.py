@@ -12,10 +12,10 @@ import pandas as pd
 
 from slipbench.protocol import NO_CELL, Layout, Presentation, from_record
 from slipbench.report.notes import SIMULATED, TRAINED_AS
+from slipbench.report.order import rank
 from slipbench.report.paper import table_order
 from slipbench.report.presentation import ShownLayout, shown
 from slipbench.report.provenance import on_simulation
-from slipbench.report.tables import rank
 from slipbench.stats.factors import (
     ENTRANT_ID,
     SETTINGS,

@@ -12,15 +12,17 @@ and TP/TN rates per sensor type.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from slipbench.protocol import Layout
+from slipbench.report.blocks import LOW_MARK, STREAM_LOW_NOTE, UNESTIMABLE_MARK, Table
 from slipbench.report.notes import any_repeated, data_notes, interval_note, seeds_notes
+from slipbench.report.order import ordered, rank
 from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import ShownLayout
 from slipbench.stats.contrast import (
@@ -39,7 +41,6 @@ from slipbench.store.columns import (
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
-    ORDERS,
     SENSOR_NAMES,
     SENSOR_TYPE,
     label,
@@ -55,23 +56,6 @@ def figure_label(metric: str) -> str:
 
 
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
-LOW_MARK = "†"  # a cell resting on few test trials
-BELOW_CONSTANT_MARK = "‡"  # an accuracy not above what the constant answer scores there
-UNESTIMABLE_MARK = "§"  # an interval that is the figure's whole range: a class of one trial
-UNESTIMABLE_NOTE = (
-    f"{UNESTIMABLE_MARK} the interval is not estimable: a class of the test set holds a single "
-    "test trial, so nothing measures how its trials vary, and the interval shown is the "
-    "figure's whole range (the row's ci_note), whatever the number of test trials."
-)
-LOW_NOTE = (
-    f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
-    f"else fewer than {LOW_N} in all): its interval is not to be trusted."
-)
-STREAM_LOW_NOTE = (
-    f"{LOW_MARK} few events behind this cell (fewer than {LOW_N} test trials holding slip onsets, "
-    f"fewer than {LOW_N} onsets, or fewer than {LOW_N} trials with non-slip time): its figures are "
-    "not to be trusted."
-)
 
 
 ROW_HEADERS = {
@@ -86,53 +70,7 @@ COLUMN_UNITS = {
 }
 
 
-@dataclass
-class Table:
-    """A table in no format: labels and cell texts, in plain text (each renderer escapes them)."""
-
-    caption: str
-    row_headers: list[str]
-    group: str  # header spanning the value columns
-    columns: list[str]  # plain-text column labels (Markdown)
-    rows: list[tuple[str, ...]]
-    cells: list[list[str]]
-    label: str
-    # a value column's label as values each with a superscript, (value, superscript) pairs by
-    # the column's index (the rates of the paper's Table II, numbered by sensor type), for a
-    # format that sets superscripts; ``columns`` holds the same label as plain text
-    superscripts: dict[int, list[tuple[str, str]]] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
-    # each this fraction of the line width; text columns need it, numbers do not
-    wrap: dict[int, float] = field(default_factory=dict)
-    subject: str = ""  # what the table is of ("Detector holweg, protocol window-size, paper split."): after the caption
-
-    def __post_init__(self) -> None:
-        # every table that marks a cell says what the mark means, whoever built it
-        for mark, note in ((LOW_MARK, LOW_NOTE), (UNESTIMABLE_MARK, UNESTIMABLE_NOTE)):
-            marked = any(mark in c for line in self.cells for c in line)
-            if marked and not any(n.startswith(mark) for n in self.notes):
-                self.notes.append(note)
-
-
 # ----------------------------------------------------------------------------- ordering and labels
-def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
-    """Known values in ``order`` first, then numbers ascending, then the rest alphabetically."""
-
-    def key(v):
-        if v in order:
-            return (0, order.index(v), "")
-        try:
-            return (1, float(v), "")
-        except (TypeError, ValueError):
-            return (2, 0.0, str(v))
-
-    return sorted(set(values), key=key)
-
-
-def ordered(values: Iterable[Any], column: str) -> list[Any]:
-    out = rank(values, ORDERS.get(column, ()))
-    return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
 
 
 def _as_printed(percent: float) -> str:

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from slipbench.report.tables import LOW_MARK, Table, figure_label
+from slipbench.report.blocks import LOW_MARK, Table
+from slipbench.report.tables import figure_label
 from slipbench.stats.contrast import (
     CONTRADICTED,
     ONE_SEED,

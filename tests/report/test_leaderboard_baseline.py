@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 from resultgen import fake_rows, predictions_pair
 
+from slipbench.report.blocks import Table
 from slipbench.report.document import build_report, render
 from slipbench.report.leaderboard import (
     NO_BASELINE,
@@ -15,7 +16,6 @@ from slipbench.report.leaderboard import (
     versus_baseline,
     versus_column,
 )
-from slipbench.report.tables import Table
 from slipbench.stats.contrast import ONE_SEED, Contrast, pair_seeds, paired_change
 from slipbench.stats.factors import named_entrants
 from slipbench.stats.leaderboard import leaderboard
