@@ -14,7 +14,7 @@ two label rules, the sampling rate with three seeds) with findings and intervals
 
     python benchmarks/report_path.py
 
-The figures depend on the code alone (the frame is made, not read), so one run is the figure.
+(before and after issue 56: benchmarks/results/report_path.md). The figures depend on the code alone (the frame is made, not read), so one run is the figure.
 """
 
 from __future__ import annotations
