@@ -11,7 +11,8 @@ of the rows a step hands on still carries them: :func:`factor_values`, :func:`en
 rows that were never resolved.
 
 Resolved rows are read, not rewritten: a step that changes an identity column of them does it
-through :func:`rewritten`, which makes anew what the column's new values change.
+through :func:`rewritten`, which makes anew what the column's new values change; rows joined to
+rows never resolved are joined as :func:`plain_rows` and resolved again.
 """
 
 from __future__ import annotations
@@ -306,8 +307,8 @@ def is_resolved(rows: pd.DataFrame) -> bool:
 
 
 def plain_rows(rows: pd.DataFrame) -> pd.DataFrame:
-    """``rows`` without the hidden columns of :func:`resolve`, for a step that rewrites an
-    identity column (the texts would no longer be its values)."""
+    """``rows`` without the hidden columns of :func:`resolve`: as they were read, for a step
+    that hands them on as records or joins them to rows never resolved."""
     hidden = [c for c in rows if c.startswith(TEXT) or c in HIDDEN]
     return rows.drop(columns=hidden) if hidden else rows
 
