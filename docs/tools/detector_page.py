@@ -10,7 +10,7 @@ import sys
 
 from slipbench.base import BaseDetector
 from slipbench.engine.registry import detectors
-from slipbench.report.tables import rank
+from slipbench.report.order import rank
 from slipbench.vocabulary import DETECTOR_ORDER
 
 PAGE = "docs/reference/detectors.md"

@@ -33,6 +33,7 @@ from slipbench.stats.factors import (
 )
 from slipbench.stats.metrics import FIGURES
 from slipbench.store import columns
+from slipbench.store.resolved import resolve, rewritten
 from slipbench.store.results import (
     check_unique_keys,
     read_predictions,
@@ -96,10 +97,10 @@ def _kept_apart(
     :func:`slipbench.stats.factors.entrant_names`), the settings that differ within a side (so
     that cells pair on them too, never pooling two of their values as seeds of one cell), and a
     note per setting the two sides differ in (each cell then compares one value with the other)."""
-    base, cand = named_entrants(base), named_entrants(cand)
+    base, cand = (named_entrants(resolve(r).rows) for r in (base, cand))
     apart = [c for c in SETTINGS if c in differing_settings(base) or c in differing_settings(cand)]
     apart = [c for c in apart if c not in PAIRED]  # cells pair on these already
-    base, cand = (r.assign(**{c: factor_values(r, c) for c in apart}) for r in (base, cand))
+    base, cand = (rewritten(r, {c: factor_values(r, c) for c in apart}) for r in (base, cand))
     notes = []
     for c in SETTINGS:
         if c in apart or c in PAIRED or not (c in base or c in cand):

@@ -35,8 +35,8 @@ from slipbench.stats.metrics import LEVEL
 from slipbench.stats.noise import SeedNoise, pool_seed_spreads
 from slipbench.store.columns import BALANCE, DETECTOR, PROTOCOL, SETTING, identity
 from slipbench.store.history import COLUMNS, FIGURES, RUN_COLUMNS
+from slipbench.store.resolved import cell_labels, cell_text, resolve
 from slipbench.store.results import row_digest
-from slipbench.vocabulary import cell_label
 
 #: the settings (beyond the entrant and the cell's columns) that name a series: the conditions
 #: chosen for a run (a setting at its default is left out of the name, as
@@ -75,7 +75,8 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
         Two rows of the run fall in one series under one seed: the rows do not say what tells
         them apart.
     """
-    named = named_entrants(rows.reset_index(drop=True))  # a file's own index may repeat
+    # resolved once (a file's own index may repeat): the texts and labels below are its
+    named = named_entrants(resolve(rows.reset_index(drop=True)).rows)
     apart = [c for c in APART if c in named and factor_values(named, c).nunique() > 1]
     columns = [c for c in (*IDENTITY, *apart) if c in named]
     identity = pd.DataFrame({c: factor_values(named, c) for c in columns}, index=named.index)
@@ -91,7 +92,9 @@ def series_rows(rows: pd.DataFrame) -> pd.DataFrame:
         {c: v for c, v in r.items() if v != DEFAULTS.get(c)} for r in identity.to_dict("records")
     ]
     out["series"] = [_digest(r) for r in named_by]
-    out["series_label"] = [_label(r) for r in identity.to_dict("records")]
+    out["series_label"] = [
+        _label(r, cell) for r, cell in zip(identity.to_dict("records"), cell_labels(named))
+    ]
     twice = out.duplicated(["series", "seed"], keep=False)
     if twice.any():
         raise ValueError(
@@ -123,30 +126,21 @@ def _standard_error(rows: pd.DataFrame, figure: str) -> pd.Series:
     return (hi - lo) / (2 * scipy.stats.norm.ppf(1 - (1 - LEVEL) / 2))
 
 
-def _label(identity: dict) -> str:
+def _label(identity: dict, cell: str) -> str:
     """``window-size · holweg · Nano17 Index window 50 · grouped``: how pages and steps name
-    it, the cell by :func:`slipbench.vocabulary.cell_label` (as the pull-request comment and
-    the report name it)."""
-    cell = identity.get("cell", "")
-    parts = [identity.get("protocol", ""), identity.get("detector", ""), _cell_text(cell)]
+    it, the cell by its label (:func:`slipbench.store.resolved.cell_labels`, as the
+    pull-request comment and the report name it)."""
+    parts = [identity.get("protocol", ""), identity.get("detector", ""), cell]
     parts += [identity[c] for c in ("split", "labels") if identity.get(c)]
     parts += [f"{c} {identity[c][:12]}" for c in APART if identity.get(c)]
     return " · ".join(p for p in parts if p)
-
-
-def _cell_text(cell: str) -> str:
-    """A cell key (JSON) as its short label; a key that is not a JSON object as it is."""
-    try:
-        return cell_label(cell) if cell.startswith("{") else cell
-    except (ValueError, TypeError, AttributeError):  # not JSON: shown as recorded
-        return cell
 
 
 def shown_labels(labels: pd.Series) -> np.ndarray:
     """Series labels as people read them: a label a history recorded with its cell as JSON
     (before cells had short labels) gets the short one, computed once per distinct label."""
     codes, uniques = pd.factorize(labels.fillna("").astype(str))
-    short = [" · ".join(_cell_text(p) for p in u.split(" · ")) for u in uniques]
+    short = [" · ".join(cell_text(p) for p in u.split(" · ")) for u in uniques]
     return np.asarray(short, dtype=object)[codes] if len(short) else np.asarray([], dtype=object)
 
 

@@ -37,7 +37,7 @@ from pathlib import Path
 import pandas as pd
 
 from slipbench.protocol import Layout
-from slipbench.report.blocks import OWN, Detail, Heading, Link, Text
+from slipbench.report.blocks import OWN, Detail, Heading, Link, Table, Text
 from slipbench.report.leaderboard import (
     leaderboard_tables,
     one_class_table,
@@ -45,6 +45,8 @@ from slipbench.report.leaderboard import (
     versus_column,
 )
 from slipbench.report.meta import meta_blocks
+from slipbench.report.notes import SIMULATED, simulation_note
+from slipbench.report.order import rank
 from slipbench.report.outline import (
     Section,
     Split,
@@ -64,17 +66,13 @@ from slipbench.report.provenance import fitted_tables, header_tables, on_simulat
 from slipbench.report.reduction import reduction_blocks
 from slipbench.report.render import Drawn, renderer
 from slipbench.report.tables import (
-    SIMULATED,
-    Table,
     TableValues,
     baseline_table,
     build_table,
     compute_table,
     metrics_table,
-    rank,
     rates_table,
     side_by_side,
-    simulation_note,
     split_table,
     table_keys,
 )

@@ -19,10 +19,12 @@ from collections import Counter
 import numpy as np
 import pandas as pd
 
+from slipbench.report.blocks import Table
+from slipbench.report.order import ordered, rank
 from slipbench.report.outline import fits
 from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import ShownLayout
-from slipbench.report.tables import Table, ordered, rank, summarize
+from slipbench.report.tables import summarize
 from slipbench.stats.contrast import (
     CONTRADICTED,
     ONE_SEED_COVERAGE,

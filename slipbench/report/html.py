@@ -7,10 +7,9 @@ import base64
 import html
 import re
 
-from slipbench.report.blocks import Heading, Text
+from slipbench.report.blocks import Heading, Table, Text
 from slipbench.report.markdown import md_target
 from slipbench.report.render import Drawn, Renderer
-from slipbench.report.tables import Table
 
 CSS = """
 body { font: 15px/1.45 system-ui, -apple-system, "Segoe UI", sans-serif; color: #1b1b1b; margin: 0 auto;

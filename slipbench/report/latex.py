@@ -7,9 +7,15 @@ from __future__ import annotations
 import re
 import textwrap
 
-from slipbench.report.blocks import Heading, Text
+from slipbench.report.blocks import (
+    BELOW_CONSTANT_MARK,
+    LOW_MARK,
+    UNESTIMABLE_MARK,
+    Heading,
+    Table,
+    Text,
+)
 from slipbench.report.render import Drawn, Renderer
-from slipbench.report.tables import BELOW_CONSTANT_MARK, LOW_MARK, UNESTIMABLE_MARK, Table
 
 # one figure of a cell as ``figure_text`` writes it ("88.0 ± 0.4 [86.9, 89.1]†"), its marks after
 # it ("*": without explicit training); a paired cell holds two, separated by a space

@@ -11,19 +11,11 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from slipbench.report.blocks import BELOW_CONSTANT_MARK, LOW_MARK, Table
+from slipbench.report.order import rank
 from slipbench.report.outline import references
-from slipbench.report.tables import (
-    BELOW_CONSTANT_MARK,
-    DIFFER_WORDS,
-    LOW_MARK,
-    VERSUS,
-    Table,
-    add_versus,
-    figure_label,
-    ordered_keys,
-    rank,
-    summarize,
-)
+from slipbench.report.tables import figure_label, ordered_keys, summarize
+from slipbench.report.versus import DIFFER_WORDS, VERSUS, add_versus
 from slipbench.stats.contrast import (
     SHOWN,
     UNDECIDED,

@@ -8,9 +8,8 @@ from urllib.parse import quote
 
 import pandas as pd
 
-from slipbench.report.blocks import Heading, Text
+from slipbench.report.blocks import Heading, Table, Text
 from slipbench.report.render import Drawn, Renderer
-from slipbench.report.tables import Table
 
 # what Markdown reads as markup inside a line: code, emphasis, links, HTML, tables, entities
 MD_MARKUP = re.compile(r"([\\`*_\[\]<>|#~&])")

@@ -13,9 +13,10 @@ from pathlib import PurePath
 import numpy as np
 import pandas as pd
 
-from slipbench.report.blocks import Heading, Text
+from slipbench.report.blocks import LOW_MARK, Heading, Table, Text
+from slipbench.report.order import rank
 from slipbench.report.outline import splits_of
-from slipbench.report.tables import DIFFER_WORDS, LOW_MARK, Table, rank
+from slipbench.report.versus import DIFFER_WORDS
 from slipbench.stats.contrast import margin_of, state_of
 from slipbench.stats.meta import METHOD_TEXT, MetaAnalysis, meta_analysis, transferred
 from slipbench.store.columns import ACCURACY

@@ -11,10 +11,11 @@ from dataclasses import dataclass
 import pandas as pd
 
 from slipbench.protocol import NO_CELL, Layout, Presentation, from_record
+from slipbench.report.notes import SIMULATED, TRAINED_AS
+from slipbench.report.order import rank
 from slipbench.report.paper import table_order
 from slipbench.report.presentation import ShownLayout, shown
 from slipbench.report.provenance import on_simulation
-from slipbench.report.tables import SIMULATED, TRAINED_AS, rank
 from slipbench.stats.factors import (
     ENTRANT_ID,
     SETTINGS,
@@ -23,6 +24,7 @@ from slipbench.stats.factors import (
     named_entrants,
     setting_text,
 )
+from slipbench.store.resolved import Resolved, resolve
 from slipbench.vocabulary import DETECTOR_ORDER, SENSOR_TYPE, SPLIT_ORDER
 
 
@@ -37,7 +39,7 @@ def as_tested(rows: pd.DataFrame) -> pd.DataFrame:
     """``rows`` with each row trained on one dataset and tested on another (its ``sensor_map``)
     naming the unit it tested: ``sensor_type`` and ``sensor_instance`` those of the test
     dataset's unit, the instance saying what it was tested as (``ff (trained as BioTacSP
-    ff)``), the training unit kept in :data:`~slipbench.report.tables.TRAINED_AS`."""
+    ff)``), the training unit kept in :data:`~slipbench.report.notes.TRAINED_AS`."""
     if "sensor_map" not in rows or "sensor_instance" not in rows or rows["sensor_map"].isna().all():
         return rows
     out = rows.assign(**{TRAINED_AS: None})
@@ -266,7 +268,7 @@ class Outline:
     rows : every row, each detector named as its entrant
         (:func:`~slipbench.stats.factors.named_entrants`), each unit as it was tested
         (:func:`as_tested`), rows tested on a simulation whose force direction gives slip away
-        flagged (:data:`~slipbench.report.tables.SIMULATED`).
+        flagged (:data:`~slipbench.report.notes.SIMULATED`).
     cells : those rows without the stand-ins of protocols that made no cell.
     stored : the cells as the rows store them (detectors by plugin id), for the section that
         pairs a detector's inputs.
@@ -275,6 +277,8 @@ class Outline:
     splits : the splits of the rows, the one the leaderboard and the findings rank first.
     lead : the cells of that split.
     reference : the reference detectors (:func:`references`).
+    resolved : the rows as tested, resolved once (:func:`slipbench.store.resolved.resolve`):
+        every part of ``rows`` carries what it computed.
     """
 
     rows: pd.DataFrame
@@ -285,6 +289,7 @@ class Outline:
     splits: list[str]
     lead: pd.DataFrame
     reference: list[str]
+    resolved: Resolved
 
     @property
     def order(self) -> list[str]:
@@ -309,7 +314,8 @@ def outline(rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]] | None
     """The :class:`Outline` of a report of ``rows``; ``found``: each protocol's layout and note
     (default: :func:`layouts`)."""
     stored = rows[~stand_ins(rows)]
-    rows = named_entrants(as_tested(rows)).assign(**{SIMULATED: on_simulation(rows)})
+    resolved = resolve(as_tested(rows).assign(**{SIMULATED: on_simulation(rows)}))
+    rows = named_entrants(resolved.rows)
     found = layouts(rows) if found is None else found
     cells = rows[~stand_ins(rows)]
     splits = splits_of(rows)
@@ -323,4 +329,5 @@ def outline(rows: pd.DataFrame, found: dict[str, tuple[ShownLayout, str]] | None
         [s for s, _ in splits],
         lead[~stand_ins(lead)],
         references(cells),
+        resolved,
     )

@@ -40,10 +40,11 @@ from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from slipbench.errors import writing  # noqa: E402
+from slipbench.report.order import ordered, rank
 from slipbench.report.outline import Outline, Section, Split, split_parts  # noqa: E402
 from slipbench.report.paper import paper_frame  # noqa: E402
 from slipbench.report.presentation import ShownLayout  # noqa: E402
-from slipbench.report.tables import ordered, rank, summarize  # noqa: E402
+from slipbench.report.tables import summarize  # noqa: E402
 from slipbench.stats.leaderboard import ALL, Leaderboard  # noqa: E402
 from slipbench.stats.meta import MetaAnalysis  # noqa: E402
 from slipbench.store.columns import DETECTION_RATE, FALSE_ALARMS  # noqa: E402

@@ -20,7 +20,9 @@ import pyarrow as pa
 
 from slipbench.atomic import open_parquet
 from slipbench.errors import DataError
-from slipbench.report.tables import LOW_MARK, Table, low_n, ordered
+from slipbench.report.blocks import LOW_MARK, Table
+from slipbench.report.order import ordered
+from slipbench.report.tables import low_n
 from slipbench.stats.bootstrap import DEFAULT_METHOD, FIGURES_AS
 from slipbench.store.columns import overridden
 from slipbench.vocabulary import SENSOR_TYPE, cell_label, label

@@ -17,9 +17,10 @@ import pandas as pd
 
 from slipbench.gate.compare import ALPHA, MAX_WIDTH, MIN_SEEDS, RECOMMENDED_REPEATS
 from slipbench.gate.reduction import READINGS, InputComparison, compare_inputs, has_both_inputs
-from slipbench.report.blocks import Detail, Heading, Text
+from slipbench.report.blocks import LOW_MARK, Detail, Heading, Table, Text
+from slipbench.report.order import ordered, rank
 from slipbench.report.outline import layouts, protocol_order
-from slipbench.report.tables import CLASS_RATES, LOW_MARK, Table, ordered, rank
+from slipbench.report.tables import CLASS_RATES
 from slipbench.stats.contrast import margin_of
 from slipbench.store.columns import ACCURACY
 from slipbench.vocabulary import DETECTOR_ORDER, LOW_N, SENSOR_NAMES, SENSOR_TYPE, cell_label, label

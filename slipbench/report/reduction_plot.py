@@ -12,8 +12,8 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from slipbench.report.order import ordered
 from slipbench.report.plots import STYLE, TITLE_CHARS, WIDTH
-from slipbench.report.tables import ordered
 from slipbench.vocabulary import SENSOR_TYPE, label
 
 # a reading's colour: better blue, worse red (as the difference heatmaps), the rest grey

@@ -12,8 +12,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, ClassVar
 
 if TYPE_CHECKING:  # the commands read FORMATS at start-up: nothing heavy loads with it
-    from slipbench.report.blocks import Heading, Text
-    from slipbench.report.tables import Table
+    from slipbench.report.blocks import Heading, Table, Text
 
 #: each format's name (``--format``) -> the module of this wing that renders it; the modules are
 #: imported when a report is rendered, so that the commands start without them

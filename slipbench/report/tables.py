@@ -12,29 +12,25 @@ and TP/TN rates per sensor type.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from slipbench.protocol import Layout
+from slipbench.report.blocks import LOW_MARK, STREAM_LOW_NOTE, UNESTIMABLE_MARK, Table
+from slipbench.report.notes import any_repeated, data_notes, interval_note, seeds_notes
+from slipbench.report.order import ordered, rank
 from slipbench.report.paper import paper_frame
 from slipbench.report.presentation import ShownLayout
 from slipbench.stats.contrast import (
-    CONTRADICTED,
-    ONE_SEED,
-    SHOWN,
     SINGLE_CLUSTER,
-    UNDECIDED,
-    Contrast,
 )
 from slipbench.stats.factors import setting_labels
-from slipbench.stats.joint import JOINT_NOTE
-from slipbench.stats.metrics import classes_low_n, seeds_from_rows, stream_low_n
+from slipbench.stats.metrics import classes_low_n_of, seeds_from_rows, stream_low_n
 from slipbench.store.columns import (
-    ACCURACY,
     AUROC,
     ENTRANT_CELL,
     FIGURES,
@@ -45,7 +41,6 @@ from slipbench.store.columns import (
 from slipbench.vocabulary import (
     DETECTOR_ORDER,
     LOW_N,
-    ORDERS,
     SENSOR_NAMES,
     SENSOR_TYPE,
     label,
@@ -61,49 +56,8 @@ def figure_label(metric: str) -> str:
 
 
 BASELINE_WINDOW = 50  # the paper's reference window for the Holweg baseline and the TP/TN rates
-LOW_MARK = "†"  # a cell resting on few test trials
-BELOW_CONSTANT_MARK = "‡"  # an accuracy not above what the constant answer scores there
-UNESTIMABLE_MARK = "§"  # an interval that is the figure's whole range: a class of one trial
-UNESTIMABLE_NOTE = (
-    f"{UNESTIMABLE_MARK} the interval is not estimable: a class of the test set holds a single "
-    "test trial, so nothing measures how its trials vary, and the interval shown is the "
-    "figure's whole range (the row's ci_note), whatever the number of test trials."
-)
-LOW_NOTE = (
-    f"{LOW_MARK} few test trials behind this cell (fewer than {LOW_N} of a class where the rows say, "
-    f"else fewer than {LOW_N} in all): its interval is not to be trusted."
-)
-STREAM_LOW_NOTE = (
-    f"{LOW_MARK} few events behind this cell (fewer than {LOW_N} test trials holding slip onsets, "
-    f"fewer than {LOW_N} onsets, or fewer than {LOW_N} trials with non-slip time): its figures are "
-    "not to be trusted."
-)
 
 
-#: a column the report sets on its rows: the test data is slipbench's simulation
-SIMULATED = "_on_simulation"
-#: a column the report sets on rows tested on another dataset's unit: the training unit's name
-TRAINED_AS = "_trained_as"
-SIMULATION_NOTE = (
-    "Channels on simulated data of model version 3 or earlier: there, the force's direction alone "
-    "separates slip (tangential load) from pressing (a mostly normal load; docs/explanation/simulation.md), so "
-    "these channels figures measure the simulation, not what a sensor can tell."
-)
-
-# What a table's intervals are. A figure run under several seeds (--repeats) is their mean; its
-# interval is the two-level bootstrap over test trials and seeds where the seeds' predictions are
-# at hand (slipbench.stats.joint), else an interval from the seeds' rows, both with retraining
-# noise inside (slipbench.stats.metrics.seeds_from_rows)
-INTERVAL_NOTE = "[95 % interval: cluster bootstrap over test trials, stratified by class.]"
-POOLED_TEXT = (
-    "its interval a two-level bootstrap over test trials and seeds (each resample draws the test "
-    "trials once for every seed, and draws the seeds), so retraining noise is inside it"
-)
-ROWS_TEXT = (
-    "its interval from the seeds' rows (their mean standard error at the normal quantile and the "
-    "spread of their figures over seeds at t's, combined as Banerjee's: retraining noise inside; "
-    "keep predictions for the two-level bootstrap)"
-)
 ROW_HEADERS = {
     SENSOR_TYPE: "Sensor",
     "sensor_instance": "Finger",
@@ -116,53 +70,7 @@ COLUMN_UNITS = {
 }
 
 
-@dataclass
-class Table:
-    """A table in no format: labels and cell texts, in plain text (each renderer escapes them)."""
-
-    caption: str
-    row_headers: list[str]
-    group: str  # header spanning the value columns
-    columns: list[str]  # plain-text column labels (Markdown)
-    rows: list[tuple[str, ...]]
-    cells: list[list[str]]
-    label: str
-    # a value column's label as values each with a superscript, (value, superscript) pairs by
-    # the column's index (the rates of the paper's Table II, numbered by sensor type), for a
-    # format that sets superscripts; ``columns`` holds the same label as plain text
-    superscripts: dict[int, list[tuple[str, str]]] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    # LaTeX: columns (counted over row headers, then value columns) set as wrapping paragraphs,
-    # each this fraction of the line width; text columns need it, numbers do not
-    wrap: dict[int, float] = field(default_factory=dict)
-    subject: str = ""  # what the table is of ("Detector holweg, protocol window-size, paper split."): after the caption
-
-    def __post_init__(self) -> None:
-        # every table that marks a cell says what the mark means, whoever built it
-        for mark, note in ((LOW_MARK, LOW_NOTE), (UNESTIMABLE_MARK, UNESTIMABLE_NOTE)):
-            marked = any(mark in c for line in self.cells for c in line)
-            if marked and not any(n.startswith(mark) for n in self.notes):
-                self.notes.append(note)
-
-
 # ----------------------------------------------------------------------------- ordering and labels
-def rank(values: Iterable[Any], order: Sequence[Any] = ()) -> list[Any]:
-    """Known values in ``order`` first, then numbers ascending, then the rest alphabetically."""
-
-    def key(v):
-        if v in order:
-            return (0, order.index(v), "")
-        try:
-            return (1, float(v), "")
-        except (TypeError, ValueError):
-            return (2, 0.0, str(v))
-
-    return sorted(set(values), key=key)
-
-
-def ordered(values: Iterable[Any], column: str) -> list[Any]:
-    out = rank(values, ORDERS.get(column, ()))
-    return out[::-1] if column == "downsample" else out  # the paper puts the lowest rate first
 
 
 def _as_printed(percent: float) -> str:
@@ -255,8 +163,7 @@ def low_n(rows: pd.DataFrame) -> pd.Series:
     slip, nonslip = column("n_test_clusters_slip"), column("n_test_clusters_nonslip")
     trials, onsets = column("n_test_trials"), column("n_onsets")
     known = ~np.isnan(slip) & ~np.isnan(nonslip)
-    for i in np.flatnonzero(known):
-        out[i] = classes_low_n(int(slip[i]), int(nonslip[i]))
+    out[known] = classes_low_n_of(slip[known].astype(int), nonslip[known].astype(int))
     # the trials holding onsets where the rows count them (older rows: every test trial)
     onset_trials, quiet_trials = column("n_onset_trials"), column("n_nonslip_trials")
     onset_trials = np.where(np.isnan(onset_trials), trials, onset_trials)
@@ -516,7 +423,7 @@ def build_table(
         group = f"Ours - paper (points) {layout.group}".strip()
     if values == "ours":
         repeated = {k: int(r["n"]) for k, r in by_key.items() if r["n"] > 1}
-        notes += _seeds_notes(repeated, pooled, intervals, rows, keys)
+        notes += seeds_notes(repeated, pooled, intervals, rows, keys)
         notes += data_notes(rows)
     caption = caption_of(layout.caption, paper if values == "paper" and paper is not None else rows)
     caption = caption_of(caption, rows)  # what the published table does not give, the rows do
@@ -528,102 +435,6 @@ def _published(paper: pd.DataFrame | None, metric: str, keys: list[str]) -> dict
     if paper is None or not len(paper) or metric not in paper or not set(keys) <= set(paper):
         return {}
     return {tuple(r[k] for k in keys): r[metric] for r in paper.to_dict("records")}
-
-
-def simulation_note(rows: pd.DataFrame) -> list[str]:
-    """:data:`SIMULATION_NOTE` where ``rows`` hold channels cells the report marked as tested
-    on the simulation (:data:`SIMULATED`)."""
-    if SIMULATED not in rows or "input" not in rows:
-        return []
-    marked = rows[SIMULATED].fillna(False).astype(bool) & rows["input"].eq("channels")
-    return [SIMULATION_NOTE] if marked.any() else []
-
-
-def data_notes(rows: pd.DataFrame) -> list[str]:
-    """What a table must say of the data behind its ``rows``: that channels cells on the
-    simulation measure the simulation (rows the report marked :data:`SIMULATED`), and that rows
-    tested on another dataset name the unit tested (:data:`TRAINED_AS`), and what a constant
-    detector scores where cells test on one class only."""
-    notes = _one_class_note(rows) + simulation_note(rows)
-    if TRAINED_AS in rows and rows[TRAINED_AS].notna().any():
-        notes.append(
-            "Trained on one dataset, tested on another: each row names the unit tested (the test "
-            "dataset's), and in parentheses the training dataset's unit it was tested as (the sensor map)."
-        )
-    return notes
-
-
-def _one_class_note(rows: pd.DataFrame) -> list[str]:
-    """Where cells test on one class only: what a detector that always says "slip" scores
-    there (the rows' ``constant_slip_accuracy``), so a figure near 100 % reads as what it is."""
-    if "constant_slip_accuracy" not in rows:
-        return []
-    ok = rows[rows["status"].eq("ok")] if "status" in rows else rows
-    constant = pd.to_numeric(ok["constant_slip_accuracy"], errors="coerce").dropna()
-    if constant.empty:
-        return []
-    scores = " or ".join(f"{100 * v:.0f} %" for v in sorted(constant.unique(), reverse=True))
-    return [
-        f"{len(constant)} of {len(ok)} finished cells test on one class only: there a constant "
-        f'"slip" detector scores {scores} (column constant_slip_accuracy), and a figure near it '
-        "says the detector calls that class, not that it tells slip from non-slip; no leaderboard "
-        "ranks them."
-    ]
-
-
-def _range(values: Iterable[float]) -> str:
-    """``3`` or ``2-3``: the range of whole numbers."""
-    v = sorted({int(x) for x in values})
-    return f"{v[0]}" if v[0] == v[-1] else f"{v[0]}-{v[-1]}"
-
-
-def _trials_text(counts: pd.DataFrame) -> str:
-    """ "10-20 slip and 12-30 non-slip test trials" from ``n_test_clusters_slip``/``_nonslip``
-    columns, or "" where they are not known."""
-    cols = ["n_test_clusters_slip", "n_test_clusters_nonslip"]
-    if not set(cols) <= set(counts) or counts[cols].isna().all().any():
-        return ""
-    slip, nonslip = (pd.to_numeric(counts[c], errors="coerce").dropna() for c in cols)
-    return f"{_range(slip)} slip and {_range(nonslip)} non-slip test trials"
-
-
-def _seeds_notes(
-    repeated: dict[tuple, int],
-    pooled: dict[tuple, dict],
-    intervals: bool,
-    rows: pd.DataFrame,
-    keys: list[str],
-) -> list[str]:
-    """What a table says of its figures run under several seeds (``repeated``: key -> seeds):
-    without intervals, that they are means ± standard deviations; with intervals, what each
-    interval is: the two-level bootstrap where ``pooled`` has the figure, the interval from the
-    seeds' rows elsewhere (the note counts each kind), with the seeds and test trials behind them."""
-    if not intervals:
-        return ["Mean ± standard deviation across seeds."] if repeated else []
-    if not repeated:
-        return [INTERVAL_NOTE]
-    at_hand = [k for k in repeated if k in pooled]
-    rest = [k for k in repeated if k not in pooled]
-    if at_hand:
-        trials = _trials_text(pd.DataFrame([pooled[k] for k in at_hand]))
-    else:
-        ok = rows[rows["status"].eq("ok")] if "status" in rows else rows
-        per_seed = _trials_text(
-            ok[[tuple(v) in repeated for v in ok[keys].itertuples(index=False)]]
-        )
-        trials = per_seed and f"{per_seed} per seed"
-    head = (
-        "[95 % interval: cluster bootstrap over test trials, stratified by class; a figure run under "
-        f"{_range(repeated.values())} seeds{f' ({trials})' if trials else ''} is their mean, "
-    )
-    if not rest:
-        return [f"{head}{POOLED_TEXT}.]"]
-    if not at_hand:
-        return [f"{head}{ROWS_TEXT}.]"]
-    return [
-        f"{head}{POOLED_TEXT}; for the {len(rest)} of the {len(repeated)} such figures whose "
-        f"predictions are missing or unreadable, {ROWS_TEXT}.]"
-    ]
 
 
 def _averaged(
@@ -667,45 +478,6 @@ def _averaged(
                 )
             )
     return out
-
-
-def _interval_note(
-    joint: dict | None, intervals: bool, shown: Sequence[tuple], seeds: bool = False
-) -> list[str]:
-    """What the intervals of the ``shown`` averages (``(detector, sensor_type)`` keys) are: the
-    joint bootstrap where ``joint`` has the group, the combined half-widths elsewhere; with
-    ``seeds`` (the rows hold several seeds of a cell), how the seeds enter each."""
-    if not intervals:
-        return []
-    independent = (
-        "the fingers' half-widths combined as independent, which understates it where they share "
-        "trials; keep predictions for a joint bootstrap"
-    )
-    joint_text = JOINT_NOTE
-    if seeds:
-        joint_text += (
-            "; over several seeds, each seed's mean over fingers averaged over the seeds, the seeds "
-            "drawn too, so retraining noise is inside it"
-        )
-        independent += "; each finger's interval over its seeds from the seeds' rows"
-    fallback = [k for k in shown if k not in (joint or {})]
-    if joint and not fallback:
-        return [f"[95 % interval: {joint_text}.]"]
-    if not joint or len(fallback) == len(shown):
-        return [f"[95 % interval: {independent}.]"]
-    which = ", ".join(f"{label('sensor_type', s)} ({d})" for d, s in fallback)
-    return [
-        f"[95 % interval: {joint_text}; for {which}, whose predictions are missing or unreadable, "
-        f"{independent}.]"
-    ]
-
-
-def _repeated(rows: pd.DataFrame) -> bool:
-    """Some cell of ``rows`` ran under several seeds."""
-    if "seed" not in rows or "cell" not in rows:
-        return False
-    by = [c for c in ENTRANT_CELL if c in rows]
-    return bool((rows.groupby(by)["seed"].nunique() > 1).any())
 
 
 def _of(joint: dict[tuple, dict] | None, detector: str) -> dict[tuple, dict]:
@@ -762,7 +534,7 @@ def baseline_table(
             cells[i] += [f"{100 * ref[s]:.1f}" if s in ref else "—" for ref in (holweg, lstm)]
     notes = [
         "Mean over fingers of each finger's accuracy at window 50, full sampling rate.",
-        *_interval_note(joint, intervals, shown, _repeated(rows)),
+        *interval_note(joint, intervals, shown, any_repeated(rows)),
     ]
     if paper:
         notes.append(
@@ -817,7 +589,7 @@ def rates_table(
         f"tab:rates-{detector}",
         notes=[
             "TP: slip detected while slipping; TN: non-slip passed while not slipping.",
-            *_interval_note(joint, intervals, [(detector, *k) for k in avg], _repeated(rows)),
+            *interval_note(joint, intervals, [(detector, *k) for k in avg], any_repeated(rows)),
             *data_notes(rows),
         ],
     )
@@ -883,7 +655,7 @@ def metrics_table(
         row_labels = [tuple(label(k, v) for k, v in zip(keys, rk)) for rk in row_keys]
         headers = [ROW_HEADERS.get(k, k) for k in keys]
     repeated = {rk: int(r["n"]) for m in metrics for rk, r in per[m].items() if r["n"] > 1}
-    notes = _seeds_notes(repeated, {}, intervals, rows, keys)
+    notes = seeds_notes(repeated, {}, intervals, rows, keys)
     if any(LOW_MARK in c for line in cells for c in line):
         notes.append(STREAM_LOW_NOTE)
     notes += data_notes(rows)
@@ -1115,74 +887,3 @@ def split_table(
             "testing on trials it trained on."
         ],
     )
-
-
-# ----------------------------------------------------------------------------- verdict words
-#: a contrast's state (:mod:`slipbench.stats.contrast`) in a table's "Differ" column: the one
-#: place these words are defined; "decided" counts the yes and no rows
-DIFFER_WORDS = {SHOWN: "yes", CONTRADICTED: "no", UNDECIDED: "undecided"}
-
-
-# ----------------------------------------------------------------------------- the line to beat
-VERSUS = "vs baseline"
-
-
-def change_text(change: Contrast) -> str:
-    """A change of :func:`slipbench.stats.contrast.paired_change` in points (its figure a
-    fraction): ``+3.2 [+1.0, +5.4]``; why there is none where no cell and seed was paired."""
-    if change.n_cells == 0:
-        return change.missing
-    text = f"{100 * change.estimate:+.1f}"
-    if change.judged:
-        text += f" [{100 * change.lo:+.1f}, {100 * change.hi:+.1f}]"
-    return text
-
-
-def add_versus(
-    table: Table,
-    changes: Sequence[tuple[Contrast, int] | None],
-    reference: str,
-    figure: str,
-) -> None:
-    """``table`` (a line per entrant) with a last column: each line's change of ``figure`` from
-    the ``reference`` detector (``changes``, in the table's line order: the change and how many
-    of its paired cells are low-n; None: a reference line, marked so), and notes saying how,
-    what was left out and what the intervals lack."""
-    # accuracy is the default; another figure (``--metric``, a stream's rate) says which it is
-    named = "" if figure == ACCURACY.name else f", {figure_label(figure).lower()}"
-    header = f"{VERSUS}{named} ({reference})"
-    table.columns.append(header)
-    for line, pair in zip(table.cells, changes):
-        low = pair is not None and pair[1] > 0
-        line.append("reference" if pair is None else change_text(pair[0]) + LOW_MARK * low)
-    shown = [(entrant, p[0]) for (entrant, *_), p in zip(table.rows, changes) if p is not None]
-    how = "; ".join(sorted({c.method for _, c in shown if c.method}))
-    table.notes.append(
-        f"{header}: each detector's {FIGURES[figure].called} minus the reference's, in points, the "
-        "mean over the cells and seeds both finished (the same cells, input and split), paired "
-        "seed by seed, with its 95 % interval (each line's alone, not simultaneous)"
-        f"{': ' + how if how else ''}."
-    )
-    if any(p is not None and p[1] for p in changes):
-        table.notes.append(
-            f"{header}: {LOW_MARK} the change rests on cells of few test trials (fewer than "
-            f"{LOW_N} of a class): not to be trusted."
-        )
-    table.notes += [
-        f"{header}, {entrant}: left out: {'; '.join(c.left_out)}."
-        for entrant, c in shown
-        if c.left_out and c.n_cells
-    ]
-    # what else a change lacks (its interval not estimable: the cells named), said beside it
-    table.notes += [
-        f"{header}, {entrant}: undecided: {c.missing}."
-        for entrant, c in shown
-        if c.n_cells and c.missing not in ("", ONE_SEED)
-    ]
-    one = [entrant for entrant, c in shown if c.n_cells and c.missing == ONE_SEED]
-    if one:
-        table.notes.append(
-            f"{header}: {', '.join(one)} paired with the reference on one seed: the interval "
-            "holds the test trials' noise only, not retraining noise, so it decides nothing "
-            "(run `evaluate --repeats 2` or more on both)."
-        )

@@ -74,19 +74,15 @@ import pandas as pd
 import scipy  # its stats and optimize load on first use: reading stored rows pays neither
 
 from slipbench.stats.bootstrap import LEVEL, IntervalSpec
-from slipbench.stats.factors import inputs, plain
 from slipbench.stats.metrics import RATES
 from slipbench.stats.noise import OWN_SEEDS, SeedNoise, own_seeds
 from slipbench.stats.pooled import cell_sides, find_predictions, pooled_change
 from slipbench.store.columns import (
     ACCURACY,
-    CELL_ROLE,
     DETECTION_RATE,
     FIGURES,
-    READING,
-    SETTING,
-    identity,
 )
+from slipbench.store.resolved import cell_keys, inputs, plain, plain_rows
 
 SHOWN, CONTRADICTED, UNDECIDED = "shown", "contradicted", "undecided"
 #: the states that settle a claim one way or the other: "decided" means one of these and
@@ -362,18 +358,6 @@ def _one_seed(terms: pd.DataFrame) -> tuple[float, float]:
 
 
 # ----------------------------------------------------------------------------- pairing
-#: what two detectors' rows of one cell share (where the rows hold the column): the key's
-#: columns but the detector's own, and but those another of them fixes already
-CELL_COLUMNS = identity(READING, SETTING, CELL_ROLE, keyed=True, follows=False)
-
-
-def cell_of(row: dict) -> str:
-    """What a row shares with another detector's row of the same cell, as one text."""
-    return json.dumps(
-        {c: plain(row[c]) for c in CELL_COLUMNS if c in row}, sort_keys=True, default=str
-    )
-
-
 @dataclass(frozen=True)
 class Pairing:
     """Which cells and seeds both sides finished: per cell, the rows of the seeds both ran (in
@@ -394,15 +378,15 @@ class Pairing:
 
 def _finished(rows: pd.DataFrame, figure: str) -> dict[str, dict[int, list[dict]]]:
     """Per cell and seed, the rows that finished with a value of ``figure``."""
-    rows = rows.assign(input=inputs(rows))
-    if "status" in rows:
-        rows = rows[rows["status"] == "ok"]
     if figure not in rows:
         return {}
+    kept = rows[rows["status"] == "ok"] if "status" in rows else rows
+    kept = kept[kept[figure].notna()]
     out: dict[str, dict[int, list[dict]]] = {}
-    for r in rows[rows[figure].notna()].to_dict("records"):
+    cells = cell_keys(kept)  # resolved rows hold them
+    for cell, r in zip(cells, plain_rows(kept).assign(input=inputs(kept)).to_dict("records")):
         seed = plain(r.get("seed"))
-        out.setdefault(cell_of(r), {}).setdefault(-1 if seed is None else int(seed), []).append(r)
+        out.setdefault(cell, {}).setdefault(-1 if seed is None else int(seed), []).append(r)
     return out
 
 

@@ -90,6 +90,7 @@ from slipbench.stats.contrast import (
 from slipbench.stats.factors import SETTINGS, entrant_names, factor_values, one_class
 from slipbench.stats.noise import SeedNoise
 from slipbench.store.columns import ACCURACY, WINDOWED, figures, recording
+from slipbench.store.resolved import resolve
 
 ALPHA = 0.05
 LEVEL = 0.95
@@ -648,6 +649,7 @@ def leaderboard(
         whose entrants ran one seed (:func:`pair_parts`).
     """
     margin = margin_of(metric)
+    rows = resolve(rows).rows  # resolved once: the steps below read its entrants and cells
     lone = one_class(rows)
     rows = rows[~lone]
     who = entrants(rows)

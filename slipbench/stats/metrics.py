@@ -88,8 +88,17 @@ def classes_low_n(n_slip: int, n_nonslip: int) -> bool:
     trained elsewhere) is no small sample: its figure (TN or TP rate) is absent, not uncertain,
     so a one-class test set of many trials is not flagged; an empty one is.
     """
-    present = [n for n in (n_slip, n_nonslip) if n > 0]
-    return not present or min(present) < LOW_N
+    return bool(classes_low_n_of(np.array([n_slip]), np.array([n_nonslip]))[0])
+
+
+def classes_low_n_of(n_slip: np.ndarray, n_nonslip: np.ndarray) -> np.ndarray:
+    """:func:`classes_low_n` of each pair of counts, at once: (n,) bool."""
+    slip, nonslip = np.asarray(n_slip, float), np.asarray(n_nonslip, float)
+
+    def few(n: np.ndarray) -> np.ndarray:
+        return (n > 0) & (n < LOW_N)
+
+    return ((slip <= 0) & (nonslip <= 0)) | few(slip) | few(nonslip)
 
 
 def stream_low_n(n_trials: float, n_onsets: float, n_nonslip_trials: float = np.inf) -> bool:

@@ -11,6 +11,7 @@ own.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from collections.abc import Iterator
@@ -341,6 +342,7 @@ def names(kind: str | None = None, *, gated: bool | None = None) -> tuple[str, .
     return tuple(f.name for f in figures(kind, gated=gated))
 
 
+@functools.cache  # a table asks it of every cell: each column's name is read once
 def figure_of(column: str) -> Figure | None:
     """The figure a results or change column shows (``accuracy``, ``op_detection_rate_lo``,
     ``d_tn_rate_se``, ``base_accuracy``), or None where it shows none."""

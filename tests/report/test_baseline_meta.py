@@ -6,12 +6,13 @@ import pandas as pd
 import pytest
 from resultgen import fake_rows
 
+from slipbench.report.blocks import Table
 from slipbench.report.document import build_report, render
 from slipbench.report.leaderboard import NO_BASELINE
 from slipbench.report.meta import analyses
 from slipbench.report.outline import references
 from slipbench.report.plots import forest
-from slipbench.report.tables import Table, baseline_table
+from slipbench.report.tables import baseline_table
 
 HOSTILE = "lab|$x$_&<b>"
 

@@ -20,11 +20,12 @@ from slipbench.data.write import write_dataset
 from slipbench.engine.plan import Run
 from slipbench.engine.runner import evaluate
 from slipbench.protocols.window_size import WindowSize
+from slipbench.report.blocks import Table
 from slipbench.report.document import build_report, protocol_tables, render
+from slipbench.report.notes import SIMULATED, SIMULATION_NOTE
 from slipbench.report.outline import as_tested
 from slipbench.report.presentation import shown_protocol
 from slipbench.report.provenance import _where, header_tables, on_simulation
-from slipbench.report.tables import SIMULATED, SIMULATION_NOTE, Table
 from slipbench.store.results import ResultsStore, read_results
 
 

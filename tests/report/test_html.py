@@ -15,9 +15,9 @@ import pytest
 from goldens import check_golden
 from resultgen import all_rows
 
+from slipbench.report.blocks import Table
 from slipbench.report.document import build_report, flatten, render
 from slipbench.report.plots import FigureSpec
-from slipbench.report.tables import Table
 
 CHROMIUM = next(
     (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),

@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 from resultgen import fake_rows, predictions_pair
 
+from slipbench.report.blocks import Table
 from slipbench.report.document import build_report, render
 from slipbench.report.leaderboard import (
     NO_BASELINE,
@@ -15,7 +16,6 @@ from slipbench.report.leaderboard import (
     versus_baseline,
     versus_column,
 )
-from slipbench.report.tables import Table
 from slipbench.stats.contrast import ONE_SEED, Contrast, pair_seeds, paired_change
 from slipbench.stats.factors import named_entrants
 from slipbench.stats.leaderboard import leaderboard
@@ -230,7 +230,7 @@ def test_the_metric_governs_the_line_to_beat():
 def test_a_change_without_an_estimable_interval_says_why_beside_it():
     """The [-100, +100] of a change whose cells' intervals are not estimable is said, with the
     cells, under the column: never a bare whole-range interval."""
-    from slipbench.report.tables import add_versus
+    from slipbench.report.versus import add_versus
 
     lacks = (
         "the interval of 1 cell is not estimable (a class holds a single test trial; the row "

@@ -10,6 +10,7 @@ import pandas as pd
 import pytest
 from resultgen import all_rows, fake_rows
 
+from slipbench.report.blocks import Table
 from slipbench.report.document import (
     Detail,
     Heading,
@@ -20,7 +21,6 @@ from slipbench.report.document import (
 )
 from slipbench.report.plots import envelope, tradeoff
 from slipbench.report.provenance import header_tables, sensor_units
-from slipbench.report.tables import Table
 from slipbench.vocabulary import label
 
 

@@ -9,10 +9,10 @@ import re
 import pytest
 from resultgen import all_rows, inputs_folder
 
+from slipbench.report.blocks import Table
 from slipbench.report.document import Heading, build_report, render, split_appendix, write_figures
 from slipbench.report.plots import FigureSpec
 from slipbench.report.reduction import REDUCTION_TITLE
-from slipbench.report.tables import Table
 
 
 @pytest.fixture(scope="module")

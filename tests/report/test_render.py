@@ -7,9 +7,8 @@ import click
 import pytest
 
 from slipbench.app.cli import cli
-from slipbench.report.blocks import Heading, Link, Text
+from slipbench.report.blocks import Heading, Link, Table, Text
 from slipbench.report.render import FORMATS, Drawn, Renderer, renderer
-from slipbench.report.tables import Table
 
 TABLE = Table("Caption <x>.", ["Unit"], "Group", ["50"], [("a|b",)], [["88.0 [86.9, 89.1]"]], "t")
 

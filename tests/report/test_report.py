@@ -18,9 +18,9 @@ from resultgen import all_rows, fake_rows, recorded
 
 from slipbench.app.cli import main
 from slipbench.data.synth import MODEL_VERSION
+from slipbench.report.blocks import LOW_NOTE
 from slipbench.report.document import protocol_table
 from slipbench.report.paper import paper_frame
-from slipbench.report.tables import LOW_NOTE
 
 
 @pytest.mark.slow

@@ -13,17 +13,10 @@ from rendering import render_report
 from resultgen import fake_rows
 
 from slipbench.protocol import NO_CELL, Layout
+from slipbench.report.blocks import LOW_MARK, LOW_NOTE, STREAM_LOW_NOTE
 from slipbench.report.document import protocol_table
 from slipbench.report.presentation import shown, shown_protocol
-from slipbench.report.tables import (
-    LOW_MARK,
-    LOW_NOTE,
-    STREAM_LOW_NOTE,
-    build_table,
-    caption_of,
-    low_n,
-    side_by_side,
-)
+from slipbench.report.tables import build_table, caption_of, low_n, side_by_side
 
 REASON = (
     "protocol 'speed-holdout' makes no cell on this dataset: none of its 24 slip recordings "
@@ -172,8 +165,9 @@ def test_an_interval_that_is_not_estimable_is_marked_not_low_n():
     """The issue's cell: enough trials of each class (not low n), but one class holds a single
     trial of its own stratum: its interval is the whole range, [0, 100]. The tables mark it
     with what it is, in Markdown and LaTeX, and not as low n."""
+    from slipbench.report.blocks import UNESTIMABLE_MARK, UNESTIMABLE_NOTE
     from slipbench.report.latex import escape
-    from slipbench.report.tables import UNESTIMABLE_MARK, UNESTIMABLE_NOTE, summarize, unestimable
+    from slipbench.report.tables import summarize, unestimable
 
     rows = fake_rows("window-size", "holweg").assign(
         n_test_clusters_slip=30, n_test_clusters_nonslip=30, ci_note=""

@@ -58,7 +58,8 @@ CHECK = textwrap.dedent(
     from slipbench.store import columns
     from slipbench.stats import metrics
     from slipbench.gate.gate import Gate
-    from slipbench.stats.contrast import CELL_COLUMNS, cell_of, margin_of
+    from slipbench.stats.contrast import margin_of
+    from slipbench.store.resolved import CELL_COLUMNS, cell_of
     from slipbench.stats.factors import setting_labels, setting_parts
     from slipbench.stats.leaderboard import cell_table
     from slipbench.history.series import series_rows
