@@ -193,7 +193,7 @@ def main() -> None:
     )
     took_ends = time.perf_counter() - start
     text = (
-        f"# History steps in short histories ({', '.join(map(str, a.commits))} commits)\n\n"
+        f"History steps in short histories ({', '.join(map(str, a.commits))} commits). "
         f"Pool: {a.pool.name}, {pool['seed'].nunique()} seeds of the bench then shipped "
         f"({len(pool)} rows: {', '.join(sorted(pool['detector'].unique()))}); gate tolerances "
         f"{dict(gate.tolerances)} (points); seeds drawn per commit with replacement; "

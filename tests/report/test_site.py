@@ -369,7 +369,7 @@ def test_screenshots_at_1400_and_400_px_and_every_column_reachable(site, tmp_pat
                 )
                 assert chrome.save_screenshot(str(shots / f"{name[:-5]}-{width}px.png"))
                 inner, page = chrome.execute_script(
-                    "return [window.innerWidth, document.documentElement.scrollWidth]"
+                    "const d = document.documentElement; return [d.clientWidth, d.scrollWidth]"
                 )
                 assert page <= inner, f"{name} at {width} px scrolls sideways ({page} > {inner})"
                 outside = chrome.execute_script(
