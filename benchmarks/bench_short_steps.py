@@ -37,7 +37,7 @@ import pandas as pd
 from slipbench.gate.gate import Gate
 from slipbench.history.series import series_rows
 from slipbench.history.short import scale, short_change
-from slipbench.history.steps import JUDGED, SERIES_ALPHA, find_steps
+from slipbench.history.steps import JUDGED, MIN_RUNS, SERIES_ALPHA, find_steps
 from slipbench.seeding import rng_for
 from slipbench.store.results import read_results
 
@@ -201,7 +201,14 @@ def main() -> None:
         f"last; series judged at SERIES_ALPHA = {SERIES_ALPHA} (Bonferroni over a series' "
         f"cuts).\n\n"
         "Series by series, as `find_steps` judges a short series (each series' points from "
-        "the pool, the scale per figure and kind over the history's series):\n\n"
+        "the pool, the scale per figure and kind over the history's series)"
+        + (
+            f"; a history of {2 * MIN_RUNS} commits or more is judged here by the short route "
+            "too, for comparison, where `find_steps` gives its series to the segment search"
+            if max(a.commits) >= 2 * MIN_RUNS
+            else ""
+        )
+        + ":\n\n"
         f"{summary(table).to_markdown(index=False, floatfmt='.2f')}\n\n"
         f"{len(table)} histories in {took:.0f} s.\n\n"
         "End to end, the histories' rows through `find_steps` (fewer: it is slower):\n\n"
