@@ -44,6 +44,8 @@ from slipbench.history.coded import points as coded_points
 from slipbench.history.judging import SEGMENT_SEEDS, SERIES_ALPHA, Side, judge
 from slipbench.history.segmentation import weighted_binseg
 from slipbench.history.series import POOL
+from slipbench.history.short import FEWEST, LONG, SHORT, short_change
+from slipbench.history.short import scale as short_scale
 from slipbench.stats.contrast import (
     ONE_SEED,
     SHOWN,
@@ -260,6 +262,7 @@ _COLUMNS = {
     "why": str,
     "what_changed": str,
     "runs_needed": int,
+    "route": str,
 }
 
 
@@ -334,6 +337,7 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         cuts = _proposals(work, jobs)
         margin = gate.tolerances[figure] / FIGURES[figure].scale
         found.append(_judged(figure, margin, (rows, pts), list(zip(series, groups, cuts)), causes))
+        found.append(_judged_short(figure, margin, (rows, pts), list(zip(series, groups)), causes))
         named = pts["series"].to_numpy()
         kept.append(
             pd.DataFrame(
@@ -420,8 +424,81 @@ def _judged(
                 out[column].append(value)
     if not sides:
         return pd.DataFrame()
+    out["route"] = [LONG] * len(sides)
     verdicts = judge(sides, figure, margin, (np.array(counts), np.array(out["low_n"])))
     return pd.DataFrame({c: verdicts[c] if c in verdicts else out[c] for c in _COLUMNS})
+
+
+def _moved(change: Contrast, n: int) -> bool:
+    """Whether a short series' best cut is a proposal: its change beyond the tolerance and its
+    squared z beyond the price of a cut the segment search asks (``PENALTY * log(points)``)."""
+    if not (change.se > 0 and abs(change.estimate) > change.margin):
+        return False
+    return bool((change.estimate / change.se) ** 2 > PENALTY * math.log(n))
+
+
+def _judged_short(
+    figure: str,
+    margin: float,
+    table: tuple[FigureRows, pd.DataFrame],
+    short: list[tuple[int, np.ndarray]],
+    causes: _Causes,
+) -> pd.DataFrame:
+    """The proposal of every short series of a figure (fewer points than ``2 * MIN_RUNS``, at
+    least ``FEWEST``), judged on its runs' own intervals (:mod:`slipbench.history.short`);
+    the history's scale measured per kind of series (cells, pooled) over its short series."""
+    rows, pts = table
+    short = [(s, g) for s, g in short if FEWEST <= len(g) < 2 * MIN_RUNS]
+    if not short:
+        return pd.DataFrame()
+    value, se = pts["value"].to_numpy(float), pts["se"].to_numpy(float)
+    df, run, low = pts["df"].to_numpy(float), pts["run"].to_numpy(), pts["low_n"].to_numpy(bool)
+    factor = {
+        kind: short_scale([(value[g], se[g]) for s, g in short if rows.pooled[s] == kind])
+        for kind in (False, True)
+    }
+    order, starts = _series_slices(rows.series)
+    found = []
+    for series, group in short:
+        n = len(group)
+        level = 1 - SERIES_ALPHA / (n - 1)
+        k, change = short_change(
+            (value[group], se[group], df[group]), factor[bool(rows.pooled[series])], level, margin
+        )
+        verdict = _verdict(change, figure, bool(low[group].any()), n - 1)
+        if verdict["verdict"] not in ("regressed", "improved") and not _moved(change, n):
+            continue
+        mine = order[starts[series] : starts[series + 1]]
+        seeds = {c: getattr(rows, c)[mine] for c in ("run", "seed", "result", "value", "se", "df")}
+        seeds["by_result"] = np.argsort(seeds["result"], kind="stable")
+        runs = run[group]
+        before, after = _side(seeds, runs[0], runs[k - 1]), _side(seeds, runs[k], runs[-1])
+        low_n = bool(low[group].any())
+        last, first = int(runs[k - 1]), int(runs[k])
+        found.append(
+            {
+                "series": rows.names[series],
+                "series_label": rows.labels[series],
+                "kind": "pooled" if rows.pooled[series] else "cell",
+                "figure": figure,
+                "run": first,
+                "previous_run": last,
+                "runs_before": k,
+                "runs_after": n - k,
+                "first_run": int(runs[0]),
+                "last_run": int(runs[-1]),
+                "seeds_before": len(before.value),
+                "seeds_after": len(after.value),
+                "low_n": low_n,
+                **verdict,
+                "what_changed": causes.between(series, last, first),
+                "runs_needed": _runs_needed(
+                    change, n - 1, min(len(before.value), len(after.value))
+                ),
+                "route": SHORT,
+            }
+        )
+    return pd.DataFrame(found, columns=list(_COLUMNS))
 
 
 def _side(rows: dict[str, np.ndarray], first: int, last: int) -> Side:

@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.gate.gate import MAX_NEEDED, POWER, unit
+from slipbench.history.short import FEWEST, ROUTES
 from slipbench.history.steps import JUDGED, MIN_RUNS, SERIES_ALPHA, Steps
 from slipbench.stats.contrast import level_text
 from slipbench.store.columns import FIGURES
@@ -43,7 +44,10 @@ def _header(found: Steps, where: str | os.PathLike) -> str:
 AGAINST_COMPARE = (
     "A step reads the runs of the segment before against those after (each at least "
     f"{MIN_RUNS} runs; their seeds unpaired, their spread the noise) at its series' "
-    "Bonferroni level; `slipbench compare` reads one base against one candidate, seed by seed "
+    f"Bonferroni level; in a series of {FEWEST} to {2 * MIN_RUNS - 1} runs, the runs before "
+    "against those after at its best cut, each run's own interval its noise (scaled by how "
+    "much more the history's series move than their intervals say, or the runs' scatter "
+    "where larger), Bonferroni over the cuts; `slipbench compare` reads one base against one candidate, seed by seed "
     "(calibrated noise where the bench has it), at its look's level: on the same change they "
     "differ where their seeds, noise or level differ, and each prints the interval and level "
     "it read."
@@ -51,8 +55,9 @@ AGAINST_COMPARE = (
 
 
 def short_history(found: Steps) -> str:
-    """Where no series holds enough runs for a step (a segment needs ``MIN_RUNS`` runs on each
-    side of it), how many it needs; "" where one does."""
+    """Where no series holds enough runs for a step to be searched (``FEWEST``), how many it
+    needs; where the longest is short (fewer than ``2 * MIN_RUNS``), how its steps are judged;
+    "" where a series is long."""
     held = (
         int(found.points.groupby(["series", "figure"]).size().max())
         if not found.points.empty
@@ -60,11 +65,20 @@ def short_history(found: Steps) -> str:
     )
     if held >= 2 * MIN_RUNS:
         return ""
+    if held >= FEWEST:
+        return (
+            f"No confirmed step. The longest series holds {held} runs, fewer than the "
+            f"{2 * MIN_RUNS} the segment search needs: its steps are {ROUTES['short']}."
+        )
     return (
-        f"No step can be proposed: a segment needs {MIN_RUNS} runs on each side of a step "
-        f"({2 * MIN_RUNS} runs in a series), and the longest series holds {held}; "
-        f"{2 * MIN_RUNS - held} more runs would let one be proposed."
+        f"No step can be proposed: a series needs {FEWEST} runs for a step to be searched, "
+        f"and the longest holds {held}; {FEWEST - held} more runs would let one be proposed."
     )
+
+
+def route_of(step: dict) -> str:
+    """How a step was judged, in words (the long route's where a row predates routes)."""
+    return ROUTES.get(str(step.get("route") or "long"), ROUTES["long"])
 
 
 def unproven_line(runs: pd.DataFrame) -> str:
@@ -110,7 +124,8 @@ def _unconfirmed(found: Steps) -> str:
                 f"- {commit} ({r['date']}): a step proposed in {len(part)} series, none "
                 f"confirmed; nearest: {FIGURES[r['figure']].label} of {r['series_label']}, "
                 f"{_change(r)} at {level_text(r['level'])} on {r['df']:.0f} df, "
-                f"{r['runs_before']} runs → {r['runs_after']}; {_would_confirm(r)}",
+                f"{r['runs_before']} runs → {r['runs_after']}, {route_of(r)}; "
+                f"{_would_confirm(r)}",
             )
         )
     lines.sort(reverse=True)
@@ -165,6 +180,7 @@ def steps_text(found: Steps, where: str | os.PathLike) -> str:
                 f"{b} → {a}" for b, a in zip(confirmed["runs_before"], confirmed["runs_after"])
             ],
             "what changed": confirmed["what_changed"],
+            "judged": [route_of(r) for r in confirmed.to_dict("records")],
         }
     )
     return out + "\n" + table.to_markdown(index=False) + "\n"

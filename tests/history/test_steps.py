@@ -196,14 +196,32 @@ def test_an_unconfirmed_step_says_the_seeds_that_would_confirm_it():
     assert shown.state == SHOWN and _runs_needed(shown, 1, 4) == 0
 
 
-def test_a_history_too_short_for_a_step_says_how_many_runs_it_needs(tmp_path):
-    """Five runs, the change at the fourth: no segment of 4 runs fits on each side, and the
-    text says so instead of a bare "No confirmed step"."""
+def test_a_five_run_history_names_its_step_judged_on_the_runs_intervals(tmp_path):
+    """Five runs, every figure 5 points lower from the fourth: too short for the segment
+    search, the short route names the step at its commit and says how it was judged."""
     hist = _history(tmp_path, [0.0] * 3 + [-0.05] * 2)
-    code, text = _cli("history", "steps", "--history", str(hist))
-    assert code == 0
-    assert "No confirmed step." not in text
-    assert "a segment needs 4 runs on each side of a step (8 runs in a series)" in text
-    assert "the longest series holds 5; 3 more runs would let one be proposed" in text
+    found = find_steps(read_history(hist), Gate.of(["accuracy", "tn_rate", "tp_rate"]))
+    confirmed = found.confirmed
+    assert set(confirmed["commit"]) == {"c03"} and set(confirmed["verdict"]) == {"regressed"}
+    assert set(confirmed["route"]) == {"short"}
+    assert (confirmed["runs_before"] == 3).all() and (confirmed["runs_after"] == 2).all()
+    assert (confirmed["kind"] == "pooled").sum() == 3
+    code, text = _cli("history", "steps", "--history", str(hist), "--since", "c02")
+    assert code == 1
+    assert "c03" in text and "judged on the runs' own intervals" in text
     # and why a step may read a change otherwise than compare does
     assert "at its look's level" in text
+
+
+def test_a_flat_five_run_history_stays_quiet(tmp_path):
+    hist = _history(tmp_path, [0.0] * 5, noise=0.01)
+    found = find_steps(read_history(hist), Gate.of(["accuracy", "tn_rate", "tp_rate"]))
+    assert found.confirmed.empty
+    code, text = _cli("history", "steps", "--history", str(hist))
+    assert code == 0 and "fewer than the 8 the segment search needs" in text
+
+
+def test_two_runs_say_how_many_a_step_needs(tmp_path):
+    code, text = _cli("history", "steps", "--history", str(_history(tmp_path, [0.0, -0.05])))
+    assert code == 0
+    assert "a series needs 3 runs for a step to be searched, and the longest holds 2" in text

@@ -190,6 +190,44 @@ def test_a_small_history_site_escapes_names_and_loads_local_scripts(tmp_path):
     assert json.loads(data)["detectors"] == [HOSTILE]
 
 
+def test_the_landing_page_shows_the_step_of_a_five_commit_history(tmp_path):
+    """Five commits, holweg 5 points lower from the fourth: too short for the segment search,
+    the step is judged on the runs' own intervals and the landing page names its commit and
+    date, on the protocol's plot and in the steps table, and says how it was judged."""
+    for i in range(5):
+        folder = run_folder(tmp_path / f"r{i}", seed=i, shift=-0.05 * (i >= 3), code=f"k{i}")
+        assert (
+            _cli(
+                "history",
+                "add",
+                str(folder),
+                "--history",
+                str(tmp_path / "h"),
+                "--commit",
+                f"c{i}",
+                "--date",
+                f"2026-03-0{i + 1}",
+            )
+            == 0
+        )
+    assert (
+        _cli("history", "page", "--history", str(tmp_path / "h"), "--out", str(tmp_path / "s")) == 0
+    )
+    index = _data(tmp_path / "s" / "index.html")
+    (protocol,) = index["protocols"]
+    assert [st["commit"] for st in protocol["steps"]] == ["c3"]
+    assert protocol["steps"][0]["regressed"] > 0 and protocol["steps"][0]["improved"] == 0
+    assert "judged on the runs' own intervals" in protocol["steps"][0]["judged"]
+    assert "c3<br>2026-03-04" in protocol["axis"]["ticktext"]
+    steps = index["steps"]
+    assert steps["rows"] and steps["columns"][-1] == "judged"
+    # rows written directly, without digests: marked unproven, still named at their commit
+    assert {(r[0], r[1][:10], r[2][:9]) for r in steps["rows"]} == {
+        ("c3", "2026-03-04", "regressed")
+    }
+    assert all(r[-1].startswith("judged on the runs' own intervals") for r in steps["rows"])
+
+
 def _browser():
     """A headless Chromium through selenium, or a skip naming what is missing."""
     webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
@@ -293,12 +331,25 @@ def test_the_site_leaderboard_shows_the_constant_answer():
     assert board(rows.drop(columns=["test_slip_windows"]))["rows"][0][-2:] == [None, "—"]
 
 
+#: the legend entries a plot's modebar lies over (its buttons drawn over their names)
+COVERED = """return [...document.querySelectorAll('.js-plotly-plot')].flatMap((plot) => {
+  const bar = plot.querySelector('.modebar');
+  if (!bar) return [];
+  const m = bar.getBoundingClientRect();
+  return [...plot.querySelectorAll('.legendtext')].filter((t) => {
+    const r = t.getBoundingClientRect();
+    return r.right > m.left && r.left < m.right && r.bottom > m.top && r.top < m.bottom;
+  }).map((t) => t.textContent);
+})"""
+
+
 @pytest.mark.slow
 def test_screenshots_at_1400_and_400_px_and_every_column_reachable(site, tmp_path_factory):
     """Every page drawn at a desktop's and a phone's width, each kept as a PNG under
     $SLIPBENCH_SCREENSHOTS (CI keeps the folder as an artifact; else a temporary folder, printed).
     At 400 px the page does not scroll sideways, the leaderboard's table does, so its last
-    column can be reached, and every legend entry lies inside the window."""
+    column can be reached, and every legend entry lies inside the window, clear of the
+    modebar (at 400 px the legend sits under the plot)."""
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
 
@@ -318,7 +369,7 @@ def test_screenshots_at_1400_and_400_px_and_every_column_reachable(site, tmp_pat
                 )
                 assert chrome.save_screenshot(str(shots / f"{name[:-5]}-{width}px.png"))
                 inner, page = chrome.execute_script(
-                    "return [window.innerWidth, document.documentElement.scrollWidth]"
+                    "const d = document.documentElement; return [d.clientWidth, d.scrollWidth]"
                 )
                 assert page <= inner, f"{name} at {width} px scrolls sideways ({page} > {inner})"
                 outside = chrome.execute_script(
@@ -327,6 +378,8 @@ def test_screenshots_at_1400_and_400_px_and_every_column_reachable(site, tmp_pat
                     ".map((t) => t.textContent)"
                 )
                 assert not outside, f"{name} at {width} px: legend entries cut off: {outside}"
+                covered = chrome.execute_script(COVERED)
+                assert not covered, f"{name} at {width} px: the modebar covers {covered}"
             chrome.get((site / "index.html").as_uri())
             WebDriverWait(chrome, 60).until(
                 lambda d: d.find_element(By.TAG_NAME, "body").get_attribute("data-drawn") == "yes"

@@ -31,7 +31,7 @@ from slipbench.atomic import make_folder, write_text_atomic
 from slipbench.gate.gate import unit
 from slipbench.history.series import POOLED
 from slipbench.history.steps import JUDGED, Steps
-from slipbench.report.steps import short_history, verdict_shown
+from slipbench.report.steps import route_of, short_history, verdict_shown
 from slipbench.stats.leaderboard import constant_accuracy
 from slipbench.store.columns import ACCURACY, CELL_ROLE, ENTRANT, FIGURES, identity
 from slipbench.vocabulary import cell_label
@@ -163,7 +163,16 @@ def _cells(rows: pd.DataFrame) -> dict:
 
 def _step_rows(found: Steps) -> dict:
     confirmed = found.confirmed.sort_values("run", ascending=False)
-    columns = ["commit", "date", "verdict", "figure", "series", "change (interval)", "what changed"]
+    columns = [
+        "commit",
+        "date",
+        "verdict",
+        "figure",
+        "series",
+        "change (interval)",
+        "what changed",
+        "judged",
+    ]
     rows = [
         [
             r["commit"],
@@ -173,6 +182,7 @@ def _step_rows(found: Steps) -> dict:
             r["series_label"],
             f"{r['change']:+.2f} [{r['change_lo']:+.2f}, {r['change_hi']:+.2f}] {unit(r['figure'])}",
             r["what_changed"],
+            route_of(r),
         ]
         for r in confirmed.to_dict("records")
     ]
@@ -234,6 +244,7 @@ def _overview(found: Steps) -> list[dict]:
                 "commit": str(found.runs["commit"].iloc[int(run)]),
                 "regressed": int((g["verdict"] == "regressed").sum()),
                 "improved": int((g["verdict"] == "improved").sum()),
+                "judged": "; ".join(sorted({route_of(r) for r in g.to_dict("records")})),
             }
             for run, g in mine.groupby("run")
         ]

@@ -54,15 +54,26 @@ function table(where, spec, filterBox) {
   where.appendChild(el("div", { class: "scroll" })).appendChild(tbl);
 }
 
-// Legends above the plot, in rows that wrap at any width.
-const LEGEND = { orientation: "h", x: 0, xanchor: "left", y: 1.02, yanchor: "bottom" };
+// Legends in rows that wrap: above the plot at a desktop's width; under it at a phone's,
+// where the modebar (top right) would cover the entries of a legend above.
+const PHONE = window.matchMedia("(max-width: 600px)");
+function legend() {
+  return PHONE.matches
+    ? { orientation: "h", x: 0, xanchor: "left", yref: "container", y: 0, yanchor: "bottom" }
+    : { orientation: "h", x: 0, xanchor: "left", y: 1.02, yanchor: "bottom" };
+}
+PHONE.addEventListener("change", () => {
+  for (const p of document.querySelectorAll(".js-plotly-plot")) {
+    if (p.layout && p.layout.showlegend !== false) window.Plotly.relayout(p, { legend: legend() });
+  }
+});
 
 // One plot per protocol: each detector's mean over cells by commit, confirmed steps marked.
 function protocolPlots(site, Plotly) {
   const where = document.getElementById("protocols");
   for (const [i, p] of site.protocols.entries()) {
     where.appendChild(el("h2", {}, p.protocol));
-    const steps = p.steps.map((st) => `${st.commit}: ${st.regressed} regressed, ${st.improved} improved`);
+    const steps = p.steps.map((st) => `${st.commit}: ${st.regressed} regressed, ${st.improved} improved, ${st.judged}`);
     where.appendChild(el("p", { class: "note" }, `${p.figure}.` + (steps.length
       ? ` Confirmed steps (dotted lines): ${steps.join("; ")}.` : " No confirmed step.")));
     const id = `protocol-${i}`;
@@ -81,8 +92,8 @@ function protocolPlots(site, Plotly) {
       text: st.commit, font: { color: st.regressed ? "#c00" : "#080" },
     }));
     Plotly.newPlot(id, traces, {
-      xaxis: { title: { text: "commit (oldest first)" }, tickvals: p.axis.tickvals, ticktext: p.axis.ticktext },
-      yaxis: { title: { text: p.figure.split(",")[0] } }, legend: LEGEND,
+      xaxis: { title: { text: "commit (oldest first)" }, automargin: true, tickvals: p.axis.tickvals, ticktext: p.axis.ticktext },
+      yaxis: { title: { text: p.figure.split(",")[0] } }, legend: legend(),
       shapes, annotations, margin: { t: 30, r: 10 },
     }, { responsive: true });
   }
@@ -102,8 +113,8 @@ function indexPage(site, Plotly) {
   }
   const traces = Object.entries(byDetector).map(([name, d]) => ({ type: "bar", name, x: d.x, y: d.y }));
   Plotly.newPlot("overview", traces, {
-    barmode: "group", yaxis: { title: { text: site.leaderboard.columns[3] } },
-    legend: LEGEND, margin: { t: 20, r: 10 },
+    barmode: "group", xaxis: { automargin: true }, yaxis: { title: { text: site.leaderboard.columns[3] } },
+    legend: legend(), margin: { t: 20, r: 10 },
   }, { responsive: true });
   if (site.protocols) protocolPlots(site, Plotly);
 }
@@ -182,8 +193,8 @@ function seriesPage(site, Plotly) {
       text: `${commit(st.run)} ${st.change}`,
     }));
     Plotly.react("plot", traces, {
-      xaxis: { title: { text: "commit (oldest first)" }, tickvals: s.axis.tickvals, ticktext: s.axis.ticktext },
-      yaxis: { title: { text: s.unit } }, legend: LEGEND, shapes, annotations, margin: { t: 40, r: 10 },
+      xaxis: { title: { text: "commit (oldest first)" }, automargin: true, tickvals: s.axis.tickvals, ticktext: s.axis.ticktext },
+      yaxis: { title: { text: s.unit } }, legend: legend(), shapes, annotations, margin: { t: 40, r: 10 },
     }, { responsive: true });
     document.getElementById("about").textContent = s.about;
     history.replaceState(null, "", "#" + s.id);
