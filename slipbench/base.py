@@ -261,6 +261,14 @@ class BaseDetector(Parameterized):
         that every worker would otherwise compile at once; a class that does some says so
         first through ``say`` (one line: what, and about how long). By default nothing."""
 
+    @classmethod
+    def prepare_ahead(cls, say: Callable[[str], None]) -> None:
+        """Begin :meth:`prepare`'s work beside this process and return at once (a class whose
+        work runs in a child process): the engine calls it before the dataset is read or
+        simulated, then :meth:`prepare`, which waits for it, before the workers start. Work
+        begun that the run turns out not to need must end with this process. By default
+        nothing (:meth:`prepare` does it all)."""
+
     def lockstep_key(self, window_length: int) -> str:
         """What models of a :attr:`lockstep` class must share to train together: by default
         their hyperparameters and window length (samples). The engine sends cells whose

@@ -31,12 +31,12 @@ import numpy as np
 import pandas as pd
 
 from slipbench.data.contact import annulus_travel, breakaway
+from slipbench.data.synth_model import MODEL_VERSION
 from slipbench.data.write import write_dataset
 from slipbench.seeding import rng_for
 from slipbench.vocabulary import FREE_SPACE_SPEEDS, MATERIALS, SENSOR_TYPE, SLIP_SPEEDS
 
 UNLABELLED = -1  # per-sample label of samples whose slip state is undefined (after a drop)
-MODEL_VERSION = 4  # bump when the simulation changes, so cached datasets are regenerated
 
 
 @dataclass(frozen=True)

@@ -112,6 +112,11 @@ class LSTM(BaseDetector):
         (:mod:`lstm_compile`); nothing where they are cached."""
         lstm_compile.compile_ahead(say)
 
+    @classmethod
+    def prepare_ahead(cls, say):
+        """Start that compile in a child at once (:func:`lstm_compile.start_ahead`)."""
+        lstm_compile.start_ahead(say)
+
     def _fit(self, x, y, seed):
         lstm_compile.ready("predict", "alone")
         self.device_, self.device_reason_ = _device_choice(self.device, self.batch_size)

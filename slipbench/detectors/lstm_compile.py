@@ -13,6 +13,8 @@ time, and ``slipbench bench`` a third time. Two mechanisms, each for what the ot
 - :func:`compile_ahead`: before a run's workers start, the main process has a short-lived child
   compile them (the child's memory goes back to the system when it exits, where the main
   process would keep LLVM's for the whole run), after saying so; the workers then load.
+  :func:`start_ahead` starts that child before the dataset is read or simulated (a first run
+  does both: they overlap), and :func:`compile_ahead` waits for it.
 
 Whether the kernels are cached is told by a stamp file beside numba's own cache files, written
 after every kernel compiled, and named by what numba's cache depends on (these kernel files'
@@ -21,9 +23,11 @@ contents, numba, Python, the CPU): deleting the cache folder deletes the stamp w
 
 from __future__ import annotations
 
+import atexit
 import hashlib
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -110,27 +114,66 @@ def _exercise(groups: list[str]) -> None:
         _stamp(group).touch()
 
 
-def compile_ahead(say: Callable[[str], None]) -> None:
-    """Compile the kernels a run of ``evaluate`` calls (``lockstep``) in a child process where
-    the cache lacks them, saying first that it
-    does and how long it takes, then how long it took. A child that fails is an
-    EnvironmentFault naming its exit code and last line (the workers would fail alike)."""
-    if cached("lockstep") and cached("predict"):
+class _Child:
+    """The child compiling the kernels, started by :func:`start_ahead`: what it printed goes to
+    a file (a pipe nobody reads while it compiles could fill and stall it)."""
+
+    def __init__(self) -> None:
+        self.started = time.perf_counter()
+        self.errors = tempfile.TemporaryFile(mode="w+")
+        root = str(Path(__file__).parents[2])  # the slipbench this process imported, not the cwd's
+        code = f"import sys; sys.path.insert(0, {root!r}); from slipbench.detectors import lstm; lstm.lstm_compile.ready('predict', 'lockstep')"
+        self.process = subprocess.Popen(
+            [sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=self.errors, text=True
+        )
+        atexit.register(self.stop)  # a run that ends before waiting for it ends it too
+
+    def wait(self, say: Callable[[str], None]) -> None:
+        code = self.process.wait()
+        atexit.unregister(self.stop)
+        self.errors.seek(0)
+        last = (self.errors.read().strip().splitlines() or ["no output"])[-1]
+        self.errors.close()
+        if code != 0:
+            raise EnvironmentFault(
+                cache_folder(), f"compiling the LSTM's kernels failed (exit {code}): {last}"
+            )
+        say(f"lstm: kernels compiled in {time.perf_counter() - self.started:.0f} s")
+
+    def stop(self) -> None:
+        if self.process.poll() is None:  # the flock dies with it; numba writes its files whole
+            self.process.kill()
+            self.process.wait()
+
+
+_child: _Child | None = None  # the compile start_ahead began and compile_ahead did not wait for
+
+
+def start_ahead(say: Callable[[str], None]) -> None:
+    """Start compiling the kernels a run of ``evaluate`` calls (``lockstep``, ``predict``) in a
+    child process where the cache lacks them, and return at once, having said that it does and
+    how long it takes; :func:`compile_ahead` waits for it. A child this process never waits for
+    is killed when it exits."""
+    global _child
+    if _child is not None or (cached("lockstep") and cached("predict")):
         return
     say(
         f"lstm: compiling its numba kernels once for this machine, about {COMPILE_CPU_S} CPU s "
         f"(more on a busy machine); later runs load them in under a second"
     )
-    start = time.perf_counter()
-    root = str(Path(__file__).parents[2])  # the slipbench this process imported, not the cwd's
-    code = f"import sys; sys.path.insert(0, {root!r}); from slipbench.detectors import lstm; lstm.lstm_compile.ready('predict', 'lockstep')"
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    if done.returncode != 0:
-        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
-        raise EnvironmentFault(
-            cache_folder(), f"compiling the LSTM's kernels failed (exit {done.returncode}): {last}"
-        )
-    say(f"lstm: kernels compiled in {time.perf_counter() - start:.0f} s")
+    _child = _Child()
+
+
+def compile_ahead(say: Callable[[str], None]) -> None:
+    """Compile the kernels a run of ``evaluate`` calls in a child process where the cache lacks
+    them (or wait for the one :func:`start_ahead` began), then say how long it took. A child
+    that fails is an EnvironmentFault naming its exit code and last line (the workers would
+    fail alike)."""
+    global _child
+    start_ahead(say)
+    child, _child = _child, None
+    if child is not None:
+        child.wait(say)
 
 
 def exercise_data(n: int = 300) -> tuple[np.ndarray, np.ndarray]:

@@ -606,14 +606,26 @@ def _stream_test(signals: Signals, pc: PlannedCell, scales: np.ndarray | None = 
     )
 
 
+def prepare_ahead(runs: list[Run], say_it: bool) -> None:
+    """Each run's detector class begins its once-per-machine work beside this process
+    (:meth:`BaseDetector.prepare_ahead`, e.g. the LSTM's kernels compiled in a child), to
+    overlap reading or simulating the dataset; :func:`evaluate` waits for it before any worker
+    starts."""
+    for cls in dict.fromkeys(type(run.detector) for run in runs):
+        cls.prepare_ahead(_say(say_it))
+
+
 def _prepare(tasks: list[Task | Batch], say_it: bool) -> None:
     """Each detector class with models to train does its once-per-machine work
     (:meth:`BaseDetector.prepare`, e.g. the LSTM compiling its kernels) before any worker starts,
     so that the workers load what it made instead of each making it at once."""
     classes = dict.fromkeys(type(task.cells[0].run.detector) for task in tasks if task.cells)
-    say = (lambda line: print(line, file=sys.stderr, flush=True)) if say_it else (lambda _: None)
     for cls in classes:
-        cls.prepare(say)
+        cls.prepare(_say(say_it))
+
+
+def _say(say_it: bool) -> Callable[[str], None]:
+    return (lambda line: print(line, file=sys.stderr, flush=True)) if say_it else (lambda _: None)
 
 
 def _describe(runs: list[Run]) -> str:

@@ -75,18 +75,48 @@ def test_a_failed_exercise_leaves_the_group_unready_and_unstamped(fake_group, mo
     assert "fake" not in lstm_compile._ready and not lstm_compile.cached("fake")
 
 
-def test_compiling_ahead_says_so_first_and_then_how_long(monkeypatch):
-    said: list[str] = []
-    children: list[list[str]] = []
+class FakeChild:
+    """A compile child (subprocess.Popen) that is done when ``done`` says so, exits with
+    ``code`` and writes ``err`` to its stderr file."""
+
+    started: list[list[str]] = []
+
+    def __init__(self, argv, code=0, err="", **kw):
+        FakeChild.started.append(argv)
+        self.code, self.killed, self.done = code, False, True
+        kw["stderr"].write(err)
+
+    def poll(self):
+        return self.code if self.done else None
+
+    def wait(self):
+        return self.code
+
+    def kill(self):
+        self.killed = True
+
+
+@pytest.fixture
+def children(monkeypatch):
+    """Compile children faked (FakeChild), none started yet; the kernels not cached until
+    a child was waited for."""
     state = {"cached": False}
-
-    def child(argv, **_):
-        children.append(argv)
-        state["cached"] = True
-        return subprocess.CompletedProcess(argv, 0, "", "")
-
+    monkeypatch.setattr(FakeChild, "started", [])
+    monkeypatch.setattr(lstm_compile, "_child", None)
     monkeypatch.setattr(lstm_compile, "cached", lambda group: state["cached"])
-    monkeypatch.setattr(lstm_compile.subprocess, "run", child)
+    monkeypatch.setattr(lstm_compile.subprocess, "Popen", FakeChild)
+    waited = lstm_compile._Child.wait
+
+    def wait(self, say):
+        waited(self, say)
+        state["cached"] = True
+
+    monkeypatch.setattr(lstm_compile._Child, "wait", wait)
+    return FakeChild.started
+
+
+def test_compiling_ahead_says_so_first_and_then_how_long(children):
+    said: list[str] = []
     lstm_compile.compile_ahead(said.append)
     assert said[0].startswith("lstm: compiling its numba kernels once for this machine, about ")
     assert said[1].startswith("lstm: kernels compiled in ") and len(children) == 1
@@ -95,14 +125,29 @@ def test_compiling_ahead_says_so_first_and_then_how_long(monkeypatch):
     assert len(said) == 2 and len(children) == 1
 
 
-def test_a_failed_compile_ahead_names_its_exit_and_last_line(monkeypatch):
+def test_a_compile_started_ahead_is_waited_for_once_or_killed_at_exit(children, monkeypatch):
+    said: list[str] = []
+    lstm_compile.start_ahead(said.append)
+    lstm_compile.start_ahead(said.append)  # one child, however often the engine starts it
+    assert len(children) == 1 and len(said) == 1 and lstm_compile._child is not None
+    lstm_compile.compile_ahead(said.append)  # waits for that child: no second one
+    assert len(children) == 1 and said[1].startswith("lstm: kernels compiled in ")
+    monkeypatch.setattr(lstm_compile, "cached", lambda group: False)
+    lstm_compile.start_ahead(said.append)
+    child = lstm_compile._child
+    assert child is not None
+    child.process.done = False  # still compiling when the run ends without waiting for it
+    child.stop()  # what atexit calls
+    assert child.process.killed
+
+
+def test_a_failed_compile_ahead_names_its_exit_and_last_line(children, monkeypatch):
     from slipbench.errors import EnvironmentFault
 
-    monkeypatch.setattr(lstm_compile, "cached", lambda group: False)
     monkeypatch.setattr(
         lstm_compile.subprocess,
-        "run",
-        lambda argv, **_: subprocess.CompletedProcess(argv, 1, "", "x\nMemoryError: LLVM\n"),
+        "Popen",
+        lambda argv, **kw: FakeChild(argv, 1, "x\nMemoryError: LLVM\n", **kw),
     )
     with pytest.raises(EnvironmentFault, match=r"exit 1\): MemoryError: LLVM"):
         lstm_compile.compile_ahead(lambda _: None)

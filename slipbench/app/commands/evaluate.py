@@ -172,6 +172,7 @@ def evaluate_command(**options) -> None:
     split = "datasets" if o.train_path else o.split
     check_ids(registry.detectors, o.detector_name)  # both kinds before a plugin is imported
     check_ids(registry.protocols, o.protocol_name)
+    simulating = _first_use(o)  # said before the plugins and the data's libraries are imported
     broken: list[str] = []
     note = lambda line: click.echo(line, err=True)  # noqa: E731
     detectors = with_options(
@@ -209,7 +210,7 @@ def evaluate_command(**options) -> None:
     store = ResultsStore(o.out)
     rows = None if o.force or o.train_path else _cached(o, runs, store)
     if rows is None:
-        rows = _evaluated(o, runs, store, slurm)
+        rows = _evaluated(o, runs, store, slurm, simulating)
     shown = recorded_plugins(rows)  # cells kept from a run before rows recorded their layouts
     by = [c for c in (*identity(ENTRANT, READING), PROTOCOL) if c in shown]  # an entrant's table
     for _, group in shown.groupby(by, sort=False, dropna=False):
@@ -237,6 +238,19 @@ def evaluate_command(**options) -> None:
         raise failed
 
 
+def _first_use(o: EvaluateArgs) -> bool:
+    """Say, first of all, that the default dataset is simulated where this run needs it and it
+    is not cached yet (a newcomer's first command: it takes a while); whether it was said."""
+    if o.dataset_path or o.train_path:
+        return False
+    from slipbench.data.defaults import first_use
+
+    line = first_use(o.scale, o.seed)
+    if line:
+        click.echo(line)
+    return line is not None
+
+
 def _cached(o: EvaluateArgs, runs: list, store) -> pd.DataFrame | None:
     """The rows of a fully cached run, read from the store without reading the dataset's samples
     (:func:`slipbench.engine.cached.cached_rows`); None where a cell must be computed."""
@@ -248,13 +262,18 @@ def _cached(o: EvaluateArgs, runs: list, store) -> pd.DataFrame | None:
     return None if known is None else cached_rows(*known, runs, store)
 
 
-def _evaluated(o: EvaluateArgs, runs: list, store, slurm) -> pd.DataFrame:
+def _evaluated(o: EvaluateArgs, runs: list, store, slurm, simulating: bool) -> pd.DataFrame:
     """The rows of a run that computes cells: the dataset read whole (or simulated, or two
-    combined), workers started where cells must run."""
+    combined), workers started where cells must run. What the detectors prepare once per
+    machine (the LSTM's kernels) starts first, beside the reading or simulating."""
     from slipbench.data.defaults import default_dataset
     from slipbench.data.read import read_dataset
     from slipbench.engine.limits import cell_limit, limit_words
     from slipbench.engine.runner import evaluate as run_protocols
+    from slipbench.engine.runner import prepare_ahead
+
+    if o.scheduler is None:  # this machine's workers will load what it prepares
+        prepare_ahead(runs, not o.quiet)
 
     if o.train_path and o.dataset_path:  # checked above: --train-dataset needs --dataset
         from slipbench.data.transfer import combine, parse_sensor_map
@@ -266,7 +285,7 @@ def _evaluated(o: EvaluateArgs, runs: list, store, slurm) -> pd.DataFrame:
         ds = (
             read_dataset(o.dataset_path)
             if o.dataset_path
-            else default_dataset(o.scale, o.seed, echo=click.echo)
+            else default_dataset(o.scale, o.seed, echo=None if simulating else click.echo)
         )
     if not o.quiet:
         click.echo(limit_words(o.cell_timeout, o.jobs, o.scheduler), err=True)
