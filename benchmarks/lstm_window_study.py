@@ -78,17 +78,19 @@ def _settings(rows: pd.DataFrame) -> pd.DataFrame:
 
 def choose(tuning: pd.DataFrame) -> str:
     """The candidate with the largest ``reference_windows`` (the most updates for few windows)
-    whose every tuning setting (DoS 250 and 500 ms, simulated window 200) keeps its mean
-    balanced accuracy within ``MEAN_TOLERANCE`` points of 0's and its lowest cell within
-    ``LOWEST_TOLERANCE`` points of 0's lowest, with no more cells flagged "did not learn"."""
+    that keeps, against 0: the mean balanced accuracy over the DoS tuning cells (250 and 500 ms
+    pooled) and over the simulated cells each within ``MEAN_TOLERANCE`` points, every tuning
+    setting's lowest cell within ``LOWEST_TOLERANCE`` points, and no more cells flagged "did
+    not learn". The DoS windows are pooled because a mean of 3 seeds moves by more than a point
+    from seed noise alone (the rule first asked it of each window; see the study's page)."""
     t = _settings(tuning)
-    g = t.groupby(["candidate", "setting"])
-    s = g.agg(mean=("ba", "mean"), low=("ba", "min"), stuck=("stuck", "sum")).unstack()
-    base = s.loc[NOW]
+    t = t.assign(pool=np.where(t["dataset"] == "dos", "DoS tuning", "sim"))
+    pooled = t.groupby(["candidate", "pool"])["ba"].mean().unstack()
+    s = t.groupby(["candidate", "setting"]).agg(low=("ba", "min"), stuck=("stuck", "sum")).unstack()
     ok = (
-        (s["mean"] >= base["mean"] - MEAN_TOLERANCE).all(axis=1)
-        & (s["low"] >= base["low"] - LOWEST_TOLERANCE).all(axis=1)
-        & (s["stuck"] <= base["stuck"]).all(axis=1)
+        (pooled >= pooled.loc[NOW] - MEAN_TOLERANCE).all(axis=1)
+        & (s["low"] >= s.loc[NOW, "low"] - LOWEST_TOLERANCE).all(axis=1)
+        & (s["stuck"] <= s.loc[NOW, "stuck"]).all(axis=1)
     )
     return max(ok[ok].index, key=lambda name: CANDIDATES[name])
 
@@ -112,7 +114,7 @@ def tables(rows: pd.DataFrame) -> dict[str, pd.DataFrame]:
     return {
         "balanced accuracy (%), mean over cells and seeds": s["mean"]
         .unstack()
-        .loc[order, cols]
+        .reindex(index=order, columns=cols)
         .round(1),
         "lowest balanced accuracy (%) of a cell": s["low"]
         .unstack()
@@ -122,8 +124,8 @@ def tables(rows: pd.DataFrame) -> dict[str, pd.DataFrame]:
             s["stuck"].astype(int).astype(str) + " / " + s["cells"].astype(str)
         )
         .unstack()
-        .loc[order, cols]
-        .fillna("-"),
+        .reindex(index=order, columns=cols)
+        .astype(object).fillna("-"),
         "training seconds summed over cells (this run)": cost.to_frame("train s"),
         "held out, DoS 1000 ms, cell by cell (the row's warning, cut at 140 characters)": held[
             ["candidate", "seed", "ba", "train_ba", "epochs", "warning"]
