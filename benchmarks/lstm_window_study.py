@@ -125,7 +125,8 @@ def tables(rows: pd.DataFrame) -> dict[str, pd.DataFrame]:
         )
         .unstack()
         .reindex(index=order, columns=cols)
-        .astype(object).fillna("-"),
+        .astype(object)
+        .fillna("-"),
         "training seconds summed over cells (this run)": cost.to_frame("train s"),
         "held out, DoS 1000 ms, cell by cell (the row's warning, cut at 140 characters)": held[
             ["candidate", "seed", "ba", "train_ba", "epochs", "warning"]
