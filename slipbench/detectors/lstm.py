@@ -13,7 +13,10 @@ and each learning-rate stage starts from them with zero velocity; MATLAB's initi
 stage capped at (20, 5, 3, 2) by default, so that the whole paper runs in minutes
 (``max_epochs=100`` is the paper's); the percentiles mapped to [-4, 4] (``input_range``): at
 [-1, 1] the input barely moves the gates, and the LSTM did not learn on a real BioTac SP
-(docs/studies/lstm-study.md, ``benchmarks/lstm_input_study.py``).
+(docs/studies/lstm-study.md, ``benchmarks/lstm_input_study.py``). ``reference_windows``:
+a model trained on fewer windows than it runs reference / n times the epochs (caps and
+patience), so few windows (DoS at 1000 ms: 84-95) get the updates many get
+(``benchmarks/lstm_window_study.py``); 0 keeps the epochs as given.
 CPU: numba kernels (lstm_kernels.py, beside this file); GPU: torch's cuDNN LSTM with the same model and loop.
 Many models train together through ``LSTM.fit_lockstep`` (lstm_lockstep.py, lstm_lockstep_torch.py).
 Streaming (``streamer``): every window still open keeps its state from push to push, so a
@@ -58,6 +61,7 @@ class LSTM(BaseDetector):
         "learning_rates": Sequence(Interval(float, 1e-12, 10.0)),
         "max_epochs": Sequence(Interval(int, 1, 100_000)),
         "input_range": Interval(float, 1e-3, 1e3),
+        "reference_windows": Interval(int, 0, None),
     }
 
     def __init__(  # noqa: PLR0913 (hyperparameters: get_params reads one keyword each)
@@ -71,6 +75,7 @@ class LSTM(BaseDetector):
         validation_fraction=0.1,
         device="auto",
         input_range=4.0,
+        reference_windows=0,
     ):
         self.hidden_size = hidden_size
         self.batch_size = batch_size
@@ -81,6 +86,7 @@ class LSTM(BaseDetector):
         self.validation_fraction = validation_fraction
         self.device = device
         self.input_range = input_range
+        self.reference_windows = reference_windows
 
     def validate_params(self) -> None:
         super().validate_params()
@@ -101,10 +107,21 @@ class LSTM(BaseDetector):
                 "use 'cpu' or 'auto'"
             )
 
-    def _stages(self) -> list[tuple[float, int]]:
+    def _stages(self, n_train: int | None = None) -> list[tuple[float, int]]:
+        """(learning rate, epoch cap) per stage, the caps scaled for ``n_train`` windows
+        (:meth:`_epoch_factor`)."""
         rates = [float(r) for r in np.atleast_1d(self.learning_rates)]
         epochs = np.broadcast_to(np.atleast_1d(self.max_epochs), (len(rates),))
-        return list(zip(rates, (int(e) for e in epochs)))
+        factor = self._epoch_factor(n_train)
+        return list(zip(rates, (int(np.ceil(e * factor)) for e in epochs)))
+
+    def _epoch_factor(self, n_train: int | None) -> float:
+        """How many times the epochs (caps and patience) are stretched: with
+        ``reference_windows`` above 0 and fewer training windows than it, by reference / n, so a
+        model trained on few windows gets the updates one on ``reference_windows`` gets."""
+        if not self.reference_windows or not n_train:
+            return 1.0
+        return max(1.0, self.reference_windows / n_train)
 
     @classmethod
     def prepare(cls, say):
@@ -239,7 +256,7 @@ class _Training:
     whether it trains alone (:meth:`LSTM._fit`) or in lockstep with others."""
 
     def __init__(self, det: Any, x: np.ndarray, y: np.ndarray, seed: int):
-        self.det, self.y, self.stages = det, y, det._stages()
+        self.det, self.y = det, y
         self.rng = rng = np.random.default_rng(seed)
         lo, hi = np.percentile(x, [2.5, 97.5])
         scale = 2.0 * det.input_range / max(hi - lo, 1e-12)  # [lo, hi] -> [-range, range]
@@ -254,6 +271,8 @@ class _Training:
             raise UsageError(
                 "LSTM: too few windows to keep a validation part; lower validation_fraction"
             )
+        self.stages = det._stages(len(self.train))
+        self.patience = int(np.ceil(det.patience * det._epoch_factor(len(self.train))))
         self.best, self.best_loss = kernels.init_params(det.hidden_size, rng), np.inf
         self.history: list[tuple[float, float]] = []
         self.total_epochs = sum(e for _, e in self.stages)  # caps: early stopping may end sooner
@@ -293,7 +312,7 @@ class _Training:
             self.best, self.best_loss, self.stale = [q.copy() for q in params], loss, 0
         else:
             self.stale += 1
-        if self.stale >= self.det.patience or self.epochs_in_stage >= self.stages[self.stage][1]:
+        if self.stale >= self.patience or self.epochs_in_stage >= self.stages[self.stage][1]:
             self.stage += 1
             if not self.done:
                 self._start_stage()

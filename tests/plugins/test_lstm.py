@@ -201,6 +201,23 @@ def test_schedule_early_stopping_and_best_weights():
     assert d.validation_loss_ < 0.4  # it learned this easy problem (chance: log 2 = 0.69)
 
 
+def test_few_windows_stretch_the_epochs_to_the_reference():
+    """``reference_windows``: a model with fewer training windows than the reference runs
+    reference / n times the epochs (caps and patience), so it gets the updates of one trained
+    on the reference; with as many windows or more, or at 0, the schedule is the one given."""
+    x, y = toy_windows(200, 20)  # 20 windows validate, 180 train
+    slow = {"learning_rates": (1e-9, 1e-10), "max_epochs": 50, "patience": 3}
+    d = LSTM(reference_windows=360, **slow).fit(x, y, seed=0)  # stretched twice: patience 6
+    assert d.history_[:, 0].tolist() == [1e-9] * 7 + [1e-10] * 6
+    d = LSTM(reference_windows=450, max_epochs=(4, 2), learning_rates=(1e-9, 1e-10)).fit(x, y)
+    assert d.history_[:, 0].tolist() == [1e-9] * 10 + [1e-10] * 5  # caps 4 and 2, 2.5 times
+    plain = LSTM(max_epochs=2).fit(x, y, seed=0)
+    for reference in (0, 180):
+        same = LSTM(max_epochs=2, reference_windows=reference).fit(x, y, seed=0)
+        for k in ("w_", "rt_", "b_", "wy_", "by_", "history_"):
+            assert np.array_equal(getattr(same, k), getattr(plain, k))
+
+
 def test_bad_schedules_are_refused():
     x, y = toy_windows(40, 10)
     with pytest.raises(UsageError, match="one per rate"):
@@ -305,7 +322,8 @@ def test_fit_lockstep_fits_each_model_as_fit_does():
     from slipbench.base import FitJob
 
     jobs = [FitJob(*toy_windows(90 + 10 * i, 20, seed=i), seed=i) for i in range(3)]
-    two = {"learning_rates": (0.05, 0.005), "max_epochs": (3, 2)}
+    # models of one group, each stretched by its own reference / n (81 and 90 windows train)
+    two = {"learning_rates": (0.05, 0.005), "max_epochs": (3, 2), "reference_windows": 150}
     settings = [two, two, {"max_epochs": 2, "patience": 1}]
     together = LSTM.fit_lockstep([LSTM(**s) for s in settings], jobs)
     for det, s, job in zip(together, settings, jobs):
