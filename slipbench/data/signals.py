@@ -438,21 +438,12 @@ class Windows:
         samples, contact held without slip ("hold", per material) for non-slip windows of slip
         and hold-slip recordings. ``balancing="across"`` pools the materials: slip per speed,
         pressing and held contact one stratum each."""
-        rec = self.recordings
-        scenario = rec["scenario"].to_numpy(dtype=str)[self.recording]
-        material = rec["material"].fillna("").to_numpy(dtype=str)[self.recording]
-        if balancing == "across":
-            material = np.full(len(material), "")
-        speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[
-            self.recording
-        ]
-        held = (self.labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
-        category = np.where(self.labels == 1, "slip", np.where(held, "hold", scenario))
-        material = np.where(category == "free-space", "", material)
-        speed = np.where(np.isin(category, ("press", "hold")), "", speed)
-        return np.char.add(
-            np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed)
-        )
+        # a window's stratum is that of its (recording, label) pair: the strings are built
+        # once per pair, not per window (they led the main process's windowing)
+        label = np.select([self.labels == 0, self.labels == 1], [0, 1], 2)
+        pairs, inverse = np.unique(self.recording.astype(np.int64) * 3 + label, return_inverse=True)
+        labels = np.array([0, 1, -1])[pairs % 3]
+        return _strata(self.recordings, pairs // 3, labels, balancing)[inverse.ravel()]
 
     def downsample(self, factor: int, decimation: str = "plain") -> Windows:
         """The windows as a sensor sampled ``factor`` times slower would see them.
@@ -506,6 +497,22 @@ class Windows:
             self.recordings,
             self.labels,
         )
+
+
+def _strata(
+    rec: pd.DataFrame, recording: np.ndarray, labels: np.ndarray, balancing: str
+) -> np.ndarray:
+    """:meth:`Windows.strata` of windows of ``recording`` (rows of ``rec``) labelled ``labels``."""
+    scenario = rec["scenario"].to_numpy(dtype=str)[recording]
+    material = rec["material"].fillna("").to_numpy(dtype=str)[recording]
+    if balancing == "across":
+        material = np.full(len(material), "")
+    speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[recording]
+    held = (labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
+    category = np.where(labels == 1, "slip", np.where(held, "hold", scenario))
+    material = np.where(category == "free-space", "", material)
+    speed = np.where(np.isin(category, ("press", "hold")), "", speed)
+    return np.char.add(np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed))
 
 
 def _shares(strata: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
