@@ -135,3 +135,13 @@ def test_strata_built_per_recording_and_label_are_those_built_per_window(seed, b
     recording = rng.integers(0, n_rec, n).astype(np.int32)
     windows = Windows(None, recording, np.arange(n), rec, rng.integers(0, 2, n).astype(np.int8))
     assert windows.strata(balancing).tolist() == _strata_per_window(windows, balancing).tolist()
+
+
+def test_strata_carried_through_take_and_samples_are_those_made_anew():
+    windows = _windows([3, 4], [5], [2], [3])
+    windows.strata()  # made once, on the sensor's windows, as planning makes them
+    rows = np.array([0, 2, 5, 9, 14])
+    part = windows.take(rows).with_x(np.zeros((len(rows), 4), np.float32)).downsample(2)
+    fresh = Windows(None, part.recording, part.index, part.recordings, part.labels)
+    for balancing in ("within", "across"):
+        assert part.strata(balancing).tolist() == fresh.strata(balancing).tolist()
