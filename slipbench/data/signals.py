@@ -3,7 +3,7 @@ balancing and splitting. Pure numpy (plus scikit-learn's splitters)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -413,15 +413,25 @@ class Windows:
     index: np.ndarray
     recordings: pd.DataFrame
     labels: np.ndarray
+    # per balancing, the strata names and each window's code (:meth:`strata`), kept through
+    # :meth:`take`: a cell's test windows are a take of its sensor's, whose strata planning made
+    _strata: dict[str, tuple[np.ndarray, np.ndarray]] = field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     def __len__(self) -> int:
         return len(self.recording)
 
     def take(self, rows: np.ndarray) -> Windows:
         x = None if self.x is None else self.x[rows]
+        strata = {k: (names, codes[rows]) for k, (names, codes) in self._strata.items()}
         return Windows(
-            x, self.recording[rows], self.index[rows], self.recordings, self.labels[rows]
+            x, self.recording[rows], self.index[rows], self.recordings, self.labels[rows], strata
         )
+
+    def with_x(self, x: np.ndarray | None) -> Windows:
+        """The same windows holding ``x`` (their samples, cut or decimated)."""
+        return Windows(x, self.recording, self.index, self.recordings, self.labels, self._strata)
 
     def column(self, name: str) -> np.ndarray:
         """A recordings column (scenario, material, speed_mm_s, ...) per window."""
@@ -438,21 +448,20 @@ class Windows:
         samples, contact held without slip ("hold", per material) for non-slip windows of slip
         and hold-slip recordings. ``balancing="across"`` pools the materials: slip per speed,
         pressing and held contact one stratum each."""
-        rec = self.recordings
-        scenario = rec["scenario"].to_numpy(dtype=str)[self.recording]
-        material = rec["material"].fillna("").to_numpy(dtype=str)[self.recording]
-        if balancing == "across":
-            material = np.full(len(material), "")
-        speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[
-            self.recording
-        ]
-        held = (self.labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
-        category = np.where(self.labels == 1, "slip", np.where(held, "hold", scenario))
-        material = np.where(category == "free-space", "", material)
-        speed = np.where(np.isin(category, ("press", "hold")), "", speed)
-        return np.char.add(
-            np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed)
-        )
+        # a window's stratum is that of its (recording, label) pair: the strings are built
+        # once per pair, not per window (they led the main process's windowing)
+        if balancing not in self._strata:
+            label = np.select([self.labels == 0, self.labels == 1], [0, 1], 2)
+            pairs, inverse = np.unique(
+                self.recording.astype(np.int64) * 3 + label, return_inverse=True
+            )
+            labels = np.array([0, 1, -1])[pairs % 3]
+            self._strata[balancing] = (
+                _strata(self.recordings, pairs // 3, labels, balancing),
+                inverse.ravel().astype(np.int32),
+            )
+        names, codes = self._strata[balancing]
+        return names[codes]
 
     def downsample(self, factor: int, decimation: str = "plain") -> Windows:
         """The windows as a sensor sampled ``factor`` times slower would see them.
@@ -499,13 +508,23 @@ class Windows:
             )
         else:
             raise UsageError(f"unknown decimation {decimation!r}; choose plain or lag")
-        return Windows(
-            np.ascontiguousarray(x, dtype=np.float32),
-            self.recording,
-            self.index,
-            self.recordings,
-            self.labels,
-        )
+        return self.with_x(np.ascontiguousarray(x, dtype=np.float32))
+
+
+def _strata(
+    rec: pd.DataFrame, recording: np.ndarray, labels: np.ndarray, balancing: str
+) -> np.ndarray:
+    """:meth:`Windows.strata` of windows of ``recording`` (rows of ``rec``) labelled ``labels``."""
+    scenario = rec["scenario"].to_numpy(dtype=str)[recording]
+    material = rec["material"].fillna("").to_numpy(dtype=str)[recording]
+    if balancing == "across":
+        material = np.full(len(material), "")
+    speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[recording]
+    held = (labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
+    category = np.where(labels == 1, "slip", np.where(held, "hold", scenario))
+    material = np.where(category == "free-space", "", material)
+    speed = np.where(np.isin(category, ("press", "hold")), "", speed)
+    return np.char.add(np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed))
 
 
 def _shares(strata: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -506,16 +506,18 @@ class CellData:
                     self._antialiased[cell.downsample] = self.signals.antialiased(cell.downsample)
                 signals = self._antialiased[cell.downsample]
             x = signals.values(windows, cell.window)
-        out = Windows(x, windows.recording, windows.index, windows.recordings, windows.labels)
+        out = windows.with_x(x)
         return out if cell.downsample == 1 else out.downsample(cell.downsample, cell.decimation)
 
     def sampling_rate(self, part: Part, downsample: int) -> float:
         """The rate (Hz) of a part's windows; UsageError naming recordings when it pools rates."""
         rec = self.signals.recordings
-        rows = rec.loc[np.concatenate([self._rows[s] for s in part.sensors])]
-        column = "unit_rate_hz" if "unit_rate_hz" in rows else "sampling_rate_hz"
-        rates = rows[column].unique()
+        ids = np.concatenate([self._rows[s] for s in part.sensors])
+        column = "unit_rate_hz" if "unit_rate_hz" in rec else "sampling_rate_hz"
+        # one column, not every column of the rows: the frame's rows took most of planning
+        rates = rec[column].loc[ids].unique()
         if len(rates) > 1:
+            rows = rec.loc[ids]
             lo, hi = rows.loc[rows[column].idxmin()], rows.loc[rows[column].idxmax()]
             raise UsageError(
                 f"a cell pools sensors with different sampling rates: {float(lo[column]):g} Hz (recording "

@@ -72,6 +72,7 @@ from slipbench.store.scan import (
     MANIFEST,
     RESULTS_FILE,
     UNPROVEN,
+    Cell,
     Rows,
     Scan,
     cell_entries,
@@ -111,6 +112,8 @@ class ResultsStore:
     def __init__(self, folder: str | os.PathLike):
         self.folder = Path(folder)
         self._seen: Scan | None = None  # the latest scan: what it proved is not proved again
+        # the cell files this store wrote, as written: a scan does not read them back
+        self._written: dict[str, Cell] = {}
 
     def _cell_path(self, key: str) -> Path:
         return self.folder / RESULTS_CELLS / f"{key}.parquet"
@@ -134,7 +137,7 @@ class ResultsStore:
         left out with a warning naming it, so that a run computes that cell again and replaces
         the file; a damaged results.parquet is read from ``cells/`` instead.
         """
-        self._seen = scan(self.folder, known=self._seen)
+        self._seen = scan(self.folder, known=self._seen, written=self._written)
         for note in self._seen.notes:
             warnings.warn(note, stacklevel=2)
         return self._seen.rows()
@@ -164,9 +167,13 @@ class ResultsStore:
             )
         table = pa.Table.from_pylist([row])
         # the digest of the row as it reads back (pyarrow's types), which readers recompute
-        write_atomic(
-            with_digests(table, digests_of(table.to_pylist())), self._cell_path(row["key"])
-        )
+        back = table.to_pylist()
+        path = self._cell_path(row["key"])
+        write_atomic(with_digests(table, digests_of(back)), path)
+        try:
+            self._written[row["key"]] = Cell(back[0], version(path.stat()), True)
+        except OSError:  # gone already (another run's rewrite): a scan reads what is there
+            self._written.pop(row["key"], None)
 
     def consolidate(self) -> Path:
         """Rebuild results.parquet from every proved row, if any row changed (or one there
@@ -177,11 +184,11 @@ class ResultsStore:
         cells are never dropped.
         """
         path = self.folder / RESULTS_FILE
-        self._seen = scan(self.folder, known=self._seen)
+        self._seen = scan(self.folder, known=self._seen, written=self._written)
         if not self._seen.changed:
             return path
         with folder_lock(self.folder):
-            found = self._seen = scan(self.folder, known=self._seen)
+            found = self._seen = scan(self.folder, known=self._seen, written=self._written)
             if found.changed:
                 manifest = json.dumps(found.versions, separators=(",", ":"), sort_keys=True)
                 table = with_digests(found.combined(self.folder), found.row_digests())

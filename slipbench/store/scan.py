@@ -159,11 +159,18 @@ class Scan:
             return union({**self.results.rows, **self.newer}, folder)
 
 
-def scan(folder: Path, strict: bool = False, known: Scan | None = None) -> Scan:
+def scan(
+    folder: Path,
+    strict: bool = False,
+    known: Scan | None = None,
+    written: Mapping[str, Cell] | None = None,
+) -> Scan:
     """results.parquet's rows that prove themselves, and every cell file whose version it does
     not hold (see the module's docstring for what is done with what cannot be proved). What
     ``known``, an earlier scan of the same kind, found is not checked again: results.parquet
-    where its bytes are the same, a cell file's row where its version is.
+    where its bytes are the same, a cell file's row where its version is; nor is a cell file
+    this process ``written`` (its row as written, by key) where its version is the one written
+    (reading back a run's cells was a tenth of its main process).
 
     Raises
     ------
@@ -187,6 +194,8 @@ def scan(folder: Path, strict: bool = False, known: Scan | None = None) -> Scan:
             continue
         if known is not None and key in known.newer and known.versions.get(key) == now:
             cell = Cell(known.newer[key], now, str(entry.path) not in known.unproven)
+        elif written is not None and key in written and written[key].version == now:
+            cell = written[key]
         else:
             try:
                 cell = read_cell(Path(entry.path), key)

@@ -100,3 +100,48 @@ def test_what_balancing_keeps_is_counted_and_its_limit_named():
     imu = _windows(slip=[30], press=[8], free=[], held=[])
     assert balanced_counts(imu) == {1: 8, 0: 8}
     assert balance_limits(imu) == "press has 8 windows, and slip is matched to it"
+
+
+def _strata_per_window(windows: Windows, balancing: str) -> np.ndarray:
+    """``Windows.strata`` as it was built before, one string per window (the reference)."""
+    rec = windows.recordings
+    scenario = rec["scenario"].to_numpy(dtype=str)[windows.recording]
+    material = rec["material"].fillna("").to_numpy(dtype=str)[windows.recording]
+    if balancing == "across":
+        material = np.full(len(material), "")
+    speed = np.char.mod("%g", rec["speed_mm_s"].to_numpy(dtype=float, na_value=np.nan))[
+        windows.recording
+    ]
+    held = (windows.labels == 0) & np.isin(scenario, ("slip", "hold-slip"))
+    category = np.where(windows.labels == 1, "slip", np.where(held, "hold", scenario))
+    material = np.where(category == "free-space", "", material)
+    speed = np.where(np.isin(category, ("press", "hold")), "", speed)
+    return np.char.add(np.char.add(np.char.add(category, "|"), material), np.char.add("|", speed))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["within", "across"]))
+def test_strata_built_per_recording_and_label_are_those_built_per_window(seed, balancing):
+    rng = np.random.default_rng(seed)
+    n_rec = int(rng.integers(1, 12))
+    rec = pd.DataFrame(
+        {
+            "scenario": rng.choice(["slip", "hold-slip", "press", "free-space"], n_rec),
+            "material": rng.choice(["m1", "m2", None], n_rec),
+            "speed_mm_s": rng.choice([5.0, 12.5, np.nan], n_rec),
+        }
+    )
+    n = int(rng.integers(1, 80))
+    recording = rng.integers(0, n_rec, n).astype(np.int32)
+    windows = Windows(None, recording, np.arange(n), rec, rng.integers(0, 2, n).astype(np.int8))
+    assert windows.strata(balancing).tolist() == _strata_per_window(windows, balancing).tolist()
+
+
+def test_strata_carried_through_take_and_samples_are_those_made_anew():
+    windows = _windows([3, 4], [5], [2], [3])
+    windows.strata()  # made once, on the sensor's windows, as planning makes them
+    rows = np.array([0, 2, 5, 9, 14])
+    part = windows.take(rows).with_x(np.zeros((len(rows), 4), np.float32)).downsample(2)
+    fresh = Windows(None, part.recording, part.index, part.recordings, part.labels)
+    for balancing in ("within", "across"):
+        assert part.strata(balancing).tolist() == fresh.strata(balancing).tolist()

@@ -28,6 +28,7 @@ from slipbench.base import BaseDetector
 from slipbench.errors import CellsFailed, DataError, EnvironmentFault, environment_fault, writing
 from slipbench.protocol import Part
 from slipbench.store import keys
+from slipbench.store import scan as scan_module
 from slipbench.store.columns import COLUMNS
 from slipbench.store.keys import KEY_SCHEMA, canonical, canonical_json, cell_key, code_identity
 from slipbench.store.results import (
@@ -104,6 +105,24 @@ def test_rows_round_trip_through_cells_and_results(values, tmp_path_factory):
     back = {r["key"]: r for r in pq.read_table(folder / RESULTS_FILE).to_pylist()}
     assert back == {r["key"]: r for r in rows}
     assert store.finished() == back
+
+
+def test_cells_this_store_wrote_are_not_read_back(tmp_path, monkeypatch):
+    store = stored(tmp_path, 5)
+    fresh = ResultsStore(tmp_path).finished()  # as another process reads them
+    assert store.finished() == fresh
+    calls = []
+    monkeypatch.setattr(scan_module, "read_cell", lambda *a: calls.append(a))
+    store.consolidate()
+    assert calls == []
+    back = {r["key"]: r for r in pq.read_table(tmp_path / RESULTS_FILE).to_pylist()}
+    assert back == fresh
+
+
+def test_a_cell_rewritten_by_another_process_is_read_again(tmp_path):
+    store = stored(tmp_path, 2)
+    ResultsStore(tmp_path).put(row(1, accuracy=0.25))  # another process, the same key
+    assert store.finished()["k0001"]["accuracy"] == 0.25
 
 
 def test_finished_cells_are_read_without_results_file(tmp_path):

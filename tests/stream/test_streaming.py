@@ -587,3 +587,17 @@ def test_push_costs_and_hop_latency():
     assert hop_latency(detector, signal, 5) > 0
     with pytest.raises(UsageError, match="at least two scores"):
         hop_latency(detector, signal[:22], 5)
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_repeated_quantiles_are_numpys_of_each_repeated_array_to_the_bit(seed):
+    rng = np.random.default_rng(seed)
+    n, k = int(rng.integers(1, 40)), int(rng.integers(1, 9))
+    values = np.sort(np.round(rng.gamma(2.0, 30.0, n), int(rng.integers(0, 3))))
+    counts = rng.multinomial(k, np.full(k, 1 / k), size=50)[:, rng.integers(0, k, n)]
+    counts = counts[counts.sum(axis=1) > 0].astype(np.int64)
+    q = np.array([0.5, 0.95])
+    got = S.repeated_quantiles(values, counts, q)
+    want = np.array([np.quantile(np.repeat(values, c), q) for c in counts]).reshape(got.shape)
+    assert got.tobytes() == want.tobytes()
