@@ -22,9 +22,32 @@ from slipbench.history.series import POOL, POOLED, _digest
 KINDS = np.array(["cell", "pooled"], dtype=object)
 
 
+#: rows hashed at a time: their texts as Python objects only a batch at a time
+HASH_BATCH = 1 << 18
+
+
 def _codes(column: pd.Series) -> tuple[np.ndarray, np.ndarray]:
     codes, uniques = pd.factorize(column, use_na_sentinel=True)
     return codes.astype(np.int64), np.asarray(uniques, dtype=object)
+
+
+def _filled(column: pd.Series) -> pd.Series:
+    """A text column with missing values as "" (a categorical one given "" as a category)."""
+    if isinstance(column.dtype, pd.CategoricalDtype) and "" not in column.cat.categories:
+        column = column.cat.add_categories([""])
+    return column.fillna("")
+
+
+def _hashed(column: pd.Series) -> np.ndarray:
+    """``pd.util.hash_pandas_object(column, index=False)``, a batch of rows at a time and each
+    value hashed as it comes (not factorized first: a history's keys are nearly all distinct)."""
+    if isinstance(column.dtype, pd.CategoricalDtype) or column.hasnans:
+        return pd.util.hash_pandas_object(column, index=False).to_numpy()
+    out = np.empty(len(column), np.uint64)
+    for at in range(0, len(column), HASH_BATCH):
+        part = column.iloc[at : at + HASH_BATCH].to_numpy(dtype=object)
+        out[at : at + len(part)] = pd.util.hash_array(part, categorize=False)
+    return out
 
 
 def _combine(*codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -47,6 +70,12 @@ def texts(codes: np.ndarray, values: np.ndarray) -> pd.Series:
         pa.array(at[codes].astype(np.int32)), pa.array(list(uniques), pa.large_string())
     ).dictionary_decode()
     return pd.Series(pd.array(column, dtype="str"))
+
+
+def categorical(codes: np.ndarray, values: np.ndarray) -> pd.Series:
+    """``values[codes]`` as a categorical column: a code per row, each distinct value once."""
+    at, uniques = pd.factorize(values)
+    return pd.Series(pd.Categorical.from_codes(at[codes], categories=pd.Index(uniques)))
 
 
 def _xor_by(group: np.ndarray, values: np.ndarray, groups: int) -> np.ndarray:
@@ -96,9 +125,9 @@ class Coded:
         _, first = np.unique(series, return_index=True)
         # taken before they become Python objects: only one row of each
         labels = frame["series_label"].iloc[first].to_numpy(dtype=object)
-        parts = [_codes(frame[c].fillna(""))[0] for c in POOL]
+        parts = [_codes(_filled(frame[c]))[0] for c in POOL]
         pool, at = _combine(*parts)
-        tuples = frame[list(POOL)].iloc[at].fillna("").to_numpy(dtype=object)
+        tuples = frame[list(POOL)].iloc[at].astype(object).fillna("").to_numpy(dtype=object)
         seed, seeds = pd.factorize(frame["seed"], use_na_sentinel=True)
         return cls(
             frame=frame,
@@ -111,7 +140,7 @@ class Coded:
             run=frame["run"].to_numpy(np.int64),
             seed=seed.astype(np.int64),
             seeds=np.asarray(seeds),
-            result=pd.util.hash_pandas_object(frame["key"], index=False).to_numpy(),
+            result=_hashed(frame["key"]),
             # a value's hash is its own: hashed once per series, taken per row
             cell_hash=pd.util.hash_pandas_object(pd.Series(names), index=False).to_numpy()[series],
             finished=(frame["status"] == "ok").to_numpy(bool),
