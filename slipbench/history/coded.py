@@ -27,8 +27,39 @@ HASH_BATCH = 1 << 18
 
 
 def _codes(column: pd.Series) -> tuple[np.ndarray, np.ndarray]:
-    codes, uniques = pd.factorize(column, use_na_sentinel=True)
-    return codes.astype(np.int64), np.asarray(uniques, dtype=object)
+    """A code per row (-1: missing) and each code's value; a categorical column's own codes
+    (its categories no row holds left out), else in order of first appearance."""
+    if not isinstance(column.dtype, pd.CategoricalDtype):
+        codes, uniques = pd.factorize(column, use_na_sentinel=True)
+        return codes.astype(np.int64), np.asarray(uniques, dtype=object)
+    codes = column.cat.codes.to_numpy().astype(np.int64)
+    values = np.asarray(column.cat.categories, dtype=object)
+    used = np.bincount(codes[codes >= 0], minlength=len(values)) > 0
+    if not used.all():
+        codes = np.where(codes >= 0, (np.cumsum(used) - 1)[codes], -1)
+        values = values[used]
+    return codes, values
+
+
+def _first_rows(codes: np.ndarray, n: int) -> np.ndarray:
+    """The first row of each of the codes 0..n-1 (each held by a row)."""
+    first = np.full(n, len(codes), np.int64)
+    np.minimum.at(first, codes, np.arange(len(codes)))
+    return first
+
+
+def _combine_few(*codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_combine` of codes that take few values, in one pass (the codes numbered by
+    their combination, not in order of first appearance)."""
+    key, size = np.zeros(len(codes[0]), np.int64), 1
+    for c in codes:
+        width = int(c.max(initial=0)) + 2
+        key, size = key * width + (c + 1), size * width
+        if size > 1 << 22:
+            return _combine(*codes)
+    used = np.bincount(key, minlength=size) > 0
+    combined = (np.cumsum(used) - 1)[key]
+    return combined, _first_rows(combined, int(used.sum()))
 
 
 def _filled(column: pd.Series) -> pd.Series:
@@ -122,11 +153,11 @@ class Coded:
         series, names = _codes(frame["series"])
         if (series < 0).any():
             raise ValueError(f"{int((series < 0).sum())} history rows hold no series")
-        _, first = np.unique(series, return_index=True)
+        first = _first_rows(series, len(names))
         # taken before they become Python objects: only one row of each
         labels = frame["series_label"].iloc[first].to_numpy(dtype=object)
         parts = [_codes(_filled(frame[c]))[0] for c in POOL]
-        pool, at = _combine(*parts)
+        pool, at = _combine_few(*parts)
         tuples = frame[list(POOL)].iloc[at].astype(object).fillna("").to_numpy(dtype=object)
         seed, seeds = pd.factorize(frame["seed"], use_na_sentinel=True)
         return cls(

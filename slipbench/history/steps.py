@@ -307,6 +307,10 @@ class _Causes:
 
 def _codes_of(column: pd.Series) -> np.ndarray:
     """A cause column's values as codes of their text (``str``, as the causes compare them)."""
+    if isinstance(column.dtype, pd.CategoricalDtype):  # its own codes; -1 (missing) the last
+        uniques = [*column.cat.categories, np.nan]
+        texts = pd.factorize(np.array([str(u) for u in uniques], dtype=object))[0]
+        return texts[column.cat.codes.to_numpy()]
     codes, uniques = pd.factorize(column, use_na_sentinel=False)
     texts = pd.factorize(np.array([str(u) for u in uniques], dtype=object))[0]
     return texts[codes]
