@@ -13,10 +13,11 @@ slipbench | tar -x -C TREE``), in the same run, and says whether both found the 
 (exactly) and the ratios before / after. ``--history DIR`` reads (and keeps) a history built
 by an earlier run instead of building one (building 10,000 runs takes most of an hour on a
 loaded machine). ``--in-memory`` builds the history's rows in memory, as ``read_history``
-would give them, and times ``find_steps`` alone (no files, no load, no site).
+would give them, and times ``find_steps`` alone (no files, no load, no site); ``--no-site``
+times the load and the steps and writes no site.
 
     python benchmarks/bench_history.py [--runs 10000] [--cells 300] [--jobs 2] [--before TREE]
-        [--history DIR] [--in-memory] [--out FILE]
+        [--history DIR] [--in-memory] [--no-site] [--out FILE]
 """
 
 from __future__ import annotations
@@ -251,6 +252,7 @@ def main() -> None:
     parser.add_argument("--before", type=Path, help="a checkout of the code before a change")
     parser.add_argument("--history", type=Path, help="a history an earlier run built (kept)")
     parser.add_argument("--in-memory", action="store_true", help="rows in memory, steps only")
+    parser.add_argument("--no-site", action="store_true", help="load and steps only, no site")
     parser.add_argument("--measure", nargs=2, help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path)
     a = parser.parse_args()
@@ -291,7 +293,7 @@ def main() -> None:
                 f"CPU, peak RSS {ratio['peak_mb']:.2f}x; results "
                 f"{same(root / 'before.pkl', root / 'after.pkl')}\n"
             )
-        if not a.in_memory:
+        if not (a.in_memory or a.no_site):
             text += site(root, history)
         if built:
             text += f"- building the history (not timed against anything): {built:.0f} s.\n"
