@@ -341,7 +341,9 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         cuts = _proposals(work, jobs)
         margin = gate.tolerances[figure] / FIGURES[figure].scale
         found.append(_judged(figure, margin, (rows, pts), list(zip(series, groups, cuts)), causes))
-        kept.append((figure, rows, pts))
+        # the points and the series' names: not the figure's rows, one per result
+        named = replace(rows, **dict.fromkeys(_PER_ROW, np.empty(0)))
+        kept.append((figure, named, pts[["series", "run", "value", "se"]]))
     proposals = [f for f in found if len(f)]
     steps = (
         pd.concat(proposals, ignore_index=True)
@@ -351,6 +353,10 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
     out = _dated(steps, runs, n_series, gate)
     out.points = _points_of(kept)
     return out
+
+
+#: the coded rows' arrays of one value per result (:class:`FigureRows`)
+_PER_ROW = ("series", "run", "seed", "result", "value", "se", "df", "low_n")
 
 
 def _points_of(kept: list[tuple[str, FigureRows, pd.DataFrame]]) -> pd.DataFrame:
