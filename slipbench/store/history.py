@@ -526,7 +526,9 @@ def read_history(
             ],
             names=table.column_names,
         )
-    frame = table.to_pandas()
+    # each column freed as it is converted: the table and the frame are not held whole at once
+    frame = table.to_pandas(split_blocks=True, self_destruct=True)
+    del table
     frame["run"] = run
     return frame
 
