@@ -22,9 +22,63 @@ from slipbench.history.series import POOL, POOLED, _digest
 KINDS = np.array(["cell", "pooled"], dtype=object)
 
 
+#: rows hashed at a time: their texts as Python objects only a batch at a time
+HASH_BATCH = 1 << 18
+
+
 def _codes(column: pd.Series) -> tuple[np.ndarray, np.ndarray]:
-    codes, uniques = pd.factorize(column, use_na_sentinel=True)
-    return codes.astype(np.int64), np.asarray(uniques, dtype=object)
+    """A code per row (-1: missing) and each code's value; a categorical column's own codes
+    (its categories no row holds left out), else in order of first appearance."""
+    if not isinstance(column.dtype, pd.CategoricalDtype):
+        codes, uniques = pd.factorize(column, use_na_sentinel=True)
+        return codes.astype(np.int64), np.asarray(uniques, dtype=object)
+    codes = column.cat.codes.to_numpy().astype(np.int64)
+    values = np.asarray(column.cat.categories, dtype=object)
+    used = np.bincount(codes[codes >= 0], minlength=len(values)) > 0
+    if not used.all():
+        codes = np.where(codes >= 0, (np.cumsum(used) - 1)[codes], -1)
+        values = values[used]
+    return codes, values
+
+
+def _first_rows(codes: np.ndarray, n: int) -> np.ndarray:
+    """The first row of each of the codes 0..n-1 (each held by a row)."""
+    first = np.full(n, len(codes), np.int64)
+    np.minimum.at(first, codes, np.arange(len(codes)))
+    return first
+
+
+def _combine_few(*codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_combine` of codes that take few values, in one pass (the codes numbered by
+    their combination, not in order of first appearance)."""
+    key, size = np.zeros(len(codes[0]), np.int64), 1
+    for c in codes:
+        width = int(c.max(initial=0)) + 2
+        key, size = key * width + (c + 1), size * width
+        if size > 1 << 22:
+            return _combine(*codes)
+    used = np.bincount(key, minlength=size) > 0
+    combined = (np.cumsum(used) - 1)[key]
+    return combined, _first_rows(combined, int(used.sum()))
+
+
+def _filled(column: pd.Series) -> pd.Series:
+    """A text column with missing values as "" (a categorical one given "" as a category)."""
+    if isinstance(column.dtype, pd.CategoricalDtype) and "" not in column.cat.categories:
+        column = column.cat.add_categories([""])
+    return column.fillna("")
+
+
+def _hashed(column: pd.Series) -> np.ndarray:
+    """``pd.util.hash_pandas_object(column, index=False)``, a batch of rows at a time and each
+    value hashed as it comes (not factorized first: a history's keys are nearly all distinct)."""
+    if isinstance(column.dtype, pd.CategoricalDtype) or column.hasnans:
+        return pd.util.hash_pandas_object(column, index=False).to_numpy()
+    out = np.empty(len(column), np.uint64)
+    for at in range(0, len(column), HASH_BATCH):
+        part = column.iloc[at : at + HASH_BATCH].to_numpy(dtype=object)
+        out[at : at + len(part)] = pd.util.hash_array(part, categorize=False)
+    return out
 
 
 def _combine(*codes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -47,6 +101,12 @@ def texts(codes: np.ndarray, values: np.ndarray) -> pd.Series:
         pa.array(at[codes].astype(np.int32)), pa.array(list(uniques), pa.large_string())
     ).dictionary_decode()
     return pd.Series(pd.array(column, dtype="str"))
+
+
+def categorical(codes: np.ndarray, values: np.ndarray) -> pd.Series:
+    """``values[codes]`` as a categorical column: a code per row, each distinct value once."""
+    at, uniques = pd.factorize(values)
+    return pd.Series(pd.Categorical.from_codes(at[codes], categories=pd.Index(uniques)))
 
 
 def _xor_by(group: np.ndarray, values: np.ndarray, groups: int) -> np.ndarray:
@@ -93,12 +153,12 @@ class Coded:
         series, names = _codes(frame["series"])
         if (series < 0).any():
             raise ValueError(f"{int((series < 0).sum())} history rows hold no series")
-        _, first = np.unique(series, return_index=True)
+        first = _first_rows(series, len(names))
         # taken before they become Python objects: only one row of each
         labels = frame["series_label"].iloc[first].to_numpy(dtype=object)
-        parts = [_codes(frame[c].fillna(""))[0] for c in POOL]
-        pool, at = _combine(*parts)
-        tuples = frame[list(POOL)].iloc[at].fillna("").to_numpy(dtype=object)
+        parts = [_codes(_filled(frame[c]))[0] for c in POOL]
+        pool, at = _combine_few(*parts)
+        tuples = frame[list(POOL)].iloc[at].astype(object).fillna("").to_numpy(dtype=object)
         seed, seeds = pd.factorize(frame["seed"], use_na_sentinel=True)
         return cls(
             frame=frame,
@@ -111,7 +171,7 @@ class Coded:
             run=frame["run"].to_numpy(np.int64),
             seed=seed.astype(np.int64),
             seeds=np.asarray(seeds),
-            result=pd.util.hash_pandas_object(frame["key"], index=False).to_numpy(),
+            result=_hashed(frame["key"]),
             # a value's hash is its own: hashed once per series, taken per row
             cell_hash=pd.util.hash_pandas_object(pd.Series(names), index=False).to_numpy()[series],
             finished=(frame["status"] == "ok").to_numpy(bool),

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 
 from slipbench.gate.gate import Gate, needed, resolution, scaled_resolution
-from slipbench.history.coded import KINDS, Coded, FigureRows, texts
+from slipbench.history.coded import KINDS, Coded, FigureRows, categorical
 from slipbench.history.coded import figure_rows as coded_rows
 from slipbench.history.coded import points as coded_points
 from slipbench.history.judging import SEGMENT_SEEDS, SERIES_ALPHA, Side, judge
@@ -187,6 +187,9 @@ def _runs(frame: pd.DataFrame) -> pd.DataFrame:
     """One row per run: its commit, date, machine, bench file, and its rows that entered the
     history unproven (``unproven``: no digest vouched for them)."""
     runs = frame.groupby("run", sort=True)[["commit", "date", "machine", "bench_digest"]].first()
+    for c in runs:  # read as categoricals: text again, one value per run
+        if isinstance(runs[c].dtype, pd.CategoricalDtype):
+            runs[c] = runs[c].astype("str")
     proven = frame["proven"] if "proven" in frame else pd.Series(True, index=frame.index)
     runs["unproven"] = (~proven.fillna(False).astype(bool)).groupby(frame["run"]).sum()
     return runs.reset_index()
@@ -307,6 +310,10 @@ class _Causes:
 
 def _codes_of(column: pd.Series) -> np.ndarray:
     """A cause column's values as codes of their text (``str``, as the causes compare them)."""
+    if isinstance(column.dtype, pd.CategoricalDtype):  # its own codes; -1 (missing) the last
+        uniques = [*column.cat.categories, np.nan]
+        texts = pd.factorize(np.array([str(u) for u in uniques], dtype=object))[0]
+        return texts[column.cat.codes.to_numpy()]
     codes, uniques = pd.factorize(column, use_na_sentinel=False)
     texts = pd.factorize(np.array([str(u) for u in uniques], dtype=object))[0]
     return texts[codes]
@@ -338,20 +345,9 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         margin = gate.tolerances[figure] / FIGURES[figure].scale
         found.append(_judged(figure, margin, (rows, pts), list(zip(series, groups, cuts)), causes))
         found.append(_judged_short(figure, margin, (rows, pts), list(zip(series, groups)), causes))
-        named = pts["series"].to_numpy()
-        kept.append(
-            pd.DataFrame(
-                {
-                    "series": texts(named, rows.names),
-                    "series_label": texts(named, rows.labels),
-                    "kind": texts(rows.pooled[named].astype(int), KINDS),
-                    "run": pts["run"].to_numpy(),
-                    "value": pts["value"].to_numpy(),
-                    "se": pts["se"].to_numpy(),
-                    "figure": figure,
-                }
-            )
-        )
+        # the points and the series' names: not the figure's rows, one per result
+        named = replace(rows, **dict.fromkeys(_PER_ROW, np.empty(0)))
+        kept.append((figure, named, pts[["series", "run", "value", "se"]]))
     proposals = [f for f in found if len(f)]
     steps = (
         pd.concat(proposals, ignore_index=True)
@@ -359,8 +355,37 @@ def find_steps(frame: pd.DataFrame, gate: Gate | None = None, jobs: int = 1) -> 
         else pd.DataFrame([], columns=list(_COLUMNS))
     )
     out = _dated(steps, runs, n_series, gate)
-    out.points = pd.concat(kept, ignore_index=True) if kept else pd.DataFrame()
+    out.points = _points_of(kept)
     return out
+
+
+#: the coded rows' arrays of one value per result (:class:`FigureRows`)
+_PER_ROW = ("series", "run", "seed", "result", "value", "se", "df", "low_n")
+
+
+def _points_of(kept: list[tuple[str, FigureRows, pd.DataFrame]]) -> pd.DataFrame:
+    """Every figure's points in one frame, its texts categorical: a series' name and label are
+    held once, not once per run."""
+    if not kept:
+        return pd.DataFrame()
+    offsets = np.cumsum([0] + [len(rows.names) for _, rows, _ in kept])
+    named = np.concatenate([p["series"].to_numpy() + o for (_, _, p), o in zip(kept, offsets)])
+    names = np.concatenate([rows.names for _, rows, _ in kept])
+    labels = np.concatenate([rows.labels for _, rows, _ in kept])
+    pooled = np.concatenate([rows.pooled for _, rows, _ in kept]).astype(int)
+    figures = np.array([figure for figure, _, _ in kept], dtype=object)
+    sizes = [len(p) for _, _, p in kept]
+    return pd.DataFrame(
+        {
+            "series": categorical(named, names),
+            "series_label": categorical(named, labels),
+            "kind": categorical(pooled[named], KINDS),
+            "run": np.concatenate([p["run"].to_numpy() for _, _, p in kept]),
+            "value": np.concatenate([p["value"].to_numpy() for _, _, p in kept]),
+            "se": np.concatenate([p["se"].to_numpy() for _, _, p in kept]),
+            "figure": categorical(np.repeat(np.arange(len(kept)), sizes), figures),
+        }
+    )
 
 
 def _sorted_series(pts: pd.DataFrame) -> tuple[list[int], list[np.ndarray]]:

@@ -346,29 +346,37 @@ def _index_problem(meta: Any) -> str:
     return ""
 
 
-def _open_index(path: Path) -> tuple[Any, dict[str, Any], str]:
-    """The index's Parquet file and its checked metadata, or why it cannot be used."""
+def _open_index(path: Path, coded: list[str]) -> tuple[Any, dict[str, Any], str]:
+    """The index's Parquet file (``coded``: columns read as dictionaries) and its checked
+    metadata, or why it cannot be used."""
     if not path.is_file():
         return None, {}, "is missing"
     try:
-        pf = open_parquet(path)
+        pf = open_parquet(path, read_dictionary=coded)
         meta = json.loads((pf.schema_arrow.metadata or {})[_META.encode()])
     except KeyError:
         return None, {}, "carries no manifest"
     except (DataError, OSError, pa.ArrowException, ValueError) as exc:  # UnicodeDecodeError too
         return None, {}, f"is damaged ({' '.join(str(exc).split())[:200]})"
     problem = _index_problem(meta)
-    if not problem and [(f.name, f.type) for f in pf.schema_arrow] != list(COLUMNS.items()):
+    kinds = [(f.name, _plain_type(f.type)) for f in pf.schema_arrow]
+    if not problem and kinds != list(COLUMNS.items()):
         problem = "has columns of other names or types than a history's"
     return pf, meta, problem
 
 
+def _plain_type(kind: pa.DataType) -> pa.DataType:
+    """A column's type, a dictionary's its values' (as the file holds them)."""
+    return kind.value_type if pa.types.is_dictionary(kind) else kind
+
+
 def _read_index(
-    history: Path, sizes: dict[str, int], needed: list[str]
+    history: Path, sizes: dict[str, int], needed: list[str], coded: list[str] | None = None
 ) -> tuple[pa.Table | None, dict[str, dict[str, Any]], str]:
     """The index's ``needed`` columns, each proved by its digest, and its manifest; or why it
-    cannot be used (missing, damaged, edited, or disagreeing with the run files)."""
-    pf, meta, problem = _open_index(history / INDEX_FILE)
+    cannot be used (missing, damaged, edited, or disagreeing with the run files). ``coded``:
+    text columns read as Parquet keeps them, a dictionary of values and a code per row."""
+    pf, meta, problem = _open_index(history / INDEX_FILE, coded or [])
     if problem:
         return None, {}, problem
     files: dict[str, dict[str, Any]] = meta["files"]
@@ -396,14 +404,26 @@ def _read_index(
     return table.replace_schema_metadata(None), files, ""
 
 
+def _stretches(column: pa.ChunkedArray) -> tuple[np.ndarray, list]:
+    """Where each stretch of one value of a column starts (and, last, the column's length),
+    and each stretch's value; a dictionary column compared by its codes."""
+    n = len(column)
+    if n == 0:
+        return np.zeros(1, np.int64), []
+    if pa.types.is_dictionary(column.type):
+        column = column.unify_dictionaries()
+        codes = np.concatenate([c.indices.to_numpy(zero_copy_only=False) for c in column.chunks])
+        changed = codes[1:] != codes[:-1]
+    else:
+        changed = pc.not_equal(column[1:], column[:-1]).to_numpy(zero_copy_only=False)
+    edges = np.concatenate([[0], np.flatnonzero(changed) + 1, [n]])
+    return edges, column.take(pa.array(edges[:-1])).to_pylist()
+
+
 def _runs_in(commits: pa.ChunkedArray) -> list[tuple[str, int]]:
     """Each stretch of one commit in a column, with its length, in order."""
-    n = len(commits)
-    if n == 0:
-        return []
-    starts = np.flatnonzero(pc.not_equal(commits[1:], commits[:-1]).to_numpy()) + 1
-    edges = np.concatenate([[0], starts, [n]])
-    return list(zip(commits.take(pa.array(edges[:-1])).to_pylist(), np.diff(edges).tolist()))
+    edges, values = _stretches(commits)
+    return list(zip(values, np.diff(edges).tolist()))
 
 
 def _current(
@@ -435,7 +455,9 @@ def _current(
         tables = [index] if index is not None else []
         manifest = dict(manifest)
     for run in runs:
-        tables.append(run.table.select(needed))
+        # as the index's columns came (a text column as a dictionary, where read so)
+        table = run.table.select(needed)
+        tables.append(table.cast(tables[0].schema) if tables else table)
         manifest[run.path.relative_to(history).as_posix()] = run.entry
     schema = pa.schema([(c, COLUMNS[c]) for c in needed])
     return pa.concat_tables(tables) if tables else schema.empty_table(), manifest
@@ -451,11 +473,12 @@ def _write_index(history: Path, table: pa.Table, manifest: dict[str, dict[str, A
     write_atomic(table.replace_schema_metadata({_META: json.dumps(meta)}), history / INDEX_FILE)
 
 
-def _rows(history: Path, needed: list[str]) -> pa.Table:
-    """The history's rows; where the index had to be rebuilt, it is written again where this
-    process may (under the history's lock), so that the next read is fast."""
+def _rows(history: Path, needed: list[str], coded: list[str]) -> pa.Table:
+    """The history's rows (``coded``: those text columns as dictionaries where the index is
+    read); where the index had to be rebuilt, it is written again where this process may
+    (under the history's lock), so that the next read is fast."""
     files = _run_files(history)
-    read = _read_index(history, {n: s for n, (_, s) in files.items()}, needed)
+    read = _read_index(history, {n: s for n, (_, s) in files.items()}, needed, coded)
     if not read[2] or not files:
         return _current(history, files, needed, read=read)[0]
     try:
@@ -468,9 +491,13 @@ def _rows(history: Path, needed: list[str]) -> pa.Table:
     return table.select(needed)
 
 
-def read_history(history: str | os.PathLike, columns: list[str] | None = None) -> pd.DataFrame:
+def read_history(
+    history: str | os.PathLike, columns: list[str] | None = None, categorical: bool = False
+) -> pd.DataFrame:
     """Every row of a history, with ``run``: its run's position, oldest first (by date, then
-    commit). ``columns``: only these (and the run's), for speed.
+    commit). ``columns``: only these (and the run's), for speed. ``categorical``: text columns
+    (but ``key``, one per row) as pandas categoricals, read as Parquet keeps them (a value
+    once, a code per row), so that their memory grows with the values, not the rows.
 
     Raises
     ------
@@ -484,11 +511,33 @@ def read_history(history: str | os.PathLike, columns: list[str] | None = None) -
     needed = list(COLUMNS)
     if columns is not None:
         needed = [c for c in dict.fromkeys([*RUN_COLUMNS, *columns]) if c in COLUMNS]
-    table = _rows(history, needed)
+    coded = [c for c in needed if categorical and c != "key" and COLUMNS[c] == pa.string()]
+    table = _rows(history, needed, coded)
     if table.num_rows == 0:
         raise DataError(f"{history}: the history holds no run")
-    frame = table.to_pandas()
-    order = frame[["date", "commit"]].drop_duplicates().sort_values(["date", "commit"])
-    position = {c: i for i, c in enumerate(order["commit"])}
-    frame["run"] = frame["commit"].map(position).astype(int)
+    run = _positions(table)
+    if coded:  # where the index was rebuilt, its columns came as text
+        table = pa.table(
+            [
+                pc.dictionary_encode(table[c])
+                if c in coded and table[c].type == pa.string()
+                else table[c]
+                for c in table.column_names
+            ],
+            names=table.column_names,
+        )
+    # each column freed as it is converted: the table and the frame are not held whole at once
+    frame = table.to_pandas(split_blocks=True, self_destruct=True)
+    del table
+    frame["run"] = run
     return frame
+
+
+def _positions(table: pa.Table) -> np.ndarray:
+    """Each row's run: its run's position among the runs sorted by date, then commit. A run's
+    rows are one stretch (a run file's), so each stretch is ordered, not each row."""
+    edges, commits = _stretches(table["commit"])
+    dates = table["date"].take(pa.array(edges[:-1])).to_pylist()
+    order = sorted(set(zip(dates, commits)))
+    position = {c: i for i, (_, c) in enumerate(order)}
+    return np.repeat([position[c] for c in commits], np.diff(edges)).astype(int)

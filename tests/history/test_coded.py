@@ -132,11 +132,23 @@ def _points(rows: pd.DataFrame) -> pd.DataFrame:
     return out.drop(columns="spread")
 
 
+def _categorical(frame: pd.DataFrame) -> pd.DataFrame:
+    """The texts (but the key) as categoricals, as ``read_history(..., categorical=True)``
+    reads them, each with a category no row holds."""
+    texts = [c for c in frame if c != "key" and pd.api.types.is_string_dtype(frame[c])]
+    out = frame.astype({c: "category" for c in texts})
+    for c in texts:
+        out[c] = out[c].cat.add_categories(["unheld"])
+    return out
+
+
+@pytest.mark.parametrize("categorical", [False, True])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_rows_and_points_are_the_series_modules(seed):
+def test_rows_and_points_are_the_series_modules(seed, categorical):
     frame = _history(seed)
     want_rows = _figure_rows(frame, "accuracy")
-    got = coded.figure_rows(coded.Coded.of(frame), "accuracy")
+    read = _categorical(frame) if categorical else frame
+    got = coded.figure_rows(coded.Coded.of(read), "accuracy")
     pd.testing.assert_frame_equal(got.frame(), want_rows, check_exact=True)
     want = _points(want_rows)
     pts = coded.points(got)

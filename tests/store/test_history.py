@@ -9,6 +9,7 @@ import pytest
 from historygen import run_folder
 
 from slipbench.app.cli import main
+from slipbench.atomic import write_atomic
 from slipbench.errors import DataError, UsageError
 from slipbench.history.series import series_rows
 from slipbench.store.history import (
@@ -17,6 +18,8 @@ from slipbench.store.history import (
     add_run,
     check_commit,
     read_history,
+    run_path,
+    run_table,
     utc_date,
 )
 from slipbench.store.results import read_results
@@ -194,3 +197,32 @@ def test_a_run_of_two_datasets_names_its_series_apart(tmp_path):
     rows = series_rows(pd.concat([a, b], ignore_index=True))
     assert rows["series"].nunique() == 96
     assert rows["series_label"].str.contains("dataset_fingerprint bbbb").sum() == 48
+
+
+def _as_text(frame: pd.DataFrame) -> pd.DataFrame:
+    cats = [c for c in frame if isinstance(frame[c].dtype, pd.CategoricalDtype)]
+    return frame.astype({c: "str" for c in cats})
+
+
+def test_a_categorical_read_holds_the_same_values_and_leaves_the_index(tmp_path):
+    hist = tmp_path / "hist"
+    for i in range(2):
+        rows = series_rows(read_results(run_folder(tmp_path / f"r{i}", seed=i, code=f"k{i}")))
+        add_run(hist, rows, Run(f"c{i}", utc_date(f"2026-01-0{i + 1}"), "m"))
+    # a run file the index does not hold yet: read beside it, as the index's columns come
+    rows = series_rows(read_results(run_folder(tmp_path / "r2", seed=2, code="k2")))
+    late = Run("c2", utc_date("2025-12-31"), "m")
+    write_atomic(run_table(rows, late), run_path(hist, late))
+    before = _files(hist)
+    for columns in (None, ["accuracy", "series_label"]):
+        plain = read_history(hist, columns)
+        coded = read_history(hist, columns, categorical=True)
+        assert _files(hist) == before  # proved as read: the index is not rewritten
+        texts = [c for c in coded if isinstance(coded[c].dtype, pd.CategoricalDtype)]
+        assert "series_label" in texts and "key" not in texts
+        pd.testing.assert_frame_equal(_as_text(coded), plain, check_exact=True)
+        assert list(coded.groupby("run")["commit"].first()) == ["c2", "c0", "c1"]
+    (hist / INDEX_FILE).unlink()  # rebuilt from the run files: their texts coded too
+    with pytest.warns(UserWarning, match="rebuilt"):
+        coded = read_history(hist, ["accuracy"], categorical=True)
+    pd.testing.assert_frame_equal(_as_text(coded), read_history(hist, ["accuracy"]))

@@ -169,7 +169,7 @@ def steps_command(**options) -> None:
     from slipbench.store.history import read_history
 
     gate = gate_from(o.figures, o.bench, None, 40.0)
-    frame = read_history(o.history, STEP_COLUMNS)
+    frame = read_history(o.history, STEP_COLUMNS, categorical=True)
     found = find_steps(frame, gate, o.jobs or default_jobs())
     click.echo(steps_json(found) if o.as_json else steps_text(found, o.history), nl=False)
     if o.since is not None and _regressed_since(found, o.since):

@@ -279,10 +279,11 @@ def _series(found: Steps) -> dict:
     """Every judged series: its last points, segments and confirmed steps (values in the
     figure's units, points for rates)."""
     pts = found.points.copy()
-    pts["id"] = pts["figure"] + "-" + pts["series"]
     scale = pts["figure"].map(lambda f: FIGURES[f].scale).to_numpy(float)
     pts["value"], pts["se"] = pts["value"] * scale, pts["se"] * scale
-    groups = dict(iter(pts.groupby("id", sort=False)))
+    # grouped by the (categorical) texts, named once per series rather than once per point
+    by = pts.groupby(["figure", "series"], sort=False, observed=True)
+    groups = {f"{figure}-{series}": part for (figure, series), part in by}
     keep = max(MIN_POINTS, POINT_BUDGET // max(1, len(groups)))
     steps = {
         k: g
