@@ -154,9 +154,10 @@ def test_one_results_folder_gets_its_pages(tmp_path):
     assert _cli("history", "page", "--out", str(tmp_path / "t")) == 2
 
 
-def test_a_small_history_site_escapes_names_and_loads_local_scripts(tmp_path):
-    for i in range(4):
-        folder = run_folder(tmp_path / f"r{i}", seed=i, detector=HOSTILE)
+def _site_of(tmp_path, folders) -> None:
+    """A history of ``folders`` at commits c0, c1, ... dated a day apart, and its site in
+    ``tmp_path / "s"``."""
+    for i, folder in enumerate(folders):
         assert (
             _cli(
                 "history",
@@ -174,6 +175,10 @@ def test_a_small_history_site_escapes_names_and_loads_local_scripts(tmp_path):
     assert (
         _cli("history", "page", "--history", str(tmp_path / "h"), "--out", str(tmp_path / "s")) == 0
     )
+
+
+def test_a_small_history_site_escapes_names_and_loads_local_scripts(tmp_path):
+    _site_of(tmp_path, [run_folder(tmp_path / f"r{i}", seed=i, detector=HOSTILE) for i in range(4)])
     for name in PLOTTED:
         text = (tmp_path / "s" / name).read_text()
         assert re.findall(r'<script[^>]*src="([^"]+)"', text) == [
@@ -194,24 +199,12 @@ def test_the_landing_page_shows_the_step_of_a_five_commit_history(tmp_path):
     """Five commits, holweg 5 points lower from the fourth: too short for the segment search,
     the step is judged on the runs' own intervals and the landing page names its commit and
     date, on the protocol's plot and in the steps table, and says how it was judged."""
-    for i in range(5):
-        folder = run_folder(tmp_path / f"r{i}", seed=i, shift=-0.05 * (i >= 3), code=f"k{i}")
-        assert (
-            _cli(
-                "history",
-                "add",
-                str(folder),
-                "--history",
-                str(tmp_path / "h"),
-                "--commit",
-                f"c{i}",
-                "--date",
-                f"2026-03-0{i + 1}",
-            )
-            == 0
-        )
-    assert (
-        _cli("history", "page", "--history", str(tmp_path / "h"), "--out", str(tmp_path / "s")) == 0
+    _site_of(
+        tmp_path,
+        [
+            run_folder(tmp_path / f"r{i}", seed=i, shift=-0.05 * (i >= 3), code=f"k{i}")
+            for i in range(5)
+        ],
     )
     index = _data(tmp_path / "s" / "index.html")
     (protocol,) = index["protocols"]
