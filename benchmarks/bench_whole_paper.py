@@ -3,7 +3,11 @@
 numba cache warm and once cold (an empty NUMBA_CACHE_DIR: a fresh install). Wall and CPU
 seconds (the process tree's), peak resident memory, the machine's load before and after.
 
-    python benchmarks/bench_whole_paper.py [--jobs 2] [--cold] [--out benchmarks/results/whole_paper.md]
+    python benchmarks/bench_whole_paper.py [--jobs 2] [--cache warm cold] [--against TREE]
+        [--out benchmarks/results/whole_paper.md]
+
+``--against TREE``: each run also with an earlier checkout's code (its source first on
+PYTHONPATH), the earlier first, so that the two are measured in one session.
 """
 
 from __future__ import annotations
@@ -55,7 +59,8 @@ def run(env: dict[str, str], jobs: int, out: Path) -> dict[str, float]:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--cold", action="store_true", help="also a run from an empty numba cache")
+    ap.add_argument("--cache", nargs="+", choices=["warm", "cold"], default=["warm"])
+    ap.add_argument("--against", type=Path, help="an earlier checkout to run first")
     ap.add_argument("--out", type=Path, default=Path("benchmarks/results/whole_paper.md"))
     a = ap.parse_args()
     lines = [
@@ -64,20 +69,23 @@ def main() -> None:
         f"{platform.machine()}, {psutil.cpu_count()} cores, Python {platform.python_version()}; "
         "the default dataset (scale 0.05) simulated first into an empty cache in each run.",
         "",
-        "| numba cache | wall | CPU (the process tree, sampled every 0.1 s) | peak RSS (the tree summed) | load before -> after |",
-        "| --- | --- | --- | --- | --- |",
+        "| code | numba cache | wall | CPU (the process tree, sampled every 0.1 s) | peak RSS (the tree summed) | load before -> after |",
+        "| --- | --- | --- | --- | --- | --- |",
     ]
-    kinds = ["warm", "cold"] if a.cold else ["warm"]
+    kinds = a.cache  # cold: an empty NUMBA_CACHE_DIR; an earlier tree's kernels are cold anyway
+    trees = [("this", None)] if a.against is None else [("earlier", a.against), ("this", None)]
     with tempfile.TemporaryDirectory() as tmp:
-        for kind in kinds:
-            env = dict(os.environ, SLIPBENCH_CACHE=str(Path(tmp, kind, "cache")))
+        for kind, (code, tree) in ((k, t) for k in kinds for t in trees):
+            env = dict(os.environ, SLIPBENCH_CACHE=str(Path(tmp, code, kind, "cache")))
+            if tree is not None:
+                env["PYTHONPATH"] = str(tree.resolve())
             if kind == "cold":
-                env["NUMBA_CACHE_DIR"] = str(Path(tmp, kind, "numba"))
+                env["NUMBA_CACHE_DIR"] = str(Path(tmp, code, kind, "numba"))
             before = os.getloadavg()[0]
-            m = run(env, a.jobs, Path(tmp, kind, "results"))
+            m = run(env, a.jobs, Path(tmp, code, kind, "results"))
             after = os.getloadavg()[0]
             lines.append(
-                f"| {kind} | {m['wall'] / 60:.0f} min {m['wall'] % 60:02.0f} s | "
+                f"| {code} | {kind} | {m['wall'] / 60:.0f} min {m['wall'] % 60:02.0f} s | "
                 f"{m['cpu'] / 60:.1f} CPU-min | {m['peak_gb']:.2f} GB | {before:.1f} -> {after:.1f} |"
             )
             print(lines[-1], flush=True)
